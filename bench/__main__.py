@@ -1,0 +1,40 @@
+"""``make bench``: run every ``bench/bench_*.py`` and print one table.
+
+Each module exposes ``run() -> list[Row]``. Figures are measured in this process;
+targets are the issues' numbers, shown beside them, never asserted.
+"""
+from __future__ import annotations
+
+import importlib
+import pkgutil
+import sys
+import time
+
+from bench import Row
+
+
+def main() -> int:
+    import bench
+
+    only = sys.argv[1:]
+    rows: list[Row] = []
+    for info in sorted(pkgutil.iter_modules(bench.__path__), key=lambda m: m.name):
+        if not info.name.startswith("bench_"):
+            continue
+        if only and not any(o in info.name for o in only):
+            continue
+        t0 = time.perf_counter()
+        mod = importlib.import_module(f"bench.{info.name}")
+        rows.extend(mod.run())
+        print(f"# {info.name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
+    width = max((len(r.name) for r in rows), default=10)
+    print(f"{'benchmark':<{width}}  {'value':>14}  {'unit':<12}  {'target':<16}  note")
+    print("-" * (width + 60))
+    for r in rows:
+        v = f"{r.value:,.3f}" if abs(r.value) < 1000 else f"{r.value:,.0f}"
+        print(f"{r.name:<{width}}  {v:>14}  {r.unit:<12}  {r.target:<16}  {r.note}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

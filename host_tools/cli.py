@@ -1,0 +1,82 @@
+"""The ``hexhil`` command line.
+
+Each subcommand lives in its own module under ``host_tools/commands`` and exposes
+``register(subparsers)``; modules are imported only when their command runs, so a
+slow import (MuJoCo, matplotlib) never taxes ``hexhil protocol decode``.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+from typing import Any
+
+from host_tools.errors import UserError
+
+# command name -> (module under host_tools.commands, one-line help)
+COMMANDS: dict[str, tuple[str, str]] = {
+    "demo": ("demo", "set-up check and the main job (what `make demo` runs)"),
+    "protocol": ("protocol", "Dynamixel Protocol 1.0 tools (decode)"),
+    "bus": ("bus", "serve emulated AX-12 servos on a pty or TCP port"),
+    "conformance": ("conformance", "check any Protocol 1.0 bus against the spec"),
+    "run": ("run", "run the firmware against the simulated robot"),
+    "experiment": ("experiment", "reproduce a paper's experiments"),
+    "beams": ("beams", "force-sensing beam traversal (seed 000)"),
+    "trace": ("trace", "inspect, export, recover and import MCAP traces"),
+    "replay": ("replay", "replay a trace into the firmware or onto a CAN bus"),
+    "estimate": ("estimate", "re-run the beam estimator on a trace's force frames"),
+}
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that raises UserError instead of printing usage and exiting."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise UserError(f"{self.prog}: {message}")
+
+
+def build_parser(argv: list[str]) -> argparse.ArgumentParser:
+    parser = _Parser(prog="hexhil", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    wanted = argv[0] if argv and argv[0] in COMMANDS else None
+    for name, (module, help_text) in COMMANDS.items():
+        if wanted is not None and name != wanted:
+            sub.add_parser(name, help=help_text)
+            continue
+        try:
+            mod = importlib.import_module(f"host_tools.commands.{module}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"host_tools.commands.{module}":
+                raise
+            continue  # command not built yet: leave it out of the listing
+        mod.register(sub)
+    return parser
+
+
+def emit_json(obj: dict[str, Any]) -> None:
+    """Print one JSON object as the last line of stdout (the ``--json`` contract)."""
+    sys.stdout.write(json.dumps(obj, sort_keys=True) + "\n")
+    sys.stdout.flush()
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    try:
+        parser = build_parser(argv)
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return 2
+        return int(args.func(args) or 0)
+    except UserError as exc:
+        sys.stderr.write(f"hexhil: {exc}\n")
+        return exc.code
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

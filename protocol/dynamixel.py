@@ -1,0 +1,311 @@
+"""Dynamixel Protocol 1.0 packets, as spoken by the AX-12.
+
+Shared by the firmware (MicroPython) and the host, so it imports nothing beyond the
+language core. The byte path (``Parser.push``, ``build_into``) does not allocate: a
+microcontroller calls it once per received byte.
+
+Wire format (ROBOTIS e-manual, "Protocol 1.0"):
+instruction ``FF FF ID LEN INSTR P1..PN CHK`` and status ``FF FF ID LEN ERR P1..PN CHK``,
+LEN = N + 2, CHK = ~(ID + LEN + INSTR/ERR + P1 + ... + PN) & 0xFF.
+"""
+
+HEADER = 0xFF
+BROADCAST_ID = 0xFE
+MAX_ID = 0xFD
+MAX_PACKET = 259  # 4 header bytes + LEN up to 255
+PARAMS_OFFSET = 5
+INTER_BYTE_TIMEOUT_US = 100000  # a servo drops a partial packet after a 100 ms gap
+
+# Instructions (the AX-12 supports exactly these seven).
+PING = 0x01
+READ = 0x02
+WRITE = 0x03
+REG_WRITE = 0x04
+ACTION = 0x05
+FACTORY_RESET = 0x06
+SYNC_WRITE = 0x83
+
+INSTRUCTION_NAMES = {
+    PING: "PING",
+    READ: "READ",
+    WRITE: "WRITE",
+    REG_WRITE: "REG_WRITE",
+    ACTION: "ACTION",
+    FACTORY_RESET: "FACTORY_RESET",
+    SYNC_WRITE: "SYNC_WRITE",
+}
+INSTRUCTIONS = {v: k for k, v in INSTRUCTION_NAMES.items()}
+
+# Status-packet error bits (bit 7 is unused).
+ERR_INPUT_VOLTAGE = 0x01
+ERR_ANGLE_LIMIT = 0x02
+ERR_OVERHEATING = 0x04
+ERR_RANGE = 0x08
+ERR_CHECKSUM = 0x10
+ERR_OVERLOAD = 0x20
+ERR_INSTRUCTION = 0x40
+
+ERROR_BITS = (
+    (ERR_INPUT_VOLTAGE, "input_voltage"),
+    (ERR_ANGLE_LIMIT, "angle_limit"),
+    (ERR_OVERHEATING, "overheating"),
+    (ERR_RANGE, "range"),
+    (ERR_CHECKSUM, "checksum"),
+    (ERR_OVERLOAD, "overload"),
+    (ERR_INSTRUCTION, "instruction"),
+)
+
+
+def error_names(error):
+    """Names of the bits set in a status packet's error byte, lowest bit first."""
+    return [name for bit, name in ERROR_BITS if error & bit]
+
+
+def checksum(buf, start, end):
+    """Protocol 1.0 checksum over buf[start:end] (ID through the last parameter)."""
+    s = 0
+    for i in range(start, end):
+        s += buf[i]
+    return (~s) & 0xFF
+
+
+def build_into(buf, dev_id, code, params=b"", nparams=-1):
+    """Write one packet (instruction or status) into ``buf``; return its length.
+
+    ``code`` is the instruction for a master's packet, the error byte for a status
+    packet. ``nparams`` limits how much of ``params`` is used (default: all of it), so
+    a firmware can keep one preallocated parameter buffer.
+    """
+    n = len(params) if nparams < 0 else nparams
+    buf[0] = HEADER
+    buf[1] = HEADER
+    buf[2] = dev_id
+    buf[3] = n + 2
+    buf[4] = code
+    s = dev_id + n + 2 + code
+    for i in range(n):
+        b = params[i]
+        buf[PARAMS_OFFSET + i] = b
+        s += b
+    buf[PARAMS_OFFSET + n] = (~s) & 0xFF
+    return n + 6
+
+
+def packet(dev_id, code, params=b""):
+    """A packet as new ``bytes`` (host side and tests; the firmware uses build_into)."""
+    buf = bytearray(len(params) + 6)
+    build_into(buf, dev_id, code, params)
+    return bytes(buf)
+
+
+def ping(dev_id):
+    return packet(dev_id, PING)
+
+
+def read(dev_id, address, length):
+    return packet(dev_id, READ, bytes((address, length)))
+
+
+def write(dev_id, address, data):
+    return packet(dev_id, WRITE, bytes((address,)) + bytes(data))
+
+
+def reg_write(dev_id, address, data):
+    return packet(dev_id, REG_WRITE, bytes((address,)) + bytes(data))
+
+
+def action(dev_id=BROADCAST_ID):
+    return packet(dev_id, ACTION)
+
+
+def factory_reset(dev_id):
+    return packet(dev_id, FACTORY_RESET)
+
+
+def sync_write(address, data_len, entries):
+    """SYNC_WRITE to the broadcast ID; ``entries`` is a list of (id, data) pairs."""
+    params = bytearray((address, data_len))
+    for dev_id, data in entries:
+        if len(data) != data_len:
+            raise ValueError("sync_write entry for id %d has %d bytes, not %d"
+                             % (dev_id, len(data), data_len))
+        params.append(dev_id)
+        params.extend(data)
+    return packet(BROADCAST_ID, SYNC_WRITE, params)
+
+
+def status(dev_id, error=0, params=b""):
+    return packet(dev_id, error, params)
+
+
+def u16(lo, hi):
+    return lo | (hi << 8)
+
+
+class Packet:
+    """A parsed packet (host convenience; the firmware reads the Parser's fields)."""
+
+    __slots__ = ("id", "code", "params", "raw")
+
+    def __init__(self, dev_id, code, params, raw):
+        self.id = dev_id
+        self.code = code
+        self.params = params
+        self.raw = raw
+
+    def __eq__(self, other):
+        return isinstance(other, Packet) and self.raw == other.raw
+
+    def __repr__(self):
+        return "Packet(id=%d, code=0x%02X, params=%s)" % (self.id, self.code, list(self.params))
+
+
+class Parser:
+    """Incremental Protocol 1.0 parser: push bytes, get packets.
+
+    After ``push`` returns True the packet's fields are valid until the next push:
+    ``id``, ``code`` (instruction or error byte), ``nparams`` and the parameters in
+    ``buf[PARAMS_OFFSET:PARAMS_OFFSET + nparams]``. Garbage is skipped up to the next
+    ``FF FF`` that starts a valid packet; packets with a bad length or checksum are
+    rejected and counted; a gap over 100 ms between bytes drops a partial packet.
+    """
+
+    def __init__(self):
+        self.buf = bytearray(MAX_PACKET)
+        self._n = 0
+        self._consumed = 0
+        self._last_t_us = None
+        self.id = -1
+        self.code = 0
+        self.nparams = 0
+        self.packets = 0
+        self.garbage = 0
+        self.bad_length = 0
+        self.bad_checksum = 0
+        self.timeouts = 0
+        self.last_reject = ""
+        self.last_bad_checksum_id = -1
+
+    def reset(self):
+        """Drop any partial packet (the line was turned round, say)."""
+        self._n = 0
+        self._consumed = 0
+
+    def pending(self):
+        """Bytes held of a packet not yet complete."""
+        return self._n - self._consumed
+
+    def _drop(self, k):
+        buf = self.buf
+        n = self._n - k
+        for i in range(n):
+            buf[i] = buf[i + k]
+        self._n = n
+
+    def push(self, byte, t_us=-1):
+        """Take one byte (received at ``t_us``, if known); True when a packet is complete."""
+        if self._consumed:
+            self._drop(self._consumed)
+            self._consumed = 0
+        if t_us >= 0:
+            last = self._last_t_us
+            if last is not None and self._n and t_us - last > INTER_BYTE_TIMEOUT_US:
+                self.timeouts += 1
+                self.last_reject = "timeout"
+                self._n = 0
+            self._last_t_us = t_us
+        self.buf[self._n] = byte
+        self._n += 1
+        return self._scan()
+
+    def _scan(self):
+        buf = self.buf
+        while self._n:
+            if buf[0] != HEADER:
+                self.garbage += 1
+                self._drop(1)
+                continue
+            if self._n < 2:
+                return False
+            if buf[1] != HEADER:
+                self.garbage += 1
+                self._drop(1)
+                continue
+            if self._n < 3:
+                return False
+            if buf[2] == HEADER:  # FF FF FF: the packet may start one byte later
+                self.garbage += 1
+                self._drop(1)
+                continue
+            if self._n < 4:
+                return False
+            length = buf[3]
+            if length < 2:
+                self.bad_length += 1
+                self.last_reject = "bad_length"
+                self._drop(1)
+                continue
+            total = length + 4
+            if self._n < total:
+                return False
+            if checksum(buf, 2, total - 1) != buf[total - 1]:
+                self.bad_checksum += 1
+                self.last_reject = "bad_checksum"
+                self.last_bad_checksum_id = buf[2]
+                self._drop(1)
+                continue
+            self.id = buf[2]
+            self.code = buf[4]
+            self.nparams = length - 2
+            self.packets += 1
+            self._consumed = total
+            return True
+        return False
+
+    def flush(self):
+        """End of stream: give up on the partial packet and rescan what it held.
+
+        A garbage header with a large LEN can hide a valid packet behind it; a servo
+        loses that packet, but a host decoding a capture wants it back.
+        """
+        out = []
+        while True:
+            if self._consumed:
+                self._drop(self._consumed)
+                self._consumed = 0
+            if not self._n:
+                return out
+            if self._scan():
+                out.append(self.current())
+            elif self._n:
+                self.garbage += 1
+                self._drop(1)
+
+    def param(self, i):
+        return self.buf[PARAMS_OFFSET + i]
+
+    def param_u16(self, i):
+        return self.buf[PARAMS_OFFSET + i] | (self.buf[PARAMS_OFFSET + i + 1] << 8)
+
+    def current(self):
+        """The complete packet just parsed, as a new Packet (allocates)."""
+        end = PARAMS_OFFSET + self.nparams
+        return Packet(self.id, self.code, bytes(self.buf[PARAMS_OFFSET:end]),
+                      bytes(self.buf[0:end + 1]))
+
+    def feed(self, data, t_us=-1):
+        """Push many bytes; return the complete packets as a list (allocates)."""
+        out = []
+        for b in data:
+            if self.push(b, t_us):
+                out.append(self.current())
+        return out
+
+    def counters(self):
+        return {
+            "packets": self.packets,
+            "garbage": self.garbage,
+            "bad_length": self.bad_length,
+            "bad_checksum": self.bad_checksum,
+            "timeouts": self.timeouts,
+        }
