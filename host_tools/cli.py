@@ -33,7 +33,7 @@ class _Parser(argparse.ArgumentParser):
     """argparse that raises UserError instead of printing usage and exiting."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        raise UserError(f"{self.prog}: {message}")
+        raise UserError(f"{message} (see '{self.prog} --help')")
 
 
 def build_parser(argv: list[str]) -> argparse.ArgumentParser:
