@@ -1,0 +1,432 @@
+"""The one recorder every run writes its MCAP trace through.
+
+``Recorder(path, metadata)`` is handed to the simulator (``None`` means no recording);
+each part reports what it sees with an integer virtual timestamp in microseconds:
+
+==================  ==============================  ====================================
+method              topic                           schema (encoding)
+==================  ==============================  ====================================
+``serial``          ``/serial``                     ``hexhil.SerialBytes`` (protobuf)
+(decoded from it)   ``/dynamixel``                  ``hexhil.DynamixelPacket`` (protobuf)
+``dynamixel``       ``/dynamixel``                  ``hexhil.DynamixelPacket`` (protobuf)
+``can``             ``/can/raw``                    ``hexhil.CanFrame`` (protobuf)
+(DBC-decoded)       ``/can/<frame name>``           ``hexhil.can.<frame name>`` (jsonschema)
+``switch_edge``     ``/switches``                   ``hexhil.SwitchEdge`` (protobuf)
+``telemetry``       ``/telemetry``                  ``hexhil.Telemetry`` (jsonschema)
+``servo_state``     ``/servos``                     ``hexhil.ServoStates`` (protobuf)
+``body_pose``       ``/body``                       ``foxglove.FrameTransform`` (protobuf)
+``joints``          ``/joints``                     ``foxglove.JointStates`` (protobuf)
+``fault``           ``/faults``                     ``foxglove.Log`` (protobuf)
+``link``            ``/link``                       ``hexhil.LinkExchange`` (protobuf)
+==================  ==============================  ====================================
+
+Why it is built this way:
+
+* Foxglove plots protobuf and jsonschema messages without plugins; its well-known names
+  are used where one exists (FrameTransform, JointStates, Log). CAN has no well-known
+  schema, so frames are logged raw and, per DBC frame, decoded into plain numbers.
+* Crash safety: messages are held for at most ``flush_interval_us`` of *virtual* time,
+  then sorted into log-time order, written as one zstd chunk and flushed to the OS. A run
+  killed with SIGKILL therefore loses at most the last window (0.5 s by default), which
+  ``hexhil trace recover`` proves by reading the file without its summary.
+* Determinism: nothing here reads the wall clock; the same run gives the same bytes.
+* ``/link`` holds every simulator-link request the firmware made and the reply it got
+  (the firmware's whole view of the world), so ``hexhil replay`` can serve the replies
+  back and compare the requests byte for byte.
+"""
+from __future__ import annotations
+
+import json
+from importlib import metadata as _pkg_metadata
+from operator import itemgetter
+from pathlib import Path
+from typing import Any, BinaryIO, Callable, Iterable, Mapping, Sequence
+
+from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
+from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
+from foxglove_schemas_protobuf.Log_pb2 import Log
+from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+from mcap.writer import CompressionType, Writer
+from mcap_protobuf.schema import build_file_descriptor_set
+
+from host_tools.errors import UserError
+from protocol import dynamixel
+
+PROFILE = ""  # MCAP profile: none of the ROS profiles apply
+METADATA_NAME = "hexhil"
+DEFAULT_FLUSH_INTERVAL_US = 500_000  # well inside the issue's "once per simulated second"
+LEG_NAMES = ("LF", "LM", "LH", "RF", "RM", "RH")  # bit order of the DBC's `switches`
+
+# Topics (the names are the API that trace tools, replay and estimate read).
+T_SERIAL = "/serial"
+T_DYNAMIXEL = "/dynamixel"
+T_CAN_RAW = "/can/raw"
+T_CAN_PREFIX = "/can/"
+T_SWITCHES = "/switches"
+T_TELEMETRY = "/telemetry"
+T_SERVOS = "/servos"
+T_BODY = "/body"
+T_JOINTS = "/joints"
+T_FAULTS = "/faults"
+T_LINK = "/link"
+
+_F = descriptor_pb2.FieldDescriptorProto
+_TYPES = {"string": _F.TYPE_STRING, "bytes": _F.TYPE_BYTES, "uint32": _F.TYPE_UINT32,
+          "uint64": _F.TYPE_UINT64, "int64": _F.TYPE_INT64, "bool": _F.TYPE_BOOL,
+          "double": _F.TYPE_DOUBLE}
+
+# Our own protobuf messages: (name, [(field, type)]); a type naming another message here
+# makes a repeated field of it.
+_MESSAGES: list[tuple[str, list[tuple[str, str]]]] = [
+    ("SerialBytes", [("direction", "string"), ("data", "bytes"), ("length", "uint32")]),
+    ("DynamixelPacket", [("direction", "string"), ("id", "uint32"), ("code", "uint32"),
+                         ("instruction", "string"), ("errors", "string"),
+                         ("params", "bytes"), ("raw", "bytes")]),
+    ("CanFrame", [("direction", "string"), ("arbitration_id", "uint32"),
+                  ("is_extended_id", "bool"), ("dlc", "uint32"), ("data", "bytes"),
+                  ("name", "string")]),
+    ("SwitchEdge", [("leg", "uint32"), ("leg_name", "string"), ("level", "bool"),
+                    ("switches", "uint32")]),
+    ("ServoState", [("id", "uint32"), ("position_rad", "double"),
+                    ("velocity_rad_s", "double"), ("load_frac", "double"),
+                    ("temperature_c", "double"), ("voltage_v", "double"),
+                    ("torque_enabled", "bool"), ("moving", "bool"), ("error", "uint32")]),
+    ("ServoStates", [("servos", "ServoState")]),
+    ("LinkExchange", [("kind", "string"), ("request", "bytes"), ("reply", "bytes")]),
+]
+
+
+def _build_classes() -> tuple[dict[str, Any], bytes]:
+    """Message classes for ``_MESSAGES`` and the FileDescriptorSet Foxglove needs."""
+    fdp = descriptor_pb2.FileDescriptorProto(name="hexhil/trace.proto", package="hexhil",
+                                             syntax="proto3")
+    names = {n for n, _ in _MESSAGES}
+    for name, fields in _MESSAGES:
+        msg = fdp.message_type.add(name=name)
+        for number, (fname, ftype) in enumerate(fields, start=1):
+            if ftype in names:
+                msg.field.add(name=fname, number=number, type=_F.TYPE_MESSAGE,
+                              type_name=f".hexhil.{ftype}", label=_F.LABEL_REPEATED)
+            else:
+                msg.field.add(name=fname, number=number, type=_TYPES[ftype],
+                              label=_F.LABEL_OPTIONAL)
+    pool = descriptor_pool.DescriptorPool()
+    fd = pool.Add(fdp)
+    classes = {n: message_factory.GetMessageClass(pool.FindMessageTypeByName(f"hexhil.{n}"))
+               for n in names}
+    fds = descriptor_pb2.FileDescriptorSet()
+    fds.file.add().CopyFrom(fdp)
+    del fd
+    return classes, fds.SerializeToString()
+
+
+_CLASSES, _HEXHIL_FDS = _build_classes()
+SerialBytes = _CLASSES["SerialBytes"]
+DynamixelPacket = _CLASSES["DynamixelPacket"]
+CanFrame = _CLASSES["CanFrame"]
+SwitchEdge = _CLASSES["SwitchEdge"]
+ServoState = _CLASSES["ServoState"]
+ServoStates = _CLASSES["ServoStates"]
+LinkExchange = _CLASSES["LinkExchange"]
+
+
+def software_version() -> str:
+    try:
+        return _pkg_metadata.version("hexhil")
+    except _pkg_metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def _dbc():
+    """The project's DBC through cantools, or None while protocol/hexhil.dbc is absent."""
+    path = Path(dynamixel.__file__).with_name("hexhil.dbc")
+    if not path.exists():
+        return None
+    import cantools
+
+    return cantools.database.load_file(str(path))
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, (bytes, bytearray)):
+        return o.hex()
+    if hasattr(o, "tolist"):  # numpy scalars and arrays
+        return o.tolist()
+    if hasattr(o, "value"):  # cantools NamedSignalValue
+        return o.value
+    return str(o)
+
+
+class Recorder:
+    """Writes one run to one MCAP file; see the module docstring for topics and schemas.
+
+    ``metadata`` (scenario, seed, command...) is stored as the ``hexhil`` metadata record
+    together with the software version. Times are integer virtual microseconds and should
+    not go backwards by more than one flush window between calls.
+    """
+
+    def __init__(self, path: str | Path, metadata: Mapping[str, Any] | None = None, *,
+                 flush_interval_us: int = DEFAULT_FLUSH_INTERVAL_US,
+                 decode_serial: bool = True, decode_can: bool = True) -> None:
+        self.path = Path(path)
+        try:
+            self._file: BinaryIO = open(self.path, "wb")
+        except OSError as exc:
+            raise UserError(f"{self.path}: cannot write trace ({exc.strerror})") from None
+        self._writer = Writer(self._file, compression=CompressionType.ZSTD,
+                              chunk_size=1 << 30)  # chunks end by virtual time, not size
+        self._writer.start(profile=PROFILE, library=f"hexhil {software_version()}")
+        meta = {"software_version": software_version()}
+        for k, v in (metadata or {}).items():
+            meta[str(k)] = v if isinstance(v, str) else json.dumps(v, sort_keys=True,
+                                                                   default=_json_default)
+        self._writer.add_metadata(METADATA_NAME, meta)
+        self._flush_interval_us = int(flush_interval_us)
+        self._window_end_us = self._flush_interval_us
+        self._pending: list[tuple[int, int, bytes]] = []
+        self._channels: dict[str, int] = {}
+        self._schemas: dict[str, int] = {}
+        self._parsers = {"tx": dynamixel.Parser(), "rx": dynamixel.Parser()} \
+            if decode_serial else None
+        self._dbc = _dbc() if decode_can else None
+        self._switches = 0
+        self.messages = 0
+        self.closed = False
+
+    # -- plumbing -------------------------------------------------------------------------
+    def _channel(self, topic: str, schema_name: str, encoding: str,
+                 schema_data: Callable[[], bytes] | bytes) -> int:
+        sid = self._schemas.get(schema_name)
+        if sid is None:
+            data = schema_data() if callable(schema_data) else schema_data
+            sid = self._writer.register_schema(
+                name=schema_name, encoding="protobuf" if encoding == "protobuf" else "jsonschema",
+                data=data)
+            self._schemas[schema_name] = sid
+        cid = self._writer.register_channel(topic=topic, message_encoding=encoding,
+                                            schema_id=sid)
+        self._channels[topic] = cid
+        return cid
+
+    def _proto_channel(self, topic: str, cls: Any) -> int:
+        cid = self._channels.get(topic)
+        if cid is not None:
+            return cid
+        full = cls.DESCRIPTOR.full_name
+        if full.startswith("hexhil."):
+            return self._channel(topic, full, "protobuf", _HEXHIL_FDS)
+        return self._channel(topic, full, "protobuf",
+                             lambda: build_file_descriptor_set(cls).SerializeToString())
+
+    def _json_channel(self, topic: str, schema_name: str, schema: Mapping[str, Any]) -> int:
+        cid = self._channels.get(topic)
+        if cid is not None:
+            return cid
+        return self._channel(topic, schema_name, "json",
+                             json.dumps(schema, sort_keys=True).encode())
+
+    def _add(self, cid: int, t_us: int, data: bytes) -> None:
+        if self.closed:
+            raise RuntimeError("recorder is closed")
+        t_us = int(t_us)
+        if t_us >= self._window_end_us:
+            self._flush_window(t_us)
+        self._pending.append((t_us * 1000, cid, data))
+
+    def _flush_window(self, now_us: int) -> None:
+        self.flush()
+        step = self._flush_interval_us
+        self._window_end_us = (now_us // step + 1) * step
+
+    def flush(self) -> None:
+        """Write the held messages in log-time order as one chunk and hand it to the OS."""
+        pending = self._pending
+        if pending:
+            pending.sort(key=itemgetter(0))  # stable: equal times keep call order
+            add = self._writer.add_message
+            seq = self.messages
+            for log_ns, cid, data in pending:
+                add(channel_id=cid, log_time=log_ns, data=data, publish_time=log_ns,
+                    sequence=seq & 0xFFFFFFFF)
+                seq += 1
+            self.messages = seq
+            self._pending = []
+        self._writer.flush()
+
+    def advance(self, t_us: int) -> None:
+        """Tell the recorder virtual time has reached ``t_us`` (flushes a finished window)."""
+        if int(t_us) >= self._window_end_us and not self.closed:
+            self._flush_window(int(t_us))
+
+    def close(self) -> None:
+        """Write everything and the MCAP summary; the file is complete after this."""
+        if self.closed:
+            return
+        if self._parsers is not None:
+            for direction, parser in self._parsers.items():
+                for pkt in parser.flush():
+                    self._dynamixel_packet(self._last_serial_us, direction, pkt.id, pkt.code,
+                                           pkt.params, pkt.raw)
+        self.flush()
+        self._writer.finish()
+        self._file.close()
+        self.closed = True
+
+    def __enter__(self) -> "Recorder":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    # -- what the parts record ------------------------------------------------------------
+    _last_serial_us = 0
+
+    def serial(self, t_us: int, direction: str, data: bytes) -> None:
+        """Raw bytes on the servo line (``"tx"`` master->servos, ``"rx"`` servos->master);
+        complete Dynamixel packets in them are also logged on ``/dynamixel``."""
+        data = bytes(data)
+        self._add(self._proto_channel(T_SERIAL, SerialBytes), t_us,
+                  SerialBytes(direction=direction, data=data,
+                              length=len(data)).SerializeToString())
+        self._last_serial_us = t_us
+        parsers = self._parsers
+        if parsers is not None:
+            parser = parsers.get(direction)
+            if parser is None:
+                return
+            for b in data:
+                if parser.push(b, t_us):
+                    end = dynamixel.PARAMS_OFFSET + parser.nparams
+                    buf = parser.buf
+                    self._dynamixel_packet(t_us, direction, parser.id, parser.code,
+                                           bytes(buf[dynamixel.PARAMS_OFFSET:end]),
+                                           bytes(buf[0:end + 1]))
+
+    def dynamixel(self, t_us: int, direction: str, servo_id: int, code: int,
+                  params: bytes = b"") -> None:
+        """One decoded packet (for parts that parse themselves; use with decode_serial=False)."""
+        params = bytes(params)
+        self._dynamixel_packet(t_us, direction, servo_id, code, params,
+                               dynamixel.packet(servo_id, code, params))
+
+    def _dynamixel_packet(self, t_us: int, direction: str, servo_id: int, code: int,
+                          params: bytes, raw: bytes) -> None:
+        if direction == "rx":
+            instruction, errors = "", ",".join(dynamixel.error_names(code))
+        else:
+            instruction = dynamixel.INSTRUCTION_NAMES.get(code, "0x%02X" % code)
+            errors = ""
+        self._add(self._proto_channel(T_DYNAMIXEL, DynamixelPacket), t_us,
+                  DynamixelPacket(direction=direction, id=servo_id, code=code,
+                                  instruction=instruction, errors=errors, params=params,
+                                  raw=raw).SerializeToString())
+
+    def can(self, t_us: int, arb_id: int, data: bytes, direction: str = "tx",
+            is_extended_id: bool = False) -> None:
+        """One CAN frame: raw on ``/can/raw`` and, if the DBC knows it, its signals in SI
+        units on ``/can/<frame name>``. ``direction`` names who sent it relative to the
+        firmware: ``"tx"`` firmware->bus, ``"rx"`` bus->firmware."""
+        data = bytes(data)
+        name = ""
+        db = self._dbc
+        msg = None
+        if db is not None and not is_extended_id:
+            try:
+                msg = db.get_message_by_frame_id(arb_id)
+            except KeyError:
+                msg = None
+            if msg is not None:
+                name = msg.name
+        self._add(self._proto_channel(T_CAN_RAW, CanFrame), t_us,
+                  CanFrame(direction=direction, arbitration_id=arb_id,
+                           is_extended_id=is_extended_id, dlc=len(data), data=data,
+                           name=name).SerializeToString())
+        if msg is None:
+            return
+        try:
+            signals = msg.decode(data, decode_choices=False)
+        except Exception:  # a frame the DBC cannot decode stays raw only
+            return
+        topic = T_CAN_PREFIX + name
+        cid = self._channels.get(topic)
+        if cid is None:
+            props = {s.name: {"type": "number",
+                              "description": f"{s.comment or s.name} [{s.unit or '-'}]"}
+                     for s in msg.signals}
+            props["direction"] = {"type": "string"}
+            cid = self._json_channel(topic, f"hexhil.can.{name}",
+                                     {"title": f"hexhil.can.{name}", "type": "object",
+                                      "properties": props})
+        signals["direction"] = direction
+        self._add(cid, t_us, json.dumps(signals, default=_json_default).encode())
+
+    def switch_edge(self, t_us: int, leg: int, level: bool) -> None:
+        """A tactile limit switch changed (leg 0..5 in ``LEG_NAMES`` order; True = pressed)."""
+        if level:
+            self._switches |= 1 << leg
+        else:
+            self._switches &= ~(1 << leg)
+        self._add(self._proto_channel(T_SWITCHES, SwitchEdge), t_us,
+                  SwitchEdge(leg=leg, leg_name=LEG_NAMES[leg] if leg < len(LEG_NAMES) else "",
+                             level=bool(level), switches=self._switches).SerializeToString())
+
+    def telemetry(self, t_us: int, values: Mapping[str, Any]) -> None:
+        """Free-form firmware telemetry (flat dict of numbers/strings) on ``/telemetry``."""
+        cid = self._json_channel(T_TELEMETRY, "hexhil.Telemetry",
+                                 {"title": "hexhil.Telemetry", "type": "object"})
+        self._add(cid, t_us, json.dumps(values, sort_keys=True,
+                                        default=_json_default).encode())
+
+    def servo_state(self, t_us: int, servos: Iterable[Mapping[str, Any]]) -> None:
+        """Emulated servo state, one message for all servos. Each mapping may hold ``id``,
+        ``position_rad``, ``velocity_rad_s``, ``load_frac``, ``temperature_c``,
+        ``voltage_v``, ``torque_enabled``, ``moving``, ``error``."""
+        msg = ServoStates(servos=[ServoState(**s) for s in servos])
+        self._add(self._proto_channel(T_SERVOS, ServoStates), t_us, msg.SerializeToString())
+
+    def body_pose(self, t_us: int, position_m: Sequence[float],
+                  quaternion_wxyz: Sequence[float], parent: str = "world",
+                  child: str = "body") -> None:
+        """Ground-truth body pose as ``foxglove.FrameTransform`` (Foxglove's 3D panel)."""
+        msg = FrameTransform(parent_frame_id=parent, child_frame_id=child)
+        msg.timestamp.FromNanoseconds(int(t_us) * 1000)
+        msg.translation.x, msg.translation.y, msg.translation.z = map(float, position_m)
+        w, x, y, z = map(float, quaternion_wxyz)
+        msg.rotation.w, msg.rotation.x, msg.rotation.y, msg.rotation.z = w, x, y, z
+        self._add(self._proto_channel(T_BODY, FrameTransform), t_us, msg.SerializeToString())
+
+    def joints(self, t_us: int, names: Sequence[str], positions_rad: Sequence[float],
+               velocities_rad_s: Sequence[float] | None = None,
+               efforts_nm: Sequence[float] | None = None) -> None:
+        """Ground-truth joint states as ``foxglove.JointStates``."""
+        msg = JointStates()
+        msg.timestamp.FromNanoseconds(int(t_us) * 1000)
+        n = len(names)
+        vel = velocities_rad_s if velocities_rad_s is not None else [0.0] * n
+        eff = efforts_nm if efforts_nm is not None else [0.0] * n
+        for i in range(n):
+            j = msg.joints.add()
+            j.name = names[i]
+            j.position = float(positions_rad[i])
+            j.velocity = float(vel[i])
+            j.effort = float(eff[i])
+        self._add(self._proto_channel(T_JOINTS, JointStates), t_us, msg.SerializeToString())
+
+    def fault(self, t_us: int, name: str, detail: str = "") -> None:
+        """An injected fault (or one the firmware reported) as a ``foxglove.Log`` entry."""
+        msg = Log(level=Log.WARNING, name=name, message=detail or name)
+        msg.timestamp.FromNanoseconds(int(t_us) * 1000)
+        self._add(self._proto_channel(T_FAULTS, Log), t_us, msg.SerializeToString())
+
+    def link(self, t_us: int, request: bytes, reply: bytes, kind: str = "") -> None:
+        """One simulator-link exchange: the firmware's request and the host's reply, at the
+        virtual time the request was answered (what ``hexhil replay`` serves back)."""
+        self._add(self._proto_channel(T_LINK, LinkExchange), t_us,
+                  LinkExchange(kind=kind, request=bytes(request),
+                               reply=bytes(reply)).SerializeToString())
+
+
+def open_recorder(path: str | Path | None, metadata: Mapping[str, Any] | None = None,
+                  **kwargs: Any) -> Recorder | None:
+    """A Recorder for ``--out PATH``, or None when no path was given."""
+    return Recorder(path, metadata, **kwargs) if path else None
