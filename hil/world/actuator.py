@@ -1,0 +1,111 @@
+"""AX-12-like joint drives in MuJoCo, behind the servo ``Actuator`` seam (hil/servo.py).
+
+The emulated servo owns its control table; it hands Goal Position, Moving Speed, Torque
+Limit, Torque Enable and the compliance registers to ``command`` and reads Present
+Position/Speed/Load back from ``state``, which come from the physics.
+
+Drive model (one vectorised bank for all 18 joints, evaluated every physics step):
+
+- the goal is approached through a set-point that moves at most at the Moving Speed limit;
+- the servo's duty ``u`` follows the AX-12 compliance curve on the set-point error ``e``:
+  0 inside the compliance margin, then ``punch + (|e| - margin) / slope`` (margin and slope
+  in position units, the slope being the error over which duty rises to 100 %), saturated
+  at the Torque Limit fraction;
+- the gearmotor gives ``tau = tau_stall * u - (tau_stall / omega_noload) * qdot``: the
+  speed-dependent torque drop of a DC motor. The back-EMF term is the joint's MuJoCo
+  damping (integrated implicitly, so 2 ms steps stay stable); ``tau_stall * u`` is the
+  actuator control. With Torque Enable off the duty is 0 and the joint is back-driven
+  against the gear train's damping only.
+
+Constants: AX-12A e-manual, stall torque 1.5 N m at 12 V, no-load speed 59 rpm at 12 V.
+"""
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from protocol import ax12
+
+if TYPE_CHECKING:
+    from hil.world.hexapod import HexapodWorld
+
+STALL_TORQUE_NM = 1.5                           # AX-12A at 12 V (e-manual)
+NO_LOAD_SPEED_RAD_S = 59.0 * 2.0 * math.pi / 60.0  # 59 rpm at 12 V (e-manual)
+BACK_EMF_DAMPING_NM_S = STALL_TORQUE_NM / NO_LOAD_SPEED_RAD_S
+ROTOR_ARMATURE_KG_M2 = 0.0015   # reflected rotor inertia through the 254:1 gear train
+POSITION_UNIT_RAD = math.radians(ax12.POSITION_RANGE_DEG / ax12.POSITION_MAX)
+PUNCH_FRACTION_PER_UNIT = 1.0 / 1023.0
+# (cw margin, ccw margin, cw slope, ccw slope, punch) in AX-12 raw units: e-manual defaults.
+DEFAULT_COMPLIANCE = (1, 1, 32, 32, 32)
+
+
+class DriveBank:
+    """The state of all joints' servo drives, as numpy arrays (SI units)."""
+
+    def __init__(self, q0_rad: np.ndarray) -> None:
+        n = len(q0_rad)
+        self.goal_rad = np.array(q0_rad, dtype=float)
+        self.setpoint_rad = np.array(q0_rad, dtype=float)
+        self.speed_limit_rad_s = np.full(n, NO_LOAD_SPEED_RAD_S)
+        self.torque_limit = np.ones(n)
+        self.enabled = np.ones(n, dtype=bool)
+        self.margin_rad = np.zeros((2, n))   # row 0: CW (e < 0), row 1: CCW (e > 0)
+        self.slope_rad = np.zeros((2, n))
+        self.punch = np.zeros(n)
+        self.duty = np.zeros(n)
+        for i in range(n):
+            self.set_compliance(i, DEFAULT_COMPLIANCE)
+
+    def set_compliance(self, i: int, compliance: tuple[int, int, int, int, int]) -> None:
+        cw_m, ccw_m, cw_s, ccw_s, punch = compliance
+        self.margin_rad[:, i] = (cw_m * POSITION_UNIT_RAD, ccw_m * POSITION_UNIT_RAD)
+        # a slope of 0 would be a step; the smallest real slope is 1 unit
+        self.slope_rad[:, i] = (max(cw_s, 1) * POSITION_UNIT_RAD, max(ccw_s, 1) * POSITION_UNIT_RAD)
+        self.punch[i] = punch * PUNCH_FRACTION_PER_UNIT
+
+    def control(self, q_rad: np.ndarray, dt_s: float) -> np.ndarray:
+        """Advance set-points by one step and return the motor torques (N m) to apply."""
+        step = self.speed_limit_rad_s * dt_s
+        self.setpoint_rad += np.clip(self.goal_rad - self.setpoint_rad, -step, step)
+        e = self.setpoint_rad - q_rad
+        side = (e > 0).astype(np.intp)
+        cols = np.arange(len(e))
+        excess = np.abs(e) - self.margin_rad[side, cols]
+        u = np.where(excess > 0, self.punch + excess / self.slope_rad[side, cols], 0.0)
+        u = np.minimum(u, self.torque_limit) * np.sign(e)
+        self.duty = np.where(self.enabled, u, 0.0)
+        return STALL_TORQUE_NM * self.duty
+
+
+class MujocoActuator:
+    """One joint of the world, driven like an AX-12 (implements the servo Actuator seam)."""
+
+    def __init__(self, world: "HexapodWorld", index: int) -> None:
+        self.world = world
+        self.index = index
+
+    def command(self, goal_rad: float, speed_limit_rad_s: float, torque_limit_frac: float,
+                enabled: bool, compliance: tuple[int, int, int, int, int] | None = None) -> None:
+        bank = self.world.drives
+        i = self.index
+        if enabled and not bank.enabled[i]:
+            bank.setpoint_rad[i] = self.world.joint_positions()[i]  # resume from where it is
+        bank.goal_rad[i] = goal_rad
+        bank.speed_limit_rad_s[i] = speed_limit_rad_s if speed_limit_rad_s > 0 else NO_LOAD_SPEED_RAD_S
+        bank.torque_limit[i] = min(max(torque_limit_frac, 0.0), 1.0)
+        bank.enabled[i] = bool(enabled)
+        if compliance is not None:
+            bank.set_compliance(i, compliance)
+
+    def state(self) -> tuple[float, float, float]:
+        """Present position (rad), speed (rad/s) and load (signed fraction of stall torque)."""
+        q = self.world.joint_positions()[self.index]
+        qd = self.world.joint_velocities()[self.index]
+        load = self.world.drives.duty[self.index] - qd / NO_LOAD_SPEED_RAD_S
+        return float(q), float(qd), float(max(-1.0, min(1.0, load)))
+
+    def advance_to(self, t_us: int) -> None:
+        """Physics runs on the world's clock; asking a joint to catch up advances the world."""
+        self.world.advance_to(t_us)

@@ -1,0 +1,276 @@
+"""The hexapod of seed 003 in MuJoCo: MJCF generated from the robot's parameters, stepped in
+lockstep virtual time, with ground truth (body pose, foot contacts, switch levels).
+
+Robot (seed 003, Sec. 3.1 and Fig. 12): 1.5 kg, about 30 x 30 cm, coxa 5 cm, femur 8.2 cm,
+tibia 12 cm, body bottom 8 cm above the ground in the neutral stance, 18 AX-12 joints.
+
+Frames and joint conventions (shared with the firmware's kinematics; see
+docs/hexapod-world.md): world x is the walking direction, z up, the robot starts at the
+origin facing +x. Legs in servo-ID order LF, LM, LH, RF, RM, RH, each with coxa, femur, tibia
+(IDs 1-3 for LF ... 16-18 for RH). Joint angle 0 is the AX-12 centre (position 512):
+coxa pointing along the leg's mounting direction, femur horizontal, tibia perpendicular to
+the femur pointing down. Positive coxa turns the leg counter-clockwise seen from above,
+positive femur lifts the knee, positive tibia swings the foot outward.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from hil.world import actuator as act
+from hil.world import terrain as terrain_mod
+from hil.world.switches import SwitchBank
+from host_tools.errors import UserError
+
+LEGS = ("LF", "LM", "LH", "RF", "RM", "RH")
+PHYSICS_DT_US = 2000   # 2 ms steps: contact-stable with implicit joint damping (see docs)
+
+
+@dataclass(frozen=True)
+class RobotParams:
+    """Geometry and masses; lengths in metres, masses in kilograms."""
+
+    coxa_m: float = 0.05           # Fig. 12
+    femur_m: float = 0.082         # Fig. 12
+    tibia_m: float = 0.12          # Fig. 12
+    body_clearance_m: float = 0.08  # ground to body bottom, neutral stance (Fig. 12)
+    body_half_m: tuple[float, float, float] = (0.11, 0.065, 0.015)  # plate half-extents
+    # leg mounts (x, y, yaw) in the body frame: front/hind at the corners, middle at the sides
+    mounts: tuple[tuple[float, float, float], ...] = (
+        (0.10, 0.06, math.radians(45)), (0.0, 0.075, math.radians(90)),
+        (-0.10, 0.06, math.radians(135)), (0.10, -0.06, math.radians(-45)),
+        (0.0, -0.075, math.radians(-90)), (-0.10, -0.06, math.radians(-135)))
+    neutral_reach_m: float = 0.15  # foot distance from the coxa joint, neutral stance
+    foot_radius_m: float = 0.010
+    tibia_radius_m: float = 0.008
+    # 1.5 kg in all (Sec. 3.1): body with electronics and coxa servos, links carry servos
+    body_kg: float = 0.66
+    coxa_kg: float = 0.06
+    femur_kg: float = 0.07
+    tibia_kg: float = 0.01
+    foot_friction: float = 1.0
+    obstacle_friction: float = 0.5
+    plate_half_m: tuple[float, float, float] = (0.002, 0.015, 0.04)  # switch plate
+    plate_gap_m: float = 0.004      # plate stands this far in front of the tibia surface
+    plate_low_m: float = 0.012      # plate bottom edge, measured up the tibia from its end
+
+    @property
+    def body_height_m(self) -> float:
+        """Body centre (and coxa joint) height in the neutral stance."""
+        return self.body_clearance_m + self.body_half_m[2]
+
+    @property
+    def total_kg(self) -> float:
+        return self.body_kg + 6 * (self.coxa_kg + self.femur_kg + self.tibia_kg)
+
+
+def leg_ik(params: RobotParams, reach_m: float, z_m: float) -> tuple[float, float]:
+    """Femur and tibia angles (rad) that put the tibia end at ``reach_m`` from the coxa joint
+    (in the leg plane) and ``z_m`` above it (negative: below)."""
+    x = reach_m - params.coxa_m
+    d2 = x * x + z_m * z_m
+    f, t = params.femur_m, params.tibia_m
+    d = math.sqrt(d2)
+    if d > f + t or d < abs(f - t):
+        raise ValueError(f"foot at reach {reach_m:.3f} m, z {z_m:.3f} m is out of the leg's reach")
+    knee = math.acos((f * f + t * t - d2) / (2 * f * t))
+    hip = math.acos((f * f + d2 - t * t) / (2 * f * d))
+    return math.atan2(z_m, x) + hip, knee - math.pi / 2
+
+
+def neutral_joints(params: RobotParams) -> np.ndarray:
+    """The 18 joint angles of the neutral stance (feet on the ground, body at its height)."""
+    fem, tib = leg_ik(params, params.neutral_reach_m, -(params.body_height_m - params.foot_radius_m))
+    return np.array([0.0, fem, tib] * 6)
+
+
+def _f(*v: float) -> str:
+    return " ".join(f"{x:.6g}" for x in v)
+
+
+def mjcf(params: RobotParams, obstacles: list[terrain_mod.Obstacle], ground_friction: float) -> str:
+    """The MJCF document for the robot on flat ground with the given obstacles.
+
+    Collision filtering: robot geoms have contype 1 / conaffinity 0, the ground and the
+    obstacles contype 0 / conaffinity 1, so the robot touches the world but not itself.
+    """
+    p = params
+    bx, by, bz = p.body_half_m
+    robot = 'contype="1" conaffinity="0"'
+    legs = []
+    for name, (mx, my, yaw) in zip(LEGS, p.mounts):
+        # switch plate faces the robot's forward direction (body +x) seen from this leg
+        n_x, n_y = math.cos(yaw), -math.sin(yaw)
+        off = p.tibia_radius_m + p.plate_gap_m + p.plate_half_m[0]
+        pz = -(p.tibia_m - p.plate_low_m - p.plate_half_m[2])
+        plate_rot = _f(0, 0, -math.degrees(yaw))
+        legs.append(f"""
+    <body name="{name}_coxa" pos="{_f(mx, my, 0)}" euler="{_f(0, 0, math.degrees(yaw))}">
+      <joint name="{name}_coxa" axis="0 0 1" range="-150 150"/>
+      <geom type="capsule" fromto="0 0 0 {p.coxa_m} 0 0" size="0.012" mass="{p.coxa_kg}" {robot}/>
+      <body name="{name}_femur" pos="{p.coxa_m} 0 0">
+        <joint name="{name}_femur" axis="0 -1 0" range="-150 150"/>
+        <geom type="capsule" fromto="0 0 0 {p.femur_m} 0 0" size="0.012" mass="{p.femur_kg}" {robot}/>
+        <body name="{name}_tibia" pos="{p.femur_m} 0 0">
+          <joint name="{name}_tibia" axis="0 -1 0" range="-150 150"/>
+          <geom name="{name}_tibia" type="capsule" fromto="0 0 0 0 0 {-p.tibia_m}"
+                size="{p.tibia_radius_m}" mass="{p.tibia_kg}" friction="0.3" {robot}/>
+          <geom name="{name}_foot" type="sphere" pos="0 0 {-p.tibia_m}" size="{p.foot_radius_m}"
+                mass="0.001" friction="{p.foot_friction}" {robot}/>
+          <geom name="{name}_plate" type="box" pos="{_f(n_x * off, n_y * off, pz)}"
+                euler="{plate_rot}" size="{_f(*p.plate_half_m)}" mass="0.001" friction="0.3" {robot}/>
+          <site name="{name}_plate" type="box" pos="{_f(n_x * (off + 0.002), n_y * (off + 0.002), pz)}"
+                euler="{plate_rot}" size="{_f(p.plate_half_m[0] + 0.004, p.plate_half_m[1] + 0.003, p.plate_half_m[2] + 0.003)}"/>
+          <site name="{name}_foot" type="sphere" pos="0 0 {-p.tibia_m}" size="{p.foot_radius_m + 0.004}"/>
+        </body>
+      </body>
+    </body>""")
+    obs = "".join(
+        f'\n    <geom name="obstacle{i}" type="ellipsoid" pos="{_f(o.x_m, o.y_m, 0)}" '
+        f'size="{_f(o.length_m / 2, o.width_m / 2, o.height_m)}" friction="{p.obstacle_friction}" '
+        f'contype="0" conaffinity="1" rgba="0.6 0.45 0.3 1"/>'
+        for i, o in enumerate(obstacles))
+    motors = "".join(
+        f'\n    <motor name="{leg}_{j}" joint="{leg}_{j}" ctrlrange="{_f(-act.STALL_TORQUE_NM, act.STALL_TORQUE_NM)}"/>'
+        for leg in LEGS for j in ("coxa", "femur", "tibia"))
+    sensors = "".join(f'\n    <touch name="{leg}_plate" site="{leg}_plate"/>' for leg in LEGS) + \
+        "".join(f'\n    <touch name="{leg}_foot" site="{leg}_foot"/>' for leg in LEGS)
+    return f"""<mujoco model="hexhil-hexapod">
+  <compiler angle="degree" autolimits="true"/>
+  <option timestep="{PHYSICS_DT_US * 1e-6}" integrator="implicitfast" cone="elliptic"/>
+  <default>
+    <joint damping="{act.BACK_EMF_DAMPING_NM_S:.6g}" armature="{act.ROTOR_ARMATURE_KG_M2}"/>
+    <motor ctrllimited="true"/>
+  </default>
+  <worldbody>
+    <geom name="ground" type="plane" size="5 5 0.1" friction="{ground_friction}" contype="0" conaffinity="1"/>{obs}
+    <body name="body" pos="0 0 {p.body_height_m:.6g}">
+      <freejoint name="root"/>
+      <geom name="body" type="box" size="{_f(bx, by, bz)}" mass="{p.body_kg}" {robot}/>{"".join(legs)}
+    </body>
+  </worldbody>
+  <actuator>{motors}
+  </actuator>
+  <sensor>{sensors}
+  </sensor>
+</mujoco>
+"""
+
+
+@dataclass
+class BodyPose:
+    """Ground-truth body pose: position (m) and yaw/pitch/roll (rad), world frame."""
+
+    x_m: float
+    y_m: float
+    z_m: float
+    yaw_rad: float
+    pitch_rad: float
+    roll_rad: float
+
+
+@dataclass
+class SwitchEvent:
+    t_us: int
+    leg: int
+    closed: bool
+    body_x_m: float
+    body_y_m: float
+    yaw_rad: float
+
+
+@dataclass
+class HexapodWorld:
+    """The robot and its terrain, advanced in integer virtual microseconds.
+
+    ``scenario`` is a loaded scenario (``host_tools.scenario.load``); its ``[world]``
+    section selects flat ground or obstacles and the ground friction.
+    """
+
+    scenario: dict[str, Any]
+    seed: int = 0
+    params: RobotParams = field(default_factory=RobotParams)
+
+    def __post_init__(self) -> None:
+        world = self.scenario.get("world", {})
+        kind = world.get("kind", "hexapod")
+        if kind != "hexapod":
+            raise UserError(f"{self.scenario.get('_path', 'scenario')}: world.kind {kind!r} "
+                            f"is not the hexapod world")
+        self.obstacles = terrain_mod.from_scenario(self.scenario, self.seed)
+        self.xml = mjcf(self.params, self.obstacles, world.get("friction", 1.0))
+        self.model = mujoco.MjModel.from_xml_string(self.xml)
+        self.data = mujoco.MjData(self.model)
+        q0 = neutral_joints(self.params)
+        self._qadr = 7 + np.arange(18)  # free joint first, then the legs in servo-ID order
+        self._vadr = 6 + np.arange(18)
+        self.data.qpos[self._qadr] = q0
+        mujoco.mj_forward(self.model, self.data)
+        self.drives = act.DriveBank(q0)
+        self.switches = SwitchBank(len(LEGS))
+        self.t_us = 0
+        self.dt_s = PHYSICS_DT_US * 1e-6
+        self.events: list[SwitchEvent] = []
+        self.trajectory: list[tuple[int, float, float, float]] = []  # (t_us, x, y, yaw) at 10 Hz
+        self._plate = np.arange(6)
+        self._foot = np.arange(6, 12)
+        self._actuators = [act.MujocoActuator(self, i) for i in range(18)]
+        self._sample()
+
+    # --- the simulator's hooks ----------------------------------------------------------
+    def actuators(self) -> list[act.MujocoActuator]:
+        """The 18 joints in servo-ID order (LF coxa, femur, tibia, LM ..., RH tibia)."""
+        return self._actuators
+
+    def advance_to(self, t_us: int) -> None:
+        """Step the physics up to ``t_us`` (whole 2 ms steps; never past it)."""
+        m, d = self.model, self.data
+        while self.t_us + PHYSICS_DT_US <= t_us:
+            d.ctrl[:] = self.drives.control(d.qpos[self._qadr], self.dt_s)
+            mujoco.mj_step(m, d)
+            self.t_us += PHYSICS_DT_US
+            if self.switches.update(d.sensordata[self._plate]):
+                self._log_switches()
+            if self.t_us % 100_000 == 0:
+                self._sample()
+
+    def switch_levels(self) -> list[bool]:
+        """Limit-switch levels, True = pressed, in leg order LF, LM, LH, RF, RM, RH."""
+        return self.switches.levels()
+
+    def body_pose(self) -> BodyPose:
+        q = self.data.qpos
+        w, x, y, z = q[3:7]
+        yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+        roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+        return BodyPose(float(q[0]), float(q[1]), float(q[2]), yaw, pitch, roll)
+
+    def foot_contacts(self) -> list[bool]:
+        """Ground truth: which feet carry load (touch force above 0.05 N)."""
+        return [bool(f > 0.05) for f in self.data.sensordata[self._foot]]
+
+    def plate_forces_n(self) -> list[float]:
+        return [float(f) for f in self.data.sensordata[self._plate]]
+
+    def joint_positions(self) -> np.ndarray:
+        return self.data.qpos[self._qadr]
+
+    def joint_velocities(self) -> np.ndarray:
+        return self.data.qvel[self._vadr]
+
+    # --- logging ------------------------------------------------------------------------
+    def _sample(self) -> None:
+        pose = self.body_pose()
+        self.trajectory.append((self.t_us, pose.x_m, pose.y_m, pose.yaw_rad))
+
+    def _log_switches(self) -> None:
+        pose = self.body_pose()
+        logged = {e.leg: e.closed for e in self.events}
+        for leg, closed in enumerate(self.switches.levels()):
+            if logged.get(leg, False) != closed:
+                self.events.append(SwitchEvent(self.t_us, leg, closed, pose.x_m, pose.y_m, pose.yaw_rad))

@@ -1,0 +1,38 @@
+"""Tibia limit switches (seed 003, Sec. 2.3): a plate on the front of each tibia.
+
+The plate is a real collision geom, so an obstacle pushes on it and on the leg; a MuJoCo
+touch sensor sums the normal force on the plate and the switch closes when that force
+crosses ``on_n`` and opens again below ``off_n`` (hysteresis: a lever switch's operating
+and release forces differ). The level is what the firmware reads on its GPIO pin.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+SWITCH_ON_N = 0.6    # operating force of a small lever micro-switch through the plate
+SWITCH_OFF_N = 0.25  # release force
+
+
+class SwitchBank:
+    """Six switches with hysteresis, updated from the plates' touch-sensor forces."""
+
+    def __init__(self, n: int = 6, on_n: float = SWITCH_ON_N, off_n: float = SWITCH_OFF_N) -> None:
+        if not 0 <= off_n < on_n:
+            raise ValueError(f"need 0 <= off_n < on_n, got off {off_n} on {on_n}")
+        self.on_n = on_n
+        self.off_n = off_n
+        self.closed = np.zeros(n, dtype=bool)
+        self.presses = np.zeros(n, dtype=np.int64)  # rising edges so far, per leg
+
+    def update(self, force_n: np.ndarray) -> bool:
+        """Apply one force sample per switch; True when any level changed."""
+        rising = ~self.closed & (force_n > self.on_n)
+        falling = self.closed & (force_n < self.off_n)
+        if not (rising.any() or falling.any()):
+            return False
+        self.presses += rising
+        self.closed = (self.closed | rising) & ~falling
+        return True
+
+    def levels(self) -> list[bool]:
+        return [bool(c) for c in self.closed]

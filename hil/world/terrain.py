@@ -1,0 +1,117 @@
+"""Obstacle terrain for the hexapod world (seed 003, Sections 2.2 and 3.2).
+
+Each obstacle is a half-ellipsoid resting on the ground: length L along the walking
+direction (x), width W across it (y) and height H (the paper's Fig. 14 shapes). Terrain is
+given explicitly in the scenario or generated from a density and a height class:
+
+- density ``low``: centre spacing R >= 15 cm; ``high``: 10 cm < R < 15 cm (Sec. 2.2);
+- height class ``small``: 3 cm <= H <= 5 cm; ``large``: 6 cm <= H <= 8 cm (Sec. 2.2);
+- lengths 2-3 cm (Sec. 3.2); widths are not given by the paper (W in [0, inf], Eq. 1):
+  we draw 4-10 cm, i.e. stones and sticks that block one leg at a time.
+
+Generation is a seeded maximal Poisson-disc fill of the walking corridor, so a seed gives the
+same terrain on every machine.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from host_tools.errors import UserError
+
+DENSITY_SPACING_M = {"low": (0.15, 0.25), "high": (0.10, 0.15)}  # Sec. 2.2, R ranges
+HEIGHT_CLASS_M = {"small": (0.03, 0.05), "large": (0.06, 0.08)}  # Sec. 2.2, H ranges
+LENGTH_RANGE_M = (0.02, 0.03)                                    # Sec. 3.2, L = 2 or 3 cm
+WIDTH_RANGE_M = (0.04, 0.10)                                     # our choice, see docstring
+CORRIDOR_START_M = 0.20      # first obstacle centre ahead of the start (legs clear at t=0)
+CORRIDOR_HALF_WIDTH_M = 0.25  # lateral extent of the generated field (feet reach ~0.22 m)
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A half-ellipsoid on the ground, centre (x_m, y_m), full extents L, W and height H."""
+
+    x_m: float
+    y_m: float
+    length_m: float
+    width_m: float
+    height_m: float
+
+
+def generate(density: str, height_class: str, length_m: float, seed: int,
+             half_width_m: float = CORRIDOR_HALF_WIDTH_M) -> list[Obstacle]:
+    """Fill the corridor x in [start, length_m], |y| <= half_width_m with obstacles.
+
+    Dart throwing keeps every pair at least the class's minimum spacing apart; for ``high``
+    density darts are only accepted next to the field (nearest centre under the maximum),
+    so nearest-neighbour spacings stay inside the paper's 10-15 cm band.
+    """
+    if density not in DENSITY_SPACING_M:
+        raise UserError(f"world.density must be one of {sorted(DENSITY_SPACING_M)}, got {density!r}")
+    if height_class not in HEIGHT_CLASS_M:
+        raise UserError(f"world.height_class must be one of {sorted(HEIGHT_CLASS_M)}, "
+                        f"got {height_class!r}")
+    if length_m <= CORRIDOR_START_M:
+        raise UserError(f"world.length_m must exceed {CORRIDOR_START_M} m, got {length_m}")
+    r_min, r_max = DENSITY_SPACING_M[density]
+    rng = np.random.default_rng(seed)
+    centres: list[tuple[float, float]] = []
+    misses = 0
+    while misses < 400:
+        x = float(rng.uniform(CORRIDOR_START_M, length_m))
+        y = float(rng.uniform(-half_width_m, half_width_m))
+        if centres:
+            d = min(math.hypot(x - cx, y - cy) for cx, cy in centres)
+            if d < r_min or (density == "high" and d >= r_max):
+                misses += 1
+                continue
+        centres.append((x, y))
+        misses = 0
+    h_lo, h_hi = HEIGHT_CLASS_M[height_class]
+    out = []
+    for x, y in sorted(centres):
+        out.append(Obstacle(x_m=round(x, 4), y_m=round(y, 4),
+                            length_m=round(float(rng.uniform(*LENGTH_RANGE_M)), 4),
+                            width_m=round(float(rng.uniform(*WIDTH_RANGE_M)), 4),
+                            height_m=round(float(rng.uniform(h_lo, h_hi)), 4)))
+    return out
+
+
+def _explicit(items: list[Any], where: str) -> list[Obstacle]:
+    keys = {"x_m", "y_m", "length_m", "width_m", "height_m"}
+    out = []
+    for i, item in enumerate(items):
+        if not isinstance(item, dict) or set(item) != keys:
+            raise UserError(f"{where}: world.obstacles[{i}] must be a table with exactly "
+                            f"{', '.join(sorted(keys))}")
+        vals = {}
+        for k in keys:
+            v = item[k]
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise UserError(f"{where}: world.obstacles[{i}].{k} must be a number")
+            vals[k] = float(v)
+        if min(vals["length_m"], vals["width_m"], vals["height_m"]) <= 0:
+            raise UserError(f"{where}: world.obstacles[{i}] sizes must be positive")
+        out.append(Obstacle(**vals))
+    return out
+
+
+def from_scenario(scenario: dict[str, Any], seed: int) -> list[Obstacle]:
+    """The obstacles a scenario's ``[world]`` section asks for (empty for flat ground)."""
+    world = scenario.get("world", {})
+    where = scenario.get("_path", "scenario")
+    terrain = world.get("terrain", "flat")
+    if terrain == "flat":
+        if "obstacles" in world:
+            raise UserError(f"{where}: world.obstacles needs world.terrain = \"obstacles\"")
+        return []
+    if terrain != "obstacles":
+        raise UserError(f"{where}: world.terrain must be \"flat\" or \"obstacles\", got {terrain!r}")
+    if "obstacles" in world:
+        return _explicit(world["obstacles"], where)
+    length = world.get("length_m", scenario.get("gait", {}).get("distance_m", 1.0) + 0.3)
+    return generate(world.get("density", "low"), world.get("height_class", "small"), length,
+                    world.get("terrain_seed", seed))
