@@ -51,11 +51,11 @@ from mcap_protobuf.schema import build_file_descriptor_set
 
 from host_tools.errors import UserError
 from protocol import dynamixel
+from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
 
 PROFILE = ""  # MCAP profile: none of the ROS profiles apply
 METADATA_NAME = "hexhil"
 DEFAULT_FLUSH_INTERVAL_US = 500_000  # well inside the "once per simulated second"
-LEG_NAMES = ("LF", "LM", "LH", "RF", "RM", "RH")  # bit order of the DBC's `switches`
 
 # Topics (the names are the API that trace tools, replay and estimate read).
 T_SERIAL = "/serial"

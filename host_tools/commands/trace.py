@@ -1,0 +1,118 @@
+"""``hexhil trace info|cat|export|recover|import-csv``: look inside MCAP traces."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from host_tools import trace_tools
+from host_tools.cli import emit_json
+
+
+def _filters(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--topics", action="append", metavar="T[,T...]",
+                   help="only these topics (exact or glob such as '/can/*'; repeatable)")
+    p.add_argument("--start", type=float, metavar="S", help="from this log time in s")
+    p.add_argument("--end", type=float, metavar="S", help="up to (not including) this time")
+
+
+def _info(args: argparse.Namespace) -> int:
+    s = trace_tools.info(args.file)
+    if args.json:
+        emit_json(s)
+        return 0
+    print(f"file:      {s['file']}")
+    print(f"library:   {s['library']}")
+    print(f"messages:  {s['messages']} in {s['chunks']} chunks ({', '.join(s['compression'])})")
+    print(f"start:     {s['start_s']:.6f} s")
+    print(f"end:       {s['end_s']:.6f} s")
+    print(f"duration:  {s['duration_s']:.6f} s")
+    for k, v in sorted(s["metadata"].items()):
+        print(f"meta:      {k} = {v}")
+    width = max((len(t["topic"]) for t in s["topics"]), default=5)
+    print("topics:")
+    for t in s["topics"]:
+        print(f"  {t['topic']:<{width}}  {t['messages']:>9}  {t['schema']} "
+              f"({t['schema_encoding'] or t['message_encoding']})")
+    return 0
+
+
+def _cat(args: argparse.Namespace) -> int:
+    n = 0
+    out = sys.stdout
+    with trace_tools.open_trace(args.file) as tr:
+        for m, value in tr.decoded(args.topics, args.start, args.end):
+            out.write(f"{m.log_time_ns / 1e9:.6f} {m.topic} "
+                      f"{json.dumps(value, sort_keys=True)}\n")
+            n += 1
+            if args.limit and n >= args.limit:
+                break
+    if args.json:
+        emit_json({"messages": n})
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    r = trace_tools.export(args.file, args.out, args.topics, args.start, args.end)
+    if args.json:
+        emit_json(r)
+    else:
+        print(f"exported {r['messages']} messages to {', '.join(r['files'])}")
+    return 0
+
+
+def _recover(args: argparse.Namespace) -> int:
+    r = trace_tools.recover(args.file, args.out)
+    if args.json:
+        emit_json(r)
+    else:
+        print(f"recovered {r['messages']} messages ({r['start_s']:.6f} s .. {r['end_s']:.6f} s) "
+              f"into {r['output']}; stopped at: {r['stopped']}")
+    return 0
+
+
+def _import_csv(args: argparse.Namespace) -> int:
+    r = trace_tools.import_csv(args.csv, args.out)
+    if args.json:
+        emit_json(r)
+    else:
+        print(f"imported {r['samples']} samples ({'with' if r['pose'] else 'without'} pose) "
+              f"into {r['output']}")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("trace", help="inspect, export, recover and import MCAP traces")
+    tsub = p.add_subparsers(dest="trace_command", metavar="ACTION", required=True)
+
+    q = tsub.add_parser("info", help="topics, schemas, counts, start, end, duration")
+    q.add_argument("file")
+    q.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    q.set_defaults(func=_info)
+
+    q = tsub.add_parser("cat", help="print messages, one per line: time_s topic json")
+    q.add_argument("file")
+    _filters(q)
+    q.add_argument("--limit", type=int, default=0, help="stop after N messages")
+    q.add_argument("--json", action="store_true", help="end with a JSON count")
+    q.set_defaults(func=_cat)
+
+    q = tsub.add_parser("export", help="CSV per topic, or CAN to .asc/.blf/.log/.trc")
+    q.add_argument("file")
+    q.add_argument("out", help="OUT.csv (one topic), a directory (one CSV per topic), "
+                               "or OUT.asc/.blf/.log/.trc (the /can/raw frames)")
+    _filters(q)
+    q.add_argument("--json", action="store_true")
+    q.set_defaults(func=_export)
+
+    q = tsub.add_parser("recover", help="salvage an unfinished/crashed MCAP into a valid one")
+    q.add_argument("file")
+    q.add_argument("out")
+    q.add_argument("--json", action="store_true")
+    q.set_defaults(func=_recover)
+
+    q = tsub.add_parser("import-csv", help="a robot's force+pose CSV -> MCAP for 'estimate'")
+    q.add_argument("csv")
+    q.add_argument("out")
+    q.add_argument("--json", action="store_true")
+    q.set_defaults(func=_import_csv)

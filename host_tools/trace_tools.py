@@ -1,0 +1,457 @@
+"""Reading our MCAP traces: open with one-line errors, filter, decode, summarise, export,
+recover an unfinished file, and import a physical robot's CSV log.
+
+Every function that takes a trace path raises ``UserError`` (one line, exit 2) for a
+missing, non-MCAP, truncated or corrupt file, never a traceback: the trace tools are
+what a user points at whatever file is lying around after a crash.
+"""
+from __future__ import annotations
+
+import csv
+import fnmatch
+import json
+import math
+from pathlib import Path
+from typing import Any, Callable, Iterable, Iterator, NamedTuple
+
+from mcap.exceptions import McapError
+from mcap.reader import SeekingReader
+from mcap.records import Attachment, Channel, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader
+from mcap.writer import CompressionType, Writer
+from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
+
+from host_tools import recorder as rec
+from host_tools.errors import UserError
+
+MAGIC = b"\x89MCAP0\r\n"
+
+
+class TraceMessage(NamedTuple):
+    topic: str
+    log_time_ns: int
+    schema_name: str
+    data: bytes
+    channel_id: int
+
+
+def _check_file(path: Path) -> None:
+    if not path.exists():
+        raise UserError(f"{path}: no such trace file")
+    if path.is_dir():
+        raise UserError(f"{path}: is a directory, not a trace file")
+    try:
+        with open(path, "rb") as f:
+            head = f.read(len(MAGIC))
+    except OSError as exc:
+        raise UserError(f"{path}: cannot read ({exc.strerror})") from None
+    if head != MAGIC:
+        what = "empty file" if not head else "no MCAP magic at the start"
+        raise UserError(f"{path}: not an MCAP file ({what})")
+
+
+def _why(exc: BaseException) -> str:
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    return f"{exc.__class__.__name__}: {text}" if text else exc.__class__.__name__
+
+
+class Trace:
+    """An MCAP file opened for reading with its summary (a finished file is required)."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        _check_file(self.path)
+        self._f = open(self.path, "rb")
+        try:
+            self.reader = SeekingReader(self._f, validate_crcs=True)
+            self.summary = self.reader.get_summary()
+            self.header = self.reader.get_header()
+        except Exception as exc:  # truncated: no footer/summary; corrupt: bad records
+            self._f.close()
+            raise UserError(f"{self.path}: truncated or corrupt MCAP ({_why(exc)}); "
+                            f"try 'hexhil trace recover {self.path} OUT.mcap'") from None
+        if self.summary is None or self.summary.statistics is None:
+            self._f.close()
+            raise UserError(f"{self.path}: MCAP has no summary (unfinished write); "
+                            f"try 'hexhil trace recover {self.path} OUT.mcap'")
+        self.channels = self.summary.channels
+        self.schemas = self.summary.schemas
+
+    def close(self) -> None:
+        self._f.close()
+
+    def __enter__(self) -> "Trace":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    # -- selection ------------------------------------------------------------------------
+    def topics(self) -> list[str]:
+        return sorted({c.topic for c in self.channels.values()})
+
+    def select_topics(self, patterns: Iterable[str] | None) -> list[str] | None:
+        """Topics matching any pattern (exact name or glob such as ``/can/*``); None = all."""
+        if not patterns:
+            return None
+        pats = [p for item in patterns for p in item.split(",") if p]
+        known = self.topics()
+        out = [t for t in known if any(fnmatch.fnmatchcase(t, p) for p in pats)]
+        unmatched = [p for p in pats if not any(fnmatch.fnmatchcase(t, p) for t in known)]
+        if unmatched:
+            raise UserError(f"{self.path}: no topic matches {', '.join(unmatched)} "
+                            f"(topics: {', '.join(known)})")
+        return out
+
+    def messages(self, topics: Iterable[str] | None = None, start_s: float | None = None,
+                 end_s: float | None = None, log_time_order: bool = True
+                 ) -> Iterator[TraceMessage]:
+        """Raw messages in log-time order; ``start_s`` inclusive, ``end_s`` exclusive."""
+        sel = self.select_topics(topics)
+        start_ns = None if start_s is None else int(round(start_s * 1e9))
+        end_ns = None if end_s is None else int(round(end_s * 1e9))
+        it = self.reader.iter_messages(topics=sel, start_time=start_ns, end_time=end_ns,
+                                       log_time_order=log_time_order)
+        last_ns = 0
+        try:
+            for schema, channel, message in it:
+                last_ns = message.log_time
+                yield TraceMessage(channel.topic, message.log_time,
+                                   schema.name if schema is not None else "",
+                                   message.data, channel.id)
+        except UserError:
+            raise
+        except Exception as exc:
+            raise UserError(f"{self.path}: corrupt MCAP after t={last_ns / 1e9:.6f} s "
+                            f"({_why(exc)})") from None
+
+    def metadata(self) -> dict[str, str]:
+        out: dict[str, str] = {}
+        try:
+            for m in self.reader.iter_metadata():
+                out.update(m.metadata)
+        except Exception as exc:
+            raise UserError(f"{self.path}: corrupt metadata ({_why(exc)})") from None
+        return out
+
+    # -- decoding -------------------------------------------------------------------------
+    def decoder(self, channel_id: int) -> Callable[[bytes], Any]:
+        """bytes -> dict for a channel (protobuf via its own schema, json as is)."""
+        ch = self.channels[channel_id]
+        schema = self.schemas.get(ch.schema_id)
+        if ch.message_encoding == "protobuf" and schema is not None:
+            try:
+                decode = ProtobufDecoderFactory().decoder_for("protobuf", schema)
+            except Exception as exc:
+                raise UserError(f"{self.path}: schema {schema.name!r} is not valid protobuf "
+                                f"({_why(exc)})") from None
+            if decode is None:
+                raise UserError(f"{self.path}: cannot decode schema {schema.name!r}")
+            return lambda data: proto_to_dict(decode(data))
+        if ch.message_encoding == "json":
+            return json.loads
+        return lambda data: {"data": bytes(data).hex()}
+
+    def decoded(self, topics: Iterable[str] | None = None, start_s: float | None = None,
+                end_s: float | None = None) -> Iterator[tuple[TraceMessage, dict[str, Any]]]:
+        decoders: dict[int, Callable[[bytes], Any]] = {}
+        for m in self.messages(topics, start_s, end_s):
+            dec = decoders.get(m.channel_id)
+            if dec is None:
+                dec = decoders[m.channel_id] = self.decoder(m.channel_id)
+            try:
+                value = dec(m.data)
+            except Exception as exc:
+                raise UserError(f"{self.path}: message on {m.topic} at "
+                                f"t={m.log_time_ns / 1e9:.6f} s does not decode "
+                                f"({_why(exc)})") from None
+            yield m, value
+
+
+def proto_to_dict(msg: Any) -> dict[str, Any]:
+    """Every field of a protobuf message (defaults included), bytes as hex."""
+    out: dict[str, Any] = {}
+    for fd in msg.DESCRIPTOR.fields:
+        v = getattr(msg, fd.name)
+        if fd.message_type is not None:
+            if fd.is_repeated:
+                v = [proto_to_dict(x) for x in v]
+            elif fd.message_type.full_name == "google.protobuf.Timestamp":
+                v = v.seconds + v.nanos * 1e-9
+            else:
+                v = proto_to_dict(v)
+        elif fd.is_repeated:
+            v = list(v)
+        elif isinstance(v, bytes):
+            v = v.hex()
+        out[fd.name] = v
+    return out
+
+
+def open_trace(path: str | Path) -> Trace:
+    return Trace(path)
+
+
+# -- info ---------------------------------------------------------------------------------
+def info(path: str | Path) -> dict[str, Any]:
+    with Trace(path) as tr:
+        st = tr.summary.statistics
+        topics = []
+        for ch in sorted(tr.channels.values(), key=lambda c: c.topic):
+            schema = tr.schemas.get(ch.schema_id)
+            topics.append({"topic": ch.topic, "messages": st.channel_message_counts.get(ch.id, 0),
+                           "schema": schema.name if schema else "",
+                           "schema_encoding": schema.encoding if schema else "",
+                           "message_encoding": ch.message_encoding})
+        start_s = st.message_start_time / 1e9 if st.message_count else 0.0
+        end_s = st.message_end_time / 1e9 if st.message_count else 0.0
+        comp = sorted({ci.compression or "none" for ci in tr.summary.chunk_indexes})
+        return {"file": str(tr.path), "library": tr.header.library, "profile": tr.header.profile,
+                "messages": st.message_count, "chunks": st.chunk_count,
+                "compression": comp, "start_s": start_s, "end_s": end_s,
+                "duration_s": end_s - start_s, "topics": topics, "metadata": tr.metadata()}
+
+
+# -- export -------------------------------------------------------------------------------
+CAN_LOG_SUFFIXES = (".asc", ".blf", ".log", ".trc")
+
+
+def _flatten(prefix: str, value: Any, out: dict[str, Any]) -> None:
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _flatten(f"{prefix}.{k}" if prefix else k, v, out)
+    elif isinstance(value, list) and value and isinstance(value[0], dict):
+        for i, v in enumerate(value):
+            _flatten(f"{prefix}[{i}]", v, out)
+    elif isinstance(value, list):
+        out[prefix] = " ".join(str(x) for x in value)
+    else:
+        out[prefix] = value
+
+
+def export(path: str | Path, out: str | Path, topics: Iterable[str] | None = None,
+           start_s: float | None = None, end_s: float | None = None) -> dict[str, Any]:
+    """CSV (one wide table per topic) or, by suffix, a python-can CAN log of /can/raw."""
+    out = Path(out)
+    suffix = out.suffix.lower()
+    if suffix in CAN_LOG_SUFFIXES:
+        return _export_can(path, out, start_s, end_s)
+    if suffix != ".csv" and out.suffix:
+        raise UserError(f"{out}: unknown export format '{out.suffix}' "
+                        f"(use .csv or one of {', '.join(CAN_LOG_SUFFIXES)})")
+    with Trace(path) as tr:
+        rows: dict[str, list[dict[str, Any]]] = {}
+        for m, value in tr.decoded(topics, start_s, end_s):
+            flat: dict[str, Any] = {"time_s": f"{m.log_time_ns / 1e9:.6f}"}
+            _flatten("", value, flat)
+            rows.setdefault(m.topic, []).append(flat)
+    files = []
+    if suffix == ".csv" and len(rows) <= 1:
+        targets = {t: out for t in rows}
+        if not rows:
+            out.write_text("time_s\n")
+            files.append(str(out))
+    else:
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise UserError(f"{out}: cannot create export directory ({exc.strerror})") from None
+        targets = {t: out / (t.strip("/").replace("/", "_") + ".csv") for t in rows}
+    for topic, target in targets.items():
+        cols: dict[str, None] = {}
+        for r in rows[topic]:
+            for k in r:
+                cols.setdefault(k, None)
+        try:
+            with open(target, "w", newline="") as f:
+                w = csv.DictWriter(f, fieldnames=list(cols))
+                w.writeheader()
+                w.writerows(rows[topic])
+        except OSError as exc:
+            raise UserError(f"{target}: cannot write ({exc.strerror})") from None
+        files.append(str(target))
+    return {"format": "csv", "files": files,
+            "messages": sum(len(v) for v in rows.values()), "topics": sorted(rows)}
+
+
+def _export_can(path: str | Path, out: Path, start_s: float | None,
+                end_s: float | None) -> dict[str, Any]:
+    import can
+
+    with Trace(path) as tr:
+        if rec.T_CAN_RAW not in tr.topics():
+            raise UserError(f"{tr.path}: no CAN frames to export (no {rec.T_CAN_RAW} topic)")
+        cls = rec.CanFrame
+        n = 0
+        try:
+            logger = can.Logger(str(out))
+        except (OSError, ValueError) as exc:
+            raise UserError(f"{out}: cannot write CAN log ({_why(exc)})") from None
+        with logger:
+            for m in tr.messages([rec.T_CAN_RAW], start_s, end_s):
+                f = cls.FromString(m.data)
+                logger.on_message_received(can.Message(
+                    timestamp=m.log_time_ns / 1e9, arbitration_id=f.arbitration_id,
+                    is_extended_id=f.is_extended_id, data=f.data, dlc=len(f.data),
+                    is_rx=f.direction != "tx", channel=0))
+                n += 1
+    return {"format": out.suffix.lower().lstrip("."), "files": [str(out)], "messages": n,
+            "topics": [rec.T_CAN_RAW]}
+
+
+# -- recover ------------------------------------------------------------------------------
+def recover(src: str | Path, dst: str | Path) -> dict[str, Any]:
+    """Copy every readable message of an unfinished (or damaged) MCAP into a finished one.
+
+    Reads front to back without the summary, as a crashed writer leaves no summary; stops
+    at the first record that is cut off or fails its CRC (the chunk still in memory when
+    the writer died) and reports why.
+    """
+    src, dst = Path(src), Path(dst)
+    _check_file(src)
+    if dst.resolve() == src.resolve():
+        raise UserError(f"{dst}: recover needs a different output file")
+    try:
+        out_f = open(dst, "wb")
+    except OSError as exc:
+        raise UserError(f"{dst}: cannot write ({exc.strerror})") from None
+    schema_ids: dict[int, int] = {}
+    channel_ids: dict[int, int] = {}
+    pending_channels: dict[int, Channel] = {}
+    n = 0
+    first_ns = last_ns = None
+    stopped = "end of file"
+    complete = False
+    with open(src, "rb") as f, out_f:
+        writer = Writer(out_f, compression=CompressionType.ZSTD)
+        header_written = False
+        try:
+            for record in StreamReader(f, validate_crcs=True).records:
+                if not header_written and record.__class__.__name__ == "Header":
+                    writer.start(profile=record.profile, library=record.library)
+                    header_written = True
+                    continue
+                if isinstance(record, Schema):
+                    if record.id not in schema_ids:
+                        schema_ids[record.id] = writer.register_schema(
+                            record.name, record.encoding, record.data)
+                elif isinstance(record, Channel):
+                    pending_channels[record.id] = record
+                elif isinstance(record, Message):
+                    cid = channel_ids.get(record.channel_id)
+                    if cid is None:
+                        ch = pending_channels.get(record.channel_id)
+                        if ch is None:
+                            continue  # message of a channel whose record was lost
+                        cid = channel_ids[record.channel_id] = writer.register_channel(
+                            ch.topic, ch.message_encoding, schema_ids.get(ch.schema_id, 0),
+                            dict(ch.metadata))
+                    writer.add_message(cid, record.log_time, record.data,
+                                       record.publish_time, record.sequence)
+                    n += 1
+                    first_ns = record.log_time if first_ns is None else min(first_ns,
+                                                                             record.log_time)
+                    last_ns = record.log_time if last_ns is None else max(last_ns,
+                                                                          record.log_time)
+                elif isinstance(record, Metadata):
+                    writer.add_metadata(record.name, dict(record.metadata))
+                elif isinstance(record, Attachment):
+                    writer.add_attachment(record.create_time, record.log_time, record.name,
+                                          record.media_type, record.data)
+                elif record.__class__.__name__ == "Footer":
+                    complete = True
+        except Exception as exc:  # the cut-off or damaged tail
+            stopped = _why(exc)
+        if not header_written:
+            writer.start()
+        writer.finish()
+    return {"input": str(src), "output": str(dst), "messages": n, "complete": complete,
+            "stopped": "complete file" if complete else stopped,
+            "start_s": (first_ns or 0) / 1e9, "end_s": (last_ns or 0) / 1e9}
+
+
+# -- CSV import (seed 000 Sec. IV: force at 100 Hz, pose interpolated to 100 Hz) ----------
+CSV_REQUIRED = ("time_s", "fx_n", "fy_n", "fz_n")
+CSV_POSE = ("x_m", "roll_rad", "pitch_rad")
+CSV_OPTIONAL = ("y_m", "z_m")
+
+
+def _quat_wxyz(roll_rad: float, pitch_rad: float, yaw_rad: float = 0.0) -> tuple[float, ...]:
+    cr, sr = math.cos(roll_rad / 2), math.sin(roll_rad / 2)
+    cp, sp = math.cos(pitch_rad / 2), math.sin(pitch_rad / 2)
+    cy, sy = math.cos(yaw_rad / 2), math.sin(yaw_rad / 2)
+    return (cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy)
+
+
+def import_csv(src: str | Path, dst: str | Path, metadata: dict[str, Any] | None = None
+               ) -> dict[str, Any]:
+    """A physical robot's CSV (``time_s, fx_n, fy_n, fz_n`` and, for the estimator, the
+    body pose ``x_m, roll_rad, pitch_rad``; optional ``y_m, z_m``) -> an MCAP trace with the
+    same ``force`` and ``body_pose`` CAN frames a simulated beams run records."""
+    from protocol import can_frames
+
+    src = Path(src)
+    try:
+        f = open(src, newline="", encoding="utf-8")
+    except FileNotFoundError:
+        raise UserError(f"{src}: no such CSV file") from None
+    except OSError as exc:
+        raise UserError(f"{src}: cannot read ({exc.strerror})") from None
+    with f:
+        try:
+            reader = csv.DictReader(f)
+            header = [h.strip() for h in (reader.fieldnames or [])]
+        except (csv.Error, UnicodeDecodeError) as exc:
+            raise UserError(f"{src}: not a readable CSV ({_why(exc)})") from None
+        missing = [c for c in CSV_REQUIRED if c not in header]
+        if missing:
+            raise UserError(f"{src}: CSV lacks column(s) {', '.join(missing)} "
+                            f"(needs {', '.join(CSV_REQUIRED + CSV_POSE)})")
+        has_pose = all(c in header for c in CSV_POSE)
+        ignored = [h for h in header if h not in CSV_REQUIRED + CSV_POSE + CSV_OPTIONAL]
+        reader.fieldnames = header
+        meta = {"source": "import-csv", "csv": src.name}
+        meta.update(metadata or {})
+        out = rec.Recorder(dst, meta)
+        n = 0
+        last_us = -1
+        try:
+            for line, row in enumerate(reader, start=2):
+                try:
+                    vals = {k: float(row[k]) for k in header if k not in ignored and row[k] not in (None, "")}
+                    t_us = int(round(vals["time_s"] * 1e6))
+                    fx, fy, fz = vals["fx_n"], vals["fy_n"], vals["fz_n"]
+                except (KeyError, ValueError, TypeError):
+                    raise UserError(f"{src}:{line}: needs numbers in "
+                                    f"{', '.join(CSV_REQUIRED)}") from None
+                if t_us < 0 or t_us < last_us:
+                    raise UserError(f"{src}:{line}: time_s must be >= 0 and non-decreasing")
+                if not all(math.isfinite(v) for v in vals.values()):
+                    raise UserError(f"{src}:{line}: non-finite value")
+                last_us = t_us
+                arb, data = can_frames.encode("force", fx_n=fx, fy_n=fy, fz_n=fz,
+                                              sample=n)
+                out.can(t_us, arb, data, direction="rx")
+                if has_pose and all(k in vals for k in CSV_POSE):
+                    arb, data = can_frames.encode("body_pose", x_m=vals["x_m"],
+                                                  roll_rad=vals["roll_rad"],
+                                                  pitch_rad=vals["pitch_rad"])
+                    out.can(t_us, arb, data, direction="rx")
+                    out.body_pose(t_us, (vals["x_m"], vals.get("y_m", 0.0),
+                                         vals.get("z_m", 0.0)),
+                                  _quat_wxyz(vals["roll_rad"], vals["pitch_rad"]))
+                n += 1
+            if n == 0:
+                raise UserError(f"{src}: CSV has no data rows")
+        except csv.Error as exc:
+            out.close()
+            Path(dst).unlink(missing_ok=True)
+            raise UserError(f"{src}: malformed CSV ({_why(exc)})") from None
+        except UserError:
+            out.close()
+            Path(dst).unlink(missing_ok=True)
+            raise
+        out.close()
+    return {"input": str(src), "output": str(dst), "samples": n, "pose": has_pose,
+            "ignored_columns": ignored}
