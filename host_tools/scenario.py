@@ -22,7 +22,7 @@ SCHEMA: dict[str, dict[str, type]] = {
     "faults": {"bit_error_rate": float, "drop_status_rate": float, "unplug": list,
                "stall": list, "overheat": list, "voltage_sag": list},
     "world": {"kind": str, "terrain": str, "density": str, "height_class": str,
-              "obstacles": list, "length_m": float, "friction": float},
+              "obstacles": list, "length_m": float, "friction": float, "terrain_seed": int},
 }
 
 

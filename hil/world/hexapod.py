@@ -4,13 +4,16 @@ lockstep virtual time, with ground truth (body pose, foot contacts, switch level
 Robot (seed 003, Sec. 3.1 and Fig. 12): 1.5 kg, about 30 x 30 cm, coxa 5 cm, femur 8.2 cm,
 tibia 12 cm, body bottom 8 cm above the ground in the neutral stance, 18 AX-12 joints.
 
-Frames and joint conventions (shared with the firmware's kinematics; see
-docs/hexapod-world.md): world x is the walking direction, z up, the robot starts at the
-origin facing +x. Legs in servo-ID order LF, LM, LH, RF, RM, RH, each with coxa, femur, tibia
-(IDs 1-3 for LF ... 16-18 for RH). Joint angle 0 is the AX-12 centre (position 512):
-coxa pointing along the leg's mounting direction, femur horizontal, tibia perpendicular to
-the femur pointing down. Positive coxa turns the leg counter-clockwise seen from above,
-positive femur lifts the knee, positive tibia swings the foot outward.
+Geometry comes from the firmware's ``firmware/kinematics.py`` (one source of truth for
+mounts, link lengths, neutral stance and servo directions). World x is the walking
+direction, z up; the robot starts at the origin facing +x. Legs in servo-ID order LF, LM,
+LH, RF, RM, RH, each coxa, femur, tibia (IDs 1-3 for LF ... 16-18 for RH).
+
+Every MuJoCo joint angle IS the servo angle (0 at the AX-12 centre, position 512): coxa
+along the leg's mounting yaw, femur horizontal, tibia perpendicular to the femur pointing
+down. On the left legs positive femur lifts the knee and positive tibia swings the foot
+out; the right legs' femur and tibia servos are mounted mirrored (``DIRECTIONS``), so their
+joint axes point the other way, exactly as on the robot.
 """
 from __future__ import annotations
 
@@ -21,6 +24,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from firmware import kinematics as kin
 from hil.world import actuator as act
 from hil.world import terrain as terrain_mod
 from hil.world.switches import SwitchBank
@@ -34,18 +38,14 @@ PHYSICS_DT_US = 2000   # 2 ms steps: contact-stable with implicit joint damping 
 class RobotParams:
     """Geometry and masses; lengths in metres, masses in kilograms."""
 
-    coxa_m: float = 0.05           # Fig. 12
-    femur_m: float = 0.082         # Fig. 12
-    tibia_m: float = 0.12          # Fig. 12
-    body_clearance_m: float = 0.08  # ground to body bottom, neutral stance (Fig. 12)
-    body_half_m: tuple[float, float, float] = (0.11, 0.065, 0.015)  # plate half-extents
-    # leg mounts (x, y, yaw) in the body frame: front/hind at the corners, middle at the sides
-    mounts: tuple[tuple[float, float, float], ...] = (
-        (0.10, 0.06, math.radians(45)), (0.0, 0.075, math.radians(90)),
-        (-0.10, 0.06, math.radians(135)), (0.10, -0.06, math.radians(-45)),
-        (0.0, -0.075, math.radians(-90)), (-0.10, -0.06, math.radians(-135)))
-    neutral_reach_m: float = 0.15  # foot distance from the coxa joint, neutral stance
-    foot_radius_m: float = 0.010
+    coxa_m: float = kin.COXA_M      # Fig. 12
+    femur_m: float = kin.FEMUR_M    # Fig. 12
+    tibia_m: float = kin.TIBIA_M    # Fig. 12, knee to the foot sphere's centre
+    body_clearance_m: float = kin.BODY_CLEARANCE_M  # ground to body bottom, neutral (Fig. 12)
+    # body box half-extents; the coxa joints lie on its mid-plane
+    body_half_m: tuple[float, float, float] = (0.11, 0.065, kin.BODY_HALF_THICKNESS_M)
+    mounts: tuple[tuple[float, float, float], ...] = kin.MOUNTS     # (x, y, yaw) body frame
+    foot_radius_m: float = kin.FOOT_RADIUS_M
     tibia_radius_m: float = 0.008
     # 1.5 kg in all (Sec. 3.1): body with electronics and coxa servos, links carry servos
     body_kg: float = 0.66
@@ -56,11 +56,11 @@ class RobotParams:
     obstacle_friction: float = 0.5
     plate_half_m: tuple[float, float, float] = (0.002, 0.015, 0.04)  # switch plate
     plate_gap_m: float = 0.004      # plate stands this far in front of the tibia surface
-    plate_low_m: float = 0.012      # plate bottom edge, measured up the tibia from its end
+    plate_low_m: float = 0.002      # plate bottom edge above the foot centre (1.2 cm off the ground)
 
     @property
     def body_height_m(self) -> float:
-        """Body centre (and coxa joint) height in the neutral stance."""
+        """Body centre (and coxa joint plane) height in the neutral stance."""
         return self.body_clearance_m + self.body_half_m[2]
 
     @property
@@ -68,24 +68,14 @@ class RobotParams:
         return self.body_kg + 6 * (self.coxa_kg + self.femur_kg + self.tibia_kg)
 
 
-def leg_ik(params: RobotParams, reach_m: float, z_m: float) -> tuple[float, float]:
-    """Femur and tibia angles (rad) that put the tibia end at ``reach_m`` from the coxa joint
-    (in the leg plane) and ``z_m`` above it (negative: below)."""
-    x = reach_m - params.coxa_m
-    d2 = x * x + z_m * z_m
-    f, t = params.femur_m, params.tibia_m
-    d = math.sqrt(d2)
-    if d > f + t or d < abs(f - t):
-        raise ValueError(f"foot at reach {reach_m:.3f} m, z {z_m:.3f} m is out of the leg's reach")
-    knee = math.acos((f * f + t * t - d2) / (2 * f * t))
-    hip = math.acos((f * f + d2 - t * t) / (2 * f * d))
-    return math.atan2(z_m, x) + hip, knee - math.pi / 2
-
-
-def neutral_joints(params: RobotParams) -> np.ndarray:
-    """The 18 joint angles of the neutral stance (feet on the ground, body at its height)."""
-    fem, tib = leg_ik(params, params.neutral_reach_m, -(params.body_height_m - params.foot_radius_m))
-    return np.array([0.0, fem, tib] * 6)
+def neutral_joints() -> np.ndarray:
+    """The 18 servo angles of the firmware's neutral stance (feet on the ground)."""
+    out = []
+    for i in range(len(LEGS)):
+        leg = kin.Leg(i)
+        q = list(leg.ik(*kin.neutral_foot(i)))
+        out += [leg.servo_rad(j, q[j]) for j in range(3)]
+    return np.array(out)
 
 
 def _f(*v: float) -> str:
@@ -102,30 +92,31 @@ def mjcf(params: RobotParams, obstacles: list[terrain_mod.Obstacle], ground_fric
     bx, by, bz = p.body_half_m
     robot = 'contype="1" conaffinity="0"'
     legs = []
-    for name, (mx, my, yaw) in zip(LEGS, p.mounts):
+    for name, (mx, my, yaw), dirs in zip(LEGS, p.mounts, kin.DIRECTIONS):
         # switch plate faces the robot's forward direction (body +x) seen from this leg
         n_x, n_y = math.cos(yaw), -math.sin(yaw)
         off = p.tibia_radius_m + p.plate_gap_m + p.plate_half_m[0]
         pz = -(p.tibia_m - p.plate_low_m - p.plate_half_m[2])
+        foot_z = -p.tibia_m
         plate_rot = _f(0, 0, -math.degrees(yaw))
         legs.append(f"""
     <body name="{name}_coxa" pos="{_f(mx, my, 0)}" euler="{_f(0, 0, math.degrees(yaw))}">
       <joint name="{name}_coxa" axis="0 0 1" range="-150 150"/>
       <geom type="capsule" fromto="0 0 0 {p.coxa_m} 0 0" size="0.012" mass="{p.coxa_kg}" {robot}/>
       <body name="{name}_femur" pos="{p.coxa_m} 0 0">
-        <joint name="{name}_femur" axis="0 -1 0" range="-150 150"/>
+        <joint name="{name}_femur" axis="0 {-dirs[1]} 0" range="-150 150"/>
         <geom type="capsule" fromto="0 0 0 {p.femur_m} 0 0" size="0.012" mass="{p.femur_kg}" {robot}/>
         <body name="{name}_tibia" pos="{p.femur_m} 0 0">
-          <joint name="{name}_tibia" axis="0 -1 0" range="-150 150"/>
-          <geom name="{name}_tibia" type="capsule" fromto="0 0 0 0 0 {-p.tibia_m}"
+          <joint name="{name}_tibia" axis="0 {-dirs[2]} 0" range="-150 150"/>
+          <geom name="{name}_tibia" type="capsule" fromto="0 0 0 0 0 {foot_z}"
                 size="{p.tibia_radius_m}" mass="{p.tibia_kg}" friction="0.3" {robot}/>
-          <geom name="{name}_foot" type="sphere" pos="0 0 {-p.tibia_m}" size="{p.foot_radius_m}"
+          <geom name="{name}_foot" type="sphere" pos="0 0 {foot_z}" size="{p.foot_radius_m}"
                 mass="0.001" friction="{p.foot_friction}" {robot}/>
           <geom name="{name}_plate" type="box" pos="{_f(n_x * off, n_y * off, pz)}"
                 euler="{plate_rot}" size="{_f(*p.plate_half_m)}" mass="0.001" friction="0.3" {robot}/>
           <site name="{name}_plate" type="box" pos="{_f(n_x * (off + 0.002), n_y * (off + 0.002), pz)}"
                 euler="{plate_rot}" size="{_f(p.plate_half_m[0] + 0.004, p.plate_half_m[1] + 0.003, p.plate_half_m[2] + 0.003)}"/>
-          <site name="{name}_foot" type="sphere" pos="0 0 {-p.tibia_m}" size="{p.foot_radius_m + 0.004}"/>
+          <site name="{name}_foot" type="sphere" pos="0 0 {foot_z}" size="{p.foot_radius_m + 0.004}"/>
         </body>
       </body>
     </body>""")
@@ -205,7 +196,9 @@ class HexapodWorld:
         self.xml = mjcf(self.params, self.obstacles, world.get("friction", 1.0))
         self.model = mujoco.MjModel.from_xml_string(self.xml)
         self.data = mujoco.MjData(self.model)
-        q0 = neutral_joints(self.params)
+        q0 = neutral_joints()
+        if abs(self.params.body_height_m - self.params.foot_radius_m - kin.STANCE_DEPTH_M) > 1e-9:
+            raise ValueError("world and firmware disagree on the neutral stance depth")
         self._qadr = 7 + np.arange(18)  # free joint first, then the legs in servo-ID order
         self._vadr = 6 + np.arange(18)
         self.data.qpos[self._qadr] = q0
