@@ -1,0 +1,502 @@
+"""Seed 000's beam traversal world: an ellipsoid body pushed through two torsion-spring plates.
+
+Everything follows Xuan, Wang & Li, "Environmental force sensing enables robots to traverse
+cluttered obstacles with interaction" (``/work/shared/seeds/000_*.txt``):
+
+* body (Sec. II-A): ellipsoid 2a x 2b x 2c = 0.24 x 0.14 x 0.06 m, M = 0.2 kg, CoM h_c = 0.02 m
+  below the geometric centre, I = (2, 5, 7)e-3 kg m^2, centre at H = 0.06 m, DOF x, roll, pitch
+  (yaw 0; R = Ry(pitch) Rx(roll), the Z-Y'-X' Tait-Bryan convention);
+* beams: massless rigid plates, w = 0.05 m, L = 0.16 m, hinged at x = 0 on a line along y at
+  height h_b, deflecting forward (positive rotation about +y) against a torsion spring k;
+* contact (Eq. 4-5): frictionless, along the ellipsoid normal; the deflection angle is the
+  smallest rotation of the plate about its hinge that keeps the whole plate (finite length
+  and width) out of the body; the force magnitude follows from the beam's torque balance;
+* dynamics (Eq. 1-3) integrated at dt = 0.2 ms (semi-implicit Euler) in integer microseconds;
+* Eq. 12 (robot validation): optional beam mass M_B and preload torque tau_0;
+* force sensor (Eq. 6): F1 + F2 at 100 Hz with multiplicative Gaussian noise per axis.
+
+Gap width: ``gap_m`` is the beams' centre-to-centre spacing by default (clear gap 0.07 m);
+``BodyGeometry(gap_centre_to_centre=False)`` reads d as the clear gap. docs/beams.md says why.
+
+Generalised forces: roll is driven by the moment about the body's major axis e1 (Eq. 1);
+pitch by the moment about the world y axis, the axis the pitch angle rotates about. This is
+the paper's e2 at zero roll and keeps the dynamics exactly the gradient of Eq. 8's landscape.
+
+Two implementations of the contact geometry live here: a scalar one (warm-started Newton,
+fast enough for 0.2 ms steps in pure Python) and a numpy one (bracketing bisection over whole
+arrays, for the landscape and the estimator). Both are tested against a brute-force search.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+G_M_S2 = 9.81
+DT_US = 200                 # Sec. II-B: time step 0.0002 s
+SENSOR_PERIOD_US = 10_000   # Sec. II-D: 100 Hz force sensor
+FX_MAX_N = 2.0              # Sec. II-I: |F_x| <= 2 N
+TAU_MAX_NM = 0.1            # Sec. II-I: |tau_1|, |tau_2| <= 0.1 N m
+THETA_MAX_RAD = math.pi / 2  # plate flat on the ground: it cannot be pushed further
+_LEVER_MIN_M = 1e-3         # contact at the hinge line: keep the force finite
+
+
+@dataclass(frozen=True)
+class BodyGeometry:
+    """Body and beam dimensions (Sec. II-A); defaults are the paper's simulation robot."""
+
+    a_m: float = 0.12
+    b_m: float = 0.07
+    c_m: float = 0.03
+    mass_kg: float = 0.2
+    hc_m: float = 0.02
+    inertia_kg_m2: tuple[float, float, float] = (2e-3, 5e-3, 7e-3)
+    height_m: float = 0.06          # H: the geometric centre's height
+    beam_width_m: float = 0.05      # w
+    beam_length_m: float = 0.16     # L
+    gap_m: float = 0.12             # d
+    gap_centre_to_centre: bool = True
+
+    def beam_y_range(self, beam: int) -> tuple[float, float]:
+        """(y_lo, y_hi) of beam 0 (+y side) or 1 (-y side), in metres."""
+        inner = self.gap_m / 2 - (self.beam_width_m / 2 if self.gap_centre_to_centre else 0.0)
+        outer = inner + self.beam_width_m
+        return (inner, outer) if beam == 0 else (-outer, -inner)
+
+    def k0_nm_per_rad(self) -> float:
+        """Sec. II-G critical stiffness k0 = M g h_c / arccos(H/L)^2 (0.028 in Sec. III-A)."""
+        return self.mass_kg * G_M_S2 * self.hc_m / math.acos(self.height_m / self.beam_length_m) ** 2
+
+
+PAPER_BODY = BodyGeometry()
+
+
+# ----------------------------------------------------------------------------- scalar geometry
+def _box_min(q0x, q0y, q0z, ux, uy, uz, vx, vy, vz, L, w):
+    """min |q0 + s U + t V|^2 over s in [0, L], t in [0, w]: returns (f, s, t)."""
+    uu = ux * ux + uy * uy + uz * uz
+    vv = vx * vx + vy * vy + vz * vz
+    uv = ux * vx + uy * vy + uz * vz
+    gu = q0x * ux + q0y * uy + q0z * uz
+    gv = q0x * vx + q0y * vy + q0z * vz
+    qq = q0x * q0x + q0y * q0y + q0z * q0z
+    det = uu * vv - uv * uv
+    s = (uv * gv - vv * gu) / det
+    t = (uv * gu - uu * gv) / det
+    if 0.0 <= s <= L and 0.0 <= t <= w:
+        return qq + s * gu + t * gv, s, t
+    best = None
+    for s_fix in (0.0, L):
+        tt = -(gv + s_fix * uv) / vv
+        tt = 0.0 if tt < 0.0 else (w if tt > w else tt)
+        f = qq + 2 * s_fix * gu + 2 * tt * gv + s_fix * s_fix * uu + 2 * s_fix * tt * uv + tt * tt * vv
+        if best is None or f < best[0]:
+            best = (f, s_fix, tt)
+    for t_fix in (0.0, w):
+        ss = -(gu + t_fix * uv) / uu
+        ss = 0.0 if ss < 0.0 else (L if ss > L else ss)
+        f = qq + 2 * ss * gu + 2 * t_fix * gv + ss * ss * uu + 2 * ss * t_fix * uv + t_fix * t_fix * vv
+        if f < best[0]:
+            best = (f, ss, t_fix)
+    return best
+
+
+class _PlateFrame:
+    """One beam seen from the body's normalised frame (ellipsoid -> unit sphere) at one pose."""
+
+    __slots__ = ("q0", "v", "sa", "ca", "beta", "ia", "ib", "ic", "L", "w")
+
+    def __init__(self, g: BodyGeometry, x_m: float, roll: float, pitch: float, hb_m: float,
+                 beam: int) -> None:
+        sa, ca, sb, cb = math.sin(roll), math.cos(roll), math.sin(pitch), math.cos(pitch)
+        y_lo, _ = g.beam_y_range(beam)
+        dx, dy, dz = -x_m, y_lo, hb_m - g.height_m      # hinge corner relative to the centre
+        self.ia, self.ib, self.ic = 1.0 / g.a_m, 1.0 / g.b_m, 1.0 / g.c_m
+        # body axes in the world: e1 = (cb, 0, -sb), e2 = (sb sa, ca, cb sa), e3 = (sb ca, -sa, cb ca)
+        self.q0 = ((cb * dx - sb * dz) * self.ia,
+                   (sb * sa * dx + ca * dy + cb * sa * dz) * self.ib,
+                   (sb * ca * dx - sa * dy + cb * ca * dz) * self.ic)
+        self.v = (0.0, ca * self.ib, -sa * self.ic)
+        self.sa, self.ca, self.beta = sa, ca, pitch
+        self.L, self.w = g.beam_length_m, g.beam_width_m
+
+    def f(self, theta: float):
+        """(min normalised distance^2 of the plate at theta, s, t, d f / d theta)."""
+        phi = theta - self.beta
+        sp, cp = math.sin(phi), math.cos(phi)
+        ux, uy, uz = sp * self.ia, self.sa * cp * self.ib, self.ca * cp * self.ic
+        q0x, q0y, q0z = self.q0
+        vx, vy, vz = self.v
+        f, s, t = _box_min(q0x, q0y, q0z, ux, uy, uz, vx, vy, vz, self.L, self.w)
+        qx, qy, qz = q0x + s * ux + t * vx, q0y + s * uy + t * vy, q0z + s * uz + t * vz
+        df = 2.0 * s * (qx * cp * self.ia - qy * self.sa * sp * self.ib - qz * self.ca * sp * self.ic)
+        return f, s, t, df
+
+
+def _solve_theta(pf: _PlateFrame, theta_guess: float) -> tuple[float, float, float]:
+    """The plate's deflection (rad) and contact point (s, t) on it; theta 0 means no contact.
+
+    Newton from the previous step's angle (one or two evaluations per 0.2 ms step), falling
+    back to bracketing from theta = 0 so that the answer is the smallest admissible angle.
+    """
+    f0, s0, t0, _ = pf.f(0.0)
+    if f0 >= 1.0:
+        return 0.0, s0, t0
+    th = theta_guess if 0.0 < theta_guess < THETA_MAX_RAD else 0.0
+    for _ in range(8):
+        f, s, t, df = pf.f(th)
+        if abs(f - 1.0) < 1e-12:
+            return th, s, t
+        if df <= 1e-12:
+            break
+        nxt = th - (f - 1.0) / df
+        if not 0.0 < nxt < THETA_MAX_RAD or abs(nxt - th) > 0.05:
+            break
+        th = nxt
+    else:
+        return th, s, t
+    return _bracket_theta(pf)
+
+
+def _bracket_theta(pf: _PlateFrame) -> tuple[float, float, float]:
+    """Smallest admissible angle by a 64-step scan from 0 then bisection (the robust path)."""
+    lo, step = 0.0, THETA_MAX_RAD / 64
+    hi = None
+    for i in range(1, 65):
+        th = i * step
+        if pf.f(th)[0] >= 1.0:
+            hi = th
+            break
+        lo = th
+    if hi is None:                       # even the flat plate is inside the body
+        f, s, t, _ = pf.f(THETA_MAX_RAD)
+        return THETA_MAX_RAD, s, t
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if pf.f(mid)[0] >= 1.0:
+            hi = mid
+        else:
+            lo = mid
+        if hi - lo < 1e-12:
+            break
+    _, s, t, _ = pf.f(hi)
+    return hi, s, t
+
+
+def deflection_angle(x_m: float, roll_rad: float, pitch_rad: float, hb_m: float, beam: int,
+                     geometry: BodyGeometry = PAPER_BODY) -> float:
+    """Exact deflection of one beam (rad) for one body pose (scalar reference)."""
+    pf = _PlateFrame(geometry, x_m, roll_rad, pitch_rad, hb_m, beam)
+    return _bracket_theta(pf)[0] if pf.f(0.0)[0] < 1.0 else 0.0
+
+
+def _contact(g: BodyGeometry, x_m: float, roll: float, pitch: float, hb_m: float, beam: int,
+             theta_guess: float):
+    """(theta, contact point relative to the centre (world), unit inward force direction, lever)."""
+    pf = _PlateFrame(g, x_m, roll, pitch, hb_m, beam)
+    th, s, t = _solve_theta(pf, theta_guess)
+    if th == 0.0:
+        return 0.0, None, None, 0.0
+    st, ct = math.sin(th), math.cos(th)
+    y_lo, _ = g.beam_y_range(beam)
+    rx, ry, rz = s * st - x_m, y_lo + t, hb_m + s * ct - g.height_m
+    sa, ca, sb, cb = math.sin(roll), math.cos(roll), math.sin(pitch), math.cos(pitch)
+    # body-frame point, Eq. 5 normal (x/a^2, y/b^2, z/c^2), back to the world
+    bx = cb * rx - sb * rz
+    by = sb * sa * rx + ca * ry + cb * sa * rz
+    bz = sb * ca * rx - sa * ry + cb * ca * rz
+    nx_b, ny_b, nz_b = bx / g.a_m ** 2, by / g.b_m ** 2, bz / g.c_m ** 2
+    nx = cb * nx_b + sb * sa * ny_b + sb * ca * nz_b
+    ny = ca * ny_b - sa * nz_b
+    nz = -sb * nx_b + cb * sa * ny_b + cb * ca * nz_b
+    norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+    nx, ny, nz = nx / norm, ny / norm, nz / norm
+    lever = s * (ct * nx - st * nz)      # (s u x n) . e_y: the beam's moment arm (Eq. 4)
+    return th, (rx, ry, rz), (-nx, -ny, -nz), max(lever, _LEVER_MIN_M)
+
+
+def beam_torque_nm(theta: float, k: float, preload_nm: float = 0.0, beam_mass_kg: float = 0.0,
+                   length_m: float = 0.16) -> float:
+    """Restoring torque of a deflected beam: k theta (Eq. 4) + tau_0 - (L/2) M_B g sin theta (Eq. 12).
+
+    Eq. 12 writes the weight term as (L/2) M_B g; its moment about the hinge is really
+    (L/2) M_B g sin(theta) (zero for an upright beam), which is what we use.
+    """
+    return max(preload_nm + k * theta - 0.5 * length_m * beam_mass_kg * G_M_S2 * math.sin(theta), 0.0)
+
+
+# ----------------------------------------------------------------------------- vectorised
+def _box_min_np(q0, U, V, L, w):
+    """Vectorised :func:`_box_min`; q0, U, V are (3, ...) arrays. Returns (f, s, t)."""
+    uu = (U * U).sum(0)
+    vv = (V * V).sum(0)
+    uv = (U * V).sum(0)
+    gu = (q0 * U).sum(0)
+    gv = (q0 * V).sum(0)
+    qq = (q0 * q0).sum(0)
+    det = uu * vv - uv * uv
+
+    def fval(s, t):
+        return qq + 2 * s * gu + 2 * t * gv + s * s * uu + 2 * s * t * uv + t * t * vv
+
+    s_in = (uv * gv - vv * gu) / det
+    t_in = (uv * gu - uu * gv) / det
+    inside = (s_in >= 0) & (s_in <= L) & (t_in >= 0) & (t_in <= w)
+    best_f = np.where(inside, fval(s_in, t_in), np.inf)
+    best_s = np.where(inside, s_in, 0.0)
+    best_t = np.where(inside, t_in, 0.0)
+    for s_fix in (0.0, L):
+        tt = np.clip(-(gv + s_fix * uv) / vv, 0.0, w)
+        ss = np.full_like(tt, s_fix)
+        f = fval(ss, tt)
+        better = f < best_f
+        best_f, best_s, best_t = np.where(better, f, best_f), np.where(better, ss, best_s), np.where(better, tt, best_t)
+    for t_fix in (0.0, w):
+        ss = np.clip(-(gu + t_fix * uv) / uu, 0.0, L)
+        tt = np.full_like(ss, t_fix)
+        f = fval(ss, tt)
+        better = f < best_f
+        best_f, best_s, best_t = np.where(better, f, best_f), np.where(better, ss, best_s), np.where(better, tt, best_t)
+    return best_f, best_s, best_t
+
+
+class _PlateFrames:
+    """Vectorised :class:`_PlateFrame` over broadcast arrays of poses."""
+
+    def __init__(self, g: BodyGeometry, x, roll, pitch, hb, beam: int) -> None:
+        x, roll, pitch, hb = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x, roll, pitch, hb)))
+        sa, ca, sb, cb = np.sin(roll), np.cos(roll), np.sin(pitch), np.cos(pitch)
+        y_lo, _ = g.beam_y_range(beam)
+        dx, dy, dz = -x, y_lo, hb - g.height_m
+        self.q0 = np.stack([(cb * dx - sb * dz) / g.a_m,
+                            (sb * sa * dx + ca * dy + cb * sa * dz) / g.b_m,
+                            (sb * ca * dx - sa * dy + cb * ca * dz) / g.c_m])
+        self.V = np.stack([np.zeros_like(ca), ca / g.b_m, -sa / g.c_m])
+        self.sa, self.ca, self.beta, self.g = sa, ca, pitch, g
+
+    def f(self, theta):
+        """(f, s, t, d f / d theta) of :meth:`_PlateFrame.f` over the arrays."""
+        phi = theta - self.beta
+        sp, cp = np.sin(phi), np.cos(phi)
+        g = self.g
+        U = np.stack([sp / g.a_m, self.sa * cp / g.b_m, self.ca * cp / g.c_m])
+        f, s, t = _box_min_np(self.q0, U, self.V, g.beam_length_m, g.beam_width_m)
+        q = self.q0 + s * U + t * self.V
+        df = 2.0 * s * (q[0] * cp / g.a_m - q[1] * self.sa * sp / g.b_m - q[2] * self.ca * sp / g.c_m)
+        return f, s, t, df
+
+    def subset(self, idx: np.ndarray) -> "_PlateFrames":
+        out = _PlateFrames.__new__(_PlateFrames)
+        out.q0, out.V = self.q0.reshape(3, -1)[:, idx], self.V.reshape(3, -1)[:, idx]
+        out.sa, out.ca, out.beta = self.sa.ravel()[idx], self.ca.ravel()[idx], self.beta.ravel()[idx]
+        out.g = self.g
+        return out
+
+
+def deflection_angles(x_m, roll_rad, pitch_rad, hb_m, beam: int, geometry: BodyGeometry = PAPER_BODY,
+                      scan_steps: int = 8, iterations: int = 10) -> np.ndarray:
+    """Exact beam deflection (rad) over broadcast arrays of poses.
+
+    A scan from theta = 0 brackets the first admissible angle (the smallest rotation that
+    keeps the plate out of the body), then safeguarded Newton (bisection whenever a step
+    leaves the bracket) closes it to about 1e-10 rad.
+    """
+    pf = _PlateFrames(geometry, x_m, roll_rad, pitch_rad, hb_m, beam)
+    shape = pf.beta.shape
+    theta = np.zeros(shape).ravel()
+    idx = np.nonzero((pf.f(np.zeros(shape))[0] < 1.0).ravel())[0]
+    if idx.size == 0:
+        return theta.reshape(shape)
+    sub = pf.subset(idx)
+    n = idx.size
+    lo, hi = np.zeros(n), np.full(n, THETA_MAX_RAD)
+    found = np.zeros(n, dtype=bool)
+    step = THETA_MAX_RAD / scan_steps
+    for i in range(1, scan_steps + 1):
+        th = np.full(n, i * step)
+        ok = sub.f(th)[0] >= 1.0
+        hi = np.where(ok & ~found, th, hi)
+        lo = np.where(~found & ~ok, th, lo)
+        found |= ok
+        if found.all():
+            break
+    th = hi.copy()
+    for _ in range(iterations):
+        f, _, _, df = sub.f(th)
+        out_ = f >= 1.0
+        hi = np.where(out_, th, hi)
+        lo = np.where(out_, lo, th)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            nxt = th - (f - 1.0) / df
+        bad = ~np.isfinite(nxt) | (nxt <= lo) | (nxt >= hi)
+        th = np.where(bad, 0.5 * (lo + hi), nxt)
+    f = sub.f(th)[0]
+    th = np.where(f >= 1.0, th, hi)      # always report an admissible angle
+    theta[idx] = np.where(found, th, THETA_MAX_RAD)
+    return theta.reshape(shape)
+
+
+def unit_contact_forces(x_m, roll_rad, pitch_rad, hb_m, beam: int,
+                        geometry: BodyGeometry = PAPER_BODY) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For poses (arrays), (theta, lever_m, inward unit normal (3, ...)) of one beam.
+
+    The contact force on the body is (restoring torque / lever) * normal, so for fixed
+    geometry it is linear in k (and in tau_0): the estimator's closed form rests on this.
+    """
+    x, roll, pitch, hb = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (x_m, roll_rad, pitch_rad, hb_m)))
+    theta = deflection_angles(x, roll, pitch, hb, beam, geometry)
+    pf = _PlateFrames(geometry, x, roll, pitch, hb, beam)
+    _, s, t, _ = pf.f(theta)
+    st, ct = np.sin(theta), np.cos(theta)
+    y_lo, _ = geometry.beam_y_range(beam)
+    rx, ry, rz = s * st - x, y_lo + t, hb + s * ct - geometry.height_m
+    sa, ca, sb, cb = np.sin(roll), np.cos(roll), np.sin(pitch), np.cos(pitch)
+    bx = cb * rx - sb * rz
+    by = sb * sa * rx + ca * ry + cb * sa * rz
+    bz = sb * ca * rx - sa * ry + cb * ca * rz
+    nb = (bx / geometry.a_m ** 2, by / geometry.b_m ** 2, bz / geometry.c_m ** 2)
+    n = np.stack([cb * nb[0] + sb * sa * nb[1] + sb * ca * nb[2],
+                  ca * nb[1] - sa * nb[2],
+                  -sb * nb[0] + cb * sa * nb[1] + cb * ca * nb[2]])
+    n /= np.linalg.norm(n, axis=0)
+    lever = np.maximum(s * (ct * n[0] - st * n[2]), _LEVER_MIN_M)
+    normal_in = np.where(theta > 0, -n, 0.0)
+    return theta, lever, normal_in
+
+
+def gravity_energy_j(roll_rad, pitch_rad, geometry: BodyGeometry = PAPER_BODY):
+    """M g Z_CoM (Eq. 8's first term): the CoM sits h_c below the centre in the body frame."""
+    return geometry.mass_kg * G_M_S2 * (geometry.height_m - geometry.hc_m * np.cos(roll_rad) * np.cos(pitch_rad))
+
+
+# ----------------------------------------------------------------------------- the world
+@dataclass
+class BodyState:
+    x_m: float = -0.11
+    vx_m_s: float = 0.05            # Sec. II-A: steady 0.05 m/s before the collision
+    roll_rad: float = 0.0
+    roll_rate_rad_s: float = 0.0
+    pitch_rad: float = 0.0
+    pitch_rate_rad_s: float = 0.0
+
+    def q(self) -> tuple[float, float, float]:
+        return self.x_m, self.roll_rad, self.pitch_rad
+
+    def qd(self) -> tuple[float, float, float]:
+        return self.vx_m_s, self.roll_rate_rad_s, self.pitch_rate_rad_s
+
+
+@dataclass
+class BeamParams:
+    """One beam: stiffness (N m/rad), deflection height (m), Eq. 12 preload (N m) and mass (kg)."""
+
+    k_nm_per_rad: float
+    hb_m: float = 0.0
+    preload_nm: float = 0.0
+    mass_kg: float = 0.0
+
+
+@dataclass
+class ExternalForces:
+    """Beam contact + gravity, as generalised forces on (x, roll, pitch) and the sensed force."""
+
+    q_x_n: float
+    q_roll_nm: float
+    q_pitch_nm: float
+    contact_n: tuple[float, float, float]
+    theta_rad: tuple[float, float]
+
+
+def external_forces(g: BodyGeometry, beams: list[BeamParams], x: float, roll: float, pitch: float,
+                    theta_guess: list[float] | None = None) -> ExternalForces:
+    """Eq. 1-5: contact forces from each beam's torque balance, plus gravity (world frame)."""
+    mg = g.mass_kg * G_M_S2
+    sa, ca, sb, cb = math.sin(roll), math.cos(roll), math.sin(pitch), math.cos(pitch)
+    qx, qr, qp = 0.0, -mg * g.hc_m * sa * cb, -mg * g.hc_m * ca * sb
+    fx = fy = fz = 0.0
+    thetas = []
+    e1 = (cb, 0.0, -sb)
+    for i, bp in enumerate(beams):
+        th, r, n, lever = _contact(g, x, roll, pitch, bp.hb_m, i, theta_guess[i] if theta_guess else 0.0)
+        thetas.append(th)
+        if th == 0.0:
+            continue
+        mag = beam_torque_nm(th, bp.k_nm_per_rad, bp.preload_nm, bp.mass_kg, g.beam_length_m) / lever
+        Fx, Fy, Fz = mag * n[0], mag * n[1], mag * n[2]
+        fx, fy, fz = fx + Fx, fy + Fy, fz + Fz
+        mx = r[1] * Fz - r[2] * Fy
+        my = r[2] * Fx - r[0] * Fz
+        mz = r[0] * Fy - r[1] * Fx
+        qr += mx * e1[0] + my * e1[1] + mz * e1[2]
+        qp += my
+    return ExternalForces(fx, qr, qp, (fx, fy, fz), (thetas[0], thetas[1]))
+
+
+def saturate(fx_n: float, tau1_nm: float, tau2_nm: float) -> tuple[float, float, float]:
+    """Sec. II-I actuator limits."""
+    return (max(-FX_MAX_N, min(FX_MAX_N, fx_n)), max(-TAU_MAX_NM, min(TAU_MAX_NM, tau1_nm)),
+            max(-TAU_MAX_NM, min(TAU_MAX_NM, tau2_nm)))
+
+
+@dataclass
+class BeamsWorld:
+    """The simulated robot and beams, stepped in integer microseconds (lockstep, no wall clock)."""
+
+    beams: list[BeamParams]
+    geometry: BodyGeometry = PAPER_BODY
+    state: BodyState = field(default_factory=BodyState)
+    noise: float = 0.0
+    seed: int = 0
+    t_us: int = 0
+    first_contact_us: int | None = None
+
+    def __post_init__(self) -> None:
+        self._rng = np.random.default_rng(self.seed)
+        self._cmd = (0.0, 0.0, 0.0)
+        self._theta = [0.0, 0.0]
+        self.last = external_forces(self.geometry, self.beams, *self.state.q())
+        self.free_run = True        # Sec. II-A: no force before contact, steady 0.05 m/s
+
+    def command(self, fx_n: float, tau1_nm: float, tau2_nm: float) -> tuple[float, float, float]:
+        """Apply an actuator command, saturated to the paper's limits; returns what was applied."""
+        self._cmd = saturate(fx_n, tau1_nm, tau2_nm)
+        return self._cmd
+
+    @property
+    def applied(self) -> tuple[float, float, float]:
+        return self._cmd
+
+    def step(self) -> None:
+        """One Eq. 1-3 step of DT_US (semi-implicit Euler)."""
+        g, s = self.geometry, self.state
+        ext = self.last
+        dt = DT_US * 1e-6
+        if self.free_run and (ext.theta_rad[0] > 0 or ext.theta_rad[1] > 0):
+            self.free_run = False
+            self.first_contact_us = self.t_us
+        if not self.free_run:
+            fx, t1, t2 = self._cmd
+            s.vx_m_s += dt * (fx + ext.q_x_n) / g.mass_kg
+            s.roll_rate_rad_s += dt * (t1 + ext.q_roll_nm) / g.inertia_kg_m2[0]
+            s.pitch_rate_rad_s += dt * (t2 + ext.q_pitch_nm) / g.inertia_kg_m2[1]
+        s.x_m += dt * s.vx_m_s
+        s.roll_rad += dt * s.roll_rate_rad_s
+        s.pitch_rad += dt * s.pitch_rate_rad_s
+        self.t_us += DT_US
+        self.last = external_forces(g, self.beams, s.x_m, s.roll_rad, s.pitch_rad, self._theta)
+        self._theta = list(self.last.theta_rad)
+
+    def sense_force(self) -> tuple[float, float, float]:
+        """Eq. 6: F1 + F2 with multiplicative Gaussian noise, one N(0, sigma) draw per axis."""
+        z = self._rng.standard_normal(3) * self.noise
+        f = self.last.contact_n
+        return f[0] * (1 + z[0]), f[1] * (1 + z[1]), f[2] * (1 + z[2])
+
+    @property
+    def flipped(self) -> bool:
+        return abs(self.state.roll_rad) >= math.pi / 2 or abs(self.state.pitch_rad) >= math.pi / 2
+
+    def passed(self, x_goal_m: float = 0.12) -> bool:
+        """Past the beams: the level body's tail has reached the hinge line, without flipping."""
+        return self.state.x_m >= x_goal_m and not self.flipped
