@@ -1,0 +1,271 @@
+"""Live CAN for stock tools: the simulated CAN bus served over the socketcand protocol.
+
+Stock python-can (``interface='socketcand'``), ``python -m can.viewer`` and
+``cantools monitor`` attach to a running simulation through it. The simulator calls
+``publish(t_us, arb_id, data)`` for every frame on its bus and ``poll()`` once a step
+for the frames clients sent; all socket work happens on one background thread, so the
+lockstep loop never blocks on a slow client.
+
+Protocol, as python-can 4.6.1's socketcand client speaks it
+(``can/interfaces/socketcand/socketcand.py``): server ``< hi >``; client
+``< open CHANNEL >`` -> ``< ok >``; client ``< rawmode >`` -> ``< ok >``; then the server
+sends ``< frame ID SECS.USECS HEXDATA >`` (ID 3 hex digits standard, 8 extended; data as
+one unbroken hex string, since the client takes a single token) and the client sends
+``< send ID DLC B0 B1 ... >``. The client reads each handshake reply with one ``recv``
+and compares it exactly, so frames are held back for ``HANDSHAKE_GRACE_S`` after the
+last ``< ok >`` to keep them out of that read.
+
+No frame is lost on the link: each client has an unbounded output buffer that is
+drained, not dropped, and ``close()`` sends what is left before closing. Timestamps are
+virtual time in seconds, so a tool's time axis matches the trace.
+"""
+from __future__ import annotations
+
+import select
+import socket
+import threading
+import time
+from collections import deque
+
+DEFAULT_PORT = 29536  # socketcand's own default port
+DEFAULT_CHANNEL = "hexhil0"
+HANDSHAKE_GRACE_S = 0.05
+
+
+def frame_line(t_us: int, arb_id: int, data: bytes, is_extended_id: bool = False) -> bytes:
+    """One ``< frame ... >`` record as the stock client parses it."""
+    ident = "%08X" % (arb_id & 0x1FFFFFFF) if is_extended_id else "%03X" % (arb_id & 0x7FF)
+    return ("< frame %s %d.%06d %s >" % (ident, t_us // 1_000_000, t_us % 1_000_000,
+                                         bytes(data).hex().upper())).encode("ascii")
+
+
+def parse_send(cmd: str) -> tuple[int, bytes, bool]:
+    """``send ID DLC B0 B1 ...`` (the inside of ``< ... >``) -> (arb_id, data, extended)."""
+    parts = cmd.split()
+    if len(parts) < 3 or parts[0] != "send":
+        raise ValueError("malformed send: %r" % cmd)
+    ident, dlc = parts[1], int(parts[2], 16)
+    data = bytes(int(b, 16) for b in parts[3:3 + dlc])
+    if len(data) != dlc or dlc > 8:
+        raise ValueError("send with DLC %d but %d data bytes" % (dlc, len(data)))
+    return int(ident, 16), data, len(ident) > 3
+
+
+class _Client:
+    __slots__ = ("sock", "inbuf", "out", "channel_open", "raw", "hold_until", "peer")
+
+    def __init__(self, sock: socket.socket, peer: tuple) -> None:
+        self.sock = sock
+        self.peer = peer
+        self.inbuf = b""
+        self.out = bytearray()
+        self.channel_open = False
+        self.raw = False
+        self.hold_until = 0.0
+
+
+class CanServer:
+    """A socketcand server for one simulated channel, bound to 127.0.0.1 by default."""
+
+    def __init__(self, port: int = DEFAULT_PORT, host: str = "127.0.0.1",
+                 channel: str = DEFAULT_CHANNEL) -> None:
+        self.channel = channel
+        self._listen = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self._listen.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        self._listen.bind((host, port))
+        self._listen.listen(8)
+        self._listen.setblocking(False)
+        self.host, self.port = self._listen.getsockname()[:2]
+        self._wake_r, self._wake_w = socket.socketpair()
+        self._wake_r.setblocking(False)
+        self._lock = threading.Lock()
+        self._clients: list[_Client] = []
+        self._inbox: deque[tuple[int, bytes, bool]] = deque()
+        self._stopping = False
+        self._ready = threading.Condition(self._lock)
+        self.frames_published = 0
+        self.frames_received = 0
+        self._thread = threading.Thread(target=self._serve, name="can-server", daemon=True)
+        self._thread.start()
+
+    # -- simulator side ---------------------------------------------------------------
+    def publish(self, t_us: int, arb_id: int, data: bytes, is_extended_id: bool = False) -> None:
+        """Queue one frame of the simulated bus for every client in raw mode."""
+        line = frame_line(t_us, arb_id, data, is_extended_id)
+        with self._lock:
+            self.frames_published += 1
+            for c in self._clients:
+                if c.raw:
+                    c.out += line
+        self._wake_w.send(b"x")
+
+    def poll(self) -> list[tuple[int, bytes, bool]]:
+        """Frames clients sent since the last call: (arb_id, data, is_extended_id)."""
+        out = []
+        inbox = self._inbox
+        while inbox:
+            out.append(inbox.popleft())
+        return out
+
+    def clients(self) -> int:
+        """Clients that have finished the handshake (open + rawmode)."""
+        with self._lock:
+            return sum(1 for c in self._clients if c.raw)
+
+    def wait_for_clients(self, n: int = 1, timeout_s: float = 10.0) -> bool:
+        """Block until ``n`` clients are in raw mode (a run waits so no frame is missed)."""
+        deadline = time.monotonic() + timeout_s
+        with self._ready:
+            while sum(1 for c in self._clients if c.raw) < n:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return False
+                self._ready.wait(left)
+        return True
+
+    def close(self, drain_timeout_s: float = 5.0) -> None:
+        """Send every queued frame (up to ``drain_timeout_s``), then stop and close."""
+        deadline = time.monotonic() + drain_timeout_s
+        while time.monotonic() < deadline:
+            with self._lock:
+                pending = any(c.out for c in self._clients)
+            if not pending:
+                break
+            self._wake_w.send(b"x")
+            time.sleep(0.005)
+        self._stopping = True
+        self._wake_w.send(b"x")
+        self._thread.join(timeout=2.0)
+        with self._lock:
+            for c in self._clients:
+                c.sock.close()
+            self._clients.clear()
+        self._listen.close()
+        self._wake_r.close()
+        self._wake_w.close()
+
+    def __enter__(self) -> "CanServer":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- server thread ------------------------------------------------------------------
+    def _serve(self) -> None:
+        while not self._stopping:
+            now = time.monotonic()
+            with self._lock:
+                clients = list(self._clients)
+                writers = [c.sock for c in clients if c.out and c.hold_until <= now]
+                held = [c.hold_until - now for c in clients if c.out and c.hold_until > now]
+            timeout = min(held) if held else None
+            readers = [self._listen, self._wake_r] + [c.sock for c in clients]
+            r, w, _ = select.select(readers, writers, [], timeout)
+            if self._wake_r in r:
+                try:
+                    while self._wake_r.recv(4096):
+                        pass
+                except BlockingIOError:
+                    pass
+            if self._listen in r:
+                self._accept()
+            by_sock = {c.sock: c for c in clients}
+            for s in w:
+                self._write(by_sock[s])
+            for s in r:
+                c = by_sock.get(s)
+                if c is not None:
+                    self._read(c)
+
+    def _accept(self) -> None:
+        try:
+            sock, peer = self._listen.accept()
+        except BlockingIOError:
+            return
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        sock.sendall(b"< hi >")
+        sock.setblocking(False)
+        with self._lock:
+            self._clients.append(_Client(sock, peer))
+
+    def _drop(self, c: _Client) -> None:
+        with self._lock:
+            if c in self._clients:
+                self._clients.remove(c)
+        c.sock.close()
+
+    def _write(self, c: _Client) -> None:
+        with self._lock:
+            chunk = bytes(c.out[:65536])
+        try:
+            n = c.sock.send(chunk)
+        except BlockingIOError:
+            return
+        except OSError:
+            self._drop(c)
+            return
+        with self._lock:
+            del c.out[:n]
+
+    def _reply(self, c: _Client, text: bytes) -> None:
+        """Handshake replies go out alone at once (the client compares each whole read);
+        later ones queue behind the frames so no frame line is cut."""
+        if c.raw:
+            with self._lock:
+                c.out += text
+            return
+        c.sock.setblocking(True)
+        try:
+            c.sock.sendall(text)
+        finally:
+            c.sock.setblocking(False)
+
+    def _read(self, c: _Client) -> None:
+        try:
+            data = c.sock.recv(65536)
+        except BlockingIOError:
+            return
+        except OSError:
+            data = b""
+        if not data:
+            self._drop(c)
+            return
+        c.inbuf += data
+        while True:
+            start = c.inbuf.find(b"<")
+            end = c.inbuf.find(b">", start + 1)
+            if start < 0 or end < 0:
+                if start < 0:
+                    c.inbuf = b""
+                return
+            cmd = c.inbuf[start + 1:end].decode("ascii", "replace").strip()
+            c.inbuf = c.inbuf[end + 1:]
+            self._command(c, cmd)
+
+    def _command(self, c: _Client, cmd: str) -> None:
+        word = cmd.split(" ", 1)[0]
+        if word == "open":
+            name = cmd[4:].strip()
+            if name != self.channel:
+                self._reply(c, b"< error could not open bus '%s' >" % name.encode())
+                return
+            c.channel_open = True
+            self._reply(c, b"< ok >")
+        elif word == "rawmode" and c.channel_open:
+            self._reply(c, b"< ok >")
+            with self._ready:
+                c.hold_until = time.monotonic() + HANDSHAKE_GRACE_S
+                c.raw = True
+                self._ready.notify_all()
+        elif word == "send" and c.raw:
+            try:
+                frame = parse_send(cmd)
+            except ValueError as exc:
+                self._reply(c, b"< error %s >" % str(exc).encode())
+                return
+            self._inbox.append(frame)
+            self.frames_received += 1
+        elif word == "echo":
+            self._reply(c, b"< echo >")
+        else:
+            self._reply(c, b"< error unknown command >")
