@@ -1,0 +1,440 @@
+"""One emulated AX-12A: control table, every instruction, error bits, alarms, motion.
+
+The servo owns its 50-byte control table (``protocol/ax12.py``) and drives an
+``Actuator``, the seam to whatever moves the horn: ``KinematicActuator`` here (no
+physics), a MuJoCo joint in the hexapod world. The servo hands the actuator Goal
+Position, Moving Speed, Torque Limit, Torque Enable and the compliance settings in SI
+units; Present Position, Speed and Load come back from ``actuator.state()``.
+
+State is evaluated lazily: the bus calls ``advance_to(t_us)`` before a servo answers,
+and the kinematic model is integrated exactly over any interval in which the command
+is constant, so lazy and stepped evaluation give the same table.
+
+Behaviour follows the ROBOTIS e-manual (AX-12A, Protocol 1.0) and the original AX-12
+manual (2006) where they differ (defaults, Lock). Choices the manuals leave open are
+marked "our choice" and listed in docs/servo-bus.md.
+"""
+from __future__ import annotations
+
+import math
+from typing import Protocol
+
+from protocol import ax12
+from protocol import dynamixel as dxl
+
+# Thermal model (our choice; the manuals give no thermal data): first order,
+# dT/dt = (ambient + HEAT_AT_FULL_LOAD_C * load^2 - T) / THERMAL_TAU_S.
+AMBIENT_C = 32.0               # the manuals' power-on Present Temperature
+HEAT_AT_FULL_LOAD_C = 60.0     # steady rise above ambient at 100 % load
+THERMAL_TAU_S = 60.0
+OVERHEAT_TAU_S = 1.0           # time constant towards an injected hot-spot temperature
+# Overload (our choice): load saturated at the torque limit for this long sets the bit.
+OVERLOAD_TIME_US = 1_000_000
+SUPPLY_V = 12.0                # nominal AX-12A supply
+MOVING_EPS_RAD_S = 0.5 * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0  # half a speed unit
+
+_STATUS_ERRORS = dxl.ERR_INPUT_VOLTAGE | dxl.ERR_OVERHEATING | dxl.ERR_OVERLOAD
+
+
+class Actuator(Protocol):
+    """What a servo drives: kinematic here, a physics joint in the hexapod world."""
+
+    def command(self, goal_rad: float, speed_limit_rad_s: float, torque_limit_frac: float,
+                enabled: bool, compliance: tuple[int, int, int, int, int]) -> None:
+        """New set-point; compliance = (cw_margin, ccw_margin, cw_slope, ccw_slope, punch), raw."""
+
+    def state(self) -> tuple[float, float, float]:
+        """(position_rad, velocity_rad_s, load_frac); CCW positive, load in [-1, 1]."""
+
+    def advance_to(self, t_us: int) -> None:
+        """Move to virtual time t_us (kinematic model only; physics steps itself)."""
+
+
+class KinematicActuator:
+    """Moves towards the goal at the speed limit; no forces, no inertia.
+
+    Holds still with torque off or a zero torque limit. ``stalled`` (set by the stall
+    fault) models an external load that blocks the horn: it stays put and reports a load
+    equal to the torque limit, which is what trips the overload alarm on a real servo.
+    """
+
+    __slots__ = ("position_rad", "velocity_rad_s", "load_frac", "goal_rad", "speed_rad_s",
+                 "torque_frac", "enabled", "stalled", "margin_rad", "t_us")
+
+    def __init__(self, position_rad: float = 0.0, t_us: int = 0) -> None:
+        self.position_rad = position_rad
+        self.velocity_rad_s = 0.0
+        self.load_frac = 0.0
+        self.goal_rad = position_rad
+        self.speed_rad_s = ax12.speed_to_rad_s(0)
+        self.torque_frac = 1.0
+        self.enabled = False
+        self.stalled = False
+        self.margin_rad = 0.0
+        self.t_us = t_us
+
+    def command(self, goal_rad: float, speed_limit_rad_s: float, torque_limit_frac: float,
+                enabled: bool, compliance: tuple[int, int, int, int, int]) -> None:
+        self.goal_rad = goal_rad
+        self.speed_rad_s = speed_limit_rad_s
+        self.torque_frac = torque_limit_frac
+        self.enabled = enabled
+        # A goal within the compliance margin counts as reached (one unit = 300/1023 deg).
+        self.margin_rad = math.radians(min(compliance[0], compliance[1])
+                                       * ax12.POSITION_RANGE_DEG / ax12.POSITION_MAX)
+        self._settle()
+
+    def _settle(self) -> None:
+        err = self.goal_rad - self.position_rad
+        driving = self.enabled and self.torque_frac > 0.0 and abs(err) > 1e-12
+        if not driving:
+            self.velocity_rad_s = 0.0
+            self.load_frac = 0.0
+        elif self.stalled:
+            self.velocity_rad_s = 0.0
+            self.load_frac = self.torque_frac if err > 0 else -self.torque_frac
+        else:
+            self.velocity_rad_s = self.speed_rad_s if err > 0 else -self.speed_rad_s
+            self.load_frac = 0.0
+
+    def state(self) -> tuple[float, float, float]:
+        return self.position_rad, self.velocity_rad_s, self.load_frac
+
+    def advance_to(self, t_us: int) -> None:
+        dt_us = t_us - self.t_us
+        if dt_us <= 0:
+            return
+        self.t_us = t_us
+        v = self.velocity_rad_s
+        if v != 0.0:
+            err = self.goal_rad - self.position_rad
+            step = abs(v) * dt_us * 1e-6
+            if step >= abs(err):
+                self.position_rad = self.goal_rad
+            else:
+                self.position_rad += step if err > 0 else -step
+            self._settle()
+
+    def set_stalled(self, stalled: bool) -> None:
+        self.stalled = stalled
+        self._settle()
+
+
+class Servo:
+    """One AX-12A on the bus; ``handle`` takes a parsed instruction and returns the reply.
+
+    ``handle``/``checksum_error`` return the status packet to send (bytes) or None; the
+    bus adds the return delay and wire time. ``errors_seen`` counts error bits replied.
+    """
+
+    def __init__(self, dev_id: int = 1, edition: str = ax12.EDITION_EMANUAL,
+                 actuator: Actuator | None = None, position: int = 512, t_us: int = 0) -> None:
+        if edition not in ax12.EDITIONS:
+            raise ValueError(f"unknown AX-12 manual edition {edition!r}")
+        if not 0 <= dev_id <= dxl.MAX_ID:
+            raise ValueError(f"servo id {dev_id} outside 0-{dxl.MAX_ID}")
+        self.edition = edition
+        self.table = ax12.defaults(edition, position)
+        self.table[ax12.ID] = dev_id
+        self.actuator: Actuator = actuator if actuator is not None else \
+            KinematicActuator(ax12.position_to_rad(position), t_us)
+        self.t_us = t_us
+        self.temperature_c = AMBIENT_C
+        self.hot_spot_c: float | None = None   # injected overheating target
+        self.supply_v = SUPPLY_V
+        self._saturated_us = 0
+        self.overload = False                  # latched until Torque Limit is written again
+        self._registered: tuple[int, bytes] | None = None
+        self.alarm_led = False                 # the LED blinks for errors in Alarm LED
+        self.address_changed = False           # ID or Baud Rate written: bus re-indexes
+        self.instructions = 0
+        self._command()
+        self._refresh_present()
+
+    # --- identity ----------------------------------------------------------------
+    @property
+    def id(self) -> int:
+        return self.table[ax12.ID]
+
+    @property
+    def baud_bps(self) -> int:
+        return ax12.baud_to_bps(self.table[ax12.BAUD_RATE])
+
+    @property
+    def return_delay_us(self) -> int:
+        return 2 * self.table[ax12.RETURN_DELAY_TIME]
+
+    def value(self, name: str) -> int:
+        """A control-table value by field name (tests, recorder)."""
+        f = ax12.BY_NAME[name]
+        return ax12.get(self.table, f[0], f[2])
+
+    # --- time, motion, alarms ---------------------------------------------------------
+    def advance_to(self, t_us: int) -> None:
+        """Bring motion, temperature, voltage and alarms up to virtual time t_us."""
+        dt_us = t_us - self.t_us
+        if dt_us <= 0:
+            return
+        self.t_us = t_us
+        act = self.actuator
+        act.advance_to(t_us)
+        load = act.state()[2]
+        table = self.table
+        tl = (table[ax12.TORQUE_LIMIT] | (table[ax12.TORQUE_LIMIT + 1] << 8))
+        if table[ax12.TORQUE_ENABLE] and tl and abs(load) * 1023.0 >= tl - 0.5:
+            self._saturated_us += dt_us
+            if self._saturated_us >= OVERLOAD_TIME_US:
+                self.overload = True
+        else:
+            self._saturated_us = 0
+        if self.hot_spot_c is not None:
+            target, tau = self.hot_spot_c, OVERHEAT_TAU_S
+        else:
+            target, tau = AMBIENT_C + HEAT_AT_FULL_LOAD_C * load * load, THERMAL_TAU_S
+        if target != self.temperature_c:
+            k = math.exp(-dt_us * 1e-6 / tau)
+            self.temperature_c = target + (self.temperature_c - target) * k
+        self._refresh_present()
+        errors = self.state_errors()
+        if errors:
+            self._alarm(errors)
+
+    def _refresh_present(self) -> None:
+        pos, vel, load = self.actuator.state()
+        t = self.table
+        p = ax12.rad_to_position(pos)
+        t[36] = p & 0xFF
+        t[37] = p >> 8
+        s = ax12.rad_s_to_signed(vel)
+        t[38] = s & 0xFF
+        t[39] = s >> 8
+        ld = ax12.fraction_to_load(load)
+        t[40] = ld & 0xFF
+        t[41] = ld >> 8
+        v = ax12.v_to_voltage(self.supply_v)
+        t[ax12.PRESENT_VOLTAGE] = 0 if v < 0 else (255 if v > 255 else v)
+        c = int(round(self.temperature_c))
+        t[ax12.PRESENT_TEMPERATURE] = 0 if c < 0 else (255 if c > 255 else c)
+        t[ax12.MOVING] = 1 if abs(vel) >= MOVING_EPS_RAD_S else 0
+
+    def state_errors(self) -> int:
+        """Error bits that describe the servo's state (voltage, heat, overload)."""
+        t = self.table
+        e = 0
+        v = t[ax12.PRESENT_VOLTAGE]
+        if v < t[ax12.MIN_VOLTAGE_LIMIT] or v > t[ax12.MAX_VOLTAGE_LIMIT]:
+            e |= dxl.ERR_INPUT_VOLTAGE
+        if t[ax12.PRESENT_TEMPERATURE] > t[ax12.TEMPERATURE_LIMIT]:
+            e |= dxl.ERR_OVERHEATING
+        if self.overload:
+            e |= dxl.ERR_OVERLOAD
+        return e
+
+    def _alarm(self, errors: int) -> None:
+        """Alarm LED and alarm shutdown: Torque Limit drops to 0 (e-manual, address 34)."""
+        t = self.table
+        if errors & t[ax12.ALARM_LED]:
+            self.alarm_led = True
+        if errors & t[ax12.SHUTDOWN] and (t[ax12.TORQUE_LIMIT] or t[ax12.TORQUE_LIMIT + 1]):
+            t[ax12.TORQUE_LIMIT] = 0
+            t[ax12.TORQUE_LIMIT + 1] = 0
+            self._command()
+            self._refresh_present()
+
+    def _command(self) -> None:
+        t = self.table
+        goal = t[30] | (t[31] << 8)
+        cw = t[6] | (t[7] << 8)
+        ccw = t[8] | (t[9] << 8)
+        if cw or ccw:  # joint mode: the horn stops at the angle limits
+            goal = cw if goal < cw else (ccw if goal > ccw else goal)
+        self.actuator.command(
+            ax12.position_to_rad(goal),
+            ax12.speed_to_rad_s(t[32] | (t[33] << 8)),
+            (t[34] | (t[35] << 8)) * ax12.LOAD_FRACTION_PER_UNIT,
+            bool(t[ax12.TORQUE_ENABLE]),
+            (t[26], t[27], t[28], t[29], t[48] | (t[49] << 8)),
+        )
+
+    # --- faults (hil/faults.py) -----------------------------------------------------
+    def set_supply_v(self, volts: float, t_us: int) -> None:
+        self.advance_to(t_us)
+        self.supply_v = volts
+        self._refresh_present()
+
+    def set_hot_spot(self, temperature_c: float | None, t_us: int) -> None:
+        self.advance_to(t_us)
+        self.hot_spot_c = temperature_c
+
+    def set_stalled(self, stalled: bool, t_us: int) -> None:
+        """External load blocks the horn (actuators without ``set_stalled`` ignore it)."""
+        self.advance_to(t_us)
+        fn = getattr(self.actuator, "set_stalled", None)
+        if fn is not None:
+            fn(stalled)
+            self._refresh_present()
+
+    def power_cycle(self, t_us: int) -> None:
+        """Power lost and back (a plug pulled): RAM to defaults, EEPROM kept, Lock cleared."""
+        self.advance_to(t_us)
+        eeprom = bytes(self.table[:ax12.EEPROM_END])
+        pos = self.table[36] | (self.table[37] << 8)
+        self.table = ax12.defaults(self.edition, pos)
+        self.table[:ax12.EEPROM_END] = eeprom
+        self.table[ax12.TORQUE_LIMIT] = eeprom[ax12.MAX_TORQUE]
+        self.table[ax12.TORQUE_LIMIT + 1] = eeprom[ax12.MAX_TORQUE + 1]
+        self.overload = False
+        self.alarm_led = False
+        self._saturated_us = 0
+        self._registered = None
+        self._command()
+        self._refresh_present()
+
+    # --- instructions --------------------------------------------------------------
+    def _reply(self, error: int, params: bytes = b"") -> bytes:
+        return dxl.status(self.table[ax12.ID], error | self.state_errors(), params)
+
+    def checksum_error(self, code: int, t_us: int) -> bytes | None:
+        """A packet addressed to this servo arrived with a bad checksum: answer bit 4."""
+        self.advance_to(t_us)
+        return self._answer(code, dxl.ERR_CHECKSUM, b"")
+
+    def _answer(self, code: int, error: int, params: bytes) -> bytes | None:
+        srl = self.table[ax12.STATUS_RETURN_LEVEL]
+        if srl >= 2 or code == dxl.PING or (srl == 1 and code == dxl.READ):
+            return self._reply(error, params)
+        return None
+
+    def handle(self, code: int, params: bytes, broadcast: bool, t_us: int) -> bytes | None:
+        """Execute one instruction at t_us; return the status packet, or None (no reply)."""
+        self.advance_to(t_us)
+        self.instructions += 1
+        error = 0
+        data = b""
+        if code == dxl.READ:
+            if len(params) != 2:
+                error = dxl.ERR_INSTRUCTION
+            else:
+                a, n = params[0], params[1]
+                if a + n > ax12.TABLE_SIZE or n == 0:
+                    error = dxl.ERR_RANGE
+                else:
+                    data = bytes(self.table[a:a + n])
+        elif code == dxl.WRITE or code == dxl.REG_WRITE:
+            if len(params) < 2:
+                error = dxl.ERR_INSTRUCTION
+            else:
+                a = params[0]
+                d = bytes(params[1:])
+                error = self.check_write(a, d)
+                if not error & dxl.ERR_RANGE:
+                    if code == dxl.WRITE:
+                        self._apply_write(a, d)
+                    else:
+                        self._registered = (a, d)
+                        self.table[ax12.REGISTERED] = 1
+        elif code == dxl.ACTION:
+            if self._registered is None:
+                error = dxl.ERR_INSTRUCTION
+            else:
+                a, d = self._registered
+                self._registered = None
+                self.table[ax12.REGISTERED] = 0
+                self._apply_write(a, d)
+        elif code == dxl.SYNC_WRITE:
+            self._sync_write(params)
+            return None
+        elif code == dxl.FACTORY_RESET:
+            reply = None if broadcast else self._answer(code, 0, b"")
+            self._factory_reset()
+            return reply
+        elif code != dxl.PING:
+            error = dxl.ERR_INSTRUCTION
+        if error:
+            self._alarm(error)
+        if broadcast:
+            return None
+        return self._answer(code, error, data)
+
+    def _sync_write(self, params: bytes) -> None:
+        if len(params) < 2:
+            return
+        a, n = params[0], params[1]
+        stride = n + 1
+        body = len(params) - 2
+        if n == 0 or body % stride:
+            return
+        me = self.table[ax12.ID]
+        for i in range(2, len(params), stride):
+            if params[i] == me:
+                d = bytes(params[i + 1:i + stride])
+                if not self.check_write(a, d) & dxl.ERR_RANGE:
+                    self._apply_write(a, d)
+                return
+
+    def check_write(self, address: int, data: bytes) -> int:
+        """Error bits a WRITE of ``data`` at ``address`` earns; Range means it is refused.
+
+        Refused (our choice of the Range bit where the manuals say only "cannot be
+        written"): past the table, read-only or reserved cells, values outside a field's
+        range, EEPROM while locked (original manual: everything but 24-35 while locked).
+        Angle limit: a goal outside CW..CCW is stored, the horn stops at the limit.
+        """
+        end = address + len(data)
+        t = self.table
+        if end > ax12.TABLE_SIZE:
+            return dxl.ERR_RANGE
+        if t[ax12.LOCK]:
+            if self.edition == ax12.EDITION_ORIGINAL:
+                if address < ax12.TORQUE_ENABLE or end > ax12.PRESENT_POSITION:
+                    return dxl.ERR_RANGE
+            elif address < ax12.EEPROM_END or (address <= ax12.LOCK < end
+                                              and data[ax12.LOCK - address] == 0):
+                return dxl.ERR_RANGE  # unlocked only by a power cycle
+        a = address
+        error = 0
+        while a < end:
+            f = ax12.owner(a)
+            if f is None or f[3] == ax12.R:
+                return dxl.ERR_RANGE
+            start, size = f[0], f[2]
+            lo = data[start - address] if start >= address else t[start]
+            if size == 2:
+                hi_i = start + 1
+                hi = data[hi_i - address] if hi_i < end else t[hi_i]
+                v = lo | (hi << 8)
+            else:
+                v = lo
+            if v < f[6] or v > f[7]:
+                return dxl.ERR_RANGE
+            if start == ax12.GOAL_POSITION:
+                cw = t[6] | (t[7] << 8)
+                ccw = t[8] | (t[9] << 8)
+                if (cw or ccw) and (v < cw or v > ccw):
+                    error |= dxl.ERR_ANGLE_LIMIT
+            a = start + size
+        return error
+
+    def _apply_write(self, address: int, data: bytes) -> None:
+        t = self.table
+        end = address + len(data)
+        t[address:end] = data
+        if address <= ax12.BAUD_RATE and end > ax12.ID:
+            self.address_changed = True
+        if address <= ax12.TORQUE_LIMIT + 1 and end > ax12.TORQUE_LIMIT:
+            self.overload = False  # writing Torque Limit again re-arms the servo
+            self._saturated_us = 0
+        if end > ax12.TORQUE_ENABLE and address < ax12.PRESENT_POSITION or end > ax12.PUNCH \
+                or (address <= ax12.CCW_ANGLE_LIMIT + 1 and end > ax12.CW_ANGLE_LIMIT):
+            self._command()
+            self._refresh_present()
+
+    def _factory_reset(self) -> None:
+        pos = self.table[36] | (self.table[37] << 8)
+        self.table = ax12.defaults(self.edition, pos)
+        self._registered = None
+        self.overload = False
+        self.alarm_led = False
+        self.address_changed = True
+        self._command()
+        self._refresh_present()
