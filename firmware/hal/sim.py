@@ -1,0 +1,235 @@
+"""HAL back end for the simulator link: machine-like UART, Pin, CAN and clock over TCP.
+
+Each call that needs the outside world is answered by the host simulator in virtual time
+(see wire.py), so runs are deterministic and faster than real time. Firmware compute is
+charged zero virtual time: the clock only moves on bus transactions and sleeps.
+Runs under MicroPython (unix port) and CPython.
+"""
+import json
+import os
+import socket
+import struct
+import sys
+
+from firmware.hal import wire
+
+try:
+    from time import ticks_us as _perf_us  # MicroPython
+except ImportError:  # CPython
+    from time import perf_counter_ns as _perf_ns
+
+    def _perf_us():
+        return _perf_ns() // 1000
+
+RUNTIME = "micropython" if sys.implementation.name == "micropython" else "cpython"
+
+
+class Link:
+    """One TCP connection to hil/link.py. Posted messages queue in ``out`` and go out in
+    the same write as the next request, so they cost no round trip."""
+
+    def __init__(self, port, host="127.0.0.1"):
+        s = socket.socket()
+        try:
+            s.setsockopt(6, 1, 1)  # IPPROTO_TCP, TCP_NODELAY (MicroPython lacks the names)
+        except (OSError, AttributeError):
+            pass
+        s.connect(socket.getaddrinfo(host, port)[0][-1])
+        self.sock = s
+        self.io = s if hasattr(s, "readinto") else s.makefile("rwb", buffering=0)
+        self.out = bytearray(8192)
+        self.outmv = memoryview(self.out)
+        self.nout = 0
+        self.rx = bytearray(2048)
+        self.rxmv = memoryview(self.rx)
+        self.t_us = 0
+        self.io_us = 0       # wall time spent waiting on the host (profiling only)
+        self.round_trips = 0
+
+    def begin(self, op, n):
+        """Reserve a message of ``n`` payload bytes; return the payload's offset in ``out``."""
+        if self.nout + 3 + n > len(self.out):
+            self.flush()
+            if 3 + n > len(self.out):
+                raise ValueError("link message too long")
+        k = self.nout
+        out = self.out
+        out[k] = op
+        out[k + 1] = n & 0xFF
+        out[k + 2] = n >> 8
+        self.nout = k + 3 + n
+        return k + 3
+
+    def post(self, op, payload, n):
+        k = self.begin(op, n)
+        self.out[k:k + n] = payload[:n] if n != len(payload) else payload
+
+    def flush(self):
+        if self.nout:
+            t0 = _perf_us()
+            self._write_all(self.nout)
+            self.io_us += _perf_us() - t0
+
+    def _write_all(self, n):
+        mv = self.outmv
+        done = 0
+        while done < n:
+            w = self.io.write(mv[done:n])
+            done += w if w else 0
+        self.nout = 0
+
+    def _read_exact(self, n):
+        mv = self.rxmv
+        got = 0
+        while got < n:
+            k = self.io.readinto(mv[got:n])
+            if not k:
+                raise OSError("simulator link closed")
+            got += k
+
+    def call(self):
+        """Send everything queued (ending in a request); return the reply's length.
+
+        The reply payload is in ``rx[0:length]``; its first 8 bytes are the virtual time.
+        """
+        t0 = _perf_us()
+        self._write_all(self.nout)
+        self._read_exact(2)
+        length = self.rx[0] | (self.rx[1] << 8)
+        self._read_exact(length)
+        self.io_us += _perf_us() - t0
+        self.round_trips += 1
+        self.t_us = struct.unpack_from("<Q", self.rx, 0)[0]
+        return length
+
+    def close(self):
+        try:
+            self.flush()
+        finally:
+            self.sock.close()
+
+
+class HalfDuplexUART:
+    """The 1 Mbps servo line behind its direction circuit; the host turns the line round."""
+
+    def __init__(self, link):
+        self.link = link
+
+    def write(self, buf, n):
+        """Send ``buf[:n]``, no reply expected (SYNC_WRITE); posted, no round trip."""
+        self.link.post(wire.OP_WRITE, buf, n)
+
+    def transact(self, buf, n, rx, nrx, timeout_us):
+        """Send ``buf[:n]``, then receive up to ``nrx`` bytes into ``rx``, giving up
+        ``timeout_us`` of bus time after the last byte went out. Returns the count."""
+        link = self.link
+        k = link.begin(wire.OP_TRANSACT, 6 + n)
+        struct.pack_into("<HI", link.out, k, nrx, timeout_us)
+        link.out[k + 6:k + 6 + n] = buf[:n] if n != len(buf) else buf
+        length = link.call()
+        got = length - 8
+        if got > 0:
+            rx[0:got] = link.rxmv[8:length]
+        return got
+
+
+class Pin:
+    """A limit-switch input; its level is sampled by the host at each sleep."""
+
+    def __init__(self, board, index):
+        self.board = board
+        self.bit = 1 << index
+
+    def value(self):
+        return 1 if self.board.switch_bits & self.bit else 0
+
+
+class CAN:
+    """Classic CAN port: sends are posted, receives arrive with each sleep's reply."""
+
+    def __init__(self, link):
+        self.link = link
+        self.rxq = []
+        self.rec = bytearray(wire.CAN_RECORD_LEN)
+
+    def send(self, data, arb_id):
+        """Send ``data`` (<= 8 bytes) with standard ID ``arb_id`` (pyb.CAN's argument order)."""
+        n = len(data)
+        k = self.link.begin(wire.OP_CAN, 3 + n)
+        out = self.link.out
+        struct.pack_into("<HB", out, k, arb_id, n)
+        out[k + 3:k + 3 + n] = data
+
+    def any(self):
+        return len(self.rxq) > 0
+
+    def recv(self):
+        """(arb_id, data) of the oldest received frame."""
+        return self.rxq.pop(0)
+
+
+class Board:
+    """Everything the firmware touches, wired to the simulator link."""
+
+    def __init__(self, port=None):
+        if port is None:
+            port = int(os.getenv(wire.ENV_PORT) or sys.argv[-1])
+        self.link = Link(port)
+        self.uart = HalfDuplexUART(self.link)
+        self.can = CAN(self.link)
+        self.switch_bits = 0
+        self.switches = [Pin(self, i) for i in range(6)]
+        self.ended = False
+        name = RUNTIME.encode()
+        self.link.post(wire.OP_HELLO, name, len(name))
+        length = self.link.call()
+        self.switch_bits = self.link.rx[8]
+        self._config = json.loads(bytes(self.link.rx[9:length]).decode()) if length > 9 else {}
+
+    def config(self):
+        """Settings the host passes at boot (scenario overrides of firmware/config.py)."""
+        return self._config
+
+    def ticks_us(self):
+        return self.link.t_us
+
+    def ticks_diff(self, a, b):
+        return a - b
+
+    def ticks_add(self, a, dt):
+        return a + dt
+
+    def perf_us(self):
+        """Wall-clock microseconds, for profiling only (never for control)."""
+        return _perf_us()
+
+    def io_us(self):
+        """Wall time spent waiting on the host so far (profiling)."""
+        return self.link.io_us
+
+    def sleep_until(self, t_us):
+        """End of cycle: idle the bus until ``t_us``; sample switches, collect CAN frames."""
+        link = self.link
+        k = link.begin(wire.OP_SLEEP, 8)
+        struct.pack_into("<Q", link.out, k, t_us)
+        length = link.call()
+        rx = link.rx
+        flags = rx[8]
+        self.switch_bits = rx[9]
+        n = rx[10]
+        p = 11
+        for _ in range(n):
+            arb_id, dlc = struct.unpack_from("<HB", rx, p)
+            self.can.rxq.append((arb_id, bytes(rx[p + 3:p + 3 + dlc])))
+            p += wire.CAN_RECORD_LEN
+        if flags & wire.FLAG_END:
+            self.ended = True
+
+    def event(self, kind, text):
+        data = text.encode() if isinstance(text, str) else text
+        k = self.link.begin(wire.OP_EVENT, 1 + len(data))
+        self.link.out[k] = kind
+        self.link.out[k + 1:k + 1 + len(data)] = data
+
+    def close(self):
+        self.link.close()

@@ -1,0 +1,139 @@
+"""Leg kinematics of seed 003's hexapod (Sec. 3.1, Fig. 12), MicroPython-compatible.
+
+Body frame: x forward, y left, z up, origin at the body centre, on the plane of the coxa
+joints. In neutral stance the body bottom is 8 cm above flat ground (Fig. 12), so the foot
+(tibia end) is ``STANCE_DEPTH_M`` below the coxa plane. Geometry matches the MuJoCo world
+(hil/world/hexapod.py ``RobotParams``), which takes servo angles as joint angles.
+Leg frame: origin at the coxa joint, x radially out along the mounting yaw, z up.
+
+Joint angles (rad): coxa yaw q1, femur pitch q2 (0 = horizontal, up positive), tibia q3
+relative to the femur (0 = straight, negative bends the foot down). Servo angles are
+``direction * (q - zero) + offset``, 0 rad at the AX-12's centre (512).
+"""
+import math
+
+COXA_M = 0.05    # Fig. 12
+FEMUR_M = 0.082
+TIBIA_M = 0.12
+BODY_CLEARANCE_M = 0.08      # Fig. 12: ground to body bottom, neutral stance
+BODY_HALF_THICKNESS_M = 0.015  # coxa joints on the body mid-plane (as in the world model)
+FOOT_RADIUS_M = 0.01
+STANCE_DEPTH_M = BODY_CLEARANCE_M + BODY_HALF_THICKNESS_M - FOOT_RADIUS_M
+L_MAX_M = 0.10   # Eq. 15
+H_MAX_M = 0.12   # Eq. 15
+
+# Mounting poses (x_m, y_m, yaw_rad) in leg order LF, LM, LH, RF, RM, RH. The paper gives
+# only the 30 x 30 cm outline "including front and rear legs angle offsets and middle legs
+# displacements"; corners at 45 deg and middle legs on the sides, as in the world model.
+_D45 = math.pi / 4
+MOUNTS = (
+    (0.10, 0.06, _D45),
+    (0.0, 0.075, 2 * _D45),
+    (-0.10, 0.06, 3 * _D45),
+    (0.10, -0.06, -_D45),
+    (0.0, -0.075, -2 * _D45),
+    (-0.10, -0.06, -3 * _D45),
+)
+# Neutral foot: this far from the coxa joint along the mounting yaw, on the ground.
+NEUTRAL_REACH_M = 0.15
+
+# Joint zero (the angle that maps to the servo centre) and limits, in joint angles.
+JOINT_ZERO = (0.0, 0.0, -math.pi / 2)
+JOINT_MIN = (-1.2, -1.4, -2.6)
+JOINT_MAX = (1.2, 1.4, 0.0)
+# Servo direction per joint (+1: servo angle turns with the joint). The simulated robot
+# mounts every servo the same way; a real build sets -1 where a horn is mirrored.
+DIRECTIONS = ((1, 1, 1),) * 6
+
+_REACH_MAX = FEMUR_M + TIBIA_M - 1e-6
+_REACH_MIN = abs(TIBIA_M - FEMUR_M) + 1e-6
+
+
+def neutral_foot(leg):
+    """Neutral foot position of ``leg`` in the body frame (m)."""
+    mx, my, yaw = MOUNTS[leg]
+    return (mx + NEUTRAL_REACH_M * math.cos(yaw), my + NEUTRAL_REACH_M * math.sin(yaw),
+            -STANCE_DEPTH_M)
+
+
+class Leg:
+    """One leg's IK/FK with calibration; counts clamped targets instead of failing."""
+
+    def __init__(self, index, offsets=(0.0, 0.0, 0.0)):
+        self.index = index
+        mx, my, yaw = MOUNTS[index]
+        self.mx = mx
+        self.my = my
+        self.yaw = yaw
+        self.c = math.cos(yaw)
+        self.s = math.sin(yaw)
+        self.offsets = offsets
+        self.directions = DIRECTIONS[index]
+        self.clamped = 0          # targets moved to the edge of the workspace or limits
+        self.q = [0.0, 0.0, 0.0]  # last IK solution (joint angles, rad)
+
+    def ik(self, x, y, z):
+        """Joint angles for a foot at (x, y, z) in the body frame; stored in ``self.q``.
+
+        Out-of-reach targets are pulled onto the reachable shell and joint angles clamped to
+        the limits; either counts once in ``clamped``. Returns ``self.q`` (no allocation).
+        """
+        dx = x - self.mx
+        dy = y - self.my
+        lx = self.c * dx + self.s * dy   # leg frame
+        ly = -self.s * dx + self.c * dy
+        q1 = math.atan2(ly, lx)
+        r = math.sqrt(lx * lx + ly * ly) - COXA_M
+        d = math.sqrt(r * r + z * z)
+        clamped = False
+        if d > _REACH_MAX or d < _REACH_MIN:
+            clamped = True
+            target = _REACH_MAX if d > _REACH_MAX else _REACH_MIN
+            if d < 1e-9:
+                r, z, d = target, 0.0, target
+            else:
+                r = r * target / d
+                z = z * target / d
+                d = target
+        a = (FEMUR_M * FEMUR_M + d * d - TIBIA_M * TIBIA_M) / (2 * FEMUR_M * d)
+        b = (FEMUR_M * FEMUR_M + TIBIA_M * TIBIA_M - d * d) / (2 * FEMUR_M * TIBIA_M)
+        a = 1.0 if a > 1.0 else (-1.0 if a < -1.0 else a)
+        b = 1.0 if b > 1.0 else (-1.0 if b < -1.0 else b)
+        q2 = math.atan2(z, r) + math.acos(a)   # knee up
+        q3 = math.acos(b) - math.pi
+        q = self.q
+        q[0] = q1
+        q[1] = q2
+        q[2] = q3
+        for j in range(3):
+            if q[j] < JOINT_MIN[j]:
+                q[j] = JOINT_MIN[j]
+                clamped = True
+            elif q[j] > JOINT_MAX[j]:
+                q[j] = JOINT_MAX[j]
+                clamped = True
+        if clamped:
+            self.clamped += 1
+        return q
+
+    def fk(self, q1, q2, q3):
+        """Foot position (x, y, z) in the body frame for joint angles (rad)."""
+        r = COXA_M + FEMUR_M * math.cos(q2) + TIBIA_M * math.cos(q2 + q3)
+        z = FEMUR_M * math.sin(q2) + TIBIA_M * math.sin(q2 + q3)
+        lx = r * math.cos(q1)
+        ly = r * math.sin(q1)
+        return (self.mx + self.c * lx - self.s * ly, self.my + self.s * lx + self.c * ly, z)
+
+    def servo_rad(self, j, q):
+        """Joint angle -> servo angle (0 at the AX-12 centre) with direction and offset."""
+        return self.directions[j] * (q - JOINT_ZERO[j]) + self.offsets[j]
+
+    def joint_rad(self, j, servo):
+        """Servo angle -> joint angle (inverse of ``servo_rad``)."""
+        return (servo - self.offsets[j]) * self.directions[j] + JOINT_ZERO[j]
+
+    def servo_limits_rad(self, j):
+        """(low, high) servo angles that the joint limits map to."""
+        a = self.servo_rad(j, JOINT_MIN[j])
+        b = self.servo_rad(j, JOINT_MAX[j])
+        return (a, b) if a < b else (b, a)
