@@ -51,7 +51,7 @@ class RobotParams:
     body_kg: float = 0.66
     coxa_kg: float = 0.06
     femur_kg: float = 0.07
-    tibia_kg: float = 0.01
+    tibia_kg: float = 0.01          # with the 1 g foot and the 1 g switch plate
     foot_friction: float = 1.0
     obstacle_friction: float = 0.5
     plate_half_m: tuple[float, float, float] = (0.002, 0.015, 0.04)  # switch plate
@@ -109,7 +109,7 @@ def mjcf(params: RobotParams, obstacles: list[terrain_mod.Obstacle], ground_fric
         <body name="{name}_tibia" pos="{p.femur_m} 0 0">
           <joint name="{name}_tibia" axis="0 {-dirs[2]} 0" range="-150 150"/>
           <geom name="{name}_tibia" type="capsule" fromto="0 0 0 0 0 {foot_z}"
-                size="{p.tibia_radius_m}" mass="{p.tibia_kg}" friction="0.3" {robot}/>
+                size="{p.tibia_radius_m}" mass="{p.tibia_kg - 0.002}" friction="0.3" {robot}/>
           <geom name="{name}_foot" type="sphere" pos="0 0 {foot_z}" size="{p.foot_radius_m}"
                 mass="0.001" friction="{p.foot_friction}" {robot}/>
           <geom name="{name}_plate" type="box" pos="{_f(n_x * off, n_y * off, pz)}"
