@@ -1,0 +1,144 @@
+"""``hexhil bus``: serve emulated AX-12A servos in real time on a pty or a TCP port."""
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from host_tools.errors import UserError
+
+_FAULT_FLAGS = ("unplug", "stall", "overheat", "voltage_sag")
+
+
+def parse_ids(spec: str) -> list[int]:
+    """``1-18`` or ``1,3,5-7`` -> sorted unique servo IDs (0-253)."""
+    ids: set[int] = set()
+    for part in spec.split(","):
+        part = part.strip()
+        try:
+            if "-" in part:
+                lo, hi = (int(x) for x in part.split("-", 1))
+            else:
+                lo = hi = int(part)
+        except ValueError:
+            raise UserError(f"--ids {spec!r}: expected IDs like 1-18 or 1,3,5-7") from None
+        if not 0 <= lo <= hi <= 253:
+            raise UserError(f"--ids {spec!r}: IDs must be 0-253, low before high")
+        ids.update(range(lo, hi + 1))
+    return sorted(ids)
+
+
+def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None):
+    """Servos, clock, faults and bus from flags over scenario over defaults."""
+    from hil.bus import Bus
+    from hil.clock import VirtualClock
+    from hil.faults import Faults, parse_flag
+    from hil.servo import Servo
+    from protocol import ax12
+
+    sb = scenario.get("bus", {})
+    edition = args.edition or sb.get("edition", ax12.EDITION_EMANUAL)
+    if edition not in ax12.EDITIONS:
+        raise UserError(f"edition must be one of {', '.join(ax12.EDITIONS)}, got {edition!r}")
+    if args.ids:
+        ids = parse_ids(args.ids)
+        if args.servos is not None and args.servos != len(ids):
+            raise UserError(f"--servos {args.servos} but --ids lists {len(ids)} IDs")
+    else:
+        n = args.servos if args.servos is not None else sb.get("servos", 18)
+        first = sb.get("first_id", 1)
+        if n < 1 or first < 0 or first + n - 1 > 253:
+            raise UserError(f"servos {n} from ID {first} do not fit IDs 0-253")
+        ids = list(range(first, first + n))
+    baud = args.baud if args.baud is not None else sb.get("baud", 1_000_000)
+    if baud <= 0:
+        raise UserError(f"--baud must be positive, got {baud}")
+    servos = [Servo(i, edition=edition) for i in ids]
+    rd = sb.get("return_delay_us")
+    if rd is not None:
+        if rd % 2 or not 0 <= rd <= 508:
+            raise UserError(f"bus.return_delay_us must be even and 0-508, got {rd}")
+        for s in servos:
+            s.table[ax12.RETURN_DELAY_TIME] = rd // 2
+    code = next((v for v in range(255) if ax12.baud_to_bps(v) == baud), None)
+    if code is not None:  # servos answer at the line's rate when the register can say it
+        for s in servos:
+            s.table[ax12.BAUD_RATE] = code
+    else:
+        raise UserError(f"--baud {baud}: an AX-12 cannot run at it (2000000/(n+1) bps only)")
+    sf = dict(scenario.get("faults", {}))
+    if args.bit_error_rate is not None:
+        sf["bit_error_rate"] = args.bit_error_rate
+    if args.drop_status_rate is not None:
+        sf["drop_status_rate"] = args.drop_status_rate
+    for kind in _FAULT_FLAGS:
+        for spec in getattr(args, kind) or []:
+            sf.setdefault(kind, []).append(parse_flag(kind, spec))
+    seed = args.seed if args.seed is not None else scenario.get("scenario", {}).get("seed", 0)
+    faults = Faults.from_scenario(sf, seed=seed, where=scenario.get("_path", "flags"),
+                                  on_fault=on_fault)
+    clock = VirtualClock()
+    echo = args.echo or sb.get("echo", False)
+    bus = Bus(servos, clock, baud=baud, echo=echo, faults=faults if faults.active() else None)
+    return bus, faults
+
+
+def run(args: argparse.Namespace) -> int:
+    from hil import serial_server
+    from host_tools import scenario as scenario_mod
+
+    if args.pty == (args.tcp is not None):
+        raise UserError("choose one transport: --pty or --tcp PORT")
+    if args.tcp is not None and not 0 <= args.tcp <= 65535:
+        raise UserError(f"--tcp {args.tcp}: port must be 0-65535")
+    sc = scenario_mod.load(args.scenario) if args.scenario else {}
+
+    def on_fault(t_us: int, name: str, detail: str) -> None:
+        if args.verbose:
+            sys.stderr.write(f"fault t={t_us / 1e6:.6f}s {name}: {detail}\n")
+
+    bus, faults = build_bus(args, sc, on_fault)
+    server = serial_server.RealTimeServer(bus)
+    serial_server.install_sigterm()
+    try:
+        if args.pty:
+            server.serve_pty(serial_server.flush_print)
+        else:
+            try:
+                server.serve_tcp(args.tcp, args.host, serial_server.flush_print)
+            except OSError as exc:
+                raise UserError(str(exc)) from None
+    except (KeyboardInterrupt, serial_server.Stop):
+        pass
+    st = bus.stats
+    counts = ", ".join(f"{k} {v}" for k, v in sorted(faults.counts.items())) or "none"
+    serial_server.flush_print(
+        f"served {st['packets']} packets, {st['replies']} replies, {st['collisions']} collisions, "
+        f"{st['bad_checksum']} bad checksums; faults: {counts}")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bus", help="serve emulated AX-12 servos on a pty or TCP port",
+                       description="Serve emulated AX-12A servos in real time (wire time and "
+                                   "return delay honoured) for stock Protocol 1.0 clients.")
+    p.add_argument("--servos", type=int, default=None, help="number of servos (default 18)")
+    p.add_argument("--ids", default=None, help="servo IDs, e.g. 1-18 or 1,3,5-7")
+    p.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal (prints 'pty: PATH')")
+    p.add_argument("--tcp", type=int, default=None, metavar="PORT", help="serve on a TCP port")
+    p.add_argument("--host", default="127.0.0.1", help="address for --tcp (default 127.0.0.1)")
+    p.add_argument("--baud", type=int, default=None, help="line rate in bit/s (default 1000000)")
+    p.add_argument("--echo", action="store_true", help="echo the master's bytes (single-wire adapter)")
+    p.add_argument("--scenario", default=None, help="scenario TOML ([bus], [faults], [scenario].seed)")
+    p.add_argument("--edition", choices=("emanual", "original"), default=None,
+                   help="control-table defaults of this manual edition (default emanual)")
+    p.add_argument("--seed", type=int, default=None, help="fault RNG seed (default: scenario's, else 0)")
+    p.add_argument("--bit-error-rate", type=float, default=None, metavar="P")
+    p.add_argument("--drop-status-rate", type=float, default=None, metavar="P")
+    p.add_argument("--unplug", action="append", metavar="ID:AT_S[:UNTIL_S]")
+    p.add_argument("--stall", action="append", metavar="ID:AT_S[:UNTIL_S]")
+    p.add_argument("--overheat", action="append", metavar="ID:TEMP_C:AT_S[:UNTIL_S]")
+    p.add_argument("--voltage-sag", dest="voltage_sag", action="append",
+                   metavar="VOLTS:AT_S[:UNTIL_S]")
+    p.add_argument("-v", "--verbose", action="store_true", help="print each injected fault on stderr")
+    p.set_defaults(func=run)
