@@ -1,0 +1,361 @@
+"""Replay a trace: into the firmware (regression test) or onto a CAN bus.
+
+Into the firmware: the trace's ``/link`` topic holds every simulator-link exchange of the
+run (``firmware/hal/wire.py`` framing): the bytes the firmware sent since the previous
+reply (posted UART writes, CAN frames, events, then the request) and the reply it got
+(virtual time, bus bytes, switch levels, CAN input). That is the firmware's whole view of
+the world, so replay starts the firmware against a small server that answers each request
+with the logged reply, without any simulator, and compares what the firmware sends with
+what it sent then. Identical firmware gives identical bytes; a changed parameter shows
+up as the first message that differs.
+
+Onto a CAN bus: the ``/can/raw`` frames are sent through python-can with their logged
+spacing (scaled by ``rate``).
+"""
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable
+
+from firmware.hal import wire
+from host_tools import recorder as rec
+from host_tools.errors import UserError
+from host_tools.trace_tools import Trace
+
+ROOT = Path(__file__).resolve().parent.parent
+
+# What each link message is, for reports and --topics.
+OP_TOPICS = {wire.OP_HELLO: "hello", wire.OP_TRANSACT: "uart", wire.OP_WRITE: "uart",
+             wire.OP_SLEEP: "sleep", wire.OP_CAN: "can", wire.OP_EVENT: "event"}
+REQUEST_OPS = (wire.OP_HELLO, wire.OP_TRANSACT, wire.OP_SLEEP)
+TOPICS = ("uart", "can", "sleep", "event", "hello")
+# Events whose text is not a firmware output: wall-clock profiling counters.
+UNCOMPARED_EVENTS = (wire.EVENT_STATS,)
+
+
+def split_messages(data: bytes) -> list[tuple[int, bytes]]:
+    """``op | u16 len | payload`` records -> [(op, payload)]; raises ValueError if cut."""
+    out = []
+    i, n = 0, len(data)
+    while i < n:
+        if i + wire.HEADER_LEN > n:
+            raise ValueError("link record header cut off")
+        op = data[i]
+        length = data[i + 1] | (data[i + 2] << 8)
+        j = i + wire.HEADER_LEN + length
+        if j > n:
+            raise ValueError("link record payload cut off")
+        out.append((op, bytes(data[i + wire.HEADER_LEN:j])))
+        i = j
+    return out
+
+
+def _compared(op: int, payload: bytes) -> bool:
+    if op == wire.OP_HELLO:
+        return False  # names the runtime, which --python may change on purpose
+    if op == wire.OP_EVENT and payload and payload[0] in UNCOMPARED_EVENTS:
+        return False
+    return True
+
+
+@dataclass
+class Divergence:
+    t_s: float
+    topic: str
+    expected: str
+    actual: str
+    exchange: int
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"t_s": self.t_s, "topic": self.topic, "expected": self.expected,
+                "actual": self.actual, "exchange": self.exchange}
+
+
+@dataclass
+class ReplayResult:
+    exchanges: int = 0
+    compared_messages: int = 0
+    identical: bool = True
+    divergence: Divergence | None = None
+    firmware_exit: int | None = None
+    stderr_tail: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"identical": self.identical, "exchanges": self.exchanges,
+                "compared_messages": self.compared_messages,
+                "first_divergence": self.divergence.as_dict() if self.divergence else None,
+                "firmware_exit": self.firmware_exit, **self.extra}
+
+
+def _describe(op: int, payload: bytes) -> str:
+    return "%s %s" % (chr(op) if 32 < op < 127 else "0x%02X" % op, payload.hex())
+
+
+def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | None = None
+                   ) -> list[tuple[int, bytes, bytes]]:
+    """(t_us, request, reply) of every logged link exchange, in order."""
+    if rec.T_LINK not in trace.topics():
+        raise UserError(f"{trace.path}: no {rec.T_LINK} topic: this trace holds no "
+                        "firmware link exchanges to replay (record with 'hexhil run --out')")
+    cls = rec.LinkExchange
+    out = []
+    for m in trace.messages([rec.T_LINK], None, end_s):
+        try:
+            x = cls.FromString(m.data)
+        except Exception:
+            raise UserError(f"{trace.path}: corrupt {rec.T_LINK} message at "
+                            f"t={m.log_time_ns / 1e9:.6f} s") from None
+        out.append((m.log_time_ns // 1000, x.request, x.reply))
+    return out
+
+
+def firmware_command(python: str) -> list[str]:
+    """How hil/link.py starts the firmware, so replay runs the same program."""
+    try:
+        from hil import link  # the simulator's own launcher, when present
+        cmd = getattr(link, "firmware_command", None)
+        if cmd is not None:
+            return list(cmd(python))
+    except ImportError:
+        pass
+    if python == "micropython":
+        exe = str(Path(sys.executable).with_name("micropython"))
+    else:
+        exe = sys.executable
+    return [exe, "-m", "firmware.main"]
+
+
+def _firmware_env(port: int) -> dict[str, str]:
+    env = dict(os.environ)
+    env[wire.ENV_PORT] = str(port)
+    env["MICROPYPATH"] = f"{ROOT}:.frozen:{ROOT}/firmware/lib"
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    return env
+
+
+class _Conn:
+    """Reads link records from the firmware socket."""
+
+    def __init__(self, sock: socket.socket) -> None:
+        self.sock = sock
+        self.buf = bytearray()
+
+    def _fill(self, n: int) -> bool:
+        while len(self.buf) < n:
+            chunk = self.sock.recv(65536)
+            if not chunk:
+                return False
+            self.buf += chunk
+        return True
+
+    def next_batch(self) -> tuple[list[tuple[int, bytes]], bool]:
+        """Messages up to and including the next request; (messages, closed)."""
+        msgs = []
+        while True:
+            if not self._fill(wire.HEADER_LEN):
+                return msgs, True
+            length = self.buf[1] | (self.buf[2] << 8)
+            if not self._fill(wire.HEADER_LEN + length):
+                return msgs, True
+            op = self.buf[0]
+            payload = bytes(self.buf[wire.HEADER_LEN:wire.HEADER_LEN + length])
+            del self.buf[:wire.HEADER_LEN + length]
+            msgs.append((op, payload))
+            if op in REQUEST_OPS:
+                return msgs, False
+
+
+def replay_firmware(path: str | Path, python: str = "micropython", rate: float = 0.0,
+                    start_s: float | None = None, end_s: float | None = None,
+                    topics: Iterable[str] | None = None, timeout_s: float = 60.0,
+                    command: list[str] | None = None) -> ReplayResult:
+    """Serve the logged replies to a fresh firmware process and compare its messages.
+
+    ``start_s``/``end_s`` bound the compared stretch (the firmware always boots from t=0,
+    so replay runs from the start and stops at ``end_s``); ``topics`` limits the
+    comparison to some of ``TOPICS``; ``rate`` > 0 paces replies in wall time (1.0 =
+    real time), 0 runs as fast as the firmware goes.
+    """
+    if python not in ("micropython", "cpython"):
+        raise UserError(f"--python must be micropython or cpython, not {python!r}")
+    if rate < 0:
+        raise UserError("--rate must be >= 0 (0 = as fast as possible)")
+    wanted = set(TOPICS)
+    if topics:
+        wanted = {t for item in topics for t in item.split(",") if t}
+        bad = sorted(wanted - set(TOPICS))
+        if bad:
+            raise UserError(f"unknown replay topic(s) {', '.join(bad)} "
+                            f"(known: {', '.join(TOPICS)})")
+    with Trace(path) as tr:
+        exchanges = load_exchanges(tr, start_s, end_s)
+    if not exchanges:
+        raise UserError(f"{path}: the {rec.T_LINK} topic is empty in the chosen time range")
+    start_us = int(round((start_s or 0.0) * 1e6))
+
+    srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(1)
+    srv.settimeout(timeout_s)
+    port = srv.getsockname()[1]
+    cmd = command or firmware_command(python)
+    try:
+        proc = subprocess.Popen(cmd, cwd=ROOT, env=_firmware_env(port),
+                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    except OSError as exc:
+        srv.close()
+        raise UserError(f"cannot start the firmware ({' '.join(cmd)}): {exc.strerror}") from None
+    result = ReplayResult()
+    wall0 = time.perf_counter()
+    try:
+        try:
+            sock, _ = srv.accept()
+        except socket.timeout:
+            raise UserError(f"the firmware ({' '.join(cmd)}) never connected to the replay "
+                            f"link within {timeout_s:g} s") from None
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        sock.settimeout(timeout_s)
+        conn = _Conn(sock)
+        prev_t_us = 0
+        for i, (t_us, request, reply) in enumerate(exchanges):
+            try:
+                expected = split_messages(request)
+            except ValueError as exc:
+                raise UserError(f"{path}: corrupt {rec.T_LINK} exchange {i}: {exc}") from None
+            try:
+                actual, closed = conn.next_batch()
+            except socket.timeout:
+                actual, closed = [], True
+            div = _compare(expected, actual, wanted, prev_t_us, i,
+                           compare=prev_t_us >= start_us)
+            if div is not None:
+                result.divergence = div
+                result.identical = False
+                break
+            result.compared_messages += sum(1 for op, p in expected if _compared(op, p))
+            result.exchanges = i + 1
+            if closed or not reply:
+                break
+            if rate > 0:
+                lag = wall0 + t_us * 1e-6 / rate - time.perf_counter()
+                if lag > 0:
+                    time.sleep(lag)
+            sock.sendall(reply)
+            prev_t_us = t_us
+        sock.close()
+    finally:
+        srv.close()
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+        result.firmware_exit = proc.returncode
+        err = proc.stderr.read().decode("utf-8", "replace") if proc.stderr else ""
+        result.stderr_tail = err[-2000:]
+    result.extra["wall_s"] = time.perf_counter() - wall0
+    return result
+
+
+def _compare(expected: list[tuple[int, bytes]], actual: list[tuple[int, bytes]],
+             wanted: set[str], t_us: int, index: int, compare: bool) -> Divergence | None:
+    """First differing compared message of one exchange, or None."""
+    exp = [(op, p) for op, p in expected if _compared(op, p)
+           and OP_TOPICS.get(op, "?") in wanted]
+    act = [(op, p) for op, p in actual if _compared(op, p)
+           and OP_TOPICS.get(op, "?") in wanted]
+    # Requests must line up even when their topic is not compared, or replies would
+    # go to the wrong question.
+    exp_req = [op for op, _ in expected if op in REQUEST_OPS]
+    act_req = [op for op, _ in actual if op in REQUEST_OPS]
+    if compare:
+        for k in range(max(len(exp), len(act))):
+            e = exp[k] if k < len(exp) else None
+            a = act[k] if k < len(act) else None
+            if e != a:
+                op = (e or a)[0]
+                return Divergence(t_us / 1e6, OP_TOPICS.get(op, "?"),
+                                  _describe(*e) if e else "(nothing)",
+                                  _describe(*a) if a else "(nothing: firmware stopped)",
+                                  index)
+    if exp_req != act_req:
+        op = (exp_req or act_req)[0]
+        e = next(((o, p) for o, p in expected if o in REQUEST_OPS), None)
+        a = next(((o, p) for o, p in actual if o in REQUEST_OPS), None)
+        return Divergence(t_us / 1e6, OP_TOPICS.get(op, "?"),
+                          _describe(*e) if e else "(nothing)",
+                          _describe(*a) if a else "(nothing: firmware stopped)", index)
+    return None
+
+
+# -- onto a CAN bus -----------------------------------------------------------------------
+def parse_can_target(spec: str) -> tuple[str, str]:
+    interface, sep, channel = spec.partition(":")
+    if not sep or not interface or not channel:
+        raise UserError(f"--can wants INTERFACE:CHANNEL (e.g. virtual:0, "
+                        f"socketcand:hexhil0), got {spec!r}")
+    return interface, channel
+
+
+def _bus_kwargs(items: Iterable[str]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for item in items or ():
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise UserError(f"--can-arg wants KEY=VALUE, got {item!r}")
+        try:
+            out[key] = int(value)
+        except ValueError:
+            out[key] = value
+    return out
+
+
+def replay_can(path: str | Path, spec: str, rate: float = 1.0, start_s: float | None = None,
+               end_s: float | None = None, bus_args: Iterable[str] = (),
+               bus: Any = None, sleep: Callable[[float], None] = time.sleep) -> dict[str, Any]:
+    """Send the logged ``/can/raw`` frames through python-can, keeping their spacing
+    (divided by ``rate``; 0 sends back to back)."""
+    import can
+
+    if rate < 0:
+        raise UserError("--rate must be >= 0 (0 = back to back)")
+    interface, channel = parse_can_target(spec)
+    cls = rec.CanFrame
+    with Trace(path) as tr:
+        if rec.T_CAN_RAW not in tr.topics():
+            raise UserError(f"{tr.path}: no CAN frames to replay (no {rec.T_CAN_RAW} topic)")
+        frames = [(m.log_time_ns, cls.FromString(m.data))
+                  for m in tr.messages([rec.T_CAN_RAW], start_s, end_s)]
+    own = bus is None
+    if own:
+        try:
+            bus = can.Bus(interface=interface, channel=channel, **_bus_kwargs(bus_args))
+        except Exception as exc:  # python-can raises many kinds for a bad interface
+            raise UserError(f"cannot open CAN {spec}: {str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__}") from None
+    sent = 0
+    wall0 = time.perf_counter()
+    t0_ns = frames[0][0] if frames else 0
+    try:
+        for log_ns, f in frames:
+            if rate > 0:
+                lag = wall0 + (log_ns - t0_ns) * 1e-9 / rate - time.perf_counter()
+                if lag > 0:
+                    sleep(lag)
+            bus.send(can.Message(arbitration_id=f.arbitration_id, data=f.data,
+                                 is_extended_id=f.is_extended_id,
+                                 timestamp=log_ns / 1e9))
+            sent += 1
+    except can.CanError as exc:
+        raise UserError(f"CAN {spec}: send failed after {sent} frames ({exc})") from None
+    finally:
+        if own:
+            bus.shutdown()
+    return {"target": spec, "frames": sent, "wall_s": time.perf_counter() - wall0,
+            "span_s": (frames[-1][0] - t0_ns) / 1e9 if frames else 0.0}
