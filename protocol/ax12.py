@@ -153,7 +153,10 @@ POSITION_RANGE_DEG = 300.0
 POSITION_MAX = 1023
 POSITION_CENTRE_DEG = 150.0
 SPEED_RPM_PER_UNIT = 0.111
-MAX_SPEED_RPM = 114.0          # Moving Speed 0 means "as fast as the supply allows"
+# e-manual AX-12A specifications: "No Load Speed 59rpm (at 12V)". Moving Speed 0 means no
+# speed control, so the motor runs at this; register values above 59/0.111 = 531 ask for
+# more than the motor can give (the actuator model saturates, not this table).
+MAX_SPEED_RPM = 59.0
 DIRECTION_BIT = 0x400           # bit 10 of Present Speed and Present Load: CW when set
 LOAD_FRACTION_PER_UNIT = 1.0 / 1023.0
 VOLTAGE_V_PER_UNIT = 0.1
@@ -171,7 +174,7 @@ def rad_to_position(angle_rad):
 
 
 def speed_to_rad_s(value):
-    """Moving Speed (0-1023; 0 = maximum) to an angular speed limit in rad/s."""
+    """Moving Speed (0-1023; 0 = no limit: the no-load speed) to a speed limit in rad/s."""
     rpm = MAX_SPEED_RPM if value == 0 else (value & 0x3FF) * SPEED_RPM_PER_UNIT
     return rpm * 2.0 * math.pi / 60.0
 

@@ -44,6 +44,9 @@ for v in (0, 1, 100, 511, 512, 1000, 1023):
 for v in (1, 10, 300, 1023):
     check(ax12.rad_s_to_speed(ax12.speed_to_rad_s(v)) == v, "speed round trip %d" % v)
     check(ax12.rad_s_to_signed(ax12.signed_to_rad_s(v | 0x400)) == v | 0x400, "cw %d" % v)
+# e-manual: "No Load Speed 59rpm (at 12V)"; Moving Speed 0 = no speed control
+check(abs(ax12.speed_to_rad_s(0) - 59.0 * 2 * 3.141592653589793 / 60) < 1e-9, "speed 0")
+check(abs(ax12.speed_to_rad_s(300) - 33.3 * 2 * 3.141592653589793 / 60) < 1e-9, "300 = 33.3 rpm")
 check(ax12.rad_s_to_speed(0.0) == 1, "speed 0 never written (it means maximum)")
 check(ax12.fraction_to_load(-0.5) == 0x400 | 512, "load direction bit")
 check(ax12.baud_to_bps(1) == 1000000 and ax12.baud_to_bps(34) == 57142, "baud")
