@@ -1,0 +1,1 @@
+"""Paper experiments: sweeps of simulated runs, tables and plots (``hexhil experiment``)."""
