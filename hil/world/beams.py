@@ -430,6 +430,7 @@ def external_forces(g: BodyGeometry, beams: list[BeamParams], x: float, roll: fl
         mz = r[0] * Fy - r[1] * Fx
         qr += mx * e1[0] + my * e1[1] + mz * e1[2]
         qp += my
+    thetas += [0.0] * (2 - len(thetas))    # a model without beams (the avoidance baseline)
     return ExternalForces(fx, qr, qp, (fx, fy, fz), (thetas[0], thetas[1]))
 
 

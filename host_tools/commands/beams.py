@@ -1,0 +1,157 @@
+"""``hexhil beams estimate|plan|run``: seed 000's force sensing, planning and closed loop."""
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+
+from host_tools.cli import emit_json
+from host_tools.errors import UserError
+
+
+def _nonneg(name: str, v: float) -> float:
+    if not math.isfinite(v) or v < 0:
+        raise UserError(f"--{name} must be a finite number >= 0, got {v}")
+    return v
+
+
+def push_samples(k1: float, k2: float, hb1_m: float, hb2_m: float, noise: float, sensing_ms: float,
+                 seed: int, fx_n: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Sec. III-B: push with F_x into the beams; (poses, sensed forces) at 100 Hz for T_s."""
+    from hil.world.beams import SENSOR_PERIOD_US, BeamParams, BeamsWorld
+
+    world = BeamsWorld([BeamParams(k1, hb1_m), BeamParams(k2, hb2_m)], noise=noise, seed=seed)
+    poses, forces = [], []
+    while world.t_us < 10_000_000:
+        world.command(fx_n, 0.0, 0.0)
+        world.step()
+        if world.t_us % SENSOR_PERIOD_US == 0 and world.first_contact_us is not None:
+            if world.t_us - world.first_contact_us > sensing_ms * 1000 or world.flipped:
+                break
+            poses.append(world.state.q())
+            forces.append(world.sense_force())
+    return np.array(poses), np.array(forces)
+
+
+def cmd_estimate(args: argparse.Namespace) -> int:
+    from host_tools.beams.estimator import estimate
+
+    k1, k2 = _nonneg("k1", args.k1), _nonneg("k2", args.k2)
+    hb1 = _nonneg("hb-mm", args.hb_mm) * 1e-3
+    hb2 = hb1 if args.hb2_mm is None else _nonneg("hb2-mm", args.hb2_mm) * 1e-3
+    if not 10 <= args.sensing_ms <= 5000:
+        raise UserError(f"--sensing-ms must be in 10..5000, got {args.sensing_ms}")
+    _nonneg("noise", args.noise)
+    poses, forces = push_samples(k1, k2, hb1, hb2, args.noise, args.sensing_ms, args.seed)
+    if len(poses) < 2:
+        raise UserError("too few force samples in the sensing window (no contact?)")
+    est = estimate(poses, forces, args.unknowns, args.method)
+    out = est.as_dict()
+    out.update(samples=len(poses), true_k1=k1, true_k2=k2, true_hb1_mm=hb1 * 1e3, true_hb2_mm=hb2 * 1e3,
+               noise=args.noise, unknowns=args.unknowns)
+    if not args.json:
+        print(f"k1 = {est.k1:.4f} N m/rad (true {k1}), k2 = {est.k2:.4f} (true {k2}), "
+              f"h_b1 = {est.hb1_m * 1e3:.2f} mm, h_b2 = {est.hb2_m * 1e3:.2f} mm  "
+              f"[{args.method}, {len(poses)} samples, {est.elapsed_s * 1e3:.1f} ms]")
+    else:
+        emit_json(out)
+    return 0
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    from hil.world.beams import PAPER_BODY
+    from host_tools.beams import landscape, planner
+
+    k1, k2 = _nonneg("k1", args.k1), _nonneg("k2", args.k2)
+    hb = _nonneg("hb-mm", args.hb_mm) * 1e-3
+    start = _start_after_delay(k1, k2, hb, _nonneg("delay-ms", args.delay_ms))
+    land = landscape.build(landscape.paper_grid(), hb, hb)
+    p = planner.plan(land, k1, k2, start)
+    out = {"mode": p.mode, "k0": PAPER_BODY.k0_nm_per_rad(), "barrier_J": p.barrier_j,
+           "path_cost_J": p.path_cost_j, "vertices": len(p.path), "duration_s": p.duration_s,
+           "start": {"x_m": start[0], "roll_deg": math.degrees(start[1]), "pitch_deg": math.degrees(start[2])},
+           "max_roll_deg": float(np.degrees(np.abs(p.path[:, 1]).max())),
+           "max_pitch_deg": float(np.degrees(np.abs(p.path[:, 2]).max()))}
+    if args.json:
+        emit_json(out)
+    else:
+        print(f"mode {p.mode}: barrier {p.barrier_j * 1e3:.1f} mJ, path cost {p.path_cost_j * 1e3:.1f} mJ, "
+              f"{len(p.path)} vertices; k0 = {out['k0']:.4f} N m/rad")
+    return 0
+
+
+def _start_after_delay(k1: float, k2: float, hb_m: float, delay_ms: float) -> tuple[float, float, float]:
+    """The body pose after the sensory delay of a gentle (0.1 N) push from first contact."""
+    from hil.world.beams import BeamParams, BeamsWorld
+
+    world = BeamsWorld([BeamParams(k1, hb_m), BeamParams(k2, hb_m)])
+    while world.first_contact_us is None or world.t_us - world.first_contact_us < delay_ms * 1000:
+        world.command(0.1, 0.0, 0.0)
+        world.step()
+    return world.state.q()
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from host_tools.beams.closed_loop import RunConfig, run
+    from host_tools.recorder import open_recorder
+
+    hb = _nonneg("hb-mm", args.hb_mm) * 1e-3
+    fx = args.fx if args.fx is not None else (1.0 if args.strategy == "none" else 0.1)
+    if abs(fx) > 2.0:
+        raise UserError(f"--fx must be within the actuator limit |F_x| <= 2 N, got {fx}")
+    cfg = RunConfig(_nonneg("k1", args.k1), _nonneg("k2", args.k2), hb, hb, args.strategy, fx,
+                    _nonneg("noise", args.noise), _nonneg("delay-ms", args.delay_ms), seed=args.seed)
+    meta = {"command": "beams run", "k1": cfg.k1, "k2": cfg.k2, "strategy": cfg.strategy, "seed": cfg.seed}
+    try:
+        rec = open_recorder(args.out, meta) if args.out else None
+    except OSError as exc:
+        raise UserError(f"cannot write {args.out}: {exc.strerror}") from None
+    try:
+        out = run(cfg, recorder=rec)
+    finally:
+        if rec is not None:
+            rec.close()
+    if args.json:
+        emit_json(out)
+    else:
+        what = "traversed" if out["traversed"] else ("flipped" if out["flipped"] else "stuck")
+        print(f"{cfg.strategy}: {what} (mode {out['mode']}), energy {out['energy_J'] * 1e3:.1f} mJ")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("beams", help="force-sensing beam traversal (seed 000)")
+    bs = p.add_subparsers(dest="beams_command", metavar="ACTION", parser_class=type(p))
+    e = bs.add_parser("estimate", help="push into the beams, sense 100 Hz forces, estimate k and h_b")
+    e.add_argument("--k1", type=float, required=True)
+    e.add_argument("--k2", type=float, required=True)
+    e.add_argument("--hb-mm", type=float, required=True)
+    e.add_argument("--hb2-mm", type=float)
+    e.add_argument("--noise", type=float, required=True, help="sigma of Eq. 6 (0.2 = 20 %%)")
+    e.add_argument("--unknowns", type=int, choices=(2, 3, 4), required=True)
+    e.add_argument("--sensing-ms", type=float, default=300.0)
+    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--method", choices=("fast", "paper"), default="fast")
+    e.add_argument("--json", action="store_true")
+    e.set_defaults(func=cmd_estimate)
+    pl = bs.add_parser("plan", help="Eq. 8 landscape on the full grid + Dijkstra: pitch or roll")
+    pl.add_argument("--k1", type=float, required=True)
+    pl.add_argument("--k2", type=float, required=True)
+    pl.add_argument("--hb-mm", type=float, default=0.0)
+    pl.add_argument("--delay-ms", type=float, default=300.0)
+    pl.add_argument("--json", action="store_true")
+    pl.set_defaults(func=cmd_plan)
+    r = bs.add_parser("run", help="closed loop over CAN: sense, estimate, plan, control")
+    r.add_argument("--k1", type=float, required=True)
+    r.add_argument("--k2", type=float, required=True)
+    r.add_argument("--hb-mm", type=float, default=0.0)
+    r.add_argument("--strategy", choices=("interact", "avoid", "none"), required=True)
+    r.add_argument("--fx", type=float, help="propulsion before control (N); default 1 for none, 0.1 otherwise")
+    r.add_argument("--noise", type=float, default=0.2)
+    r.add_argument("--delay-ms", type=float, default=300.0)
+    r.add_argument("--seed", type=int, default=0)
+    r.add_argument("--out", help="record the CAN traffic to this MCAP file")
+    r.add_argument("--json", action="store_true")
+    r.set_defaults(func=cmd_run)
+    p.set_defaults(func=lambda a: (p.print_help(), 2)[1])
