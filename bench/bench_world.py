@@ -1,0 +1,64 @@
+"""Hexapod world speed: real-time factor of the physics alone and of the full stack
+(MicroPython firmware + lockstep bus + emulated servos + MuJoCo), and the wall time of the
+quick ``experiment tactile-hexapod`` sweep on this machine.
+"""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+import time
+from pathlib import Path
+
+from bench import Row
+from hil.world.hexapod import HexapodWorld
+from host_tools import scenario as scenario_mod
+
+ROOT = Path(__file__).resolve().parent.parent
+SIM_S = 20.0
+
+
+def _world_alone() -> float:
+    """Physics + AX-12 drives over obstacles, joints commanded at 50 Hz through the seam."""
+    sc = scenario_mod.load(ROOT / "scenarios" / "obstacles-high-large.toml")
+    world = HexapodWorld(sc, seed=1)
+    acts = world.actuators()
+    q0 = [a.state()[0] for a in acts]
+    t0 = time.perf_counter()
+    for k in range(int(SIM_S * 50)):
+        phase = 2 * math.pi * k / 50 / 1.4
+        for i, a in enumerate(acts):
+            a.command(q0[i] + 0.2 * math.sin(phase + i), 0.0, 1.0, True, (1, 1, 32, 32, 32))
+        world.advance_to((k + 1) * 20_000)
+    return SIM_S / (time.perf_counter() - t0)
+
+
+def _full_stack() -> tuple[float, float]:
+    """Tripod over low-density small obstacles, firmware under micropython; (RTF, sim s)."""
+    from host_tools.experiments import tactile_hexapod as th
+
+    spec = th.RunSpec("bench", "tripod", 1.0, True, 1, "low", "small", periods=15)
+    t0 = time.perf_counter()
+    out = th.run_one(spec)
+    wall = time.perf_counter() - t0
+    return out["sim_s"] / wall, out["sim_s"]
+
+
+def _quick_sweep() -> float:
+    from host_tools.experiments import tactile_hexapod as th
+    from host_tools.experiments.executor import Executor
+
+    with tempfile.TemporaryDirectory() as tmp:
+        res = th.main(True, Path(tmp), 1, Executor(os.cpu_count() or 1, progress=False))
+    return res["wall_s"]
+
+
+def run() -> list[Row]:
+    rows = [Row("world alone: real-time factor", _world_alone(), "x real time", ">= 20x",
+                "MuJoCo 2 ms steps + 18 AX-12 drives, high-large obstacles, 50 Hz commands")]
+    rtf, sim_s = _full_stack()
+    rows.append(Row("world full stack: real-time factor", rtf, "x real time", ">= 20x",
+                    f"micropython firmware + bus + servos + MuJoCo, tripod {sim_s:.0f} s, one core"))
+    rows.append(Row("experiment tactile-hexapod --quick", _quick_sweep(), "s wall", "few minutes",
+                    f"{os.cpu_count()} worker processes"))
+    return rows
