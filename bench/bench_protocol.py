@@ -108,7 +108,7 @@ def _micropython(data: bytes, rounds: int) -> tuple[float, int, float]:
 
 
 def run() -> list[Row]:
-    data = bus_capture()
+    data = bus_capture(CYCLES)
     cpy_s, cpy_packets = _cpython_parser(data)
     mpy_s, mpy_packets, mpy_can_s = _micropython(data, CAN_ROUNDS)
     assert cpy_packets == mpy_packets == CYCLES * 37, (cpy_packets, mpy_packets)
