@@ -14,10 +14,9 @@ import math
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, NamedTuple
 
-from mcap.exceptions import McapError
 from mcap.reader import SeekingReader
-from mcap.records import Attachment, Channel, Message, Metadata, Schema
-from mcap.stream_reader import StreamReader
+from mcap.records import Attachment, Channel, Chunk, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader, get_chunk_data_stream
 from mcap.writer import CompressionType, Writer
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 
@@ -108,9 +107,11 @@ class Trace:
                  ) -> Iterator[TraceMessage]:
         """Raw messages in log-time order; ``start_s`` inclusive, ``end_s`` exclusive."""
         sel = self.select_topics(topics)
-        start_ns = None if start_s is None else int(round(start_s * 1e9))
-        end_ns = None if end_s is None else int(round(end_s * 1e9))
-        it = self.reader.iter_messages(topics=sel, start_time=start_ns, end_time=end_ns,
+        start_ns = None if start_s is None else max(0, int(round(start_s * 1e9)))
+        end_ns = None if end_s is None else max(0, int(round(end_s * 1e9)))
+        if start_ns is not None and end_ns is not None and start_ns > end_ns:
+            raise UserError(f"--start ({start_s:g} s) is after --end ({end_s:g} s)")
+        it = self.reader.iter_messages(topics=sel, starting_at=start_ns, ending_before=end_ns,
                                        log_time_order=log_time_order)
         last_ns = 0
         try:
@@ -124,6 +125,16 @@ class Trace:
         except Exception as exc:
             raise UserError(f"{self.path}: corrupt MCAP after t={last_ns / 1e9:.6f} s "
                             f"({_why(exc)})") from None
+
+    def verify(self) -> None:
+        """Decompress every chunk and check its CRC (the summary alone hides damage)."""
+        try:
+            with open(self.path, "rb") as f:
+                for record in StreamReader(f, emit_chunks=True, validate_crcs=True).records:
+                    if isinstance(record, Chunk):
+                        get_chunk_data_stream(record, validate_crc=True)
+        except Exception as exc:
+            raise UserError(f"{self.path}: corrupt MCAP ({_why(exc)})") from None
 
     def metadata(self) -> dict[str, str]:
         out: dict[str, str] = {}
@@ -195,6 +206,7 @@ def open_trace(path: str | Path) -> Trace:
 # -- info ---------------------------------------------------------------------------------
 def info(path: str | Path) -> dict[str, Any]:
     with Trace(path) as tr:
+        tr.verify()
         st = tr.summary.statistics
         topics = []
         for ch in sorted(tr.channels.values(), key=lambda c: c.topic):

@@ -1,0 +1,172 @@
+"""The Recorder: files the stock mcap reader opens, valid schemas, Foxglove names,
+log-time order, decoded packets and frames, determinism and SIGKILL safety."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+from mcap_protobuf.decoder import DecoderFactory
+
+from host_tools import recorder as rec
+from host_tools import trace_tools
+from protocol import can_frames, dynamixel
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _record(path: Path, cycles: int = 400) -> dict:
+    """A synthetic run touching every recorder method; returns what was sent."""
+    sent = {"tx": [], "rx": [], "can": []}
+    r = rec.Recorder(path, {"scenario": "scenarios/x.toml", "seed": 7, "cmd": ["run"]})
+    for i in range(cycles):
+        t = i * 10_000
+        pkt = dynamixel.read(1 + i % 18, 36, 2)
+        st = dynamixel.status(1 + i % 18, dynamixel.ERR_OVERLOAD if i == 5 else 0,
+                              bytes((i & 0xFF, 2)))
+        # bytes split at arbitrary points, as a UART delivers them
+        r.serial(t, "tx", pkt[:3])
+        r.serial(t + 10, "tx", pkt[3:])
+        r.serial(t + 600, "rx", b"\x00" + st)  # a garbage byte before the status
+        sent["tx"].append(pkt)
+        sent["rx"].append(st)
+        arb, data = can_frames.encode("heartbeat", state=2, fault_flags=0, cycle=i, overruns=0)
+        r.can(t + 700, arb, data)
+        sent["can"].append((arb, data))
+        # telemetry reported slightly late (older than the last message): still in order
+        r.telemetry(t + 650, {"cycle": i, "state": "walking"})
+        if i % 50 == 0:
+            r.switch_edge(t, i // 50 % 6, True)
+            r.servo_state(t, [{"id": k, "position_rad": 0.01 * k, "load_frac": -0.1}
+                              for k in range(1, 19)])
+            r.body_pose(t, (0.001 * i, 0.0, 0.12), (1.0, 0.0, 0.0, 0.0))
+            r.joints(t, ["coxa_LF", "femur_LF"], [0.1, -0.2], [0.0, 0.5], [0.01, 0.02])
+            r.fault(t, "unplug", "servo 3 unplugged")
+            r.link(t, b"S\x08\x00" + bytes(8), b"\x0b\x00" + bytes(11))
+    r.close()
+    return sent
+
+
+def test_stock_reader_schemas_and_foxglove_names(tmp_path):
+    path = tmp_path / "run.mcap"
+    sent = _record(path)
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        summary = reader.get_summary()
+        names = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
+        assert names[rec.T_BODY] == "foxglove.FrameTransform"
+        assert names[rec.T_JOINTS] == "foxglove.JointStates"
+        assert names[rec.T_FAULTS] == "foxglove.Log"
+        assert names["/can/heartbeat"] == "hexhil.can.heartbeat"
+        assert {ci.compression for ci in summary.chunk_indexes} == {"zstd"}
+        # 4 s of virtual time in 0.5 s windows: several chunks, not one at the end
+        assert summary.statistics.chunk_count >= 8
+        meta = {m.name: m.metadata for m in reader.iter_metadata()}["hexhil"]
+        assert meta["seed"] == "7" and meta["scenario"] == "scenarios/x.toml"
+        assert meta["software_version"] == rec.software_version()
+        # every protobuf message decodes with the schema stored in the file
+        packets = {"tx": [], "rx": []}
+        for schema, channel, message, decoded in reader.iter_decoded_messages(
+                topics=[rec.T_DYNAMIXEL, rec.T_JOINTS, rec.T_BODY]):
+            if channel.topic == rec.T_DYNAMIXEL:
+                packets[decoded.direction].append(decoded)
+            elif channel.topic == rec.T_JOINTS:
+                assert [j.name for j in decoded.joints] == ["coxa_LF", "femur_LF"]
+                assert decoded.joints[1].velocity == 0.5
+            else:
+                assert decoded.translation.z == 0.12 and decoded.rotation.w == 1.0
+    assert [p.raw for p in packets["tx"]] == sent["tx"]
+    assert [p.raw for p in packets["rx"]] == sent["rx"]
+    assert packets["tx"][0].instruction == "READ"
+    assert packets["rx"][5].errors == "overload"
+    # jsonschema channels: the schema parses and every decoded key is declared in it
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        for schema in summary.schemas.values():
+            if schema.encoding == "jsonschema":
+                assert json.loads(schema.data)["type"] == "object"
+        props = json.loads(next(s for s in summary.schemas.values()
+                                if s.name == "hexhil.can.heartbeat").data)["properties"]
+        got = [json.loads(m.data) for _, _, m in reader.iter_messages(topics=["/can/heartbeat"])]
+    assert len(got) == len(sent["can"])
+    for values, (arb, data) in zip(got, sent["can"]):
+        assert set(values) <= set(props)
+        name, want = can_frames.decode(arb, data)
+        assert name == "heartbeat"
+        assert all(values[k] == want[k] for k in want)
+
+
+def test_messages_are_in_log_time_order_in_the_file(tmp_path):
+    path = tmp_path / "run.mcap"
+    _record(path, cycles=200)
+    with open(path, "rb") as f:
+        times = [m.log_time for _, _, m in make_reader(f).iter_messages(log_time_order=False)]
+    assert times == sorted(times)
+    assert len(times) > 1000
+
+
+def test_same_run_same_bytes(tmp_path):
+    _record(tmp_path / "a.mcap", cycles=120)
+    _record(tmp_path / "b.mcap", cycles=120)
+    assert (tmp_path / "a.mcap").read_bytes() == (tmp_path / "b.mcap").read_bytes()
+
+
+def test_unwritable_path_is_a_user_error(tmp_path):
+    from host_tools.errors import UserError
+
+    with pytest.raises(UserError, match="cannot write trace"):
+        rec.Recorder(tmp_path / "no" / "such" / "dir.mcap")
+    assert rec.open_recorder(None) is None
+
+
+KILL_SCRIPT = textwrap.dedent("""
+    import sys, time
+    from host_tools.recorder import Recorder
+    r = Recorder(sys.argv[1], {"seed": 1})
+    t = 0
+    while True:                      # 1 kHz of messages, for ever
+        r.serial(t, "tx", b"\\xff\\xff\\x01\\x04\\x02\\x24\\x02\\xd2")
+        r.telemetry(t, {"t_us": t})
+        if t == 3_700_000:           # 3.7 simulated seconds in: tell the parent
+            print("ready", flush=True)
+            time.sleep(60)
+        t += 1000
+""")
+
+
+def test_sigkill_loses_at_most_the_last_simulated_second(tmp_path):
+    script = tmp_path / "writer.py"
+    script.write_text(KILL_SCRIPT)
+    path = tmp_path / "killed.mcap"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen([sys.executable, str(script), str(path)], stdout=subprocess.PIPE,
+                            env=env, cwd=ROOT, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    # the killed file is unreadable to the seeking reader (no summary) ...
+    from host_tools.errors import UserError
+    with pytest.raises(UserError, match="recover"):
+        trace_tools.info(path)
+    # ... and recover salvages everything but the last window
+    out = tmp_path / "recovered.mcap"
+    r = trace_tools.recover(path, out)
+    assert not r["complete"]
+    assert 3.7 - 1.0 <= r["end_s"] <= 3.7
+    info = trace_tools.info(out)
+    counts = {t["topic"]: t["messages"] for t in info["topics"]}
+    # no gaps: every millisecond up to the last recovered one is there, on both topics
+    n = int(round(r["end_s"] * 1000)) + 1
+    assert counts == {rec.T_SERIAL: n, rec.T_DYNAMIXEL: n, rec.T_TELEMETRY: n}
+    with trace_tools.open_trace(out) as tr:
+        ts = [v["t_us"] for _, v in tr.decoded([rec.T_TELEMETRY])]
+    assert ts == list(range(0, n * 1000, 1000))

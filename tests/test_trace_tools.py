@@ -1,0 +1,225 @@
+"""hexhil trace info|cat|export|recover|import-csv, estimate on imported data, and the
+one-line exit-2 answer of every trace/replay/estimate command to bad input."""
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+
+import can
+import pytest
+
+from host_tools import recorder as rec
+from host_tools import trace_tools
+from host_tools.cli import main
+from protocol import can_frames
+
+
+def _trace(path, seconds: float = 2.0):
+    """CAN at 100 Hz (force + body_pose + heartbeat) plus serial bytes."""
+    r = rec.Recorder(path, {"seed": 3})
+    frames = []
+    for i in range(int(seconds * 100)):
+        t = i * 10_000
+        for name, sig in (("force", dict(fx_n=0.001 * i, fy_n=-0.5, fz_n=0.25, sample=i)),
+                          ("heartbeat", dict(state=2, fault_flags=0, cycle=i, overruns=0))):
+            arb, data = can_frames.encode(name, **sig)
+            r.can(t, arb, data, direction="rx" if name == "force" else "tx")
+            frames.append((t, arb, data))
+        r.serial(t, "tx", bytes.fromhex("FFFF010201FB"))
+    r.close()
+    return frames
+
+
+def _cli(capsys, *argv):
+    rc = main(list(argv))
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def test_info_counts_topics_times(tmp_path, capsys):
+    p = tmp_path / "t.mcap"
+    _trace(p)
+    rc, out, _ = _cli(capsys, "trace", "info", str(p), "--json")
+    assert rc == 0
+    s = json.loads(out.strip().splitlines()[-1])
+    counts = {t["topic"]: t["messages"] for t in s["topics"]}
+    assert counts == {"/can/raw": 400, "/can/force": 200, "/can/heartbeat": 200,
+                      "/serial": 200, "/dynamixel": 200}
+    assert s["start_s"] == 0.0 and s["end_s"] == pytest.approx(1.99)
+    assert s["duration_s"] == pytest.approx(1.99)
+    assert s["metadata"]["seed"] == "3"
+    rc, out, _ = _cli(capsys, "trace", "info", str(p))
+    assert rc == 0 and "/can/force" in out and "duration:  1.990000 s" in out
+
+
+def test_cat_filters_by_topic_glob_and_time(tmp_path, capsys):
+    p = tmp_path / "t.mcap"
+    _trace(p)
+    rc, out, _ = _cli(capsys, "trace", "cat", str(p), "--topics", "/can/f*",
+                      "--start", "0.5", "--end", "0.55")
+    lines = out.strip().splitlines()
+    assert rc == 0 and len(lines) == 5
+    t, topic, body = lines[0].split(" ", 2)
+    assert (t, topic) == ("0.500000", "/can/force")
+    assert json.loads(body)["sample"] == 50 and json.loads(body)["fx_n"] == pytest.approx(0.05)
+    rc, _, err = _cli(capsys, "trace", "cat", str(p), "--topics", "/nope")
+    assert rc == 2 and "no topic matches /nope" in err
+
+
+def test_export_csv_and_python_can_logs(tmp_path, capsys):
+    p = tmp_path / "t.mcap"
+    frames = _trace(p)
+    out = tmp_path / "force.csv"
+    assert _cli(capsys, "trace", "export", str(p), str(out), "--topics", "/can/force")[0] == 0
+    rows = list(csv.DictReader(open(out)))
+    assert len(rows) == 200 and float(rows[10]["fx_n"]) == pytest.approx(0.01)
+    assert rows[10]["time_s"] == "0.100000"
+    d = tmp_path / "all"
+    assert _cli(capsys, "trace", "export", str(p), str(d))[0] == 0
+    assert sorted(x.name for x in d.iterdir()) == ["can_force.csv", "can_heartbeat.csv",
+                                                   "can_raw.csv", "dynamixel.csv", "serial.csv"]
+    for suffix in (".asc", ".blf"):
+        log = tmp_path / f"can{suffix}"
+        assert _cli(capsys, "trace", "export", str(p), str(log))[0] == 0
+        got = list(can.LogReader(str(log)))
+        assert [(m.arbitration_id, bytes(m.data)) for m in got] == \
+               [(a, d) for _, a, d in frames]
+        assert [round(m.timestamp, 6) for m in got] == [t / 1e6 for t, _, _ in frames]
+    rc, _, err = _cli(capsys, "trace", "export", str(p), str(tmp_path / "x.parquet"))
+    assert rc == 2 and "unknown export format" in err
+
+
+def test_recover_truncated_file(tmp_path, capsys):
+    p = tmp_path / "t.mcap"
+    _trace(p, seconds=3.0)
+    data = p.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    rc, _, err = _cli(capsys, "trace", "info", str(cut))
+    assert rc == 2 and "recover" in err and len(err.strip().splitlines()) == 1
+    out = tmp_path / "rec.mcap"
+    rc, o, _ = _cli(capsys, "trace", "recover", str(cut), str(out), "--json")
+    r = json.loads(o.strip().splitlines()[-1])
+    assert rc == 0 and r["messages"] > 0 and not r["complete"]
+    # what came back is an exact prefix of the original, in time
+    with trace_tools.open_trace(p) as a, trace_tools.open_trace(out) as b:
+        full = [(m.topic, m.log_time_ns, m.data) for m in a.messages()]
+        got = [(m.topic, m.log_time_ns, m.data) for m in b.messages()]
+    assert sorted(got) == sorted(x for x in full if x[1] <= r["end_s"] * 1e9)
+    # a complete file recovers completely
+    rc, o, _ = _cli(capsys, "trace", "recover", str(p), str(tmp_path / "same.mcap"), "--json")
+    r = json.loads(o.strip().splitlines()[-1])
+    assert r["complete"] and r["messages"] == len(full)
+
+
+def _beams_csv(path, k=(0.3, 0.5), hb_m=0.0, seconds=1.2):
+    """A 100 Hz force + pose log of the seed-000 beams world, as a physical robot logs it."""
+    from hil.world.beams import SENSOR_PERIOD_US, BeamParams, BeamsWorld
+
+    w = BeamsWorld(beams=[BeamParams(k[0], hb_m), BeamParams(k[1], hb_m)])
+    with open(path, "w", newline="") as f:
+        out = csv.writer(f)
+        out.writerow(["time_s", "fx_n", "fy_n", "fz_n", "x_m", "roll_rad", "pitch_rad", "tx_nm"])
+        while w.t_us < seconds * 1e6:
+            w.step()
+            if w.t_us % SENSOR_PERIOD_US == 0:
+                s = w.state
+                out.writerow([w.t_us / 1e6, *w.sense_force(), s.x_m, s.roll_rad, s.pitch_rad, 0])
+
+
+def test_import_csv_then_estimate_recovers_stiffness(tmp_path, capsys):
+    src, mcap = tmp_path / "robot.csv", tmp_path / "robot.mcap"
+    _beams_csv(src)
+    rc, o, _ = _cli(capsys, "trace", "import-csv", str(src), str(mcap), "--json")
+    r = json.loads(o.strip().splitlines()[-1])
+    assert rc == 0 and r["samples"] == 120 and r["pose"] and r["ignored_columns"] == ["tx_nm"]
+    topics = {t["topic"] for t in trace_tools.info(mcap)["topics"]}
+    assert {"/can/force", "/can/body_pose", "/body"} <= topics
+    rc, o, _ = _cli(capsys, "estimate", str(mcap), "--unknowns", "2", "--json")
+    e = json.loads(o.strip().splitlines()[-1])
+    assert rc == 0 and e["samples"] == 30  # T_s = 0.3 s at 100 Hz (Sec. II-E)
+    # k comes back through 1 mN / 0.1 mrad CAN resolution within a few percent
+    assert e["k1"] == pytest.approx(0.3, rel=0.05) and e["k2"] == pytest.approx(0.5, rel=0.05)
+
+
+BAD_CSVS = {
+    "missing column": "time_s,fx_n,fy_n\n0,1,2\n",
+    "not a number": "time_s,fx_n,fy_n,fz_n\n0,a,2,3\n",
+    "time goes back": "time_s,fx_n,fy_n,fz_n\n1,0,0,0\n0.5,0,0,0\n",
+    "empty": "time_s,fx_n,fy_n,fz_n\n",
+}
+
+
+@pytest.mark.parametrize("why", sorted(BAD_CSVS))
+def test_import_csv_bad_input_is_one_line(tmp_path, capsys, why):
+    src = tmp_path / "bad.csv"
+    src.write_text(BAD_CSVS[why])
+    rc, _, err = _cli(capsys, "trace", "import-csv", str(src), str(tmp_path / "o.mcap"))
+    assert rc == 2 and err.startswith("hexhil: ") and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o.mcap").exists()
+
+
+def _bad_files(tmp_path):
+    good = tmp_path / "good.mcap"
+    _trace(good, seconds=3.0)
+    data = good.read_bytes()
+    files = {
+        "missing": tmp_path / "missing.mcap",
+        "empty": tmp_path / "empty.mcap",
+        "not mcap": tmp_path / "text.mcap",
+        "truncated": tmp_path / "trunc.mcap",
+        "corrupt": tmp_path / "corrupt.mcap",
+        "directory": tmp_path,
+    }
+    files["empty"].write_bytes(b"")
+    files["not mcap"].write_text("time_s,fx_n\n0,1\n")
+    files["truncated"].write_bytes(data[: len(data) // 2])
+    # flip bytes inside the first chunk's compressed data: the chunk CRC catches it
+    bad = bytearray(data)
+    for i in range(600, 640):
+        bad[i] ^= 0x5A
+    files["corrupt"].write_bytes(bytes(bad))
+    return files
+
+
+COMMANDS = [
+    ("trace", "info", "{f}"),
+    ("trace", "cat", "{f}"),
+    ("trace", "export", "{f}", "{tmp}/out.csv"),
+    ("trace", "export", "{f}", "{tmp}/out.asc"),
+    ("replay", "{f}"),
+    ("replay", "{f}", "--can", "virtual:x"),
+    ("estimate", "{f}"),
+]
+
+
+@pytest.mark.parametrize("cmd", COMMANDS, ids=lambda c: " ".join(c[:2]))
+def test_bad_trace_input_is_one_line_exit_2(tmp_path, capsys, cmd):
+    for why, f in _bad_files(tmp_path).items():
+        argv = [a.format(f=f, tmp=tmp_path) for a in cmd]
+        rc, _, err = _cli(capsys, *argv)
+        assert rc == 2, (why, argv, err)
+        assert err.startswith("hexhil: ") and len(err.strip().splitlines()) == 1, (why, err)
+
+
+def test_recover_bad_input(tmp_path, capsys):
+    files = _bad_files(tmp_path)
+    for why in ("missing", "empty", "not mcap", "directory"):
+        rc, _, err = _cli(capsys, "trace", "recover", str(files[why]), str(tmp_path / "o.mcap"))
+        assert rc == 2 and len(err.strip().splitlines()) == 1, (why, err)
+    # a corrupt middle: recover keeps what precedes the damage and says where it stopped
+    rc, o, _ = _cli(capsys, "trace", "recover", str(files["corrupt"]), str(tmp_path / "o.mcap"),
+                    "--json")
+    assert rc == 0 and "CRC" in json.loads(o.strip().splitlines()[-1])["stopped"]
+
+
+def test_no_traceback_from_the_real_command_line(tmp_path):
+    bad = tmp_path / "trunc.mcap"
+    bad.write_bytes(b"\x89MCAP0\r\n" + b"\x01" * 40)
+    for argv in (["trace", "info", str(bad)], ["replay", str(bad)], ["estimate", str(bad)]):
+        p = subprocess.run([sys.executable, "-m", "host_tools.cli", *argv], capture_output=True,
+                           text=True)
+        assert p.returncode == 2 and "Traceback" not in p.stderr
+        assert len(p.stderr.strip().splitlines()) == 1
