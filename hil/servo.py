@@ -33,7 +33,7 @@ OVERLOAD_TIME_US = 1_000_000
 SUPPLY_V = 12.0                # nominal AX-12A supply
 MOVING_EPS_RAD_S = 0.5 * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0  # half a speed unit
 
-_STATUS_ERRORS = dxl.ERR_INPUT_VOLTAGE | dxl.ERR_OVERHEATING | dxl.ERR_OVERLOAD
+_NO_LOAD_RAD_S = ax12.speed_to_rad_s(0)
 
 
 class Actuator(Protocol):
@@ -52,6 +52,9 @@ class Actuator(Protocol):
 
 class KinematicActuator:
     """Moves towards the goal at the speed limit; no forces, no inertia.
+
+    The speed saturates at the motor's no-load speed (``ax12.speed_to_rad_s(0)``), so
+    Moving Speed above that, like 0, runs flat out.
 
     Holds still with torque off or a zero torque limit. ``stalled`` (set by the stall
     fault) models an external load that blocks the horn: it stays put and reports a load
@@ -76,7 +79,7 @@ class KinematicActuator:
     def command(self, goal_rad: float, speed_limit_rad_s: float, torque_limit_frac: float,
                 enabled: bool, compliance: tuple[int, int, int, int, int]) -> None:
         self.goal_rad = goal_rad
-        self.speed_rad_s = speed_limit_rad_s
+        self.speed_rad_s = min(speed_limit_rad_s, _NO_LOAD_RAD_S)
         self.torque_frac = torque_limit_frac
         self.enabled = enabled
         # A goal within the compliance margin counts as reached (one unit = 300/1023 deg).

@@ -1,0 +1,207 @@
+"""One emulated AX-12A: instructions, access rules, error bits, alarms, motion."""
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from hil.servo import OVERLOAD_TIME_US, KinematicActuator, Servo
+from protocol import ax12
+from protocol import dynamixel as dxl
+
+
+def status(reply: bytes) -> dxl.Packet:
+    (pkt,) = dxl.Parser().feed(reply)
+    return pkt
+
+
+def write(s: Servo, address: int, data: bytes, t_us: int = 0) -> int:
+    return status(s.handle(dxl.WRITE, bytes((address,)) + data, False, t_us)).code
+
+
+def test_defaults_differ_by_edition():
+    e, o = Servo(1, "emanual"), Servo(1, "original")
+    assert e.value("model_number") == 12 and e.value("temperature_limit") == 70
+    assert o.value("temperature_limit") == 85 and o.value("max_voltage_limit") == 190
+    assert e.value("torque_limit") == e.value("max_torque") == 1023
+    with pytest.raises(ValueError):
+        Servo(1, "third")
+
+
+def test_ping_and_read_and_status_format():
+    s = Servo(7)
+    assert s.handle(dxl.PING, b"", False, 0) == dxl.status(7)
+    pkt = status(s.handle(dxl.READ, bytes((0, 3)), False, 0))
+    assert (pkt.id, pkt.code, list(pkt.params)) == (7, 0, [12, 0, ax12.FIRMWARE_VERSION])
+    assert status(s.handle(dxl.READ, bytes((48, 3)), False, 0)).code == dxl.ERR_RANGE
+    assert status(s.handle(dxl.READ, bytes((0,)), False, 0)).code == dxl.ERR_INSTRUCTION
+    assert status(s.handle(0x22, b"", False, 0)).code == dxl.ERR_INSTRUCTION
+    assert s.handle(dxl.PING, b"", True, 0) is None  # broadcast: never answered
+
+
+@pytest.mark.parametrize("level, answered", [(0, {dxl.PING}), (1, {dxl.PING, dxl.READ}),
+                                             (2, {dxl.PING, dxl.READ, dxl.WRITE})])
+def test_status_return_level(level, answered):
+    s = Servo(1)
+    s.table[ax12.STATUS_RETURN_LEVEL] = level
+    got = set()
+    for code, params in ((dxl.PING, b""), (dxl.READ, b"\x00\x02"), (dxl.WRITE, b"\x19\x01")):
+        if s.handle(code, params, False, 0) is not None:
+            got.add(code)
+    assert got == answered
+    assert s.value("led") == 1  # the unanswered WRITE still happened
+
+
+def test_writes_refused_with_range_change_nothing():
+    s = Servo(1)
+    before = bytes(s.table)
+    assert write(s, ax12.MODEL_NUMBER_L, b"\x05") == dxl.ERR_RANGE          # read-only
+    assert write(s, ax12.PRESENT_POSITION, b"\x00\x00") == dxl.ERR_RANGE     # read-only
+    assert write(s, 10, b"\x01") == dxl.ERR_RANGE                            # reserved
+    assert write(s, ax12.GOAL_POSITION, b"\x00\x04") == dxl.ERR_RANGE        # 1024 > 1023
+    assert write(s, ax12.STATUS_RETURN_LEVEL, b"\x03") == dxl.ERR_RANGE
+    assert write(s, 49, b"\x00\x00") == dxl.ERR_RANGE                        # past the table
+    assert bytes(s.table) == before
+
+
+def test_partial_write_of_a_two_byte_field_is_checked_whole():
+    s = Servo(1)
+    assert write(s, ax12.GOAL_POSITION + 1, b"\x03") == 0  # high byte only: 0x300 | 0 = 768
+    assert s.value("goal_position") == 0x300
+    assert write(s, ax12.GOAL_POSITION + 1, b"\x04") == dxl.ERR_RANGE
+
+
+def test_lock_emanual_freezes_eeprom_until_power_cycle():
+    s = Servo(1, "emanual")
+    assert write(s, ax12.LOCK, b"\x01") == 0
+    assert write(s, ax12.RETURN_DELAY_TIME, b"\x00") == dxl.ERR_RANGE
+    assert write(s, ax12.LOCK, b"\x00") == dxl.ERR_RANGE
+    assert write(s, ax12.LED, b"\x01") == 0 and write(s, ax12.PUNCH, b"\x40\x00") == 0
+    s.power_cycle(0)
+    assert s.value("lock") == 0 and write(s, ax12.RETURN_DELAY_TIME, b"\x00") == 0
+
+
+def test_lock_original_allows_only_24_to_35():
+    s = Servo(1, "original")
+    write(s, ax12.LOCK, b"\x01")
+    assert write(s, ax12.GOAL_POSITION, b"\x00\x01") == 0
+    assert write(s, ax12.PUNCH, b"\x40\x00") == dxl.ERR_RANGE
+    assert write(s, ax12.ID, b"\x02") == dxl.ERR_RANGE
+
+
+def test_reg_write_and_action():
+    s = Servo(1)
+    assert status(s.handle(dxl.ACTION, b"", False, 0)).code == dxl.ERR_INSTRUCTION
+    assert status(s.handle(dxl.REG_WRITE, b"\x19\x01", False, 0)).code == 0
+    assert s.value("registered") == 1 and s.value("led") == 0
+    assert status(s.handle(dxl.ACTION, b"", False, 0)).code == 0
+    assert s.value("registered") == 0 and s.value("led") == 1
+    assert s.handle(dxl.ACTION, b"", True, 0) is None  # broadcast, nothing registered: silent
+
+
+def test_factory_reset_and_sync_write():
+    s = Servo(9)
+    write(s, ax12.RETURN_DELAY_TIME, b"\x00")
+    reply = s.handle(dxl.FACTORY_RESET, b"", False, 0)
+    assert status(reply).id == 9 and s.id == 1 and s.value("return_delay_time") == 250
+    params = bytes((ax12.GOAL_POSITION, 2, 3, 0, 1, 1, 0x10, 0x02))
+    assert s.handle(dxl.SYNC_WRITE, params, True, 0) is None
+    assert s.value("goal_position") == 0x210
+
+
+def test_goal_outside_angle_limits_sets_bit_and_horn_stops_at_limit():
+    s = Servo(1)
+    write(s, ax12.CW_ANGLE_LIMIT, b"\xc8\x00")  # 200
+    write(s, ax12.TORQUE_ENABLE, b"\x01")
+    assert write(s, ax12.GOAL_POSITION, b"\x64\x00") == dxl.ERR_ANGLE_LIMIT  # 100 < 200
+    s.advance_to(5_000_000)
+    assert s.value("present_position") == 200 and s.value("goal_position") == 100
+
+
+def test_kinematic_motion_at_moving_speed():
+    s = Servo(1)
+    write(s, ax12.TORQUE_ENABLE, b"\x01")
+    write(s, ax12.MOVING_SPEED, (100).to_bytes(2, "little"))  # 11.1 rpm
+    write(s, ax12.GOAL_POSITION, (712).to_bytes(2, "little"))
+    speed = ax12.speed_to_rad_s(100)
+    travel = ax12.position_to_rad(712) - ax12.position_to_rad(512)
+    t_arrive = int(travel / speed * 1e6)
+    s.advance_to(t_arrive // 2)
+    assert s.value("moving") == 1 and abs(s.value("present_position") - 612) <= 1
+    assert s.value("present_speed") == 100
+    s.advance_to(t_arrive + 1000)
+    assert s.value("moving") == 0 and s.value("present_position") == 712
+
+
+@pytest.mark.parametrize("moving_speed", [0, 1023])
+def test_no_load_speed_caps_motion_and_torque_off_holds(moving_speed):
+    no_load_rad_s = ax12.MAX_SPEED_RPM * 2 * math.pi / 60
+    a = KinematicActuator(0.0)
+    a.command(100.0, ax12.speed_to_rad_s(moving_speed), 1.0, True, (1, 1, 32, 32, 32))
+    a.advance_to(1_000_000)
+    assert a.state()[0] == pytest.approx(no_load_rad_s, rel=1e-9)
+    a.command(100.0, ax12.speed_to_rad_s(0), 1.0, False, (1, 1, 32, 32, 32))
+    a.advance_to(2_000_000)
+    assert a.state()[:2] == (pytest.approx(no_load_rad_s, rel=1e-9), 0.0)
+
+
+def test_stall_overload_shutdown_and_rearm():
+    s = Servo(1)
+    write(s, ax12.TORQUE_ENABLE, b"\x01")
+    s.set_stalled(True, 0)
+    write(s, ax12.GOAL_POSITION, (800).to_bytes(2, "little"))
+    s.advance_to(OVERLOAD_TIME_US // 2)
+    assert s.state_errors() == 0 and s.value("present_load") == 1023
+    s.advance_to(OVERLOAD_TIME_US + 1000)
+    assert s.state_errors() & dxl.ERR_OVERLOAD
+    assert s.value("torque_limit") == 0 and s.alarm_led  # shutdown 36 includes overload
+    s.set_stalled(False, OVERLOAD_TIME_US + 2000)
+    assert write(s, ax12.TORQUE_LIMIT, b"\xff\x03", OVERLOAD_TIME_US + 3000) == 0
+    s.advance_to(OVERLOAD_TIME_US + 5_000_000)
+    assert s.value("present_position") == 800 and s.state_errors() == 0
+
+
+def test_overheating_and_voltage_bits():
+    s = Servo(1)
+    s.set_hot_spot(90.0, 0)
+    s.advance_to(5_000_000)
+    assert s.value("present_temperature") > 70
+    assert status(s.handle(dxl.PING, b"", False, 5_000_000)).code == dxl.ERR_OVERHEATING
+    assert s.value("torque_limit") == 0
+    s.set_hot_spot(None, 5_000_000)
+    s.set_supply_v(5.0, 5_000_000)
+    s.advance_to(400_000_000)
+    assert status(s.handle(dxl.PING, b"", False, 400_000_000)).code == dxl.ERR_INPUT_VOLTAGE
+    assert s.value("present_voltage") == 50
+
+
+# --- properties -----------------------------------------------------------------------
+_MOTION = {38, 39, 40, 41, 46}  # Present Speed, Load, Moving follow the new command
+_READ_ONLY = [a for f in ax12.FIELDS if f[3] == ax12.R for a in range(f[0], f[0] + f[2])]
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 55), st.binary(min_size=0, max_size=6)), max_size=12),
+       st.sampled_from(ax12.EDITIONS))
+def test_control_table_invariants_under_random_writes(writes, edition):
+    s = Servo(1, edition)
+    for address, data in writes:
+        before = bytes(s.table)
+        locked = before[ax12.LOCK]
+        reply = s.handle(dxl.WRITE, bytes((address,)) + data, False, 0)
+        err = status(reply).code if reply else 0  # Status Return Level < 2: no reply
+        after = bytes(s.table)
+        for a in _READ_ONLY:
+            if a not in _MOTION:
+                assert after[a] == before[a], a
+        if err & dxl.ERR_RANGE:
+            assert [a for a in range(50) if after[a] != before[a] and a not in _MOTION] == []
+        for f in ax12.FIELDS:
+            assert f[6] <= ax12.get(s.table, f[0], f[2]) <= f[7], f[1]
+        if locked and edition == ax12.EDITION_EMANUAL:
+            assert after[:ax12.EEPROM_END] == before[:ax12.EEPROM_END] and after[ax12.LOCK] == 1
+        if locked and edition == ax12.EDITION_ORIGINAL:
+            changed = [a for a in range(50) if after[a] != before[a] and a not in _MOTION]
+            assert all(24 <= a <= 35 for a in changed), changed
