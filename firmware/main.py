@@ -1,0 +1,50 @@
+"""Firmware entry point: pick the HAL back end, boot, run the loop, report how it ended.
+
+Simulator: ``micropython firmware/main.py PORT`` (or ``python -m firmware.main PORT``) with
+the repository root on the import path; the port is the host's link (hil/link.py).
+On the STM32 board, ``main.py`` runs at reset with the board back end.
+"""
+import json
+import sys
+
+from firmware import config
+from firmware.controller import Controller
+from firmware.hal import wire
+
+
+def _board():
+    if sys.platform in ("linux", "darwin", "win32"):
+        from firmware.hal.sim import Board
+    else:
+        from firmware.hal.board import Board
+    return Board()
+
+
+def _traceback(exc):
+    try:
+        import io
+        buf = io.StringIO()
+        sys.print_exception(exc, buf)  # MicroPython
+        return buf.getvalue()
+    except AttributeError:
+        import traceback
+        return "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
+
+
+def main():
+    board = _board()
+    ctl = None
+    try:
+        ctl = Controller(board, config.merged(board.config()))
+        ctl.boot()
+        ctl.run()
+    except Exception as exc:  # reported to the host, which counts it; never silent
+        board.event(wire.EVENT_EXCEPTION, _traceback(exc))
+    finally:
+        if ctl is not None:
+            board.event(wire.EVENT_STATS, json.dumps(ctl.stats()))
+        board.close()
+
+
+if __name__ == "__main__":
+    main()

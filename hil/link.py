@@ -1,0 +1,142 @@
+"""Host side of the simulator link: start the firmware process and serve its requests.
+
+The firmware (``firmware/main.py`` under ``micropython`` or CPython) connects to a
+127.0.0.1 TCP port given in ``HEXHIL_LINK_PORT`` and speaks ``firmware/hal/wire.py``'s
+framing. ``Connection.exchanges`` yields, per round trip, the messages the firmware sent
+since the last reply (posted ones first, the request last); the caller answers with
+``reply``. The raw bytes of both sides are kept for the recorder (``hexhil replay``).
+"""
+from __future__ import annotations
+
+import os
+import socket
+import struct
+import subprocess
+import sys
+from pathlib import Path
+from typing import Iterator
+
+from firmware.hal import wire
+from host_tools.errors import UserError
+
+ROOT = Path(__file__).resolve().parent.parent
+REQUEST_OPS = (wire.OP_HELLO, wire.OP_TRANSACT, wire.OP_SLEEP)
+RUNTIMES = ("micropython", "cpython")
+
+
+def firmware_command(python: str) -> list[str]:
+    """The command line that runs the firmware under ``python`` (micropython or cpython)."""
+    if python == "micropython":
+        exe = Path(sys.executable).with_name("micropython")
+        if not exe.exists():
+            raise UserError("the micropython binary is not in this environment "
+                            "(run `make test` once, or use --python cpython)")
+        return [str(exe), "-m", "firmware.main"]
+    if python == "cpython":
+        return [sys.executable, "-m", "firmware.main"]
+    raise UserError(f"--python must be one of {', '.join(RUNTIMES)}, not {python!r}")
+
+
+def firmware_env(port: int) -> dict[str, str]:
+    env = dict(os.environ)
+    env[wire.ENV_PORT] = str(port)
+    env["MICROPYPATH"] = f"{ROOT}:.frozen:{ROOT}/firmware/lib"
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    return env
+
+
+class Connection:
+    """One firmware connection: batches of messages in, replies out."""
+
+    def __init__(self, sock: socket.socket) -> None:
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.sock = sock
+        self.reader = sock.makefile("rb", buffering=65536)
+        self.raw = bytearray()        # bytes of the batch being read (for the recorder)
+        self.round_trips = 0
+
+    def _message(self) -> tuple[int, bytes] | None:
+        head = self.reader.read(wire.HEADER_LEN)
+        if len(head) < wire.HEADER_LEN:
+            return None
+        n = head[1] | (head[2] << 8)
+        payload = self.reader.read(n) if n else b""
+        if len(payload) < n:
+            return None
+        self.raw += head
+        self.raw += payload
+        return head[0], payload
+
+    def batch(self) -> tuple[list[tuple[int, bytes]], bool]:
+        """Messages up to and including the next request: (messages, closed)."""
+        self.raw = bytearray()
+        msgs = []
+        while True:
+            m = self._message()
+            if m is None:
+                return msgs, True
+            msgs.append(m)
+            if m[0] in REQUEST_OPS:
+                return msgs, False
+
+    def reply(self, t_us: int, body: bytes = b"") -> bytes:
+        """Answer the pending request; returns the raw reply bytes (length prefix included)."""
+        payload = struct.pack("<Q", t_us) + body
+        raw = struct.pack("<H", len(payload)) + payload
+        self.sock.sendall(raw)
+        self.round_trips += 1
+        return raw
+
+    def close(self) -> None:
+        try:
+            self.reader.close()
+        finally:
+            self.sock.close()
+
+
+class FirmwareProcess:
+    """The firmware as a child process connected on an ephemeral 127.0.0.1 port."""
+
+    def __init__(self, python: str = "micropython", connect_timeout_s: float = 30.0,
+                 command: list[str] | None = None) -> None:
+        self.python = python
+        cmd = command or firmware_command(python)
+        srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        srv.bind(("127.0.0.1", 0))
+        srv.listen(1)
+        srv.settimeout(connect_timeout_s)
+        self.port = srv.getsockname()[1]
+        try:
+            self.proc = subprocess.Popen(cmd, cwd=ROOT, env=firmware_env(self.port),
+                                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        except OSError as exc:
+            srv.close()
+            raise UserError(f"cannot start the firmware ({' '.join(cmd)}): {exc.strerror}") from None
+        try:
+            sock, _ = srv.accept()
+        except socket.timeout:
+            self.proc.kill()
+            _, err = self.proc.communicate()
+            tail = err.decode(errors="replace").strip().splitlines()[-1:] or ["no output"]
+            raise UserError(f"the firmware ({' '.join(cmd)}) did not connect within "
+                            f"{connect_timeout_s:g} s: {tail[0]}") from None
+        finally:
+            srv.close()
+        sock.settimeout(None)
+        self.conn = Connection(sock)
+
+    def finish(self, timeout_s: float = 10.0) -> tuple[int, str, str]:
+        """Wait for the process to exit; (return code, stdout, stderr)."""
+        try:
+            out, err = self.proc.communicate(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            out, err = self.proc.communicate()
+        self.conn.close()
+        return self.proc.returncode, out.decode(errors="replace"), err.decode(errors="replace")
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.communicate()
+        self.conn.close()
