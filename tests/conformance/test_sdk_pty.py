@@ -60,7 +60,9 @@ class PtyServo:
 
 @pytest.fixture()
 def servo(monkeypatch: pytest.MonkeyPatch):
-    monkeypatch.setattr(sdk.port_handler, "LATENCY_TIMER", 1)
+    # The SDK's reply timeout is 2 x LATENCY_TIMER ms + 2 ms; a roomy one keeps a loaded
+    # machine from failing the test (a prompt reply costs no time either way).
+    monkeypatch.setattr(sdk.port_handler, "LATENCY_TIMER", 100)
     s = PtyServo(5)
     yield s
     s.close()
