@@ -8,7 +8,7 @@ its own pose; it reads ``body_pose`` frames beside ``force`` frames):
 * ``fast`` (default): for fixed geometry (poses and h_b) the contact force is linear in k
   (Eq. 4: k theta = |F| lever), so k has a least-squares closed form for each h_b; what is
   left is a 0-, 1- or 2-D search over h_b in [0, 5] mm: a grid, then a finer grid around
-  the best cell.
+  the best cell, weighted for Eq. 6's force-proportional noise.
 
 Unknowns: 4 = (k1, k2, h_b1, h_b2); 3 = h_b1 = h_b2 (Table 2); 2 = h_b1 = h_b2 = 0 (Table 3).
 """
@@ -54,13 +54,14 @@ def eq7_error(model: np.ndarray, sensed: np.ndarray) -> np.ndarray:
     return np.linalg.norm(model - sensed, axis=-1).sum(-1)
 
 
-def _ls_k(g1: np.ndarray, g2: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Least-squares (k1, k2) >= 0 for every pair of unit-force fields (broadcast over leading axes)."""
-    a11 = (g1 * g1).sum((-1, -2))
-    a22 = (g2 * g2).sum((-1, -2))
-    a12 = (g1 * g2).sum((-1, -2))
-    b1 = (g1 * f).sum((-1, -2))
-    b2 = (g2 * f).sum((-1, -2))
+def _ls_k(g1: np.ndarray, g2: np.ndarray, f: np.ndarray, w: np.ndarray | float = 1.0
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted least-squares (k1, k2) >= 0 for every pair of unit-force fields (broadcast)."""
+    a11 = (w * g1 * g1).sum((-1, -2))
+    a22 = (w * g2 * g2).sum((-1, -2))
+    a12 = (w * g1 * g2).sum((-1, -2))
+    b1 = (w * g1 * f).sum((-1, -2))
+    b2 = (w * g2 * f).sum((-1, -2))
     det = a11 * a22 - a12 * a12
     with np.errstate(divide="ignore", invalid="ignore"):
         k1 = np.where(det > 1e-18, (a22 * b1 - a12 * b2) / det, 0.0)
@@ -69,19 +70,19 @@ def _ls_k(g1: np.ndarray, g2: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np
         only2 = np.where(a22 > 0, np.maximum(b2 / a22, 0), 0.0)
     neg = (k1 < 0) | (k2 < 0)
     # constrained optimum on an edge: keep the better single-beam fit
-    r1 = ((f - only1[..., None, None] * g1) ** 2).sum((-1, -2))
-    r2 = ((f - only2[..., None, None] * g2) ** 2).sum((-1, -2))
+    r1 = (w * (f - only1[..., None, None] * g1) ** 2).sum((-1, -2))
+    r2 = (w * (f - only2[..., None, None] * g2) ** 2).sum((-1, -2))
     use1 = r1 <= r2
     k1 = np.where(neg, np.where(use1, only1, 0.0), k1)
     k2 = np.where(neg, np.where(use1, 0.0, only2), k2)
     return k1, k2
 
 
-def _sse(g1, g2, k1, k2, f):
-    return ((f - k1[..., None, None] * g1 - k2[..., None, None] * g2) ** 2).sum((-1, -2))
+def _sse(g1, g2, k1, k2, f, w=1.0):
+    return (w * (f - k1[..., None, None] * g1 - k2[..., None, None] * g2) ** 2).sum((-1, -2))
 
 
-def _best_hb(poses, forces, geometry, range1, range2, n: int, tied: bool) -> tuple[float, float]:
+def _best_hb(poses, forces, geometry, range1, range2, n: int, tied: bool, w=1.0) -> tuple[float, float]:
     """The h_b pair (m) on an n-point grid (n x n, or the diagonal when tied) with least residual."""
     g_a = np.linspace(*range1, n)
     g_b = g_a if tied else np.linspace(*range2, n)
@@ -89,8 +90,8 @@ def _best_hb(poses, forces, geometry, range1, range2, n: int, tied: bool) -> tup
     g2 = unit_forces(poses, g_b, 1, geometry)
     if not tied:
         g1, g2 = g1[:, None], g2[None, :]
-    k1, k2 = _ls_k(g1, g2, forces)
-    cell = np.unravel_index(int(np.argmin(_sse(g1, g2, k1, k2, forces))), k1.shape)
+    k1, k2 = _ls_k(g1, g2, forces, w)
+    cell = np.unravel_index(int(np.argmin(_sse(g1, g2, k1, k2, forces, w))), k1.shape)
     return (g_a[cell[0]], g_a[cell[0]]) if tied else (g_a[cell[0]], g_b[cell[1]])
 
 
@@ -100,16 +101,24 @@ def estimate_fast(poses: np.ndarray, forces: np.ndarray, unknowns: int = 4,
     t0 = time.perf_counter()
     poses, forces = np.asarray(poses, float), np.asarray(forces, float)
     h1 = h2 = 0.0
+    tied = unknowns == 3
+    step = HB_MAX_M / (coarse - 1)
     if unknowns in (3, 4):
-        tied = unknowns == 3
         full = (0.0, HB_MAX_M)
         h1, h2 = _best_hb(poses, forces, geometry, full, full, coarse, tied)
-        step = HB_MAX_M / (coarse - 1)
-        near = [(max(h - step, 0.0), min(h + step, HB_MAX_M)) for h in (h1, h2)]
-        h1, h2 = _best_hb(poses, forces, geometry, near[0], near[1], fine, tied)
+    # Eq. 6 noise is proportional to the force, so the efficient fit weights each force
+    # component by 1 / (its model value)^2: a second pass around the first answer does that.
     g1 = unit_forces(poses, np.array([h1]), 0, geometry)
     g2 = unit_forces(poses, np.array([h2]), 1, geometry)
     k1, k2 = _ls_k(g1, g2, forces)
+    model = (k1[0] * g1[0] + k2[0] * g2[0])
+    w = 1.0 / (model ** 2 + (0.02 * np.abs(model).max() + 1e-9) ** 2)
+    if unknowns in (3, 4):
+        near = [(max(h - step, 0.0), min(h + step, HB_MAX_M)) for h in (h1, h2)]
+        h1, h2 = _best_hb(poses, forces, geometry, near[0], near[1], fine, tied, w)
+        g1 = unit_forces(poses, np.array([h1]), 0, geometry)
+        g2 = unit_forces(poses, np.array([h2]), 1, geometry)
+    k1, k2 = _ls_k(g1, g2, forces, w)
     err = float(eq7_error(k1[0] * g1[0] + k2[0] * g2[0], forces))
     return Estimate(float(k1[0]), float(k2[0]), float(h1), float(h2), err, time.perf_counter() - t0, "fast")
 

@@ -1,0 +1,94 @@
+"""Seed 000 beams world: exact contact geometry vs brute force, dynamics, no-control outcomes."""
+import math
+
+import numpy as np
+import pytest
+
+from hil.world import beams as B
+
+G = B.PAPER_BODY
+
+
+def brute_theta(x, roll, pitch, hb, beam, n_s=160, n_t=40, n_theta=1571):
+    """Smallest sampled plate angle with no sampled plate point inside the ellipsoid."""
+    s = np.linspace(0, G.beam_length_m, n_s)
+    y0, y1 = G.beam_y_range(beam)
+    S, T = np.meshgrid(s, np.linspace(y0, y1, n_t))
+    sa, ca, sb, cb = math.sin(roll), math.cos(roll), math.sin(pitch), math.cos(pitch)
+    R = np.array([[cb, sb * sa, sb * ca], [0, ca, -sa], [-sb, cb * sa, cb * ca]])
+    for th in np.linspace(0, math.pi / 2, n_theta):
+        P = np.stack([S * math.sin(th) - x, T, hb + S * math.cos(th) - G.height_m])
+        b = np.einsum("ji,j...->i...", R, P)
+        if not ((b[0] / G.a_m) ** 2 + (b[1] / G.b_m) ** 2 + (b[2] / G.c_m) ** 2 < 1).any():
+            return th
+    return math.pi / 2
+
+
+def test_contact_geometry_matches_brute_force():
+    rng = np.random.default_rng(7)
+    contacts = 0
+    for _ in range(10):
+        x, roll, pitch = rng.uniform(-0.11, 0.1), rng.uniform(-1.2, 1.2), rng.uniform(-0.8, 1.0)
+        hb, beam = rng.uniform(0, 0.005), int(rng.integers(2))
+        exact = B.deflection_angle(x, roll, pitch, hb, beam)
+        vec = float(B.deflection_angles(x, roll, pitch, hb, beam))
+        brute = brute_theta(x, roll, pitch, hb, beam)
+        assert vec == pytest.approx(exact, abs=1e-8)
+        # the brute force's angle step is 1e-3 rad and its sampling can only miss contact
+        assert exact - 2e-3 <= brute <= exact + 1.1e-3, (x, roll, pitch, hb, beam)
+        contacts += exact > 0
+    assert contacts >= 4
+
+
+def test_level_body_far_from_beams_has_no_contact_and_beams_mirror():
+    assert B.deflection_angle(-0.2, 0, 0, 0, 0) == 0.0
+    th1 = B.deflection_angle(-0.05, 0.3, -0.1, 0.001, 0)
+    th2 = B.deflection_angle(-0.05, -0.3, -0.1, 0.001, 1)
+    assert th1 > 0 and th1 == pytest.approx(th2, abs=1e-9)
+
+
+def test_contact_force_is_linear_in_k_and_obeys_torque_balance():
+    poses = np.array([[-0.08, 0.05, -0.1], [-0.05, -0.1, -0.2]])
+    th, lever, n = B.unit_contact_forces(poses[:, 0], poses[:, 1], poses[:, 2], 0.0, 0)
+    for k in (0.01, 0.25):
+        for i, (x, r, p) in enumerate(poses):
+            ext = B.external_forces(G, [B.BeamParams(k), B.BeamParams(0.0)], x, r, p)
+            f = np.array(ext.contact_n)
+            assert np.linalg.norm(f) == pytest.approx(k * th[i] / lever[i], rel=1e-6)
+            assert f / np.linalg.norm(f) == pytest.approx(n[:, i], abs=1e-6)
+
+
+def test_k0_is_the_papers():
+    assert G.k0_nm_per_rad() == pytest.approx(0.028, abs=0.001)
+
+
+def _no_control(k, fx, t_max_us=5_000_000):
+    w = B.BeamsWorld([B.BeamParams(k), B.BeamParams(k)])
+    while w.t_us < t_max_us and not (w.flipped or w.passed()):
+        w.command(fx, 0, 0)
+        w.step()
+    return w
+
+
+def test_no_control_outcomes_stiff_stuck_at_0p1_flips_at_1_and_flimsy_passes_at_1():
+    stiff_weak = _no_control(0.25, 0.1, 2_000_000)
+    assert not stiff_weak.flipped and not stiff_weak.passed() and stiff_weak.state.x_m < -0.09
+    assert _no_control(0.25, 1.0).flipped
+    flimsy = _no_control(0.01, 1.0)
+    assert flimsy.passed() and not flimsy.flipped
+
+
+def test_saturation_and_determinism():
+    w = B.BeamsWorld([B.BeamParams(0.25), B.BeamParams(0.25)], noise=0.2, seed=3)
+    assert w.command(5, -1, 1) == (2.0, -0.1, 0.1)
+    runs = []
+    for _ in range(2):
+        w = B.BeamsWorld([B.BeamParams(0.25), B.BeamParams(0.27)], noise=0.2, seed=3)
+        out = []
+        for _ in range(2000):
+            w.command(1.0, 0, 0)
+            w.step()
+            if w.t_us % B.SENSOR_PERIOD_US == 0:
+                out.append(w.sense_force())
+        runs.append(out)
+    assert runs[0] == runs[1] and any(f != (0.0, 0.0, 0.0) for f in runs[0])
