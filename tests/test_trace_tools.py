@@ -223,3 +223,19 @@ def test_no_traceback_from_the_real_command_line(tmp_path):
                            text=True)
         assert p.returncode == 2 and "Traceback" not in p.stderr
         assert len(p.stderr.strip().splitlines()) == 1
+
+
+def test_fast_chunk_reader_matches_the_mcap_library(tmp_path):
+    p = tmp_path / "t.mcap"
+    _trace(p, seconds=3.0)
+    with trace_tools.open_trace(p) as tr:
+        assert tr.file_order_is_time_order
+        for topics, start, end in ((None, None, None), (["/can/*"], 0.5, 1.25),
+                                   (["/serial"], 2.0, None)):
+            ours = [(m.topic, m.log_time_ns, m.data) for m in tr.messages(topics, start, end)]
+            sel = tr.select_topics(topics)
+            lib = [(c.topic, m.log_time, m.data) for _, c, m in tr.reader.iter_messages(
+                topics=sel, log_time_order=True,
+                starting_at=None if start is None else int(start * 1e9),
+                ending_before=None if end is None else int(end * 1e9))]
+            assert ours == lib and ours
