@@ -19,12 +19,12 @@ DEFAULTS = {
     "telemetry_hz": 10.0,         # heartbeat and periodic tactile frame
     "tactile": True,              # Eq. 5-7 obstacle rule on (False: the paper's baseline)
     "autostart": True,            # walk after boot without waiting for a CAN start command
-    # Gait (Sec. 3.3): wave 0.013 m/s and tripod 0.036 m/s with l_i = 5 cm (Eq. 1 and 16:
-    # L <= l_i = 5 cm) give periods 0.05/0.013 = 3.85 s and 0.05/0.036 = 1.39 s.
+    # Gait (Sec. 3.3): tripod 0.036 m/s and wave 0.013 m/s with l_i = 5 cm (Eq. 1 and 16:
+    # L <= l_i = 5 cm); speed = l T / ((T - 1) period) gives the periods below.
     "gait": "tripod",
     "step_length_m": 0.05,        # l_i
     "step_height_m": 0.03,        # h_i ("usually set to minimum")
-    "period_s": 0.05 / 0.036,     # tripod at 0.036 m/s
+    "period_s": 0.05 * 2 / 0.036,  # tripod at 0.036 m/s: 2.78 s
     "max_obstacle_height_m": 0.05,  # H of Eq. 7 (Eq. 16: H <= 5 cm)
     "direction_deg": 0.0,         # epsilon of Eq. 2-3, 0 = forward (+x)
     # Bus.
@@ -34,8 +34,9 @@ DEFAULTS = {
     "baud": 1000000,
 }
 
-# Paper gait periods for each gait at the default step length (seed 003 Sec. 3.3).
-PERIOD_FOR_GAIT_S = {"tripod": 0.05 / 0.036, "wave": 0.05 / 0.013}
+# Gait periods that give the paper's speeds at l_i = 5 cm (seed 003 Sec. 3.3):
+# tripod T = 2 at 0.036 m/s, wave T = 6 at 0.013 m/s.
+PERIOD_FOR_GAIT_S = {"tripod": 0.05 * 2 / 0.036, "wave": 0.05 * 6 / (5 * 0.013)}
 
 
 def merged(overrides):

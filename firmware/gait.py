@@ -4,7 +4,7 @@ A gait is a period ``T`` in the trajectory's normalised units (one unit = one le
 transfer) and each leg's lift-off phase. Tripod: LM+RF+RH transfer in the first half of
 the period, LF+LH+RM in the second (T = 2, duty factor 1/2). Wave: one leg at a time in
 the order LF, LM, LH, RF, RM, RH (T = 6, duty factor 5/6). Body speed is
-``step_length_m / period_s`` (Eq. 2-3: every foot travels l per period).
+``l T / ((T - 1) period_s)``: a stance foot sweeps l in T - 1 of the T units (Eq. 2-3).
 """
 
 # name -> (T, phases in leg order LF, LM, LH, RF, RM, RH)
@@ -15,12 +15,14 @@ GAITS = {
 NAMES = ("tripod", "wave")  # index = can_frames GAIT_* value
 
 
-def speed_m_s(step_length_m, period_s):
-    return step_length_m / period_s
+def speed_m_s(name, step_length_m, period_s):
+    T = GAITS[name][0]
+    return step_length_m * T / ((T - 1) * period_s)
 
 
-def period_for_speed_s(step_length_m, speed_m_s):
-    return step_length_m / speed_m_s
+def period_for_speed_s(name, step_length_m, speed_m_s):
+    T = GAITS[name][0]
+    return step_length_m * T / ((T - 1) * speed_m_s)
 
 
 class Gait:

@@ -15,8 +15,9 @@ remaining T - 1 units, i.e. with A(t) = l (T - 2 phi + 2 t - 1) / (2 (T - 1)):
     phi < t <= phi+1:  s = l (t - phi)                  (swing, 0 to l)
     t > phi + 1:       s = l/2 - A(t) + l T / (T - 1)   (= branch 1 one period later)
 
-and x = cos(epsilon) s, y = sin(epsilon) s. The stance speed is l / (T - 1) per unit, so the
-body advances l per period: speed = l / period_s.
+and x = cos(epsilon) s, y = sin(epsilon) s. A stance foot sweeps l in T - 1 units, and some
+foot is always in stance, so the body moves at l T / ((T - 1) period_s): a world-frame stride
+of l T / (T - 1) per period (2 l for tripod, 1.2 l for wave).
 """
 import math
 

@@ -1,0 +1,44 @@
+"""``hexhil run SCENARIO.toml``: the firmware against the simulated robot, in lockstep."""
+from __future__ import annotations
+
+import argparse
+
+from host_tools import cli
+
+
+def _run(args: argparse.Namespace) -> int:
+    from host_tools import run as run_mod
+
+    s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
+                            False if args.no_tactile else None, args.out)
+    for text in result.exceptions:
+        print("firmware exception:\n" + text.rstrip())
+    if result.unhandled_exceptions and result.stderr_tail:
+        print("firmware stderr:\n" + result.stderr_tail)
+    print(f"{s['scenario']}: {s['sim_time_s']:.1f} s simulated in {s['wall_time_s']:.2f} s "
+          f"({s['real_time_factor']}x) under {s['firmware_runtime']}, {s['cycles']} cycles, "
+          f"{s['overruns']} overruns, state {s['state']}"
+          + (f", stopped: {s['stop_reason']}" if s["stop_reason"] else ""))
+    if s["faults"]:
+        print("faults: " + ", ".join(f"{k} {v}" for k, v in s["faults"].items()))
+    print(f"body: dx {s['body']['dx_m']:+.3f} m, dy {s['body']['dy_m']:+.3f} m, "
+          f"dyaw {s['body']['dyaw_deg']:+.1f} deg; serial sha256 {s['serial_digest'][:16]}...")
+    if args.json:
+        cli.emit_json(s)
+    return 1 if s["unhandled_exceptions"] else 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("run", help="run the firmware against the simulated robot",
+                       description=__doc__)
+    p.add_argument("scenario", help="scenario file (TOML), e.g. scenarios/flat-tripod.toml")
+    p.add_argument("--duration", type=float, metavar="S", help="simulated seconds "
+                   "(default: the scenario's duration_s, else 30)")
+    p.add_argument("--seed", type=int, help="RNG seed (default: the scenario's, else 0)")
+    p.add_argument("--python", choices=("micropython", "cpython"),
+                   help="firmware runtime (default: micropython)")
+    p.add_argument("--no-tactile", action="store_true",
+                   help="turn the Eq. 5-7 obstacle rule off (the paper's baseline)")
+    p.add_argument("--out", metavar="FILE.mcap", help="record the run to an MCAP trace")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON (last line)")
+    p.set_defaults(func=_run)

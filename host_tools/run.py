@@ -1,0 +1,84 @@
+"""``hexhil run``: a scenario, the simulator and the firmware process, and the run summary."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from hil.sim import RunResult, Simulator
+from host_tools import scenario as scenario_mod
+from host_tools.errors import UserError
+
+DEFAULT_DURATION_S = 30.0
+
+
+def make_world(scenario: dict[str, Any], seed: int) -> Any:
+    """The physics world a scenario's ``[world]`` asks for, or None (kinematic servos)."""
+    world = scenario.get("world") or {}
+    if not world:
+        return None
+    kind = world.get("kind", "hexapod")
+    if kind != "hexapod":
+        raise UserError(f"{scenario['_path']}: key 'world.kind' {kind!r} cannot be run by "
+                        f"'hexhil run' (it drives the hexapod; use 'hexhil beams' for beams)")
+    from hil.world.hexapod import HexapodWorld
+    return HexapodWorld(scenario, seed)
+
+
+def summary(scenario: dict[str, Any], seed: int, result: RunResult,
+            trace: str | None) -> dict[str, Any]:
+    """The ``--json`` object (keys fixed by issue 4)."""
+    name = scenario.get("scenario", {}).get("name") or Path(scenario["_path"]).stem
+    wall = result.wall_time_s
+    stopped = result.firmware.get("state") in ("safe_stop", "fault")
+    return {
+        "scenario": name,
+        "seed": seed,
+        "firmware_runtime": result.runtime,
+        "sim_time_s": round(result.sim_time_s, 6),
+        "wall_time_s": round(wall, 3),
+        "real_time_factor": round(result.sim_time_s / wall, 2) if wall > 0 else None,
+        "cycles": result.cycles,
+        "overruns": result.overruns,
+        "unhandled_exceptions": result.unhandled_exceptions,
+        "serial_digest": result.serial_digest,
+        "faults": dict(sorted(result.faults.items())),
+        "stopped_safely": stopped and result.stop_reason is not None,
+        "stop_reason": result.stop_reason,
+        "body": {k: round(v, 4) for k, v in result.body.items()},
+        "trace": trace,
+        "state": result.firmware.get("state"),
+        "switch_edges": result.switch_edges,
+        "trajectory_changes": result.firmware.get("trajectory_changes", 0),
+        "steps": result.firmware.get("steps", 0),
+        "bus_time_per_cycle_us": round(result.bus_busy_us / result.loop_cycles, 1)
+        if result.loop_cycles else None,
+        "bus_wire_min_per_cycle_us": round(result.bus_wire_us / result.loop_cycles, 1)
+        if result.loop_cycles else None,
+    }
+
+
+def run(path: str, duration_s: float | None = None, seed: int | None = None,
+        python: str | None = None, tactile: bool | None = None,
+        out: str | None = None) -> tuple[dict[str, Any], RunResult]:
+    """Load, simulate, summarise. Returns (summary, raw result)."""
+    sc = scenario_mod.load(path)
+    if seed is None:
+        seed = sc["scenario"].get("seed", 0)
+    if duration_s is None:
+        duration_s = sc["scenario"].get("duration_s", DEFAULT_DURATION_S)
+    if not duration_s > 0:
+        raise UserError(f"--duration must be positive, got {duration_s}")
+    python = python or sc["firmware"].get("python", "micropython")
+    world = make_world(sc, seed)
+    recorder = None
+    if out:
+        from host_tools.recorder import open_recorder
+        recorder = open_recorder(out, {"scenario": sc["_path"], "seed": seed,
+                                       "firmware_runtime": python})
+    try:
+        sim = Simulator(sc, seed, world=world, recorder=recorder, tactile=tactile)
+        result = sim.run(duration_s, python=python)
+    finally:
+        if recorder is not None:
+            recorder.close()
+    return summary(sc, seed, result, out), result
