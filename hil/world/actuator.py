@@ -70,13 +70,13 @@ class DriveBank:
         step = self.speed_limit_rad_s * dt_s
         self.setpoint_rad += np.clip(self.goal_rad - self.setpoint_rad, -step, step)
         e = self.setpoint_rad - q_rad
-        side = (e > 0).astype(np.intp)
-        cols = np.arange(len(e))
-        excess = np.abs(e) - self.margin_rad[side, cols]
-        u = np.where(excess > 0, self.punch + excess / self.slope_rad[side, cols], 0.0)
-        u = np.minimum(u, self.torque_limit) * np.sign(e)
-        self.duty = np.where(self.enabled, u, 0.0)
-        return STALL_TORQUE_NM * self.duty
+        ccw = e > 0
+        excess = np.abs(e) - np.where(ccw, self.margin_rad[1], self.margin_rad[0])
+        u = self.punch + excess / np.where(ccw, self.slope_rad[1], self.slope_rad[0])
+        u = np.minimum(u, self.torque_limit)
+        u *= np.sign(e) * ((excess > 0) & self.enabled)
+        self.duty = u
+        return STALL_TORQUE_NM * u
 
 
 class MujocoActuator:

@@ -113,7 +113,7 @@ def run_one(spec: RunSpec, speed_m_s: float | None = None) -> dict[str, Any]:
                obstacles=len(world.obstacles), wall_s=time.perf_counter() - t0,
                sim_s=world.t_us * 1e-6)
     out["error_m"] = math.hypot(out["dx_m"], out["dy_m"])
-    out["rel_error"] = out["error_m"] / spec.distance_m
+    out["rel_error"] = out["error_m"] / spec.distance_m if spec.distance_m else float("nan")
     if speed_m_s is not None:
         p = error_model.predict([(e.t_us, e.leg, e.closed) for e in world.events], world.trajectory,
                                 speed_m_s, spec.distance_m, ROBOT_WIDTH_M)
