@@ -156,7 +156,9 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
                 result.divergence = div
                 result.identical = False
                 break
-            result.compared_messages += sum(1 for op, p in expected if _compared(op, p))
+            if prev_t_us >= start_us:
+                result.compared_messages += sum(1 for op, p in expected if _compared(op, p)
+                                                and OP_TOPICS.get(op, "?") in wanted)
             result.exchanges = i + 1
             if closed or not reply:
                 break
