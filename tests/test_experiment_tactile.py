@@ -53,3 +53,65 @@ def test_run_scenarios_are_valid_and_pair_terrain_across_the_method():
     assert HexapodWorld(a, 2).obstacles == HexapodWorld(b, 2).obstacles
     flat = th.scenario_for(th.RunSpec("calibration", "tripod", 2.0, True, 0, periods=3))
     assert HexapodWorld(flat, 0).obstacles == []
+
+
+def _one_obstacle(tactile: bool):
+    """Tripod, firmware under micropython, one 4.5 cm obstacle in the left-front leg's path."""
+    from hil.sim import Simulator
+
+    spec = th.RunSpec("with" if tactile else "without", "tripod", 1.0, tactile, 0, periods=4)
+    sc = th.scenario_for(spec)
+    sc["world"].update(terrain="obstacles", obstacles=[
+        {"x_m": 0.36, "y_m": 0.19, "length_m": 0.03, "width_m": 0.08, "height_m": 0.045}])
+    sc["gait"]["max_obstacle_height_m"] = 0.05
+    world = HexapodWorld(sc, 0)
+    result = Simulator(sc, 0, world=world).run(spec.duration_s)
+    return world, result
+
+
+def test_switch_fires_firmware_switches_trajectory_and_the_method_gets_nearer():
+    with_w, with_r = _one_obstacle(True)
+    without_w, without_r = _one_obstacle(False)
+    for w in (with_w, without_w):
+        assert w.switches.presses[0] > 0 and sum(w.switches.presses[1:]) == 0   # only LF hit it
+    over = [e for e in with_r.tactile_events if e.get("overcoming")]
+    assert over and over[0]["leg"] == "LF"
+    assert over[0]["step_length_m"] == pytest.approx(0.1)     # Eq. 6: l_k = 2 l_i
+    assert over[0]["step_height_m"] == pytest.approx(0.07)    # Eq. 7: h_k = H + 2 cm
+    assert not [e for e in without_r.tactile_events if e.get("overcoming")]
+    a, b = with_w.body_pose(), without_w.body_pose()
+    assert a.x_m > b.x_m + 0.01                 # nearer the goal with the method
+    assert abs(a.yaw_rad) < abs(b.yaw_rad)      # and turned less by the caught leg
+
+
+def test_runs_report_errors_model_table_and_plots(tmp_path):
+    speed = 0.0326
+    runs = [th.run_one(th.RunSpec(stage, "tripod", 1.0, stage == "with", 1, "low", "small", periods=2), speed)
+            for stage in ("without", "with")]
+    runs.append(th.run_one(th.RunSpec("calibration", "tripod", 1.0, True, 0, periods=2), speed))
+    for r in runs:
+        assert r["dx_m"] == pytest.approx(1.0 - r["x_m"])
+        assert r["rel_error"] == pytest.approx(r["error_m"])
+        assert "model_dx_m" in r and r["model_hits"] >= 0
+    assert runs[2]["presses"] == [0] * 6 and runs[2]["model_dx_m"] == 0.0
+    result = {"speed_m_s": {"tripod": speed}, "periods": {"tripod 1 m": 2}, "runs": runs}
+    md = th.markdown(result, quick=True)
+    assert "| tripod | low | 1 | small | 1 |" in md and "~24 %" in md
+    paths = th.plots(result, tmp_path)
+    assert all(p.stat().st_size > 5000 for p in paths)
+
+
+@pytest.mark.slow
+def test_quick_sweep_from_the_command_line(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "experiment", "tactile-hexapod", "--quick",
+                           "--out", str(tmp_path), "--workers", "2", "--json"],
+                          capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    summary = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert summary["runs"] == 14
+    assert summary["rel_error_with"] < summary["rel_error_without"]
+    assert (tmp_path / "results.md").exists() and len(summary["plots"]) == 4
