@@ -1,0 +1,87 @@
+"""Leg IK/FK (firmware/kinematics.py) over the walking workspace, in CPython and MicroPython."""
+import math
+
+import pytest
+
+from firmware import kinematics as kin
+from mpy import run_micropython
+
+
+def workspace(leg):
+    """Foot targets the gaits ask for: the stride from -l_i/2 to l_k - l_i/2 (-2.5..7.5 cm)
+    at up to h_k = 7 cm, wider margins on the ground, and h_max = 12 cm (Eq. 15) mid-stride."""
+    nx, ny, nz = kin.neutral_foot(leg)
+    for dx in (-0.05, -0.025, 0.0, 0.025, 0.05, 0.075):
+        for dy in (-0.03, 0.0, 0.03):
+            for dz in (0.0, 0.03, 0.07):
+                if dz > 0.03 and dx < -0.025:
+                    continue
+                yield nx + dx, ny + dy, nz + dz
+    for dx in (0.0, 0.025, 0.05):
+        yield nx + dx, ny, nz + 0.12
+
+
+@pytest.mark.parametrize("leg", range(6))
+def test_ik_fk_round_trip_over_workspace(leg):
+    L = kin.Leg(leg)
+    n = 0
+    for p in workspace(leg):
+        q = list(L.ik(*p))
+        f = L.fk(*q)
+        assert max(abs(a - b) for a, b in zip(f, p)) < 1e-9, (p, q, f)
+        n += 1
+    assert L.clamped == 0 and n == 54
+
+
+def test_neutral_stance_geometry_matches_fig12():
+    L = kin.Leg(0)
+    nx, ny, nz = kin.neutral_foot(0)
+    assert nz == pytest.approx(-(0.08 + 0.015 - 0.01))     # body bottom 8 cm above ground
+    q1, q2, q3 = L.ik(nx, ny, nz)
+    assert q1 == pytest.approx(0.0, abs=1e-12)               # coxa along the mounting yaw
+    # femur end and tibia end at the paper's link lengths
+    knee = (kin.COXA_M + kin.FEMUR_M * math.cos(q2), kin.FEMUR_M * math.sin(q2))
+    foot_r = kin.NEUTRAL_REACH_M
+    assert math.hypot(foot_r - knee[0], nz - knee[1]) == pytest.approx(kin.TIBIA_M)
+
+
+def test_unreachable_target_is_clamped_and_counted_not_raised():
+    L = kin.Leg(3)
+    q = list(L.ik(2.0, -2.0, 0.0))          # metres away
+    x, y, z = L.fk(*q)
+    assert L.clamped == 1
+    mx, my, _ = kin.MOUNTS[3]
+    assert math.hypot(x - mx, y - my) <= kin.COXA_M + kin.FEMUR_M + kin.TIBIA_M + 1e-6
+    L.ik(kin.MOUNTS[3][0], kin.MOUNTS[3][1], 0.0)   # at the coxa joint itself
+    assert L.clamped == 2
+    for j in range(3):
+        assert kin.JOINT_MIN[j] <= L.q[j] <= kin.JOINT_MAX[j]
+
+
+def test_servo_angle_calibration_round_trip():
+    L = kin.Leg(4, offsets=(0.01, -0.02, 0.03))
+    L.directions = (1, -1, 1)
+    for j, q in enumerate((0.3, -0.4, -1.2)):
+        assert L.joint_rad(j, L.servo_rad(j, q)) == pytest.approx(q)
+        lo, hi = L.servo_limits_rad(j)
+        assert lo < hi
+
+
+def test_round_trip_under_micropython(tmp_path):
+    script = tmp_path / "k.py"
+    script.write_text(
+        "from firmware import kinematics as kin\n"
+        "worst = 0.0\n"
+        "for leg in range(6):\n"
+        "    L = kin.Leg(leg)\n"
+        "    nx, ny, nz = kin.neutral_foot(leg)\n"
+        "    for dx in (-0.05, 0.0, 0.075):\n"
+        "        for dz in (0.0, 0.07):\n"
+        "            q = list(L.ik(nx + dx, ny, nz + dz))\n"
+        "            f = L.fk(q[0], q[1], q[2])\n"
+        "            e = max(abs(f[0] - nx - dx), abs(f[1] - ny), abs(f[2] - nz - dz))\n"
+        "            worst = e if e > worst else worst\n"
+        "print(worst < 1e-9, sum(kin.Leg(i).clamped for i in range(6)))\n")
+    r = run_micropython(script)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == ["True", "0"]
