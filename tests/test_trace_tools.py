@@ -239,3 +239,23 @@ def test_fast_chunk_reader_matches_the_mcap_library(tmp_path):
                 starting_at=None if start is None else int(start * 1e9),
                 ending_before=None if end is None else int(end * 1e9))]
             assert ours == lib and ours
+
+
+def test_estimate_reproduces_the_estimate_a_beams_run_logged(tmp_path, capsys):
+    """`hexhil beams run --out` logs force/pose frames and the estimate it made online;
+    re-running the estimator on the logged frames gives that estimate back (to the
+    beam_estimate frame's resolution: 2e-5 N m/rad, 0.02 mm)."""
+    from host_tools.beams.closed_loop import RunConfig, run
+
+    p = tmp_path / "beams.mcap"
+    with rec.Recorder(p, {"command": "beams run"}) as r:
+        out = run(RunConfig(0.3, 0.5, strategy="interact", fx_n=0.1, max_time_s=0.4), recorder=r)
+    online = out["estimate"]
+    rc, o, _ = _cli(capsys, "estimate", str(p), "--unknowns", "3", "--json")
+    e = json.loads(o.strip().splitlines()[-1])
+    assert rc == 0 and e["samples"] == out["force_samples"]
+    assert e["k1"] == pytest.approx(online["k1"], abs=1e-9)
+    assert e["k2"] == pytest.approx(online["k2"], abs=1e-9)
+    logged = e["logged_estimate"]
+    assert abs(logged["k1"] - e["k1"]) <= 2e-5 and abs(logged["k2"] - e["k2"]) <= 2e-5
+    assert abs(logged["hb_mm"] - e["hb1_mm"]) <= 0.02 + 1e-9
