@@ -40,7 +40,7 @@ NEUTRAL_REACH_M = 0.15
 # Joint zero (the angle that maps to the servo centre) and limits, in joint angles.
 JOINT_ZERO = (0.0, 0.0, -math.pi / 2)
 JOINT_MIN = (-1.2, -1.6, -2.9)
-JOINT_MAX = (1.2, 2.0, 0.0)
+JOINT_MAX = (1.2, 2.3, 0.0)
 # Servo direction per joint (+1: servo angle turns with the joint). The simulated robot
 # mounts every servo the same way; a real build sets -1 where a horn is mirrored.
 DIRECTIONS = ((1, 1, 1),) * 6

@@ -4,21 +4,21 @@ import math
 import pytest
 
 from firmware import kinematics as kin
+from firmware import trajectory as traj
 from mpy import run_micropython
 
 
 def workspace(leg):
-    """Foot targets the gaits ask for: the stride from -l_i/2 to l_k - l_i/2 (-2.5..7.5 cm)
-    at up to h_k = 7 cm, wider margins on the ground, and h_max = 12 cm (Eq. 15) mid-stride."""
+    """Foot targets the gaits ask for: Eq. 2-4 swings of the initial (l_i 5 cm, h_i 3 cm),
+    obstacle (l_k 10 cm, h_k 7 cm) and h_max = 12 cm (Eq. 15) steps, 3 cm either side."""
     nx, ny, nz = kin.neutral_foot(leg)
-    for dx in (-0.05, -0.025, 0.0, 0.025, 0.05, 0.075):
-        for dy in (-0.03, 0.0, 0.03):
-            for dz in (0.0, 0.03, 0.07):
-                if dz > 0.03 and dx < -0.025:
-                    continue
-                yield nx + dx, ny + dy, nz + dz
-    for dx in (0.0, 0.025, 0.05):
-        yield nx + dx, ny, nz + 0.12
+    for l, h in ((0.05, 0.03), (0.10, 0.07), (0.05, 0.12)):
+        for k in range(11):
+            t = k / 10
+            s = traj.stroke(t, l, 2, 0.0) - 0.025
+            z = traj.lift(t, h, -1e-12)
+            for dy in (-0.03, 0.0, 0.03):
+                yield nx + s, ny + dy, nz + z
 
 
 @pytest.mark.parametrize("leg", range(6))
@@ -30,7 +30,7 @@ def test_ik_fk_round_trip_over_workspace(leg):
         f = L.fk(*q)
         assert max(abs(a - b) for a, b in zip(f, p)) < 1e-9, (p, q, f)
         n += 1
-    assert L.clamped == 0 and n == 54
+    assert L.clamped == 0 and n == 99
 
 
 def test_neutral_stance_geometry_matches_fig12():
