@@ -1,0 +1,38 @@
+"""``hexhil conformance``: check any Protocol 1.0 bus (emulated or real AX-12s) against the spec."""
+from __future__ import annotations
+
+import argparse
+
+from host_tools.cli import emit_json
+from host_tools.errors import UserError
+
+
+def run(args: argparse.Namespace) -> int:
+    from host_tools.commands.bus import parse_ids
+    from host_tools.conformance import format_table, run_checks
+
+    if args.baud <= 0:
+        raise UserError(f"--baud must be positive, got {args.baud}")
+    if args.timeout_ms <= 0:
+        raise UserError(f"--timeout-ms must be positive, got {args.timeout_ms}")
+    ids = parse_ids(args.ids) if args.ids else None
+    result = run_checks(args.port, args.baud, ids, args.timeout_ms / 1000.0)
+    print(format_table(result), flush=True)
+    if args.json:
+        emit_json(result)
+    return 0 if result["ok"] else 1
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("conformance", help="check any Protocol 1.0 bus against the spec",
+                       description="Scan, ping, read the control table and check error replies, "
+                                   "status return levels and response timing of every servo; "
+                                   "restore what was changed. Exit 0 only when all pass.")
+    p.add_argument("--port", required=True,
+                   help="serial port or pyserial URL (/dev/ttyUSB0, /dev/pts/N, socket://127.0.0.1:7000)")
+    p.add_argument("--baud", type=int, default=1_000_000, help="bit/s (default 1000000)")
+    p.add_argument("--ids", default=None, help="IDs to check, e.g. 1-18 (default: scan 0-253)")
+    p.add_argument("--timeout-ms", type=float, default=50.0,
+                   help="status packet timeout (default 50; USB adapters need > latency timer)")
+    p.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    p.set_defaults(func=run)

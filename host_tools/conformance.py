@@ -1,0 +1,290 @@
+"""Check a Protocol 1.0 bus (our emulator or real AX-12s behind a USB adapter) against the spec.
+
+A pyserial client: scan or ping the IDs, read the control table, check status packet
+format, error replies (bad checksum, out-of-range goal, goal outside the angle limits,
+ACTION with nothing registered), REG_WRITE/ACTION, Status Return Levels and response
+timing against Return Delay Time, then restore what it changed and check that it did.
+A line that echoes the master's bytes is detected and the echo stripped.
+
+Only the settings it tests are changed (Status Return Level, Return Delay Time, CW Angle
+Limit, Goal Position, LED); a real servo needs a few ms after an EEPROM write, so the
+checker pauses after each.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import serial
+
+from host_tools.errors import UserError
+from protocol import ax12
+from protocol import dynamixel as dxl
+
+EEPROM_PAUSE_S = 0.01
+_PROTOCOL_ERRORS = dxl.ERR_ANGLE_LIMIT | dxl.ERR_RANGE | dxl.ERR_CHECKSUM | dxl.ERR_INSTRUCTION
+
+
+@dataclass
+class Check:
+    id: int | None
+    check: str
+    result: str  # "pass", "fail" or "skip"
+    detail: str
+
+
+class Link:
+    """One pyserial port; ``transact`` sends a packet and returns the status, if any."""
+
+    def __init__(self, port: str, baud: int, timeout_s: float) -> None:
+        try:
+            self.ser = serial.serial_for_url(port, baudrate=baud, timeout=timeout_s)
+        except (serial.SerialException, ValueError) as exc:
+            raise UserError(f"cannot open {port}: {exc}") from None
+        self.baud = baud
+        self.timeout_s = timeout_s
+        self.echo = False
+
+    def close(self) -> None:
+        self.ser.close()
+
+    def wire_s(self, nbytes: int) -> float:
+        return nbytes * 10.0 / self.baud
+
+    def transact(self, pkt: bytes, timeout_s: float | None = None
+                 ) -> tuple[dxl.Packet | None, float]:
+        """Send ``pkt``; the first status packet heard (echo skipped) and its latency in s."""
+        timeout_s = self.timeout_s if timeout_s is None else timeout_s
+        self.ser.reset_input_buffer()
+        self.ser.write(pkt)
+        self.ser.flush()
+        t0 = time.perf_counter()
+        deadline = t0 + timeout_s
+        parser = dxl.Parser()
+        while True:
+            left = deadline - time.perf_counter()
+            if left <= 0:
+                return None, timeout_s
+            self.ser.timeout = left
+            chunk = self.ser.read(6 if parser.pending() < 4 else
+                                  max(1, parser.buf[3] + 4 - parser.pending()))
+            for p in parser.feed(chunk):
+                if p.raw == pkt:
+                    self.echo = True
+                    continue
+                return p, time.perf_counter() - t0
+
+    def silent(self, pkt: bytes, wait_s: float | None = None) -> bool:
+        """True when nothing but echo answers ``pkt`` within the timeout."""
+        return self.transact(pkt, wait_s)[0] is None
+
+
+class Checker:
+    """Runs the checks on a Link and collects ``Check`` rows."""
+
+    def __init__(self, link: Link) -> None:
+        self.link = link
+        self.rows: list[Check] = []
+
+    def add(self, dev_id: int | None, name: str, ok: bool | None, detail: str) -> bool:
+        self.rows.append(Check(dev_id, name, "skip" if ok is None else ("pass" if ok else "fail"),
+                               detail))
+        return bool(ok)
+
+    # --- helpers ---------------------------------------------------------------------
+    def read(self, dev_id: int, address: int, n: int) -> bytes | None:
+        p, _ = self.link.transact(dxl.read(dev_id, address, n))
+        if p is None or p.id != dev_id or len(p.params) != n:
+            return None
+        return p.params
+
+    def write(self, dev_id: int, address: int, data: bytes, reply: bool = True) -> dxl.Packet | None:
+        pkt = dxl.write(dev_id, address, data)
+        if not reply:
+            self.link.silent(pkt, 0.005)
+            return None
+        return self.link.transact(pkt)[0]
+
+    # --- the run --------------------------------------------------------------------
+    def scan(self, ids: list[int] | None) -> list[int]:
+        if ids is None:
+            found = [i for i in range(dxl.MAX_ID + 1) if self.link.transact(dxl.ping(i), 0.015)[0]]
+            self.add(None, "scan", bool(found),
+                     f"IDs 0-253: found {found}" if found else "no servo answered a PING")
+            return found
+        found = []
+        for i in ids:
+            p = self.link.transact(dxl.ping(i))[0]
+            if self.add(i, "present", p is not None, "answers PING" if p else "no answer to PING"):
+                found.append(i)
+        return found
+
+    def servo(self, i: int) -> None:
+        link = self.link
+        p = link.transact(dxl.ping(i))[0]
+        ok = p is not None and p.id == i and p.raw[3] == 2 and not p.code & _PROTOCOL_ERRORS
+        self.add(i, "ping_status_format", ok,
+                 "FF FF ID 02 ERR CHK, no protocol error bits" if ok else f"got {p!r}")
+        table = self.read(i, 0, ax12.TABLE_SIZE)
+        if table is None:
+            self.add(i, "read_table", False, "READ of addresses 0-49 failed")
+            return
+        model = ax12.get(table, ax12.MODEL_NUMBER_L, 2)
+        bad = [] if model != ax12.MODEL_NUMBER else \
+            [f[1] for f in ax12.FIELDS if not f[6] <= ax12.get(table, f[0], f[2]) <= f[7]]
+        self.add(i, "read_table", not bad and table[ax12.ID] == i,
+                 f"model {model}, firmware {table[ax12.FIRMWARE]}" +
+                 (f"; out of range: {bad}" if bad else "") +
+                 ("" if table[ax12.ID] == i else f"; ID cell says {table[ax12.ID]}"))
+        part = self.read(i, 0, 2)
+        self.add(i, "read_consistency", part == table[0:2],
+                 "READ(0,2) matches the table" if part == table[0:2] else f"READ(0,2) = {part!r}")
+        srl0 = table[ax12.STATUS_RETURN_LEVEL]
+        if srl0 != 2:
+            self.write(i, ax12.STATUS_RETURN_LEVEL, b"\x02", reply=False)
+            time.sleep(EEPROM_PAUSE_S)
+        locked = table[ax12.LOCK] == 1
+        try:
+            self._errors(i, table)
+            self._registered(i, table)
+            if locked:
+                for name in ("status_return_level", "return_delay_timing", "angle_limit_error"):
+                    self.add(i, name, None, "Lock is set: EEPROM cannot be written until power-off")
+            else:
+                self._angle_limit(i, table)
+                self._return_levels(i)
+                self._timing(i, table)
+        finally:
+            self._restore(i, table, srl0, locked)
+
+    def _errors(self, i: int, table: bytes) -> None:
+        bad = bytearray(dxl.ping(i))
+        bad[-1] ^= 0xA5
+        p = self.link.transact(bytes(bad))[0]
+        self.add(i, "bad_checksum_reply", p is not None and bool(p.code & dxl.ERR_CHECKSUM),
+                 "answered with error bit 4 (checksum)" if p is not None and p.code & dxl.ERR_CHECKSUM
+                 else f"got {p!r}")
+        p = self.write(i, ax12.GOAL_POSITION, (1024).to_bytes(2, "little"))
+        goal = self.read(i, ax12.GOAL_POSITION, 2)
+        ok = p is not None and bool(p.code & (dxl.ERR_RANGE | dxl.ERR_ANGLE_LIMIT)) \
+            and goal == table[ax12.GOAL_POSITION:ax12.GOAL_POSITION + 2]
+        self.add(i, "out_of_range_goal", ok,
+                 f"goal 1024 refused: {dxl.error_names(p.code)}" if ok else
+                 f"reply {p!r}, goal now {goal!r}")
+        if table[ax12.REGISTERED]:
+            self.add(i, "action_nothing_registered", None, "an instruction is registered; not fired")
+        else:
+            p = self.link.transact(dxl.action(i))[0]
+            self.add(i, "action_nothing_registered", p is not None and bool(p.code & dxl.ERR_INSTRUCTION),
+                     "instruction error" if p is not None and p.code & dxl.ERR_INSTRUCTION else f"got {p!r}")
+
+    def _registered(self, i: int, table: bytes) -> None:
+        if table[ax12.REGISTERED]:
+            self.add(i, "reg_write_action", None, "an instruction is already registered")
+            return
+        led = table[ax12.LED]
+        p = self.link.transact(dxl.reg_write(i, ax12.LED, bytes((1 - led,))))[0]
+        mid = self.read(i, ax12.LED, 20)  # LED(25) .. Registered(44)
+        q = self.link.transact(dxl.action(i))[0]
+        after = self.read(i, ax12.LED, 20)
+        ok = (p is not None and not p.code & _PROTOCOL_ERRORS and mid is not None
+              and mid[0] == led and mid[ax12.REGISTERED - ax12.LED] == 1 and q is not None
+              and not q.code & _PROTOCOL_ERRORS and after is not None and after[0] == 1 - led
+              and after[ax12.REGISTERED - ax12.LED] == 0)
+        self.add(i, "reg_write_action", ok, "REG_WRITE held (Registered=1), ACTION applied it"
+                 if ok else f"reg {p!r} mid {mid!r} action {q!r} after {after!r}")
+        self.write(i, ax12.LED, bytes((led,)))
+
+    def _angle_limit(self, i: int, table: bytes) -> None:
+        pos = ax12.get(table, ax12.PRESENT_POSITION, 2)
+        cw = ax12.get(table, ax12.CW_ANGLE_LIMIT, 2)
+        ccw = ax12.get(table, ax12.CCW_ANGLE_LIMIT, 2)
+        if not (cw or ccw) or pos >= ccw or pos + 1 > 1023:
+            self.add(i, "angle_limit_error", None, "wheel mode or horn at the CCW limit")
+            return
+        self.write(i, ax12.CW_ANGLE_LIMIT, (pos + 1).to_bytes(2, "little"))
+        time.sleep(EEPROM_PAUSE_S)
+        p = self.write(i, ax12.GOAL_POSITION, pos.to_bytes(2, "little"))
+        ok = p is not None and bool(p.code & dxl.ERR_ANGLE_LIMIT)
+        self.add(i, "angle_limit_error", ok, f"goal {pos} below CW limit {pos + 1}: angle limit bit"
+                 if ok else f"got {p!r}")
+        self.write(i, ax12.GOAL_POSITION, table[ax12.GOAL_POSITION:ax12.GOAL_POSITION + 2])
+        self.write(i, ax12.CW_ANGLE_LIMIT, table[ax12.CW_ANGLE_LIMIT:ax12.CW_ANGLE_LIMIT + 2])
+        time.sleep(EEPROM_PAUSE_S)
+
+    def _return_levels(self, i: int) -> None:
+        link = self.link
+        led = self.read(i, ax12.LED, 1)
+        seen = {}
+        for level in (1, 0):
+            self.write(i, ax12.STATUS_RETURN_LEVEL, bytes((level,)), reply=False)
+            time.sleep(EEPROM_PAUSE_S)
+            seen[level] = (link.transact(dxl.ping(i))[0] is not None,
+                           link.transact(dxl.read(i, ax12.LED, 1))[0] is not None,
+                           not link.silent(dxl.write(i, ax12.LED, led or b"\x00")))
+        self.write(i, ax12.STATUS_RETURN_LEVEL, b"\x02", reply=False)
+        time.sleep(EEPROM_PAUSE_S)
+        ok = seen == {1: (True, True, False), 0: (True, False, False)}
+        self.add(i, "status_return_level", ok, "level 1: PING+READ answered; level 0: PING only"
+                 if ok else f"(ping, read, write) answered: {seen}")
+
+    def _timing(self, i: int, table: bytes) -> None:
+        link = self.link
+        best = {}  # the fastest of several: scheduling and USB latency only ever add
+        for rd in (0, 250):
+            self.write(i, ax12.RETURN_DELAY_TIME, bytes((rd,)))
+            time.sleep(EEPROM_PAUSE_S)
+            best[rd] = min(link.transact(dxl.ping(i))[1] for _ in range(7))
+        self.write(i, ax12.RETURN_DELAY_TIME, table[ax12.RETURN_DELAY_TIME:ax12.RETURN_DELAY_TIME + 1])
+        time.sleep(EEPROM_PAUSE_S)
+        floor = link.wire_s(12) + 500e-6  # PING out and status back, plus 500 us
+        diff = best[250] - best[0]
+        ok = best[250] >= floor - 100e-6 and diff >= 300e-6
+        self.add(i, "return_delay_timing", ok,
+                 f"fastest PING round trip {best[0] * 1e3:.2f} ms at delay 0, "
+                 f"{best[250] * 1e3:.2f} ms at 500 us (expect +0.5 ms, >= {floor * 1e3:.2f} ms)")
+
+    def _restore(self, i: int, table: bytes, srl0: int, locked: bool) -> None:
+        if srl0 != 2 and not locked:
+            self.write(i, ax12.STATUS_RETURN_LEVEL, bytes((srl0,)), reply=False)
+            time.sleep(EEPROM_PAUSE_S)
+        after = self.read(i, 0, ax12.TABLE_SIZE) if srl0 >= 1 else None
+        if after is None:
+            self.add(i, "restored", None if srl0 == 0 else False,
+                     "Status Return Level 0: cannot read back" if srl0 == 0 else "READ failed")
+            return
+        rw = [f for f in ax12.FIELDS if f[3] == ax12.RW]
+        changed = [f[1] for f in rw if ax12.get(after, f[0], f[2]) != ax12.get(table, f[0], f[2])]
+        self.add(i, "restored", not changed, "every writable cell as found" if not changed
+                 else f"changed: {changed}")
+
+
+def run_checks(port: str, baud: int, ids: list[int] | None, timeout_s: float = 0.05) -> dict[str, Any]:
+    """Run every check; the result as a JSON-ready dict (``ok`` true when none failed)."""
+    link = Link(port, baud, timeout_s)
+    try:
+        checker = Checker(link)
+        found = checker.scan(ids)
+        for i in found:
+            checker.servo(i)
+    finally:
+        link.close()
+    rows = checker.rows
+    return {"port": port, "baud": baud, "echo": link.echo, "servos": found,
+            "ok": bool(rows) and all(r.result != "fail" for r in rows),
+            "passed": sum(r.result == "pass" for r in rows),
+            "failed": sum(r.result == "fail" for r in rows),
+            "skipped": sum(r.result == "skip" for r in rows),
+            "checks": [asdict(r) for r in rows]}
+
+
+def format_table(result: dict[str, Any]) -> str:
+    lines = [f"{'id':>4}  {'check':<26} {'result':<6} detail"]
+    for r in result["checks"]:
+        sid = "-" if r["id"] is None else str(r["id"])
+        lines.append(f"{sid:>4}  {r['check']:<26} {r['result'].upper():<6} {r['detail']}")
+    lines.append(f"{result['passed']} passed, {result['failed']} failed, {result['skipped']} skipped"
+                 f" on {result['port']} at {result['baud']} bps"
+                 + (" (echo detected and stripped)" if result["echo"] else ""))
+    return "\n".join(lines)
