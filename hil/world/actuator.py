@@ -91,7 +91,7 @@ class MujocoActuator:
         bank = self.world.drives
         i = self.index
         if enabled and not bank.enabled[i]:
-            bank.setpoint_rad[i] = self.world.joint_positions()[i]  # resume from where it is
+            bank.setpoint_rad[i] = self.state()[0]  # resume from where it is
         bank.goal_rad[i] = goal_rad
         bank.speed_limit_rad_s[i] = speed_limit_rad_s if speed_limit_rad_s > 0 else NO_LOAD_SPEED_RAD_S
         bank.torque_limit[i] = min(max(torque_limit_frac, 0.0), 1.0)
@@ -101,10 +101,11 @@ class MujocoActuator:
 
     def state(self) -> tuple[float, float, float]:
         """Present position (rad), speed (rad/s) and load (signed fraction of stall torque)."""
-        q = self.world.joint_positions()[self.index]
-        qd = self.world.joint_velocities()[self.index]
-        load = self.world.drives.duty[self.index] - qd / NO_LOAD_SPEED_RAD_S
-        return float(q), float(qd), float(max(-1.0, min(1.0, load)))
+        d = self.world.data
+        q = float(d.qpos[7 + self.index])   # after the free joint's 7 coordinates
+        qd = float(d.qvel[6 + self.index])  # and its 6 velocities
+        load = float(self.world.drives.duty[self.index]) - qd / NO_LOAD_SPEED_RAD_S
+        return q, qd, max(-1.0, min(1.0, load))
 
     def advance_to(self, t_us: int) -> None:
         """Physics runs on the world's clock; asking a joint to catch up advances the world."""
