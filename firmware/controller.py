@@ -55,6 +55,7 @@ class Controller:
         self.reads_per_cycle = cfg["reads_per_cycle"]
         self.telemetry_us = int(1000000 / cfg["telemetry_hz"])
         self.state = cf.STATE_BOOT
+        self.commanded_m = 0.0
         self.stop_reason = None
         self.cycle = 0
         self.overruns = 0
@@ -162,6 +163,11 @@ class Controller:
             self._command(self.board.can.recv(), now)
         if self.state == cf.STATE_WALKING:
             report = self._walk_targets(now, pressed) or report
+            g = self.gait
+            # Dead reckoning at the nominal body speed: what the gait commands, not where
+            # the body went (the host compares the two).
+            self.commanded_m += gait_mod.speed_m_s(g.name, self.rule.l_i,
+                                                   g.period_us * 1e-6) * self.period_us * 1e-6
         else:
             self._safe_targets()
         self.master.sync_write(self.positions, self.speeds, self.board)
@@ -337,6 +343,7 @@ class Controller:
             "switch_edges": self.switches.edges,
             "trajectory_changes": self.rule.changes,
             "steps": self.rule.steps,
+            "commanded_distance_m": self.commanded_m,
             "commands": self.commands,
             "compute_us_mean": (self.compute_us / self.compute_cycles) if self.compute_cycles else 0,
             "compute_us_max": self.compute_max_us,

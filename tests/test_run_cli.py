@@ -31,6 +31,9 @@ def test_flat_scenarios_30_s_under_micropython(name, speed):
     assert s["stopped_safely"] is False and s["stop_reason"] is None and s["trace"] is None
     # ground truth from the MuJoCo world: the paper's speed (Sec. 3.3) within 15 %
     assert s["body"]["dx_m"] == pytest.approx(speed * 30.0, rel=0.15)
+    # ... and the distance the firmware itself commanded (dead reckoning at nominal speed)
+    assert s["commanded_distance_m"] == pytest.approx(speed * 30.0, rel=0.01)
+    assert s["body"]["dx_m"] == pytest.approx(s["commanded_distance_m"], rel=0.15)
     assert abs(s["body"]["dy_m"]) < 0.1 * s["body"]["dx_m"]
 
 

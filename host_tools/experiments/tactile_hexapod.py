@@ -325,7 +325,7 @@ def main(quick: bool, out: Path, seeds: int, executor: Executor) -> dict[str, An
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true",
                    help="reduced sweep: 1 m only, one seed per case (a few minutes on 2 cores)")
-    p.add_argument("--out", default="results/tactile-hexapod", help="output folder (table, plots, JSON)")
+    p.add_argument("--out", default="out/tactile-hexapod", help="output folder (table, plots, JSON)")
     p.add_argument("--workers", type=int, default=max(1, os.cpu_count() or 1),
                    help="local worker processes (default: one per core)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
