@@ -23,6 +23,7 @@ from protocol import ax12
 from protocol import dynamixel as dxl
 
 EEPROM_PAUSE_S = 0.01
+SILENCE_S = 0.05  # how long "no reply" is awaited; a late reply can only turn a fail into a pass
 _PROTOCOL_ERRORS = dxl.ERR_ANGLE_LIMIT | dxl.ERR_RANGE | dxl.ERR_CHECKSUM | dxl.ERR_INSTRUCTION
 
 
@@ -72,12 +73,13 @@ class Link:
             for p in parser.feed(chunk):
                 if p.raw == pkt:
                     self.echo = True
-                    continue
-                return p, time.perf_counter() - t0
+                elif p.id == pkt[2]:  # a late reply to an earlier packet is not ours
+                    return p, time.perf_counter() - t0
 
     def silent(self, pkt: bytes, wait_s: float | None = None) -> bool:
-        """True when nothing but echo answers ``pkt`` within the timeout."""
-        return self.transact(pkt, wait_s)[0] is None
+        """True when nothing but echo answers ``pkt`` within SILENCE_S (or the timeout)."""
+        return self.transact(pkt, min(self.timeout_s, SILENCE_S) if wait_s is None else wait_s
+                             )[0] is None
 
 
 class Checker:
@@ -107,9 +109,10 @@ class Checker:
         return self.link.transact(pkt)[0]
 
     # --- the run --------------------------------------------------------------------
-    def scan(self, ids: list[int] | None) -> list[int]:
+    def scan(self, ids: list[int] | None, scan_timeout_s: float) -> list[int]:
         if ids is None:
-            found = [i for i in range(dxl.MAX_ID + 1) if self.link.transact(dxl.ping(i), 0.015)[0]]
+            found = [i for i in range(dxl.MAX_ID + 1)
+                     if self.link.transact(dxl.ping(i), scan_timeout_s)[0]]
             self.add(None, "scan", bool(found),
                      f"IDs 0-253: found {found}" if found else "no servo answered a PING")
             return found
@@ -221,6 +224,7 @@ class Checker:
             self.write(i, ax12.STATUS_RETURN_LEVEL, bytes((level,)), reply=False)
             time.sleep(EEPROM_PAUSE_S)
             seen[level] = (link.transact(dxl.ping(i))[0] is not None,
+                           not link.silent(dxl.read(i, ax12.LED, 1)) if level == 0 else
                            link.transact(dxl.read(i, ax12.LED, 1))[0] is not None,
                            not link.silent(dxl.write(i, ax12.LED, led or b"\x00")))
         self.write(i, ax12.STATUS_RETURN_LEVEL, b"\x02", reply=False)
@@ -260,12 +264,13 @@ class Checker:
                  else f"changed: {changed}")
 
 
-def run_checks(port: str, baud: int, ids: list[int] | None, timeout_s: float = 0.05) -> dict[str, Any]:
+def run_checks(port: str, baud: int, ids: list[int] | None, timeout_s: float = 0.05,
+               scan_timeout_s: float = 0.015) -> dict[str, Any]:
     """Run every check; the result as a JSON-ready dict (``ok`` true when none failed)."""
     link = Link(port, baud, timeout_s)
     try:
         checker = Checker(link)
-        found = checker.scan(ids)
+        found = checker.scan(ids, scan_timeout_s)
         for i in found:
             checker.servo(i)
     finally:

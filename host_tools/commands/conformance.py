@@ -13,10 +13,11 @@ def run(args: argparse.Namespace) -> int:
 
     if args.baud <= 0:
         raise UserError(f"--baud must be positive, got {args.baud}")
-    if args.timeout_ms <= 0:
-        raise UserError(f"--timeout-ms must be positive, got {args.timeout_ms}")
+    if args.timeout_ms <= 0 or args.scan_timeout_ms <= 0:
+        raise UserError("--timeout-ms and --scan-timeout-ms must be positive")
     ids = parse_ids(args.ids) if args.ids else None
-    result = run_checks(args.port, args.baud, ids, args.timeout_ms / 1000.0)
+    result = run_checks(args.port, args.baud, ids, args.timeout_ms / 1000.0,
+                        args.scan_timeout_ms / 1000.0)
     print(format_table(result), flush=True)
     if args.json:
         emit_json(result)
@@ -34,5 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--ids", default=None, help="IDs to check, e.g. 1-18 (default: scan 0-253)")
     p.add_argument("--timeout-ms", type=float, default=50.0,
                    help="status packet timeout (default 50; USB adapters need > latency timer)")
+    p.add_argument("--scan-timeout-ms", type=float, default=15.0,
+                   help="per-ID PING timeout while scanning 0-253 (default 15)")
     p.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     p.set_defaults(func=run)

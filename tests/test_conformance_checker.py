@@ -1,0 +1,78 @@
+"""`hexhil conformance` against our pty bus: all pass, echo stripped, faults caught."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+
+from test_sdk_pty import HEXHIL, ROOT, bus_server
+
+CHECKS_PER_SERVO = {"present", "ping_status_format", "read_table", "read_consistency",
+                    "bad_checksum_reply", "out_of_range_goal", "action_nothing_registered",
+                    "reg_write_action", "angle_limit_error", "status_return_level",
+                    "return_delay_timing", "restored"}
+
+
+def conformance(port: str, *flags: str) -> tuple[int, dict, str]:
+    r = subprocess.run([*HEXHIL, "conformance", "--port", port, "--json", "--timeout-ms", "500",
+                        *flags], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert "Traceback" not in r.stderr, r.stderr
+    return r.returncode, json.loads(r.stdout.strip().splitlines()[-1]), r.stdout
+
+
+def test_our_bus_passes_every_check_for_18_servos():
+    with bus_server() as path:
+        rc, result, out = conformance(path, "--ids", "1-18")
+    assert rc == 0 and result["ok"] and result["failed"] == 0 and result["skipped"] == 0, out
+    assert result["servos"] == list(range(1, 19)) and not result["echo"]
+    for i in range(1, 19):
+        assert {c["check"] for c in result["checks"] if c["id"] == i} == CHECKS_PER_SERVO
+    assert "216 passed, 0 failed, 0 skipped" in out
+
+
+def test_scan_and_echo_line_with_original_edition():
+    with bus_server("--echo", "--ids", "7,9", "--edition", "original") as path:
+        rc, result, out = conformance(path, "--scan-timeout-ms", "30")
+    assert rc == 0 and result["echo"] and result["servos"] == [7, 9], out
+    assert result["checks"][0]["check"] == "scan"
+
+
+SLOPPY = textwrap.dedent("""
+    import sys
+    from hil.bus import Bus
+    from hil.clock import VirtualClock
+    from hil.serial_server import RealTimeServer, flush_print, install_sigterm, Stop
+    from hil.servo import Servo
+
+    class Sloppy(Servo):  # ignores packets with a bad checksum instead of answering bit 4
+        def checksum_error(self, code, t_us):
+            return None
+
+    install_sigterm()
+    try:
+        RealTimeServer(Bus([Sloppy(1), Servo(2)], VirtualClock())).serve_pty(flush_print)
+    except Stop:
+        pass
+""")
+
+
+def test_a_non_conforming_servo_fails_and_exits_1():
+    proc = subprocess.Popen([sys.executable, "-c", SLOPPY], cwd=ROOT, stdout=subprocess.PIPE,
+                            text=True)
+    try:
+        path = proc.stdout.readline().strip().split(": ", 1)[1]
+        rc, result, out = conformance(path, "--ids", "1-3")
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+    failed = sorted((c["id"], c["check"]) for c in result["checks"] if c["result"] == "fail")
+    assert rc == 1 and not result["ok"]
+    assert failed == [(1, "bad_checksum_reply"), (3, "present")], out
+
+
+def test_unopenable_port_is_a_one_line_user_error():
+    r = subprocess.run([*HEXHIL, "conformance", "--port", "/dev/does-not-exist"], cwd=ROOT,
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and r.stderr.startswith("hexhil: cannot open /dev/does-not-exist")
+    assert r.stderr.count("\n") == 1
