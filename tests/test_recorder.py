@@ -170,3 +170,4 @@ def test_sigkill_loses_at_most_the_last_simulated_second(tmp_path):
     with trace_tools.open_trace(out) as tr:
         ts = [v["t_us"] for _, v in tr.decoded([rec.T_TELEMETRY])]
     assert ts == list(range(0, n * 1000, 1000))
+

@@ -177,8 +177,10 @@ def _bad_files(tmp_path):
     files["not mcap"].write_text("time_s,fx_n\n0,1\n")
     files["truncated"].write_bytes(data[: len(data) // 2])
     # flip bytes inside the first chunk's compressed data: the chunk CRC catches it
+    with trace_tools.open_trace(good) as tr:
+        ci = min(tr.summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
     bad = bytearray(data)
-    for i in range(600, 640):
+    for i in range(ci.chunk_start_offset + 80, ci.chunk_start_offset + 120):
         bad[i] ^= 0x5A
     files["corrupt"].write_bytes(bytes(bad))
     return files
@@ -212,7 +214,9 @@ def test_recover_bad_input(tmp_path, capsys):
     # a corrupt middle: recover keeps what precedes the damage and says where it stopped
     rc, o, _ = _cli(capsys, "trace", "recover", str(files["corrupt"]), str(tmp_path / "o.mcap"),
                     "--json")
-    assert rc == 0 and "CRC" in json.loads(o.strip().splitlines()[-1])["stopped"]
+    r = json.loads(o.strip().splitlines()[-1])
+    assert rc == 0 and not r["complete"] and r["messages"] == 0  # the first chunk was hit
+    assert "corrupt" in r["stopped"].lower() or "CRC" in r["stopped"]
 
 
 def test_no_traceback_from_the_real_command_line(tmp_path):

@@ -1,0 +1,123 @@
+"""Traces: recording overhead on a real run, trace read (replay) rate, recorder write rate.
+
+Overhead: the same scenario run with and without a recorder in this process, alternated
+and repeated, fastest of each kept (the machine is shared, so the minimum is the least
+disturbed figure). Read rate: ``Trace.messages`` (what replay, export and estimate read
+through) against the stock mcap reader in log-time order on the same file.
+"""
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+from bench import Row
+
+SCENARIO = "scenarios/flat-tripod.toml"
+RUN_S = 10.0
+REPEATS = 5
+READ_MESSAGES = 200_000
+
+
+def _time_inside_recorder(run, out: Path) -> float:
+    """Seconds spent inside Recorder methods during one recorded run (a noise-free view
+    of the same overhead: it does not depend on what else the shared machine runs)."""
+    from host_tools import recorder as rec_mod
+
+    spent = [0.0]
+    saved = {}
+    for name in ("__init__", "serial", "can", "link", "telemetry", "switch_edge", "fault",
+                 "servo_state", "body_pose", "joints", "advance", "close"):
+        f = saved[name] = getattr(rec_mod.Recorder, name)
+
+        def timed(self, *a, _f=f, **k):
+            t0 = time.perf_counter()
+            try:
+                return _f(self, *a, **k)
+            finally:
+                spent[0] += time.perf_counter() - t0
+        setattr(rec_mod.Recorder, name, timed)
+    try:
+        run(SCENARIO, RUN_S, out=str(out))
+    finally:
+        for name, f in saved.items():
+            setattr(rec_mod.Recorder, name, f)
+    return spent[0]
+
+
+def _overhead(tmp: Path) -> list[Row]:
+    from host_tools.run import run
+
+    plain, recorded = [], []
+    out = tmp / "run.mcap"
+    run(SCENARIO, 1.0)  # warm-up: imports, MuJoCo model build, micropython start
+    run(SCENARIO, 1.0, out=str(out))
+    for _ in range(REPEATS):
+        t0 = time.perf_counter()
+        run(SCENARIO, RUN_S)
+        plain.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        run(SCENARIO, RUN_S, out=str(out))
+        recorded.append(time.perf_counter() - t0)
+    from host_tools.trace_tools import info
+
+    n = info(out)["messages"]
+    inside = min(_time_inside_recorder(run, out) for _ in range(3))
+    a, b = min(plain), min(recorded)
+    note = (f"{SCENARIO} {RUN_S:g} s simulated, best of {REPEATS}: {a:.3f} s plain, "
+            f"{b:.3f} s with --out ({n} messages)")
+    return [Row("traces: recording overhead (wall)", 100 * (b - a) / a, "%", "<= 10 %", note),
+            Row("traces: time inside the recorder", 100 * inside / a, "% of run", "<= 10 %",
+                f"{inside * 1e3:.1f} ms in Recorder calls per recorded run "
+                f"({inside / n * 1e6:.1f} us a message)")]
+
+
+def _rates(tmp: Path) -> list[Row]:
+    from host_tools.recorder import Recorder
+    from host_tools.trace_tools import Trace
+    from protocol import can_frames, dynamixel
+
+    path = tmp / "big.mcap"
+    pkt = dynamixel.read(1, 36, 2)
+    arb, data = can_frames.encode("force", fx_n=0.1, fy_n=0.0, fz_n=-0.2, sample=1)
+    t0 = time.perf_counter()
+    with Recorder(path, {}, decode_serial=False, decode_can=False) as r:
+        for i in range(READ_MESSAGES // 2):
+            r.serial(i * 100, "tx", pkt)
+            r.can(i * 100 + 50, arb, data)
+    write_s = time.perf_counter() - t0
+    with Trace(path) as tr:
+        t0 = time.perf_counter()
+        n = sum(1 for _ in tr.messages())
+        ours = n / (time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        m = sum(1 for _ in tr.reader.iter_messages(log_time_order=True))
+        stock = m / (time.perf_counter() - t0)
+    return [
+        Row("traces: read/replay rate", ours, "msg/s", ">= 200000",
+            f"Trace.messages on {n} messages, log-time order; {ours / stock:.1f}x the stock "
+            f"mcap reader ({stock:,.0f} msg/s) on the same file"),
+        Row("traces: recorder write rate", READ_MESSAGES / write_s, "msg/s", "",
+            "serial + raw CAN, protobuf, zstd chunks per 0.5 s of virtual time"),
+    ]
+
+
+def _replay(tmp: Path) -> list[Row]:
+    from host_tools.replay import replay_firmware
+    from host_tools.run import run
+
+    out = tmp / "replay.mcap"
+    run(SCENARIO, RUN_S, out=str(out))
+    t0 = time.perf_counter()
+    r = replay_firmware(out)
+    dt = time.perf_counter() - t0
+    assert r.identical, r.divergence
+    return [Row("traces: replay into firmware", RUN_S / dt, "x real time", "",
+                f"{r.exchanges} link exchanges of {RUN_S:g} s under micropython in {dt:.2f} s, "
+                "identical")]
+
+
+def run() -> list[Row]:
+    with tempfile.TemporaryDirectory() as d:
+        tmp = Path(d)
+        return _overhead(tmp) + _rates(tmp) + _replay(tmp)
