@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
-from hil.world.beams import PAPER_BODY, BodyGeometry, unit_contact_forces
+from hil.world.beams import G_M_S2, PAPER_BODY, BodyGeometry, unit_contact_forces
 
 HB_MAX_M = 0.005        # Sec. II-E: h_b guesses in [0, 5] mm
 K_MAX_NM_PER_RAD = 5.0  # Sec. II-E: k guesses in [0, 5] N m/rad
@@ -160,3 +160,40 @@ def estimate(poses, forces, unknowns: int = 4, method: str = "fast", geometry: B
     if method == "paper":
         return estimate_paper(poses, forces, unknowns, geometry, **kw)
     return estimate_fast(poses, forces, unknowns, geometry, **kw)
+
+
+@dataclass
+class PreloadEstimate:
+    """Sec. IV's two unknowns: one stiffness and one preload torque shared by both beams."""
+
+    k: float                # N m/rad
+    tau0_nm: float
+    error_n: float          # Eq. 7 at the estimate
+    elapsed_s: float
+
+    def as_dict(self) -> dict:
+        return {"k": self.k, "tau0_nm": self.tau0_nm, "error_n": self.error_n, "elapsed_s": self.elapsed_s}
+
+
+def estimate_preloaded(poses: np.ndarray, forces: np.ndarray, hb_m: float = 0.0, beam_mass_kg: float = 0.0,
+                       geometry: BodyGeometry = PAPER_BODY) -> PreloadEstimate:
+    """Sec. IV (Eq. 12): k and tau_0 (equal for both beams) with h_b and M_B known.
+
+    For fixed geometry each beam's force is (tau_0 + k theta - (L/2) M_B g sin theta) / lever
+    along the inward normal: linear in (k, tau_0), so one least-squares solve gives both.
+    """
+    t0 = time.perf_counter()
+    poses, forces = np.asarray(poses, float), np.asarray(forces, float)
+    per_k = np.zeros_like(forces)
+    per_tau0 = np.zeros_like(forces)
+    weight = np.zeros_like(forces)
+    for beam in (0, 1):
+        theta, lever, normal = unit_contact_forces(poses[:, 0], poses[:, 1], poses[:, 2], hb_m, beam, geometry)
+        n = normal.T                                    # (N, 3), zero where the beam is not touched
+        per_k += n * (theta / lever)[:, None]
+        per_tau0 += n / lever[:, None]
+        weight += n * (0.5 * geometry.beam_length_m * beam_mass_kg * G_M_S2 * np.sin(theta) / lever)[:, None]
+    a = np.stack([per_k.ravel(), per_tau0.ravel()], axis=1)
+    (k, tau0), *_ = np.linalg.lstsq(a, (forces + weight).ravel(), rcond=None)
+    err = float(eq7_error(k * per_k + tau0 * per_tau0 - weight, forces))
+    return PreloadEstimate(float(k), float(tau0), err, time.perf_counter() - t0)

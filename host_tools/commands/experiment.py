@@ -12,6 +12,7 @@ import importlib
 EXPERIMENTS: dict[str, tuple[str, str]] = {
     "tactile-hexapod": ("host_tools.experiments.tactile_hexapod",
                         "seed 003: positional error with and without tactile step switching"),
+    "force-sensing": ("host_tools.experiments.force_sensing", "seed 000: beam force sensing, planning, control vs the paper"),
 }
 
 
