@@ -445,7 +445,7 @@ def recover(src: str | Path, dst: str | Path) -> dict[str, Any]:
                 elif record.__class__.__name__ == "Footer":
                     complete = True
         except Exception as exc:  # the cut-off or damaged tail
-            stopped = _why(exc)
+            stopped = f"cut off or damaged here ({_why(exc)})"
         if not header_written:
             writer.start()
         writer.finish()
