@@ -41,7 +41,10 @@ class Actuator(Protocol):
 
     def command(self, goal_rad: float, speed_limit_rad_s: float, torque_limit_frac: float,
                 enabled: bool, compliance: tuple[int, int, int, int, int]) -> None:
-        """New set-point; compliance = (cw_margin, ccw_margin, cw_slope, ccw_slope, punch), raw."""
+        """New set-point; compliance = (cw_margin, ccw_margin, cw_slope, ccw_slope, punch), raw.
+
+        ``goal_rad`` is +inf (CCW) or -inf (CW) in wheel mode: turn endlessly at the speed.
+        """
 
     def state(self) -> tuple[float, float, float]:
         """(position_rad, velocity_rad_s, load_frac); CCW positive, load in [-1, 1]."""
@@ -56,6 +59,7 @@ class KinematicActuator:
     The speed saturates at the motor's no-load speed (``ax12.speed_to_rad_s(0)``), so
     Moving Speed above that, like 0, runs flat out.
 
+    An infinite goal (wheel mode) turns endlessly, the angle wrapping to [-pi, pi).
     Holds still with torque off or a zero torque limit. ``stalled`` (set by the stall
     fault) models an external load that blocks the horn: it stays put and reports a load
     equal to the torque limit, which is what trips the overload alarm on a real servo.
@@ -116,6 +120,8 @@ class KinematicActuator:
                 self.position_rad = self.goal_rad
             else:
                 self.position_rad += step if err > 0 else -step
+            if math.isinf(self.goal_rad):  # wheel mode: the horn turns round and round
+                self.position_rad = (self.position_rad + math.pi) % (2.0 * math.pi) - math.pi
             self._settle()
 
     def set_stalled(self, stalled: bool) -> None:
@@ -244,16 +250,30 @@ class Servo:
             self._command()
             self._refresh_present()
 
+    def wheel_mode(self) -> bool:
+        """Both angle limits 0: endless turn, Moving Speed 0-2047 (bit 10 = CW), goal ignored."""
+        t = self.table
+        return not (t[6] or t[7] or t[8] or t[9])
+
     def _command(self) -> None:
         t = self.table
-        goal = t[30] | (t[31] << 8)
-        cw = t[6] | (t[7] << 8)
-        ccw = t[8] | (t[9] << 8)
-        if cw or ccw:  # joint mode: the horn stops at the angle limits
-            goal = cw if goal < cw else (ccw if goal > ccw else goal)
+        speed = t[32] | (t[33] << 8)
+        if self.wheel_mode():
+            mag = speed & 0x3FF
+            if mag:
+                goal_rad = -math.inf if speed & ax12.DIRECTION_BIT else math.inf
+            else:  # speed 0 stops the wheel where it is
+                goal_rad = self.actuator.state()[0]
+            speed_rad_s = mag * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0
+        else:  # joint mode: the horn stops at the angle limits
+            cw = t[6] | (t[7] << 8)
+            ccw = t[8] | (t[9] << 8)
+            goal = t[30] | (t[31] << 8)
+            goal_rad = ax12.position_to_rad(cw if goal < cw else (ccw if goal > ccw else goal))
+            speed_rad_s = ax12.speed_to_rad_s(speed)
         self.actuator.command(
-            ax12.position_to_rad(goal),
-            ax12.speed_to_rad_s(t[32] | (t[33] << 8)),
+            goal_rad,
+            speed_rad_s,
             (t[34] | (t[35] << 8)) * ax12.LOAD_FRACTION_PER_UNIT,
             bool(t[ax12.TORQUE_ENABLE]),
             (t[26], t[27], t[28], t[29], t[48] | (t[49] << 8)),
@@ -353,8 +373,9 @@ class Servo:
             return reply
         elif code != dxl.PING:
             error = dxl.ERR_INSTRUCTION
-        if error:
-            self._alarm(error)
+        alarms = error | self.state_errors()  # a limit just written may already be exceeded
+        if alarms:
+            self._alarm(alarms)
         if broadcast:
             return None
         return self._answer(code, error, data)
@@ -408,12 +429,13 @@ class Servo:
                 v = lo | (hi << 8)
             else:
                 v = lo
-            if v < f[6] or v > f[7]:
+            hi_limit = 2047 if start == ax12.MOVING_SPEED and self.wheel_mode() else f[7]
+            if v < f[6] or v > hi_limit:
                 return dxl.ERR_RANGE
-            if start == ax12.GOAL_POSITION:
+            if start == ax12.GOAL_POSITION and not self.wheel_mode():
                 cw = t[6] | (t[7] << 8)
                 ccw = t[8] | (t[9] << 8)
-                if (cw or ccw) and (v < cw or v > ccw):
+                if v < cw or v > ccw:
                     error |= dxl.ERR_ANGLE_LIMIT
             a = start + size
         return error

@@ -147,6 +147,25 @@ def test_no_load_speed_caps_motion_and_torque_off_holds(moving_speed):
     assert a.state()[:2] == (pytest.approx(no_load_rad_s, rel=1e-9), 0.0)
 
 
+def test_wheel_mode_turns_endlessly_both_ways():
+    s = Servo(1)
+    write(s, ax12.TORQUE_ENABLE, b"\x01")
+    assert write(s, ax12.MOVING_SPEED, (1500).to_bytes(2, "little")) == dxl.ERR_RANGE  # joint mode
+    assert write(s, ax12.CW_ANGLE_LIMIT, bytes(4)) == 0  # CW = CCW = 0: wheel mode
+    assert write(s, ax12.GOAL_POSITION, (5).to_bytes(2, "little")) == 0  # no angle limit in wheel
+    assert write(s, ax12.MOVING_SPEED, (300).to_bytes(2, "little")) == 0  # CCW, 33.3 rpm
+    s.advance_to(3_000_000)  # 1.67 turns: wrapped, still turning
+    assert s.value("moving") == 1 and s.value("present_speed") == 300
+    turned = ax12.position_to_rad(512) + 300 * 0.111 / 60 * 2 * math.pi * 3.0
+    assert s.actuator.state()[0] == pytest.approx((turned + math.pi) % (2 * math.pi) - math.pi)
+    assert write(s, ax12.MOVING_SPEED, (1024 + 300).to_bytes(2, "little"), 3_000_000) == 0
+    s.advance_to(3_500_000)
+    assert s.value("present_speed") == 1024 + 300  # bit 10: CW
+    write(s, ax12.MOVING_SPEED, b"\x00\x00", 3_500_000)
+    s.advance_to(4_000_000)
+    assert s.value("moving") == 0
+
+
 def test_stall_overload_shutdown_and_rearm():
     s = Servo(1)
     write(s, ax12.TORQUE_ENABLE, b"\x01")
@@ -197,9 +216,14 @@ def test_control_table_invariants_under_random_writes(writes, edition):
             if a not in _MOTION:
                 assert after[a] == before[a], a
         if err & dxl.ERR_RANGE:
-            assert [a for a in range(50) if after[a] != before[a] and a not in _MOTION] == []
+            changed = [a for a in range(50) if after[a] != before[a] and a not in _MOTION]
+            if err & before[ax12.SHUTDOWN]:  # alarm shutdown: only Torque Limit drops, to 0
+                assert ax12.get(after, ax12.TORQUE_LIMIT, 2) == 0
+                changed = [a for a in changed if a not in (34, 35)]
+            assert changed == []
         for f in ax12.FIELDS:
-            assert f[6] <= ax12.get(s.table, f[0], f[2]) <= f[7], f[1]
+            hi = 2047 if f[0] == ax12.MOVING_SPEED and s.wheel_mode() else f[7]
+            assert f[6] <= ax12.get(s.table, f[0], f[2]) <= hi, f[1]
         if locked and edition == ax12.EDITION_EMANUAL:
             assert after[:ax12.EEPROM_END] == before[:ax12.EEPROM_END] and after[ax12.LOCK] == 1
         if locked and edition == ax12.EDITION_ORIGINAL:
