@@ -271,10 +271,11 @@ class Bus:
                         b.data[k + i] &= v
                     else:
                         b.data.append(v)
+                if b.reply and burst.reply:  # echo over a reply was counted by _collide
+                    self.stats["collisions"] += 1
+                    if self.faults is not None:
+                        self.faults.report(burst.start_us, "collision", "two servos answered at once")
                 b.reply = b.reply or burst.reply
-                self.stats["collisions"] += 1
-                if self.faults is not None:
-                    self.faults.report(burst.start_us, "collision", "two transmitters at once")
                 return
         self._rx.append(burst)
         self._rx.sort(key=lambda x: x.start_us)

@@ -228,3 +228,13 @@ def test_any_byte_stream_never_raises_out_of_the_bus(ops):
         for s in bus.servos:
             for f in ax12.FIELDS:
                 assert f[6] <= ax12.get(s.table, f[0], f[2]) <= f[7], f[1]
+
+
+def test_echo_line_collision_is_counted_once_and_heard_corrupted():
+    faults = Faults()
+    bus = make_bus(echo=True, faults=faults)
+    bus.master_write(dxl.read(1, ax12.PRESENT_POSITION, 2))  # reply due at 580..660
+    bus.master_write(dxl.sync_write(ax12.GOAL_POSITION, 2, [(i, b"\x00\x02") for i in range(1, 19)]))
+    heard = bus.master_read(200, 2000)
+    assert bus.stats["collisions"] == 1 and faults.counts == {"collision": 1}
+    assert dxl.status(1, 0, b"\x00\x02") not in heard

@@ -137,7 +137,7 @@ def test_cli_rejects_bad_flags_in_one_line():
     assert r.returncode == 2 and "one transport" in r.stderr
 
 
-def test_tcp_transport_serves_pyserial_socket_url():
+def test_tcp_transport_serves_pyserial_socket_url_and_ctrl_c_ends_it():
     import serial
 
     proc = subprocess.Popen([*HEXHIL, "bus", "--tcp", "0", "--servos", "3"], cwd=ROOT,
@@ -151,6 +151,7 @@ def test_tcp_transport_serves_pyserial_socket_url():
         assert ser.read(6) == dxl.status(3)
         ser.close()
     finally:
-        proc.send_signal(signal.SIGTERM)
-        proc.communicate(timeout=10)
-    assert proc.returncode == 0
+        proc.send_signal(signal.SIGINT)  # Ctrl-C ends it as cleanly as SIGTERM
+        out, err = proc.communicate(timeout=10)
+    assert proc.returncode == 0 and "Traceback" not in err
+    assert out.splitlines()[-1].startswith("served 1 packets, 1 replies")
