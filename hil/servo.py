@@ -133,7 +133,7 @@ class Servo:
     """One AX-12A on the bus; ``handle`` takes a parsed instruction and returns the reply.
 
     ``handle``/``checksum_error`` return the status packet to send (bytes) or None; the
-    bus adds the return delay and wire time. ``errors_seen`` counts error bits replied.
+    bus adds the return delay and wire time. ``instructions`` counts packets executed.
     """
 
     def __init__(self, dev_id: int = 1, edition: str = ax12.EDITION_EMANUAL,
