@@ -155,3 +155,17 @@ def test_tcp_transport_serves_pyserial_socket_url_and_ctrl_c_ends_it():
         out, err = proc.communicate(timeout=10)
     assert proc.returncode == 0 and "Traceback" not in err
     assert out.splitlines()[-1].startswith("served 1 packets, 1 replies")
+
+
+def test_real_time_unplug_fault_fires_on_the_wall_clock(monkeypatch_module):
+    with bus_server("--servos", "2", "--unplug", "2:0:1.0") as path:
+        t0 = time.monotonic()
+        port = sdk.PortHandler(path)
+        assert port.openPort()
+        try:
+            assert PH.ping(port, 1)[1] == sdk.COMM_SUCCESS
+            assert PH.ping(port, 2)[1] == sdk.COMM_RX_TIMEOUT  # unplugged for the first second
+            time.sleep(max(0.0, 1.2 - (time.monotonic() - t0)))
+            assert PH.ping(port, 2) == (ax12.MODEL_NUMBER, sdk.COMM_SUCCESS, 0)
+        finally:
+            port.closePort()
