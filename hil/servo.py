@@ -190,7 +190,8 @@ class Servo:
         load = act.state()[2]
         table = self.table
         tl = (table[ax12.TORQUE_LIMIT] | (table[ax12.TORQUE_LIMIT + 1] << 8))
-        if table[ax12.TORQUE_ENABLE] and tl and abs(load) * 1023.0 >= tl - 0.5:
+        supply = min(1.0, max(0.0, self.supply_v / SUPPLY_V))
+        if table[ax12.TORQUE_ENABLE] and tl and abs(load) * 1023.0 >= tl * supply - 0.5:
             self._saturated_us += dt_us
             if self._saturated_us >= OVERLOAD_TIME_US:
                 self.overload = True
@@ -271,10 +272,12 @@ class Servo:
             goal = t[30] | (t[31] << 8)
             goal_rad = ax12.position_to_rad(cw if goal < cw else (ccw if goal > ccw else goal))
             speed_rad_s = ax12.speed_to_rad_s(speed)
+        # A DC motor's no-load speed and stall torque scale with its supply (rated at 12 V).
+        supply = min(1.0, max(0.0, self.supply_v / SUPPLY_V))
         self.actuator.command(
             goal_rad,
-            speed_rad_s,
-            (t[34] | (t[35] << 8)) * ax12.LOAD_FRACTION_PER_UNIT,
+            min(speed_rad_s, _NO_LOAD_RAD_S * supply),
+            (t[34] | (t[35] << 8)) * ax12.LOAD_FRACTION_PER_UNIT * supply,
             bool(t[ax12.TORQUE_ENABLE]),
             (t[26], t[27], t[28], t[29], t[48] | (t[49] << 8)),
         )
@@ -283,6 +286,7 @@ class Servo:
     def set_supply_v(self, volts: float, t_us: int) -> None:
         self.advance_to(t_us)
         self.supply_v = volts
+        self._command()
         self._refresh_present()
 
     def set_hot_spot(self, temperature_c: float | None, t_us: int) -> None:

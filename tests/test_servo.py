@@ -166,6 +166,18 @@ def test_wheel_mode_turns_endlessly_both_ways():
     assert s.value("moving") == 0
 
 
+def test_voltage_sag_slows_the_motor():
+    s = Servo(1)
+    write(s, ax12.TORQUE_ENABLE, b"\x01")
+    write(s, ax12.GOAL_POSITION, (1000).to_bytes(2, "little"))  # Moving Speed 0: flat out
+    s.advance_to(100_000)
+    full = s.actuator.state()[1]
+    s.set_supply_v(6.0, 100_000)
+    s.advance_to(200_000)
+    assert s.actuator.state()[1] == pytest.approx(full / 2)
+    assert full == pytest.approx(ax12.speed_to_rad_s(0))
+
+
 def test_stall_overload_shutdown_and_rearm():
     s = Servo(1)
     write(s, ax12.TORQUE_ENABLE, b"\x01")
