@@ -5,7 +5,7 @@ Lengths in metres, times in seconds unless the name says otherwise.
 """
 
 # Leg order everywhere (CAN tactile bit i = leg i): seed 003 Fig. 13's abbreviations.
-LEGS = ("LF", "LM", "LH", "RF", "RM", "RH")
+from protocol.can_frames import LEGS  # noqa: E402  (one leg order: CAN tactile bit i = leg i)
 
 DEFAULTS = {
     # Control loop. 50 Hz: one cycle's bus work (SYNC_WRITE 0.98 ms + 3 reads of 0.2 ms)

@@ -41,7 +41,7 @@ from host_tools.errors import UserError
 from protocol import ax12
 
 _channels = itertools.count()
-BODY_SAMPLE_US = 100_000  # ground-truth pose to the recorder at 10 Hz
+BODY_SAMPLE_US = 100_000  # ground truth and servo state to the recorder at 10 Hz
 
 
 @dataclass
@@ -147,6 +147,7 @@ class Simulator:
                            receive_own_messages=False, preserve_timestamps=True)
         self._switch_bits = 0
         self._next_body_us = 0
+        self._next_servo_us = 0
         self._pose0 = world.body_pose() if world is not None else None
 
     # --- hooks ------------------------------------------------------------------------
@@ -362,3 +363,18 @@ class Simulator:
             quat = (cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
                     cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy)
             self.recorder.body_pose(t, (p.x_m, p.y_m, p.z_m), quat)
+            w = self.world
+            self.recorder.joints(t, w.joint_names(), w.joint_positions().tolist(),
+                                 w.joint_velocities().tolist(), w.joint_efforts_nm().tolist())
+        if t >= self._next_servo_us:
+            self._next_servo_us = t + BODY_SAMPLE_US
+            self.recorder.servo_state(t, [self._servo_record(s) for s in self.bus.servos])
+
+    @staticmethod
+    def _servo_record(s: Servo) -> dict[str, Any]:
+        tb = s.table
+        pos, vel, load = s.actuator.state()
+        return {"id": s.id, "position_rad": pos, "velocity_rad_s": vel, "load_frac": load,
+                "temperature_c": s.temperature_c, "voltage_v": s.supply_v,
+                "torque_enabled": bool(tb[ax12.TORQUE_ENABLE]), "moving": bool(tb[ax12.MOVING]),
+                "error": s.state_errors()}

@@ -9,6 +9,7 @@ from host_tools import scenario as scenario_mod
 from host_tools.errors import UserError
 
 DEFAULT_DURATION_S = 30.0
+CAN_WAIT_TIMEOUT_S = 60.0
 
 
 def make_world(scenario: dict[str, Any], seed: int) -> Any:
@@ -58,10 +59,32 @@ def summary(scenario: dict[str, Any], seed: int, result: RunResult,
     }
 
 
+def _start_can_server(port: int, wait_clients: int) -> Any:
+    from hil.can_server import CanServer
+
+    try:
+        server = CanServer(port=port)
+    except OSError as exc:
+        raise UserError(f"--can-server: cannot listen on 127.0.0.1:{port}: {exc.strerror}") from None
+    print(f"can-server: {server.host}:{server.port} channel {server.channel} (socketcand)",
+          flush=True)
+    if wait_clients and not server.wait_for_clients(wait_clients, CAN_WAIT_TIMEOUT_S):
+        server.close()
+        raise UserError(f"--can-wait: {wait_clients} socketcand client(s) did not attach "
+                        f"within {CAN_WAIT_TIMEOUT_S:.0f} s")
+    return server
+
+
 def run(path: str, duration_s: float | None = None, seed: int | None = None,
         python: str | None = None, tactile: bool | None = None,
-        out: str | None = None) -> tuple[dict[str, Any], RunResult]:
-    """Load, simulate, summarise. Returns (summary, raw result)."""
+        out: str | None = None, can_server_port: int | None = None,
+        can_wait_clients: int = 0) -> tuple[dict[str, Any], RunResult]:
+    """Load, simulate, summarise. Returns (summary, raw result).
+
+    With ``can_server_port`` the simulated CAN bus is served over socketcand on 127.0.0.1
+    (0 picks a free port); ``can_wait_clients`` holds the start until that many stock
+    clients are attached, so they see every frame.
+    """
     sc = scenario_mod.load(path)
     if seed is None:
         seed = sc["scenario"].get("seed", 0)
@@ -76,10 +99,16 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         from host_tools.recorder import open_recorder
         recorder = open_recorder(out, {"scenario": sc["_path"], "seed": seed,
                                        "firmware_runtime": python})
+    server = None
     try:
-        sim = Simulator(sc, seed, world=world, recorder=recorder, tactile=tactile)
+        if can_server_port is not None:
+            server = _start_can_server(can_server_port, can_wait_clients)
+        sim = Simulator(sc, seed, world=world, recorder=recorder, tactile=tactile,
+                        can_server=server)
         result = sim.run(duration_s, python=python)
     finally:
+        if server is not None:
+            server.close()
         if recorder is not None:
             recorder.close()
     return summary(sc, seed, result, out), result

@@ -68,3 +68,27 @@ def test_missing_file_and_bad_flag():
     assert r.returncode == 2 and "not found" in r.stderr and "nope.toml" in r.stderr
     r = hexhil("run", "scenarios/faults.toml", "--duration", "-1")
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_run_trace_holds_ground_truth_servo_state_and_joints(tmp_path):
+    from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
+
+    from host_tools import recorder as rec
+    from host_tools.trace_tools import open_trace
+
+    out = tmp_path / "t.mcap"
+    s = summary(hexhil("run", "scenarios/flat-tripod.toml", "--duration", "1", "--out", str(out),
+                       "--json"))
+    assert s["trace"] == str(out)
+    with open_trace(out) as tr:
+        servos = [rec.ServoStates.FromString(m.data) for m in tr.messages([rec.T_SERVOS])]
+        joints = [JointStates.FromString(m.data) for m in tr.messages([rec.T_JOINTS])]
+        bodies = list(tr.messages([rec.T_BODY]))
+    assert len(servos) == len(joints) == len(bodies) == 10  # 10 Hz over 1 s
+    last = servos[-1].servos
+    assert [sv.id for sv in last] == list(range(1, 19)) and all(sv.torque_enabled for sv in last)
+    names = [j.name for j in joints[-1].joints]
+    assert names[:3] == ["LF_coxa", "LF_femur", "LF_tibia"] and len(names) == 18
+    # the servo reports the joint it drives: Present Position comes from physics
+    for sv, j in zip(last, joints[-1].joints):
+        assert abs(sv.position_rad - j.position) < 1e-9

@@ -25,12 +25,12 @@ import mujoco
 import numpy as np
 
 from firmware import kinematics as kin
+from firmware.config import LEGS
 from hil.world import actuator as act
 from hil.world import terrain as terrain_mod
 from hil.world.switches import SwitchBank
 from host_tools.errors import UserError
 
-LEGS = ("LF", "LM", "LH", "RF", "RM", "RH")
 PHYSICS_DT_US = 2000   # 2 ms steps: contact-stable with implicit joint damping (see docs)
 
 
@@ -255,6 +255,15 @@ class HexapodWorld:
 
     def joint_velocities(self) -> np.ndarray:
         return self.data.qvel[self._vadr]
+
+    def joint_efforts_nm(self) -> np.ndarray:
+        """Motor torque on each joint (N m), from the drive model."""
+        return self.data.qfrc_actuator[self._vadr]
+
+    @staticmethod
+    def joint_names() -> list[str]:
+        """MJCF joint names in servo-ID order, as they appear in JointStates."""
+        return [f"{leg}_{part}" for leg in LEGS for part in ("coxa", "femur", "tibia")]
 
     # --- logging ------------------------------------------------------------------------
     def _sample(self) -> None:

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 
+from hil.can_server import DEFAULT_PORT
 from host_tools import cli
 
 
@@ -10,7 +11,8 @@ def _run(args: argparse.Namespace) -> int:
     from host_tools import run as run_mod
 
     s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
-                            False if args.no_tactile else None, args.out)
+                            False if args.no_tactile else None, args.out,
+                            args.can_server, args.can_wait)
     for text in result.exceptions:
         print("firmware exception:\n" + text.rstrip())
     if result.unhandled_exceptions and result.stderr_tail:
@@ -40,5 +42,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-tactile", action="store_true",
                    help="turn the Eq. 5-7 obstacle rule off (the paper's baseline)")
     p.add_argument("--out", metavar="FILE.mcap", help="record the run to an MCAP trace")
+    p.add_argument("--can-server", type=int, nargs="?", const=DEFAULT_PORT, metavar="PORT",
+                   help="serve the simulated CAN bus over socketcand on 127.0.0.1 "
+                        f"(default port {DEFAULT_PORT}; 0 picks a free one)")
+    p.add_argument("--can-wait", type=int, default=0, metavar="N",
+                   help="with --can-server: start only once N clients are attached")
     p.add_argument("--json", action="store_true", help="print the summary as JSON (last line)")
     p.set_defaults(func=_run)
