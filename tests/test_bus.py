@@ -238,3 +238,14 @@ def test_echo_line_collision_is_counted_once_and_heard_corrupted():
     heard = bus.master_read(200, 2000)
     assert bus.stats["collisions"] == 1 and faults.counts == {"collision": 1}
     assert dxl.status(1, 0, b"\x00\x02") not in heard
+
+
+def test_writing_id_and_baud():
+    bus = make_bus(2)
+    (pkt,) = transact(bus, dxl.write(1, ax12.ID, b"\x1e"), 6)
+    assert pkt.id == 30  # the status is built after the write, so it carries the new ID
+    assert transact(bus, dxl.ping(1), 6) == [] and transact(bus, dxl.ping(30), 6)[0].id == 30
+    (pkt,) = transact(bus, dxl.write(30, ax12.BAUD_RATE, b"\x22"), 6)  # 57142 bps
+    assert pkt.id == 30  # still at the old rate: the UART switches after the reply
+    assert transact(bus, dxl.ping(30), 64) == []  # it now hears garbage and says garbage
+    assert transact(bus, dxl.ping(2), 6)[0].id == 2
