@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     from hil import serial_server
     from host_tools import scenario as scenario_mod
 
-    if args.pty == (args.tcp is not None):
+    if args.pty and args.tcp is not None:
         raise UserError("choose one transport: --pty or --tcp PORT")
     if args.tcp is not None and not 0 <= args.tcp <= 65535:
         raise UserError(f"--tcp {args.tcp}: port must be 0-65535")
@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     server = serial_server.RealTimeServer(bus)
     serial_server.install_sigterm()
     try:
-        if args.pty:
+        if args.tcp is None:
             server.serve_pty(serial_server.flush_print)
         else:
             try:
@@ -124,7 +124,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "return delay honoured) for stock Protocol 1.0 clients.")
     p.add_argument("--servos", type=int, default=None, help="number of servos (default 18)")
     p.add_argument("--ids", default=None, help="servo IDs, e.g. 1-18 or 1,3,5-7")
-    p.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal (prints 'pty: PATH')")
+    p.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal, the default (prints 'pty: PATH')")
     p.add_argument("--tcp", type=int, default=None, metavar="PORT", help="serve on a TCP port")
     p.add_argument("--host", default="127.0.0.1", help="address for --tcp (default 127.0.0.1)")
     p.add_argument("--baud", type=int, default=None, help="line rate in bit/s (default 1000000)")
@@ -133,12 +133,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--edition", choices=("emanual", "original"), default=None,
                    help="control-table defaults of this manual edition (default emanual)")
     p.add_argument("--seed", type=int, default=None, help="fault RNG seed (default: scenario's, else 0)")
-    p.add_argument("--bit-error-rate", type=float, default=None, metavar="P")
-    p.add_argument("--drop-status-rate", type=float, default=None, metavar="P")
-    p.add_argument("--unplug", action="append", metavar="ID:AT_S[:UNTIL_S]")
-    p.add_argument("--stall", action="append", metavar="ID:AT_S[:UNTIL_S]")
-    p.add_argument("--overheat", action="append", metavar="ID:TEMP_C:AT_S[:UNTIL_S]")
+    p.add_argument("--bit-error-rate", type=float, default=None, metavar="P",
+                   help="probability each data bit on the line flips")
+    p.add_argument("--drop-status-rate", type=float, default=None, metavar="P",
+                   help="probability a status packet is lost")
+    p.add_argument("--unplug", action="append", metavar="ID:AT_S[:UNTIL_S]",
+                   help="servo silent from AT_S (seconds after start) to UNTIL_S; repeatable")
+    p.add_argument("--stall", action="append", metavar="ID:AT_S[:UNTIL_S]",
+                   help="an external load blocks the horn (overload alarm); repeatable")
+    p.add_argument("--overheat", action="append", metavar="ID:TEMP_C:AT_S[:UNTIL_S]",
+                   help="servo heats towards TEMP_C; repeatable")
     p.add_argument("--voltage-sag", dest="voltage_sag", action="append",
-                   metavar="VOLTS:AT_S[:UNTIL_S]")
+                   metavar="VOLTS:AT_S[:UNTIL_S]", help="supply of every servo drops; repeatable")
     p.add_argument("-v", "--verbose", action="store_true", help="print each injected fault on stderr")
     p.set_defaults(func=run)
