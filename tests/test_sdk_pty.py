@@ -1,8 +1,6 @@
 """Acceptance: the official dynamixel-sdk drives `hexhil bus --pty` like a real AX-12 bus."""
 from __future__ import annotations
 
-import math
-import os
 import signal
 import subprocess
 import sys
