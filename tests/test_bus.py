@@ -249,3 +249,11 @@ def test_writing_id_and_baud():
     assert pkt.id == 30  # still at the old rate: the UART switches after the reply
     assert transact(bus, dxl.ping(30), 64) == []  # it now hears garbage and says garbage
     assert transact(bus, dxl.ping(2), 6)[0].id == 2
+
+
+def test_a_false_header_swallows_packets_until_a_100_ms_gap():
+    bus = make_bus(3)
+    bus.master_write(b"\xff\xff\x07\xc8")  # announces a 204-byte packet
+    assert transact(bus, dxl.ping(2), 6) == []  # swallowed as part of it
+    bus.idle_until(bus.clock.t_us + dxl.INTER_BYTE_TIMEOUT_US + 1)
+    assert transact(bus, dxl.ping(2), 6)[0].id == 2
