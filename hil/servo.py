@@ -66,7 +66,7 @@ class KinematicActuator:
     """
 
     __slots__ = ("position_rad", "velocity_rad_s", "load_frac", "goal_rad", "speed_rad_s",
-                 "torque_frac", "enabled", "stalled", "margin_rad", "t_us")
+                 "torque_frac", "enabled", "stalled", "t_us")
 
     def __init__(self, position_rad: float = 0.0, t_us: int = 0) -> None:
         self.position_rad = position_rad
@@ -77,7 +77,6 @@ class KinematicActuator:
         self.torque_frac = 1.0
         self.enabled = False
         self.stalled = False
-        self.margin_rad = 0.0
         self.t_us = t_us
 
     def command(self, goal_rad: float, speed_limit_rad_s: float, torque_limit_frac: float,
@@ -85,10 +84,7 @@ class KinematicActuator:
         self.goal_rad = goal_rad
         self.speed_rad_s = min(speed_limit_rad_s, _NO_LOAD_RAD_S)
         self.torque_frac = torque_limit_frac
-        self.enabled = enabled
-        # A goal within the compliance margin counts as reached (one unit = 300/1023 deg).
-        self.margin_rad = math.radians(min(compliance[0], compliance[1])
-                                       * ax12.POSITION_RANGE_DEG / ax12.POSITION_MAX)
+        self.enabled = enabled  # compliance shapes force; without forces it changes nothing
         self._settle()
 
     def _settle(self) -> None:
