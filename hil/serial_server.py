@@ -49,8 +49,8 @@ class RealTimeServer:
         if t > self.bus.clock.t_us:
             self.bus.idle_until(t)
 
-    def pump(self, fd: int, read: Callable[[], bytes | None], write: Callable[[bytes], None]) -> bool:
-        """Serve until ``read`` reports the client gone (False) or Stop is raised."""
+    def pump(self, fd: int, read: Callable[[], bytes | None], write: Callable[[bytes], None]) -> None:
+        """Serve until ``read`` reports the client gone (None) or Stop is raised."""
         bus = self.bus
         while True:
             self._catch_up()
@@ -63,7 +63,7 @@ class RealTimeServer:
             if ready:
                 data = read()
                 if data is None:
-                    return False
+                    return
                 if data:
                     self._catch_up()
                     bus.master_write(data)
