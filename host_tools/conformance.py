@@ -23,6 +23,9 @@ from protocol import ax12
 from protocol import dynamixel as dxl
 
 EEPROM_PAUSE_S = 0.01
+_NEED_REPLIES = ("bad_checksum_reply", "out_of_range_goal", "action_nothing_registered",
+                 "reg_write_action", "angle_limit_error", "status_return_level",
+                 "return_delay_timing", "restored")
 SILENCE_S = 0.05  # how long "no reply" is awaited; a late reply can only turn a fail into a pass
 _PROTOCOL_ERRORS = dxl.ERR_ANGLE_LIMIT | dxl.ERR_RANGE | dxl.ERR_CHECKSUM | dxl.ERR_INSTRUCTION
 
@@ -130,8 +133,15 @@ class Checker:
         self.add(i, "ping_status_format", ok,
                  "FF FF ID 02 ERR CHK, no protocol error bits" if ok else f"got {p!r}")
         table = self.read(i, 0, ax12.TABLE_SIZE)
+        srl0 = None if table is None else table[ax12.STATUS_RETURN_LEVEL]
+        if table is None:  # Status Return Level 0 answers PING only: lift it for the checks
+            self.write(i, ax12.STATUS_RETURN_LEVEL, b"\x02", reply=False)
+            time.sleep(EEPROM_PAUSE_S)
+            table = self.read(i, 0, ax12.TABLE_SIZE)
+            srl0 = 0
         if table is None:
-            self.add(i, "read_table", False, "READ of addresses 0-49 failed")
+            self.add(i, "read_table", False, "READ of addresses 0-49 not answered, even after "
+                     "setting Status Return Level 2")
             return
         model = ax12.get(table, ax12.MODEL_NUMBER_L, 2)
         bad = [] if model != ax12.MODEL_NUMBER else \
@@ -143,11 +153,15 @@ class Checker:
         part = self.read(i, 0, 2)
         self.add(i, "read_consistency", part == table[0:2],
                  "READ(0,2) matches the table" if part == table[0:2] else f"READ(0,2) = {part!r}")
-        srl0 = table[ax12.STATUS_RETURN_LEVEL]
-        if srl0 != 2:
+        locked = table[ax12.LOCK] == 1
+        if srl0 == 1:
+            if locked:
+                for name in _NEED_REPLIES:
+                    self.add(i, name, None, "Lock set at Status Return Level 1: WRITE is not "
+                             "answered and the level cannot be raised until power-off")
+                return
             self.write(i, ax12.STATUS_RETURN_LEVEL, b"\x02", reply=False)
             time.sleep(EEPROM_PAUSE_S)
-        locked = table[ax12.LOCK] == 1
         try:
             self._errors(i, table)
             self._registered(i, table)
@@ -250,16 +264,19 @@ class Checker:
                  f"{best[250] * 1e3:.2f} ms at 500 us (expect +0.5 ms, >= {floor * 1e3:.2f} ms)")
 
     def _restore(self, i: int, table: bytes, srl0: int, locked: bool) -> None:
-        if srl0 != 2 and not locked:
+        after = self.read(i, 0, ax12.TABLE_SIZE)  # still at Status Return Level 2
+        if after is None:
+            self.add(i, "restored", False, "READ of the table failed")
+            return
+        rw = [f for f in ax12.FIELDS if f[3] == ax12.RW and f[0] != ax12.STATUS_RETURN_LEVEL]
+        changed = [f[1] for f in rw if ax12.get(after, f[0], f[2]) != ax12.get(table, f[0], f[2])]
+        if srl0 != 2:
             self.write(i, ax12.STATUS_RETURN_LEVEL, bytes((srl0,)), reply=False)
             time.sleep(EEPROM_PAUSE_S)
-        after = self.read(i, 0, ax12.TABLE_SIZE) if srl0 >= 1 else None
-        if after is None:
-            self.add(i, "restored", None if srl0 == 0 else False,
-                     "Status Return Level 0: cannot read back" if srl0 == 0 else "READ failed")
-            return
-        rw = [f for f in ax12.FIELDS if f[3] == ax12.RW]
-        changed = [f[1] for f in rw if ax12.get(after, f[0], f[2]) != ax12.get(table, f[0], f[2])]
+            back = (self.read(i, ax12.STATUS_RETURN_LEVEL, 1) == bytes((1,)) if srl0 == 1
+                    else self.link.silent(dxl.read(i, ax12.STATUS_RETURN_LEVEL, 1)))
+            if not back:
+                changed.append("status_return_level")
         self.add(i, "restored", not changed, "every writable cell as found" if not changed
                  else f"changed: {changed}")
 

@@ -57,9 +57,13 @@ SLOPPY = textwrap.dedent("""
 """)
 
 
-def test_a_non_conforming_servo_fails_and_exits_1():
-    proc = subprocess.Popen([sys.executable, "-c", SLOPPY], cwd=ROOT, stdout=subprocess.PIPE,
+def serve_script(script: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-c", script], cwd=ROOT, stdout=subprocess.PIPE,
                             text=True)
+
+
+def test_a_non_conforming_servo_fails_and_exits_1():
+    proc = serve_script(SLOPPY)
     try:
         path = proc.stdout.readline().strip().split(": ", 1)[1]
         rc, result, out = conformance(path, "--ids", "1-3")
@@ -69,6 +73,40 @@ def test_a_non_conforming_servo_fails_and_exits_1():
     failed = sorted((c["id"], c["check"]) for c in result["checks"] if c["result"] == "fail")
     assert rc == 1 and not result["ok"]
     assert failed == [(1, "bad_checksum_reply"), (3, "present")], out
+
+
+QUIET_AND_LOCKED = textwrap.dedent("""
+    from hil.bus import Bus
+    from hil.clock import VirtualClock
+    from hil.serial_server import RealTimeServer, flush_print, install_sigterm, Stop
+    from hil.servo import Servo
+
+    s = [Servo(1), Servo(2), Servo(3)]
+    s[0].table[16] = 0  # Status Return Level 0: PING only
+    s[1].table[16] = 1  # PING and READ
+    s[2].table[47] = 1  # Lock
+    install_sigterm()
+    try:
+        RealTimeServer(Bus(s, VirtualClock())).serve_pty(flush_print)
+    except Stop:
+        pass
+""")
+
+
+def test_quiet_servos_are_lifted_and_put_back_locked_ones_skipped():
+    proc = serve_script(QUIET_AND_LOCKED)
+    try:
+        path = proc.stdout.readline().strip().split(": ", 1)[1]
+        rc, result, out = conformance(path, "--ids", "1-3")
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+    assert rc == 0 and result["failed"] == 0, out
+    skipped = sorted((c["id"], c["check"]) for c in result["checks"] if c["result"] == "skip")
+    assert skipped == [(3, "angle_limit_error"), (3, "return_delay_timing"),
+                       (3, "status_return_level")]
+    # "restored" read Status Return Level 1 back, and found READ silent again at level 0
+    assert [c["result"] for c in result["checks"] if c["check"] == "restored"] == ["pass"] * 3
 
 
 def test_unopenable_port_is_a_one_line_user_error():
