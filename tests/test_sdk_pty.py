@@ -89,7 +89,7 @@ def test_sync_write_moves_all_18_at_the_set_speed(sdk_port):
         time.sleep(0.02)
     assert samples[-1][1] == goals[1]
     t_move = 120 / speed_units_s  # 0.42 s: arrival, as positions sampled over time show it
-    assert 0.6 * t_move < samples[-1][0] < t_move + 0.5
+    assert 0.6 * t_move < samples[-1][0] < t_move + 1.0  # never early; late only if loaded
     mid = [(t, p) for t, p in samples if 0.2 * t_move < t < 0.8 * t_move]
     if len(mid) >= 2:  # slope between samples, loosely: the machine may be loaded
         (t1, p1), (t2, p2) = mid[0], mid[-1]
