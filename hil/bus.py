@@ -188,12 +188,8 @@ class Bus:
         self._move_to(t1)
         self._deliver(tx, t1)
         for s, parser in self._foreign:
-            if id(s) in self._off:
-                continue
-            for b in resample(tx, self.baud, s.baud_bps):
-                if parser.push(b, t1):
-                    self._dispatch_one(s, parser.id, parser.code,
-                                       bytes(parser.buf[5:5 + parser.nparams]), t1)
+            if id(s) not in self._off:
+                self._deliver_foreign(s, parser, tx, t1)
 
     def master_read(self, n: int, timeout_us: int) -> bytes:
         """Up to n bytes heard before now + timeout_us; the clock moves to the n-th byte's
@@ -323,15 +319,26 @@ class Bus:
         if changed:
             self._reindex()
 
-    def _dispatch_one(self, s: Servo, dev_id: int, code: int, params: bytes, t_us: int) -> None:
-        """A servo at another baud decoded a packet out of the garbage."""
-        if dev_id != s.id and dev_id != dxl.BROADCAST_ID:
-            return
-        reply = s.handle(code, params, dev_id == dxl.BROADCAST_ID, t_us)
-        if reply is not None:
-            self._schedule(s, resample(reply, s.baud_bps, self.baud), t_us)
-        if s.address_changed:
-            self._reindex()
+    def _deliver_foreign(self, s: Servo, parser: dxl.Parser, tx: bytearray, t_us: int) -> None:
+        """A servo at another baud decodes the line with its own UART timing."""
+        bad = parser.bad_checksum
+        for byte in resample(tx, self.baud, s.baud_bps):
+            reply = None
+            if parser.push(byte, t_us):
+                dev_id = parser.id
+                if dev_id != s.id and dev_id != dxl.BROADCAST_ID:
+                    continue
+                reply = s.handle(parser.code, bytes(parser.buf[5:5 + parser.nparams]),
+                                 dev_id == dxl.BROADCAST_ID, t_us)
+            elif parser.bad_checksum != bad:
+                bad = parser.bad_checksum
+                if parser.last_bad_checksum_id == s.id:
+                    reply = s.checksum_error(parser.buf[3], t_us)
+            if reply is not None:
+                self._schedule(s, resample(reply, s.baud_bps, self.baud), t_us)
+            if s.address_changed:
+                self._reindex()
+                return
 
     def _schedule(self, s: Servo, reply: bytes | None, t_us: int) -> None:
         if not reply:

@@ -48,7 +48,7 @@ def test_scenario_sets_bus_and_faults_and_flags_win(tmp_path: Path):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (("--baud", "300000"), "cannot run at it"),
+    (("--baud", "300000"), "no AX-12 rate"),
     (("--servos", "3", "--ids", "1-2"), "--servos 3 but --ids lists 2"),
     (("--bit-error-rate", "2"), "bit_error_rate must be in"),
     (("--voltage-sag", "5:2:1"), "at_s < until_s"),
@@ -56,6 +56,18 @@ def test_scenario_sets_bus_and_faults_and_flags_win(tmp_path: Path):
 def test_bad_flags_are_user_errors(argv, message):
     with pytest.raises(UserError, match=message):
         build_bus(args("--pty", *argv), {})
+
+
+def test_57600_bps_is_served_by_the_nearest_register_within_3_percent():
+    bus, _ = build_bus(args("--pty", "--baud", "57600", "--servos", "2"), {})
+    assert bus.baud == 57600 and bus.servos[0].baud_bps == 57142  # 0.8 % off: still decodes
+    bus.master_write(dxl.read(2, ax12.MODEL_NUMBER_L, 2))
+    assert dxl.Parser().feed(bus.master_read(8, 20_000)) == [
+        dxl.Packet(2, 0, b"\x0c\x00", dxl.status(2, 0, b"\x0c\x00"))]
+    bad = bytearray(dxl.ping(1))
+    bad[-1] ^= 0x0F
+    bus.master_write(bytes(bad))
+    assert dxl.Parser().feed(bus.master_read(6, 20_000))[0].code == dxl.ERR_CHECKSUM
 
 
 def test_default_is_18_servos_at_1_mbps_emanual():
