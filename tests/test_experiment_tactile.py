@@ -115,3 +115,16 @@ def test_quick_sweep_from_the_command_line(tmp_path):
     assert summary["runs"] == 14
     assert summary["rel_error_with"] < summary["rel_error_without"]
     assert (tmp_path / "results.md").exists() and len(summary["plots"]) == 4
+
+
+def test_an_experiment_run_records_its_trace(tmp_path):
+    from host_tools.trace_tools import info
+
+    spec = th.RunSpec("with", "tripod", 1.0, True, 1, "low", "small", periods=1)
+    r = th.run_one(spec, 0.0326, str(tmp_path))
+    assert r["trace"] == str(tmp_path / "with-tripod-low-small-1m-seed1-tactile.mcap")
+    summary = info(r["trace"])
+    topics = {t["topic"]: t["messages"] for t in summary["topics"]}
+    assert topics["/body"] > 0 and topics["/serial"] > 0 and topics["/joints"] > 0
+    assert summary["metadata"]  # scenario, seed, runtime
+    assert summary["end_s"] == pytest.approx(r["sim_s"], abs=0.1)

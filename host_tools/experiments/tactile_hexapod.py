@@ -91,27 +91,43 @@ def scenario_for(spec: RunSpec) -> dict[str, Any]:
     return out
 
 
-def simulate(scenario: dict[str, Any], seed: int, duration_s: float):
-    """Run the firmware against the hexapod world; returns the world at the end."""
+def simulate(scenario: dict[str, Any], seed: int, duration_s: float, trace: str | None = None):
+    """Run the firmware against the hexapod world (recorded to ``trace`` if given);
+    returns the world at the end."""
     from hil.sim import Simulator
     from hil.world.hexapod import HexapodWorld
+    from host_tools.recorder import open_recorder
 
     world = HexapodWorld(scenario, seed)
-    sim = Simulator(scenario, seed, world=world)
-    sim.run(duration_s)
+    recorder = open_recorder(trace, {"scenario": scenario["_path"], "seed": seed,
+                                     "firmware_runtime": "micropython"})
+    try:
+        Simulator(scenario, seed, world=world, recorder=recorder).run(duration_s)
+    finally:
+        if recorder is not None:
+            recorder.close()
     return world
 
 
-def run_one(spec: RunSpec, speed_m_s: float | None = None) -> dict[str, Any]:
+def trace_name(spec: RunSpec) -> str:
+    terrain = f"{spec.density}-{spec.height_class}" if spec.density else "flat"
+    method = "tactile" if spec.tactile else "no-tactile"
+    return f"{spec.stage}-{spec.gait}-{terrain}-{spec.distance_m:g}m-seed{spec.seed}-{method}.mcap"
+
+
+def run_one(spec: RunSpec, speed_m_s: float | None = None,
+            trace_dir: str | None = None) -> dict[str, Any]:
     """One run: end-pose errors, switch counts and the Eq. 8-14 prediction."""
     t0 = time.perf_counter()
-    world = simulate(scenario_for(spec), spec.seed, spec.duration_s)
+    trace = str(Path(trace_dir) / trace_name(spec)) if trace_dir else None
+    world = simulate(scenario_for(spec), spec.seed, spec.duration_s, trace)
     pose = world.body_pose()
     out = asdict(spec)
     out.update(x_m=pose.x_m, dx_m=spec.distance_m - pose.x_m, dy_m=pose.y_m,
                dyaw_deg=math.degrees(pose.yaw_rad), presses=[int(p) for p in world.switches.presses],
                obstacles=len(world.obstacles), wall_s=time.perf_counter() - t0,
                sim_s=world.t_us * 1e-6)
+    out["trace"] = trace
     out["error_m"] = math.hypot(out["dx_m"], out["dy_m"])
     out["rel_error"] = out["error_m"] / spec.distance_m if spec.distance_m else float("nan")
     if speed_m_s is not None:
@@ -145,7 +161,8 @@ def plan(quick: bool, seeds: int, periods_for: dict[tuple[str, float], int]) -> 
     return sorted(specs, key=lambda s: -s.duration_s)
 
 
-def run_sweep(quick: bool, seeds: int, executor: Executor) -> dict[str, Any]:
+def run_sweep(quick: bool, seeds: int, executor: Executor,
+              trace_dir: str | None = None) -> dict[str, Any]:
     """Run the whole protocol; returns the probe speeds, periods and every run's result."""
     probes = [RunSpec("probe", g, 0.0, True, 0) for g in GAITS]
     probe_out = executor.map(run_one, probes, "calibration probe")
@@ -154,7 +171,7 @@ def run_sweep(quick: bool, seeds: int, executor: Executor) -> dict[str, Any]:
     periods_for = {(g, d): max(1, round(d / (speed[g] * fw_config.PERIOD_FOR_GAIT_S[g])))
                    for g in GAITS for d in distances}
     specs = plan(quick, seeds, periods_for)
-    runs = executor.map(_run_with_speed, [(s, speed[s.gait]) for s in specs], "runs")
+    runs = executor.map(_run_with_speed, [(s, speed[s.gait], trace_dir) for s in specs], "runs")
     return {"speed_m_s": speed, "periods": {f"{g} {d:g} m": n for (g, d), n in periods_for.items()},
             "runs": runs}
 
@@ -307,11 +324,17 @@ def plots(result: dict[str, Any], out: Path) -> list[Path]:
     return paths
 
 
-def main(quick: bool, out: Path, seeds: int, executor: Executor) -> dict[str, Any]:
-    """Run the sweep and write results.json, results.md and the PNG plots into ``out``."""
+def main(quick: bool, out: Path, seeds: int, executor: Executor,
+         traces: bool = False) -> dict[str, Any]:
+    """Run the sweep and write results.json, results.md and the PNG plots into ``out``
+    (and one MCAP trace per run into ``out/traces`` with ``traces``)."""
     out.mkdir(parents=True, exist_ok=True)
+    trace_dir = None
+    if traces:
+        (out / "traces").mkdir(exist_ok=True)
+        trace_dir = str(out / "traces")
     t0 = time.perf_counter()
-    result = run_sweep(quick, seeds, executor)
+    result = run_sweep(quick, seeds, executor, trace_dir)
     result["wall_s"] = time.perf_counter() - t0
     (out / "results.json").write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")
     md = markdown(result, quick)
@@ -332,6 +355,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="run on a Dask distributed cluster, e.g. tcp://127.0.0.1:8786")
     p.add_argument("--seeds", type=int, default=None,
                    help="terrains per case (default 1 with --quick, 3 otherwise)")
+    p.add_argument("--traces", action="store_true",
+                   help="record every run to an MCAP trace in OUT/traces")
     p.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
 
 
@@ -342,7 +367,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} exists and is not a folder")
-    res = main(args.quick, out, seeds, Executor(args.workers, args.scheduler))
+    res = main(args.quick, out, seeds, Executor(args.workers, args.scheduler), args.traces)
     print(Path(res["table"]).read_text())
     print(f"wrote {res['table']} and {len(res['plots'])} plots in {res['out']} "
           f"({res['runs']} runs, {res['wall_s']:.0f} s)")
