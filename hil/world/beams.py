@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
@@ -493,6 +494,21 @@ class BeamsWorld:
         z = self._rng.standard_normal(3) * self.noise
         f = self.last.contact_n
         return f[0] * (1 + z[0]), f[1] * (1 + z[1]), f[2] * (1 + z[2])
+
+    def sample_after_contact(self, window_us: float, drive: Callable[[], None],
+                             max_us: int) -> tuple[np.ndarray, np.ndarray]:
+        """Sec. II-E: (poses, sensed forces) at 100 Hz from first contact for ``window_us``,
+        or until the body flips; ``drive`` runs before each step (the propulsion)."""
+        poses, forces = [], []
+        while self.t_us < max_us:
+            drive()
+            self.step()
+            if self.t_us % SENSOR_PERIOD_US == 0 and self.first_contact_us is not None:
+                if self.t_us - self.first_contact_us > window_us or self.flipped:
+                    break
+                poses.append(self.state.q())
+                forces.append(self.sense_force())
+        return np.array(poses), np.array(forces)
 
     @property
     def flipped(self) -> bool:

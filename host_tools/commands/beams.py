@@ -19,19 +19,11 @@ def _nonneg(name: str, v: float) -> float:
 def push_samples(k1: float, k2: float, hb1_m: float, hb2_m: float, noise: float, sensing_ms: float,
                  seed: int, fx_n: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """Sec. III-B: push with F_x into the beams; (poses, sensed forces) at 100 Hz for T_s."""
-    from hil.world.beams import SENSOR_PERIOD_US, BeamParams, BeamsWorld
+    from hil.world.beams import BeamParams, BeamsWorld
 
     world = BeamsWorld([BeamParams(k1, hb1_m), BeamParams(k2, hb2_m)], noise=noise, seed=seed)
-    poses, forces = [], []
-    while world.t_us < 10_000_000:
-        world.command(fx_n, 0.0, 0.0)
-        world.step()
-        if world.t_us % SENSOR_PERIOD_US == 0 and world.first_contact_us is not None:
-            if world.t_us - world.first_contact_us > sensing_ms * 1000 or world.flipped:
-                break
-            poses.append(world.state.q())
-            forces.append(world.sense_force())
-    return np.array(poses), np.array(forces)
+    return world.sample_after_contact(sensing_ms * 1000, lambda: world.command(fx_n, 0.0, 0.0),
+                                      10_000_000)
 
 
 def cmd_estimate(args: argparse.Namespace) -> int:

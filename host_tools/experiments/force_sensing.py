@@ -140,19 +140,14 @@ def robot_push(geometry: BodyGeometry, noise: float, seed: int) -> tuple[np.ndar
     pitch are passive. Samples from first contact for ROBOT_WINDOW_S or until the body flips."""
     beam = BeamParams(ROBOT_K, 0.0, ROBOT_TAU0_NM, ROBOT_MB_KG)
     w = BeamsWorld([beam, beam], geometry, BodyState(x_m=-0.22, vx_m_s=ROBOT_SPEED_M_S), noise=noise, seed=seed)
-    poses, forces = [], []
-    while w.t_us < 20_000_000:
+
+    def hold_speed() -> None:  # the rail holds the robot's speed
         w.state.vx_m_s = ROBOT_SPEED_M_S
-        w.step()
-        if w.t_us % SENSOR_PERIOD_US == 0 and w.first_contact_us is not None:
-            if w.t_us - w.first_contact_us > ROBOT_WINDOW_S * 1e6 or w.flipped:
-                break
-            poses.append(w.state.q())
-            forces.append(w.sense_force())
-    p = np.array(poses)
+
+    p, forces = w.sample_after_contact(ROBOT_WINDOW_S * 1e6, hold_speed, 20_000_000)
     info = {"samples": len(p), "flipped": w.flipped, "max_pitch_deg": float(np.degrees(np.abs(p[:, 2]).max())),
             "window_s": len(p) * SENSOR_PERIOD_US * 1e-6}
-    return p, np.array(forces), info
+    return p, forces, info
 
 
 def robot_validation(seeds: int) -> dict[str, Any]:
