@@ -5,13 +5,20 @@ from __future__ import annotations
 import json
 import os
 import signal
+import struct
 import subprocess
 import sys
 import textwrap
 from pathlib import Path
 
 import pytest
+import zstandard
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from mcap.opcode import Opcode
 from mcap.reader import make_reader
+from mcap.records import Chunk, MessageIndex
+from mcap.stream_reader import StreamReader
 from mcap_protobuf.decoder import DecoderFactory
 
 from host_tools import recorder as rec
@@ -110,6 +117,45 @@ def test_messages_are_in_log_time_order_in_the_file(tmp_path):
         times = [m.log_time for _, _, m in make_reader(f).iter_messages(log_time_order=False)]
     assert times == sorted(times)
     assert len(times) > 1000
+
+
+@settings(max_examples=300, deadline=None)
+@given(direction=st.sampled_from(["tx", "rx", ""]), servo_id=st.integers(0, 254),
+       code=st.integers(0, 255), params=st.binary(max_size=300), raw=st.binary(max_size=300),
+       kind=st.text(max_size=5))
+def test_hand_encoded_protobuf_is_what_the_generated_classes_write(direction, servo_id, code,
+                                                                   params, raw, kind):
+    assert rec.encode_serial_bytes(direction, raw) == rec.SerialBytes(
+        direction=direction, data=raw, length=len(raw)).SerializeToString()
+    assert rec.encode_link_exchange(kind, params, raw) == rec.LinkExchange(
+        kind=kind, request=params, reply=raw).SerializeToString()
+    if direction == "rx":
+        names = ("", ",".join(dynamixel.error_names(code)))
+    else:
+        names = (dynamixel.INSTRUCTION_NAMES.get(code, "0x%02X" % code), "")
+    assert rec.encode_dynamixel_packet(direction, servo_id, code, params, raw) == \
+        rec.DynamixelPacket(direction=direction, id=servo_id, code=code, instruction=names[0],
+                            errors=names[1], params=params, raw=raw).SerializeToString()
+
+
+def test_message_indexes_point_at_their_messages(tmp_path):
+    path = tmp_path / "run.mcap"
+    _record(path, cycles=120)
+    checked = 0
+    with open(path, "rb") as f:
+        chunk = None
+        for record in StreamReader(f, emit_chunks=True).records:
+            if isinstance(record, Chunk):
+                chunk = zstandard.ZstdDecompressor().decompress(
+                    record.data, max_output_size=record.uncompressed_size)
+            elif isinstance(record, MessageIndex):
+                for log_time, offset in record.records:
+                    opcode, _, channel, _, log_t = struct.unpack_from("<BQHIQ", chunk, offset)
+                    assert (opcode, channel, log_t) == (Opcode.MESSAGE, record.channel_id,
+                                                        log_time)
+                    checked += 1
+    with open(path, "rb") as f:
+        assert checked == make_reader(f).get_summary().statistics.message_count > 900
 
 
 def test_same_run_same_bytes(tmp_path):
