@@ -154,7 +154,7 @@ class Servo:
         self.address_changed = False           # ID or Baud Rate written: bus re-indexes
         self.instructions = 0
         self._command()
-        self._refresh_present()
+        self._present_stale = True
 
     # --- identity ----------------------------------------------------------------
     @property
@@ -172,7 +172,7 @@ class Servo:
     def value(self, name: str) -> int:
         """A control-table value by field name (tests, recorder)."""
         f = ax12.BY_NAME[name]
-        return ax12.get(self.table, f[0], f[2])
+        return ax12.get(self._present(), f[0], f[2])
 
     # --- time, motion, alarms ---------------------------------------------------------
     def advance_to(self, t_us: int) -> None:
@@ -200,12 +200,21 @@ class Servo:
         if target != self.temperature_c:
             k = math.exp(-dt_us * 1e-6 / tau)
             self.temperature_c = target + (self.temperature_c - target) * k
-        self._refresh_present()
+        self._present_stale = True
         errors = self.state_errors()
         if errors:
             self._alarm(errors)
 
+    def _present(self) -> bytearray:
+        """The control table with Present Position..Moving brought up to date: they are
+        computed when read, not after every motion step (a walking run reads 3 of 18
+        servos a cycle)."""
+        if self._present_stale:
+            self._refresh_present()
+        return self.table
+
     def _refresh_present(self) -> None:
+        self._present_stale = False
         pos, vel, load = self.actuator.state()
         t = self.table
         p = ax12.rad_to_position(pos)
@@ -217,20 +226,40 @@ class Servo:
         ld = ax12.fraction_to_load(load)
         t[40] = ld & 0xFF
         t[41] = ld >> 8
-        v = ax12.v_to_voltage(self.supply_v)
-        t[ax12.PRESENT_VOLTAGE] = 0 if v < 0 else (255 if v > 255 else v)
-        c = int(round(self.temperature_c))
-        t[ax12.PRESENT_TEMPERATURE] = 0 if c < 0 else (255 if c > 255 else c)
+        t[ax12.PRESENT_VOLTAGE] = self._voltage_units
+        t[ax12.PRESENT_TEMPERATURE] = self._temperature_units
         t[ax12.MOVING] = 1 if abs(vel) >= MOVING_EPS_RAD_S else 0
+
+    # Supply and temperature keep their Present Voltage/Temperature units beside them:
+    # the alarm check reads those twice per instruction.
+    @property
+    def supply_v(self) -> float:
+        return self._supply_v
+
+    @supply_v.setter
+    def supply_v(self, volts: float) -> None:
+        self._supply_v = volts
+        v = ax12.v_to_voltage(volts)
+        self._voltage_units = 0 if v < 0 else (255 if v > 255 else v)
+
+    @property
+    def temperature_c(self) -> float:
+        return self._temperature_c
+
+    @temperature_c.setter
+    def temperature_c(self, celsius: float) -> None:
+        self._temperature_c = celsius
+        c = int(round(celsius))
+        self._temperature_units = 0 if c < 0 else (255 if c > 255 else c)
 
     def state_errors(self) -> int:
         """Error bits that describe the servo's state (voltage, heat, overload)."""
         t = self.table
         e = 0
-        v = t[ax12.PRESENT_VOLTAGE]
+        v = self._voltage_units
         if v < t[ax12.MIN_VOLTAGE_LIMIT] or v > t[ax12.MAX_VOLTAGE_LIMIT]:
             e |= dxl.ERR_INPUT_VOLTAGE
-        if t[ax12.PRESENT_TEMPERATURE] > t[ax12.TEMPERATURE_LIMIT]:
+        if self._temperature_units > t[ax12.TEMPERATURE_LIMIT]:
             e |= dxl.ERR_OVERHEATING
         if self.overload:
             e |= dxl.ERR_OVERLOAD
@@ -245,7 +274,7 @@ class Servo:
             t[ax12.TORQUE_LIMIT] = 0
             t[ax12.TORQUE_LIMIT + 1] = 0
             self._command()
-            self._refresh_present()
+            self._present_stale = True
 
     def wheel_mode(self) -> bool:
         """Both angle limits 0: endless turn, Moving Speed 0-2047 (bit 10 = CW), goal ignored."""
@@ -283,7 +312,7 @@ class Servo:
         self.advance_to(t_us)
         self.supply_v = volts
         self._command()
-        self._refresh_present()
+        self._present_stale = True
 
     def set_hot_spot(self, temperature_c: float | None, t_us: int) -> None:
         self.advance_to(t_us)
@@ -295,13 +324,14 @@ class Servo:
         fn = getattr(self.actuator, "set_stalled", None)
         if fn is not None:
             fn(stalled)
-            self._refresh_present()
+            self._present_stale = True
 
     def power_cycle(self, t_us: int) -> None:
         """Power lost and back (a plug pulled): RAM to defaults, EEPROM kept, Lock cleared."""
         self.advance_to(t_us)
         eeprom = bytes(self.table[:ax12.EEPROM_END])
-        pos = self.table[36] | (self.table[37] << 8)
+        t = self._present()
+        pos = t[36] | (t[37] << 8)
         self.table = ax12.defaults(self.edition, pos)
         self.table[:ax12.EEPROM_END] = eeprom
         self.table[ax12.TORQUE_LIMIT] = eeprom[ax12.MAX_TORQUE]
@@ -311,7 +341,7 @@ class Servo:
         self._saturated_us = 0
         self._registered = None
         self._command()
-        self._refresh_present()
+        self._present_stale = True
 
     # --- instructions --------------------------------------------------------------
     def _reply(self, error: int, params: bytes = b"") -> bytes:
@@ -342,7 +372,7 @@ class Servo:
                 if a + n > ax12.TABLE_SIZE or n == 0:
                     error = dxl.ERR_RANGE
                 else:
-                    data = bytes(self.table[a:a + n])
+                    data = bytes(self._present()[a:a + n])
         elif code == dxl.WRITE or code == dxl.REG_WRITE:
             if len(params) < 2:
                 error = dxl.ERR_INSTRUCTION
@@ -452,14 +482,15 @@ class Servo:
         if end > ax12.TORQUE_ENABLE and address < ax12.PRESENT_POSITION or end > ax12.PUNCH \
                 or (address <= ax12.CCW_ANGLE_LIMIT + 1 and end > ax12.CW_ANGLE_LIMIT):
             self._command()
-            self._refresh_present()
+            self._present_stale = True
 
     def _factory_reset(self) -> None:
-        pos = self.table[36] | (self.table[37] << 8)
+        t = self._present()
+        pos = t[36] | (t[37] << 8)
         self.table = ax12.defaults(self.edition, pos)
         self._registered = None
         self.overload = False
         self.alarm_led = False
         self.address_changed = True
         self._command()
-        self._refresh_present()
+        self._present_stale = True

@@ -376,5 +376,5 @@ class Simulator:
         pos, vel, load = s.actuator.state()
         return {"id": s.id, "position_rad": pos, "velocity_rad_s": vel, "load_frac": load,
                 "temperature_c": s.temperature_c, "voltage_v": s.supply_v,
-                "torque_enabled": bool(tb[ax12.TORQUE_ENABLE]), "moving": bool(tb[ax12.MOVING]),
+                "torque_enabled": bool(tb[ax12.TORQUE_ENABLE]), "moving": bool(s.value("moving")),
                 "error": s.state_errors()}

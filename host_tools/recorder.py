@@ -174,19 +174,31 @@ def _field_uint(tag: int, n: int) -> bytes:
     return _BYTE[tag] + _varint(n) if n else b""
 
 
+_STRING_1: dict[str, bytes] = {}  # a string as field 1 (direction, kind), encoded once
+
+
+def _string_1(s: str) -> bytes:
+    field = _STRING_1.get(s)
+    if field is None:
+        field = _STRING_1[s] = _field_bytes(0x0A, s.encode())
+    return field
+
+
 def encode_serial_bytes(direction: str, data: bytes) -> bytes:
     """``hexhil.SerialBytes(direction, data, length=len(data))``."""
-    return _field_bytes(0x0A, direction.encode()) + _field_bytes(0x12, data) + \
-        _field_uint(0x18, len(data))
+    n = len(data)
+    if 0 < n < 0x80:  # every Dynamixel burst: one length byte, no helper calls
+        return _string_1(direction) + b"\x12" + _BYTE[n] + data + b"\x18" + _BYTE[n]
+    return _string_1(direction) + _field_bytes(0x12, data) + _field_uint(0x18, n)
 
 
 def encode_link_exchange(kind: str, request: bytes, reply: bytes) -> bytes:
     """``hexhil.LinkExchange(kind, request, reply)``."""
-    return _field_bytes(0x0A, kind.encode()) + _field_bytes(0x12, request) + \
-        _field_bytes(0x1A, reply)
+    return _string_1(kind) + _field_bytes(0x12, request) + _field_bytes(0x1A, reply)
 
 
 _PACKET_HEADS: dict[tuple[str, int], tuple[bytes, bytes]] = {}  # (direction, code) -> fields
+_ID_FIELD = [_field_uint(0x10, i) for i in range(256)]
 
 
 def encode_dynamixel_packet(direction: str, servo_id: int, code: int, params: bytes,
@@ -199,11 +211,15 @@ def encode_dynamixel_packet(direction: str, servo_id: int, code: int, params: by
         else:
             instruction, errors = dynamixel.INSTRUCTION_NAMES.get(code, "0x%02X" % code), ""
         heads = _PACKET_HEADS[(direction, code)] = (
-            _field_bytes(0x0A, direction.encode()),
+            _string_1(direction),
             _field_uint(0x18, code) + _field_bytes(0x22, instruction.encode())
             + _field_bytes(0x2A, errors.encode()))
-    return heads[0] + _field_uint(0x10, servo_id) + heads[1] + _field_bytes(0x32, params) + \
-        _field_bytes(0x3A, raw)
+    id_field = _ID_FIELD[servo_id] if servo_id < 256 else _field_uint(0x10, servo_id)
+    n, r = len(params), len(raw)
+    if n < 0x80 and 0 < r < 0x80:
+        return heads[0] + id_field + heads[1] + (b"\x32" + _BYTE[n] + params if n else b"") + \
+            b"\x3a" + _BYTE[r] + raw
+    return heads[0] + id_field + heads[1] + _field_bytes(0x32, params) + _field_bytes(0x3A, raw)
 
 
 @functools.cache

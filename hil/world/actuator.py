@@ -66,14 +66,24 @@ class DriveBank:
         self.punch[i] = punch * PUNCH_FRACTION_PER_UNIT
 
     def control(self, q_rad: np.ndarray, dt_s: float) -> np.ndarray:
-        """Advance set-points by one step and return the motor torques (N m) to apply."""
+        """Advance set-points by one step and return the motor torques (N m) to apply.
+
+        Runs every physics step: written as in-place ufuncs (np.clip's Python wrapper
+        alone cost as much as the rest)."""
+        sp = self.setpoint_rad
         step = self.speed_limit_rad_s * dt_s
-        self.setpoint_rad += np.clip(self.goal_rad - self.setpoint_rad, -step, step)
-        e = self.setpoint_rad - q_rad
+        d = self.goal_rad - sp
+        np.minimum(d, step, out=d)
+        np.negative(step, out=step)
+        np.maximum(d, step, out=d)
+        sp += d
+        e = sp - q_rad
         ccw = e > 0
-        excess = np.abs(e) - np.where(ccw, self.margin_rad[1], self.margin_rad[0])
-        u = self.punch + excess / np.where(ccw, self.slope_rad[1], self.slope_rad[0])
-        u = np.minimum(u, self.torque_limit)
+        excess = np.abs(e)
+        excess -= np.where(ccw, self.margin_rad[1], self.margin_rad[0])
+        u = excess / np.where(ccw, self.slope_rad[1], self.slope_rad[0])
+        u += self.punch
+        np.minimum(u, self.torque_limit, out=u)
         u *= np.sign(e) * ((excess > 0) & self.enabled)
         self.duty = u
         return STALL_TORQUE_NM * u
@@ -85,6 +95,7 @@ class MujocoActuator:
     def __init__(self, world: "HexapodWorld", index: int) -> None:
         self.world = world
         self.index = index
+        self._compliance: tuple[int, int, int, int, int] | None = None
 
     def command(self, goal_rad: float, speed_limit_rad_s: float, torque_limit_frac: float,
                 enabled: bool, compliance: tuple[int, int, int, int, int] | None = None) -> None:
@@ -96,16 +107,17 @@ class MujocoActuator:
         bank.speed_limit_rad_s[i] = speed_limit_rad_s if speed_limit_rad_s > 0 else NO_LOAD_SPEED_RAD_S
         bank.torque_limit[i] = min(max(torque_limit_frac, 0.0), 1.0)
         bank.enabled[i] = bool(enabled)
-        if compliance is not None:
+        if compliance is not None and compliance != self._compliance:
             bank.set_compliance(i, compliance)
+            self._compliance = compliance
 
     def state(self) -> tuple[float, float, float]:
         """Present position (rad), speed (rad/s) and load (signed fraction of stall torque)."""
-        d = self.world.data
-        q = float(d.qpos[7 + self.index])   # after the free joint's 7 coordinates
-        qd = float(d.qvel[6 + self.index])  # and its 6 velocities
-        load = float(self.world.drives.duty[self.index]) - qd / NO_LOAD_SPEED_RAD_S
-        return q, qd, max(-1.0, min(1.0, load))
+        q, qd, duty = self.world.joint_state_lists()
+        i = self.index
+        v = qd[i]
+        load = duty[i] - v / NO_LOAD_SPEED_RAD_S
+        return q[i], v, max(-1.0, min(1.0, load))
 
     def advance_to(self, t_us: int) -> None:
         """Physics runs on the world's clock; asking a joint to catch up advances the world."""

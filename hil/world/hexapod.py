@@ -199,9 +199,13 @@ class HexapodWorld:
         q0 = neutral_joints()
         if abs(self.params.body_height_m - self.params.foot_radius_m - kin.STANCE_DEPTH_M) > 1e-9:
             raise ValueError("world and firmware disagree on the neutral stance depth")
-        self._qadr = 7 + np.arange(18)  # free joint first, then the legs in servo-ID order
-        self._vadr = 6 + np.arange(18)
-        self.data.qpos[self._qadr] = q0
+        # Views into MjData's fixed buffers: the free joint comes first (7 coordinates,
+        # 6 velocities), then the legs in servo-ID order; touch sensors: plates, then feet.
+        self._q = self.data.qpos[7:25]
+        self._qd = self.data.qvel[6:24]
+        self._plate_n = self.data.sensordata[0:6]
+        self._foot_n = self.data.sensordata[6:12]
+        self._q[:] = q0
         mujoco.mj_forward(self.model, self.data)
         self.drives = act.DriveBank(q0)
         self.switches = SwitchBank(len(LEGS))
@@ -209,8 +213,8 @@ class HexapodWorld:
         self.dt_s = PHYSICS_DT_US * 1e-6
         self.events: list[SwitchEvent] = []
         self.trajectory: list[tuple[int, float, float, float]] = []  # (t_us, x, y, yaw) at 10 Hz
-        self._plate = np.arange(6)
-        self._foot = np.arange(6, 12)
+        self._lists_t_us = -1
+        self._lists: tuple[list[float], list[float], list[float]] = ([], [], [])
         self._actuators = [act.MujocoActuator(self, i) for i in range(18)]
         self._sample()
 
@@ -223,13 +227,22 @@ class HexapodWorld:
         """Step the physics up to ``t_us`` (whole 2 ms steps; never past it)."""
         m, d = self.model, self.data
         while self.t_us + PHYSICS_DT_US <= t_us:
-            d.ctrl[:] = self.drives.control(d.qpos[self._qadr], self.dt_s)
+            d.ctrl[:] = self.drives.control(self._q, self.dt_s)
             mujoco.mj_step(m, d)
             self.t_us += PHYSICS_DT_US
-            if self.switches.update(d.sensordata[self._plate]):
+            if self.switches.update(self._plate_n):
                 self._log_switches()
             if self.t_us % 100_000 == 0:
                 self._sample()
+
+    def joint_state_lists(self) -> tuple[list[float], list[float], list[float]]:
+        """Joint positions (rad), velocities (rad/s) and drive duties as Python lists, made
+        once per physics step: the 18 servos read them one by one, and a numpy scalar
+        read costs more than the list."""
+        if self._lists_t_us != self.t_us:
+            self._lists_t_us = self.t_us
+            self._lists = (self._q.tolist(), self._qd.tolist(), self.drives.duty.tolist())
+        return self._lists
 
     def switch_levels(self) -> list[bool]:
         """Limit-switch levels, True = pressed, in leg order LF, LM, LH, RF, RM, RH."""
@@ -245,20 +258,20 @@ class HexapodWorld:
 
     def foot_contacts(self) -> list[bool]:
         """Ground truth: which feet carry load (touch force above 0.05 N)."""
-        return [bool(f > 0.05) for f in self.data.sensordata[self._foot]]
+        return [bool(f > 0.05) for f in self._foot_n]
 
     def plate_forces_n(self) -> list[float]:
-        return [float(f) for f in self.data.sensordata[self._plate]]
+        return [float(f) for f in self._plate_n]
 
     def joint_positions(self) -> np.ndarray:
-        return self.data.qpos[self._qadr]
+        return self._q.copy()
 
     def joint_velocities(self) -> np.ndarray:
-        return self.data.qvel[self._vadr]
+        return self._qd.copy()
 
     def joint_efforts_nm(self) -> np.ndarray:
         """Motor torque on each joint (N m), from the drive model."""
-        return self.data.qfrc_actuator[self._vadr]
+        return self.data.qfrc_actuator[6:24].copy()
 
     @staticmethod
     def joint_names() -> list[str]:

@@ -23,15 +23,19 @@ class SwitchBank:
         self.off_n = off_n
         self.closed = np.zeros(n, dtype=bool)
         self.presses = np.zeros(n, dtype=np.int64)  # rising edges so far, per leg
+        self._any_closed = False
 
     def update(self, force_n: np.ndarray) -> bool:
         """Apply one force sample per switch; True when any level changed."""
+        if not self._any_closed and force_n.max() <= self.on_n:
+            return False  # the usual physics step: all open, none pressed hard enough
         rising = ~self.closed & (force_n > self.on_n)
         falling = self.closed & (force_n < self.off_n)
         if not (rising.any() or falling.any()):
             return False
         self.presses += rising
         self.closed = (self.closed | rising) & ~falling
+        self._any_closed = bool(self.closed.any())
         return True
 
     def levels(self) -> list[bool]:
