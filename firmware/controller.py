@@ -328,6 +328,8 @@ class Controller:
         return {
             "state": cf.STATE_NAMES[self.state],
             "stop_reason": self.stop_reason,
+            "gait": self.gait.name,
+            "period_s": self.gait.period_us * 1e-6,
             "cycles": self.cycle,
             "overruns": self.overruns,
             "found": len(self.found),

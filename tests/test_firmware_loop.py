@@ -95,6 +95,37 @@ def test_can_stop_command_brings_the_robot_to_stopped():
     assert r.firmware["commands"] == 1 and r.firmware["state"] == "stopped"
 
 
+def test_can_gait_change_waits_for_the_period_to_wrap_and_stop_start_restarts():
+    sc = scenario(gait={"name": "tripod", "period_s": 1.0})
+    frames = [cf.encode("gait_command", command=c, gait=cf.GAIT_WAVE, step_length_m=0.0,
+                        step_height_m=0.0, period_s=p)
+              for c, p in ((cf.COMMAND_STOP, 0.0), (cf.COMMAND_START, 3.0))]
+    plain = Simulator(sc, seed=0).run(2.5, python="micropython")
+    sim = Simulator(sc, seed=0)
+    for arb, data in frames:
+        sim.send_can(arb, data)
+    r = sim.run(2.5, python="micropython")
+    assert r.unhandled_exceptions == 0, r.exceptions
+    fw = r.firmware
+    assert fw["commands"] == 2 and fw["state"] == "walking"     # stopped, then started again
+    assert (plain.firmware["gait"], plain.firmware["period_s"]) == ("tripod", 1.0)
+    assert (fw["gait"], fw["period_s"]) == ("wave", 3.0)
+    # one tripod period (1.0 s) first, then 1.5 s of wave at 3 s a period: less ground
+    # commanded than 2.5 s of tripod
+    assert fw["commanded_distance_m"] < plain.firmware["commanded_distance_m"]
+    assert r.serial_digest != plain.serial_digest
+
+
+def test_overheating_servo_stops_the_robot_safely():
+    sc = scenario(faults={"overheat": [{"id": 8, "temperature_c": 95.0, "at_s": 0.2}]})
+    r = Simulator(sc, seed=0).run(6.0, python="micropython")
+    assert r.unhandled_exceptions == 0, r.exceptions
+    assert r.firmware["state"] == "safe_stop"
+    assert r.stop_reason.startswith("servo 8 (LH femur) critical error: overheating"), \
+        r.stop_reason
+    assert "overheating" in r.firmware["servos"]["8"]["error_bits"]
+
+
 def test_firmware_modules_compile_with_mpy_cross(tmp_path):
     from pathlib import Path
     root = Path(__file__).resolve().parent.parent
