@@ -41,8 +41,8 @@ def test_tiny_run_writes_report_and_figures(tiny):
     for name in ("fig3-noisy-forces.png", "fig4-landscape-path.png", "gap-readings.png", "fig7-energy-vs-delay.png"):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert f"]({name})" in report
-    for heading in ("No control", "Table 1", "Table 2", "Table 3", "Table 4", "Planning", "Energy",
-                    "Sensory delay", "Robot validation"):
+    for heading in ("No control", "Table 1", "Table 2", "Table 3", "Table 4", "Cramer-Rao bound", "Planning",
+                    "Energy", "Sensory delay", "Robot validation"):
         assert heading in report
     # the paper's numbers sit beside ours
     assert "| 195.0 |" in report and "| 60 |" in report and "0.67 / 0.21" in report
@@ -61,6 +61,9 @@ def test_tiny_run_key_outcomes(tiny):
     med = s["estimation_median"]
     assert med["2/0.05"][0] < med["2/0.5"][0]       # more noise, worse stiffness (Table 3's trend)
     assert all(len(v) in (2, 3, 4) for v in med.values())
+    bound = s["estimation_bound_sd"]
+    assert bound.keys() == med.keys() and all(len(bound[k]) == len(med[k]) for k in med)
+    assert bound["4/0.2"][0] > bound["3/0.2"][0] > bound["2/0.2"][0] > bound["2/0.05"][0]
 
 
 @pytest.mark.slow
@@ -73,9 +76,10 @@ def test_cli_quick(tmp_path):
     assert (tmp_path / "force-sensing.md").exists()
 
 
-def test_cli_bad_out_is_one_line(tmp_path):
+def test_cli_bad_out_or_seeds_is_one_line(tmp_path):
     f = tmp_path / "file"
     f.write_text("x")
-    r = subprocess.run([sys.executable, "-m", "host_tools.cli", "experiment", "force-sensing", "--out", str(f)],
-                       capture_output=True, text=True, timeout=120)
-    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+    for args in (["--out", str(f)], ["--out", str(tmp_path), "--seeds", "0"]):
+        r = subprocess.run([sys.executable, "-m", "host_tools.cli", "experiment", "force-sensing", *args],
+                           capture_output=True, text=True, timeout=120)
+        assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr

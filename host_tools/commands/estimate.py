@@ -107,7 +107,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("estimate", help="re-run the beam estimator on a trace's force frames")
     p.add_argument("file", help="MCAP trace with force and body_pose CAN frames")
     p.add_argument("--method", choices=("fast", "paper"), default="fast",
-                   help="fast: closed-form k + h_b grid; paper: Nelder-Mead, 100 restarts")
+                   help="fast: Eq. 6 maximum likelihood (bounded); paper: Nelder-Mead on Eq. 7, 100 restarts")
     p.add_argument("--unknowns", type=int, choices=(2, 3, 4), default=4,
                    help="4: k1 k2 hb1 hb2; 3: one h_b; 2: h_b = 0 (Tables 1-3)")
     p.add_argument("--sensing-s", type=float, default=SENSING_S,
