@@ -78,6 +78,42 @@ def test_no_control_outcomes_stiff_stuck_at_0p1_flips_at_1_and_flimsy_passes_at_
     assert flimsy.passed() and not flimsy.flipped
 
 
+def test_no_control_run_conserves_energy_and_flimsy_beams_yield_to_0p1_n():
+    """Without damping or torques, T + E (Eq. 8) - F_x x is constant after contact: the contact
+    and gravity forces are exactly the landscape's gradient. The 0.1 N push into flimsy beams
+    (paper: stuck) stalls pitched up, then creeps over, with no energy gained."""
+    g, k, fx = G, 0.01, 0.1
+    w = B.BeamsWorld([B.BeamParams(k), B.BeamParams(k)])
+    total, slowest = [], 1.0
+    while w.t_us < 5_000_000 and not (w.flipped or w.passed()):
+        w.command(fx, 0, 0)
+        w.step()
+        if w.first_contact_us is not None:
+            s, th = w.state, w.last.theta_rad
+            kinetic = 0.5 * (g.mass_kg * s.vx_m_s ** 2 + g.inertia_kg_m2[0] * s.roll_rate_rad_s ** 2
+                             + g.inertia_kg_m2[1] * s.pitch_rate_rad_s ** 2)
+            total.append(kinetic + float(B.gravity_energy_j(s.roll_rad, s.pitch_rad))
+                         + 0.5 * k * (th[0] ** 2 + th[1] ** 2) - fx * s.x_m)
+            slowest = min(slowest, s.vx_m_s)
+    assert np.ptp(total) < 5e-6                     # joules, over the whole run
+    assert w.passed() and slowest < 0.04
+
+
+def test_a_plate_under_the_body_stays_there_once_its_upright_position_clears():
+    """Pitched up 10 deg with the tail just past the hinge line, the upright plate misses the body
+    (the landscape's smallest angle is 0), but a plate lying under it at 73 deg cannot swing
+    back through the body: it stays in contact."""
+    x, pitch = 0.1026, math.radians(-9.92)
+    assert B.deflection_angle(x, 0.0, pitch, 0.0, 0) == 0.0
+    beams = [B.BeamParams(0.01), B.BeamParams(0.01)]
+    under = B.external_forces(G, beams, x, 0.0, pitch, [math.radians(73.6)] * 2)
+    assert math.degrees(under.theta_rad[0]) == pytest.approx(73.6, abs=0.5) and under.contact_n[2] > 0
+    assert B.external_forces(G, beams, x, 0.0, pitch).theta_rad == (0.0, 0.0)     # upright stays upright
+    # a plate lying flatter, clear of the body, springs up until it meets the underside
+    flatter = B.external_forces(G, beams, x, 0.0, pitch, [math.radians(85)] * 2)
+    assert flatter.theta_rad == pytest.approx(under.theta_rad, abs=1e-9)
+
+
 def test_saturation_and_determinism():
     w = B.BeamsWorld([B.BeamParams(0.25), B.BeamParams(0.25)], noise=0.2, seed=3)
     assert w.command(5, -1, 1) == (2.0, -0.1, 0.1)

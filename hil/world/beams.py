@@ -10,7 +10,10 @@ cluttered obstacles with interaction" (``/work/shared/seeds/000_*.txt``):
   height h_b, deflecting forward (positive rotation about +y) against a torsion spring k;
 * contact (Eq. 4-5): frictionless, along the ellipsoid normal; the deflection angle is the
   smallest rotation of the plate about its hinge that keeps the whole plate (finite length
-  and width) out of the body; the force magnitude follows from the beam's torque balance;
+  and width) out of the body; the force magnitude follows from the beam's torque balance.
+  In the dynamics the plate keeps contact and cannot pass through the body: one trapped
+  under it slides along the underside until its tip clears the tail, rather than jumping
+  upright as soon as the upright position is clear (the landscape keeps the smallest angle);
 * dynamics (Eq. 1-3) integrated at dt = 0.2 ms (semi-implicit Euler) in integer microseconds;
 * Eq. 12 (robot validation): optional beam mass M_B and preload torque tau_0;
 * force sensor (Eq. 6): F1 + F2 at 100 Hz with multiplicative Gaussian noise per axis.
@@ -22,9 +25,10 @@ Generalised forces: roll is driven by the moment about the body's major axis e1 
 pitch by the moment about the world y axis, the axis the pitch angle rotates about. This is
 the paper's e2 at zero roll and keeps the dynamics exactly the gradient of Eq. 8's landscape.
 
-Two implementations of the contact geometry live here: a scalar one (warm-started Newton,
-fast enough for 0.2 ms steps in pure Python) and a numpy one (bracketing bisection over whole
-arrays, for the landscape and the estimator). Both are tested against a brute-force search.
+Two implementations of the contact geometry live here: a scalar one (Newton from the previous
+step's angle, fast enough for 0.2 ms steps in pure Python) and a numpy one (bracketing bisection
+over whole arrays, for the landscape and the estimator). Both are tested against a brute-force
+search.
 """
 from __future__ import annotations
 
@@ -135,16 +139,26 @@ class _PlateFrame:
         return f, s, t, df
 
 
-def _solve_theta(pf: _PlateFrame, theta_guess: float) -> tuple[float, float, float]:
-    """The plate's deflection (rad) and contact point (s, t) on it; theta 0 means no contact.
+def _solve_theta(pf: _PlateFrame, theta_prev: float) -> tuple[float, float, float]:
+    """The plate's deflection (rad) and contact point (s, t) on it, given its deflection one step
+    earlier; theta 0 means no contact.
 
-    Newton from the previous step's angle (one or two evaluations per 0.2 ms step), falling
-    back to bracketing from theta = 0 so that the answer is the smallest admissible angle.
+    A massless plate keeps contact with the body (Sec. II-A) and cannot pass through it: from
+    its previous angle it is pushed forward to the first clear angle above it, or springs back
+    to the first contact below it (0 if nothing stops it). From 0 that is the smallest clear
+    angle, the landscape's definition; they differ for a plate trapped under the body once its
+    upright position is already clear: it slides along the underside instead of jumping back
+    through the body. Newton from the previous angle (one or two evaluations per 0.2 ms step),
+    falling back to a scan from it and bisection.
     """
-    f0, s0, t0, _ = pf.f(0.0)
-    if f0 >= 1.0:
-        return 0.0, s0, t0
-    th = theta_guess if 0.0 < theta_guess < THETA_MAX_RAD else 0.0
+    if theta_prev <= 0.0:
+        f0, s0, t0, _ = pf.f(0.0)
+        if f0 >= 1.0:
+            return 0.0, s0, t0
+        return _bracket_theta(pf, 0.0, up=True)
+    up = pf.f(theta_prev)[0] < 1.0          # the body has moved into the plate: pushed forward
+    sign = 1.0 if up else -1.0
+    th = theta_prev
     for _ in range(8):
         f, s, t, df = pf.f(th)
         if abs(f - 1.0) < 1e-12:
@@ -152,28 +166,35 @@ def _solve_theta(pf: _PlateFrame, theta_guess: float) -> tuple[float, float, flo
         if df <= 1e-12:
             break
         nxt = th - (f - 1.0) / df
-        if not 0.0 < nxt < THETA_MAX_RAD or abs(nxt - th) > 0.05:
+        if not 0.0 < nxt < THETA_MAX_RAD or abs(nxt - theta_prev) > 0.05 or sign * (nxt - theta_prev) < 0.0:
             break
         th = nxt
-    else:
-        return th, s, t
-    return _bracket_theta(pf)
+    return _bracket_theta(pf, theta_prev, up)
 
 
-def _bracket_theta(pf: _PlateFrame) -> tuple[float, float, float]:
-    """Smallest admissible angle by a 64-step scan from 0 then bisection (the robust path)."""
-    lo, step = 0.0, THETA_MAX_RAD / 64
-    hi = None
-    for i in range(1, 65):
-        th = i * step
-        if pf.f(th)[0] >= 1.0:
-            hi = th
-            break
-        lo = th
-    if hi is None:                       # even the flat plate is inside the body
-        f, s, t, _ = pf.f(THETA_MAX_RAD)
-        return THETA_MAX_RAD, s, t
-    for _ in range(40):
+def _bracket_theta(pf: _PlateFrame, theta_from: float = 0.0, up: bool = True) -> tuple[float, float, float]:
+    """From ``theta_from``, the first clear angle above it (``up``) or the first contact below it
+    (else; 0 when there is none): a scan in steps of pi/128, then bisection (the robust path)."""
+    step = THETA_MAX_RAD / 64
+    lo = hi = theta_from
+    while True:
+        nxt = min(hi + step, THETA_MAX_RAD) if up else max(lo - step, 0.0)
+        clear = pf.f(nxt)[0] >= 1.0
+        if up:
+            lo, hi = hi, nxt
+            if clear:
+                break
+            if nxt >= THETA_MAX_RAD:         # even the flat plate is inside the body
+                _, s, t, _ = pf.f(THETA_MAX_RAD)
+                return THETA_MAX_RAD, s, t
+        else:
+            lo, hi = nxt, lo
+            if not clear:
+                break
+            if nxt <= 0.0:                   # nothing below: the plate springs upright, no contact
+                _, s, t, _ = pf.f(0.0)
+                return 0.0, s, t
+    for _ in range(40):                      # lo inside the body, hi clear
         mid = 0.5 * (lo + hi)
         if pf.f(mid)[0] >= 1.0:
             hi = mid
@@ -193,10 +214,10 @@ def deflection_angle(x_m: float, roll_rad: float, pitch_rad: float, hb_m: float,
 
 
 def _contact(g: BodyGeometry, x_m: float, roll: float, pitch: float, hb_m: float, beam: int,
-             theta_guess: float):
+             theta_prev: float):
     """(theta, contact point relative to the centre (world), unit inward force direction, lever)."""
     pf = _PlateFrame(g, x_m, roll, pitch, hb_m, beam)
-    th, s, t = _solve_theta(pf, theta_guess)
+    th, s, t = _solve_theta(pf, theta_prev)
     if th == 0.0:
         return 0.0, None, None, 0.0
     st, ct = math.sin(th), math.cos(th)
@@ -410,8 +431,12 @@ class ExternalForces:
 
 
 def external_forces(g: BodyGeometry, beams: list[BeamParams], x: float, roll: float, pitch: float,
-                    theta_guess: list[float] | None = None) -> ExternalForces:
-    """Eq. 1-5: contact forces from each beam's torque balance, plus gravity (world frame)."""
+                    theta_prev: list[float] | None = None) -> ExternalForces:
+    """Eq. 1-5: contact forces from each beam's torque balance, plus gravity (world frame).
+
+    ``theta_prev``: the beams' deflections a step earlier (a plate under the body stays there,
+    see :func:`_solve_theta`); none means upright beams.
+    """
     mg = g.mass_kg * G_M_S2
     sa, ca, sb, cb = math.sin(roll), math.cos(roll), math.sin(pitch), math.cos(pitch)
     qx, qr, qp = 0.0, -mg * g.hc_m * sa * cb, -mg * g.hc_m * ca * sb
@@ -419,7 +444,7 @@ def external_forces(g: BodyGeometry, beams: list[BeamParams], x: float, roll: fl
     thetas = []
     e1 = (cb, 0.0, -sb)
     for i, bp in enumerate(beams):
-        th, r, n, lever = _contact(g, x, roll, pitch, bp.hb_m, i, theta_guess[i] if theta_guess else 0.0)
+        th, r, n, lever = _contact(g, x, roll, pitch, bp.hb_m, i, theta_prev[i] if theta_prev else 0.0)
         thetas.append(th)
         if th == 0.0:
             continue
