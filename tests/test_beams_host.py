@@ -98,6 +98,17 @@ def test_planner_modes_and_crossover_on_a_coarse_grid():
     assert 0.005 < k_cross < 0.05
 
 
+def test_critical_push_flimsy_just_below_the_papers_0p1_n_stiff_well_above():
+    """Sec. III-A's no-control runs, quasi-statically: T + E - F_x x is conserved, so the least push
+    that reaches the far side without climbing above the contact state's level (+ its 0.25 mJ)."""
+    land = landscape.build(landscape.paper_grid(0.004, 5))
+    contact = (-0.1039, 0.0, 0.0)
+    flimsy = planner.critical_push_n(land, 0.01, 0.01, contact, 0.25e-3)
+    assert 0.08 < flimsy < 0.1 < planner.critical_push_n(land, 0.25, 0.25, contact, 0.25e-3)
+    assert planner.critical_push_n(land, 0.01, 0.01, contact, 0.0) > flimsy   # the kinetic energy helps
+    assert planner.critical_push_n(land, 0.02, 0.02, contact, 0.25e-3) > flimsy
+
+
 def test_clear_gap_reading_rolls_for_every_k():
     from hil.world.beams import BodyGeometry
     land = landscape.build(landscape.paper_grid(0.004, 5), geometry=BodyGeometry(gap_centre_to_centre=False))

@@ -101,3 +101,34 @@ def crossover_k(land: Landscape, start: tuple[float, float, float], lo: float = 
         else:
             hi = mid
     return float(np.sqrt(lo * hi))
+
+
+def critical_push_n(land: Landscape, k1: float, k2: float, start: tuple[float, float, float],
+                    kinetic_j: float = 0.0, hi_n: float = 2.0, iterations: int = 30) -> float:
+    """Least constant push F_x (N) that can carry the undamped body from ``start`` to the level
+    pose past the beams (Sec. III-A's runs without control).
+
+    With no damping and no torques, T + E - F_x x is conserved (Eq. 1-3 with Eq. 8's forces), so
+    the body can only reach states where E - F_x x stays below its start value plus the kinetic
+    energy: passage needs start and goal connected (6 neighbours, as the planner's graph) inside
+    that set. Bisection on F_x; ``hi_n`` when even that does not connect them.
+    """
+    from scipy import ndimage
+
+    g = land.grid
+    energy = land.energy(k1, k2)
+    src, dst = g.snap(*start), g.snap(g.x_m[-1], 0.0, 0.0)
+    x = g.x_m[:, None, None]
+
+    def passable(fx_n: float) -> bool:
+        u = energy - fx_n * x
+        labels, _ = ndimage.label(u <= u[src] + kinetic_j)
+        return labels[src] == labels[dst]
+
+    lo, hi = 0.0, hi_n
+    if not passable(hi):
+        return hi
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if passable(mid) else (mid, hi)
+    return hi
