@@ -230,6 +230,11 @@ class Servo:
         t[ax12.PRESENT_TEMPERATURE] = self._temperature_units
         t[ax12.MOVING] = 1 if abs(vel) >= MOVING_EPS_RAD_S else 0
 
+    @property
+    def moving(self) -> bool:
+        """The Moving flag (address 46) without refreshing the rest of the table."""
+        return abs(self.actuator.state()[1]) >= MOVING_EPS_RAD_S
+
     # Supply and temperature keep their Present Voltage/Temperature units beside them:
     # the alarm check reads those twice per instruction.
     @property

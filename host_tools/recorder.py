@@ -61,7 +61,7 @@ from mcap.writer import MCAP0_MAGIC
 from mcap_protobuf.schema import build_file_descriptor_set
 
 from host_tools.errors import UserError
-from protocol import dynamixel
+from protocol import can_frames, dynamixel
 from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
 
 PROFILE = ""  # MCAP profile: none of the ROS profiles apply
@@ -197,6 +197,79 @@ def encode_link_exchange(kind: str, request: bytes, reply: bytes) -> bytes:
     return _string_1(kind) + _field_bytes(0x12, request) + _field_bytes(0x1A, reply)
 
 
+def encode_can_frame(direction: str, arb_id: int, is_extended_id: bool, data: bytes,
+                     name: str) -> bytes:
+    """``hexhil.CanFrame(direction, arbitration_id, is_extended_id, dlc=len(data), data,
+    name)``."""
+    return (_string_1(direction) + _field_uint(0x10, arb_id)
+            + (b"\x18\x01" if is_extended_id else b"") + _field_uint(0x20, len(data))
+            + _field_bytes(0x2A, data) + _field_bytes(0x32, name.encode()))
+
+
+_ZERO8 = bytes(8)
+_PACK_DOUBLE = struct.Struct("<d").pack
+
+
+def _field_double(tag: int, value: float) -> bytes:
+    """A double field; proto3 leaves out exactly +0.0 (-0.0 and NaN are written)."""
+    b = _PACK_DOUBLE(value)
+    return b"" if b == _ZERO8 else _BYTE[tag] + b
+
+
+def _field_message(tag: int, body: bytes) -> bytes:
+    """A set sub-message: written even when empty (the generated classes do the same)."""
+    return _BYTE[tag] + _varint(len(body)) + body
+
+
+def _timestamp_field(t_ns: int) -> bytes:
+    """``google.protobuf.Timestamp`` as field 1 (Foxglove's ``timestamp``)."""
+    seconds, nanos = divmod(t_ns, 1_000_000_000)
+    return _field_message(0x0A, _field_uint(0x08, seconds) + _field_uint(0x10, nanos))
+
+
+def encode_frame_transform(t_ns: int, parent: str, child: str,
+                           position_m: Sequence[float], quaternion_wxyz: Sequence[float]) -> bytes:
+    """``foxglove.FrameTransform`` with its timestamp, frames, translation and rotation."""
+    x, y, z = position_m
+    w, qx, qy, qz = quaternion_wxyz
+    return (_timestamp_field(t_ns) + _field_bytes(0x12, parent.encode())
+            + _field_bytes(0x1A, child.encode())
+            + _field_message(0x22, _field_double(0x09, x) + _field_double(0x11, y)
+                             + _field_double(0x19, z))
+            + _field_message(0x2A, _field_double(0x09, qx) + _field_double(0x11, qy)
+                             + _field_double(0x19, qz) + _field_double(0x21, w)))
+
+
+def encode_joint_states(t_ns: int, names: Sequence[str], positions: Sequence[float],
+                        velocities: Sequence[float], efforts: Sequence[float]) -> bytes:
+    """``foxglove.JointStates``: name, position, velocity and effort per joint (a
+    JointState's numbers have explicit presence: written when set, zero included)."""
+    out = [_timestamp_field(t_ns)]
+    pack = _PACK_DOUBLE
+    for i in range(len(names)):
+        out.append(_field_message(0x12, _field_bytes(0x0A, names[i].encode())
+                                  + b"\x11" + pack(positions[i]) + b"\x19" + pack(velocities[i])
+                                  + b"\x29" + pack(efforts[i])))
+    return b"".join(out)
+
+
+def encode_servo_states(servos: Iterable[Mapping[str, Any]]) -> bytes:
+    """``hexhil.ServoStates``; a missing key takes the proto3 default."""
+    out = []
+    for s in servos:
+        g = s.get
+        out.append(_field_message(0x0A, _field_uint(0x08, g("id", 0))
+                                  + _field_double(0x11, g("position_rad", 0.0))
+                                  + _field_double(0x19, g("velocity_rad_s", 0.0))
+                                  + _field_double(0x21, g("load_frac", 0.0))
+                                  + _field_double(0x29, g("temperature_c", 0.0))
+                                  + _field_double(0x31, g("voltage_v", 0.0))
+                                  + (b"\x38\x01" if g("torque_enabled") else b"")
+                                  + (b"\x40\x01" if g("moving") else b"")
+                                  + _field_uint(0x48, g("error", 0))))
+    return b"".join(out)
+
+
 _PACKET_HEADS: dict[tuple[str, int], tuple[bytes, bytes]] = {}  # (direction, code) -> fields
 _ID_FIELD = [_field_uint(0x10, i) for i in range(256)]
 
@@ -242,6 +315,26 @@ def _dbc():
     return cantools.database.load_file(str(path))
 
 
+@functools.cache
+def _descriptor_set(cls: Any) -> bytes:
+    """A Foxglove message's FileDescriptorSet (built once a process, a few ms)."""
+    return build_file_descriptor_set(cls).SerializeToString()
+
+
+@functools.cache
+def _can_json_schema(msg: Any) -> str:
+    """The JSON schema of one DBC frame's decoded signals, units in the descriptions."""
+    props = {s.name: {"type": "number", "description": f"{s.comment or s.name} [{s.unit or '-'}]"}
+             for s in msg.signals}
+    props["direction"] = {"type": "string"}
+    return json.dumps({"title": f"hexhil.can.{msg.name}", "type": "object",
+                       "properties": props}, sort_keys=True)
+
+
+def _to_json(values: Any) -> str:
+    return _JSON_ENCODER.encode(values)
+
+
 def _json_default(o: Any) -> Any:
     if isinstance(o, (bytes, bytearray)):
         return o.hex()
@@ -250,6 +343,10 @@ def _json_default(o: Any) -> Any:
     if hasattr(o, "value"):  # cantools NamedSignalValue
         return o.value
     return str(o)
+
+
+# one encoder for the run (json.dumps with default= builds a new one per call)
+_JSON_ENCODER = json.JSONEncoder(default=_json_default)
 
 
 _MESSAGE_HEADER = struct.Struct("<BQHIQQ")  # opcode, length, channel, sequence, times
@@ -424,7 +521,8 @@ class Recorder:
         self._writer.metadata(METADATA_NAME, meta)
         self._flush_interval_us = int(flush_interval_us)
         self._window_end_us = self._flush_interval_us
-        self._pending: list[tuple[int, int, bytes]] = []
+        self._pending: list[tuple] = []                  # raw values, in call order
+        self._encoded: list[tuple[int, int, bytes]] = []  # (log_time_ns, channel, data)
         self._channels: dict[str, int] = {}
         self._schemas: dict[str, int] = {}
         self._parsers = {"tx": dynamixel.Parser(), "rx": dynamixel.Parser()} \
@@ -456,8 +554,7 @@ class Recorder:
         full = cls.DESCRIPTOR.full_name
         if full.startswith("hexhil."):
             return self._channel(topic, full, "protobuf", _HEXHIL_FDS)
-        return self._channel(topic, full, "protobuf",
-                             lambda: build_file_descriptor_set(cls).SerializeToString())
+        return self._channel(topic, full, "protobuf", lambda: _descriptor_set(cls))
 
     def _json_channel(self, topic: str, schema_name: str, schema: Mapping[str, Any]) -> int:
         cid = self._channels.get(topic)
@@ -477,8 +574,7 @@ class Recorder:
 
     def _defer(self, t_us: int, encode: Callable[..., None], args: tuple) -> None:
         """Hold the raw values; ``encode(out, t_ns, *args)`` appends the encoded messages
-        when the window is written. Encoding a window's messages in one loop costs about
-        half what it costs between simulator steps, which is most of the recording cost."""
+        at the next ``idle`` or when the window is written, so a call costs about 1 us."""
         if self.closed:
             raise RuntimeError("recorder is closed")
         t_us = int(t_us)
@@ -493,20 +589,30 @@ class Recorder:
 
     def flush(self) -> None:
         """Write the held messages in log-time order as one chunk and hand it to the OS."""
-        self._write_chunk(self._encode_pending())
+        self._encode_held()
+        msgs = self._encoded
+        self._encoded = []
+        msgs.sort(key=itemgetter(0))  # stable: equal times keep call order
+        self._write_chunk(msgs)
 
-    def _encode_pending(self) -> list[tuple[int, int, bytes]]:
+    def idle(self) -> None:
+        """Encode what is held now. A caller that is about to wait (the simulator, while
+        the firmware computes its cycle) calls this so that the work is done then, and
+        writing the window later costs only framing and compression."""
+        self._encode_held()
+
+    def _encode_held(self) -> None:
         pending = self._pending
+        if not pending:
+            return
         self._pending = []
-        pending.sort(key=itemgetter(0))  # stable: equal times keep call order
-        out: list[tuple[int, int, bytes]] = []
+        out = self._encoded
         append = out.append
-        for t, cid, encode, data in pending:
+        for t, cid, encode, data in pending:  # call order: parsers see bytes in order
             if encode is None:
                 append((t, cid, data))
             else:
                 encode(out, t, *data)
-        return out
 
     def _write_chunk(self, msgs: list[tuple[int, int, bytes]]) -> None:
         if msgs:
@@ -522,14 +628,13 @@ class Recorder:
         """Write everything and the MCAP summary; the file is complete after this."""
         if self.closed:
             return
-        msgs = self._encode_pending()
+        self._encode_held()
         if self._parsers is not None:  # a packet hidden behind a bad header, at the end
             for direction, parser in self._parsers.items():
                 for pkt in parser.flush():
-                    self._encode_packet(msgs, self._last_serial_ns, direction, pkt.id,
-                                        pkt.code, pkt.params, pkt.raw)
-            msgs.sort(key=itemgetter(0))
-        self._write_chunk(msgs)
+                    self._encode_packet(self._encoded, self._last_serial_ns, direction,
+                                        pkt.id, pkt.code, pkt.params, pkt.raw)
+        self.flush()
         self._writer.finish()
         self._file.close()
         self.closed = True
@@ -600,27 +705,25 @@ class Recorder:
             if msg is not None:
                 name = msg.name
         out.append((t, self._proto_channel(T_CAN_RAW, CanFrame),
-                    CanFrame(direction=direction, arbitration_id=arb_id,
-                             is_extended_id=is_extended_id, dlc=len(data), data=data,
-                             name=name).SerializeToString()))
+                    encode_can_frame(direction, arb_id, is_extended_id, data, name)))
         if msg is None:
             return
         try:
-            signals = msg.decode(data, decode_choices=False)
+            if can_frames.BY_ID.get(arb_id) == name:
+                # our frames: protocol/can_frames.py, which tests/test_can_frames.py holds
+                # to the DBC through cantools for every frame; ~10x faster than cantools
+                signals = can_frames.decode(arb_id, data)[1]
+            else:
+                signals = msg.decode(data, decode_choices=False)
         except Exception:  # a frame the DBC cannot decode stays raw only
             return
         topic = T_CAN_PREFIX + name
         cid = self._channels.get(topic)
         if cid is None:
-            props = {s.name: {"type": "number",
-                              "description": f"{s.comment or s.name} [{s.unit or '-'}]"}
-                     for s in msg.signals}
-            props["direction"] = {"type": "string"}
-            cid = self._json_channel(topic, f"hexhil.can.{name}",
-                                     {"title": f"hexhil.can.{name}", "type": "object",
-                                      "properties": props})
+            cid = self._channel(topic, f"hexhil.can.{name}", "json",
+                                _can_json_schema(msg).encode())
         signals["direction"] = direction
-        out.append((t, cid, json.dumps(signals, default=_json_default).encode()))
+        out.append((t, cid, _to_json(signals).encode()))
 
     def switch_edge(self, t_us: int, leg: int, level: bool) -> None:
         """A tactile limit switch changed (leg 0..5 in ``LEG_NAMES`` order; True = pressed)."""
@@ -649,8 +752,7 @@ class Recorder:
         self._defer(t_us, self._encode_servo_state, ([dict(s) for s in servos],))
 
     def _encode_servo_state(self, out: list, t: int, servos: list[dict[str, Any]]) -> None:
-        msg = ServoStates(servos=[ServoState(**s) for s in servos])
-        out.append((t, self._proto_channel(T_SERVOS, ServoStates), msg.SerializeToString()))
+        out.append((t, self._proto_channel(T_SERVOS, ServoStates), encode_servo_states(servos)))
 
     def body_pose(self, t_us: int, position_m: Sequence[float],
                   quaternion_wxyz: Sequence[float], parent: str = "world",
@@ -662,11 +764,8 @@ class Recorder:
 
     def _encode_body_pose(self, out: list, t: int, position_m: tuple[float, ...],
                           quaternion_wxyz: tuple[float, ...], parent: str, child: str) -> None:
-        msg = FrameTransform(parent_frame_id=parent, child_frame_id=child)
-        msg.timestamp.FromNanoseconds(t)
-        msg.translation.x, msg.translation.y, msg.translation.z = position_m
-        msg.rotation.w, msg.rotation.x, msg.rotation.y, msg.rotation.z = quaternion_wxyz
-        out.append((t, self._proto_channel(T_BODY, FrameTransform), msg.SerializeToString()))
+        out.append((t, self._proto_channel(T_BODY, FrameTransform),
+                    encode_frame_transform(t, parent, child, position_m, quaternion_wxyz)))
 
     def joints(self, t_us: int, names: Sequence[str], positions_rad: Sequence[float],
                velocities_rad_s: Sequence[float] | None = None,
@@ -682,15 +781,8 @@ class Recorder:
 
     def _encode_joints(self, out: list, t: int, names: list[str], positions: list[float],
                        velocities: list[float], efforts: list[float]) -> None:
-        msg = JointStates()
-        msg.timestamp.FromNanoseconds(t)
-        for i in range(len(names)):
-            j = msg.joints.add()
-            j.name = names[i]
-            j.position = positions[i]
-            j.velocity = velocities[i]
-            j.effort = efforts[i]
-        out.append((t, self._proto_channel(T_JOINTS, JointStates), msg.SerializeToString()))
+        out.append((t, self._proto_channel(T_JOINTS, JointStates),
+                    encode_joint_states(t, names, positions, velocities, efforts)))
 
     def fault(self, t_us: int, name: str, detail: str = "") -> None:
         """An injected fault (or one the firmware reported) as a ``foxglove.Log`` entry."""

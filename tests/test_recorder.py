@@ -138,6 +138,66 @@ def test_hand_encoded_protobuf_is_what_the_generated_classes_write(direction, se
                             errors=names[1], params=params, raw=raw).SerializeToString()
 
 
+finite_or_not = st.floats(allow_nan=True, allow_infinity=True)
+
+
+@settings(max_examples=200, deadline=None)
+@given(t_ns=st.integers(0, 10**15), parent=st.text(max_size=8), child=st.text(max_size=8),
+       pos=st.tuples(finite_or_not, finite_or_not, st.sampled_from([0.0, -0.0, 0.12])),
+       quat=st.tuples(finite_or_not, finite_or_not, finite_or_not, st.just(0.0)),
+       joints=st.lists(st.tuples(st.text(max_size=6), finite_or_not, finite_or_not,
+                                 st.sampled_from([0.0, -0.0, 1.5])), max_size=5),
+       servos=st.lists(st.fixed_dictionaries(
+           {"id": st.integers(0, 253), "position_rad": finite_or_not,
+            "torque_enabled": st.booleans(), "error": st.integers(0, 127)},
+           optional={"moving": st.booleans(), "voltage_v": finite_or_not}), max_size=4),
+       can=st.tuples(st.sampled_from(["tx", "rx"]), st.integers(0, 0x1FFFFFFF), st.booleans(),
+                     st.binary(max_size=8), st.text(max_size=10)))
+def test_hand_encoded_ground_truth_and_can_are_what_the_generated_classes_write(
+        t_ns, parent, child, pos, quat, joints, servos, can):
+    ft = rec.FrameTransform(parent_frame_id=parent, child_frame_id=child)
+    ft.timestamp.FromNanoseconds(t_ns)
+    ft.translation.x, ft.translation.y, ft.translation.z = pos
+    ft.rotation.w, ft.rotation.x, ft.rotation.y, ft.rotation.z = quat
+    assert rec.encode_frame_transform(t_ns, parent, child, pos, quat) == ft.SerializeToString()
+    js = rec.JointStates()
+    js.timestamp.FromNanoseconds(t_ns)
+    for name, p, v, e in joints:
+        j = js.joints.add()
+        j.name, j.position, j.velocity, j.effort = name, p, v, e
+    assert rec.encode_joint_states(t_ns, *([j[k] for j in joints] for k in range(4))) == \
+        js.SerializeToString()
+    assert rec.encode_servo_states(servos) == rec.ServoStates(
+        servos=[rec.ServoState(**s) for s in servos]).SerializeToString()
+    direction, arb, ext, data, name = can
+    assert rec.encode_can_frame(direction, arb, ext, data, name) == rec.CanFrame(
+        direction=direction, arbitration_id=arb, is_extended_id=ext, dlc=len(data), data=data,
+        name=name).SerializeToString()
+
+
+def test_can_signals_in_the_trace_are_the_dbc_decoding(tmp_path):
+    """The recorder decodes our frames with protocol/can_frames.py: the same numbers
+    cantools gets from protocol/hexhil.dbc."""
+    import cantools
+
+    db = cantools.database.load_file(str(ROOT / "protocol" / "hexhil.dbc"))
+    frames = [can_frames.encode("heartbeat", state=2, fault_flags=5, cycle=1234, overruns=3),
+              can_frames.encode("force", fx_n=0.1234, fy_n=-0.5, fz_n=1.75, sample=77),
+              can_frames.encode("tactile", switches=0b100101, overcoming=2, step_counter=9)]
+    with rec.Recorder(tmp_path / "c.mcap", {}) as r:
+        for i, (arb, data) in enumerate(frames):
+            r.can(i * 1000, arb, data)
+    with open(tmp_path / "c.mcap", "rb") as f:
+        got = [json.loads(m.data) for _, c, m in make_reader(f).iter_messages()
+               if c.topic.startswith("/can/") and c.topic != rec.T_CAN_RAW]
+    assert len(got) == len(frames)
+    for values, (arb, data) in zip(got, frames):
+        want = db.get_message_by_frame_id(arb).decode(data, decode_choices=False)
+        assert values.pop("direction") == "tx"
+        assert values.keys() == want.keys()
+        assert all(values[k] == pytest.approx(want[k], abs=1e-12) for k in want)
+
+
 def test_message_indexes_point_at_their_messages(tmp_path):
     path = tmp_path / "run.mcap"
     _record(path, cycles=120)
