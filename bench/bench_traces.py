@@ -27,7 +27,7 @@ def _time_inside_recorder(run, out: Path) -> float:
     spent = [0.0]
     saved = {}
     for name in ("__init__", "serial", "can", "link", "telemetry", "switch_edge", "fault",
-                 "servo_state", "body_pose", "joints", "advance", "idle", "close"):
+                 "servo_state", "body_pose", "joints", "advance", "close"):
         f = saved[name] = getattr(rec_mod.Recorder, name)
 
         def timed(self, *a, _f=f, **k):

@@ -297,7 +297,6 @@ class Simulator:
         while True:
             msgs, closed = conn.batch()
             reply = None
-            slept = False
             for op, payload in msgs:
                 if op == wire.OP_WRITE:
                     t0 = clock.t_us
@@ -338,7 +337,7 @@ class Simulator:
                     for arb_id, data in frames:
                         body += struct.pack("<HB", arb_id, len(data)) + data.ljust(8, b"\0")
                     reply = bytes(body)
-                    slept = True
+                    self._ground_truth()
                 elif op == wire.OP_HELLO:
                     config = json.dumps(self.settings, sort_keys=True).encode()
                     reply = struct.pack("<B", self._sample_switches(result)) + config
@@ -346,12 +345,6 @@ class Simulator:
                 raw = conn.reply(clock.t_us, reply)
                 if rec is not None:
                     rec.link(clock.t_us, bytes(conn.raw), raw)
-            if rec is not None and slept:
-                # The firmware now computes its next cycle and the host would only wait:
-                # sample ground truth and let the recorder encode (or write a finished
-                # window) in that time rather than before the reply.
-                self._ground_truth()
-                rec.idle()
             if closed:
                 result.round_trips = conn.round_trips
                 return

@@ -574,7 +574,7 @@ class Recorder:
 
     def _defer(self, t_us: int, encode: Callable[..., None], args: tuple) -> None:
         """Hold the raw values; ``encode(out, t_ns, *args)`` appends the encoded messages
-        at the next ``idle`` or when the window is written, so a call costs about 1 us."""
+        when the window is written, so a call costs about 1 us."""
         if self.closed:
             raise RuntimeError("recorder is closed")
         t_us = int(t_us)
@@ -594,12 +594,6 @@ class Recorder:
         self._encoded = []
         msgs.sort(key=itemgetter(0))  # stable: equal times keep call order
         self._write_chunk(msgs)
-
-    def idle(self) -> None:
-        """Encode what is held now. A caller that is about to wait (the simulator, while
-        the firmware computes its cycle) calls this so that the work is done then, and
-        writing the window later costs only framing and compression."""
-        self._encode_held()
 
     def _encode_held(self) -> None:
         pending = self._pending
