@@ -65,7 +65,8 @@ def test_cramer_rao_bound_orders_the_cases():
     sd = {u: estimator.cramer_rao_sd(poses, 0.25, 0.27, 0.0, 0.0, 0.2, u)[0] for u in (2, 3, 4)}
     assert sd[2] < sd[3] < sd[4]                    # fewer unknowns, better (Sec. III-B iii)
     assert estimator.cramer_rao_sd(long_poses, 0.25, 0.27, 0.0, 0.0, 0.2, 3)[0] < sd[3]   # Table 4
-    known, unknown = (estimator.cramer_rao_sd(poses, 0.25, 0.27, 0.0, 0.0, 0.5, 2, sigma_known=b) for b in (True, False))
+    known, unknown = (estimator.cramer_rao_sd(poses, 0.25, 0.27, 0.0, 0.0, 0.5, 2, sigma_known=b)
+                      for b in (True, False))
     assert np.all(known < unknown)                  # knowing sigma adds the variance term's information
     assert estimator.cramer_rao_sd(poses, 0.25, 0.27, 0.0, 0.0, 0.1, 4)[0] == pytest.approx(
         sd[4] / 2 * np.sqrt((1 + 2 * 0.2 ** 2) / (1 + 2 * 0.1 ** 2)), rel=1e-6)

@@ -131,7 +131,8 @@ def planning(grid: landscape.Grid, delay_ms: float = 300.0) -> dict[str, Any]:
     return {"land": land, "plans": plans, "k0": PAPER_BODY.k0_nm_per_rad(),
             "crossover_k": planner.crossover_k(land, (-0.1, 0.0, 0.0), iterations=8),
             "contact": contact, "kinetic_j": kinetic_j,
-            "critical_push_n": {k: planner.critical_push_n(land, k, k, contact, kinetic_j) for k in (K_FLIMSY, K_STIFF)}}
+            "critical_push_n": {k: planner.critical_push_n(land, k, k, contact, kinetic_j)
+                                for k in (K_FLIMSY, K_STIFF)}}
 
 
 def clear_gap_plans(grid: landscape.Grid) -> dict[str, Any]:
@@ -482,7 +483,8 @@ def main(quick: bool, out: Path, seeds: int | None = None, grid: landscape.Grid 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true", help="5 seeds and a 4 mm / 5 deg landscape grid (minutes)")
     p.add_argument("--out", default="out/force-sensing", help="output folder (force-sensing.md and PNGs)")
-    p.add_argument("--seeds", type=int, help="noise seeds 0..N-1 for the tables and the rig (default 20, 5 with --quick)")
+    p.add_argument("--seeds", type=int,
+                   help="noise seeds 0..N-1 for the tables and the rig (default 20, 5 with --quick)")
     p.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
 
 
