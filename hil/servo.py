@@ -228,7 +228,7 @@ class Servo:
         t[41] = ld >> 8
         t[ax12.PRESENT_VOLTAGE] = self._voltage_units
         t[ax12.PRESENT_TEMPERATURE] = self._temperature_units
-        t[ax12.MOVING] = 1 if abs(vel) >= MOVING_EPS_RAD_S else 0
+        t[ax12.MOVING] = 1 if self.moving else 0
 
     @property
     def moving(self) -> bool:

@@ -31,7 +31,7 @@ Why it is built this way:
 * Determinism: nothing here reads the wall clock; the same run gives the same bytes.
 * Cost: the parts hand over raw values and a window's messages are encoded together when
   it is written (hand-rolled protobuf for the ~1000 serial/Dynamixel/link messages a
-  simulated second), which keeps recording within 10 % of a run (``make bench``).
+  simulated second); ``make bench`` measures what recording adds to a run.
 * ``/link`` holds every simulator-link request the firmware made and the reply it got
   (the firmware's whole view of the world), so ``hexhil replay`` can serve the replies
   back and compare the requests byte for byte.
@@ -521,8 +521,7 @@ class Recorder:
         self._writer.metadata(METADATA_NAME, meta)
         self._flush_interval_us = int(flush_interval_us)
         self._window_end_us = self._flush_interval_us
-        self._pending: list[tuple] = []                  # raw values, in call order
-        self._encoded: list[tuple[int, int, bytes]] = []  # (log_time_ns, channel, data)
+        self._pending: list[tuple] = []  # (log_time_ns, channel, encode, data) in call order
         self._channels: dict[str, int] = {}
         self._schemas: dict[str, int] = {}
         self._parsers = {"tx": dynamixel.Parser(), "rx": dynamixel.Parser()} \
@@ -565,22 +564,20 @@ class Recorder:
 
     def _add(self, cid: int, t_us: int, data: bytes) -> None:
         """Hold one encoded message until its window is written."""
-        if self.closed:
-            raise RuntimeError("recorder is closed")
-        t_us = int(t_us)
-        if t_us >= self._window_end_us:
-            self._flush_window(t_us)
-        self._pending.append((t_us * 1000, cid, None, data))
+        self._hold(t_us, cid, None, data)
 
     def _defer(self, t_us: int, encode: Callable[..., None], args: tuple) -> None:
         """Hold the raw values; ``encode(out, t_ns, *args)`` appends the encoded messages
         when the window is written, so a call costs about 1 us."""
+        self._hold(t_us, 0, encode, args)
+
+    def _hold(self, t_us: int, cid: int, encode: Callable[..., None] | None, data: Any) -> None:
         if self.closed:
             raise RuntimeError("recorder is closed")
         t_us = int(t_us)
         if t_us >= self._window_end_us:
             self._flush_window(t_us)
-        self._pending.append((t_us * 1000, 0, encode, args))
+        self._pending.append((t_us * 1000, cid, encode, data))
 
     def _flush_window(self, now_us: int) -> None:
         self.flush()
@@ -589,24 +586,21 @@ class Recorder:
 
     def flush(self) -> None:
         """Write the held messages in log-time order as one chunk and hand it to the OS."""
-        self._encode_held()
-        msgs = self._encoded
-        self._encoded = []
-        msgs.sort(key=itemgetter(0))  # stable: equal times keep call order
-        self._write_chunk(msgs)
+        self._write_chunk(self._encode_pending())
 
-    def _encode_held(self) -> None:
+    def _encode_pending(self) -> list[tuple[int, int, bytes]]:
+        """The held messages encoded, as (log_time_ns, channel, data) in log-time order."""
         pending = self._pending
-        if not pending:
-            return
         self._pending = []
-        out = self._encoded
+        out: list[tuple[int, int, bytes]] = []
         append = out.append
         for t, cid, encode, data in pending:  # call order: parsers see bytes in order
             if encode is None:
                 append((t, cid, data))
             else:
                 encode(out, t, *data)
+        out.sort(key=itemgetter(0))  # stable: equal times keep call order
+        return out
 
     def _write_chunk(self, msgs: list[tuple[int, int, bytes]]) -> None:
         if msgs:
@@ -622,13 +616,14 @@ class Recorder:
         """Write everything and the MCAP summary; the file is complete after this."""
         if self.closed:
             return
-        self._encode_held()
+        msgs = self._encode_pending()
         if self._parsers is not None:  # a packet hidden behind a bad header, at the end
             for direction, parser in self._parsers.items():
                 for pkt in parser.flush():
-                    self._encode_packet(self._encoded, self._last_serial_ns, direction,
+                    self._encode_packet(msgs, self._last_serial_ns, direction,
                                         pkt.id, pkt.code, pkt.params, pkt.raw)
-        self.flush()
+            msgs.sort(key=itemgetter(0))
+        self._write_chunk(msgs)
         self._writer.finish()
         self._file.close()
         self.closed = True
