@@ -7,7 +7,6 @@ each part reports what it sees with an integer virtual timestamp in microseconds
 method              topic                           schema (encoding)
 ==================  ==============================  ====================================
 ``serial``          ``/serial``                     ``hexhil.SerialBytes`` (protobuf)
-(decoded from it)   ``/dynamixel``                  ``hexhil.DynamixelPacket`` (protobuf)
 ``can``             ``/can/raw``                    ``hexhil.CanFrame`` (protobuf)
 (DBC-decoded)       ``/can/<frame name>``           ``hexhil.can.<frame name>`` (jsonschema)
 ``switch_edge``     ``/switches``                   ``hexhil.SwitchEdge`` (protobuf)
@@ -16,7 +15,7 @@ method              topic                           schema (encoding)
 ``body_pose``       ``/body``                       ``foxglove.FrameTransform`` (protobuf)
 ``joints``          ``/joints``                     ``foxglove.JointStates`` (protobuf)
 ``fault``           ``/faults``                     ``foxglove.Log`` (protobuf)
-``link``            ``/link``                       ``hexhil.LinkExchange`` (protobuf)
+``link``            ``/link``                       ``hexhil.LinkExchanges`` (protobuf)
 ==================  ==============================  ====================================
 
 Why it is built this way:
@@ -30,11 +29,15 @@ Why it is built this way:
   ``hexhil trace recover`` proves by reading the file without its summary.
 * Determinism: nothing here reads the wall clock; the same run gives the same bytes.
 * Cost: the parts hand over raw values and a window's messages are encoded together when
-  it is written (hand-rolled protobuf for the ~1000 serial/Dynamixel/link messages a
-  simulated second); ``make bench`` measures what recording adds to a run.
+  it is written (hand-rolled protobuf for the ~360 serial bursts a simulated second);
+  ``make bench`` measures what recording adds to a run. Each message costs its framing
+  and index entry, so a serial burst carries its decoded Dynamixel packets
+  (``SerialBytes.packets``) instead of a second topic repeating the bytes.
 * ``/link`` holds every simulator-link request the firmware made and the reply it got
   (the firmware's whole view of the world), so ``hexhil replay`` can serve the replies
-  back and compare the requests byte for byte.
+  back and compare the requests byte for byte. Nobody plots them, so each window's
+  exchanges (about 200 a simulated second) go in one message, each with its own
+  ``t_us``.
 """
 from __future__ import annotations
 
@@ -70,7 +73,6 @@ DEFAULT_FLUSH_INTERVAL_US = 500_000  # well inside the issue's "once per simulat
 
 # Topics (the names are the API that trace tools, replay and estimate read).
 T_SERIAL = "/serial"
-T_DYNAMIXEL = "/dynamixel"
 T_CAN_RAW = "/can/raw"
 T_CAN_PREFIX = "/can/"
 T_SWITCHES = "/switches"
@@ -89,7 +91,8 @@ _TYPES = {"string": _F.TYPE_STRING, "bytes": _F.TYPE_BYTES, "uint32": _F.TYPE_UI
 # Our own protobuf messages: (name, [(field, type)]); a type naming another message here
 # makes a repeated field of it.
 _MESSAGES: list[tuple[str, list[tuple[str, str]]]] = [
-    ("SerialBytes", [("direction", "string"), ("data", "bytes"), ("length", "uint32")]),
+    ("SerialBytes", [("direction", "string"), ("data", "bytes"), ("length", "uint32"),
+                     ("packets", "DynamixelPacket")]),
     ("DynamixelPacket", [("direction", "string"), ("id", "uint32"), ("code", "uint32"),
                          ("instruction", "string"), ("errors", "string"),
                          ("params", "bytes"), ("raw", "bytes")]),
@@ -103,7 +106,9 @@ _MESSAGES: list[tuple[str, list[tuple[str, str]]]] = [
                     ("temperature_c", "double"), ("voltage_v", "double"),
                     ("torque_enabled", "bool"), ("moving", "bool"), ("error", "uint32")]),
     ("ServoStates", [("servos", "ServoState")]),
-    ("LinkExchange", [("kind", "string"), ("request", "bytes"), ("reply", "bytes")]),
+    ("LinkExchange", [("kind", "string"), ("request", "bytes"), ("reply", "bytes"),
+                      ("t_us", "uint64")]),
+    ("LinkExchanges", [("exchanges", "LinkExchange")]),
 ]
 
 
@@ -139,6 +144,7 @@ SwitchEdge = _CLASSES["SwitchEdge"]
 ServoState = _CLASSES["ServoState"]
 ServoStates = _CLASSES["ServoStates"]
 LinkExchange = _CLASSES["LinkExchange"]
+LinkExchanges = _CLASSES["LinkExchanges"]
 
 
 
@@ -184,17 +190,23 @@ def _string_1(s: str) -> bytes:
     return field
 
 
-def encode_serial_bytes(direction: str, data: bytes) -> bytes:
-    """``hexhil.SerialBytes(direction, data, length=len(data))``."""
+def encode_serial_bytes(direction: str, data: bytes, packets: Sequence[bytes] = ()) -> bytes:
+    """``hexhil.SerialBytes(direction, data, length=len(data), packets)``, each packet
+    already encoded by ``encode_dynamixel_packet``."""
     n = len(data)
     if 0 < n < 0x80:  # every Dynamixel burst: one length byte, no helper calls
-        return _string_1(direction) + b"\x12" + _BYTE[n] + data + b"\x18" + _BYTE[n]
-    return _string_1(direction) + _field_bytes(0x12, data) + _field_uint(0x18, n)
+        out = _string_1(direction) + b"\x12" + _BYTE[n] + data + b"\x18" + _BYTE[n]
+    else:
+        out = _string_1(direction) + _field_bytes(0x12, data) + _field_uint(0x18, n)
+    for p in packets:
+        out += b"\x22" + _BYTE[len(p)] + p if len(p) < 0x80 else _field_message(0x22, p)
+    return out
 
 
-def encode_link_exchange(kind: str, request: bytes, reply: bytes) -> bytes:
-    """``hexhil.LinkExchange(kind, request, reply)``."""
-    return _string_1(kind) + _field_bytes(0x12, request) + _field_bytes(0x1A, reply)
+def encode_link_exchange(kind: str, request: bytes, reply: bytes, t_us: int) -> bytes:
+    """``hexhil.LinkExchange(kind, request, reply, t_us)``."""
+    return (_string_1(kind) + _field_bytes(0x12, request) + _field_bytes(0x1A, reply)
+            + _field_uint(0x20, t_us))
 
 
 def encode_can_frame(direction: str, arb_id: int, is_extended_id: bool, data: bytes,
@@ -240,17 +252,25 @@ def encode_frame_transform(t_ns: int, parent: str, child: str,
                              + _field_double(0x19, qz) + _field_double(0x21, w)))
 
 
+_NAME_FIELDS: dict[str, bytes] = {}  # a joint name as JointState field 1, encoded once
+_PACK_JOINT = struct.Struct("<BdBdBd").pack  # position, velocity, effort with their tags
+
+
 def encode_joint_states(t_ns: int, names: Sequence[str], positions: Sequence[float],
                         velocities: Sequence[float], efforts: Sequence[float]) -> bytes:
     """``foxglove.JointStates``: name, position, velocity and effort per joint (a
     JointState's numbers have explicit presence: written when set, zero included)."""
     out = [_timestamp_field(t_ns)]
-    pack = _PACK_DOUBLE
     for i in range(len(names)):
-        out.append(_field_message(0x12, _field_bytes(0x0A, names[i].encode())
-                                  + b"\x11" + pack(positions[i]) + b"\x19" + pack(velocities[i])
-                                  + b"\x29" + pack(efforts[i])))
+        name = _NAME_FIELDS.get(names[i])
+        if name is None:
+            name = _NAME_FIELDS[names[i]] = _field_bytes(0x0A, names[i].encode())
+        out.append(_field_message(0x12, name + _PACK_JOINT(0x11, positions[i], 0x19,
+                                                           velocities[i], 0x29, efforts[i])))
     return b"".join(out)
+
+
+_PACK_SERVO = struct.Struct("<BBBdBdBdBdBd").pack  # id < 128 and five non-zero doubles
 
 
 def encode_servo_states(servos: Iterable[Mapping[str, Any]]) -> bytes:
@@ -258,15 +278,20 @@ def encode_servo_states(servos: Iterable[Mapping[str, Any]]) -> bytes:
     out = []
     for s in servos:
         g = s.get
-        out.append(_field_message(0x0A, _field_uint(0x08, g("id", 0))
-                                  + _field_double(0x11, g("position_rad", 0.0))
-                                  + _field_double(0x19, g("velocity_rad_s", 0.0))
-                                  + _field_double(0x21, g("load_frac", 0.0))
-                                  + _field_double(0x29, g("temperature_c", 0.0))
-                                  + _field_double(0x31, g("voltage_v", 0.0))
-                                  + (b"\x38\x01" if g("torque_enabled") else b"")
-                                  + (b"\x40\x01" if g("moving") else b"")
-                                  + _field_uint(0x48, g("error", 0))))
+        sid, err = g("id", 0), g("error", 0)
+        values = (g("position_rad", 0.0), g("velocity_rad_s", 0.0), g("load_frac", 0.0),
+                  g("temperature_c", 0.0), g("voltage_v", 0.0))
+        tail = ((b"\x38\x01" if g("torque_enabled") else b"")
+                + (b"\x40\x01" if g("moving") else b"") + _field_uint(0x48, err))
+        if 0 < sid < 0x80 and 0.0 not in values:  # -0.0 == 0.0 too: it takes the long way
+            p, v, load, temp, volt = values
+            body = _PACK_SERVO(0x08, sid, 0x11, p, 0x19, v, 0x21, load, 0x29, temp,
+                               0x31, volt) + tail
+        else:
+            body = (_field_uint(0x08, sid) + _field_double(0x11, values[0])
+                    + _field_double(0x19, values[1]) + _field_double(0x21, values[2])
+                    + _field_double(0x29, values[3]) + _field_double(0x31, values[4]) + tail)
+        out.append(_field_message(0x0A, body))
     return b"".join(out)
 
 
@@ -362,7 +387,7 @@ class _TraceWriter:
         self.f = f
         self.b = RecordBuilder()
         self.pos = 0
-        self.zstd = zstandard.ZstdCompressor(level=3)
+        self.zstd = zstandard.ZstdCompressor(level=1)
         self.schemas: list[Schema] = []
         self.channels: list[Channel] = []
         self.metadata_indexes: list[MetadataIndex] = []
@@ -497,6 +522,10 @@ class _TraceWriter:
         self.f.flush()
 
 
+def _append_encoded(out: list, t: int, cid: int, data: bytes) -> None:
+    out.append((t, cid, data))
+
+
 class Recorder:
     """Writes one run to one MCAP file; see the module docstring for topics and schemas.
 
@@ -521,12 +550,14 @@ class Recorder:
         self._writer.metadata(METADATA_NAME, meta)
         self._flush_interval_us = int(flush_interval_us)
         self._window_end_us = self._flush_interval_us
-        self._pending: list[tuple] = []  # (log_time_ns, channel, encode, data) in call order
+        self._pending: list[tuple] = []  # (log_time_ns, encode, args) in call order
         self._channels: dict[str, int] = {}
         self._schemas: dict[str, int] = {}
         self._parsers = {"tx": dynamixel.Parser(), "rx": dynamixel.Parser()} \
             if decode_serial else None
         self._dbc = _dbc() if decode_can else None
+        self._can_kinds: dict[tuple[int, bool], tuple[str, Any, bool]] = {}
+        self._links: list[tuple[str, bytes, bytes, int]] | None = None  # this window's
         self._switches = 0
         self.messages = 0
         self.closed = False
@@ -564,22 +595,19 @@ class Recorder:
 
     def _add(self, cid: int, t_us: int, data: bytes) -> None:
         """Hold one encoded message until its window is written."""
-        self._hold(t_us, cid, None, data)
+        self._defer(t_us, _append_encoded, (cid, data))
 
     def _defer(self, t_us: int, encode: Callable[..., None], args: tuple) -> None:
         """Hold the raw values; ``encode(out, t_ns, *args)`` appends the encoded messages
         when the window is written, so a call costs about 1 us."""
-        self._hold(t_us, 0, encode, args)
-
-    def _hold(self, t_us: int, cid: int, encode: Callable[..., None] | None, data: Any) -> None:
-        if self.closed:
-            raise RuntimeError("recorder is closed")
         t_us = int(t_us)
         if t_us >= self._window_end_us:
             self._flush_window(t_us)
-        self._pending.append((t_us * 1000, cid, encode, data))
+        self._pending.append((t_us * 1000, encode, args))
 
     def _flush_window(self, now_us: int) -> None:
+        if self.closed:  # close() sets the window end to -1, so every later call lands here
+            raise RuntimeError("recorder is closed")
         self.flush()
         step = self._flush_interval_us
         self._window_end_us = (now_us // step + 1) * step
@@ -592,13 +620,10 @@ class Recorder:
         """The held messages encoded, as (log_time_ns, channel, data) in log-time order."""
         pending = self._pending
         self._pending = []
+        self._links = None
         out: list[tuple[int, int, bytes]] = []
-        append = out.append
-        for t, cid, encode, data in pending:  # call order: parsers see bytes in order
-            if encode is None:
-                append((t, cid, data))
-            else:
-                encode(out, t, *data)
+        for t, encode, args in pending:  # call order: parsers see bytes in order
+            encode(out, t, *args)
         out.sort(key=itemgetter(0))  # stable: equal times keep call order
         return out
 
@@ -617,16 +642,19 @@ class Recorder:
         if self.closed:
             return
         msgs = self._encode_pending()
-        if self._parsers is not None:  # a packet hidden behind a bad header, at the end
+        if self._parsers is not None:  # packets hidden behind a bad header, found at the end
             for direction, parser in self._parsers.items():
-                for pkt in parser.flush():
-                    self._encode_packet(msgs, self._last_serial_ns, direction,
-                                        pkt.id, pkt.code, pkt.params, pkt.raw)
+                late = [encode_dynamixel_packet(direction, p.id, p.code, p.params, p.raw)
+                        for p in parser.flush()]
+                if late:  # on a burst of no new bytes at the last serial time
+                    msgs.append((self._last_serial_ns, self._channels[T_SERIAL],
+                                 encode_serial_bytes(direction, b"", late)))
             msgs.sort(key=itemgetter(0))
         self._write_chunk(msgs)
         self._writer.finish()
         self._file.close()
         self.closed = True
+        self._window_end_us = -1
 
     def __enter__(self) -> "Recorder":
         return self
@@ -638,41 +666,37 @@ class Recorder:
     _last_serial_ns = 0
 
     def serial(self, t_us: int, direction: str, data: bytes) -> None:
-        """Raw bytes on the servo line (``"tx"`` master->servos, ``"rx"`` servos->master);
-        complete Dynamixel packets in them are also logged on ``/dynamixel``."""
+        """Raw bytes on the servo line (``"tx"`` master->servos, ``"rx"`` servos->master),
+        with the Dynamixel packets they complete decoded beside them."""
         self._defer(t_us, self._encode_serial, (direction, bytes(data)))
 
     def _encode_serial(self, out: list, t: int, direction: str, data: bytes) -> None:
         cid = self._channels.get(T_SERIAL) or self._proto_channel(T_SERIAL, SerialBytes)
-        out.append((t, cid, encode_serial_bytes(direction, data)))
+        out.append((t, cid, encode_serial_bytes(direction, data, self._packets(t, direction,
+                                                                               data))))
         self._last_serial_ns = t
-        parsers = self._parsers
-        if parsers is None:
-            return
-        parser = parsers.get(direction)
+
+    def _packets(self, t: int, direction: str, data: bytes) -> list[bytes]:
+        """The packets ``data`` completes, encoded (``data`` may end or start one)."""
+        parser = self._parsers.get(direction) if self._parsers is not None else None
         if parser is None:
-            return
+            return []
         n = len(data)
         if (not parser.pending() and n >= 6 and data[0] == 0xFF and data[1] == 0xFF
                 and data[2] != 0xFF and data[3] + 4 == n
                 and (~sum(data[2:n - 1])) & 0xFF == data[n - 1]):
             # one whole valid packet, nothing held: what push() would find, ~20x faster
-            self._encode_packet(out, t, direction, data[2], data[4], data[5:n - 1], data)
-            return
+            return [encode_dynamixel_packet(direction, data[2], data[4], data[5:n - 1], data)]
+        found = []
         t_us = t // 1000
         for b in data:
             if parser.push(b, t_us):
                 end = dynamixel.PARAMS_OFFSET + parser.nparams
                 buf = parser.buf
-                self._encode_packet(out, t, direction, parser.id, parser.code,
-                                    bytes(buf[dynamixel.PARAMS_OFFSET:end]),
-                                    bytes(buf[0:end + 1]))
-
-    def _encode_packet(self, out: list, t: int, direction: str, servo_id: int, code: int,
-                       params: bytes, raw: bytes) -> None:
-        cid = self._channels.get(T_DYNAMIXEL) or \
-            self._proto_channel(T_DYNAMIXEL, DynamixelPacket)
-        out.append((t, cid, encode_dynamixel_packet(direction, servo_id, code, params, raw)))
+                found.append(encode_dynamixel_packet(
+                    direction, parser.id, parser.code,
+                    bytes(buf[dynamixel.PARAMS_OFFSET:end]), bytes(buf[0:end + 1])))
+        return found
 
     def can(self, t_us: int, arb_id: int, data: bytes, direction: str = "tx",
             is_extended_id: bool = False) -> None:
@@ -683,22 +707,17 @@ class Recorder:
 
     def _encode_can(self, out: list, t: int, arb_id: int, data: bytes, direction: str,
                     is_extended_id: bool) -> None:
-        name = ""
-        db = self._dbc
-        msg = None
-        if db is not None and not is_extended_id:
-            try:
-                msg = db.get_message_by_frame_id(arb_id)
-            except KeyError:
-                msg = None
-            if msg is not None:
-                name = msg.name
+        kind = self._can_kinds.get((arb_id, is_extended_id))
+        if kind is None:
+            kind = self._can_kinds[(arb_id, is_extended_id)] = self._can_kind(arb_id,
+                                                                             is_extended_id)
+        name, msg, ours = kind
         out.append((t, self._proto_channel(T_CAN_RAW, CanFrame),
                     encode_can_frame(direction, arb_id, is_extended_id, data, name)))
         if msg is None:
             return
         try:
-            if can_frames.BY_ID.get(arb_id) == name:
+            if ours:
                 # our frames: protocol/can_frames.py, which tests/test_can_frames.py holds
                 # to the DBC through cantools for every frame; ~10x faster than cantools
                 signals = can_frames.decode(arb_id, data)[1]
@@ -713,6 +732,16 @@ class Recorder:
                                 _can_json_schema(msg).encode())
         signals["direction"] = direction
         out.append((t, cid, _to_json(signals).encode()))
+
+    def _can_kind(self, arb_id: int, is_extended_id: bool) -> tuple[str, Any, bool]:
+        """(DBC name or "", the DBC message or None, whether protocol/can_frames knows it)."""
+        if self._dbc is None or is_extended_id:
+            return "", None, False
+        try:
+            msg = self._dbc.get_message_by_frame_id(arb_id)
+        except KeyError:
+            return "", None, False
+        return msg.name, msg, can_frames.BY_ID.get(arb_id) == msg.name
 
     def switch_edge(self, t_us: int, leg: int, level: bool) -> None:
         """A tactile limit switch changed (leg 0..5 in ``LEG_NAMES`` order; True = pressed)."""
@@ -781,12 +810,22 @@ class Recorder:
 
     def link(self, t_us: int, request: bytes, reply: bytes, kind: str = "") -> None:
         """One simulator-link exchange: the firmware's request and the host's reply, at the
-        virtual time the request was answered (what ``hexhil replay`` serves back)."""
-        self._defer(t_us, self._encode_link, (kind, bytes(request), bytes(reply)))
+        virtual time the request was answered (what ``hexhil replay`` serves back). A
+        window's exchanges are written as one message at the first one's time."""
+        t_us = int(t_us)
+        if t_us >= self._window_end_us:
+            self._flush_window(t_us)
+        links = self._links
+        if links is None:
+            links = self._links = []
+            self._defer(t_us, self._encode_links, (links,))
+        links.append((kind, bytes(request), bytes(reply), t_us))
 
-    def _encode_link(self, out: list, t: int, kind: str, request: bytes, reply: bytes) -> None:
-        cid = self._channels.get(T_LINK) or self._proto_channel(T_LINK, LinkExchange)
-        out.append((t, cid, encode_link_exchange(kind, request, reply)))
+    def _encode_links(self, out: list, t: int, links: list[tuple[str, bytes, bytes, int]]
+                      ) -> None:
+        cid = self._channels.get(T_LINK) or self._proto_channel(T_LINK, LinkExchanges)
+        out.append((t, cid, b"".join(_field_message(0x0A, encode_link_exchange(*x))
+                                     for x in links)))
 
 
 def open_recorder(path: str | Path | None, metadata: Mapping[str, Any] | None = None,

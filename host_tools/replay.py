@@ -98,15 +98,17 @@ def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | No
     if rec.T_LINK not in trace.topics():
         raise UserError(f"{trace.path}: no {rec.T_LINK} topic: this trace holds no "
                         "firmware link exchanges to replay (record with 'hexhil run --out')")
-    cls = rec.LinkExchange
+    cls = rec.LinkExchanges
     out = []
     for m in trace.messages([rec.T_LINK], None, end_s):
         try:
-            x = cls.FromString(m.data)
+            batch = cls.FromString(m.data).exchanges
         except Exception:
             raise UserError(f"{trace.path}: corrupt {rec.T_LINK} message at "
                             f"t={m.log_time_ns / 1e9:.6f} s") from None
-        out.append((m.log_time_ns // 1000, x.request, x.reply))
+        end_us = None if end_s is None else end_s * 1e6
+        out.extend((x.t_us, x.request, x.reply) for x in batch
+                   if end_us is None or x.t_us < end_us)
     return out
 
 

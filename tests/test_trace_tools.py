@@ -46,7 +46,7 @@ def test_info_counts_topics_times(tmp_path, capsys):
     s = json.loads(out.strip().splitlines()[-1])
     counts = {t["topic"]: t["messages"] for t in s["topics"]}
     assert counts == {"/can/raw": 400, "/can/force": 200, "/can/heartbeat": 200,
-                      "/serial": 200, "/dynamixel": 200}
+                      "/serial": 200}
     assert s["start_s"] == 0.0 and s["end_s"] == pytest.approx(1.99)
     assert s["duration_s"] == pytest.approx(1.99)
     assert s["metadata"]["seed"] == "3"
@@ -79,7 +79,7 @@ def test_export_csv_and_python_can_logs(tmp_path, capsys):
     d = tmp_path / "all"
     assert _cli(capsys, "trace", "export", str(p), str(d))[0] == 0
     assert sorted(x.name for x in d.iterdir()) == ["can_force.csv", "can_heartbeat.csv",
-                                                   "can_raw.csv", "dynamixel.csv", "serial.csv"]
+                                                   "can_raw.csv", "serial.csv"]
     for suffix in (".asc", ".blf"):
         log = tmp_path / f"can{suffix}"
         assert _cli(capsys, "trace", "export", str(p), str(log))[0] == 0

@@ -249,12 +249,11 @@ class HexapodWorld:
         return self.switches.levels()
 
     def body_pose(self) -> BodyPose:
-        q = self.data.qpos
-        w, x, y, z = q[3:7]
+        px, py, pz, w, x, y, z = self.data.qpos[:7].tolist()  # floats: numpy scalars are slow
         yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
         pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
         roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-        return BodyPose(float(q[0]), float(q[1]), float(q[2]), yaw, pitch, roll)
+        return BodyPose(px, py, pz, yaw, pitch, roll)
 
     def foot_contacts(self) -> list[bool]:
         """Ground truth: which feet carry load (touch force above 0.05 N)."""
