@@ -17,7 +17,7 @@ marked "our choice" and listed in docs/servo-bus.md.
 from __future__ import annotations
 
 import math
-from typing import Protocol
+from typing import Any, Protocol
 
 from protocol import ax12
 from protocol import dynamixel as dxl
@@ -32,6 +32,12 @@ OVERHEAT_TAU_S = 1.0           # time constant towards an injected hot-spot temp
 OVERLOAD_TIME_US = 1_000_000
 SUPPLY_V = 12.0                # nominal AX-12A supply
 MOVING_EPS_RAD_S = 0.5 * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0  # half a speed unit
+
+
+def _moving(velocity_rad_s: float) -> bool:
+    """The Moving flag's rule: turning faster than half a Present Speed unit."""
+    return abs(velocity_rad_s) >= MOVING_EPS_RAD_S
+
 
 _NO_LOAD_RAD_S = ax12.speed_to_rad_s(0)
 
@@ -228,12 +234,20 @@ class Servo:
         t[41] = ld >> 8
         t[ax12.PRESENT_VOLTAGE] = self._voltage_units
         t[ax12.PRESENT_TEMPERATURE] = self._temperature_units
-        t[ax12.MOVING] = 1 if self.moving else 0
+        t[ax12.MOVING] = 1 if _moving(vel) else 0
 
     @property
     def moving(self) -> bool:
         """The Moving flag (address 46) without refreshing the rest of the table."""
-        return abs(self.actuator.state()[1]) >= MOVING_EPS_RAD_S
+        return _moving(self.actuator.state()[1])
+
+    def snapshot(self) -> dict[str, Any]:
+        """The servo's state in SI units, as the recorder logs it on ``/servos``."""
+        pos, vel, load = self.actuator.state()
+        return {"id": self.id, "position_rad": pos, "velocity_rad_s": vel, "load_frac": load,
+                "temperature_c": self._temperature_c, "voltage_v": self._supply_v,
+                "torque_enabled": bool(self.table[ax12.TORQUE_ENABLE]),
+                "moving": _moving(vel), "error": self.state_errors()}
 
     # Supply and temperature keep their Present Voltage/Temperature units beside them:
     # the alarm check reads those twice per instruction.

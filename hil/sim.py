@@ -368,13 +368,4 @@ class Simulator:
                                  w.joint_velocities().tolist(), w.joint_efforts_nm().tolist())
         if t >= self._next_servo_us:
             self._next_servo_us = t + BODY_SAMPLE_US
-            self.recorder.servo_state(t, [self._servo_record(s) for s in self.bus.servos])
-
-    @staticmethod
-    def _servo_record(s: Servo) -> dict[str, Any]:
-        tb = s.table
-        pos, vel, load = s.actuator.state()
-        return {"id": s.id, "position_rad": pos, "velocity_rad_s": vel, "load_frac": load,
-                "temperature_c": s.temperature_c, "voltage_v": s.supply_v,
-                "torque_enabled": bool(tb[ax12.TORQUE_ENABLE]), "moving": s.moving,
-                "error": s.state_errors()}
+            self.recorder.servo_state(t, [s.snapshot() for s in self.bus.servos])
