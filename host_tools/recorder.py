@@ -203,10 +203,14 @@ def encode_serial_bytes(direction: str, data: bytes, packets: Sequence[bytes] = 
     return out
 
 
-def encode_link_exchange(kind: str, request: bytes, reply: bytes, t_us: int) -> bytes:
-    """``hexhil.LinkExchange(kind, request, reply, t_us)``."""
-    return (_string_1(kind) + _field_bytes(0x12, request) + _field_bytes(0x1A, reply)
-            + _field_uint(0x20, t_us))
+def encode_link_exchanges(exchanges: Iterable[tuple[str, bytes, bytes, int]]) -> bytes:
+    """``hexhil.LinkExchanges`` of ``LinkExchange(kind, request, reply, t_us)`` each."""
+    out = []
+    for kind, request, reply, t_us in exchanges:
+        body = (_string_1(kind) + _field_bytes(0x12, request) + _field_bytes(0x1A, reply)
+                + _field_uint(0x20, t_us))
+        out += (b"\x0a", _varint(len(body)), body)
+    return b"".join(out)
 
 
 def encode_can_frame(direction: str, arb_id: int, is_extended_id: bool, data: bytes,
@@ -824,8 +828,7 @@ class Recorder:
     def _encode_links(self, out: list, t: int, links: list[tuple[str, bytes, bytes, int]]
                       ) -> None:
         cid = self._channels.get(T_LINK) or self._proto_channel(T_LINK, LinkExchanges)
-        out.append((t, cid, b"".join(_field_message(0x0A, encode_link_exchange(*x))
-                                     for x in links)))
+        out.append((t, cid, encode_link_exchanges(links)))
 
 
 def open_recorder(path: str | Path | None, metadata: Mapping[str, Any] | None = None,

@@ -137,8 +137,10 @@ def test_messages_are_in_log_time_order_in_the_file(tmp_path):
        kind=st.text(max_size=5), t_us=st.integers(0, 2**64 - 1))
 def test_hand_encoded_protobuf_is_what_the_generated_classes_write(direction, servo_id, code,
                                                                    params, raw, kind, t_us):
-    assert rec.encode_link_exchange(kind, params, raw, t_us) == rec.LinkExchange(
-        kind=kind, request=params, reply=raw, t_us=t_us).SerializeToString()
+    links = [(kind, params, raw, t_us), ("", b"", b"", 0), (kind, raw, params, servo_id)]
+    assert rec.encode_link_exchanges(links) == rec.LinkExchanges(exchanges=[
+        rec.LinkExchange(kind=k, request=q, reply=p, t_us=t) for k, q, p, t in links
+    ]).SerializeToString()
     if direction == "rx":
         names = ("", ",".join(dynamixel.error_names(code)))
     else:
