@@ -99,6 +99,13 @@ def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | No
         raise UserError(f"{trace.path}: no {rec.T_LINK} topic: this trace holds no "
                         "firmware link exchanges to replay (record with 'hexhil run --out')")
     cls = rec.LinkExchanges
+    schemas = {trace.schemas[c.schema_id].name for c in trace.channels.values()
+               if c.topic == rec.T_LINK and c.schema_id in trace.schemas}
+    if schemas != {cls.DESCRIPTOR.full_name}:
+        got = ", ".join(sorted(schemas)) or "untyped"
+        raise UserError(f"{trace.path}: {rec.T_LINK} is {got}, not "
+                        f"{cls.DESCRIPTOR.full_name}: recorded by another hexhil version; "
+                        "record it again with this one")
     out = []
     for m in trace.messages([rec.T_LINK], None, end_s):
         try:
@@ -259,7 +266,8 @@ def replay_can(path: str | Path, spec: str, rate: float = 1.0, start_s: float | 
         try:
             bus = can.Bus(interface=interface, channel=channel, **_bus_kwargs(bus_args))
         except Exception as exc:  # python-can raises many kinds for a bad interface
-            raise UserError(f"cannot open CAN {spec}: {str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__}") from None
+            why = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
+            raise UserError(f"cannot open CAN {spec}: {why}") from None
     sent = 0
     wall0 = time.perf_counter()
     t0_ns = frames[0][0] if frames else 0

@@ -101,6 +101,23 @@ def test_unknown_replay_topic(trace, capsys):
     assert rc == 2 and "bogus" in err
 
 
+def test_a_link_topic_of_another_schema_is_one_line_exit_2(tmp_path, capsys):
+    """A trace from before /link held one message a window (hexhil.LinkExchange each)."""
+    from mcap.writer import Writer
+
+    path = tmp_path / "old.mcap"
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start()
+        sid = w.register_schema("hexhil.LinkExchange", "protobuf", b"")
+        cid = w.register_channel(rec.T_LINK, "protobuf", sid)
+        w.add_message(cid, 0, b"\x12\x03abc", 0)
+        w.finish()
+    rc, _, err = _cli(capsys, "replay", str(path))
+    assert rc == 2 and err.count("\n") == 1
+    assert "hexhil.LinkExchange, not hexhil.LinkExchanges" in err
+
+
 def test_replay_onto_can_sends_every_frame_in_order(trace):
     with open_trace(trace) as tr:
         want = [(f.arbitration_id, f.data) for f in
