@@ -213,6 +213,18 @@ def deflection_angle(x_m: float, roll_rad: float, pitch_rad: float, hb_m: float,
     return _bracket_theta(pf)[0] if pf.f(0.0)[0] < 1.0 else 0.0
 
 
+def _surface_normal(g: BodyGeometry, rx, ry, rz, sa, ca, sb, cb):
+    """Outward Eq. 5 normal (x/a^2, y/b^2, z/c^2), not normalised, at the world-frame point
+    (rx, ry, rz) relative to the centre, for roll/pitch sines and cosines; floats or arrays."""
+    bx = cb * rx - sb * rz  # the point in the body frame
+    by = sb * sa * rx + ca * ry + cb * sa * rz
+    bz = sb * ca * rx - sa * ry + cb * ca * rz
+    nx_b, ny_b, nz_b = bx / g.a_m ** 2, by / g.b_m ** 2, bz / g.c_m ** 2
+    return (cb * nx_b + sb * sa * ny_b + sb * ca * nz_b,  # back to the world
+            ca * ny_b - sa * nz_b,
+            -sb * nx_b + cb * sa * ny_b + cb * ca * nz_b)
+
+
 def _contact(g: BodyGeometry, x_m: float, roll: float, pitch: float, hb_m: float, beam: int,
              theta_prev: float):
     """(theta, contact point relative to the centre (world), unit inward force direction, lever)."""
@@ -223,15 +235,8 @@ def _contact(g: BodyGeometry, x_m: float, roll: float, pitch: float, hb_m: float
     st, ct = math.sin(th), math.cos(th)
     y_lo, _ = g.beam_y_range(beam)
     rx, ry, rz = s * st - x_m, y_lo + t, hb_m + s * ct - g.height_m
-    sa, ca, sb, cb = math.sin(roll), math.cos(roll), math.sin(pitch), math.cos(pitch)
-    # body-frame point, Eq. 5 normal (x/a^2, y/b^2, z/c^2), back to the world
-    bx = cb * rx - sb * rz
-    by = sb * sa * rx + ca * ry + cb * sa * rz
-    bz = sb * ca * rx - sa * ry + cb * ca * rz
-    nx_b, ny_b, nz_b = bx / g.a_m ** 2, by / g.b_m ** 2, bz / g.c_m ** 2
-    nx = cb * nx_b + sb * sa * ny_b + sb * ca * nz_b
-    ny = ca * ny_b - sa * nz_b
-    nz = -sb * nx_b + cb * sa * ny_b + cb * ca * nz_b
+    nx, ny, nz = _surface_normal(g, rx, ry, rz, math.sin(roll), math.cos(roll),
+                                 math.sin(pitch), math.cos(pitch))
     norm = math.sqrt(nx * nx + ny * ny + nz * nz)
     nx, ny, nz = nx / norm, ny / norm, nz / norm
     lever = s * (ct * nx - st * nz)      # (s u x n) . e_y: the beam's moment arm (Eq. 4)
@@ -373,14 +378,8 @@ def unit_contact_forces(x_m, roll_rad, pitch_rad, hb_m, beam: int,
     st, ct = np.sin(theta), np.cos(theta)
     y_lo, _ = geometry.beam_y_range(beam)
     rx, ry, rz = s * st - x, y_lo + t, hb + s * ct - geometry.height_m
-    sa, ca, sb, cb = np.sin(roll), np.cos(roll), np.sin(pitch), np.cos(pitch)
-    bx = cb * rx - sb * rz
-    by = sb * sa * rx + ca * ry + cb * sa * rz
-    bz = sb * ca * rx - sa * ry + cb * ca * rz
-    nb = (bx / geometry.a_m ** 2, by / geometry.b_m ** 2, bz / geometry.c_m ** 2)
-    n = np.stack([cb * nb[0] + sb * sa * nb[1] + sb * ca * nb[2],
-                  ca * nb[1] - sa * nb[2],
-                  -sb * nb[0] + cb * sa * nb[1] + cb * ca * nb[2]])
+    n = np.stack(_surface_normal(geometry, rx, ry, rz, np.sin(roll), np.cos(roll),
+                                 np.sin(pitch), np.cos(pitch)))
     n /= np.linalg.norm(n, axis=0)
     lever = np.maximum(s * (ct * n[0] - st * n[2]), _LEVER_MIN_M)
     normal_in = np.where(theta > 0, -n, 0.0)
