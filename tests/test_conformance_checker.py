@@ -57,19 +57,20 @@ SLOPPY = textwrap.dedent("""
 """)
 
 
-def serve_script(script: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-c", script], cwd=ROOT, stdout=subprocess.PIPE,
+def conformance_of(script: str) -> tuple[int, dict, str]:
+    """Run ``script`` (a server that prints its pty) and the conformance suite on ids 1-3."""
+    proc = subprocess.Popen([sys.executable, "-c", script], cwd=ROOT, stdout=subprocess.PIPE,
                             text=True)
-
-
-def test_a_non_conforming_servo_fails_and_exits_1():
-    proc = serve_script(SLOPPY)
     try:
         path = proc.stdout.readline().strip().split(": ", 1)[1]
-        rc, result, out = conformance(path, "--ids", "1-3")
+        return conformance(path, "--ids", "1-3")
     finally:
         proc.terminate()
         proc.wait(timeout=10)
+
+
+def test_a_non_conforming_servo_fails_and_exits_1():
+    rc, result, out = conformance_of(SLOPPY)
     failed = sorted((c["id"], c["check"]) for c in result["checks"] if c["result"] == "fail")
     assert rc == 1 and not result["ok"]
     assert failed == [(1, "bad_checksum_reply"), (3, "present")], out
@@ -94,13 +95,7 @@ QUIET_AND_LOCKED = textwrap.dedent("""
 
 
 def test_quiet_servos_are_lifted_and_put_back_locked_ones_skipped():
-    proc = serve_script(QUIET_AND_LOCKED)
-    try:
-        path = proc.stdout.readline().strip().split(": ", 1)[1]
-        rc, result, out = conformance(path, "--ids", "1-3")
-    finally:
-        proc.terminate()
-        proc.wait(timeout=10)
+    rc, result, out = conformance_of(QUIET_AND_LOCKED)
     assert rc == 0 and result["failed"] == 0, out
     skipped = sorted((c["id"], c["check"]) for c in result["checks"] if c["result"] == "skip")
     assert skipped == [(3, "angle_limit_error"), (3, "return_delay_timing"),
