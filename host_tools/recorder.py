@@ -199,18 +199,15 @@ def encode_serial_bytes(direction: str, data: bytes, packets: Sequence[bytes] = 
     else:
         out = _string_1(direction) + _field_bytes(0x12, data) + _field_uint(0x18, n)
     for p in packets:
-        out += b"\x22" + _BYTE[len(p)] + p if len(p) < 0x80 else _field_message(0x22, p)
+        out += _field_message(0x22, p)
     return out
 
 
 def encode_link_exchanges(exchanges: Iterable[tuple[str, bytes, bytes, int]]) -> bytes:
     """``hexhil.LinkExchanges`` of ``LinkExchange(kind, request, reply, t_us)`` each."""
-    out = []
-    for kind, request, reply, t_us in exchanges:
-        body = (_string_1(kind) + _field_bytes(0x12, request) + _field_bytes(0x1A, reply)
-                + _field_uint(0x20, t_us))
-        out += (b"\x0a", _varint(len(body)), body)
-    return b"".join(out)
+    return b"".join(_field_message(0x0A, _string_1(kind) + _field_bytes(0x12, request)
+                                   + _field_bytes(0x1A, reply) + _field_uint(0x20, t_us))
+                    for kind, request, reply, t_us in exchanges)
 
 
 def encode_can_frame(direction: str, arb_id: int, is_extended_id: bool, data: bytes,
