@@ -9,6 +9,7 @@ since the last reply (posted ones first, the request last); the caller answers w
 from __future__ import annotations
 
 import os
+import select
 import socket
 import struct
 import subprocess
@@ -54,6 +55,8 @@ class Connection:
         self.reader = sock.makefile("rb", buffering=65536)
         self.raw = bytearray()        # bytes of the batch being read (for the recorder)
         self.round_trips = 0
+        self._poll = select.poll()
+        self._poll.register(sock, select.POLLIN)
 
     def _message(self) -> tuple[int, bytes] | None:
         head = self.reader.read(wire.HEADER_LEN)
@@ -86,6 +89,11 @@ class Connection:
         self.sock.sendall(raw)
         self.round_trips += 1
         return raw
+
+    def answered(self) -> bool:
+        """Whether the firmware's next batch has arrived (after a reply, nothing else is
+        buffered: the firmware waits for each reply before it sends more)."""
+        return bool(self._poll.poll(0))
 
     def close(self) -> None:
         try:

@@ -42,6 +42,7 @@ from protocol import ax12
 
 _channels = itertools.count()
 BODY_SAMPLE_US = 100_000  # ground truth and servo state to the recorder at 10 Hz
+RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)
 
 
 @dataclass
@@ -297,6 +298,7 @@ class Simulator:
         while True:
             msgs, closed = conn.batch()
             reply = None
+            slept = False
             for op, payload in msgs:
                 if op == wire.OP_WRITE:
                     t0 = clock.t_us
@@ -337,14 +339,18 @@ class Simulator:
                     for arb_id, data in frames:
                         body += struct.pack("<HB", arb_id, len(data)) + data.ljust(8, b"\0")
                     reply = bytes(body)
-                    self._ground_truth()
+                    slept = True
                 elif op == wire.OP_HELLO:
                     config = json.dumps(self.settings, sort_keys=True).encode()
                     reply = struct.pack("<B", self._sample_switches(result)) + config
-            if reply is not None and not closed:
-                raw = conn.reply(clock.t_us, reply)
-                if rec is not None:
-                    rec.link(clock.t_us, bytes(conn.raw), raw)
+            # Recording comes after the reply: nothing here moves until the firmware's next
+            # batch, so the recorder's work overlaps the firmware's instead of delaying it.
+            raw = conn.reply(clock.t_us, reply) if reply is not None and not closed else None
+            if slept:
+                self._ground_truth()
+            if rec is not None and raw is not None:
+                rec.link(clock.t_us, bytes(conn.raw), raw)
+                rec.idle(0 if conn.answered() else RECORDER_SLICE)
             if closed:
                 result.round_trips = conn.round_trips
                 return

@@ -24,15 +24,18 @@ Why it is built this way:
   are used where one exists (FrameTransform, JointStates, Log). CAN has no well-known
   schema, so frames are logged raw and, per DBC frame, decoded into plain numbers.
 * Crash safety: messages are held for at most ``flush_interval_us`` of *virtual* time,
-  then sorted into log-time order, written as one zstd chunk and flushed to the OS. A run
-  killed with SIGKILL therefore loses at most the last window (0.5 s by default), which
+  then sorted into log-time order, written as one zstd chunk and flushed to the OS (at the
+  next ``idle()`` call, at the same virtual time, when the owner calls it). A run killed
+  with SIGKILL therefore loses at most the last window (0.5 s by default), which
   ``hexhil trace recover`` proves by reading the file without its summary.
 * Determinism: nothing here reads the wall clock; the same run gives the same bytes.
-* Cost: the parts hand over raw values and a window's messages are encoded together when
-  it is written (hand-rolled protobuf for the ~360 serial bursts a simulated second);
-  ``make bench`` measures what recording adds to a run. Each message costs its framing
-  and index entry, so a serial burst carries its decoded Dynamixel packets
-  (``SerialBytes.packets``) instead of a second topic repeating the bytes.
+* Cost: the parts hand over raw values (about 1 us a call) and the encoding (hand-rolled
+  protobuf for the ~360 serial bursts a simulated second) is done in ``idle()``, which the
+  simulator calls while the firmware computes, so on two or more cores it overlaps the
+  firmware instead of adding to the run. What ``idle()`` has not done is done when the
+  window is written. ``make bench`` measures what recording adds to a run. Each message
+  costs its framing and index entry, so a serial burst carries its decoded Dynamixel
+  packets (``SerialBytes.packets``) instead of a second topic repeating the bytes.
 * ``/link`` holds every simulator-link request the firmware made and the reply it got
   (the firmware's whole view of the world), so ``hexhil replay`` can serve the replies
   back and compare the requests byte for byte. Nobody plots them, so each window's
@@ -203,11 +206,11 @@ def encode_serial_bytes(direction: str, data: bytes, packets: Sequence[bytes] = 
     return out
 
 
-def encode_link_exchanges(exchanges: Iterable[tuple[str, bytes, bytes, int]]) -> bytes:
-    """``hexhil.LinkExchanges`` of ``LinkExchange(kind, request, reply, t_us)`` each."""
-    return b"".join(_field_message(0x0A, _string_1(kind) + _field_bytes(0x12, request)
-                                   + _field_bytes(0x1A, reply) + _field_uint(0x20, t_us))
-                    for kind, request, reply, t_us in exchanges)
+def encode_link_exchange(kind: str, request: bytes, reply: bytes, t_us: int) -> bytes:
+    """One ``LinkExchange`` as a field of ``hexhil.LinkExchanges``; a window's message is
+    its exchanges' fields one after another."""
+    return _field_message(0x0A, _string_1(kind) + _field_bytes(0x12, request)
+                          + _field_bytes(0x1A, reply) + _field_uint(0x20, t_us))
 
 
 def encode_can_frame(direction: str, arb_id: int, is_extended_id: bool, data: bytes,
@@ -523,10 +526,6 @@ class _TraceWriter:
         self.f.flush()
 
 
-def _append_encoded(out: list, t: int, cid: int, data: bytes) -> None:
-    out.append((t, cid, data))
-
-
 class Recorder:
     """Writes one run to one MCAP file; see the module docstring for topics and schemas.
 
@@ -552,13 +551,17 @@ class Recorder:
         self._flush_interval_us = int(flush_interval_us)
         self._window_end_us = self._flush_interval_us
         self._pending: list[tuple] = []  # (log_time_ns, encode, args) in call order
+        self._out: list[tuple[int, int, bytes]] = []  # the first _done of them, encoded
+        self._done = 0
+        self._ready: list[tuple[int, int, bytes]] | None = None  # a closed window, unwritten
+        self._idle_seen = False
         self._channels: dict[str, int] = {}
         self._schemas: dict[str, int] = {}
         self._parsers = {"tx": dynamixel.Parser(), "rx": dynamixel.Parser()} \
             if decode_serial else None
         self._dbc = _dbc() if decode_can else None
         self._can_kinds: dict[tuple[int, bool], tuple[str, Any, bool]] = {}
-        self._links: list[tuple[str, bytes, bytes, int]] | None = None  # this window's
+        self._links: bytearray | None = None  # this window's exchanges, encoded
         self._switches = 0
         self.messages = 0
         self.closed = False
@@ -594,13 +597,9 @@ class Recorder:
         return self._channel(topic, schema_name, "json",
                              json.dumps(schema, sort_keys=True).encode())
 
-    def _add(self, cid: int, t_us: int, data: bytes) -> None:
-        """Hold one encoded message until its window is written."""
-        self._defer(t_us, _append_encoded, (cid, data))
-
     def _defer(self, t_us: int, encode: Callable[..., None], args: tuple) -> None:
         """Hold the raw values; ``encode(out, t_ns, *args)`` appends the encoded messages
-        when the window is written, so a call costs about 1 us."""
+        in ``idle()`` or when the window is written, so a call costs about 1 us."""
         t_us = int(t_us)
         if t_us >= self._window_end_us:
             self._flush_window(t_us)
@@ -609,22 +608,48 @@ class Recorder:
     def _flush_window(self, now_us: int) -> None:
         if self.closed:  # close() sets the window end to -1, so every later call lands here
             raise RuntimeError("recorder is closed")
-        self.flush()
+        self._write_ready()
+        msgs = self._encode_pending()
+        if self._idle_seen:  # the owner calls idle() soon, off its critical path
+            self._ready = msgs
+        else:
+            self._write_chunk(msgs)
         step = self._flush_interval_us
         self._window_end_us = (now_us // step + 1) * step
 
+    def idle(self, budget: int) -> None:
+        """Do a little of the held work: write a closed window, or encode up to ``budget``
+        held messages. The simulator calls this while it waits for the firmware, so the
+        encoding overlaps the firmware's computing instead of adding to it; the bytes
+        written do not depend on when (or whether) it is called."""
+        self._idle_seen = True
+        if self._ready is not None:
+            self._write_ready()
+            return
+        if not budget:
+            return
+        pending, out, i = self._pending, self._out, self._done
+        for t, encode, args in pending[i:i + budget]:
+            encode(out, t, *args)
+        self._done = min(i + budget, len(pending))
+
     def flush(self) -> None:
         """Write the held messages in log-time order as one chunk and hand it to the OS."""
+        self._write_ready()
         self._write_chunk(self._encode_pending())
+
+    def _write_ready(self) -> None:
+        if self._ready is not None:
+            msgs, self._ready = self._ready, None
+            self._write_chunk(msgs)
 
     def _encode_pending(self) -> list[tuple[int, int, bytes]]:
         """The held messages encoded, as (log_time_ns, channel, data) in log-time order."""
-        pending = self._pending
-        self._pending = []
-        self._links = None
-        out: list[tuple[int, int, bytes]] = []
-        for t, encode, args in pending:  # call order: parsers see bytes in order
+        pending, out = self._pending, self._out
+        for t, encode, args in pending[self._done:]:  # call order: parsers see bytes in order
             encode(out, t, *args)
+        self._pending, self._out, self._done = [], [], 0
+        self._links = None
         out.sort(key=itemgetter(0))  # stable: equal times keep call order
         return out
 
@@ -642,6 +667,7 @@ class Recorder:
         """Write everything and the MCAP summary; the file is complete after this."""
         if self.closed:
             return
+        self._write_ready()
         msgs = self._encode_pending()
         if self._parsers is not None:  # packets hidden behind a bad header, found at the end
             for direction, parser in self._parsers.items():
@@ -750,9 +776,13 @@ class Recorder:
             self._switches |= 1 << leg
         else:
             self._switches &= ~(1 << leg)
-        self._add(self._proto_channel(T_SWITCHES, SwitchEdge), t_us,
-                  SwitchEdge(leg=leg, leg_name=LEG_NAMES[leg] if leg < len(LEG_NAMES) else "",
-                             level=bool(level), switches=self._switches).SerializeToString())
+        self._defer(t_us, self._encode_switch_edge, (leg, bool(level), self._switches))
+
+    def _encode_switch_edge(self, out: list, t: int, leg: int, level: bool, switches: int
+                            ) -> None:
+        out.append((t, self._proto_channel(T_SWITCHES, SwitchEdge), SwitchEdge(
+            leg=leg, leg_name=LEG_NAMES[leg] if leg < len(LEG_NAMES) else "", level=level,
+            switches=switches).SerializeToString()))
 
     def telemetry(self, t_us: int, values: Mapping[str, Any]) -> None:
         """Free-form firmware telemetry (flat dict of numbers/strings) on ``/telemetry``."""
@@ -805,9 +835,12 @@ class Recorder:
 
     def fault(self, t_us: int, name: str, detail: str = "") -> None:
         """An injected fault (or one the firmware reported) as a ``foxglove.Log`` entry."""
+        self._defer(t_us, self._encode_fault, (name, detail))
+
+    def _encode_fault(self, out: list, t: int, name: str, detail: str) -> None:
         msg = Log(level=Log.WARNING, name=name, message=detail or name)
-        msg.timestamp.FromNanoseconds(int(t_us) * 1000)
-        self._add(self._proto_channel(T_FAULTS, Log), t_us, msg.SerializeToString())
+        msg.timestamp.FromNanoseconds(t)
+        out.append((t, self._proto_channel(T_FAULTS, Log), msg.SerializeToString()))
 
     def link(self, t_us: int, request: bytes, reply: bytes, kind: str = "") -> None:
         """One simulator-link exchange: the firmware's request and the host's reply, at the
@@ -818,14 +851,19 @@ class Recorder:
             self._flush_window(t_us)
         links = self._links
         if links is None:
-            links = self._links = []
+            links = self._links = bytearray()
             self._defer(t_us, self._encode_links, (links,))
-        links.append((kind, bytes(request), bytes(reply), t_us))
+        self._defer(t_us, self._encode_link, (links, kind, bytes(request), bytes(reply)))
 
-    def _encode_links(self, out: list, t: int, links: list[tuple[str, bytes, bytes, int]]
-                      ) -> None:
+    def _encode_link(self, _out: list, t: int, links: bytearray, kind: str, request: bytes,
+                     reply: bytes) -> None:
+        links += encode_link_exchange(kind, request, reply, t // 1000)
+
+    def _encode_links(self, out: list, t: int, links: bytearray) -> None:
+        """The window's one message; its exchanges are appended to ``links`` as they are
+        encoded, all before the window is written."""
         cid = self._channels.get(T_LINK) or self._proto_channel(T_LINK, LinkExchanges)
-        out.append((t, cid, encode_link_exchanges(links)))
+        out.append((t, cid, links))
 
 
 def open_recorder(path: str | Path | None, metadata: Mapping[str, Any] | None = None,

@@ -28,8 +28,9 @@ from protocol import can_frames, dynamixel
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def _record(path: Path, cycles: int = 400) -> dict:
-    """A synthetic run touching every recorder method; returns what was sent."""
+def _record(path: Path, cycles: int = 400, idle_budgets: list[int] | None = None) -> dict:
+    """A synthetic run touching every recorder method; returns what was sent. With
+    ``idle_budgets``, each cycle ends with ``idle()`` given the next budget in turn."""
     sent = {"tx": [], "rx": [], "can": [], "link": []}
     r = rec.Recorder(path, {"scenario": "scenarios/x.toml", "seed": 7, "cmd": ["run"]})
     for i in range(cycles):
@@ -57,6 +58,8 @@ def _record(path: Path, cycles: int = 400) -> dict:
             r.fault(t, "unplug", "servo 3 unplugged")
             r.link(t, b"S\x08\x00" + bytes(8), b"\x0b\x00" + bytes(11))
             sent["link"].append((t, b"S\x08\x00" + bytes(8), b"\x0b\x00" + bytes(11)))
+        if idle_budgets:
+            r.idle(idle_budgets[i % len(idle_budgets)])
     r.close()
     return sent
 
@@ -138,7 +141,7 @@ def test_messages_are_in_log_time_order_in_the_file(tmp_path):
 def test_hand_encoded_protobuf_is_what_the_generated_classes_write(direction, servo_id, code,
                                                                    params, raw, kind, t_us):
     links = [(kind, params, raw, t_us), ("", b"", b"", 0), (kind, raw, params, servo_id)]
-    assert rec.encode_link_exchanges(links) == rec.LinkExchanges(exchanges=[
+    assert b"".join(rec.encode_link_exchange(*x) for x in links) == rec.LinkExchanges(exchanges=[
         rec.LinkExchange(kind=k, request=q, reply=p, t_us=t) for k, q, p, t in links
     ]).SerializeToString()
     if direction == "rx":
@@ -245,6 +248,46 @@ def test_same_run_same_bytes(tmp_path):
     assert (tmp_path / "a.mcap").read_bytes() == (tmp_path / "b.mcap").read_bytes()
 
 
+@settings(max_examples=15, deadline=None)
+@given(budgets=st.lists(st.integers(0, 40), min_size=1, max_size=8))
+def test_idle_work_changes_no_byte(tmp_path_factory, budgets):
+    """Whatever the simulator hands to idle(), and when, the file is the same."""
+    tmp = tmp_path_factory.mktemp("idle")
+    _record(tmp / "plain.mcap", cycles=120)
+    _record(tmp / "idle.mcap", cycles=120, idle_budgets=budgets)
+    assert (tmp / "idle.mcap").read_bytes() == (tmp / "plain.mcap").read_bytes()
+
+
+def test_a_recorded_run_is_the_same_bytes_however_it_is_scheduled(tmp_path):
+    """How much encoding overlaps the firmware depends on timing (the simulator skips
+    idle work when the firmware has already answered); the trace must not."""
+    from host_tools.run import run
+
+    run("scenarios/flat-tripod.toml", 2.0, out=str(tmp_path / "free.mcap"))
+    cores = os.sched_getaffinity(0)
+    os.sched_setaffinity(0, {min(cores)})  # the firmware child inherits it
+    try:
+        run("scenarios/flat-tripod.toml", 2.0, out=str(tmp_path / "one.mcap"))
+    finally:
+        os.sched_setaffinity(0, cores)
+    assert (tmp_path / "one.mcap").read_bytes() == (tmp_path / "free.mcap").read_bytes()
+
+
+def test_an_idle_owner_gets_a_closed_window_written_at_its_next_idle(tmp_path):
+    """idle() moves the chunk write off the call that closes the window, not later than
+    the next idle() (same virtual time), so crash safety is unchanged."""
+    path = tmp_path / "w.mcap"
+    r = rec.Recorder(path, flush_interval_us=100_000)
+    r.serial(0, "tx", dynamixel.ping(1))
+    r.idle(0)
+    size = path.stat().st_size
+    r.serial(100_000, "tx", dynamixel.ping(2))  # closes the first window
+    assert path.stat().st_size == size
+    r.idle(0)
+    assert path.stat().st_size > size
+    r.close()
+
+
 def test_unwritable_path_is_a_user_error(tmp_path):
     from host_tools.errors import UserError
 
@@ -271,10 +314,13 @@ KILL_SCRIPT = textwrap.dedent("""
     import sys, time
     from host_tools.recorder import Recorder
     r = Recorder(sys.argv[1], {"seed": 1})
+    budget = int(sys.argv[2])        # -1: never idle(), like a world without firmware
     t = 0
     while True:                      # 1 kHz of messages, for ever
         r.serial(t, "tx", b"\\xff\\xff\\x01\\x04\\x02\\x24\\x02\\xd2")
         r.telemetry(t, {"t_us": t})
+        if budget >= 0:
+            r.idle(budget)
         if t == 3_700_000:           # 3.7 simulated seconds in: tell the parent
             print("ready", flush=True)
             time.sleep(60)
@@ -282,12 +328,14 @@ KILL_SCRIPT = textwrap.dedent("""
 """)
 
 
-def test_sigkill_loses_at_most_the_last_simulated_second(tmp_path):
+@pytest.mark.parametrize("idle_budget", [-1, 0, 3])
+def test_sigkill_loses_at_most_the_last_simulated_second(tmp_path, idle_budget):
     script = tmp_path / "writer.py"
     script.write_text(KILL_SCRIPT)
     path = tmp_path / "killed.mcap"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    proc = subprocess.Popen([sys.executable, str(script), str(path)], stdout=subprocess.PIPE,
+    proc = subprocess.Popen([sys.executable, str(script), str(path), str(idle_budget)],
+                            stdout=subprocess.PIPE,
                             env=env, cwd=ROOT, text=True)
     try:
         assert proc.stdout.readline().strip() == "ready"
