@@ -15,7 +15,8 @@ Without a world the servos drive ``KinematicActuator``s and the switches come fr
 ``switches(t_us) -> int`` (bit i = leg i pressed), open by default.
 
 Recorder seam: every hook goes through ``self.recorder`` when one is given (serial bytes,
-CAN frames, switch edges, firmware telemetry and faults, link exchanges, ground truth).
+CAN frames, switch edges, firmware telemetry and faults, link exchanges, ground truth);
+after each reply the recorder gets ``idle()`` time while the firmware computes.
 """
 from __future__ import annotations
 
