@@ -56,6 +56,10 @@ def test_tiny_run_key_outcomes(tiny):
     assert s["no_control"]["1.0N/0.25"] == "flipped" and s["no_control"]["1.0N/0.01"] == "traversed"
     assert s["no_control"]["0.1N/0.25"] == "stuck"
     assert 0.005 < s["crossover_k"] < 0.05
+    # Sec. III-E / Fig. 7B: with Sec. III-B's 1 N push, a longer delay costs more and all traverse
+    delayed = [f"sensing/0.25/{d}" for d in fs.DELAYS_MS]
+    energies = [s["energy_mJ"][k] for k in delayed]
+    assert energies[0] < energies[1] < energies[2] and all(s["traversed"][k] for k in delayed)
     for name, r in s["robot"].items():
         assert r["k_noise_free"] == pytest.approx(0.78, rel=1e-3), name
     med = s["estimation_median"]
