@@ -37,6 +37,10 @@ SENSING_MS = (50, 100, 300, 600)          # Table 4
 DELAYS_MS = (100, 300, 600)               # Sec. III-E
 FX_SENSING_N = 1.0                        # Sec. III-B: "propelled by F_x = 1 N to encounter beams"
 FX_GENTLE_N = 0.1                         # ours for Sec. III-D: 1 N carries flimsy beams over first
+# Sec. III-E's series, as energy_runs keys them: (key prefix, label)
+DELAY_SERIES = ((f"sensing/{K_STIFF}", f"stiff, {FX_SENSING_N:g} N"),
+                (f"interact/{K_STIFF}", f"stiff, {FX_GENTLE_N:g} N"),
+                (f"interact/{K_FLIMSY}", f"flimsy, {FX_GENTLE_N:g} N"))
 HB_RANGE_M = 0.005                        # Sec. III-B: e_h = |h_b error| / 5 mm
 
 # Tables 1-3 (relative errors, as printed): unknowns -> noise -> (e_k1, e_k2, e_h1[, e_h2])
@@ -197,6 +201,13 @@ def _plt():
     return plt
 
 
+def _save(fig: Any, path: Path) -> Path:
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    _plt().close(fig)
+    return path
+
+
 def fig_noisy_forces(poses: np.ndarray, forces: np.ndarray, path: Path) -> Path:
     """Fig. 3: sensed contact force at 5/10/20/50 % noise (stiff beams, 1 N push, T_s = 300 ms)."""
     plt = _plt()
@@ -211,10 +222,7 @@ def fig_noisy_forces(poses: np.ndarray, forces: np.ndarray, path: Path) -> Path:
         ax.set_xlabel("time after contact (ms)")
     axes[0].set_ylabel("contact force (N)")
     axes[0].legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def fig_landscape(plan_res: dict[str, Any], path: Path) -> Path:
@@ -238,10 +246,7 @@ def fig_landscape(plan_res: dict[str, Any], path: Path) -> Path:
         ax.set_ylabel(lab)
         ax.legend(loc="lower left")
         fig.colorbar(im, ax=ax, label="E - E_min (mJ)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def fig_gap_readings(c2c: dict[str, Any], clear: dict[str, Any], path: Path) -> Path:
@@ -264,18 +269,14 @@ def fig_gap_readings(c2c: dict[str, Any], clear: dict[str, Any], path: Path) -> 
             ax.set_xlabel("roll (deg)")
             ax.set_ylabel("pitch (deg)")
             fig.colorbar(im, ax=ax, label="E - E_min at x = 0 (mJ)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def fig_delay(runs: dict[str, Any], path: Path) -> Path:
     """Fig. 7: (A) pitch at the start of control, (B) Eq. 11 energy, against the sensory delay."""
     plt = _plt()
     fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.8))
-    for key, lab in ((f"sensing/{K_STIFF}", f"stiff, {FX_SENSING_N:g} N"), (f"interact/{K_STIFF}",
-                     f"stiff, {FX_GENTLE_N:g} N"), (f"interact/{K_FLIMSY}", f"flimsy, {FX_GENTLE_N:g} N")):
+    for key, lab in DELAY_SERIES:
         rs = [runs[f"{key}/{d}"] for d in DELAYS_MS]
         a.plot(DELAYS_MS, [r.get("control_start", {}).get("pitch_deg", float("nan")) for r in rs], "o-", label=lab)
         b.plot(DELAYS_MS, [r["energy_J"] * 1e3 for r in rs], "o-", label=f"{lab} (interaction)")
@@ -288,10 +289,7 @@ def fig_delay(runs: dict[str, Any], path: Path) -> Path:
     b.set_xlabel("sensory delay (ms)")
     b.set_ylabel("energy cost E_cost (mJ)")
     b.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 # ----------------------------------------------------------------------------- report
@@ -401,9 +399,7 @@ def markdown(res: dict[str, Any], quick: bool, seeds: int, figs: dict[str, str])
               "| beams, push | " + " | ".join(f"{d} ms: E (mJ), start pitch (deg)" for d in DELAYS_MS)
               + " | rises with delay? |",
               "|---|" + "---|" * len(DELAYS_MS) + "---|"]
-    for key, lab in ((f"sensing/{K_STIFF}", f"stiff, {FX_SENSING_N:g} N"),
-                     (f"interact/{K_STIFF}", f"stiff, {FX_GENTLE_N:g} N"),
-                     (f"interact/{K_FLIMSY}", f"flimsy, {FX_GENTLE_N:g} N")):
+    for key, lab in DELAY_SERIES:
         rs = [res["energy"][f"{key}/{d}"] for d in DELAYS_MS]
         es = [r["energy_J"] for r in rs]
         rises = all(b > a for a, b in zip(es, es[1:]))
