@@ -60,6 +60,14 @@ def emit_json(obj: dict[str, Any]) -> None:
     sys.stdout.flush()
 
 
+def emit(args: Any, obj: dict[str, Any], text: str) -> None:
+    """A command's result: ``obj`` as JSON with ``--json``, else ``text`` for a person."""
+    if getattr(args, "json", False):
+        emit_json(obj)
+    else:
+        print(text)
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     try:

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from host_tools.cli import emit_json
+from host_tools.cli import emit
 from host_tools.errors import UserError
 
 
@@ -42,12 +42,9 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     out = est.as_dict()
     out.update(samples=len(poses), true_k1=k1, true_k2=k2, true_hb1_mm=hb1 * 1e3, true_hb2_mm=hb2 * 1e3,
                noise=args.noise, unknowns=args.unknowns)
-    if not args.json:
-        print(f"k1 = {est.k1:.4f} N m/rad (true {k1}), k2 = {est.k2:.4f} (true {k2}), "
-              f"h_b1 = {est.hb1_m * 1e3:.2f} mm, h_b2 = {est.hb2_m * 1e3:.2f} mm  "
-              f"[{args.method}, {len(poses)} samples, {est.elapsed_s * 1e3:.1f} ms]")
-    else:
-        emit_json(out)
+    emit(args, out, f"k1 = {est.k1:.4f} N m/rad (true {k1}), k2 = {est.k2:.4f} (true {k2}), "
+                    f"h_b1 = {est.hb1_m * 1e3:.2f} mm, h_b2 = {est.hb2_m * 1e3:.2f} mm  "
+                    f"[{args.method}, {len(poses)} samples, {est.elapsed_s * 1e3:.1f} ms]")
     return 0
 
 
@@ -65,11 +62,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
            "start": {"x_m": start[0], "roll_deg": math.degrees(start[1]), "pitch_deg": math.degrees(start[2])},
            "max_roll_deg": float(np.degrees(np.abs(p.path[:, 1]).max())),
            "max_pitch_deg": float(np.degrees(np.abs(p.path[:, 2]).max()))}
-    if args.json:
-        emit_json(out)
-    else:
-        print(f"mode {p.mode}: barrier {p.barrier_j * 1e3:.1f} mJ, path cost {p.path_cost_j * 1e3:.1f} mJ, "
-              f"{len(p.path)} vertices; k0 = {out['k0']:.4f} N m/rad")
+    emit(args, out, f"mode {p.mode}: barrier {p.barrier_j * 1e3:.1f} mJ, path cost {p.path_cost_j * 1e3:.1f} mJ, "
+                    f"{len(p.path)} vertices; k0 = {out['k0']:.4f} N m/rad")
     return 0
 
 
@@ -104,11 +98,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     finally:
         if rec is not None:
             rec.close()
-    if args.json:
-        emit_json(out)
-    else:
-        what = "traversed" if out["traversed"] else ("flipped" if out["flipped"] else "stuck")
-        print(f"{cfg.strategy}: {what} (mode {out['mode']}), energy {out['energy_J'] * 1e3:.1f} mJ")
+    what = "traversed" if out["traversed"] else ("flipped" if out["flipped"] else "stuck")
+    emit(args, out, f"{cfg.strategy}: {what} (mode {out['mode']}), energy {out['energy_J'] * 1e3:.1f} mJ")
     return 0
 
 

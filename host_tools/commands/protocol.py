@@ -19,7 +19,7 @@ import argparse
 import string
 from typing import Any
 
-from host_tools.cli import emit_json
+from host_tools.cli import emit, emit_json
 from host_tools.errors import UserError
 from protocol import ax12
 from protocol import dynamixel as dxl
@@ -223,10 +223,7 @@ def decode(args: argparse.Namespace) -> int:
             print(f"      {_fmt(item.raw)}")
     summary = {"kind": "summary", "packets": n_packets, "garbage_bytes": n_garbage,
                "bytes": len(data)}
-    if args.json:
-        emit_json(summary)
-    else:
-        print(f"{n_packets} packets, {n_garbage} garbage bytes, {len(data)} bytes")
+    emit(args, summary, f"{n_packets} packets, {n_garbage} garbage bytes, {len(data)} bytes")
     return 0
 
 

@@ -5,18 +5,15 @@ import argparse
 import sys
 
 from host_tools import replay
-from host_tools.cli import emit_json
+from host_tools.cli import emit, emit_json
 
 
 def run(args: argparse.Namespace) -> int:
     if args.can:
         r = replay.replay_can(args.file, args.can, rate=1.0 if args.rate is None else args.rate,
                               start_s=args.start, end_s=args.end, bus_args=args.can_arg)
-        if args.json:
-            emit_json(r)
-        else:
-            print(f"sent {r['frames']} frames to {r['target']} in {r['wall_s']:.3f} s "
-                  f"(trace span {r['span_s']:.3f} s)")
+        emit(args, r, f"sent {r['frames']} frames to {r['target']} in {r['wall_s']:.3f} s "
+                      f"(trace span {r['span_s']:.3f} s)")
         return 0
     r = replay.replay_firmware(args.file, python=args.python,
                                rate=0.0 if args.rate is None else args.rate,

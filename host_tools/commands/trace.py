@@ -6,7 +6,7 @@ import json
 import sys
 
 from host_tools import trace_tools
-from host_tools.cli import emit_json
+from host_tools.cli import emit, emit_json
 
 
 def _filters(p: argparse.ArgumentParser) -> None:
@@ -54,30 +54,21 @@ def _cat(args: argparse.Namespace) -> int:
 
 def _export(args: argparse.Namespace) -> int:
     r = trace_tools.export(args.file, args.out, args.topics, args.start, args.end)
-    if args.json:
-        emit_json(r)
-    else:
-        print(f"exported {r['messages']} messages to {', '.join(r['files'])}")
+    emit(args, r, f"exported {r['messages']} messages to {', '.join(r['files'])}")
     return 0
 
 
 def _recover(args: argparse.Namespace) -> int:
     r = trace_tools.recover(args.file, args.out)
-    if args.json:
-        emit_json(r)
-    else:
-        print(f"recovered {r['messages']} messages ({r['start_s']:.6f} s .. {r['end_s']:.6f} s) "
-              f"into {r['output']}; stopped at: {r['stopped']}")
+    emit(args, r, f"recovered {r['messages']} messages ({r['start_s']:.6f} s .. {r['end_s']:.6f} s) "
+                  f"into {r['output']}; stopped at: {r['stopped']}")
     return 0
 
 
 def _import_csv(args: argparse.Namespace) -> int:
     r = trace_tools.import_csv(args.csv, args.out)
-    if args.json:
-        emit_json(r)
-    else:
-        print(f"imported {r['samples']} samples ({'with' if r['pose'] else 'without'} pose) "
-              f"into {r['output']}")
+    emit(args, r, f"imported {r['samples']} samples ({'with' if r['pose'] else 'without'} pose) "
+                  f"into {r['output']}")
     return 0
 
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from hil.world.beams import (PAPER_BODY, SENSOR_PERIOD_US, BeamParams, BeamsWorld, BodyGeometry, BodyState)
 from host_tools.beams import closed_loop, estimator, landscape, planner
-from host_tools.cli import emit_json
+from host_tools.cli import emit
 from host_tools.commands.beams import _start_after_delay, push_samples
 from host_tools.errors import UserError
 
@@ -514,8 +514,5 @@ def run(args: argparse.Namespace) -> int:
         summary = main(args.quick, out, args.seeds)
     except OSError as exc:
         raise UserError(f"cannot write into {out}: {exc.strerror}") from None
-    if args.json:
-        emit_json(summary)
-    else:
-        print(f"report: {summary['report']} ({summary['wall_s']:.0f} s)")
+    emit(args, summary, f"report: {summary['report']} ({summary['wall_s']:.0f} s)")
     return 0
