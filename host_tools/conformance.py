@@ -12,6 +12,7 @@ checker pauses after each.
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -23,6 +24,7 @@ from protocol import ax12
 from protocol import dynamixel as dxl
 
 EEPROM_PAUSE_S = 0.01
+TIMING_ROUNDS = 3  # return-delay measurements before the check fails; noise only adds time
 _NEED_REPLIES = ("bad_checksum_reply", "out_of_range_goal", "action_nothing_registered",
                  "reg_write_action", "angle_limit_error", "status_return_level",
                  "return_delay_timing", "restored")
@@ -249,16 +251,19 @@ class Checker:
 
     def _timing(self, i: int, table: bytes) -> None:
         link = self.link
-        best = {}  # the fastest of several: scheduling and USB latency only ever add
-        for rd in (0, 250):
-            self.write(i, ax12.RETURN_DELAY_TIME, bytes((rd,)))
-            time.sleep(EEPROM_PAUSE_S)
-            best[rd] = min(link.transact(dxl.ping(i))[1] for _ in range(7))
+        best = {0: math.inf, 250: math.inf}  # fastest of several: scheduling and USB only add
+        floor = link.wire_s(12) + 500e-6  # PING out and status back, plus 500 us
+        ok = False
+        for _ in range(TIMING_ROUNDS):  # a load burst can slow all 7 pings of one setting
+            for rd in best:
+                self.write(i, ax12.RETURN_DELAY_TIME, bytes((rd,)))
+                time.sleep(EEPROM_PAUSE_S)
+                best[rd] = min(best[rd], *(link.transact(dxl.ping(i))[1] for _ in range(7)))
+            ok = best[250] >= floor - 100e-6 and best[250] - best[0] >= 300e-6
+            if ok:
+                break
         self.write(i, ax12.RETURN_DELAY_TIME, table[ax12.RETURN_DELAY_TIME:ax12.RETURN_DELAY_TIME + 1])
         time.sleep(EEPROM_PAUSE_S)
-        floor = link.wire_s(12) + 500e-6  # PING out and status back, plus 500 us
-        diff = best[250] - best[0]
-        ok = best[250] >= floor - 100e-6 and diff >= 300e-6
         self.add(i, "return_delay_timing", ok,
                  f"fastest PING round trip {best[0] * 1e3:.2f} ms at delay 0, "
                  f"{best[250] * 1e3:.2f} ms at 500 us (expect +0.5 ms, >= {floor * 1e3:.2f} ms)")

@@ -49,9 +49,12 @@ SLOPPY = textwrap.dedent("""
         def checksum_error(self, code, t_us):
             return None
 
+    class Hasty(Servo):  # answers at once whatever its Return Delay Time says
+        return_delay_us = 0
+
     install_sigterm()
     try:
-        RealTimeServer(Bus([Sloppy(1), Servo(2)], VirtualClock())).serve_pty(flush_print)
+        RealTimeServer(Bus([Sloppy(1), Hasty(2)], VirtualClock())).serve_pty(flush_print)
     except Stop:
         pass
 """)
@@ -73,7 +76,7 @@ def test_a_non_conforming_servo_fails_and_exits_1():
     rc, result, out = conformance_of(SLOPPY)
     failed = sorted((c["id"], c["check"]) for c in result["checks"] if c["result"] == "fail")
     assert rc == 1 and not result["ok"]
-    assert failed == [(1, "bad_checksum_reply"), (3, "present")], out
+    assert failed == [(1, "bad_checksum_reply"), (2, "return_delay_timing"), (3, "present")], out
 
 
 QUIET_AND_LOCKED = textwrap.dedent("""
