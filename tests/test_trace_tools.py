@@ -3,12 +3,16 @@ one-line exit-2 answer of every trace/replay/estimate command to bad input."""
 from __future__ import annotations
 
 import csv
+import io
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import can
 import pytest
+from mcap.records import Message
+from mcap.stream_reader import StreamReader, breakup_chunk
 
 from host_tools import recorder as rec
 from host_tools import trace_tools
@@ -211,12 +215,92 @@ def test_recover_bad_input(tmp_path, capsys):
     for why in ("missing", "empty", "not mcap", "directory"):
         rc, _, err = _cli(capsys, "trace", "recover", str(files[why]), str(tmp_path / "o.mcap"))
         assert rc == 2 and len(err.strip().splitlines()) == 1, (why, err)
-    # a corrupt middle: recover keeps what precedes the damage and says where it stopped
+    # a corrupt first chunk: recover skips just that chunk and says where
     rc, o, _ = _cli(capsys, "trace", "recover", str(files["corrupt"]), str(tmp_path / "o.mcap"),
                     "--json")
     r = json.loads(o.strip().splitlines()[-1])
-    assert rc == 0 and not r["complete"] and r["messages"] == 0  # the first chunk was hit
-    assert "corrupt" in r["stopped"].lower() or "CRC" in r["stopped"]
+    assert rc == 0 and not r["complete"] and r["messages"] > 0
+    assert [d["why"] for d in r["damaged"]] == ["damaged"] and r["orphaned_messages"] == 0
+
+
+def _messages(path):
+    with trace_tools.open_trace(path) as tr:
+        return sorted((m.topic, m.log_time_ns, m.data) for m in tr.messages())
+
+
+def _chunks(path):
+    """(start offset, end offset, its messages) of each chunk, in file order."""
+    with trace_tools.open_trace(path) as tr:
+        cis = sorted(tr.summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+        topic = {cid: ch.topic for cid, ch in tr.channels.items()}
+    data = Path(path).read_bytes()
+    out = []
+    for ci in cis:
+        end = ci.chunk_start_offset + ci.chunk_length
+        chunk = next(StreamReader(io.BytesIO(data[ci.chunk_start_offset:end]), skip_magic=True,
+                                  emit_chunks=True).records)
+        msgs = [(topic[m.channel_id], m.log_time, m.data) for m in breakup_chunk(chunk)
+                if isinstance(m, Message)]
+        out.append((ci.chunk_start_offset, end, msgs))
+    return out
+
+
+@pytest.mark.parametrize("where", ["payload", "length field"])
+def test_recover_skips_a_damaged_middle_chunk_and_keeps_the_rest(tmp_path, where):
+    """A bad block in the middle of a finished file loses that chunk's messages only: the
+    reader goes on at the next chunk that passes its CRC, even when the damage hit the
+    chunk's length field so that its end cannot be known."""
+    good = tmp_path / "good.mcap"
+    _trace(good, seconds=4.0)
+    chunks = _chunks(good)
+    assert len(chunks) >= 4
+    start, end, lost = chunks[len(chunks) // 2]
+    bad = bytearray(good.read_bytes())
+    at = range(start + 1, start + 9) if where == "length field" else range(start + 200, start + 260)
+    for i in at:
+        bad[i] ^= 0xA5
+    damaged = tmp_path / "damaged.mcap"
+    damaged.write_bytes(bytes(bad))
+    r = trace_tools.recover(damaged, tmp_path / "rec.mcap")
+    assert not r["complete"] and r["orphaned_messages"] == 0
+    assert [(d["byte"], d["byte"] + d["bytes"], d["why"]) for d in r["damaged"]] == \
+        [(start, chunks[len(chunks) // 2 + 1][0], "damaged")]
+    assert r["damaged"][0]["after_s"] < min(t for _, t, _ in lost) / 1e9
+    assert r["damaged"][0]["before_s"] > max(t for _, t, _ in lost) / 1e9
+    full = _messages(good)
+    assert _messages(tmp_path / "rec.mcap") == sorted(set(full) - set(lost)) and \
+        len(full) - len(lost) == r["messages"]
+
+
+def test_recover_a_crash_cut_file_with_a_damaged_chunk(tmp_path):
+    """No summary to fall back on: the rest comes back up to the cut, and a channel whose
+    record was in a damaged span loses its messages, counted as orphaned (with no CRC to
+    tell a channel record from garbage, reading resumes only at a chunk)."""
+    good = tmp_path / "good.mcap"
+    _trace(good, seconds=4.0)
+    chunks = _chunks(good)
+    bad = bytearray(good.read_bytes()[:(chunks[-2][0] + chunks[-2][1]) // 2])  # cut mid-chunk
+    for i in range(chunks[1][0] + 200, chunks[1][0] + 260):
+        bad[i] ^= 0xA5
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(bytes(bad))
+    r = trace_tools.recover(cut, tmp_path / "rec.mcap")
+    assert [d["why"] for d in r["damaged"]] == ["damaged", "cut off"]
+    assert r["stopped"] == f"cut off at byte {chunks[-2][0]}"
+    kept = {m for _, _, msgs in chunks[:-2] for m in msgs} - set(chunks[1][2])
+    assert _messages(tmp_path / "rec.mcap") == sorted(kept) and r["orphaned_messages"] == 0
+    # now also the length field of the first channel record (top level, before any chunk)
+    first_channel = bytes(bad).index(b"/can/", 8) - 1
+    while bad[first_channel] != 0x04:  # back to the channel record's opcode
+        first_channel -= 1
+    for i in range(first_channel + 1, first_channel + 9):
+        bad[i] ^= 0xA5
+    cut.write_bytes(bytes(bad))
+    r = trace_tools.recover(cut, tmp_path / "rec2.mcap")
+    # reading resumes at the first chunk, but every channel record lay in the skipped span
+    assert [(d["byte"], d["byte"] + d["bytes"]) for d in r["damaged"][:2]] == \
+        [(first_channel, chunks[0][0]), (chunks[1][0], chunks[2][0])]
+    assert r["messages"] == 0 and r["orphaned_messages"] == len(kept)
 
 
 def test_no_traceback_from_the_real_command_line(tmp_path):

@@ -60,8 +60,13 @@ def _export(args: argparse.Namespace) -> int:
 
 def _recover(args: argparse.Namespace) -> int:
     r = trace_tools.recover(args.file, args.out)
+    skipped = "".join(f"; skipped {d['bytes']} damaged bytes at byte {d['byte']} "
+                      f"({d['after_s']:.6f} s .. {d['before_s']:.6f} s)"
+                      for d in r["damaged"] if d["why"] == "damaged" and d["before_s"] is not None)
+    orphans = f"; {r['orphaned_messages']} messages lost their channel record" \
+        if r["orphaned_messages"] else ""
     emit(args, r, f"recovered {r['messages']} messages ({r['start_s']:.6f} s .. {r['end_s']:.6f} s) "
-                  f"into {r['output']}; stopped at: {r['stopped']}")
+                  f"into {r['output']}; stopped at: {r['stopped']}{skipped}{orphans}")
     return 0
 
 
