@@ -273,15 +273,10 @@ def _box_min_np(q0, U, V, L, w):
     best_f = np.where(inside, fval(s_in, t_in), np.inf)
     best_s = np.where(inside, s_in, 0.0)
     best_t = np.where(inside, t_in, 0.0)
-    for s_fix in (0.0, L):
-        tt = np.clip(-(gv + s_fix * uv) / vv, 0.0, w)
-        ss = np.full_like(tt, s_fix)
-        f = fval(ss, tt)
-        better = f < best_f
-        best_f, best_s, best_t = np.where(better, f, best_f), np.where(better, ss, best_s), np.where(better, tt, best_t)
-    for t_fix in (0.0, w):
-        ss = np.clip(-(gu + t_fix * uv) / uu, 0.0, L)
-        tt = np.full_like(ss, t_fix)
+    # the four edges: s or t held at a bound, the other at its clipped optimum
+    edges = [(np.full_like(gu, s_fix), np.clip(-(gv + s_fix * uv) / vv, 0.0, w)) for s_fix in (0.0, L)]
+    edges += [(np.clip(-(gu + t_fix * uv) / uu, 0.0, L), np.full_like(gu, t_fix)) for t_fix in (0.0, w)]
+    for ss, tt in edges:
         f = fval(ss, tt)
         better = f < best_f
         best_f, best_s, best_t = np.where(better, f, best_f), np.where(better, ss, best_s), np.where(better, tt, best_t)

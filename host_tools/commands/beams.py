@@ -103,13 +103,19 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _beam_args(p: argparse.ArgumentParser, hb_mm: float | None = 0.0) -> None:
+    """The beams every action needs: stiffnesses (N m/rad) and deflection height (mm; None:
+    required)."""
+    p.add_argument("--k1", type=float, required=True)
+    p.add_argument("--k2", type=float, required=True)
+    p.add_argument("--hb-mm", type=float, default=hb_mm, required=hb_mm is None)
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("beams", help="force-sensing beam traversal (seed 000)")
     bs = p.add_subparsers(dest="beams_command", metavar="ACTION", parser_class=type(p))
     e = bs.add_parser("estimate", help="push into the beams, sense 100 Hz forces, estimate k and h_b")
-    e.add_argument("--k1", type=float, required=True)
-    e.add_argument("--k2", type=float, required=True)
-    e.add_argument("--hb-mm", type=float, required=True)
+    _beam_args(e, hb_mm=None)
     e.add_argument("--hb2-mm", type=float)
     e.add_argument("--noise", type=float, required=True, help="sigma of Eq. 6 (0.2 = 20 %%)")
     e.add_argument("--unknowns", type=int, choices=(2, 3, 4), required=True)
@@ -119,16 +125,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--json", action="store_true")
     e.set_defaults(func=cmd_estimate)
     pl = bs.add_parser("plan", help="Eq. 8 landscape on the full grid + Dijkstra: pitch or roll")
-    pl.add_argument("--k1", type=float, required=True)
-    pl.add_argument("--k2", type=float, required=True)
-    pl.add_argument("--hb-mm", type=float, default=0.0)
+    _beam_args(pl)
     pl.add_argument("--delay-ms", type=float, default=300.0)
     pl.add_argument("--json", action="store_true")
     pl.set_defaults(func=cmd_plan)
     r = bs.add_parser("run", help="closed loop over CAN: sense, estimate, plan, control")
-    r.add_argument("--k1", type=float, required=True)
-    r.add_argument("--k2", type=float, required=True)
-    r.add_argument("--hb-mm", type=float, default=0.0)
+    _beam_args(r)
     r.add_argument("--strategy", choices=("interact", "avoid", "none"), required=True)
     r.add_argument("--fx", type=float, help="propulsion before control (N); default 1 for none, 0.1 otherwise")
     r.add_argument("--noise", type=float, default=0.2)
