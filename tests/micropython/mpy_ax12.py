@@ -1,15 +1,6 @@
-# protocol/ax12.py under the real micropython binary (plain asserts, no pytest).
+# protocol/ax12.py under the real micropython binary (checks.py asserts, no pytest).
 from protocol import ax12
-
-checks = 0
-
-
-def check(cond, what):
-    global checks
-    if not cond:
-        raise AssertionError(what)
-    checks += 1
-
+from tests.micropython.checks import check, done, raises
 
 new = ax12.defaults(ax12.EDITION_EMANUAL)
 old = ax12.defaults(ax12.EDITION_ORIGINAL)
@@ -23,12 +14,7 @@ check((new[13], old[13]) == (140, 190), "max voltage")
 check((new[17], old[17], new[18], old[18]) == (36, 4, 36, 4), "alarm masks")
 check((new[26], old[26]) == (1, 0), "compliance margin")
 check(ax12.get(new, ax12.TORQUE_LIMIT, 2) == ax12.get(new, ax12.MAX_TORQUE, 2), "torque limit")
-try:
-    ax12.defaults("third")
-except ValueError:
-    checks += 1
-else:
-    raise AssertionError("unknown edition accepted")
+raises(lambda: ax12.defaults("third"), ValueError, "unknown edition accepted")
 
 for a in range(50):
     f = ax12.owner(a)
@@ -55,4 +41,4 @@ print("speed_max_rad_s %.6f" % ax12.speed_to_rad_s(0))
 print("unit_rpm_rad_s %.6f" % ax12.speed_to_rad_s(1))
 print("position_1023_rad %.6f" % ax12.position_to_rad(1023))
 print("voltage %.1f" % ax12.voltage_to_v(120))
-print("OK ax12", checks)
+done("ax12")

@@ -1,7 +1,8 @@
-# protocol/can_frames.py under the real micropython binary (plain asserts, no pytest).
+# protocol/can_frames.py under the real micropython binary (checks.py asserts, no pytest).
 # Prints one "frame <name> <hex>" line per fixed case so the pytest side can compare the
 # bytes with CPython's and cantools', then "OK can_frames <checks>".
 from protocol import can_frames as cf
+from tests.micropython.checks import check, done, raises
 
 CASES = (
     ("actuator_command", {"fx_n": 1.9999, "tau1_nm": -0.1, "tau2_nm": 0.05}),
@@ -21,37 +22,29 @@ CASES = (
     ("force", {"fx_n": 0.0, "fy_n": 0.0, "fz_n": 0.0, "sample": 65536 + 3}),
 )
 
-checks = 0
 for name, values in CASES:
     arb_id, data = cf.encode(name, **values)
-    assert len(data) == cf.DLC[name]
+    check(len(data) == cf.DLC[name], (name, "dlc"))
     got_name, out = cf.decode(arb_id, data)
-    assert got_name == name
+    check(got_name == name, (name, got_name))
     for sig in cf.FRAMES[name][2]:
         sname, kind, scale = sig[0], sig[1], sig[2]
         if kind == cf.SCALED:
             lo, hi = sig[3] * scale, sig[4] * scale
             want = min(max(values[sname], lo), hi)
-            assert abs(out[sname] - want) <= scale / 2 + 1e-12, (name, sname, out[sname], want)
+            check(abs(out[sname] - want) <= scale / 2 + 1e-12, (name, sname, out[sname], want))
         elif kind == cf.COUNTER:
-            assert out[sname] == values[sname] & sig[4]
+            check(out[sname] == values[sname] & sig[4], (name, sname))
         else:
-            assert out[sname] == values[sname]
-        checks += 1
+            check(out[sname] == values[sname], (name, sname))
     print("frame", name, "%03x" % arb_id, "".join("%02x" % b for b in data))
 
 for bad in (lambda: cf.encode("heartbeat", state=9, fault_flags=0, cycle=0, overruns=0),
             lambda: cf.decode(0x7FF, bytes(8)),
             lambda: cf.decode(cf.ID_FORCE, bytes(3)),
             lambda: cf.encode("force", fx_n=0.0)):
-    try:
-        bad()
-    except ValueError:
-        checks += 1
-    else:
-        raise AssertionError("no ValueError")
+    raises(bad, ValueError, "no ValueError")
 
-assert cf.legs_set(0x21) == ["LF", "RH"]
-assert cf.faults_set(0x11) == ["servo_lost", "voltage"]
-checks += 2
-print("OK can_frames", checks)
+check(cf.legs_set(0x21) == ["LF", "RH"], "legs_set")
+check(cf.faults_set(0x11) == ["servo_lost", "voltage"], "faults_set")
+done("can_frames")

@@ -1,18 +1,9 @@
-# protocol/dynamixel.py under the real micropython binary (plain asserts, no pytest).
+# protocol/dynamixel.py under the real micropython binary (checks.py asserts, no pytest).
 # Prints lines the pytest side compares with CPython's, then "OK dynamixel <checks>".
 import sys
 
 from protocol import dynamixel as dxl
-
-checks = 0
-
-
-def check(cond, what):
-    global checks
-    if not cond:
-        raise AssertionError(what)
-    checks += 1
-
+from tests.micropython.checks import check, done
 
 def hx(b):
     return "".join("%02x" % x for x in b)
@@ -124,4 +115,4 @@ if sys.implementation.name == "micropython":
     grew = allocated_by_byte_path()
     check(grew == 0, "byte path allocated %d bytes" % grew)
 
-print("OK dynamixel", checks)
+done("dynamixel")
