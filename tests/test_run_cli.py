@@ -1,5 +1,6 @@
 """``hexhil run``: the shipped scenarios end to end, the JSON summary, one-line errors."""
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -9,7 +10,7 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 HEXHIL = str(Path(sys.executable).with_name("hexhil"))
 KEYS = {"scenario", "seed", "firmware_runtime", "sim_time_s", "wall_time_s", "real_time_factor",
-        "cycles", "overruns", "unhandled_exceptions", "serial_digest", "faults",
+        "boot_s", "cycles", "overruns", "unhandled_exceptions", "serial_digest", "faults",
         "stopped_safely", "stop_reason", "body", "trace"}
 
 
@@ -27,7 +28,8 @@ def test_flat_scenarios_30_s_under_micropython(name, speed):
     s = summary(hexhil("run", f"scenarios/{name}.toml", "--json"))
     assert KEYS <= set(s)
     assert s["firmware_runtime"] == "micropython" and s["sim_time_s"] == 30.0
-    assert s["unhandled_exceptions"] == 0 and s["overruns"] == 0 and s["cycles"] == 1500
+    assert s["unhandled_exceptions"] == 0 and s["overruns"] == 0
+    assert 0.02 < s["boot_s"] < 0.04 and s["cycles"] == math.ceil((30.0 - s["boot_s"]) * 50)
     assert s["stopped_safely"] is False and s["stop_reason"] is None and s["trace"] is None
     # ground truth from the MuJoCo world: the paper's speed (Sec. 3.3) within 15 %
     assert s["body"]["dx_m"] == pytest.approx(speed * 30.0, rel=0.15)
@@ -41,7 +43,7 @@ def test_faults_scenario_and_digest_repeats():
     a = summary(hexhil("run", "scenarios/faults.toml", "--json"))
     b = summary(hexhil("run", "scenarios/faults.toml", "--json", "--python", "cpython"))
     assert a["serial_digest"] == b["serial_digest"]
-    assert a["overruns"] == 0 and a["cycles"] == 1500
+    assert a["overruns"] == 0 and a["cycles"] == math.ceil((30.0 - a["boot_s"]) * 50)
     assert a["faults"]["unplug"] == 2 and a["faults"]["bit_error"] > 0
     assert a["stopped_safely"] is True
     assert a["stop_reason"].startswith("servo 14 ")

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hil.servo import OVERLOAD_TIME_US, KinematicActuator, Servo
+from hil.servo import EEPROM_BUSY_US, OVERLOAD_TIME_US, KinematicActuator, Servo
 from protocol import ax12
 from protocol import dynamixel as dxl
 
@@ -17,8 +17,10 @@ def status(reply: bytes) -> dxl.Packet:
     return pkt
 
 
-def write(s: Servo, address: int, data: bytes, t_us: int = 0) -> int:
-    return status(s.handle(dxl.WRITE, bytes((address,)) + data, False, t_us)).code
+def write(s: Servo, address: int, data: bytes, t_us: int | None = None) -> int:
+    """WRITE and its status code; by default sent as soon as the servo listens again."""
+    t = max(s.t_us, s.busy_until_us) if t_us is None else t_us
+    return status(s.handle(dxl.WRITE, bytes((address,)) + data, False, t)).code
 
 
 def test_defaults_differ_by_edition():
@@ -104,11 +106,35 @@ def test_reg_write_and_action():
 def test_factory_reset_and_sync_write():
     s = Servo(9)
     write(s, ax12.RETURN_DELAY_TIME, b"\x00")
-    reply = s.handle(dxl.FACTORY_RESET, b"", False, 0)
+    reply = s.handle(dxl.FACTORY_RESET, b"", False, s.busy_until_us)
     assert status(reply).id == 9 and s.id == 1 and s.value("return_delay_time") == 250
     params = bytes((ax12.GOAL_POSITION, 2, 3, 0, 1, 1, 0x10, 0x02))
-    assert s.handle(dxl.SYNC_WRITE, params, True, 0) is None
+    assert s.handle(dxl.SYNC_WRITE, params, True, s.busy_until_us) is None
     assert s.value("goal_position") == 0x210
+
+
+def test_eeprom_write_leaves_the_servo_deaf_for_a_few_ms():
+    s = Servo(3)
+    assert write(s, ax12.CW_ANGLE_LIMIT, b"\x10\x00", t_us=1_000) == 0  # its status still goes out
+    deaf_until = 1_000 + EEPROM_BUSY_US
+    assert s.busy_until_us == deaf_until
+    n = s.instructions
+    assert s.handle(dxl.PING, b"", False, deaf_until - 1) is None
+    assert s.handle(dxl.WRITE, bytes((ax12.LED, 1)), False, deaf_until - 1) is None
+    assert s.checksum_error(dxl.PING, deaf_until - 1) is None
+    assert s.ignored == 3 and s.instructions == n and s.value("led") == 0  # nothing executed
+    assert s.handle(dxl.PING, b"", False, deaf_until) == dxl.status(3)
+    # RAM writes and refused EEPROM writes leave it listening
+    assert write(s, ax12.LED, b"\x01") == 0 and write(s, ax12.CW_ANGLE_LIMIT, b"\xff\x07") == dxl.ERR_RANGE
+    assert s.handle(dxl.PING, b"", False, s.t_us) == dxl.status(3)
+    # a broadcast SYNC_WRITE of an EEPROM field makes every addressed servo deaf, silently
+    t = s.t_us + 10
+    s.handle(dxl.SYNC_WRITE, bytes((ax12.CW_ANGLE_LIMIT, 2, 3, 0, 0)), True, t)
+    assert s.value("cw_angle_limit") == 0 and s.busy_until_us == t + EEPROM_BUSY_US
+    # and the busy time is the servo's own setting
+    quick = Servo(4, eeprom_busy_us=0)
+    assert write(quick, ax12.RETURN_DELAY_TIME, b"\x00", t_us=0) == 0
+    assert quick.handle(dxl.PING, b"", False, 0) == dxl.status(4)
 
 
 def test_goal_outside_angle_limits_sets_bit_and_horn_stops_at_limit():
@@ -154,9 +180,10 @@ def test_wheel_mode_turns_endlessly_both_ways():
     assert write(s, ax12.CW_ANGLE_LIMIT, bytes(4)) == 0  # CW = CCW = 0: wheel mode
     assert write(s, ax12.GOAL_POSITION, (5).to_bytes(2, "little")) == 0  # no angle limit in wheel
     assert write(s, ax12.MOVING_SPEED, (300).to_bytes(2, "little")) == 0  # CCW, 33.3 rpm
+    start_s = s.t_us / 1e6  # once the EEPROM write of the angle limits has settled
     s.advance_to(3_000_000)  # 1.67 turns: wrapped, still turning
     assert s.value("moving") == 1 and s.value("present_speed") == 300
-    turned = ax12.position_to_rad(512) + 300 * 0.111 / 60 * 2 * math.pi * 3.0
+    turned = ax12.position_to_rad(512) + 300 * 0.111 / 60 * 2 * math.pi * (3.0 - start_s)
     assert s.actuator.state()[0] == pytest.approx((turned + math.pi) % (2 * math.pi) - math.pi)
     assert write(s, ax12.MOVING_SPEED, (1024 + 300).to_bytes(2, "little"), 3_000_000) == 0
     s.advance_to(3_500_000)

@@ -34,6 +34,7 @@ def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None)
     from hil.clock import VirtualClock
     from hil.faults import Faults, parse_flag
     from hil.servo import Servo
+    from hil.sim import eeprom_busy_us
     from protocol import ax12
 
     sb = scenario.get("bus", {})
@@ -53,7 +54,8 @@ def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None)
     baud = args.baud if args.baud is not None else sb.get("baud", 1_000_000)
     if baud <= 0:
         raise UserError(f"--baud must be positive, got {baud}")
-    servos = [Servo(i, edition=edition) for i in ids]
+    busy = eeprom_busy_us(scenario)
+    servos = [Servo(i, edition=edition, eeprom_busy_us=busy) for i in ids]
     rd = sb.get("return_delay_us")
     if rd is not None:
         if rd % 2 or not 0 <= rd <= 508:
