@@ -99,8 +99,8 @@ class Controller:
             self._stop(cf.STATE_FAULT, "scan found %d of 18 servos (missing id %s)"
                        % (len(self.found), ", ".join(str(i) for i in missing)))
             return False
-        # EEPROM for all servos first, one wait after the last of those writes, then RAM: a servo that
-        # just wrote its EEPROM ignores packets for a few ms
+        # EEPROM for all servos, one wait after the last of those writes, then RAM: a servo
+        # that has just written its EEPROM ignores packets for a few ms
         board = self.board
         for j in range(18):
             lo, hi = self.limits[j]

@@ -389,13 +389,19 @@ def _export_can(path: str | Path, out: Path, start_s: float | None,
 _KNOWN_OPCODES = range(0x01, 0x10)
 
 
-def _record_at(data: bytes, pos: int) -> tuple[int, list[Any]] | None:
-    """The top-level record at ``pos`` as (end offset, its records, a chunk broken up), or
-    None when it is cut off, fails its CRC, or does not parse."""
+def _record_end(data: bytes, pos: int) -> int | None:
+    """End offset of the top-level record at ``pos`` by its length field; None if past EOF."""
     if pos + 9 > len(data):
         return None
     end = pos + 9 + struct.unpack_from("<Q", data, pos + 1)[0]
-    if end > len(data):
+    return end if end <= len(data) else None
+
+
+def _record_at(data: bytes, pos: int) -> tuple[int, list[Any]] | None:
+    """The top-level record at ``pos`` as (end offset, its records, a chunk broken up), or
+    None when it is cut off, fails its CRC, or does not parse."""
+    end = _record_end(data, pos)
+    if end is None:
         return None
     try:
         record = next(StreamReader(io.BytesIO(data[pos:end]), skip_magic=True, emit_chunks=True,
@@ -435,10 +441,8 @@ def _salvaged_records(data: bytes) -> Iterator[Any]:
                 return
             continue
         nxt = _next_chunk(data, pos + 1)
-        cut = pos + 9 > len(data) or pos + 9 + struct.unpack_from("<Q", data, pos + 1)[0] > \
-            len(data)
-        yield (pos, len(data) if nxt is None else nxt,
-               "cut off" if cut and nxt is None else "damaged")
+        cut = nxt is None and _record_end(data, pos) is None
+        yield (pos, len(data) if nxt is None else nxt, "cut off" if cut else "damaged")
         if nxt is None:
             return
         pos = nxt
