@@ -10,7 +10,7 @@ from bench import Row
 
 def run() -> list[Row]:
     from hil.world import beams as B
-    from host_tools.beams import estimator, landscape, planner
+    from host_tools.traversal import estimator, landscape, planner
     from host_tools.commands.beams import push_samples
 
     rows: list[Row] = []

@@ -11,12 +11,12 @@ a stop with a stated reason; the loop keeps running (telemetry, reads) until tol
 import json
 import math
 
-from firmware import ax12 as master_mod
+from firmware import servo_bus as master_mod
 from firmware import gait as gait_mod
 from firmware import kinematics as kin
 from firmware import tactile
 from firmware import trajectory as traj
-from firmware.hal import wire
+from protocol import sim_link
 from protocol import ax12
 from protocol import can_frames as cf
 from protocol import dynamixel as dxl
@@ -126,7 +126,7 @@ class Controller:
     def _stop(self, state, reason):
         if self.stop_reason is None:
             self.stop_reason = reason
-            self.board.event(wire.EVENT_STOP, reason)
+            self.board.event(sim_link.EVENT_STOP, reason)
         self.state = state
 
     # --- the loop ---------------------------------------------------------------------
@@ -166,7 +166,7 @@ class Controller:
         if changed:
             for i in range(6):
                 if changed & (1 << i):
-                    self.board.event(wire.EVENT_TACTILE, json.dumps(
+                    self.board.event(sim_link.EVENT_TACTILE, json.dumps(
                         {"leg": cf.LEGS[i], "switch": 1 if pressed & (1 << i) else 0}))
         while self.board.can.any():
             self._command(self.board.can.recv(), now)
@@ -204,7 +204,7 @@ class Controller:
             if swing and not (self.swinging & bit):
                 if rule.lift_off(i, pressed & bit):
                     changed = True
-                    self.board.event(wire.EVENT_TACTILE, json.dumps(
+                    self.board.event(sim_link.EVENT_TACTILE, json.dumps(
                         {"leg": cf.LEGS[i], "overcoming": 1 if rule.overcoming & bit else 0,
                          "step_length_m": rule.l[i], "step_height_m": rule.h[i]}))
             if swing:

@@ -9,7 +9,7 @@ import sys
 
 from firmware import config
 from firmware.controller import Controller
-from firmware.hal import wire
+from protocol import sim_link
 
 
 def _board():
@@ -39,10 +39,10 @@ def main():
         ctl.boot()
         ctl.run()
     except Exception as exc:  # reported to the host, which counts it; never silent
-        board.event(wire.EVENT_EXCEPTION, _traceback(exc))
+        board.event(sim_link.EVENT_EXCEPTION, _traceback(exc))
     finally:
         if ctl is not None:
-            board.event(wire.EVENT_STATS, json.dumps(ctl.stats()))
+            board.event(sim_link.EVENT_STATS, json.dumps(ctl.stats()))
         board.close()
 
 

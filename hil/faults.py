@@ -12,7 +12,7 @@ import math
 import random
 from typing import Any, Callable
 
-from host_tools.errors import UserError
+from protocol.errors import UserError
 
 OnFault = Callable[[int, str, str], None]
 NEVER_US = 1 << 62

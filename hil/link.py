@@ -1,7 +1,7 @@
 """Host side of the simulator link: start the firmware process and serve its requests.
 
 The firmware (``firmware/main.py`` under ``micropython`` or CPython) connects to a
-127.0.0.1 TCP port given in ``HEXHIL_LINK_PORT`` and speaks ``firmware/hal/wire.py``'s
+127.0.0.1 TCP port given in ``HEXHIL_LINK_PORT`` and speaks ``protocol/sim_link.py``'s
 framing. ``Connection.exchanges`` yields, per round trip, the messages the firmware sent
 since the last reply (posted ones first, the request last); the caller answers with
 ``reply``. The raw bytes of both sides are kept for the recorder (``hexhil replay``).
@@ -17,11 +17,11 @@ import sys
 from pathlib import Path
 from typing import Iterator
 
-from firmware.hal import wire
-from host_tools.errors import UserError
+from protocol import sim_link
+from protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
-REQUEST_OPS = (wire.OP_HELLO, wire.OP_TRANSACT, wire.OP_SLEEP)
+REQUEST_OPS = (sim_link.OP_HELLO, sim_link.OP_TRANSACT, sim_link.OP_SLEEP)
 RUNTIMES = ("micropython", "cpython")
 
 
@@ -40,7 +40,7 @@ def firmware_command(python: str) -> list[str]:
 
 def firmware_env(port: int) -> dict[str, str]:
     env = dict(os.environ)
-    env[wire.ENV_PORT] = str(port)
+    env[sim_link.ENV_PORT] = str(port)
     env["MICROPYPATH"] = f"{ROOT}:.frozen:{ROOT}/firmware/lib"
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     return env
@@ -59,8 +59,8 @@ class Connection:
         self._poll.register(sock, select.POLLIN)
 
     def _message(self) -> tuple[int, bytes] | None:
-        head = self.reader.read(wire.HEADER_LEN)
-        if len(head) < wire.HEADER_LEN:
+        head = self.reader.read(sim_link.HEADER_LEN)
+        if len(head) < sim_link.HEADER_LEN:
             return None
         n = head[1] | (head[2] << 8)
         payload = self.reader.read(n) if n else b""

@@ -32,13 +32,13 @@ from typing import Any, Callable
 import can
 
 from firmware import config as fw_config
-from firmware.hal import wire
+from protocol import sim_link
 from hil.bus import Bus
 from hil.clock import VirtualClock
 from hil.faults import Faults
 from hil.link import FirmwareProcess
 from hil.servo import EEPROM_BUSY_US, Servo
-from host_tools.errors import UserError
+from protocol.errors import UserError
 from protocol import ax12
 
 _channels = itertools.count()
@@ -239,17 +239,17 @@ class Simulator:
         kind = payload[0]
         text = bytes(payload[1:]).decode("utf-8", errors="replace")
         t = self.clock.t_us
-        if kind == wire.EVENT_EXCEPTION:
+        if kind == sim_link.EVENT_EXCEPTION:
             result.exceptions.append(text)
             if self.recorder is not None:
                 self.recorder.fault(t, "firmware_exception", text)
-        elif kind == wire.EVENT_STOP:
+        elif kind == sim_link.EVENT_STOP:
             result.stop_reason = text
             if self.recorder is not None:
                 self.recorder.fault(t, "safe_stop", text)
-        elif kind == wire.EVENT_STATS:
+        elif kind == sim_link.EVENT_STATS:
             result.firmware = json.loads(text)
-        elif kind == wire.EVENT_TACTILE:
+        elif kind == sim_link.EVENT_TACTILE:
             ev = json.loads(text)
             ev["t_s"] = t * 1e-6
             result.tactile_events.append(ev)
@@ -311,13 +311,13 @@ class Simulator:
             reply = None
             slept = False
             for op, payload in msgs:
-                if op == wire.OP_WRITE:
+                if op == sim_link.OP_WRITE:
                     t0 = clock.t_us
                     bus.master_write(payload)
                     if counting:
                         result.bus_busy_us += clock.t_us - t0
                         result.bus_wire_us += round(len(payload) * self.byte_us)
-                elif op == wire.OP_TRANSACT:
+                elif op == sim_link.OP_TRANSACT:
                     nrx, timeout_us = struct.unpack_from("<HI", payload, 0)
                     tx = payload[6:]
                     t0 = clock.t_us
@@ -328,11 +328,11 @@ class Simulator:
                         heard = len(rx) - (min(len(tx), len(rx)) if bus.echo else 0)
                         result.bus_wire_us += round((len(tx) + heard) * self.byte_us)
                     reply = rx
-                elif op == wire.OP_CAN:
+                elif op == sim_link.OP_CAN:
                     self._can_from_firmware(payload, result)
-                elif op == wire.OP_EVENT:
+                elif op == sim_link.OP_EVENT:
                     self._event(payload, result)
-                elif op == wire.OP_SLEEP:
+                elif op == sim_link.OP_SLEEP:
                     (wake_us,) = struct.unpack_from("<Q", payload, 0)
                     if counting:
                         result.loop_cycles += 1
@@ -340,7 +340,7 @@ class Simulator:
                     flags = 0
                     if wake_us >= end_us:
                         wake_us = end_us
-                        flags |= wire.FLAG_END
+                        flags |= sim_link.FLAG_END
                         ended = True
                     if wake_us > clock.t_us:
                         bus.idle_until(wake_us)
@@ -351,7 +351,7 @@ class Simulator:
                         body += struct.pack("<HB", arb_id, len(data)) + data.ljust(8, b"\0")
                     reply = bytes(body)
                     slept = True
-                elif op == wire.OP_HELLO:
+                elif op == sim_link.OP_HELLO:
                     config = json.dumps(self.settings, sort_keys=True).encode()
                     reply = struct.pack("<B", self._sample_switches(result)) + config
             # Recording comes after the reply: nothing here moves until the firmware's next

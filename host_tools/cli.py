@@ -12,7 +12,7 @@ import json
 import sys
 from typing import Any
 
-from host_tools.errors import UserError
+from protocol.errors import UserError
 
 # command name -> (module under host_tools.commands, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {

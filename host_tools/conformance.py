@@ -19,7 +19,7 @@ from typing import Any
 
 import serial
 
-from host_tools.errors import UserError
+from protocol.errors import UserError
 from protocol import ax12
 from protocol import dynamixel as dxl
 

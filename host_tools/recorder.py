@@ -66,7 +66,7 @@ from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, M
 from mcap.writer import MCAP0_MAGIC
 from mcap_protobuf.schema import build_file_descriptor_set
 
-from host_tools.errors import UserError
+from protocol.errors import UserError
 from protocol import can_frames, dynamixel
 from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
 

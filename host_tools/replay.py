@@ -1,7 +1,7 @@
 """Replay a trace: into the firmware (regression test) or onto a CAN bus.
 
 Into the firmware: the trace's ``/link`` topic holds every simulator-link exchange of the
-run (``firmware/hal/wire.py`` framing): the bytes the firmware sent since the previous
+run (``protocol/sim_link.py`` framing): the bytes the firmware sent since the previous
 reply (posted UART writes, CAN frames, events, then the request) and the reply it got
 (virtual time, bus bytes, switch levels, CAN input). That is the firmware's whole view of
 the world, so replay starts the firmware against a small server that answers each request
@@ -19,18 +19,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
-from firmware.hal import wire
+from protocol import sim_link
 from hil.link import REQUEST_OPS, FirmwareProcess
 from host_tools import recorder as rec
-from host_tools.errors import UserError
+from protocol.errors import UserError
 from host_tools.trace_tools import Trace
 
 # What each link message is, for reports and --topics.
-OP_TOPICS = {wire.OP_HELLO: "hello", wire.OP_TRANSACT: "uart", wire.OP_WRITE: "uart",
-             wire.OP_SLEEP: "sleep", wire.OP_CAN: "can", wire.OP_EVENT: "event"}
+OP_TOPICS = {sim_link.OP_HELLO: "hello", sim_link.OP_TRANSACT: "uart", sim_link.OP_WRITE: "uart",
+             sim_link.OP_SLEEP: "sleep", sim_link.OP_CAN: "can", sim_link.OP_EVENT: "event"}
 TOPICS = ("uart", "can", "sleep", "event", "hello")
 # Events whose text is not a firmware output: wall-clock profiling counters.
-UNCOMPARED_EVENTS = (wire.EVENT_STATS,)
+UNCOMPARED_EVENTS = (sim_link.EVENT_STATS,)
 
 
 def split_messages(data: bytes) -> list[tuple[int, bytes]]:
@@ -38,22 +38,22 @@ def split_messages(data: bytes) -> list[tuple[int, bytes]]:
     out = []
     i, n = 0, len(data)
     while i < n:
-        if i + wire.HEADER_LEN > n:
+        if i + sim_link.HEADER_LEN > n:
             raise ValueError("link record header cut off")
         op = data[i]
         length = data[i + 1] | (data[i + 2] << 8)
-        j = i + wire.HEADER_LEN + length
+        j = i + sim_link.HEADER_LEN + length
         if j > n:
             raise ValueError("link record payload cut off")
-        out.append((op, bytes(data[i + wire.HEADER_LEN:j])))
+        out.append((op, bytes(data[i + sim_link.HEADER_LEN:j])))
         i = j
     return out
 
 
 def _compared(op: int, payload: bytes) -> bool:
-    if op == wire.OP_HELLO:
+    if op == sim_link.OP_HELLO:
         return False  # names the runtime, which --python may change on purpose
-    if op == wire.OP_EVENT and payload and payload[0] in UNCOMPARED_EVENTS:
+    if op == sim_link.OP_EVENT and payload and payload[0] in UNCOMPARED_EVENTS:
         return False
     return True
 

@@ -6,7 +6,7 @@ from typing import Any
 
 from hil.sim import RunResult, Simulator
 from host_tools import scenario as scenario_mod
-from host_tools.errors import UserError
+from protocol.errors import UserError
 
 DEFAULT_DURATION_S = 30.0
 CAN_WAIT_TIMEOUT_S = 60.0

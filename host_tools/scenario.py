@@ -10,7 +10,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from host_tools.errors import UserError
+from protocol.errors import UserError
 
 SCHEMA: dict[str, dict[str, type]] = {
     "scenario": {"name": str, "description": str, "seed": int, "duration_s": float},

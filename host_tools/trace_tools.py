@@ -26,7 +26,7 @@ from mcap.writer import CompressionType, Writer
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 
 from host_tools import recorder as rec
-from host_tools.errors import UserError
+from protocol.errors import UserError
 
 MAGIC = b"\x89MCAP0\r\n"
 _OP_CHUNK = 0x06    # MCAP record opcodes (mcap.opcode)

@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-from host_tools.beams import closed_loop, estimator, landscape, planner
+from host_tools.traversal import closed_loop, estimator, landscape, planner
 from host_tools.commands.beams import push_samples
 from host_tools.experiments import force_sensing as fs
 

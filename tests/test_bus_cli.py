@@ -8,7 +8,7 @@ import pytest
 
 from host_tools import scenario
 from host_tools.commands.bus import build_bus, parse_ids, register
-from host_tools.errors import UserError
+from protocol.errors import UserError
 from protocol import ax12
 from protocol import dynamixel as dxl
 

@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-from host_tools.beams import estimator, landscape
+from host_tools.traversal import estimator, landscape
 from host_tools.commands.beams import push_samples
 from host_tools.experiments import force_sensing as fs
 

@@ -3,7 +3,7 @@ import pytest
 
 from host_tools.experiments import tactile_hexapod as th
 from host_tools.experiments.executor import Executor
-from host_tools.errors import UserError
+from protocol.errors import UserError
 from hil.world.hexapod import HexapodWorld
 
 

@@ -7,7 +7,7 @@ import sys
 import pytest
 
 from hil.sim import Simulator
-from host_tools.errors import UserError
+from protocol.errors import UserError
 from host_tools.scenario import SCHEMA
 from protocol import can_frames as cf
 

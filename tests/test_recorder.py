@@ -289,7 +289,7 @@ def test_an_idle_owner_gets_a_closed_window_written_at_its_next_idle(tmp_path):
 
 
 def test_unwritable_path_is_a_user_error(tmp_path):
-    from host_tools.errors import UserError
+    from protocol.errors import UserError
 
     with pytest.raises(UserError, match="cannot write trace"):
         rec.Recorder(tmp_path / "no" / "such" / "dir.mcap")
@@ -343,7 +343,7 @@ def test_sigkill_loses_at_most_the_last_simulated_second(tmp_path, idle_budget):
         proc.send_signal(signal.SIGKILL)
         proc.wait()
     # the killed file is unreadable to the seeking reader (no summary) ...
-    from host_tools.errors import UserError
+    from protocol.errors import UserError
     with pytest.raises(UserError, match="recover"):
         trace_tools.info(path)
     # ... and recover salvages everything but the last window

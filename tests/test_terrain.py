@@ -7,7 +7,7 @@ import pytest
 
 from hil.world import terrain
 from host_tools import scenario
-from host_tools.errors import UserError
+from protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -1,7 +1,7 @@
 """HAL back end for the simulator link: machine-like UART, Pin, CAN and clock over TCP.
 
 Each call that needs the outside world is answered by the host simulator in virtual time
-(see wire.py), so runs are deterministic and faster than real time. Firmware compute is
+(see sim_link.py), so runs are deterministic and faster than real time. Firmware compute is
 charged zero virtual time: the clock only moves on bus transactions and sleeps.
 Runs under MicroPython (unix port) and CPython.
 """
@@ -11,7 +11,7 @@ import socket
 import struct
 import sys
 
-from firmware.hal import wire
+from protocol import sim_link
 
 try:
     from time import ticks_us as _perf_us  # MicroPython
@@ -117,13 +117,13 @@ class HalfDuplexUART:
 
     def write(self, buf, n):
         """Send ``buf[:n]``, no reply expected (SYNC_WRITE); posted, no round trip."""
-        self.link.post(wire.OP_WRITE, buf, n)
+        self.link.post(sim_link.OP_WRITE, buf, n)
 
     def transact(self, buf, n, rx, nrx, timeout_us):
         """Send ``buf[:n]``, then receive up to ``nrx`` bytes into ``rx``, giving up
         ``timeout_us`` of bus time after the last byte went out. Returns the count."""
         link = self.link
-        k = link.begin(wire.OP_TRANSACT, 6 + n)
+        k = link.begin(sim_link.OP_TRANSACT, 6 + n)
         struct.pack_into("<HI", link.out, k, nrx, timeout_us)
         link.out[k + 6:k + 6 + n] = buf[:n] if n != len(buf) else buf
         length = link.call()
@@ -150,12 +150,12 @@ class CAN:
     def __init__(self, link):
         self.link = link
         self.rxq = []
-        self.rec = bytearray(wire.CAN_RECORD_LEN)
+        self.rec = bytearray(sim_link.CAN_RECORD_LEN)
 
     def send(self, data, arb_id):
         """Send ``data`` (<= 8 bytes) with standard ID ``arb_id`` (pyb.CAN's argument order)."""
         n = len(data)
-        k = self.link.begin(wire.OP_CAN, 3 + n)
+        k = self.link.begin(sim_link.OP_CAN, 3 + n)
         out = self.link.out
         struct.pack_into("<HB", out, k, arb_id, n)
         out[k + 3:k + 3 + n] = data
@@ -173,7 +173,7 @@ class Board:
 
     def __init__(self, port=None):
         if port is None:
-            port = int(os.getenv(wire.ENV_PORT) or sys.argv[-1])
+            port = int(os.getenv(sim_link.ENV_PORT) or sys.argv[-1])
         self.link = Link(port)
         self.uart = HalfDuplexUART(self.link)
         self.can = CAN(self.link)
@@ -181,7 +181,7 @@ class Board:
         self.switches = [Pin(self, i) for i in range(6)]
         self.ended = False
         name = RUNTIME.encode()
-        self.link.post(wire.OP_HELLO, name, len(name))
+        self.link.post(sim_link.OP_HELLO, name, len(name))
         length = self.link.call()
         self.switch_bits = self.link.rx[8]
         self._config = json.loads(bytes(self.link.rx[9:length]).decode()) if length > 9 else {}
@@ -210,7 +210,7 @@ class Board:
     def sleep_until(self, t_us):
         """End of cycle: idle the bus until ``t_us``; sample switches, collect CAN frames."""
         link = self.link
-        k = link.begin(wire.OP_SLEEP, 8)
+        k = link.begin(sim_link.OP_SLEEP, 8)
         struct.pack_into("<Q", link.out, k, t_us)
         length = link.call()
         rx = link.rx
@@ -221,13 +221,13 @@ class Board:
         for _ in range(n):
             arb_id, dlc = struct.unpack_from("<HB", rx, p)
             self.can.rxq.append((arb_id, bytes(rx[p + 3:p + 3 + dlc])))
-            p += wire.CAN_RECORD_LEN
-        if flags & wire.FLAG_END:
+            p += sim_link.CAN_RECORD_LEN
+        if flags & sim_link.FLAG_END:
             self.ended = True
 
     def event(self, kind, text):
         data = text.encode() if isinstance(text, str) else text
-        k = self.link.begin(wire.OP_EVENT, 1 + len(data))
+        k = self.link.begin(sim_link.OP_EVENT, 1 + len(data))
         self.link.out[k] = kind
         self.link.out[k + 1:k + 1 + len(data)] = data
 

@@ -29,7 +29,7 @@ from firmware.config import LEGS
 from hil.world import actuator as act
 from hil.world import terrain as terrain_mod
 from hil.world.switches import SwitchBank
-from host_tools.errors import UserError
+from protocol.errors import UserError
 
 PHYSICS_DT_US = 2000   # 2 ms steps: contact-stable with implicit joint damping (see docs)
 

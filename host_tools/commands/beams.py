@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from host_tools.cli import emit
-from host_tools.errors import UserError
+from protocol.errors import UserError
 
 
 def _nonneg(name: str, v: float) -> float:
@@ -27,7 +27,7 @@ def push_samples(k1: float, k2: float, hb1_m: float, hb2_m: float, noise: float,
 
 
 def cmd_estimate(args: argparse.Namespace) -> int:
-    from host_tools.beams.estimator import estimate
+    from host_tools.traversal.estimator import estimate
 
     k1, k2 = _nonneg("k1", args.k1), _nonneg("k2", args.k2)
     hb1 = _nonneg("hb-mm", args.hb_mm) * 1e-3
@@ -50,7 +50,7 @@ def cmd_estimate(args: argparse.Namespace) -> int:
 
 def cmd_plan(args: argparse.Namespace) -> int:
     from hil.world.beams import PAPER_BODY
-    from host_tools.beams import landscape, planner
+    from host_tools.traversal import landscape, planner
 
     k1, k2 = _nonneg("k1", args.k1), _nonneg("k2", args.k2)
     hb = _nonneg("hb-mm", args.hb_mm) * 1e-3
@@ -79,7 +79,7 @@ def _start_after_delay(k1: float, k2: float, hb_m: float, delay_ms: float) -> tu
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from host_tools.beams.closed_loop import RunConfig, run
+    from host_tools.traversal.closed_loop import RunConfig, run
     from host_tools.recorder import open_recorder
 
     hb = _nonneg("hb-mm", args.hb_mm) * 1e-3

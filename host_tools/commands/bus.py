@@ -5,7 +5,7 @@ import argparse
 import sys
 from typing import Any
 
-from host_tools.errors import UserError
+from protocol.errors import UserError
 
 _FAULT_FLAGS = ("unplug", "stall", "overheat", "voltage_sag")
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 
 from host_tools.cli import emit_json
-from host_tools.errors import UserError
+from protocol.errors import UserError
 
 
 def run(args: argparse.Namespace) -> int:

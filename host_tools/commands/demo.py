@@ -44,7 +44,7 @@ def _trace_summary(path: str) -> dict:
 
 
 def _beams() -> dict:
-    from host_tools.beams.closed_loop import RunConfig, run
+    from host_tools.traversal.closed_loop import RunConfig, run
 
     out = {}
     for label, k in (("flimsy", 0.01), ("stiff", 0.25)):

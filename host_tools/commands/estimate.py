@@ -16,7 +16,7 @@ import numpy as np
 
 from host_tools import recorder as rec
 from host_tools.cli import emit_json
-from host_tools.errors import UserError
+from protocol.errors import UserError
 from host_tools.trace_tools import Trace
 from protocol import can_frames
 
@@ -73,7 +73,7 @@ def load_samples(path: str, start_s: float | None, end_s: float | None
 
 
 def run(args: argparse.Namespace) -> int:
-    from host_tools.beams.estimator import estimate
+    from host_tools.traversal.estimator import estimate
 
     if args.sensing_s <= 0 or not math.isfinite(args.sensing_s):
         raise UserError("--sensing-s must be a positive number of seconds")

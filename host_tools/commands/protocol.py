@@ -20,7 +20,7 @@ import string
 from typing import Any
 
 from host_tools.cli import emit, emit_json
-from host_tools.errors import UserError
+from protocol.errors import UserError
 from protocol import ax12
 from protocol import dynamixel as dxl
 

@@ -13,7 +13,7 @@ from typing import Any, Callable, Sequence
 
 from tqdm import tqdm
 
-from host_tools.errors import UserError
+from protocol.errors import UserError
 
 
 class Executor:

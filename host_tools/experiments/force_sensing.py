@@ -9,7 +9,7 @@ Sections, in the paper's order (Sec. III-IV):
 * sensory delay (Sec. III-E, Fig. 7): energy at 100 / 300 / 600 ms;
 * robot validation (Sec. IV, Eq. 12): k and tau_0 from a prescribed-speed push.
 
-Everything reuses hil/world/beams.py and host_tools/beams/; this module only sweeps and reports.
+Everything reuses hil/world/beams.py and host_tools/traversal/; this module only sweeps and reports.
 The noise in the estimation tables does not feed back into the push (F_x = 1 N, no control), so
 each sensing window is simulated once without noise and Eq. 6 is applied per seed with the same
 draws the world's sensor makes (tested against ``push_samples`` with that seed).
@@ -25,10 +25,10 @@ from typing import Any
 import numpy as np
 
 from hil.world.beams import (PAPER_BODY, SENSOR_PERIOD_US, BeamParams, BeamsWorld, BodyGeometry, BodyState)
-from host_tools.beams import closed_loop, estimator, landscape, planner
+from host_tools.traversal import closed_loop, estimator, landscape, planner
 from host_tools.cli import emit
 from host_tools.commands.beams import _start_after_delay, push_samples
-from host_tools.errors import UserError
+from protocol.errors import UserError
 
 K_FLIMSY, K_STIFF = 0.01, 0.25            # Sec. III-A
 K1_TRUE, K2_TRUE = 0.25, 0.27             # Sec. III-B

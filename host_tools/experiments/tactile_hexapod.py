@@ -30,7 +30,7 @@ from firmware import config as fw_config
 from firmware import kinematics as kin
 from host_tools import error_model
 from host_tools.cli import emit_json
-from host_tools.errors import UserError
+from protocol.errors import UserError
 from host_tools.experiments.executor import Executor
 from host_tools.scenario import SCHEMA, validate
 

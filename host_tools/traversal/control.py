@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hil.world.beams import PAPER_BODY, BeamParams, BodyGeometry, external_forces, saturate
-from host_tools.beams.planner import Plan
+from host_tools.traversal.planner import Plan
 
 CONTROL_PERIOD_US = 2000    # Sec. II-I: control input every 0.002 s
 KP_1_S2 = 100.0             # critically damped, natural frequency 10 rad/s

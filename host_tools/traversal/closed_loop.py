@@ -25,8 +25,8 @@ import can
 import numpy as np
 
 from hil.world.beams import DT_US, PAPER_BODY, SENSOR_PERIOD_US, BeamParams, BeamsWorld, BodyGeometry, BodyState
-from host_tools.beams import estimator, landscape, planner
-from host_tools.beams.control import CONTROL_PERIOD_US, FeedbackLinearisation, energy_increment_j
+from host_tools.traversal import estimator, landscape, planner
+from host_tools.traversal.control import CONTROL_PERIOD_US, FeedbackLinearisation, energy_increment_j
 from protocol import can_frames
 
 RIGID_K_NM_PER_RAD = 100.0     # the avoidance baseline's map: beams as obstacles to roll past
