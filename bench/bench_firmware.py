@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from bench import Row
 from hil.sim import Simulator
-from host_tools.scenario import SCHEMA
+from hil.scenario import SCHEMA
 
 DURATION_S = 10.0
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from bench import Row
 from hil.world.hexapod import HexapodWorld
-from host_tools import scenario as scenario_mod
+from hil import scenario as scenario_mod
 
 ROOT = Path(__file__).resolve().parent.parent
 SIM_S = 20.0

@@ -1,9 +1,9 @@
 """Live CAN for stock tools: the simulated CAN bus served over the socketcand protocol.
 
 Stock python-can (``interface='socketcand'``), ``python -m can.viewer`` and
-``cantools monitor`` attach to a running simulation through it. The simulator calls
-``publish(t_us, arb_id, data)`` for every frame on its bus and ``poll()`` once a step
-for the frames clients sent; all socket work happens on one background thread, so the
+``cantools monitor`` attach to a running simulation through it. On the run's CAN bus
+(hil/can_bus.py) it is a gateway: every frame on the bus reaches ``publish(t_us, arb_id,
+data)`` and ``poll()`` brings in, once a step, the frames clients sent; all socket work happens on one background thread, so the
 lockstep loop never blocks on a slow client.
 
 Protocol, as python-can 4.6.1's socketcand client speaks it
@@ -26,6 +26,9 @@ import socket
 import threading
 import time
 from collections import deque
+from typing import Any
+
+import can
 
 DEFAULT_PORT = 29536  # socketcand's own default port
 DEFAULT_CHANNEL = "hexhil0"
@@ -64,7 +67,7 @@ class _Client:
         self.hold_until = 0.0
 
 
-class CanServer:
+class CanServer(can.Listener):
     """A socketcand server for one simulated channel, bound to 127.0.0.1 by default."""
 
     def __init__(self, port: int = DEFAULT_PORT, host: str = "127.0.0.1",
@@ -98,6 +101,11 @@ class CanServer:
                 if c.raw:
                     c.out += line
         self._wake_w.send(b"x")
+
+    def on_message_received(self, msg: Any) -> None:
+        """As a listener on the run's CAN bus (``hil.can_bus``): every frame to the clients."""
+        self.publish(round(msg.timestamp * 1e6), msg.arbitration_id, bytes(msg.data),
+                     msg.is_extended_id)
 
     def poll(self) -> list[tuple[int, bytes, bool]]:
         """Frames clients sent since the last call: (arb_id, data, is_extended_id)."""

@@ -115,7 +115,7 @@ class Faults:
     @classmethod
     def from_scenario(cls, section: dict[str, Any], seed: int = 0, where: str = "faults",
                       on_fault: OnFault | None = None) -> "Faults":
-        """From a loaded scenario's ``[faults]`` table (keys checked by host_tools.scenario)."""
+        """From a loaded scenario's ``[faults]`` table (keys checked by hil.scenario)."""
         return cls(seed=seed, bit_error_rate=section.get("bit_error_rate", 0.0),
                    drop_status_rate=section.get("drop_status_rate", 0.0),
                    unplug=section.get("unplug", []), stall=section.get("stall", []),

@@ -1,38 +1,27 @@
-"""``hexhil run``: a scenario, the simulator and the firmware process, and the run summary."""
+"""``hexhil run``: a scenario, the lockstep simulator and its firmware or host nodes, and the
+run summary."""
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Any
 
-from hil.sim import RunResult, Simulator
-from host_tools import scenario as scenario_mod
+from hil import scenario as scenario_mod
+from hil.rig import make_world
+from hil.run_result import RunResult
+from hil.sim import Simulator
 from protocol.errors import UserError
 
-DEFAULT_DURATION_S = 30.0
 CAN_WAIT_TIMEOUT_S = 60.0
-
-
-def make_world(scenario: dict[str, Any], seed: int) -> Any:
-    """The physics world a scenario's ``[world]`` asks for, or None (kinematic servos)."""
-    world = scenario.get("world") or {}
-    if not world:
-        return None
-    kind = world.get("kind", "hexapod")
-    if kind != "hexapod":
-        raise UserError(f"{scenario['_path']}: key 'world.kind' {kind!r} cannot be run by "
-                        f"'hexhil run' (it drives the hexapod; use 'hexhil beams' for beams)")
-    from hil.world.hexapod import HexapodWorld
-    return HexapodWorld(scenario, seed)
 
 
 def summary(scenario: dict[str, Any], seed: int, result: RunResult,
             trace: str | None) -> dict[str, Any]:
-    """The ``--json`` object (keys fixed by issue 4)."""
-    name = scenario.get("scenario", {}).get("name") or Path(scenario["_path"]).stem
+    """The ``--json`` object of a firmware run (keys fixed by issue 4)."""
     wall = result.wall_time_s
     stopped = result.firmware.get("state") in ("safe_stop", "fault")
     return {
-        "scenario": name,
+        "scenario": _name(scenario),
         "seed": seed,
         "firmware_runtime": result.runtime,
         "sim_time_s": round(result.sim_time_s, 6),
@@ -60,6 +49,10 @@ def summary(scenario: dict[str, Any], seed: int, result: RunResult,
     }
 
 
+def _name(scenario: dict[str, Any]) -> str:
+    return scenario["scenario"].get("name") or Path(scenario["_path"]).stem
+
+
 def _start_can_server(port: int, wait_clients: int) -> Any:
     from hil.can_server import CanServer
 
@@ -76,6 +69,24 @@ def _start_can_server(port: int, wait_clients: int) -> Any:
     return server
 
 
+def _traverse(sc: dict[str, Any], seed: int, cfg: Any, recorder: Any, server: Any,
+              trace: str | None) -> tuple[dict[str, Any], RunResult]:
+    """A beams scenario: seed 000's world and host nodes on the same lockstep simulator."""
+    from host_tools.traversal import closed_loop
+
+    wall0 = time.perf_counter()
+    out = closed_loop.run(cfg, recorder, can_server=server)
+    result = RunResult("none", sim_time_s=out["t_end_s"], wall_time_s=time.perf_counter() - wall0,
+                       world=out)
+    wall = result.wall_time_s
+    s = {"scenario": _name(sc), "seed": seed, "world": "beams",
+         "sim_time_s": round(result.sim_time_s, 6), "wall_time_s": round(wall, 3),
+         "real_time_factor": round(result.sim_time_s / wall, 2) if wall > 0 else None,
+         "trace": trace}
+    s.update(out)
+    return s, result
+
+
 def run(path: str, duration_s: float | None = None, seed: int | None = None,
         python: str | None = None, tactile: bool | None = None,
         out: str | None = None, can_server_port: int | None = None,
@@ -89,21 +100,25 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     sc = scenario_mod.load(path)
     if seed is None:
         seed = sc["scenario"].get("seed", 0)
-    if duration_s is None:
-        duration_s = sc["scenario"].get("duration_s", DEFAULT_DURATION_S)
-    if not duration_s > 0:
+    if duration_s is not None and not duration_s > 0:
         raise UserError(f"--duration must be positive, got {duration_s}")
     python = python or sc["firmware"].get("python", "micropython")
-    world = make_world(sc, seed)
+    beams = sc["world"].get("kind") == "beams"
+    if beams:
+        from host_tools.traversal.closed_loop import config_from_scenario
+        cfg = config_from_scenario(sc, seed)
+    world = None if beams else make_world(sc, seed)
     recorder = None
     if out:
         from host_tools.recorder import open_recorder
         recorder = open_recorder(out, {"scenario": sc["_path"], "seed": seed,
-                                       "firmware_runtime": python})
+                                       "firmware_runtime": "none" if beams else python})
     server = None
     try:
         if can_server_port is not None:
             server = _start_can_server(can_server_port, can_wait_clients)
+        if beams:
+            return _traverse(sc, seed, cfg, recorder, server, out)
         sim = Simulator(sc, seed, world=world, recorder=recorder, tactile=tactile,
                         can_server=server)
         result = sim.run(duration_s, python=python)

@@ -11,7 +11,7 @@ from hil.bus import Bus, resample
 from hil.clock import VirtualClock
 from hil.faults import Faults, parse_flag
 from hil.servo import OVERLOAD_TIME_US, Servo
-from host_tools import scenario
+from hil import scenario
 from protocol.errors import UserError
 from protocol import ax12
 from protocol import dynamixel as dxl

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from host_tools import scenario
+from hil import scenario
 from host_tools.commands.bus import build_bus, parse_ids, register
 from protocol.errors import UserError
 from protocol import ax12

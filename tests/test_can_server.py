@@ -12,7 +12,7 @@ import pytest
 from hil.can_server import CanServer, frame_line, parse_send
 from hil.sim import Simulator
 from host_tools import recorder as rec
-from host_tools import scenario
+from hil import scenario
 from host_tools.trace_tools import open_trace
 from protocol import can_frames
 

@@ -8,7 +8,7 @@ import pytest
 
 from hil.sim import Simulator
 from protocol.errors import UserError
-from host_tools.scenario import SCHEMA
+from hil.scenario import SCHEMA
 from protocol import can_frames as cf
 
 

@@ -12,7 +12,8 @@ import pytest
 
 from hil.sim import Simulator
 from host_tools import recorder as rec
-from host_tools import replay, scenario
+from hil import scenario
+from host_tools import replay
 from host_tools.cli import main
 from host_tools.trace_tools import open_trace
 

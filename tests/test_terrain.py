@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from hil.world import terrain
-from host_tools import scenario
+from hil import scenario
 from protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent

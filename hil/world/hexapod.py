@@ -163,6 +163,14 @@ class BodyPose:
     pitch_rad: float
     roll_rad: float
 
+    @property
+    def quat_wxyz(self) -> tuple[float, float, float, float]:
+        cy, sy = math.cos(self.yaw_rad / 2), math.sin(self.yaw_rad / 2)
+        cp, sp = math.cos(self.pitch_rad / 2), math.sin(self.pitch_rad / 2)
+        cr, sr = math.cos(self.roll_rad / 2), math.sin(self.roll_rad / 2)
+        return (cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
+                cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy)
+
 
 @dataclass
 class SwitchEvent:
@@ -178,7 +186,7 @@ class SwitchEvent:
 class HexapodWorld:
     """The robot and its terrain, advanced in integer virtual microseconds.
 
-    ``scenario`` is a loaded scenario (``host_tools.scenario.load``); its ``[world]``
+    ``scenario`` is a loaded scenario (``hil.scenario.load``); its ``[world]``
     section selects flat ground or obstacles and the ground friction.
     """
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import copy
 import sys
 from typing import Any
 
@@ -29,47 +30,25 @@ def parse_ids(spec: str) -> list[int]:
 
 
 def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None):
-    """Servos, clock, faults and bus from flags over scenario over defaults."""
-    from hil.bus import Bus
-    from hil.clock import VirtualClock
-    from hil.faults import Faults, parse_flag
-    from hil.servo import Servo
-    from hil.sim import eeprom_busy_us
-    from protocol import ax12
+    """Servos, clock, faults and bus from flags over scenario over defaults (hil/rig.py)."""
+    from hil import rig
+    from hil.faults import parse_flag
 
-    sb = scenario.get("bus", {})
-    edition = args.edition or sb.get("edition", ax12.EDITION_EMANUAL)
-    if edition not in ax12.EDITIONS:
-        raise UserError(f"edition must be one of {', '.join(ax12.EDITIONS)}, got {edition!r}")
+    sc = copy.deepcopy(scenario) or {"_path": "flags"}
+    sb = sc.setdefault("bus", {})
+    ids = None
     if args.ids:
         ids = parse_ids(args.ids)
         if args.servos is not None and args.servos != len(ids):
             raise UserError(f"--servos {args.servos} but --ids lists {len(ids)} IDs")
-    else:
-        n = args.servos if args.servos is not None else sb.get("servos", 18)
-        first = sb.get("first_id", 1)
-        if n < 1 or first < 0 or first + n - 1 > 253:
-            raise UserError(f"servos {n} from ID {first} do not fit IDs 0-253")
-        ids = list(range(first, first + n))
-    baud = args.baud if args.baud is not None else sb.get("baud", 1_000_000)
-    if baud <= 0:
-        raise UserError(f"--baud must be positive, got {baud}")
-    busy = eeprom_busy_us(scenario)
-    servos = [Servo(i, edition=edition, eeprom_busy_us=busy) for i in ids]
-    rd = sb.get("return_delay_us")
-    if rd is not None:
-        if rd % 2 or not 0 <= rd <= 508:
-            raise UserError(f"bus.return_delay_us must be even and 0-508, got {rd}")
-        for s in servos:
-            s.table[ax12.RETURN_DELAY_TIME] = rd // 2
-    # The servos' Baud Rate register nearest the line's rate; the AX-12 tolerates 3 % error
-    # (e-manual), e.g. 57600 bps is served by register 34 = 57142 bps and still decodes.
-    code = min(254, max(0, round(2_000_000 / baud) - 1))
-    if abs(ax12.baud_to_bps(code) - baud) > 0.03 * baud:
-        raise UserError(f"--baud {baud}: no AX-12 rate 2000000/(n+1) within 3 % of it")
-    for s in servos:
-        s.table[ax12.BAUD_RATE] = code
-    sf = dict(scenario.get("faults", {}))
+    elif args.servos is not None:
+        sb["servos"] = args.servos
+    for key in ("edition", "baud"):
+        if getattr(args, key) is not None:
+            sb[key] = getattr(args, key)
+    if args.echo:
+        sb["echo"] = True
+    sf = sc.setdefault("faults", {})
     if args.bit_error_rate is not None:
         sf["bit_error_rate"] = args.bit_error_rate
     if args.drop_status_rate is not None:
@@ -77,18 +56,14 @@ def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None)
     for kind in _FAULT_FLAGS:
         for spec in getattr(args, kind) or []:
             sf.setdefault(kind, []).append(parse_flag(kind, spec))
-    seed = args.seed if args.seed is not None else scenario.get("scenario", {}).get("seed", 0)
-    faults = Faults.from_scenario(sf, seed=seed, where=scenario.get("_path", "flags"),
-                                  on_fault=on_fault)
-    clock = VirtualClock()
-    echo = args.echo or sb.get("echo", False)
-    bus = Bus(servos, clock, baud=baud, echo=echo, faults=faults if faults.active() else None)
-    return bus, faults
+    seed = args.seed if args.seed is not None else sc.get("scenario", {}).get("seed", 0)
+    built = rig.build(sc, seed, ids=ids, on_fault=on_fault)
+    return built.bus, built.faults
 
 
 def run(args: argparse.Namespace) -> int:
     from hil import serial_server
-    from host_tools import scenario as scenario_mod
+    from hil import scenario as scenario_mod
 
     if args.pty and args.tcp is not None:
         raise UserError("choose one transport: --pty or --tcp PORT")

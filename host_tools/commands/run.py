@@ -1,4 +1,5 @@
-"""``hexhil run SCENARIO.toml``: the firmware against the simulated robot, in lockstep."""
+"""``hexhil run SCENARIO.toml``: the firmware (or seed 000's host nodes) against the simulated
+robot, in lockstep."""
 from __future__ import annotations
 
 import argparse
@@ -13,6 +14,14 @@ def _run(args: argparse.Namespace) -> int:
     s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
                             False if args.no_tactile else None, args.out,
                             args.can_server, args.can_wait)
+    if s.get("world") == "beams":
+        what = "traversed" if s["traversed"] else ("flipped" if s["flipped"] else "stuck")
+        print(f"{s['scenario']}: {s['strategy']}: {what} (mode {s['mode']}), energy "
+              f"{s['energy_J'] * 1e3:.1f} mJ; {s['sim_time_s']:.1f} s simulated in "
+              f"{s['wall_time_s']:.2f} s ({s['real_time_factor']}x)")
+        if args.json:
+            cli.emit_json(s)
+        return 0
     for text in result.exceptions:
         print("firmware exception:\n" + text.rstrip())
     if result.unhandled_exceptions and result.stderr_tail:

@@ -32,7 +32,7 @@ from host_tools import error_model
 from host_tools.cli import emit_json
 from protocol.errors import UserError
 from host_tools.experiments.executor import Executor
-from host_tools.scenario import SCHEMA, validate
+from hil.scenario import check
 
 GAITS = ("wave", "tripod")
 DENSITIES = ("low", "high")
@@ -84,11 +84,7 @@ def scenario_for(spec: RunSpec) -> dict[str, Any]:
     data = {"scenario": {"name": f"tactile-hexapod-{spec.stage}", "seed": spec.seed,
                          "duration_s": spec.duration_s},
             "gait": gait, "firmware": {"tactile": spec.tactile}, "world": world}
-    out = validate(data, Path(f"<{data['scenario']['name']}>"))
-    for section in SCHEMA:
-        out.setdefault(section, {})
-    out["_path"] = f"<{data['scenario']['name']}>"
-    return out
+    return check(data, f"<{data['scenario']['name']}>")
 
 
 def simulate(scenario: dict[str, Any], seed: int, duration_s: float, trace: str | None = None):

@@ -1,195 +1,87 @@
-"""The closed loop of Sec. III-C/D/E over a python-can bus, in lockstep virtual time.
+"""The closed loop of Sec. III-C/D/E: the beams world and the host nodes on one CAN bus,
+run by the lockstep simulator (hil/sim.py) like every other run.
 
-Three nodes share one in-process ``virtual`` CAN channel, each through its own python-can Bus:
-
-* the world (hil/world/beams.py): steps Eq. 1-3 every 0.2 ms; every 2 ms it publishes
-  ``body_pose`` and ``body_rate``; every 10 ms the force sensor publishes ``force`` (Eq. 6);
-  it applies the last ``actuator_command`` it received (saturated);
-* the estimator/planner node: collects the force samples from first contact, estimates the
-  beams after the sensing window, and at the end of the sensory delay plans from the pose it
-  last heard and publishes ``beam_estimate`` (with the mode);
-* the controller: pushes with F_x until it has a plan, then runs Eq. 9 every 2 ms and sends
-  ``actuator_command``.
-
-One loop steps the world and drains every bus in a fixed order: no threads, no wall clock,
-so a seed gives the same run byte for byte.
+``run(cfg)`` is what ``hexhil beams run``, the experiments and ``hexhil run`` of a beams
+scenario call; ``config_from_scenario`` reads a scenario's ``[beams]`` and ``[traversal]``.
 """
 from __future__ import annotations
 
-import itertools
 import math
-from dataclasses import dataclass, field
 from typing import Any
 
-import can
-import numpy as np
+from hil.sim import Simulator
+from hil.world.beams import PAPER_BODY, BeamParams, BeamsWorld, BodyGeometry, BodyState
+from hil.world.beams_node import NO_CONTACT_LIMIT_US, BeamsNode
+from host_tools.traversal.nodes import ControllerNode, PlannerNode, RunConfig
+from protocol.errors import UserError
 
-from hil.world.beams import DT_US, PAPER_BODY, SENSOR_PERIOD_US, BeamParams, BeamsWorld, BodyGeometry, BodyState
-from host_tools.traversal import estimator, landscape, planner
-from host_tools.traversal.control import CONTROL_PERIOD_US, FeedbackLinearisation, energy_increment_j
-from protocol import can_frames
-
-RIGID_K_NM_PER_RAD = 100.0     # the avoidance baseline's map: beams as obstacles to roll past
-_channels = itertools.count()
+STRATEGIES = ("interact", "avoid", "none")
+METHODS = ("fast", "paper")
 
 
-@dataclass
-class RunConfig:
-    k1: float
-    k2: float
-    hb1_m: float = 0.0
-    hb2_m: float = 0.0
-    strategy: str = "interact"        # interact | avoid | none
-    fx_n: float = 1.0
-    noise: float = 0.2
-    delay_ms: float = 300.0
-    sensing_ms: float = 300.0
-    unknowns: int = 3                 # Sec. III-C uses three unknowns at 20 % noise
-    method: str = "fast"
-    seed: int = 0
-    max_time_s: float = 8.0           # after first contact
-    grid: landscape.Grid = field(default_factory=landscape.paper_grid)
-    preload_nm: float = 0.0
-    beam_mass_kg: float = 0.0
+def config_from_scenario(sc: dict[str, Any], seed: int) -> RunConfig:
+    """A checked beams scenario's ``[beams]`` and ``[traversal]`` as a run configuration."""
+    b, t, where = sc["beams"], sc["traversal"], sc["_path"]
+    for key in ("k1_nm_per_rad", "k2_nm_per_rad"):
+        if key not in b:
+            raise UserError(f"{where}: world.kind 'beams' needs key 'beams.{key}'")
+    for key, value in b.items():
+        if not (math.isfinite(value) and value >= 0):
+            raise UserError(f"{where}: key 'beams.{key}' must be a finite number >= 0, "
+                            f"got {value}")
+    strategy = t.get("strategy", "interact")
+    if strategy not in STRATEGIES:
+        raise UserError(f"{where}: key 'traversal.strategy' must be one of "
+                        f"{', '.join(STRATEGIES)}, got {strategy!r}")
+    if t.get("method", "fast") not in METHODS:
+        raise UserError(f"{where}: key 'traversal.method' must be fast or paper")
+    if t.get("unknowns", 3) not in (2, 3, 4):
+        raise UserError(f"{where}: key 'traversal.unknowns' must be 2, 3 or 4")
+    fx = t.get("fx_n", 1.0 if strategy == "none" else 0.1)
+    if abs(fx) > 2.0:
+        raise UserError(f"{where}: key 'traversal.fx_n' must be within the actuator limit "
+                        f"|F_x| <= 2 N, got {fx}")
+    hb1 = b.get("hb1_m", 0.0)
+    return RunConfig(b["k1_nm_per_rad"], b["k2_nm_per_rad"], hb1, b.get("hb2_m", hb1),
+                     strategy, fx, b.get("noise", 0.2), t.get("delay_ms", 300.0),
+                     t.get("sensing_ms", 300.0), t.get("unknowns", 3), t.get("method", "fast"),
+                     seed, t.get("max_time_s", 8.0), preload_nm=b.get("preload_nm", 0.0),
+                     beam_mass_kg=b.get("mass_kg", 0.0))
 
 
-class _Node:
-    """One python-can endpoint on the shared virtual channel, recording what it sends."""
-
-    def __init__(self, channel: str, recorder: Any, direction: str) -> None:
-        self.bus = can.Bus(interface="virtual", channel=channel, receive_own_messages=False)
-        self.recorder, self.direction = recorder, direction
-
-    def send(self, t_us: int, name: str, **signals: float) -> None:
-        arb_id, data = can_frames.encode(name, **signals)
-        self.bus.send(can.Message(arbitration_id=arb_id, data=data, is_extended_id=False,
-                                  timestamp=t_us * 1e-6))
-        if self.recorder is not None:
-            self.recorder.can(t_us, arb_id, data, direction=self.direction)
-
-    def drain(self) -> list[tuple[str, dict]]:
-        out = []
-        while (msg := self.bus.recv(timeout=0)) is not None:
-            out.append(can_frames.decode(msg.arbitration_id, bytes(msg.data)))
-        return out
-
-    def close(self) -> None:
-        self.bus.shutdown()
-
-
-def run(cfg: RunConfig, recorder: Any = None, geometry: BodyGeometry = PAPER_BODY) -> dict:
+def run(cfg: RunConfig, recorder: Any = None, geometry: BodyGeometry = PAPER_BODY,
+        can_server: Any = None) -> dict:
     """One traversal; returns the outcome, the estimate, the plan and the Eq. 11 energy."""
-    if cfg.strategy not in ("interact", "avoid", "none"):
+    if cfg.strategy not in STRATEGIES:
         raise ValueError(f"unknown strategy {cfg.strategy!r}")
     truth = [BeamParams(cfg.k1, cfg.hb1_m, cfg.preload_nm, cfg.beam_mass_kg),
              BeamParams(cfg.k2, cfg.hb2_m, cfg.preload_nm, cfg.beam_mass_kg)]
-    world = BeamsWorld(truth, geometry, BodyState(), noise=cfg.noise, seed=cfg.seed)
-    channel = f"hexhil-beams-{next(_channels)}"
-    w_node, e_node, c_node = (_Node(channel, recorder, d) for d in ("tx", "tx", "rx"))
-    samples: list[tuple[int, tuple[float, float, float], tuple[float, float, float]]] = []
-    est_pose = ctl_pose = (world.state.x_m, 0.0, 0.0)
-    ctl_rate = (world.state.vx_m_s, 0.0, 0.0)
-    contact_us: int | None = None
-    est: estimator.Estimate | None = None
-    the_plan: planner.Plan | None = None
-    controller: FeedbackLinearisation | None = None
-    start_pose = None
-    energy = 0.0
-    sample_no = 0
-    delay_us = int(round(cfg.delay_ms * 1000))
-    window_us = min(int(round(cfg.sensing_ms * 1000)), delay_us)
-    peak = [0.0, 0.0]
-    try:
-        while True:
-            world.step()
-            t = world.t_us
-            s = world.state
-            peak = [max(peak[0], abs(s.roll_rad)), max(peak[1], abs(s.pitch_rad))]
-            if t % CONTROL_PERIOD_US == 0:
-                w_node.send(t, "body_pose", x_m=s.x_m, roll_rad=s.roll_rad, pitch_rad=s.pitch_rad)
-                w_node.send(t, "body_rate", vx_m_s=s.vx_m_s, roll_rate_rad_s=s.roll_rate_rad_s,
-                            pitch_rate_rad_s=s.pitch_rate_rad_s)
-            if t % SENSOR_PERIOD_US == 0:
-                fx, fy, fz = world.sense_force()
-                w_node.send(t, "force", fx_n=fx, fy_n=fy, fz_n=fz, sample=sample_no)
-                sample_no += 1
-            # --- estimator / planner node
-            for name, sig in e_node.drain():
-                if name == "body_pose":
-                    est_pose = (sig["x_m"], sig["roll_rad"], sig["pitch_rad"])
-                elif name == "force":
-                    f = (sig["fx_n"], sig["fy_n"], sig["fz_n"])
-                    if contact_us is None and any(f):
-                        contact_us = t
-                    if contact_us is not None and t - contact_us < window_us:
-                        samples.append((t, est_pose, f))
-            if contact_us is not None and cfg.strategy == "interact" and est is None \
-                    and t - contact_us >= window_us:
-                est = estimator.estimate(np.array([p for _, p, _ in samples]),
-                                         np.array([f for _, _, f in samples]), cfg.unknowns, cfg.method,
-                                         geometry)
-            plan_now = contact_us is not None and the_plan is None and (
-                (cfg.strategy == "interact" and t - contact_us >= delay_us) or cfg.strategy == "avoid")
-            if plan_now:
-                start_pose = est_pose
-                if cfg.strategy == "interact":
-                    hb = 0.5 * (est.hb1_m + est.hb2_m) if cfg.unknowns == 3 else est.hb1_m
-                    land = landscape.build(cfg.grid, est.hb1_m, est.hb2_m, geometry)
-                    the_plan = planner.plan(land, est.k1, est.k2, start_pose)
-                    model = [BeamParams(est.k1, est.hb1_m), BeamParams(est.k2, est.hb2_m)]
-                    e_node.send(t, "beam_estimate", k1_nm_per_rad=est.k1, k2_nm_per_rad=est.k2, hb_m=hb,
-                                mode=can_frames.MODE_NAMES.index(the_plan.mode))
-                else:
-                    land = landscape.build(cfg.grid, 0.0, 0.0, geometry)
-                    the_plan = planner.plan(land, RIGID_K_NM_PER_RAD, RIGID_K_NM_PER_RAD, start_pose)
-                    model = []                  # a geometric map knows no beam forces
-                controller = FeedbackLinearisation(the_plan, t, model, geometry)
-            # --- controller node
-            if t % CONTROL_PERIOD_US == 0:
-                for name, sig in c_node.drain():
-                    if name == "body_pose":
-                        ctl_pose = (sig["x_m"], sig["roll_rad"], sig["pitch_rad"])
-                    elif name == "body_rate":
-                        ctl_rate = (sig["vx_m_s"], sig["roll_rate_rad_s"], sig["pitch_rate_rad_s"])
-                if controller is not None:
-                    u = controller(t, ctl_pose, ctl_rate)
-                else:
-                    u = (cfg.fx_n, 0.0, 0.0)
-                c_node.send(t, "actuator_command", fx_n=u[0], tau1_nm=u[1], tau2_nm=u[2])
-                if not world.free_run:
-                    energy += energy_increment_j(world.applied, s.qd())
-            for name, sig in w_node.drain():
-                if name == "actuator_command":
-                    world.command(sig["fx_n"], sig["tau1_nm"], sig["tau2_nm"])
-            if recorder is not None and t % 100_000 == 0:
-                recorder.advance(t)
-            if world.flipped or world.passed():
-                break
-            if world.first_contact_us is not None and t - world.first_contact_us > cfg.max_time_s * 1e6:
-                break
-            if world.first_contact_us is None and t > 5_000_000:
-                break
-    finally:
-        for node in (w_node, e_node, c_node):
-            node.close()
+    state = BodyState()
+    world = BeamsNode(BeamsWorld(truth, geometry, state, noise=cfg.noise, seed=cfg.seed),
+                      cfg.max_time_s)
+    scenario = {"world": {"kind": "beams"}, "_path": "<beams run>"}
+    sim = Simulator(scenario, cfg.seed, world=world, recorder=recorder, can_server=can_server)
+    plan = PlannerNode(sim.can.endpoint("tx"), cfg, geometry, state.x_m)
+    sim.add_node(plan)
+    sim.add_node(ControllerNode(sim.can.endpoint("rx"), plan, cfg.fx_n, state.x_m, state.vx_m_s))
+    result = sim.run(NO_CONTACT_LIMIT_US * 1e-6 + cfg.max_time_s + 1.0)
+    w = result.world
     out = {
         "strategy": cfg.strategy, "k1": cfg.k1, "k2": cfg.k2, "hb1_mm": cfg.hb1_m * 1e3,
         "hb2_mm": cfg.hb2_m * 1e3, "fx_n": cfg.fx_n, "noise": cfg.noise, "delay_ms": cfg.delay_ms,
-        "seed": cfg.seed, "traversed": world.passed(), "flipped": world.flipped,
-        "stuck": not world.passed() and not world.flipped,
-        "mode": the_plan.mode if the_plan else "none",
-        "energy_J": energy, "k0": geometry.k0_nm_per_rad(),
-        "t_contact_s": None if world.first_contact_us is None else world.first_contact_us * 1e-6,
-        "t_end_s": world.t_us * 1e-6, "x_end_m": world.state.x_m,
-        "max_roll_deg": math.degrees(peak[0]), "max_pitch_deg": math.degrees(peak[1]),
-        "force_samples": len(samples),
+        "seed": cfg.seed, "traversed": w["traversed"], "flipped": w["flipped"], "stuck": w["stuck"],
+        "mode": plan.plan.mode if plan.plan else "none", "energy_J": w["energy_J"], "k0": w["k0"],
+        "t_contact_s": w["t_contact_s"], "t_end_s": w["t_end_s"], "x_end_m": w["x_end_m"],
+        "max_roll_deg": w["max_roll_deg"], "max_pitch_deg": w["max_pitch_deg"],
+        "force_samples": len(plan.samples),
     }
-    if start_pose is not None:
-        out["control_start"] = {"x_m": start_pose[0], "roll_deg": math.degrees(start_pose[1]),
-                                "pitch_deg": math.degrees(start_pose[2])}
-    if est is not None:
-        out["estimate"] = est.as_dict()
-    if the_plan is not None:
-        out["barrier_J"], out["path_cost_J"] = the_plan.barrier_j, the_plan.path_cost_j
-        out["plan_duration_s"] = the_plan.duration_s
+    if plan.start_pose is not None:
+        x, roll, pitch = plan.start_pose
+        out["control_start"] = {"x_m": x, "roll_deg": math.degrees(roll),
+                                "pitch_deg": math.degrees(pitch)}
+    if plan.estimate is not None:
+        out["estimate"] = plan.estimate.as_dict()
+    if plan.plan is not None:
+        out["barrier_J"], out["path_cost_J"] = plan.plan.barrier_j, plan.plan.path_cost_j
+        out["plan_duration_s"] = plan.plan.duration_s
     return out

@@ -14,7 +14,6 @@ import numpy as np
 from hil.world.beams import PAPER_BODY, BeamParams, BodyGeometry, external_forces, saturate
 from host_tools.traversal.planner import Plan
 
-CONTROL_PERIOD_US = 2000    # Sec. II-I: control input every 0.002 s
 KP_1_S2 = 100.0             # critically damped, natural frequency 10 rad/s
 KD_1_S = 20.0
 
@@ -41,9 +40,3 @@ class FeedbackLinearisation:
         self._theta = list(ext.theta_rad)
         m = (g.mass_kg, g.inertia_kg_m2[0], g.inertia_kg_m2[1])
         return saturate(m[0] * acc[0] - ext.q_x_n, m[1] * acc[1] - ext.q_roll_nm, m[2] * acc[2] - ext.q_pitch_nm)
-
-
-def energy_increment_j(u: tuple[float, float, float], qd: tuple[float, float, float],
-                       dt_s: float = CONTROL_PERIOD_US * 1e-6) -> float:
-    """One term of Eq. 11: positive actuator power only (actuators do not store energy)."""
-    return sum(max(ui * vi, 0.0) for ui, vi in zip(u, qd)) * dt_s

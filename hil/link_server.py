@@ -1,0 +1,174 @@
+"""Serving one firmware connection: its link requests become bus, switch and CAN traffic.
+
+The firmware speaks ``protocol/sim_link.py`` (hil/link.py reads the frames); this module
+answers each batch in virtual time: UART writes and transactions go to the servo bus, CAN
+frames to the run's CAN bus, events to the run result, and a sleep moves the clock, samples
+the limit switches and hands over the CAN frames queued for the firmware.
+"""
+from __future__ import annotations
+
+import json
+import struct
+from typing import Any, Callable
+
+from firmware import config as fw_config
+from hil.can_bus import CanBus
+from hil.link import Connection
+from hil.run_result import RunResult
+from protocol import sim_link
+
+RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)
+MAX_FRAMES_PER_SLEEP = 255  # the sleep reply counts its CAN frames in one byte
+
+
+def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> dict[str, Any]:
+    """The firmware/config.py overrides a checked scenario asks for (the hello's config)."""
+    fw, gait, bus = scenario["firmware"], scenario["gait"], scenario["bus"]
+    out: dict[str, Any] = {k: fw[k] for k in ("cycle_hz", "tactile", "servo_lost_s",
+                                               "reads_per_cycle") if k in fw}
+    name = gait.get("name", fw_config.DEFAULTS["gait"])
+    out["gait"] = name
+    out["period_s"] = gait.get("period_s", fw_config.PERIOD_FOR_GAIT_S[name])
+    for key in ("step_length_m", "step_height_m", "max_obstacle_height_m", "direction_deg"):
+        if key in gait:
+            out[key] = gait[key]
+    for key in ("first_id", "baud"):
+        if key in bus:
+            out[key] = bus[key]
+    if tactile is not None:
+        out["tactile"] = tactile
+    return out
+
+
+class SwitchSampler:
+    """The six limit-switch levels at each sleep; edges go to the result and the recorder."""
+
+    def __init__(self, levels: Callable[[int], int], recorder: Any) -> None:
+        self.levels, self.recorder = levels, recorder
+        self.bits = 0
+
+    def sample(self, t_us: int, result: RunResult) -> int:
+        bits = self.levels(t_us) & 0x3F
+        changed = bits ^ self.bits
+        if changed:
+            for i in range(6):
+                if changed & (1 << i):
+                    result.switch_edges += 1
+                    if self.recorder is not None:
+                        self.recorder.switch_edge(t_us, i, bool(bits & (1 << i)))
+        self.bits = bits
+        return bits
+
+
+class LinkServer:
+    """Answers one firmware's requests until it closes the link."""
+
+    def __init__(self, sim: Any, settings: dict[str, Any], switches: SwitchSampler,
+                 on_wake: Callable[[int], None], on_slept: Callable[[], None]) -> None:
+        self.sim, self.settings, self.switches = sim, settings, switches
+        self.on_wake, self.on_slept = on_wake, on_slept
+        self.bus = sim.rig.bus
+        self.clock = sim.rig.clock
+        self.can: CanBus = sim.can
+        self.inbox = sim.can.endpoint("tx")   # the firmware's CAN controller
+        self.byte_us = 10_000_000 / self.bus.baud
+
+    def _event(self, payload: bytes, result: RunResult) -> None:
+        kind = payload[0]
+        text = bytes(payload[1:]).decode("utf-8", errors="replace")
+        t = self.clock.t_us
+        rec = self.sim.recorder
+        if kind == sim_link.EVENT_EXCEPTION:
+            result.exceptions.append(text)
+            if rec is not None:
+                rec.fault(t, "firmware_exception", text)
+        elif kind == sim_link.EVENT_STOP:
+            result.stop_reason = text
+            if rec is not None:
+                rec.fault(t, "safe_stop", text)
+        elif kind == sim_link.EVENT_STATS:
+            result.firmware = json.loads(text)
+        elif kind == sim_link.EVENT_TACTILE:
+            ev = json.loads(text)
+            ev["t_s"] = t * 1e-6
+            result.tactile_events.append(ev)
+            if rec is not None:
+                rec.telemetry(t, ev)
+        elif rec is not None:
+            rec.telemetry(t, {"event": kind, "text": text})
+
+    def _can_from_firmware(self, payload: bytes, result: RunResult) -> None:
+        arb_id, dlc = struct.unpack_from("<HB", payload, 0)
+        result.count_can(arb_id)
+        self.inbox.send(arb_id, bytes(payload[3:3 + dlc]))
+
+    def _sleep_reply(self, wake_us: int, end_us: int, result: RunResult) -> tuple[bytes, bool]:
+        flags = 0
+        ended = wake_us >= end_us
+        if ended:
+            wake_us = end_us
+            flags |= sim_link.FLAG_END
+        if wake_us > self.clock.t_us:
+            self.bus.idle_until(wake_us)
+        self.on_wake(self.clock.t_us)
+        bits = self.switches.sample(self.clock.t_us, result)
+        body = bytearray()
+        n = 0
+        if not ended:
+            self.can.poll()
+            for msg in self.inbox.frames(MAX_FRAMES_PER_SLEEP):
+                body += struct.pack("<HB", msg.arbitration_id, msg.dlc) + \
+                    bytes(msg.data).ljust(8, b"\0")
+                n += 1
+        return struct.pack("<BBB", flags, bits, n) + body, ended
+
+    def serve(self, conn: Connection, end_us: int, result: RunResult) -> None:
+        bus, clock, rec = self.bus, self.clock, self.sim.recorder
+        counting = False
+        while True:
+            msgs, closed = conn.batch()
+            reply = None
+            slept = False
+            for op, payload in msgs:
+                if op == sim_link.OP_WRITE:
+                    t0 = clock.t_us
+                    bus.master_write(payload)
+                    if counting:
+                        result.bus_busy_us += clock.t_us - t0
+                        result.bus_wire_us += round(len(payload) * self.byte_us)
+                elif op == sim_link.OP_TRANSACT:
+                    nrx, timeout_us = struct.unpack_from("<HI", payload, 0)
+                    tx = payload[6:]
+                    t0 = clock.t_us
+                    bus.master_write(tx)
+                    rx = bus.master_read(nrx, timeout_us)
+                    if counting:
+                        result.bus_busy_us += clock.t_us - t0
+                        heard = len(rx) - (min(len(tx), len(rx)) if bus.echo else 0)
+                        result.bus_wire_us += round((len(tx) + heard) * self.byte_us)
+                    reply = rx
+                elif op == sim_link.OP_CAN:
+                    self._can_from_firmware(payload, result)
+                elif op == sim_link.OP_EVENT:
+                    self._event(payload, result)
+                elif op == sim_link.OP_SLEEP:
+                    (wake_us,) = struct.unpack_from("<Q", payload, 0)
+                    if counting:
+                        result.loop_cycles += 1
+                    counting = True
+                    reply, _ = self._sleep_reply(wake_us, end_us, result)
+                    slept = True
+                elif op == sim_link.OP_HELLO:
+                    config = json.dumps(self.settings, sort_keys=True).encode()
+                    reply = struct.pack("<B", self.switches.sample(clock.t_us, result)) + config
+            # Recording comes after the reply: nothing here moves until the firmware's next
+            # batch, so the recorder's work overlaps the firmware's instead of delaying it.
+            raw = conn.reply(clock.t_us, reply) if reply is not None and not closed else None
+            if slept:
+                self.on_slept()
+            if rec is not None and raw is not None:
+                rec.link(clock.t_us, bytes(conn.raw), raw)
+                rec.idle(0 if conn.answered() else RECORDER_SLICE)
+            if closed:
+                result.round_trips = conn.round_trips
+                return

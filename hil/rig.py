@@ -1,0 +1,76 @@
+"""One rig builder: the servos, bus, faults and world a scenario describes.
+
+``hexhil run`` (through the lockstep ``Simulator``), ``hexhil bus`` and the tests all build
+their rig here, so a scenario means the same thing everywhere: the same servo IDs, control
+table edition, return delay, baud register, EEPROM busy time and fault schedule.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable, Sequence
+
+from hil import scenario as scenario_mod
+from hil.bus import Bus, OnBytes
+from hil.clock import VirtualClock
+from hil.faults import Faults, OnFault
+from hil.servo import EEPROM_BUSY_US, Servo
+from protocol import ax12
+
+
+@dataclass
+class Rig:
+    """What a scenario builds; ``bus`` is None for a world with no servo bus (beams)."""
+
+    scenario: dict[str, Any]
+    seed: int
+    clock: VirtualClock
+    world: Any
+    bus: Bus | None
+    faults: Faults | None
+
+
+def make_world(scenario: dict[str, Any], seed: int) -> Any:
+    """The hexapod world of a checked scenario's ``[world]``, or None (kinematic servos).
+    Seed 000's beams world is built with its host nodes (host_tools/traversal/closed_loop.py)."""
+    if not scenario["world"]:
+        return None
+    from hil.world.hexapod import HexapodWorld
+    return HexapodWorld(scenario, seed)
+
+
+def _servos(scenario: dict[str, Any], ids: Sequence[int], world: Any) -> list[Servo]:
+    bus = scenario["bus"]
+    edition = bus.get("edition", ax12.EDITION_EMANUAL)
+    busy_us = bus.get("eeprom_busy_us", EEPROM_BUSY_US)
+    actuators = world.actuators() if world is not None else []
+    servos = []
+    for k, dev_id in enumerate(ids):
+        a = actuators[k] if k < len(actuators) else None
+        pos = ax12.rad_to_position(a.state()[0]) if a is not None else 512
+        s = Servo(dev_id, edition, actuator=a, position=pos, eeprom_busy_us=busy_us)
+        if "return_delay_us" in bus:
+            s.table[ax12.RETURN_DELAY_TIME] = bus["return_delay_us"] // 2
+        # The register nearest the line's rate (checked within 3 % by the scenario rules).
+        s.table[ax12.BAUD_RATE] = scenario_mod.baud_register(bus.get("baud", 1_000_000))
+        servos.append(s)
+    return servos
+
+
+def build(scenario: dict[str, Any], seed: int = 0, *, world: Any = None,
+          ids: Sequence[int] | None = None, on_fault: OnFault | None = None,
+          on_bytes: OnBytes | None = None) -> Rig:
+    """The rig of ``scenario`` (checked here, so a hand-built dict obeys the same rules)."""
+    sc = scenario_mod.check(scenario)
+    clock = VirtualClock()
+    if world is not None and not hasattr(world, "actuators"):
+        return Rig(sc, seed, clock, world, None, None)     # a world without a servo bus
+    bus_cfg = sc["bus"]
+    if ids is None:
+        first = bus_cfg.get("first_id", 1)
+        ids = range(first, first + bus_cfg.get("servos", 18))
+    faults = Faults.from_scenario(sc["faults"], seed, where=f"{sc['_path']} [faults]",
+                                  on_fault=on_fault)
+    bus = Bus(_servos(sc, list(ids), world), clock, baud=bus_cfg.get("baud", 1_000_000),
+              echo=bus_cfg.get("echo", False), faults=faults if faults.active() else None,
+              on_bytes=on_bytes, advance=world.advance_to if world is not None else None)
+    return Rig(sc, seed, clock, world, bus, faults)
