@@ -13,15 +13,14 @@ import math
 
 from firmware import servo_bus as master_mod
 from firmware import gait as gait_mod
-from firmware import kinematics as kin
 from firmware import tactile
 from firmware import trajectory as traj
 from protocol import sim_link
 from protocol import ax12
 from protocol import can_frames as cf
+from protocol import hexapod
 from protocol import dynamixel as dxl
 
-JOINTS = ("coxa", "femur", "tibia")
 SAFE_SPEED_RAD_S = 1.0      # joint speed limit while going to the safe stance
 SPEED_MARGIN = 1.5          # moving-speed limit = margin x the speed the targets need
 COMPLIANCE_MARGIN = 1       # AX-12 units, e-manual default
@@ -37,8 +36,8 @@ class Controller:
             raise ValueError("the hexapod needs 18 servos, config says %d" % n)
         first = cfg["first_id"]
         self.ids = [first + k for k in range(18)]
-        self.legs = [kin.Leg(i) for i in range(6)]
-        self.neutral = [kin.neutral_foot(i) for i in range(6)]
+        self.legs = [hexapod.Leg(i) for i in range(6)]
+        self.neutral = [hexapod.neutral_foot(i) for i in range(6)]
         self.master = master_mod.Master(board.uart, self.ids, cfg["baud"],
                                         retries=cfg["read_retries"])
         self.gait = gait_mod.Gait(cfg["gait"], cfg["period_s"])
@@ -167,7 +166,7 @@ class Controller:
             for i in range(6):
                 if changed & (1 << i):
                     self.board.event(sim_link.EVENT_TACTILE, json.dumps(
-                        {"leg": cf.LEGS[i], "switch": 1 if pressed & (1 << i) else 0}))
+                        {"leg": hexapod.LEGS[i], "switch": 1 if pressed & (1 << i) else 0}))
         while self.board.can.any():
             self._command(self.board.can.recv(), now)
         if self.state == cf.STATE_WALKING:
@@ -175,8 +174,8 @@ class Controller:
             g = self.gait
             # Dead reckoning at the nominal body speed: what the gait commands, not where
             # the body went (the host compares the two).
-            self.commanded_m += gait_mod.speed_m_s(g.name, self.rule.l_i,
-                                                   g.period_us * 1e-6) * self.period_us * 1e-6
+            self.commanded_m += hexapod.speed_m_s(g.name, self.rule.l_i,
+                                                  g.period_us * 1e-6) * self.period_us * 1e-6
         else:
             self._safe_targets()
         self.master.sync_write(self.positions, self.speeds, self.board)
@@ -205,7 +204,7 @@ class Controller:
                 if rule.lift_off(i, pressed & bit):
                     changed = True
                     self.board.event(sim_link.EVENT_TACTILE, json.dumps(
-                        {"leg": cf.LEGS[i], "overcoming": 1 if rule.overcoming & bit else 0,
+                        {"leg": hexapod.LEGS[i], "overcoming": 1 if rule.overcoming & bit else 0,
                          "step_length_m": rule.l[i], "step_height_m": rule.h[i]}))
             if swing:
                 self.swinging |= bit
@@ -278,10 +277,10 @@ class Controller:
             if self.state in (cf.STATE_WALKING, cf.STATE_STOPPED):
                 if silent > self.lost_us:
                     self._stop(cf.STATE_SAFE_STOP, "servo %d (%s %s) lost: no valid status for %.1f s"
-                               % (s.id, cf.LEGS[k // 3], JOINTS[k % 3], silent * 1e-6))
+                               % (s.id, hexapod.LEGS[k // 3], hexapod.JOINTS[k % 3], silent * 1e-6))
                 elif s.critical_run >= self.critical_errors:
                     self._stop(cf.STATE_SAFE_STOP, "servo %d (%s %s) critical error: %s"
-                               % (s.id, cf.LEGS[k // 3], JOINTS[k % 3],
+                               % (s.id, hexapod.LEGS[k // 3], hexapod.JOINTS[k % 3],
                                   "+".join(dxl.error_names(s.error_bits & master_mod.CRITICAL_BITS))))
         t, c, _ = m.counters()
         if t or c:
@@ -299,7 +298,7 @@ class Controller:
             return
         self.commands += 1
         if sig["period_s"] > 0:
-            self.gait.request(gait_mod.NAMES[sig["gait"]], sig["period_s"])
+            self.gait.request(cf.GAIT_NAMES[sig["gait"]], sig["period_s"])
         if sig["step_length_m"] > 0 and sig["step_height_m"] > 0:
             self.rule.set_initial(sig["step_length_m"], sig["step_height_m"],
                                   self.cfg["max_obstacle_height_m"])
