@@ -1,28 +1,12 @@
-"""Tripod and wave gaits of seed 003 (Fig. 13), MicroPython-compatible.
+"""The gait clock for seed 003's tripod and wave gaits (Fig. 13), MicroPython-compatible.
 
-A gait is a period ``T`` in the trajectory's normalised units (one unit = one leg
-transfer) and each leg's lift-off phase. Tripod: LM+RF+RH transfer in the first half of
-the period, LF+LH+RM in the second (T = 2, duty factor 1/2). Wave: one leg at a time in
-the order LF, LM, LH, RF, RM, RH (T = 6, duty factor 5/6). Body speed is
-``l T / ((T - 1) period_s)``: a stance foot sweeps l in T - 1 of the T units (Eq. 2-3).
+A gait (``protocol/hexapod.py`` ``GAITS``) is a period ``T`` in the trajectory's normalised
+units (one unit = one leg transfer) and each leg's lift-off phase. Tripod: LM+RF+RH transfer
+in the first half of the period, LF+LH+RM in the second (T = 2, duty factor 1/2). Wave: one
+leg at a time in the order LF, LM, LH, RF, RM, RH (T = 6, duty factor 5/6). The clock maps
+virtual microseconds to normalised time and applies requested changes at a wrap.
 """
-
-# name -> (T, phases in leg order LF, LM, LH, RF, RM, RH)
-GAITS = {
-    "tripod": (2, (1, 0, 1, 0, 1, 0)),
-    "wave": (6, (0, 1, 2, 3, 4, 5)),
-}
-NAMES = ("tripod", "wave")  # index = can_frames GAIT_* value
-
-
-def speed_m_s(name, step_length_m, period_s):
-    T = GAITS[name][0]
-    return step_length_m * T / ((T - 1) * period_s)
-
-
-def period_for_speed_s(name, step_length_m, speed_m_s):
-    T = GAITS[name][0]
-    return step_length_m * T / ((T - 1) * speed_m_s)
+from protocol.hexapod import GAITS
 
 
 class Gait:

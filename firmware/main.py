@@ -8,6 +8,7 @@ import json
 import sys
 
 from firmware import config
+from firmware import telemetry
 from firmware.controller import Controller
 from protocol import sim_link
 
@@ -42,7 +43,7 @@ def main():
         board.event(sim_link.EVENT_EXCEPTION, _traceback(exc))
     finally:
         if ctl is not None:
-            board.event(sim_link.EVENT_STATS, json.dumps(ctl.stats()))
+            board.event(sim_link.EVENT_STATS, json.dumps(telemetry.stats(ctl)))
         board.close()
 
 

@@ -11,11 +11,10 @@ import json
 import struct
 from typing import Any, Callable
 
-from firmware import config as fw_config
 from hil.can_bus import CanBus
 from hil.link import Connection
 from hil.run_result import RunResult
-from protocol import sim_link
+from protocol import hexapod, sim_link
 
 RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)
 MAX_FRAMES_PER_SLEEP = 255  # the sleep reply counts its CAN frames in one byte
@@ -26,9 +25,9 @@ def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> 
     fw, gait, bus = scenario["firmware"], scenario["gait"], scenario["bus"]
     out: dict[str, Any] = {k: fw[k] for k in ("cycle_hz", "tactile", "servo_lost_s",
                                                "reads_per_cycle") if k in fw}
-    name = gait.get("name", fw_config.DEFAULTS["gait"])
+    name = gait.get("name", hexapod.DEFAULT_GAIT)
     out["gait"] = name
-    out["period_s"] = gait.get("period_s", fw_config.PERIOD_FOR_GAIT_S[name])
+    out["period_s"] = gait.get("period_s", hexapod.GAIT_PERIOD_S[name])
     for key in ("step_length_m", "step_height_m", "max_obstacle_height_m", "direction_deg"):
         if key in gait:
             out[key] = gait[key]

@@ -10,6 +10,8 @@ wrap round); counters wrap; enums and bitfields out of range raise ValueError.
 """
 import struct
 
+from protocol.hexapod import LEGS
+
 # --- IDs (DBC ``BO_``) --------------------------------------------------------------
 ID_ACTUATOR_COMMAND = 0x100
 ID_BODY_POSE = 0x110
@@ -51,8 +53,7 @@ FAULT_VOLTAGE = 0x10      # input voltage out of the servos' limits
 FAULT_OVERHEAT = 0x20     # a servo reported overheating
 FAULT_NAMES = ("servo_lost", "servo_error", "overrun", "bus_error", "voltage", "overheat")
 
-# tactile.switches / tactile.overcoming bits: bit i is leg LEGS[i]
-LEGS = ("LF", "LM", "LH", "RF", "RM", "RH")
+# tactile.switches / tactile.overcoming bits: bit i is leg LEGS[i] (protocol/hexapod.py)
 LEG_BITS = 0x3F
 
 # --- Frame table --------------------------------------------------------------------

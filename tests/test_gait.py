@@ -1,14 +1,15 @@
-"""Gait phase tables (seed 003 Fig. 13) and the gait clock (firmware/gait.py)."""
+"""Gait phase tables (seed 003 Fig. 13, protocol/hexapod.py) and the gait clock (firmware/gait.py)."""
 import pytest
 
 from firmware import gait as g
 from firmware import trajectory as traj
+from protocol import hexapod
 
 LEGS = ("LF", "LM", "LH", "RF", "RM", "RH")
 
 
 def swinging(name, t):
-    T, phases = g.GAITS[name]
+    T, phases = hexapod.GAITS[name]
     return {LEGS[i] for i in range(6) if traj.in_swing(t, phases[i])}
 
 
@@ -24,15 +25,14 @@ def test_wave_order_fig13():
 
 @pytest.mark.parametrize("name,n", [("tripod", 3), ("wave", 1)])
 def test_legs_in_transfer_at_any_time(name, n):
-    T = g.GAITS[name][0]
+    T = hexapod.GAITS[name][0]
     for k in range(1, 1000):
         assert len(swinging(name, k * T / 1000)) == n
 
 
 def test_speed_matches_paper_at_default_periods():
-    from firmware import config
     for name, v in (("tripod", 0.036), ("wave", 0.013)):
-        assert g.speed_m_s(name, 0.05, config.PERIOD_FOR_GAIT_S[name]) == pytest.approx(v)
+        assert hexapod.speed_m_s(name, 0.05, hexapod.GAIT_PERIOD_S[name]) == pytest.approx(v)
 
 
 def test_clock_and_change_only_at_wrap():

@@ -1,11 +1,11 @@
-"""Leg IK/FK (firmware/kinematics.py) over the walking workspace, in CPython and MicroPython."""
+"""Leg IK/FK (protocol/hexapod.py) over the walking workspace, in CPython and MicroPython."""
 import math
 
 import pytest
 
-from firmware import kinematics as kin
 from firmware import trajectory as traj
 from mpy import run_micropython
+from protocol import hexapod as kin
 
 
 def workspace(leg):
@@ -70,7 +70,7 @@ def test_servo_angle_calibration_round_trip():
 def test_round_trip_under_micropython(tmp_path):
     script = tmp_path / "k.py"
     script.write_text(
-        "from firmware import kinematics as kin\n"
+        "from protocol import hexapod as kin\n"
         "worst = 0.0\n"
         "for leg in range(6):\n"
         "    L = kin.Leg(leg)\n"

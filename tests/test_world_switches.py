@@ -3,10 +3,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from firmware import kinematics as kin
 from hil.world import actuator as act
 from hil.world.hexapod import LEGS, HexapodWorld, RobotParams
 from hil.world.switches import SwitchBank
+from protocol import hexapod as kin
 
 
 def test_hysteresis_between_operating_and_release_force():

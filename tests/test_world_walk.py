@@ -1,16 +1,16 @@
 """Open-loop walking of the MuJoCo hexapod through the servo Actuator seam.
 
-Joint targets come from the firmware's own (plain Python) gait, Eq. 2-4 trajectory and
-kinematics, run in CPython with no tactile rule: this tunes and checks the physics alone.
+Joint targets come from the firmware's own (plain Python) gait and Eq. 2-4 trajectory and
+the robot description's kinematics (protocol/hexapod.py), run in CPython with no tactile rule: this tunes and checks the physics alone.
 """
 import math
 
 import pytest
 
 from firmware import gait as gait_mod
-from firmware import kinematics as kin
 from firmware import trajectory as traj
 from hil.world.hexapod import HexapodWorld
+from protocol import hexapod as kin
 
 CYCLE_US = 20_000  # the firmware's 50 Hz loop
 

@@ -4,16 +4,16 @@ lockstep virtual time, with ground truth (body pose, foot contacts, switch level
 Robot (seed 003, Sec. 3.1 and Fig. 12): 1.5 kg, about 30 x 30 cm, coxa 5 cm, femur 8.2 cm,
 tibia 12 cm, body bottom 8 cm above the ground in the neutral stance, 18 AX-12 joints.
 
-Geometry comes from the firmware's ``firmware/kinematics.py`` (one source of truth for
-mounts, link lengths, neutral stance and servo directions). World x is the walking
-direction, z up; the robot starts at the origin facing +x. Legs in servo-ID order LF, LM,
-LH, RF, RM, RH, each coxa, femur, tibia (IDs 1-3 for LF ... 16-18 for RH).
+Geometry comes from the robot description ``protocol/hexapod.py``, which the firmware
+reads too (one source of truth for mounts, link lengths, body box, neutral stance and
+servo directions). World x is the walking direction, z up; the robot starts at the origin
+facing along x. Legs in servo-ID order LF, LM, LH, RF, RM, RH, each coxa, femur, tibia
+(IDs 1-3 for LF ... 16-18 for RH).
 
 Every MuJoCo joint angle IS the servo angle (0 at the AX-12 centre, position 512): coxa
 along the leg's mounting yaw, femur horizontal, tibia perpendicular to the femur pointing
-down. On the left legs positive femur lifts the knee and positive tibia swings the foot
-out; the right legs' femur and tibia servos are mounted mirrored (``DIRECTIONS``), so their
-joint axes point the other way, exactly as on the robot.
+down. Positive femur lifts the knee and positive tibia swings the foot out; a servo mounted
+mirrored (-1 in ``DIRECTIONS``) turns its joint axis the other way, as on the robot.
 """
 from __future__ import annotations
 
@@ -24,12 +24,12 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from firmware import kinematics as kin
-from firmware.config import LEGS
 from hil.world import actuator as act
 from hil.world import terrain as terrain_mod
 from hil.world.switches import SwitchBank
+from protocol import hexapod as robot_desc
 from protocol.errors import UserError
+from protocol.hexapod import JOINTS, LEGS
 
 PHYSICS_DT_US = 2000   # 2 ms steps: contact-stable with implicit joint damping (see docs)
 
@@ -38,14 +38,14 @@ PHYSICS_DT_US = 2000   # 2 ms steps: contact-stable with implicit joint damping 
 class RobotParams:
     """Geometry and masses; lengths in metres, masses in kilograms."""
 
-    coxa_m: float = kin.COXA_M      # Fig. 12
-    femur_m: float = kin.FEMUR_M    # Fig. 12
-    tibia_m: float = kin.TIBIA_M    # Fig. 12, knee to the foot sphere's centre
-    body_clearance_m: float = kin.BODY_CLEARANCE_M  # ground to body bottom, neutral (Fig. 12)
+    coxa_m: float = robot_desc.COXA_M      # Fig. 12
+    femur_m: float = robot_desc.FEMUR_M    # Fig. 12
+    tibia_m: float = robot_desc.TIBIA_M    # Fig. 12, knee to the foot sphere's centre
+    body_clearance_m: float = robot_desc.BODY_CLEARANCE_M  # ground to body bottom (Fig. 12)
     # body box half-extents; the coxa joints lie on its mid-plane
-    body_half_m: tuple[float, float, float] = (0.11, 0.065, kin.BODY_HALF_THICKNESS_M)
-    mounts: tuple[tuple[float, float, float], ...] = kin.MOUNTS     # (x, y, yaw) body frame
-    foot_radius_m: float = kin.FOOT_RADIUS_M
+    body_half_m: tuple[float, float, float] = robot_desc.BODY_HALF_M
+    mounts: tuple[tuple[float, float, float], ...] = robot_desc.MOUNTS  # (x, y, yaw) body frame
+    foot_radius_m: float = robot_desc.FOOT_RADIUS_M
     tibia_radius_m: float = 0.008
     # 1.5 kg in all (Sec. 3.1): body with electronics and coxa servos, links carry servos
     body_kg: float = 0.66
@@ -69,11 +69,11 @@ class RobotParams:
 
 
 def neutral_joints() -> np.ndarray:
-    """The 18 servo angles of the firmware's neutral stance (feet on the ground)."""
+    """The 18 servo angles of the neutral stance (feet on the ground)."""
     out = []
     for i in range(len(LEGS)):
-        leg = kin.Leg(i)
-        q = list(leg.ik(*kin.neutral_foot(i)))
+        leg = robot_desc.Leg(i)
+        q = list(leg.ik(*robot_desc.neutral_foot(i)))
         out += [leg.servo_rad(j, q[j]) for j in range(3)]
     return np.array(out)
 
@@ -92,7 +92,7 @@ def mjcf(params: RobotParams, obstacles: list[terrain_mod.Obstacle], ground_fric
     bx, by, bz = p.body_half_m
     robot = 'contype="1" conaffinity="0"'
     legs = []
-    for name, (mx, my, yaw), dirs in zip(LEGS, p.mounts, kin.DIRECTIONS):
+    for name, (mx, my, yaw), dirs in zip(LEGS, p.mounts, robot_desc.DIRECTIONS):
         # switch plate faces the robot's forward direction (body +x) seen from this leg
         n_x, n_y = math.cos(yaw), -math.sin(yaw)
         off = p.tibia_radius_m + p.plate_gap_m + p.plate_half_m[0]
@@ -127,7 +127,7 @@ def mjcf(params: RobotParams, obstacles: list[terrain_mod.Obstacle], ground_fric
         for i, o in enumerate(obstacles))
     motors = "".join(
         f'\n    <motor name="{leg}_{j}" joint="{leg}_{j}" ctrlrange="{_f(-act.STALL_TORQUE_NM, act.STALL_TORQUE_NM)}"/>'
-        for leg in LEGS for j in ("coxa", "femur", "tibia"))
+        for leg in LEGS for j in JOINTS)
     sensors = "".join(f'\n    <touch name="{leg}_plate" site="{leg}_plate"/>' for leg in LEGS) + \
         "".join(f'\n    <touch name="{leg}_foot" site="{leg}_foot"/>' for leg in LEGS)
     return f"""<mujoco model="hexhil-hexapod">
@@ -205,8 +205,9 @@ class HexapodWorld:
         self.model = mujoco.MjModel.from_xml_string(self.xml)
         self.data = mujoco.MjData(self.model)
         q0 = neutral_joints()
-        if abs(self.params.body_height_m - self.params.foot_radius_m - kin.STANCE_DEPTH_M) > 1e-9:
-            raise ValueError("world and firmware disagree on the neutral stance depth")
+        depth_m = self.params.body_height_m - self.params.foot_radius_m
+        if abs(depth_m - robot_desc.STANCE_DEPTH_M) > 1e-9:
+            raise ValueError("world parameters disagree with protocol/hexapod.py on the stance depth")
         # Views into MjData's fixed buffers: the free joint comes first (7 coordinates,
         # 6 velocities), then the legs in servo-ID order; touch sensors: plates, then feet.
         self._q = self.data.qpos[7:25]
@@ -283,7 +284,7 @@ class HexapodWorld:
     @staticmethod
     def joint_names() -> list[str]:
         """MJCF joint names in servo-ID order, as they appear in JointStates."""
-        return [f"{leg}_{part}" for leg in LEGS for part in ("coxa", "femur", "tibia")]
+        return [f"{leg}_{part}" for leg in LEGS for part in JOINTS]
 
     # --- logging ------------------------------------------------------------------------
     def _sample(self) -> None:

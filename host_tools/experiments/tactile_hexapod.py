@@ -26,13 +26,12 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from firmware import config as fw_config
-from firmware import kinematics as kin
 from host_tools import error_model
 from host_tools.cli import emit_json
 from protocol.errors import UserError
 from host_tools.experiments.executor import Executor
 from hil.scenario import check
+from protocol import hexapod
 
 GAITS = ("wave", "tripod")
 DENSITIES = ("low", "high")
@@ -41,7 +40,7 @@ HEIGHT_MAX_M = {"small": 0.05, "large": 0.08}   # H of Eq. 7: the class's maximu
 PROBE_PERIODS = 4
 GOAL_MARGIN_M = 0.3          # terrain continues this far past the goal
 # lateral distance between the left and right foot lines: "a" of Eq. 12
-ROBOT_WIDTH_M = 2 * kin.neutral_foot(1)[1]
+ROBOT_WIDTH_M = 2 * hexapod.neutral_foot(1)[1]
 
 # The paper's numbers (seed 003), shown beside ours.
 PAPER_TABLE1_CM = {("wave", 1.0): (2, 1), ("wave", 2.0): (2, 5), ("tripod", 1.0): (1, 2),
@@ -65,7 +64,7 @@ class RunSpec:
 
     @property
     def period_s(self) -> float:
-        return fw_config.PERIOD_FOR_GAIT_S[self.gait]
+        return hexapod.GAIT_PERIOD_S[self.gait]
 
     @property
     def duration_s(self) -> float:
@@ -164,7 +163,7 @@ def run_sweep(quick: bool, seeds: int, executor: Executor,
     probe_out = executor.map(run_one, probes, "calibration probe")
     speed = {r["gait"]: r["x_m"] / r["sim_s"] for r in probe_out}
     distances = (1.0,) if quick else (1.0, 2.0)
-    periods_for = {(g, d): max(1, round(d / (speed[g] * fw_config.PERIOD_FOR_GAIT_S[g])))
+    periods_for = {(g, d): max(1, round(d / (speed[g] * hexapod.GAIT_PERIOD_S[g])))
                    for g in GAITS for d in distances}
     specs = plan(quick, seeds, periods_for)
     runs = executor.map(_run_with_speed, [(s, speed[s.gait], trace_dir) for s in specs], "runs")

@@ -1,30 +1,43 @@
-"""Leg kinematics of seed 003's hexapod (Sec. 3.1, Fig. 12), MicroPython-compatible.
+"""The robot description of seed 003's hexapod, read by the firmware and the simulated world.
+
+Seed 003 Sec. 3.1 and Fig. 12: 1.5 kg, about 30 x 30 cm, coxa 5 cm, femur 8.2 cm, tibia
+12 cm, body bottom 8 cm above the ground in the neutral stance, 18 AX-12 joints; Fig. 13:
+the tripod and wave gaits. Where the paper is silent (mounts, body box, joint limits) the
+values are our choice and say so. MicroPython-compatible (no annotations, no numpy).
 
 Body frame: x forward, y left, z up, origin at the body centre, on the plane of the coxa
-joints. In neutral stance the body bottom is 8 cm above flat ground (Fig. 12), so the foot
-(tibia end) is ``STANCE_DEPTH_M`` below the coxa plane. Geometry matches the MuJoCo world
-(hil/world/hexapod.py ``RobotParams``), which takes servo angles as joint angles.
-Leg frame: origin at the coxa joint, x radially out along the mounting yaw, z up.
+joints (the body box's mid-plane). In neutral stance the foot (tibia end) is
+``STANCE_DEPTH_M`` below that plane. Leg frame: origin at the coxa joint, x radially out
+along the mounting yaw, z up.
 
 Joint angles (rad): coxa yaw q1, femur pitch q2 (0 = horizontal, up positive), tibia q3
 relative to the femur (0 = straight, negative bends the foot down). Servo angles are
-``direction * (q - zero) + offset``, 0 rad at the AX-12's centre (512).
+``direction * (q - zero) + offset``, 0 rad at the AX-12's centre (512); the world's MuJoCo
+joints take servo angles.
 """
 import math
 
-COXA_M = 0.05    # Fig. 12
-FEMUR_M = 0.082
-TIBIA_M = 0.12
-BODY_CLEARANCE_M = 0.08      # Fig. 12: ground to body bottom, neutral stance
-BODY_HALF_THICKNESS_M = 0.015  # coxa joints on the body mid-plane (as in the world model)
-FOOT_RADIUS_M = 0.01
-STANCE_DEPTH_M = BODY_CLEARANCE_M + BODY_HALF_THICKNESS_M - FOOT_RADIUS_M
-L_MAX_M = 0.10   # Eq. 15
-H_MAX_M = 0.12   # Eq. 15
+# Leg order everywhere: servo IDs (leg i has coxa 3i+1, femur 3i+2, tibia 3i+3), CAN
+# tactile bit i = leg i; Fig. 13's abbreviations.
+LEGS = ("LF", "LM", "LH", "RF", "RM", "RH")
+JOINTS = ("coxa", "femur", "tibia")
+SERVOS = 3 * len(LEGS)
 
-# Mounting poses (x_m, y_m, yaw_rad) in leg order LF, LM, LH, RF, RM, RH. The paper gives
-# only the 30 x 30 cm outline "including front and rear legs angle offsets and middle legs
-# displacements"; corners at 45 deg and middle legs on the sides, as in the world model.
+COXA_M = 0.05    # Fig. 12
+FEMUR_M = 0.082  # Fig. 12
+TIBIA_M = 0.12   # Fig. 12, knee to the foot sphere's centre
+BODY_CLEARANCE_M = 0.08      # Fig. 12: ground to body bottom, neutral stance
+# Body box half-extents (our choice inside the 30 x 30 cm outline, Sec. 3.1); the coxa
+# joints lie on its mid-plane.
+BODY_HALF_M = (0.11, 0.065, 0.015)
+FOOT_RADIUS_M = 0.01
+STANCE_DEPTH_M = BODY_CLEARANCE_M + BODY_HALF_M[2] - FOOT_RADIUS_M
+L_MAX_M = 0.10   # Eq. 15: longest step
+H_MAX_M = 0.12   # Eq. 15: highest step
+
+# Mounting poses (x_m, y_m, yaw_rad) in leg order. The paper gives only the 30 x 30 cm
+# outline "including front and rear legs angle offsets and middle legs displacements";
+# our choice: corners at 45 deg, middle legs on the sides.
 _D45 = math.pi / 4
 MOUNTS = (
     (0.10, 0.06, _D45),
@@ -47,6 +60,33 @@ DIRECTIONS = ((1, 1, 1),) * 6
 
 _REACH_MAX = FEMUR_M + TIBIA_M - 1e-6
 _REACH_MIN = abs(TIBIA_M - FEMUR_M) + 1e-6
+
+# Gaits (Fig. 13): name -> (period T in leg transfers, lift-off phase of each leg in LEGS
+# order). Tripod: LM+RF+RH in the first half of the period, LF+LH+RM in the second; wave:
+# one leg at a time, LF to RH.
+GAITS = {
+    "tripod": (2, (1, 0, 1, 0, 1, 0)),
+    "wave": (6, (0, 1, 2, 3, 4, 5)),
+}
+DEFAULT_GAIT = "tripod"
+STEP_LENGTH_M = 0.05  # l_i: Eq. 1 and 16, L <= l_i = 5 cm
+GAIT_SPEED_M_S = {"tripod": 0.036, "wave": 0.013}  # Sec. 3.3
+
+
+def speed_m_s(gait, step_length_m, period_s):
+    """Body speed of ``gait``: a stance foot sweeps l in T - 1 of the T units (Eq. 2-3)."""
+    T = GAITS[gait][0]
+    return step_length_m * T / ((T - 1) * period_s)
+
+
+def period_for_speed_s(gait, step_length_m, v_m_s):
+    """The gait period (s) that walks ``gait`` at ``v_m_s`` (inverse of ``speed_m_s``)."""
+    T = GAITS[gait][0]
+    return step_length_m * T / ((T - 1) * v_m_s)
+
+
+# The periods that give the paper's speeds at l_i (tripod 2.78 s, wave 4.62 s).
+GAIT_PERIOD_S = {g: period_for_speed_s(g, STEP_LENGTH_M, GAIT_SPEED_M_S[g]) for g in GAITS}
 
 
 def neutral_foot(leg):

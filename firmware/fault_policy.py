@@ -1,0 +1,76 @@
+"""Which servos the loop reads each cycle, and when a servo's health stops the robot.
+
+Seed 003 Sec. 2.4's loop on a shared half-duplex line: a few status reads per cycle, the
+servos whose last read failed first, then a rotating subset. A servo with no valid status
+for ``servo_lost_s`` (long enough to ride a 2 s unplug), or ``critical_errors`` overload or
+overheat statuses in a row, is a reason to stop in the neutral stance. MicroPython-compatible.
+"""
+from firmware import servo_bus
+from protocol import can_frames as cf
+from protocol import dynamixel as dxl
+from protocol.hexapod import JOINTS, LEGS
+
+
+class FaultPolicy:
+    """Status-read schedule and the servo fault checks, over the 18 servos in ID order."""
+
+    def __init__(self, ids, cfg):
+        self.ids = ids
+        self.lost_us = int(cfg["servo_lost_s"] * 1000000)
+        self.critical_errors = cfg["critical_errors"]
+        self.reads_per_cycle = cfg["reads_per_cycle"]
+        self.cursor = 0            # rotating status-read position
+        self.suspect = []          # servo indices whose last read failed
+        self.reason = None         # why the last ``check`` wants a stop (None: no reason)
+
+    def read_status(self, master, board):
+        """Poll servos whose last read failed first, then the rotating subset."""
+        budget = self.reads_per_cycle
+        retry = self.suspect
+        self.suspect = []
+        for k in retry[:budget]:
+            if not master.read_present(self.ids[k], board):
+                self.suspect.append(k)
+        self.suspect.extend(retry[budget:])
+        budget -= min(len(retry), budget)
+        while budget > 0:
+            k = self.cursor
+            self.cursor = (k + 1) % 18
+            budget -= 1
+            if k in self.suspect:
+                continue
+            if not master.read_present(self.ids[k], board):
+                self.suspect.append(k)
+
+    def check(self, master, now_us, armed):
+        """Heartbeat fault flags of the 18 servos and the bus at ``now_us``.
+
+        With ``armed`` (walking or stopped), the first lost or critically failing servo sets
+        ``reason``; otherwise ``reason`` is None.
+        """
+        flags = 0
+        self.reason = None
+        for k in range(18):
+            s = master.servos[self.ids[k]]
+            silent = now_us - s.last_ok_us
+            if k in self.suspect:
+                flags |= cf.FAULT_SERVO_LOST
+            if s.error_bits:
+                flags |= cf.FAULT_SERVO_ERROR
+                if s.error_bits & dxl.ERR_INPUT_VOLTAGE:
+                    flags |= cf.FAULT_VOLTAGE
+                if s.error_bits & dxl.ERR_OVERHEATING:
+                    flags |= cf.FAULT_OVERHEAT
+            if armed:
+                if silent > self.lost_us:
+                    self.reason = ("servo %d (%s %s) lost: no valid status for %.1f s"
+                                   % (s.id, LEGS[k // 3], JOINTS[k % 3], silent * 1e-6))
+                elif s.critical_run >= self.critical_errors:
+                    self.reason = ("servo %d (%s %s) critical error: %s"
+                                   % (s.id, LEGS[k // 3], JOINTS[k % 3],
+                                      "+".join(dxl.error_names(s.error_bits & servo_bus.CRITICAL_BITS))))
+                armed = self.reason is None
+        t, c, _ = master.counters()
+        if t or c:
+            flags |= cf.FAULT_BUS_ERROR
+        return flags

@@ -1,0 +1,100 @@
+"""What the firmware tells the host: CAN heartbeat and tactile frames, link events, run stats.
+
+Heartbeat (state, fault flags seen since the last one, cycle and overrun counts) and the
+tactile frame go out at ``telemetry_hz``; the tactile frame also on every change. Switch
+edges and trajectory changes are link events (JSON); at the end of a run ``stats`` is the
+EVENT_STATS summary. MicroPython-compatible.
+"""
+import json
+
+from protocol import can_frames as cf
+from protocol import dynamixel as dxl
+from protocol import sim_link
+from protocol.hexapod import LEGS
+
+
+class Telemetry:
+    """The periodic frames' schedule, the fault flags of the current window, loop timing."""
+
+    def __init__(self, board, telemetry_hz):
+        self.board = board
+        self.period_us = int(1000000 / telemetry_hz)
+        self.next_us = 0
+        self.window_flags = 0      # fault flags seen since the last heartbeat
+        self.compute_us = 0        # wall time of the cycles' own work (profiling only)
+        self.compute_max_us = 0
+        self.compute_cycles = 0
+
+    def due(self, now_us):
+        """True once per ``telemetry_hz`` period (and schedules the next one)."""
+        if now_us >= self.next_us:
+            self.next_us = now_us + self.period_us
+            return True
+        return False
+
+    def heartbeat(self, state, cycle, overruns):
+        arb_id, data = cf.encode("heartbeat", state=state, fault_flags=self.window_flags,
+                                 cycle=cycle, overruns=overruns)
+        self.board.can.send(data, arb_id)
+        self.window_flags = 0
+
+    def tactile_frame(self, switches, rule):
+        arb_id, data = cf.encode("tactile", switches=switches, overcoming=rule.overcoming,
+                                 step_counter=rule.steps)
+        self.board.can.send(data, arb_id)
+
+    def switch_event(self, leg, pressed):
+        self.board.event(sim_link.EVENT_TACTILE, json.dumps(
+            {"leg": LEGS[leg], "switch": 1 if pressed else 0}))
+
+    def lift_off_event(self, leg, rule):
+        """Leg ``leg`` lifted off with new step parameters (Eq. 5-7)."""
+        self.board.event(sim_link.EVENT_TACTILE, json.dumps(
+            {"leg": LEGS[leg], "overcoming": 1 if rule.overcoming & (1 << leg) else 0,
+             "step_length_m": rule.l[leg], "step_height_m": rule.h[leg]}))
+
+    def compute(self, dt_us):
+        """Note one cycle's compute time (wall µs, host waits excluded)."""
+        self.compute_us += dt_us
+        self.compute_cycles += 1
+        if dt_us > self.compute_max_us:
+            self.compute_max_us = dt_us
+
+
+def stats(ctl):
+    """The run summary of controller ``ctl``, sent as EVENT_STATS when the run ends."""
+    m = ctl.master
+    t, c, e = m.counters()
+    servos = {}
+    for s in m.servos.values():
+        if s.timeouts or s.corrupt or s.errors:
+            servos[str(s.id)] = {"timeouts": s.timeouts, "corrupt": s.corrupt,
+                                 "errors": s.errors,
+                                 "error_bits": dxl.error_names(s.error_bits)}
+    tel = ctl.telemetry
+    return {
+        "state": cf.STATE_NAMES[ctl.state],
+        "stop_reason": ctl.stop_reason,
+        "gait": ctl.gait.name,
+        "period_s": ctl.gait.period_us * 1e-6,
+        "cycles": ctl.cycle,
+        "overruns": ctl.overruns,
+        "found": len(ctl.found),
+        "boot_s": ctl.boot_us * 1e-6,
+        "echo": bool(m.echo),
+        "transactions": m.transactions,
+        "sync_writes": m.sync_writes,
+        "timeouts": t,
+        "corrupt_replies": c,
+        "error_statuses": e,
+        "echo_mismatch": m.echo_mismatch,
+        "servos": servos,
+        "ik_clamped": ctl.goals.clamped(),
+        "switch_edges": ctl.switches.edges,
+        "trajectory_changes": ctl.rule.changes,
+        "steps": ctl.rule.steps,
+        "commanded_distance_m": ctl.commanded_m,
+        "commands": ctl.commands.count,
+        "compute_us_mean": (tel.compute_us / tel.compute_cycles) if tel.compute_cycles else 0,
+        "compute_us_max": tel.compute_max_us,
+    }
