@@ -69,7 +69,7 @@ class LinkServer:
         self.bus = sim.rig.bus
         self.clock = sim.rig.clock
         self.can: CanBus = sim.can
-        self.inbox = sim.can.endpoint("tx")   # the firmware's CAN controller
+        self.inbox = sim.firmware_port
         self.byte_us = 10_000_000 / self.bus.baud
 
     def _event(self, payload: bytes, result: RunResult) -> None:

@@ -58,6 +58,8 @@ class Simulator:
         self._pose0 = world.body_pose() if world is not None and not self._stepped else None
         if self._stepped:
             world.attach(self.can)
+        else:
+            self.firmware_port = self.can.endpoint("tx")   # the firmware's CAN controller
 
     def add_node(self, node: Any) -> None:
         """A host-side CAN node (``period_us``, ``tick(t_us)``), ticked in the order added."""
