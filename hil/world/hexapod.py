@@ -154,7 +154,8 @@ def mjcf(params: RobotParams, obstacles: list[terrain_mod.Obstacle], ground_fric
 
 @dataclass
 class BodyPose:
-    """Ground-truth body pose: position (m) and yaw/pitch/roll (rad), world frame."""
+    """Ground-truth body pose, world frame: position (m), yaw/pitch/roll (rad) for people and
+    the run summary, and MuJoCo's own unit quaternion for the recorder (no round trip)."""
 
     x_m: float
     y_m: float
@@ -162,14 +163,7 @@ class BodyPose:
     yaw_rad: float
     pitch_rad: float
     roll_rad: float
-
-    @property
-    def quat_wxyz(self) -> tuple[float, float, float, float]:
-        cy, sy = math.cos(self.yaw_rad / 2), math.sin(self.yaw_rad / 2)
-        cp, sp = math.cos(self.pitch_rad / 2), math.sin(self.pitch_rad / 2)
-        cr, sr = math.cos(self.roll_rad / 2), math.sin(self.roll_rad / 2)
-        return (cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
-                cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy)
+    quat_wxyz: tuple[float, float, float, float]
 
 
 @dataclass
@@ -262,7 +256,7 @@ class HexapodWorld:
         yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
         pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
         roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-        return BodyPose(px, py, pz, yaw, pitch, roll)
+        return BodyPose(px, py, pz, yaw, pitch, roll, (w, x, y, z))
 
     def foot_contacts(self) -> list[bool]:
         """Ground truth: which feet carry load (touch force above 0.05 N)."""
