@@ -24,7 +24,8 @@ from typing import Any
 import can
 import numpy as np
 
-from hil.world.beams import DT_US, PAPER_BODY, SENSOR_PERIOD_US, BeamParams, BeamsWorld, BodyGeometry, BodyState
+from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
+from hil.world.beams import DT_US, SENSOR_PERIOD_US, BeamsWorld, BodyState
 from host_tools.traversal import estimator, landscape, planner
 from host_tools.traversal.control import CONTROL_PERIOD_US, FeedbackLinearisation, energy_increment_j
 from protocol import can_frames
