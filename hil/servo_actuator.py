@@ -126,21 +126,22 @@ class KinematicActuator:
         return self.position_rad, self.velocity_rad_s, self.load_frac
 
     def advance_to(self, t_us: int) -> None:
+        """Exact over the interval: constant speed until the goal, then hold."""
         dt_us = t_us - self.t_us
         if dt_us <= 0:
             return
         self.t_us = t_us
-        v = self.velocity_rad_s
-        if v != 0.0:
-            err = self.goal_rad - self.position_rad
-            step = abs(v) * dt_us * 1e-6
-            if step >= abs(err):
-                self.position_rad = self.goal_rad
-            else:
-                self.position_rad += step if err > 0 else -step
-            if math.isinf(self.goal_rad):  # wheel mode: the horn turns round and round
-                self.position_rad = (self.position_rad + math.pi) % (2.0 * math.pi) - math.pi
-            self._settle()
+        if self.velocity_rad_s == 0.0:
+            return
+        err = self.goal_rad - self.position_rad
+        step = abs(self.velocity_rad_s) * dt_us * 1e-6
+        if step >= abs(err):
+            self.position_rad = self.goal_rad
+        else:
+            self.position_rad += step if err > 0 else -step
+        if math.isinf(self.goal_rad):  # wheel mode: the horn turns round and round
+            self.position_rad = (self.position_rad + math.pi) % (2.0 * math.pi) - math.pi
+        self._settle()
 
     def set_stalled(self, stalled: bool) -> None:
         self.stalled = stalled
