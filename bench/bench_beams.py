@@ -9,7 +9,8 @@ from bench import Row
 
 
 def run() -> list[Row]:
-    from hil.world import beams as B
+    from hil.world.beam_body import BeamParams
+    from hil.world.beams import BeamsWorld
     from host_tools.traversal import estimator, landscape, planner
     from host_tools.commands.beams import push_samples
 
@@ -33,7 +34,7 @@ def run() -> list[Row]:
     t_all = time.perf_counter() - t0
     rows.append(Row("beams: landscape + Dijkstra (full grid)", t_all, "s", "<= 5 s",
                     f"{land.theta1_rad.size:,} states; landscape {t_land:.2f} s; mode {p.mode}"))
-    w = B.BeamsWorld([B.BeamParams(0.25), B.BeamParams(0.25)])
+    w = BeamsWorld([BeamParams(0.25), BeamParams(0.25)])
     t0 = time.perf_counter()
     while w.t_us < 2_000_000:
         w.command(0.1, 0.0, 0.0)

@@ -12,6 +12,7 @@ import math
 import random
 from typing import Any, Callable
 
+from hil.servo_health import SUPPLY_V
 from protocol.errors import UserError
 
 OnFault = Callable[[int, str, str], None]
@@ -177,7 +178,6 @@ class Faults:
                 detail = (f"heating towards {e['temperature_c']:g} C" if start
                           else "heat source removed")
             else:
-                from hil.servo import SUPPLY_V
                 s.set_supply_v(e["volts"] if start else SUPPLY_V, t_us)
                 detail = f"supply {e['volts']:g} V" if start else f"supply back to {SUPPLY_V:g} V"
             self.report(t_us, kind if start else kind + "_end", f"id {dev_id}: {detail}")

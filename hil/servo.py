@@ -1,10 +1,10 @@
-"""One emulated AX-12A: control table, every instruction, error bits, alarms, motion.
+"""One emulated AX-12A: control table, every instruction, error bits, alarms.
 
-The servo owns its 50-byte control table (``protocol/ax12.py``) and drives an
-``Actuator``, the seam to whatever moves the horn: ``KinematicActuator`` here (no
-physics), a MuJoCo joint in the hexapod world. The servo hands the actuator Goal
-Position, Moving Speed, Torque Limit, Torque Enable and the compliance settings in SI
-units; Present Position, Speed and Load come back from ``actuator.state()``.
+The servo owns its 50-byte control table (``protocol/ax12.py``), executes instructions
+against it and drives an ``Actuator`` (hil/servo_actuator.py), the seam to whatever moves
+the horn: ``KinematicActuator`` (no physics) or a MuJoCo joint in the hexapod world.
+Supply, temperature and overload live in ``ServoHealth`` (hil/servo_health.py); the
+servo turns their error bits into the Alarm LED and alarm shutdown.
 
 State is evaluated lazily: the bus calls ``advance_to(t_us)`` before a servo answers,
 and the kinematic model is integrated exactly over any interval in which the command
@@ -16,123 +16,17 @@ marked "our choice" and listed in docs/servo-bus.md.
 """
 from __future__ import annotations
 
-import math
-from typing import Any, Protocol
+from typing import Any
 
+from hil.servo_actuator import Actuator, KinematicActuator, drive, is_moving, wheel_mode
+from hil.servo_health import ServoHealth
 from protocol import ax12
 from protocol import dynamixel as dxl
 
-# Thermal model (our choice; the manuals give no thermal data): first order,
-# dT/dt = (ambient + HEAT_AT_FULL_LOAD_C * load^2 - T) / THERMAL_TAU_S.
-AMBIENT_C = 32.0               # the manuals' power-on Present Temperature
-HEAT_AT_FULL_LOAD_C = 60.0     # steady rise above ambient at 100 % load
-THERMAL_TAU_S = 60.0
-OVERHEAT_TAU_S = 1.0           # time constant towards an injected hot-spot temperature
-# Overload (our choice): load saturated at the torque limit for this long sets the bit.
-OVERLOAD_TIME_US = 1_000_000
 # A real servo ignores packets for a few ms after an EEPROM write (shared/reference, from
 # the USB2AX notes); "a few" is our 5 ms. Firmware that writes EEPROM and then talks to the
 # same servo at once loses that packet.
 EEPROM_BUSY_US = 5_000
-SUPPLY_V = 12.0                # nominal AX-12A supply
-MOVING_EPS_RAD_S = 0.5 * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0  # half a speed unit
-
-
-def _moving(velocity_rad_s: float) -> bool:
-    """The Moving flag's rule: turning faster than half a Present Speed unit."""
-    return abs(velocity_rad_s) >= MOVING_EPS_RAD_S
-
-
-_NO_LOAD_RAD_S = ax12.speed_to_rad_s(0)
-
-
-class Actuator(Protocol):
-    """What a servo drives: kinematic here, a physics joint in the hexapod world."""
-
-    def command(self, goal_rad: float, speed_limit_rad_s: float, torque_limit_frac: float,
-                enabled: bool, compliance: tuple[int, int, int, int, int]) -> None:
-        """New set-point; compliance = (cw_margin, ccw_margin, cw_slope, ccw_slope, punch), raw.
-
-        ``goal_rad`` is +inf (CCW) or -inf (CW) in wheel mode: turn endlessly at the speed.
-        """
-
-    def state(self) -> tuple[float, float, float]:
-        """(position_rad, velocity_rad_s, load_frac); CCW positive, load in [-1, 1]."""
-
-    def advance_to(self, t_us: int) -> None:
-        """Move to virtual time t_us (kinematic model only; physics steps itself)."""
-
-
-class KinematicActuator:
-    """Moves towards the goal at the speed limit; no forces, no inertia.
-
-    The speed saturates at the motor's no-load speed (``ax12.speed_to_rad_s(0)``), so
-    Moving Speed above that, like 0, runs flat out.
-
-    An infinite goal (wheel mode) turns endlessly, the angle wrapping to [-pi, pi).
-    Holds still with torque off or a zero torque limit. ``stalled`` (set by the stall
-    fault) models an external load that blocks the horn: it stays put and reports a load
-    equal to the torque limit, which is what trips the overload alarm on a real servo.
-    """
-
-    __slots__ = ("position_rad", "velocity_rad_s", "load_frac", "goal_rad", "speed_rad_s",
-                 "torque_frac", "enabled", "stalled", "t_us")
-
-    def __init__(self, position_rad: float = 0.0, t_us: int = 0) -> None:
-        self.position_rad = position_rad
-        self.velocity_rad_s = 0.0
-        self.load_frac = 0.0
-        self.goal_rad = position_rad
-        self.speed_rad_s = ax12.speed_to_rad_s(0)
-        self.torque_frac = 1.0
-        self.enabled = False
-        self.stalled = False
-        self.t_us = t_us
-
-    def command(self, goal_rad: float, speed_limit_rad_s: float, torque_limit_frac: float,
-                enabled: bool, compliance: tuple[int, int, int, int, int]) -> None:
-        self.goal_rad = goal_rad
-        self.speed_rad_s = min(speed_limit_rad_s, _NO_LOAD_RAD_S)
-        self.torque_frac = torque_limit_frac
-        self.enabled = enabled  # compliance shapes force; without forces it changes nothing
-        self._settle()
-
-    def _settle(self) -> None:
-        err = self.goal_rad - self.position_rad
-        driving = self.enabled and self.torque_frac > 0.0 and abs(err) > 1e-12
-        if not driving:
-            self.velocity_rad_s = 0.0
-            self.load_frac = 0.0
-        elif self.stalled:
-            self.velocity_rad_s = 0.0
-            self.load_frac = self.torque_frac if err > 0 else -self.torque_frac
-        else:
-            self.velocity_rad_s = self.speed_rad_s if err > 0 else -self.speed_rad_s
-            self.load_frac = 0.0
-
-    def state(self) -> tuple[float, float, float]:
-        return self.position_rad, self.velocity_rad_s, self.load_frac
-
-    def advance_to(self, t_us: int) -> None:
-        dt_us = t_us - self.t_us
-        if dt_us <= 0:
-            return
-        self.t_us = t_us
-        v = self.velocity_rad_s
-        if v != 0.0:
-            err = self.goal_rad - self.position_rad
-            step = abs(v) * dt_us * 1e-6
-            if step >= abs(err):
-                self.position_rad = self.goal_rad
-            else:
-                self.position_rad += step if err > 0 else -step
-            if math.isinf(self.goal_rad):  # wheel mode: the horn turns round and round
-                self.position_rad = (self.position_rad + math.pi) % (2.0 * math.pi) - math.pi
-            self._settle()
-
-    def set_stalled(self, stalled: bool) -> None:
-        self.stalled = stalled
-        self._settle()
 
 
 class Servo:
@@ -155,11 +49,7 @@ class Servo:
         self.actuator: Actuator = actuator if actuator is not None else \
             KinematicActuator(ax12.position_to_rad(position), t_us)
         self.t_us = t_us
-        self.temperature_c = AMBIENT_C
-        self.hot_spot_c: float | None = None   # injected overheating target
-        self.supply_v = SUPPLY_V
-        self._saturated_us = 0
-        self.overload = False                  # latched until Torque Limit is written again
+        self.health = ServoHealth()
         self._registered: tuple[int, bytes] | None = None
         self.alarm_led = False                 # the LED blinks for errors in Alarm LED
         self.address_changed = False           # ID or Baud Rate written: bus re-indexes
@@ -197,23 +87,10 @@ class Servo:
         self.t_us = t_us
         act = self.actuator
         act.advance_to(t_us)
-        load = act.state()[2]
         table = self.table
-        tl = (table[ax12.TORQUE_LIMIT] | (table[ax12.TORQUE_LIMIT + 1] << 8))
-        supply = min(1.0, max(0.0, self.supply_v / SUPPLY_V))
-        if table[ax12.TORQUE_ENABLE] and tl and abs(load) * 1023.0 >= tl * supply - 0.5:
-            self._saturated_us += dt_us
-            if self._saturated_us >= OVERLOAD_TIME_US:
-                self.overload = True
-        else:
-            self._saturated_us = 0
-        if self.hot_spot_c is not None:
-            target, tau = self.hot_spot_c, OVERHEAT_TAU_S
-        else:
-            target, tau = AMBIENT_C + HEAT_AT_FULL_LOAD_C * load * load, THERMAL_TAU_S
-        if target != self.temperature_c:
-            k = math.exp(-dt_us * 1e-6 / tau)
-            self.temperature_c = target + (self.temperature_c - target) * k
+        torque_limit = table[ax12.TORQUE_LIMIT] | (table[ax12.TORQUE_LIMIT + 1] << 8) \
+            if table[ax12.TORQUE_ENABLE] else 0
+        self.health.advance(dt_us, act.state()[2], torque_limit)
         self._present_stale = True
         errors = self.state_errors()
         if errors:
@@ -240,57 +117,26 @@ class Servo:
         ld = ax12.fraction_to_load(load)
         t[40] = ld & 0xFF
         t[41] = ld >> 8
-        t[ax12.PRESENT_VOLTAGE] = self._voltage_units
-        t[ax12.PRESENT_TEMPERATURE] = self._temperature_units
-        t[ax12.MOVING] = 1 if _moving(vel) else 0
+        t[ax12.PRESENT_VOLTAGE] = self.health.voltage_units
+        t[ax12.PRESENT_TEMPERATURE] = self.health.temperature_units
+        t[ax12.MOVING] = 1 if is_moving(vel) else 0
 
     @property
     def moving(self) -> bool:
         """The Moving flag (address 46) without refreshing the rest of the table."""
-        return _moving(self.actuator.state()[1])
+        return is_moving(self.actuator.state()[1])
 
     def snapshot(self) -> dict[str, Any]:
         """The servo's state in SI units, as the recorder logs it on ``/servos``."""
         pos, vel, load = self.actuator.state()
         return {"id": self.id, "position_rad": pos, "velocity_rad_s": vel, "load_frac": load,
-                "temperature_c": self._temperature_c, "voltage_v": self._supply_v,
+                "temperature_c": self.health.temperature_c, "voltage_v": self.health.supply_v,
                 "torque_enabled": bool(self.table[ax12.TORQUE_ENABLE]),
-                "moving": _moving(vel), "error": self.state_errors()}
-
-    # Supply and temperature keep their Present Voltage/Temperature units beside them:
-    # the alarm check reads those twice per instruction.
-    @property
-    def supply_v(self) -> float:
-        return self._supply_v
-
-    @supply_v.setter
-    def supply_v(self, volts: float) -> None:
-        self._supply_v = volts
-        v = ax12.v_to_voltage(volts)
-        self._voltage_units = 0 if v < 0 else (255 if v > 255 else v)
-
-    @property
-    def temperature_c(self) -> float:
-        return self._temperature_c
-
-    @temperature_c.setter
-    def temperature_c(self, celsius: float) -> None:
-        self._temperature_c = celsius
-        c = int(round(celsius))
-        self._temperature_units = 0 if c < 0 else (255 if c > 255 else c)
+                "moving": is_moving(vel), "error": self.state_errors()}
 
     def state_errors(self) -> int:
         """Error bits that describe the servo's state (voltage, heat, overload)."""
-        t = self.table
-        e = 0
-        v = self._voltage_units
-        if v < t[ax12.MIN_VOLTAGE_LIMIT] or v > t[ax12.MAX_VOLTAGE_LIMIT]:
-            e |= dxl.ERR_INPUT_VOLTAGE
-        if self._temperature_units > t[ax12.TEMPERATURE_LIMIT]:
-            e |= dxl.ERR_OVERHEATING
-        if self.overload:
-            e |= dxl.ERR_OVERLOAD
-        return e
+        return self.health.errors(self.table)
 
     def _alarm(self, errors: int) -> None:
         """Alarm LED and alarm shutdown: Torque Limit drops to 0 (e-manual, address 34)."""
@@ -303,47 +149,19 @@ class Servo:
             self._command()
             self._present_stale = True
 
-    def wheel_mode(self) -> bool:
-        """Both angle limits 0: endless turn, Moving Speed 0-2047 (bit 10 = CW), goal ignored."""
-        t = self.table
-        return not (t[6] or t[7] or t[8] or t[9])
-
     def _command(self) -> None:
-        t = self.table
-        speed = t[32] | (t[33] << 8)
-        if self.wheel_mode():
-            mag = speed & 0x3FF
-            if mag:
-                goal_rad = -math.inf if speed & ax12.DIRECTION_BIT else math.inf
-            else:  # speed 0 stops the wheel where it is
-                goal_rad = self.actuator.state()[0]
-            speed_rad_s = mag * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0
-        else:  # joint mode: the horn stops at the angle limits
-            cw = t[6] | (t[7] << 8)
-            ccw = t[8] | (t[9] << 8)
-            goal = t[30] | (t[31] << 8)
-            goal_rad = ax12.position_to_rad(cw if goal < cw else (ccw if goal > ccw else goal))
-            speed_rad_s = ax12.speed_to_rad_s(speed)
-        # A DC motor's no-load speed and stall torque scale with its supply (rated at 12 V).
-        supply = min(1.0, max(0.0, self.supply_v / SUPPLY_V))
-        self.actuator.command(
-            goal_rad,
-            min(speed_rad_s, _NO_LOAD_RAD_S * supply),
-            (t[34] | (t[35] << 8)) * ax12.LOAD_FRACTION_PER_UNIT * supply,
-            bool(t[ax12.TORQUE_ENABLE]),
-            (t[26], t[27], t[28], t[29], t[48] | (t[49] << 8)),
-        )
+        drive(self.actuator, self.table, self.health.supply_frac)
 
     # --- faults (hil/faults.py) -----------------------------------------------------
     def set_supply_v(self, volts: float, t_us: int) -> None:
         self.advance_to(t_us)
-        self.supply_v = volts
+        self.health.set_supply_v(volts)
         self._command()
         self._present_stale = True
 
     def set_hot_spot(self, temperature_c: float | None, t_us: int) -> None:
         self.advance_to(t_us)
-        self.hot_spot_c = temperature_c
+        self.health.hot_spot_c = temperature_c
 
     def set_stalled(self, stalled: bool, t_us: int) -> None:
         """External load blocks the horn (actuators without ``set_stalled`` ignore it)."""
@@ -363,9 +181,8 @@ class Servo:
         self.table[:ax12.EEPROM_END] = eeprom
         self.table[ax12.TORQUE_LIMIT] = eeprom[ax12.MAX_TORQUE]
         self.table[ax12.TORQUE_LIMIT + 1] = eeprom[ax12.MAX_TORQUE + 1]
-        self.overload = False
+        self.health.rearm()
         self.alarm_led = False
-        self._saturated_us = 0
         self._registered = None
         self._command()
         self._present_stale = True
@@ -496,10 +313,10 @@ class Servo:
                 v = lo | (hi << 8)
             else:
                 v = lo
-            hi_limit = 2047 if start == ax12.MOVING_SPEED and self.wheel_mode() else f[7]
+            hi_limit = 2047 if start == ax12.MOVING_SPEED and wheel_mode(t) else f[7]
             if v < f[6] or v > hi_limit:
                 return dxl.ERR_RANGE
-            if start == ax12.GOAL_POSITION and not self.wheel_mode():
+            if start == ax12.GOAL_POSITION and not wheel_mode(t):
                 cw = t[6] | (t[7] << 8)
                 ccw = t[8] | (t[9] << 8)
                 if v < cw or v > ccw:
@@ -516,8 +333,7 @@ class Servo:
         if address <= ax12.BAUD_RATE and end > ax12.ID:
             self.address_changed = True
         if address <= ax12.TORQUE_LIMIT + 1 and end > ax12.TORQUE_LIMIT:
-            self.overload = False  # writing Torque Limit again re-arms the servo
-            self._saturated_us = 0
+            self.health.rearm()  # writing Torque Limit again re-arms the servo
         if end > ax12.TORQUE_ENABLE and address < ax12.PRESENT_POSITION or end > ax12.PUNCH \
                 or (address <= ax12.CCW_ANGLE_LIMIT + 1 and end > ax12.CW_ANGLE_LIMIT):
             self._command()
@@ -529,7 +345,7 @@ class Servo:
         self.table = ax12.defaults(self.edition, pos)
         self.busy_until_us = self.t_us + self.eeprom_busy_us
         self._registered = None
-        self.overload = False
+        self.health.overload = False
         self.alarm_led = False
         self.address_changed = True
         self._command()

@@ -8,7 +8,7 @@ import pytest
 
 from host_tools.traversal import closed_loop, estimator, landscape, planner
 from host_tools.commands.beams import push_samples
-from host_tools.experiments import force_sensing as fs
+from host_tools.experiments.force_sensing import sections as fs
 
 # Tables 1, 2 and 4: the paper's relative errors (k1, k2, h_b as a fraction of 5 mm) for
 # (unknowns, noise, T_s ms); None where the paper's single trial is below what even the
@@ -111,7 +111,7 @@ def test_critical_push_flimsy_just_below_the_papers_0p1_n_stiff_well_above():
 
 
 def test_clear_gap_reading_rolls_for_every_k():
-    from hil.world.beams import BodyGeometry
+    from hil.world.beam_body import BodyGeometry
     land = landscape.build(landscape.paper_grid(0.004, 5), geometry=BodyGeometry(gap_centre_to_centre=False))
     assert planner.plan(land, 0.01, 0.01, (-0.1, 0, 0)).mode == "roll"
 

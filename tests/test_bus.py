@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 from hil.bus import Bus, resample
 from hil.clock import VirtualClock
 from hil.faults import Faults, parse_flag
-from hil.servo import OVERLOAD_TIME_US, Servo
+from hil.servo import Servo
+from hil.servo_health import OVERLOAD_TIME_US
 from hil import scenario
 from protocol.errors import UserError
 from protocol import ax12

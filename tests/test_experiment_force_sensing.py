@@ -8,7 +8,8 @@ import pytest
 
 from host_tools.traversal import estimator, landscape
 from host_tools.commands.beams import push_samples
-from host_tools.experiments import force_sensing as fs
+from host_tools.experiments import force_sensing
+from host_tools.experiments.force_sensing import sections as fs
 
 
 def test_sensed_reproduces_the_worlds_sensor_draws():
@@ -32,7 +33,7 @@ def test_preloaded_estimator_recovers_k_and_tau0_of_the_robot_rig():
 @pytest.fixture(scope="module")
 def tiny(tmp_path_factory):
     out = tmp_path_factory.mktemp("fs")
-    return out, fs.main(True, out, seeds=2, grid=landscape.paper_grid(0.008, 10))
+    return out, force_sensing.main(True, out, seeds=2, grid=landscape.paper_grid(0.008, 10))
 
 
 def test_tiny_run_writes_report_and_figures(tiny):

@@ -7,7 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hil.servo import EEPROM_BUSY_US, OVERLOAD_TIME_US, KinematicActuator, Servo
+from hil.servo import EEPROM_BUSY_US, Servo
+from hil.servo_actuator import KinematicActuator, wheel_mode
+from hil.servo_health import OVERLOAD_TIME_US
 from protocol import ax12
 from protocol import dynamixel as dxl
 
@@ -261,7 +263,7 @@ def test_control_table_invariants_under_random_writes(writes, edition):
                 changed = [a for a in changed if a not in (34, 35)]
             assert changed == []
         for f in ax12.FIELDS:
-            hi = 2047 if f[0] == ax12.MOVING_SPEED and s.wheel_mode() else f[7]
+            hi = 2047 if f[0] == ax12.MOVING_SPEED and wheel_mode(s.table) else f[7]
             assert f[6] <= ax12.get(s.table, f[0], f[2]) <= hi, f[1]
         if locked and edition == ax12.EDITION_EMANUAL:
             assert after[:ax12.EEPROM_END] == before[:ax12.EEPROM_END] and after[ax12.LOCK] == 1

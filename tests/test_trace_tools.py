@@ -120,7 +120,8 @@ def test_recover_truncated_file(tmp_path, capsys):
 
 def _beams_csv(path, k=(0.3, 0.5), hb_m=0.0, seconds=1.2):
     """A 100 Hz force + pose log of the seed-000 beams world, as a physical robot logs it."""
-    from hil.world.beams import SENSOR_PERIOD_US, BeamParams, BeamsWorld
+    from hil.world.beam_body import BeamParams
+    from hil.world.beams import SENSOR_PERIOD_US, BeamsWorld
 
     w = BeamsWorld(beams=[BeamParams(k[0], hb_m), BeamParams(k[1], hb_m)])
     with open(path, "w", newline="") as f:

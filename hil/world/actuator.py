@@ -1,4 +1,4 @@
-"""AX-12-like joint drives in MuJoCo, behind the servo ``Actuator`` seam (hil/servo.py).
+"""AX-12-like joint drives in MuJoCo, behind the servo ``Actuator`` seam (hil/servo_actuator.py).
 
 The emulated servo owns its control table; it hands Goal Position, Moving Speed, Torque
 Limit, Torque Enable and the compliance registers to ``command`` and reads Present

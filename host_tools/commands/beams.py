@@ -19,7 +19,8 @@ def _nonneg(name: str, v: float) -> float:
 def push_samples(k1: float, k2: float, hb1_m: float, hb2_m: float, noise: float, sensing_ms: float,
                  seed: int, fx_n: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """Sec. III-B: push with F_x into the beams; (poses, sensed forces) at 100 Hz for T_s."""
-    from hil.world.beams import BeamParams, BeamsWorld
+    from hil.world.beam_body import BeamParams
+    from hil.world.beams import BeamsWorld
 
     world = BeamsWorld([BeamParams(k1, hb1_m), BeamParams(k2, hb2_m)], noise=noise, seed=seed)
     return world.sample_after_contact(sensing_ms * 1000, lambda: world.command(fx_n, 0.0, 0.0),
@@ -49,7 +50,7 @@ def cmd_estimate(args: argparse.Namespace) -> int:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
-    from hil.world.beams import PAPER_BODY
+    from hil.world.beam_body import PAPER_BODY
     from host_tools.traversal import landscape, planner
 
     k1, k2 = _nonneg("k1", args.k1), _nonneg("k2", args.k2)
@@ -69,7 +70,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 def _start_after_delay(k1: float, k2: float, hb_m: float, delay_ms: float) -> tuple[float, float, float]:
     """The body pose after the sensory delay of a gentle (0.1 N) push from first contact."""
-    from hil.world.beams import BeamParams, BeamsWorld
+    from hil.world.beam_body import BeamParams
+    from hil.world.beams import BeamsWorld
 
     world = BeamsWorld([BeamParams(k1, hb_m), BeamParams(k2, hb_m)])
     while world.first_contact_us is None or world.t_us - world.first_contact_us < delay_ms * 1000:

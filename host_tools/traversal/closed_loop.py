@@ -10,7 +10,8 @@ import math
 from typing import Any
 
 from hil.sim import Simulator
-from hil.world.beams import PAPER_BODY, BeamParams, BeamsWorld, BodyGeometry, BodyState
+from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
+from hil.world.beams import BeamsWorld, BodyState
 from hil.world.beams_node import NO_CONTACT_LIMIT_US, BeamsNode
 from host_tools.traversal.nodes import ControllerNode, PlannerNode, RunConfig
 from protocol.errors import UserError

@@ -11,7 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hil.world.beams import PAPER_BODY, BeamParams, BodyGeometry, external_forces, saturate
+from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
+from hil.world.beams import external_forces, saturate
 from host_tools.traversal.planner import Plan
 
 KP_1_S2 = 100.0             # critically damped, natural frequency 10 rad/s

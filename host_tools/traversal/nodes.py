@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hil.can_bus import Endpoint
-from hil.world.beams import DT_US, PAPER_BODY, BeamParams, BodyGeometry
+from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
+from hil.world.beams import DT_US
 from hil.world.beams_node import CONTROL_PERIOD_US, MAX_TIME_S
 from host_tools.traversal import estimator, landscape, planner
 from host_tools.traversal.control import FeedbackLinearisation
