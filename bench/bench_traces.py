@@ -27,7 +27,7 @@ READ_MESSAGES = 200_000
 def _time_inside_recorder(run, out: Path) -> float:
     """Seconds spent inside Recorder methods during one recorded run (a noise-free view
     of the same overhead: it does not depend on what else the shared machine runs)."""
-    from host_tools import recorder as rec_mod
+    from host_tools.trace import recorder as rec_mod
 
     spent = [0.0]
     saved = {}
@@ -92,7 +92,7 @@ def _overhead(tmp: Path) -> list[Row]:
                         f"alternated pairs (range {100 * ratios[0]:.1f}-{100 * ratios[-1]:.1f} "
                         f"%); medians {statistics.median(plain):.3f} s plain, "
                         f"{statistics.median(recorded):.3f} s with --out"))
-    from host_tools.trace_tools import info
+    from host_tools.trace.reader import info
 
     n = info(out)["messages"]
     rows.append(Row("traces: time inside the recorder", 100 * inside / statistics.median(plain),
@@ -102,8 +102,8 @@ def _overhead(tmp: Path) -> list[Row]:
 
 
 def _rates(tmp: Path) -> list[Row]:
-    from host_tools.recorder import Recorder
-    from host_tools.trace_tools import Trace
+    from host_tools.trace.recorder import Recorder
+    from host_tools.trace.reader import Trace
     from protocol import can_frames, dynamixel
 
     path = tmp / "big.mcap"

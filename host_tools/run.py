@@ -97,7 +97,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     world = make_world(sc, seed)
     recorder = None
     if out:
-        from host_tools.recorder import open_recorder
+        from host_tools.trace.recorder import open_recorder
         recorder = open_recorder(out, {"scenario": sc["_path"], "seed": seed,
                                        "firmware_runtime": python})
     server = None
