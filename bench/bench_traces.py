@@ -6,8 +6,8 @@ and repeated, the median of the pairs' overheads; once as a user runs it (the OS
 the firmware process: the recorder encodes while the firmware computes) and once with
 host and firmware pinned to one core (nothing can overlap, so the overhead is the
 recorder's whole CPU cost). Read rate:
-``Trace.messages`` (what replay, export and estimate read through: the stock reader in
-file order) against the stock mcap reader in log-time order on the same file. Writers:
+``Trace.messages`` (what replay, export and estimate read through) against the stock mcap
+reader in log-time order on the same file. Writers:
 a real run's messages, chunk by chunk as the recorder wrote them, through
 ``host_tools.trace.writer.TraceWriter`` and through ``mcap.writer.Writer`` (zstd,
 ``flush()`` after each chunk so it keeps the same crash-safety windows).
@@ -133,9 +133,9 @@ def _rates(tmp: Path) -> list[Row]:
         stock = m / (time.perf_counter() - t0)
     return [
         Row("traces: read/replay rate", ours, "msg/s", ">= 200000",
-            f"Trace.messages on {n} messages, log-time order (the stock reader in file "
-            f"order: chunks do not overlap); {ours / stock:.1f}x the stock reader's log-time "
-            f"merge ({stock:,.0f} msg/s) on the same file"),
+            f"Trace.messages on {n} messages, log-time order (chunk by chunk in file order "
+            f"through mcap's Chunk.read and breakup_chunk: chunks do not overlap); "
+            f"{ours / stock:.1f}x the stock reader's log-time merge ({stock:,.0f} msg/s)"),
         Row("traces: recorder write rate", READ_MESSAGES / write_s, "msg/s", "",
             "serial + raw CAN, protobuf, zstd chunks per 0.5 s of virtual time"),
     ]

@@ -59,7 +59,8 @@ def import_csv(src: str | Path, dst: str | Path, metadata: dict[str, Any] | None
         try:
             for line, row in enumerate(reader, start=2):
                 try:
-                    vals = {k: float(row[k]) for k in header if k not in ignored and row[k] not in (None, "")}
+                    vals = {k: float(row[k]) for k in header
+                            if k not in ignored and row[k] not in (None, "")}
                     t_us = int(round(vals["time_s"] * 1e6))
                     fx, fy, fz = vals["fx_n"], vals["fy_n"], vals["fz_n"]
                 except (KeyError, ValueError, TypeError):

@@ -8,12 +8,12 @@ what a user points at whatever file is lying around after a crash.
 Records are parsed by the stock ``mcap`` classes. A file our recorder wrote (chunks that
 do not overlap in time) is read chunk by chunk in file order: each chunk found through
 the summary's chunk index, read with ``Chunk.read`` and broken up with ``breakup_chunk``.
-That reads as fast as the hand chunk parser it replaced (400 000 against 415 000 msg/s;
-``hexhil trace cat`` of a 30 s run 243 against 216-231 ms, best of 5), where the stock
-``SeekingReader.iter_messages`` reads 262 000 msg/s in file order but breaks up every
-chunk before its first message, and 138 000 msg/s in log-time order (what other files
-get). Measured with ``.venv/bin/python -m bench traces`` and an A/B of the two readers
-on the same files.
+That reads as fast as the hand chunk parser it replaced (400 000 against 415 000 msg/s,
+best of 5 alternated, same files; ``hexhil trace cat`` of a 30 s run 243 against 216-231
+ms) and streams, where the stock ``SeekingReader.iter_messages`` in file order (262 000
+msg/s) breaks up every chunk before its first message. Files whose chunks overlap go
+through the stock reader's log-time merge (64 000-138 000 msg/s). Figures:
+``.venv/bin/python -m bench traces`` (rows "read/replay rate" and "trace cat").
 """
 from __future__ import annotations
 
