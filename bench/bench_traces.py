@@ -1,4 +1,5 @@
-"""Traces: recording overhead on a real run, trace read (replay) rate, recorder write rate.
+"""Traces: recording overhead on a real run, trace read (replay) rate, recorder write rate,
+our MCAP writer against the stock one, and ``hexhil trace cat`` on a 30 s run.
 
 Overhead: the same scenario run with and without a recorder in this process, alternated
 and repeated, the median of the pairs' overheads; once as a user runs it (the OS places
@@ -6,15 +7,21 @@ the firmware process: the recorder encodes while the firmware computes) and once
 host and firmware pinned to one core (nothing can overlap, so the overhead is the
 recorder's whole CPU cost). Read rate:
 ``Trace.messages`` (what replay, export and estimate read through) against the stock mcap
-reader in log-time order on the same file.
+reader in log-time order on the same file. Writers:
+a real run's messages, chunk by chunk as the recorder wrote them, through
+``host_tools.trace.writer.TraceWriter`` and through ``mcap.writer.Writer`` (zstd,
+``flush()`` after each chunk so it keeps the same crash-safety windows).
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import statistics
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 from bench import Row
 
@@ -22,12 +29,14 @@ SCENARIO = "scenarios/flat-tripod.toml"
 RUN_S = 10.0
 REPEATS = 15
 READ_MESSAGES = 200_000
+WRITER_REPEATS = 15
+CAT_S = 30.0  # the trace `hexhil trace cat` is timed on
 
 
 def _time_inside_recorder(run, out: Path) -> float:
     """Seconds spent inside Recorder methods during one recorded run (a noise-free view
     of the same overhead: it does not depend on what else the shared machine runs)."""
-    from host_tools import recorder as rec_mod
+    from host_tools.trace import recorder as rec_mod
 
     spent = [0.0]
     saved = {}
@@ -92,7 +101,7 @@ def _overhead(tmp: Path) -> list[Row]:
                         f"alternated pairs (range {100 * ratios[0]:.1f}-{100 * ratios[-1]:.1f} "
                         f"%); medians {statistics.median(plain):.3f} s plain, "
                         f"{statistics.median(recorded):.3f} s with --out"))
-    from host_tools.trace_tools import info
+    from host_tools.trace.reader import info
 
     n = info(out)["messages"]
     rows.append(Row("traces: time inside the recorder", 100 * inside / statistics.median(plain),
@@ -102,8 +111,8 @@ def _overhead(tmp: Path) -> list[Row]:
 
 
 def _rates(tmp: Path) -> list[Row]:
-    from host_tools.recorder import Recorder
-    from host_tools.trace_tools import Trace
+    from host_tools.trace.recorder import Recorder
+    from host_tools.trace.reader import Trace
     from protocol import can_frames, dynamixel
 
     path = tmp / "big.mcap"
@@ -124,8 +133,9 @@ def _rates(tmp: Path) -> list[Row]:
         stock = m / (time.perf_counter() - t0)
     return [
         Row("traces: read/replay rate", ours, "msg/s", ">= 200000",
-            f"Trace.messages on {n} messages, log-time order; {ours / stock:.1f}x the stock "
-            f"mcap reader ({stock:,.0f} msg/s) on the same file"),
+            f"Trace.messages on {n} messages, log-time order (chunk by chunk in file order "
+            f"through mcap's Chunk.read and breakup_chunk: chunks do not overlap); "
+            f"{ours / stock:.1f}x the stock reader's log-time merge ({stock:,.0f} msg/s)"),
         Row("traces: recorder write rate", READ_MESSAGES / write_s, "msg/s", "",
             "serial + raw CAN, protobuf, zstd chunks per 0.5 s of virtual time"),
     ]
@@ -146,7 +156,107 @@ def _replay(tmp: Path) -> list[Row]:
                 "identical")]
 
 
+def _run_chunks(path: Path) -> tuple[list[Any], list[Any], list[list[tuple[int, int, bytes]]]]:
+    """A trace's schemas, channels and, chunk by chunk, its (log_time_ns, channel, data)."""
+    from mcap.records import Channel, Chunk, Message, Schema
+    from mcap.stream_reader import StreamReader, breakup_chunk
+
+    schemas, channels, chunks = [], [], []
+    with open(path, "rb") as f:
+        for record in StreamReader(f, emit_chunks=True).records:
+            if isinstance(record, Schema):
+                schemas.append(record)
+            elif isinstance(record, Channel):
+                channels.append(record)
+            elif isinstance(record, Chunk):
+                chunks.append([(m.log_time, m.channel_id, m.data) for m in breakup_chunk(record)
+                               if isinstance(m, Message)])
+    return schemas, channels, chunks
+
+
+def _write_ours(schemas: list[Any], channels: list[Any],
+                chunks: list[list[tuple[int, int, bytes]]]) -> int:
+    from host_tools.trace.writer import TraceWriter
+
+    buf = io.BytesIO()
+    w = TraceWriter(buf, "hexhil bench")
+    w.metadata("hexhil", {"bench": "writer"})
+    for s in schemas:
+        w.schema(s.id, s.name, s.encoding, s.data)
+    for c in channels:
+        w.channel(c.id, c.topic, c.message_encoding, c.schema_id)
+    for msgs in chunks:
+        w.chunk(msgs)
+    w.finish()
+    return len(buf.getvalue())
+
+
+def _write_stock(schemas: list[Any], channels: list[Any],
+                 chunks: list[list[tuple[int, int, bytes]]]) -> int:
+    from mcap.writer import CompressionType, Writer
+
+    buf = io.BytesIO()
+    w = Writer(buf, compression=CompressionType.ZSTD)
+    w.start(profile="", library="hexhil bench")
+    w.add_metadata("hexhil", {"bench": "writer"})
+    sid = {s.id: w.register_schema(s.name, s.encoding, s.data) for s in schemas}
+    cid = {c.id: w.register_channel(c.topic, c.message_encoding, sid[c.schema_id])
+           for c in channels}
+    seq = 0
+    for msgs in chunks:
+        for t, c, data in msgs:
+            w.add_message(cid[c], t, data, t, seq)
+            seq += 1
+        w.flush()  # one chunk a window, as the recorder writes them
+    w.finish()
+    return len(buf.getvalue())
+
+
+def _writers(tmp: Path) -> list[Row]:
+    """The same messages of a real run through our writer and the stock one, alternated,
+    median of ``WRITER_REPEATS`` each."""
+    from host_tools.run import run
+
+    out = tmp / "writers.mcap"
+    run(SCENARIO, RUN_S, out=str(out))
+    schemas, channels, chunks = _run_chunks(out)
+    n = sum(len(c) for c in chunks)
+    times: dict[str, list[float]] = {"ours": [], "stock": []}
+    sizes = {}
+    for _ in range(WRITER_REPEATS):
+        for name, write in (("ours", _write_ours), ("stock", _write_stock)):
+            t0 = time.perf_counter()
+            sizes[name] = write(schemas, channels, chunks)
+            times[name].append(time.perf_counter() - t0)
+    ours, stock = (statistics.median(times[k]) for k in ("ours", "stock"))
+    return [Row("traces: stock mcap Writer / ours", stock / ours, "x time", "",
+                f"{n} messages of {SCENARIO} {RUN_S:g} s in {len(chunks)} chunks, median of "
+                f"{WRITER_REPEATS}: ours {ours * 1e3:.1f} ms ({1e6 * ours / n:.2f} us/msg, "
+                f"{sizes['ours']} B), stock zstd {stock * 1e3:.1f} ms "
+                f"({1e6 * stock / n:.2f} us/msg, {sizes['stock']} B)")]
+
+
+def _cat(tmp: Path) -> list[Row]:
+    """``hexhil trace cat`` (in this process, output discarded) of a 30 s run's trace."""
+    from host_tools.cli import main
+    from host_tools.run import run
+
+    out = tmp / "cat.mcap"
+    run(SCENARIO, CAT_S, out=str(out))
+    rows = []
+    for label, extra in (("every topic", []), ("/can/raw", ["--topics", "/can/raw"])):
+        spent = []
+        for _ in range(5):
+            with open(os.devnull, "w") as sink, contextlib.redirect_stdout(sink):
+                t0 = time.perf_counter()
+                main(["trace", "cat", str(out), *extra])
+                spent.append(time.perf_counter() - t0)
+        rows.append(Row(f"traces: trace cat, {label}", 1e3 * statistics.median(spent), "ms", "",
+                        f"{SCENARIO} {CAT_S:g} s simulated, median of 5, in process"))
+    return rows
+
+
 def run() -> list[Row]:
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
-        return _overhead(tmp) + _rates(tmp) + _replay(tmp)
+        return (_overhead(tmp) + _rates(tmp) + _writers(tmp) + _cat(tmp) + _replay(tmp))

@@ -21,9 +21,10 @@ from typing import Any, Callable, Iterable
 
 from protocol import sim_link
 from hil.link import REQUEST_OPS, FirmwareProcess
-from host_tools import recorder as rec
+from host_tools.trace.protobuf import CanFrame, LinkExchanges
+from host_tools.trace.reader import Trace
+from host_tools.trace.topics import T_CAN_RAW, T_LINK
 from protocol.errors import UserError
-from host_tools.trace_tools import Trace
 
 # What each link message is, for reports and --topics.
 OP_TOPICS = {sim_link.OP_HELLO: "hello", sim_link.OP_TRANSACT: "uart", sim_link.OP_WRITE: "uart",
@@ -95,23 +96,23 @@ def _describe(op: int, payload: bytes) -> str:
 def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | None = None
                    ) -> list[tuple[int, bytes, bytes]]:
     """(t_us, request, reply) of every logged link exchange, in order."""
-    if rec.T_LINK not in trace.topics():
-        raise UserError(f"{trace.path}: no {rec.T_LINK} topic: this trace holds no "
+    if T_LINK not in trace.topics():
+        raise UserError(f"{trace.path}: no {T_LINK} topic: this trace holds no "
                         "firmware link exchanges to replay (record with 'hexhil run --out')")
-    cls = rec.LinkExchanges
+    cls = LinkExchanges
     schemas = {trace.schemas[c.schema_id].name for c in trace.channels.values()
-               if c.topic == rec.T_LINK and c.schema_id in trace.schemas}
+               if c.topic == T_LINK and c.schema_id in trace.schemas}
     if schemas != {cls.DESCRIPTOR.full_name}:
         got = ", ".join(sorted(schemas)) or "untyped"
-        raise UserError(f"{trace.path}: {rec.T_LINK} is {got}, not "
+        raise UserError(f"{trace.path}: {T_LINK} is {got}, not "
                         f"{cls.DESCRIPTOR.full_name}: recorded by another hexhil version; "
                         "record it again with this one")
     out = []
-    for m in trace.messages([rec.T_LINK], None, end_s):
+    for m in trace.messages([T_LINK], None, end_s):
         try:
             batch = cls.FromString(m.data).exchanges
         except Exception:
-            raise UserError(f"{trace.path}: corrupt {rec.T_LINK} message at "
+            raise UserError(f"{trace.path}: corrupt {T_LINK} message at "
                             f"t={m.log_time_ns / 1e9:.6f} s") from None
         end_us = None if end_s is None else end_s * 1e6
         out.extend((x.t_us, x.request, x.reply) for x in batch
@@ -144,7 +145,7 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     with Trace(path) as tr:
         exchanges = load_exchanges(tr, start_s, end_s)
     if not exchanges:
-        raise UserError(f"{path}: the {rec.T_LINK} topic is empty in the chosen time range")
+        raise UserError(f"{path}: the {T_LINK} topic is empty in the chosen time range")
     start_us = int(round((start_s or 0.0) * 1e6))
 
     result = ReplayResult()
@@ -157,7 +158,7 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
             try:
                 expected = split_messages(request)
             except ValueError as exc:
-                raise UserError(f"{path}: corrupt {rec.T_LINK} exchange {i}: {exc}") from None
+                raise UserError(f"{path}: corrupt {T_LINK} exchange {i}: {exc}") from None
             actual, closed = conn.batch()
             div = _compare(expected, actual, wanted, prev_t_us, i,
                            compare=prev_t_us >= start_us)
@@ -255,12 +256,12 @@ def replay_can(path: str | Path, spec: str, rate: float = 1.0, start_s: float | 
     if rate < 0:
         raise UserError("--rate must be >= 0 (0 = back to back)")
     interface, channel = parse_can_target(spec)
-    cls = rec.CanFrame
+    cls = CanFrame
     with Trace(path) as tr:
-        if rec.T_CAN_RAW not in tr.topics():
-            raise UserError(f"{tr.path}: no CAN frames to replay (no {rec.T_CAN_RAW} topic)")
+        if T_CAN_RAW not in tr.topics():
+            raise UserError(f"{tr.path}: no CAN frames to replay (no {T_CAN_RAW} topic)")
         frames = [(m.log_time_ns, cls.FromString(m.data))
-                  for m in tr.messages([rec.T_CAN_RAW], start_s, end_s)]
+                  for m in tr.messages([T_CAN_RAW], start_s, end_s)]
     own = bus is None
     if own:
         try:

@@ -110,7 +110,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     world = None if beams else make_world(sc, seed)
     recorder = None
     if out:
-        from host_tools.recorder import open_recorder
+        from host_tools.trace.recorder import open_recorder
         recorder = open_recorder(out, {"scenario": sc["_path"], "seed": seed,
                                        "firmware_runtime": "none" if beams else python})
     server = None

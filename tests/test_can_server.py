@@ -11,9 +11,11 @@ import pytest
 
 from hil.can_server import CanServer, frame_line, parse_send
 from hil.sim import Simulator
-from host_tools import recorder as rec
 from hil import scenario
-from host_tools.trace_tools import open_trace
+from host_tools.trace import protobuf as pb
+from host_tools.trace import recorder as rec
+from host_tools.trace import topics
+from host_tools.trace.reader import open_trace
 from protocol import can_frames
 
 
@@ -81,8 +83,8 @@ def test_stock_client_receives_every_frame_of_a_live_run(tmp_path):
             c.shutdown()
     assert result.exit_code == 0
     with open_trace(trace) as tr:
-        frames = [(m.log_time_ns, rec.CanFrame.FromString(m.data))
-                  for m in tr.messages([rec.T_CAN_RAW])]
+        frames = [(m.log_time_ns, pb.CanFrame.FromString(m.data))
+                  for m in tr.messages([topics.T_CAN_RAW])]
     sent = [(t, f) for t, f in frames if f.direction == "tx"]
     assert len(sent) >= 30 and srv.frames_published == len(sent)
     want = [(f.arbitration_id, f.data, round(t / 1e9, 6)) for t, f in sent]

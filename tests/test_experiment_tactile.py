@@ -118,7 +118,7 @@ def test_quick_sweep_from_the_command_line(tmp_path):
 
 
 def test_an_experiment_run_records_its_trace(tmp_path):
-    from host_tools.trace_tools import info
+    from host_tools.trace.reader import info
 
     spec = th.RunSpec("with", "tripod", 1.0, True, 1, "low", "small", periods=1)
     r = th.run_one(spec, 0.0326, str(tmp_path))

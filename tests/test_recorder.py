@@ -21,8 +21,11 @@ from mcap.records import Chunk, MessageIndex
 from mcap.stream_reader import StreamReader
 from mcap_protobuf.decoder import DecoderFactory
 
-from host_tools import recorder as rec
-from host_tools import trace_tools
+from host_tools.trace import protobuf as pb
+from host_tools.trace import reader as trace_reader
+from host_tools.trace import recorder as rec
+from host_tools.trace import recover as trace_recover
+from host_tools.trace import topics
 from protocol import can_frames, dynamixel
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -71,9 +74,9 @@ def test_stock_reader_schemas_and_foxglove_names(tmp_path):
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         summary = reader.get_summary()
         names = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
-        assert names[rec.T_BODY] == "foxglove.FrameTransform"
-        assert names[rec.T_JOINTS] == "foxglove.JointStates"
-        assert names[rec.T_FAULTS] == "foxglove.Log"
+        assert names[topics.T_BODY] == "foxglove.FrameTransform"
+        assert names[topics.T_JOINTS] == "foxglove.JointStates"
+        assert names[topics.T_FAULTS] == "foxglove.Log"
         assert names["/can/heartbeat"] == "hexhil.can.heartbeat"
         assert {ci.compression for ci in summary.chunk_indexes} == {"zstd"}
         # 4 s of virtual time in 0.5 s windows: several chunks, not one at the end
@@ -86,15 +89,15 @@ def test_stock_reader_schemas_and_foxglove_names(tmp_path):
         bursts = {"tx": b"", "rx": b""}
         links = []
         for schema, channel, message, decoded in reader.iter_decoded_messages(
-                topics=[rec.T_SERIAL, rec.T_JOINTS, rec.T_BODY, rec.T_LINK]):
-            if channel.topic == rec.T_SERIAL:
+                topics=[topics.T_SERIAL, topics.T_JOINTS, topics.T_BODY, topics.T_LINK]):
+            if channel.topic == topics.T_SERIAL:
                 bursts[decoded.direction] += decoded.data
                 assert decoded.length == len(decoded.data)
                 assert all(p.direction == decoded.direction for p in decoded.packets)
                 packets[decoded.direction] += decoded.packets
-            elif channel.topic == rec.T_LINK:
+            elif channel.topic == topics.T_LINK:
                 links += [(x.t_us, x.request, x.reply) for x in decoded.exchanges]
-            elif channel.topic == rec.T_JOINTS:
+            elif channel.topic == topics.T_JOINTS:
                 assert [j.name for j in decoded.joints] == ["coxa_LF", "femur_LF"]
                 assert decoded.joints[1].velocity == 0.5
             else:
@@ -141,21 +144,21 @@ def test_messages_are_in_log_time_order_in_the_file(tmp_path):
 def test_hand_encoded_protobuf_is_what_the_generated_classes_write(direction, servo_id, code,
                                                                    params, raw, kind, t_us):
     links = [(kind, params, raw, t_us), ("", b"", b"", 0), (kind, raw, params, servo_id)]
-    assert b"".join(rec.encode_link_exchange(*x) for x in links) == rec.LinkExchanges(exchanges=[
-        rec.LinkExchange(kind=k, request=q, reply=p, t_us=t) for k, q, p, t in links
+    assert b"".join(pb.encode_link_exchange(*x) for x in links) == pb.LinkExchanges(exchanges=[
+        pb.LinkExchange(kind=k, request=q, reply=p, t_us=t) for k, q, p, t in links
     ]).SerializeToString()
     if direction == "rx":
         names = ("", ",".join(dynamixel.error_names(code)))
     else:
         names = (dynamixel.INSTRUCTION_NAMES.get(code, "0x%02X" % code), "")
-    assert rec.encode_dynamixel_packet(direction, servo_id, code, params, raw) == \
-        rec.DynamixelPacket(direction=direction, id=servo_id, code=code, instruction=names[0],
+    assert pb.encode_dynamixel_packet(direction, servo_id, code, params, raw) == \
+        pb.DynamixelPacket(direction=direction, id=servo_id, code=code, instruction=names[0],
                             errors=names[1], params=params, raw=raw).SerializeToString()
-    packet = rec.DynamixelPacket(direction=direction, id=servo_id, code=code, params=params,
+    packet = pb.DynamixelPacket(direction=direction, id=servo_id, code=code, params=params,
                                  raw=raw)
     for packets in ([], [packet], [packet, packet]):
         encoded = [p.SerializeToString() for p in packets]
-        assert rec.encode_serial_bytes(direction, raw, encoded) == rec.SerialBytes(
+        assert pb.encode_serial_bytes(direction, raw, encoded) == pb.SerialBytes(
             direction=direction, data=raw, length=len(raw), packets=packets
         ).SerializeToString()
 
@@ -179,22 +182,22 @@ finite_or_not = st.floats(allow_nan=True, allow_infinity=True)
                      st.binary(max_size=8), st.text(max_size=10)))
 def test_hand_encoded_ground_truth_and_can_are_what_the_generated_classes_write(
         t_ns, parent, child, pos, quat, joints, servos, can):
-    ft = rec.FrameTransform(parent_frame_id=parent, child_frame_id=child)
+    ft = pb.FrameTransform(parent_frame_id=parent, child_frame_id=child)
     ft.timestamp.FromNanoseconds(t_ns)
     ft.translation.x, ft.translation.y, ft.translation.z = pos
     ft.rotation.w, ft.rotation.x, ft.rotation.y, ft.rotation.z = quat
-    assert rec.encode_frame_transform(t_ns, parent, child, pos, quat) == ft.SerializeToString()
-    js = rec.JointStates()
+    assert pb.encode_frame_transform(t_ns, parent, child, pos, quat) == ft.SerializeToString()
+    js = pb.JointStates()
     js.timestamp.FromNanoseconds(t_ns)
     for name, p, v, e in joints:
         j = js.joints.add()
         j.name, j.position, j.velocity, j.effort = name, p, v, e
-    assert rec.encode_joint_states(t_ns, *([j[k] for j in joints] for k in range(4))) == \
+    assert pb.encode_joint_states(t_ns, *([j[k] for j in joints] for k in range(4))) == \
         js.SerializeToString()
-    assert rec.encode_servo_states(servos) == rec.ServoStates(
-        servos=[rec.ServoState(**s) for s in servos]).SerializeToString()
+    assert pb.encode_servo_states(servos) == pb.ServoStates(
+        servos=[pb.ServoState(**s) for s in servos]).SerializeToString()
     direction, arb, ext, data, name = can
-    assert rec.encode_can_frame(direction, arb, ext, data, name) == rec.CanFrame(
+    assert pb.encode_can_frame(direction, arb, ext, data, name) == pb.CanFrame(
         direction=direction, arbitration_id=arb, is_extended_id=ext, dlc=len(data), data=data,
         name=name).SerializeToString()
 
@@ -213,7 +216,7 @@ def test_can_signals_in_the_trace_are_the_dbc_decoding(tmp_path):
             r.can(i * 1000, arb, data)
     with open(tmp_path / "c.mcap", "rb") as f:
         got = [json.loads(m.data) for _, c, m in make_reader(f).iter_messages()
-               if c.topic.startswith("/can/") and c.topic != rec.T_CAN_RAW]
+               if c.topic.startswith("/can/") and c.topic != topics.T_CAN_RAW]
     assert len(got) == len(frames)
     for values, (arb, data) in zip(got, frames):
         want = db.get_message_by_frame_id(arb).decode(data, decode_choices=False)
@@ -303,16 +306,16 @@ def test_a_packet_hidden_behind_a_bad_header_is_decoded_at_close(tmp_path):
     pkt = dynamixel.read(3, 36, 2)
     with rec.Recorder(path) as r:
         r.serial(1000, "tx", b"\xff\xff\x05\x40" + pkt)
-    with trace_tools.open_trace(path) as tr:
+    with trace_reader.open_trace(path) as tr:
         got = [(m.log_time_ns, v["data"], [p["raw"] for p in v["packets"]])
-               for m, v in tr.decoded([rec.T_SERIAL])]
+               for m, v in tr.decoded([topics.T_SERIAL])]
     assert got == [(1_000_000, (b"\xff\xff\x05\x40" + pkt).hex(), []),
                    (1_000_000, "", [pkt.hex()])]
 
 
 KILL_SCRIPT = textwrap.dedent("""
     import sys, time
-    from host_tools.recorder import Recorder
+    from host_tools.trace.recorder import Recorder
     r = Recorder(sys.argv[1], {"seed": 1})
     budget = int(sys.argv[2])        # -1: never idle(), like a world without firmware
     t = 0
@@ -345,19 +348,19 @@ def test_sigkill_loses_at_most_the_last_simulated_second(tmp_path, idle_budget):
     # the killed file is unreadable to the seeking reader (no summary) ...
     from protocol.errors import UserError
     with pytest.raises(UserError, match="recover"):
-        trace_tools.info(path)
+        trace_reader.info(path)
     # ... and recover salvages everything but the last window
     out = tmp_path / "recovered.mcap"
-    r = trace_tools.recover(path, out)
+    r = trace_recover.recover(path, out)
     assert not r["complete"]
     assert 3.7 - 1.0 <= r["end_s"] <= 3.7
-    info = trace_tools.info(out)
+    info = trace_reader.info(out)
     counts = {t["topic"]: t["messages"] for t in info["topics"]}
     # no gaps: every millisecond up to the last recovered one is there, on both topics
     n = int(round(r["end_s"] * 1000)) + 1
-    assert counts == {rec.T_SERIAL: n, rec.T_TELEMETRY: n}
-    with trace_tools.open_trace(out) as tr:
-        ts = [v["t_us"] for _, v in tr.decoded([rec.T_TELEMETRY])]
+    assert counts == {topics.T_SERIAL: n, topics.T_TELEMETRY: n}
+    with trace_reader.open_trace(out) as tr:
+        ts = [v["t_us"] for _, v in tr.decoded([topics.T_TELEMETRY])]
     assert ts == list(range(0, n * 1000, 1000))
 
 
@@ -384,9 +387,9 @@ def test_sigkilled_hexhil_run_recovers_to_an_exact_prefix(tmp_path):
         time.sleep(0.05)
     proc.send_signal(signal.SIGKILL)
     proc.wait()
-    r = trace_tools.recover(killed, tmp_path / "rec.mcap")
+    r = trace_recover.recover(killed, tmp_path / "rec.mcap")
     assert not r["complete"] and r["end_s"] >= 3.0
-    with trace_tools.open_trace(full) as a, trace_tools.open_trace(tmp_path / "rec.mcap") as b:
+    with trace_reader.open_trace(full) as a, trace_reader.open_trace(tmp_path / "rec.mcap") as b:
         want = [(m.topic, m.log_time_ns, m.data) for m in a.messages(end_s=3.0)]
         got = [(m.topic, m.log_time_ns, m.data) for m in b.messages(end_s=3.0)]
     assert got == want and len(want) > 1000

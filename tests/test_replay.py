@@ -11,11 +11,13 @@ import can
 import pytest
 
 from hil.sim import Simulator
-from host_tools import recorder as rec
 from hil import scenario
 from host_tools import replay
 from host_tools.cli import main
-from host_tools.trace_tools import open_trace
+from host_tools.trace import protobuf as pb
+from host_tools.trace import recorder as rec
+from host_tools.trace import topics
+from host_tools.trace.reader import open_trace
 
 MICROPYTHON = str(Path(sys.executable).with_name("micropython"))
 DURATION_S = 1.5
@@ -43,7 +45,7 @@ def _cli(capsys, *argv):
 def test_unchanged_firmware_replays_identically(trace, capsys, python):
     rc, r, _ = _cli(capsys, "replay", str(trace), "--python", python, "--json")
     with open_trace(trace) as tr:
-        n_link = sum(len(v["exchanges"]) for _, v in tr.decoded([rec.T_LINK]))
+        n_link = sum(len(v["exchanges"]) for _, v in tr.decoded([topics.T_LINK]))
     assert rc == 0 and r["identical"] and r["first_divergence"] is None
     assert r["exchanges"] == n_link and r["compared_messages"] > n_link // 2
 
@@ -52,7 +54,7 @@ def test_end_and_rate_options(trace, capsys):
     rc, r, _ = _cli(capsys, "replay", str(trace), "--end", "0.5", "--rate", "50", "--json")
     assert rc == 0 and r["identical"]
     with open_trace(trace) as tr:
-        times = [x["t_us"] for _, v in tr.decoded([rec.T_LINK]) for x in v["exchanges"]]
+        times = [x["t_us"] for _, v in tr.decoded([topics.T_LINK]) for x in v["exchanges"]]
     n_half = sum(1 for t in times if t < 500_000)
     assert 0 < n_half < len(times)
     assert r["exchanges"] == n_half
@@ -92,8 +94,8 @@ def test_cli_exit_1_on_divergence(trace, tmp_path, capsys, monkeypatch):
     rc, r, _ = _cli(capsys, "replay", str(trace), "--topics", "can,event", "--json")
     assert rc == 0 and r["identical"] and r["compared_messages"] > 0
     with open_trace(trace) as tr:
-        n_can = sum(1 for f in (rec.CanFrame.FromString(m.data)
-                                for m in tr.messages([rec.T_CAN_RAW])) if f.direction == "tx")
+        n_can = sum(1 for f in (pb.CanFrame.FromString(m.data)
+                                for m in tr.messages([topics.T_CAN_RAW])) if f.direction == "tx")
     assert r["compared_messages"] >= n_can
 
 
@@ -111,7 +113,7 @@ def test_a_link_topic_of_another_schema_is_one_line_exit_2(tmp_path, capsys):
         w = Writer(f)
         w.start()
         sid = w.register_schema("hexhil.LinkExchange", "protobuf", b"")
-        cid = w.register_channel(rec.T_LINK, "protobuf", sid)
+        cid = w.register_channel(topics.T_LINK, "protobuf", sid)
         w.add_message(cid, 0, b"\x12\x03abc", 0)
         w.finish()
     rc, _, err = _cli(capsys, "replay", str(path))
@@ -122,7 +124,7 @@ def test_a_link_topic_of_another_schema_is_one_line_exit_2(tmp_path, capsys):
 def test_replay_onto_can_sends_every_frame_in_order(trace):
     with open_trace(trace) as tr:
         want = [(f.arbitration_id, f.data) for f in
-                (rec.CanFrame.FromString(m.data) for m in tr.messages([rec.T_CAN_RAW]))]
+                (pb.CanFrame.FromString(m.data) for m in tr.messages([topics.T_CAN_RAW]))]
     assert want
     rx = can.Bus(interface="virtual", channel="replay-test")
     tx = can.Bus(interface="virtual", channel="replay-test")

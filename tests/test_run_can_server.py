@@ -7,8 +7,9 @@ import threading
 
 import can
 
-from host_tools import recorder as rec
-from host_tools.trace_tools import open_trace
+from host_tools.trace import protobuf as pb
+from host_tools.trace import topics
+from host_tools.trace.reader import open_trace
 
 
 def test_stock_client_receives_every_frame_of_hexhil_run(tmp_path):
@@ -43,7 +44,7 @@ def test_stock_client_receives_every_frame_of_hexhil_run(tmp_path):
         client.shutdown()
     assert proc.returncode == 0, err
     with open_trace(trace) as tr:
-        sent = [(m.log_time_ns, rec.CanFrame.FromString(m.data)) for m in tr.messages([rec.T_CAN_RAW])]
+        sent = [(m.log_time_ns, pb.CanFrame.FromString(m.data)) for m in tr.messages([topics.T_CAN_RAW])]
     want = [(f.arbitration_id, f.data) for _, f in sent if f.direction == "tx"]
     assert len(want) >= 20
     assert [(m.arbitration_id, bytes(m.data)) for m in received] == want

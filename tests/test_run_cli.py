@@ -75,17 +75,18 @@ def test_missing_file_and_bad_flag():
 def test_run_trace_holds_ground_truth_servo_state_and_joints(tmp_path):
     from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
 
-    from host_tools import recorder as rec
-    from host_tools.trace_tools import open_trace
+    from host_tools.trace import protobuf as pb
+    from host_tools.trace import topics
+    from host_tools.trace.reader import open_trace
 
     out = tmp_path / "t.mcap"
     s = summary(hexhil("run", "scenarios/flat-tripod.toml", "--duration", "1", "--out", str(out),
                        "--json"))
     assert s["trace"] == str(out)
     with open_trace(out) as tr:
-        servos = [rec.ServoStates.FromString(m.data) for m in tr.messages([rec.T_SERVOS])]
-        joints = [JointStates.FromString(m.data) for m in tr.messages([rec.T_JOINTS])]
-        bodies = list(tr.messages([rec.T_BODY]))
+        servos = [pb.ServoStates.FromString(m.data) for m in tr.messages([topics.T_SERVOS])]
+        joints = [JointStates.FromString(m.data) for m in tr.messages([topics.T_JOINTS])]
+        bodies = list(tr.messages([topics.T_BODY]))
     assert len(servos) == len(joints) == len(bodies) == 10  # 10 Hz over 1 s
     last = servos[-1].servos
     assert [sv.id for sv in last] == list(range(1, 19)) and all(sv.torque_enabled for sv in last)

@@ -14,8 +14,9 @@ import pytest
 from mcap.records import Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 
-from host_tools import recorder as rec
-from host_tools import trace_tools
+from host_tools.trace import reader as trace_reader
+from host_tools.trace import recorder as rec
+from host_tools.trace import recover as trace_recover
 from host_tools.cli import main
 from protocol import can_frames
 
@@ -108,7 +109,7 @@ def test_recover_truncated_file(tmp_path, capsys):
     r = json.loads(o.strip().splitlines()[-1])
     assert rc == 0 and r["messages"] > 0 and not r["complete"]
     # what came back is an exact prefix of the original, in time
-    with trace_tools.open_trace(p) as a, trace_tools.open_trace(out) as b:
+    with trace_reader.open_trace(p) as a, trace_reader.open_trace(out) as b:
         full = [(m.topic, m.log_time_ns, m.data) for m in a.messages()]
         got = [(m.topic, m.log_time_ns, m.data) for m in b.messages()]
     assert sorted(got) == sorted(x for x in full if x[1] <= r["end_s"] * 1e9)
@@ -140,7 +141,7 @@ def test_import_csv_then_estimate_recovers_stiffness(tmp_path, capsys):
     rc, o, _ = _cli(capsys, "trace", "import-csv", str(src), str(mcap), "--json")
     r = json.loads(o.strip().splitlines()[-1])
     assert rc == 0 and r["samples"] == 120 and r["pose"] and r["ignored_columns"] == ["tx_nm"]
-    topics = {t["topic"] for t in trace_tools.info(mcap)["topics"]}
+    topics = {t["topic"] for t in trace_reader.info(mcap)["topics"]}
     assert {"/can/force", "/can/body_pose", "/body"} <= topics
     rc, o, _ = _cli(capsys, "estimate", str(mcap), "--unknowns", "2", "--json")
     e = json.loads(o.strip().splitlines()[-1])
@@ -182,7 +183,7 @@ def _bad_files(tmp_path):
     files["not mcap"].write_text("time_s,fx_n\n0,1\n")
     files["truncated"].write_bytes(data[: len(data) // 2])
     # flip bytes inside the first chunk's compressed data: the chunk CRC catches it
-    with trace_tools.open_trace(good) as tr:
+    with trace_reader.open_trace(good) as tr:
         ci = min(tr.summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
     bad = bytearray(data)
     for i in range(ci.chunk_start_offset + 80, ci.chunk_start_offset + 120):
@@ -225,13 +226,13 @@ def test_recover_bad_input(tmp_path, capsys):
 
 
 def _messages(path):
-    with trace_tools.open_trace(path) as tr:
+    with trace_reader.open_trace(path) as tr:
         return sorted((m.topic, m.log_time_ns, m.data) for m in tr.messages())
 
 
 def _chunks(path):
     """(start offset, end offset, its messages) of each chunk, in file order."""
-    with trace_tools.open_trace(path) as tr:
+    with trace_reader.open_trace(path) as tr:
         cis = sorted(tr.summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
         topic = {cid: ch.topic for cid, ch in tr.channels.items()}
     data = Path(path).read_bytes()
@@ -262,7 +263,7 @@ def test_recover_skips_a_damaged_middle_chunk_and_keeps_the_rest(tmp_path, where
         bad[i] ^= 0xA5
     damaged = tmp_path / "damaged.mcap"
     damaged.write_bytes(bytes(bad))
-    r = trace_tools.recover(damaged, tmp_path / "rec.mcap")
+    r = trace_recover.recover(damaged, tmp_path / "rec.mcap")
     assert not r["complete"] and r["orphaned_messages"] == 0
     assert [(d["byte"], d["byte"] + d["bytes"], d["why"]) for d in r["damaged"]] == \
         [(start, chunks[len(chunks) // 2 + 1][0], "damaged")]
@@ -285,7 +286,7 @@ def test_recover_a_crash_cut_file_with_a_damaged_chunk(tmp_path):
         bad[i] ^= 0xA5
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(bytes(bad))
-    r = trace_tools.recover(cut, tmp_path / "rec.mcap")
+    r = trace_recover.recover(cut, tmp_path / "rec.mcap")
     assert [d["why"] for d in r["damaged"]] == ["damaged", "cut off"]
     assert r["stopped"] == f"cut off at byte {chunks[-2][0]}"
     kept = {m for _, _, msgs in chunks[:-2] for m in msgs} - set(chunks[1][2])
@@ -297,7 +298,7 @@ def test_recover_a_crash_cut_file_with_a_damaged_chunk(tmp_path):
     for i in range(first_channel + 1, first_channel + 9):
         bad[i] ^= 0xA5
     cut.write_bytes(bytes(bad))
-    r = trace_tools.recover(cut, tmp_path / "rec2.mcap")
+    r = trace_recover.recover(cut, tmp_path / "rec2.mcap")
     # reading resumes at the first chunk, but every channel record lay in the skipped span
     assert [(d["byte"], d["byte"] + d["bytes"]) for d in r["damaged"][:2]] == \
         [(first_channel, chunks[0][0]), (chunks[1][0], chunks[2][0])]
@@ -317,7 +318,7 @@ def test_no_traceback_from_the_real_command_line(tmp_path):
 def test_fast_chunk_reader_matches_the_mcap_library(tmp_path):
     p = tmp_path / "t.mcap"
     _trace(p, seconds=3.0)
-    with trace_tools.open_trace(p) as tr:
+    with trace_reader.open_trace(p) as tr:
         assert tr.file_order_is_time_order
         for topics, start, end in ((None, None, None), (["/can/*"], 0.5, 1.25),
                                    (["/serial"], 2.0, None)):

@@ -82,7 +82,7 @@ def _start_after_delay(k1: float, k2: float, hb_m: float, delay_ms: float) -> tu
 
 def cmd_run(args: argparse.Namespace) -> int:
     from host_tools.traversal.closed_loop import RunConfig, run
-    from host_tools.recorder import open_recorder
+    from host_tools.trace.recorder import open_recorder
 
     hb = _nonneg("hb-mm", args.hb_mm) * 1e-3
     fx = args.fx if args.fx is not None else (1.0 if args.strategy == "none" else 0.1)

@@ -33,7 +33,7 @@ def _walks(out_dir: Path) -> dict:
 
 
 def _trace_summary(path: str) -> dict:
-    from host_tools.trace_tools import info
+    from host_tools.trace.reader import info
 
     summary = info(path)
     print(f"  {summary['file']}: {summary['messages']} messages on {len(summary['topics'])} topics, "

@@ -14,11 +14,12 @@ import math
 
 import numpy as np
 
-from host_tools import recorder as rec
 from host_tools.cli import emit_json
-from protocol.errors import UserError
-from host_tools.trace_tools import Trace
+from host_tools.trace.protobuf import CanFrame
+from host_tools.trace.reader import Trace
+from host_tools.trace.topics import T_CAN_RAW
 from protocol import can_frames
+from protocol.errors import UserError
 
 SENSING_S = 0.300        # seed 000 Sec. II-E: T_s = 300 ms after first contact
 CONTACT_N = 0.01         # |F| above this counts as contact (the frame's 1 mN step x 10)
@@ -27,7 +28,7 @@ CONTACT_N = 0.01         # |F| above this counts as contact (the frame's 1 mN st
 def load_samples(path: str, start_s: float | None, end_s: float | None
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict | None]:
     """(t_s, poses [x_m, roll_rad, pitch_rad], forces [N]) and the last logged estimate."""
-    cls = rec.CanFrame
+    cls = CanFrame
     t, poses, forces = [], [], []
     pose = None
     logged = None
@@ -43,9 +44,9 @@ def load_samples(path: str, start_s: float | None, end_s: float | None
         held.clear()
 
     with Trace(path) as tr:
-        if rec.T_CAN_RAW not in tr.topics():
-            raise UserError(f"{path}: no {rec.T_CAN_RAW} topic, so no force frames to estimate from")
-        for m in tr.messages([rec.T_CAN_RAW], start_s, end_s):
+        if T_CAN_RAW not in tr.topics():
+            raise UserError(f"{path}: no {T_CAN_RAW} topic, so no force frames to estimate from")
+        for m in tr.messages([T_CAN_RAW], start_s, end_s):
             if m.log_time_ns != held_ns:
                 release()  # a pose logged at the same instant as a force belongs to it
                 held_ns = m.log_time_ns

@@ -5,8 +5,8 @@ import argparse
 import json
 import sys
 
-from host_tools import trace_tools
 from host_tools.cli import emit, emit_json
+from host_tools.trace import export, import_csv, reader, recover
 
 
 def _filters(p: argparse.ArgumentParser) -> None:
@@ -17,7 +17,7 @@ def _filters(p: argparse.ArgumentParser) -> None:
 
 
 def _info(args: argparse.Namespace) -> int:
-    s = trace_tools.info(args.file)
+    s = reader.info(args.file)
     if args.json:
         emit_json(s)
         return 0
@@ -40,7 +40,7 @@ def _info(args: argparse.Namespace) -> int:
 def _cat(args: argparse.Namespace) -> int:
     n = 0
     out = sys.stdout
-    with trace_tools.open_trace(args.file) as tr:
+    with reader.open_trace(args.file) as tr:
         for m, value in tr.decoded(args.topics, args.start, args.end):
             out.write(f"{m.log_time_ns / 1e9:.6f} {m.topic} "
                       f"{json.dumps(value, sort_keys=True)}\n")
@@ -53,13 +53,13 @@ def _cat(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    r = trace_tools.export(args.file, args.out, args.topics, args.start, args.end)
+    r = export.export(args.file, args.out, args.topics, args.start, args.end)
     emit(args, r, f"exported {r['messages']} messages to {', '.join(r['files'])}")
     return 0
 
 
 def _recover(args: argparse.Namespace) -> int:
-    r = trace_tools.recover(args.file, args.out)
+    r = recover.recover(args.file, args.out)
     skipped = "".join(f"; skipped {d['bytes']} damaged bytes at byte {d['byte']} "
                       f"({d['after_s']:.6f} s .. {d['before_s']:.6f} s)"
                       for d in r["damaged"] if d["why"] == "damaged" and d["before_s"] is not None)
@@ -71,7 +71,7 @@ def _recover(args: argparse.Namespace) -> int:
 
 
 def _import_csv(args: argparse.Namespace) -> int:
-    r = trace_tools.import_csv(args.csv, args.out)
+    r = import_csv.import_csv(args.csv, args.out)
     emit(args, r, f"imported {r['samples']} samples ({'with' if r['pose'] else 'without'} pose) "
                   f"into {r['output']}")
     return 0

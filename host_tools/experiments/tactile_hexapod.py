@@ -91,7 +91,7 @@ def simulate(scenario: dict[str, Any], seed: int, duration_s: float, trace: str 
     returns the world at the end."""
     from hil.sim import Simulator
     from hil.world.hexapod import HexapodWorld
-    from host_tools.recorder import open_recorder
+    from host_tools.trace.recorder import open_recorder
 
     world = HexapodWorld(scenario, seed)
     recorder = open_recorder(trace, {"scenario": scenario["_path"], "seed": seed,
