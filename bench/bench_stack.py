@@ -1,0 +1,169 @@
+"""The full stack as users run it (issue 18): ``hexhil run`` unpinned, median of 5, beside
+the world alone measured in the same run, with and without recording; where a cycle's wall
+time goes; and how the cost grows with servos and obstacles.
+"""
+from __future__ import annotations
+
+import json
+import math
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+from bench import Row
+from bench.bench_world import ROOT, world_alone
+from hil import scenario as scenario_mod
+from hil.bus import Bus
+from hil.clock import VirtualClock
+from hil.link import Connection
+from hil.rig import make_world
+from hil.servo import Servo
+from hil.sim import Simulator
+from protocol import ax12
+from protocol import dynamixel as dxl
+
+SCENARIO = ROOT / "scenarios" / "obstacles-low-small.toml"   # the issue's command, seed 3
+RUNS = 5
+BREAKDOWN_S = 10.0
+GROWTH_S = 10.0
+
+
+def _hexhil_rtf(*extra: str) -> float:
+    """``hexhil run SCENARIO --seed 3 --json`` as a user runs it; its real-time factor."""
+    out = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", str(SCENARIO), "--seed",
+                          "3", "--json", *extra], cwd=ROOT, capture_output=True, text=True,
+                         check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])["real_time_factor"]
+
+
+def _median_rtf(record: bool) -> float:
+    with tempfile.TemporaryDirectory() as tmp:
+        extra = ("--out", str(Path(tmp) / "run.mcap")) if record else ()
+        return statistics.median(_hexhil_rtf(*extra) for _ in range(RUNS))
+
+
+class _Stopwatch:
+    """Seconds spent inside wrapped callables, by label (nested labels are not subtracted)."""
+
+    def __init__(self) -> None:
+        self.s: dict[str, float] = {}
+
+    def wrap(self, label: str, fn: Callable[..., Any]) -> Callable[..., Any]:
+        def timed(*args: Any, **kw: Any) -> Any:
+            t0 = time.perf_counter()
+            try:
+                return fn(*args, **kw)
+            finally:
+                self.s[label] = self.s.get(label, 0.0) + time.perf_counter() - t0
+        return timed
+
+
+def breakdown(record: bool = True) -> dict[str, float]:
+    """Microseconds of the host's wall time per control cycle: waiting on the firmware (its
+    compute and the link's latency, where the host has nothing else to do), bus + servo
+    emulation, world step, recorder, and the rest (the link server's own Python). The
+    firmware's compute (its own counter) is given beside them: it runs while the host waits
+    or records, so it is not one of the parts."""
+    sc = scenario_mod.load(SCENARIO)
+    sw = _Stopwatch()
+    world = make_world(sc, 3)
+    world.advance_to = sw.wrap("world", world.advance_to)
+    rec = None
+    with tempfile.TemporaryDirectory() as tmp:
+        if record:
+            from host_tools.trace.recorder import open_recorder
+            rec = open_recorder(Path(tmp) / "b.mcap", {})
+            rec.serial = sw.wrap("recorder in bus", rec.serial)   # called from inside the bus
+            for name in ("can", "switch_edge", "telemetry", "servo_state", "body_pose",
+                         "joints", "fault", "link", "advance", "idle"):
+                setattr(rec, name, sw.wrap("recorder", getattr(rec, name)))
+        sim = Simulator(sc, 3, world=world, recorder=rec)
+        for name in ("master_write", "master_read", "idle_until"):
+            setattr(sim.bus, name, sw.wrap("bus", getattr(sim.bus, name)))
+        batch = Connection.batch
+        Connection.batch = sw.wrap("wait", batch)
+        try:
+            t0 = time.perf_counter()
+            r = sim.run(BREAKDOWN_S)
+            total = time.perf_counter() - t0
+        finally:
+            Connection.batch = batch
+            if rec is not None:
+                rec.close()
+    s = sw.s
+    in_bus = s.get("recorder in bus", 0.0)
+    parts = {"waiting on the firmware": s.get("wait", 0.0),
+             "bus + servo emulation": s.get("bus", 0.0) - s.get("world", 0.0) - in_bus,
+             "world step": s.get("world", 0.0), "recorder": s.get("recorder", 0.0) + in_bus}
+    parts["link server and the rest"] = total - sum(parts.values())
+    parts["total"] = total
+    cycles = max(1, r.cycles)
+    out = {k: v / cycles * 1e6 for k, v in parts.items()}
+    out["firmware compute (overlaps)"] = r.firmware.get("compute_us_mean", 0.0)
+    return out
+
+
+def _obstacle_field(n: int) -> list[dict[str, float]]:
+    """``n`` small obstacles in a grid ahead of the robot, 15 cm apart."""
+    cols = max(1, math.ceil(math.sqrt(n)))
+    return [{"x_m": 0.25 + 0.15 * (k // cols), "y_m": -0.15 * (cols - 1) / 2 + 0.15 * (k % cols),
+             "length_m": 0.03, "width_m": 0.06, "height_m": 0.03} for k in range(n)]
+
+
+def _full_stack_with_obstacles(n: int) -> float:
+    sc = scenario_mod.load(ROOT / "scenarios" / "flat-tripod.toml")
+    if n:
+        sc["world"].update(terrain="obstacles", obstacles=_obstacle_field(n))
+    r = Simulator(sc, 1, world=make_world(sc, 1)).run(GROWTH_S)
+    return r.sim_time_s / r.wall_time_s
+
+
+def _bus_and_servos(n: int) -> float:
+    """Real-time factor of ``n`` emulated servos on the bus with a scripted master doing the
+    firmware's per-cycle traffic (one SYNC_WRITE to all, three status reads) at 50 Hz; the
+    firmware needs all 18 servos, so this is the host side alone."""
+    clock = VirtualClock()
+    bus = Bus([Servo(i + 1) for i in range(n)], clock)
+    ids = list(range(1, n + 1))
+    parser = dxl.Parser()
+    t0 = time.perf_counter()
+    cycles = int(GROWTH_S * 50)
+    for k in range(cycles):
+        goal = [(i, ax12.rad_to_position(0.1 * math.sin(k / 25 + i)).to_bytes(2, "little")
+                 + b"\x00\x02") for i in ids]
+        bus.master_write(dxl.sync_write(ax12.GOAL_POSITION, 4, goal))
+        for j in range(3):
+            bus.master_write(dxl.read(ids[(3 * k + j) % n], ax12.PRESENT_POSITION, 6))
+            parser.feed(bus.master_read(12, 1000))
+        bus.idle_until((k + 1) * 20_000)
+    return GROWTH_S / (time.perf_counter() - t0)
+
+
+def run() -> list[Row]:
+    alone = world_alone(SCENARIO, seed=3)
+    plain, recorded = _median_rtf(False), _median_rtf(True)
+    rows = [Row("stack: world alone (MuJoCo + 18 drives)", alone, "x real time", "",
+                "obstacles-low-small, seed 3, joints commanded at 50 Hz"),
+            Row("stack: hexhil run, unpinned", plain, "x real time", f">= {0.8 * alone:.0f}x",
+                f"`hexhil run {SCENARIO.name} --seed 3 --json`, micropython, median of {RUNS}"),
+            Row("stack: hexhil run --out, unpinned", recorded, "x real time",
+                f">= {0.7 * alone:.0f}x", f"the same with recording, median of {RUNS}"),
+            Row("stack: run / world alone", plain / alone, "ratio", ">= 0.8", "issue 18 goal"),
+            Row("stack: run --out / world alone", recorded / alone, "ratio", ">= 0.7",
+                "issue 18 goal")]
+    parts = breakdown()
+    for name, us in parts.items():
+        rows.append(Row(f"stack cycle: {name}", us, "us / cycle", "",
+                        f"in-process {BREAKDOWN_S:.0f} s run with recording, 50 Hz cycles"))
+    for n in (0, 10, 40):
+        rows.append(Row(f"stack growth: {n} obstacles", _full_stack_with_obstacles(n),
+                        "x real time", "", f"flat-tripod + {n} obstacles, full stack, "
+                                           f"{GROWTH_S:.0f} s"))
+    for n in (6, 12, 18):
+        rows.append(Row(f"stack growth: {n} servos (bus + servos only)", _bus_and_servos(n),
+                        "x real time", "", "scripted master, the firmware's traffic per cycle"))
+    return rows
