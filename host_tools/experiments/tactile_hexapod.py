@@ -55,6 +55,7 @@ class RunSpec:
     height_class: str = ""
     periods: int = PROBE_PERIODS
     model: str = "real"   # world.model (hil/world/fidelity.py)
+    obstacle_body: str = "free"   # world.obstacle_body with the real model
 
     @property
     def period_s(self) -> float:
@@ -70,6 +71,7 @@ def scenario_for(spec: RunSpec) -> dict[str, Any]:
     world: dict[str, Any] = {"kind": "hexapod", "terrain": "flat", "model": spec.model}
     if spec.model == "real":
         world["units_seed"] = UNITS_SEED    # one robot for every run, as in the paper
+        world["obstacle_body"] = spec.obstacle_body
     gait: dict[str, Any] = {"name": spec.gait, "period_s": spec.period_s,
                             "distance_m": spec.distance_m}
     if spec.density:
@@ -134,45 +136,48 @@ def _run_with_speed(args: tuple[RunSpec, float]) -> dict[str, Any]:
 
 
 def plan(quick: bool, seeds: int, periods_for: dict[tuple[str, float], int],
-         model: str = "real", trials: int = 1) -> list[RunSpec]:
+         model: str = "real", trials: int = 1, obstacle_body: str = "free") -> list[RunSpec]:
     """Stages 2-4 of the protocol (the probe has run and fixed the periods). Table 1's
     trials differ by their seed (the real model's trial noise; identical when ideal)."""
     distances = (1.0,) if quick else (1.0, 2.0)
-    specs = [RunSpec("calibration", g, d, True, t, periods=periods_for[g, d], model=model)
+    specs = [RunSpec("calibration", g, d, True, t, periods=periods_for[g, d], model=model,
+                     obstacle_body=obstacle_body)
              for g in GAITS for d in distances for t in range(trials)]
     for g in GAITS:
         for h in HEIGHTS:
             for s in range(seeds):
                 specs.append(RunSpec("without", g, 1.0, False, s + 1, "low", h,
-                                     periods_for[g, 1.0], model))
+                                     periods_for[g, 1.0], model, obstacle_body))
     for g in GAITS:
         for dens in DENSITIES:
             for d in distances:
                 for h in HEIGHTS:
                     for s in range(seeds):
                         specs.append(RunSpec("with", g, d, True, s + 1, dens, h,
-                                             periods_for[g, d], model))
+                                             periods_for[g, d], model, obstacle_body))
     # longest runs first keeps the pool busy to the end
     return sorted(specs, key=lambda s: -s.duration_s)
 
 
 def run_sweep(quick: bool, seeds: int, executor: Executor, trace_dir: str | None = None,
-              model: str = "real") -> dict[str, Any]:
+              model: str = "real", obstacle_body: str = "free") -> dict[str, Any]:
     """Run the whole protocol; returns the probe speeds, periods and every run's result."""
-    probes = [RunSpec("probe", g, 0.0, True, 0, model=model) for g in GAITS]
+    probes = [RunSpec("probe", g, 0.0, True, 0, model=model, obstacle_body=obstacle_body)
+              for g in GAITS]
     probe_out = executor.map(run_one, probes, "calibration probe")
     speed = {r["gait"]: r["x_m"] / r["sim_s"] for r in probe_out}
     distances = (1.0,) if quick else (1.0, 2.0)
     periods_for = {(g, d): max(1, round(d / (speed[g] * hexapod.GAIT_PERIOD_S[g])))
                    for g in GAITS for d in distances}
-    specs = plan(quick, seeds, periods_for, model, 1 if quick else CALIBRATION_TRIALS)
+    specs = plan(quick, seeds, periods_for, model, 1 if quick else CALIBRATION_TRIALS,
+                 obstacle_body)
     runs = executor.map(_run_with_speed, [(s, speed[s.gait], trace_dir) for s in specs], "runs")
-    return {"model": model, "speed_m_s": speed, "periods": {f"{g} {d:g} m": n for (g, d), n in periods_for.items()},
+    return {"model": model, "obstacle_body": obstacle_body, "speed_m_s": speed, "periods": {f"{g} {d:g} m": n for (g, d), n in periods_for.items()},
             "runs": runs}
 
 
 def main(quick: bool, out: Path, seeds: int, executor: Executor,
-         traces: bool = False, model: str = "real") -> dict[str, Any]:
+         traces: bool = False, model: str = "real", obstacle_body: str = "free") -> dict[str, Any]:
     """Run the sweep and write results.json, results.md and the PNG plots into ``out``
     (and one MCAP trace per run into ``out/traces`` with ``traces``)."""
     out.mkdir(parents=True, exist_ok=True)
@@ -181,7 +186,7 @@ def main(quick: bool, out: Path, seeds: int, executor: Executor,
         (out / "traces").mkdir(exist_ok=True)
         trace_dir = str(out / "traces")
     t0 = time.perf_counter()
-    result = run_sweep(quick, seeds, executor, trace_dir, model)
+    result = run_sweep(quick, seeds, executor, trace_dir, model, obstacle_body)
     result["wall_s"] = time.perf_counter() - t0
     (out / "results.json").write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")
     md = markdown(result, quick)
@@ -207,6 +212,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model", choices=("real", "ideal"), default="real",
                    help="world model: real (servo backlash and spread, loose obstacles, trial "
                         "noise; default) or ideal (the regression world of scenario files)")
+    p.add_argument("--obstacles", choices=("free", "fixed"), default="free",
+                   help="with the real model: loose obstacles (default) or fixed ones")
     p.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
 
 
@@ -218,7 +225,7 @@ def run(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} exists and is not a folder")
     res = main(args.quick, out, seeds, Executor(args.workers, args.scheduler), args.traces,
-               args.model)
+               args.model, args.obstacles)
     print(Path(res["table"]).read_text())
     print(f"wrote {res['table']} and {len(res['plots'])} plots in {res['out']} "
           f"({res['runs']} runs, {res['wall_s']:.0f} s)")

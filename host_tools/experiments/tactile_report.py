@@ -73,7 +73,9 @@ def markdown(result: dict[str, Any], quick: bool) -> str:
     model = result.get("model", "real")
     old = LANDED_IDEAL["quick" if quick else "full"]
     lines = ["# Seed 003 in simulation: tactile obstacle overcoming", "",
-             f"Sweep: {'quick' if quick else 'full'}, world model {model!r} (hil/world/fidelity.py); "
+             f"Sweep: {'quick' if quick else 'full'}, world model {model!r}"
+             + (f", {result.get('obstacle_body', 'free')} obstacles" if model == "real" else "")
+             + " (hil/world/fidelity.py); "
              f"{len(runs)} runs after the calibration probe. "
              "Errors in cm, heading change in degrees; dx = goal x - end x, dy = end y.",
              f"Measured flat-ground speed: " + ", ".join(f"{g} {v:.4f} m/s" for g, v in result["speed_m_s"].items())
@@ -96,11 +98,9 @@ def markdown(result: dict[str, Any], quick: bool) -> str:
              "trial noise).", "",
              "| gait | d (m) | trials | dx (cm) | dy (cm) | ideal as landed (dx, dy) | paper average (dx, dy) |",
              "|---|---|---|---|---|---|---|"]
-    for (g, _, d, _), rs in _cases(runs, "calibration").items():
-        paper = PAPER_TABLE1_CM.get((g, d), ("", ""))
-        landed = LANDED_IDEAL_TABLE1_CM.get((g, d), ("", ""))
-        lines.append(f"| {g} | {d:g} | {len(rs)} | {_spread(rs, 'dx_m')} | {_spread(rs, 'dy_m')} | "
-                     f"({landed[0]}, {landed[1]}) | ({paper[0]}, {paper[1]}) |")
+    lines += [f"| {g} | {d:g} | {len(rs)} | {_spread(rs, 'dx_m')} | {_spread(rs, 'dy_m')} | "
+              f"{LANDED_IDEAL_TABLE1_CM.get((g, d), '-')} | {PAPER_TABLE1_CM.get((g, d), '-')} |"
+              for (g, _, d, _), rs in _cases(runs, "calibration").items()]
     lines += ["", "## Without the method: low density, 1 m (Fig. 16)", "",
               "| gait | height | runs | ours mean abs (dx, dy) cm, dyaw deg | Eq. 8-14 (dx, dy) cm, dalpha deg | paper |",
               "|---|---|---|---|---|---|"]
