@@ -36,15 +36,17 @@ def world_alone(path: Path = ROOT / "scenarios" / "obstacles-high-large.toml",
     return SIM_S / (time.perf_counter() - t0)
 
 
-def _full_stack() -> tuple[float, float, float]:
+def _full_stack() -> tuple[float, float, float, float]:
     """Tripod over low-density small obstacles, firmware under micropython, with and
-    without recording to MCAP, alternated, best of ``REPEATS`` each (the machine is
-    shared); (RTF recorded, RTF plain, sim s). The host and the firmware process are
+    without recording to MCAP, and unrecorded with the real world model (issue 21),
+    alternated, best of ``REPEATS`` each (the machine is shared); (RTF recorded, RTF plain,
+    RTF real model, sim s). The host and the firmware process are
     pinned to one core, as the issue's target is stated: nothing overlaps."""
     from host_tools.experiments import tactile_hexapod as th
 
-    spec = th.RunSpec("bench", "tripod", 1.0, True, 1, "low", "small", periods=15)
-    best = {False: math.inf, True: math.inf}
+    spec = th.RunSpec("bench", "tripod", 1.0, True, 1, "low", "small", periods=15, model="ideal")
+    real = th.RunSpec("bench", "tripod", 1.0, True, 1, "low", "small", periods=15, model="real")
+    best = {False: math.inf, True: math.inf, "real": math.inf}
     cores = os.sched_getaffinity(0)
     os.sched_setaffinity(0, {min(cores)})  # the firmware child inherits it
     try:
@@ -54,9 +56,13 @@ def _full_stack() -> tuple[float, float, float]:
                     t0 = time.perf_counter()
                     out = th.run_one(spec, trace_dir=tmp if recorded else None)
                     best[recorded] = min(best[recorded], time.perf_counter() - t0)
+                t0 = time.perf_counter()
+                th.run_one(real)
+                best["real"] = min(best["real"], time.perf_counter() - t0)
     finally:
         os.sched_setaffinity(0, cores)
-    return out["sim_s"] / best[True], out["sim_s"] / best[False], out["sim_s"]
+    sim_s = out["sim_s"]
+    return sim_s / best[True], sim_s / best[False], sim_s / best["real"], sim_s
 
 
 def _sweep() -> tuple[float, int]:
@@ -73,11 +79,14 @@ def _sweep() -> tuple[float, int]:
 def run() -> list[Row]:
     rows = [Row("world alone: real-time factor", world_alone(), "x real time", ">= 20x",
                 "MuJoCo 2 ms steps + 18 AX-12 drives, high-large obstacles, 50 Hz commands")]
-    rtf, plain, sim_s = _full_stack()
+    rtf, plain, real, sim_s = _full_stack()
     rows.append(Row("world full stack: real-time factor", rtf, "x real time", ">= 20x",
                     f"micropython firmware + bus + servos + MuJoCo + MCAP recording, tripod "
                     f"{sim_s:.0f} s, host and firmware pinned to one core, best of {REPEATS}; "
                     f"{plain:.1f}x without recording"))
+    rows.append(Row("world full stack, real model: real-time factor", real, "x real time", "",
+                    f"as above without recording, world.model = real (backlash, unit spread, "
+                    f"loose obstacles, trial noise); ideal: {plain:.1f}x"))
     wall, runs = _sweep()
     rows.append(Row("experiment tactile-hexapod (whole sweep)", wall, "s wall", "",
                     f"{runs} runs on {os.cpu_count()} worker processes"))

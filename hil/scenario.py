@@ -26,7 +26,9 @@ SCHEMA: dict[str, dict[str, type]] = {
     "faults": {"bit_error_rate": float, "drop_status_rate": float, "unplug": list,
                "stall": list, "overheat": list, "voltage_sag": list},
     "world": {"kind": str, "terrain": str, "density": str, "height_class": str,
-              "obstacles": list, "length_m": float, "friction": float, "terrain_seed": int},
+              "obstacles": list, "length_m": float, "friction": float, "terrain_seed": int,
+              # "ideal" (default: regression) or "real" (experiments): hil/world/fidelity.py
+              "model": str, "obstacle_body": str, "units_seed": int},
     # Seed 000 (world.kind = "beams"): the two beams (Sec. II-B) and the force sensor (Eq. 6).
     "beams": {"k1_nm_per_rad": float, "k2_nm_per_rad": float, "hb1_m": float, "hb2_m": float,
               "noise": float, "preload_nm": float, "mass_kg": float},

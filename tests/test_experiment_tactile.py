@@ -59,7 +59,8 @@ def _one_obstacle(tactile: bool):
     """Tripod, firmware under micropython, one 4.5 cm obstacle in the left-front leg's path."""
     from hil.sim import Simulator
 
-    spec = th.RunSpec("with" if tactile else "without", "tripod", 1.0, tactile, 0, periods=4)
+    spec = th.RunSpec("with" if tactile else "without", "tripod", 1.0, tactile, 0, periods=4,
+                      model="ideal")   # the firmware pipeline on the regression world
     sc = th.scenario_for(spec)
     sc["world"].update(terrain="obstacles", obstacles=[
         {"x_m": 0.36, "y_m": 0.19, "length_m": 0.03, "width_m": 0.08, "height_m": 0.045}])

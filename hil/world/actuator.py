@@ -55,6 +55,7 @@ class DriveBank:
         self.slope_rad = np.zeros((2, n))
         self.punch = np.zeros(n)
         self.duty = np.zeros(n)
+        self.read_offset_rad = [0.0] * n    # potentiometer zero offsets (real model)
         for i in range(n):
             self.set_compliance(i, DEFAULT_COMPLIANCE)
 
@@ -66,7 +67,11 @@ class DriveBank:
         self.punch[i] = punch * PUNCH_FRACTION_PER_UNIT
 
     def control(self, q_rad: np.ndarray, dt_s: float) -> np.ndarray:
-        """Advance set-points by one step and return the motor torques (N m) to apply.
+        """Advance set-points by one step and return the motor torques (N m) to apply."""
+        return STALL_TORQUE_NM * self.duty_for(q_rad, dt_s)
+
+    def duty_for(self, q_rad: np.ndarray, dt_s: float) -> np.ndarray:
+        """Advance set-points by one step; the signed duty on the measured angles ``q_rad``.
 
         Runs every physics step: written as in-place ufuncs (np.clip's Python wrapper
         alone cost as much as the rest)."""
@@ -86,7 +91,7 @@ class DriveBank:
         np.minimum(u, self.torque_limit, out=u)
         u *= np.sign(e) * ((excess > 0) & self.enabled)
         self.duty = u
-        return STALL_TORQUE_NM * u
+        return u
 
 
 class MujocoActuator:
@@ -102,7 +107,7 @@ class MujocoActuator:
         bank = self.world.drives
         i = self.index
         if enabled and not bank.enabled[i]:
-            bank.setpoint_rad[i] = self.state()[0]  # resume from where it is
+            bank.setpoint_rad[i] = self.state()[0]  # resume from where it reads
         bank.goal_rad[i] = goal_rad
         bank.speed_limit_rad_s[i] = speed_limit_rad_s if speed_limit_rad_s > 0 else NO_LOAD_SPEED_RAD_S
         bank.torque_limit[i] = min(max(torque_limit_frac, 0.0), 1.0)
@@ -117,7 +122,7 @@ class MujocoActuator:
         i = self.index
         v = qd[i]
         load = duty[i] - v / NO_LOAD_SPEED_RAD_S
-        return q[i], v, max(-1.0, min(1.0, load))
+        return q[i] + self.world.drives.read_offset_rad[i], v, max(-1.0, min(1.0, load))
 
     def advance_to(self, t_us: int) -> None:
         """Physics runs on the world's clock; asking a joint to catch up advances the world."""

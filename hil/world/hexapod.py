@@ -25,6 +25,7 @@ import mujoco
 import numpy as np
 
 from hil.world import actuator as act
+from hil.world import fidelity
 from hil.world import terrain as terrain_mod
 from hil.world.switches import SwitchBank
 from protocol import hexapod as robot_desc
@@ -78,19 +79,24 @@ def neutral_joints() -> np.ndarray:
     return np.array(out)
 
 
-def _f(*v: float) -> str:
-    return " ".join(f"{x:.6g}" for x in v)
+_f = terrain_mod.mjcf_numbers
 
 
-def mjcf(params: RobotParams, obstacles: list[terrain_mod.Obstacle], ground_friction: float) -> str:
+def mjcf(params: RobotParams, obstacles: list[terrain_mod.Obstacle], ground_friction: float,
+         real: fidelity.RealModel | None = None) -> str:
     """The MJCF document for the robot on flat ground with the given obstacles.
 
-    Collision filtering: robot geoms have contype 1 / conaffinity 0, the ground and the
+    Collision filtering: robot geoms have contype 1 / conaffinity 0, the ground and fixed
     obstacles contype 0 / conaffinity 1, so the robot touches the world but not itself.
+    The real model (hil/world/fidelity.py) rounds the switch plate's face, gives the leg's
+    polypropylene friction priority over the obstacles' and may make obstacles loose.
     """
     p = params
     bx, by, bz = p.body_half_m
     robot = 'contype="1" conaffinity="0"'
+    plate_type, leg_extra = "box", ""
+    if real is not None:
+        plate_type, leg_extra = "ellipsoid", ' priority="2"'
     legs = []
     for name, (mx, my, yaw), dirs in zip(LEGS, p.mounts, robot_desc.DIRECTIONS):
         # switch plate faces the robot's forward direction (body +x) seen from this leg
@@ -109,40 +115,45 @@ def mjcf(params: RobotParams, obstacles: list[terrain_mod.Obstacle], ground_fric
         <body name="{name}_tibia" pos="{p.femur_m} 0 0">
           <joint name="{name}_tibia" axis="0 {-dirs[2]} 0" range="-150 150"/>
           <geom name="{name}_tibia" type="capsule" fromto="0 0 0 0 0 {foot_z}"
-                size="{p.tibia_radius_m}" mass="{p.tibia_kg - 0.002}" friction="0.3" {robot}/>
+                size="{p.tibia_radius_m}" mass="{p.tibia_kg - 0.002}" friction="0.3"{leg_extra} {robot}/>
           <geom name="{name}_foot" type="sphere" pos="0 0 {foot_z}" size="{p.foot_radius_m}"
                 mass="0.001" friction="{p.foot_friction}" {robot}/>
-          <geom name="{name}_plate" type="box" pos="{_f(n_x * off, n_y * off, pz)}"
-                euler="{plate_rot}" size="{_f(*p.plate_half_m)}" mass="0.001" friction="0.3" {robot}/>
+          <geom name="{name}_plate" type="{plate_type}" pos="{_f(n_x * off, n_y * off, pz)}"
+                euler="{plate_rot}" size="{_f(*p.plate_half_m)}" mass="0.001" friction="0.3"{leg_extra} {robot}/>
           <site name="{name}_plate" type="box" pos="{_f(n_x * (off + 0.002), n_y * (off + 0.002), pz)}"
                 euler="{plate_rot}" size="{_f(p.plate_half_m[0] + 0.004, p.plate_half_m[1] + 0.003, p.plate_half_m[2] + 0.003)}"/>
           <site name="{name}_foot" type="sphere" pos="0 0 {foot_z}" size="{p.foot_radius_m + 0.004}"/>
         </body>
       </body>
     </body>""")
-    obs = "".join(
-        f'\n    <geom name="obstacle{i}" type="ellipsoid" pos="{_f(o.x_m, o.y_m, 0)}" '
-        f'size="{_f(o.length_m / 2, o.width_m / 2, o.height_m)}" friction="{p.obstacle_friction}" '
-        f'contype="0" conaffinity="1" rgba="0.6 0.45 0.3 1"/>'
-        for i, o in enumerate(obstacles))
+    assets, obs, loose = "", terrain_mod.mjcf_fixed(obstacles, p.obstacle_friction), ""
+    sleep = "/>"
+    if real is not None and real.free_obstacles:
+        obs = ""
+        assets, loose = terrain_mod.mjcf_free(obstacles, fidelity.OBSTACLE_FLOOR_FRICTION,
+                                              fidelity.obstacle_mass_kg)
+        assets = f"\n  <asset>{assets}\n  </asset>"
+    # resting loose obstacles sleep (MuJoCo islands) until the robot touches them
+        sleep = '>\n    <flag sleep="enable"/>\n  </option>'
+    stall = act.STALL_TORQUE_NM if real is None else float(real.stall_nm.max())
     motors = "".join(
-        f'\n    <motor name="{leg}_{j}" joint="{leg}_{j}" ctrlrange="{_f(-act.STALL_TORQUE_NM, act.STALL_TORQUE_NM)}"/>'
+        f'\n    <motor name="{leg}_{j}" joint="{leg}_{j}" ctrlrange="{_f(-stall, stall)}"/>'
         for leg in LEGS for j in JOINTS)
     sensors = "".join(f'\n    <touch name="{leg}_plate" site="{leg}_plate"/>' for leg in LEGS) + \
         "".join(f'\n    <touch name="{leg}_foot" site="{leg}_foot"/>' for leg in LEGS)
     return f"""<mujoco model="hexhil-hexapod">
   <compiler angle="degree" autolimits="true"/>
-  <option timestep="{PHYSICS_DT_US * 1e-6}" integrator="implicitfast" cone="elliptic"/>
+  <option timestep="{PHYSICS_DT_US * 1e-6}" integrator="implicitfast" cone="elliptic"{sleep}
   <default>
     <joint damping="{act.BACK_EMF_DAMPING_NM_S:.6g}" armature="{act.ROTOR_ARMATURE_KG_M2}"/>
     <motor ctrllimited="true"/>
-  </default>
+  </default>{assets}
   <worldbody>
     <geom name="ground" type="plane" size="5 5 0.1" friction="{ground_friction}" contype="0" conaffinity="1"/>{obs}
     <body name="body" pos="0 0 {p.body_height_m:.6g}">
       <freejoint name="root"/>
       <geom name="body" type="box" size="{_f(bx, by, bz)}" mass="{p.body_kg}" {robot}/>{"".join(legs)}
-    </body>
+    </body>{loose}
   </worldbody>
   <actuator>{motors}
   </actuator>
@@ -195,8 +206,13 @@ class HexapodWorld:
             raise UserError(f"{self.scenario.get('_path', 'scenario')}: world.kind {kind!r} "
                             f"is not the hexapod world")
         self.obstacles = terrain_mod.from_scenario(self.scenario, self.seed)
-        self.xml = mjcf(self.params, self.obstacles, world.get("friction", 1.0))
+        self.real = fidelity.from_scenario(self.scenario, self.seed, self.params.foot_friction,
+                                           len(LEGS) * len(JOINTS), len(LEGS))
+        self.xml = mjcf(self.params, self.obstacles, world.get("friction", 1.0), self.real)
         self.model = mujoco.MjModel.from_xml_string(self.xml)
+        if self.real is not None:   # this trial's foot friction (slip noise)
+            for leg, mu in zip(LEGS, self.real.foot_friction):
+                self.model.geom(f"{leg}_foot").friction[0] = mu
         self.data = mujoco.MjData(self.model)
         q0 = neutral_joints()
         depth_m = self.params.body_height_m - self.params.foot_radius_m
@@ -210,7 +226,8 @@ class HexapodWorld:
         self._foot_n = self.data.sensordata[6:12]
         self._q[:] = q0
         mujoco.mj_forward(self.model, self.data)
-        self.drives = act.DriveBank(q0)
+        self.drives = (act.DriveBank(q0) if self.real is None
+                       else fidelity.RealDriveBank(q0, self.real, self._qd))
         self.switches = SwitchBank(len(LEGS))
         self.t_us = 0
         self.dt_s = PHYSICS_DT_US * 1e-6

@@ -10,13 +10,15 @@ given explicitly in the scenario or generated from a density and a height class:
   we draw 4-10 cm, i.e. stones and sticks that block one leg at a time.
 
 Generation is a seeded maximal Poisson-disc fill of the walking corridor, so a seed gives the
-same terrain on every machine.
+same terrain on every machine. An obstacle is either fixed to the ground (an ellipsoid half
+sunk in it) or a loose body (``world.obstacle_body = "free"``): a convex half-ellipsoid mesh
+with mass and floor friction that can slide, tip or be stepped on.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -115,3 +117,44 @@ def from_scenario(scenario: dict[str, Any], seed: int) -> list[Obstacle]:
     length = world.get("length_m", scenario.get("gait", {}).get("distance_m", 1.0) + 0.3)
     return generate(world.get("density", "low"), world.get("height_class", "small"), length,
                     world.get("terrain_seed", seed))
+
+
+MESH_RINGS = 4        # elevation steps of a loose obstacle's mesh, base ring included
+MESH_SECTORS = 12     # azimuth steps
+
+
+def mjcf_fixed(obstacles: list[Obstacle], friction: float) -> str:
+    """Worldbody geoms of obstacles fixed to the ground (ellipsoids centred on it)."""
+    return "".join(
+        f'\n    <geom name="obstacle{i}" type="ellipsoid" pos="{mjcf_numbers(o.x_m, o.y_m, 0)}" '
+        f'size="{mjcf_numbers(o.length_m / 2, o.width_m / 2, o.height_m)}" friction="{friction}" '
+        f'contype="0" conaffinity="1" rgba="0.6 0.45 0.3 1"/>'
+        for i, o in enumerate(obstacles))
+
+
+def mjcf_free(obstacles: list[Obstacle], friction: float,
+              mass_kg: Callable[[float, float, float], float]) -> tuple[str, str]:
+    """(assets, worldbody bodies) of loose obstacles: half-ellipsoid meshes on free joints.
+    Their friction wins over the ground's (priority), and they collide with the robot, the
+    ground and each other (contype = conaffinity = 1)."""
+    assets, bodies = [], []
+    for i, o in enumerate(obstacles):
+        a, b, c = o.length_m / 2, o.width_m / 2, o.height_m
+        verts = []
+        for k in range(MESH_RINGS + 1):
+            el = 0.5 * math.pi * k / MESH_RINGS
+            for j in range(MESH_SECTORS if k < MESH_RINGS else 1):
+                az = 2 * math.pi * j / MESH_SECTORS
+                verts += [a * math.cos(el) * math.cos(az), b * math.cos(el) * math.sin(az),
+                          c * math.sin(el)]
+        assets.append(f'\n    <mesh name="obstacle{i}" vertex="{mjcf_numbers(*verts)}"/>')
+        bodies.append(
+            f'\n    <body name="obstacle{i}" pos="{mjcf_numbers(o.x_m, o.y_m, 0)}"><freejoint/>'
+            f'<geom name="obstacle{i}" type="mesh" mesh="obstacle{i}" '
+            f'mass="{mass_kg(o.length_m, o.width_m, o.height_m):.6g}" friction="{friction}" '
+            f'priority="1" contype="1" conaffinity="1" rgba="0.6 0.45 0.3 1"/></body>')
+    return "".join(assets), "".join(bodies)
+
+
+def mjcf_numbers(*v: float) -> str:
+    return " ".join(f"{x:.6g}" for x in v)
