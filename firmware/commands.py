@@ -2,7 +2,8 @@
 
 stop/start, and a new gait, period, l_i and h_i, where 0 keeps the current value. A gait or
 period change waits for the period to wrap (``firmware/gait.py``); new step parameters take
-effect at each leg's next lift-off (Eq. 5-7). Other frames and undecodable ones are ignored.
+effect at each leg's next lift-off (Eq. 5-7). Other frames and undecodable ones (an enum
+outside its choices included) are ignored.
 """
 from protocol import can_frames as cf
 
@@ -26,8 +27,9 @@ class GaitCommands:
             name, sig = cf.decode(arb_id, data)
         except ValueError:
             return
-        if name != "gait_command":
-            return
+        if name != "gait_command" or sig["gait"] >= len(cf.GAIT_NAMES) \
+                or sig["command"] >= len(cf.COMMAND_NAMES):
+            return  # an enum outside its choices is undecodable too
         self.count += 1
         if sig["period_s"] > 0:
             ctl.gait.request(cf.GAIT_NAMES[sig["gait"]], sig["period_s"])

@@ -11,11 +11,17 @@ python-can ``virtual`` bus (``channel``), so in-process python-can code can join
 python-can's ``Notifier`` is not used: it dispatches on a thread per bus, so when a frame
 reached a listener would depend on the wall clock and a seed would no longer give the same
 trace. Dispatch here is synchronous, in the order listeners were added.
+
+Frame loss (the scenario's ``faults.can_drop_rate``): each frame is lost with that
+probability before anyone sees it, drawn from an RNG seeded by the run's seed (and drawn
+only when the rate is set, so runs without it are unchanged); every loss is reported
+through ``on_fault`` ("can_drop") and counted in ``dropped``.
 """
 from __future__ import annotations
 
 import itertools
-from typing import Any, Iterator
+import random
+from typing import Any, Callable, Iterator
 
 import can
 
@@ -67,8 +73,13 @@ class RecorderListener(can.Listener):
 class CanBus:
     """The fan-out; ``send`` stamps each frame with the clock's virtual time."""
 
-    def __init__(self, clock: VirtualClock) -> None:
+    def __init__(self, clock: VirtualClock, drop_rate: float = 0.0, seed: int = 0,
+                 on_fault: Callable[[int, str, str], None] | None = None) -> None:
         self.clock = clock
+        self.drop_rate = drop_rate
+        self.dropped = 0
+        self._drop_rng = random.Random(f"{seed}:can")
+        self._on_fault = on_fault
         self.channel = f"hexhil-run-{next(_channels)}"
         self.bus = can.Bus(interface="virtual", channel=self.channel,
                            receive_own_messages=False, preserve_timestamps=True)
@@ -90,6 +101,11 @@ class CanBus:
 
     def send(self, arb_id: int, data: bytes, sender: Any = None, direction: str = "rx") -> None:
         """One standard (11-bit) frame, the only kind our DBC defines."""
+        if self.drop_rate and self._drop_rng.random() < self.drop_rate:
+            self.dropped += 1
+            if self._on_fault is not None:
+                self._on_fault(self.clock.t_us, "can_drop", f"frame 0x{arb_id:03X} lost")
+            return
         msg = can.Message(timestamp=self.clock.t_us * 1e-6, arbitration_id=arb_id,
                           is_extended_id=False, data=data, is_rx=direction == "rx")
         self.bus.send(msg)

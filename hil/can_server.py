@@ -15,9 +15,16 @@ one unbroken hex string, since the client takes a single token) and the client s
 and compares it exactly, so frames are held back for ``HANDSHAKE_GRACE_S`` after the
 last ``< ok >`` to keep them out of that read.
 
-No frame is lost on the link: each client has an unbounded output buffer that is
-drained, not dropped, and ``close()`` sends what is left before closing. Timestamps are
-virtual time in seconds, so a tool's time axis matches the trace.
+No frame is lost on the link: each client's output buffer is drained, not dropped, and
+``close()`` sends what is left before closing. Timestamps are virtual time in seconds, so a
+tool's time axis matches the trace.
+
+Hostile clients (issue 20): it binds 127.0.0.1 unless told otherwise and serves every
+client that connects (each gets every frame). Memory is bounded per client: a client
+that stops reading is disconnected once ``MAX_OUT_BYTES`` of frames wait for it (it sees
+the stream end rather than a silent gap; the run is never held back), and a command
+longer than ``MAX_COMMAND_BYTES`` without its closing ``>`` is discarded as garbage. A
+client that disconnects mid-message, or mid-handshake, is dropped alone.
 """
 from __future__ import annotations
 
@@ -33,6 +40,8 @@ import can
 DEFAULT_PORT = 29536  # socketcand's own default port
 DEFAULT_CHANNEL = "hexhil0"
 HANDSHAKE_GRACE_S = 0.05
+MAX_OUT_BYTES = 4 << 20     # ~110 000 frame lines (about 9 min of a 200 frame/s run)
+MAX_COMMAND_BYTES = 4096    # the longest real command, "< send ID 8 B0..B7 >", is 40
 
 
 def frame_line(t_us: int, arb_id: int, data: bytes, is_extended_id: bool = False) -> bytes:
@@ -88,6 +97,7 @@ class CanServer(can.Listener):
         self._ready = threading.Condition(self._lock)
         self.frames_published = 0
         self.frames_received = 0
+        self.slow_clients_dropped = 0
         self._thread = threading.Thread(target=self._serve, name="can-server", daemon=True)
         self._thread.start()
 
@@ -99,7 +109,11 @@ class CanServer(can.Listener):
             self.frames_published += 1
             for c in self._clients:
                 if c.raw:
-                    c.out += line
+                    if len(c.out) + len(line) > MAX_OUT_BYTES:
+                        c.raw = False  # a client that does not read: dropped by the thread
+                        c.hold_until = -1.0
+                    else:
+                        c.out += line
         self._wake_w.send(b"x")
 
     def on_message_received(self, msg: Any) -> None:
@@ -177,9 +191,15 @@ class CanServer(can.Listener):
                     pass
             if self._listen in r:
                 self._accept()
-            by_sock = {c.sock: c for c in clients}
+            for c in clients:
+                if c.hold_until < 0:  # over MAX_OUT_BYTES: see publish()
+                    self.slow_clients_dropped += 1
+                    self._drop(c)
+            by_sock = {c.sock: c for c in clients if c.hold_until >= 0}
             for s in w:
-                self._write(by_sock[s])
+                c = by_sock.get(s)
+                if c is not None:
+                    self._write(c)
             for s in r:
                 c = by_sock.get(s)
                 if c is not None:
@@ -190,8 +210,12 @@ class CanServer(can.Listener):
             sock, peer = self._listen.accept()
         except BlockingIOError:
             return
-        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        sock.sendall(b"< hi >")
+        try:
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            sock.sendall(b"< hi >")
+        except OSError:  # gone before the greeting
+            sock.close()
+            return
         sock.setblocking(False)
         with self._lock:
             self._clients.append(_Client(sock, peer))
@@ -222,11 +246,12 @@ class CanServer(can.Listener):
             with self._lock:
                 c.out += text
             return
-        c.sock.setblocking(True)
         try:
+            c.sock.setblocking(True)
             c.sock.sendall(text)
-        finally:
             c.sock.setblocking(False)
+        except OSError:  # gone mid-handshake
+            self._drop(c)
 
     def _read(self, c: _Client) -> None:
         try:
@@ -243,7 +268,7 @@ class CanServer(can.Listener):
             start = c.inbuf.find(b"<")
             end = c.inbuf.find(b">", start + 1)
             if start < 0 or end < 0:
-                if start < 0:
+                if start < 0 or len(c.inbuf) > MAX_COMMAND_BYTES:
                     c.inbuf = b""
                 return
             cmd = c.inbuf[start + 1:end].decode("ascii", "replace").strip()

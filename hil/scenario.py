@@ -23,7 +23,8 @@ SCHEMA: dict[str, dict[str, type]] = {
                  "reads_per_cycle": int},
     "gait": {"name": str, "period_s": float, "step_length_m": float, "step_height_m": float,
              "max_obstacle_height_m": float, "direction_deg": float, "distance_m": float},
-    "faults": {"bit_error_rate": float, "drop_status_rate": float, "unplug": list,
+    "faults": {"bit_error_rate": float, "drop_status_rate": float, "can_drop_rate": float,
+               "unplug": list,
                "stall": list, "overheat": list, "voltage_sag": list},
     "world": {"kind": str, "terrain": str, "density": str, "height_class": str,
               "obstacles": list, "length_m": float, "friction": float, "terrain_seed": int,
@@ -95,6 +96,9 @@ def _check_values(where: str, sc: dict[str, Any]) -> None:
     for section, key in (("firmware", "cycle_hz"), ("gait", "period_s")):
         if not sc[section].get(key, 1.0) > 0:
             raise UserError(f"{where}: '{key}' must be positive")
+    drop = sc["faults"].get("can_drop_rate", 0.0)
+    if not 0.0 <= drop <= 1.0:
+        raise UserError(f"{where}: key 'faults.can_drop_rate' must be in [0, 1], got {drop}")
     kind = sc["world"].get("kind", WORLD_KINDS[0])
     if sc["world"] and kind not in WORLD_KINDS:
         raise UserError(f"{where}: key 'world.kind' must be one of {', '.join(WORLD_KINDS)}, "

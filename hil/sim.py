@@ -43,7 +43,8 @@ class Simulator:
                                  on_bytes=self._on_bytes)
         self.scenario, self.seed, self.world = self.rig.scenario, seed, world
         self.clock, self.bus, self.faults = self.rig.clock, self.rig.bus, self.rig.faults
-        self.can = CanBus(self.clock)
+        self.can = CanBus(self.clock, self.scenario["faults"].get("can_drop_rate", 0.0), seed,
+                          self._on_fault)
         if recorder is not None:
             self.can.add(RecorderListener(recorder))
         if can_server is not None:
@@ -120,6 +121,8 @@ class Simulator:
         result.sim_time_s = self.clock.t_us * 1e-6
         if self.faults is not None:
             result.faults.update(self.faults.counts)
+        if self.can.dropped:
+            result.faults["can_drop"] = self.can.dropped
         return result
 
     def _step_world(self, end_us: int, result: RunResult) -> None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import signal
 import sys
 from typing import Any
 
@@ -68,7 +69,14 @@ def emit(args: Any, obj: dict[str, Any], text: str) -> None:
         print(text)
 
 
+def _terminated(signum: int, frame: Any) -> None:
+    """SIGTERM ends a command as Ctrl-C does: ``finally`` blocks finish the trace files."""
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
+    if argv is None:  # the console script, not a test calling main() in-process
+        signal.signal(signal.SIGTERM, _terminated)
     argv = sys.argv[1:] if argv is None else argv
     try:
         parser = build_parser(argv)

@@ -63,9 +63,12 @@ class Link:
         """Send ``pkt``; the first status packet heard (echo skipped) and its latency in s."""
         timeout_s = self.timeout_s if timeout_s is None else timeout_s
         self.ser.reset_input_buffer()
+        # the clock starts before the write: flush() (tcdrain) returns only once the bus has
+        # read the packet, and a checker descheduled after it would start late and time a
+        # reply as sooner than the servo's Return Delay (0.37 ms at 500 us on a loaded host)
+        t0 = time.perf_counter()
         self.ser.write(pkt)
         self.ser.flush()
-        t0 = time.perf_counter()
         deadline = t0 + timeout_s
         parser = dxl.Parser()
         while True:

@@ -102,6 +102,10 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         seed = sc["scenario"].get("seed", 0)
     if duration_s is not None and not duration_s > 0:
         raise UserError(f"--duration must be positive, got {duration_s}")
+    if can_server_port is not None and not 0 <= can_server_port <= 65535:
+        raise UserError(f"--can-server {can_server_port}: port must be 0-65535")
+    if can_wait_clients < 0:
+        raise UserError(f"--can-wait must be 0 or more, got {can_wait_clients}")
     python = python or sc["firmware"].get("python", "micropython")
     beams = sc["world"].get("kind") == "beams"
     if beams:

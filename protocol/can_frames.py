@@ -131,6 +131,8 @@ def signals(name):
 
 def _raw(frame, sig, value):
     sname, kind, scale, lo, hi = sig
+    if value - value != 0:  # NaN or infinity: no raw value stands for it
+        raise ValueError("%s.%s = %r is not a finite number" % (frame, sname, value))
     if kind == SCALED:
         raw = int(round(value / scale))
         return lo if raw < lo else (hi if raw > hi else raw)
@@ -165,6 +167,7 @@ def decode(arb_id, data):
     """Unpack a frame; return ``(name, {signal: value})`` in SI units (ints for enums/counters).
 
     Raises ValueError for an ID that is not hexhil's or data shorter than the frame.
+    An enum outside its choices is passed on as cantools does: check before indexing names.
     Bits the DBC leaves unused (the top two of a leg bitfield) are ignored, as cantools does.
     """
     name = BY_ID.get(arb_id)

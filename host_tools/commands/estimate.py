@@ -55,6 +55,8 @@ def load_samples(path: str, start_s: float | None, end_s: float | None
                 continue
             try:
                 name, sig = can_frames.decode(f.arbitration_id, f.data)
+                if name == "beam_estimate" and sig["mode"] >= len(can_frames.MODE_NAMES):
+                    raise ValueError(f"beam_estimate.mode {sig['mode']} is not a mode")
             except ValueError as exc:
                 raise UserError(f"{path}: bad CAN frame at t={m.log_time_ns / 1e9:.6f} s "
                                 f"({exc})") from None

@@ -7,6 +7,7 @@ import sys
 
 from host_tools.cli import emit, emit_json
 from host_tools.trace import export, import_csv, reader, recover
+from protocol.errors import UserError
 
 
 def _filters(p: argparse.ArgumentParser) -> None:
@@ -38,6 +39,8 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _cat(args: argparse.Namespace) -> int:
+    if args.limit < 0:
+        raise UserError(f"--limit must be 0 (no limit) or more, got {args.limit}")
     n = 0
     out = sys.stdout
     with reader.open_trace(args.file) as tr:

@@ -219,8 +219,23 @@ class Recorder:
 
     def _write_chunk(self, msgs: list[tuple[int, int, bytes]]) -> None:
         if msgs:
-            self._writer.chunk(msgs)
+            try:
+                self._writer.chunk(msgs)
+            except OSError as exc:
+                self._write_failed(exc)
             self.messages = self._writer.messages
+
+    def _write_failed(self, exc: OSError) -> None:
+        """A full disk or a file-size limit: stop recording, keep what is on disk, one line."""
+        try:
+            self._file.close()
+        except OSError:
+            pass  # the buffered tail is what the disk refused
+        self.closed = True
+        self._window_end_us = -1
+        raise UserError(f"{self.path}: cannot write trace ({exc.strerror or exc}); the "
+                        f"{self.messages} messages written before stay readable with "
+                        f"'hexhil trace recover'") from None
 
     def advance(self, t_us: int) -> None:
         """Tell the recorder virtual time has reached ``t_us`` (flushes a finished window)."""
@@ -242,8 +257,11 @@ class Recorder:
                                  pb.encode_serial_bytes(direction, b"", late)))
             msgs.sort(key=itemgetter(0))
         self._write_chunk(msgs)
-        self._writer.finish()
-        self._file.close()
+        try:
+            self._writer.finish()
+            self._file.close()
+        except OSError as exc:
+            self._write_failed(exc)
         self.closed = True
         self._window_end_us = -1
 
