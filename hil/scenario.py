@@ -8,6 +8,7 @@ more than one owner relies on (the bus, the gait, durations) is checked in ``che
 """
 from __future__ import annotations
 
+import math
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -50,7 +51,9 @@ def _type_name(t: type) -> str:
 
 
 def _check_type(where: str, section: str, key: str, value: Any, want: type) -> Any:
-    if want is float and isinstance(value, int) and not isinstance(value, bool):
+    if want is float and isinstance(value, (int, float)) and not isinstance(value, bool):
+        if not math.isfinite(value):
+            raise UserError(f"{where}: key '{section}.{key}' must be a finite number, got {value}")
         return float(value)
     if not isinstance(value, want) or (want is int and isinstance(value, bool)):
         raise UserError(f"{where}: key '{section}.{key}' must be {_type_name(want)}, "

@@ -25,6 +25,7 @@ FILES = {
     "unplug.toml": "[faults]\nunplug=[{id=300, at_s=1.0}]\n",
     "ber.toml": "[faults]\nbit_error_rate=2.0\n", "gait.toml": '[gait]\nname="gallop"\n',
     "sag.toml": "[faults]\nvoltage_sag=[{volts=9.0}]\n", "empty.mcap": "",
+    "inf.toml": "[firmware]\ncycle_hz=inf\n",
     "notmcap.mcap": "hello\n", "bad.csv": "a,b\n1,2\n", "afile": "",
 }
 B = "{B}"  # the case's folder, filled in by the fixture
@@ -47,6 +48,7 @@ CASES = [
     (["run", f"{B}/ber.toml"], "bit_error_rate must be in [0, 1), got 2.0"),
     (["run", f"{B}/gait.toml"], "'gait.name' must be tripod or wave"),
     (["run", f"{B}/sag.toml"], "'voltage_sag' entry needs"),
+    (["run", f"{B}/inf.toml"], "'firmware.cycle_hz' must be a finite number, got inf"),
     (["run", FT, "--duration", "-1"], "--duration must be positive"),
     (["run", FT, "--duration", "abc"], "--duration: invalid float value"),
     (["run", FT, "--duration", "nan"], "--duration must be positive, got nan"),
