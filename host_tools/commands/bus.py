@@ -140,11 +140,7 @@ def run(args: argparse.Namespace) -> int:
     s = rt.summary(server.pacing.summary())
     st, p, v = s["bus"], s["pacing"], s["violations"]
     counts = ", ".join(f"{k} {n}" for k, n in sorted(s["faults"].items())) or "none"
-    serial_server.flush_print(
-        f"served {st['packets']} packets, {st['replies']} replies, {st['collisions']} collisions, "
-        f"{st['bad_checksum']} bad checksums; faults: {counts}")
     wrong = ", ".join(f"{k} {n}" for k, n in v["counts"].items() if n) or "none"
-    serial_server.flush_print(f"master violations: {wrong}")
     if rt.world is not None:
         b = s["body"]
         serial_server.flush_print(
@@ -154,6 +150,9 @@ def run(args: argparse.Namespace) -> int:
         if p["late_steps"]:
             sys.stderr.write(f"warning: the simulation fell behind the wall clock {p['late_steps']} "
                              f"times (max {p['max_lag_ms']:.1f} ms): the machine is overloaded\n")
+    serial_server.flush_print(
+        f"served {st['packets']} packets, {st['replies']} replies, {st['collisions']} collisions, "
+        f"{st['bad_checksum']} bad checksums; faults: {counts}; master violations: {wrong}")
     if args.json:
         cli.emit_json(s)
     return 0
