@@ -69,10 +69,10 @@ def test_garbage_and_reconnects_never_kill_the_rig():
     for _ in range(2):                                    # disconnect, reconnect, garbage
         with socket.create_connection((host, int(port))) as c:
             c.sendall(b"\x00garbage\x07" + dxl.ping(2)[:-1] + b"\x00")
-    with socket.create_connection((host, int(port)), timeout=5) as c:
+    with socket.create_connection((host, int(port)), timeout=20) as c:
         c.sendall(dxl.ping(1))
         got = b""
-        deadline = time.monotonic() + 5
+        deadline = time.monotonic() + 20
         while dxl.status(1) not in got and time.monotonic() < deadline:
             got += c.recv(64)                         # after the checksum-error statuses
         assert dxl.status(1) in got
