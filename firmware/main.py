@@ -1,5 +1,7 @@
 """Firmware entry point: pick the HAL back end, boot, run the loop, report how it ended.
 
+Real time on a serial device (``hexhil bus --world`` or a real bus):
+``micropython firmware/main.py --serial /dev/pts/N [--config JSON]`` (hal/serial.py).
 Simulator: ``micropython firmware/main.py PORT`` (or ``python -m firmware.main PORT``) with
 the repository root on the import path; the port is the host's link (hil/link.py).
 On the STM32 board, ``main.py`` runs at reset with the board back end.
@@ -14,7 +16,9 @@ from protocol import sim_link
 
 
 def _board():
-    if sys.platform in ("linux", "darwin", "win32"):
+    if "--serial" in sys.argv:
+        from firmware.hal.serial import Board
+    elif sys.platform in ("linux", "darwin", "win32"):
         from firmware.hal.sim import Board
     else:
         from firmware.hal.board import Board

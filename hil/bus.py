@@ -95,6 +95,7 @@ class Bus:
         self.faults = faults
         self.on_bytes = on_bytes
         self.advance = advance
+        self.monitor = None              # hil/master_check.py: sees what the master sends
         self._rx: list[_Burst] = []     # heard by the master, oldest first, never overlapping
         self._parser = dxl.Parser()
         self._off: set[int] = set()      # id(servo) of unplugged servos
@@ -116,6 +117,11 @@ class Bus:
                 self._by_id.setdefault(s.id, []).append(s)
             else:
                 self._foreign.append((s, dxl.Parser()))
+
+    def add_device(self, device) -> None:
+        """Another Protocol 1.0 device on the line (hil/sensor_node.py), served like a servo."""
+        self.servos.append(device)
+        self._reindex()
 
     def servo(self, dev_id: int) -> Servo | None:
         """The first servo configured with ``dev_id`` (whatever its baud)."""
@@ -173,6 +179,8 @@ class Bus:
         if not data:
             return
         t0 = self.clock.t_us
+        if self.monitor is not None:
+            self.monitor.master_bytes(self, t0, data)
         tx = bytearray(data)
         faults = self.faults
         if faults is not None:
@@ -226,6 +234,11 @@ class Bus:
             if b.read < len(b.data):
                 return self.byte_end_us(b.start_us, len(b.data) - 1)
         return None
+
+    def reply_arriving_after(self, t_us: int) -> bool:
+        """A status packet is still on its way at ``t_us`` (the master must not talk)."""
+        return any(b.reply and self.byte_end_us(b.start_us, len(b.data) - 1) > t_us
+                   for b in self._rx)
 
     # --- the line -------------------------------------------------------------------
     def _collide(self, tx: bytearray, t0: int, t1: int) -> None:

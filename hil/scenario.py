@@ -19,7 +19,7 @@ from protocol.errors import UserError
 SCHEMA: dict[str, dict[str, type]] = {
     "scenario": {"name": str, "description": str, "seed": int, "duration_s": float},
     "bus": {"servos": int, "first_id": int, "baud": int, "echo": bool, "return_delay_us": int,
-            "edition": str, "eeprom_busy_us": int},
+            "edition": str, "eeprom_busy_us": int, "sensor_node": bool, "sensor_node_id": int},
     "firmware": {"cycle_hz": float, "tactile": bool, "python": str, "servo_lost_s": float,
                  "reads_per_cycle": int},
     "gait": {"name": str, "period_s": float, "step_length_m": float, "step_height_m": float,
@@ -83,6 +83,10 @@ def _check_bus(where: str, bus: dict[str, Any]) -> None:
     if rd is not None and (rd % 2 or not 0 <= rd <= RETURN_DELAY_MAX_US):
         raise UserError(f"{where}: key 'bus.return_delay_us' must be even and "
                         f"0-{RETURN_DELAY_MAX_US}, got {rd}")
+    node = bus.get("sensor_node_id")
+    if node is not None and (not 0 <= node <= 253 or first <= node < first + n):
+        raise UserError(f"{where}: key 'bus.sensor_node_id' must be 0-253 and no servo's ID, "
+                        f"got {node}")
     busy = bus.get("eeprom_busy_us", 0)
     if busy < 0:
         raise UserError(f"{where}: key 'bus.eeprom_busy_us' must be 0 or more, got {busy}")

@@ -19,9 +19,10 @@ from typing import Any
 
 import serial
 
-from protocol.errors import UserError
+from hil import sensor_node
 from protocol import ax12
 from protocol import dynamixel as dxl
+from protocol.errors import UserError
 
 EEPROM_PAUSE_S = 0.01
 TIMING_ROUNDS = 3  # return-delay measurements before the check fails; noise only adds time
@@ -180,6 +181,23 @@ class Checker:
         finally:
             self._restore(i, table, srl0, locked)
 
+    def sensor_node(self, i: int) -> None:
+        """The limit-switch sensor node (hil/sensor_node.py): its table, switches read-only."""
+        p = self.link.transact(dxl.ping(i))[0]
+        ok = p is not None and p.raw[3] == 2 and not p.code & _PROTOCOL_ERRORS
+        self.add(i, "ping_status_format", ok, "sensor node answers PING" if ok else f"got {p!r}")
+        table = self.read(i, 0, sensor_node.TABLE_SIZE)
+        ok = table is not None and table[sensor_node.ID] == i
+        self.add(i, "read_table", ok, f"sensor node table read, switches "
+                 f"0b{table[sensor_node.SWITCHES]:06b}" if ok else f"READ 0-27 gave {table!r}")
+        if not ok:
+            return
+        reply = self.write(i, sensor_node.SWITCHES, b"\x3f")
+        after = self.read(i, sensor_node.SWITCHES, 1)
+        ok = reply is not None and bool(reply.code & dxl.ERR_RANGE) and after is not None
+        self.add(i, "switches_read_only", ok, "WRITE to Switches refused with the Range bit"
+                 if ok else f"WRITE to Switches answered {reply!r}")
+
     def _errors(self, i: int, table: bytes) -> None:
         bad = bytearray(dxl.ping(i))
         bad[-1] ^= 0xA5
@@ -297,7 +315,11 @@ def run_checks(port: str, baud: int, ids: list[int] | None, timeout_s: float = 0
         checker = Checker(link)
         found = checker.scan(ids, scan_timeout_s)
         for i in found:
-            checker.servo(i)
+            model = checker.read(i, 0, 2)
+            if model is not None and dxl.u16(model[0], model[1]) == sensor_node.MODEL_NUMBER:
+                checker.sensor_node(i)
+            else:
+                checker.servo(i)
     finally:
         link.close()
     rows = checker.rows

@@ -53,7 +53,7 @@ def _name(scenario: dict[str, Any]) -> str:
     return scenario["scenario"].get("name") or Path(scenario["_path"]).stem
 
 
-def _start_can_server(port: int, wait_clients: int) -> Any:
+def start_can_server(port: int, wait_clients: int) -> Any:
     from hil.can_server import CanServer
 
     try:
@@ -120,7 +120,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     server = None
     try:
         if can_server_port is not None:
-            server = _start_can_server(can_server_port, can_wait_clients)
+            server = start_can_server(can_server_port, can_wait_clients)
         if beams:
             return _traverse(sc, seed, cfg, recorder, server, out)
         sim = Simulator(sc, seed, world=world, recorder=recorder, tactile=tactile,

@@ -19,6 +19,7 @@ ID_BODY_RATE = 0x111
 ID_FORCE = 0x120
 ID_BEAM_ESTIMATE = 0x130
 ID_TACTILE = 0x140
+ID_LIMIT_SWITCHES = 0x150
 ID_GAIT_COMMAND = 0x200
 ID_HEARTBEAT = 0x700
 
@@ -99,6 +100,11 @@ FRAMES = {
         ("switches", BITS, 1, 0, LEG_BITS),
         ("overcoming", BITS, 1, 0, LEG_BITS),
         ("step_counter", COUNTER, 1, 0, 0xFFFFFFFF),
+    )),
+    # The rig's ground truth of the six switches (hexhil bus --world --can-server).
+    "limit_switches": (ID_LIMIT_SWITCHES, "<BB", (
+        ("switches", BITS, 1, 0, LEG_BITS),
+        ("sequence", COUNTER, 1, 0, 0xFF),
     )),
     "gait_command": (ID_GAIT_COMMAND, "<BBHHH", (
         ("command", ENUM, 1, 0, 1),

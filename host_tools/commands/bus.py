@@ -6,6 +6,7 @@ import copy
 import sys
 from typing import Any
 
+from hil.can_server import DEFAULT_PORT
 from protocol.errors import UserError
 
 _FAULT_FLAGS = ("unplug", "stall", "overheat", "voltage_sag")
@@ -29,9 +30,9 @@ def parse_ids(spec: str) -> list[int]:
     return sorted(ids)
 
 
-def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None):
-    """Servos, clock, faults and bus from flags over scenario over defaults (hil/rig.py)."""
-    from hil import rig
+def scenario_from_flags(args: argparse.Namespace, scenario: dict[str, Any]
+                        ) -> tuple[dict[str, Any], int, list[int] | None]:
+    """Flags over scenario over defaults: the scenario to build, its seed and the servo IDs."""
     from hil.faults import parse_flag
 
     sc = copy.deepcopy(scenario) or {"_path": "flags"}
@@ -57,42 +58,103 @@ def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None)
         for spec in getattr(args, kind) or []:
             sf.setdefault(kind, []).append(parse_flag(kind, spec))
     seed = args.seed if args.seed is not None else sc.get("scenario", {}).get("seed", 0)
+    return sc, seed, ids
+
+
+def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None):
+    """Servos, clock, faults and bus from flags over scenario over defaults (hil/rig.py)."""
+    from hil import rig
+
+    sc, seed, ids = scenario_from_flags(args, scenario)
     built = rig.build(sc, seed, ids=ids, on_fault=on_fault)
     return built.bus, built.faults
+
+
+def _sensor_id(args: argparse.Namespace, sc: dict[str, Any]) -> int | None:
+    """The sensor node's ID, or None: on with --world unless --no-sensor-node or
+    ``[bus] sensor_node = false``; ``--sensor-id``/``sensor_node_id`` move it."""
+    bus = sc.get("bus", {})
+    if args.no_sensor_node or not bus.get("sensor_node", args.world is not None):
+        return None
+    if args.sensor_id is not None:
+        if not 0 <= args.sensor_id <= 253:
+            raise UserError(f"--sensor-id {args.sensor_id}: must be 0-253")
+        return args.sensor_id
+    return bus.get("sensor_node_id", 100)
+
+
+def _serve(server: Any, args: argparse.Namespace) -> None:
+    from hil import serial_server
+
+    try:
+        if args.port is not None:
+            server.serve_port(args.port, args.baud or 1_000_000, serial_server.flush_print)
+        elif args.tcp is not None:
+            server.serve_tcp(args.tcp, args.host, serial_server.flush_print)
+        else:
+            server.serve_pty(serial_server.flush_print)
+    except OSError as exc:
+        raise UserError(str(exc)) from None
 
 
 def run(args: argparse.Namespace) -> int:
     from hil import serial_server
     from hil import scenario as scenario_mod
+    from hil.realtime_rig import RealTimeRig
+    from host_tools import cli
+    from host_tools.trace.recorder import open_recorder
 
-    if args.pty and args.tcp is not None:
-        raise UserError("choose one transport: --pty or --tcp PORT")
+    if sum((args.pty, args.tcp is not None, args.port is not None)) > 1:
+        raise UserError("choose one transport: --pty, --tcp PORT or --port DEVICE")
     if args.tcp is not None and not 0 <= args.tcp <= 65535:
         raise UserError(f"--tcp {args.tcp}: port must be 0-65535")
-    sc = scenario_mod.load(args.scenario) if args.scenario else {}
-
-    def on_fault(t_us: int, name: str, detail: str) -> None:
-        if args.verbose:
-            sys.stderr.write(f"fault t={t_us / 1e6:.6f}s {name}: {detail}\n")
-
-    bus, faults = build_bus(args, sc, on_fault)
-    server = serial_server.RealTimeServer(bus)
-    serial_server.install_sigterm()
+    if args.world and args.scenario:
+        raise UserError("give the scenario once: --world SCENARIO or --scenario SCENARIO")
+    if args.duration is not None and not args.duration > 0:
+        raise UserError(f"--duration {args.duration}: must be positive")
+    path = args.world or args.scenario
+    sc, seed, ids = scenario_from_flags(args, scenario_mod.load(path) if path else {})
+    can_server = None
+    if args.can_server is not None:
+        from host_tools.run import start_can_server
+        can_server = start_can_server(args.can_server, 0)
+    recorder = open_recorder(args.out, {"scenario": sc, "seed": seed, "command": "bus"})
     try:
-        if args.tcp is None:
-            server.serve_pty(serial_server.flush_print)
-        else:
-            try:
-                server.serve_tcp(args.tcp, args.host, serial_server.flush_print)
-            except OSError as exc:
-                raise UserError(str(exc)) from None
-    except (KeyboardInterrupt, serial_server.Stop):
-        pass
-    st = bus.stats
-    counts = ", ".join(f"{k} {v}" for k, v in sorted(faults.counts.items())) or "none"
+        rt = RealTimeRig(sc, seed, world=args.world is not None, ids=ids, recorder=recorder,
+                         can_server=can_server, sensor_id=_sensor_id(args, sc),
+                         verbose=(lambda line: sys.stderr.write(line + "\n")) if args.verbose else None)
+        end_us = None if args.duration is None else int(round(args.duration * 1e6))
+        server = serial_server.RealTimeServer(rt.bus, step_us=2_000 if rt.world is not None else None,
+                                              on_tick=rt.tick, end_us=end_us)
+        serial_server.install_sigterm()
+        try:
+            _serve(server, args)
+        except (KeyboardInterrupt, serial_server.Stop):
+            pass
+        rt.close()
+    finally:
+        if recorder is not None:
+            recorder.close()
+        if can_server is not None:
+            can_server.close()
+    s = rt.summary(server.pacing.summary())
+    st, p, v = s["bus"], s["pacing"], s["violations"]
+    counts = ", ".join(f"{k} {n}" for k, n in sorted(s["faults"].items())) or "none"
+    wrong = ", ".join(f"{k} {n}" for k, n in v["counts"].items() if n) or "none"
+    if rt.world is not None:
+        b = s["body"]
+        serial_server.flush_print(
+            f"body: dx {b['dx_m']:+.3f} m, dy {b['dy_m']:+.3f} m, dyaw {b['dyaw_deg']:+.1f} deg "
+            f"in {s['served_s']:.1f} s; pacing: lag p99 {p['p99_lag_ms']:.2f} ms, max "
+            f"{p['max_lag_ms']:.2f} ms, {p['late_steps']} late of {p['advances']}")
+        if p["late_steps"]:
+            sys.stderr.write(f"warning: the simulation fell behind the wall clock {p['late_steps']} "
+                             f"times (max {p['max_lag_ms']:.1f} ms): the machine is overloaded\n")
     serial_server.flush_print(
         f"served {st['packets']} packets, {st['replies']} replies, {st['collisions']} collisions, "
-        f"{st['bad_checksum']} bad checksums; faults: {counts}")
+        f"{st['bad_checksum']} bad checksums; faults: {counts}; master violations: {wrong}")
+    if args.json:
+        cli.emit_json(s)
     return 0
 
 
@@ -104,6 +166,22 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--ids", default=None, help="servo IDs, e.g. 1-18 or 1,3,5-7")
     p.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal, the default (prints 'pty: PATH')")
     p.add_argument("--tcp", type=int, default=None, metavar="PORT", help="serve on a TCP port")
+    p.add_argument("--port", default=None, metavar="DEVICE",
+                   help="serve a real serial port through pyserial (a board's servo UART on a "
+                        "USB adapter); --baud sets its rate")
+    p.add_argument("--world", default=None, metavar="SCENARIO",
+                   help="the scenario's MuJoCo world, paced to the wall clock (hexapod scenarios)")
+    p.add_argument("--duration", type=float, default=None, metavar="S",
+                   help="stop after S seconds (default: until Ctrl-C/SIGTERM)")
+    p.add_argument("--out", default=None, metavar="FILE.mcap",
+                   help="record serial, CAN, ground truth, switches, faults and violations")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON (last line)")
+    p.add_argument("--can-server", type=int, nargs="?", const=DEFAULT_PORT, metavar="PORT",
+                   help="serve the rig's CAN bus (limit_switches frames) over socketcand "
+                        f"(default port {DEFAULT_PORT}; 0 picks a free one)")
+    p.add_argument("--sensor-id", type=int, default=None, metavar="ID",
+                   help="the limit-switch sensor node's ID (default 100; on with --world)")
+    p.add_argument("--no-sensor-node", action="store_true", help="no sensor node on the bus")
     p.add_argument("--host", default="127.0.0.1", help="address for --tcp (default 127.0.0.1)")
     p.add_argument("--baud", type=int, default=None, help="line rate in bit/s (default 1000000)")
     p.add_argument("--echo", action="store_true", help="echo the master's bytes (single-wire adapter)")

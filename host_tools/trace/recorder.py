@@ -37,7 +37,7 @@ from typing import Any, BinaryIO, Callable, Iterable, Mapping, Sequence
 from host_tools.trace import protobuf as pb
 from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, CHANNELS, METADATA_NAME, T_BODY,
                                      T_CAN_PREFIX, T_CAN_RAW, T_FAULTS, T_JOINTS, T_LINK,
-                                     T_SERIAL, T_SERVOS, T_SWITCHES, T_TELEMETRY,
+                                     T_SERIAL, T_SERVOS, T_SWITCHES, T_TELEMETRY, T_VIOLATIONS,
                                      schema_encoding)
 from host_tools.trace.writer import TraceWriter
 from protocol import can_frames, dynamixel
@@ -371,7 +371,10 @@ class Recorder:
         self._defer(t_us, self._encode_telemetry, (dict(values),))
 
     def _encode_telemetry(self, out: list, t: int, values: dict[str, Any]) -> None:
-        cid = self._topic_channel(T_TELEMETRY)
+        self._encode_json(out, t, T_TELEMETRY, values)
+
+    def _encode_json(self, out: list, t: int, topic: str, values: dict[str, Any]) -> None:
+        cid = self._topic_channel(topic)
         out.append((t, cid, json.dumps(values, sort_keys=True, default=_json_default).encode()))
 
     def servo_state(self, t_us: int, servos: Iterable[Mapping[str, Any]]) -> None:
@@ -421,6 +424,10 @@ class Recorder:
         msg = pb.Log(level=pb.Log.WARNING, name=name, message=detail or name)
         msg.timestamp.FromNanoseconds(t)
         out.append((t, self._topic_channel(T_FAULTS), msg.SerializeToString()))
+
+    def violation(self, t_us: int, kind: str, detail: str) -> None:
+        """A bus master's protocol mistake (hil/master_check.py) on ``/bus/violations``."""
+        self._defer(t_us, self._encode_json, (T_VIOLATIONS, {"kind": kind, "detail": detail}))
 
     def link(self, t_us: int, request: bytes, reply: bytes, kind: str = "") -> None:
         """One simulator-link exchange: the firmware's request and the host's reply, at the

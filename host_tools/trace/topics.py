@@ -14,6 +14,7 @@ Recorder method     topic                           schema (encoding)
 ``joints``          ``/joints``                     ``foxglove.JointStates`` (protobuf)
 ``fault``           ``/faults``                     ``foxglove.Log`` (protobuf)
 ``link``            ``/link``                       ``hexhil.LinkExchanges`` (protobuf)
+``violation``       ``/bus/violations``             ``hexhil.BusViolation`` (jsonschema)
 ==================  ==============================  ====================================
 
 Foxglove plots protobuf and jsonschema messages without plugins; its well-known names
@@ -35,6 +36,7 @@ T_BODY = "/body"
 T_JOINTS = "/joints"
 T_FAULTS = "/faults"
 T_LINK = "/link"
+T_VIOLATIONS = "/bus/violations"  # the master's protocol mistakes (hil/master_check.py)
 
 CAN_SCHEMA_PREFIX = "hexhil.can."  # + DBC frame name (jsonschema)
 
@@ -49,6 +51,7 @@ CHANNELS: dict[str, tuple[str, str]] = {
     T_JOINTS: ("foxglove.JointStates", "protobuf"),
     T_FAULTS: ("foxglove.Log", "protobuf"),
     T_LINK: ("hexhil.LinkExchanges", "protobuf"),
+    T_VIOLATIONS: ("hexhil.BusViolation", "json"),
 }
 
 

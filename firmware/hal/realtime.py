@@ -1,0 +1,77 @@
+"""What the board and serial back ends share: the half-duplex servo transaction and the
+wall-clock timing of a firmware running on its own clock (MicroPython's ``time.ticks_*``).
+
+``HalfDuplexUART`` drives any UART-like object (``write``, ``any``, ``read``, ``readinto``:
+``machine.UART`` on the board, hal/serial.py's tty on the unix port) with an optional
+direction pin (the board's 74HC126/74HC04 circuit); ``WallClock`` gives the back ends'
+``ticks_us``, ``ticks_diff``, ``ticks_add``, ``perf_us``, ``io_us`` and ``sleep_until``.
+MicroPython-compatible.
+"""
+import time
+
+
+class HalfDuplexUART:
+    """``write`` and ``transact`` on one UART; ``latency_us`` is added to every receive
+    timeout (0 on the board; a pty or USB adapter delivers bytes late). A UART with a
+    ``wait()`` (block briefly until a byte may be there) is waited on instead of polled in
+    a busy loop, which on a shared host would starve the simulator it is talking to."""
+
+    def __init__(self, uart, baud=1000000, direction=None, latency_us=0):
+        self.uart = uart
+        self.wait = getattr(uart, "wait", None)
+        self.dir = direction
+        self.char_us = (10 * 1000000) // baud + 1
+        self.latency_us = latency_us
+
+    def _send(self, buf, n):
+        d = self.dir
+        if d is not None:
+            d.value(1)
+        self.uart.write(memoryview(buf)[:n])
+        if d is not None:
+            time.sleep_us(self.char_us)  # write returns when the last byte is in the shifter
+            d.value(0)
+
+    def write(self, buf, n):
+        self._send(buf, n)
+
+    def transact(self, buf, n, rx, nrx, timeout_us):
+        """Send ``buf[:n]``; receive up to ``nrx`` bytes into ``rx`` within ``timeout_us``."""
+        uart = self.uart
+        while uart.any():
+            uart.read()  # stale bytes from an earlier, timed-out reply
+        self._send(buf, n)
+        deadline = time.ticks_add(time.ticks_us(), timeout_us + self.latency_us)
+        got = 0
+        mv = memoryview(rx)
+        while got < nrx and time.ticks_diff(deadline, time.ticks_us()) > 0:
+            if uart.any():
+                k = uart.readinto(mv[got:nrx])
+                got += k if k else 0
+            elif self.wait is not None:
+                self.wait()
+        return got
+
+
+class WallClock:
+    """The firmware's time is the wall clock's (``time.ticks_us``, wrapping)."""
+
+    def ticks_us(self):
+        return time.ticks_us()
+
+    def ticks_diff(self, a, b):
+        return time.ticks_diff(a, b)
+
+    def ticks_add(self, a, dt):
+        return time.ticks_add(a, dt)
+
+    def perf_us(self):
+        return time.ticks_us()
+
+    def io_us(self):
+        return 0
+
+    def sleep_until(self, t_us):
+        dt = time.ticks_diff(t_us, time.ticks_us())
+        if dt > 0:
+            time.sleep_us(dt)

@@ -1,0 +1,109 @@
+"""Master conformance: what the bus master does wrong by the AX-12 rules, counted and timed.
+
+The conformance checker (host_tools/conformance.py) tests servos; this tests masters. The
+``Bus`` hands every burst the master sends to ``MasterCheck.master_bytes`` before the line
+sees it (so injected bit errors are not blamed on the master), and the check parses the
+bytes with their own arrival times. Violation kinds (``KINDS``):
+
+* ``eeprom_busy``: a packet to a device still deaf after an EEPROM write (hil/servo.py);
+* ``unsupported_instruction``: not one of the AX-12's seven (no BULK_READ, SYNC_READ, REBOOT);
+* ``bad_write``: WRITE/REG_WRITE/SYNC_WRITE to a read-only or reserved cell, past the table,
+  or a value out of the field's range (the device's own ``check_write``);
+* ``inter_byte_gap``: over 100 ms between bytes of one packet (the servo drops it);
+* ``broadcast_read_ping``: READ or PING to ID 254 (no servo answers a broadcast);
+* ``talk_over_reply``: a new packet before the previous status could have fully arrived;
+* ``bad_checksum``: a packet whose checksum is wrong.
+"""
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from protocol import dynamixel as dxl
+
+KINDS = ("eeprom_busy", "unsupported_instruction", "bad_write", "inter_byte_gap",
+         "broadcast_read_ping", "talk_over_reply", "bad_checksum")
+MAX_EVENTS = 1000  # kept with their times for the summary; counts go on past it
+
+OnViolation = Callable[[int, str, str], None]
+
+
+class MasterCheck:
+    """Fed by ``Bus.monitor``; ``counts``, ``first_us`` and ``events`` for the summary."""
+
+    def __init__(self, on_violation: OnViolation | None = None) -> None:
+        self.on_violation = on_violation
+        self.counts = {k: 0 for k in KINDS}
+        self.first_us: dict[str, int] = {}
+        self.events: list[tuple[int, str, str]] = []
+        self._parser = dxl.Parser()
+
+    def _flag(self, t_us: int, kind: str, detail: str) -> None:
+        self.counts[kind] += 1
+        self.first_us.setdefault(kind, t_us)
+        if len(self.events) < MAX_EVENTS:
+            self.events.append((t_us, kind, detail))
+        if self.on_violation is not None:
+            self.on_violation(t_us, kind, detail)
+
+    def master_bytes(self, bus: Any, t0_us: int, data: bytes) -> None:
+        """A burst the master starts sending at ``t0_us`` (before the line delivers it)."""
+        if bus.reply_arriving_after(t0_us):
+            self._flag(t0_us, "talk_over_reply", "master sent before the status had arrived")
+        p = self._parser
+        gaps, bad = p.timeouts, p.bad_checksum
+        for i, byte in enumerate(data):
+            t = bus.byte_end_us(t0_us, i)
+            done = p.push(byte, t)
+            if p.timeouts != gaps:
+                gaps = p.timeouts
+                self._flag(t, "inter_byte_gap", "over 100 ms between bytes; partial packet dropped")
+            if p.bad_checksum != bad:
+                bad = p.bad_checksum
+                self._flag(t, "bad_checksum", f"packet to id {p.last_bad_checksum_id}")
+            if done:
+                self._packet(bus, t, p.id, p.code, bytes(p.buf[5:5 + p.nparams]))
+
+    def _packet(self, bus: Any, t_us: int, dev_id: int, code: int, params: bytes) -> None:
+        name = dxl.INSTRUCTION_NAMES.get(code)
+        if name is None:
+            self._flag(t_us, "unsupported_instruction", f"instruction 0x{code:02X} to id {dev_id}")
+            return
+        broadcast = dev_id == dxl.BROADCAST_ID
+        if broadcast and code in (dxl.READ, dxl.PING):
+            self._flag(t_us, "broadcast_read_ping", f"{name} to the broadcast ID")
+        targets = bus.servos if broadcast else [d for d in bus.servos if d.id == dev_id]
+        busy = [d.id for d in targets if t_us < getattr(d, "busy_until_us", 0)]
+        if busy and (not broadcast or code != dxl.SYNC_WRITE or self._sync_ids(params) & set(busy)):
+            self._flag(t_us, "eeprom_busy", f"{name} while id {busy[0]} writes its EEPROM")
+        for d, address, value in self._writes(code, dev_id, params, targets):
+            if d.check_write(address, value) & dxl.ERR_RANGE:
+                self._flag(t_us, "bad_write", f"{name} id {d.id} address {address} "
+                                              f"data {value.hex()}")
+
+    @staticmethod
+    def _sync_ids(params: bytes) -> set[int]:
+        if len(params) < 2 or params[1] == 0:
+            return set()
+        return set(params[2::params[1] + 1])
+
+    @staticmethod
+    def _writes(code: int, dev_id: int, params: bytes, targets: list) -> list:
+        """(device, address, data) of every write the packet asks for."""
+        if code in (dxl.WRITE, dxl.REG_WRITE) and len(params) >= 2:
+            return [(d, params[0], bytes(params[1:])) for d in targets]
+        if code != dxl.SYNC_WRITE or len(params) < 2 or params[1] == 0:
+            return []
+        stride = params[1] + 1
+        out = []
+        for i in range(2, len(params) - stride + 1, stride):
+            for d in targets:
+                if d.id == params[i]:
+                    out.append((d, params[0], bytes(params[i + 1:i + stride])))
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """Counts per kind, first time of each, and the first few events (JSON-ready)."""
+        return {"counts": dict(self.counts), "total": sum(self.counts.values()),
+                "first_s": {k: round(t * 1e-6, 6) for k, t in self.first_us.items()},
+                "events": [{"t_s": round(t * 1e-6, 6), "kind": k, "detail": d}
+                           for t, k, d in self.events[:20]]}
