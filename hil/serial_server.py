@@ -62,7 +62,9 @@ class RealTimeServer:
     With a world on the bus (its ``advance`` hook) the server wakes every ``step_us`` even
     when the line is idle, so physics keeps pace with the wall clock; ``pacing`` measures
     how late it is. ``on_tick(t_us)`` runs after each catch-up (recording, switches);
-    ``end_us`` ends serving (``Stop``) once virtual time reaches it.
+    ``end_us`` ends serving (``Stop``) once virtual time reaches it. Time starts at the
+    master's first byte, as a robot powered on its bench waits for its board: the world
+    holds still until then, so ``--duration`` counts the master's time, not the wait.
     """
 
     def __init__(self, bus: Bus, step_us: int | None = None,
@@ -75,11 +77,13 @@ class RealTimeServer:
         self._world_advance = bus.advance
         if bus.advance is not None:
             bus.advance = self._advance
-        self._wall0_ns = time.monotonic_ns()
+        self._wall0_ns: int | None = None      # set at the master's first byte
         self._v0_us = bus.clock.t_us
 
     def now_us(self) -> int:
         """Virtual time that corresponds to the wall clock now."""
+        if self._wall0_ns is None:
+            return self._v0_us
         return self._v0_us + (time.monotonic_ns() - self._wall0_ns) // 1000
 
     def _advance(self, t_us: int) -> None:
@@ -124,6 +128,8 @@ class RealTimeServer:
                 if data is None:
                     return
                 if data:
+                    if self._wall0_ns is None:
+                        self._wall0_ns = time.monotonic_ns()
                     self._catch_up()
                     bus.master_write(data)
 

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import json
 import sys
 from typing import Any
 
@@ -83,16 +84,22 @@ def _sensor_id(args: argparse.Namespace, sc: dict[str, Any]) -> int | None:
     return bus.get("sensor_node_id", 100)
 
 
-def _serve(server: Any, args: argparse.Namespace) -> None:
+def _serve(server: Any, args: argparse.Namespace, hint: str | None) -> None:
+    """Serve on the chosen transport; ``hint`` follows the announced address."""
     from hil import serial_server
+
+    def announce(line: str) -> None:
+        serial_server.flush_print(line)
+        if hint:
+            serial_server.flush_print(hint)
 
     try:
         if args.port is not None:
-            server.serve_port(args.port, args.baud or 1_000_000, serial_server.flush_print)
+            server.serve_port(args.port, args.baud or 1_000_000, announce)
         elif args.tcp is not None:
-            server.serve_tcp(args.tcp, args.host, serial_server.flush_print)
+            server.serve_tcp(args.tcp, args.host, announce)
         else:
-            server.serve_pty(serial_server.flush_print)
+            server.serve_pty(announce)
     except OSError as exc:
         raise UserError(str(exc)) from None
 
@@ -127,8 +134,13 @@ def run(args: argparse.Namespace) -> int:
         server = serial_server.RealTimeServer(rt.bus, step_us=2_000 if rt.world is not None else None,
                                               on_tick=rt.tick, end_us=end_us)
         serial_server.install_sigterm()
+        hint = None
+        if args.world:   # our firmware's settings for this scenario, as `hexhil run` sends them
+            from hil.link_server import firmware_settings
+            hint = "firmware --config " + json.dumps(firmware_settings(scenario_mod.check(sc)),
+                                                     sort_keys=True)
         try:
-            _serve(server, args)
+            _serve(server, args, hint)
         except (KeyboardInterrupt, serial_server.Stop):
             pass
         rt.close()
