@@ -143,7 +143,8 @@ def run(args: argparse.Namespace) -> int:
             _serve(server, args, hint)
         except (KeyboardInterrupt, serial_server.Stop):
             pass
-        rt.close()
+        finally:
+            rt.close()
     finally:
         if recorder is not None:
             recorder.close()
