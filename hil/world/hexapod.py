@@ -25,6 +25,7 @@ import mujoco
 import numpy as np
 
 from hil.world import actuator as act
+from hil.world import scene as scene_mod
 from hil.world import terrain as terrain_mod
 from hil.world.switches import SwitchBank
 from protocol import hexapod as robot_desc
@@ -274,6 +275,21 @@ class HexapodWorld:
     def joint_efforts_nm(self) -> np.ndarray:
         """Motor torque on each joint (N m), from the drive model."""
         return self.data.qfrc_actuator[6:24].copy()
+
+    # --- the 3D scene (hil/world/scene.py) ----------------------------------------------
+    def scene_shapes(self) -> list[scene_mod.Shape]:
+        """The model's geoms; the switch plates red while pressed."""
+        return scene_mod.model_shapes(self.model, dict(zip(
+            [f"{leg}_plate" for leg in LEGS], self.switches.levels())))
+
+    def scene_frames(self) -> list[scene_mod.Frame]:
+        return scene_mod.model_frames(self.model, self.data)
+
+    def scene_arrows(self) -> list[scene_mod.Arrow]:
+        """Each foot's contact force (N)."""
+        feet = {mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, f"{leg}_foot"):
+                f"{leg}_foot" for leg in LEGS}
+        return scene_mod.contact_forces(self.model, self.data, feet)
 
     @staticmethod
     def joint_names() -> list[str]:

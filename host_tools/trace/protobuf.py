@@ -14,8 +14,10 @@ import struct
 from typing import Any, Iterable, Mapping, Sequence
 
 from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
+from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
 from foxglove_schemas_protobuf.Log_pb2 import Log
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from mcap_protobuf.schema import build_file_descriptor_set
 
@@ -87,7 +89,7 @@ LinkExchanges = _CLASSES["LinkExchanges"]
 
 # schema name -> message class, for every protobuf schema a trace of ours holds
 CLASSES: dict[str, Any] = {cls.DESCRIPTOR.full_name: cls for cls in (
-    *_CLASSES.values(), FrameTransform, JointStates, Log)}
+    *_CLASSES.values(), FrameTransform, FrameTransforms, JointStates, Log, SceneUpdate)}
 
 
 def descriptor_set(schema_name: str) -> bytes:
@@ -201,6 +203,13 @@ def encode_frame_transform(t_ns: int, parent: str, child: str,
             + _field_message(0x2A, _field_double(0x09, qx) + _field_double(0x11, qy)
                              + _field_double(0x19, qz) + _field_double(0x21, w)))
 
+
+
+def encode_frame_transforms(t_ns: int, parent: str, frames: Iterable[Sequence[Any]]) -> bytes:
+    """``foxglove.FrameTransforms``: one transform ``parent`` -> child per
+    (child, position_m, quaternion_wxyz)."""
+    return b"".join(_field_message(0x0A, encode_frame_transform(t_ns, parent, child, p, q))
+                    for child, p, q in frames)
 
 _NAME_FIELDS: dict[str, bytes] = {}  # a joint name as JointState field 1, encoded once
 _PACK_JOINT = struct.Struct("<BdBdBd").pack  # position, velocity, effort with their tags
