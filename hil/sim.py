@@ -46,7 +46,7 @@ class Simulator:
                  realtime: bool = False) -> None:
         self.recorder = recorder
         self._scene = scene
-        self._shapes: list[Any] | None = None  # the geometry last sent
+        self._shapes: dict[str, Any] = {}  # the geometry sent, by shape id
         self._realtime = realtime
         self._wall0_s: float | None = None
         self._digest = hashlib.sha256()
@@ -193,14 +193,14 @@ class Simulator:
             self.recorder.servo_state(t, [s.snapshot() for s in self.bus.servos])
 
     def _draw(self, t: int) -> None:
-        """The world's 3D scene to the recorder: geometry when it changed, frames, forces."""
+        """The world's 3D scene to the recorder: the shapes that changed, frames, forces."""
         if not self._scene:
             return
         w, rec = self.world, self.recorder
-        shapes = w.scene_shapes()
-        if shapes != self._shapes:
-            self._shapes = shapes
-            rec.scene(t, shapes)
+        changed = [s for s in w.scene_shapes() if self._shapes.get(s.id) != s]
+        if changed:
+            self._shapes.update((s.id, s) for s in changed)
+            rec.scene(t, changed)
         rec.scene_frames(t, w.scene_frames())
         rec.scene_forces(t, w.scene_arrows())
 

@@ -133,8 +133,9 @@ def render(trace: str, out: str, camera: str = "follow", fps: float = 30.0,
     try:
         renderer = mujoco.Renderer(model, height, width)
     except Exception as exc:  # the GL backend's own error types
-        raise UserError(f"hexhil render: MuJoCo could not open an offscreen {os.environ.get('MUJOCO_GL')} "
-                        f"context ({exc}); install libegl1 or libosmesa6, or set MUJOCO_GL") from None
+        backend = os.environ.get("MUJOCO_GL")
+        raise UserError(f"hexhil render: MuJoCo could not open an offscreen {backend} context "
+                        f"({exc}); install libegl1 or libosmesa6, or set MUJOCO_GL") from None
     cam = mujoco.MjvCamera()
     cam.type = mujoco.mjtCamera.mjCAMERA_FREE
     cam.distance, cam.elevation, cam.azimuth = (0.8, -28.0, 35.0) if camera == "follow" \

@@ -116,4 +116,25 @@ def test_quaternion_of_beams_body_is_ry_rx():
     ry = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
     c, s = np.cos(0.3), np.sin(0.3)
     rx = np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-    np.testing.assert_allclose(mat.reshape(3, 3), ry @ rx, atol=1e-12)
+    np.testing.assert_allclose(mat.reshape(3, 3), ry @ rx, atol=1e-6)  # float32 scene
+
+
+def test_relative_frames_compose_to_mujocos_world_poses():
+    sc = scenario_mod.load(ROOT / "scenarios/obstacles-high-large.toml")
+    world = make_world(sc, 0)
+    world.drives.goal_rad += np.linspace(-0.4, 0.4, 18)  # bend every joint a little
+    world.advance_to(200_000)
+    mujoco.mj_kinematics(world.model, world.data)  # xpos/xquat of the qpos after the step
+    pose = {"world": (np.zeros(3), np.array([1.0, 0, 0, 0]))}
+    for f in world.scene_frames():
+        p, q = pose[f.parent]
+        rot = np.zeros(9)
+        mujoco.mju_quat2Mat(rot, q)
+        quat = np.zeros(4)
+        mujoco.mju_mulQuat(quat, q, np.array(f.quat_wxyz))
+        pose[f.id] = (p + rot.reshape(3, 3) @ np.array(f.position_m), quat)
+    for b in range(1, world.model.nbody):
+        name = mujoco.mj_id2name(world.model, mujoco.mjtObj.mjOBJ_BODY, b)
+        # float32 values (hil/world/scene.py rounds the scene for size)
+        np.testing.assert_allclose(pose[name][0], world.data.xpos[b], atol=1e-6)
+        np.testing.assert_allclose(pose[name][1], world.data.xquat[b], atol=1e-6)

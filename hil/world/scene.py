@@ -2,7 +2,7 @@
 
 A world that can be seen offers ``scene_shapes()`` (the geometry, each shape fixed in one
 moving frame; re-sent only when it changes, e.g. a switch plate's colour), ``scene_frames()``
-(every moving frame's pose in ``world``, each ground-truth sample) and ``scene_arrows()``
+(every moving frame's pose, each ground-truth sample) and ``scene_arrows()``
 (forces, each sample). The hexapod's shapes are read from its compiled MuJoCo model, so
 the scene has the sizes the physics has; seed 000's body and beams from their geometry.
 No host_tools here: the simulator hands these values to the recorder as they are.
@@ -39,9 +39,10 @@ class Shape(NamedTuple):
 
 
 class Frame(NamedTuple):
-    """A moving frame's pose in ``world``."""
+    """A moving frame's pose in its ``parent`` frame."""
 
     id: str
+    parent: str
     position_m: tuple[float, float, float]
     quat_wxyz: tuple[float, float, float, float]
 
@@ -55,7 +56,9 @@ class Arrow(NamedTuple):
 
 
 def _t(v: Any) -> tuple[float, ...]:
-    return tuple(float(x) for x in v)
+    """Floats rounded to float32: the scene is for looking at (0.1 um at 1 m), and the
+    zeroed low bits let zstd pack the 10 Hz poses and forces to about half."""
+    return tuple(np.asarray(v, dtype=np.float32).tolist())
 
 
 def model_shapes(model: Any, pressed: dict[str, bool]) -> list[Shape]:
@@ -93,10 +96,31 @@ def model_shapes(model: Any, pressed: dict[str, bool]) -> list[Shape]:
 
 
 def model_frames(model: Any, data: Any) -> list[Frame]:
-    """Every body's pose in ``world`` (MuJoCo's own xpos/xquat, after the last step)."""
-    pos, quat = data.xpos.tolist(), data.xquat.tolist()
-    return [Frame(mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b), tuple(pos[b]),
-                  tuple(quat[b])) for b in range(1, model.nbody)]
+    """Every body's pose from the joint coordinates (as ``/body`` and ``/joints`` have
+    them): a free body's in ``world``, a body on one hinge in its parent's (the model's
+    fixed offset turned by the joint angle). Relative
+    poses keep the constant parts exact zeros or constants, which protobuf leaves out or
+    zstd packs: the frames cost about half what world poses would."""
+    out = []
+    qpos = data.qpos.tolist()
+    for b in range(1, model.nbody):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b)
+        parent = int(model.body_parentid[b])
+        j = int(model.body_jntadr[b])
+        adr = int(model.jnt_qposadr[j])
+        if parent == 0:  # a free joint: position, then the quaternion
+            out.append(Frame(name, "world", _t(qpos[adr:adr + 3]), _t(qpos[adr + 3:adr + 7])))
+            continue
+        half = qpos[adr] / 2
+        ax, ay, az = model.jnt_axis[j].tolist()
+        s = math.sin(half)
+        w1, x1, y1, z1 = model.body_quat[b].tolist()
+        w2, x2, y2, z2 = math.cos(half), s * ax, s * ay, s * az
+        quat = (w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2)
+        out.append(Frame(name, mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, parent),
+                         _t(model.body_pos[b]), _t([v + 0.0 for v in quat])))  # no -0.0
+    return out
 
 
 def contact_forces(model: Any, data: Any, geoms: dict[int, str]) -> list[Arrow]:
@@ -137,12 +161,13 @@ def beams_frames(world: Any) -> list[Frame]:
     g, s = world.geometry, world.state
     cr, sr = math.cos(s.roll_rad / 2), math.sin(s.roll_rad / 2)
     cp, sp = math.cos(s.pitch_rad / 2), math.sin(s.pitch_rad / 2)
-    body = Frame("body", (s.x_m, 0.0, g.height_m), (cp * cr, cp * sr, sp * cr, -sp * sr))
+    body = Frame("body", "world", _t((s.x_m, 0.0, g.height_m)),
+                 _t((cp * cr, cp * sr, sp * cr, -sp * sr)))
     out = [body]
     for i, bp in enumerate(world.beams):
         lo, hi = g.beam_y_range(i)
-        out.append(Frame(f"beam{i}", (0.0, (lo + hi) / 2, bp.hb_m),
-                         _quat_y(world.last.theta_rad[i])))
+        out.append(Frame(f"beam{i}", "world", _t((0.0, (lo + hi) / 2, bp.hb_m)),
+                         _t(_quat_y(world.last.theta_rad[i]))))
     return out
 
 
@@ -150,4 +175,4 @@ def beams_arrows(world: Any) -> list[Arrow]:
     """The beams' summed contact force (Eq. 5: F1 + F2, what the force sensor reads before
     noise), drawn at the body's nose."""
     g, s = world.geometry, world.state
-    return [Arrow("contact", (s.x_m + g.a_m, 0.0, g.height_m), _t(world.last.contact_n))]
+    return [Arrow("contact", _t((s.x_m + g.a_m, 0.0, g.height_m)), _t(world.last.contact_n))]

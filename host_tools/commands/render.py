@@ -24,7 +24,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, metavar="FILE",
                    help="run.gif, run.mp4, or frame.png (one frame: --at, default the middle)")
     p.add_argument("--camera", choices=CAMERAS, default="follow",
-                   help="follow: behind the body on its left, from above; side: from the left, level")
+                   help="follow: behind the body on its left, from above; "
+                        "side: from the left, level")
     p.add_argument("--fps", type=float, default=30.0, help="frames a second (default 30)")
     p.add_argument("--width", type=int, default=480, help="pixels (default 480)")
     p.add_argument("--height", type=int, default=360, help="pixels (default 360)")

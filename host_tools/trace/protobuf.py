@@ -205,11 +205,11 @@ def encode_frame_transform(t_ns: int, parent: str, child: str,
 
 
 
-def encode_frame_transforms(t_ns: int, parent: str, frames: Iterable[Sequence[Any]]) -> bytes:
-    """``foxglove.FrameTransforms``: one transform ``parent`` -> child per
-    (child, position_m, quaternion_wxyz)."""
+def encode_frame_transforms(t_ns: int, frames: Iterable[Sequence[Any]]) -> bytes:
+    """``foxglove.FrameTransforms``: one transform per (child, parent, position_m,
+    quaternion_wxyz)."""
     return b"".join(_field_message(0x0A, encode_frame_transform(t_ns, parent, child, p, q))
-                    for child, p, q in frames)
+                    for child, parent, p, q in frames)
 
 _NAME_FIELDS: dict[str, bytes] = {}  # a joint name as JointState field 1, encoded once
 _PACK_JOINT = struct.Struct("<BdBdBd").pack  # position, velocity, effort with their tags

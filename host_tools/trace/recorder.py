@@ -96,10 +96,6 @@ def _json_default(o: Any) -> Any:
 _JSON_ENCODER = json.JSONEncoder(default=_json_default)
 
 
-def _encode_frames(t_ns: int, frames: list) -> bytes:
-    return pb.encode_frame_transforms(t_ns, "world", frames)
-
-
 class Recorder:
     """Writes one run to one MCAP file, on the topics ``host_tools.trace.topics`` lists.
 
@@ -418,13 +414,15 @@ class Recorder:
         out.append((t, self._topic_channel(T_FAULTS), msg.SerializeToString()))
 
     def scene(self, t_us: int, shapes: Sequence[Any]) -> None:
-        """The 3D scene's geometry (``hil.world.scene.Shape``) on ``/scene``: once, and
-        again whenever it changes."""
+        """The 3D scene's geometry (``hil.world.scene.Shape``) on ``/scene``: all of it
+        once, then the shapes that changed (an entity replaces the one of its id)."""
         self._defer(t_us, self._encode_scene, (T_SCENE, scene_msgs.encode_shapes, list(shapes)))
 
     def scene_frames(self, t_us: int, frames: Sequence[Any]) -> None:
-        """The moving frames' poses in ``world`` (``hil.world.scene.Frame``)."""
-        self._defer(t_us, self._encode_scene, (T_SCENE_FRAMES, _encode_frames, list(frames)))
+        """The moving frames' poses (``hil.world.scene.Frame``: id, parent, position,
+        quaternion)."""
+        self._defer(t_us, self._encode_scene,
+                    (T_SCENE_FRAMES, pb.encode_frame_transforms, list(frames)))
 
     def scene_forces(self, t_us: int, arrows: Sequence[Any]) -> None:
         """Contact forces as arrows (``hil.world.scene.Arrow``)."""

@@ -4,11 +4,12 @@ offers (hil/world/scene.py): ``foxglove.SceneUpdate`` for geometry and forces,
 
 Geometry is frame-locked to the moving frame it belongs to, so it is sent once (and again
 when it changes) while each sample only moves the frames: a 10 s walking run's scene adds
-about 200 messages and a few tens of kilobytes.
+about 200 messages and about 35 kB after compression.
 """
 from __future__ import annotations
 
 import math
+import struct
 from typing import Any, Sequence
 
 from foxglove_schemas_protobuf.ArrowPrimitive_pb2 import ArrowPrimitive
@@ -21,6 +22,13 @@ ARROW_MIN_N = 0.05         # smaller forces are not drawn (the touch threshold o
 ARROW_SHAFT_M = 0.004
 ARROW_RGBA = (1.0, 0.8, 0.0, 1.0)
 _PRIMITIVE_FIELD = {"cube": "cubes", "sphere": "spheres", "cylinder": "cylinders"}
+_F32 = struct.Struct("<4f")
+
+
+def _f32(*v: float) -> tuple[float, ...]:
+    """Rounded to float32, as the world rounds the scene (hil/world/scene.py): zstd packs
+    the zeroed low bits."""
+    return _F32.unpack(_F32.pack(*v, *(0.0,) * (4 - len(v))))[:len(v)]
 
 
 def _pose(msg: Pose, position_m: Sequence[float], quat_wxyz: Sequence[float]) -> None:
@@ -69,10 +77,10 @@ def encode_arrows(t_ns: int, arrows: Sequence[Any]) -> bytes:
         norm = math.sqrt(fx * fx + fy * fy + fz * fz)
         if norm < ARROW_MIN_N:
             continue
-        length = norm * ARROW_M_PER_N
-        prim = e.arrows.add(shaft_length=0.8 * length, head_length=0.2 * length,
+        shaft, head = _f32(0.8 * norm * ARROW_M_PER_N, 0.2 * norm * ARROW_M_PER_N)
+        prim = e.arrows.add(shaft_length=shaft, head_length=head,
                             shaft_diameter=ARROW_SHAFT_M, head_diameter=2.5 * ARROW_SHAFT_M)
-        _pose(prim.pose, a.origin_m, _direction_quat(fx, fy, fz, norm))
+        _pose(prim.pose, a.origin_m, _f32(*_direction_quat(fx, fy, fz, norm)))
         _colour(prim.color, ARROW_RGBA)
     return update.SerializeToString()
 
