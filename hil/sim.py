@@ -47,6 +47,7 @@ class Simulator:
         self.recorder = recorder
         self._scene = scene
         self._shapes: dict[str, Any] = {}  # the geometry sent, by shape id
+        self._last_shapes: list[Any] = []  # the world's last answer (mostly the same objects)
         self._realtime = realtime
         self._wall0_s: float | None = None
         self._digest = hashlib.sha256()
@@ -197,10 +198,13 @@ class Simulator:
         if not self._scene:
             return
         w, rec = self.world, self.recorder
-        changed = [s for s in w.scene_shapes() if self._shapes.get(s.id) != s]
-        if changed:
-            self._shapes.update((s.id, s) for s in changed)
-            rec.scene(t, changed)
+        shapes = w.scene_shapes()
+        if shapes != self._last_shapes:  # fast: unchanged shapes are the same objects
+            self._last_shapes = shapes
+            changed = [s for s in shapes if self._shapes.get(s.id) != s]
+            if changed:
+                self._shapes.update((s.id, s) for s in changed)
+                rec.scene(t, changed)
         rec.scene_frames(t, w.scene_frames())
         rec.scene_forces(t, w.scene_arrows())
 

@@ -138,3 +138,19 @@ def test_relative_frames_compose_to_mujocos_world_poses():
         # float32 values (hil/world/scene.py rounds the scene for size)
         np.testing.assert_allclose(pose[name][0], world.data.xpos[b], atol=1e-6)
         np.testing.assert_allclose(pose[name][1], world.data.xquat[b], atol=1e-6)
+
+
+def test_frame_transforms_encoder_matches_the_generated_class():
+    from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+
+    from host_tools.trace import protobuf as pb
+
+    frames = [("body", "world", (0.1, 0.0, 0.09), (0.99, 0.0, 0.1, -0.0)),
+              ("LF_coxa", "body", (0.1, 0.06, 0.0), (0.92, 0.0, 0.0, 0.38))]
+    msg = FrameTransforms()
+    for child, parent, p, (w, x, y, z) in frames:
+        t = msg.transforms.add(parent_frame_id=parent, child_frame_id=child)
+        t.timestamp.FromNanoseconds(1_234_567_890)
+        t.translation.x, t.translation.y, t.translation.z = p
+        t.rotation.w, t.rotation.x, t.rotation.y, t.rotation.z = w, x, y, z
+    assert pb.encode_frame_transforms(1_234_567_890, frames) == msg.SerializeToString()

@@ -17,6 +17,7 @@ mirrored (-1 in ``DIRECTIONS``) turns its joint axis the other way, as on the ro
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -277,19 +278,21 @@ class HexapodWorld:
         return self.data.qfrc_actuator[6:24].copy()
 
     # --- the 3D scene (hil/world/scene.py) ----------------------------------------------
+    @functools.cached_property
+    def _scene(self) -> scene_mod.ModelScene:
+        return scene_mod.ModelScene(self.model, [f"{leg}_plate" for leg in LEGS],
+                                    [f"{leg}_foot" for leg in LEGS])
+
     def scene_shapes(self) -> list[scene_mod.Shape]:
         """The model's geoms; the switch plates red while pressed."""
-        return scene_mod.model_shapes(self.model, dict(zip(
-            [f"{leg}_plate" for leg in LEGS], self.switches.levels())))
+        return self._scene.shapes(self.switches.levels())
 
     def scene_frames(self) -> list[scene_mod.Frame]:
-        return scene_mod.model_frames(self.model, self.data)
+        return self._scene.frames(self.data)
 
     def scene_arrows(self) -> list[scene_mod.Arrow]:
         """Each foot's contact force (N)."""
-        feet = {mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, f"{leg}_foot"):
-                f"{leg}_foot" for leg in LEGS}
-        return scene_mod.contact_forces(self.model, self.data, feet)
+        return self._scene.arrows(self.data)
 
     @staticmethod
     def joint_names() -> list[str]:

@@ -10,6 +10,7 @@ No host_tools here: the simulator hands these values to the recorder as they are
 from __future__ import annotations
 
 import math
+import struct
 from typing import Any, NamedTuple
 
 import mujoco
@@ -23,6 +24,7 @@ OBSTACLE_RGBA = (0.6, 0.45, 0.3, 1.0)
 BEAM_RGBA = (0.55, 0.55, 0.5, 0.9)
 BEAM_THICKNESS_M = 0.004  # drawn only: seed 000's beams are massless plates (Sec. II-A)
 IDENTITY = (1.0, 0.0, 0.0, 0.0)
+_F32 = [struct.Struct(f"<{n}f") for n in range(8)]
 
 
 class Shape(NamedTuple):
@@ -58,7 +60,9 @@ class Arrow(NamedTuple):
 def _t(v: Any) -> tuple[float, ...]:
     """Floats rounded to float32: the scene is for looking at (0.1 um at 1 m), and the
     zeroed low bits let zstd pack the 10 Hz poses and forces to about half."""
-    return tuple(np.asarray(v, dtype=np.float32).tolist())
+    v = [float(x) for x in v]
+    fmt = _F32[len(v)]
+    return fmt.unpack(fmt.pack(*v))
 
 
 def model_shapes(model: Any, pressed: dict[str, bool]) -> list[Shape]:
@@ -95,32 +99,60 @@ def model_shapes(model: Any, pressed: dict[str, bool]) -> list[Shape]:
     return out
 
 
-def model_frames(model: Any, data: Any) -> list[Frame]:
-    """Every body's pose from the joint coordinates (as ``/body`` and ``/joints`` have
-    them): a free body's in ``world``, a body on one hinge in its parent's (the model's
-    fixed offset turned by the joint angle). Relative
-    poses keep the constant parts exact zeros or constants, which protobuf leaves out or
-    zstd packs: the frames cost about half what world poses would."""
-    out = []
-    qpos = data.qpos.tolist()
-    for b in range(1, model.nbody):
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b)
-        parent = int(model.body_parentid[b])
-        j = int(model.body_jntadr[b])
-        adr = int(model.jnt_qposadr[j])
-        if parent == 0:  # a free joint: position, then the quaternion
-            out.append(Frame(name, "world", _t(qpos[adr:adr + 3]), _t(qpos[adr + 3:adr + 7])))
-            continue
-        half = qpos[adr] / 2
-        ax, ay, az = model.jnt_axis[j].tolist()
-        s = math.sin(half)
-        w1, x1, y1, z1 = model.body_quat[b].tolist()
-        w2, x2, y2, z2 = math.cos(half), s * ax, s * ay, s * az
-        quat = (w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2)
-        out.append(Frame(name, mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, parent),
-                         _t(model.body_pos[b]), _t([v + 0.0 for v in quat])))  # no -0.0
-    return out
+class ModelScene:
+    """A MuJoCo world's scene, its constant parts looked up once (shapes, names, parents,
+    offsets, axes, geom ids): it is asked for at every ground-truth sample.
+
+    ``plates``: the geoms whose colour shows a switch level; ``forces``: the geoms whose
+    contact force is drawn (geom name -> arrow id)."""
+
+    def __init__(self, model: Any, plates: list[str], forces: list[str]) -> None:
+        def body(b: int) -> str:
+            return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b)
+
+        self.model = model
+        self._shapes = model_shapes(model, {p: False for p in plates})
+        index = {sh.id: i for i, sh in enumerate(self._shapes)}
+        self._plates = [index[p] for p in plates]
+        self._forces = {mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, g): g for g in forces}
+        self._bodies = []
+        for b in range(1, model.nbody):
+            parent = int(model.body_parentid[b])
+            j = int(model.body_jntadr[b])
+            self._bodies.append((body(b), body(parent) if parent else "world",
+                                 int(model.jnt_qposadr[j]), parent == 0,
+                                 _t(model.body_pos[b]), tuple(model.body_quat[b].tolist()),
+                                 tuple(model.jnt_axis[j].tolist())))
+
+    def shapes(self, levels: list[bool]) -> list[Shape]:
+        """Every shape, the plates coloured by ``levels`` (True = pressed)."""
+        out = list(self._shapes)
+        for i, pressed in zip(self._plates, levels):
+            if pressed:
+                out[i] = out[i]._replace(rgba=PLATE_PRESSED_RGBA)
+        return out
+
+    def frames(self, data: Any) -> list[Frame]:
+        """Every body's pose from the joint coordinates (as ``/body`` and ``/joints`` have
+        them): a free body's in ``world``, a body on one hinge in its parent's (the model's
+        fixed offset turned by the joint angle). Relative poses keep the constant parts
+        exact zeros or constants, which protobuf leaves out or zstd packs."""
+        out = []
+        qpos = data.qpos.tolist()
+        for name, parent, adr, free, pos, (w1, x1, y1, z1), (ax, ay, az) in self._bodies:
+            if free:  # a free joint: position, then the quaternion
+                out.append(Frame(name, parent, _t(qpos[adr:adr + 3]), _t(qpos[adr + 3:adr + 7])))
+                continue
+            half = qpos[adr] / 2
+            s = math.sin(half)
+            w2, x2, y2, z2 = math.cos(half), s * ax, s * ay, s * az
+            quat = (w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                    w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2)
+            out.append(Frame(name, parent, pos, _t([v + 0.0 for v in quat])))  # no -0.0
+        return out
+
+    def arrows(self, data: Any) -> list[Arrow]:
+        return contact_forces(self.model, data, self._forces)
 
 
 def contact_forces(model: Any, data: Any, geoms: dict[int, str]) -> list[Arrow]:
@@ -135,7 +167,8 @@ def contact_forces(model: Any, data: Any, geoms: dict[int, str]) -> list[Arrow]:
                 mujoco.mj_contactForce(model, data, i, f6)
                 # the contact frame's rows are its axes in world; the force acts on geom2
                 total[g] += sign * (c.frame.reshape(3, 3).T @ f6[:3])
-    return [Arrow(name, _t(data.geom_xpos[g]), _t(total[g])) for g, name in geoms.items()]
+    return [Arrow(name, _t(data.geom_xpos[g].tolist()), _t(total[g].tolist()))
+            for g, name in geoms.items()]
 
 
 def _quat_y(angle_rad: float) -> tuple[float, float, float, float]:
