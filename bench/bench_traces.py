@@ -212,6 +212,29 @@ def _write_stock(schemas: list[Any], channels: list[Any],
     return len(buf.getvalue())
 
 
+def _write_sdk(schemas: list[Any], channels: list[Any],
+               chunks: list[list[tuple[int, int, bytes]]], path: Path) -> int:
+    """foxglove-sdk's MCAP writer (Rust core), one chunk a window as the recorder writes."""
+    import foxglove
+    from foxglove.mcap import MCAPCompression, MCAPWriteOptions
+
+    ctx = foxglove.Context()
+    w = foxglove.open_mcap(str(path), allow_overwrite=True, context=ctx,
+                           writer_options=MCAPWriteOptions(compression=MCAPCompression.Zstd,
+                                                           chunk_size=None))
+    w.write_metadata("hexhil", {"bench": "writer"})
+    sch = {s.id: foxglove.Schema(name=s.name, encoding=s.encoding, data=s.data) for s in schemas}
+    ch = {c.id: foxglove.Channel(c.topic, schema=sch[c.schema_id],
+                                 message_encoding=c.message_encoding, context=ctx)
+          for c in channels}
+    for msgs in chunks:
+        for t, c, data in msgs:
+            ch[c].log(data, log_time=t)
+        w.flush()
+    w.close()
+    return path.stat().st_size
+
+
 def _writers(tmp: Path) -> list[Row]:
     """The same messages of a real run through our writer and the stock one, alternated,
     median of ``WRITER_REPEATS`` each."""
@@ -221,19 +244,24 @@ def _writers(tmp: Path) -> list[Row]:
     run(SCENARIO, RUN_S, out=str(out))
     schemas, channels, chunks = _run_chunks(out)
     n = sum(len(c) for c in chunks)
-    times: dict[str, list[float]] = {"ours": [], "stock": []}
+    times: dict[str, list[float]] = {"ours": [], "stock": [], "sdk": []}
     sizes = {}
+    writers = (("ours", _write_ours), ("stock", _write_stock),
+               ("sdk", lambda *a: _write_sdk(*a, tmp / "sdk.mcap")))
     for _ in range(WRITER_REPEATS):
-        for name, write in (("ours", _write_ours), ("stock", _write_stock)):
+        for name, write in writers:
             t0 = time.perf_counter()
             sizes[name] = write(schemas, channels, chunks)
             times[name].append(time.perf_counter() - t0)
-    ours, stock = (statistics.median(times[k]) for k in ("ours", "stock"))
+    ours, stock, sdk = (statistics.median(times[k]) for k in ("ours", "stock", "sdk"))
     return [Row("traces: stock mcap Writer / ours", stock / ours, "x time", "",
                 f"{n} messages of {SCENARIO} {RUN_S:g} s in {len(chunks)} chunks, median of "
                 f"{WRITER_REPEATS}: ours {ours * 1e3:.1f} ms ({1e6 * ours / n:.2f} us/msg, "
                 f"{sizes['ours']} B), stock zstd {stock * 1e3:.1f} ms "
-                f"({1e6 * stock / n:.2f} us/msg, {sizes['stock']} B)")]
+                f"({1e6 * stock / n:.2f} us/msg, {sizes['stock']} B)"),
+            Row("traces: foxglove-sdk MCAP writer / ours", sdk / ours, "x time", "",
+                f"the same messages: foxglove-sdk {sdk * 1e3:.1f} ms ({1e6 * sdk / n:.2f} "
+                f"us/msg, {sizes['sdk']} B, to a file), ours {ours * 1e3:.1f} ms to memory")]
 
 
 def _cat(tmp: Path) -> list[Row]:

@@ -15,6 +15,12 @@ World seam of a firmware-driven world: ``actuators()`` (servo-ID order), ``advan
 ``switch_levels()`` (6 bools, LF..RH), ``body_pose()`` (``x_m``, ``y_m``, ``z_m``, ``yaw_rad``,
 ``quat_wxyz``), ``joint_names()``/``joint_positions()``/... for the recorder. Without a world
 the switches come from ``switches(t_us) -> int`` (bit i = leg i pressed), open by default.
+
+With ``scene=True`` either kind of world is also drawn for the recorder's 3D scene
+(``scene_shapes()``/``scene_frames()``/``scene_arrows()``, hil/world/scene.py): its geometry
+when it changes, its frames and forces with every ground-truth sample. ``realtime=True``
+holds each sample back until the wall clock has caught up with virtual time, so a person
+can watch a live view.
 """
 from __future__ import annotations
 
@@ -36,8 +42,14 @@ BODY_SAMPLE_US = 100_000  # ground truth and servo state to the recorder at 10 H
 class Simulator:
     def __init__(self, scenario: dict[str, Any], seed: int = 0, world: Any = None,
                  recorder: Any = None, switches: Callable[[int], int] | None = None,
-                 tactile: bool | None = None, can_server: Any = None) -> None:
+                 tactile: bool | None = None, can_server: Any = None, scene: bool = False,
+                 realtime: bool = False) -> None:
         self.recorder = recorder
+        self._scene = scene
+        self._shapes: dict[str, Any] = {}  # the geometry sent, by shape id
+        self._last_shapes: list[Any] = []  # the world's last answer (mostly the same objects)
+        self._realtime = realtime
+        self._wall0_s: float | None = None
         self._digest = hashlib.sha256()
         self.rig = rig_mod.build(scenario, seed, world=world, on_fault=self._on_fault,
                                  on_bytes=self._on_bytes)
@@ -132,8 +144,11 @@ class Simulator:
             t = world.t_us
             self.clock.advance_to(t)
             self._tick(t)
-            if rec is not None and t % BODY_SAMPLE_US == 0:
-                rec.advance(t)
+            if t % BODY_SAMPLE_US == 0:
+                self._pace(t)
+                if rec is not None:
+                    rec.advance(t)
+                    self._draw(t)
             if world.done() or t >= end_us:
                 break
         result.world = world.outcome()
@@ -165,6 +180,7 @@ class Simulator:
     def _ground_truth(self) -> None:
         """Body pose, joints and servo states to the recorder at 10 Hz of virtual time."""
         t = self.clock.t_us
+        self._pace(t)
         if self.recorder is None:
             return
         self.recorder.advance(t)
@@ -175,6 +191,33 @@ class Simulator:
             w = self.world
             self.recorder.joints(t, w.joint_names(), w.joint_positions().tolist(),
                                  w.joint_velocities().tolist(), w.joint_efforts_nm().tolist())
+            self._draw(t)
         if t >= self._next_servo_us:
             self._next_servo_us = t + BODY_SAMPLE_US
             self.recorder.servo_state(t, [s.snapshot() for s in self.bus.servos])
+
+    def _draw(self, t: int) -> None:
+        """The world's 3D scene to the recorder: the shapes that changed, frames, forces."""
+        if not self._scene:
+            return
+        w, rec = self.world, self.recorder
+        shapes = w.scene_shapes()
+        if shapes != self._last_shapes:  # fast: unchanged shapes are the same objects
+            self._last_shapes = shapes
+            changed = [s for s in shapes if self._shapes.get(s.id) != s]
+            if changed:
+                self._shapes.update((s.id, s) for s in changed)
+                rec.scene(t, changed)
+        rec.scene_frames(t, w.scene_frames())
+        rec.scene_forces(t, w.scene_arrows())
+
+    def _pace(self, t_us: int) -> None:
+        """With ``realtime``: wait until the wall clock has run ``t_us`` since the start."""
+        if not self._realtime:
+            return
+        now = time.perf_counter()
+        if self._wall0_s is None:
+            self._wall0_s = now - t_us * 1e-6
+        ahead_s = self._wall0_s + t_us * 1e-6 - now
+        if ahead_s > 0:
+            time.sleep(ahead_s)

@@ -27,6 +27,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "trace": ("trace", "inspect, export, recover and import MCAP traces"),
     "replay": ("replay", "replay a trace into the firmware or onto a CAN bus"),
     "estimate": ("estimate", "re-run the beam estimator on a trace's force frames"),
+    "model": ("model", "the hexapod's robot description (URDF, MJCF)"),
+    "render": ("render", "render a trace's ground truth to a video or PNG"),
 }
 
 

@@ -2,6 +2,7 @@
 run summary."""
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 from typing import Any
@@ -69,13 +70,22 @@ def start_can_server(port: int, wait_clients: int) -> Any:
     return server
 
 
+def _start_live(port: int) -> Any:
+    from host_tools.trace.live import LiveServer
+
+    live = LiveServer(port)
+    print(f"live: ws://127.0.0.1:{live.port} (Foxglove WebSocket)", flush=True)
+    return live
+
+
 def _traverse(sc: dict[str, Any], seed: int, cfg: Any, recorder: Any, server: Any,
-              trace: str | None) -> tuple[dict[str, Any], RunResult]:
+              trace: str | None, realtime: bool) -> tuple[dict[str, Any], RunResult]:
     """A beams scenario: seed 000's world and host nodes on the same lockstep simulator."""
     from host_tools.traversal import closed_loop
 
     wall0 = time.perf_counter()
-    out = closed_loop.run(cfg, recorder, can_server=server)
+    out = closed_loop.run(cfg, recorder, can_server=server, scene=recorder is not None,
+                          realtime=realtime)
     result = RunResult("none", sim_time_s=out["t_end_s"], wall_time_s=time.perf_counter() - wall0,
                        world=out)
     wall = result.wall_time_s
@@ -90,8 +100,14 @@ def _traverse(sc: dict[str, Any], seed: int, cfg: Any, recorder: Any, server: An
 def run(path: str, duration_s: float | None = None, seed: int | None = None,
         python: str | None = None, tactile: bool | None = None,
         out: str | None = None, can_server_port: int | None = None,
-        can_wait_clients: int = 0) -> tuple[dict[str, Any], RunResult]:
+        can_wait_clients: int = 0, live_port: int | None = None,
+        realtime: bool = False) -> tuple[dict[str, Any], RunResult]:
     """Load, simulate, summarise. Returns (summary, raw result).
+
+    A recorded run (``out``) carries the 3D scene. With ``live_port`` the trace's channels
+    are also served over the Foxglove WebSocket protocol on 127.0.0.1 (0 picks a free
+    port; without ``out`` nothing is kept); ``realtime`` paces virtual time to the wall
+    clock.
 
     With ``can_server_port`` the simulated CAN bus is served over socketcand on 127.0.0.1
     (0 picks a free port); ``can_wait_clients`` holds the start until that many stock
@@ -112,23 +128,28 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         from host_tools.traversal.closed_loop import config_from_scenario
         cfg = config_from_scenario(sc, seed)
     world = None if beams else make_world(sc, seed)
-    recorder = None
-    if out:
-        from host_tools.trace.recorder import open_recorder
-        recorder = open_recorder(out, {"scenario": sc["_path"], "seed": seed,
-                                       "firmware_runtime": "none" if beams else python})
-    server = None
+    recorder = live = server = None
     try:
+        if live_port is not None:
+            live = _start_live(live_port)
+        if out or live:
+            from host_tools.trace.recorder import Recorder
+            recorder = Recorder(out or os.devnull, {
+                "scenario": sc["_path"], "seed": seed,
+                "firmware_runtime": "none" if beams else python}, live=live,
+                **({"flush_interval_us": live.flush_interval_us} if live else {}))
         if can_server_port is not None:
             server = start_can_server(can_server_port, can_wait_clients)
         if beams:
-            return _traverse(sc, seed, cfg, recorder, server, out)
+            return _traverse(sc, seed, cfg, recorder, server, out, realtime)
         sim = Simulator(sc, seed, world=world, recorder=recorder, tactile=tactile,
-                        can_server=server)
+                        can_server=server, scene=recorder is not None, realtime=realtime)
         result = sim.run(duration_s, python=python)
     finally:
         if server is not None:
             server.close()
         if recorder is not None:
             recorder.close()
+        if live is not None:
+            live.close()
     return summary(sc, seed, result, out), result

@@ -11,6 +11,7 @@ import math
 from typing import Any
 
 from hil.can_bus import CanBus, Endpoint
+from hil.world import scene
 from hil.world.beams import DT_US, SENSOR_PERIOD_US, BeamsWorld
 from protocol import can_frames
 
@@ -68,6 +69,15 @@ class BeamsNode:
             port.send(*can_frames.encode("force", fx_n=fx, fy_n=fy, fz_n=fz,
                                          sample=self.sample_no))
             self.sample_no += 1
+
+    def scene_shapes(self) -> list[scene.Shape]:
+        return scene.beams_shapes(self.world.geometry, self.world.beams)
+
+    def scene_frames(self) -> list[scene.Frame]:
+        return scene.beams_frames(self.world)
+
+    def scene_arrows(self) -> list[scene.Arrow]:
+        return scene.beams_arrows(self.world)
 
     def done(self) -> bool:
         w = self.world

@@ -17,6 +17,7 @@ mirrored (-1 in ``DIRECTIONS``) turns its joint axis the other way, as on the ro
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -26,6 +27,7 @@ import numpy as np
 
 from hil.world import actuator as act
 from hil.world import fidelity
+from hil.world import scene as scene_mod
 from hil.world import terrain as terrain_mod
 from hil.world.switches import SwitchBank
 from protocol import hexapod as robot_desc
@@ -291,6 +293,23 @@ class HexapodWorld:
     def joint_efforts_nm(self) -> np.ndarray:
         """Motor torque on each joint (N m), from the drive model."""
         return self.data.qfrc_actuator[6:24].copy()
+
+    # --- the 3D scene (hil/world/scene.py) ----------------------------------------------
+    @functools.cached_property
+    def _scene(self) -> scene_mod.ModelScene:
+        return scene_mod.ModelScene(self.model, [f"{leg}_plate" for leg in LEGS],
+                                    [f"{leg}_foot" for leg in LEGS])
+
+    def scene_shapes(self) -> list[scene_mod.Shape]:
+        """The model's geoms; the switch plates red while pressed."""
+        return self._scene.shapes(self.switches.levels())
+
+    def scene_frames(self) -> list[scene_mod.Frame]:
+        return self._scene.frames(self.data)
+
+    def scene_arrows(self) -> list[scene_mod.Arrow]:
+        """Each foot's contact force (N)."""
+        return self._scene.arrows(self.data)
 
     @staticmethod
     def joint_names() -> list[str]:

@@ -7,13 +7,15 @@ import argparse
 from hil.can_server import DEFAULT_PORT
 from host_tools import cli
 
+LIVE_PORT = 8765  # Foxglove's default WebSocket port (host_tools/trace/live.py)
+
 
 def _run(args: argparse.Namespace) -> int:
     from host_tools import run as run_mod
 
     s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
                             False if args.no_tactile else None, args.out,
-                            args.can_server, args.can_wait)
+                            args.can_server, args.can_wait, args.live, args.realtime)
     if s.get("world") == "beams":
         what = "traversed" if s["traversed"] else ("flipped" if s["flipped"] else "stuck")
         print(f"{s['scenario']}: {s['strategy']}: {what} (mode {s['mode']}), energy "
@@ -50,7 +52,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="firmware runtime (default: micropython)")
     p.add_argument("--no-tactile", action="store_true",
                    help="turn the Eq. 5-7 obstacle rule off (the paper's baseline)")
-    p.add_argument("--out", metavar="FILE.mcap", help="record the run to an MCAP trace")
+    p.add_argument("--out", metavar="FILE.mcap", help="record the run to an MCAP trace "
+                   "(with the 3D scene: robot, obstacles, switch plates, contact forces)")
+    p.add_argument("--live", type=int, nargs="?", const=LIVE_PORT, metavar="PORT",
+                   help="serve the trace's channels over the Foxglove WebSocket protocol on "
+                        f"127.0.0.1 while the run goes (default port {LIVE_PORT}; 0 picks one)")
+    p.add_argument("--realtime", action="store_true",
+                   help="pace the run to the wall clock (to watch it live)")
     p.add_argument("--can-server", type=int, nargs="?", const=DEFAULT_PORT, metavar="PORT",
                    help="serve the simulated CAN bus over socketcand on 127.0.0.1 "
                         f"(default port {DEFAULT_PORT}; 0 picks a free one)")

@@ -14,8 +14,10 @@ import struct
 from typing import Any, Iterable, Mapping, Sequence
 
 from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
+from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
 from foxglove_schemas_protobuf.Log_pb2 import Log
+from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from mcap_protobuf.schema import build_file_descriptor_set
 
@@ -87,7 +89,7 @@ LinkExchanges = _CLASSES["LinkExchanges"]
 
 # schema name -> message class, for every protobuf schema a trace of ours holds
 CLASSES: dict[str, Any] = {cls.DESCRIPTOR.full_name: cls for cls in (
-    *_CLASSES.values(), FrameTransform, JointStates, Log)}
+    *_CLASSES.values(), FrameTransform, FrameTransforms, JointStates, Log, SceneUpdate)}
 
 
 def descriptor_set(schema_name: str) -> bytes:
@@ -192,15 +194,38 @@ def _timestamp_field(t_ns: int) -> bytes:
 def encode_frame_transform(t_ns: int, parent: str, child: str,
                            position_m: Sequence[float], quaternion_wxyz: Sequence[float]) -> bytes:
     """``foxglove.FrameTransform`` with its timestamp, frames, translation and rotation."""
+    return _transform(_timestamp_field(t_ns), _frame_names(parent, child), position_m,
+                      quaternion_wxyz)
+
+
+def _transform(stamp: bytes, names: bytes, position_m: Sequence[float],
+               quaternion_wxyz: Sequence[float]) -> bytes:
     x, y, z = position_m
     w, qx, qy, qz = quaternion_wxyz
-    return (_timestamp_field(t_ns) + _field_bytes(0x12, parent.encode())
-            + _field_bytes(0x1A, child.encode())
+    return (stamp + names
             + _field_message(0x22, _field_double(0x09, x) + _field_double(0x11, y)
                              + _field_double(0x19, z))
             + _field_message(0x2A, _field_double(0x09, qx) + _field_double(0x11, qy)
                              + _field_double(0x19, qz) + _field_double(0x21, w)))
 
+
+_FRAME_NAMES: dict[tuple[str, str], bytes] = {}  # (parent, child) as fields 2 and 3
+
+
+def _frame_names(parent: str, child: str) -> bytes:
+    names = _FRAME_NAMES.get((parent, child))
+    if names is None:
+        names = _FRAME_NAMES[(parent, child)] = (_field_bytes(0x12, parent.encode())
+                                                 + _field_bytes(0x1A, child.encode()))
+    return names
+
+
+def encode_frame_transforms(t_ns: int, frames: Iterable[Sequence[Any]]) -> bytes:
+    """``foxglove.FrameTransforms``: one transform per (child, parent, position_m,
+    quaternion_wxyz), with one timestamp."""
+    stamp = _timestamp_field(t_ns)
+    return b"".join(_field_message(0x0A, _transform(stamp, _frame_names(parent, child), p, q))
+                    for child, parent, p, q in frames)
 
 _NAME_FIELDS: dict[str, bytes] = {}  # a joint name as JointState field 1, encoded once
 _PACK_JOINT = struct.Struct("<BdBdBd").pack  # position, velocity, effort with their tags

@@ -35,9 +35,11 @@ from pathlib import Path
 from typing import Any, BinaryIO, Callable, Iterable, Mapping, Sequence
 
 from host_tools.trace import protobuf as pb
+from host_tools.trace import scene as scene_msgs
 from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, CHANNELS, METADATA_NAME, T_BODY,
                                      T_CAN_PREFIX, T_CAN_RAW, T_FAULTS, T_JOINTS, T_LINK,
-                                     T_SERIAL, T_SERVOS, T_SWITCHES, T_TELEMETRY, T_VIOLATIONS,
+                                     T_SCENE, T_SCENE_FORCES, T_SCENE_FRAMES, T_SERIAL,
+                                     T_SERVOS, T_SWITCHES, T_TELEMETRY, T_VIOLATIONS,
                                      schema_encoding)
 from host_tools.trace.writer import TraceWriter
 from protocol import can_frames, dynamixel
@@ -105,8 +107,10 @@ class Recorder:
 
     def __init__(self, path: str | Path, metadata: Mapping[str, Any] | None = None, *,
                  flush_interval_us: int = DEFAULT_FLUSH_INTERVAL_US,
-                 decode_serial: bool = True, decode_can: bool = True) -> None:
+                 decode_serial: bool = True, decode_can: bool = True, live: Any = None) -> None:
         self.path = Path(path)
+        self._live = live  # a LiveServer (host_tools/trace/live.py) that sees what is written
+        self._schema_data: dict[str, bytes] = {}  # for the live server's channels
         try:
             self._file: BinaryIO = open(self.path, "wb")
         except OSError as exc:
@@ -142,11 +146,15 @@ class Recorder:
         sid = self._schemas.get(schema_name)
         if sid is None:
             sid = len(self._schemas) + 1
-            self._writer.schema(sid, schema_name, schema_encoding(encoding), schema_data())
+            data = self._schema_data[schema_name] = schema_data()
+            self._writer.schema(sid, schema_name, schema_encoding(encoding), data)
             self._schemas[schema_name] = sid
         cid = len(self._channels) + 1
         self._writer.channel(cid, topic, encoding, sid)
         self._channels[topic] = cid
+        if self._live is not None:
+            self._live.channel(cid, topic, schema_name, schema_encoding(encoding),
+                               self._schema_data[schema_name], encoding)
         return cid
 
     def _topic_channel(self, topic: str) -> int:
@@ -224,6 +232,8 @@ class Recorder:
             except OSError as exc:
                 self._write_failed(exc)
             self.messages = self._writer.messages
+            if self._live is not None:
+                self._live.log(msgs)
 
     def _write_failed(self, exc: OSError) -> None:
         """A full disk or a file-size limit: stop recording, keep what is on disk, one line."""
@@ -428,6 +438,26 @@ class Recorder:
     def violation(self, t_us: int, kind: str, detail: str) -> None:
         """A bus master's protocol mistake (hil/master_check.py) on ``/bus/violations``."""
         self._defer(t_us, self._encode_json, (T_VIOLATIONS, {"kind": kind, "detail": detail}))
+
+    def scene(self, t_us: int, shapes: Sequence[Any]) -> None:
+        """The 3D scene's geometry (``hil.world.scene.Shape``) on ``/scene``: all of it
+        once, then the shapes that changed (an entity replaces the one of its id)."""
+        self._defer(t_us, self._encode_scene, (T_SCENE, scene_msgs.encode_shapes, list(shapes)))
+
+    def scene_frames(self, t_us: int, frames: Sequence[Any]) -> None:
+        """The moving frames' poses (``hil.world.scene.Frame``: id, parent, position,
+        quaternion)."""
+        self._defer(t_us, self._encode_scene,
+                    (T_SCENE_FRAMES, pb.encode_frame_transforms, list(frames)))
+
+    def scene_forces(self, t_us: int, arrows: Sequence[Any]) -> None:
+        """Contact forces as arrows (``hil.world.scene.Arrow``)."""
+        self._defer(t_us, self._encode_scene,
+                    (T_SCENE_FORCES, scene_msgs.encode_arrows, list(arrows)))
+
+    def _encode_scene(self, out: list, t: int, topic: str,
+                      encode: Callable[[int, list], bytes], values: list) -> None:
+        out.append((t, self._topic_channel(topic), encode(t, values)))
 
     def link(self, t_us: int, request: bytes, reply: bytes, kind: str = "") -> None:
         """One simulator-link exchange: the firmware's request and the host's reply, at the

@@ -15,10 +15,15 @@ Recorder method     topic                           schema (encoding)
 ``fault``           ``/faults``                     ``foxglove.Log`` (protobuf)
 ``link``            ``/link``                       ``hexhil.LinkExchanges`` (protobuf)
 ``violation``       ``/bus/violations``             ``hexhil.BusViolation`` (jsonschema)
+``scene``           ``/scene``                      ``foxglove.SceneUpdate`` (protobuf)
+``scene_frames``    ``/scene/frames``               ``foxglove.FrameTransforms`` (protobuf)
+``scene_forces``    ``/scene/forces``               ``foxglove.SceneUpdate`` (protobuf)
 ==================  ==============================  ====================================
 
 Foxglove plots protobuf and jsonschema messages without plugins; its well-known names
-are used where one exists (FrameTransform, JointStates, Log). CAN has no well-known
+are used where one exists (FrameTransform, JointStates, Log, and the 3D scene's
+SceneUpdate and FrameTransforms: geometry once and on change, moving frames and forces at
+the 10 Hz ground-truth rate, written only when the run asks for the scene). CAN has no well-known
 schema, so frames are logged raw and, per DBC frame, decoded into plain numbers.
 """
 from __future__ import annotations
@@ -37,6 +42,9 @@ T_JOINTS = "/joints"
 T_FAULTS = "/faults"
 T_LINK = "/link"
 T_VIOLATIONS = "/bus/violations"  # the master's protocol mistakes (hil/master_check.py)
+T_SCENE = "/scene"
+T_SCENE_FRAMES = "/scene/frames"
+T_SCENE_FORCES = "/scene/forces"
 
 CAN_SCHEMA_PREFIX = "hexhil.can."  # + DBC frame name (jsonschema)
 
@@ -52,6 +60,9 @@ CHANNELS: dict[str, tuple[str, str]] = {
     T_FAULTS: ("foxglove.Log", "protobuf"),
     T_LINK: ("hexhil.LinkExchanges", "protobuf"),
     T_VIOLATIONS: ("hexhil.BusViolation", "json"),
+    T_SCENE: ("foxglove.SceneUpdate", "protobuf"),
+    T_SCENE_FRAMES: ("foxglove.FrameTransforms", "protobuf"),
+    T_SCENE_FORCES: ("foxglove.SceneUpdate", "protobuf"),
 }
 
 

@@ -51,8 +51,9 @@ def config_from_scenario(sc: dict[str, Any], seed: int) -> RunConfig:
 
 
 def run(cfg: RunConfig, recorder: Any = None, geometry: BodyGeometry = PAPER_BODY,
-        can_server: Any = None) -> dict:
-    """One traversal; returns the outcome, the estimate, the plan and the Eq. 11 energy."""
+        can_server: Any = None, scene: bool = False, realtime: bool = False) -> dict:
+    """One traversal; returns the outcome, the estimate, the plan and the Eq. 11 energy.
+    ``scene``/``realtime``: as ``hil.sim.Simulator`` takes them."""
     if cfg.strategy not in STRATEGIES:
         raise ValueError(f"unknown strategy {cfg.strategy!r}")
     truth = [BeamParams(cfg.k1, cfg.hb1_m, cfg.preload_nm, cfg.beam_mass_kg),
@@ -61,7 +62,8 @@ def run(cfg: RunConfig, recorder: Any = None, geometry: BodyGeometry = PAPER_BOD
     world = BeamsNode(BeamsWorld(truth, geometry, state, noise=cfg.noise, seed=cfg.seed),
                       cfg.max_time_s)
     scenario = {"world": {"kind": "beams"}, "_path": "<beams run>"}
-    sim = Simulator(scenario, cfg.seed, world=world, recorder=recorder, can_server=can_server)
+    sim = Simulator(scenario, cfg.seed, world=world, recorder=recorder, can_server=can_server,
+                    scene=scene, realtime=realtime)
     plan = PlannerNode(sim.can.endpoint("tx"), cfg, geometry, state.x_m)
     sim.add_node(plan)
     sim.add_node(ControllerNode(sim.can.endpoint("rx"), plan, cfg.fx_n, state.x_m, state.vx_m_s))

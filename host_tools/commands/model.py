@@ -1,0 +1,42 @@
+"""``hexhil model urdf|mjcf``: the hexapod's robot description on stdout, generated from
+``protocol/hexapod.py`` (the URDF by host_tools/robot_model.py, the MJCF the simulated world
+itself loads, from hil/world/hexapod.py)."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def _urdf(args: argparse.Namespace) -> int:
+    from host_tools.robot_model import urdf
+
+    sys.stdout.write(urdf())
+    return 0
+
+
+def _mjcf(args: argparse.Namespace) -> int:
+    from hil import scenario as scenario_mod
+    from hil.rig import make_world
+    from hil.world.hexapod import RobotParams, mjcf
+
+    if args.scenario:
+        sc = scenario_mod.load(args.scenario)
+        xml = make_world(sc, sc["scenario"].get("seed", 0) if args.seed is None else args.seed).xml
+    else:
+        xml = mjcf(RobotParams(), [], 1.0)
+    sys.stdout.write(xml)
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("model", help="the hexapod's robot description (URDF, MJCF)",
+                       description=__doc__)
+    kinds = p.add_subparsers(dest="kind", metavar="KIND", parser_class=type(p))
+    kinds.required = True
+    u = kinds.add_parser("urdf", help="URDF (joints as the MJCF: angle = servo angle)")
+    u.set_defaults(func=_urdf)
+    m = kinds.add_parser("mjcf", help="the MJCF the simulated world loads")
+    m.add_argument("--scenario", metavar="FILE.toml",
+                   help="with this scenario's obstacles and ground friction (default: flat)")
+    m.add_argument("--seed", type=int, help="terrain seed (default: the scenario's)")
+    m.set_defaults(func=_mjcf)

@@ -1,0 +1,84 @@
+"""``hexhil run --live``: the trace's channels over the Foxglove WebSocket protocol on
+127.0.0.1 while the run goes; a client that drops out mid-run does not stop it."""
+from __future__ import annotations
+
+import asyncio
+import json
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+websockets = pytest.importorskip("websockets")
+
+ROOT = Path(__file__).resolve().parent.parent
+HEXHIL = str(Path(sys.executable).with_name("hexhil"))
+WANTED = ("/scene", "/scene/frames", "/joints")
+SUBPROTOCOL = "foxglove.sdk.v1"  # the SDK server speaks this; foxglove.websocket.v1 is refused
+
+
+def _listening_on(port: int) -> list[str]:
+    """Local addresses (hex, as /proc/net/tcp writes them) listening on ``port``."""
+    out = []
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        for line in Path(table).read_text().splitlines()[1:]:
+            local, state = line.split()[1], line.split()[3]
+            if state == "0A" and int(local.split(":")[1], 16) == port:
+                out.append(local.split(":")[0])
+    return out
+
+
+async def _watch(url: str, seconds: float) -> dict[str, int]:
+    """Subscribe to WANTED as they are advertised; count binary messages per topic."""
+    counts: dict[str, int] = {}
+    subs: dict[int, str] = {}
+    async with websockets.connect(url, subprotocols=[SUBPROTOCOL]) as ws:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline and len(counts) < len(WANTED):
+            try:
+                msg = await asyncio.wait_for(ws.recv(), deadline - time.monotonic())
+            except (asyncio.TimeoutError, websockets.ConnectionClosed):
+                break
+            if isinstance(msg, str):
+                op = json.loads(msg)
+                if op.get("op") == "advertise":
+                    new = [{"id": c["id"], "channelId": c["id"]} for c in op["channels"]
+                           if c["topic"] in WANTED]
+                    subs.update({c["id"]: c["topic"] for c in op["channels"]
+                                 if c["topic"] in WANTED})
+                    if new:
+                        await ws.send(json.dumps({"op": "subscribe", "subscriptions": new}))
+            elif msg[0] == 1:  # message data: opcode, subscription id, timestamp, payload
+                sub = struct.unpack_from("<I", msg, 1)[0]
+                counts[subs[sub]] = counts.get(subs[sub], 0) + 1
+    return counts
+
+
+async def _drop_out(url: str) -> None:
+    """A client that connects, subscribes to everything and vanishes without a goodbye."""
+    ws = await websockets.connect(url, subprotocols=[SUBPROTOCOL])
+    await asyncio.wait_for(ws.recv(), 5)
+    ws.transport.abort()
+
+
+def test_live_channels_reach_a_websocket_client():
+    proc = subprocess.Popen([HEXHIL, "run", "scenarios/obstacles-high-large.toml",
+                             "--duration", "5", "--live", "0", "--realtime"], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stdout.readline()
+        assert line.startswith("live: ws://127.0.0.1:"), line + proc.stderr.read()
+        url = line.split()[1]
+        port = int(url.rsplit(":", 1)[1])
+        assert _listening_on(port) == ["0100007F"]  # 127.0.0.1 only
+        asyncio.run(_drop_out(url))
+        counts = asyncio.run(_watch(url, 4.0))
+        assert set(counts) == set(WANTED), counts
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err
+    assert "5.0 s simulated" in out
