@@ -4,7 +4,8 @@ Around the rig of hil/rig.py it adds what a foreign master needs and what ``hexh
 records: the limit-switch sensor node on the bus (hil/sensor_node.py), the master
 conformance check (hil/master_check.py), the switches as CAN frames (``limit_switches``) on
 the run's CAN bus and its socketcand gateway, and the recorder's topics (serial, CAN,
-``/body``, ``/joints``, ``/servos``, ``/switches``, ``/faults``, ``/bus/violations``).
+``/body``, ``/joints``, the 3D scene (hil/ground_truth.py, as ``hexhil run --out``),
+``/servos``, ``/switches``, ``/faults``, ``/bus/violations``).
 hil/serial_server.py paces it to the wall clock and calls ``tick`` after each catch-up.
 """
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Any, Sequence
 from hil import rig as rig_mod
 from hil import scenario as scenario_mod
 from hil.can_bus import CanBus, RecorderListener
+from hil.ground_truth import GroundTruth
 from hil.master_check import MasterCheck
 from hil.run_result import body_displacement
 from hil.sensor_node import DEFAULT_ID, SensorNode
@@ -30,7 +32,7 @@ class RealTimeRig:
     def __init__(self, scenario: dict[str, Any], seed: int, *, world: bool = False,
                  ids: Sequence[int] | None = None, recorder: Any = None,
                  can_server: Any = None, sensor_id: int | None = DEFAULT_ID,
-                 verbose: Any = None) -> None:
+                 verbose: Any = None, scene: bool = True) -> None:
         self.recorder, self.verbose = recorder, verbose
         sc = scenario_mod.check(scenario)
         w = rig_mod.make_world(sc, seed) if world else None
@@ -57,6 +59,8 @@ class RealTimeRig:
         if can_server is not None:
             self.can.add_gateway(can_server)
         self._pose0 = w.body_pose() if w is not None else None
+        self._truth = GroundTruth(w, [s for s in self.servos if isinstance(s, Servo)], recorder,
+                                  scene) if recorder is not None else None
         self._bits = 0
         self._edges = 0
         self._seq = 0
@@ -107,13 +111,9 @@ class RealTimeRig:
         if rec is None:
             return
         rec.advance(t_us)
-        w = self.world
-        if w is not None:
-            p = w.body_pose()
-            rec.body_pose(t_us, (p.x_m, p.y_m, p.z_m), p.quat_wxyz)
-            rec.joints(t_us, w.joint_names(), w.joint_positions().tolist(),
-                       w.joint_velocities().tolist(), w.joint_efforts_nm().tolist())
-        rec.servo_state(t_us, [s.snapshot() for s in self.servos if isinstance(s, Servo)])
+        if self.world is not None:
+            self._truth.world_sample(t_us)
+        self._truth.servo_sample(t_us)
 
     def summary(self, pacing: dict[str, Any]) -> dict[str, Any]:
         """The ``--json`` summary: time served, body, faults, bus, master violations, pacing."""

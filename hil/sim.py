@@ -31,6 +31,7 @@ from typing import Any, Callable
 
 from hil import rig as rig_mod
 from hil.can_bus import CanBus, RecorderListener
+from hil.ground_truth import GroundTruth
 from hil.link import FirmwareProcess
 from hil.link_server import LinkServer, SwitchSampler, firmware_settings
 from hil.run_result import RunResult, body_displacement
@@ -45,9 +46,6 @@ class Simulator:
                  tactile: bool | None = None, can_server: Any = None, scene: bool = False,
                  realtime: bool = False) -> None:
         self.recorder = recorder
-        self._scene = scene
-        self._shapes: dict[str, Any] = {}  # the geometry sent, by shape id
-        self._last_shapes: list[Any] = []  # the world's last answer (mostly the same objects)
         self._realtime = realtime
         self._wall0_s: float | None = None
         self._digest = hashlib.sha256()
@@ -69,6 +67,8 @@ class Simulator:
         self._next_servo_us = 0
         self._stepped = world is not None and self.bus is None
         self._pose0 = world.body_pose() if world is not None and not self._stepped else None
+        self._truth = GroundTruth(world, self.bus.servos if self.bus is not None else [],
+                                  recorder, scene) if recorder is not None else None
         if self._stepped:
             world.attach(self.can)
         else:
@@ -148,7 +148,7 @@ class Simulator:
                 self._pace(t)
                 if rec is not None:
                     rec.advance(t)
-                    self._draw(t)
+                    self._truth.draw(t)
             if world.done() or t >= end_us:
                 break
         result.world = world.outcome()
@@ -178,7 +178,7 @@ class Simulator:
             result.body = body_displacement(self._pose0, self.world.body_pose())
 
     def _ground_truth(self) -> None:
-        """Body pose, joints and servo states to the recorder at 10 Hz of virtual time."""
+        """Body pose, joints, scene and servo states to the recorder at 10 Hz of virtual time."""
         t = self.clock.t_us
         self._pace(t)
         if self.recorder is None:
@@ -186,30 +186,10 @@ class Simulator:
         self.recorder.advance(t)
         if self.world is not None and t >= self._next_body_us:
             self._next_body_us = t + BODY_SAMPLE_US
-            p = self.world.body_pose()
-            self.recorder.body_pose(t, (p.x_m, p.y_m, p.z_m), p.quat_wxyz)
-            w = self.world
-            self.recorder.joints(t, w.joint_names(), w.joint_positions().tolist(),
-                                 w.joint_velocities().tolist(), w.joint_efforts_nm().tolist())
-            self._draw(t)
+            self._truth.world_sample(t)
         if t >= self._next_servo_us:
             self._next_servo_us = t + BODY_SAMPLE_US
-            self.recorder.servo_state(t, [s.snapshot() for s in self.bus.servos])
-
-    def _draw(self, t: int) -> None:
-        """The world's 3D scene to the recorder: the shapes that changed, frames, forces."""
-        if not self._scene:
-            return
-        w, rec = self.world, self.recorder
-        shapes = w.scene_shapes()
-        if shapes != self._last_shapes:  # fast: unchanged shapes are the same objects
-            self._last_shapes = shapes
-            changed = [s for s in shapes if self._shapes.get(s.id) != s]
-            if changed:
-                self._shapes.update((s.id, s) for s in changed)
-                rec.scene(t, changed)
-        rec.scene_frames(t, w.scene_frames())
-        rec.scene_forces(t, w.scene_arrows())
+            self._truth.servo_sample(t)
 
     def _pace(self, t_us: int) -> None:
         """With ``realtime``: wait until the wall clock has run ``t_us`` since the start."""
