@@ -92,8 +92,11 @@ def simulate(scenario: dict[str, Any], seed: int, duration_s: float, trace: str 
     from host_tools.trace.recorder import open_recorder
 
     world = HexapodWorld(scenario, seed)
+    # the scenario itself rides along: its "_path" names no file a trace reader could load
     recorder = open_recorder(trace, {"scenario": scenario["_path"], "seed": seed,
-                                     "firmware_runtime": "micropython"})
+                                     "firmware_runtime": "micropython",
+                                     "scenario_data": {k: v for k, v in scenario.items()
+                                                       if not k.startswith("_")}})
     try:
         Simulator(scenario, seed, world=world, recorder=recorder).run(duration_s)
     finally:
@@ -159,16 +162,25 @@ def plan(quick: bool, seeds: int, periods_for: dict[tuple[str, float], int],
     return sorted(specs, key=lambda s: -s.duration_s)
 
 
-def run_sweep(quick: bool, seeds: int, executor: Executor, trace_dir: str | None = None,
-              model: str = "real", obstacle_body: str = "free") -> dict[str, Any]:
-    """Run the whole protocol; returns the probe speeds, periods and every run's result."""
+def calibrate(executor: Executor, distances: tuple[float, ...], model: str = "real",
+              obstacle_body: str = "free"
+              ) -> tuple[dict[str, float], dict[tuple[str, float], int]]:
+    """Stage 1, the probe: each gait's flat-ground speed (m/s) and the gait periods that
+    reach each distance at it (Sec. 3.3). Shared with ``hexhil grnn dataset``."""
     probes = [RunSpec("probe", g, 0.0, True, 0, model=model, obstacle_body=obstacle_body)
               for g in GAITS]
     probe_out = executor.map(run_one, probes, "calibration probe")
     speed = {r["gait"]: r["x_m"] / r["sim_s"] for r in probe_out}
-    distances = (1.0,) if quick else (1.0, 2.0)
     periods_for = {(g, d): max(1, round(d / (speed[g] * hexapod.GAIT_PERIOD_S[g])))
                    for g in GAITS for d in distances}
+    return speed, periods_for
+
+
+def run_sweep(quick: bool, seeds: int, executor: Executor, trace_dir: str | None = None,
+              model: str = "real", obstacle_body: str = "free") -> dict[str, Any]:
+    """Run the whole protocol; returns the probe speeds, periods and every run's result."""
+    distances = (1.0,) if quick else (1.0, 2.0)
+    speed, periods_for = calibrate(executor, distances, model, obstacle_body)
     specs = plan(quick, seeds, periods_for, model, 1 if quick else CALIBRATION_TRIALS,
                  obstacle_body)
     runs = executor.map(_run_with_speed, [(s, speed[s.gait], trace_dir) for s in specs], "runs")
