@@ -29,6 +29,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "estimate": ("estimate", "re-run the beam estimator on a trace's force frames"),
     "model": ("model", "the hexapod's robot description (URDF, MJCF)"),
     "render": ("render", "render a trace's ground truth to a video or PNG"),
+    "grnn": ("grnn", "GRNN positional-error predictor: dataset, train, eval (seed 003)"),
 }
 
 

@@ -1,0 +1,215 @@
+"""``hexhil grnn dataset``: the GRNN's training data (seed 003 Sec. 2.6) from our own runs.
+
+Without trace arguments: the tactile-hexapod experiment's protocol (its calibration probe,
+``run_one`` with traces, real world model), one with-method run per terrain seed S..S+N-1,
+gait x density x height class cycling through the 8 combinations by seed. Each trace is
+turned into one row per step by ``features.StepSampler``, fed from the trace in time order:
+``tactile`` frames from /can/raw, ground truth from /body and /joints. With MCAP arguments,
+those traces are read instead and their run facts come from the trace's metadata.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import time
+from pathlib import Path
+from typing import Any
+
+from host_tools.grnn import data as data_mod
+from host_tools.grnn.features import (DEFINITIONS, FEATURE_VERSION, KNOWN_FRACTION, M_MAX,
+                                      SENSING, StepRow, StepSampler)
+from host_tools.trace.reader import Trace
+from host_tools.trace.topics import T_BODY, T_CAN_RAW, T_JOINTS
+from protocol import can_frames, hexapod
+from protocol.errors import UserError
+
+COMBINATIONS = [(g, dens, h) for g in ("tripod", "wave") for dens in ("low", "high")
+                for h in ("small", "large")]   # the with-method cases of Fig. 17-20
+
+
+def _yaw_rad(q: dict[str, float]) -> float:
+    w, x, y, z = q["w"], q["x"], q["y"], q["z"]
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def _scenario_of(tr: Trace) -> tuple[dict[str, Any], int]:
+    """The scenario a trace ran and its seed: the experiment's ``scenario_data``, else the
+    scenario file ``hexhil run`` names."""
+    meta = tr.metadata()
+    try:
+        seed = int(meta.get("seed", "0"))
+        if "scenario_data" in meta:
+            return json.loads(meta["scenario_data"]), seed
+    except ValueError:
+        raise UserError(f"{tr.path}: unreadable run metadata") from None
+    from hil import scenario as scenario_mod
+
+    path = meta.get("scenario", "")
+    if not path or not Path(path).is_file():
+        raise UserError(f"{tr.path}: the trace names no scenario file this machine has "
+                        f"({path or 'none'})")
+    return scenario_mod.load(path), seed
+
+
+def rows_from_trace(path: str | Path) -> tuple[list[StepRow], dict[str, Any]]:
+    """One trace's rows and its run facts (gait, terrain, d, N, dx at the last pose)."""
+    with Trace(path) as tr:
+        sc, seed = _scenario_of(tr)
+        gait = sc.get("gait", {})
+        world = sc.get("world", {})
+        name = gait.get("name", hexapod.DEFAULT_GAIT)
+        period_s = gait.get("period_s", hexapod.GAIT_PERIOD_S.get(name, 0.0))
+        distance_m = gait.get("distance_m", 0.0)
+        if world.get("kind") != "hexapod" or not distance_m > 0:
+            raise UserError(f"{tr.path}: not a hexapod walk to a goal (world.kind "
+                            f"{world.get('kind')!r}, gait.distance_m {distance_m})")
+        sampler = StepSampler(name, period_s, gait.get("step_length_m", hexapod.STEP_LENGTH_M))
+        topics = [t for t in (T_CAN_RAW, T_BODY, T_JOINTS) if t in tr.topics()]
+        if len(topics) < 3:
+            raise UserError(f"{tr.path}: needs {T_CAN_RAW}, {T_BODY} and {T_JOINTS} "
+                            f"(has {', '.join(tr.topics())})")
+        rows: list[StepRow] = []
+        body: tuple[int, float, float, float] | None = None
+        joints: tuple[int, list[float]] | None = None
+        first = last = None
+        for m, v in tr.decoded(topics):
+            t_us = m.log_time_ns // 1000
+            if m.topic == T_CAN_RAW:
+                if v["arbitration_id"] == can_frames.ID_TACTILE:
+                    _, s = can_frames.decode(v["arbitration_id"], bytes.fromhex(v["data"]))
+                    sampler.tactile(t_us, s["switches"], s["overcoming"], s["step_counter"])
+                continue
+            if m.topic == T_BODY:
+                body = (t_us, v["translation"]["x"], v["translation"]["y"], _yaw_rad(v["rotation"]))
+                first = first or body
+                last = body
+            else:
+                joints = (t_us, [j["position"] for j in v["joints"]])
+            if body is not None and joints is not None and body[0] == joints[0]:
+                row = sampler.truth(t_us, body[1], body[2], body[3], joints[1])
+                if row is not None:
+                    rows.append(row)
+        end_s = tr.summary.statistics.message_end_time / 1e9
+    if first is None or last is None:
+        raise UserError(f"{path}: no ground-truth samples on {T_BODY}")
+    x_end = last[1] - first[1]
+    facts = {"terrain_seed": world.get("terrain_seed", seed), "gait": name,
+             "density": world.get("density", ""), "height_class": world.get("height_class", ""),
+             "distance_m": distance_m, "periods": max(1, round(end_s / period_s)),
+             "dx_m": distance_m - x_end, "x_end_m": x_end, "model_dx_m": math.nan,
+             "source": str(path)}
+    return rows, facts
+
+
+def _build_one(args: tuple[Any, float, str]) -> tuple[dict[str, Any], list[StepRow]]:
+    """One with-method run with its trace, then its rows (in a worker process)."""
+    from host_tools.experiments import tactile_hexapod as th
+
+    spec, speed_m_s, trace_dir = args
+    t0 = time.perf_counter()
+    r = th.run_one(spec, speed_m_s, trace_dir)
+    rows, facts = rows_from_trace(r["trace"])
+    facts.update(dx_m=r["dx_m"], x_end_m=r["x_m"], model_dx_m=r["model_dx_m"],
+                 periods=spec.periods, build_s=time.perf_counter() - t0)
+    return facts, rows
+
+
+def simulate_runs(out_dir: Path, terrains: int, seed: int, workers: int,
+                  distance_m: float) -> tuple[list[dict[str, Any]], list[list[StepRow]], dict]:
+    """The experiment's probe, then one traced with-method run per terrain seed."""
+    from host_tools.experiments import tactile_hexapod as th
+    from host_tools.experiments.executor import Executor
+
+    ex = Executor(workers)
+    speed, periods_for = th.calibrate(ex, (distance_m,))
+    trace_dir = out_dir / "traces"
+    trace_dir.mkdir(parents=True, exist_ok=True)
+    jobs = []
+    for s in range(seed, seed + terrains):
+        g, dens, h = COMBINATIONS[s % len(COMBINATIONS)]
+        spec = th.RunSpec("with", g, distance_m, True, s, dens, h, periods_for[g, distance_m])
+        jobs.append((spec, speed[g], str(trace_dir)))
+    out = ex.map(_build_one, jobs, "runs")
+    return ([f for f, _ in out], [r for _, r in out],
+            {"probe_speed_m_s": speed, "model": "real", "stage": "with",
+             "periods": {f"{g} {d:g} m": n for (g, d), n in periods_for.items()}})
+
+
+def code_version() -> str:
+    """``git describe`` of the checkout when there is one, else the package version."""
+    try:
+        out = subprocess.run(["git", "describe", "--always", "--dirty"], capture_output=True,
+                             text=True, timeout=10, cwd=Path(__file__).resolve().parent)
+        if out.returncode == 0 and out.stdout.strip():
+            return out.stdout.strip()
+    except OSError:
+        pass
+    from host_tools.trace.recorder import software_version
+
+    return software_version()
+
+
+def build(out_dir: Path, traces: list[str], terrains: int, seed: int, workers: int,
+          distance_m: float) -> dict[str, Any]:
+    """Make the dataset; returns a summary (files, runs, rows, seconds per run)."""
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UserError(f"--out {out_dir} exists and is not a folder")
+    t0 = time.perf_counter()
+    if traces:
+        runs, rows = [], []
+        for p in traces:
+            t1 = time.perf_counter()
+            r, f = rows_from_trace(p)
+            f["build_s"] = time.perf_counter() - t1
+            runs.append(f)
+            rows.append(r)
+        extra: dict[str, Any] = {"note": "built from traces: dx_m from the last /body sample; "
+                                         "model_dx_m (Eq. 8-14) omitted (NaN), it needs the "
+                                         "probe-calibrated speed the trace does not hold"}
+    else:
+        if terrains < 1:
+            raise UserError(f"--terrains must be at least 1, got {terrains}")
+        if not distance_m > 0:
+            raise UserError(f"--distance must be positive, got {distance_m}")
+        runs, rows, extra = simulate_runs(out_dir, terrains, seed, workers, distance_m)
+    meta = {"feature_version": FEATURE_VERSION, "sensing": list(SENSING),
+            "definitions": DEFINITIONS, "known_fraction": KNOWN_FRACTION, "m_max": M_MAX,
+            "code_version": code_version(), "terrain_seeds": [int(r["terrain_seed"]) for r in runs],
+            "scenarios": sorted({f"{r['gait']}-{r['density']}-{r['height_class']}" for r in runs}),
+            **extra}
+    path = data_mod.write(out_dir, runs, rows, meta)
+    return {"dataset": str(path), "sidecar": str(out_dir / "dataset.json"), "runs": len(runs),
+            "rows": sum(len(r) for r in rows), "wall_s": time.perf_counter() - t0,
+            "build_s_per_run": [r["build_s"] for r in runs]}
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("traces", nargs="*", metavar="MCAP", help="read these traces instead of "
+                   "running the sweep")
+    p.add_argument("--out", required=True, help="output folder (dataset.npz, dataset.json)")
+    p.add_argument("--terrains", type=int, default=32, help="terrain seeds to run (default 32)")
+    p.add_argument("--seed", type=int, default=1, help="first terrain seed (default 1)")
+    p.add_argument("--distance", type=float, default=1.0, metavar="M",
+                   help="goal distance d in m (default 1, as the paper's runs)")
+    p.add_argument("--workers", type=int, default=max(1, os.cpu_count() or 1),
+                   help="local worker processes (default: one per core)")
+    p.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
+
+
+def run(args: argparse.Namespace) -> int:
+    from host_tools.cli import emit_json
+
+    res = build(Path(args.out), args.traces, args.terrains, args.seed, args.workers,
+                args.distance)
+    times = res["build_s_per_run"]
+    for i, s in enumerate(times):
+        print(f"run {i + 1}/{len(times)}: {s:.1f} s")
+    print(f"wrote {res['dataset']} ({res['runs']} runs, {res['rows']} steps) in "
+          f"{res['wall_s']:.0f} s; build time per run: median "
+          f"{sorted(times)[len(times) // 2]:.1f} s")
+    if args.json:
+        emit_json(res)
+    return 0
