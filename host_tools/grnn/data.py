@@ -5,6 +5,7 @@ and ``evaluate``; written by ``dataset``. No torch.
 from __future__ import annotations
 
 import json
+import math
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,7 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from host_tools.grnn.features import FEATURE_VERSION, LEGS, SENSING, StepRow
+from host_tools.grnn.features import (DEFINITIONS, FEATURE_VERSION, KNOWN_FRACTION, LEGS,
+                                      M_MAX, SENSING, StepRow)
 from protocol.errors import UserError
 
 # per-run columns of the run table (strings and numbers), in the npz and the sidecar
@@ -37,6 +39,12 @@ class Dataset:
     runs: list[dict[str, Any]]      # run table: RUN_TEXT + RUN_NUMBERS per run
     sequences: list[Walk]       # same order
     meta: dict[str, Any]            # the sidecar's content
+
+
+def feature_meta() -> dict[str, Any]:
+    """The feature definition a dataset was built with (checked on reading)."""
+    return {"feature_version": FEATURE_VERSION, "sensing": list(SENSING),
+            "definitions": DEFINITIONS, "known_fraction": KNOWN_FRACTION, "m_max": M_MAX}
 
 
 def write(out_dir: Path, runs: list[dict[str, Any]], rows: list[list[StepRow]],
@@ -90,3 +98,38 @@ def read(path: str | Path) -> Dataset:
                                                 "sensing", "error_m")))
             for lo, hi in zip(offsets[:-1], offsets[1:])]
     return Dataset(runs, seqs, meta)
+
+
+def synthetic(walks: int, seed: int = 0, first_terrain_seed: int = 1
+              ) -> tuple[list[dict[str, Any]], list[list[StepRow]]]:
+    """Walks that need no simulator, for the tests and the bench: the body falls short of
+    the plan by a gait-specific slip plus 2 cm for every switch hit, so an error grows with
+    what the robot senses and a constant cannot follow it. Realistic sizes: 15-30 steps."""
+    from host_tools.grnn.features import hip_errors_m
+
+    rng = np.random.default_rng(seed)
+    runs, rows = [], []
+    for i in range(walks):
+        gait = ("tripod", "wave")[i % 2]
+        step_m = 0.1 if gait == "tripod" else 0.06
+        slip = 0.85 if gait == "tripod" else 0.9
+        n, p_hit = int(rng.integers(15, 31)), float(rng.uniform(0.02, 0.25))
+        x = y = yaw = 0.0
+        walk: list[StepRow] = []
+        over = np.zeros(LEGS)
+        for k in range(1, n + 1):
+            hits = (rng.random(LEGS) < p_hit).astype(float)
+            x += step_m * slip - 0.02 * hits.sum() + rng.normal(0, 0.002)
+            yaw += 0.01 * (hits[:3].sum() - hits[3:].sum())
+            feet = rng.normal(0.0, 0.005, 2 * LEGS) + np.repeat([0.18, -0.08], LEGS)
+            sensing = [*hits, *over, *feet, step_m]
+            walk.append(StepRow(k, int(k * 2e6), k * step_m, x, y, yaw, [float(v) for v in sensing],
+                                hip_errors_m(k * step_m, x, y, yaw)))
+            over = hits
+        x_end = x + 0.4 * step_m * slip
+        d = round(n * step_m * slip, 2)
+        runs.append({"gait": gait, "density": "synthetic", "height_class": "", "source": "synthetic",
+                     "terrain_seed": first_terrain_seed + i, "distance_m": d, "periods": n,
+                     "dx_m": d - x_end, "x_end_m": x_end, "model_dx_m": math.nan})
+        rows.append(walk)
+    return runs, rows

@@ -19,8 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from host_tools.grnn import data as data_mod
-from host_tools.grnn.features import (DEFINITIONS, FEATURE_VERSION, KNOWN_FRACTION, M_MAX,
-                                      SENSING, StepRow, StepSampler)
+from host_tools.grnn.features import StepRow, StepSampler
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_BODY, T_CAN_RAW, T_JOINTS
 from protocol import can_frames, hexapod
@@ -175,9 +174,7 @@ def build(out_dir: Path, traces: list[str], terrains: int, seed: int, workers: i
         if not distance_m > 0:
             raise UserError(f"--distance must be positive, got {distance_m}")
         runs, rows, extra = simulate_runs(out_dir, terrains, seed, workers, distance_m)
-    meta = {"feature_version": FEATURE_VERSION, "sensing": list(SENSING),
-            "definitions": DEFINITIONS, "known_fraction": KNOWN_FRACTION, "m_max": M_MAX,
-            "code_version": code_version(), "terrain_seeds": [int(r["terrain_seed"]) for r in runs],
+    meta = {**data_mod.feature_meta(), "code_version": code_version(), "terrain_seeds": [int(r["terrain_seed"]) for r in runs],
             "scenarios": sorted({f"{r['gait']}-{r['density']}-{r['height_class']}" for r in runs}),
             **extra}
     path = data_mod.write(out_dir, runs, rows, meta)
