@@ -103,7 +103,7 @@ def rows_from_trace(path: str | Path) -> tuple[list[StepRow], dict[str, Any]]:
     return rows, facts
 
 
-def _build_one(args: tuple[Any, float, str]) -> tuple[dict[str, Any], list[StepRow]]:
+def build_one(args: tuple[Any, float, str]) -> tuple[dict[str, Any], list[StepRow]]:
     """One with-method run with its trace, then its rows (in a worker process)."""
     from host_tools.experiments import tactile_hexapod as th
 
@@ -131,7 +131,7 @@ def simulate_runs(out_dir: Path, terrains: int, seed: int, workers: int,
         g, dens, h = COMBINATIONS[s % len(COMBINATIONS)]
         spec = th.RunSpec("with", g, distance_m, True, s, dens, h, periods_for[g, distance_m])
         jobs.append((spec, speed[g], str(trace_dir)))
-    out = ex.map(_build_one, jobs, "runs")
+    out = ex.map(build_one, jobs, "runs")
     return ([f for f, _ in out], [r for _, r in out],
             {"probe_speed_m_s": speed, "model": "real", "stage": "with",
              "periods": {f"{g} {d:g} m": n for (g, d), n in periods_for.items()}})
