@@ -200,6 +200,7 @@ COMMANDS = [
     ("replay", "{f}"),
     ("replay", "{f}", "--can", "virtual:x"),
     ("estimate", "{f}"),
+    ("grnn", "dataset", "--out", "{tmp}/ds", "{f}"),
 ]
 
 
