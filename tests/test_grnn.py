@@ -96,6 +96,33 @@ def test_dataset_refuses_a_file_that_is_not_a_trace(tmp_path, capsys):
     assert err.count("\n") == 1 and "not an MCAP file" in err
 
 
+def test_dataset_command_runs_the_sweep(tmp_path, capsys):
+    """The command's own sweep: probe, two traced with-method runs, d = 0.2 m (about 8 s)."""
+    assert cli(["grnn", "dataset", "--out", str(tmp_path), "--terrains", "2", "--seed", "3",
+                "--distance", "0.2", "--workers", "2", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert res["runs"] == 2 and len(res["build_s_per_run"]) == 2
+    ds = data.read(tmp_path)
+    assert [int(r["terrain_seed"]) for r in ds.runs] == [3, 4]
+    assert [(r["gait"], r["density"], r["height_class"]) for r in ds.runs] == [
+        ("tripod", "high", "large"), ("wave", "low", "small")]        # 3 % 8, 4 % 8
+    assert all(math.isfinite(r["model_dx_m"]) for r in ds.runs)       # Eq. 8-14 from run_one
+    assert all(len(w.step) == r["periods"] for w, r in zip(ds.sequences, ds.runs))
+    assert len(list((tmp_path / "traces").glob("*.mcap"))) == 2
+
+
+def test_train_refuses_bad_input_in_one_line(synth, tmp_path, capsys):
+    bad = tmp_path / "x.npz"
+    bad.write_bytes(b"nope")
+    for argv in (["grnn", "train", str(bad), "--out", str(tmp_path / "m.pt")],
+                 ["grnn", "train", str(synth["train"]), "--out", str(tmp_path / "no" / "m.pt")],
+                 ["grnn", "train", str(synth["train"]), "--out", str(tmp_path / "m.pt"),
+                  "--epochs", "0"]):
+        assert cli(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.startswith("hexhil: ") and err.count("\n") == 1, err
+
+
 def test_training_shapes_and_loss_goes_down(synth):
     pred = model.load(synth["model"])
     loss = pred.meta["loss"]

@@ -113,8 +113,8 @@ def save(path: str | Path, model: GRNN, norm: Norm, meta: dict[str, Any]) -> Non
         torch.save({"format": FORMAT, "feature_version": FEATURE_VERSION,
                     "sensing": list(SENSING), "state_dict": model.state_dict(),
                     "norm": asdict(norm), "meta": meta}, str(path))
-    except OSError as exc:
-        raise UserError(f"{path}: cannot write the model ({exc.strerror})") from None
+    except (OSError, RuntimeError) as exc:   # torch reports a missing folder as RuntimeError
+        raise UserError(f"{path}: cannot write the model ({type(exc).__name__})") from None
 
 
 def load(path: str | Path) -> Predictor:

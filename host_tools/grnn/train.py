@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -115,6 +116,8 @@ def run_facts(ds: data_mod.Dataset) -> dict[str, Any]:
 
 def main(data: str, out: str, epochs: int = 50, seed: int = 0, progress: bool = True
          ) -> dict[str, Any]:
+    if not Path(out).parent.is_dir():
+        raise UserError(f"--out {out}: no folder {Path(out).parent}")
     ds = data_mod.read(data)
     model, norm, losses, s_per_epoch = fit(ds, epochs, seed, progress=progress)
     meta = {"dataset": {k: v for k, v in ds.meta.items() if k != "runs"},
