@@ -75,9 +75,10 @@ class Simulator:
             self.firmware_port = self.can.endpoint("tx")   # the firmware's CAN controller
 
     def add_node(self, node: Any) -> None:
-        """A host-side CAN node (``period_us``, ``tick(t_us)``), ticked in the order added."""
+        """A host-side CAN node (``period_us``, ``tick(t_us)``), ticked in the order added;
+        first after one period, or at ``first_tick_us`` if the node has one."""
         self._nodes.append(node)
-        self._next_tick_us.append(node.period_us)
+        self._next_tick_us.append(getattr(node, "first_tick_us", node.period_us))
 
     # --- hooks ------------------------------------------------------------------------
     def _on_bytes(self, t_us: int, direction: str, data: bytes) -> None:
@@ -106,10 +107,12 @@ class Simulator:
         self.can.send(arb_id, data)
 
     def _tick(self, t_us: int) -> None:
-        """Host nodes whose period has come round, in the order they were given."""
+        """Host nodes whose period has come round, in the order they were given. A period
+        counts from the node's last tick, as the ground-truth samples' does, so a node at
+        ``BODY_SAMPLE_US`` from 0 ticks at the instants the trace has ground truth for."""
         for i, node in enumerate(self._nodes):
             if t_us >= self._next_tick_us[i]:
-                self._next_tick_us[i] += node.period_us
+                self._next_tick_us[i] = t_us + node.period_us
                 node.tick(t_us)
 
     # --- running ----------------------------------------------------------------------

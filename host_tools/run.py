@@ -101,7 +101,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         python: str | None = None, tactile: bool | None = None,
         out: str | None = None, can_server_port: int | None = None,
         can_wait_clients: int = 0, live_port: int | None = None,
-        realtime: bool = False) -> tuple[dict[str, Any], RunResult]:
+        realtime: bool = False, navigator: str = "none",
+        model_path: str | None = None) -> tuple[dict[str, Any], RunResult]:
     """Load, simulate, summarise. Returns (summary, raw result).
 
     A recorded run (``out``) carries the 3D scene. With ``live_port`` the trace's channels
@@ -112,6 +113,9 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     With ``can_server_port`` the simulated CAN bus is served over socketcand on 127.0.0.1
     (0 picks a free port); ``can_wait_clients`` holds the start until that many stock
     clients are attached, so they see every frame.
+
+    ``navigator`` (``model``, ``grnn``; host_tools/grnn/navigator.py) stops the walk where
+    it predicts the goal ``gait.distance_m`` is reached.
     """
     sc = scenario_mod.load(path)
     if seed is None:
@@ -127,8 +131,10 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     if beams:
         from host_tools.traversal.closed_loop import config_from_scenario
         cfg = config_from_scenario(sc, seed)
+    if navigator != "none":
+        _check_navigator(sc, navigator, model_path, beams)
     world = None if beams else make_world(sc, seed)
-    recorder = live = server = None
+    recorder = live = server = nav = None
     try:
         if live_port is not None:
             live = _start_live(live_port)
@@ -144,6 +150,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
             return _traverse(sc, seed, cfg, recorder, server, out, realtime)
         sim = Simulator(sc, seed, world=world, recorder=recorder, tactile=tactile,
                         can_server=server, scene=recorder is not None, realtime=realtime)
+        if navigator != "none":
+            nav = _navigate(sim, world, sc, navigator, model_path)
         result = sim.run(duration_s, python=python)
     finally:
         if server is not None:
@@ -152,4 +160,36 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
             recorder.close()
         if live is not None:
             live.close()
-    return summary(sc, seed, result, out), result
+    s = summary(sc, seed, result, out)
+    if nav is not None:
+        s["navigator"] = {"kind": navigator, **nav.summary(),
+                          "goal_dx_m": round(nav.distance_m - result.body.get("dx_m", 0.0), 4)}
+    return s, result
+
+
+def _check_navigator(sc: dict[str, Any], kind: str, model_path: str | None,
+                     beams: bool) -> None:
+    if kind not in ("model", "grnn"):
+        raise UserError(f"--navigator {kind}: choose one of none, model, grnn")
+    if beams or sc["world"].get("kind") != "hexapod":
+        raise UserError("--navigator walks the hexapod: this scenario's world is "
+                        f"{sc['world'].get('kind', 'none')}")
+    if "distance_m" not in sc["gait"]:
+        raise UserError("--navigator needs the goal: the scenario has no gait.distance_m")
+    if kind == "grnn" and not model_path:
+        raise UserError("--navigator grnn needs --model MODEL.pt (hexhil grnn train)")
+
+
+def _navigate(sim: Simulator, world: Any, sc: dict[str, Any], kind: str,
+              model_path: str | None) -> Any:
+    """The navigator on the run's CAN bus, planning at the gait's nominal speed."""
+    from host_tools.grnn import navigator
+    from hil.link_server import firmware_settings
+    from protocol import hexapod
+
+    fw = firmware_settings(sc)
+    gait, period_s = fw["gait"], fw["period_s"]
+    step_m = fw.get("step_length_m", hexapod.STEP_LENGTH_M)
+    d = sc["gait"]["distance_m"]
+    steps = navigator.planned_steps_for(d, hexapod.speed_m_s(gait, step_m, period_s), period_s)
+    return navigator.attach(sim, world, kind, model_path, gait, period_s, step_m, d, steps)

@@ -1,4 +1,5 @@
-"""``hexhil grnn dataset|train|eval``: seed 003's GRNN positional-error predictor (Sec. 2.6).
+"""``hexhil grnn dataset|train|eval|closed-loop``: seed 003's GRNN positional-error predictor
+(Sec. 2.6) and the navigator that walks to the goal with it.
 
 torch is imported by the handlers only, so the rest of ``hexhil`` never loads it.
 """
@@ -25,8 +26,14 @@ def _eval(args: argparse.Namespace) -> int:
     return evaluate.run(args)
 
 
+def _closed_loop(args: argparse.Namespace) -> int:
+    from host_tools.grnn import closed_loop
+
+    return closed_loop.run(args)
+
+
 def register(sub: argparse._SubParsersAction) -> None:
-    from host_tools.grnn import dataset
+    from host_tools.grnn import closed_loop, dataset
 
     p = sub.add_parser("grnn", help="GRNN positional-error predictor (seed 003 Sec. 2.6)")
     kinds = p.add_subparsers(dest="grnn", metavar="STAGE", parser_class=type(p))
@@ -46,3 +53,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     q.add_argument("--out", default="out/grnn-eval", help="folder for the table and PNGs")
     q.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
     q.set_defaults(func=_eval)
+    q = kinds.add_parser("closed-loop", help="held-out terrains walked three ways: tactile only, "
+                         "+ Eq. 8-14 navigator, + GRNN navigator")
+    closed_loop.add_arguments(q)
+    q.set_defaults(func=_closed_loop)

@@ -15,7 +15,8 @@ def _run(args: argparse.Namespace) -> int:
 
     s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
                             False if args.no_tactile else None, args.out,
-                            args.can_server, args.can_wait, args.live, args.realtime)
+                            args.can_server, args.can_wait, args.live, args.realtime,
+                            args.navigator, args.model)
     if s.get("world") == "beams":
         what = "traversed" if s["traversed"] else ("flipped" if s["flipped"] else "stuck")
         print(f"{s['scenario']}: {s['strategy']}: {what} (mode {s['mode']}), energy "
@@ -36,6 +37,11 @@ def _run(args: argparse.Namespace) -> int:
         print("faults: " + ", ".join(f"{k} {v}" for k, v in s["faults"].items()))
     print(f"body: dx {s['body']['dx_m']:+.3f} m, dy {s['body']['dy_m']:+.3f} m, "
           f"dyaw {s['body']['dyaw_deg']:+.1f} deg; serial sha256 {s['serial_digest'][:16]}...")
+    if "navigator" in s:
+        n = s["navigator"]
+        print(f"navigator {n['kind']}: stopped after step {n['stop_step']} of "
+              f"{n['planned_steps']} planned (known path {n['known_steps']}); "
+              f"{n['goal_dx_m']:+.3f} m short of the goal")
     if args.json:
         cli.emit_json(s)
     return 1 if s["unhandled_exceptions"] else 0
@@ -64,5 +70,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                         f"(default port {DEFAULT_PORT}; 0 picks a free one)")
     p.add_argument("--can-wait", type=int, default=0, metavar="N",
                    help="with --can-server: start only once N clients are attached")
+    p.add_argument("--navigator", choices=("none", "model", "grnn"), default="none",
+                   help="stop the walk where the goal (gait.distance_m) is predicted reached: "
+                        "by Eq. 8-14 (model) or the GRNN (grnn, needs --model); none walks on")
+    p.add_argument("--model", metavar="MODEL.pt", help="the GRNN for --navigator grnn "
+                   "(hexhil grnn train)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON (last line)")
     p.set_defaults(func=_run)

@@ -24,7 +24,7 @@ import os
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from host_tools import error_model
 from host_tools.cli import emit_json
@@ -41,6 +41,7 @@ PROBE_PERIODS = 4
 CALIBRATION_TRIALS = 3       # Table 1: three trials per case (Sec. 3.3)
 UNITS_SEED = 0               # the real model's servo spread: the same robot in every run
 GOAL_MARGIN_M = 0.3          # terrain continues this far past the goal
+NAVIGATOR_SLACK = 1.5        # a navigated run lasts up to this many times the planned periods
 # lateral distance between the left and right foot lines: "a" of Eq. 12
 ROBOT_WIDTH_M = 2 * hexapod.neutral_foot(1)[1]
 
@@ -56,6 +57,9 @@ class RunSpec:
     periods: int = PROBE_PERIODS
     model: str = "real"   # world.model (hil/world/fidelity.py)
     obstacle_body: str = "free"   # world.obstacle_body with the real model
+    navigator: str = ""   # "": no host node, the run ends after the planned periods; else one
+                          # of host_tools.grnn.navigator.KINDS stops the walk
+    model_path: str = ""  # the GRNN's model file with navigator "grnn"
 
     @property
     def period_s(self) -> float:
@@ -63,7 +67,9 @@ class RunSpec:
 
     @property
     def duration_s(self) -> float:
-        return self.periods * self.period_s
+        """A navigator may walk past the planned periods: the run leaves it room."""
+        slack = NAVIGATOR_SLACK if self.navigator else 1.0
+        return math.ceil(self.periods * slack) * self.period_s
 
 
 def scenario_for(spec: RunSpec) -> dict[str, Any]:
@@ -84,9 +90,10 @@ def scenario_for(spec: RunSpec) -> dict[str, Any]:
     return check(data, f"<{data['scenario']['name']}>")
 
 
-def simulate(scenario: dict[str, Any], seed: int, duration_s: float, trace: str | None = None):
+def simulate(scenario: dict[str, Any], seed: int, duration_s: float, trace: str | None = None,
+             navigate: Callable[[Any, Any], Any] | None = None):
     """Run the firmware against the hexapod world (recorded to ``trace`` if given);
-    returns the world at the end."""
+    returns the world at the end. ``navigate(sim, world)`` may add a host node first."""
     from hil.sim import Simulator
     from hil.world.hexapod import HexapodWorld
     from host_tools.trace.recorder import open_recorder
@@ -98,7 +105,10 @@ def simulate(scenario: dict[str, Any], seed: int, duration_s: float, trace: str 
                                      "scenario_data": {k: v for k, v in scenario.items()
                                                        if not k.startswith("_")}})
     try:
-        Simulator(scenario, seed, world=world, recorder=recorder).run(duration_s)
+        sim = Simulator(scenario, seed, world=world, recorder=recorder)
+        if navigate is not None:
+            navigate(sim, world)
+        sim.run(duration_s)
     finally:
         if recorder is not None:
             recorder.close()
@@ -108,7 +118,9 @@ def simulate(scenario: dict[str, Any], seed: int, duration_s: float, trace: str 
 def trace_name(spec: RunSpec) -> str:
     terrain = f"{spec.density}-{spec.height_class}" if spec.density else "flat"
     method = "tactile" if spec.tactile else "no-tactile"
-    return f"{spec.stage}-{spec.gait}-{terrain}-{spec.distance_m:g}m-seed{spec.seed}-{method}.mcap"
+    nav = f"-{spec.navigator}" if spec.navigator else ""
+    return (f"{spec.stage}-{spec.gait}-{terrain}-{spec.distance_m:g}m-seed{spec.seed}-"
+            f"{method}{nav}.mcap")
 
 
 def run_one(spec: RunSpec, speed_m_s: float | None = None,
@@ -116,9 +128,20 @@ def run_one(spec: RunSpec, speed_m_s: float | None = None,
     """One run: end-pose errors, switch counts and the Eq. 8-14 prediction."""
     t0 = time.perf_counter()
     trace = str(Path(trace_dir) / trace_name(spec)) if trace_dir else None
-    world = simulate(scenario_for(spec), spec.seed, spec.duration_s, trace)
+    nav: list[Any] = []
+    navigate = None
+    if spec.navigator:
+        from host_tools.grnn import navigator
+
+        def navigate(sim: Any, world: Any) -> None:
+            nav.append(navigator.attach(sim, world, spec.navigator, spec.model_path, spec.gait,
+                                        spec.period_s, hexapod.STEP_LENGTH_M, spec.distance_m,
+                                        spec.periods, speed_m_s))
+    world = simulate(scenario_for(spec), spec.seed, spec.duration_s, trace, navigate)
     pose = world.body_pose()
     out = asdict(spec)
+    if nav:
+        out["navigation"] = nav[0].summary()
     out.update(x_m=pose.x_m, dx_m=spec.distance_m - pose.x_m, dy_m=pose.y_m,
                dyaw_deg=math.degrees(pose.yaw_rad), presses=[int(p) for p in world.switches.presses],
                obstacles=len(world.obstacles), wall_s=time.perf_counter() - t0,
