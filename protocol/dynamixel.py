@@ -221,9 +221,13 @@ class Parser:
     def _scan(self):
         buf = self.buf
         while self._n:
-            if buf[0] != HEADER:
-                self.garbage += 1
-                self._drop(1)
+            if buf[0] != HEADER:  # drop the whole run up to the next FF in one shift:
+                k = 1             # byte by byte, a rejected 259-byte packet cost n^2
+                n = self._n
+                while k < n and buf[k] != HEADER:
+                    k += 1
+                self.garbage += k
+                self._drop(k)
                 continue
             if self._n < 2:
                 return False
