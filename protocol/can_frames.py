@@ -140,8 +140,12 @@ def _raw(frame, sig, value):
     if value - value != 0:  # NaN or infinity: no raw value stands for it
         raise ValueError("%s.%s = %r is not a finite number" % (frame, sname, value))
     if kind == SCALED:
-        raw = int(round(value / scale))
-        return lo if raw < lo else (hi if raw > hi else raw)
+        q = value / scale  # a huge finite value over a small scale is infinity: clamp first
+        if q <= lo:
+            return lo
+        if q >= hi:
+            return hi
+        return int(round(q))
     raw = int(value)
     if kind == COUNTER:
         return raw & hi
