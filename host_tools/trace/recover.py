@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import struct
+import zlib
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -17,12 +18,14 @@ from mcap.reader import SeekingReader
 from mcap.records import Attachment, Channel, Chunk, Footer, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import CompressionType, Writer
+from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 
 from host_tools.trace.reader import MAGIC, check_file, why
 from protocol.errors import UserError
 
 _OP_CHUNK = 0x06  # the chunk record's opcode (mcap.opcode.Opcode.CHUNK)
 _KNOWN_OPCODES = range(0x01, 0x10)  # Header .. DataEnd
+_FOOTER_BYTES = 1 + 8 + 8 + 8 + 4  # opcode, length, summary start, offsets start, CRC
 
 
 def _record_end(data: bytes, pos: int) -> int | None:
@@ -51,6 +54,19 @@ def _record_at(data: bytes, pos: int) -> tuple[int, list[Any]] | None:
     if not isinstance(record, Footer) and end < len(data) and data[end] not in _KNOWN_OPCODES:
         return None  # a damaged length field: what follows is not a record
     return end, records
+
+
+def _schema_readable(schema: Schema) -> bool:
+    """A protobuf schema parses. A schema record outside a chunk has no CRC: one with
+    flipped bits would be copied, and the recovered file would not read; a good copy
+    (the summary's, or a chunk's) may come later (found by fuzz/cov_targets.py)."""
+    if schema.encoding != "protobuf":
+        return True
+    try:
+        ProtobufDecoderFactory().decoder_for("protobuf", schema)
+    except Exception:  # whatever the descriptor parser raises: the record is damaged
+        return False
+    return True
 
 
 def _next_chunk(data: bytes, pos: int) -> int | None:
@@ -84,16 +100,30 @@ def _salvaged_records(data: bytes) -> Iterator[Any]:
         pos = nxt
 
 
+def _summary_intact(data: bytes) -> bool:
+    """The summary section matches the footer's CRC (or the writer left it 0: unchecked).
+    The stock reader does not check it, and a damaged schema there would be copied over
+    the good one its chunk holds (found by fuzz/cov_targets.py's trace target)."""
+    footer = len(data) - len(MAGIC) - _FOOTER_BYTES
+    if footer < len(MAGIC):
+        return False
+    start, _, crc = struct.unpack_from("<QQI", data, footer + 9)
+    return crc == 0 or (start <= footer and zlib.crc32(data[start:footer + 25]) == crc)
+
+
 def _summary_channels(data: bytes) -> tuple[dict[int, Schema], dict[int, Channel]]:
     """Schemas and channels from the summary of a finished file, so that a damaged chunk
     that held a channel's first record loses only its own messages."""
+    if not _summary_intact(data):
+        return {}, {}
     try:
         summary = SeekingReader(io.BytesIO(data)).get_summary()
     except Exception:
         summary = None
     if summary is None:
         return {}, {}
-    return dict(summary.schemas), dict(summary.channels)
+    return ({k: v for k, v in summary.schemas.items() if _schema_readable(v)},
+            dict(summary.channels))
 
 
 def recover(src: str | Path, dst: str | Path) -> dict[str, Any]:
@@ -139,7 +169,8 @@ def recover(src: str | Path, dst: str | Path) -> dict[str, Any]:
                 writer.start()
                 header_written = True
             if isinstance(record, Schema):
-                schemas.setdefault(record.id, record)
+                if _schema_readable(record):
+                    schemas.setdefault(record.id, record)
             elif isinstance(record, Channel):
                 channels.setdefault(record.id, record)
             elif isinstance(record, Message):
