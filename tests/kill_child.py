@@ -1,8 +1,11 @@
-"""``hexhil`` with a signal sent to itself at a set virtual time (tests/test_nothing_lost.py).
+"""``hexhil`` with a signal sent to itself at a set virtual time (tests/test_nothing_lost*.py).
 
 Usage: python tests/kill_child.py KILL_AT_US SIGNAL FSIZE_LIMIT_BYTES hexhil-args...
 The signal goes out from the bus's next master write at or after KILL_AT_US, so the kill
 lands at a known simulated moment; a FSIZE limit > 0 makes writes past it fail (full disk).
+With KILL_IN_RECORDING=N in the environment the signal waits for the N-th trace opened (an
+experiment's N-th run, each on a bus whose clock starts at 0), and each trace's path goes
+to stderr as ``recording PATH`` when it opens.
 """
 import os
 import resource
@@ -10,21 +13,34 @@ import sys
 
 from hil import bus
 from host_tools import cli
+from host_tools.trace import recorder
 
 kill_at_us, signum, fsize = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
+in_recording = int(os.environ.get("KILL_IN_RECORDING", "0"))
 if fsize > 0:
     resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
 _write = bus.Bus.master_write
+_open = recorder.Recorder.__init__
+opened = []
 
 
 def _hooked(self, data):
-    if self.clock.t_us >= kill_at_us:
+    if self.clock.t_us >= kill_at_us and len(opened) >= in_recording:
         bus.Bus.master_write = _write
         os.kill(os.getpid(), signum)
     _write(self, data)
 
 
+def _opening(self, path, *args, **kwargs):
+    opened.append(path)
+    sys.stderr.write(f"recording {path}\n")
+    sys.stderr.flush()
+    _open(self, path, *args, **kwargs)
+
+
 if signum:
     bus.Bus.master_write = _hooked
+if in_recording:
+    recorder.Recorder.__init__ = _opening
 sys.argv = ["hexhil", *sys.argv[4:]]
 sys.exit(cli.main())
