@@ -17,10 +17,10 @@ from protocol.errors import UserError
 SECONDS = 3  # six 0.5 s chunks
 
 
-def sample_trace(path: Path) -> bytes:
+def sample_trace(path: Path, seconds: int = SECONDS) -> bytes:
     """A small trace with every kind of record the recorder writes."""
     with Recorder(path, {"scenario": "fuzz", "seed": 0}) as rec:
-        for k in range(SECONDS * 100):
+        for k in range(seconds * 100):
             t = k * 10_000
             rec.serial(t, "tx", dxl.read(1 + k % 18, 36, 2))
             rec.serial(t + 700, "rx", dxl.status(1 + k % 18, 0, bytes((k & 0xFF, 2))))
