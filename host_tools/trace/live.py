@@ -14,6 +14,10 @@ import foxglove
 
 from protocol.errors import UserError
 
+# Messages held per client (the SDK's default, set here so the bound is ours): a client
+# that stops reading loses the oldest data messages, never the run's memory; one whose
+# control queue of the same size fills is disconnected. Several clients are served.
+BACKLOG = 1024
 
 
 class LiveServer:
@@ -25,7 +29,8 @@ class LiveServer:
         self._context = foxglove.Context()
         try:
             self._server = foxglove.start_server(name="hexhil", host="127.0.0.1", port=port,
-                                                 context=self._context)
+                                                 context=self._context,
+                                                 message_backlog_size=BACKLOG)
         except Exception as exc:  # the SDK raises its own error type for a bind failure
             raise UserError(f"--live: cannot listen on 127.0.0.1:{port}: {exc}") from None
         self.port = self._server.port
