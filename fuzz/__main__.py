@@ -18,9 +18,9 @@ from concurrent.futures import Future, ProcessPoolExecutor
 from fuzz import cov
 from fuzz.tally import Tally
 
-DEFAULT_INPUTS = {"parser": 800_000, "bus": 160_000, "can": 200_000, "scenario": 20_000,
+DEFAULT_INPUTS = {"parser": 900_000, "bus": 180_000, "can": 200_000, "scenario": 20_000,
                   "trace": 2_000}
-COVERAGE_RUNS = {"parser": 200_000, "bus": 40_000, "can": 100_000, "scenario": 20_000,
+COVERAGE_RUNS = {"parser": 100_000, "bus": 20_000, "can": 100_000, "scenario": 20_000,
                  "trace": 2_000}
 PHASES = ("all", "generators", "coverage")
 

@@ -275,7 +275,8 @@ class Target:
 
 
 TARGETS = {
-    "parser": Target("protocol parser (atheris)", "streams", parser_one_input, parser_seeds),
+    "parser": Target("protocol parser (atheris)", "streams", parser_one_input, parser_seeds,
+                     dxl.MAX_PACKET + 41),
     "can": Target("CAN frame codecs (atheris)", "frames", can_one_input, can_seeds),
     "bus": Target("emulated bus, 18 servos (atheris)", "streams", bus_one_input, bus_seeds),
     "scenario": Target("TOML scenario loader (atheris)", "documents", scenario_one_input,
