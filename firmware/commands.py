@@ -2,8 +2,9 @@
 
 stop/start, and a new gait, period, l_i and h_i, where 0 keeps the current value. A gait or
 period change waits for the period to wrap (``firmware/gait.py``); new step parameters take
-effect at each leg's next lift-off (Eq. 5-7). Other frames and undecodable ones (an enum
-outside its choices included) are ignored.
+effect at each leg's next lift-off (Eq. 5-7), and so does a new walking direction
+(``heading_command``). Other frames and undecodable ones (an enum outside its choices
+included) are ignored.
 """
 from protocol import can_frames as cf
 
@@ -26,6 +27,10 @@ class GaitCommands:
         try:
             name, sig = cf.decode(arb_id, data)
         except ValueError:
+            return
+        if name == "heading_command":
+            self.count += 1
+            ctl.set_direction(sig["direction_rad"])
             return
         if name != "gait_command" or sig["gait"] >= len(cf.GAIT_NAMES) \
                 or sig["command"] >= len(cf.COMMAND_NAMES):

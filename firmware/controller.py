@@ -51,9 +51,10 @@ class Controller:
         self.switches = tactile.Switches(samples)
         self.rule = tactile.ObstacleRule(cfg["step_length_m"], cfg["step_height_m"],
                                          cfg["max_obstacle_height_m"], cfg["tactile"])
-        eps = math.radians(cfg["direction_deg"])
-        self.ce = math.cos(eps)
-        self.se = math.sin(eps)
+        self.set_direction(math.radians(cfg["direction_deg"]))
+        # each leg strokes along the direction it took at its last lift-off (Eq. 2-3's
+        # epsilon), so a new heading never moves a foot that is on the ground
+        self.leg_dir = [(self.ce, self.se)] * 6
         self.faults = FaultPolicy(self.ids, cfg)
         self.commands = GaitCommands(cfg["max_obstacle_height_m"])
         self.telemetry = Telemetry(board, cfg["telemetry_hz"])
@@ -120,6 +121,11 @@ class Controller:
         """Walking -> stopped (in place); any other state is kept."""
         if self.state == cf.STATE_WALKING:
             self.state = cf.STATE_STOPPED
+
+    def set_direction(self, eps_rad):
+        """The walking direction epsilon (rad, from the body's x axis), for the next lift-offs."""
+        self.ce = math.cos(eps_rad)
+        self.se = math.sin(eps_rad)
 
     def start_walking(self, now_us):
         """Stopped -> walking, the gait restarting at ``now_us``; any other state is kept."""
@@ -196,6 +202,7 @@ class Controller:
             bit = 1 << i
             swing = phi < t <= phi + 1
             if swing and not (self.swinging & bit):
+                self.leg_dir[i] = (self.ce, self.se)
                 if rule.lift_off(i, pressed & bit):
                     changed = True
                     self.telemetry.lift_off_event(i, rule)
@@ -206,7 +213,8 @@ class Controller:
             s = traj.stroke(t, rule.l[i], T, phi) - rule.l_i / 2
             z = traj.lift(t, rule.h[i], phi)
             nx, ny, nz = goals.neutral[i]
-            goals.set_leg(i, nx + self.ce * s, ny + self.se * s, nz + z, 0.0)
+            ce, se = self.leg_dir[i]
+            goals.set_leg(i, nx + ce * s, ny + se * s, nz + z, 0.0)
         return changed
 
     def _safe_targets(self):

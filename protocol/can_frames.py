@@ -21,6 +21,7 @@ ID_BEAM_ESTIMATE = 0x130
 ID_TACTILE = 0x140
 ID_LIMIT_SWITCHES = 0x150
 ID_GAIT_COMMAND = 0x200
+ID_HEADING_COMMAND = 0x201
 ID_HEARTBEAT = 0x700
 
 # --- Enum values (DBC ``VAL_``) -------------------------------------------------------
@@ -112,6 +113,11 @@ FRAMES = {
         ("step_length_m", SCALED, 0.0001, 0, 65535),
         ("step_height_m", SCALED, 0.0001, 0, 65535),
         ("period_s", SCALED, 0.001, 0, 65535),
+    )),
+    # The walking direction relative to the body's x axis (crab walk; seed 003 Eq. 2-3's
+    # epsilon); each leg takes it at its next lift-off.
+    "heading_command": (ID_HEADING_COMMAND, "<h", (
+        ("direction_rad", SCALED, 0.0001, -32768, 32767),
     )),
     "heartbeat": (ID_HEARTBEAT, "<BBIH", (
         ("state", ENUM, 1, 0, 5),

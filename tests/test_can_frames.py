@@ -21,6 +21,7 @@ ARCHITECTURE = {
     "tactile": ("switches", "overcoming", "step_counter"),
     "limit_switches": ("switches", "sequence"),
     "gait_command": ("command", "gait", "step_length_m", "step_height_m", "period_s"),
+    "heading_command": ("direction_rad",),
     "force": ("fx_n", "fy_n", "fz_n", "sample"),
     "beam_estimate": ("k1_nm_per_rad", "k2_nm_per_rad", "hb_m", "mode"),
     "body_pose": ("x_m", "roll_rad", "pitch_rad"),

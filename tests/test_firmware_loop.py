@@ -156,3 +156,27 @@ def test_a_servo_deaf_longer_than_the_firmware_waits_fails_configuration_cleanly
     assert r.stop_reason == "servo 1 did not acknowledge its configuration"
     with pytest.raises(UserError, match="'bus.eeprom_busy_us' must be 0 or more"):
         Simulator(scenario(bus={"eeprom_busy_us": -1}), seed=0)
+
+
+def test_can_heading_turns_the_walk_at_each_legs_next_lift_off():
+    """``heading_command`` (the navigator's correction) sets Eq. 2-3's epsilon; a +0.3 rad
+    heading walks the body to the left of the straight walk on the same ground."""
+    from hil.scenario import check
+    from hil.world.hexapod import HexapodWorld
+
+    def walk(heading_rad: float | None):
+        sc = check({"scenario": {"name": "heading"}, "gait": {"name": "tripod"},
+                    "world": {"kind": "hexapod"}}, "<heading>")
+        world = HexapodWorld(sc, 0)
+        sim = Simulator(sc, seed=0, world=world)
+        if heading_rad is not None:
+            sim.send_can(*cf.encode("heading_command", direction_rad=heading_rad))
+        r = sim.run(6.0, python="micropython")
+        assert r.unhandled_exceptions == 0, r.exceptions
+        return r
+
+    plain, turned = walk(None), walk(0.3)
+    assert turned.firmware["commands"] == 1
+    assert turned.body["dy_m"] - plain.body["dy_m"] > 0.03
+    # the same ground covered, now partly sideways: less forward progress
+    assert turned.body["dx_m"] < plain.body["dx_m"]

@@ -91,6 +91,7 @@ def test_the_navigator_sees_the_steps_the_dataset_reads_from_the_trace(planned_r
 def test_planned_steps_stop_the_walk_and_the_body_stays(planned_run):
     nav, trace = planned_run
     assert nav.summary()["stop_step"] == 3 and nav.known_steps == 2
+    assert nav.heading_rad is None        # tactile only: no correction either
     with Trace(trace) as tr:
         body = [(m.log_time_ns / 1e9, v["translation"]["x"]) for m, v in tr.decoded([T_BODY])]
     t_stop = nav.rows[-1].t_us * 1e-6
@@ -121,6 +122,9 @@ def test_run_with_the_eq_8_14_navigator_stops_after_the_known_path(short_goal):
     assert s["state"] == "stopped"
     # it stopped where it predicted less than half a step to go (or past the goal)
     assert n["predicted_to_go_m"] < 0.5 * 0.036 * PERIOD_S
+    # at the last fix it turned toward the goal: the heading that cancels the fix's
+    # lateral offset and yaw, within the navigator's bound
+    assert n["heading_deg"] is not None and 0 < abs(n["heading_deg"]) <= 20.06
     assert s["_torch"] is False
 
 

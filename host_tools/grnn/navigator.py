@@ -9,7 +9,9 @@ error after it. The robot's position is known only on the known path (the first
 ``features.KNOWN_FRACTION`` of the planned steps, as a localisation fix would give it); after that
 the estimator works from what the robot senses onboard. At the first step boundary after
 the known path where the predicted distance still to go is under half a step's advance,
-it sends ``gait_command`` stop.
+it sends ``gait_command`` stop. At the last fix it also turns the walking direction toward
+the goal (``heading_command``, each leg taking it at its next lift-off): the lateral error
+and the heading the fix shows are corrected, later turns are not (nothing measures them).
 
 Estimators (``step(row, known) -> error_m``, the body's error = planned x - actual x):
 
@@ -22,6 +24,7 @@ Estimators (``step(row, known) -> error_m``, the body's error = planned x - actu
 """
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from hil.can_bus import Endpoint, t_us_of
@@ -30,6 +33,8 @@ from host_tools import error_model
 from host_tools.grnn.features import LEGS, StepRow, StepSampler, known_steps
 from protocol import can_frames as cf
 from protocol import hexapod
+
+MAX_HEADING_RAD = 0.35   # a correction beyond 20 deg means the fix is not to be trusted
 
 KINDS = ("planned", "model", "grnn")
 
@@ -121,6 +126,7 @@ class Navigator:
         self.sampler = StepSampler(gait, period_s, step_length_m)
         self.x0_m: float | None = None
         self.stop_step: int | None = None
+        self.heading_rad: float | None = None
         self.predicted: list[tuple[int, float]] = []   # (step, predicted distance to go, m)
         self.rows: list[StepRow] = []                  # the steps as the navigator saw them
 
@@ -151,6 +157,8 @@ class Navigator:
     def _closed(self, row: StepRow) -> None:
         known = row.step <= self.known_steps
         error_m = self.estimator.step(row, known)
+        if row.step == self.known_steps and self.estimator.predicts:
+            self._head_for_goal(row)
         if self.estimator.predicts:
             to_go_m = self.distance_m - (row.planned_x_m - error_m)
             self.predicted.append((row.step, to_go_m))
@@ -162,10 +170,19 @@ class Navigator:
             self.port.send(*cf.encode("gait_command", command=cf.COMMAND_STOP, gait=0,
                                       step_length_m=0, step_height_m=0, period_s=0))
 
+    def _head_for_goal(self, row: StepRow) -> None:
+        """Walk from the fix's pose straight at the goal (d, 0) of the start frame."""
+        bearing = math.atan2(-row.body_y_m, self.distance_m - row.body_x_m)
+        eps = max(-MAX_HEADING_RAD, min(MAX_HEADING_RAD, bearing - row.yaw_rad))
+        self.heading_rad = eps
+        self.port.send(*cf.encode("heading_command", direction_rad=eps))
+
     def summary(self) -> dict[str, Any]:
         last = self.predicted[-1][1] if self.predicted else None
         return {"planned_steps": self.planned_steps, "known_steps": self.known_steps,
                 "stop_step": self.stop_step,
+                "heading_deg": None if self.heading_rad is None
+                else round(math.degrees(self.heading_rad), 2),
                 "predicted_to_go_m": None if last is None else round(last, 4)}
 
 
