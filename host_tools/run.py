@@ -191,5 +191,5 @@ def _navigate(sim: Simulator, world: Any, sc: dict[str, Any], kind: str,
     gait, period_s = fw["gait"], fw["period_s"]
     step_m = fw.get("step_length_m", hexapod.STEP_LENGTH_M)
     d = sc["gait"]["distance_m"]
-    steps = navigator.planned_steps_for(d, hexapod.speed_m_s(gait, step_m, period_s), period_s)
+    steps = hexapod.periods_for_distance(d, hexapod.speed_m_s(gait, step_m, period_s), period_s)
     return navigator.attach(sim, world, kind, model_path, gait, period_s, step_m, d, steps)

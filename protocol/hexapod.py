@@ -85,6 +85,12 @@ def period_for_speed_s(gait, step_length_m, v_m_s):
     return step_length_m * T / ((T - 1) * v_m_s)
 
 
+def periods_for_distance(distance_m, v_m_s, period_s):
+    """Sec. 3.3's "steps needed to reach the goal": whole gait periods that walk
+    ``distance_m`` at ``v_m_s`` (at least one)."""
+    return max(1, round(distance_m / (v_m_s * period_s)))
+
+
 # The periods that give the paper's speeds at l_i (tripod 2.78 s, wave 4.62 s).
 GAIT_PERIOD_S = {g: period_for_speed_s(g, STEP_LENGTH_M, GAIT_SPEED_M_S[g]) for g in GAITS}
 

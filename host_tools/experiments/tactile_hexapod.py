@@ -194,7 +194,7 @@ def calibrate(executor: Executor, distances: tuple[float, ...], model: str = "re
               for g in GAITS]
     probe_out = executor.map(run_one, probes, "calibration probe")
     speed = {r["gait"]: r["x_m"] / r["sim_s"] for r in probe_out}
-    periods_for = {(g, d): max(1, round(d / (speed[g] * hexapod.GAIT_PERIOD_S[g])))
+    periods_for = {(g, d): hexapod.periods_for_distance(d, speed[g], hexapod.GAIT_PERIOD_S[g])
                    for g in GAITS for d in distances}
     return speed, periods_for
 

@@ -39,7 +39,22 @@ MAX_HEADING_RAD = 0.35   # a correction beyond 20 deg means the fix is not to be
 KINDS = ("planned", "model", "grnn")
 
 
-class PlannedSteps:
+class Estimator:
+    """What every estimator is told; only Eq. 8-14 needs the switch edges and the path."""
+
+    predicts = True
+
+    def switches(self, t_us: int, bits: int) -> None:
+        """The switch levels of a ``tactile`` frame."""
+
+    def pose(self, t_us: int, x_m: float, y_m: float, yaw_rad: float) -> None:
+        """A ground-truth sample on the known path (from the start)."""
+
+    def step(self, row: StepRow, known: bool) -> float:
+        raise NotImplementedError
+
+
+class PlannedSteps(Estimator):
     """Tactile only: the error is not predicted, the walk ends after the planned steps."""
 
     predicts = False
@@ -48,10 +63,8 @@ class PlannedSteps:
         return 0.0
 
 
-class GrnnEstimator:
+class GrnnEstimator(Estimator):
     """The GRNN of Sec. 2.6: known errors observed, then its own predictions fed back."""
-
-    predicts = True
 
     def __init__(self, predictor: Any) -> None:
         self.predictor = predictor
@@ -63,10 +76,8 @@ class GrnnEstimator:
         return sum(errors) / len(errors)
 
 
-class ModelEstimator:
+class ModelEstimator(Estimator):
     """Eq. 8 after the known path, with dL per hit measured on it (Eq. 8-14's inputs)."""
-
-    predicts = True
 
     def __init__(self, speed_m_s: float, nominal_m_s: float, period_s: float,
                  distance_m: float, step_length_m: float) -> None:
@@ -83,7 +94,7 @@ class ModelEstimator:
         self._presses = 0     # switch closings since the last step closed
 
     def switches(self, t_us: int, bits: int) -> None:
-        """Switch edges from the ``tactile`` frames, as Eq. 8-14 takes them."""
+        """Switch edges, as Eq. 8-14 takes them."""
         for leg in range(LEGS):
             b = 1 << leg
             if (bits ^ self._levels) & b:
@@ -113,14 +124,13 @@ class Navigator:
     period_us = BODY_SAMPLE_US    # at the trace's ground-truth instants, as the dataset reads
     first_tick_us = 0
 
-    def __init__(self, port: Endpoint, world: Any, estimator: Any, gait: str, period_s: float,
-                 step_length_m: float, distance_m: float, planned_steps: int,
-                 speed_m_s: float | None = None, max_steps: int | None = None) -> None:
+    def __init__(self, port: Endpoint, world: Any, estimator: Estimator, gait: str,
+                 period_s: float, step_length_m: float, distance_m: float, planned_steps: int,
+                 speed_m_s: float | None = None) -> None:
         self.port, self.world, self.estimator = port, world, estimator
         self.distance_m = distance_m
         self.planned_steps = planned_steps
         self.known_steps = known_steps(planned_steps)
-        self.max_steps = max_steps
         nominal = hexapod.speed_m_s(gait, step_length_m, period_s)
         self.advance_m = (speed_m_s or nominal) * period_s   # what one more step gains
         self.sampler = StepSampler(gait, period_s, step_length_m)
@@ -139,15 +149,13 @@ class Navigator:
             if name == "tactile":
                 self.sampler.tactile(t_us_of(msg), sig["switches"], sig["overcoming"],
                                      sig["step_counter"])
-                if isinstance(self.estimator, ModelEstimator):
-                    self.estimator.switches(t_us_of(msg), sig["switches"])
+                self.estimator.switches(t_us_of(msg), sig["switches"])
         pose = self.world.body_pose()
         if self.x0_m is None:
             self.x0_m = pose.x_m
         row = self.sampler.truth(t_us, pose.x_m, pose.y_m, pose.yaw_rad,
                                  self.world.joint_positions())
-        if isinstance(self.estimator, ModelEstimator) and (
-                row is None or row.step <= self.known_steps):
+        if row is None or row.step <= self.known_steps:
             self.estimator.pose(t_us, pose.x_m - self.x0_m, pose.y_m, pose.yaw_rad)
         if row is not None:
             self.rows.append(row)
@@ -165,7 +173,7 @@ class Navigator:
             done = not known and to_go_m < self.advance_m / 2
         else:
             done = row.step >= self.planned_steps
-        if done or (self.max_steps is not None and row.step >= self.max_steps):
+        if done:
             self.stop_step = row.step
             self.port.send(*cf.encode("gait_command", command=cf.COMMAND_STOP, gait=0,
                                       step_length_m=0, step_height_m=0, period_s=0))
@@ -187,7 +195,7 @@ class Navigator:
 
 
 def make_estimator(kind: str, model_path: str | None, speed_m_s: float, nominal_m_s: float,
-                   period_s: float, distance_m: float, step_length_m: float) -> Any:
+                   period_s: float, distance_m: float, step_length_m: float) -> Estimator:
     """The estimator of one of ``KINDS`` (torch is imported only for grnn)."""
     if kind == "grnn":
         from host_tools.grnn.model import load
@@ -201,17 +209,12 @@ def make_estimator(kind: str, model_path: str | None, speed_m_s: float, nominal_
 
 def attach(sim: Any, world: Any, kind: str, model_path: str | None, gait: str, period_s: float,
            step_length_m: float, distance_m: float, planned_steps: int,
-           speed_m_s: float | None = None, max_steps: int | None = None) -> Navigator:
+           speed_m_s: float | None = None) -> Navigator:
     """A navigator on ``sim``'s CAN bus, ticked with its ground truth."""
     nominal = hexapod.speed_m_s(gait, step_length_m, period_s)
     est = make_estimator(kind, model_path, speed_m_s or nominal, nominal, period_s,
                          distance_m, step_length_m)
     nav = Navigator(sim.can.endpoint("rx"), world, est, gait, period_s, step_length_m,
-                    distance_m, planned_steps, speed_m_s, max_steps)
+                    distance_m, planned_steps, speed_m_s)
     sim.add_node(nav)
     return nav
-
-
-def planned_steps_for(distance_m: float, speed_m_s: float, period_s: float) -> int:
-    """Sec. 3.3's "steps needed to reach the goal" at a speed: gait periods to walk d."""
-    return max(1, round(distance_m / (speed_m_s * period_s)))
