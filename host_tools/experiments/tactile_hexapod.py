@@ -157,7 +157,8 @@ def run_one(spec: RunSpec, speed_m_s: float | None = None,
     return out
 
 
-def _run_with_speed(args: tuple[RunSpec, float]) -> dict[str, Any]:
+def run_with_speed(args: tuple[Any, ...]) -> dict[str, Any]:
+    """``run_one(*args)`` for an executor, which passes one argument."""
     return run_one(*args)
 
 
@@ -206,7 +207,7 @@ def run_sweep(quick: bool, seeds: int, executor: Executor, trace_dir: str | None
     speed, periods_for = calibrate(executor, distances, model, obstacle_body)
     specs = plan(quick, seeds, periods_for, model, 1 if quick else CALIBRATION_TRIALS,
                  obstacle_body)
-    runs = executor.map(_run_with_speed, [(s, speed[s.gait], trace_dir) for s in specs], "runs")
+    runs = executor.map(run_with_speed, [(s, speed[s.gait], trace_dir) for s in specs], "runs")
     return {"model": model, "obstacle_body": obstacle_body, "speed_m_s": speed, "periods": {f"{g} {d:g} m": n for (g, d), n in periods_for.items()},
             "runs": runs}
 

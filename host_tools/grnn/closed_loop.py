@@ -27,12 +27,6 @@ ARMS = (("planned", "tactile only"), ("model", "tactile + Eq. 8-14 navigator"),
         ("grnn", "tactile + GRNN navigator"))
 
 
-def _run(args: tuple[Any, float]) -> dict[str, Any]:
-    from host_tools.experiments import tactile_hexapod as th
-
-    return th.run_one(*args)
-
-
 def specs(ds: data_mod.Dataset, model_path: str) -> list[tuple[Any, float]]:
     """(RunSpec, calibrated speed) for every run of ``ds`` and every arm."""
     from host_tools.experiments import tactile_hexapod as th
@@ -56,6 +50,7 @@ def specs(ds: data_mod.Dataset, model_path: str) -> list[tuple[Any, float]]:
 def closed_loop(model_path: str, data_path: str, workers: int) -> dict[str, Any]:
     """Run the three arms; returns per-arm means and the per-case table."""
     from host_tools.experiments.executor import Executor
+    from host_tools.experiments.tactile_hexapod import run_with_speed
     from host_tools.grnn.model import load
 
     pred = load(model_path)      # refuses a mismatched model before any run starts
@@ -65,7 +60,7 @@ def closed_loop(model_path: str, data_path: str, workers: int) -> dict[str, Any]
     if seen:
         raise UserError(f"{data_path}: terrain seeds {seen} were in the model's training set; "
                         f"closed-loop runs need terrains it never saw")
-    runs = Executor(workers).map(_run, specs(ds, model_path), "closed-loop runs")
+    runs = Executor(workers).map(run_with_speed, specs(ds, model_path), "closed-loop runs")
     cases: dict[tuple[int, str], dict[str, Any]] = {}
     for r in runs:
         c = cases.setdefault((r["seed"], r["gait"]), {
