@@ -132,7 +132,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         from host_tools.traversal.closed_loop import config_from_scenario
         cfg = config_from_scenario(sc, seed)
     if navigator != "none":
-        _check_navigator(sc, navigator, model_path, beams)
+        _check_navigator(sc, navigator, model_path)
     world = None if beams else make_world(sc, seed)
     recorder = live = server = nav = None
     try:
@@ -167,11 +167,10 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     return s, result
 
 
-def _check_navigator(sc: dict[str, Any], kind: str, model_path: str | None,
-                     beams: bool) -> None:
+def _check_navigator(sc: dict[str, Any], kind: str, model_path: str | None) -> None:
     if kind not in ("model", "grnn"):
         raise UserError(f"--navigator {kind}: choose one of none, model, grnn")
-    if beams or sc["world"].get("kind") != "hexapod":
+    if sc["world"].get("kind") != "hexapod":
         raise UserError("--navigator walks the hexapod: this scenario's world is "
                         f"{sc['world'].get('kind', 'none')}")
     if "distance_m" not in sc["gait"]:
