@@ -131,8 +131,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     if beams:
         from host_tools.traversal.closed_loop import config_from_scenario
         cfg = config_from_scenario(sc, seed)
-    if navigator != "none":
-        _check_navigator(sc, navigator, model_path)
+    plan = _plan_navigation(sc, navigator, model_path) if navigator != "none" else None
     world = None if beams else make_world(sc, seed)
     recorder = live = server = nav = None
     try:
@@ -150,8 +149,9 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
             return _traverse(sc, seed, cfg, recorder, server, out, realtime)
         sim = Simulator(sc, seed, world=world, recorder=recorder, tactile=tactile,
                         can_server=server, scene=recorder is not None, realtime=realtime)
-        if navigator != "none":
-            nav = _navigate(sim, world, sc, navigator, model_path)
+        if plan is not None:
+            from host_tools.grnn.navigator import attach
+            nav = attach(sim, world, plan[0], *plan[1])
         result = sim.run(duration_s, python=python)
     finally:
         if server is not None:
@@ -167,7 +167,10 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     return s, result
 
 
-def _check_navigator(sc: dict[str, Any], kind: str, model_path: str | None) -> None:
+def _plan_navigation(sc: dict[str, Any], kind: str, model_path: str | None
+                     ) -> tuple[Any, tuple[Any, ...]]:
+    """The navigator's estimator and its attach arguments, checked before anything opens:
+    the goal ``gait.distance_m``, planned at the gait's nominal speed."""
     if kind not in ("model", "grnn"):
         raise UserError(f"--navigator {kind}: choose one of none, model, grnn")
     if sc["world"].get("kind") != "hexapod":
@@ -177,18 +180,13 @@ def _check_navigator(sc: dict[str, Any], kind: str, model_path: str | None) -> N
         raise UserError("--navigator needs the goal: the scenario has no gait.distance_m")
     if kind == "grnn" and not model_path:
         raise UserError("--navigator grnn needs --model MODEL.pt (hexhil grnn train)")
-
-
-def _navigate(sim: Simulator, world: Any, sc: dict[str, Any], kind: str,
-              model_path: str | None) -> Any:
-    """The navigator on the run's CAN bus, planning at the gait's nominal speed."""
     from host_tools.grnn import navigator
     from hil.link_server import firmware_settings
     from protocol import hexapod
 
     fw = firmware_settings(sc)
-    gait, period_s = fw["gait"], fw["period_s"]
-    step_m = fw.get("step_length_m", hexapod.STEP_LENGTH_M)
-    d = sc["gait"]["distance_m"]
+    args = (fw["gait"], fw["period_s"], fw.get("step_length_m", hexapod.STEP_LENGTH_M),
+            sc["gait"]["distance_m"])
+    gait, period_s, step_m, d = args
     steps = hexapod.periods_for_distance(d, hexapod.speed_m_s(gait, step_m, period_s), period_s)
-    return navigator.attach(sim, world, kind, model_path, gait, period_s, step_m, d, steps)
+    return navigator.make_estimator(kind, model_path, *args), (*args, steps)

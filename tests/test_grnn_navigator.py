@@ -62,8 +62,9 @@ def planned_run(short_goal: Path, tmp_path_factory) -> tuple[navigator.Navigator
     navs: list[navigator.Navigator] = []
 
     def navigate(sim, world) -> None:
-        navs.append(navigator.attach(sim, world, "planned", None, "tripod", PERIOD_S, 0.05,
-                                     0.3, 3))
+        args = ("tripod", PERIOD_S, 0.05, 0.3)
+        est = navigator.make_estimator("planned", None, *args)
+        navs.append(navigator.attach(sim, world, est, *args, 3))
     th.simulate(sc, 4, 6 * PERIOD_S, str(trace), navigate)
     return navs[0], trace
 
@@ -142,10 +143,12 @@ def test_run_with_the_grnn_navigator_feeds_it_every_step(short_goal, tiny_model)
     (["--navigator", "grnn"], "needs --model"),
     (["--navigator", "grnn", "--model", "/nonexistent.pt"], "no such model file"),
 ])
-def test_bad_navigator_options_are_one_line(short_goal, capsys, args, needle):
-    assert cli(["run", str(short_goal), *args]) == 2
+def test_bad_navigator_options_are_one_line(short_goal, capsys, tmp_path, args, needle):
+    out = tmp_path / "run.mcap"
+    assert cli(["run", str(short_goal), *args, "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert needle in err and "\n" not in err
+    assert not out.exists(), "refused before anything was opened"
 
 
 @pytest.mark.parametrize("scenario,needle", [

@@ -134,9 +134,9 @@ def run_one(spec: RunSpec, speed_m_s: float | None = None,
         from host_tools.grnn import navigator
 
         def navigate(sim: Any, world: Any) -> None:
-            nav.append(navigator.attach(sim, world, spec.navigator, spec.model_path, spec.gait,
-                                        spec.period_s, hexapod.STEP_LENGTH_M, spec.distance_m,
-                                        spec.periods, speed_m_s))
+            args = (spec.gait, spec.period_s, hexapod.STEP_LENGTH_M, spec.distance_m)
+            est = navigator.make_estimator(spec.navigator, spec.model_path, *args, speed_m_s)
+            nav.append(navigator.attach(sim, world, est, *args, spec.periods, speed_m_s))
     world = simulate(scenario_for(spec), spec.seed, spec.duration_s, trace, navigate)
     pose = world.body_pose()
     out = asdict(spec)

@@ -194,27 +194,28 @@ class Navigator:
                 "predicted_to_go_m": None if last is None else round(last, 4)}
 
 
-def make_estimator(kind: str, model_path: str | None, speed_m_s: float, nominal_m_s: float,
-                   period_s: float, distance_m: float, step_length_m: float) -> Estimator:
-    """The estimator of one of ``KINDS`` (torch is imported only for grnn)."""
+def make_estimator(kind: str, model_path: str | None, gait: str, period_s: float,
+                   step_length_m: float, distance_m: float,
+                   speed_m_s: float | None = None) -> Estimator:
+    """The estimator of one of ``KINDS`` (torch is imported only for grnn); a model file
+    that will not load is refused here, before a run starts."""
     if kind == "grnn":
         from host_tools.grnn.model import load
         return GrnnEstimator(load(model_path))
     if kind == "model":
-        return ModelEstimator(speed_m_s, nominal_m_s, period_s, distance_m, step_length_m)
+        nominal = hexapod.speed_m_s(gait, step_length_m, period_s)
+        return ModelEstimator(speed_m_s or nominal, nominal, period_s, distance_m,
+                              step_length_m)
     if kind == "planned":
         return PlannedSteps()
     raise ValueError(f"unknown navigator {kind!r}")
 
 
-def attach(sim: Any, world: Any, kind: str, model_path: str | None, gait: str, period_s: float,
+def attach(sim: Any, world: Any, estimator: Estimator, gait: str, period_s: float,
            step_length_m: float, distance_m: float, planned_steps: int,
            speed_m_s: float | None = None) -> Navigator:
     """A navigator on ``sim``'s CAN bus, ticked with its ground truth."""
-    nominal = hexapod.speed_m_s(gait, step_length_m, period_s)
-    est = make_estimator(kind, model_path, speed_m_s or nominal, nominal, period_s,
-                         distance_m, step_length_m)
-    nav = Navigator(sim.can.endpoint("rx"), world, est, gait, period_s, step_length_m,
+    nav = Navigator(sim.can.endpoint("rx"), world, estimator, gait, period_s, step_length_m,
                     distance_m, planned_steps, speed_m_s)
     sim.add_node(nav)
     return nav
