@@ -165,6 +165,11 @@ def mjcf(params: RobotParams, obstacles: list[terrain_mod.Obstacle], ground_fric
 """
 
 
+def yaw_rad(w: float, x: float, y: float, z: float) -> float:
+    """Heading (Z-Y'-X' yaw) of a unit quaternion, as MuJoCo's qpos and /body hold it."""
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
 @dataclass
 class BodyPose:
     """Ground-truth body pose, world frame: position (m), yaw/pitch/roll (rad) for people and
@@ -272,7 +277,7 @@ class HexapodWorld:
 
     def body_pose(self) -> BodyPose:
         px, py, pz, w, x, y, z = self.data.qpos[:7].tolist()  # floats: numpy scalars are slow
-        yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        yaw = yaw_rad(w, x, y, z)
         pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
         roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
         return BodyPose(px, py, pz, yaw, pitch, roll, (w, x, y, z))

@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from hil.world.hexapod import yaw_rad
 from host_tools.grnn import data as data_mod
 from host_tools.grnn.features import StepRow, StepSampler
 from host_tools.trace.reader import Trace
@@ -32,11 +33,6 @@ from protocol.errors import UserError
 OBSTACLES = "fixed"
 COMBINATIONS = [(g, dens, h) for g in ("tripod", "wave") for dens in ("low", "high")
                 for h in ("small", "large")]   # the with-method cases of Fig. 17-20
-
-
-def _yaw_rad(q: dict[str, float]) -> float:
-    w, x, y, z = q["w"], q["x"], q["y"], q["z"]
-    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
 def _scenario_of(tr: Trace) -> tuple[dict[str, Any], int]:
@@ -87,7 +83,7 @@ def rows_from_trace(path: str | Path) -> tuple[list[StepRow], dict[str, Any]]:
                     sampler.tactile(t_us, s["switches"], s["overcoming"], s["step_counter"])
                 continue
             if m.topic == T_BODY:
-                body = (t_us, v["translation"]["x"], v["translation"]["y"], _yaw_rad(v["rotation"]))
+                body = (t_us, v["translation"]["x"], v["translation"]["y"], yaw_rad(*(v["rotation"][k] for k in "wxyz")))
                 first = first or body
                 last = body
             else:
