@@ -36,8 +36,9 @@ def _traceback(exc):
         return "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
 
 
-def main():
-    board = _board()
+def main(board=None):
+    """Run the firmware on ``board`` (default: the back end this platform and argv pick)."""
+    board = board or _board()
     ctl = None
     try:
         ctl = Controller(board, config.merged(board.config()))

@@ -15,7 +15,7 @@ import struct
 import subprocess
 import sys
 from pathlib import Path
-from typing import Iterator
+from typing import Callable
 
 from protocol import sim_link
 from protocol.errors import UserError
@@ -23,6 +23,7 @@ from protocol.errors import UserError
 ROOT = Path(__file__).resolve().parent.parent
 REQUEST_OPS = (sim_link.OP_HELLO, sim_link.OP_TRANSACT, sim_link.OP_SLEEP)
 RUNTIMES = ("micropython", "cpython")
+IN_PROCESS = "cpython-inprocess"   # the firmware under this CPython, in this process (sweeps)
 
 
 def firmware_command(python: str) -> list[str]:
@@ -100,6 +101,41 @@ class Connection:
             self.reader.close()
         finally:
             self.sock.close()
+
+
+class DirectConnection:
+    """The link without a socket, for a firmware running in this process: the firmware's
+    link hands over the bytes it would have written (``exchange``) and gets the reply's
+    bytes back. The same frames as ``Connection``'s, so a run answers them the same way."""
+
+    def __init__(self, answer: Callable[["DirectConnection", list[tuple[int, bytes]], bool], bool]
+                 ) -> None:
+        self._answer = answer
+        self.raw = b""
+        self.round_trips = 0
+        self._reply = b""
+
+    def exchange(self, data: bytes, closed: bool) -> bytes:
+        """One batch (posted messages, then the request unless ``closed``); the reply."""
+        msgs = []
+        k = 0
+        while k + sim_link.HEADER_LEN <= len(data):
+            n = data[k + 1] | (data[k + 2] << 8)
+            msgs.append((data[k], data[k + 3:k + 3 + n]))
+            k += sim_link.HEADER_LEN + n
+        self.raw, self._reply = data, b""
+        self._answer(self, msgs, closed)
+        return self._reply
+
+    def reply(self, t_us: int, body: bytes = b"") -> bytes:
+        payload = struct.pack("<Q", t_us) + body
+        self._reply = struct.pack("<H", len(payload)) + payload
+        self.round_trips += 1
+        return self._reply
+
+    def answered(self) -> bool:
+        """The firmware waits on this very call: the recorder has no time to fill."""
+        return True
 
 
 class FirmwareProcess:

@@ -12,7 +12,7 @@ import struct
 from typing import Any, Callable
 
 from hil.can_bus import CanBus
-from hil.link import Connection
+from hil.link import Connection, DirectConnection
 from hil.run_result import RunResult
 from protocol import hexapod, sim_link
 
@@ -71,6 +71,7 @@ class LinkServer:
         self.can: CanBus = sim.can
         self.inbox = sim.firmware_port
         self.byte_us = 10_000_000 / self.bus.baud
+        self._counting = False   # bus time counts from the first sleep on (boot excluded)
 
     def _event(self, payload: bytes, result: RunResult) -> None:
         kind = payload[0]
@@ -122,52 +123,59 @@ class LinkServer:
         return struct.pack("<BBB", flags, bits, n) + body, ended
 
     def serve(self, conn: Connection, end_us: int, result: RunResult) -> None:
-        bus, clock, rec = self.bus, self.clock, self.sim.recorder
-        counting = False
+        """Answer a socket connection's batches until the firmware closes it."""
         while True:
             msgs, closed = conn.batch()
-            reply = None
-            slept = False
-            for op, payload in msgs:
-                if op == sim_link.OP_WRITE:
-                    t0 = clock.t_us
-                    bus.master_write(payload)
-                    if counting:
-                        result.bus_busy_us += clock.t_us - t0
-                        result.bus_wire_us += round(len(payload) * self.byte_us)
-                elif op == sim_link.OP_TRANSACT:
-                    nrx, timeout_us = struct.unpack_from("<HI", payload, 0)
-                    tx = payload[6:]
-                    t0 = clock.t_us
-                    bus.master_write(tx)
-                    rx = bus.master_read(nrx, timeout_us)
-                    if counting:
-                        result.bus_busy_us += clock.t_us - t0
-                        heard = len(rx) - (min(len(tx), len(rx)) if bus.echo else 0)
-                        result.bus_wire_us += round((len(tx) + heard) * self.byte_us)
-                    reply = rx
-                elif op == sim_link.OP_CAN:
-                    self._can_from_firmware(payload, result)
-                elif op == sim_link.OP_EVENT:
-                    self._event(payload, result)
-                elif op == sim_link.OP_SLEEP:
-                    (wake_us,) = struct.unpack_from("<Q", payload, 0)
-                    if counting:
-                        result.loop_cycles += 1
-                    counting = True
-                    reply, _ = self._sleep_reply(wake_us, end_us, result)
-                    slept = True
-                elif op == sim_link.OP_HELLO:
-                    config = json.dumps(self.settings, sort_keys=True).encode()
-                    reply = struct.pack("<B", self.switches.sample(clock.t_us, result)) + config
-            # Recording comes after the reply: nothing here moves until the firmware's next
-            # batch, so the recorder's work overlaps the firmware's instead of delaying it.
-            raw = conn.reply(clock.t_us, reply) if reply is not None and not closed else None
-            if slept:
-                self.on_slept()
-            if rec is not None and raw is not None:
-                rec.link(clock.t_us, bytes(conn.raw), raw)
-                rec.idle(0 if conn.answered() else RECORDER_SLICE)
-            if closed:
-                result.round_trips = conn.round_trips
+            if self.answer(conn, msgs, closed, end_us, result):
                 return
+
+    def answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
+               closed: bool, end_us: int, result: RunResult) -> bool:
+        """Carry out one batch (posted messages, then the request) and reply to it;
+        True once the firmware has closed the link."""
+        bus, clock, rec = self.bus, self.clock, self.sim.recorder
+        reply = None
+        slept = False
+        for op, payload in msgs:
+            if op == sim_link.OP_WRITE:
+                t0 = clock.t_us
+                bus.master_write(payload)
+                if self._counting:
+                    result.bus_busy_us += clock.t_us - t0
+                    result.bus_wire_us += round(len(payload) * self.byte_us)
+            elif op == sim_link.OP_TRANSACT:
+                nrx, timeout_us = struct.unpack_from("<HI", payload, 0)
+                tx = payload[6:]
+                t0 = clock.t_us
+                bus.master_write(tx)
+                rx = bus.master_read(nrx, timeout_us)
+                if self._counting:
+                    result.bus_busy_us += clock.t_us - t0
+                    heard = len(rx) - (min(len(tx), len(rx)) if bus.echo else 0)
+                    result.bus_wire_us += round((len(tx) + heard) * self.byte_us)
+                reply = rx
+            elif op == sim_link.OP_CAN:
+                self._can_from_firmware(payload, result)
+            elif op == sim_link.OP_EVENT:
+                self._event(payload, result)
+            elif op == sim_link.OP_SLEEP:
+                (wake_us,) = struct.unpack_from("<Q", payload, 0)
+                if self._counting:
+                    result.loop_cycles += 1
+                self._counting = True
+                reply, _ = self._sleep_reply(wake_us, end_us, result)
+                slept = True
+            elif op == sim_link.OP_HELLO:
+                config = json.dumps(self.settings, sort_keys=True).encode()
+                reply = struct.pack("<B", self.switches.sample(clock.t_us, result)) + config
+        # Recording comes after the reply: nothing here moves until the firmware's next
+        # batch, so the recorder's work overlaps the firmware's instead of delaying it.
+        raw = conn.reply(clock.t_us, reply) if reply is not None and not closed else None
+        if slept:
+            self.on_slept()
+        if rec is not None and raw is not None:
+            rec.link(clock.t_us, bytes(conn.raw), raw)
+            rec.idle(0 if conn.answered() else RECORDER_SLICE)
+        if closed:
+            result.round_trips = conn.round_trips
+        return closed

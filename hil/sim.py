@@ -32,12 +32,14 @@ from typing import Any, Callable
 from hil import rig as rig_mod
 from hil.can_bus import CanBus, RecorderListener
 from hil.ground_truth import GroundTruth
-from hil.link import FirmwareProcess
+from hil.link import IN_PROCESS, DirectConnection, FirmwareProcess
 from hil.link_server import LinkServer, SwitchSampler, firmware_settings
 from hil.run_result import RunResult, body_displacement
 from hil.scenario import DEFAULT_DURATION_S
 
 BODY_SAMPLE_US = 100_000  # ground truth and servo state to the recorder at 10 Hz
+# runs a firmware in this process on the link's exchange(bytes written, closed) -> reply
+InProcessFirmware = Callable[[Callable[[bytes, bool], bytes]], None]
 
 
 class Simulator:
@@ -117,11 +119,18 @@ class Simulator:
 
     # --- running ----------------------------------------------------------------------
     def run(self, duration_s: float | None = None, python: str | None = None,
-            command: list[str] | None = None) -> RunResult:
-        """Serve the firmware (or step the world) until ``duration_s`` of virtual time."""
+            command: list[str] | None = None, in_process: InProcessFirmware | None = None
+            ) -> RunResult:
+        """Serve the firmware (or step the world) until ``duration_s`` of virtual time.
+
+        The firmware is a child process (``python``, or ``command``), or with ``in_process``
+        a function that runs it in this process, given the link's ``exchange``
+        (hil/link.py ``DirectConnection``): the same frames without a socket."""
         if duration_s is None:
             duration_s = self.scenario["scenario"].get("duration_s", DEFAULT_DURATION_S)
         python = python or self.scenario["firmware"].get("python", "micropython")
+        if in_process is not None:
+            python = IN_PROCESS
         end_us = int(round(duration_s * 1e6))
         result = RunResult(runtime="none" if self._stepped else python)
         wall0 = time.perf_counter()
@@ -129,7 +138,7 @@ class Simulator:
             if self._stepped:
                 self._step_world(end_us, result)
             else:
-                self._serve_firmware(python, command, end_us, result)
+                self._serve_firmware(python, command, in_process, end_us, result)
         finally:
             self.can.shutdown()
         result.wall_time_s = time.perf_counter() - wall0
@@ -156,18 +165,25 @@ class Simulator:
                 break
         result.world = world.outcome()
 
-    def _serve_firmware(self, python: str, command: list[str] | None, end_us: int,
+    def _serve_firmware(self, python: str, command: list[str] | None,
+                        in_process: InProcessFirmware | None, end_us: int,
                         result: RunResult) -> None:
         server = LinkServer(self, firmware_settings(self.scenario, self._tactile),
                             SwitchSampler(self._levels, self.recorder), self._tick,
                             self._ground_truth)
-        fw = FirmwareProcess(python, command=command)
-        try:
-            server.serve(fw.conn, end_us, result)
-        finally:
-            code, _, err = fw.finish()
-        result.exit_code = code
-        result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
+        if in_process is not None:
+            in_process(DirectConnection(
+                lambda conn, msgs, closed: server.answer(conn, msgs, closed, end_us, result)
+            ).exchange)
+            result.exit_code = 0
+        else:
+            fw = FirmwareProcess(python, command=command)
+            try:
+                server.serve(fw.conn, end_us, result)
+            finally:
+                code, _, err = fw.finish()
+            result.exit_code = code
+            result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
         result.serial_digest = self._digest.hexdigest()
         result.cycles = int(result.firmware.get("cycles", 0))
         result.overruns = int(result.firmware.get("overruns", 0))

@@ -15,6 +15,9 @@ ALLOWED = {
     "hil": {"protocol", "hil"},
     "host_tools": {"protocol", "hil", "host_tools"},
 }
+# host_tools/ stands on firmware/ too, but only here: the in-process runtime runs the
+# firmware in the host (issue 18); every other host tool meets it through the link.
+FIRMWARE_RUNNERS = {"host_tools/in_process.py"}
 PACKAGES = set(ALLOWED)
 MAX_LINES = 500
 
@@ -38,9 +41,11 @@ def project_imports(path: Path) -> list[tuple[int, str]]:
 
 @pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(ROOT)))
 def test_imports_stay_on_or_below_their_floor(path: Path) -> None:
-    floor = path.relative_to(ROOT).parts[0]
+    rel = path.relative_to(ROOT)
+    floor = rel.parts[0]
+    allowed = ALLOWED[floor] | ({"firmware"} if rel.as_posix() in FIRMWARE_RUNNERS else set())
     bad = [f"line {line}: {floor} imports {pkg}" for line, pkg in project_imports(path)
-           if pkg not in ALLOWED[floor]]
+           if pkg not in allowed]
     assert not bad, bad
 
 

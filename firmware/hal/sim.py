@@ -26,17 +26,21 @@ RUNTIME = "micropython" if sys.implementation.name == "micropython" else "cpytho
 
 class Link:
     """One TCP connection to hil/link.py. Posted messages queue in ``out`` and go out in
-    the same write as the next request, so they cost no round trip."""
+    the same write as the next request, so they cost no round trip.
 
-    def __init__(self, port, host="127.0.0.1"):
-        s = socket.socket()
-        try:
-            s.setsockopt(6, 1, 1)  # IPPROTO_TCP, TCP_NODELAY (MicroPython lacks the names)
-        except (OSError, AttributeError):
-            pass
-        s.connect(socket.getaddrinfo(host, port)[0][-1])
-        self.sock = s
-        self.io = s if hasattr(s, "readinto") else s.makefile("rwb", buffering=0)
+    ``io`` replaces the socket with any object that has ``write``, ``readinto`` and
+    ``close``: the host's in-process runtime passes one that answers without a socket."""
+
+    def __init__(self, port, host="127.0.0.1", io=None):
+        if io is None:
+            io = socket.socket()
+            try:
+                io.setsockopt(6, 1, 1)  # IPPROTO_TCP, TCP_NODELAY (MicroPython lacks the names)
+            except (OSError, AttributeError):
+                pass
+            io.connect(socket.getaddrinfo(host, port)[0][-1])
+        self.sock = io
+        self.io = io if hasattr(io, "readinto") else io.makefile("rwb", buffering=0)
         self.out = bytearray(8192)
         self.outmv = memoryview(self.out)
         self.nout = 0
@@ -171,10 +175,10 @@ class CAN:
 class Board:
     """Everything the firmware touches, wired to the simulator link."""
 
-    def __init__(self, port=None):
-        if port is None:
+    def __init__(self, port=None, io=None):
+        if port is None and io is None:
             port = int(os.getenv(sim_link.ENV_PORT) or sys.argv[-1])
-        self.link = Link(port)
+        self.link = Link(port, io=io)
         self.uart = HalfDuplexUART(self.link)
         self.can = CAN(self.link)
         self.switch_bits = 0

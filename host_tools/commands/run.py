@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from hil.can_server import DEFAULT_PORT
+from hil.link import IN_PROCESS, RUNTIMES
 from host_tools import cli
 
 LIVE_PORT = 8765  # Foxglove's default WebSocket port (host_tools/trace/live.py)
@@ -54,8 +55,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, metavar="S", help="simulated seconds "
                    "(default: the scenario's duration_s, else 30)")
     p.add_argument("--seed", type=int, help="RNG seed (default: the scenario's, else 0)")
-    p.add_argument("--python", choices=("micropython", "cpython"),
-                   help="firmware runtime (default: micropython)")
+    p.add_argument("--python", choices=(*RUNTIMES, IN_PROCESS),
+                   help="firmware runtime (default: micropython, the reference); "
+                        f"{IN_PROCESS} runs it in this process: same digest, faster")
     p.add_argument("--no-tactile", action="store_true",
                    help="turn the Eq. 5-7 obstacle rule off (the paper's baseline)")
     p.add_argument("--out", metavar="FILE.mcap", help="record the run to an MCAP trace "

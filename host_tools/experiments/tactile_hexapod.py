@@ -22,7 +22,7 @@ import json
 import math
 import os
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any, Callable
 
@@ -31,6 +31,7 @@ from host_tools.cli import emit_json
 from protocol.errors import UserError
 from host_tools.experiments.executor import Executor
 from host_tools.experiments.tactile_report import GAITS, markdown, plots, summary
+from hil.link import IN_PROCESS, RUNTIMES
 from hil.scenario import check
 from protocol import hexapod
 
@@ -60,6 +61,7 @@ class RunSpec:
     navigator: str = ""   # "": no host node, the run ends after the planned periods; else one
                           # of host_tools.grnn.navigator.KINDS stops the walk
     model_path: str = ""  # the GRNN's model file with navigator "grnn"
+    python: str = IN_PROCESS  # firmware runtime: in this process (micropython's digest, faster)
 
     @property
     def period_s(self) -> float:
@@ -91,24 +93,27 @@ def scenario_for(spec: RunSpec) -> dict[str, Any]:
 
 
 def simulate(scenario: dict[str, Any], seed: int, duration_s: float, trace: str | None = None,
-             navigate: Callable[[Any, Any], Any] | None = None):
-    """Run the firmware against the hexapod world (recorded to ``trace`` if given);
-    returns the world at the end. ``navigate(sim, world)`` may add a host node first."""
+             navigate: Callable[[Any, Any], Any] | None = None, python: str = IN_PROCESS):
+    """Run the firmware (under ``python``) against the hexapod world (recorded to ``trace``
+    if given); returns the world at the end. ``navigate(sim, world)`` may add a host node
+    first."""
     from hil.sim import Simulator
     from hil.world.hexapod import HexapodWorld
+    from host_tools.in_process import run_firmware
     from host_tools.trace.recorder import open_recorder
 
     world = HexapodWorld(scenario, seed)
     # the scenario itself rides along: its "_path" names no file a trace reader could load
     recorder = open_recorder(trace, {"scenario": scenario["_path"], "seed": seed,
-                                     "firmware_runtime": "micropython",
+                                     "firmware_runtime": python,
                                      "scenario_data": {k: v for k, v in scenario.items()
                                                        if not k.startswith("_")}})
     try:
         sim = Simulator(scenario, seed, world=world, recorder=recorder)
         if navigate is not None:
             navigate(sim, world)
-        sim.run(duration_s)
+        sim.run(duration_s, python=python,
+                in_process=run_firmware if python == IN_PROCESS else None)
     finally:
         if recorder is not None:
             recorder.close()
@@ -137,7 +142,7 @@ def run_one(spec: RunSpec, speed_m_s: float | None = None,
             args = (spec.gait, spec.period_s, hexapod.STEP_LENGTH_M, spec.distance_m)
             est = navigator.make_estimator(spec.navigator, spec.model_path, *args, speed_m_s)
             nav.append(navigator.attach(sim, world, est, *args, spec.periods, speed_m_s))
-    world = simulate(scenario_for(spec), spec.seed, spec.duration_s, trace, navigate)
+    world = simulate(scenario_for(spec), spec.seed, spec.duration_s, trace, navigate, spec.python)
     pose = world.body_pose()
     out = asdict(spec)
     if nav:
@@ -187,12 +192,12 @@ def plan(quick: bool, seeds: int, periods_for: dict[tuple[str, float], int],
 
 
 def calibrate(executor: Executor, distances: tuple[float, ...], model: str = "real",
-              obstacle_body: str = "free"
+              obstacle_body: str = "free", python: str = IN_PROCESS
               ) -> tuple[dict[str, float], dict[tuple[str, float], int]]:
     """Stage 1, the probe: each gait's flat-ground speed (m/s) and the gait periods that
     reach each distance at it (Sec. 3.3). Shared with ``hexhil grnn dataset``."""
-    probes = [RunSpec("probe", g, 0.0, True, 0, model=model, obstacle_body=obstacle_body)
-              for g in GAITS]
+    probes = [RunSpec("probe", g, 0.0, True, 0, model=model, obstacle_body=obstacle_body,
+                      python=python) for g in GAITS]
     probe_out = executor.map(run_one, probes, "calibration probe")
     speed = {r["gait"]: r["x_m"] / r["sim_s"] for r in probe_out}
     periods_for = {(g, d): hexapod.periods_for_distance(d, speed[g], hexapod.GAIT_PERIOD_S[g])
@@ -201,19 +206,22 @@ def calibrate(executor: Executor, distances: tuple[float, ...], model: str = "re
 
 
 def run_sweep(quick: bool, seeds: int, executor: Executor, trace_dir: str | None = None,
-              model: str = "real", obstacle_body: str = "free") -> dict[str, Any]:
+              model: str = "real", obstacle_body: str = "free", python: str = IN_PROCESS
+              ) -> dict[str, Any]:
     """Run the whole protocol; returns the probe speeds, periods and every run's result."""
     distances = (1.0,) if quick else (1.0, 2.0)
-    speed, periods_for = calibrate(executor, distances, model, obstacle_body)
-    specs = plan(quick, seeds, periods_for, model, 1 if quick else CALIBRATION_TRIALS,
-                 obstacle_body)
+    speed, periods_for = calibrate(executor, distances, model, obstacle_body, python)
+    specs = [replace(s, python=python) for s in
+             plan(quick, seeds, periods_for, model, 1 if quick else CALIBRATION_TRIALS,
+                  obstacle_body)]
     runs = executor.map(run_with_speed, [(s, speed[s.gait], trace_dir) for s in specs], "runs")
     return {"model": model, "obstacle_body": obstacle_body, "speed_m_s": speed, "periods": {f"{g} {d:g} m": n for (g, d), n in periods_for.items()},
             "runs": runs}
 
 
 def main(quick: bool, out: Path, seeds: int, executor: Executor,
-         traces: bool = False, model: str = "real", obstacle_body: str = "free") -> dict[str, Any]:
+         traces: bool = False, model: str = "real", obstacle_body: str = "free",
+         python: str = IN_PROCESS) -> dict[str, Any]:
     """Run the sweep and write results.json, results.md and the PNG plots into ``out``
     (and one MCAP trace per run into ``out/traces`` with ``traces``)."""
     out.mkdir(parents=True, exist_ok=True)
@@ -222,7 +230,7 @@ def main(quick: bool, out: Path, seeds: int, executor: Executor,
         (out / "traces").mkdir(exist_ok=True)
         trace_dir = str(out / "traces")
     t0 = time.perf_counter()
-    result = run_sweep(quick, seeds, executor, trace_dir, model, obstacle_body)
+    result = run_sweep(quick, seeds, executor, trace_dir, model, obstacle_body, python)
     result["wall_s"] = time.perf_counter() - t0
     (out / "results.json").write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")
     md = markdown(result, quick)
@@ -250,6 +258,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "noise; default) or ideal (the regression world of scenario files)")
     p.add_argument("--obstacles", choices=("free", "fixed"), default="free",
                    help="with the real model: loose obstacles (default) or fixed ones")
+    p.add_argument("--python", choices=(IN_PROCESS, *RUNTIMES), default=IN_PROCESS,
+                   help="firmware runtime: in this process (default; the same serial digest "
+                        "as micropython, without two process wake-ups a link round trip), or a "
+                        "child process under micropython (the reference) or cpython")
     p.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
 
 
@@ -261,7 +273,7 @@ def run(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} exists and is not a folder")
     res = main(args.quick, out, seeds, Executor(args.workers, args.scheduler), args.traces,
-               args.model, args.obstacles)
+               args.model, args.obstacles, args.python)
     print(Path(res["table"]).read_text())
     print(f"wrote {res['table']} and {len(res['plots'])} plots in {res['out']} "
           f"({res['runs']} runs, {res['wall_s']:.0f} s)")

@@ -1,0 +1,68 @@
+"""The in-process firmware runtime (issue 18): the same firmware under this CPython, linked
+by function calls instead of a socket, must give micropython's bytes and results."""
+import json
+import subprocess
+import sys
+from dataclasses import replace
+
+from hil.link import IN_PROCESS
+from hil.rig import make_world
+from hil.scenario import SCHEMA, load
+from hil.sim import Simulator
+from host_tools.experiments import tactile_hexapod as th
+from host_tools.in_process import run_firmware
+
+from mpy import ROOT
+
+
+def _bare(**sections):
+    sc = {s: {} for s in SCHEMA}
+    sc["_path"] = "<test>"
+    sc.update(sections)
+    return sc
+
+
+def test_same_serial_digest_as_micropython_with_bit_errors():
+    sc = _bare(gait={"name": "tripod"}, faults={"bit_error_rate": 1e-4})
+    ref = Simulator(sc, seed=4).run(1.5, python="micropython")
+    a = Simulator(sc, seed=4).run(1.5, in_process=run_firmware)
+    b = Simulator(sc, seed=4).run(1.5, in_process=run_firmware)   # nothing left over
+    assert ref.faults["bit_error"] > 0
+    assert a.runtime == IN_PROCESS and a.exit_code == 0 and not a.exceptions
+    assert a.serial_digest == b.serial_digest == ref.serial_digest
+    assert a.round_trips == ref.round_trips and a.cycles == ref.cycles
+    assert a.faults == ref.faults
+
+
+def test_same_walk_over_obstacles_as_micropython():
+    sc = load(ROOT / "scenarios" / "obstacles-high-large.toml")
+    ref = Simulator(sc, 3, world=make_world(sc, 3)).run(6.0, python="micropython")
+    got = Simulator(sc, 3, world=make_world(sc, 3)).run(6.0, in_process=run_firmware)
+    assert got.serial_digest == ref.serial_digest
+    assert got.switch_edges == ref.switch_edges > 0
+    assert got.tactile_events == ref.tactile_events
+    assert got.can_frames == ref.can_frames
+    assert got.body == ref.body
+    stats = {k: v for k, v in ref.firmware.items() if not k.startswith("compute_us")}
+    assert {k: got.firmware[k] for k in stats} == stats
+
+
+def test_an_experiment_run_is_the_same_under_either_runtime():
+    spec = th.RunSpec("calibration", "tripod", 1.0, True, 0, periods=2)
+    ref = th.run_one(replace(spec, python="micropython"))
+    got = th.run_one(spec)
+    assert got["python"] == IN_PROCESS
+    for key in ("wall_s", "python"):
+        ref.pop(key), got.pop(key)
+    assert got == ref and ref["x_m"] > 0.05
+
+
+def test_hexhil_run_takes_the_in_process_runtime():
+    def digest(python):
+        out = subprocess.run([sys.executable, "-m", "host_tools.cli", "run",
+                              "scenarios/flat-tripod.toml", "--duration", "2", "--json",
+                              "--python", python], cwd=ROOT, capture_output=True, text=True)
+        assert out.returncode == 0, out.stderr
+        return json.loads(out.stdout.strip().splitlines()[-1])["serial_digest"]
+
+    assert digest(IN_PROCESS) == digest("micropython")
