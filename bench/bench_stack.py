@@ -19,10 +19,11 @@ from bench.bench_world import ROOT, world_alone
 from hil import scenario as scenario_mod
 from hil.bus import Bus
 from hil.clock import VirtualClock
-from hil.link import Connection
+from hil.link import IN_PROCESS, Connection, DirectConnection
 from hil.rig import make_world
 from hil.servo import Servo
 from hil.sim import Simulator
+from host_tools.in_process import run_firmware
 from protocol import ax12
 from protocol import dynamixel as dxl
 
@@ -40,10 +41,10 @@ def _hexhil_rtf(*extra: str) -> float:
     return json.loads(out.stdout.strip().splitlines()[-1])["real_time_factor"]
 
 
-def _median_rtf(record: bool) -> float:
+def _median_rtf(record: bool, *extra: str) -> float:
     with tempfile.TemporaryDirectory() as tmp:
-        extra = ("--out", str(Path(tmp) / "run.mcap")) if record else ()
-        return statistics.median(_hexhil_rtf(*extra) for _ in range(RUNS))
+        out = ("--out", str(Path(tmp) / "run.mcap")) if record else ()
+        return statistics.median(_hexhil_rtf(*out, *extra) for _ in range(RUNS))
 
 
 class _Stopwatch:
@@ -62,12 +63,15 @@ class _Stopwatch:
         return timed
 
 
-def breakdown(record: bool = True) -> dict[str, float]:
+def breakdown(record: bool = True, in_process: bool = False) -> dict[str, float]:
     """Microseconds of the host's wall time per control cycle: waiting on the firmware (its
     compute and the link's latency, where the host has nothing else to do), bus + servo
     emulation, world step, recorder, and the rest (the link server's own Python). The
     firmware's compute (its own counter) is given beside them: it runs while the host waits
-    or records, so it is not one of the parts."""
+    or records, so it is not one of the parts.
+
+    ``in_process``: the firmware runs in this process, so "waiting" is its compute itself
+    (the wall time outside the link's exchange), with no link latency."""
     sc = scenario_mod.load(SCENARIO)
     sw = _Stopwatch()
     world = make_world(sc, 3)
@@ -84,19 +88,23 @@ def breakdown(record: bool = True) -> dict[str, float]:
         sim = Simulator(sc, 3, world=world, recorder=rec)
         for name in ("master_write", "master_read", "idle_until"):
             setattr(sim.bus, name, sw.wrap("bus", getattr(sim.bus, name)))
-        batch = Connection.batch
+        batch, exchange = Connection.batch, DirectConnection.exchange
         Connection.batch = sw.wrap("wait", batch)
+        DirectConnection.exchange = sw.wrap("host", exchange)
         try:
             t0 = time.perf_counter()
-            r = sim.run(BREAKDOWN_S)
+            r = sim.run(BREAKDOWN_S, in_process=run_firmware if in_process else None)
             total = time.perf_counter() - t0
         finally:
-            Connection.batch = batch
+            Connection.batch, DirectConnection.exchange = batch, exchange
             if rec is not None:
                 rec.close()
     s = sw.s
+    if in_process:
+        s["wait"] = total - s["host"]
     in_bus = s.get("recorder in bus", 0.0)
-    parts = {"waiting on the firmware": s.get("wait", 0.0),
+    wait = "firmware compute, in this process" if in_process else "waiting on the firmware"
+    parts = {wait: s.get("wait", 0.0),
              "bus + servo emulation": s.get("bus", 0.0) - s.get("world", 0.0) - in_bus,
              "world step": s.get("world", 0.0), "recorder": s.get("recorder", 0.0) + in_bus}
     parts["link server and the rest"] = total - sum(parts.values())
@@ -155,10 +163,17 @@ def run() -> list[Row]:
             Row("stack: run / world alone", plain / alone, "ratio", ">= 0.8", "issue 18 goal"),
             Row("stack: run --out / world alone", recorded / alone, "ratio", ">= 0.7",
                 "issue 18 goal")]
-    parts = breakdown()
-    for name, us in parts.items():
-        rows.append(Row(f"stack cycle: {name}", us, "us / cycle", "",
-                        f"in-process {BREAKDOWN_S:.0f} s run with recording, 50 Hz cycles"))
+    inproc = _median_rtf(False, "--python", IN_PROCESS)
+    rows += [Row(f"stack: hexhil run --python {IN_PROCESS}", inproc, "x real time", "",
+                 f"firmware in the host's process (the sweeps' runtime), median of {RUNS}"),
+             Row(f"stack: run --python {IN_PROCESS} / world alone", inproc / alone, "ratio", "",
+                 "same serial digest as micropython")]
+    for label, ip in (("micropython", False), (IN_PROCESS, True)):
+        for name, us in breakdown(in_process=ip).items():
+            if ip and name.startswith("firmware compute"):
+                continue   # it is the "waiting" row itself
+            rows.append(Row(f"stack cycle ({label}): {name}", us, "us / cycle", "",
+                            f"{BREAKDOWN_S:.0f} s run with recording, 50 Hz cycles"))
     for n in (0, 10, 40):
         rows.append(Row(f"stack growth: {n} obstacles", _full_stack_with_obstacles(n),
                         "x real time", "", f"flat-tripod + {n} obstacles, full stack, "

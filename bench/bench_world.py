@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 
 from bench import Row
+from hil.link import IN_PROCESS
 from hil.world.hexapod import HexapodWorld
 from hil import scenario as scenario_mod
 
@@ -44,8 +45,10 @@ def _full_stack() -> tuple[float, float, float, float]:
     pinned to one core, as the issue's target is stated: nothing overlaps."""
     from host_tools.experiments import tactile_hexapod as th
 
-    spec = th.RunSpec("bench", "tripod", 1.0, True, 1, "low", "small", periods=15, model="ideal")
-    real = th.RunSpec("bench", "tripod", 1.0, True, 1, "low", "small", periods=15, model="real")
+    spec = th.RunSpec("bench", "tripod", 1.0, True, 1, "low", "small", periods=15, model="ideal",
+                      python="micropython")
+    real = th.RunSpec("bench", "tripod", 1.0, True, 1, "low", "small", periods=15, model="real",
+                      python="micropython")
     best = {False: math.inf, True: math.inf, "real": math.inf}
     cores = os.sched_getaffinity(0)
     os.sched_setaffinity(0, {min(cores)})  # the firmware child inherits it
@@ -65,14 +68,15 @@ def _full_stack() -> tuple[float, float, float, float]:
     return sim_s / best[True], sim_s / best[False], sim_s / best["real"], sim_s
 
 
-def _sweep() -> tuple[float, int]:
-    """The whole ``hexhil experiment tactile-hexapod`` sweep (its defaults: 3 seeds),
-    one worker process per core; (wall s, runs)."""
+def _sweep(python: str) -> tuple[float, int]:
+    """The whole ``hexhil experiment tactile-hexapod`` sweep (its defaults: 3 seeds, real
+    model, one worker process per core) with the firmware under ``python``; (wall s, runs)."""
     from host_tools.experiments import tactile_hexapod as th
     from host_tools.experiments.executor import Executor
 
     with tempfile.TemporaryDirectory() as tmp:
-        res = th.main(False, Path(tmp), 3, Executor(os.cpu_count() or 1, progress=False))
+        res = th.main(False, Path(tmp), 3, Executor(os.cpu_count() or 1, progress=False),
+                      python=python)
     return res["wall_s"], res["runs"]
 
 
@@ -87,7 +91,13 @@ def run() -> list[Row]:
     rows.append(Row("world full stack, real model: real-time factor", real, "x real time", "",
                     f"as above without recording, world.model = real (backlash, unit spread, "
                     f"loose obstacles, trial noise); ideal: {plain:.1f}x"))
-    wall, runs = _sweep()
-    rows.append(Row("experiment tactile-hexapod (whole sweep)", wall, "s wall", "",
-                    f"{runs} runs on {os.cpu_count()} worker processes"))
+    wall, runs = _sweep(IN_PROCESS)
+    before, _ = _sweep("micropython")
+    rows.append(Row("experiment tactile-hexapod (whole sweep)", wall, "s wall",
+                    f"<= {before / 3:.0f} s",
+                    f"`hexhil experiment tactile-hexapod` as run: {runs} runs on "
+                    f"{os.cpu_count()} worker processes, firmware in process"))
+    rows.append(Row("experiment tactile-hexapod, firmware under micropython", before, "s wall",
+                    "", f"the baseline of the same bench run (`--python micropython`, the "
+                        f"runtime sweeps used before issue 18); {before / wall:.2f}x the time"))
     return rows
