@@ -18,13 +18,30 @@ from firmware.hal.sim import Board
 
 class Wire:
     """File-like end of the link for the firmware's ``Link(io=...)``: writes collect until
-    the firmware reads, which is when it waits for a reply."""
+    the firmware reads, which is when it waits for a reply.
+
+    An exception in the simulator (a host node's, a Ctrl-C) must not reach the firmware's
+    own ``except Exception``, which would report it as the firmware's: the wire keeps it,
+    answers as a closed link from then on (so the firmware winds down), and
+    ``run_firmware`` raises it."""
 
     def __init__(self, exchange: Callable[[bytes, bool], bytes]) -> None:
-        self.exchange = exchange
+        self._exchange = exchange
         self.pending = bytearray()
         self.reply = b""
         self.pos = 0
+        self.error: BaseException | None = None
+
+    def exchange(self, closed: bool) -> bytes:
+        data = bytes(self.pending)
+        self.pending.clear()
+        if self.error is not None:
+            return b""
+        try:
+            return self._exchange(data, closed)
+        except BaseException as exc:  # re-raised by run_firmware, outside the firmware
+            self.error = exc
+            return b""
 
     def write(self, data: memoryview) -> int:
         self.pending += data
@@ -32,19 +49,24 @@ class Wire:
 
     def readinto(self, buf: memoryview) -> int:
         if self.pos >= len(self.reply):
-            self.reply, self.pos = self.exchange(bytes(self.pending), False), 0
-            self.pending.clear()
+            self.reply, self.pos = self.exchange(False), 0
         n = min(len(buf), len(self.reply) - self.pos)
         buf[:n] = self.reply[self.pos:self.pos + n]
         self.pos += n
         return n
 
     def close(self) -> None:
-        self.exchange(bytes(self.pending), True)
-        self.pending.clear()
+        self.exchange(True)
 
 
 def run_firmware(exchange: Callable[[bytes, bool], bytes]) -> None:
     """Boot and run the firmware until the simulator ends the run (``Simulator.run``'s
-    ``in_process``)."""
-    firmware_main.main(Board(io=Wire(exchange)))
+    ``in_process``); the simulator's own exception, if it raised one, is raised here."""
+    wire = Wire(exchange)
+    try:
+        firmware_main.main(Board(io=wire))
+    except OSError:
+        if wire.error is None:
+            raise
+    if wire.error is not None:
+        raise wire.error

@@ -5,6 +5,8 @@ import subprocess
 import sys
 from dataclasses import replace
 
+import pytest
+
 from hil.link import IN_PROCESS
 from hil.rig import make_world
 from hil.scenario import SCHEMA, load
@@ -66,3 +68,22 @@ def test_hexhil_run_takes_the_in_process_runtime():
         return json.loads(out.stdout.strip().splitlines()[-1])["serial_digest"]
 
     assert digest(IN_PROCESS) == digest("micropython")
+
+
+def test_a_host_side_error_is_raised_not_reported_as_the_firmwares():
+    class Broken:
+        period_us = 100_000
+
+        def tick(self, t_us):
+            if t_us >= 300_000:
+                raise ZeroDivisionError("a host node's bug")
+
+    sc = _bare(gait={"name": "tripod"})
+    sim = Simulator(sc, seed=1)
+    sim.add_node(Broken())
+    with pytest.raises(ZeroDivisionError, match="a host node's bug"):
+        sim.run(1.0, in_process=run_firmware)
+    # the firmware wound down; the next run in this process is whole
+    again = Simulator(sc, seed=1).run(1.0, in_process=run_firmware)
+    assert not again.exceptions and again.sim_time_s == 1.0
+    assert again.serial_digest == Simulator(sc, seed=1).run(1.0, python="micropython").serial_digest
