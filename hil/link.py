@@ -47,6 +47,23 @@ def firmware_env(port: int) -> dict[str, str]:
     return env
 
 
+def split_messages(data: bytes) -> list[tuple[int, bytes]]:
+    """``op | u16 len | payload`` records -> [(op, payload)]; raises ValueError if cut."""
+    out = []
+    i, n = 0, len(data)
+    while i < n:
+        if i + sim_link.HEADER_LEN > n:
+            raise ValueError("link record header cut off")
+        op = data[i]
+        length = data[i + 1] | (data[i + 2] << 8)
+        j = i + sim_link.HEADER_LEN + length
+        if j > n:
+            raise ValueError("link record payload cut off")
+        out.append((op, bytes(data[i + sim_link.HEADER_LEN:j])))
+        i = j
+    return out
+
+
 class Connection:
     """One firmware connection: batches of messages in, replies out."""
 
@@ -117,14 +134,8 @@ class DirectConnection:
 
     def exchange(self, data: bytes, closed: bool) -> bytes:
         """One batch (posted messages, then the request unless ``closed``); the reply."""
-        msgs = []
-        k = 0
-        while k + sim_link.HEADER_LEN <= len(data):
-            n = data[k + 1] | (data[k + 2] << 8)
-            msgs.append((data[k], data[k + 3:k + 3 + n]))
-            k += sim_link.HEADER_LEN + n
         self.raw, self._reply = data, b""
-        self._answer(self, msgs, closed)
+        self._answer(self, split_messages(data), closed)
         return self._reply
 
     def reply(self, t_us: int, body: bytes = b"") -> bytes:

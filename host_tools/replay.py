@@ -14,13 +14,14 @@ spacing (scaled by ``rate``).
 """
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from protocol import sim_link
-from hil.link import REQUEST_OPS, FirmwareProcess
+from hil.link import REQUEST_OPS, FirmwareProcess, split_messages
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_CAN_RAW, T_LINK
@@ -32,23 +33,10 @@ OP_TOPICS = {sim_link.OP_HELLO: "hello", sim_link.OP_TRANSACT: "uart", sim_link.
 TOPICS = ("uart", "can", "sleep", "event", "hello")
 # Events whose text is not a firmware output: wall-clock profiling counters.
 UNCOMPARED_EVENTS = (sim_link.EVENT_STATS,)
-
-
-def split_messages(data: bytes) -> list[tuple[int, bytes]]:
-    """``op | u16 len | payload`` records -> [(op, payload)]; raises ValueError if cut."""
-    out = []
-    i, n = 0, len(data)
-    while i < n:
-        if i + sim_link.HEADER_LEN > n:
-            raise ValueError("link record header cut off")
-        op = data[i]
-        length = data[i + 1] | (data[i + 2] << 8)
-        j = i + sim_link.HEADER_LEN + length
-        if j > n:
-            raise ValueError("link record payload cut off")
-        out.append((op, bytes(data[i + sim_link.HEADER_LEN:j])))
-        i = j
-    return out
+# Events whose text is a JSON object: compared decoded, because MicroPython's dicts do not
+# keep insertion order and its json writes the keys in another order than CPython's, so a
+# trace of one runtime replays under the other.
+JSON_EVENTS = (sim_link.EVENT_TACTILE, sim_link.EVENT_FAULT)
 
 
 def _compared(op: int, payload: bytes) -> bool:
@@ -57,6 +45,19 @@ def _compared(op: int, payload: bytes) -> bool:
     if op == sim_link.OP_EVENT and payload and payload[0] in UNCOMPARED_EVENTS:
         return False
     return True
+
+
+def _same(e: tuple[int, bytes] | None, a: tuple[int, bytes] | None) -> bool:
+    if e == a:
+        return True
+    if e is None or a is None or e[0] != sim_link.OP_EVENT or a[0] != sim_link.OP_EVENT:
+        return False
+    if not e[1] or e[1][:1] != a[1][:1] or e[1][0] not in JSON_EVENTS:
+        return False
+    try:
+        return json.loads(e[1][1:]) == json.loads(a[1][1:])
+    except ValueError:
+        return False
 
 
 @dataclass
@@ -208,7 +209,7 @@ def _compare(expected: list[tuple[int, bytes]], actual: list[tuple[int, bytes]],
         for k in range(max(len(exp), len(act))):
             e = exp[k] if k < len(exp) else None
             a = act[k] if k < len(act) else None
-            if e != a:
+            if not _same(e, a):
                 op = (e or a)[0]
                 return Divergence(t_us / 1e6, OP_TOPICS.get(op, "?"),
                                   _describe(*e) if e else "(nothing)",

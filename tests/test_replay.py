@@ -137,3 +137,34 @@ def test_replay_onto_can_sends_every_frame_in_order(trace):
         rx.shutdown()
         tx.shutdown()
     assert r["frames"] == len(want) and got == want
+
+
+def test_a_trace_of_cpython_in_process_replays_under_micropython(tmp_path, capsys):
+    """MicroPython writes a JSON event's keys in another order than CPython; replay compares
+    those events decoded, so a sweep's trace (firmware in process) replays under the
+    reference runtime."""
+    from host_tools.in_process import run_firmware
+
+    def switches(t_us):   # LF pressed from 0.3 s to 0.4 s: two edges, tactile events
+        return 1 if 300_000 <= t_us < 400_000 else 0
+
+    path = tmp_path / "inproc.mcap"
+    s = {section: {} for section in scenario.SCHEMA}
+    with rec.Recorder(path, {"scenario": "defaults", "seed": 0}) as r:
+        result = Simulator(s, seed=0, recorder=r, switches=switches).run(
+            duration_s=DURATION_S, in_process=run_firmware)
+    assert len(result.tactile_events) >= 2
+    rc, out, _ = _cli(capsys, "replay", str(path), "--json")
+    assert rc == 0 and out["identical"], out["first_divergence"]
+
+
+def test_json_events_compare_decoded_and_still_catch_a_changed_value():
+    from protocol import sim_link
+
+    def event(text):
+        return (sim_link.OP_EVENT, bytes([sim_link.EVENT_TACTILE]) + text)
+
+    assert replay._same(event(b'{"switch": 1, "leg": "LF"}'), event(b'{"leg": "LF", "switch": 1}'))
+    assert not replay._same(event(b'{"switch": 1, "leg": "LF"}'), event(b'{"leg": "RF", "switch": 1}'))
+    log = (sim_link.OP_EVENT, bytes([sim_link.EVENT_LOG]) + b'{"a": 1, "b": 2}')
+    assert not replay._same(log, (sim_link.OP_EVENT, bytes([sim_link.EVENT_LOG]) + b'{"b": 2, "a": 1}'))
