@@ -14,6 +14,8 @@ from typing import Callable
 
 from firmware import main as firmware_main
 from firmware.hal.sim import Board
+from hil.link import IN_PROCESS
+from hil.sim import InProcessFirmware
 
 
 class Wire:
@@ -70,3 +72,9 @@ def run_firmware(exchange: Callable[[bytes, bool], bytes]) -> None:
             raise
     if wire.error is not None:
         raise wire.error
+
+
+def runner(python: str) -> InProcessFirmware | None:
+    """``Simulator.run``'s ``in_process`` for the runtime named ``python``: this module's
+    ``run_firmware`` for ``cpython-inprocess``, None for a child-process runtime."""
+    return run_firmware if python == IN_PROCESS else None

@@ -8,11 +8,10 @@ from pathlib import Path
 from typing import Any
 
 from hil import scenario as scenario_mod
-from hil.link import IN_PROCESS
 from hil.rig import make_world
 from hil.run_result import RunResult
 from hil.sim import Simulator
-from host_tools.in_process import run_firmware
+from host_tools import in_process
 from protocol.errors import UserError
 
 CAN_WAIT_TIMEOUT_S = 60.0
@@ -155,7 +154,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
             from host_tools.grnn.navigator import attach
             nav = attach(sim, world, plan[0], *plan[1])
         result = sim.run(duration_s, python=python,
-                         in_process=run_firmware if python == IN_PROCESS else None)
+                         in_process=in_process.runner(python))
     finally:
         if server is not None:
             server.close()

@@ -22,7 +22,7 @@ import json
 import math
 import os
 import time
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Callable
 
@@ -99,7 +99,7 @@ def simulate(scenario: dict[str, Any], seed: int, duration_s: float, trace: str 
     first."""
     from hil.sim import Simulator
     from hil.world.hexapod import HexapodWorld
-    from host_tools.in_process import run_firmware
+    from host_tools import in_process
     from host_tools.trace.recorder import open_recorder
 
     world = HexapodWorld(scenario, seed)
@@ -113,7 +113,7 @@ def simulate(scenario: dict[str, Any], seed: int, duration_s: float, trace: str 
         if navigate is not None:
             navigate(sim, world)
         sim.run(duration_s, python=python,
-                in_process=run_firmware if python == IN_PROCESS else None)
+                in_process=in_process.runner(python))
     finally:
         if recorder is not None:
             recorder.close()
@@ -168,25 +168,27 @@ def run_with_speed(args: tuple[Any, ...]) -> dict[str, Any]:
 
 
 def plan(quick: bool, seeds: int, periods_for: dict[tuple[str, float], int],
-         model: str = "real", trials: int = 1, obstacle_body: str = "free") -> list[RunSpec]:
+         model: str = "real", trials: int = 1, obstacle_body: str = "free",
+         python: str = IN_PROCESS) -> list[RunSpec]:
     """Stages 2-4 of the protocol (the probe has run and fixed the periods). Table 1's
     trials differ by their seed (the real model's trial noise; identical when ideal)."""
     distances = (1.0,) if quick else (1.0, 2.0)
     specs = [RunSpec("calibration", g, d, True, t, periods=periods_for[g, d], model=model,
-                     obstacle_body=obstacle_body)
+                     obstacle_body=obstacle_body, python=python)
              for g in GAITS for d in distances for t in range(trials)]
     for g in GAITS:
         for h in HEIGHTS:
             for s in range(seeds):
                 specs.append(RunSpec("without", g, 1.0, False, s + 1, "low", h,
-                                     periods_for[g, 1.0], model, obstacle_body))
+                                     periods_for[g, 1.0], model, obstacle_body, python=python))
     for g in GAITS:
         for dens in DENSITIES:
             for d in distances:
                 for h in HEIGHTS:
                     for s in range(seeds):
                         specs.append(RunSpec("with", g, d, True, s + 1, dens, h,
-                                             periods_for[g, d], model, obstacle_body))
+                                             periods_for[g, d], model, obstacle_body,
+                                             python=python))
     # longest runs first keeps the pool busy to the end
     return sorted(specs, key=lambda s: -s.duration_s)
 
@@ -211,9 +213,8 @@ def run_sweep(quick: bool, seeds: int, executor: Executor, trace_dir: str | None
     """Run the whole protocol; returns the probe speeds, periods and every run's result."""
     distances = (1.0,) if quick else (1.0, 2.0)
     speed, periods_for = calibrate(executor, distances, model, obstacle_body, python)
-    specs = [replace(s, python=python) for s in
-             plan(quick, seeds, periods_for, model, 1 if quick else CALIBRATION_TRIALS,
-                  obstacle_body)]
+    specs = plan(quick, seeds, periods_for, model, 1 if quick else CALIBRATION_TRIALS,
+                 obstacle_body, python)
     runs = executor.map(run_with_speed, [(s, speed[s.gait], trace_dir) for s in specs], "runs")
     return {"model": model, "obstacle_body": obstacle_body, "speed_m_s": speed, "periods": {f"{g} {d:g} m": n for (g, d), n in periods_for.items()},
             "runs": runs}
