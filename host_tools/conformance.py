@@ -25,7 +25,7 @@ from protocol import dynamixel as dxl
 from protocol.errors import UserError
 
 EEPROM_PAUSE_S = 0.01
-TIMING_ROUNDS = 3  # return-delay measurements before the check fails; noise only adds time
+TIMING_ROUNDS = 3  # return-delay measurements, all taken: noise only adds time
 _NEED_REPLIES = ("bad_checksum_reply", "out_of_range_goal", "action_nothing_registered",
                  "reg_write_action", "angle_limit_error", "status_return_level",
                  "return_delay_timing", "restored")
@@ -274,15 +274,14 @@ class Checker:
         link = self.link
         best = {0: math.inf, 250: math.inf}  # fastest of several: scheduling and USB only add
         floor = link.wire_s(12) + 500e-6  # PING out and status back, plus 500 us
-        ok = False
-        for _ in range(TIMING_ROUNDS):  # a load burst can slow all 7 pings of one setting
+        # Every round, not the first that passes: a load burst can slow all 7 pings of one
+        # setting, which would make a servo that ignores its Return Delay look conforming.
+        for _ in range(TIMING_ROUNDS):
             for rd in best:
                 self.write(i, ax12.RETURN_DELAY_TIME, bytes((rd,)))
                 time.sleep(EEPROM_PAUSE_S)
                 best[rd] = min(best[rd], *(link.transact(dxl.ping(i))[1] for _ in range(7)))
-            ok = best[250] >= floor - 100e-6 and best[250] - best[0] >= 300e-6
-            if ok:
-                break
+        ok = best[250] >= floor - 100e-6 and best[250] - best[0] >= 300e-6
         self.write(i, ax12.RETURN_DELAY_TIME, table[ax12.RETURN_DELAY_TIME:ax12.RETURN_DELAY_TIME + 1])
         time.sleep(EEPROM_PAUSE_S)
         self.add(i, "return_delay_timing", ok,
