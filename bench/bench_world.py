@@ -12,6 +12,7 @@ from pathlib import Path
 
 from bench import Row
 from hil.link import IN_PROCESS
+from hil.world.fidelity import OBSTACLE_BODY
 from hil.world.hexapod import HexapodWorld
 from hil import scenario as scenario_mod
 
@@ -90,7 +91,7 @@ def run() -> list[Row]:
                     f"{plain:.1f}x without recording"))
     rows.append(Row("world full stack, real model: real-time factor", real, "x real time", "",
                     f"as above without recording, world.model = real (backlash, unit spread, "
-                    f"loose obstacles, trial noise); ideal: {plain:.1f}x"))
+                    f"trial noise, {OBSTACLE_BODY} obstacles); ideal: {plain:.1f}x"))
     wall, runs = _sweep(IN_PROCESS)
     before, _ = _sweep("micropython")
     rows.append(Row("experiment tactile-hexapod (whole sweep)", wall, "s wall",

@@ -95,25 +95,27 @@ def test_runs_report_errors_model_table_and_plots(tmp_path):
         assert r["rel_error"] == pytest.approx(r["error_m"])
         assert "model_dx_m" in r and r["model_hits"] >= 0
     assert runs[2]["presses"] == [0] * 6 and runs[2]["model_dx_m"] == 0.0
-    result = {"speed_m_s": {"tripod": speed}, "periods": {"tripod 1 m": 2}, "runs": runs}
+    result = {"model": "real", "obstacle_body": th.OBSTACLE_BODY, "speed_m_s": {"tripod": speed},
+              "periods": {"tripod 1 m": 2}, "runs": runs}
     md = th.markdown(result, quick=True)
     assert "| tripod | low | 1 | small | 1 |" in md and "~24 %" in md
+    assert "world model 'real', fixed obstacles" in md
     paths = th.plots(result, tmp_path)
     assert all(p.stat().st_size > 5000 for p in paths)
 
 
 @pytest.mark.slow
 def test_quick_sweep_from_the_command_line(tmp_path):
-    """The paper's headline, the method beats no method, where its physics holds: obstacles
-    the legs get stuck behind. The real model's loose obstacles are shoved aside, and there
-    the method's longer steps cost more than they save (docs/hexapod-world.md, issue 21)."""
+    """The paper's headline, the method beats no method, on the default world: the real model
+    with obstacles the legs get stuck behind, as the paper's were. Its loose wooden obstacles
+    (``--obstacles free``) are shoved aside, and there the method's longer steps cost more
+    than they save (docs/hexapod-world.md, issue 21)."""
     import json
     import subprocess
     import sys
 
     proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "experiment", "tactile-hexapod", "--quick",
-                           "--obstacles", "fixed", "--out", str(tmp_path), "--workers", "2",
-                           "--json"],
+                           "--out", str(tmp_path), "--workers", "2", "--json"],
                           capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr[-2000:]
     summary = json.loads(proc.stdout.strip().splitlines()[-1])

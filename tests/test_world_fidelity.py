@@ -47,8 +47,9 @@ def test_present_position_reads_the_potentiometer_offset():
 
 def test_loose_obstacles_are_free_bodies_that_move_when_pushed():
     obstacle = {"x_m": 0.0, "y_m": 0.0, "length_m": 0.03, "width_m": 0.08, "height_m": 0.04}
-    free = _world("real", terrain="obstacles", obstacles=[obstacle])
-    fixed = _world("real", terrain="obstacles", obstacles=[obstacle], obstacle_body="fixed")
+    free = _world("real", terrain="obstacles", obstacles=[obstacle], obstacle_body="free")
+    fixed = _world("real", terrain="obstacles", obstacles=[obstacle])   # the default
+    assert free.real.free_obstacles and not fixed.real.free_obstacles
     assert free.model.nq == fixed.model.nq + 7
     body = free.model.body("obstacle0").id
     assert free.model.body_mass[body] == pytest.approx(600 * 2 / 3 * math.pi * 0.015 * 0.04 * 0.04)

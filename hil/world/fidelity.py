@@ -12,8 +12,10 @@ seed-003 robot has; every figure's source is in docs/hexapod-world.md ("Real mod
 - contacts: tibia and switch plate meet obstacles with polypropylene's friction (their own
   0.3, not the obstacle's) and the plate's face is rounded, so a leg caught on an
   obstacle's side can slide off it (paper Sec. 2.3);
-- obstacles: loose bodies with mass and floor friction (``world.obstacle_body = "free"``,
-  the default with ``real``), which can slide, tip or be stepped on;
+- obstacles: fixed to the ground by default, as the paper's held: its legs "get stuck behind
+  the obstacles and the robot pushes itself backward", unable to reach a goal 1 m away (Sec.
+  4); ``world.obstacle_body = "free"`` makes them loose bodies with mass and floor friction
+  that can slide, tip or be stepped on (our wooden ones are shoved aside, see docs);
 - trial noise from the run seed: each foot's friction, so repeated trials differ.
 """
 from __future__ import annotations
@@ -29,15 +31,19 @@ from protocol.errors import UserError
 
 MODELS = ("ideal", "real")
 OBSTACLE_BODIES = ("fixed", "free")
+OBSTACLE_BODY = "fixed"        # the default with ``real`` (paper Sec. 4, see the docstring)
 RATED_SUPPLY_V = 12.0          # e-manual: stall torque and no-load speed are given at 12 V
 SUPPLY_V = 11.0                # paper Sec. 3.1: servo supply 10-12 V; the middle of it
-BACKLASH_RAD = 0.01            # Webots' ROBOTIS OP2 Dynamixel model (see docs)
-OFFSET_SD_UNITS = 1.0          # per-unit zero offset, in AX-12 position units (assumption)
-STALL_SPREAD_SD = 0.05         # per-unit stall torque, relative (assumption)
-READ_NOISE_SD_UNITS = 0.5      # potentiometer read noise (assumption; 1-unit flicker)
-FOOT_FRICTION_SD = 0.10        # per-foot, per-trial friction, relative (assumption)
-OBSTACLE_DENSITY_KG_M3 = 600.0  # wood (assumption: the paper does not name the material)
-OBSTACLE_FLOOR_FRICTION = 0.4   # wood on a hard floor (assumption)
+BACKLASH_RAD = 0.01            # Webots' Dynamixel backlash; MX-28 datasheet 0.33 deg (docs)
+OFFSET_SD_UNITS = 1.0          # per-unit zero offset in position units: AX-12 positions are
+                               # "within about half a degree" (Tira-Thompson 2008), = 2 sd
+STALL_SPREAD_SD = 0.05         # per-unit stall torque, relative (no published figure: ours)
+READ_NOISE_SD_UNITS = 0.5      # potentiometer read noise (no published figure: ours)
+FOOT_FRICTION_SD = 0.10        # per-foot, per-trial friction, relative: ASTM C1028's
+                               # reproducibility sd, about 0.05 at mu 0.55 (docs)
+OBSTACLE_DENSITY_KG_M3 = 600.0  # wood, Engineering ToolBox: pine 350-670, oak 600-900 (the
+                                # paper does not name the material: our choice of wood)
+OBSTACLE_FLOOR_FRICTION = 0.4   # wood on wood 0.12-0.65 static, grain and finish (docs)
 LEG_FRICTION = 0.3              # polypropylene plate and tibia (paper Sec. 2.3)
 
 
@@ -67,7 +73,7 @@ def from_scenario(scenario: dict[str, Any], seed: int, foot_friction: float,
     world = scenario.get("world", {})
     where = scenario.get("_path", "scenario")
     ideal = model_name(scenario) == "ideal"
-    body = world.get("obstacle_body", "fixed" if ideal else "free")
+    body = world.get("obstacle_body", OBSTACLE_BODY)
     if body not in OBSTACLE_BODIES:
         raise UserError(f"{where}: key 'world.obstacle_body' must be fixed or free, got {body!r}")
     if ideal:

@@ -33,6 +33,7 @@ from host_tools.experiments.executor import Executor
 from host_tools.experiments.tactile_report import GAITS, markdown, plots, summary
 from hil.link import IN_PROCESS, RUNTIMES
 from hil.scenario import check
+from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
 from protocol import hexapod
 
 DENSITIES = ("low", "high")
@@ -57,7 +58,7 @@ class RunSpec:
     height_class: str = ""
     periods: int = PROBE_PERIODS
     model: str = "real"   # world.model (hil/world/fidelity.py)
-    obstacle_body: str = "free"   # world.obstacle_body with the real model
+    obstacle_body: str = OBSTACLE_BODY   # world.obstacle_body with the real model
     navigator: str = ""   # "": no host node, the run ends after the planned periods; else one
                           # of host_tools.grnn.navigator.KINDS stops the walk
     model_path: str = ""  # the GRNN's model file with navigator "grnn"
@@ -168,7 +169,7 @@ def run_with_speed(args: tuple[Any, ...]) -> dict[str, Any]:
 
 
 def plan(quick: bool, seeds: int, periods_for: dict[tuple[str, float], int],
-         model: str = "real", trials: int = 1, obstacle_body: str = "free",
+         model: str = "real", trials: int = 1, obstacle_body: str = OBSTACLE_BODY,
          python: str = IN_PROCESS) -> list[RunSpec]:
     """Stages 2-4 of the protocol (the probe has run and fixed the periods). Table 1's
     trials differ by their seed (the real model's trial noise; identical when ideal)."""
@@ -194,7 +195,7 @@ def plan(quick: bool, seeds: int, periods_for: dict[tuple[str, float], int],
 
 
 def calibrate(executor: Executor, distances: tuple[float, ...], model: str = "real",
-              obstacle_body: str = "free", python: str = IN_PROCESS
+              obstacle_body: str = OBSTACLE_BODY, python: str = IN_PROCESS
               ) -> tuple[dict[str, float], dict[tuple[str, float], int]]:
     """Stage 1, the probe: each gait's flat-ground speed (m/s) and the gait periods that
     reach each distance at it (Sec. 3.3). Shared with ``hexhil grnn dataset``."""
@@ -208,7 +209,7 @@ def calibrate(executor: Executor, distances: tuple[float, ...], model: str = "re
 
 
 def run_sweep(quick: bool, seeds: int, executor: Executor, trace_dir: str | None = None,
-              model: str = "real", obstacle_body: str = "free", python: str = IN_PROCESS
+              model: str = "real", obstacle_body: str = OBSTACLE_BODY, python: str = IN_PROCESS
               ) -> dict[str, Any]:
     """Run the whole protocol; returns the probe speeds, periods and every run's result."""
     distances = (1.0,) if quick else (1.0, 2.0)
@@ -221,7 +222,7 @@ def run_sweep(quick: bool, seeds: int, executor: Executor, trace_dir: str | None
 
 
 def main(quick: bool, out: Path, seeds: int, executor: Executor,
-         traces: bool = False, model: str = "real", obstacle_body: str = "free",
+         traces: bool = False, model: str = "real", obstacle_body: str = OBSTACLE_BODY,
          python: str = IN_PROCESS) -> dict[str, Any]:
     """Run the sweep and write results.json, results.md and the PNG plots into ``out``
     (and one MCAP trace per run into ``out/traces`` with ``traces``)."""
@@ -255,10 +256,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--traces", action="store_true",
                    help="record every run to an MCAP trace in OUT/traces")
     p.add_argument("--model", choices=("real", "ideal"), default="real",
-                   help="world model: real (servo backlash and spread, loose obstacles, trial "
-                        "noise; default) or ideal (the regression world of scenario files)")
-    p.add_argument("--obstacles", choices=("free", "fixed"), default="free",
-                   help="with the real model: loose obstacles (default) or fixed ones")
+                   help="world model: real (servo backlash and spread, trial noise; default) "
+                        "or ideal (the regression world of scenario files)")
+    p.add_argument("--obstacles", choices=OBSTACLE_BODIES, default=OBSTACLE_BODY,
+                   help="with the real model: obstacles fixed to the ground (default, as the "
+                        "paper's held) or loose wooden ones")
     p.add_argument("--python", choices=(IN_PROCESS, *RUNTIMES), default=IN_PROCESS,
                    help="firmware runtime: in this process (default; the same serial digest "
                         "as micropython, without two process wake-ups a link round trip), or a "

@@ -70,11 +70,11 @@ def _spread(rs: list[dict[str, Any]], key: str) -> str:
 def markdown(result: dict[str, Any], quick: bool) -> str:
     runs = result["runs"]
     s = summary(result)
-    model = result.get("model", "real")
+    model = result["model"]
     old = LANDED_IDEAL["quick" if quick else "full"]
     lines = ["# Seed 003 in simulation: tactile obstacle overcoming", "",
              f"Sweep: {'quick' if quick else 'full'}, world model {model!r}"
-             + (f", {result.get('obstacle_body', 'free')} obstacles" if model == "real" else "")
+             + (f", {result['obstacle_body']} obstacles" if model == "real" else "")
              + " (hil/world/fidelity.py); "
              f"{len(runs)} runs after the calibration probe. "
              "Errors in cm, heading change in degrees; dx = goal x - end x, dy = end y.",

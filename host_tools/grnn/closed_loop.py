@@ -20,6 +20,7 @@ from statistics import mean
 from typing import Any
 
 from host_tools.cli import emit_json
+from hil.world.fidelity import OBSTACLE_BODY
 from host_tools.grnn import data as data_mod
 from protocol.errors import UserError
 
@@ -41,7 +42,7 @@ def specs(ds: data_mod.Dataset, model_path: str) -> list[tuple[Any, float]]:
         for nav, _ in ARMS:
             spec = th.RunSpec("with", r["gait"], r["distance_m"], True, int(r["terrain_seed"]),
                               r["density"], r["height_class"], int(r["periods"]),
-                              world.get("model", "real"), world.get("obstacle_body", "free"),
+                              world.get("model", "real"), world.get("obstacle_body", OBSTACLE_BODY),
                               nav, model_path if nav == "grnn" else "")
             out.append((spec, float(speed[r["gait"]])))
     return out

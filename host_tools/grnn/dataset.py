@@ -24,13 +24,10 @@ from host_tools.grnn import data as data_mod
 from host_tools.grnn.features import StepRow, StepSampler
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_BODY, T_CAN_RAW, T_JOINTS
+from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
 from protocol import can_frames, hexapod
 from protocol.errors import UserError
 
-# Loose obstacles of the real model are shoved aside (docs/hexapod-world.md: 4 % error
-# without the method); the paper's robot's "legs get stuck behind the obstacles and the robot
-# pushes itself backward" (Sec. 3.3, Fig. 16), so its obstacles hold: the dataset's default.
-OBSTACLES = "fixed"
 COMBINATIONS = [(g, dens, h) for g in ("tripod", "wave") for dens in ("low", "high")
                 for h in ("small", "large")]   # the with-method cases of Fig. 17-20
 
@@ -118,7 +115,7 @@ def build_one(args: tuple[Any, float, str]) -> tuple[dict[str, Any], list[StepRo
 
 
 def simulate_runs(out_dir: Path, terrains: int, seed: int, workers: int, distance_m: float,
-                  obstacles: str = OBSTACLES
+                  obstacles: str = OBSTACLE_BODY
                   ) -> tuple[list[dict[str, Any]], list[list[StepRow]], dict]:
     """The experiment's probe, then one traced with-method run per terrain seed."""
     from host_tools.experiments import tactile_hexapod as th
@@ -156,7 +153,7 @@ def code_version() -> str:
 
 
 def build(out_dir: Path, traces: list[str], terrains: int, seed: int, workers: int,
-          distance_m: float, obstacles: str = OBSTACLES) -> dict[str, Any]:
+          distance_m: float, obstacles: str = OBSTACLE_BODY) -> dict[str, Any]:
     """Make the dataset; returns a summary (files, runs, rows, seconds per run)."""
     if out_dir.exists() and not out_dir.is_dir():
         raise UserError(f"--out {out_dir} exists and is not a folder")
@@ -196,7 +193,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=1, help="first terrain seed (default 1)")
     p.add_argument("--distance", type=float, default=1.0, metavar="M",
                    help="goal distance d in m (default 1, as the paper's runs)")
-    p.add_argument("--obstacles", choices=("fixed", "free"), default=OBSTACLES,
+    p.add_argument("--obstacles", choices=OBSTACLE_BODIES, default=OBSTACLE_BODY,
                    help="obstacles fixed to the ground (default: the paper's robot cannot shove "
                         "its obstacles aside) or loose (the experiment's real-model default)")
     p.add_argument("--workers", type=int, default=max(1, os.cpu_count() or 1),
