@@ -19,8 +19,8 @@ from pathlib import Path
 from statistics import mean
 from typing import Any
 
-from host_tools.cli import emit_json
 from hil.world.fidelity import OBSTACLE_BODY
+from host_tools.cli import emit_json
 from host_tools.grnn import data as data_mod
 from protocol.errors import UserError
 

@@ -19,12 +19,12 @@ import time
 from pathlib import Path
 from typing import Any
 
+from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
 from hil.world.hexapod import yaw_rad
 from host_tools.grnn import data as data_mod
 from host_tools.grnn.features import StepRow, StepSampler
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_BODY, T_CAN_RAW, T_JOINTS
-from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
 from protocol import can_frames, hexapod
 from protocol.errors import UserError
 
@@ -195,7 +195,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="goal distance d in m (default 1, as the paper's runs)")
     p.add_argument("--obstacles", choices=OBSTACLE_BODIES, default=OBSTACLE_BODY,
                    help="obstacles fixed to the ground (default: the paper's robot cannot shove "
-                        "its obstacles aside) or loose (the experiment's real-model default)")
+                        "its obstacles aside) or loose wooden ones")
     p.add_argument("--workers", type=int, default=max(1, os.cpu_count() or 1),
                    help="local worker processes (default: one per core)")
     p.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
