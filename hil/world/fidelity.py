@@ -37,8 +37,11 @@ SUPPLY_V = 11.0                # paper Sec. 3.1: servo supply 10-12 V; the middl
 BACKLASH_RAD = 0.01            # Webots' Dynamixel backlash; MX-28 datasheet 0.33 deg (docs)
 OFFSET_SD_UNITS = 1.0          # per-unit zero offset in position units: AX-12 positions are
                                # "within about half a degree" (Tira-Thompson 2008), = 2 sd
-STALL_SPREAD_SD = 0.05         # per-unit stall torque, relative (no published figure: ours)
-READ_NOISE_SD_UNITS = 0.5      # potentiometer read noise (no published figure: ours)
+STALL_SPREAD_SD = 0.05         # per-unit stall torque, relative: motor data "+/- 10 %"
+                               # (Beckhoff AM8100 docs; no AX-12 figure), taken as 2 sd
+READ_NOISE_SD_UNITS = 0.5      # potentiometer read error: the ATmega8 ADC's 0.5 LSB
+                               # differential non-linearity (datasheet 2486, Table 103; no
+                               # AX-12 figure), one LSB a position unit, drawn per reading
 FOOT_FRICTION_SD = 0.10        # per-foot, per-trial friction, relative: ASTM C1028's
                                # reproducibility sd, about 0.05 at mu 0.55 (docs)
 OBSTACLE_DENSITY_KG_M3 = 600.0  # wood, Engineering ToolBox: pine 350-670, oak 600-900 (the

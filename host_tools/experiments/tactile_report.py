@@ -17,7 +17,8 @@ PAPER_FIG16 = {("wave", "small"): (25.2, 11.4, 17.4), ("wave", "large"): (22.4, 
                ("tripod", "small"): (25.2, 12.6, 22.8), ("tripod", "large"): (22.0, 0.8, 12.0)}
 PAPER_REL_ERROR = {"without": 0.24, "with": 0.12}                     # Sec. 4
 PAPER_WAVE_WINS = (6, 8)                                              # Fig. 20
-# The ideal model's figures as landed (docs/hexapod-world.md, "Our numbers beside the paper's").
+# The ideal model's figures as landed (docs/hexapod-world.md, "The ideal model's numbers
+# beside the paper's").
 LANDED_IDEAL = {"full": {"without": 0.47, "with": 0.17, "wave_wins": (4, 8)},
                 "quick": {"without": 0.57, "with": 0.16, "wave_wins": (2, 4)}}
 LANDED_IDEAL_TABLE1_CM = {("wave", 1.0): (0.1, -2.5), ("wave", 2.0): (0.2, -5.0),
