@@ -15,7 +15,8 @@ from typing import Callable
 from firmware import main as firmware_main
 from firmware.hal.sim import Board
 from hil.link import IN_PROCESS
-from hil.sim import InProcessFirmware
+from hil.run_result import RunResult
+from hil.sim import Simulator
 
 
 class Wire:
@@ -74,7 +75,10 @@ def run_firmware(exchange: Callable[[bytes, bool], bytes]) -> None:
         raise wire.error
 
 
-def runner(python: str) -> InProcessFirmware | None:
-    """``Simulator.run``'s ``in_process`` for the runtime named ``python``: this module's
-    ``run_firmware`` for ``cpython-inprocess``, None for a child-process runtime."""
-    return run_firmware if python == IN_PROCESS else None
+def run(sim: Simulator, duration_s: float | None, python: str | None) -> RunResult:
+    """``sim.run`` under the runtime named ``python``: this module's ``run_firmware`` for
+    ``cpython-inprocess``, else a child process (hil/ cannot import the firmware, so the
+    choice is made here, on the top floor)."""
+    if python == IN_PROCESS:
+        return sim.run(duration_s, in_process=run_firmware)
+    return sim.run(duration_s, python=python)

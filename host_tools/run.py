@@ -153,8 +153,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         if plan is not None:
             from host_tools.grnn.navigator import attach
             nav = attach(sim, world, plan[0], *plan[1])
-        result = sim.run(duration_s, python=python,
-                         in_process=in_process.runner(python))
+        result = in_process.run(sim, duration_s, python)
     finally:
         if server is not None:
             server.close()

@@ -113,8 +113,7 @@ def simulate(scenario: dict[str, Any], seed: int, duration_s: float, trace: str 
         sim = Simulator(scenario, seed, world=world, recorder=recorder)
         if navigate is not None:
             navigate(sim, world)
-        sim.run(duration_s, python=python,
-                in_process=in_process.runner(python))
+        in_process.run(sim, duration_s, python)
     finally:
         if recorder is not None:
             recorder.close()
