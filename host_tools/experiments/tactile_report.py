@@ -19,8 +19,10 @@ PAPER_REL_ERROR = {"without": 0.24, "with": 0.12}                     # Sec. 4
 PAPER_WAVE_WINS = (6, 8)                                              # Fig. 20
 # The ideal model's figures as landed (docs/hexapod-world.md, "The ideal model's numbers
 # beside the paper's").
-LANDED_IDEAL = {"full": {"without": 0.47, "with": 0.17, "wave_wins": (4, 8)},
-                "quick": {"without": 0.57, "with": 0.16, "wave_wins": (2, 4)}}
+# The improvement as measured then: the ratio of the rounded errors would say 2.8x.
+LANDED_IDEAL = {"full": {"without": 0.47, "with": 0.17, "improvement": 2.7, "wave_wins": (4, 8)},
+                "quick": {"without": 0.57, "with": 0.16, "improvement": 3.6,
+                          "wave_wins": (2, 4)}}
 LANDED_IDEAL_TABLE1_CM = {("wave", 1.0): (0.1, -2.5), ("wave", 2.0): (0.2, -5.0),
                           ("tripod", 1.0): (0.6, 5.0), ("tripod", 2.0): (1.3, 10.0)}
 
@@ -89,7 +91,7 @@ def markdown(result: dict[str, Any], quick: bool) -> str:
              f"{100 * old['without']:.0f} % | ~24 % |",
              f"| mean relative error with the method | {100 * s['rel_error_with']:.1f} % | "
              f"{100 * old['with']:.0f} % | ~12 % |",
-             f"| improvement | {s['improvement']:.2f}x | {old['without'] / old['with']:.1f}x | ~2x |",
+             f"| improvement | {s['improvement']:.2f}x | {old['improvement']:.1f}x | ~2x |",
              f"| wave better than tripod | {s['wave_wins'][0]} of {s['wave_wins'][1]} cases | "
              f"{old['wave_wins'][0]} of {old['wave_wins'][1]} | 6 of 8 |",
              f"| same terrain and seed: nearer the goal with the method | {s['paired_nearer_with_method'][0]} "
