@@ -18,8 +18,8 @@ PAPER_FIG16 = {("wave", "small"): (25.2, 11.4, 17.4), ("wave", "large"): (22.4, 
 PAPER_REL_ERROR = {"without": 0.24, "with": 0.12}                     # Sec. 4
 PAPER_WAVE_WINS = (6, 8)                                              # Fig. 20
 # The ideal model's figures as landed (docs/hexapod-world.md, "The ideal model's numbers
-# beside the paper's").
-# The improvement as measured then: the ratio of the rounded errors would say 2.8x.
+# beside the paper's"); the improvement as measured then, not the ratio of the rounded
+# errors (which would say 2.8x).
 LANDED_IDEAL = {"full": {"without": 0.47, "with": 0.17, "improvement": 2.7, "wave_wins": (4, 8)},
                 "quick": {"without": 0.57, "with": 0.16, "improvement": 3.6,
                           "wave_wins": (2, 4)}}
