@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from hil import scenario as scenario_mod
 from hil.rig import make_world
@@ -132,7 +132,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     if beams:
         from host_tools.traversal.closed_loop import config_from_scenario
         cfg = config_from_scenario(sc, seed)
-    plan = _plan_navigation(sc, navigator, model_path) if navigator != "none" else None
+    attach_navigator = (_plan_navigation(sc, navigator, model_path) if navigator != "none"
+                        else None)
     world = None if beams else make_world(sc, seed)
     recorder = live = server = nav = None
     try:
@@ -150,9 +151,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
             return _traverse(sc, seed, cfg, recorder, server, out, realtime)
         sim = Simulator(sc, seed, world=world, recorder=recorder, tactile=tactile,
                         can_server=server, scene=recorder is not None, realtime=realtime)
-        if plan is not None:
-            from host_tools.grnn.navigator import attach
-            nav = attach(sim, world, plan[0], *plan[1])
+        if attach_navigator is not None:
+            nav = attach_navigator(sim, world)
         result = in_process.run(sim, duration_s, python)
     finally:
         if server is not None:
@@ -169,9 +169,10 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
 
 
 def _plan_navigation(sc: dict[str, Any], kind: str, model_path: str | None
-                     ) -> tuple[Any, tuple[Any, ...]]:
-    """The navigator's estimator and its attach arguments, checked before anything opens:
-    the goal ``gait.distance_m``, planned at the gait's nominal speed."""
+                     ) -> Callable[[Simulator, Any], Any]:
+    """What attaches the navigator to a run: its options checked and its estimator made
+    (a GRNN file loaded) before anything opens; the goal ``gait.distance_m``, planned at the
+    gait's nominal speed."""
     if kind not in ("model", "grnn"):
         raise UserError(f"--navigator {kind}: choose one of none, model, grnn")
     if sc["world"].get("kind") != "hexapod":
@@ -186,8 +187,10 @@ def _plan_navigation(sc: dict[str, Any], kind: str, model_path: str | None
     from protocol import hexapod
 
     fw = firmware_settings(sc)
-    args = (fw["gait"], fw["period_s"], fw.get("step_length_m", hexapod.STEP_LENGTH_M),
-            sc["gait"]["distance_m"])
-    gait, period_s, step_m, d = args
+    gait, period_s = fw["gait"], fw["period_s"]
+    step_m = fw.get("step_length_m", hexapod.STEP_LENGTH_M)
+    d = sc["gait"]["distance_m"]
     steps = hexapod.periods_for_distance(d, hexapod.speed_m_s(gait, step_m, period_s), period_s)
-    return navigator.make_estimator(kind, model_path, *args), (*args, steps)
+    estimator = navigator.make_estimator(kind, model_path, gait, period_s, step_m, d)
+    return lambda sim, world: navigator.attach(sim, world, estimator, gait, period_s, step_m,
+                                               d, steps)
