@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from hil import scenario
-from host_tools.commands.bus import build_bus, parse_ids, register
+from host_tools.cli.bus import build_bus, parse_ids, register
 from protocol.errors import UserError
 from protocol import ax12
 from protocol import dynamixel as dxl

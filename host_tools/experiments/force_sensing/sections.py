@@ -13,7 +13,7 @@ import numpy as np
 
 from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
 from hil.world.beams import SENSOR_PERIOD_US, BeamsWorld, BodyState
-from host_tools.commands.beams import _start_after_delay, push_samples
+from host_tools.cli.beams import _start_after_delay, push_samples
 from host_tools.traversal import closed_loop, estimator, landscape, planner
 
 K_FLIMSY, K_STIFF = 0.01, 0.25            # Sec. III-A

@@ -1,6 +1,6 @@
 """The ``hexhil`` command line.
 
-Each subcommand lives in its own module under ``host_tools/commands`` and exposes
+Each subcommand lives in its own module of this package (``host_tools/cli``) and exposes
 ``register(subparsers)``; modules are imported only when their command runs, so a
 slow import (MuJoCo, matplotlib) never taxes ``hexhil protocol decode``.
 """
@@ -15,7 +15,7 @@ from typing import Any
 
 from protocol.errors import UserError
 
-# command name -> (module under host_tools.commands, one-line help)
+# command name -> (module in this package, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
     "demo": ("demo", "set-up check and the main job (what `make demo` runs)"),
     "protocol": ("protocol", "Dynamixel Protocol 1.0 tools (decode)"),
@@ -49,9 +49,9 @@ def build_parser(argv: list[str]) -> argparse.ArgumentParser:
             sub.add_parser(name, help=help_text)
             continue
         try:
-            mod = importlib.import_module(f"host_tools.commands.{module}")
+            mod = importlib.import_module(f"host_tools.cli.{module}")
         except ModuleNotFoundError as exc:
-            if exc.name != f"host_tools.commands.{module}":
+            if exc.name != f"host_tools.cli.{module}":
                 raise
             continue  # command not built yet: leave it out of the listing
         mod.register(sub)
@@ -96,6 +96,3 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:
         return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -8,7 +8,7 @@ from protocol.errors import UserError
 
 
 def run(args: argparse.Namespace) -> int:
-    from host_tools.commands.bus import parse_ids
+    from host_tools.cli.bus import parse_ids
     from host_tools.conformance import format_table, run_checks
 
     if args.baud <= 0:
