@@ -37,20 +37,35 @@ def _traceback(exc):
 
 
 def main(board=None):
-    """Run the firmware on ``board`` (default: the back end this platform and argv pick)."""
+    """Run the firmware on ``board`` (default: the back end this platform and argv pick).
+    A ``sim_link.LinkError`` (the host refused a message or closed the link) is raised
+    after the board is closed: nothing more can be told to the host."""
     board = board or _board()
     ctl = None
     try:
         ctl = Controller(board, config.merged(board.config()))
         ctl.boot()
         ctl.run()
+    except sim_link.LinkError:
+        raise
     except Exception as exc:  # reported to the host, which counts it; never silent
         board.event(sim_link.EVENT_EXCEPTION, _traceback(exc))
     finally:
-        if ctl is not None:
+        if ctl is not None:  # on a dead link it is dropped with the rest (hal/sim.py)
             board.event(sim_link.EVENT_STATS, json.dumps(telemetry.stats(ctl)))
         board.close()
 
 
+def start(program=None):
+    """``program`` (default ``main``) as a process: its exit status; a link error is one
+    line on stderr, no traceback (docs/link.md)."""
+    try:
+        (program or main)()
+    except sim_link.LinkError as exc:
+        print("hexhil link:", exc.args[0] if exc.args else exc, file=sys.stderr)
+        return 2
+    return 0
+
+
 if __name__ == "__main__":
-    main()
+    sys.exit(start())

@@ -3,12 +3,13 @@
 Heartbeat (state, fault flags seen since the last one, cycle and overrun counts) and the
 tactile frame go out at ``telemetry_hz``; the tactile frame also on every change. Switch
 edges and trajectory changes are link events (JSON); at the end of a run ``stats`` is the
-EVENT_STATS summary. MicroPython-compatible.
+EVENT_STATS summary; the JSON keys are protocol/link_schema.py's. MicroPython-compatible.
 """
 import json
 
 from protocol import can_frames as cf
 from protocol import dynamixel as dxl
+from protocol import link_schema as ls
 from protocol import sim_link
 from protocol.hexapod import LEGS
 
@@ -45,13 +46,13 @@ class Telemetry:
 
     def switch_event(self, leg, pressed):
         self.board.event(sim_link.EVENT_TACTILE, json.dumps(
-            {"leg": LEGS[leg], "switch": 1 if pressed else 0}))
+            {ls.LEG: LEGS[leg], ls.SWITCH: 1 if pressed else 0}))
 
     def lift_off_event(self, leg, rule):
         """Leg ``leg`` lifted off with new step parameters (Eq. 5-7)."""
         self.board.event(sim_link.EVENT_TACTILE, json.dumps(
-            {"leg": LEGS[leg], "overcoming": 1 if rule.overcoming & (1 << leg) else 0,
-             "step_length_m": rule.l[leg], "step_height_m": rule.h[leg]}))
+            {ls.LEG: LEGS[leg], ls.OVERCOMING: 1 if rule.overcoming & (1 << leg) else 0,
+             ls.STEP_LENGTH_M: rule.l[leg], ls.STEP_HEIGHT_M: rule.h[leg]}))
 
     def compute(self, dt_us):
         """Note one cycle's compute time (wall µs, host waits excluded)."""
@@ -73,28 +74,28 @@ def stats(ctl):
                                  "error_bits": dxl.error_names(s.error_bits)}
     tel = ctl.telemetry
     return {
-        "state": cf.STATE_NAMES[ctl.state],
-        "stop_reason": ctl.stop_reason,
-        "gait": ctl.gait.name,
-        "period_s": ctl.gait.period_us * 1e-6,
-        "cycles": ctl.cycle,
-        "overruns": ctl.overruns,
-        "found": len(ctl.found),
-        "boot_s": ctl.boot_us * 1e-6,
-        "echo": bool(m.echo),
-        "transactions": m.transactions,
-        "sync_writes": m.sync_writes,
-        "timeouts": t,
-        "corrupt_replies": c,
-        "error_statuses": e,
-        "echo_mismatch": m.echo_mismatch,
-        "servos": servos,
-        "ik_clamped": ctl.goals.clamped(),
-        "switch_edges": ctl.switches.edges,
-        "trajectory_changes": ctl.rule.changes,
-        "steps": ctl.rule.steps,
-        "commanded_distance_m": ctl.commanded_m,
-        "commands": ctl.commands.count,
-        "compute_us_mean": (tel.compute_us / tel.compute_cycles) if tel.compute_cycles else 0,
-        "compute_us_max": tel.compute_max_us,
+        ls.STATE: cf.STATE_NAMES[ctl.state],
+        ls.STOP_REASON: ctl.stop_reason,
+        ls.GAIT: ctl.gait.name,
+        ls.PERIOD_S: ctl.gait.period_us * 1e-6,
+        ls.CYCLES: ctl.cycle,
+        ls.OVERRUNS: ctl.overruns,
+        ls.FOUND: len(ctl.found),
+        ls.BOOT_S: ctl.boot_us * 1e-6,
+        ls.ECHO: bool(m.echo),
+        ls.TRANSACTIONS: m.transactions,
+        ls.SYNC_WRITES: m.sync_writes,
+        ls.TIMEOUTS: t,
+        ls.CORRUPT_REPLIES: c,
+        ls.ERROR_STATUSES: e,
+        ls.ECHO_MISMATCH: m.echo_mismatch,
+        ls.SERVO_ERRORS: servos,
+        ls.IK_CLAMPED: ctl.goals.clamped(),
+        ls.SWITCH_EDGES: ctl.switches.edges,
+        ls.TRAJECTORY_CHANGES: ctl.rule.changes,
+        ls.STEPS: ctl.rule.steps,
+        ls.COMMANDED_DISTANCE_M: ctl.commanded_m,
+        ls.COMMANDS: ctl.commands.count,
+        ls.COMPUTE_US_MEAN: (tel.compute_us / tel.compute_cycles) if tel.compute_cycles else 0,
+        ls.COMPUTE_US_MAX: tel.compute_max_us,
     }

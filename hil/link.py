@@ -21,7 +21,7 @@ from protocol import sim_link
 from protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
-REQUEST_OPS = (sim_link.OP_HELLO, sim_link.OP_TRANSACT, sim_link.OP_SLEEP)
+REQUEST_OPS = sim_link.REQUEST_OPS
 RUNTIMES = ("micropython", "cpython")
 IN_PROCESS = "cpython-inprocess"   # the firmware under this CPython, in this process (sweeps)
 
@@ -77,6 +77,12 @@ class Connection:
         self._poll.register(sock, select.POLLIN)
 
     def _message(self) -> tuple[int, bytes] | None:
+        try:
+            return self._read_message()
+        except ConnectionResetError:   # the client died with bytes unread: a closed link
+            return None
+
+    def _read_message(self) -> tuple[int, bytes] | None:
         head = self.reader.read(sim_link.HEADER_LEN)
         if len(head) < sim_link.HEADER_LEN:
             return None
@@ -107,6 +113,13 @@ class Connection:
         self.sock.sendall(raw)
         self.round_trips += 1
         return raw
+
+    def reply_error(self, text: str) -> None:
+        """Answer the pending request with an error reply (docs/link.md); the link is over."""
+        try:
+            self.sock.sendall(sim_link.error_reply(text))
+        except OSError:
+            pass  # the client is gone already: the host reports the error either way
 
     def answered(self) -> bool:
         """Whether the firmware's next batch has arrived (after a reply, nothing else is
@@ -143,6 +156,9 @@ class DirectConnection:
         self._reply = struct.pack("<H", len(payload)) + payload
         self.round_trips += 1
         return self._reply
+
+    def reply_error(self, text: str) -> None:
+        self._reply = sim_link.error_reply(text)
 
     def answered(self) -> bool:
         """The firmware waits on this very call: the recorder has no time to fill."""

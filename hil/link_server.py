@@ -15,27 +15,33 @@ from hil.can_bus import CanBus
 from hil.link import Connection, DirectConnection
 from hil.run_result import RunResult
 from protocol import hexapod, sim_link
+from protocol import link_schema as ls
+from protocol.errors import UserError
 
 RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)
-MAX_FRAMES_PER_SLEEP = 255  # the sleep reply counts its CAN frames in one byte
+
+
+class LinkViolation(Exception):
+    """A client message the host cannot carry out: answered with an error reply."""
 
 
 def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> dict[str, Any]:
-    """The firmware/config.py overrides a checked scenario asks for (the hello's config)."""
+    """The firmware/config.py overrides a checked scenario asks for (the hello's config,
+    keys from protocol/link_schema.py CONFIG)."""
     fw, gait, bus = scenario["firmware"], scenario["gait"], scenario["bus"]
-    out: dict[str, Any] = {k: fw[k] for k in ("cycle_hz", "tactile", "servo_lost_s",
-                                               "reads_per_cycle") if k in fw}
+    out: dict[str, Any] = {k: fw[k] for k in (ls.CYCLE_HZ, ls.TACTILE_ON, ls.SERVO_LOST_S,
+                                               ls.READS_PER_CYCLE) if k in fw}
     name = gait.get("name", hexapod.DEFAULT_GAIT)
-    out["gait"] = name
-    out["period_s"] = gait.get("period_s", hexapod.GAIT_PERIOD_S[name])
-    for key in ("step_length_m", "step_height_m", "max_obstacle_height_m", "direction_deg"):
+    out[ls.GAIT] = name
+    out[ls.PERIOD_S] = gait.get(ls.PERIOD_S, hexapod.GAIT_PERIOD_S[name])
+    for key in (ls.STEP_LENGTH_M, ls.STEP_HEIGHT_M, ls.MAX_OBSTACLE_HEIGHT_M, ls.DIRECTION_DEG):
         if key in gait:
             out[key] = gait[key]
-    for key in ("first_id", "baud"):
+    for key in (ls.FIRST_ID, ls.BAUD):
         if key in bus:
             out[key] = bus[key]
     if tactile is not None:
-        out["tactile"] = tactile
+        out[ls.TACTILE_ON] = tactile
     return out
 
 
@@ -72,10 +78,19 @@ class LinkServer:
         self.inbox = sim.firmware_port
         self.byte_us = 10_000_000 / self.bus.baud
         self._counting = False   # bus time counts from the first sleep on (boot excluded)
+        self._held: list = []    # frames taken from the inbox that the last reply had no room for
 
     def _event(self, payload: bytes, result: RunResult) -> None:
+        if not payload:
+            raise LinkViolation("malformed event (no kind byte)")
         kind = payload[0]
         text = bytes(payload[1:]).decode("utf-8", errors="replace")
+        try:
+            self._take_event(kind, text, result)
+        except ValueError as exc:   # JSON that does not parse
+            raise LinkViolation(f"malformed event {kind}: {exc}") from None
+
+    def _take_event(self, kind: int, text: str, result: RunResult) -> None:
         t = self.clock.t_us
         rec = self.sim.recorder
         if kind == sim_link.EVENT_EXCEPTION:
@@ -90,7 +105,7 @@ class LinkServer:
             result.firmware = json.loads(text)
         elif kind == sim_link.EVENT_TACTILE:
             ev = json.loads(text)
-            ev["t_s"] = t * 1e-6
+            ev[ls.T_S] = t * 1e-6
             result.tactile_events.append(ev)
             if rec is not None:
                 rec.telemetry(t, ev)
@@ -98,9 +113,24 @@ class LinkServer:
             rec.telemetry(t, {"event": kind, "text": text})
 
     def _can_from_firmware(self, payload: bytes, result: RunResult) -> None:
+        if len(payload) < 3 or payload[2] > sim_link.CAN_MAX_DLC or len(payload) != 3 + payload[2]:
+            raise LinkViolation(f"malformed CAN message ({len(payload)} bytes)")
         arb_id, dlc = struct.unpack_from("<HB", payload, 0)
         result.count_can(arb_id)
         self.inbox.send(arb_id, bytes(payload[3:3 + dlc]))
+
+    def _can_records(self) -> tuple[int, bytes]:
+        """(flags, u8 n + records) of the frames queued for the client, as many as one
+        reply holds; FLAG_MORE when some are left (the client asks with OP_MORE)."""
+        limit = sim_link.MAX_CAN_PER_REPLY
+        frames = self._held
+        frames += self.inbox.frames(limit + 1 - len(frames))
+        self._held = frames[limit:]
+        body = bytearray((min(len(frames), limit),))
+        for msg in frames[:limit]:
+            body += struct.pack("<HB", msg.arbitration_id, msg.dlc) + \
+                bytes(msg.data).ljust(8, b"\0")
+        return (sim_link.FLAG_MORE if self._held else 0), bytes(body)
 
     def _sleep_reply(self, wake_us: int, end_us: int, result: RunResult) -> tuple[bytes, bool]:
         flags = 0
@@ -112,15 +142,27 @@ class LinkServer:
             self.bus.idle_until(wake_us)
         self.on_wake(self.clock.t_us)
         bits = self.switches.sample(self.clock.t_us, result)
-        body = bytearray()
-        n = 0
+        body = b"\0"
         if not ended:
             self.can.poll()
-            for msg in self.inbox.frames(MAX_FRAMES_PER_SLEEP):
-                body += struct.pack("<HB", msg.arbitration_id, msg.dlc) + \
-                    bytes(msg.data).ljust(8, b"\0")
-                n += 1
-        return struct.pack("<BBB", flags, bits, n) + body, ended
+            more, body = self._can_records()
+            flags |= more
+        return struct.pack("<BB", flags, bits) + body, ended
+
+    def _hello_reply(self, payload: bytes, result: RunResult) -> bytes:
+        if not payload or payload[0] != sim_link.VERSION:
+            raise LinkViolation(f"link version mismatch: the firmware speaks version "
+                                f"{payload[0] if payload else 'none'}, this host speaks "
+                                f"{sim_link.VERSION}")
+        bad = ls.problems(self.settings, ls.CONFIG)
+        if bad:
+            raise UserError(f"the firmware config does not fit protocol/link_schema.py: {bad[0]}")
+        config = json.dumps(self.settings, sort_keys=True).encode()
+        if len(config) + 10 > sim_link.MAX_REPLY_LEN:
+            raise UserError(f"the firmware config is {len(config)} bytes of JSON: the hello "
+                            f"reply holds {sim_link.MAX_REPLY_LEN - 10}")
+        return struct.pack("<BB", sim_link.VERSION,
+                           self.switches.sample(self.clock.t_us, result)) + config
 
     def serve(self, conn: Connection, end_us: int, result: RunResult) -> None:
         """Answer a socket connection's batches until the firmware closes it."""
@@ -132,7 +174,19 @@ class LinkServer:
     def answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
                closed: bool, end_us: int, result: RunResult) -> bool:
         """Carry out one batch (posted messages, then the request) and reply to it;
-        True once the firmware has closed the link."""
+        True once the firmware has closed the link. A message the host cannot carry out
+        (unknown op, malformed, another link version) gets an error reply and raises
+        UserError (docs/link.md)."""
+        try:
+            return self._answer(conn, msgs, closed, end_us, result)
+        except (LinkViolation, struct.error) as exc:
+            text = str(exc) if isinstance(exc, LinkViolation) else f"malformed message: {exc}"
+            if not closed:
+                conn.reply_error(text)
+            raise UserError(f"firmware link: {text}") from None
+
+    def _answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
+                closed: bool, end_us: int, result: RunResult) -> bool:
         bus, clock, rec = self.bus, self.clock, self.sim.recorder
         reply = None
         slept = False
@@ -145,6 +199,9 @@ class LinkServer:
                     result.bus_wire_us += round(len(payload) * self.byte_us)
             elif op == sim_link.OP_TRANSACT:
                 nrx, timeout_us = struct.unpack_from("<HI", payload, 0)
+                if nrx > sim_link.MAX_RX_LEN:
+                    raise LinkViolation(f"a transact asks for {nrx} bytes, more than a reply "
+                                        f"holds ({sim_link.MAX_RX_LEN})")
                 tx = payload[6:]
                 t0 = clock.t_us
                 bus.master_write(tx)
@@ -159,15 +216,21 @@ class LinkServer:
             elif op == sim_link.OP_EVENT:
                 self._event(payload, result)
             elif op == sim_link.OP_SLEEP:
+                if len(payload) != 8:
+                    raise LinkViolation(f"malformed sleep ({len(payload)} bytes, not 8)")
                 (wake_us,) = struct.unpack_from("<Q", payload, 0)
                 if self._counting:
                     result.loop_cycles += 1
                 self._counting = True
                 reply, _ = self._sleep_reply(wake_us, end_us, result)
                 slept = True
+            elif op == sim_link.OP_MORE:
+                more, body = self._can_records()
+                reply = struct.pack("<BB", more, self.switches.bits) + body
             elif op == sim_link.OP_HELLO:
-                config = json.dumps(self.settings, sort_keys=True).encode()
-                reply = struct.pack("<B", self.switches.sample(clock.t_us, result)) + config
+                reply = self._hello_reply(payload, result)
+            else:
+                raise LinkViolation(f"unknown message op 0x{op:02x}")
         # Recording comes after the reply: nothing here moves until the firmware's next
         # batch, so the recorder's work overlaps the firmware's instead of delaying it.
         raw = conn.reply(clock.t_us, reply) if reply is not None and not closed else None

@@ -36,6 +36,7 @@ from hil.link import IN_PROCESS, DirectConnection, FirmwareProcess
 from hil.link_server import LinkServer, SwitchSampler, firmware_settings
 from hil.run_result import RunResult, body_displacement
 from hil.scenario import DEFAULT_DURATION_S
+from protocol import link_schema as ls
 
 BODY_SAMPLE_US = 100_000  # ground truth and servo state to the recorder at 10 Hz
 # runs a firmware in this process on the link's exchange(bytes written, closed) -> reply
@@ -185,11 +186,12 @@ class Simulator:
             result.exit_code = code
             result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
         result.serial_digest = self._digest.hexdigest()
-        result.cycles = int(result.firmware.get("cycles", 0))
-        result.overruns = int(result.firmware.get("overruns", 0))
+        result.cycles = int(result.firmware.get(ls.CYCLES, 0))
+        result.overruns = int(result.firmware.get(ls.OVERRUNS, 0))
         if result.stop_reason is None:
-            result.stop_reason = result.firmware.get("stop_reason")
-        for key in ("timeouts", "corrupt_replies", "error_statuses", "echo_mismatch", "overruns"):
+            result.stop_reason = result.firmware.get(ls.STOP_REASON)
+        for key in (ls.TIMEOUTS, ls.CORRUPT_REPLIES, ls.ERROR_STATUSES, ls.ECHO_MISMATCH,
+                    ls.OVERRUNS):
             v = result.firmware.get(key, 0)
             if v:
                 result.faults["detected_" + key] = v

@@ -12,6 +12,7 @@ from hil.rig import make_world
 from hil.run_result import RunResult
 from hil.sim import Simulator
 from host_tools import in_process
+from protocol import link_schema as ls
 from protocol.errors import UserError
 
 CAN_WAIT_TIMEOUT_S = 60.0
@@ -21,7 +22,7 @@ def summary(scenario: dict[str, Any], seed: int, result: RunResult,
             trace: str | None) -> dict[str, Any]:
     """The ``--json`` object of a firmware run (keys fixed by issue 4)."""
     wall = result.wall_time_s
-    stopped = result.firmware.get("state") in ("safe_stop", "fault")
+    stopped = result.firmware.get(ls.STATE) in ("safe_stop", "fault")
     return {
         "scenario": _name(scenario),
         "seed": seed,
@@ -29,7 +30,7 @@ def summary(scenario: dict[str, Any], seed: int, result: RunResult,
         "sim_time_s": round(result.sim_time_s, 6),
         "wall_time_s": round(wall, 3),
         "real_time_factor": round(result.sim_time_s / wall, 2) if wall > 0 else None,
-        "boot_s": round(result.firmware.get("boot_s", 0.0), 6),
+        "boot_s": round(result.firmware.get(ls.BOOT_S, 0.0), 6),
         "cycles": result.cycles,
         "overruns": result.overruns,
         "unhandled_exceptions": result.unhandled_exceptions,
@@ -38,12 +39,12 @@ def summary(scenario: dict[str, Any], seed: int, result: RunResult,
         "stopped_safely": stopped and result.stop_reason is not None,
         "stop_reason": result.stop_reason,
         "body": {k: round(v, 4) for k, v in result.body.items()},
-        "commanded_distance_m": round(result.firmware.get("commanded_distance_m", 0.0), 4),
+        "commanded_distance_m": round(result.firmware.get(ls.COMMANDED_DISTANCE_M, 0.0), 4),
         "trace": trace,
-        "state": result.firmware.get("state"),
+        "state": result.firmware.get(ls.STATE),
         "switch_edges": result.switch_edges,
-        "trajectory_changes": result.firmware.get("trajectory_changes", 0),
-        "steps": result.firmware.get("steps", 0),
+        "trajectory_changes": result.firmware.get(ls.TRAJECTORY_CHANGES, 0),
+        "steps": result.firmware.get(ls.STEPS, 0),
         "bus_time_per_cycle_us": round(result.bus_busy_us / result.loop_cycles, 1)
         if result.loop_cycles else None,
         "bus_wire_min_per_cycle_us": round(result.bus_wire_us / result.loop_cycles, 1)

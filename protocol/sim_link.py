@@ -1,37 +1,66 @@
-"""Simulator-link wire format, shared by firmware/hal/sim.py and hil/link.py.
+"""Simulator-link wire format, version 1, shared by firmware/hal/sim.py and hil/link.py.
 
-Every message is ``op (1 byte) | length (u16 LE) | payload``. Posted messages (W, C, E)
-get no answer: the firmware batches them in front of its next request, so a cycle
-costs one TCP round trip per bus read plus one for the end-of-cycle sleep.
-Replies are ``length (u16 LE) | payload`` and always start with the virtual time
-``t_us`` (u64 LE) after the request.
+docs/link.md is the specification (byte tables, limits, the conformance suite); the JSON
+inside the hello and the events is protocol/link_schema.py. Every client message is
+``op (1 byte) | length (u16 LE) | payload``. Posted messages (W, C, E) get no answer: the
+client batches them in front of its next request, so a cycle costs one round trip per bus
+read plus one for the end-of-cycle sleep. Replies are ``length (u16 LE) | payload`` and
+start with the virtual time ``t_us`` (u64 LE) after the request; an error reply has
+``t_us = ERROR_T_US`` and utf-8 text, and the host closes the link after it.
 
-Requests (firmware -> host):
-  H hello       payload: runtime name (ascii)            reply: t_us, switches u8, config JSON
+Requests (client -> host):
+  H hello       u8 version, runtime name (ascii)         reply: t_us, u8 version, u8 switches,
+                                                                config JSON
   X transact    u16 nrx, u32 timeout_us, tx bytes        reply: t_us, rx bytes (<= nrx)
-  S sleep       u64 wake_us                              reply: t_us, flags u8, switches u8,
+  S sleep       u64 wake_us                              reply: t_us, u8 flags, u8 switches,
                                                                 u8 n, n x (u16 id, u8 dlc, 8 data)
+  M more        (empty): the CAN frames a reply with FLAG_MORE left queued; same reply as S
 Posted:
   W write       tx bytes (UART write, no reply expected)
-  C can         u16 id, u8 dlc, data
+  C can         u16 id, u8 dlc, data (dlc bytes)
   E event       u8 kind, utf-8 text (kinds below)
 """
+VERSION = 1          # the hello's first byte; the host refuses any other with an error reply
+
 OP_HELLO = 0x48   # 'H'
 OP_TRANSACT = 0x58  # 'X'
 OP_SLEEP = 0x53   # 'S'
+OP_MORE = 0x4D    # 'M'
 OP_WRITE = 0x57   # 'W'
 OP_CAN = 0x43     # 'C'
 OP_EVENT = 0x45   # 'E'
+REQUEST_OPS = (OP_HELLO, OP_TRANSACT, OP_SLEEP, OP_MORE)
+POSTED_OPS = (OP_WRITE, OP_CAN, OP_EVENT)
 
 FLAG_END = 0x01   # sleep reply: the run is over, exit the loop
+FLAG_MORE = 0x02  # sleep or more reply: further CAN frames are queued, ask with OP_MORE
 
 EVENT_LOG = 0        # free text
 EVENT_EXCEPTION = 1  # unhandled exception, text = traceback
 EVENT_STOP = 2       # safe stop, text = reason
-EVENT_STATS = 3      # JSON object of the firmware's counters at exit
-EVENT_TACTILE = 4    # JSON: a switch edge or trajectory change
-EVENT_FAULT = 5      # JSON: {"name": ..., "detail": ...}
+EVENT_STATS = 3      # JSON object of the firmware's counters at exit (link_schema.STATS)
+EVENT_TACTILE = 4    # JSON: a switch edge or trajectory change (link_schema.TACTILE)
+EVENT_FAULT = 5      # JSON: link_schema.FAULT
 
 HEADER_LEN = 3
 CAN_RECORD_LEN = 11  # u16 id, u8 dlc, 8 data bytes
+CAN_MAX_DLC = 8
+MAX_REPLY_LEN = 2048     # a reply's payload, t_us included: the client's receive buffer
+SLEEP_HEAD_LEN = 11      # t_us, flags, switches, n
+MAX_CAN_PER_REPLY = (MAX_REPLY_LEN - SLEEP_HEAD_LEN) // CAN_RECORD_LEN  # 185
+MAX_RX_LEN = MAX_REPLY_LEN - 8   # the most a transact may ask for (nrx)
+ERROR_T_US = 0xFFFFFFFFFFFFFFFF  # t_us of an error reply (virtual time never gets there)
+ERROR_MARK = b"\xff\xff\xff\xff\xff\xff\xff\xff"  # ERROR_T_US as it is on the wire
 ENV_PORT = "HEXHIL_LINK_PORT"
+
+
+class LinkError(OSError):
+    """The link cannot go on: the host sent an error reply, or closed it, or broke a limit.
+    The client reports it in one line and exits non-zero."""
+
+
+def error_reply(text):
+    """The bytes of an error reply carrying ``text`` (cut to fit ``MAX_REPLY_LEN``)."""
+    body = ERROR_MARK + text.encode()[:MAX_REPLY_LEN - 8]
+    n = len(body)
+    return bytes((n & 0xFF, n >> 8)) + body

@@ -44,11 +44,12 @@ class Link:
         self.out = bytearray(8192)
         self.outmv = memoryview(self.out)
         self.nout = 0
-        self.rx = bytearray(2048)
+        self.rx = bytearray(sim_link.MAX_REPLY_LEN)
         self.rxmv = memoryview(self.rx)
         self.t_us = 0
         self.io_us = 0       # wall time spent waiting on the host (profiling only)
         self.round_trips = 0
+        self.dead = False    # the host closed the link or refused a message: send no more
 
     def begin(self, op, n):
         """Reserve a message of ``n`` payload bytes; return the payload's offset in ``out``."""
@@ -88,7 +89,8 @@ class Link:
         while got < n:
             k = self.io.readinto(mv[got:n])
             if not k:
-                raise OSError("simulator link closed")
+                self.dead = True
+                raise sim_link.LinkError("the simulator closed the link")
             got += k
 
     def call(self):
@@ -100,15 +102,23 @@ class Link:
         self._write_all(self.nout)
         self._read_exact(2)
         length = self.rx[0] | (self.rx[1] << 8)
+        if length < 8 or length > len(self.rx):
+            self.dead = True
+            raise sim_link.LinkError("a reply of %d bytes is outside the link's limits (8-%d)"
+                                     % (length, len(self.rx)))
         self._read_exact(length)
         self.io_us += _perf_us() - t0
         self.round_trips += 1
+        if self.rx[0:8] == sim_link.ERROR_MARK:
+            self.dead = True
+            raise sim_link.LinkError(bytes(self.rx[8:length]).decode())
         self.t_us = struct.unpack_from("<Q", self.rx, 0)[0]
         return length
 
     def close(self):
         try:
-            self.flush()
+            if not self.dead:
+                self.flush()
         finally:
             self.sock.close()
 
@@ -184,11 +194,17 @@ class Board:
         self.switch_bits = 0
         self.switches = [Pin(self, i) for i in range(6)]
         self.ended = False
-        name = RUNTIME.encode()
-        self.link.post(sim_link.OP_HELLO, name, len(name))
+        hello = bytes((sim_link.VERSION,)) + RUNTIME.encode()
+        self.link.post(sim_link.OP_HELLO, hello, len(hello))
         length = self.link.call()
-        self.switch_bits = self.link.rx[8]
-        self._config = json.loads(bytes(self.link.rx[9:length]).decode()) if length > 9 else {}
+        rx = self.link.rx
+        if length < 10 or rx[8] != sim_link.VERSION:
+            self.link.dead = True
+            raise sim_link.LinkError("link version mismatch: the host speaks version %d, "
+                                     "this firmware speaks %d" % (rx[8] if length > 8 else 0,
+                                                                 sim_link.VERSION))
+        self.switch_bits = rx[9]
+        self._config = json.loads(bytes(rx[10:length]).decode()) if length > 10 else {}
 
     def config(self):
         """Settings the host passes at boot (scenario overrides of firmware/config.py)."""
@@ -216,18 +232,29 @@ class Board:
         link = self.link
         k = link.begin(sim_link.OP_SLEEP, 8)
         struct.pack_into("<Q", link.out, k, t_us)
-        length = link.call()
-        rx = link.rx
+        flags = self._take(link.call())
+        while flags & sim_link.FLAG_MORE:  # more queued frames than one reply holds
+            link.begin(sim_link.OP_MORE, 0)
+            flags = self._take(link.call())
+        if flags & sim_link.FLAG_END:
+            self.ended = True
+
+    def _take(self, length):
+        """The switches and CAN records of a sleep or more reply of ``length`` bytes; its flags."""
+        rx = self.link.rx
         flags = rx[8]
         self.switch_bits = rx[9]
         n = rx[10]
-        p = 11
+        p = sim_link.SLEEP_HEAD_LEN
+        if p + n * sim_link.CAN_RECORD_LEN > length:
+            self.link.dead = True
+            raise sim_link.LinkError("a sleep reply of %d bytes announces %d CAN frames"
+                                     % (length, n))
         for _ in range(n):
             arb_id, dlc = struct.unpack_from("<HB", rx, p)
             self.can.rxq.append((arb_id, bytes(rx[p + 3:p + 3 + dlc])))
             p += sim_link.CAN_RECORD_LEN
-        if flags & sim_link.FLAG_END:
-            self.ended = True
+        return flags
 
     def event(self, kind, text):
         data = text.encode() if isinstance(text, str) else text

@@ -17,4 +17,12 @@ events = [sim_link.EVENT_LOG, sim_link.EVENT_EXCEPTION, sim_link.EVENT_STOP,
 check(events == list(range(6)), "event kinds 0-5")
 check(sim_link.FLAG_END == 1, "end flag is bit 0")
 check(sim_link.ENV_PORT == "HEXHIL_LINK_PORT", "port variable")
+check(sim_link.VERSION == 1, "link version 1")
+check(sim_link.OP_MORE == ord("M") and sim_link.OP_MORE not in ops.values(), "op M is new")
+check(sim_link.FLAG_MORE == 2, "more flag is bit 1")
+check(sim_link.SLEEP_HEAD_LEN + sim_link.MAX_CAN_PER_REPLY * sim_link.CAN_RECORD_LEN
+      <= sim_link.MAX_REPLY_LEN < sim_link.SLEEP_HEAD_LEN
+      + (sim_link.MAX_CAN_PER_REPLY + 1) * sim_link.CAN_RECORD_LEN, "most frames a reply holds")
+check(struct.unpack("<Q", sim_link.ERROR_MARK)[0] == sim_link.ERROR_T_US, "error mark")
+check(isinstance(sim_link.LinkError("x"), OSError), "a link error is an OSError")
 done("sim_link")

@@ -1,0 +1,49 @@
+"""The link's refusals (docs/link.md): a hello of another version and a message of an
+unknown op get an error reply, and each side says so in one line; the real firmware
+handles a refused or other-version hello and a closed link the same way."""
+import sys
+
+import pytest
+
+from hil import link_conformance as lc
+from hil.link import firmware_env
+from hil.scenario import SCHEMA
+from hil.sim import Simulator
+from protocol.errors import UserError
+from mpy import micropython_binary
+
+ENV = {k: v for k, v in firmware_env(0).items() if k in ("MICROPYPATH", "PYTHONPATH")}
+RUNTIMES = {"micropython": micropython_binary, "cpython": lambda: sys.executable}
+
+
+def _bare():
+    sc = {s: {} for s in SCHEMA}
+    sc["_path"] = "<test>"
+    return sc
+
+
+@pytest.mark.parametrize("runtime", sorted(RUNTIMES))
+def test_the_host_refuses_a_firmware_of_another_version(runtime):
+    cmd = [RUNTIMES[runtime](), "tests/link_clients/firmware_other_version.py"]
+    with pytest.raises(UserError, match="^firmware link: link version mismatch: the firmware "
+                       "speaks version 2, this host speaks 1$"):
+        Simulator(_bare(), seed=1).run(0.2, command=cmd)
+
+
+@pytest.mark.parametrize("runtime", sorted(RUNTIMES))
+def test_the_host_refuses_an_unknown_op(runtime):
+    cmd = [RUNTIMES[runtime](), "tests/link_clients/unknown_op.py"]
+    with pytest.raises(UserError, match="^firmware link: unknown message op 0x7a$"):
+        Simulator(_bare(), seed=1).run(0.2, command=cmd)
+
+
+@pytest.mark.parametrize("session", ["refused_version", "other_version", "closed_link"])
+def test_the_firmware_reports_a_failed_link_in_one_line(session):
+    steps = []
+    s = lc.Session([micropython_binary(), "-m", "firmware.main"], ENV, 30.0)
+    try:
+        lc.SESSIONS[session][0](s, lambda: steps.append(session))
+    finally:
+        s.close()
+    assert steps == [session]
+
