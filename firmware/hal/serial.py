@@ -6,18 +6,18 @@ transaction and timing of hal/realtime.py, shared with hal/board.py, over a raw 
 (``termios.setraw``; reads byte by byte after ``select.poll`` says one is there, since a
 unix-port file has no non-blocking read). The six limit switches are read from the
 sensor node (hil/sensor_node.py, docs/servo-bus.md) once per cycle, right after the
-sleep, through the same bus master as the servos. CAN frames are counted and dropped,
-as on the F411. A hung-up line ends the loop at the next sleep. MicroPython-compatible (unix port, CPython).
+sleep, by the reader the firmware attaches as ``switch_reader`` (firmware/sensor_switches.py:
+the HAL does not import the application). CAN frames are counted and dropped (hal/base.py
+``CAN``), as on the F411. A hung-up line ends the loop at the next sleep.
+MicroPython-compatible (unix port, CPython).
 """
 import select
 import sys
 import termios
 
-from firmware import servo_bus
-from firmware.hal.realtime import HalfDuplexUART, WallClock
+from firmware.hal import base
+from firmware.hal.realtime import HalfDuplexUART
 
-SENSOR_ID = 100            # the sensor node's factory ID
-SWITCHES_ADDR = 26         # its Switches byte, bit i = leg i pressed
 LATENCY_US = 10000         # a pty under load or a USB adapter delivers a reply this late, at most
 BAUD_FLAGS = {1000000: "B1000000", 115200: "B115200", 57600: "B57600"}
 
@@ -72,32 +72,10 @@ class TtyUART:
         self.f.close()
 
 
-class _Switch:
-    def __init__(self, board, bit):
-        self.board = board
-        self.bit = bit
-
-    def value(self):
-        return 1 if self.board.switch_bits & self.bit else 0
-
-
-class _NoCAN:
-    """No CAN controller on this line: frames are counted and dropped."""
-
-    def __init__(self):
-        self.dropped = 0
-
-    def send(self, data, arb_id):
-        self.dropped += 1
-
-    def any(self):
-        return False
-
-
 def _args(argv):
     """``--serial PATH`` [``--baud N``] [``--config JSON``] [``--sensor-id N``]
     [``--latency-us N``]."""
-    out = {"--baud": "1000000", "--config": "{}", "--sensor-id": str(SENSOR_ID),
+    out = {"--baud": "1000000", "--config": "{}", "--sensor-id": "",
            "--latency-us": str(LATENCY_US)}
     i = 0
     while i < len(argv) - 1:
@@ -108,20 +86,19 @@ def _args(argv):
     return out
 
 
-class Board(WallClock):
+class Board(base.Board):
     def __init__(self, argv=None):
         import json
 
         a = _args(sys.argv if argv is None else argv)
-        baud = int(a["--baud"])
-        self.tty = TtyUART(a["--serial"], baud)
-        self.uart = HalfDuplexUART(self.tty, baud, None, int(a["--latency-us"]))
-        self.can = _NoCAN()
+        self.baud = int(a["--baud"])
+        self.tty = TtyUART(a["--serial"], self.baud)
+        self.uart = HalfDuplexUART(self.tty, self.baud, None, int(a["--latency-us"]))
+        self.can = base.CAN()
         self.switch_bits = 0
-        self.switches = [_Switch(self, 1 << i) for i in range(6)]
-        self.sensor_id = int(a["--sensor-id"])
-        self.sensor = servo_bus.Master(self.uart, [self.sensor_id], baud)
-        self.switch_reads = 0
+        self.switches = [base.Switch(self, i) for i in range(6)]
+        self.sensor_id = int(a["--sensor-id"]) if a["--sensor-id"] else None
+        self.switch_reader = None  # f(board) -> switch bits or None, set by the firmware
         self.ended = False
         self._config = json.loads(a["--config"])
 
@@ -129,19 +106,14 @@ class Board(WallClock):
         """Overrides of firmware/config.py given with ``--config JSON``."""
         return self._config
 
-    def _read_switches(self):
-        if self.sensor.read(self.sensor_id, SWITCHES_ADDR, 1, self):
-            self.switch_bits = self.sensor.parser.param(0) & 0x3F
-            self.switch_reads += 1
-
     def sleep_until(self, t_us):
         """Sleep on the wall clock, then read the switches for the cycle that starts."""
-        WallClock.sleep_until(self, t_us)
-        self._read_switches()
+        base.Board.sleep_until(self, t_us)
+        if self.switch_reader is not None:
+            bits = self.switch_reader(self)
+            if bits is not None:
+                self.switch_bits = bits
         self.ended = self.tty.hung
-
-    def event(self, kind, text):
-        print("event", kind, text)
 
     def close(self):
         self.tty.close()

@@ -11,6 +11,7 @@ import socket
 import struct
 import sys
 
+from firmware.hal import base
 from protocol import sim_link
 
 try:
@@ -147,43 +148,23 @@ class HalfDuplexUART:
         return got
 
 
-class Pin:
-    """A limit-switch input; its level is sampled by the host at each sleep."""
-
-    def __init__(self, board, index):
-        self.board = board
-        self.bit = 1 << index
-
-    def value(self):
-        return 1 if self.board.switch_bits & self.bit else 0
-
-
-class CAN:
+class CAN(base.CAN):
     """Classic CAN port: sends are posted, receives arrive with each sleep's reply."""
 
     def __init__(self, link):
+        base.CAN.__init__(self)
         self.link = link
-        self.rxq = []
-        self.rec = bytearray(sim_link.CAN_RECORD_LEN)
 
     def send(self, data, arb_id):
-        """Send ``data`` (<= 8 bytes) with standard ID ``arb_id`` (pyb.CAN's argument order)."""
         n = len(data)
         k = self.link.begin(sim_link.OP_CAN, 3 + n)
         out = self.link.out
         struct.pack_into("<HB", out, k, arb_id, n)
         out[k + 3:k + 3 + n] = data
 
-    def any(self):
-        return len(self.rxq) > 0
 
-    def recv(self):
-        """(arb_id, data) of the oldest received frame."""
-        return self.rxq.pop(0)
-
-
-class Board:
-    """Everything the firmware touches, wired to the simulator link."""
+class Board(base.Board):
+    """Everything the firmware touches, wired to the simulator link (virtual time)."""
 
     def __init__(self, port=None, io=None):
         if port is None and io is None:
@@ -192,7 +173,7 @@ class Board:
         self.uart = HalfDuplexUART(self.link)
         self.can = CAN(self.link)
         self.switch_bits = 0
-        self.switches = [Pin(self, i) for i in range(6)]
+        self.switches = [base.Switch(self, i) for i in range(6)]
         self.ended = False
         hello = bytes((sim_link.VERSION,)) + RUNTIME.encode()
         self.link.post(sim_link.OP_HELLO, hello, len(hello))
@@ -220,11 +201,9 @@ class Board:
         return a + dt
 
     def perf_us(self):
-        """Wall-clock microseconds, for profiling only (never for control)."""
         return _perf_us()
 
     def io_us(self):
-        """Wall time spent waiting on the host so far (profiling)."""
         return self.link.io_us
 
     def sleep_until(self, t_us):
