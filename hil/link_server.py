@@ -156,11 +156,11 @@ class LinkServer:
                                 f"{sim_link.VERSION}")
         bad = ls.problems(self.settings, ls.CONFIG)
         if bad:
-            raise UserError(f"the firmware config does not fit protocol/link_schema.py: {bad[0]}")
+            raise LinkViolation(f"the config does not fit protocol/link_schema.py: {bad[0]}")
         config = json.dumps(self.settings, sort_keys=True).encode()
         if len(config) + 10 > sim_link.MAX_REPLY_LEN:
-            raise UserError(f"the firmware config is {len(config)} bytes of JSON: the hello "
-                            f"reply holds {sim_link.MAX_REPLY_LEN - 10}")
+            raise LinkViolation(f"the config is {len(config)} bytes of JSON: the hello reply "
+                                f"holds {sim_link.MAX_REPLY_LEN - 10}")
         return struct.pack("<BB", sim_link.VERSION,
                            self.switches.sample(self.clock.t_us, result)) + config
 

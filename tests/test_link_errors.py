@@ -1,6 +1,7 @@
 """The link's refusals (docs/link.md): a hello of another version and a message of an
 unknown op get an error reply, and each side says so in one line; the real firmware
 handles a refused or other-version hello and a closed link the same way."""
+import re
 import sys
 
 import pytest
@@ -31,9 +32,17 @@ def test_the_host_refuses_a_firmware_of_another_version(runtime):
 
 
 @pytest.mark.parametrize("runtime", sorted(RUNTIMES))
-def test_the_host_refuses_an_unknown_op(runtime):
-    cmd = [RUNTIMES[runtime](), "tests/link_clients/unknown_op.py"]
-    with pytest.raises(UserError, match="^firmware link: unknown message op 0x7a$"):
+@pytest.mark.parametrize("op, payload, said", [
+    ("7a", "3f3f", "unknown message op 0x7a"),
+    ("43", "2301" + "09" + "00" * 9, "malformed CAN message (12 bytes)"),
+    ("43", "230102" + "00", "malformed CAN message (4 bytes)"),
+    ("45", "", "malformed event (no kind byte)"),
+    ("45", "03" + b"{bad".hex(), "malformed event 3: "),
+    ("58", "0008", "malformed message: "),
+])
+def test_the_host_refuses_an_unknown_or_malformed_message(runtime, op, payload, said):
+    cmd = [RUNTIMES[runtime](), "tests/link_clients/raw_message.py", op, payload]
+    with pytest.raises(UserError, match="^firmware link: " + re.escape(said)):
         Simulator(_bare(), seed=1).run(0.2, command=cmd)
 
 

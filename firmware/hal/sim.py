@@ -1,4 +1,4 @@
-"""HAL back end for the simulator link: machine-like UART, Pin, CAN and clock over TCP.
+"""HAL back end for the simulator link: machine-like UART, switches, CAN and clock over TCP.
 
 Each call that needs the outside world is answered by the host simulator in virtual time
 (see sim_link.py), so runs are deterministic and faster than real time. Firmware compute is
@@ -100,8 +100,14 @@ class Link:
         The reply payload is in ``rx[0:length]``; its first 8 bytes are the virtual time.
         """
         t0 = _perf_us()
-        self._write_all(self.nout)
-        self._read_exact(2)
+        try:
+            self._write_all(self.nout)
+            self._read_exact(2)
+        except sim_link.LinkError:
+            raise
+        except OSError as exc:   # reset or broken pipe: the host is gone
+            self.dead = True
+            raise sim_link.LinkError("the simulator link failed: %s" % exc)
         length = self.rx[0] | (self.rx[1] << 8)
         if length < 8 or length > len(self.rx):
             self.dead = True
