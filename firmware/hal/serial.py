@@ -2,7 +2,8 @@
 
 ``micropython firmware/main.py --serial /dev/pts/N`` (``hexhil bus --world`` prints the
 pty; a USB adapter's /dev/ttyUSB0 reaches a real bus) runs the board's code path: the
-transaction and timing of hal/realtime.py, shared with hal/board.py, over a raw tty
+transaction of hal/realtime.py and the wall clock of hal/base.py, shared with hal/board.py,
+over a raw tty
 (``termios.setraw``; reads byte by byte after ``select.poll`` says one is there, since a
 unix-port file has no non-blocking read). The six limit switches are read from the
 sensor node (hil/sensor_node.py, docs/servo-bus.md) once per cycle, right after the
