@@ -71,8 +71,12 @@ class Session:
         srv.settimeout(timeout_s)
         full_env = {**os.environ, **env, sim_link.ENV_PORT: str(srv.getsockname()[1])}
         self.timeout_s = timeout_s
-        self.proc = subprocess.Popen(list(command), cwd=ROOT, env=full_env,
-                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        try:
+            self.proc = subprocess.Popen(list(command), cwd=ROOT, env=full_env,
+                                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        except OSError as exc:
+            srv.close()
+            raise Mismatch(f"cannot start the client {' '.join(command)}: {exc}") from None
         try:
             sock, _ = srv.accept()
         except socket.timeout:
