@@ -9,8 +9,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, NamedTuple
 
-from firmware import config as fw_config
-from hil.link_server import firmware_settings
 from hil.run_result import body_displacement
 from host_tools.expect import steps as steps_mod
 from host_tools.expect.spec import Case, Expectation, Kind, Range, Stat
@@ -127,16 +125,19 @@ def _body(e: Expectation, rec: Recording) -> tuple[str, str, bool, float | None,
     return measured, limit, ok, p1.t_s, value
 
 
-def _tactile(case: Case, e: Expectation, rec: Recording, tactile: bool | None
+def _tactile(case: Case, e: Expectation, rec: Recording
              ) -> tuple[str, str, bool, float | None, float | None]:
-    cfg = fw_config.merged(firmware_settings(dict(case.scenario), tactile))
-    h_k = cfg["max_obstacle_height_m"] + steps_mod.OBSTACLE_CLEARANCE_M
-    l_k = steps_mod.STEP_FACTOR * cfg["step_length_m"]
+    """H from the expectation, else the scenario's gait (the loader makes sure of one);
+    l_i is the scenario's step length, else protocol/hexapod.py's."""
+    gait = case.scenario["gait"]
+    h_k = e.get("max_obstacle_height_m", gait.get("max_obstacle_height_m")) \
+        + steps_mod.OBSTACLE_CLEARANCE_M
+    l_k = steps_mod.STEP_FACTOR * gait.get("step_length_m", hexapod.STEP_LENGTH_M)
     h_tol, l_tol = e.get("h_tolerance_m"), e.get("l_tolerance_m")
     limit = f"h_k {h_k:.3f}±{h_tol:g} m, l_k {l_k:.3f}±{l_tol:g} m (Eq. 6-7)"
     joints = [(t, [j["position"] for j in m["joints"]]) for t, m in rec.on(topics.T_JOINTS)]
     times = [t for t, _ in joints]
-    direction = math.radians(cfg["direction_deg"])
+    direction = math.radians(gait.get("direction_deg", 0.0))
     all_steps = [s for leg, track in enumerate(steps_mod.foot_tracks(joints))
                  for s in steps_mod.steps(times, track, leg, direction)]
     edges = [(t, m["leg"], bool(m["level"])) for t, m in rec.on(topics.T_SWITCHES)]
@@ -294,8 +295,7 @@ def _signal(e: Expectation, rec: Recording) -> tuple[str, str, bool, float | Non
     return f"{value:.6g}", limit, r.holds(value), t, value
 
 
-def evaluate(case: Case, summary: dict[str, Any], trace: Path,
-             tactile: bool | None = None) -> list[Outcome]:
+def evaluate(case: Case, summary: dict[str, Any], trace: Path) -> list[Outcome]:
     """Every expectation of ``case`` on the run that produced ``summary`` and ``trace``."""
     extra = {e.get("topic") for e in case.expectations if e.kind is Kind.SIGNAL}
     rec = read(trace, summary, extra)
@@ -304,7 +304,7 @@ def evaluate(case: Case, summary: dict[str, Any], trace: Path,
         Kind.PROTOCOL: _protocol, Kind.FAULT_RESPONSE: _fault, Kind.CAN: _can,
         Kind.SERVO_LIMITS: _servo_limits, Kind.NO_EXCEPTION: _no_exception,
         Kind.SIGNAL: _signal,
-        Kind.TACTILE_RULE: lambda e, r: _tactile(case, e, r, tactile)}
+        Kind.TACTILE_RULE: lambda e, r: _tactile(case, e, r)}
     out = []
     for e in case.expectations:
         measured, limit, ok, t_s, value = kinds[e.kind](e, rec)

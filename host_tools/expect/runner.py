@@ -122,7 +122,7 @@ def run_case(job: CaseRun) -> CaseResult:
         summary = run_scenario(job.scenario or dict(case.scenario), job.seed, case.duration_s,
                                job.python or case.python, tactile, trace, job.timing,
                                case.sends)
-        outcomes = tuple(evaluate(case, summary, trace, tactile))
+        outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
             Path(job.keep_dir).mkdir(parents=True, exist_ok=True)

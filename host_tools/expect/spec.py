@@ -80,7 +80,8 @@ KEYS: dict[Kind, dict[str, tuple[Any, bool]]] = {
                 "yaw_deg": (_RANGE, False)},
     Kind.SPEED: {"min_m_s": (float, True), "max_m_s": (float, False)},
     Kind.TACTILE_RULE: {"h_tolerance_m": (float, False), "l_tolerance_m": (float, False),
-                        "min_steps": (int, False), "min_press_s": (float, False)},
+                        "min_steps": (int, False), "min_press_s": (float, False),
+                        "max_obstacle_height_m": (float, False)},
     Kind.PROTOCOL: {"allow": (list, False)},
     Kind.FAULT_RESPONSE: {"fault": (str, True), "response": (str, True),
                           "within_s": (float, True)},
@@ -315,6 +316,11 @@ def load(path: str | Path) -> Case:
     if dup:
         raise UserError(f"{where}: key 'expect.name': {dup[0]!r} is used twice")
     sc = _hexapod(where, _scenario(where, p, data))
+    for i, e in enumerate(expectations):
+        if e.kind is Kind.TACTILE_RULE and e.get("max_obstacle_height_m") is None \
+                and "max_obstacle_height_m" not in sc["gait"]:
+            raise UserError(f"{where}: expect[{i}] ({e.name!r}): key 'max_obstacle_height_m' "
+                            f"is required (H of Eq. 7: the scenario's gait does not give it)")
     duration = float(case.get("duration_s", sc["scenario"].get(
         "duration_s", scenario_mod.DEFAULT_DURATION_S)))
     if not duration > 0:
