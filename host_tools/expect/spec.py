@@ -140,7 +140,7 @@ def _range(where: str, value: Any) -> Range:
         lo, hi = value.get("min"), value.get("max")
         if unknown or (lo is None and hi is None):
             raise UserError(f"{where} must be [low, high] or {{min = .., max = ..}}, got {value!r}")
-    elif isinstance(value, list) and len(value) == 2:
+    elif isinstance(value, (list, tuple)) and len(value) == 2:
         lo, hi = value
     else:
         raise UserError(f"{where} must be [low, high] or {{min = .., max = ..}}, got {value!r}")
@@ -208,7 +208,8 @@ def _check_kind(where: str, kind: Kind, values: dict[str, Any]) -> None:
             raise UserError(f"{where}: key '{key}' must be 0 or more, got {values[key]}")
 
 
-def _expectation(where: str, raw: Any, index: int) -> Expectation:
+def expectation(where: str, raw: Any, index: int = 0) -> Expectation:
+    """One ``[[expect]]`` table, checked (``where`` and ``index`` name it in errors)."""
     if not isinstance(raw, dict):
         raise UserError(f"{where}: each [[expect]] must be a table")
     name = raw.get("name")
@@ -310,7 +311,7 @@ def load(path: str | Path) -> Case:
     raw = data.get("expect")
     if not isinstance(raw, list) or not raw:
         raise UserError(f"{where}: key 'expect' is required: one [[expect]] table or more")
-    expectations = tuple(_expectation(where, e, i) for i, e in enumerate(raw))
+    expectations = tuple(expectation(where, e, i) for i, e in enumerate(raw))
     names = [e.name for e in expectations]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
