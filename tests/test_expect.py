@@ -4,6 +4,8 @@ validates against the common schema, exit codes 0 / 1 / 2, one-line errors namin
 the kept trace holds the failure at its moment."""
 from __future__ import annotations
 
+import dataclasses
+import math
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -169,7 +171,7 @@ def test_step_extraction_on_a_synthetic_track() -> None:
     track = []
     for k, t in enumerate(times):
         u = (t - 1.0) / 1.0
-        z = -0.085 + (0.03 * __import__("math").sin(u * 3.14159) if 0 < u < 1 else 0.0)
+        z = -0.085 + (0.03 * math.sin(u * math.pi) if 0 < u < 1 else 0.0)
         x = 0.2 + (0.05 * u if 0 < u < 1 else (0.05 if u >= 1 else 0.0))
         track.append((x, 0.0, z))
     (s,) = steps.steps(times, track, 0, 0.0)
@@ -187,3 +189,39 @@ def test_repeats_run_successive_seeds() -> None:
     jobs = runner.jobs_for([case], repeat=3, python="cpython-inprocess")
     assert [(j.label, j.seed) for j in jobs] == [
         (f"{case.name}#{k}", case.seed + k) for k in range(3)]
+
+
+def test_wrong_expectations_fail_with_their_measured_values(tmp_path: Path) -> None:
+    """Every kind can fail: the unplug case's run against expectations it does not meet."""
+    from host_tools.expect import runner
+
+    wrong = [
+        {"name": "ride", "kind": "fault_response", "fault": "unplug",
+         "response": "ride_through", "within_s": 4.0},
+        {"name": "heat", "kind": "fault_response", "fault": "overheat",
+         "response": "safe_stop", "within_s": 1.0},
+        {"name": "fast beat", "kind": "can", "message": "heartbeat", "rate_hz": [20, 30]},
+        {"name": "still walking", "kind": "can", "message": "heartbeat", "window_s": [7, 9],
+         "signals": {"state": [2, 2]}},
+        {"name": "far", "kind": "displacement", "dx_m": [1, 2]},
+        {"name": "sideways", "kind": "heading", "direction_deg": [80, 100]},
+        {"name": "fast", "kind": "speed", "min_m_s": 0.5},
+        {"name": "high", "kind": "pose", "z_m": {"min": 0.5}},
+        {"name": "cold", "kind": "servo_limits", "temperature_c": {"max": 20}},
+        {"name": "tactile", "kind": "tactile_rule", "max_obstacle_height_m": 0.05},
+        {"name": "count", "kind": "signal", "topic": "/can/heartbeat", "field": "state",
+         "stat": "edges", "limit": [0, 0]},
+    ]
+    case = spec.load(ROOT / "tests" / "firmware" / "unplug.toml")
+    case = dataclasses.replace(case, expectations=tuple(
+        spec.expectation("test", e, i) for i, e in enumerate(wrong)))
+    r = runner.run_case(runner.CaseRun(case, case.seed, "wrong", python="cpython-inprocess",
+                                       keep_dir=str(tmp_path)))
+    got = {o.name: o for o in r.outcomes}
+    assert [o.name for o in r.outcomes if o.passed] == []
+    assert got["ride"].measured.startswith("stopped 2.9")
+    assert got["heat"].measured == "no overheat fault in the window"
+    assert got["still walking"].t_s is not None and got["still walking"].t_s >= 7
+    assert got["tactile"].measured == "0 steps after a switch press"
+    assert got["count"].value >= 1   # walking -> safe stop
+    assert Path(r.trace).exists()
