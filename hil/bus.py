@@ -96,6 +96,12 @@ class Bus:
         self.on_bytes = on_bytes
         self.advance = advance
         self.monitor = None              # hil/master_check.py: sees what the master sends
+        # Timing-margin hooks (hexhil margin; both off by default). The master sees a received
+        # byte this long after it arrived (a USB-serial adapter's latency timer), and every
+        # servo answers after this delay whatever its register 5 holds (a Return Delay the
+        # master's configure write did not change).
+        self.rx_latency_us = 0
+        self.return_delay_override_us: int | None = None
         self._rx: list[_Burst] = []     # heard by the master, oldest first, never overlapping
         self._parser = dxl.Parser()
         self._off: set[int] = set()      # id(servo) of unplugged servos
@@ -141,6 +147,12 @@ class Bus:
             self._off.add(id(servo))
 
     # --- time -----------------------------------------------------------------------
+    def set_master_baud(self, baud: int) -> None:
+        """The master's UART runs at ``baud`` (a clock error): servos at another rate now
+        decode its bytes, and it theirs, with their own timing (``resample``)."""
+        self.baud = int(baud)
+        self._reindex()
+
     def byte_end_us(self, start_us: int, i: int) -> int:
         """When byte ``i`` of a burst starting at ``start_us`` has fully arrived."""
         return start_us + ((i + 1) * _US_BITS) // self.baud
@@ -211,7 +223,7 @@ class Bus:
             data = b.data
             i = b.read
             while i < len(data) and len(out) < n:
-                t = self.byte_end_us(b.start_us, i)
+                t = self.byte_end_us(b.start_us, i) + self.rx_latency_us
                 if t > deadline:
                     break
                 out.append(data[i])
@@ -357,7 +369,8 @@ class Bus:
         if not reply:
             return
         data = bytearray(reply)
-        start = t_us + s.return_delay_us
+        delay = self.return_delay_override_us
+        start = t_us + (s.return_delay_us if delay is None else delay)
         faults = self.faults
         if faults is not None:
             if faults.drop_status(s.id, start):

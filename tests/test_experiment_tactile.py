@@ -26,6 +26,18 @@ def test_executor_on_a_dask_cluster():
         assert ex.map(_square, [5, 6, 7], "t") == [25, 36, 49]
 
 
+def test_executor_hands_each_result_to_on_result_as_it_comes():
+    distributed = pytest.importorskip("distributed")
+    seen = []
+    Executor(1, progress=False).map(_square, [3, 1], "t", on_result=seen.append)
+    Executor(2, progress=False).map(_square, [2, 4], "t", on_result=seen.append)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        Executor(scheduler=cluster.scheduler_address, progress=False).map(
+            _square, [5], "t", on_result=seen.append)
+    assert seen[:2] == [9, 1] and sorted(seen[2:4]) == [4, 16] and seen[4:] == [25]
+
+
 def test_unreachable_scheduler_is_a_user_error():
     with pytest.raises(UserError, match="Dask scheduler"):
         Executor(scheduler="tcp://127.0.0.1:9", progress=False).map(_square, [1], "t")

@@ -30,6 +30,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "model": ("model", "the hexapod's robot description (URDF, MJCF)"),
     "render": ("render", "render a trace's ground truth to a video or PNG"),
     "grnn": ("grnn", "GRNN positional-error predictor: dataset, train, eval (seed 003)"),
+    "test": ("test", "run expectation files against the firmware: pass/fail, JUnit XML"),
+    "margin": ("margin", "sweep bus timing until a firmware's expectations fail"),
 }
 
 

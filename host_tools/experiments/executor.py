@@ -2,7 +2,8 @@
 distributed cluster. Every run is a pure function of its spec (scenario + seed), so results
 do not depend on where or in what order runs finish; they come back in spec order.
 
-A tqdm progress bar on stderr shows runs done and the estimated time left.
+A tqdm progress bar on stderr shows runs done and the estimated time left; ``on_result``
+hands each result to the caller as it comes (a command's own progress display).
 """
 from __future__ import annotations
 
@@ -30,23 +31,27 @@ class Executor:
         self.scheduler = scheduler
         self.progress = progress
 
-    def map(self, fn: Callable[[Any], Any], specs: Sequence[Any], desc: str) -> list[Any]:
+    def map(self, fn: Callable[[Any], Any], specs: Sequence[Any], desc: str,
+            on_result: Callable[[Any], None] | None = None) -> list[Any]:
         bar = tqdm(total=len(specs), desc=desc, unit="run", file=sys.stderr, disable=not self.progress,
                    dynamic_ncols=True)
         try:
             if self.scheduler:
-                return self._dask(fn, specs, bar)
+                return self._dask(fn, specs, bar, on_result)
             if self.workers == 1 or len(specs) <= 1:
                 out = []
                 for s in specs:
                     out.append(fn(s))
                     bar.update()
+                    if on_result is not None:
+                        on_result(out[-1])
                 return out
-            return self._local(fn, specs, bar)
+            return self._local(fn, specs, bar, on_result)
         finally:
             bar.close()
 
-    def _local(self, fn: Callable[[Any], Any], specs: Sequence[Any], bar: tqdm) -> list[Any]:
+    def _local(self, fn: Callable[[Any], Any], specs: Sequence[Any], bar: tqdm,
+               on_result: Callable[[Any], None] | None) -> list[Any]:
         results: list[Any] = [None] * len(specs)
         # forkserver: children never inherit MuJoCo or socket state from this process
         ctx = multiprocessing.get_context("forkserver")
@@ -55,9 +60,12 @@ class Executor:
             for fut in cf.as_completed(futures):
                 results[futures[fut]] = fut.result()
                 bar.update()
+                if on_result is not None:
+                    on_result(results[futures[fut]])
         return results
 
-    def _dask(self, fn: Callable[[Any], Any], specs: Sequence[Any], bar: tqdm) -> list[Any]:
+    def _dask(self, fn: Callable[[Any], Any], specs: Sequence[Any], bar: tqdm,
+              on_result: Callable[[Any], None] | None) -> list[Any]:
         from distributed import Client, as_completed
 
         try:
@@ -71,6 +79,8 @@ class Executor:
             for fut in as_completed(futures):
                 results[index[fut.key]] = fut.result()
                 bar.update()
+                if on_result is not None:
+                    on_result(results[index[fut.key]])
             return results
         finally:
             client.close()

@@ -1,0 +1,83 @@
+"""``hexhil margin SCENARIO --expect FILE``: sweep the servos' Return Delay, the USB-serial
+adapter's latency, the bit-error rate and a baud mismatch, in lockstep and in parallel, and
+report where the expectations stop holding (table, PNG heat map, first failing setting)."""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+
+from hil.link import IN_PROCESS, RUNTIMES
+
+
+def _run(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from hil import scenario as scenario_mod
+    from host_tools.cli import emit_json
+    from host_tools.expect import margin, spec
+    from protocol.errors import UserError
+
+    if args.jobs < 1:
+        raise UserError("--jobs must be at least 1")
+    case = spec.load(args.expect)
+    sc = scenario_mod.load(args.scenario)
+    case = dataclasses.replace(case, scenario=sc, name=sc["scenario"].get("name") or case.name,
+                               seed=sc["scenario"].get("seed", case.seed))
+    if args.duration is not None:
+        if not args.duration > 0:
+            raise UserError(f"--duration must be positive, got {args.duration}")
+        case = dataclasses.replace(case, duration_s=args.duration)
+    python = args.python or case.python
+    n = sum(len(v) for v in margin.AXES.values()) \
+        + len(margin.GRID_RETURN_DELAY_US) * len(margin.GRID_LATENCY_US)
+    bar = tqdm(total=n, desc="margin", unit="run", file=sys.stderr, disable=args.quiet,
+               dynamic_ncols=True)
+    try:
+        m = margin.sweep(case, python, workers=args.jobs, scheduler=args.scheduler,
+                         on_result=lambda r: bar.update())
+    finally:
+        bar.close()
+    for axis, points in m.axes.items():
+        print(f"\n{axis}")
+        for p in sorted(points, key=lambda p: p.settings[0][1]):
+            v = p.settings[0][1]
+            what = "holds" if p.holds else ("FAILS: " + ", ".join(p.failed)
+                                            + (f" ({p.measured[0]})" if p.measured else ""))
+            print(f"  {v:>10g}  {p.passed}/{p.total}  {what}")
+    rd, lat = m.grid_axes
+    print("\nReturn Delay (rows, us) x adapter latency (columns, us): expectations holding")
+    print("        " + "".join(f"{v:>8g}" for v in lat))
+    for i, r in enumerate(rd):
+        row = m.grid[i * len(lat):(i + 1) * len(lat)]
+        print(f"{r:>8g}" + "".join(f"{p.passed:>6}/{p.total}" for p in row))
+    print("\nfirst failing setting: " + ", ".join(
+        f"{k} {'none' if v is None else f'{v:g}'}" for k, v in m.first_failing().items()))
+    if args.png:
+        margin.heat_map(m, args.png, f"{case.name}: expectations of {args.expect} "
+                                     f"({case.duration_s:g} s, seed {case.seed})")
+        print(f"heat map: {args.png}")
+    if args.json:
+        emit_json(json.loads(json.dumps(margin.to_json(m))))
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("margin", help="sweep bus timing (Return Delay, adapter latency, bit "
+                                      "errors, baud) until the expectations fail",
+                       description=__doc__)
+    p.add_argument("scenario", help="scenario file (TOML), e.g. scenarios/flat-tripod.toml")
+    p.add_argument("--expect", required=True, metavar="FILE",
+                   help="expectation file (docs/testing.md) whose [[expect]] tables must hold")
+    p.add_argument("--duration", type=float, metavar="S",
+                   help="simulated seconds a run (default: the expectation file's)")
+    p.add_argument("--jobs", type=int, default=1, metavar="N", help="worker processes")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="run on this Dask distributed scheduler instead")
+    p.add_argument("--python", choices=(*RUNTIMES, IN_PROCESS),
+                   help=f"firmware runtime (default: the case's); {IN_PROCESS} is faster")
+    p.add_argument("--png", metavar="OUT.png", help="write the heat map")
+    p.add_argument("--json", action="store_true", help="print every point as JSON (last line)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_run)

@@ -1,0 +1,83 @@
+"""``hexhil test FILE...``: run expectation files (docs/testing.md) against our firmware and
+say pass or fail: a table, exit 0 (all pass), 1 (an expectation failed), 2 (bad input),
+JUnit XML for CI, and the trace of each failing case kept with its failures in it."""
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Sequence
+
+from hil.link import IN_PROCESS, RUNTIMES
+
+
+def table(results: Sequence) -> str:
+    """One row an expectation: case, expectation, measured value, limit, PASS/FAIL."""
+    rows = [("case", "expectation", "measured", "limit", "result")]
+    for r in results:
+        for o in r.outcomes:
+            rows.append((r.label, o.name, o.measured, o.limit, "pass" if o.passed else "FAIL"))
+    widths = [max(len(row[i]) for row in rows) for i in range(4)]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(row[:4], widths)) + "  " + row[4]
+             for row in rows]
+    lines.insert(1, "-" * len(lines[0]))
+    return "\n".join(lines)
+
+
+def _run(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from host_tools.expect import junit, runner, spec
+    from protocol.errors import UserError
+
+    if args.jobs < 1 or args.repeat < 1:
+        raise UserError("--jobs and --repeat must be at least 1")
+    cases = [spec.load(f) for f in args.files]
+    names = [c.name for c in cases]
+    if len(set(names)) != len(names):
+        dup = next(n for n in names if names.count(n) > 1)
+        raise UserError(f"two files name the case {dup!r}: give one a [case] name")
+    jobs = runner.jobs_for(cases, args.repeat, tactile=False if args.no_tactile else None,
+                           python=args.python, keep_dir=args.keep_traces)
+    bar = tqdm(total=len(jobs), desc="cases", unit="run", file=sys.stderr,
+               disable=args.quiet or len(jobs) < 2, dynamic_ncols=True)
+    try:
+        results = runner.run_all(jobs, args.jobs, args.scheduler, on_result=lambda r: bar.update())
+    finally:
+        bar.close()
+    print(table(results))
+    failed = [r for r in results if not r.passed]
+    n = sum(len(r.outcomes) for r in results)
+    bad = sum(not o.passed for r in results for o in r.outcomes)
+    print(f"{n - bad} of {n} expectations passed in {len(results)} runs"
+          + (f"; {bad} failed" if bad else ""))
+    for r in failed:
+        if r.trace:
+            print(f"trace of {r.label} (failures on /expectations): {r.trace}")
+    if args.junit:
+        junit.write(results, args.junit)
+    return 1 if failed else 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("test", help="run expectation files against the firmware: pass/fail, "
+                                    "JUnit XML", description=__doc__)
+    p.add_argument("files", nargs="+", metavar="FILE",
+                   help="expectation file (TOML, docs/testing.md), e.g. tests/firmware/*.toml")
+    p.add_argument("--junit", metavar="OUT.xml", help="write the results as JUnit XML")
+    p.add_argument("--jobs", type=int, default=1, metavar="N",
+                   help="cases run at once in worker processes (default 1)")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="run the cases on this Dask distributed scheduler instead")
+    p.add_argument("--repeat", type=int, default=1, metavar="N",
+                   help="run each case N times, repeat k with the case's seed + k")
+    p.add_argument("--keep-traces", metavar="DIR",
+                   help="keep the MCAP trace of every failing case here, its failed "
+                        "expectations on /expectations at the moment each failed")
+    p.add_argument("--python", choices=(*RUNTIMES, IN_PROCESS),
+                   help="firmware runtime for every case (default: each case's, else "
+                        f"micropython); {IN_PROCESS} is faster with the same digest")
+    p.add_argument("--no-tactile", action="store_true",
+                   help="run every case with the Eq. 5-7 obstacle rule off, as "
+                        "'hexhil run --no-tactile' (the tactile expectations should fail)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_run)

@@ -1,0 +1,130 @@
+"""The hexhil pytest plugin (entry point ``pytest11``: loaded by any pytest in an environment
+where hexhil is installed): run a scenario with the firmware from a test, get a typed result,
+check it with the expectation kinds of docs/testing.md, and see measured value against limit
+when a check fails, with the run's trace (the failure written into it) named in the report
+and in ``--junitxml`` as the test's ``trace`` property.
+
+Fixtures: ``hexhil_run`` (a function: scenario, seed, duration, runtime, tactile -> ``Run``).
+Helpers: ``Run.check(kind, **keys)``, ``assert_within(name, value, low, high)``.
+Options: ``--hexhil-python RUNTIME`` (default runtime), ``--hexhil-keep DIR`` (copy the
+trace of every failing test there).
+"""
+from __future__ import annotations
+
+import dataclasses
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import pytest
+
+
+@dataclass(frozen=True)
+class Run:
+    """A finished run: ``hexhil run --json``'s summary (plus ``violations``) and its trace."""
+
+    scenario: str
+    seed: int
+    python: str
+    summary: dict[str, Any]
+    trace: Path
+    case: Any = dataclasses.field(repr=False)        # host_tools.expect.spec.Case
+    _record: Callable[[Path], None] = dataclasses.field(repr=False)
+
+    @property
+    def body(self) -> dict[str, float]:
+        return self.summary["body"]
+
+    def check(self, kind: str, name: str | None = None, **keys: Any) -> Any:
+        """One expectation (an ``[[expect]]`` table's keys as arguments, ranges as
+        ``(low, high)`` or ``{"min": ..}``); returns its ``Outcome``, or fails the test
+        with measured value against limit, the failure written into a copy of the trace."""
+        from host_tools.expect import evaluate, runner, spec
+
+        table = {"name": name or kind, "kind": kind, **keys}
+        e = spec.expectation(f"{self.scenario} check", table)
+        (outcome,) = evaluate.evaluate(dataclasses.replace(self.case, expectations=(e,)),
+                                       self.summary, self.trace)
+        if not outcome.passed:
+            slug = "".join(c if c.isalnum() else "-" for c in outcome.name)
+            failed = self.trace.with_name(f"{self.trace.stem}-failed-{slug}.mcap")
+            runner.annotate(self.trace, failed, [outcome], self.summary["sim_time_s"])
+            self._record(failed)
+            where = f" at t={outcome.t_s:.3f} s" if outcome.t_s is not None else ""
+            raise AssertionError(f"{outcome.name}: measured {outcome.measured}; limit "
+                                 f"{outcome.limit}{where} (trace: {failed})")
+        return outcome
+
+
+def assert_within(name: str, value: float, low: float | None = None,
+                  high: float | None = None, unit: str = "") -> None:
+    """Fail with ``name: measured VALUE UNIT; limit [LOW, HIGH]`` unless low <= value <= high."""
+    from host_tools.expect.spec import Range
+
+    r = Range(low, high)
+    if not r.holds(value):
+        raise AssertionError(f"{name}: measured {value:.6g}{' ' + unit if unit else ''}; "
+                             f"limit {r}{' ' + unit if unit else ''}")
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    group = parser.getgroup("hexhil", "hexhil firmware-in-the-loop runs")
+    group.addoption("--hexhil-python", default=None, metavar="RUNTIME",
+                    help="firmware runtime of hexhil_run (default: the scenario's, else "
+                         "micropython; cpython-inprocess is faster, same digest)")
+    group.addoption("--hexhil-keep", default=None, metavar="DIR",
+                    help="copy the traces of every failing test here")
+
+
+@pytest.fixture
+def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
+               record_property: Callable[[str, Any], None]) -> Callable[..., Run]:
+    """``hexhil_run(scenario, seed=None, duration_s=None, python=None, tactile=None)``: run
+    a scenario file with our firmware, recorded to this test's tmp_path."""
+    from hil import scenario as scenario_mod
+    from host_tools.expect import runner, spec
+
+    traces: list[Path] = []
+    request.node.stash[_TRACES] = traces
+
+    def keep(path: Path) -> None:
+        traces.append(path)
+        record_property("trace", str(path))
+
+    def run(scenario: str | Path, seed: int | None = None, duration_s: float | None = None,
+            python: str | None = None, tactile: bool | None = None) -> Run:
+        sc = scenario_mod.load(scenario)
+        seed = sc["scenario"].get("seed", 0) if seed is None else seed
+        duration = duration_s or sc["scenario"].get("duration_s",
+                                                    scenario_mod.DEFAULT_DURATION_S)
+        python = (python or request.config.getoption("--hexhil-python")
+                  or sc["firmware"].get("python", "micropython"))
+        trace = tmp_path / f"{Path(scenario).stem}-seed{seed}-{len(traces)}.mcap"
+        summary = runner.run_scenario(sc, seed, duration, python, tactile, trace)
+        keep(trace)
+        case = spec.Case(name=Path(scenario).stem, path=Path(scenario), scenario=sc, seed=seed,
+                         duration_s=duration, tactile=tactile, python=python, expectations=())
+        return Run(str(scenario), seed, python, summary, trace, case, keep)
+
+    return run
+
+
+_TRACES = pytest.StashKey[list]()
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo) -> Any:
+    """A failing test's report names its traces (kept in DIR with --hexhil-keep)."""
+    report = yield
+    traces = item.stash.get(_TRACES, [])
+    if report.when == "call" and report.failed and traces:
+        keep_dir = item.config.getoption("--hexhil-keep")
+        paths = []
+        for t in traces:
+            if keep_dir:
+                Path(keep_dir).mkdir(parents=True, exist_ok=True)
+                t = Path(shutil.copy(t, Path(keep_dir) / f"{item.name}-{t.name}"))
+            paths.append(str(t))
+        report.sections.append(("hexhil traces", "\n".join(paths)))
+    return report

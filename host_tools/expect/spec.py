@@ -1,0 +1,336 @@
+"""Expectation files (TOML): a case (which scenario, how long, which seed) and what its run
+must show (``[[expect]]`` tables), loaded into frozen dataclasses with one-line errors.
+
+The format is documented for users in docs/testing.md; ``KEYS`` below is its one schema:
+every kind's keys, their types, which are required. A malformed file raises ``UserError``
+naming the file and the key (exit 2), before anything runs.
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from enum import Enum
+from pathlib import Path
+from typing import Any, Mapping
+
+from hil import scenario as scenario_mod
+from hil.link import IN_PROCESS, RUNTIMES
+from hil.master_check import KINDS as VIOLATION_KINDS
+from protocol import can_frames
+from protocol.errors import UserError
+
+
+class Kind(str, Enum):
+    """What an expectation measures (the ``kind`` key)."""
+
+    DISPLACEMENT = "displacement"      # body displacement in the start heading's frame
+    HEADING = "heading"                # direction of travel over the window
+    POSE = "pose"                      # world pose at the window's end
+    SPEED = "speed"                    # mean walking speed over the window
+    TACTILE_RULE = "tactile_rule"      # seed 003 Eq. 6-7 after each switch press
+    PROTOCOL = "protocol"              # the master's protocol violations (hil/master_check.py)
+    FAULT_RESPONSE = "fault_response"  # safe stop or ride-through after an injected fault
+    CAN = "can"                        # a DBC frame's rate and signal ranges
+    SERVO_LIMITS = "servo_limits"      # temperature, load, voltage never out of range
+    NO_EXCEPTION = "no_exception"      # the firmware raised nothing
+    SIGNAL = "signal"                  # any topic's field, a statistic, a range
+
+
+class Stat(str, Enum):
+    """The statistic of a ``signal`` expectation."""
+
+    MIN = "min"
+    MAX = "max"
+    MEAN = "mean"
+    AT = "at"          # the last value at or before ``at_s``
+    EDGES = "edges"    # how many times the value changed
+    COUNT = "count"    # how many messages
+
+
+FAULTS = ("unplug", "overheat", "voltage_sag", "bit_error", "stall", "drop_status")
+RESPONSES = ("safe_stop", "ride_through")
+RUNTIME_CHOICES = (*RUNTIMES, IN_PROCESS)
+
+
+@dataclass(frozen=True)
+class Range:
+    """Inclusive limits; None on a side means unbounded."""
+
+    low: float | None = None
+    high: float | None = None
+
+    def holds(self, value: float) -> bool:
+        return ((self.low is None or value >= self.low)
+                and (self.high is None or value <= self.high))
+
+    def __str__(self) -> str:
+        if self.low is not None and self.high is not None:
+            return f"[{self.low:g}, {self.high:g}]"
+        return f">= {self.low:g}" if self.low is not None else f"<= {self.high:g}"
+
+
+# kind -> key -> (type, required). "range" keys take [low, high] or {min = .., max = ..}.
+_RANGE = "range"
+KEYS: dict[Kind, dict[str, tuple[Any, bool]]] = {
+    Kind.DISPLACEMENT: {"dx_m": (_RANGE, False), "dy_m": (_RANGE, False),
+                        "dyaw_deg": (_RANGE, False)},
+    Kind.HEADING: {"direction_deg": (_RANGE, True)},
+    Kind.POSE: {"x_m": (_RANGE, False), "y_m": (_RANGE, False), "z_m": (_RANGE, False),
+                "yaw_deg": (_RANGE, False)},
+    Kind.SPEED: {"min_m_s": (float, True), "max_m_s": (float, False)},
+    Kind.TACTILE_RULE: {"h_tolerance_m": (float, False), "l_tolerance_m": (float, False),
+                        "min_steps": (int, False), "min_press_s": (float, False),
+                        "max_obstacle_height_m": (float, False)},
+    Kind.PROTOCOL: {"allow": (list, False)},
+    Kind.FAULT_RESPONSE: {"fault": (str, True), "response": (str, True),
+                          "within_s": (float, True)},
+    Kind.CAN: {"message": (str, True), "rate_hz": (_RANGE, False), "signals": (dict, False)},
+    Kind.SERVO_LIMITS: {"temperature_c": (_RANGE, False), "load_frac": (_RANGE, False),
+                        "voltage_v": (_RANGE, False), "ids": (list, False)},
+    Kind.NO_EXCEPTION: {},
+    Kind.SIGNAL: {"topic": (str, True), "field": (str, True), "stat": (str, True),
+                  "at_s": (float, False), "limit": (_RANGE, True)},
+}
+COMMON_KEYS = ("name", "kind", "window_s")
+AT_LEAST_ONE = (Kind.DISPLACEMENT, Kind.POSE, Kind.SERVO_LIMITS)
+CASE_KEYS: dict[str, type] = {"name": str, "scenario": str, "duration_s": float, "seed": int,
+                              "tactile": bool, "python": str, "send": list}
+TACTILE_DEFAULTS = {"h_tolerance_m": 0.01, "l_tolerance_m": 0.015, "min_steps": 1,
+                    "min_press_s": 0.04}
+
+
+@dataclass(frozen=True)
+class Expectation:
+    """One ``[[expect]]`` table: its name, kind, window and checked keys."""
+
+    name: str
+    kind: Kind
+    window_s: tuple[float, float | None] = (0.0, None)
+    values: tuple[tuple[str, Any], ...] = ()
+
+    def get(self, key: str, default: Any = None) -> Any:
+        for k, v in self.values:
+            if k == key:
+                return v
+        return default
+
+    def ranges(self) -> list[tuple[str, Range]]:
+        return [(k, v) for k, v in self.values if isinstance(v, Range)]
+
+
+@dataclass(frozen=True)
+class Case:
+    """A run to make (scenario, seed, duration, firmware settings) and what it must show."""
+
+    name: str
+    path: Path
+    scenario: Mapping[str, Any] = field(hash=False)
+    seed: int
+    duration_s: float
+    tactile: bool | None
+    python: str
+    expectations: tuple[Expectation, ...]
+    sends: tuple[tuple[int, int, bytes], ...] = ()   # (t_us, arbitration id, data) from the host
+
+
+def _range(where: str, value: Any) -> Range:
+    if isinstance(value, dict):
+        unknown = set(value) - {"min", "max"}
+        lo, hi = value.get("min"), value.get("max")
+        if unknown or (lo is None and hi is None):
+            raise UserError(f"{where} must be [low, high] or {{min = .., max = ..}}, got {value!r}")
+    elif isinstance(value, (list, tuple)) and len(value) == 2:
+        lo, hi = value
+    else:
+        raise UserError(f"{where} must be [low, high] or {{min = .., max = ..}}, got {value!r}")
+    for v in (lo, hi):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
+                              or not math.isfinite(v)):
+            raise UserError(f"{where} limits must be finite numbers, got {value!r}")
+    if lo is not None and hi is not None and lo > hi:
+        raise UserError(f"{where} low {lo} is above high {hi}")
+    return Range(None if lo is None else float(lo), None if hi is None else float(hi))
+
+
+def _typed(where: str, value: Any, want: Any) -> Any:
+    if want == _RANGE:
+        return _range(where, value)
+    if want is float and isinstance(value, (int, float)) and not isinstance(value, bool):
+        if not math.isfinite(value):
+            raise UserError(f"{where} must be a finite number, got {value}")
+        return float(value)
+    if not isinstance(value, want) or (want is int and isinstance(value, bool)):
+        names = {str: "a string", int: "an integer", float: "a number", bool: "true or false",
+                 list: "a list", dict: "a table"}
+        raise UserError(f"{where} must be {names[want]}, got {value!r}")
+    return value
+
+
+def _window(where: str, value: Any) -> tuple[float, float | None]:
+    r = _range(where, value)
+    start = r.low if r.low is not None else 0.0
+    if start < 0:
+        raise UserError(f"{where} must start at 0 s or later, got {value!r}")
+    return start, r.high
+
+
+def _check_kind(where: str, kind: Kind, values: dict[str, Any]) -> None:
+    """Rules between a kind's keys (the types are checked already)."""
+    if kind in AT_LEAST_ONE and not values:
+        raise UserError(f"{where}: kind '{kind.value}' needs at least one of "
+                        f"{', '.join(k for k in KEYS[kind] if k != 'ids')}")
+    if kind is Kind.PROTOCOL:
+        for v in values.get("allow", []):
+            if v not in VIOLATION_KINDS:
+                raise UserError(f"{where}: key 'allow': {v!r} is not a violation kind "
+                                f"({', '.join(VIOLATION_KINDS)})")
+    if kind is Kind.FAULT_RESPONSE:
+        if values["fault"] not in FAULTS:
+            raise UserError(f"{where}: key 'fault' must be one of {', '.join(FAULTS)}, "
+                            f"got {values['fault']!r}")
+        if values["response"] not in RESPONSES:
+            raise UserError(f"{where}: key 'response' must be one of {', '.join(RESPONSES)}, "
+                            f"got {values['response']!r}")
+    if kind is Kind.CAN:
+        signals = values.get("signals", {})
+        values["signals"] = tuple((k, _range(f"{where}: key 'signals.{k}'", v))
+                                  for k, v in sorted(signals.items()))
+    if kind is Kind.SIGNAL:
+        if values["stat"] not in [s.value for s in Stat]:
+            raise UserError(f"{where}: key 'stat' must be one of "
+                            f"{', '.join(s.value for s in Stat)}, got {values['stat']!r}")
+        values["stat"] = Stat(values["stat"])
+        if values["stat"] is Stat.AT and "at_s" not in values:
+            raise UserError(f"{where}: stat 'at' needs key 'at_s'")
+    for key in ("within_s", "min_m_s", "h_tolerance_m", "l_tolerance_m", "min_press_s"):
+        if key in values and values[key] < 0:
+            raise UserError(f"{where}: key '{key}' must be 0 or more, got {values[key]}")
+
+
+def expectation(where: str, raw: Any, index: int = 0) -> Expectation:
+    """One ``[[expect]]`` table, checked (``where`` and ``index`` name it in errors)."""
+    if not isinstance(raw, dict):
+        raise UserError(f"{where}: each [[expect]] must be a table")
+    name = raw.get("name")
+    label = f"{where}: expect[{index}]" + (f" ({name!r})" if isinstance(name, str) else "")
+    if not isinstance(name, str) or not name:
+        raise UserError(f"{label}: key 'name' is required (a string)")
+    if "kind" not in raw:
+        raise UserError(f"{label}: key 'kind' is required ({', '.join(k.value for k in Kind)})")
+    try:
+        kind = Kind(raw["kind"])
+    except ValueError:
+        raise UserError(f"{label}: key 'kind' must be one of "
+                        f"{', '.join(k.value for k in Kind)}, got {raw['kind']!r}") from None
+    keys = KEYS[kind]
+    values: dict[str, Any] = {}
+    for key, value in raw.items():
+        if key in COMMON_KEYS:
+            continue
+        if key not in keys:
+            raise UserError(f"{label}: unknown key '{key}' for kind '{kind.value}' "
+                            f"(known: {', '.join(sorted((*keys, *COMMON_KEYS)))})")
+        values[key] = _typed(f"{label}: key '{key}'", value, keys[key][0])
+    for key, (_, required) in keys.items():
+        if required and key not in values:
+            raise UserError(f"{label}: key '{key}' is required for kind '{kind.value}'")
+    _check_kind(label, kind, values)
+    window = _window(f"{label}: key 'window_s'", raw["window_s"]) if "window_s" in raw \
+        else (0.0, None)
+    if kind is Kind.TACTILE_RULE:
+        values = {**TACTILE_DEFAULTS, **values}
+    return Expectation(name, kind, window, tuple(sorted(values.items())))
+
+
+def _sends(where: str, raw: list[Any]) -> tuple[tuple[int, int, bytes], ...]:
+    """``case.send``: CAN frames (by DBC name, SI signal values) the host sends at a time."""
+    out = []
+    for i, e in enumerate(raw):
+        label = f"{where}: key 'case.send[{i}]'"
+        if not isinstance(e, dict) or set(e) - {"at_s", "message", "signals"} \
+                or "at_s" not in e or "message" not in e:
+            raise UserError(f"{label} must be a table {{at_s = .., message = .., "
+                            f"signals = {{..}}}}, got {e!r}")
+        at_s = _typed(f"{label}.at_s", e["at_s"], float)
+        if at_s < 0:
+            raise UserError(f"{label}.at_s must be 0 or more, got {at_s}")
+        signals = _typed(f"{label}.signals", e.get("signals", {}), dict)
+        try:
+            arb_id, data = can_frames.encode(_typed(f"{label}.message", e["message"], str),
+                                              **signals)
+        except (ValueError, TypeError, OverflowError) as exc:
+            raise UserError(f"{label}: {exc}") from None
+        out.append((int(round(at_s * 1e6)), arb_id, bytes(data)))
+    return tuple(sorted(out))
+
+
+def _scenario(where: str, path: Path, data: dict[str, Any]) -> dict[str, Any]:
+    """The case's scenario: the file ``case.scenario`` names (relative to this file), or
+    the scenario sections written in this file itself."""
+    inline = {k: v for k, v in data.items() if k not in ("case", "expect")}
+    ref = data.get("case", {}).get("scenario")
+    if ref is not None and inline:
+        raise UserError(f"{where}: key 'case.scenario' names a scenario, so this file cannot "
+                        f"also hold scenario sections ({', '.join(sorted(inline))})")
+    if ref is not None:
+        return scenario_mod.load(path.parent / ref)
+    if not inline:
+        raise UserError(f"{where}: key 'case.scenario' is required (or write the scenario's "
+                        f"sections in this file)")
+    return scenario_mod.check(inline, path)
+
+
+def _hexapod(where: str, sc: dict[str, Any]) -> dict[str, Any]:
+    if sc["world"].get("kind", "hexapod") != "hexapod":
+        raise UserError(f"{where}: key 'world.kind': hexhil test runs the hexapod firmware, "
+                        f"this scenario's world is {sc['world']['kind']}")
+    return sc
+
+
+def load(path: str | Path) -> Case:
+    """Read and check one expectation file."""
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise UserError(f"{p}: expectation file not found") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise UserError(f"{p}: cannot read expectation file ({exc.__class__.__name__})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise UserError(f"{p}: not valid TOML ({exc})") from None
+    where = str(p)
+    case = data.get("case", {})
+    if not isinstance(case, dict):
+        raise UserError(f"{where}: 'case' must be a table ([case])")
+    for key, value in case.items():
+        if key not in CASE_KEYS:
+            raise UserError(f"{where}: unknown key 'case.{key}' "
+                            f"(known: {', '.join(sorted(CASE_KEYS))})")
+        _typed(f"{where}: key 'case.{key}'", value, CASE_KEYS[key])
+    raw = data.get("expect")
+    if not isinstance(raw, list) or not raw:
+        raise UserError(f"{where}: key 'expect' is required: one [[expect]] table or more")
+    expectations = tuple(expectation(where, e, i) for i, e in enumerate(raw))
+    names = [e.name for e in expectations]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise UserError(f"{where}: key 'expect.name': {dup[0]!r} is used twice")
+    sc = _hexapod(where, _scenario(where, p, data))
+    for i, e in enumerate(expectations):
+        if e.kind is Kind.TACTILE_RULE and e.get("max_obstacle_height_m") is None \
+                and "max_obstacle_height_m" not in sc["gait"]:
+            raise UserError(f"{where}: expect[{i}] ({e.name!r}): key 'max_obstacle_height_m' "
+                            f"is required (H of Eq. 7: the scenario's gait does not give it)")
+    duration = float(case.get("duration_s", sc["scenario"].get(
+        "duration_s", scenario_mod.DEFAULT_DURATION_S)))
+    if not duration > 0:
+        raise UserError(f"{where}: key 'case.duration_s' must be positive, got {duration}")
+    python = case.get("python", sc["firmware"].get("python", "micropython"))
+    if python not in RUNTIME_CHOICES:
+        raise UserError(f"{where}: key 'case.python' must be one of "
+                        f"{', '.join(RUNTIME_CHOICES)}, got {python!r}")
+    return Case(name=case.get("name", p.stem), path=p, scenario=sc,
+                seed=case.get("seed", sc["scenario"].get("seed", 0)), duration_s=duration,
+                tactile=case.get("tactile"), python=python, expectations=expectations,
+                sends=_sends(where, case.get("send", [])))

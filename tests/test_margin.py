@@ -1,0 +1,61 @@
+"""``hexhil margin``: the bus hooks it sweeps (off by default, so every shipped run keeps its
+bytes) and a small sweep that finds the firmware's reply budget: a reply later than
+TIMEOUT_MARGIN_US (100 us, firmware/servo_bus.py) after its wire time is a time-out."""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from firmware.servo_bus import TIMEOUT_MARGIN_US
+from hil.bus import Bus
+from hil.clock import VirtualClock
+from hil.servo import Servo
+from host_tools.expect import margin, spec
+from protocol import ax12
+from protocol import dynamixel as dxl
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _bus() -> Bus:
+    s = Servo(1)
+    s.table[ax12.RETURN_DELAY_TIME] = 0
+    return Bus([s], VirtualClock())
+
+
+def test_latency_and_held_return_delay_delay_what_the_master_hears() -> None:
+    ping = dxl.ping(1)
+    arrival = {}
+    for name, setup in (("plain", lambda b: None),
+                        ("latency", lambda b: setattr(b, "rx_latency_us", 300)),
+                        ("delay", lambda b: setattr(b, "return_delay_override_us", 200))):
+        bus = _bus()
+        setup(bus)
+        bus.master_write(ping)
+        t0 = bus.clock.t_us
+        assert len(bus.master_read(6, 10_000)) == 6
+        arrival[name] = bus.clock.t_us - t0
+    assert arrival["latency"] - arrival["plain"] == 300
+    assert arrival["delay"] - arrival["plain"] == 200
+
+
+def test_a_master_off_the_servos_baud_is_heard_by_its_own_timing() -> None:
+    bus = _bus()
+    bus.set_master_baud(1_100_000)   # 10 % fast: the servo cannot decode the ping
+    bus.master_write(dxl.ping(1))
+    assert bus.master_read(6, 10_000) == b""
+
+
+def test_the_sweep_finds_the_firmwares_reply_budget(tmp_path: Path) -> None:
+    case = spec.load(ROOT / "tests" / "firmware" / "flat-tripod.toml")
+    case = dataclasses.replace(case, duration_s=6.0, expectations=(spec.expectation(
+        "test", {"name": "walks", "kind": "displacement", "window_s": [1, 6], "dx_m": [0.1, 1]}),))
+    m = margin.sweep(case, "cpython-inprocess",
+                     axes={"return_delay_us": (0, TIMEOUT_MARGIN_US, TIMEOUT_MARGIN_US + 20),
+                           "adapter_latency_us": (TIMEOUT_MARGIN_US, 1000)},
+                     grid=((0,), (0,)), workers=2)
+    assert m.first_failing() == {"return_delay_us": TIMEOUT_MARGIN_US + 20,
+                                 "adapter_latency_us": 1000}
+    assert m.grid[0].holds
+    margin.heat_map(m, str(tmp_path / "m.png"), "test")
+    assert (tmp_path / "m.png").stat().st_size > 1000
