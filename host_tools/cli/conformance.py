@@ -9,7 +9,8 @@ from protocol.errors import UserError
 
 def run(args: argparse.Namespace) -> int:
     from host_tools.cli.bus import parse_ids
-    from host_tools.conformance import format_table, run_checks
+    from host_tools.conformance import run_checks
+    from host_tools.conformance_report import format_table
 
     if args.baud <= 0:
         raise UserError(f"--baud must be positive, got {args.baud}")
