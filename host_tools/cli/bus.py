@@ -8,6 +8,7 @@ import sys
 from typing import Any
 
 from hil.can_server import DEFAULT_PORT
+from host_tools.cli import JSON_HELP
 from protocol.errors import UserError
 
 _FAULT_FLAGS = ("unplug", "stall", "overheat", "voltage_sag")
@@ -203,7 +204,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="stop after S seconds (default: until Ctrl-C/SIGTERM)")
     p.add_argument("--out", default=None, metavar="FILE.mcap",
                    help="record serial, CAN, ground truth, switches, faults and violations")
-    p.add_argument("--json", action="store_true", help="print the summary as JSON (last line)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.add_argument("--can-server", type=int, nargs="?", const=DEFAULT_PORT, metavar="PORT",
                    help="serve the rig's CAN bus (limit_switches frames) over socketcand "
                         f"(default port {DEFAULT_PORT}; 0 picks a free one)")
