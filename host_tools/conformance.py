@@ -134,7 +134,7 @@ class Checker:
                 return p
         if p is None and count:
             self.unanswered.append(f"{dxl.INSTRUCTION_NAMES[pkt[4]]} "
-                                   f"({f'{tries} tries' if retry else 'not repeatable'})")
+                                   f"({f'{tries} tries' if retry else 'once per attempt'})")
         return p
 
     def read(self, dev_id: int, address: int, n: int) -> bytes | None:
@@ -244,7 +244,7 @@ class Checker:
         ok = p is not None and bool(p.code & (dxl.ERR_RANGE | dxl.ERR_ANGLE_LIMIT)) \
             and goal == table[ax12.GOAL_POSITION:ax12.GOAL_POSITION + 2]
         self.add(i, "out_of_range_goal", ok,
-                 f"goal 1024 refused: {dxl.error_names(p.code)}" if ok else
+                 f"goal 1024 refused: {', '.join(dxl.error_names(p.code))} bit" if ok else
                  f"WRITE goal 1024: {said(p)}; goal afterwards "
                  f"{'unread' if goal is None else dxl.u16(goal[0], goal[1])}")
         if table[ax12.REGISTERED]:
@@ -260,10 +260,14 @@ class Checker:
             self.add(i, "reg_write_action", None, "an instruction is already registered")
             return
         led = table[ax12.LED]
-        p = self.ask(dxl.reg_write(i, ax12.LED, bytes((1 - led,))))
-        mid = self.read(i, ax12.LED, 20)  # LED(25) .. Registered(44)
-        q = self.ask(dxl.action(i), retry=False)  # a second ACTION finds nothing registered
-        after = self.read(i, ax12.LED, 20)
+        for _ in range(TRIES):  # ACTION alone cannot be repeated (it would find nothing
+            p = self.ask(dxl.reg_write(i, ax12.LED, bytes((1 - led,))))  # registered): redo both
+            mid = self.read(i, ax12.LED, 20)  # LED(25) .. Registered(44)
+            q = self.ask(dxl.action(i), retry=False)
+            after = self.read(i, ax12.LED, 20)
+            if q is not None:
+                break
+            self.write(i, ax12.LED, bytes((led,)), count=False)
         reg = ax12.REGISTERED - ax12.LED
         wrong = [w for w, bad in (
             (f"REG_WRITE: {said(p)}", p is None or p.code & _PROTOCOL_ERRORS),
