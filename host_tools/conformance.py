@@ -8,23 +8,30 @@ A line that echoes the master's bytes is detected and the echo stripped.
 
 Only the settings it tests are changed (Status Return Level, Return Delay Time, CW Angle
 Limit, Goal Position, LED); a real servo needs a few ms after an EEPROM write, so the
-checker pauses after each.
+checker pauses after each. An instruction whose repeat changes nothing (PING, READ, WRITE
+and REG_WRITE of the same data, ACTION with nothing registered, a bad packet) is sent again
+when its reply is missing or says the packet arrived corrupt; a check that still lacks a
+reply fails as "no reply" (a lost packet or a silent servo), not as a non-conforming servo.
 """
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass
 from typing import Any
 
 import serial
 
 from hil import sensor_node
+from host_tools.conformance_report import Cause, Check, summarise
 from protocol import ax12
 from protocol import dynamixel as dxl
 from protocol.errors import UserError
 
 EEPROM_PAUSE_S = 0.01
+TRIES = 3  # sends of a repeatable instruction before its reply counts as missing
+# before a resend after silence: a servo that took a corrupt length byte for a long packet
+# keeps reading until the line is quiet this long (protocol/dynamixel.py), then listens anew
+RESYNC_S = dxl.INTER_BYTE_TIMEOUT_US * 1e-6
 TIMING_ROUNDS = 3  # return-delay measurements, all taken: noise only adds time
 _NEED_REPLIES = ("bad_checksum_reply", "out_of_range_goal", "action_nothing_registered",
                  "reg_write_action", "angle_limit_error", "status_return_level",
@@ -33,12 +40,13 @@ SILENCE_S = 0.05  # how long "no reply" is awaited; a late reply can only turn a
 _PROTOCOL_ERRORS = dxl.ERR_ANGLE_LIMIT | dxl.ERR_RANGE | dxl.ERR_CHECKSUM | dxl.ERR_INSTRUCTION
 
 
-@dataclass
-class Check:
-    id: int | None
-    check: str
-    result: str  # "pass", "fail" or "skip"
-    detail: str
+def said(p: dxl.Packet | None) -> str:
+    """A status packet (or its absence) in words, for a failed check's detail."""
+    if p is None:
+        return "no reply"
+    errors = dxl.error_names(p.code)
+    return f"status from ID {p.id} with error bits {', '.join(errors)}" if errors else \
+        f"status from ID {p.id} with no error bit"
 
 
 class Link:
@@ -97,25 +105,51 @@ class Checker:
     def __init__(self, link: Link) -> None:
         self.link = link
         self.rows: list[Check] = []
+        self.unanswered: list[str] = []  # instructions the current check got no reply to
 
     def add(self, dev_id: int | None, name: str, ok: bool | None, detail: str) -> bool:
+        cause = Cause.NONE
+        if ok is False:
+            cause = Cause.NO_REPLY if self.unanswered else Cause.SERVO
+        if cause is Cause.NO_REPLY:
+            detail = f"no reply to {', '.join(dict.fromkeys(self.unanswered))}; {detail}"
         self.rows.append(Check(dev_id, name, "skip" if ok is None else ("pass" if ok else "fail"),
-                               detail))
+                               detail, cause.value))
+        self.unanswered = []
         return bool(ok)
 
     # --- helpers ---------------------------------------------------------------------
+    def ask(self, pkt: bytes, retry: bool = True, count: bool = True) -> dxl.Packet | None:
+        """The status ``pkt`` gets, sent up to TRIES times when ``retry`` (its repeat must change
+        nothing): again on no reply, or on a checksum error to a packet that left intact. A
+        reply still missing is noted against the current check unless ``count`` is False."""
+        intact = dxl.checksum(pkt, 2, len(pkt) - 1) == pkt[-1]
+        tries = TRIES if retry else 1
+        p = None
+        for n in range(tries):
+            if n and p is None:
+                time.sleep(RESYNC_S)
+            p = self.link.transact(pkt)[0]
+            if p is not None and not (intact and p.code & dxl.ERR_CHECKSUM):
+                return p
+        if p is None and count:
+            self.unanswered.append(f"{dxl.INSTRUCTION_NAMES[pkt[4]]} "
+                                   f"({f'{tries} tries' if retry else 'once per attempt'})")
+        return p
+
     def read(self, dev_id: int, address: int, n: int) -> bytes | None:
-        p, _ = self.link.transact(dxl.read(dev_id, address, n))
+        p = self.ask(dxl.read(dev_id, address, n))
         if p is None or p.id != dev_id or len(p.params) != n:
             return None
         return p.params
 
-    def write(self, dev_id: int, address: int, data: bytes, reply: bool = True) -> dxl.Packet | None:
+    def write(self, dev_id: int, address: int, data: bytes, reply: bool = True,
+              count: bool = True) -> dxl.Packet | None:
         pkt = dxl.write(dev_id, address, data)
         if not reply:
             self.link.silent(pkt, 0.005)
             return None
-        return self.link.transact(pkt)[0]
+        return self.ask(pkt, count=count)
 
     # --- the run --------------------------------------------------------------------
     def scan(self, ids: list[int] | None, scan_timeout_s: float) -> list[int]:
@@ -127,17 +161,16 @@ class Checker:
             return found
         found = []
         for i in ids:
-            p = self.link.transact(dxl.ping(i))[0]
+            p = self.ask(dxl.ping(i))
             if self.add(i, "present", p is not None, "answers PING" if p else "no answer to PING"):
                 found.append(i)
         return found
 
     def servo(self, i: int) -> None:
-        link = self.link
-        p = link.transact(dxl.ping(i))[0]
+        p = self.ask(dxl.ping(i))
         ok = p is not None and p.id == i and p.raw[3] == 2 and not p.code & _PROTOCOL_ERRORS
         self.add(i, "ping_status_format", ok,
-                 "FF FF ID 02 ERR CHK, no protocol error bits" if ok else f"got {p!r}")
+                 "FF FF ID 02 ERR CHK, no protocol error bits" if ok else f"PING: {said(p)}")
         table = self.read(i, 0, ax12.TABLE_SIZE)
         srl0 = None if table is None else table[ax12.STATUS_RETURN_LEVEL]
         if table is None:  # Status Return Level 0 answers PING only: lift it for the checks
@@ -183,58 +216,71 @@ class Checker:
 
     def sensor_node(self, i: int) -> None:
         """The limit-switch sensor node (hil/sensor_node.py): its table, switches read-only."""
-        p = self.link.transact(dxl.ping(i))[0]
+        p = self.ask(dxl.ping(i))
         ok = p is not None and p.raw[3] == 2 and not p.code & _PROTOCOL_ERRORS
-        self.add(i, "ping_status_format", ok, "sensor node answers PING" if ok else f"got {p!r}")
+        self.add(i, "ping_status_format", ok, "sensor node answers PING" if ok else f"PING: {said(p)}")
         table = self.read(i, 0, sensor_node.TABLE_SIZE)
         ok = table is not None and table[sensor_node.ID] == i
         self.add(i, "read_table", ok, f"sensor node table read, switches "
-                 f"0b{table[sensor_node.SWITCHES]:06b}" if ok else f"READ 0-27 gave {table!r}")
+                 f"0b{table[sensor_node.SWITCHES]:06b}" if ok else
+                 "READ 0-27 not answered" if table is None else f"ID cell says {table[sensor_node.ID]}")
         if not ok:
             return
         reply = self.write(i, sensor_node.SWITCHES, b"\x3f")
         after = self.read(i, sensor_node.SWITCHES, 1)
         ok = reply is not None and bool(reply.code & dxl.ERR_RANGE) and after is not None
         self.add(i, "switches_read_only", ok, "WRITE to Switches refused with the Range bit"
-                 if ok else f"WRITE to Switches answered {reply!r}")
+                 if ok else f"WRITE to Switches: {said(reply)}")
 
     def _errors(self, i: int, table: bytes) -> None:
         bad = bytearray(dxl.ping(i))
         bad[-1] ^= 0xA5
-        p = self.link.transact(bytes(bad))[0]
+        p = self.ask(bytes(bad))
         self.add(i, "bad_checksum_reply", p is not None and bool(p.code & dxl.ERR_CHECKSUM),
                  "answered with error bit 4 (checksum)" if p is not None and p.code & dxl.ERR_CHECKSUM
-                 else f"got {p!r}")
+                 else f"PING with a bad checksum: {said(p)}")
         p = self.write(i, ax12.GOAL_POSITION, (1024).to_bytes(2, "little"))
         goal = self.read(i, ax12.GOAL_POSITION, 2)
         ok = p is not None and bool(p.code & (dxl.ERR_RANGE | dxl.ERR_ANGLE_LIMIT)) \
             and goal == table[ax12.GOAL_POSITION:ax12.GOAL_POSITION + 2]
         self.add(i, "out_of_range_goal", ok,
-                 f"goal 1024 refused: {dxl.error_names(p.code)}" if ok else
-                 f"reply {p!r}, goal now {goal!r}")
+                 f"goal 1024 refused: {', '.join(dxl.error_names(p.code))} bit" if ok else
+                 f"WRITE goal 1024: {said(p)}; goal afterwards "
+                 f"{'unread' if goal is None else dxl.u16(goal[0], goal[1])}")
         if table[ax12.REGISTERED]:
             self.add(i, "action_nothing_registered", None, "an instruction is registered; not fired")
         else:
-            p = self.link.transact(dxl.action(i))[0]
+            p = self.ask(dxl.action(i))
             self.add(i, "action_nothing_registered", p is not None and bool(p.code & dxl.ERR_INSTRUCTION),
-                     "instruction error" if p is not None and p.code & dxl.ERR_INSTRUCTION else f"got {p!r}")
+                     "instruction error" if p is not None and p.code & dxl.ERR_INSTRUCTION
+                     else f"ACTION: {said(p)}")
 
     def _registered(self, i: int, table: bytes) -> None:
         if table[ax12.REGISTERED]:
             self.add(i, "reg_write_action", None, "an instruction is already registered")
             return
         led = table[ax12.LED]
-        p = self.link.transact(dxl.reg_write(i, ax12.LED, bytes((1 - led,))))[0]
-        mid = self.read(i, ax12.LED, 20)  # LED(25) .. Registered(44)
-        q = self.link.transact(dxl.action(i))[0]
-        after = self.read(i, ax12.LED, 20)
-        ok = (p is not None and not p.code & _PROTOCOL_ERRORS and mid is not None
-              and mid[0] == led and mid[ax12.REGISTERED - ax12.LED] == 1 and q is not None
-              and not q.code & _PROTOCOL_ERRORS and after is not None and after[0] == 1 - led
-              and after[ax12.REGISTERED - ax12.LED] == 0)
-        self.add(i, "reg_write_action", ok, "REG_WRITE held (Registered=1), ACTION applied it"
-                 if ok else f"reg {p!r} mid {mid!r} action {q!r} after {after!r}")
-        self.write(i, ax12.LED, bytes((led,)))
+        for _ in range(TRIES):  # ACTION alone cannot be repeated (it would find nothing
+            p = self.ask(dxl.reg_write(i, ax12.LED, bytes((1 - led,))))  # registered): redo both
+            mid = self.read(i, ax12.LED, 20)  # LED(25) .. Registered(44)
+            q = self.ask(dxl.action(i), retry=False)
+            after = self.read(i, ax12.LED, 20)
+            if q is not None:
+                break
+            self.write(i, ax12.LED, bytes((led,)), count=False)
+        reg = ax12.REGISTERED - ax12.LED
+        wrong = [w for w, bad in (
+            (f"REG_WRITE: {said(p)}", p is None or p.code & _PROTOCOL_ERRORS),
+            ("READ after REG_WRITE not answered", mid is None),
+            ("LED changed before ACTION", mid is not None and mid[0] != led),
+            ("Registered not 1 after REG_WRITE", mid is not None and mid[reg] != 1),
+            (f"ACTION: {said(q)}", q is None or q.code & _PROTOCOL_ERRORS),
+            ("READ after ACTION not answered", after is None),
+            ("LED unchanged after ACTION", after is not None and after[0] != 1 - led),
+            ("Registered not 0 after ACTION", after is not None and after[reg] != 0)) if bad]
+        self.add(i, "reg_write_action", not wrong, "; ".join(wrong) or
+                 "REG_WRITE held (Registered=1), ACTION applied it")
+        self.write(i, ax12.LED, bytes((led,)), count=False)
 
     def _angle_limit(self, i: int, table: bytes) -> None:
         pos = ax12.get(table, ax12.PRESENT_POSITION, 2)
@@ -248,27 +294,30 @@ class Checker:
         p = self.write(i, ax12.GOAL_POSITION, pos.to_bytes(2, "little"))
         ok = p is not None and bool(p.code & dxl.ERR_ANGLE_LIMIT)
         self.add(i, "angle_limit_error", ok, f"goal {pos} below CW limit {pos + 1}: angle limit bit"
-                 if ok else f"got {p!r}")
-        self.write(i, ax12.GOAL_POSITION, table[ax12.GOAL_POSITION:ax12.GOAL_POSITION + 2])
-        self.write(i, ax12.CW_ANGLE_LIMIT, table[ax12.CW_ANGLE_LIMIT:ax12.CW_ANGLE_LIMIT + 2])
+                 if ok else f"WRITE goal {pos} below CW limit {pos + 1}: {said(p)}")
+        self.write(i, ax12.GOAL_POSITION, table[ax12.GOAL_POSITION:ax12.GOAL_POSITION + 2], count=False)
+        self.write(i, ax12.CW_ANGLE_LIMIT, table[ax12.CW_ANGLE_LIMIT:ax12.CW_ANGLE_LIMIT + 2],
+                   count=False)
         time.sleep(EEPROM_PAUSE_S)
 
     def _return_levels(self, i: int) -> None:
         link = self.link
         led = self.read(i, ax12.LED, 1)
-        seen = {}
+        wrong = []
         for level in (1, 0):
             self.write(i, ax12.STATUS_RETURN_LEVEL, bytes((level,)), reply=False)
             time.sleep(EEPROM_PAUSE_S)
-            seen[level] = (link.transact(dxl.ping(i))[0] is not None,
-                           not link.silent(dxl.read(i, ax12.LED, 1)) if level == 0 else
-                           link.transact(dxl.read(i, ax12.LED, 1))[0] is not None,
-                           not link.silent(dxl.write(i, ax12.LED, led or b"\x00")))
+            for name, pkt in (("PING", dxl.ping(i)), ("READ", dxl.read(i, ax12.LED, 1)),
+                              ("WRITE", dxl.write(i, ax12.LED, led or b"\x00"))):
+                if name == "PING" or (name == "READ" and level == 1):
+                    if self.ask(pkt) is None:
+                        wrong.append(f"level {level}: {name} not answered")
+                elif not link.silent(pkt):
+                    wrong.append(f"level {level}: {name} answered (must be silent)")
         self.write(i, ax12.STATUS_RETURN_LEVEL, b"\x02", reply=False)
         time.sleep(EEPROM_PAUSE_S)
-        ok = seen == {1: (True, True, False), 0: (True, False, False)}
-        self.add(i, "status_return_level", ok, "level 1: PING+READ answered; level 0: PING only"
-                 if ok else f"(ping, read, write) answered: {seen}")
+        self.add(i, "status_return_level", not wrong, "; ".join(wrong) or
+                 "level 1: PING+READ answered; level 0: PING only")
 
     def _timing(self, i: int, table: bytes) -> None:
         link = self.link
@@ -282,7 +331,8 @@ class Checker:
                 time.sleep(EEPROM_PAUSE_S)
                 best[rd] = min(best[rd], *(link.transact(dxl.ping(i))[1] for _ in range(7)))
         ok = best[250] >= floor - 100e-6 and best[250] - best[0] >= 300e-6
-        self.write(i, ax12.RETURN_DELAY_TIME, table[ax12.RETURN_DELAY_TIME:ax12.RETURN_DELAY_TIME + 1])
+        self.write(i, ax12.RETURN_DELAY_TIME, table[ax12.RETURN_DELAY_TIME:ax12.RETURN_DELAY_TIME + 1],
+                   count=False)
         time.sleep(EEPROM_PAUSE_S)
         self.add(i, "return_delay_timing", ok,
                  f"fastest PING round trip {best[0] * 1e3:.2f} ms at delay 0, "
@@ -291,7 +341,7 @@ class Checker:
     def _restore(self, i: int, table: bytes, srl0: int, locked: bool) -> None:
         after = self.read(i, 0, ax12.TABLE_SIZE)  # still at Status Return Level 2
         if after is None:
-            self.add(i, "restored", False, "READ of the table failed")
+            self.add(i, "restored", False, "the table could not be read back to compare")
             return
         rw = [f for f in ax12.FIELDS if f[3] == ax12.RW and f[0] != ax12.STATUS_RETURN_LEVEL]
         changed = [f[1] for f in rw if ax12.get(after, f[0], f[2]) != ax12.get(table, f[0], f[2])]
@@ -321,21 +371,4 @@ def run_checks(port: str, baud: int, ids: list[int] | None, timeout_s: float = 0
                 checker.servo(i)
     finally:
         link.close()
-    rows = checker.rows
-    return {"port": port, "baud": baud, "echo": link.echo, "servos": found,
-            "ok": bool(rows) and all(r.result != "fail" for r in rows),
-            "passed": sum(r.result == "pass" for r in rows),
-            "failed": sum(r.result == "fail" for r in rows),
-            "skipped": sum(r.result == "skip" for r in rows),
-            "checks": [asdict(r) for r in rows]}
-
-
-def format_table(result: dict[str, Any]) -> str:
-    lines = [f"{'id':>4}  {'check':<26} {'result':<6} detail"]
-    for r in result["checks"]:
-        sid = "-" if r["id"] is None else str(r["id"])
-        lines.append(f"{sid:>4}  {r['check']:<26} {r['result'].upper():<6} {r['detail']}")
-    lines.append(f"{result['passed']} passed, {result['failed']} failed, {result['skipped']} skipped"
-                 f" on {result['port']} at {result['baud']} bps"
-                 + (" (echo detected and stripped)" if result["echo"] else ""))
-    return "\n".join(lines)
+    return summarise(port, baud, link.echo, found, checker.rows)

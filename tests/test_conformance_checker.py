@@ -77,6 +77,34 @@ def test_a_non_conforming_servo_fails_and_exits_1():
     failed = sorted((c["id"], c["check"]) for c in result["checks"] if c["result"] == "fail")
     assert rc == 1 and not result["ok"]
     assert failed == [(1, "bad_checksum_reply"), (2, "return_delay_timing"), (3, "present")], out
+    # a wrong reply is the servo's; silence may be a lost packet or a servo that says nothing
+    causes = {(c["id"], c["check"]): c["cause"] for c in result["checks"] if c["result"] == "fail"}
+    assert causes == {(1, "bad_checksum_reply"): "no reply", (2, "return_delay_timing"): "servo",
+                      (3, "present"): "no reply"}, out
+    assert "[not conforming] fastest PING" in out and "[lost reply or silent servo] no reply to PING (3 tries)" in out
+
+
+def test_lost_replies_are_retried_and_never_blamed_on_the_servo():
+    """One status in ten dropped: repeatable instructions are sent again, and what still fails
+    is reported as a missing reply, not as a non-conforming servo; identical rows collapse."""
+    with bus_server("--ids", "1-3", "--drop-status-rate", "0.1", "--seed", "1") as path:
+        rc, result, out = conformance(path, "--ids", "1-3", "--timeout-ms", "50")
+    rows = result["checks"]
+    assert [c["result"] for c in rows if c["check"] == "present"] == ["pass"] * 3, out
+    assert result["passed"] >= 30 and all(c["cause"] == "no reply" for c in rows
+                                          if c["result"] == "fail"), out
+    assert result["no_reply"] == result["failed"] and rc == (1 if result["failed"] else 0)
+    assert "1-3  present                    PASS   answers PING" in out
+
+
+def test_results_shared_by_servos_are_shown_once_with_their_ids():
+    from host_tools.conformance_report import collapse, format_ids
+
+    assert format_ids([5, 1, 2, 3, 7, 8, None]) == "1-3,5,7-8" and format_ids([None]) == "-"
+    rows = [{"id": i, "check": c, "result": "pass", "detail": d, "cause": ""}
+            for i in (1, 2, 3) for c, d in (("a", "same"), ("b", f"took {i % 2} ms"))]
+    assert [(ids, r["check"], r["detail"]) for ids, r in collapse(rows)] == [
+        ([1, 2, 3], "a", "same"), ([1, 3], "b", "took 1 ms"), ([2], "b", "took 0 ms")]
 
 
 QUIET_AND_LOCKED = textwrap.dedent("""

@@ -35,6 +35,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+# every --json says this, whatever the command: scripts may rely on the last line
+JSON_HELP = "end with the result as one JSON object, the last line of stdout (for scripts)"
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse that raises UserError instead of printing usage and exiting."""
 
@@ -57,7 +61,21 @@ def build_parser(argv: list[str]) -> argparse.ArgumentParser:
                 raise
             continue  # command not built yet: leave it out of the listing
         mod.register(sub)
+    _describe(parser)
     return parser
+
+
+def _describe(parser: argparse.ArgumentParser) -> None:
+    """Every parser's --help says what it does: its description (docstrings here are
+    reStructuredText: ``x`` shows as x), else the line its parent's listing gives it."""
+    if parser.description:
+        parser.description = parser.description.replace("``", "")
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for listed in action._choices_actions:
+                child = action.choices[listed.dest]
+                child.description = child.description or listed.help
+                _describe(child)
 
 
 def emit_json(obj: dict[str, Any]) -> None:

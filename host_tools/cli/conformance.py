@@ -3,13 +3,14 @@ from __future__ import annotations
 
 import argparse
 
-from host_tools.cli import emit_json
+from host_tools.cli import JSON_HELP, emit_json
 from protocol.errors import UserError
 
 
 def run(args: argparse.Namespace) -> int:
     from host_tools.cli.bus import parse_ids
-    from host_tools.conformance import format_table, run_checks
+    from host_tools.conformance import run_checks
+    from host_tools.conformance_report import format_table
 
     if args.baud <= 0:
         raise UserError(f"--baud must be positive, got {args.baud}")
@@ -37,5 +38,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="status packet timeout (default 50; USB adapters need > latency timer)")
     p.add_argument("--scan-timeout-ms", type=float, default=15.0,
                    help="per-ID PING timeout while scanning 0-253 (default 15)")
-    p.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=run)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from host_tools.cli import emit_json
+from host_tools.cli import JSON_HELP, emit_json
 
 SCENARIO = "scenarios/obstacles-low-small.toml"
 
@@ -77,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("demo", help="the whole stack once, end to end (what `make demo` runs)")
+    p = sub.add_parser("demo", help="the whole stack once, end to end (what `make demo` runs)",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", default="out/demo", help="folder for the demo's trace")
-    p.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=run)

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from host_tools.cli import emit_json
+from host_tools.cli import JSON_HELP, emit_json
 from host_tools.trace.protobuf import CanFrame
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_CAN_RAW
@@ -119,5 +119,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="force magnitude that counts as first contact (N)")
     p.add_argument("--start", type=float, metavar="S", help="ignore frames before this time")
     p.add_argument("--end", type=float, metavar="S", help="ignore frames from this time on")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=run)

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import argparse
 
+from host_tools.cli import JSON_HELP
+
 
 def _dataset(args: argparse.Namespace) -> int:
     from host_tools.grnn import dataset
@@ -41,17 +43,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     dataset.add_arguments(q)
     q.set_defaults(func=_dataset)
     q = kinds.add_parser("train", help="train the GRNN on a dataset")
-    q.add_argument("data", metavar="DATA", help="dataset.npz (or its folder)")
+    q.add_argument("data", help="dataset.npz (or its folder)")
     q.add_argument("--out", required=True, help="model file to write (model.pt)")
     q.add_argument("--epochs", type=int, default=50, help="epochs (default 50, Sec. 2.6)")
     q.add_argument("--seed", type=int, default=0, help="torch seed (default 0)")
-    q.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
+    q.add_argument("--json", action="store_true", help=JSON_HELP)
     q.set_defaults(func=_train)
     q = kinds.add_parser("eval", help="predicted vs measured dx on held-out terrains")
-    q.add_argument("model", metavar="MODEL", help="model file from 'hexhil grnn train'")
-    q.add_argument("data", metavar="DATA", help="held-out dataset.npz (or its folder)")
+    q.add_argument("model", help="model file from 'hexhil grnn train'")
+    q.add_argument("data", help="held-out dataset.npz (or its folder)")
     q.add_argument("--out", default="out/grnn-eval", help="folder for the table and PNGs")
-    q.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
+    q.add_argument("--json", action="store_true", help=JSON_HELP)
     q.set_defaults(func=_eval)
     q = kinds.add_parser("closed-loop", help="held-out terrains walked three ways: tactile only, "
                          "+ Eq. 8-14 navigator, + GRNN navigator")

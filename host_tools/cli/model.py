@@ -33,7 +33,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description=__doc__)
     kinds = p.add_subparsers(dest="kind", metavar="KIND", parser_class=type(p))
     kinds.required = True
-    u = kinds.add_parser("urdf", help="URDF (joints as the MJCF: angle = servo angle)")
+    u = kinds.add_parser("urdf", help="URDF (joints as the MJCF: angle = servo angle)",
+                         description="The hexapod as a URDF on stdout, for RViz, Foxglove's URDF "
+                                     "layer or robotics libraries: generated from "
+                                     "protocol/hexapod.py like the MuJoCo world, with its zero "
+                                     "pose and axes, so a joint angle is the servo angle (0 at "
+                                     "the AX-12's centre); each leg ends in a <leg>_foot link. "
+                                     "Example: hexhil model urdf > hexapod.urdf")
     u.set_defaults(func=_urdf)
     m = kinds.add_parser("mjcf", help="the MJCF the simulated world loads")
     m.add_argument("--scenario", metavar="FILE.toml",

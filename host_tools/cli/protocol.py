@@ -19,7 +19,7 @@ import argparse
 import string
 from typing import Any
 
-from host_tools.cli import emit, emit_json
+from host_tools.cli import JSON_HELP, emit, emit_json
 from protocol.errors import UserError
 from protocol import ax12
 from protocol import dynamixel as dxl
@@ -237,7 +237,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     d.add_argument("hex", nargs="+", metavar="HEX",
                    help="bytes as hex: 'FF FF 01 02 01 FB' or ffff010201fb, one or several args")
     d.add_argument("--json", action="store_true",
-                   help="one JSON object a line: each packet and garbage run, then a summary")
+                   help=JSON_HELP + "; before it one object a line for each packet and garbage run")
     kind = d.add_mutually_exclusive_group()
     kind.add_argument("--status", action="store_true", help="every packet is a status packet")
     kind.add_argument("--instruction", action="store_true",

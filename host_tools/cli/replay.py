@@ -5,7 +5,7 @@ import argparse
 import sys
 
 from host_tools import replay
-from host_tools.cli import emit, emit_json
+from host_tools.cli import JSON_HELP, emit, emit_json
 
 
 def run(args: argparse.Namespace) -> int:
@@ -50,5 +50,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="send the logged CAN frames through python-can instead")
     p.add_argument("--can-arg", action="append", default=[], metavar="KEY=VALUE",
                    help="extra python-can bus argument (e.g. host=127.0.0.1, port=29536)")
-    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=run)

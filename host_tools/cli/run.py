@@ -77,5 +77,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "by Eq. 8-14 (model) or the GRNN (grnn, needs --model); none walks on")
     p.add_argument("--model", metavar="MODEL.pt", help="the GRNN for --navigator grnn "
                    "(hexhil grnn train)")
-    p.add_argument("--json", action="store_true", help="print the summary as JSON (last line)")
+    p.add_argument("--json", action="store_true", help=cli.JSON_HELP)
     p.set_defaults(func=_run)

@@ -5,8 +5,9 @@ import argparse
 import json
 import sys
 
-from host_tools.cli import emit, emit_json
+from host_tools.cli import JSON_HELP, emit, emit_json
 from host_tools.trace import export, import_csv, reader, recover
+from host_tools.trace.import_csv import CSV_OPTIONAL, CSV_POSE, CSV_REQUIRED
 from protocol.errors import UserError
 
 
@@ -80,38 +81,46 @@ def _import_csv(args: argparse.Namespace) -> int:
     return 0
 
 
+_TRACE_HELP = "an MCAP trace (hexhil run/bus/beams run --out, or trace import-csv)"
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("trace", help="inspect, export, recover and import MCAP traces")
     tsub = p.add_subparsers(dest="trace_command", metavar="ACTION", required=True)
 
     q = tsub.add_parser("info", help="topics, schemas, counts, start, end, duration")
-    q.add_argument("file")
-    q.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    q.add_argument("file", help=_TRACE_HELP)
+    q.add_argument("--json", action="store_true", help=JSON_HELP)
     q.set_defaults(func=_info)
 
     q = tsub.add_parser("cat", help="print messages, one per line: time_s topic json")
-    q.add_argument("file")
+    q.add_argument("file", help=_TRACE_HELP)
     _filters(q)
     q.add_argument("--limit", type=int, default=0, help="stop after N messages")
-    q.add_argument("--json", action="store_true", help="end with a JSON count")
+    q.add_argument("--json", action="store_true", help=JSON_HELP + ": the message count")
     q.set_defaults(func=_cat)
 
     q = tsub.add_parser("export", help="CSV per topic, or CAN to .asc/.blf/.log/.trc")
-    q.add_argument("file")
+    q.add_argument("file", help=_TRACE_HELP)
     q.add_argument("out", help="OUT.csv (one topic), a directory (one CSV per topic), "
                                "or OUT.asc/.blf/.log/.trc (the /can/raw frames)")
     _filters(q)
-    q.add_argument("--json", action="store_true")
+    q.add_argument("--json", action="store_true", help=JSON_HELP)
     q.set_defaults(func=_export)
 
     q = tsub.add_parser("recover", help="salvage an unfinished/crashed MCAP into a valid one")
-    q.add_argument("file")
-    q.add_argument("out")
-    q.add_argument("--json", action="store_true")
+    q.add_argument("file", help="the unfinished or damaged MCAP (a run killed mid-write)")
+    q.add_argument("out", help="the valid MCAP to write (not the input file)")
+    q.add_argument("--json", action="store_true", help=JSON_HELP)
     q.set_defaults(func=_recover)
 
-    q = tsub.add_parser("import-csv", help="a robot's force+pose CSV -> MCAP for 'estimate'")
-    q.add_argument("csv")
-    q.add_argument("out")
-    q.add_argument("--json", action="store_true")
+    q = tsub.add_parser("import-csv", help="a robot's force+pose CSV -> MCAP for 'estimate'",
+                        description="A physical robot's force log as a trace 'hexhil estimate' "
+                                    f"reads. The CSV needs a header with {', '.join(CSV_REQUIRED)} "
+                                    f"(s, N); with {', '.join(CSV_POSE)} (m, rad) the body pose "
+                                    f"too; {', '.join(CSV_OPTIONAL)} are read if there; other "
+                                    "columns are ignored.")
+    q.add_argument("csv", help="the robot's CSV log (columns above)")
+    q.add_argument("out", help="the MCAP trace to write")
+    q.add_argument("--json", action="store_true", help=JSON_HELP)
     q.set_defaults(func=_import_csv)

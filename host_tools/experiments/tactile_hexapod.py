@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from host_tools import error_model
-from host_tools.cli import emit_json
+from host_tools.cli import JSON_HELP, emit_json
 from protocol.errors import UserError
 from host_tools.experiments.executor import Executor
 from host_tools.experiments.tactile_report import GAITS, markdown, plots, summary
@@ -264,7 +264,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="firmware runtime: in this process (default; the same serial digest "
                         "as micropython, without two process wake-ups a link round trip), or a "
                         "child process under micropython (the reference) or cpython")
-    p.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -136,44 +136,52 @@ def plots(result: dict[str, Any], out: Path) -> list[Path]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     runs = result["runs"]
     paths = []
+    colours = {"small": "tab:blue", "large": "tab:red"}
+    key = [Line2D([], [], color=c, marker="o", ms=4, ls="-", lw=1,
+                  label=f"end among {h} obstacles (arrow: heading)") for h, c in colours.items()]
+    key.append(Line2D([], [], color="k", marker="*", ms=12, ls="", label="goal"))
 
     def ends(ax, rs, title):
         for r in rs:
-            colour = "tab:blue" if r["height_class"] == "small" else "tab:red"
+            colour = colours[r["height_class"]]
             x, y = r["distance_m"] - r["dx_m"], r["dy_m"]
             ax.quiver(x, y, math.cos(math.radians(r["dyaw_deg"])), math.sin(math.radians(r["dyaw_deg"])),
                       color=colour, angles="xy", scale=12, width=0.006)
             ax.plot(x, y, "o", color=colour, ms=3)
         if rs:
-            ax.plot(rs[0]["distance_m"], 0, "k*", ms=12, label="goal")
+            ax.plot(rs[0]["distance_m"], 0, "k*", ms=12)
         ax.set_title(title, fontsize=9)
         ax.set_xlabel("x, m")
         ax.set_ylabel("y, m")
-        ax.axis("equal")
+        ax.set_aspect("equal", adjustable="box")   # shared axes: one scale across panels
+        ax.margins(0.2)                             # room for the heading arrows
         ax.grid(alpha=0.3)
 
-    fig, axes = plt.subplots(1, 2, figsize=(9, 4))
+    def save(fig, name):
+        fig.legend(handles=key, fontsize=8, loc="lower center", ncol=3)
+        fig.tight_layout(rect=(0, 0.08, 1, 1))
+        paths.append(out / name)
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+
+    fig, axes = plt.subplots(1, 2, figsize=(9, 4.5), sharex=True, sharey=True)
     for ax, g in zip(axes, GAITS):
         ends(ax, [r for r in runs if r["stage"] == "without" and r["gait"] == g],
-             f"{g}, without the method, low density, 1 m\n(blue small, red large obstacles)")
-    fig.tight_layout()
-    paths.append(out / "fig16_without_method.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+             f"{g}, without the method, low density, 1 m")
+    save(fig, "fig16_without_method.png")
 
     for fig_no, g in (("fig17", "wave"), ("fig18", "tripod")):
         cases = sorted({(r["density"], r["distance_m"]) for r in runs if r["stage"] == "with" and r["gait"] == g})
-        fig, axes = plt.subplots(1, max(1, len(cases)), figsize=(4.5 * max(1, len(cases)), 4), squeeze=False)
+        fig, axes = plt.subplots(1, max(1, len(cases)), figsize=(4.5 * max(1, len(cases)), 4.5),
+                                 squeeze=False, sharex=True, sharey=True)
         for ax, (dens, d) in zip(axes[0], cases):
             ends(ax, [r for r in runs if r["stage"] == "with" and r["gait"] == g and r["density"] == dens
                       and r["distance_m"] == d], f"{g} with the method: {dens} density, {d:g} m")
-        fig.tight_layout()
-        paths.append(out / f"{fig_no}_{g}_with_method.png")
-        fig.savefig(paths[-1], dpi=110)
-        plt.close(fig)
+        save(fig, f"{fig_no}_{g}_with_method.png")
 
     cases = _cases(runs, "with")
     groups = sorted({(h, d, dens) for (_, dens, d, h) in cases})
@@ -183,6 +191,7 @@ def plots(result: dict[str, Any], out: Path) -> list[Path]:
         ax.bar([i + 0.4 * k - 0.2 for i in range(len(groups))], vals, width=0.4, label=g)
     ax.set_xticks(range(len(groups)))
     ax.set_xticklabels([f"{h}\n{d:g} m\n{dens}" for h, d, dens in groups], fontsize=8)
+    ax.set_xlabel("case: obstacle height / goal distance / obstacle density")
     ax.set_ylabel("distance error, cm")
     ax.set_title("Error at the goal with the method (Fig. 20 layout; shorter is better)")
     ax.legend()

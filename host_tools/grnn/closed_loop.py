@@ -20,7 +20,7 @@ from statistics import mean
 from typing import Any
 
 from hil.world.fidelity import OBSTACLE_BODY
-from host_tools.cli import emit_json
+from host_tools.cli import JSON_HELP, emit_json
 from host_tools.grnn import data as data_mod
 from protocol.errors import UserError
 
@@ -108,7 +108,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", help="write closed_loop.json and closed_loop.md into this folder")
     p.add_argument("--workers", type=int, default=max(1, os.cpu_count() or 1),
                    help="local worker processes (default: one per core)")
-    p.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -21,6 +21,7 @@ from typing import Any
 
 from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
 from hil.world.hexapod import yaw_rad
+from host_tools.cli import JSON_HELP
 from host_tools.grnn import data as data_mod
 from host_tools.grnn.features import StepRow, StepSampler
 from host_tools.trace.reader import Trace
@@ -198,7 +199,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "its obstacles aside) or loose wooden ones")
     p.add_argument("--workers", type=int, default=max(1, os.cpu_count() or 1),
                    help="local worker processes (default: one per core)")
-    p.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
 
 
 def run(args: argparse.Namespace) -> int:

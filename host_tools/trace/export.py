@@ -36,17 +36,27 @@ def export(path: str | Path, out: str | Path, topics: Iterable[str] | None = Non
     if suffix != ".csv" and out.suffix:
         raise UserError(f"{out}: unknown export format '{out.suffix}' "
                         f"(use .csv or one of {', '.join(CAN_LOG_SUFFIXES)})")
+    if suffix == ".csv" and not out.parent.is_dir():
+        raise UserError(f"{out}: folder {out.parent} does not exist (create it, or export elsewhere)")
     with Trace(path) as tr:
+        chosen = tr.select_topics(topics) or tr.topics()
+        if suffix == ".csv" and len(chosen) > 1:
+            raise UserError(f"{out}: a .csv file holds one topic and {len(chosen)} match "
+                            f"({', '.join(chosen)}): pick one with --topics, or give a folder "
+                            f"name without .csv for one CSV per topic")
         rows: dict[str, list[dict[str, Any]]] = {}
         for m, value in tr.decoded(topics, start_s, end_s):
             flat: dict[str, Any] = {"time_s": f"{m.log_time_ns / 1e9:.6f}"}
             _flatten("", value, flat)
             rows.setdefault(m.topic, []).append(flat)
     files = []
-    if suffix == ".csv" and len(rows) <= 1:
+    if suffix == ".csv":
         targets = {t: out for t in rows}
         if not rows:
-            out.write_text("time_s\n")
+            try:
+                out.write_text("time_s\n")
+            except OSError as exc:
+                raise UserError(f"{out}: cannot write ({exc.strerror})") from None
             files.append(str(out))
     else:
         try:

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from host_tools.cli import emit
+from host_tools.cli import JSON_HELP, emit
 from host_tools.experiments.force_sensing import figures, report
 from host_tools.experiments.force_sensing.sections import (K_FLIMSY, K_STIFF, clear_gap_plans, energy_runs,
                                                            estimation_tables, no_control, planning,
@@ -91,7 +91,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="out/force-sensing", help="output folder (force-sensing.md and PNGs)")
     p.add_argument("--seeds", type=int,
                    help="noise seeds 0..N-1 for the tables and the rig (default 20, 5 with --quick)")
-    p.add_argument("--json", action="store_true", help="print a JSON summary as the last line")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
 
 
 def run(args: argparse.Namespace) -> int:
