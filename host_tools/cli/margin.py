@@ -9,6 +9,7 @@ import json
 import sys
 
 from hil.link import IN_PROCESS, RUNTIMES
+from host_tools import cli
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -78,6 +79,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--python", choices=(*RUNTIMES, IN_PROCESS),
                    help=f"firmware runtime (default: the case's); {IN_PROCESS} is faster")
     p.add_argument("--png", metavar="OUT.png", help="write the heat map")
-    p.add_argument("--json", action="store_true", help="print every point as JSON (last line)")
+    p.add_argument("--json", action="store_true", help=cli.JSON_HELP + ": every point of the sweep")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_run)
