@@ -35,7 +35,8 @@ from hil.ground_truth import GroundTruth
 from hil.link import IN_PROCESS, DirectConnection, FirmwareProcess
 from hil.link_server import LinkServer, SwitchSampler, firmware_settings
 from hil.run_result import RunResult, body_displacement
-from hil.scenario import DEFAULT_DURATION_S
+from hil.scenario import Scenario, check_duration
+from hil.seams import FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
 
 BODY_SAMPLE_US = 100_000  # ground truth and servo state to the recorder at 10 Hz
 # runs a firmware in this process on the link's exchange(bytes written, closed) -> reply
@@ -43,8 +44,10 @@ InProcessFirmware = Callable[[Callable[[bytes, bool], bytes]], None]
 
 
 class Simulator:
-    def __init__(self, scenario: dict[str, Any], seed: int = 0, world: Any = None,
-                 recorder: Any = None, switches: Callable[[int], int] | None = None,
+    def __init__(self, scenario: dict[str, Any] | Scenario, seed: int = 0,
+                 world: FirmwareWorld | SteppedWorld | None = None,
+                 recorder: TraceRecorder | None = None,
+                 switches: Callable[[int], int] | None = None,
                  tactile: bool | None = None, can_server: Any = None, scene: bool = False,
                  realtime: bool = False) -> None:
         self.recorder = recorder
@@ -55,13 +58,13 @@ class Simulator:
                                  on_bytes=self._on_bytes)
         self.scenario, self.seed, self.world = self.rig.scenario, seed, world
         self.clock, self.bus, self.faults = self.rig.clock, self.rig.bus, self.rig.faults
-        self.can = CanBus(self.clock, self.scenario["faults"].get("can_drop_rate", 0.0), seed,
+        self.can = CanBus(self.clock, self.rig.config.faults.can_drop_rate, seed,
                           self._on_fault)
         if recorder is not None:
             self.can.add(RecorderListener(recorder))
         if can_server is not None:
             self.can.add_gateway(can_server)
-        self._nodes: list[Any] = []
+        self._nodes: list[HostNode] = []
         self._next_tick_us: list[int] = []
         self._tactile = tactile
         self._switches = switches
@@ -76,7 +79,7 @@ class Simulator:
         else:
             self.firmware_port = self.can.endpoint("tx")   # the firmware's CAN controller
 
-    def add_node(self, node: Any) -> None:
+    def add_node(self, node: HostNode) -> None:
         """A host-side CAN node (``period_us``, ``tick(t_us)``), ticked in the order added;
         first after one period, or at ``first_tick_us`` if the node has one."""
         self._nodes.append(node)
@@ -126,9 +129,10 @@ class Simulator:
         The firmware is a child process (``python``, or ``command``), or with ``in_process``
         a function that runs it in this process, given the link's ``exchange``
         (hil/link.py ``DirectConnection``): the same frames without a socket."""
-        if duration_s is None:
-            duration_s = self.scenario["scenario"].get("duration_s", DEFAULT_DURATION_S)
-        python = python or self.scenario["firmware"].get("python", "micropython")
+        cfg = self.rig.config
+        duration_s = (cfg.scenario.duration_s if duration_s is None
+                      else check_duration(duration_s, "duration_s"))
+        python = python or cfg.firmware.python.value
         if in_process is not None:
             python = IN_PROCESS
         end_us = int(round(duration_s * 1e6))
