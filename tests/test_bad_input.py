@@ -63,6 +63,7 @@ CASES = [
     (["run", FT, "--out", f"{B}/nodir/x.mcap"], "x.mcap: cannot write trace"),
     (["run", FT, "--can-server", "99999"], "--can-server 99999: port must be 0-65535"),
     (["run", FT, "--can-server", "0", "--can-wait", "-1"], "--can-wait must be 0 or more"),
+    (["bus", "--duration", "inf"], "--duration inf: must be at most 1e+09 s"),
     (["bus", "--ids", "5-1"], "--ids '5-1': IDs must be 0-253, low before high"),
     (["bus", "--ids", "a"], "--ids 'a': expected IDs like"),
     (["bus", "--ids", "1-300"], "--ids '1-300'"),

@@ -16,8 +16,8 @@ from pathlib import Path
 from typing import Any
 
 from hil.scenario.beams import BeamsConfig, TraversalConfig
-from hil.scenario.sections import (BAUD_TOLERANCE, DEFAULT_DURATION_S, GAITS, MAX_DURATION_S,
-                                   RETURN_DELAY_MAX_US, BusConfig, FaultsConfig, FirmwareConfig,
+from hil.scenario.sections import (BAUD_TOLERANCE, DEFAULT_BAUD, DEFAULT_DURATION_S, GAITS,
+                                   MAX_DURATION_S, RETURN_DELAY_MAX_US, BusConfig, FaultsConfig, FirmwareConfig,
                                    GaitConfig, Runtime, ScenarioInfo, WorldConfig, WorldKind,
                                    baud_register, check_duration)
 from protocol.errors import UserError
@@ -161,6 +161,6 @@ def load(path: str | Path) -> dict[str, Any]:
 
 __all__ = ["SCHEMA", "Scenario", "ScenarioInfo", "BusConfig", "FirmwareConfig", "GaitConfig",
            "FaultsConfig", "WorldConfig", "BeamsConfig", "TraversalConfig", "Runtime",
-           "WorldKind", "GAITS", "DEFAULT_DURATION_S", "MAX_DURATION_S", "BAUD_TOLERANCE",
+           "WorldKind", "GAITS", "DEFAULT_BAUD", "DEFAULT_DURATION_S", "MAX_DURATION_S", "BAUD_TOLERANCE",
            "RETURN_DELAY_MAX_US", "baud_register", "check_duration", "parse", "check",
            "from_text", "load_scenario", "load"]
