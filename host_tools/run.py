@@ -63,14 +63,6 @@ def start_can_server(port: int, wait_clients: int) -> Any:
     return server
 
 
-def _start_live(port: int) -> Any:
-    from host_tools.trace.live import LiveServer
-
-    live = LiveServer(port)
-    print(f"live: ws://127.0.0.1:{live.port} (Foxglove WebSocket)", flush=True)
-    return live
-
-
 def _beams_summary(sc: Scenario, seed: int, result: RunResult,
                    trace: str | None) -> dict[str, Any]:
     """The ``--json`` object of a beams run: the traversal's outcome."""
@@ -113,22 +105,20 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         raise UserError(f"--can-wait must be 0 or more, got {can_wait_clients}")
     attach_navigator = (_plan_navigation(sc, navigator, model_path) if navigator != "none"
                         else None)
-    live = server = nav = None
+    server = nav = None
     try:
-        if live_port is not None:
-            live = _start_live(live_port)
         if can_server_port is not None:
             server = start_can_server(can_server_port, can_wait_clients)
         with Run(sc, seed=seed, runtime=python, duration_s=duration_s, tactile=tactile,
-                 trace=out, live=live, can_server=server, realtime=realtime) as r:
+                 trace=out, live_port=live_port, can_server=server, realtime=realtime) as r:
+            if r.live is not None:
+                print(f"live: ws://127.0.0.1:{r.live.port} (Foxglove WebSocket)", flush=True)
             if attach_navigator is not None:
                 nav = attach_navigator(r)
             result = r.run()
     finally:
         if server is not None:
             server.close()
-        if live is not None:
-            live.close()
     if sc.world.kind is WorldKind.BEAMS:
         return _beams_summary(sc, seed, result, out), result
     s = summary(sc, seed, result, out)

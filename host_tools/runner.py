@@ -1,5 +1,5 @@
-"""One run of a scenario, built in one place: ``hexhil run``, ``hexhil bus``'s neighbours, the
-experiments, the GRNN dataset and the bench all run the robot through ``Run``.
+"""One run of a scenario, built in one place: ``hexhil run``, the tactile-hexapod experiment,
+the GRNN dataset, the bench and the public API (docs/api.md) all run the robot through ``Run``.
 
 A ``Run`` takes a scenario (a ``Scenario``, or a file), picks the firmware runtime, opens
 the trace (with the scenario's own data in its metadata, so a trace can be read back
@@ -9,7 +9,9 @@ A beams scenario (seed 000) runs its own host nodes (host_tools/traversal/closed
 """
 from __future__ import annotations
 
+import json
 import os
+import time
 from pathlib import Path
 from typing import Any
 
@@ -34,8 +36,6 @@ def trace_metadata(sc: Scenario, seed: int, runtime: str) -> dict[str, Any]:
 def scenario_of_trace(metadata: dict[str, str], where: str) -> tuple[Scenario, int]:
     """The scenario and seed a trace ran, from its metadata (``trace_metadata``); a trace
     recorded before the scenario rode along names a file, read if this machine has it."""
-    import json
-
     try:
         seed = int(metadata.get("seed", "0"))
         data = json.loads(metadata["scenario_data"]) if "scenario_data" in metadata else None
@@ -52,8 +52,9 @@ def scenario_of_trace(metadata: dict[str, str], where: str) -> tuple[Scenario, i
 
 class Run:
     """One run of ``scenario`` (a ``Scenario``, a file, or a dict as TOML reads it); ``seed``, ``runtime`` and ``duration_s`` default to the
-    scenario's. ``trace`` records it to MCAP (with ``live``, a host_tools/trace/live.py
-    server, its channels are also served); ``can_server`` bridges the CAN bus to socketcand
+    scenario's. ``trace`` records it to MCAP; with ``live_port`` its channels are also served
+    over the Foxglove WebSocket protocol on 127.0.0.1 (``live``, host_tools/trace/live.py;
+    0 picks a free port; started once the world is built, so a viewer misses nothing); ``can_server`` bridges the CAN bus to socketcand
     clients; ``realtime`` paces virtual time to the wall clock; ``tactile`` overrides the
     scenario's ``firmware.tactile``. Close it (or use ``with``) if ``run`` is never called."""
 
@@ -61,7 +62,8 @@ class Run:
                  seed: int | None = None,
                  runtime: Runtime | str | None = None, duration_s: float | None = None,
                  tactile: bool | None = None, trace: str | Path | None = None,
-                 live: Any = None, can_server: Any = None, realtime: bool = False) -> None:
+                 live_port: int | None = None, can_server: Any = None,
+                 realtime: bool = False) -> None:
         self.scenario = (scenario_mod.load_scenario(scenario)
                          if isinstance(scenario, (str, Path)) else scenario_mod.parse(scenario))
         sc = self.scenario
@@ -76,12 +78,22 @@ class Run:
         self._can_server, self._realtime = can_server, realtime
         self.world = None if self.beams else make_world(sc, self.seed)
         self.recorder: TraceRecorder | None = None
-        if self.trace or live is not None:
+        self.live: Any = None
+        if live_port is not None:
+            from host_tools.trace.live import LiveServer
+
+            self.live = live = LiveServer(live_port)
+        if self.trace or live_port is not None:
             from host_tools.trace.recorder import Recorder
 
             meta = trace_metadata(sc, self.seed, NO_RUNTIME if self.beams else self.runtime.value)
-            extra = {"flush_interval_us": live.flush_interval_us} if live is not None else {}
-            self.recorder = Recorder(self.trace or os.devnull, meta, live=live, **extra)
+            extra = ({"flush_interval_us": self.live.flush_interval_us}
+                     if self.live is not None else {})
+            try:
+                self.recorder = Recorder(self.trace or os.devnull, meta, live=self.live, **extra)
+            except BaseException:
+                self.close()
+                raise
         self.sim: Simulator | None = None
         if not self.beams:
             try:
@@ -131,8 +143,6 @@ class Run:
             self.close()
 
     def _traverse(self) -> RunResult:
-        import time
-
         from host_tools.traversal import closed_loop
 
         wall0 = time.perf_counter()
@@ -144,9 +154,12 @@ class Run:
                          wall_time_s=time.perf_counter() - wall0, world=out)
 
     def close(self) -> None:
-        """Close the trace (complete as far as the run went)."""
+        """Close the trace (complete as far as the run went), then the live server."""
         if self.recorder is not None:
             self.recorder.close()
+        if self.live is not None:
+            self.live.close()
+            self.live = None
 
     def __enter__(self) -> "Run":
         return self
