@@ -23,6 +23,17 @@ def test_every_public_name_resolves_and_is_documented():
         hx.no_such_name
 
 
+def test_a_host_node_is_anything_with_a_period_and_a_tick():
+    class Node:
+        period_us = 100_000
+
+        def tick(self, t_us: int) -> None:
+            pass
+
+    assert isinstance(Node(), hx.HostNode)
+    assert not isinstance(object(), hx.HostNode)
+
+
 def test_a_scenario_is_typed_frozen_with_its_defaults_applied():
     sc = hx.load_scenario(ROOT / "scenarios" / "faults.toml")
     assert sc.bus.baud == 1_000_000 and sc.bus.servos == 18 and list(sc.bus.ids)[0] == 1
@@ -66,3 +77,16 @@ def test_the_example_runs_its_own_host_node_and_reads_the_trace_back(tmp_path):
     angle = float(re.search(r"at ([-+\d.]+) deg from x", r.stdout)[1])
     assert angle > 10.0
     assert out.stat().st_size > 0
+
+
+def test_the_grnn_dataset_reads_a_hexhil_run_trace_whose_scenario_file_is_gone(tmp_path):
+    from host_tools.grnn.dataset import rows_from_trace
+
+    path = tmp_path / "walk.toml"
+    path.write_text('[scenario]\nname = "walk"\nseed = 2\nduration_s = 6.0\n'
+                    '[gait]\nname = "tripod"\ndistance_m = 0.2\n[world]\nterrain = "flat"\n')
+    out = tmp_path / "walk.mcap"
+    hx.Run(path, runtime=hx.Runtime.CPYTHON_INPROCESS, trace=out).run()
+    path.unlink()
+    rows, facts = rows_from_trace(out)
+    assert facts["gait"] == "tripod" and facts["distance_m"] == 0.2 and len(rows) >= 1
