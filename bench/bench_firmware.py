@@ -3,24 +3,20 @@ against the wire minimum of the transactions issued; real-time factor of the loo
 from __future__ import annotations
 
 from bench import Row
-from hil.sim import Simulator
-from hil.scenario import SCHEMA
+from host_tools import Run
 
 DURATION_S = 10.0
 
 
 def _scenario() -> dict:
-    sc = {s: {} for s in SCHEMA}
-    sc["_path"] = "<bench>"
-    sc["gait"] = {"name": "tripod"}
-    return sc
+    return {"gait": {"name": "tripod"}, "_path": "<bench>"}
 
 
 def run() -> list[Row]:
     rows = []
     results = {}
     for python in ("micropython", "cpython"):
-        r = Simulator(_scenario(), seed=1).run(DURATION_S, python=python)
+        r = Run(_scenario(), seed=1, runtime=python, duration_s=DURATION_S).run()
         results[python] = r
         rows.append(Row(f"firmware compute/cycle ({python}, mean)", r.firmware["compute_us_mean"],
                         "us", "<= 200 us" if python == "micropython" else "",

@@ -23,6 +23,7 @@ from hil.link import IN_PROCESS, Connection, DirectConnection
 from hil.rig import make_world
 from hil.servo import Servo
 from hil.sim import Simulator
+from host_tools import Run
 from host_tools.in_process import run_firmware
 from protocol import ax12
 from protocol import dynamixel as dxl
@@ -126,7 +127,7 @@ def _full_stack_with_obstacles(n: int) -> float:
     sc = scenario_mod.load(ROOT / "scenarios" / "flat-tripod.toml")
     if n:
         sc["world"].update(terrain="obstacles", obstacles=_obstacle_field(n))
-    r = Simulator(sc, 1, world=make_world(sc, 1)).run(GROWTH_S)
+    r = Run(sc, seed=1, duration_s=GROWTH_S).run()
     return r.sim_time_s / r.wall_time_s
 
 

@@ -14,12 +14,10 @@ from typing import Any, Sequence
 
 from hil import rig as rig_mod
 from hil import scenario as scenario_mod
-from hil.can_bus import CanBus, RecorderListener
-from hil.ground_truth import GroundTruth
 from hil.master_check import MasterCheck
+from hil.run_core import RunCore
 from hil.run_result import body_displacement
 from hil.sensor_node import DEFAULT_ID, SensorNode
-from hil.servo import Servo
 from protocol import can_frames as cf
 from protocol.errors import UserError
 
@@ -34,15 +32,18 @@ class RealTimeRig:
                  can_server: Any = None, sensor_id: int | None = DEFAULT_ID,
                  verbose: Any = None, scene: bool = True) -> None:
         self.recorder, self.verbose = recorder, verbose
-        sc = scenario_mod.check(scenario)
+        sc = scenario_mod.parse(scenario)
         w = rig_mod.make_world(sc, seed) if world else None
         if world and w is None:
-            raise UserError(f"{sc['_path']}: --world needs a scenario with a [world] section")
-        self.rig = rig_mod.build(sc, seed, world=w, ids=ids, on_fault=self._on_fault,
-                                 on_bytes=recorder.serial if recorder is not None else None)
+            raise UserError(f"{sc.path}: --world needs a scenario with a [world] section")
+        # the run core: rig, CAN bus, recorder hooks and ground truth, as hexhil run's
+        self.core = RunCore(sc, seed, world=w, recorder=recorder, can_server=can_server,
+                            scene=scene, ids=ids, on_fault=self._verbose_fault,
+                            can_faults=False)
+        self.rig = self.core.rig
         if self.rig.bus is None:
-            raise UserError(f"{sc['_path']}: the {sc['world'].get('kind')} world has no servo bus")
-        self.world, self.bus, self.clock = w, self.rig.bus, self.rig.clock
+            raise UserError(f"{sc.path}: the {sc.world.kind.value} world has no servo bus")
+        self.world, self.bus, self.clock, self.can = w, self.rig.bus, self.rig.clock, self.core.can
         self.servos = list(self.bus.servos)
         self.check = MasterCheck(self._on_violation)
         self.bus.monitor = self.check
@@ -50,33 +51,16 @@ class RealTimeRig:
         if sensor_id is not None:
             if self.bus.servo(sensor_id) is not None:
                 raise UserError(f"sensor node ID {sensor_id} is already a servo's")
-            self.node = SensorNode(self._levels, sensor_id,
+            self.node = SensorNode(self.core.switch_bits, sensor_id,
                                    scenario_mod.baud_register(self.bus.baud))
             self.bus.add_device(self.node)
-        self.can = CanBus(self.clock)
-        if recorder is not None:
-            self.can.add(RecorderListener(recorder))
-        if can_server is not None:
-            self.can.add_gateway(can_server)
         self._pose0 = w.body_pose() if w is not None else None
-        self._truth = GroundTruth(w, [s for s in self.servos if isinstance(s, Servo)], recorder,
-                                  scene) if recorder is not None else None
         self._bits = 0
         self._edges = 0
         self._seq = 0
         self._next_sample_us = 0
 
-    def _levels(self) -> int:
-        bits = 0
-        if self.world is not None:
-            for i, pressed in enumerate(self.world.switch_levels()):
-                if pressed:
-                    bits |= 1 << i
-        return bits
-
-    def _on_fault(self, t_us: int, name: str, detail: str) -> None:
-        if self.recorder is not None:
-            self.recorder.fault(t_us, name, detail)
+    def _verbose_fault(self, t_us: int, name: str, detail: str) -> None:
         if self.verbose is not None:
             self.verbose(f"fault t={t_us / 1e6:.6f}s {name}: {detail}")
 
@@ -92,7 +76,7 @@ class RealTimeRig:
 
     def tick(self, t_us: int) -> None:
         """After each catch-up: switch edges (recorder, CAN), 10 Hz samples, CAN in."""
-        bits = self._levels()
+        bits = self.core.switch_bits()
         changed = bits ^ self._bits
         if changed:
             self._bits = bits
@@ -112,8 +96,8 @@ class RealTimeRig:
             return
         rec.advance(t_us)
         if self.world is not None:
-            self._truth.world_sample(t_us)
-        self._truth.servo_sample(t_us)
+            self.core.truth.world_sample(t_us)
+        self.core.truth.servo_sample(t_us)
 
     def summary(self, pacing: dict[str, Any]) -> dict[str, Any]:
         """The ``--json`` summary: time served, body, faults, bus, master violations, pacing."""
@@ -132,4 +116,4 @@ class RealTimeRig:
         return out
 
     def close(self) -> None:
-        self.can.shutdown()
+        self.core.shutdown()

@@ -13,7 +13,7 @@ from hil import scenario as scenario_mod
 from hil.bus import Bus, OnBytes
 from hil.clock import VirtualClock
 from hil.faults import Faults, OnFault
-from hil.servo import EEPROM_BUSY_US, Servo
+from hil.servo import Servo
 from protocol import ax12
 
 
@@ -21,7 +21,8 @@ from protocol import ax12
 class Rig:
     """What a scenario builds; ``bus`` is None for a world with no servo bus (beams)."""
 
-    scenario: dict[str, Any]
+    config: scenario_mod.Scenario
+    scenario: dict[str, Any]       # ``config.data``: what the worlds and the hello read
     seed: int
     clock: VirtualClock
     world: Any
@@ -29,48 +30,46 @@ class Rig:
     faults: Faults | None
 
 
-def make_world(scenario: dict[str, Any], seed: int) -> Any:
-    """The hexapod world of a checked scenario's ``[world]``, or None (kinematic servos).
-    Seed 000's beams world is built with its host nodes (host_tools/traversal/closed_loop.py)."""
-    if not scenario["world"]:
+def make_world(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int) -> Any:
+    """The hexapod world of a scenario's ``[world]``, or None (kinematic servos); the hexapod
+    world refuses another kind. Seed 000's beams world is built with its host nodes
+    (host_tools/traversal/closed_loop.py)."""
+    cfg = scenario_mod.parse(scenario)
+    if cfg.world.kind is None:
         return None
     from hil.world.hexapod import HexapodWorld
-    return HexapodWorld(scenario, seed)
+    return HexapodWorld(cfg.data, seed)
 
 
-def _servos(scenario: dict[str, Any], ids: Sequence[int], world: Any) -> list[Servo]:
-    bus = scenario["bus"]
-    edition = bus.get("edition", ax12.EDITION_EMANUAL)
-    busy_us = bus.get("eeprom_busy_us", EEPROM_BUSY_US)
+def _servos(bus: scenario_mod.BusConfig, ids: Sequence[int], world: Any) -> list[Servo]:
     actuators = world.actuators() if world is not None else []
     servos = []
     for k, dev_id in enumerate(ids):
         a = actuators[k] if k < len(actuators) else None
         pos = ax12.rad_to_position(a.state()[0]) if a is not None else 512
-        s = Servo(dev_id, edition, actuator=a, position=pos, eeprom_busy_us=busy_us)
-        if "return_delay_us" in bus:
-            s.table[ax12.RETURN_DELAY_TIME] = bus["return_delay_us"] // 2
+        s = Servo(dev_id, bus.edition, actuator=a, position=pos,
+                  eeprom_busy_us=bus.eeprom_busy_us)
+        if bus.return_delay_us is not None:
+            s.table[ax12.RETURN_DELAY_TIME] = bus.return_delay_us // 2
         # The register nearest the line's rate (checked within 3 % by the scenario rules).
-        s.table[ax12.BAUD_RATE] = scenario_mod.baud_register(bus.get("baud", 1_000_000))
+        s.table[ax12.BAUD_RATE] = scenario_mod.baud_register(bus.baud)
         servos.append(s)
     return servos
 
 
-def build(scenario: dict[str, Any], seed: int = 0, *, world: Any = None,
+def build(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int = 0, *, world: Any = None,
           ids: Sequence[int] | None = None, on_fault: OnFault | None = None,
           on_bytes: OnBytes | None = None) -> Rig:
     """The rig of ``scenario`` (checked here, so a hand-built dict obeys the same rules)."""
-    sc = scenario_mod.check(scenario)
+    cfg = scenario_mod.parse(scenario)
+    sc = cfg.data
     clock = VirtualClock()
     if world is not None and not hasattr(world, "actuators"):
-        return Rig(sc, seed, clock, world, None, None)     # a world without a servo bus
-    bus_cfg = sc["bus"]
-    if ids is None:
-        first = bus_cfg.get("first_id", 1)
-        ids = range(first, first + bus_cfg.get("servos", 18))
-    faults = Faults.from_scenario(sc["faults"], seed, where=f"{sc['_path']} [faults]",
+        return Rig(cfg, sc, seed, clock, world, None, None)   # a world without a servo bus
+    bus_cfg = cfg.bus
+    faults = Faults.from_scenario(sc["faults"], seed, where=f"{cfg.path} [faults]",
                                   on_fault=on_fault)
-    bus = Bus(_servos(sc, list(ids), world), clock, baud=bus_cfg.get("baud", 1_000_000),
-              echo=bus_cfg.get("echo", False), faults=faults if faults.active() else None,
+    bus = Bus(_servos(bus_cfg, list(bus_cfg.ids if ids is None else ids), world), clock,
+              baud=bus_cfg.baud, echo=bus_cfg.echo, faults=faults if faults.active() else None,
               on_bytes=on_bytes, advance=world.advance_to if world is not None else None)
-    return Rig(sc, seed, clock, world, bus, faults)
+    return Rig(cfg, sc, seed, clock, world, bus, faults)

@@ -1,0 +1,60 @@
+"""hexhil's public Python API, importable from one place (``import host_tools as hx``):
+load a scenario, build and run it with host nodes of your own, record it, read the trace.
+docs/api.md describes each name; examples/host_node.py uses them all.
+
+Names resolve on first use (PEP 562), so ``hexhil``'s commands do not pay for the
+simulator, MuJoCo and MCAP on start-up.
+"""
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+_WHERE = {
+    # scenarios: typed, frozen, every default applied (hil/scenario/)
+    "Scenario": "hil.scenario", "load_scenario": "hil.scenario",
+    "Runtime": "hil.scenario", "WorldKind": "hil.scenario",
+    # the seams a run takes (hil/seams.py)
+    "HostNode": "hil.seams", "FirmwareWorld": "hil.seams", "SteppedWorld": "hil.seams",
+    "TraceRecorder": "hil.seams",
+    # a run and its result
+    "Run": "host_tools.runner", "RunResult": "hil.run_result",
+    "scenario_of_trace": "host_tools.runner",
+    # traces
+    "open_trace": "host_tools.trace.reader", "Trace": "host_tools.trace.reader",
+    "TraceMessage": "host_tools.trace.reader",
+    # errors a user can act on: one line, no traceback
+    "UserError": "protocol.errors",
+}
+# parse_scenario: a scenario from a dict as TOML reads it (tests and sweeps build them)
+_RENAMED = {"parse_scenario": ("hil.scenario", "parse")}
+# the CAN frames' encoder and decoder (protocol/can_frames.py: encode, decode, FRAMES)
+_MODULES = {"can_frames": "protocol.can_frames"}
+
+__all__ = sorted([*_WHERE, *_RENAMED, *_MODULES])
+
+
+def __getattr__(name: str) -> Any:
+    if name in _WHERE:
+        return getattr(importlib.import_module(_WHERE[name]), name)
+    if name in _RENAMED:
+        module, attr = _RENAMED[name]
+        return getattr(importlib.import_module(module), attr)
+    if name in _MODULES:
+        return importlib.import_module(_MODULES[name])
+    raise AttributeError(f"module 'host_tools' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return __all__
+
+
+if TYPE_CHECKING:   # for type checkers and editors: the same names, eagerly
+    from hil.run_result import RunResult
+    from hil.scenario import Runtime, Scenario, WorldKind, load_scenario
+    from hil.scenario import parse as parse_scenario
+    from hil.seams import FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
+    from host_tools.runner import Run, scenario_of_trace
+    from host_tools.trace.reader import Trace, TraceMessage, open_trace
+    from protocol import can_frames
+    from protocol.errors import UserError

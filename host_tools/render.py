@@ -10,7 +10,6 @@ The OpenGL backend is chosen before MuJoCo is imported (``choose_gl``).
 from __future__ import annotations
 
 import ctypes.util
-import json
 import os
 from pathlib import Path
 from typing import Any, Iterator
@@ -75,14 +74,10 @@ def _ground_truth(path: str) -> tuple[dict[str, str], list[tuple[float, list[flo
 
 def _world(meta: dict[str, str], path: str) -> Any:
     """The run's world (its obstacles) from the trace's scenario and seed."""
-    from hil import scenario as scenario_mod
     from hil.rig import make_world
+    from host_tools.runner import scenario_of_trace
 
-    scenario = meta.get("scenario", "")
-    if not Path(scenario).exists():
-        raise UserError(f"{path}: its scenario {scenario!r} is not here (render needs it "
-                        f"for the obstacles)")
-    return make_world(scenario_mod.load(scenario), int(json.loads(meta.get("seed", "0"))))
+    return make_world(*scenario_of_trace(meta, path))
 
 
 def _frames_at(samples: list[tuple[float, list[float]]], fps: float,

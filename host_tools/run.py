@@ -2,29 +2,25 @@
 run summary."""
 from __future__ import annotations
 
-import os
-import time
-from pathlib import Path
 from typing import Any, Callable
 
 from hil import scenario as scenario_mod
-from hil.rig import make_world
 from hil.run_result import RunResult
-from hil.sim import Simulator
-from host_tools import in_process
+from hil.scenario import Scenario, WorldKind
+from host_tools.runner import Run
 from protocol import link_schema as ls
 from protocol.errors import UserError
 
 CAN_WAIT_TIMEOUT_S = 60.0
 
 
-def summary(scenario: dict[str, Any], seed: int, result: RunResult,
+def summary(scenario: Scenario, seed: int, result: RunResult,
             trace: str | None) -> dict[str, Any]:
     """The ``--json`` object of a firmware run (keys fixed by issue 4)."""
     wall = result.wall_time_s
     stopped = result.firmware.get(ls.STATE) in ("safe_stop", "fault")
     return {
-        "scenario": _name(scenario),
+        "scenario": scenario.name,
         "seed": seed,
         "firmware_runtime": result.runtime,
         "sim_time_s": round(result.sim_time_s, 6),
@@ -52,10 +48,6 @@ def summary(scenario: dict[str, Any], seed: int, result: RunResult,
     }
 
 
-def _name(scenario: dict[str, Any]) -> str:
-    return scenario["scenario"].get("name") or Path(scenario["_path"]).stem
-
-
 def start_can_server(port: int, wait_clients: int) -> Any:
     from hil.can_server import CanServer
 
@@ -72,31 +64,16 @@ def start_can_server(port: int, wait_clients: int) -> Any:
     return server
 
 
-def _start_live(port: int) -> Any:
-    from host_tools.trace.live import LiveServer
-
-    live = LiveServer(port)
-    print(f"live: ws://127.0.0.1:{live.port} (Foxglove WebSocket)", flush=True)
-    return live
-
-
-def _traverse(sc: dict[str, Any], seed: int, cfg: Any, recorder: Any, server: Any,
-              trace: str | None, realtime: bool) -> tuple[dict[str, Any], RunResult]:
-    """A beams scenario: seed 000's world and host nodes on the same lockstep simulator."""
-    from host_tools.traversal import closed_loop
-
-    wall0 = time.perf_counter()
-    out = closed_loop.run(cfg, recorder, can_server=server, scene=recorder is not None,
-                          realtime=realtime)
-    result = RunResult("none", sim_time_s=out["t_end_s"], wall_time_s=time.perf_counter() - wall0,
-                       world=out)
+def _beams_summary(sc: Scenario, seed: int, result: RunResult,
+                   trace: str | None) -> dict[str, Any]:
+    """The ``--json`` object of a beams run: the traversal's outcome."""
     wall = result.wall_time_s
-    s = {"scenario": _name(sc), "seed": seed, "world": "beams",
+    s = {"scenario": sc.name, "seed": seed, "world": "beams",
          "sim_time_s": round(result.sim_time_s, 6), "wall_time_s": round(wall, 3),
          "real_time_factor": round(result.sim_time_s / wall, 2) if wall > 0 else None,
          "trace": trace}
-    s.update(out)
-    return s, result
+    s.update(result.world)
+    return s
 
 
 def run(path: str, duration_s: float | None = None, seed: int | None = None,
@@ -119,49 +96,32 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     ``navigator`` (``model``, ``grnn``; host_tools/grnn/navigator.py) stops the walk where
     it predicts the goal ``gait.distance_m`` is reached.
     """
-    sc = scenario_mod.load(path)
-    if seed is None:
-        seed = sc["scenario"].get("seed", 0)
-    if duration_s is not None and not duration_s > 0:
-        raise UserError(f"--duration must be positive, got {duration_s}")
+    sc = scenario_mod.load_scenario(path)
+    seed = sc.scenario.seed if seed is None else seed
+    if duration_s is not None:
+        scenario_mod.check_duration(duration_s, "--duration")
     if can_server_port is not None and not 0 <= can_server_port <= 65535:
         raise UserError(f"--can-server {can_server_port}: port must be 0-65535")
     if can_wait_clients < 0:
         raise UserError(f"--can-wait must be 0 or more, got {can_wait_clients}")
-    python = python or sc["firmware"].get("python", "micropython")
-    beams = sc["world"].get("kind") == "beams"
-    if beams:
-        from host_tools.traversal.closed_loop import config_from_scenario
-        cfg = config_from_scenario(sc, seed)
     attach_navigator = (_plan_navigation(sc, navigator, model_path) if navigator != "none"
                         else None)
-    world = None if beams else make_world(sc, seed)
-    recorder = live = server = nav = None
+    server = nav = None
     try:
-        if live_port is not None:
-            live = _start_live(live_port)
-        if out or live:
-            from host_tools.trace.recorder import Recorder
-            recorder = Recorder(out or os.devnull, {
-                "scenario": sc["_path"], "seed": seed,
-                "firmware_runtime": "none" if beams else python}, live=live,
-                **({"flush_interval_us": live.flush_interval_us} if live else {}))
         if can_server_port is not None:
             server = start_can_server(can_server_port, can_wait_clients)
-        if beams:
-            return _traverse(sc, seed, cfg, recorder, server, out, realtime)
-        sim = Simulator(sc, seed, world=world, recorder=recorder, tactile=tactile,
-                        can_server=server, scene=recorder is not None, realtime=realtime)
-        if attach_navigator is not None:
-            nav = attach_navigator(sim, world)
-        result = in_process.run(sim, duration_s, python)
+        with Run(sc, seed=seed, runtime=python, duration_s=duration_s, tactile=tactile,
+                 trace=out, live_port=live_port, can_server=server, realtime=realtime) as r:
+            if r.live is not None:
+                print(f"live: ws://127.0.0.1:{r.live.port} (Foxglove WebSocket)", flush=True)
+            if attach_navigator is not None:
+                nav = attach_navigator(r)
+            result = r.run()
     finally:
         if server is not None:
             server.close()
-        if recorder is not None:
-            recorder.close()
-        if live is not None:
-            live.close()
+    if sc.world.kind is WorldKind.BEAMS:
+        return _beams_summary(sc, seed, result, out), result
     s = summary(sc, seed, result, out)
     if nav is not None:
         s["navigator"] = {"kind": navigator, **nav.summary(),
@@ -169,29 +129,27 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     return s, result
 
 
-def _plan_navigation(sc: dict[str, Any], kind: str, model_path: str | None
-                     ) -> Callable[[Simulator, Any], Any]:
+def _plan_navigation(sc: Scenario, kind: str, model_path: str | None
+                     ) -> Callable[[Run], Any]:
     """What attaches the navigator to a run: its options checked and its estimator made
     (a GRNN file loaded) before anything opens; the goal ``gait.distance_m``, planned at the
     gait's nominal speed."""
     if kind not in ("model", "grnn"):
         raise UserError(f"--navigator {kind}: choose one of none, model, grnn")
-    if sc["world"].get("kind") != "hexapod":
+    if sc.world.kind is not WorldKind.HEXAPOD:
         raise UserError("--navigator walks the hexapod: this scenario's world is "
-                        f"{sc['world'].get('kind', 'none')}")
-    if "distance_m" not in sc["gait"]:
+                        f"{sc.world.kind.value if sc.world.kind else 'none'}")
+    if sc.gait.distance_m is None:
         raise UserError("--navigator needs the goal: the scenario has no gait.distance_m")
     if kind == "grnn" and not model_path:
         raise UserError("--navigator grnn needs --model MODEL.pt (hexhil grnn train)")
     from host_tools.grnn import navigator
-    from hil.link_server import firmware_settings
     from protocol import hexapod
 
-    fw = firmware_settings(sc)
-    gait, period_s = fw["gait"], fw["period_s"]
-    step_m = fw.get("step_length_m", hexapod.STEP_LENGTH_M)
-    d = sc["gait"]["distance_m"]
+    gait, period_s = sc.gait.name, sc.gait.period_s
+    step_m = sc.gait.step_length_m or hexapod.STEP_LENGTH_M
+    d = sc.gait.distance_m
     steps = hexapod.periods_for_distance(d, hexapod.speed_m_s(gait, step_m, period_s), period_s)
     estimator = navigator.make_estimator(kind, model_path, gait, period_s, step_m, d)
-    return lambda sim, world: navigator.attach(sim, world, estimator, gait, period_s, step_m,
-                                               d, steps)
+    return lambda run: navigator.attach(run, run.world, estimator, gait, period_s, step_m,
+                                        d, steps)

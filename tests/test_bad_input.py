@@ -25,7 +25,8 @@ FILES = {
     "unplug.toml": "[faults]\nunplug=[{id=300, at_s=1.0}]\n",
     "ber.toml": "[faults]\nbit_error_rate=2.0\n", "gait.toml": '[gait]\nname="gallop"\n',
     "sag.toml": "[faults]\nvoltage_sag=[{volts=9.0}]\n", "empty.mcap": "",
-    "inf.toml": "[firmware]\ncycle_hz=inf\n",
+    "inf.toml": "[firmware]\ncycle_hz=inf\n", "pyfoo.toml": '[firmware]\npython="foo"\n',
+    "longrun.toml": "[scenario]\nduration_s=1e308\n",
     "notmcap.mcap": "hello\n", "bad.csv": "a,b\n1,2\n", "afile": "",
 }
 B = "{B}"  # the case's folder, filled in by the fixture
@@ -52,11 +53,17 @@ CASES = [
     (["run", FT, "--duration", "-1"], "--duration must be positive"),
     (["run", FT, "--duration", "abc"], "--duration: invalid float value"),
     (["run", FT, "--duration", "nan"], "--duration must be positive, got nan"),
+    (["run", FT, "--duration", "inf"], "--duration must be at most 1e+09 s"),
+    (["run", FT, "--duration", "1e308"], "--duration must be at most 1e+09 s"),
+    (["run", f"{B}/longrun.toml"], "key 'scenario.duration_s' must be at most 1e+09 s"),
+    (["run", f"{B}/pyfoo.toml"], "pyfoo.toml: key 'firmware.python' must be one of "
+     "micropython, cpython, cpython-inprocess, got 'foo'"),
     (["run", FT, "--python", "jython"], "--python: invalid choice"),
     (["run", FT, "--seed", "x"], "--seed: invalid int value"),
     (["run", FT, "--out", f"{B}/nodir/x.mcap"], "x.mcap: cannot write trace"),
     (["run", FT, "--can-server", "99999"], "--can-server 99999: port must be 0-65535"),
     (["run", FT, "--can-server", "0", "--can-wait", "-1"], "--can-wait must be 0 or more"),
+    (["bus", "--duration", "inf"], "--duration inf: must be at most 1e+09 s"),
     (["bus", "--ids", "5-1"], "--ids '5-1': IDs must be 0-253, low before high"),
     (["bus", "--ids", "a"], "--ids 'a': expected IDs like"),
     (["bus", "--ids", "1-300"], "--ids '1-300'"),

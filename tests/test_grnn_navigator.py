@@ -61,10 +61,10 @@ def planned_run(short_goal: Path, tmp_path_factory) -> tuple[navigator.Navigator
     trace = tmp_path_factory.mktemp("nav-trace") / "planned.mcap"
     navs: list[navigator.Navigator] = []
 
-    def navigate(sim, world) -> None:
+    def navigate(run) -> None:
         args = ("tripod", PERIOD_S, 0.05, 0.3)
         est = navigator.make_estimator("planned", None, *args)
-        navs.append(navigator.attach(sim, world, est, *args, 3))
+        navs.append(navigator.attach(run, run.world, est, *args, 3))
     th.simulate(sc, 4, 6 * PERIOD_S, str(trace), navigate)
     return navs[0], trace
 

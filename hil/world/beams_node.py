@@ -11,13 +11,13 @@ import math
 from typing import Any
 
 from hil.can_bus import CanBus, Endpoint
+from hil.scenario.beams import MAX_TIME_S
 from hil.world import scene
 from hil.world.beams import DT_US, SENSOR_PERIOD_US, BeamsWorld
 from protocol import can_frames
 
 CONTROL_PERIOD_US = 2000      # Sec. II-I: control input every 0.002 s; pose and rate as often
 NO_CONTACT_LIMIT_US = 5_000_000  # a push that has not reached the beams in 5 s never will
-MAX_TIME_S = 8.0              # after first contact: a traversal takes at most this long
 
 
 def energy_increment_j(u: tuple[float, float, float], qd: tuple[float, float, float],

@@ -8,6 +8,7 @@ import sys
 from typing import Any
 
 from hil.can_server import DEFAULT_PORT
+from hil.scenario import DEFAULT_BAUD
 from host_tools.cli import JSON_HELP
 from protocol.errors import UserError
 
@@ -111,7 +112,7 @@ def _serve(server: Any, args: argparse.Namespace, hint: str | None) -> None:
 
     try:
         if args.port is not None:
-            server.serve_port(args.port, args.baud or 1_000_000, announce)
+            server.serve_port(args.port, args.baud or DEFAULT_BAUD, announce)
         elif args.tcp is not None:
             server.serve_tcp(args.tcp, args.host, announce)
         else:
@@ -133,8 +134,8 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--tcp {args.tcp}: port must be 0-65535")
     if args.world and args.scenario:
         raise UserError("give the scenario once: --world SCENARIO or --scenario SCENARIO")
-    if args.duration is not None and not args.duration > 0:
-        raise UserError(f"--duration {args.duration}: must be positive")
+    if args.duration is not None:
+        scenario_mod.check_duration(args.duration, f"--duration {args.duration}:")
     path = args.world or args.scenario
     sc, seed, ids = scenario_from_flags(args, scenario_mod.load(path) if path else {})
     can_server = None

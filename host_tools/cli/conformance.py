@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 
+from hil.scenario import DEFAULT_BAUD
 from host_tools.cli import JSON_HELP, emit_json
 from protocol.errors import UserError
 
@@ -32,7 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "restore what was changed. Exit 0 only when all pass.")
     p.add_argument("--port", required=True,
                    help="serial port or pyserial URL (/dev/ttyUSB0, /dev/pts/N, socket://127.0.0.1:7000)")
-    p.add_argument("--baud", type=int, default=1_000_000, help="bit/s (default 1000000)")
+    p.add_argument("--baud", type=int, default=DEFAULT_BAUD, help="bit/s (default 1000000)")
     p.add_argument("--ids", default=None, help="IDs to check, e.g. 1-18 (default: scan 0-253)")
     p.add_argument("--timeout-ms", type=float, default=50.0,
                    help="status packet timeout (default 50; USB adapters need > latency timer)")

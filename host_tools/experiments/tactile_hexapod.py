@@ -32,7 +32,8 @@ from protocol.errors import UserError
 from host_tools.experiments.executor import Executor
 from host_tools.experiments.tactile_report import GAITS, markdown, plots, summary
 from hil.link import IN_PROCESS, RUNTIMES
-from hil.scenario import check
+from hil.scenario import Scenario, parse
+from host_tools.runner import Run
 from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
 from protocol import hexapod
 
@@ -75,7 +76,7 @@ class RunSpec:
         return math.ceil(self.periods * slack) * self.period_s
 
 
-def scenario_for(spec: RunSpec) -> dict[str, Any]:
+def scenario_for(spec: RunSpec) -> Scenario:
     """The scenario a run walks, validated against the shared schema."""
     world: dict[str, Any] = {"kind": "hexapod", "terrain": "flat", "model": spec.model}
     if spec.model == "real":
@@ -90,34 +91,19 @@ def scenario_for(spec: RunSpec) -> dict[str, Any]:
     data = {"scenario": {"name": f"tactile-hexapod-{spec.stage}", "seed": spec.seed,
                          "duration_s": spec.duration_s},
             "gait": gait, "firmware": {"tactile": spec.tactile}, "world": world}
-    return check(data, f"<{data['scenario']['name']}>")
+    return parse(data, f"<{data['scenario']['name']}>")
 
 
-def simulate(scenario: dict[str, Any], seed: int, duration_s: float, trace: str | None = None,
-             navigate: Callable[[Any, Any], Any] | None = None, python: str = IN_PROCESS):
+def simulate(scenario: Scenario, seed: int, duration_s: float, trace: str | None = None,
+             navigate: Callable[[Run], Any] | None = None, python: str = IN_PROCESS):
     """Run the firmware (under ``python``) against the hexapod world (recorded to ``trace``
-    if given); returns the world at the end. ``navigate(sim, world)`` may add a host node
-    first."""
-    from hil.sim import Simulator
-    from hil.world.hexapod import HexapodWorld
-    from host_tools import in_process
-    from host_tools.trace.recorder import open_recorder
-
-    world = HexapodWorld(scenario, seed)
-    # the scenario itself rides along: its "_path" names no file a trace reader could load
-    recorder = open_recorder(trace, {"scenario": scenario["_path"], "seed": seed,
-                                     "firmware_runtime": python,
-                                     "scenario_data": {k: v for k, v in scenario.items()
-                                                       if not k.startswith("_")}})
-    try:
-        sim = Simulator(scenario, seed, world=world, recorder=recorder)
+    if given: its metadata carries the scenario itself, whose path names no file); returns
+    the world at the end. ``navigate(run)`` may add a host node first."""
+    with Run(scenario, seed=seed, runtime=python, duration_s=duration_s, trace=trace) as run:
         if navigate is not None:
-            navigate(sim, world)
-        in_process.run(sim, duration_s, python)
-    finally:
-        if recorder is not None:
-            recorder.close()
-    return world
+            navigate(run)
+        run.run()
+    return run.world
 
 
 def trace_name(spec: RunSpec) -> str:
@@ -138,10 +124,10 @@ def run_one(spec: RunSpec, speed_m_s: float | None = None,
     if spec.navigator:
         from host_tools.grnn import navigator
 
-        def navigate(sim: Any, world: Any) -> None:
+        def navigate(run: Run) -> None:
             args = (spec.gait, spec.period_s, hexapod.STEP_LENGTH_M, spec.distance_m)
             est = navigator.make_estimator(spec.navigator, spec.model_path, *args, speed_m_s)
-            nav.append(navigator.attach(sim, world, est, *args, spec.periods, speed_m_s))
+            nav.append(navigator.attach(run, run.world, est, *args, spec.periods, speed_m_s))
     world = simulate(scenario_for(spec), spec.seed, spec.duration_s, trace, navigate, spec.python)
     pose = world.body_pose()
     out = asdict(spec)

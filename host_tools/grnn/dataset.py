@@ -23,7 +23,9 @@ from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
 from hil.world.hexapod import yaw_rad
 from host_tools.cli import JSON_HELP
 from host_tools.grnn import data as data_mod
+from hil.scenario import WorldKind
 from host_tools.grnn.features import StepRow, StepSampler
+from host_tools.runner import scenario_of_trace
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_BODY, T_CAN_RAW, T_JOINTS
 from protocol import can_frames, hexapod
@@ -33,38 +35,16 @@ COMBINATIONS = [(g, dens, h) for g in ("tripod", "wave") for dens in ("low", "hi
                 for h in ("small", "large")]   # the with-method cases of Fig. 17-20
 
 
-def _scenario_of(tr: Trace) -> tuple[dict[str, Any], int]:
-    """The scenario a trace ran and its seed: the experiment's ``scenario_data``, else the
-    scenario file ``hexhil run`` names."""
-    meta = tr.metadata()
-    try:
-        seed = int(meta.get("seed", "0"))
-        if "scenario_data" in meta:
-            return json.loads(meta["scenario_data"]), seed
-    except ValueError:
-        raise UserError(f"{tr.path}: unreadable run metadata") from None
-    from hil import scenario as scenario_mod
-
-    path = meta.get("scenario", "")
-    if not path or not Path(path).is_file():
-        raise UserError(f"{tr.path}: the trace names no scenario file this machine has "
-                        f"({path or 'none'})")
-    return scenario_mod.load(path), seed
-
-
 def rows_from_trace(path: str | Path) -> tuple[list[StepRow], dict[str, Any]]:
     """One trace's rows and its run facts (gait, terrain, d, N, dx at the last pose)."""
     with Trace(path) as tr:
-        sc, seed = _scenario_of(tr)
-        gait = sc.get("gait", {})
-        world = sc.get("world", {})
-        name = gait.get("name", hexapod.DEFAULT_GAIT)
-        period_s = gait.get("period_s", hexapod.GAIT_PERIOD_S.get(name, 0.0))
-        distance_m = gait.get("distance_m", 0.0)
-        if world.get("kind") != "hexapod" or not distance_m > 0:
+        sc, seed = scenario_of_trace(tr.metadata(), str(tr.path))
+        gait, kind, world = sc.gait, sc.world.kind, sc.data["world"]
+        name, period_s, distance_m = gait.name, gait.period_s, gait.distance_m or 0.0
+        if kind is not WorldKind.HEXAPOD or not distance_m > 0:
             raise UserError(f"{tr.path}: not a hexapod walk to a goal (world.kind "
-                            f"{world.get('kind')!r}, gait.distance_m {distance_m})")
-        sampler = StepSampler(name, period_s, gait.get("step_length_m", hexapod.STEP_LENGTH_M))
+                            f"{kind.value if kind else None!r}, gait.distance_m {distance_m})")
+        sampler = StepSampler(name, period_s, gait.step_length_m or hexapod.STEP_LENGTH_M)
         topics = [t for t in (T_CAN_RAW, T_BODY, T_JOINTS) if t in tr.topics()]
         if len(topics) < 3:
             raise UserError(f"{tr.path}: needs {T_CAN_RAW}, {T_BODY} and {T_JOINTS} "

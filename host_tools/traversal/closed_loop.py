@@ -9,51 +9,31 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from hil.scenario import Scenario, parse
+from hil.scenario.beams import STRATEGIES
 from hil.sim import Simulator
 from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
 from hil.world.beams import BeamsWorld, BodyState
 from hil.world.beams_node import NO_CONTACT_LIMIT_US, BeamsNode
 from host_tools.traversal.nodes import ControllerNode, PlannerNode, RunConfig
-from protocol.errors import UserError
-
-STRATEGIES = ("interact", "avoid", "none")
-METHODS = ("fast", "paper")
 
 
-def config_from_scenario(sc: dict[str, Any], seed: int) -> RunConfig:
-    """A checked beams scenario's ``[beams]`` and ``[traversal]`` as a run configuration."""
-    b, t, where = sc["beams"], sc["traversal"], sc["_path"]
-    for key in ("k1_nm_per_rad", "k2_nm_per_rad"):
-        if key not in b:
-            raise UserError(f"{where}: world.kind 'beams' needs key 'beams.{key}'")
-    for key, value in b.items():
-        if not (math.isfinite(value) and value >= 0):
-            raise UserError(f"{where}: key 'beams.{key}' must be a finite number >= 0, "
-                            f"got {value}")
-    strategy = t.get("strategy", "interact")
-    if strategy not in STRATEGIES:
-        raise UserError(f"{where}: key 'traversal.strategy' must be one of "
-                        f"{', '.join(STRATEGIES)}, got {strategy!r}")
-    if t.get("method", "fast") not in METHODS:
-        raise UserError(f"{where}: key 'traversal.method' must be fast or paper")
-    if t.get("unknowns", 3) not in (2, 3, 4):
-        raise UserError(f"{where}: key 'traversal.unknowns' must be 2, 3 or 4")
-    fx = t.get("fx_n", 1.0 if strategy == "none" else 0.1)
-    if abs(fx) > 2.0:
-        raise UserError(f"{where}: key 'traversal.fx_n' must be within the actuator limit "
-                        f"|F_x| <= 2 N, got {fx}")
-    hb1 = b.get("hb1_m", 0.0)
-    return RunConfig(b["k1_nm_per_rad"], b["k2_nm_per_rad"], hb1, b.get("hb2_m", hb1),
-                     strategy, fx, b.get("noise", 0.2), t.get("delay_ms", 300.0),
-                     t.get("sensing_ms", 300.0), t.get("unknowns", 3), t.get("method", "fast"),
-                     seed, t.get("max_time_s", 8.0), preload_nm=b.get("preload_nm", 0.0),
-                     beam_mass_kg=b.get("mass_kg", 0.0))
+
+def config_from_scenario(sc: Scenario, seed: int) -> RunConfig:
+    """A beams scenario's ``[beams]`` and ``[traversal]`` (checked, with their defaults:
+    hil/scenario/beams.py) as a run configuration."""
+    b, t = sc.beams, sc.traversal
+    return RunConfig(b.k1_nm_per_rad, b.k2_nm_per_rad, b.hb1_m, b.hb2_m, t.strategy, t.fx_n,
+                     b.noise, t.delay_ms, t.sensing_ms, t.unknowns, t.method, seed,
+                     t.max_time_s, preload_nm=b.preload_nm, beam_mass_kg=b.mass_kg)
 
 
 def run(cfg: RunConfig, recorder: Any = None, geometry: BodyGeometry = PAPER_BODY,
-        can_server: Any = None, scene: bool = False, realtime: bool = False) -> dict:
+        can_server: Any = None, scene: bool = False, realtime: bool = False,
+        scenario: Scenario | None = None) -> dict:
     """One traversal; returns the outcome, the estimate, the plan and the Eq. 11 energy.
-    ``scene``/``realtime``: as ``hil.sim.Simulator`` takes them."""
+    ``scene``/``realtime``: as ``hil.sim.Simulator`` takes them; ``scenario`` (the file
+    ``cfg`` came from) gives the run its CAN faults, else none."""
     if cfg.strategy not in STRATEGIES:
         raise ValueError(f"unknown strategy {cfg.strategy!r}")
     truth = [BeamParams(cfg.k1, cfg.hb1_m, cfg.preload_nm, cfg.beam_mass_kg),
@@ -61,8 +41,7 @@ def run(cfg: RunConfig, recorder: Any = None, geometry: BodyGeometry = PAPER_BOD
     state = BodyState()
     world = BeamsNode(BeamsWorld(truth, geometry, state, noise=cfg.noise, seed=cfg.seed),
                       cfg.max_time_s)
-    scenario = {"world": {"kind": "beams"}, "_path": "<beams run>"}
-    sim = Simulator(scenario, cfg.seed, world=world, recorder=recorder, can_server=can_server,
+    sim = Simulator(scenario or parse({}, "<beams run>"), cfg.seed, world=world, recorder=recorder, can_server=can_server,
                     scene=scene, realtime=realtime)
     plan = PlannerNode(sim.can.endpoint("tx"), cfg, geometry, state.x_m)
     sim.add_node(plan)

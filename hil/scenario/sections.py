@@ -1,0 +1,207 @@
+"""A scenario's sections as typed, frozen objects: each section's defaults and rules beside
+its type, applied once when a scenario is loaded (hil/scenario/__init__.py).
+
+Keys a section leaves to the firmware (``firmware/config.py``: cycle rate, tactile rule,
+servo loss time) or to the world (``hil/world``: terrain, model) stay None here when the
+file does not set them: their defaults live with their owner, on the other floor.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+from hil.servo import EEPROM_BUSY_US
+from protocol import ax12, hexapod
+from protocol.errors import UserError
+
+DEFAULT_DURATION_S = 30.0
+# Trace timestamps are u64 nanoseconds (MCAP log_time): 1.8e10 s; a run is kept well inside.
+MAX_DURATION_S = 1e9
+DEFAULT_SERVOS = 18              # protocol/hexapod.py: 6 legs x 3 joints
+DEFAULT_FIRST_ID = 1
+DEFAULT_BAUD = 1_000_000         # the AX-12's factory rate (register 4 = 1)
+RETURN_DELAY_MAX_US = 508        # AX-12 register 5: 2 us a unit, 0-254
+BAUD_TOLERANCE = 0.03            # AX-12 e-manual: a line within 3 % of the servo's rate decodes
+GAITS = tuple(hexapod.GAITS)     # tripod, wave
+DEFAULT_GAIT = hexapod.DEFAULT_GAIT
+
+
+class Runtime(str, Enum):
+    """Where the firmware runs: the micropython binary (the reference), CPython in a child
+    process, or CPython in this process (sweeps: same frames, same digest)."""
+
+    MICROPYTHON = "micropython"
+    CPYTHON = "cpython"
+    CPYTHON_INPROCESS = "cpython-inprocess"
+
+    @classmethod
+    def parse(cls, value: str, what: str) -> "Runtime":
+        """``value`` as a runtime; ``what`` names the key or flag in the one-line refusal."""
+        try:
+            return cls(value)
+        except ValueError:
+            raise UserError(f"{what} must be one of {', '.join(r.value for r in cls)}, "
+                            f"got {value!r}") from None
+
+
+class WorldKind(str, Enum):
+    HEXAPOD = "hexapod"   # the MuJoCo hexapod (hil/world/hexapod.py), driven by the firmware
+    BEAMS = "beams"       # seed 000's two beams (hil/world/beams.py), stepped by the simulator
+
+
+def check_duration(value: float, what: str) -> float:
+    """A run's length in seconds: positive, finite and within ``MAX_DURATION_S``."""
+    if not value > 0:
+        raise UserError(f"{what} must be positive, got {value}")
+    if not value <= MAX_DURATION_S:
+        raise UserError(f"{what} must be at most {MAX_DURATION_S:g} s (a trace's clock is "
+                        f"u64 nanoseconds), got {value}")
+    return float(value)
+
+
+def baud_register(baud: int) -> int:
+    """The AX-12 Baud Rate register (2 Mbps / (n + 1)) nearest ``baud`` bps."""
+    return min(254, max(0, round(2_000_000 / baud) - 1))
+
+
+@dataclass(frozen=True)
+class ScenarioInfo:
+    name: str = ""
+    description: str = ""
+    seed: int = 0
+    duration_s: float = DEFAULT_DURATION_S
+
+    @classmethod
+    def parse(cls, where: str, d: dict[str, Any]) -> "ScenarioInfo":
+        out = cls(**d)
+        check_duration(out.duration_s, f"{where}: key 'scenario.duration_s'")
+        return out
+
+
+@dataclass(frozen=True)
+class BusConfig:
+    servos: int = DEFAULT_SERVOS
+    first_id: int = DEFAULT_FIRST_ID
+    baud: int = DEFAULT_BAUD
+    echo: bool = False
+    return_delay_us: int | None = None      # None: the servo's own (the control table's)
+    edition: str = ax12.EDITION_EMANUAL
+    eeprom_busy_us: int = EEPROM_BUSY_US
+    sensor_node: bool | None = None         # None: on with ``hexhil bus --world``
+    sensor_node_id: int | None = None
+
+    @property
+    def ids(self) -> range:
+        return range(self.first_id, self.first_id + self.servos)
+
+    @classmethod
+    def parse(cls, where: str, d: dict[str, Any]) -> "BusConfig":
+        b = cls(**d)
+        if b.servos < 1 or b.first_id < 0 or b.first_id + b.servos - 1 > 253:
+            raise UserError(f"{where}: servos {b.servos} from ID {b.first_id} do not fit "
+                            "IDs 0-253")
+        if b.baud <= 0:
+            raise UserError(f"{where}: key 'bus.baud' must be positive, got {b.baud}")
+        if abs(ax12.baud_to_bps(baud_register(b.baud)) - b.baud) > BAUD_TOLERANCE * b.baud:
+            raise UserError(f"{where}: baud {b.baud}: no AX-12 rate 2000000/(n+1) within "
+                            "3 % of it")
+        if b.edition not in ax12.EDITIONS:
+            raise UserError(f"{where}: key 'bus.edition' must be one of "
+                            f"{', '.join(ax12.EDITIONS)}, got {b.edition!r}")
+        rd = b.return_delay_us
+        if rd is not None and (rd % 2 or not 0 <= rd <= RETURN_DELAY_MAX_US):
+            raise UserError(f"{where}: key 'bus.return_delay_us' must be even and "
+                            f"0-{RETURN_DELAY_MAX_US}, got {rd}")
+        node = b.sensor_node_id
+        if node is not None and (not 0 <= node <= 253 or node in b.ids):
+            raise UserError(f"{where}: key 'bus.sensor_node_id' must be 0-253 and no servo's "
+                            f"ID, got {node}")
+        if b.eeprom_busy_us < 0:
+            raise UserError(f"{where}: key 'bus.eeprom_busy_us' must be 0 or more, "
+                            f"got {b.eeprom_busy_us}")
+        return b
+
+
+@dataclass(frozen=True)
+class FirmwareConfig:
+    """None: the firmware's own default (firmware/config.py)."""
+
+    cycle_hz: float | None = None
+    tactile: bool | None = None
+    python: Runtime = Runtime.MICROPYTHON
+    servo_lost_s: float | None = None
+    reads_per_cycle: int | None = None
+
+    @classmethod
+    def parse(cls, where: str, d: dict[str, Any]) -> "FirmwareConfig":
+        d = dict(d)
+        if "python" in d:
+            d["python"] = Runtime.parse(d["python"], f"{where}: key 'firmware.python'")
+        f = cls(**d)
+        if f.cycle_hz is not None and not f.cycle_hz > 0:
+            raise UserError(f"{where}: 'cycle_hz' must be positive")
+        return f
+
+
+@dataclass(frozen=True)
+class GaitConfig:
+    """None: the firmware's own default; ``period_s`` defaults to the gait's nominal one."""
+
+    name: str = DEFAULT_GAIT
+    period_s: float = 0.0
+    step_length_m: float | None = None
+    step_height_m: float | None = None
+    max_obstacle_height_m: float | None = None
+    direction_deg: float | None = None
+    distance_m: float | None = None     # the goal ahead, for a navigator
+
+    @classmethod
+    def parse(cls, where: str, d: dict[str, Any]) -> "GaitConfig":
+        name = d.get("name", DEFAULT_GAIT)
+        if name not in GAITS:
+            raise UserError(f"{where}: key 'gait.name' must be tripod or wave, got {name!r}")
+        g = cls(**{"period_s": hexapod.GAIT_PERIOD_S[name], **d})
+        if not g.period_s > 0:
+            raise UserError(f"{where}: 'period_s' must be positive")
+        return g
+
+
+@dataclass(frozen=True)
+class FaultsConfig:
+    """Rates, and the scheduled faults' tables (checked by hil/faults.py, their owner)."""
+
+    bit_error_rate: float = 0.0
+    drop_status_rate: float = 0.0
+    can_drop_rate: float = 0.0
+    unplug: tuple[dict[str, Any], ...] = ()
+    stall: tuple[dict[str, Any], ...] = ()
+    overheat: tuple[dict[str, Any], ...] = ()
+    voltage_sag: tuple[dict[str, Any], ...] = ()
+
+    @classmethod
+    def parse(cls, where: str, d: dict[str, Any]) -> "FaultsConfig":
+        f = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
+        if not 0.0 <= f.can_drop_rate <= 1.0:
+            raise UserError(f"{where}: key 'faults.can_drop_rate' must be in [0, 1], "
+                            f"got {f.can_drop_rate}")
+        return f
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """``kind`` None: no world (kinematic servos); a ``[world]`` without ``kind`` is the
+    hexapod. Its other keys (terrain, model, obstacles, ...) are read by hil/world/."""
+
+    kind: WorldKind | None = None
+
+    @classmethod
+    def parse(cls, where: str, d: dict[str, Any]) -> "WorldConfig":
+        if not d:
+            return cls()
+        kind = d.get("kind", WorldKind.HEXAPOD.value)
+        try:
+            return cls(WorldKind(kind))
+        except ValueError:
+            raise UserError(f"{where}: key 'world.kind' must be one of "
+                            f"{', '.join(k.value for k in WorldKind)}, got {kind!r}") from None
