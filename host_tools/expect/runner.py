@@ -13,17 +13,14 @@ from typing import Any, Callable, Sequence
 from mcap.writer import CompressionType, Writer
 
 from hil.master_check import MasterCheck
-from hil.rig import make_world
-from hil.sim import Simulator
-from host_tools import in_process
 from host_tools import run as run_mod
 from host_tools.expect.evaluate import Outcome, evaluate
 from host_tools.expect.spec import Case
 from host_tools.experiments.executor import Executor
+from host_tools.runner import Run
 from host_tools.trace import protobuf as pb
 from host_tools.trace import topics
 from host_tools.trace.reader import Trace
-from host_tools.trace.recorder import Recorder
 
 T_EXPECTATIONS = "/expectations"  # foxglove.Log: each failed expectation at its moment
 
@@ -76,36 +73,36 @@ class _Sender:
 
     period_us = 1_000
 
-    def __init__(self, sim: Simulator, sends: Sequence[tuple[int, int, bytes]]) -> None:
-        self.sim, self.sends = sim, list(sends)
+    def __init__(self, run: Run, sends: Sequence[tuple[int, int, bytes]]) -> None:
+        self.run, self.sends = run, list(sends)
 
     def tick(self, t_us: int) -> None:
         while self.sends and self.sends[0][0] <= t_us:
             _, arb_id, data = self.sends.pop(0)
-            self.sim.send_can(arb_id, data)
+            self.run.send_can(arb_id, data)
 
 
 def run_scenario(scenario: dict[str, Any], seed: int, duration_s: float, python: str,
                  tactile: bool | None, trace: Path, timing: BusTiming = BusTiming(),
                  sends: Sequence[tuple[int, int, bytes]] = ()) -> dict[str, Any]:
-    """Run a checked hexapod scenario with our firmware, recorded to ``trace`` with the
-    master's protocol check on; returns ``hexhil run --json``'s summary plus
-    ``violations``. Every case and margin run goes through here (the adapter to switch to
-    the public run API of issue 28 when it lands)."""
-    world = make_world(scenario, seed)
-    recorder = Recorder(trace, {"scenario": scenario["_path"], "seed": seed,
-                                "firmware_runtime": python})
-    check = MasterCheck(recorder.violation)
+    """Run a checked hexapod scenario with our firmware through the one run path
+    (host_tools/runner.py ``Run``), recorded to ``trace`` with the master's protocol check
+    on; returns ``hexhil run --json``'s summary plus ``violations``. Every case and margin
+    run goes through here."""
+    run = Run(scenario, seed=seed, runtime=python, duration_s=duration_s, tactile=tactile,
+              trace=trace)
     try:
-        sim = Simulator(scenario, seed, world=world, recorder=recorder, tactile=tactile)
+        check = MasterCheck(run.recorder.violation)
+        sim = run.sim
         sim.bus.monitor = check
         timing.apply(sim.bus)
         if sends:
-            sim.add_node(_Sender(sim, sends))
-        result = in_process.run(sim, duration_s, python)
-    finally:
-        recorder.close()
-    summary = run_mod.summary(scenario, seed, result, str(trace))
+            run.add_node(_Sender(run, sends))
+    except BaseException:
+        run.close()
+        raise
+    result = run.run()
+    summary = run_mod.summary(run.scenario, seed, result, str(trace))
     summary["violations"] = check.summary()
     return summary
 
