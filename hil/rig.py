@@ -11,10 +11,12 @@ from typing import Any, Callable, Sequence
 
 from hil import scenario as scenario_mod
 from hil.bus import Bus, OnBytes
+from hil.bus2 import Bus2
 from hil.clock import VirtualClock
 from hil.faults import Faults, OnFault
 from hil.servo import EEPROM_BUSY_US, Servo
-from protocol import ax12
+from hil.servo_xl430 import XL430Servo
+from protocol import ax12, xl430
 
 
 @dataclass
@@ -43,9 +45,16 @@ def _servos(scenario: dict[str, Any], ids: Sequence[int], world: Any) -> list[Se
     edition = bus.get("edition", ax12.EDITION_EMANUAL)
     busy_us = bus.get("eeprom_busy_us", EEPROM_BUSY_US)
     actuators = world.actuators() if world is not None else []
-    servos = []
+    servos: list = []
     for k, dev_id in enumerate(ids):
         a = actuators[k] if k < len(actuators) else None
+        if bus.get("model") == xl430.MODEL_NAME:
+            x = XL430Servo(dev_id, actuator=a, eeprom_busy_us=busy_us, position=(
+                xl430.rad_to_position(a.state()[0]) if a is not None else xl430.POSITION_CENTRE))
+            x.table[xl430.RETURN_DELAY_TIME] = bus.get("return_delay_us", 500) // 2
+            x.table[xl430.BAUD_RATE] = xl430.bps_to_baud(bus.get("baud", 1_000_000))
+            servos.append(x)
+            continue
         pos = ax12.rad_to_position(a.state()[0]) if a is not None else 512
         s = Servo(dev_id, edition, actuator=a, position=pos, eeprom_busy_us=busy_us)
         if "return_delay_us" in bus:
@@ -70,7 +79,8 @@ def build(scenario: dict[str, Any], seed: int = 0, *, world: Any = None,
         ids = range(first, first + bus_cfg.get("servos", 18))
     faults = Faults.from_scenario(sc["faults"], seed, where=f"{sc['_path']} [faults]",
                                   on_fault=on_fault)
-    bus = Bus(_servos(sc, list(ids), world), clock, baud=bus_cfg.get("baud", 1_000_000),
+    line = Bus2 if bus_cfg.get("model") == xl430.MODEL_NAME else Bus
+    bus = line(_servos(sc, list(ids), world), clock, baud=bus_cfg.get("baud", 1_000_000),
               echo=bus_cfg.get("echo", False), faults=faults if faults.active() else None,
               on_bytes=on_bytes, advance=world.advance_to if world is not None else None)
     return Rig(sc, seed, clock, world, bus, faults)

@@ -13,13 +13,14 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from protocol import ax12
+from protocol import ax12, xl430
 from protocol.errors import UserError
 
 SCHEMA: dict[str, dict[str, type]] = {
     "scenario": {"name": str, "description": str, "seed": int, "duration_s": float},
     "bus": {"servos": int, "first_id": int, "baud": int, "echo": bool, "return_delay_us": int,
-            "edition": str, "eeprom_busy_us": int, "sensor_node": bool, "sensor_node_id": int},
+            "edition": str, "eeprom_busy_us": int, "sensor_node": bool, "sensor_node_id": int,
+            "model": str},
     "firmware": {"cycle_hz": float, "tactile": bool, "python": str, "servo_lost_s": float,
                  "reads_per_cycle": int},
     "gait": {"name": str, "period_s": float, "step_length_m": float, "step_height_m": float,
@@ -61,6 +62,9 @@ def _check_type(where: str, section: str, key: str, value: Any, want: type) -> A
     return value
 
 
+SERVO_MODELS = ("ax-12a", xl430.MODEL_NAME)  # Protocol 1.0, Protocol 2.0
+
+
 def baud_register(baud: int) -> int:
     """The AX-12 Baud Rate register (2 Mbps / (n + 1)) nearest ``baud`` bps."""
     return min(254, max(0, round(2_000_000 / baud) - 1))
@@ -73,7 +77,15 @@ def _check_bus(where: str, bus: dict[str, Any]) -> None:
     baud = bus.get("baud", 1_000_000)
     if baud <= 0:
         raise UserError(f"{where}: key 'bus.baud' must be positive, got {baud}")
-    if abs(ax12.baud_to_bps(baud_register(baud)) - baud) > BAUD_TOLERANCE * baud:
+    model = bus.get("model", SERVO_MODELS[0])
+    if model not in SERVO_MODELS:
+        raise UserError(f"{where}: key 'bus.model' must be one of {', '.join(SERVO_MODELS)}, "
+                        f"got {model!r}")
+    if model != SERVO_MODELS[0]:
+        if baud not in xl430.BAUD_BPS or first + n - 1 > 252 or bus.get("sensor_node"):
+            raise UserError(f"{where}: an {model} bus needs a baud of "
+                            f"{'/'.join(map(str, xl430.BAUD_BPS))}, IDs 0-252, no sensor node")
+    elif abs(ax12.baud_to_bps(baud_register(baud)) - baud) > BAUD_TOLERANCE * baud:
         raise UserError(f"{where}: baud {baud}: no AX-12 rate 2000000/(n+1) within 3 % of it")
     edition = bus.get("edition", ax12.EDITION_EMANUAL)
     if edition not in ax12.EDITIONS:
