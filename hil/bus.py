@@ -83,6 +83,8 @@ class _Burst:
 class Bus:
     """The line, its servos and the master's receive FIFO; see the module docstring."""
 
+    protocol = 1  # Dynamixel Protocol 1.0 (hil/bus2.py: 2.0)
+
     def __init__(self, servos: Iterable[Servo], clock: VirtualClock, baud: int = 1_000_000,
                  echo: bool = False, faults=None, on_bytes: OnBytes | None = None,
                  advance: Advance | None = None) -> None:

@@ -17,6 +17,7 @@ from hil import scenario as scenario_mod
 from hil.can_bus import CanBus, RecorderListener
 from hil.ground_truth import GroundTruth
 from hil.master_check import MasterCheck
+from hil.servo_xl430 import XL430Servo
 from hil.run_result import body_displacement
 from hil.sensor_node import DEFAULT_ID, SensorNode
 from hil.servo import Servo
@@ -44,7 +45,7 @@ class RealTimeRig:
             raise UserError(f"{sc['_path']}: the {sc['world'].get('kind')} world has no servo bus")
         self.world, self.bus, self.clock = w, self.rig.bus, self.rig.clock
         self.servos = list(self.bus.servos)
-        self.check = MasterCheck(self._on_violation)
+        self.check = MasterCheck(self._on_violation, self.bus.protocol)
         self.bus.monitor = self.check
         self.node = None
         if sensor_id is not None:
@@ -59,7 +60,8 @@ class RealTimeRig:
         if can_server is not None:
             self.can.add_gateway(can_server)
         self._pose0 = w.body_pose() if w is not None else None
-        self._truth = GroundTruth(w, [s for s in self.servos if isinstance(s, Servo)], recorder,
+        self._truth = GroundTruth(w, [s for s in self.servos if isinstance(s, (Servo, XL430Servo))],
+                                  recorder,
                                   scene) if recorder is not None else None
         self._bits = 0
         self._edges = 0

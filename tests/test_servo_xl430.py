@@ -183,3 +183,32 @@ def test_stuffed_write_reaches_the_table() -> None:
     assert one(bus, raw).error == dx2.ERR_DATA_RANGE          # outside +-1048575
     r = one(bus, dx2.write(1, xl.HOMING_OFFSET, (-3).to_bytes(4, "little", signed=True)))
     assert r.error == 0 and bus.servos[0].value("homing_offset") == -3
+
+
+def test_master_check_names_a_protocol_2_masters_mistakes() -> None:
+    from hil.master_check import KINDS_2, MasterCheck
+
+    bus = make_bus(2)
+    check = MasterCheck(protocol=2)
+    bus.monitor = check
+    transact(bus, dx2.write(1, xl.TORQUE_ENABLE, b"\x01"))
+    transact(bus, dx2.write(1, xl.RETURN_DELAY_TIME, b"\x00"))      # EEPROM, torque on
+    bus.master_write(dx2.write(2, xl.RETURN_DELAY_TIME, b"\x00"))  # fine ...
+    bus.master_read(11, 5_000)
+    bus.master_write(dx2.ping(2))                                   # ... but 2 is busy
+    bus.master_write(dx2.ping(1))
+    bus.master_write(dx2.ping(1))                                   # talks over 1's reply
+    bus.master_read(100, 20_000)
+    transact(bus, dx2.packet(1, 0x77))
+    transact(bus, dx2.read(dx2.BROADCAST_ID, 0, 2))
+    transact(bus, dx2.packet(1, dx2.SYNC_READ, b"\x84\x00\x04\x00\x01"))
+    bad = bytearray(dx2.ping(1))
+    bad[-1] ^= 1
+    transact(bus, bytes(bad))
+    raw = dx2.ping(1)
+    bus.master_write(raw[:4])
+    bus.idle_until(bus.clock.t_us + 200_000)
+    bus.master_write(raw[4:])
+    assert set(check.counts) == set(KINDS_2)
+    assert all(check.counts[k] >= 1 for k in KINDS_2), check.counts
+    assert any("access error" in d for _, k, d in check.events if k == "bad_write")
