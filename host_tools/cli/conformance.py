@@ -10,6 +10,8 @@ from protocol.errors import UserError
 def run(args: argparse.Namespace) -> int:
     from host_tools.cli.bus import parse_ids
     from host_tools.conformance import format_table, run_checks
+    if args.protocol == 2:
+        from host_tools.conformance2 import run_checks
 
     if args.baud <= 0:
         raise UserError(f"--baud must be positive, got {args.baud}")
@@ -37,5 +39,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="status packet timeout (default 50; USB adapters need > latency timer)")
     p.add_argument("--scan-timeout-ms", type=float, default=15.0,
                    help="per-ID PING timeout while scanning 0-253 (default 15)")
+    p.add_argument("--protocol", type=int, choices=(1, 2), default=1,
+                   help="Dynamixel protocol: 1 (AX-12, the default) or 2 (X series: CRC, "
+                        "stuffing, sync/bulk/fast reads, EEPROM lock)")
     p.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     p.set_defaults(func=run)
