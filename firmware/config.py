@@ -30,6 +30,7 @@ DEFAULTS = {
     "first_id": 1,
     "return_delay_us": 0,         # written to every servo at configure time
     "baud": 1000000,
+    "protocol": 1,                # 1: AX-12 (Protocol 1.0); 2: X series, one SYNC_READ a cycle
 }
 
 

@@ -44,6 +44,8 @@ class ServoStats:
 
 
 class Master:
+    protocol = 1
+
     def __init__(self, uart, ids, baud=1000000, echo=None, retries=1):
         self.uart = uart
         self.ids = ids

@@ -34,6 +34,8 @@ def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> 
     for key in ("first_id", "baud"):
         if key in bus:
             out[key] = bus[key]
+    if bus.get("model", "ax-12a") != "ax-12a":
+        out["protocol"] = 2
     if tactile is not None:
         out["tactile"] = tactile
     return out
