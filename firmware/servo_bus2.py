@@ -9,7 +9,7 @@ error bits (the XL430's Hardware Error Status uses the same bit for input voltag
 overheating and overload). Packets are built with protocol/dynamixel2.py's ``build_into``
 into preallocated buffers. MicroPython-compatible.
 """
-from firmware.servo_bus import CORRUPT, OK, TIMEOUT, TIMEOUT_MARGIN_US, ServoStats
+from firmware.servo_bus import CORRUPT, OK, TIMEOUT, TIMEOUT_MARGIN_US, Master
 from protocol import ax12
 from protocol import dynamixel2 as dx2
 from protocol import xl430 as xl
@@ -32,29 +32,20 @@ def pulses_to_ax(pulses):
     return ax12.rad_to_position(xl.position_to_rad(pulses))
 
 
-class Master2:
+class Master2(Master):
+    """servo_bus.Master's interface and counters (``scan``, ``counters``, the retries and
+    the unanswered send are inherited), its packets Protocol 2.0."""
+
     protocol = 2
 
     def __init__(self, uart, ids, baud=1000000, echo=None, retries=1):
-        self.uart = uart
-        self.ids = ids
-        self.servos = {}
-        for i in ids:
-            self.servos[i] = ServoStats(i)
-        self.byte_us = (10 * 1000000 + baud - 1) // baud
-        self.echo = echo
-        self.retries = retries
-        self.return_delay_us = 500
+        Master.__init__(self, uart, ids, baud, echo, retries)
         self.tx = bytearray(dx2.MAX_PACKET)
         self.rx = bytearray(2 * dx2.MAX_PACKET)
         self.params = bytearray(4 + len(ids) * (1 + SYNC_LEN))
         self.small = bytearray(12)
         self.parser = dx2.Parser()
-        self.transactions = 0
-        self.echo_mismatch = 0
-        self.sync_writes = 0
         self.sync_reads = 0
-        self.error = 0
         self._alerts = []
 
     # --- transactions ------------------------------------------------------------------
@@ -102,7 +93,7 @@ class Master2:
                     xl.HW_OVERHEATING | xl.HW_OVERLOAD) else 0
                 return
 
-    def _one(self, dev_id, n, nparams, now):
+    def _transact(self, dev_id, n, nparams, now):
         """A transaction with one status packet of ``nparams`` (ERR included) expected."""
         start, got = self._exchange(n, STATUS_LEN - 1 + nparams, 1)
         s = self.servos.get(dev_id)
@@ -121,14 +112,6 @@ class Master2:
             else:
                 s.timeouts += 1
         return CORRUPT if got > start else TIMEOUT
-
-    def _retry(self, dev_id, n, nparams, now):
-        r = self._one(dev_id, n, nparams, now)
-        k = 0
-        while r != OK and k < self.retries:
-            r = self._one(dev_id, n, nparams, now)
-            k += 1
-        return r
 
     def _build_read(self, dev_id, address, length):
         b = self.small
@@ -151,13 +134,6 @@ class Master2:
             b[2 + i] = data[i]
         n = dx2.build_into(self.tx, dev_id, dx2.WRITE, b, ndata + 2)
         return self._retry(dev_id, n, 1, now) == OK and self.error & 0x7F == 0
-
-    def scan(self, now):
-        found = []
-        for i in self.ids:
-            if self.ping(i, now):
-                found.append(i)
-        return found
 
     def configure_eeprom(self, dev_id, cw_limit, ccw_limit, now):
         """Return delay 0 and the joint limits as Min/Max Position Limit (AX-12 units in):
@@ -202,14 +178,7 @@ class Master2:
             prm[k + 8] = 0
             k += 9
         n = dx2.build_into(self.tx, dx2.BROADCAST_ID, dx2.SYNC_WRITE, prm, k)
-        if self.echo:
-            got = self.uart.transact(self.tx, n, self.rx, n, n * self.byte_us + TIMEOUT_MARGIN_US)
-            self.transactions += 1
-            if got != n or self.rx[:n] != self.tx[:n]:
-                self.echo_mismatch += 1
-        else:
-            self.uart.write(self.tx, n)
-        self.sync_writes += 1
+        self._send_unanswered(n)
         return n
 
     def sync_read_present(self, now):
@@ -267,11 +236,3 @@ class Master2:
                 self._status(s, p.param(0), now)
                 j += 1
         return j
-
-    def counters(self):
-        t = c = e = 0
-        for s in self.servos.values():
-            t += s.timeouts
-            c += s.corrupt
-            e += s.errors
-        return t, c, e
