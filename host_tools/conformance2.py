@@ -16,32 +16,21 @@ import time
 from dataclasses import asdict
 from typing import Any
 
-import serial
-
-from host_tools.conformance import EEPROM_PAUSE_S, SILENCE_S, Check
+from host_tools.conformance import EEPROM_PAUSE_S, SILENCE_S, Checker, Link
 from protocol import dynamixel2 as dx2
 from protocol import xl430 as xl
-from protocol.errors import UserError
 
 STUFFED_OFFSET = int.from_bytes(b"\xff\xff\xfd\xff", "little", signed=True)  # in range
-TIMING_ROUNDS = 5
+TIMING_ROUNDS = 12   # the fastest of these: a loaded host only adds time
 
 
-class Link2:
-    """One pyserial port speaking Protocol 2.0; keeps the last reply's wire bytes."""
+class Link2(Link):
+    """One pyserial port speaking Protocol 2.0; keeps the last exchange's wire bytes."""
 
     def __init__(self, port: str, baud: int, timeout_s: float) -> None:
-        try:
-            self.ser = serial.serial_for_url(port, baudrate=baud, timeout=timeout_s)
-        except (serial.SerialException, ValueError) as exc:
-            raise UserError(f"cannot open {port}: {exc}") from None
-        self.baud = baud
-        self.timeout_s = timeout_s
+        super().__init__(port, baud, timeout_s)
         self.wire = b""       # every byte heard during the last exchange
         self.bad_crc = 0      # status packets with a bad CRC heard during it
-
-    def close(self) -> None:
-        self.ser.close()
 
     def exchange(self, pkt: bytes, n_packets: int = 1, timeout_s: float | None = None
                  ) -> tuple[list[dx2.Packet], float]:
@@ -71,7 +60,8 @@ class Link2:
         self.wire, self.bad_crc = bytes(wire), parser.bad_crc
         return got, t_last
 
-    def transact(self, pkt: bytes, timeout_s: float | None = None) -> dx2.Packet | None:
+    def transact(self, pkt: bytes, timeout_s: float | None = None  # type: ignore[override]
+                 ) -> dx2.Packet | None:
         got, _ = self.exchange(pkt, 1, timeout_s)
         return got[0] if got else None
 
@@ -79,23 +69,16 @@ class Link2:
         return not self.exchange(pkt, 1, min(self.timeout_s, SILENCE_S))[0]
 
 
-class Checker2:
-    """Runs the checks on a Link2 and collects ``Check`` rows."""
+class Checker2(Checker):
+    """Runs the Protocol 2.0 checks on a Link2 and collects ``Check`` rows (``add``)."""
 
-    def __init__(self, link: Link2) -> None:
-        self.link = link
-        self.rows: list[Check] = []
+    link: Link2
 
-    def add(self, dev_id: int | None, name: str, ok: bool | None, detail: str) -> bool:
-        self.rows.append(Check(dev_id, name, "skip" if ok is None else ("pass" if ok else "fail"),
-                               detail))
-        return bool(ok)
-
-    def read(self, i: int, address: int, n: int) -> bytes | None:
+    def read(self, i: int, address: int, n: int) -> bytes | None:  # type: ignore[override]
         p = self.link.transact(dx2.read(i, address, n))
         return p.params[1:] if p is not None and p.id == i and len(p.params) == n + 1 else None
 
-    def write(self, i: int, address: int, data: bytes) -> int | None:
+    def write(self, i: int, address: int, data: bytes) -> int | None:  # type: ignore[override]
         """The error field of the WRITE's status packet, or None (no reply)."""
         p = self.link.transact(dx2.write(i, address, data))
         if address < xl.EEPROM_END:
