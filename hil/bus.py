@@ -84,6 +84,7 @@ class Bus:
     """The line, its servos and the master's receive FIFO; see the module docstring."""
 
     protocol = 1  # Dynamixel Protocol 1.0 (hil/bus2.py: 2.0)
+    parser_class = dxl.Parser
 
     def __init__(self, servos: Iterable[Servo], clock: VirtualClock, baud: int = 1_000_000,
                  echo: bool = False, faults=None, on_bytes: OnBytes | None = None,
@@ -99,7 +100,7 @@ class Bus:
         self.advance = advance
         self.monitor = None              # hil/master_check.py: sees what the master sends
         self._rx: list[_Burst] = []     # heard by the master, oldest first, never overlapping
-        self._parser = dxl.Parser()
+        self._parser = self.parser_class()
         self._off: set[int] = set()      # id(servo) of unplugged servos
         self.stats = {"tx_bytes": 0, "rx_bytes": 0, "packets": 0, "replies": 0,
                       "collisions": 0, "bad_checksum": 0}
@@ -118,7 +119,7 @@ class Bus:
                 self._same.append(s)
                 self._by_id.setdefault(s.id, []).append(s)
             else:
-                self._foreign.append((s, dxl.Parser()))
+                self._foreign.append((s, self.parser_class()))
 
     def add_device(self, device) -> None:
         """Another Protocol 1.0 device on the line (hil/sensor_node.py), served like a servo."""

@@ -29,20 +29,7 @@ class Bus2(Bus):
     """A Protocol 2.0 line: servos with ``handle``/``group_read`` (hil/servo_xl430.py)."""
 
     protocol = 2
-
-    def _reindex(self) -> None:
-        self._by_id = {}
-        self._same = []
-        self._foreign = []
-        for s in self.servos:
-            s.address_changed = False
-            if s.baud_bps == self.baud:
-                self._same.append(s)
-                self._by_id.setdefault(s.id, []).append(s)
-            else:
-                self._foreign.append((s, dx2.Parser()))
-        if not isinstance(self._parser, dx2.Parser):   # Bus.__init__ made a 1.0 one
-            self._parser = dx2.Parser()
+    parser_class = dx2.Parser
 
     def add_device(self, device) -> None:
         raise ValueError("a Protocol 2.0 bus takes X-series servos only")

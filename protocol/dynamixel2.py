@@ -19,6 +19,8 @@ far and the last one the packet's own. Those packets are not stuffed (the SDK 4.
 reads them without unstuffing; decoding is by position).
 """
 
+from protocol.stream import StreamParser
+
 HEADER0 = 0xFF
 HEADER1 = 0xFF
 HEADER2 = 0xFD
@@ -311,7 +313,7 @@ class Packet:
         return "Packet(id=%d, instr=0x%02X, params=%s)" % (self.id, self.instr, list(self.params))
 
 
-class Parser:
+class Parser(StreamParser):
     """Incremental Protocol 2.0 parser: push bytes, get packets.
 
     After ``push`` returns True the packet's fields are valid until the next push: ``id``,
@@ -323,56 +325,14 @@ class Parser:
     """
 
     def __init__(self):
-        self.buf = bytearray(MAX_PACKET)
-        self._n = 0
-        self._consumed = 0
-        self._last_t_us = None
+        StreamParser.__init__(self, MAX_PACKET, INTER_BYTE_TIMEOUT_US)
         self.id = -1
         self.instr = 0
         self.nparams = 0
         self.raw_len = 0
-        self.packets = 0
-        self.garbage = 0
-        self.bad_length = 0
         self.bad_crc = 0
-        self.timeouts = 0
-        self.last_reject = ""
         self.last_bad_crc_id = -1
         self.last_bad_crc_instr = -1
-
-    def reset(self):
-        """Drop any partial packet (the line was turned round, say)."""
-        self._n = 0
-        self._consumed = 0
-
-    def pending(self):
-        """Bytes held of a packet not yet complete."""
-        return self._n - self._consumed
-
-    def _drop(self, k):
-        buf = self.buf
-        n = self._n - k
-        for i in range(n):
-            buf[i] = buf[i + k]
-        self._n = n
-
-    def push(self, byte, t_us=-1):
-        """Take one byte (received at ``t_us``, if known); True when a packet is complete."""
-        if self._consumed:
-            self._drop(self._consumed)
-            self._consumed = 0
-        if t_us >= 0:
-            last = self._last_t_us
-            if last is not None and self._n and t_us - last > INTER_BYTE_TIMEOUT_US:
-                self.timeouts += 1
-                self.last_reject = "timeout"
-                self._n = 0
-            self._last_t_us = t_us
-        if self._n >= MAX_PACKET:  # cannot happen after the length check; be safe
-            self._drop(1)
-        self.buf[self._n] = byte
-        self._n += 1
-        return self._scan()
 
     def _scan(self):
         buf = self.buf
@@ -441,21 +401,6 @@ class Parser:
             a = x
         return w - PARAMS_OFFSET
 
-    def flush(self):
-        """End of stream: give up on the partial packet and rescan what it held."""
-        out = []
-        while True:
-            if self._consumed:
-                self._drop(self._consumed)
-                self._consumed = 0
-            if not self._n:
-                return out
-            if self._scan():
-                out.append(self.current())
-            elif self._n:
-                self.garbage += 1
-                self._drop(1)
-
     def param(self, i):
         return self.buf[PARAMS_OFFSET + i]
 
@@ -476,14 +421,6 @@ class Parser:
         else:
             raw = packet(self.id, self.instr, params)
         return Packet(self.id, self.instr, params, raw)
-
-    def feed(self, data, t_us=-1):
-        """Push many bytes; return the complete packets as a list (allocates)."""
-        out = []
-        for b in data:
-            if self.push(b, t_us):
-                out.append(self.current())
-        return out
 
     def counters(self):
         return {
