@@ -212,3 +212,21 @@ def test_master_check_names_a_protocol_2_masters_mistakes() -> None:
     assert set(check.counts) == set(KINDS_2)
     assert all(check.counts[k] >= 1 for k in KINDS_2), check.counts
     assert any("access error" in d for _, k, d in check.events if k == "bad_write")
+
+
+def test_the_ax12_faults_reach_xl430s_through_the_scenario() -> None:
+    from hil import rig
+
+    sc = {"_path": "t", "bus": {"model": "xl430-w250", "servos": 3, "return_delay_us": 0},
+          "faults": {"unplug": [{"id": 2, "at_s": 0.05, "until_s": 0.1}],
+                     "voltage_sag": [{"volts": 5.0, "at_s": 0.15}]}}
+    bus = rig.build(sc).bus
+    assert isinstance(bus, Bus2) and [s.id for s in bus.servos] == [1, 2, 3]
+    assert one(bus, dx2.write(2, xl.LED, b"\x01")).error == 0
+    bus.idle_until(60_000)
+    assert transact(bus, dx2.ping(2), 2000) == []                    # unplugged
+    bus.idle_until(110_000)
+    assert one(bus, dx2.read(2, xl.LED, 1)).params == b"\x00\x00"    # power-cycled: RAM reset
+    bus.idle_until(160_000)
+    r = one(bus, dx2.read(1, xl.HARDWARE_ERROR_STATUS, 1))             # 5 V < Min Voltage 6 V
+    assert r.error & dx2.ALERT and r.params[1] == xl.HW_INPUT_VOLTAGE
