@@ -230,3 +230,22 @@ def test_the_ax12_faults_reach_xl430s_through_the_scenario() -> None:
     bus.idle_until(160_000)
     r = one(bus, dx2.read(1, xl.HARDWARE_ERROR_STATUS, 1))             # 5 V < Min Voltage 6 V
     assert r.error & dx2.ALERT and r.params[1] == xl.HW_INPUT_VOLTAGE
+
+
+def test_profile_acceleration_follows_the_trapezoid() -> None:
+    bus = make_bus(1)
+    s = bus.servos[0]
+    transact(bus, dx2.write(1, xl.PROFILE_ACCELERATION, (20).to_bytes(4, "little")))
+    transact(bus, dx2.write(1, xl.PROFILE_VELOCITY, (100).to_bytes(4, "little")))
+    transact(bus, dx2.write(1, xl.TORQUE_ENABLE, b"\x01"))
+    bus.master_write(dx2.write(1, xl.GOAL_POSITION, (3072).to_bytes(4, "little")))
+    t0 = bus.clock.t_us
+    ramp = Trapezoid(t0, 0.0, xl.position_to_rad(3072), 0.0, xl.velocity_to_rad_s(100),
+                     xl.acceleration_to_rad_s2(20))
+    for dt_us in (100_000, 300_000, 700_000):
+        bus.idle_until(t0 + dt_us)
+        s.advance_to(bus.clock.t_us)
+        want = xl.rad_to_position(ramp.at(bus.clock.t_us)[0])
+        assert abs(s.value("present_position") - want) <= 2, dt_us
+        assert s.value("position_trajectory") == want
+    assert 0 < ramp.at(t0 + 100_000)[1] < xl.velocity_to_rad_s(100)   # still accelerating
