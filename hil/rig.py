@@ -17,6 +17,7 @@ from hil.faults import Faults, OnFault
 from hil.servo import EEPROM_BUSY_US, Servo
 from hil.servo_xl430 import XL430Servo
 from protocol import ax12, xl430
+from protocol.errors import UserError
 
 
 @dataclass
@@ -49,6 +50,8 @@ def _servos(scenario: dict[str, Any], ids: Sequence[int], world: Any) -> list[Se
     for k, dev_id in enumerate(ids):
         a = actuators[k] if k < len(actuators) else None
         if bus.get("model") == xl430.MODEL_NAME:
+            if dev_id > 252:
+                raise UserError(f"servo ID {dev_id}: an {xl430.MODEL_NAME} takes IDs 0-252")
             x = XL430Servo(dev_id, actuator=a, eeprom_busy_us=busy_us, position=(
                 xl430.rad_to_position(a.state()[0]) if a is not None else xl430.POSITION_CENTRE))
             x.table[xl430.RETURN_DELAY_TIME] = bus.get("return_delay_us", 500) // 2

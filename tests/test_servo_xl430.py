@@ -249,3 +249,15 @@ def test_profile_acceleration_follows_the_trapezoid() -> None:
         assert abs(s.value("present_position") - want) <= 2, dt_us
         assert s.value("position_trajectory") == want
     assert 0 < ramp.at(t0 + 100_000)[1] < xl.velocity_to_rad_s(100)   # still accelerating
+
+
+def test_bad_xl430_bus_settings_are_one_line_errors() -> None:
+    import subprocess
+
+    from test_sdk_pty import HEXHIL, ROOT
+
+    for flags in (["--ids", "253"], ["--baud", "250000"]):
+        r = subprocess.run([*HEXHIL, "bus", "--model", "xl430-w250", "--pty", *flags], cwd=ROOT,
+                           capture_output=True, text=True, timeout=60)
+        assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1, r.stderr
