@@ -135,6 +135,23 @@ class Master2(Master):
         n = dx2.build_into(self.tx, dev_id, dx2.WRITE, b, ndata + 2)
         return self._retry(dev_id, n, 1, now) == OK and self.error & 0x7F == 0
 
+    def read(self, dev_id, address, length, now):
+        """READ; on success the data is at ``parser.buf[PARAMS_OFFSET + 1:]`` (after ERR)."""
+        n = self._build_read(dev_id, address, length)
+        return self._retry(dev_id, n, length + 1, now) == OK
+
+    def read_present(self, dev_id, now):
+        """Present load, velocity and position of one servo into its stats (a single READ;
+        the loop reads all 18 at once with ``sync_read_present``)."""
+        if not self.read(dev_id, PRESENT_ADDR, PRESENT_LEN, now):
+            return False
+        p = self.parser
+        s = self.servos[dev_id]
+        s.load = p.param_u16(1)
+        s.speed = p.param_u32(3)
+        s.position = pulses_to_ax(p.param_u32(7))
+        return True
+
     def configure_eeprom(self, dev_id, cw_limit, ccw_limit, now):
         """Return delay 0 and the joint limits as Min/Max Position Limit (AX-12 units in):
         two EEPROM writes (the cells are apart), the servo deaf for a few ms after each."""
@@ -210,9 +227,9 @@ class Master2(Master):
             more += 1
         self._read_alerts(now)
         missing = []
-        for k in range(j, len(ids)):
+        for k in range(j, len(ids)):   # the first may have sent part of its reply
             s = self.servos[ids[k]]
-            if got > start:
+            if k == j and p.pending():
                 s.corrupt += 1
             else:
                 s.timeouts += 1
