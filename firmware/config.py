@@ -32,6 +32,7 @@ DEFAULTS = {
     ls.FIRST_ID: 1,
     ls.RETURN_DELAY_US: 0,         # written to every servo at configure time
     ls.BAUD: 1000000,
+    ls.PROTOCOL: 1,                # 1: AX-12 (Protocol 1.0); 2: X series, one SYNC_READ a cycle
 }
 
 

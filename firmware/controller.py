@@ -14,7 +14,7 @@ commands), ``telemetry`` (frames, events, the run summary).
 """
 import math
 
-from firmware import servo_bus
+from firmware import servo_bus, servo_bus2
 from firmware import tactile
 from firmware import trajectory as traj
 from firmware.commands import GaitCommands
@@ -24,6 +24,7 @@ from firmware.servo_goals import ServoGoals
 from firmware.telemetry import Telemetry
 from protocol import can_frames as cf
 from protocol import hexapod
+from protocol import link_schema as ls
 from protocol import sim_link
 
 SAFE_SPEED_RAD_S = 1.0      # joint speed limit while going to the safe stance
@@ -42,8 +43,8 @@ class Controller:
             raise ValueError("the hexapod needs 18 servos, config says %d" % n)
         first = cfg["first_id"]
         self.ids = [first + k for k in range(18)]
-        self.master = servo_bus.Master(board.uart, self.ids, cfg["baud"],
-                                       retries=cfg["read_retries"])
+        master = servo_bus2.Master2 if cfg[ls.PROTOCOL] == 2 else servo_bus.Master
+        self.master = master(board.uart, self.ids, cfg["baud"], retries=cfg["read_retries"])
         self.gait = Gait(cfg["gait"], cfg["period_s"])
         self.period_us = int(1000000 / cfg["cycle_hz"])
         self.goals = ServoGoals(self.period_us)

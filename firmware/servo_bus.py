@@ -44,6 +44,8 @@ class ServoStats:
 
 
 class Master:
+    protocol = 1
+
     def __init__(self, uart, ids, baud=1000000, echo=None, retries=1):
         self.uart = uart
         self.ids = ids
@@ -181,6 +183,11 @@ class Master:
             prm[k + 4] = spd >> 8
             k += 5
         n = dxl.build_into(self.tx, dxl.BROADCAST_ID, dxl.SYNC_WRITE, prm, k)
+        self._send_unanswered(n)
+        return n
+
+    def _send_unanswered(self, n):
+        """Send ``tx[:n]``, which no servo answers (SYNC_WRITE), consuming our echo."""
         if self.echo:
             # The echo must be consumed: a transaction expecting only our own bytes back.
             got = self.uart.transact(self.tx, n, self.rx, n, n * self.byte_us + TIMEOUT_MARGIN_US)
@@ -190,7 +197,6 @@ class Master:
         else:
             self.uart.write(self.tx, n)
         self.sync_writes += 1
-        return n
 
     # --- boot ------------------------------------------------------------------------
     def scan(self, now):

@@ -19,9 +19,9 @@ from fuzz import cov
 from fuzz.tally import Tally
 
 DEFAULT_INPUTS = {"parser": 900_000, "bus": 180_000, "can": 200_000, "scenario": 20_000,
-                  "trace": 2_000}
+                  "trace": 2_000, "parser2": 300_000, "bus2": 40_000}
 COVERAGE_RUNS = {"parser": 100_000, "bus": 20_000, "can": 100_000, "scenario": 20_000,
-                 "trace": 2_000}
+                 "trace": 2_000, "parser2": 50_000, "bus2": 10_000}
 PHASES = ("all", "generators", "coverage")
 
 
@@ -50,9 +50,12 @@ def totals(tallies: list[Tally]) -> str:
         return sum(t.inputs for t in tallies if t.target in labels)
     parser = inputs("protocol parser (CPython)", cov.TARGETS["parser"].label)
     bus = inputs("emulated bus, 18 servos", cov.TARGETS["bus"].label)
+    parser2 = inputs("protocol 2.0 parser (CPython)", cov.TARGETS["parser2"].label)
+    bus2 = inputs("protocol 2.0 bus, 18 XL430s", cov.TARGETS["bus2"].label)
     escaped = sum(t.escaped for t in tallies)
     return (f"parser streams {parser:,} (issue: 1,000,000), emulator streams {bus:,} "
-            f"(issue: 200,000), escaped {escaped}")
+            f"(issue: 200,000); Protocol 2.0: parser streams {parser2:,}, emulator streams "
+            f"{bus2:,}; escaped {escaped}")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -21,7 +21,7 @@ from typing import Callable
 
 import cantools
 
-from fuzz import fuzz_bus, fuzz_can, fuzz_trace
+from fuzz import fuzz_bus, fuzz_bus2, fuzz_can, fuzz_trace
 from fuzz.hostile import GAP_US, Rng, garbage, valid_packet
 from hil import scenario
 from hil.faults import Faults
@@ -29,6 +29,7 @@ from host_tools.trace import reader, recover
 from protocol import ax12
 from protocol import can_frames as cf
 from protocol import dynamixel as dxl
+from protocol import dynamixel2 as dx2
 from protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -274,6 +275,72 @@ class Target:
         self.max_len, self.dictionary = max_len, dictionary
 
 
+# --- Protocol 2.0: the parser and the bus of 18 XL430s ----------------------------------------
+def parser2_one_input(data: bytes) -> None:
+    """The bytes as garbage, then after a gap one valid (stuffed) packet the Protocol 2.0
+    parser must find again; every packet it reports took bytes on the line with a right
+    CRC."""
+    want = dx2.packet(len(data) % 0xFD, data[0] if data else dx2.PING, data[-5:])
+    stream = bytes(data) + want
+    p = dx2.Parser()
+    t = 0
+    found = False
+    for i, b in enumerate(stream):
+        if i == len(data):
+            t += GAP_US
+        t += 10
+        if p.push(b, t):
+            wire = stream[i + 1 - p.raw_len:i + 1]   # the bytes the packet took on the line
+            if wire[:4] != b"\xff\xff\xfd\x00" or \
+                    dx2.crc16(wire, 0, len(wire) - 2) != wire[-2] | wire[-1] << 8:
+                raise Broken(f"parser reported a packet with a bad CRC {wire.hex()}")
+            found = i >= len(data) and wire == want
+        if p.pending() > dx2.MAX_PACKET:
+            raise Broken(f"parser holds {p.pending()} bytes")
+    if not found:
+        raise Broken(f"no resync: {want.hex()} after the garbage was not found")
+
+
+def parser2_seeds() -> list[bytes]:
+    return [b"", dx2.ping(1), dx2.write(1, 0, b"\xff\xff\xfd\xff"),
+            dx2.sync_read(132, 4, [1, 2], fast=True), dx2.fast_status([(0, 1, b"\xff\xff")]),
+            b"\xff\xff\xfd\x00\x01\xff\x03"]
+
+
+def bus2_one_input(data: bytes) -> None:
+    """A fresh bus of 18 XL430s, then the bytes as instructions (byte 0 of each: how many
+    of the next bytes are its parameters) or raw; after them every register within its
+    range and a PING answered once the line idled."""
+    bus = fuzz_bus2.fresh_bus()
+    i = 0
+    while i + 2 < len(data):
+        n = data[i] & 15
+        pkt = dx2.packet(data[i + 1] % 0xFD if data[i] & 16 else 1 + data[i + 1] % 18,
+                         data[i + 2], data[i + 3:i + 3 + n])
+        bus.master_write(pkt if data[i] & 32 == 0 else pkt[:len(pkt) // 2])
+        bus.master_read(4000, READS_US[data[i] >> 6 if data[i] >> 6 < 3 else 0])
+        i += 3 + n
+    for s in bus.servos:
+        broken = fuzz_bus2.check_servo(s)
+        if broken:
+            raise Broken(f"servo {s.id}: {broken}")
+    bus.idle_until(bus.clock.t_us + dx2.INTER_BYTE_TIMEOUT_US + 10_000)
+    bus.master_read(100_000, 0)
+    target = fuzz_bus2.pingable(bus)
+    if target is None:
+        return
+    bus.master_write(dx2.ping(target.id))
+    reply = dx2.Parser().feed(bus.master_read(14, fuzz_bus2.READ_TIMEOUT_US))
+    if not reply or reply[0].id != target.id:
+        raise Broken(f"no resync: servo {target.id} did not answer a PING")
+
+
+def bus2_seeds() -> list[bytes]:
+    return [bytes((0, 1, dx2.PING)), bytes((4, 2, dx2.READ, 132, 0, 4, 0)),
+            bytes((5, 3, dx2.WRITE, 64, 0, 1, 0, 0)),
+            bytes((7, 0xFE, dx2.SYNC_READ, 132, 0, 4, 0, 1, 2, 3))]
+
+
 TARGETS = {
     "parser": Target("protocol parser (atheris)", "streams", parser_one_input, parser_seeds,
                      dxl.MAX_PACKET + 41),
@@ -283,5 +350,9 @@ TARGETS = {
                        scenario_seeds, 4096, scenario_dictionary),
     "trace": Target("MCAP reader + recover (atheris)", "files", trace_one_input, trace_seeds,
                     0),
+    "parser2": Target("protocol 2.0 parser (atheris)", "streams", parser2_one_input,
+                      parser2_seeds, 600),
+    "bus2": Target("protocol 2.0 bus, 18 XL430s (atheris)", "streams", bus2_one_input,
+                   bus2_seeds),
 }
 

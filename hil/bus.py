@@ -83,6 +83,9 @@ class _Burst:
 class Bus:
     """The line, its servos and the master's receive FIFO; see the module docstring."""
 
+    protocol = 1  # Dynamixel Protocol 1.0 (hil/bus2.py: 2.0)
+    parser_class = dxl.Parser
+
     def __init__(self, servos: Iterable[Servo], clock: VirtualClock, baud: int = 1_000_000,
                  echo: bool = False, faults=None, on_bytes: OnBytes | None = None,
                  advance: Advance | None = None) -> None:
@@ -103,7 +106,7 @@ class Bus:
         self.rx_latency_us = 0
         self.return_delay_override_us: int | None = None
         self._rx: list[_Burst] = []     # heard by the master, oldest first, never overlapping
-        self._parser = dxl.Parser()
+        self._parser = self.parser_class()
         self._off: set[int] = set()      # id(servo) of unplugged servos
         self.stats = {"tx_bytes": 0, "rx_bytes": 0, "packets": 0, "replies": 0,
                       "collisions": 0, "bad_checksum": 0}
@@ -122,7 +125,7 @@ class Bus:
                 self._same.append(s)
                 self._by_id.setdefault(s.id, []).append(s)
             else:
-                self._foreign.append((s, dxl.Parser()))
+                self._foreign.append((s, self.parser_class()))
 
     def add_device(self, device) -> None:
         """Another Protocol 1.0 device on the line (hil/sensor_node.py), served like a servo."""

@@ -40,6 +40,8 @@ def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> 
     for key in (ls.FIRST_ID, ls.BAUD):
         if key in bus:
             out[key] = bus[key]
+    if bus.get("model", "ax-12a") != "ax-12a":
+        out[ls.PROTOCOL] = 2
     if tactile is not None:
         out[ls.TACTILE_ON] = tactile
     return out

@@ -13,6 +13,12 @@ bytes with their own arrival times. Violation kinds (``KINDS``):
 * ``broadcast_read_ping``: READ or PING to ID 254 (no servo answers a broadcast);
 * ``talk_over_reply``: a new packet before the previous status could have fully arrived;
 * ``bad_checksum``: a packet whose checksum is wrong.
+
+On a Protocol 2.0 line (``MasterCheck(protocol=2)``) the same kinds are named by the
+X-series rules (hil/master_check2.py): ``bad_checksum`` is a bad CRC, ``bad_write`` is any
+write the servo refuses (the EEPROM lock included), ``broadcast_read_ping`` a READ to the
+broadcast ID (a broadcast PING is fine), and ``group_read_not_broadcast`` a sync or bulk
+read not sent to ID 254.
 """
 from __future__ import annotations
 
@@ -22,6 +28,7 @@ from protocol import dynamixel as dxl
 
 KINDS = ("eeprom_busy", "unsupported_instruction", "bad_write", "inter_byte_gap",
          "broadcast_read_ping", "talk_over_reply", "bad_checksum")
+KINDS_2 = KINDS + ("group_read_not_broadcast",)   # Protocol 2.0
 MAX_EVENTS = 1000  # kept with their times for the summary; counts go on past it
 
 OnViolation = Callable[[int, str, str], None]
@@ -30,12 +37,18 @@ OnViolation = Callable[[int, str, str], None]
 class MasterCheck:
     """Fed by ``Bus.monitor``; ``counts``, ``first_us`` and ``events`` for the summary."""
 
-    def __init__(self, on_violation: OnViolation | None = None) -> None:
+    def __init__(self, on_violation: OnViolation | None = None, protocol: int = 1) -> None:
         self.on_violation = on_violation
-        self.counts = {k: 0 for k in KINDS}
+        self.counts = {k: 0 for k in (KINDS_2 if protocol == 2 else KINDS)}
         self.first_us: dict[str, int] = {}
         self.events: list[tuple[int, str, str]] = []
-        self._parser = dxl.Parser()
+        self.protocol = protocol
+        if protocol == 2:
+            from hil.master_check2 import Packet2Check
+            self._p2: Any = Packet2Check(self._flag)
+            self._parser = self._p2.parser
+        else:
+            self._parser = dxl.Parser()
 
     def _flag(self, t_us: int, kind: str, detail: str) -> None:
         self.counts[kind] += 1
@@ -49,6 +62,9 @@ class MasterCheck:
         """A burst the master starts sending at ``t0_us`` (before the line delivers it)."""
         if bus.reply_arriving_after(t0_us):
             self._flag(t0_us, "talk_over_reply", "master sent before the status had arrived")
+        if self.protocol == 2:
+            self._p2.feed(bus, t0_us, data)
+            return
         p = self._parser
         gaps, bad = p.timeouts, p.bad_checksum
         for i, byte in enumerate(data):

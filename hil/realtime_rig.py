@@ -45,7 +45,7 @@ class RealTimeRig:
             raise UserError(f"{sc.path}: the {sc.world.kind.value} world has no servo bus")
         self.world, self.bus, self.clock, self.can = w, self.rig.bus, self.rig.clock, self.core.can
         self.servos = list(self.bus.servos)
-        self.check = MasterCheck(self._on_violation)
+        self.check = MasterCheck(self._on_violation, self.bus.protocol)
         self.bus.monitor = self.check
         self.node = None
         if sensor_id is not None:

@@ -11,10 +11,13 @@ from typing import Any, Callable, Sequence
 
 from hil import scenario as scenario_mod
 from hil.bus import Bus, OnBytes
+from hil.bus2 import Bus2
 from hil.clock import VirtualClock
 from hil.faults import Faults, OnFault
 from hil.servo import Servo
-from protocol import ax12
+from hil.servo_xl430 import XL430Servo
+from protocol import ax12, xl430
+from protocol.errors import UserError
 
 
 @dataclass
@@ -43,9 +46,19 @@ def make_world(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int) -> A
 
 def _servos(bus: scenario_mod.BusConfig, ids: Sequence[int], world: Any) -> list[Servo]:
     actuators = world.actuators() if world is not None else []
-    servos = []
+    servos: list = []
     for k, dev_id in enumerate(ids):
         a = actuators[k] if k < len(actuators) else None
+        if bus.model == xl430.MODEL_NAME:   # its bauds: checked by BusConfig
+            if dev_id > 252:                 # IDs given apart from the scenario (hexhil bus --ids)
+                raise UserError(f"servo ID {dev_id}: an {xl430.MODEL_NAME} takes IDs 0-252")
+            x = XL430Servo(dev_id, actuator=a, eeprom_busy_us=bus.eeprom_busy_us, position=(
+                xl430.rad_to_position(a.state()[0]) if a is not None else xl430.POSITION_CENTRE))
+            x.table[xl430.RETURN_DELAY_TIME] = (500 if bus.return_delay_us is None
+                                                else bus.return_delay_us) // 2
+            x.table[xl430.BAUD_RATE] = xl430.bps_to_baud(bus.baud)
+            servos.append(x)
+            continue
         pos = ax12.rad_to_position(a.state()[0]) if a is not None else 512
         s = Servo(dev_id, bus.edition, actuator=a, position=pos,
                   eeprom_busy_us=bus.eeprom_busy_us)
@@ -69,7 +82,8 @@ def build(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int = 0, *, wo
     bus_cfg = cfg.bus
     faults = Faults.from_scenario(sc["faults"], seed, where=f"{cfg.path} [faults]",
                                   on_fault=on_fault)
-    bus = Bus(_servos(bus_cfg, list(bus_cfg.ids if ids is None else ids), world), clock,
+    line = Bus2 if bus_cfg.model == xl430.MODEL_NAME else Bus
+    bus = line(_servos(bus_cfg, list(bus_cfg.ids if ids is None else ids), world), clock,
               baud=bus_cfg.baud, echo=bus_cfg.echo, faults=faults if faults.active() else None,
               on_bytes=on_bytes, advance=world.advance_to if world is not None else None)
     return Rig(cfg, sc, seed, clock, world, bus, faults)

@@ -20,6 +20,7 @@ from hil.ground_truth import GroundTruth
 from hil.scenario import Scenario
 from hil.seams import FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
 from hil.servo import Servo
+from hil.servo_xl430 import XL430Servo
 
 OnFault = Callable[[int, str, str], None]
 
@@ -82,7 +83,8 @@ class RunCore:
             self.can.add_gateway(can_server)
         self._nodes: list[HostNode] = []
         self._next_tick_us: list[int] = []
-        servos = [s for s in self.bus.servos if isinstance(s, Servo)] if self.bus else []
+        servos = ([s for s in self.bus.servos if isinstance(s, (Servo, XL430Servo))]
+                  if self.bus else [])
         self.truth = (GroundTruth(world, servos, recorder, scene) if recorder is not None
                       else None)
 

@@ -9,6 +9,8 @@ instruction ``FF FF ID LEN INSTR P1..PN CHK`` and status ``FF FF ID LEN ERR P1..
 LEN = N + 2, CHK = ~(ID + LEN + INSTR/ERR + P1 + ... + PN) & 0xFF.
 """
 
+from protocol.stream import StreamParser
+
 HEADER = 0xFF
 BROADCAST_ID = 0xFE
 MAX_ID = 0xFD
@@ -160,7 +162,7 @@ class Packet:
         return "Packet(id=%d, code=0x%02X, params=%s)" % (self.id, self.code, list(self.params))
 
 
-class Parser:
+class Parser(StreamParser):
     """Incremental Protocol 1.0 parser: push bytes, get packets.
 
     After ``push`` returns True the packet's fields are valid until the next push:
@@ -171,52 +173,12 @@ class Parser:
     """
 
     def __init__(self):
-        self.buf = bytearray(MAX_PACKET)
-        self._n = 0
-        self._consumed = 0
-        self._last_t_us = None
+        StreamParser.__init__(self, MAX_PACKET, INTER_BYTE_TIMEOUT_US)
         self.id = -1
         self.code = 0
         self.nparams = 0
-        self.packets = 0
-        self.garbage = 0
-        self.bad_length = 0
         self.bad_checksum = 0
-        self.timeouts = 0
-        self.last_reject = ""
         self.last_bad_checksum_id = -1
-
-    def reset(self):
-        """Drop any partial packet (the line was turned round, say)."""
-        self._n = 0
-        self._consumed = 0
-
-    def pending(self):
-        """Bytes held of a packet not yet complete."""
-        return self._n - self._consumed
-
-    def _drop(self, k):
-        buf = self.buf
-        n = self._n - k
-        for i in range(n):
-            buf[i] = buf[i + k]
-        self._n = n
-
-    def push(self, byte, t_us=-1):
-        """Take one byte (received at ``t_us``, if known); True when a packet is complete."""
-        if self._consumed:
-            self._drop(self._consumed)
-            self._consumed = 0
-        if t_us >= 0:
-            last = self._last_t_us
-            if last is not None and self._n and t_us - last > INTER_BYTE_TIMEOUT_US:
-                self.timeouts += 1
-                self.last_reject = "timeout"
-                self._n = 0
-            self._last_t_us = t_us
-        self.buf[self._n] = byte
-        self._n += 1
-        return self._scan()
 
     def _scan(self):
         buf = self.buf
@@ -266,25 +228,6 @@ class Parser:
             return True
         return False
 
-    def flush(self):
-        """End of stream: give up on the partial packet and rescan what it held.
-
-        A garbage header with a large LEN can hide a valid packet behind it; a servo
-        loses that packet, but a host decoding a capture wants it back.
-        """
-        out = []
-        while True:
-            if self._consumed:
-                self._drop(self._consumed)
-                self._consumed = 0
-            if not self._n:
-                return out
-            if self._scan():
-                out.append(self.current())
-            elif self._n:
-                self.garbage += 1
-                self._drop(1)
-
     def param(self, i):
         return self.buf[PARAMS_OFFSET + i]
 
@@ -296,14 +239,6 @@ class Parser:
         end = PARAMS_OFFSET + self.nparams
         return Packet(self.id, self.code, bytes(self.buf[PARAMS_OFFSET:end]),
                       bytes(self.buf[0:end + 1]))
-
-    def feed(self, data, t_us=-1):
-        """Push many bytes; return the complete packets as a list (allocates)."""
-        out = []
-        for b in data:
-            if self.push(b, t_us):
-                out.append(self.current())
-        return out
 
     def counters(self):
         return {

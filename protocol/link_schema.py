@@ -25,6 +25,7 @@ SERVOS = "servos"
 FIRST_ID = "first_id"
 RETURN_DELAY_US = "return_delay_us"
 BAUD = "baud"
+PROTOCOL = "protocol"
 
 CONFIG = (
     (CYCLE_HZ, "number", "Hz", "control loop rate"),
@@ -46,6 +47,7 @@ CONFIG = (
     (FIRST_ID, "int", "", "ID of the first servo"),
     (RETURN_DELAY_US, "int", "us", "return delay written to every servo"),
     (BAUD, "int", "bit/s", "servo line rate"),
+    (PROTOCOL, "int", "", "Dynamixel protocol: 1 (AX-12) or 2 (X series)"),
 )
 
 # EVENT_STATS: the firmware's counters when the run ends (firmware/telemetry.py stats)

@@ -60,13 +60,13 @@ SLOPPY = textwrap.dedent("""
 """)
 
 
-def conformance_of(script: str) -> tuple[int, dict, str]:
+def conformance_of(script: str, *flags: str) -> tuple[int, dict, str]:
     """Run ``script`` (a server that prints its pty) and the conformance suite on ids 1-3."""
     proc = subprocess.Popen([sys.executable, "-c", script], cwd=ROOT, stdout=subprocess.PIPE,
                             text=True)
     try:
         path = proc.stdout.readline().strip().split(": ", 1)[1]
-        return conformance(path, "--ids", "1-3")
+        return conformance(path, "--ids", "1-3", *flags)
     finally:
         proc.terminate()
         proc.wait(timeout=10)

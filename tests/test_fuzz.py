@@ -9,13 +9,14 @@ from pathlib import Path
 import pytest
 
 from firmware.commands import GaitCommands
-from fuzz import cov, cov_targets, fuzz_bus, fuzz_can, fuzz_parser, fuzz_scenario, fuzz_trace
+from fuzz import (cov, cov_targets, fuzz_bus, fuzz_bus2, fuzz_can, fuzz_parser, fuzz_parser2,
+                  fuzz_scenario, fuzz_trace)
 from host_tools.trace import reader, recover
 from protocol import can_frames as cf
 from protocol import dynamixel as dxl
 
 SLICES = {fuzz_parser: 3_000, fuzz_bus: 300, fuzz_can: 3_000, fuzz_scenario: 300,
-          fuzz_trace: 25}
+          fuzz_trace: 25, fuzz_parser2: 3_000, fuzz_bus2: 200}
 
 
 @pytest.mark.parametrize("target", SLICES, ids=lambda m: m.__name__.split("_")[-1])
@@ -69,7 +70,8 @@ def test_gait_command_with_an_enum_out_of_range_is_ignored(data: bytes) -> None:
 
 
 # --- the coverage-guided phase (fuzz/cov.py: atheris in a subprocess) -----------------------
-COVERAGE_SLICES = {"parser": 2_000, "can": 2_000, "bus": 300, "scenario": 1_000, "trace": 60}
+COVERAGE_SLICES = {"parser": 2_000, "can": 2_000, "bus": 300, "scenario": 1_000, "trace": 60,
+                   "parser2": 1_000, "bus2": 100}
 
 
 @pytest.mark.parametrize("name", COVERAGE_SLICES)

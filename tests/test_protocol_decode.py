@@ -141,3 +141,16 @@ def test_console_script_no_traceback() -> None:
     r = subprocess.run(exe + ["--json", "ffff010201fb"], capture_output=True, text=True,
                        timeout=60)
     assert r.returncode == 0 and json.loads(r.stdout.splitlines()[-1])["kind"] == "summary"
+
+
+def test_protocol_2_bytes_are_recognised_and_unstuffed(capsys: pytest.CaptureFixture) -> None:
+    from protocol import dynamixel2 as dx2
+
+    data = b"\x00" + dx2.sync_read(132, 4, [1, 2]) + dx2.status(1, dx2.ERR_ACCESS | dx2.ALERT,
+                                                                b"\xff\xff\xfd\x00")
+    recs = run_json(capsys, data.hex())
+    assert [r["kind"] for r in recs] == ["garbage", "instruction", "status", "summary"]
+    assert recs[1]["instruction"] == "SYNC_READ" and recs[1]["ids"] == [1, 2]
+    assert recs[1]["register"] == "present_position"
+    assert recs[2]["params"] == [0xFF, 0xFF, 0xFD, 0] and recs[2]["error"] == ["access", "alert"]
+    assert recs[3]["protocol"] == 2 and recs[3]["packets"] == 2

@@ -34,11 +34,13 @@ class HalfDuplexUART:
         self._send(buf, n)
 
     def transact(self, buf, n, rx, nrx, timeout_us):
-        """Send ``buf[:n]``; receive up to ``nrx`` bytes into ``rx`` within ``timeout_us``."""
+        """Send ``buf[:n]``; receive up to ``nrx`` bytes into ``rx`` within ``timeout_us``.
+        With ``n`` 0 only receive, keeping what the UART holds (the rest of a reply)."""
         uart = self.uart
-        while uart.any():
-            uart.read()  # stale bytes from an earlier, timed-out reply
-        self._send(buf, n)
+        if n:
+            while uart.any():
+                uart.read()  # stale bytes from an earlier, timed-out reply
+            self._send(buf, n)
         deadline = time.ticks_add(time.ticks_us(), timeout_us + self.latency_us)
         got = 0
         mv = memoryview(rx)

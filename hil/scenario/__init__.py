@@ -25,7 +25,8 @@ from protocol.errors import UserError
 SCHEMA: dict[str, dict[str, type]] = {
     "scenario": {"name": str, "description": str, "seed": int, "duration_s": float},
     "bus": {"servos": int, "first_id": int, "baud": int, "echo": bool, "return_delay_us": int,
-            "edition": str, "eeprom_busy_us": int, "sensor_node": bool, "sensor_node_id": int},
+            "edition": str, "eeprom_busy_us": int, "sensor_node": bool, "sensor_node_id": int,
+            "model": str},
     "firmware": {"cycle_hz": float, "tactile": bool, "python": str, "servo_lost_s": float,
                  "reads_per_cycle": int},
     "gait": {"name": str, "period_s": float, "step_length_m": float, "step_height_m": float,

@@ -12,7 +12,7 @@ from enum import Enum
 from typing import Any
 
 from hil.servo import EEPROM_BUSY_US
-from protocol import ax12, hexapod
+from protocol import ax12, hexapod, xl430
 from protocol.errors import UserError
 
 DEFAULT_DURATION_S = 30.0
@@ -23,6 +23,7 @@ DEFAULT_FIRST_ID = 1
 DEFAULT_BAUD = 1_000_000         # the AX-12's factory rate (register 4 = 1)
 RETURN_DELAY_MAX_US = 508        # AX-12 register 5: 2 us a unit, 0-254
 BAUD_TOLERANCE = 0.03            # AX-12 e-manual: a line within 3 % of the servo's rate decodes
+SERVO_MODELS = ("ax-12a", xl430.MODEL_NAME)  # Protocol 1.0, Protocol 2.0
 GAITS = tuple(hexapod.GAITS)     # tripod, wave
 DEFAULT_GAIT = hexapod.DEFAULT_GAIT
 
@@ -90,6 +91,7 @@ class BusConfig:
     eeprom_busy_us: int = EEPROM_BUSY_US
     sensor_node: bool | None = None         # None: on with ``hexhil bus --world``
     sensor_node_id: int | None = None
+    model: str = "ax-12a"                   # SERVO_MODELS: Protocol 1.0 or 2.0 servos
 
     @property
     def ids(self) -> range:
@@ -103,7 +105,15 @@ class BusConfig:
                             "IDs 0-253")
         if b.baud <= 0:
             raise UserError(f"{where}: key 'bus.baud' must be positive, got {b.baud}")
-        if abs(ax12.baud_to_bps(baud_register(b.baud)) - b.baud) > BAUD_TOLERANCE * b.baud:
+        if b.model not in SERVO_MODELS:
+            raise UserError(f"{where}: key 'bus.model' must be one of "
+                            f"{', '.join(SERVO_MODELS)}, got {b.model!r}")
+        if b.model == xl430.MODEL_NAME:
+            if b.baud not in xl430.BAUD_BPS or b.first_id + b.servos - 1 > 252 or b.sensor_node:
+                raise UserError(f"{where}: an {b.model} bus needs a baud of "
+                                f"{'/'.join(map(str, xl430.BAUD_BPS))}, IDs 0-252, "
+                                "no sensor node")
+        elif abs(ax12.baud_to_bps(baud_register(b.baud)) - b.baud) > BAUD_TOLERANCE * b.baud:
             raise UserError(f"{where}: baud {b.baud}: no AX-12 rate 2000000/(n+1) within "
                             "3 % of it")
         if b.edition not in ax12.EDITIONS:

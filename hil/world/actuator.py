@@ -17,12 +17,15 @@ Drive model (one vectorised bank for all 18 joints, evaluated every physics step
   actuator control. With Torque Enable off the duty is 0 and the joint is back-driven
   against the gear train's damping only.
 
-Constants: AX-12A e-manual, stall torque 1.5 N m at 12 V, no-load speed 59 rpm at 12 V.
+Constants (``Motor``): AX-12A e-manual, stall torque 1.5 N m at 12 V, no-load speed 59 rpm
+at 12 V; XL430-W250-T e-manual, stall torque 1.4 N m at 11.1 V (1.3 A), no-load speed
+57 rpm at 11.1 V. The scenario's ``bus.model`` picks one for all 18 joints.
 """
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,10 +36,35 @@ if TYPE_CHECKING:
 
 STALL_TORQUE_NM = 1.5                           # AX-12A at 12 V (e-manual)
 NO_LOAD_SPEED_RAD_S = 59.0 * 2.0 * math.pi / 60.0  # 59 rpm at 12 V (e-manual)
-BACK_EMF_DAMPING_NM_S = STALL_TORQUE_NM / NO_LOAD_SPEED_RAD_S
 ROTOR_ARMATURE_KG_M2 = 0.0015   # reflected rotor inertia through the 254:1 gear train
 POSITION_UNIT_RAD = math.radians(ax12.POSITION_RANGE_DEG / ax12.POSITION_MAX)
 PUNCH_FRACTION_PER_UNIT = 1.0 / 1023.0
+
+
+@dataclass(frozen=True)
+class Motor:
+    """A servo's gearmotor at its rated supply (e-manual specifications)."""
+
+    name: str
+    stall_torque_nm: float
+    no_load_speed_rad_s: float
+    rated_supply_v: float
+
+    @property
+    def back_emf_damping_nm_s(self) -> float:
+        return self.stall_torque_nm / self.no_load_speed_rad_s
+
+
+AX12 = Motor("ax-12a", STALL_TORQUE_NM, NO_LOAD_SPEED_RAD_S, 12.0)
+XL430 = Motor("xl430-w250", 1.4, 57.0 * 2.0 * math.pi / 60.0, 11.1)
+MOTORS = {m.name: m for m in (AX12, XL430)}
+
+
+def motor_of(scenario: dict[str, Any]) -> Motor:
+    """The motor of a scenario's servos (``bus.model``, checked by hil/scenario.py)."""
+    return MOTORS[scenario.get("bus", {}).get("model", AX12.name)]
+
+
 # (cw margin, ccw margin, cw slope, ccw slope, punch) in AX-12 raw units: e-manual defaults.
 DEFAULT_COMPLIANCE = (1, 1, 32, 32, 32)
 
@@ -44,11 +72,12 @@ DEFAULT_COMPLIANCE = (1, 1, 32, 32, 32)
 class DriveBank:
     """The state of all joints' servo drives, as numpy arrays (SI units)."""
 
-    def __init__(self, q0_rad: np.ndarray) -> None:
+    def __init__(self, q0_rad: np.ndarray, motor: Motor = AX12) -> None:
         n = len(q0_rad)
+        self.motor = motor
         self.goal_rad = np.array(q0_rad, dtype=float)
         self.setpoint_rad = np.array(q0_rad, dtype=float)
-        self.speed_limit_rad_s = np.full(n, NO_LOAD_SPEED_RAD_S)
+        self.speed_limit_rad_s = np.full(n, motor.no_load_speed_rad_s)
         self.torque_limit = np.ones(n)
         self.enabled = np.ones(n, dtype=bool)
         self.margin_rad = np.zeros((2, n))   # row 0: CW (e < 0), row 1: CCW (e > 0)
@@ -68,7 +97,7 @@ class DriveBank:
 
     def control(self, q_rad: np.ndarray, dt_s: float) -> np.ndarray:
         """Advance set-points by one step and return the motor torques (N m) to apply."""
-        return STALL_TORQUE_NM * self.duty_for(q_rad, dt_s)
+        return self.motor.stall_torque_nm * self.duty_for(q_rad, dt_s)
 
     def duty_for(self, q_rad: np.ndarray, dt_s: float) -> np.ndarray:
         """Advance set-points by one step; the signed duty on the measured angles ``q_rad``.
@@ -95,7 +124,7 @@ class DriveBank:
 
 
 class MujocoActuator:
-    """One joint of the world, driven like an AX-12 (implements the servo Actuator seam)."""
+    """One joint of the world, driven like its servo (implements the servo Actuator seam)."""
 
     def __init__(self, world: "HexapodWorld", index: int) -> None:
         self.world = world
@@ -109,7 +138,8 @@ class MujocoActuator:
         if enabled and not bank.enabled[i]:
             bank.setpoint_rad[i] = self.state()[0]  # resume from where it reads
         bank.goal_rad[i] = goal_rad
-        bank.speed_limit_rad_s[i] = speed_limit_rad_s if speed_limit_rad_s > 0 else NO_LOAD_SPEED_RAD_S
+        bank.speed_limit_rad_s[i] = speed_limit_rad_s if speed_limit_rad_s > 0 \
+            else bank.motor.no_load_speed_rad_s
         bank.torque_limit[i] = min(max(torque_limit_frac, 0.0), 1.0)
         bank.enabled[i] = bool(enabled)
         if compliance is not None and compliance != self._compliance:
@@ -121,7 +151,7 @@ class MujocoActuator:
         q, qd, duty = self.world.joint_state_lists()
         i = self.index
         v = qd[i]
-        load = duty[i] - v / NO_LOAD_SPEED_RAD_S
+        load = duty[i] - v / self.world.drives.motor.no_load_speed_rad_s
         return q[i] + self.world.drives.read_offset_rad[i], v, max(-1.0, min(1.0, load))
 
     def advance_to(self, t_us: int) -> None:

@@ -59,6 +59,7 @@ class RealModel:
     foot_friction: np.ndarray    # each foot's friction in this trial
     noise_seed: int
     free_obstacles: bool
+    motor: act.Motor = act.AX12
 
 
 def model_name(scenario: dict[str, Any]) -> str:
@@ -87,11 +88,12 @@ def from_scenario(scenario: dict[str, Any], seed: int, foot_friction: float,
     units = np.random.default_rng([world.get("units_seed", seed), 3])
     trial = np.random.default_rng([seed, 21])
     offsets = units.normal(0.0, OFFSET_SD_UNITS, n_joints) * act.POSITION_UNIT_RAD
-    stall = act.STALL_TORQUE_NM * SUPPLY_V / RATED_SUPPLY_V * (
+    motor = act.motor_of(scenario)
+    stall = motor.stall_torque_nm * SUPPLY_V / motor.rated_supply_v * (
         1.0 + np.clip(units.normal(0.0, STALL_SPREAD_SD, n_joints), -2 * STALL_SPREAD_SD,
                       2 * STALL_SPREAD_SD))
     feet = foot_friction * np.clip(1.0 + trial.normal(0.0, FOOT_FRICTION_SD, n_feet), 0.5, 1.5)
-    return RealModel(offsets, stall, feet, int(trial.integers(2**31)), body == "free")
+    return RealModel(offsets, stall, feet, int(trial.integers(2**31)), body == "free", motor)
 
 
 class RealDriveBank(act.DriveBank):
@@ -105,14 +107,14 @@ class RealDriveBank(act.DriveBank):
     Back-EMF damping stays on the joint (MuJoCo damping), a simplification."""
 
     def __init__(self, q0_rad: np.ndarray, real: RealModel, qd_view: np.ndarray) -> None:
-        super().__init__(q0_rad)
+        super().__init__(q0_rad, real.motor)
         self.real = real
         self.read_offset_rad = real.offsets_rad.tolist()
         self._qd = qd_view
         self._gap = np.zeros(len(q0_rad))
         self._half = BACKLASH_RAD / 2
         self._rng = np.random.default_rng(real.noise_seed)
-        self._omega = real.stall_nm / act.BACK_EMF_DAMPING_NM_S   # no-load speed per unit
+        self._omega = real.stall_nm / real.motor.back_emf_damping_nm_s   # no-load speed per unit
 
     def control(self, q_rad: np.ndarray, dt_s: float) -> np.ndarray:
         unit = act.POSITION_UNIT_RAD

@@ -85,7 +85,7 @@ _f = terrain_mod.mjcf_numbers
 
 
 def mjcf(params: RobotParams, obstacles: list[terrain_mod.Obstacle], ground_friction: float,
-         real: fidelity.RealModel | None = None) -> str:
+         real: fidelity.RealModel | None = None, motor: act.Motor = act.AX12) -> str:
     """The MJCF document for the robot on flat ground with the given obstacles.
 
     Collision filtering: robot geoms have contype 1 / conaffinity 0, the ground and fixed
@@ -137,7 +137,7 @@ def mjcf(params: RobotParams, obstacles: list[terrain_mod.Obstacle], ground_fric
         assets = f"\n  <asset>{assets}\n  </asset>"
     # resting loose obstacles sleep (MuJoCo islands) until the robot touches them
         sleep = '>\n    <flag sleep="enable"/>\n  </option>'
-    stall = act.STALL_TORQUE_NM if real is None else float(real.stall_nm.max())
+    stall = motor.stall_torque_nm if real is None else float(real.stall_nm.max())
     motors = "".join(
         f'\n    <motor name="{leg}_{j}" joint="{leg}_{j}" ctrlrange="{_f(-stall, stall)}"/>'
         for leg in LEGS for j in JOINTS)
@@ -147,7 +147,7 @@ def mjcf(params: RobotParams, obstacles: list[terrain_mod.Obstacle], ground_fric
   <compiler angle="degree" autolimits="true"/>
   <option timestep="{PHYSICS_DT_US * 1e-6}" integrator="implicitfast" cone="elliptic"{sleep}
   <default>
-    <joint damping="{act.BACK_EMF_DAMPING_NM_S:.6g}" armature="{act.ROTOR_ARMATURE_KG_M2}"/>
+    <joint damping="{motor.back_emf_damping_nm_s:.6g}" armature="{act.ROTOR_ARMATURE_KG_M2}"/>
     <motor ctrllimited="true"/>
   </default>{assets}
   <worldbody>
@@ -215,7 +215,9 @@ class HexapodWorld:
         self.obstacles = terrain_mod.from_scenario(self.scenario, self.seed)
         self.real = fidelity.from_scenario(self.scenario, self.seed, self.params.foot_friction,
                                            len(LEGS) * len(JOINTS), len(LEGS))
-        self.xml = mjcf(self.params, self.obstacles, world.get("friction", 1.0), self.real)
+        self.motor = act.motor_of(self.scenario)
+        self.xml = mjcf(self.params, self.obstacles, world.get("friction", 1.0), self.real,
+                        self.motor)
         self.model = mujoco.MjModel.from_xml_string(self.xml)
         if self.real is not None:   # this trial's foot friction (slip noise)
             for leg, mu in zip(LEGS, self.real.foot_friction):
@@ -233,7 +235,7 @@ class HexapodWorld:
         self._foot_n = self.data.sensordata[6:12]
         self._q[:] = q0
         mujoco.mj_forward(self.model, self.data)
-        self.drives = (act.DriveBank(q0) if self.real is None
+        self.drives = (act.DriveBank(q0, self.motor) if self.real is None
                        else fidelity.RealDriveBank(q0, self.real, self._qd))
         self.switches = SwitchBank(len(LEGS))
         self.t_us = 0

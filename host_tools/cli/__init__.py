@@ -20,7 +20,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "demo": ("demo", "set-up check and the main job (what `make demo` runs)"),
     "protocol": ("protocol", "Dynamixel Protocol 1.0 tools (decode)"),
     "bus": ("bus", "serve emulated AX-12 servos on a pty or TCP port"),
-    "conformance": ("conformance", "check any Protocol 1.0 bus against the spec"),
+    "conformance": ("conformance", "check any Dynamixel bus (Protocol 1.0 or 2.0) against the spec"),
     "run": ("run", "run the firmware against the simulated robot"),
     "experiment": ("experiment", "reproduce a paper's experiments"),
     "beams": ("beams", "force-sensing beam traversal (seed 000)"),

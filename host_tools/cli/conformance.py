@@ -1,4 +1,5 @@
-"""``hexhil conformance``: check any Protocol 1.0 bus (emulated or real AX-12s) against the spec."""
+"""``hexhil conformance``: check any Dynamixel bus (emulated or real AX-12s, Protocol 1.0; X series,
+Protocol 2.0) against the spec."""
 from __future__ import annotations
 
 import argparse
@@ -10,8 +11,11 @@ from protocol.errors import UserError
 
 def run(args: argparse.Namespace) -> int:
     from host_tools.cli.bus import parse_ids
-    from host_tools.conformance import run_checks
     from host_tools.conformance_report import format_table
+    if args.protocol == 2:
+        from host_tools.conformance2 import run_checks
+    else:
+        from host_tools.conformance import run_checks
 
     if args.baud <= 0:
         raise UserError(f"--baud must be positive, got {args.baud}")
@@ -27,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("conformance", help="check any Protocol 1.0 bus against the spec",
+    p = sub.add_parser("conformance", help="check any Dynamixel bus (Protocol 1.0 or 2.0) against the spec",
                        description="Scan, ping, read the control table and check error replies, "
                                    "status return levels and response timing of every servo; "
                                    "restore what was changed. Exit 0 only when all pass.")
@@ -39,5 +43,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="status packet timeout (default 50; USB adapters need > latency timer)")
     p.add_argument("--scan-timeout-ms", type=float, default=15.0,
                    help="per-ID PING timeout while scanning 0-253 (default 15)")
+    p.add_argument("--protocol", type=int, choices=(1, 2), default=1,
+                   help="Dynamixel protocol: 1 (AX-12, the default) or 2 (X series: CRC, "
+                        "stuffing, sync/bulk/fast reads, EEPROM lock)")
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=run)

@@ -1,4 +1,4 @@
-"""``hexhil protocol decode HEX...``: Dynamixel Protocol 1.0 bytes, explained for humans.
+"""``hexhil protocol decode HEX...``: Dynamixel Protocol 1.0 (or 2.0) bytes, explained for humans.
 
 Anything that starts with ``FF FF`` is read as a packet and must be a good one (length,
 checksum, complete), else the command fails with one line saying why (``--lenient``
@@ -198,8 +198,36 @@ def _text(rec: dict[str, Any], offset: int) -> str:
     return line
 
 
+def decode2(args: argparse.Namespace, data: bytes) -> int:
+    """Protocol 2.0 bytes (host_tools/decode2.py), one line (or JSON object) a record."""
+    from host_tools.decode2 import decode as decode_v2
+
+    records = decode_v2(data)
+    for rec in records:
+        if args.json:
+            emit_json(rec)
+        elif rec["kind"] == "garbage":
+            print(f"@{rec['offset']:<4} garbage: {len(rec['bytes'])} bytes: {_fmt(bytes(rec['bytes']))}")
+        else:
+            what = {k: v for k, v in rec.items() if k not in ("kind", "id", "instruction", "raw",
+                                                              "offset")}
+            print(f"@{rec['offset']:<4} id {rec['id']:>3}  {rec['kind']} {rec['instruction']} "
+                  + " ".join(f"{k}={v}" for k, v in what.items() if v is not None))
+            print(f"      {rec['raw']}")
+    n = sum(r["kind"] != "garbage" for r in records)
+    g = sum(len(r["bytes"]) for r in records if r["kind"] == "garbage")
+    emit(args, {"kind": "summary", "protocol": 2, "packets": n, "garbage_bytes": g,
+                "bytes": len(data)}, f"{n} packets (Protocol 2.0), {g} garbage bytes, "
+                                     f"{len(data)} bytes")
+    return 0
+
+
 def decode(args: argparse.Namespace) -> int:
+    from host_tools.decode2 import looks_like_protocol_2
+
     data = parse_hex(args.hex)
+    if args.protocol == 2 or (args.protocol is None and looks_like_protocol_2(data)):
+        return decode2(args, data)
     parts = split_stream(data, args.lenient)
     force = "status" if args.status else ("instruction" if args.instruction else None)
     records = iter(classify([p[2] for p in parts if p[0] == "packet"], force))
@@ -242,6 +270,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     kind.add_argument("--status", action="store_true", help="every packet is a status packet")
     kind.add_argument("--instruction", action="store_true",
                       help="every packet is an instruction packet")
+    d.add_argument("--protocol", type=int, choices=(1, 2), default=None,
+                   help="Dynamixel protocol (default: 2 when FF FF FD 00 appears, else 1)")
     d.add_argument("--lenient", action="store_true",
                    help="report malformed packets as garbage (with the reason) instead of failing")
     d.set_defaults(func=decode)

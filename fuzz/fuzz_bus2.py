@@ -1,0 +1,133 @@
+"""The Protocol 2.0 bus with 18 emulated XL430s (hil/bus2.py, hil/servo_xl430.py) under
+random instruction streams: no exception escapes, every register within its documented
+range (protocol/xl430.py FIELDS), the identity registers unchanged, and after the line
+has idled a PING to a servo is answered (resync)."""
+from __future__ import annotations
+
+import random
+
+from fuzz.hostile import Rng
+from fuzz.fuzz_parser2 import garbage
+from fuzz.tally import Budget, Tally
+from hil.bus2 import Bus2
+from hil.clock import VirtualClock
+from hil.servo_xl430 import XL430Servo
+from protocol import dynamixel2 as dx2
+from protocol import xl430 as xl
+
+SERVOS = 18
+READ_TIMEOUT_US = 20_000       # a SYNC_READ of 18 x 148 bytes would take longer: fine
+IDENTITY = ((0, 2), (6, 1))    # model number and firmware version
+REBUILD_EVERY = 1_000
+# Present values are signed and may be anything the actuator reports: not range-checked.
+UNCHECKED = {"present_position", "position_trajectory", "present_velocity",
+             "velocity_trajectory", "present_load", "present_pwm", "present_input_voltage",
+             "present_temperature", "realtime_tick", "moving_status", "hardware_error_status",
+             "model_information", "goal_position"}
+
+
+def instruction(rng: random.Random) -> bytes:
+    """One instruction, mostly to the 18 IDs, mostly well formed; writes anywhere."""
+    dev_id = rng.choice((rng.randrange(1, SERVOS + 1),) * 6 + (dx2.BROADCAST_ID, rng.randrange(253)))
+    instr = rng.choice((dx2.PING, dx2.READ, dx2.WRITE, dx2.WRITE, dx2.REG_WRITE, dx2.ACTION,
+                        dx2.SYNC_READ, dx2.FAST_SYNC_READ, dx2.BULK_READ, dx2.FAST_BULK_READ,
+                        dx2.SYNC_WRITE, dx2.BULK_WRITE, dx2.REBOOT, dx2.CLEAR,
+                        dx2.CONTROL_TABLE_BACKUP, dx2.FACTORY_RESET, rng.randrange(256)))
+    addr = rng.choice((xl.GOAL_POSITION, xl.TORQUE_ENABLE, xl.OPERATING_MODE, xl.GOAL_VELOCITY,
+                       xl.PROFILE_ACCELERATION, xl.PROFILE_VELOCITY, xl.STATUS_RETURN_LEVEL,
+                       xl.RETURN_DELAY_TIME, xl.HOMING_OFFSET, rng.randrange(160)))
+    a2 = bytes((addr & 0xFF, addr >> 8))
+    ids = rng.sample(range(1, SERVOS + 1), rng.randrange(1, 7))
+    if instr in (dx2.READ, dx2.SYNC_READ, dx2.FAST_SYNC_READ):
+        params = a2 + bytes((rng.randrange(1, 12), 0))
+        if instr != dx2.READ:
+            params += bytes(ids)
+    elif instr in (dx2.WRITE, dx2.REG_WRITE):
+        params = a2 + rng.randbytes(rng.choice((1, 2, 4, 4, rng.randrange(9))))
+    elif instr == dx2.SYNC_WRITE:
+        n = rng.choice((1, 4, rng.randrange(6)))
+        params = a2 + bytes((n, 0)) + b"".join(bytes((i,)) + rng.randbytes(n) for i in ids)
+    elif instr in (dx2.BULK_READ, dx2.FAST_BULK_READ):
+        params = b"".join(bytes((i, rng.randrange(150), 0, rng.randrange(1, 6), 0)) for i in ids)
+    elif instr == dx2.BULK_WRITE:
+        params = b"".join(bytes((i, addr & 0xFF, addr >> 8, 4, 0)) + rng.randbytes(4) for i in ids)
+    elif instr == dx2.FACTORY_RESET:
+        params = bytes((dx2.RESET_EXCEPT_ID_BAUD,))   # the others move IDs and baud away
+    else:
+        params = rng.randbytes(rng.randrange(6))
+    if rng.random() < 0.3:  # the address-changing writes are kept rare
+        params = params.replace(bytes((xl.ID,)), bytes((xl.LED,)), 1)
+    return dx2.packet(dev_id, instr, params)
+
+
+def fresh_bus() -> Bus2:
+    servos = [XL430Servo(i) for i in range(1, SERVOS + 1)]
+    for s in servos:
+        s.table[xl.BAUD_RATE] = 3
+    return Bus2(servos, VirtualClock())
+
+
+def check_servo(s: XL430Servo) -> str:
+    s._refresh_present()
+    t = s.table
+    if len(t) != xl.TABLE_SIZE:
+        return f"table of {len(t)} bytes"
+    for address, name, size, _acc, _d, lo, hi, signed in xl.FIELDS:
+        if name in UNCHECKED:
+            continue
+        v = xl.get(t, address, size, signed)
+        if not lo <= v <= hi:
+            return f"{name} = {v} outside {lo}-{hi}"
+    fresh = xl.defaults()
+    for address, size in IDENTITY:
+        if xl.get(t, address, size) != xl.get(fresh, address, size):
+            return f"read-only register {address} changed"
+    return ""
+
+
+def pingable(bus: Bus2) -> XL430Servo | None:
+    ids = [s.id for s in bus.servos if s.baud_bps == bus.baud]
+    for s in bus.servos:
+        if s.baud_bps == bus.baud and ids.count(s.id) == 1:
+            return s
+    return None
+
+
+def run(seed: int, budget_s: float | None, limit: int | None) -> list[Tally]:
+    rng = random.Random(seed)
+    junk_rng = Rng(seed)
+    tally = Tally("protocol 2.0 bus, 18 XL430s", "streams")
+    budget = Budget(budget_s, limit)
+    bus = fresh_bus()
+    while budget.more(tally.inputs):
+        tally.inputs += 1
+        if tally.inputs % REBUILD_EVERY == 0 or pingable(bus) is None:
+            bus = fresh_bus()
+        try:
+            for _ in range(rng.randrange(1, 6)):
+                data = instruction(rng) if rng.random() < 0.7 else garbage(junk_rng)
+                bus.master_write(data)
+                bus.master_read(4000, rng.choice((0, 300, READ_TIMEOUT_US)))
+            for s in bus.servos:
+                broken = check_servo(s)
+                if broken:
+                    tally.escape(f"stream {tally.inputs}: servo {s.id}: {broken}")
+                    bus = fresh_bus()
+                    break
+            bus.idle_until(bus.clock.t_us + dx2.INTER_BYTE_TIMEOUT_US + 10_000)
+            bus.master_read(100_000, 0)
+            target = pingable(bus)
+            if target is None:
+                continue
+            tally.resync_checked += 1
+            bus.master_write(dx2.ping(target.id))
+            reply = dx2.Parser().feed(bus.master_read(14, READ_TIMEOUT_US))
+            if reply and reply[0].id == target.id:
+                tally.resync_found += 1
+            elif len(tally.notes) < 5:
+                tally.notes[f"no PING reply at stream {tally.inputs}"] = target.id
+        except Exception as exc:  # an escape is what the fuzzer is for: count and report it
+            tally.escape(f"stream {tally.inputs}: {exc.__class__.__name__}: {exc}")
+            bus = fresh_bus()
+    tally.wall_s = budget.elapsed_s()
+    return [tally]
