@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from host_tools.traversal import estimator, landscape
-from host_tools.cli.beams import push_samples
+from host_tools.traversal.push import push_samples
 from host_tools.experiments import force_sensing
 from host_tools.experiments.force_sensing import sections as fs
 
