@@ -76,7 +76,7 @@ def _sweep(python: str) -> tuple[float, int]:
     from host_tools.experiments.executor import Executor
 
     with tempfile.TemporaryDirectory() as tmp:
-        res = th.main(False, Path(tmp), 3, Executor(os.cpu_count() or 1, progress=False),
+        res = th.main(False, Path(tmp), 3, Executor(os.cpu_count() or 1),
                       python=python)
     return res["wall_s"], res["runs"]
 

@@ -12,8 +12,8 @@ def _square(x):
 
 
 def test_executor_keeps_spec_order_in_process_and_in_a_pool():
-    assert Executor(1, progress=False).map(_square, [3, 1, 2], "t") == [9, 1, 4]
-    assert Executor(2, progress=False).map(_square, list(range(7)), "t") == [i * i for i in range(7)]
+    assert Executor(1).map(_square, [3, 1, 2], "t") == [9, 1, 4]
+    assert Executor(2).map(_square, list(range(7)), "t") == [i * i for i in range(7)]
     with pytest.raises(UserError):
         Executor(0)
 
@@ -22,13 +22,13 @@ def test_executor_on_a_dask_cluster():
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
-        ex = Executor(scheduler=cluster.scheduler_address, progress=False)
+        ex = Executor(scheduler=cluster.scheduler_address)
         assert ex.map(_square, [5, 6, 7], "t") == [25, 36, 49]
 
 
 def test_unreachable_scheduler_is_a_user_error():
     with pytest.raises(UserError, match="Dask scheduler"):
-        Executor(scheduler="tcp://127.0.0.1:9", progress=False).map(_square, [1], "t")
+        Executor(scheduler="tcp://127.0.0.1:9").map(_square, [1], "t")
 
 
 def test_plan_covers_the_papers_protocol():

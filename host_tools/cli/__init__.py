@@ -72,6 +72,35 @@ def emit(args: Any, obj: dict[str, Any], text: str) -> None:
         print(text)
 
 
+class ProgressBar:
+    """The library's ``Progress`` callback (host_tools/progress.py) drawn as a tqdm bar on
+    stderr, one bar per stage (a new ``desc`` or a restart at 0 closes the last one)."""
+
+    def __init__(self, unit: str) -> None:
+        self.unit = unit
+        self._bar: Any = None
+        self._desc = ""
+
+    def __call__(self, desc: str, done: int, total: int, note: str = "") -> None:
+        from tqdm import tqdm
+
+        if self._bar is None or done == 0 or desc != self._desc:
+            self.close()
+            self._bar = tqdm(total=total, desc=desc, unit=self.unit, file=sys.stderr,
+                             dynamic_ncols=True)
+            self._desc = desc
+        self._bar.update(done - self._bar.n)
+        if note:
+            self._bar.set_postfix_str(note)
+        if done >= total:
+            self.close()
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+
 def _terminated(signum: int, frame: Any) -> None:
     """SIGTERM ends a command as Ctrl-C does: ``finally`` blocks finish the trace files."""
     raise KeyboardInterrupt
