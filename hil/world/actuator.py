@@ -22,14 +22,11 @@ Constants: AX-12A e-manual, stall torque 1.5 N m at 12 V, no-load speed 59 rpm a
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
 from protocol import ax12
-
-if TYPE_CHECKING:
-    from hil.world.hexapod import HexapodWorld
 
 STALL_TORQUE_NM = 1.5                           # AX-12A at 12 V (e-manual)
 NO_LOAD_SPEED_RAD_S = 59.0 * 2.0 * math.pi / 60.0  # 59 rpm at 12 V (e-manual)
@@ -94,10 +91,22 @@ class DriveBank:
         return u
 
 
+class JointWorld(Protocol):
+    """What a joint needs of its world (hil/world/hexapod.py's HexapodWorld): its drives,
+    the joint state and its clock. Declared here so this module never imports the world
+    that imports it."""
+
+    drives: DriveBank
+
+    def joint_state_lists(self) -> tuple[list[float], list[float], list[float]]: ...
+
+    def advance_to(self, t_us: int) -> None: ...
+
+
 class MujocoActuator:
     """One joint of the world, driven like an AX-12 (implements the servo Actuator seam)."""
 
-    def __init__(self, world: "HexapodWorld", index: int) -> None:
+    def __init__(self, world: JointWorld, index: int) -> None:
         self.world = world
         self.index = index
         self._compliance: tuple[int, int, int, int, int] | None = None
