@@ -2,6 +2,7 @@
 run summary."""
 from __future__ import annotations
 
+import logging
 import os
 import time
 from pathlib import Path
@@ -15,6 +16,7 @@ from host_tools import in_process
 from protocol.errors import UserError
 
 CAN_WAIT_TIMEOUT_S = 60.0
+log = logging.getLogger(__name__)   # the addresses a client attaches to (hexhil prints them)
 
 
 def summary(scenario: dict[str, Any], seed: int, result: RunResult,
@@ -62,8 +64,8 @@ def start_can_server(port: int, wait_clients: int) -> Any:
         server = CanServer(port=port)
     except OSError as exc:
         raise UserError(f"--can-server: cannot listen on 127.0.0.1:{port}: {exc.strerror}") from None
-    print(f"can-server: {server.host}:{server.port} channel {server.channel} (socketcand)",
-          flush=True)
+    log.info("can-server: %s:%s channel %s (socketcand)", server.host, server.port,
+             server.channel)
     if wait_clients and not server.wait_for_clients(wait_clients, CAN_WAIT_TIMEOUT_S):
         server.close()
         raise UserError(f"--can-wait: {wait_clients} socketcand client(s) did not attach "
@@ -75,7 +77,7 @@ def _start_live(port: int) -> Any:
     from host_tools.trace.live import LiveServer
 
     live = LiveServer(port)
-    print(f"live: ws://127.0.0.1:{live.port} (Foxglove WebSocket)", flush=True)
+    log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", live.port)
     return live
 
 

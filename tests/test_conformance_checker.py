@@ -42,7 +42,8 @@ SLOPPY = textwrap.dedent("""
     import sys
     from hil.bus import Bus
     from hil.clock import VirtualClock
-    from hil.serial_server import RealTimeServer, flush_print, install_sigterm, Stop
+    from hil.serial_server import RealTimeServer, install_sigterm, Stop
+    from host_tools.cli import flush_print
     from hil.servo import Servo
 
     class Sloppy(Servo):  # ignores packets with a bad checksum instead of answering bit 4
@@ -82,7 +83,8 @@ def test_a_non_conforming_servo_fails_and_exits_1():
 QUIET_AND_LOCKED = textwrap.dedent("""
     from hil.bus import Bus
     from hil.clock import VirtualClock
-    from hil.serial_server import RealTimeServer, flush_print, install_sigterm, Stop
+    from hil.serial_server import RealTimeServer, install_sigterm, Stop
+    from host_tools.cli import flush_print
     from hil.servo import Servo
 
     s = [Servo(1), Servo(2), Servo(3)]

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import logging
 import signal
 import sys
 from typing import Any
@@ -64,6 +65,33 @@ def emit_json(obj: dict[str, Any]) -> None:
     sys.stdout.flush()
 
 
+def flush_print(line: str) -> None:
+    """One line on stdout at once: an address a script waits for (a pty, a port)."""
+    sys.stdout.write(line + "\n")
+    sys.stdout.flush()
+
+
+class _LibraryLog(logging.Handler):
+    """What the library logs for the user (``logging``, never ``print``): INFO lines on
+    stdout as they come (the addresses ``hexhil run`` serves), warnings on stderr."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        line = self.format(record)
+        if record.levelno >= logging.WARNING:
+            sys.stderr.write(f"warning: {line}\n")
+        else:
+            flush_print(line)
+
+
+def _show_library_log() -> None:
+    """Route the project's loggers to the terminal, once per process."""
+    for name in ("hil", "host_tools"):
+        logger = logging.getLogger(name)
+        if not any(isinstance(h, _LibraryLog) for h in logger.handlers):
+            logger.addHandler(_LibraryLog())
+            logger.setLevel(logging.INFO)
+
+
 def emit(args: Any, obj: dict[str, Any], text: str) -> None:
     """A command's result: ``obj`` as JSON with ``--json``, else ``text`` for a person."""
     if getattr(args, "json", False):
@@ -110,6 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     if argv is None:  # the console script, not a test calling main() in-process
         signal.signal(signal.SIGTERM, _terminated)
     argv = sys.argv[1:] if argv is None else argv
+    _show_library_log()
     try:
         parser = build_parser(argv)
         args = parser.parse_args(argv)
