@@ -11,6 +11,7 @@ import concurrent.futures as cf
 import multiprocessing
 from typing import Any, Callable, Sequence
 
+from host_tools.extras import require
 from host_tools.progress import Progress, report
 from protocol.errors import UserError
 
@@ -26,6 +27,8 @@ class Executor:
                  progress: Progress | None = None) -> None:
         if workers < 1:
             raise UserError(f"--workers must be at least 1, got {workers}")
+        if scheduler:
+            require("distributed")
         self.workers = workers
         self.scheduler = scheduler
         self.progress = progress

@@ -16,7 +16,11 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
-import torch
+
+from host_tools.extras import require
+
+require("torch")   # before torch itself: a missing extra is one line, not a traceback
+import torch  # noqa: E402
 
 from host_tools.grnn.features import FEATURE_VERSION, LEGS, SENSING
 from protocol.errors import UserError

@@ -13,7 +13,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import torch
+
+from host_tools.extras import require
+
+require("torch")   # before torch itself: a missing extra is one line, not a traceback
+import torch  # noqa: E402
 
 from host_tools.grnn import data as data_mod
 from host_tools.grnn.features import LEGS, M_MAX, known_steps
