@@ -135,3 +135,21 @@ def test_an_experiment_run_records_its_trace(tmp_path):
     assert topics["/body"] > 0 and topics["/serial"] > 0 and topics["/joints"] > 0
     assert summary["metadata"]  # scenario, seed, runtime
     assert summary["end_s"] == pytest.approx(r["sim_s"], abs=0.1)
+
+
+def test_cli_prints_the_experiment_style_not_the_report(tmp_path, monkeypatch, capsys):
+    """The whole CLI path on three real short runs (the sweep itself is the slow test)."""
+    from experiment_output import check_output
+    from host_tools.cli import main as cli
+
+    speed = 0.0326
+    runs = [th.run_one(th.RunSpec(stage, "tripod", 1.0, stage == "with", 1, "low", "small",
+                                  periods=2), speed) for stage in ("without", "with")]
+    sweep = {"model": "real", "obstacle_body": th.OBSTACLE_BODY, "speed_m_s": {"tripod": speed},
+             "periods": {"tripod 1 m": 2}, "runs": runs}
+    monkeypatch.setattr(th, "run_sweep", lambda *a: dict(sweep))
+    assert cli(["experiment", "tactile-hexapod", "--quick", "--out", str(tmp_path), "--json"]) == 0
+    printed = capsys.readouterr().out
+    summary = check_output(printed, "tactile-hexapod", tmp_path)
+    assert summary["runs"] == 2 and "mean relative goal error" in printed
+    assert "# Seed 003" not in printed and (tmp_path / "results.md").read_text().startswith("# Seed 003")

@@ -10,11 +10,11 @@ from __future__ import annotations
 import argparse
 import os
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 from hil.link import IN_PROCESS, RUNTIMES
 from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
-from host_tools.cli import ProgressBar, emit, emit_json
+from host_tools.cli import ProgressBar, emit_json
 from protocol.errors import UserError
 
 
@@ -23,6 +23,20 @@ def _out_folder(path: str) -> Path:
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} exists and is not a folder")
     return out
+
+
+def _show(args: argparse.Namespace, headline: str, lines: list[str], report: str,
+          figures: list[str], summary: dict[str, Any]) -> None:
+    """Every experiment's output, one style: what ran, its headline figures, where the
+    report and the figures are (the Markdown report stays in its file); with ``--json``
+    the summary as the last line."""
+    print(headline)
+    for line in lines:
+        print(f"  {line}")
+    print(f"report: {report}")
+    print(f"figures: {', '.join(Path(f).name for f in figures)} (in {Path(report).parent})")
+    if args.json:
+        emit_json(summary)
 
 
 def _tactile_arguments(p: argparse.ArgumentParser) -> None:
@@ -61,11 +75,15 @@ def _tactile(args: argparse.Namespace) -> int:
     res = tactile_hexapod.main(args.quick, out, seeds,
                                Executor(args.workers, args.scheduler, ProgressBar("run")),
                                args.traces, args.model, args.obstacles, args.python)
-    print(Path(res["table"]).read_text())
-    print(f"wrote {res['table']} and {len(res['plots'])} plots in {res['out']} "
-          f"({res['runs']} runs, {res['wall_s']:.0f} s)")
-    if args.json:
-        emit_json(res)
+    wins, cases = res["wave_wins"]
+    nearer, pairs = res["paired_nearer_with_method"]
+    _show(args, f"tactile-hexapod: {'quick' if args.quick else 'full'} sweep, {res['runs']} runs "
+                f"in {res['wall_s']:.0f} s",
+          [f"mean relative goal error: {100 * res['rel_error_without']:.1f} % without the "
+           f"method, {100 * res['rel_error_with']:.1f} % with it ({res['improvement']:.2f}x)",
+           f"with the method nearer the goal on the same terrain: {nearer} of {pairs} pairs; "
+           f"wave nearer than tripod: {wins} of {cases} cases"],
+          res["table"], res["plots"], res)
     return 0
 
 
@@ -87,7 +105,20 @@ def _force(args: argparse.Namespace) -> int:
         summary = force_sensing.main(args.quick, out, args.seeds)
     except OSError as exc:
         raise UserError(f"cannot write into {out}: {exc.strerror}") from None
-    emit(args, summary, f"report: {summary['report']} ({summary['wall_s']:.0f} s)")
+    modes = ", ".join(f"k = {k} {m}" for k, m in summary["modes"].items())
+    energy = summary["energy_mJ"]
+    interact_avoid = "; ".join(
+        f"k = {k} interact {energy[f'interact/{k}/300']:.1f} vs avoid {energy[f'avoid/{k}']:.1f}"
+        for k in summary["modes"] if f"interact/{k}/300" in energy and f"avoid/{k}" in energy)
+    worse = summary["worse_than_paper"]
+    _show(args, f"force-sensing: {'quick' if args.quick else 'full'}, {summary['seeds']} noise "
+                f"seeds, in {summary['wall_s']:.0f} s",
+          [f"planned modes: {modes}; k0 = {summary['k0']:.4f} N m/rad, crossover k = "
+           f"{summary['crossover_k']:.3f}",
+           *([f"energy at 300 ms delay (mJ): {interact_avoid}"] if interact_avoid else []),
+           f"estimation errors above the paper's: {len(worse)} table cells (listed in the report)"
+           if worse else "estimation errors: none above the paper's"],
+          summary["report"], summary["figures"], summary)
     return 0
 
 
