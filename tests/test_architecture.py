@@ -26,15 +26,20 @@ def _modules() -> list[Path]:
     return sorted(p for d in ALLOWED for p in (ROOT / d).rglob("*.py"))
 
 
+def imported(node: ast.AST) -> list[str]:
+    """The modules an absolute import statement names (none for other nodes)."""
+    if isinstance(node, ast.Import):
+        return [a.name for a in node.names]
+    if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+        return [node.module]
+    return []
+
+
 def project_imports(path: Path) -> list[tuple[int, str]]:
     """(line, top-level package) of every project import in a file, nested ones too."""
     out = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        names = []
-        if isinstance(node, ast.Import):
-            names = [a.name for a in node.names]
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            names = [node.module]
+        names = imported(node)
         out += [(node.lineno, n.split(".")[0]) for n in names if n.split(".")[0] in PACKAGES]
     return out
 
@@ -77,12 +82,7 @@ def cli_only_violations(path: Path) -> list[str]:
     """Argument parsing, printing, terminal streams and exits in one file."""
     bad = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        mods = []
-        if isinstance(node, ast.Import):
-            mods = [a.name for a in node.names]
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            mods = [node.module]
-        bad += [f"line {node.lineno}: imports {m}" for m in mods
+        bad += [f"line {node.lineno}: imports {m}" for m in imported(node)
                 if m.split(".")[0] in TERMINAL_MODULES]
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
                 and node.func.id in ("print", "exit", "quit"):
