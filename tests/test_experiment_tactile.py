@@ -18,6 +18,13 @@ def test_executor_keeps_spec_order_in_process_and_in_a_pool():
         Executor(0)
 
 
+def test_executor_reports_each_run_done_to_its_progress_callback():
+    for workers in (1, 2):
+        seen = []
+        Executor(workers, progress=lambda *a: seen.append(a)).map(_square, [3, 1, 2], "t")
+        assert seen == [("t", n, 3, "") for n in range(4)]
+
+
 def test_executor_on_a_dask_cluster():
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,

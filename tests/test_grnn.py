@@ -123,6 +123,13 @@ def test_train_refuses_bad_input_in_one_line(synth, tmp_path, capsys):
         assert err.startswith("hexhil: ") and err.count("\n") == 1, err
 
 
+def test_training_reports_each_epoch_with_its_loss(synth):
+    seen = []
+    _, _, losses, _ = train.fit(data.read(synth["train"]), 3, progress=lambda *a: seen.append(a))
+    assert seen == [("epochs", 0, 3, "")] + [("epochs", i + 1, 3, f"loss={loss:.4f}")
+                                            for i, loss in enumerate(losses)]
+
+
 def test_training_shapes_and_loss_goes_down(synth):
     pred = model.load(synth["model"])
     loss = pred.meta["loss"]
