@@ -72,9 +72,10 @@ def _tactile(args: argparse.Namespace) -> int:
     if seeds < 1:
         raise UserError(f"--seeds must be at least 1, got {seeds}")
     out = _out_folder(args.out)
-    res = tactile_hexapod.main(args.quick, out, seeds,
-                               Executor(args.workers, args.scheduler, ProgressBar("run")),
-                               args.traces, args.model, args.obstacles, args.python)
+    opts = tactile_hexapod.SweepOptions(args.quick, seeds, args.traces, args.model,
+                                        args.obstacles, args.python)
+    res = tactile_hexapod.main(out, opts, Executor(args.workers, args.scheduler,
+                                                   ProgressBar("run")))
     wins, cases = res["wave_wins"]
     nearer, pairs = res["paired_nearer_with_method"]
     _show(args, f"tactile-hexapod: {'quick' if args.quick else 'full'} sweep, {res['runs']} runs "

@@ -216,21 +216,32 @@ def run_sweep(quick: bool, seeds: int, executor: Executor, trace_dir: str | None
             "runs": runs}
 
 
-def main(quick: bool, out: Path, seeds: int, executor: Executor,
-         traces: bool = False, model: str = "real", obstacle_body: str = OBSTACLE_BODY,
-         python: str = IN_PROCESS) -> dict[str, Any]:
+@dataclass(frozen=True)
+class SweepOptions:
+    """The sweep ``main`` runs: the whole protocol, or ``quick`` (1 m only, one trial)."""
+    quick: bool = False
+    seeds: int = 3                       # terrains per case (as the paper's three trials)
+    traces: bool = False                 # one MCAP trace per run into OUT/traces
+    model: str = "real"                  # world.model (hil/world/fidelity.py MODELS)
+    obstacle_body: str = OBSTACLE_BODY   # with the real model (fidelity.OBSTACLE_BODIES)
+    python: str = IN_PROCESS             # firmware runtime
+
+
+def main(out: Path, opts: SweepOptions, executor: Executor) -> dict[str, Any]:
     """Run the sweep and write results.json, results.md and the PNG plots into ``out``
-    (and one MCAP trace per run into ``out/traces`` with ``traces``)."""
+    (and one MCAP trace per run into ``out/traces`` with ``opts.traces``); returns the
+    summary (files, runs, seconds and the headline numbers of ``tactile_report.summary``)."""
     out.mkdir(parents=True, exist_ok=True)
     trace_dir = None
-    if traces:
+    if opts.traces:
         (out / "traces").mkdir(exist_ok=True)
         trace_dir = str(out / "traces")
     t0 = time.perf_counter()
-    result = run_sweep(quick, seeds, executor, trace_dir, model, obstacle_body, python)
+    result = run_sweep(opts.quick, opts.seeds, executor, trace_dir, opts.model,
+                       opts.obstacle_body, opts.python)
     result["wall_s"] = time.perf_counter() - t0
     (out / "results.json").write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")
-    md = markdown(result, quick)
+    md = markdown(result, opts.quick)
     (out / "results.md").write_text(md)
     pngs = plots(result, out)
     return {"out": str(out), "table": str(out / "results.md"), "plots": [str(p) for p in pngs],
