@@ -60,7 +60,8 @@ def closed_loop(model_path: str, data_path: str, workers: int,
     if seen:
         raise UserError(f"{data_path}: terrain seeds {seen} were in the model's training set; "
                         f"closed-loop runs need terrains it never saw")
-    runs = Executor(workers, progress=progress).map(run_with_speed, specs(ds, model_path), "closed-loop runs")
+    runs = Executor(workers, progress=progress).map(run_with_speed, specs(ds, model_path),
+                                                    "closed-loop runs")
     cases: dict[tuple[int, str], dict[str, Any]] = {}
     for r in runs:
         c = cases.setdefault((r["seed"], r["gait"]), {
