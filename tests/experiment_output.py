@@ -17,8 +17,10 @@ def check_output(stdout: str, name: str, out: Path) -> dict[str, Any]:
     assert len(report) == 1 and len(figures) == 1, lines
     body = lines[1:lines.index(report[0])]
     assert body and all(n.startswith("  ") and "|" not in n for n in body), body
-    assert Path(report[0].split(": ", 1)[1]).parent == out and f"(in {out})" in figures[0]
     assert lines.index(figures[0]) == len(lines) - 2   # then the JSON
     summary = json.loads(lines[-1])
-    assert figures[0].split(": ", 1)[1].startswith(Path(summary.get("plots", summary.get("figures", [""]))[0]).name)
+    report_path = summary.get("table") or summary["report"]
+    assert report[0] == f"report: {report_path}" and Path(report_path).parent == out
+    names = [Path(p).name for p in summary.get("plots") or summary["figures"]]
+    assert names and figures[0] == f"figures: {', '.join(names)} (in {out})"
     return summary
