@@ -10,7 +10,6 @@ own output is fed back (Fig. 8, dashed feedback connection).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Sequence
