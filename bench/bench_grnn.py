@@ -26,8 +26,8 @@ def _training_and_inference(tmp: Path) -> list[Row]:
     runs, rows = data.synthetic(TRAIN_WALKS, 0, 1)
     path = data.write(tmp / "syn", runs, rows, data.feature_meta())
     ds = data.read(path)
-    per_epoch = [train.fit(ds, TRAIN_EPOCHS, seed=r, progress=False)[3] for r in range(REPEATS)]
-    train.main(str(path), str(tmp / "m.pt"), epochs=1, progress=False)
+    per_epoch = [train.fit(ds, TRAIN_EPOCHS, seed=r)[3] for r in range(REPEATS)]
+    train.main(str(path), str(tmp / "m.pt"), epochs=1)
     pred = model.load(tmp / "m.pt")
     w = ds.sequences[0]
     sensing = [s.tolist() for s in w.sensing]

@@ -76,8 +76,8 @@ def _sweep(python: str) -> tuple[float, int]:
     from host_tools.experiments.executor import Executor
 
     with tempfile.TemporaryDirectory() as tmp:
-        res = th.main(False, Path(tmp), 3, Executor(os.cpu_count() or 1, progress=False),
-                      python=python)
+        res = th.main(Path(tmp), th.SweepOptions(seeds=3, python=python),
+                      Executor(os.cpu_count() or 1))
     return res["wall_s"], res["runs"]
 
 

@@ -14,7 +14,6 @@ import os
 import select
 import signal
 import socket
-import sys
 import time
 import tty
 from array import array
@@ -237,7 +236,3 @@ def install_sigterm() -> None:
     """SIGTERM ends serving the way Ctrl-C does."""
     signal.signal(signal.SIGTERM, _raise_stop)
 
-
-def flush_print(line: str) -> None:
-    sys.stdout.write(line + "\n")
-    sys.stdout.flush()

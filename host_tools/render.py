@@ -14,6 +14,7 @@ import os
 from pathlib import Path
 from typing import Any, Iterator
 
+from host_tools.progress import Progress, report
 from protocol.errors import UserError
 
 GL_LIBRARIES = {"egl": ("EGL", "libegl1"), "osmesa": ("OSMesa", "libosmesa6")}
@@ -102,9 +103,9 @@ def _frames_at(samples: list[tuple[float, list[float]]], fps: float,
 
 def render(trace: str, out: str, camera: str = "follow", fps: float = 30.0,
            width: int = 480, height: int = 360, at_s: float | None = None,
-           progress: bool = True) -> int:
+           progress: Progress | None = None) -> int:
     """Write ``out`` (.gif, .mp4, or .png: the frame at ``at_s``, default the middle);
-    returns the number of frames."""
+    returns the number of frames. Each frame drawn is reported to ``progress``."""
     suffix = Path(out).suffix.lower()
     if suffix not in (".gif", ".mp4", ".png"):
         raise UserError(f"--out {out}: the video's name must end in .gif, .mp4 or .png")
@@ -119,7 +120,6 @@ def render(trace: str, out: str, camera: str = "follow", fps: float = 30.0,
         at_s = (samples[0][0] + samples[-1][0]) / 2
     world = _world(meta, trace)
     import mujoco
-    from tqdm import tqdm
 
     from hil.world.scene import ROBOT_RGBA
 
@@ -141,13 +141,15 @@ def render(trace: str, out: str, camera: str = "follow", fps: float = 30.0,
         else (0.75, -18.0, -90.0)
     n = 1 if at_s is not None else int((samples[-1][0] - samples[0][0]) * fps) + 1
     images = []
-    for q in tqdm(_frames_at(samples, fps, at_s), total=n, unit="frame", disable=not progress,
-                  desc=f"render {Path(out).name}"):
+    desc = f"render {Path(out).name}"
+    report(progress, desc, 0, n)
+    for q in _frames_at(samples, fps, at_s):
         data.qpos[:25] = q
         mujoco.mj_kinematics(model, data)
         cam.lookat[:] = (q[0], q[1], 0.06) if camera == "follow" else (q[0], 0.0, 0.08)
         renderer.update_scene(data, camera=cam)
         images.append(renderer.render().copy())
+        report(progress, desc, len(images), n)
     renderer.close()
     _write(out, suffix, images, fps)
     return len(images)

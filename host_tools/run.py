@@ -2,6 +2,7 @@
 run summary."""
 from __future__ import annotations
 
+import logging
 from typing import Any, Callable
 
 from hil import scenario as scenario_mod
@@ -12,6 +13,7 @@ from protocol import link_schema as ls
 from protocol.errors import UserError
 
 CAN_WAIT_TIMEOUT_S = 60.0
+log = logging.getLogger(__name__)   # the addresses a client attaches to (hexhil prints them)
 
 
 def summary(scenario: Scenario, seed: int, result: RunResult,
@@ -55,8 +57,8 @@ def start_can_server(port: int, wait_clients: int) -> Any:
         server = CanServer(port=port)
     except OSError as exc:
         raise UserError(f"--can-server: cannot listen on 127.0.0.1:{port}: {exc.strerror}") from None
-    print(f"can-server: {server.host}:{server.port} channel {server.channel} (socketcand)",
-          flush=True)
+    log.info("can-server: %s:%s channel %s (socketcand)", server.host, server.port,
+             server.channel)
     if wait_clients and not server.wait_for_clients(wait_clients, CAN_WAIT_TIMEOUT_S):
         server.close()
         raise UserError(f"--can-wait: {wait_clients} socketcand client(s) did not attach "
@@ -113,7 +115,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         with Run(sc, seed=seed, runtime=python, duration_s=duration_s, tactile=tactile,
                  trace=out, live_port=live_port, can_server=server, realtime=realtime) as r:
             if r.live is not None:
-                print(f"live: ws://127.0.0.1:{r.live.port} (Foxglove WebSocket)", flush=True)
+                log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", r.live.port)
             if attach_navigator is not None:
                 nav = attach_navigator(r)
             result = r.run()

@@ -26,15 +26,20 @@ def _modules() -> list[Path]:
     return sorted(p for d in ALLOWED for p in (ROOT / d).rglob("*.py"))
 
 
+def imported(node: ast.AST) -> list[str]:
+    """The modules an absolute import statement names (none for other nodes)."""
+    if isinstance(node, ast.Import):
+        return [a.name for a in node.names]
+    if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+        return [node.module]
+    return []
+
+
 def project_imports(path: Path) -> list[tuple[int, str]]:
     """(line, top-level package) of every project import in a file, nested ones too."""
     out = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        names = []
-        if isinstance(node, ast.Import):
-            names = [a.name for a in node.names]
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            names = [node.module]
+        names = imported(node)
         out += [(node.lineno, n.split(".")[0]) for n in names if n.split(".")[0] in PACKAGES]
     return out
 
@@ -60,3 +65,160 @@ def test_no_source_file_over_500_lines() -> None:
     long = {str(p.relative_to(ROOT)): n for p in files
             if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
     assert not long, long
+
+
+# --- the CLI is a shell (issue 28 part 2) ----------------------------------------------
+# Only host_tools/cli/ parses arguments, writes to the user's terminal and picks exit codes;
+# library code returns values, raises UserError, and reports progress through a callback
+# (host_tools/progress.py) or ``logging``. firmware/ is out of scope: its print() is the
+# firmware's serial console, which the simulator captures (the serial digest). bench/ and
+# fuzz/ are programs of their own (python -m bench, python -m fuzz) that print their tables.
+SHELL = "host_tools/cli"
+SHELL_MODULE = "host_tools.cli"
+LIBRARY = ("protocol", "hil", "host_tools")
+TERMINAL_MODULES = {"argparse", "tqdm"}
+
+
+def cli_only_violations(path: Path) -> list[str]:
+    """Argument parsing, printing, terminal streams, exits and the shell itself (a library
+    that imports host_tools.cli prints through it) in one file."""
+    bad = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        bad += [f"line {node.lineno}: imports {m}" for m in imported(node)
+                if m.split(".")[0] in TERMINAL_MODULES or f"{m}.".startswith(f"{SHELL_MODULE}.")]
+        if isinstance(node, ast.ImportFrom) and node.module == "host_tools":
+            bad += [f"line {node.lineno}: imports {SHELL_MODULE}" for a in node.names if a.name == "cli"]
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
+                and node.func.id in ("print", "exit", "quit"):
+            bad.append(f"line {node.lineno}: {node.func.id}()")
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) \
+                and node.value.id == "sys" and node.attr in ("stdout", "stderr", "exit"):
+            bad.append(f"line {node.lineno}: sys.{node.attr}")
+        if isinstance(node, ast.Raise) and node.exc is not None and "SystemExit" in ast.unparse(node.exc):
+            bad.append(f"line {node.lineno}: raise SystemExit")
+    return bad
+
+
+def _library_modules() -> list[Path]:
+    return sorted(p for d in LIBRARY for p in (ROOT / d).rglob("*.py")
+                  if not p.relative_to(ROOT).as_posix().startswith(SHELL + "/"))
+
+
+@pytest.mark.parametrize("path", _library_modules(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_only_the_cli_parses_prints_and_exits(path: Path) -> None:
+    assert not cli_only_violations(path)
+
+
+def test_the_cli_checker_sees_a_violation(tmp_path: Path) -> None:
+    src = tmp_path / "m.py"
+    src.write_text("import sys\nfrom argparse import Namespace\ndef f(x):\n    print(x)\n"
+                   "    sys.stderr.write(x)\n    sys.exit(2)\n    raise SystemExit(1)\n"
+                   "def g(log):\n    log.info('fine')\n    from host_tools.cli import emit\n"
+                   "    from host_tools import cli, run\n")
+    assert sorted(cli_only_violations(src)) == [
+        "line 10: imports host_tools.cli", "line 11: imports host_tools.cli",
+        "line 2: imports argparse", "line 4: print()", "line 5: sys.stderr", "line 6: sys.exit",
+        "line 7: raise SystemExit"]
+
+
+# --- no import circles ------------------------------------------------------------------
+# Every import counts, wherever it sits: module level, inside try/if, under ``if
+# TYPE_CHECKING:`` (an annotation naming a module's importer is the same knot hidden from the
+# interpreter: how hil/world's actuator <-> hexapod circle hid), and inside functions (a
+# deferred import defers the loading, not the dependency: two modules that need each other
+# are one module in two files). Importing ``a.b.c`` depends on ``a.b.c`` itself, not on the
+# packages' ``__init__`` above it; ``from a.b import name`` on ``a.b``, or on ``a.b.name``
+# when that is a module.
+def module_name(path: Path, root: Path) -> str:
+    parts = list(path.relative_to(root).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def import_graph(files: list[Path], root: Path) -> dict[str, set[str]]:
+    """Project module -> the project modules it imports."""
+    names = {module_name(p, root): p for p in files}
+    graph: dict[str, set[str]] = {}
+    for name, path in names.items():
+        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        deps: set[str] = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(node, (ast.Import, ast.ImportFrom)):
+                continue
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            else:
+                base = node.module or ""
+                if node.level:
+                    up = package.split(".")[:len(package.split(".")) - node.level + 1]
+                    base = ".".join([*up, *([base] if base else [])])
+                targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in names else base
+                           for a in node.names]
+            for t in targets:
+                while t and t not in names:   # "import a.b.c" of a name inside a module
+                    t = t.rpartition(".")[0]
+                if t and t != name:
+                    deps.add(t)
+        graph[name] = deps
+    return graph
+
+
+def import_circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Every strongly connected group of more than one module (Tarjan), sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    circles = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                circles.append(sorted(group))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return sorted(circles)
+
+
+def test_no_import_circle_among_project_modules() -> None:
+    graph = import_graph(_modules(), ROOT)
+    assert len(graph) > 100   # the walker found the project
+    assert import_circles(graph) == []
+
+
+def test_the_circle_finder_sees_a_circle(tmp_path: Path) -> None:
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from pkg import b\n")
+    (pkg / "b.py").write_text("import pkg.c\nfrom typing import TYPE_CHECKING\n"
+                              "if TYPE_CHECKING:\n    from pkg import d\n")
+    (pkg / "c.py").write_text("def f():\n    from pkg.a import thing\n")
+    (pkg / "d.py").write_text("try:\n    from . import b\nexcept ImportError:\n    pass\n")
+    (pkg / "e.py").write_text("from pkg import a\n")
+    files = sorted(pkg.glob("*.py"))
+    graph = import_graph(files, tmp_path)
+    assert graph["pkg.c"] == {"pkg.a"} and graph["pkg.d"] == {"pkg.b"}
+    assert graph["pkg.e"] == {"pkg.a"} and graph["pkg"] == set()
+    assert import_circles(graph) == [["pkg.a", "pkg.b", "pkg.c", "pkg.d"]]
+    (pkg / "b.py").write_text("import pkg.c\n")
+    assert import_circles(import_graph(files, tmp_path)) == [["pkg.a", "pkg.b", "pkg.c"]]
+    (pkg / "c.py").write_text("import pkg.e\n")
+    assert import_circles(import_graph(files, tmp_path)) == [["pkg.a", "pkg.b", "pkg.c", "pkg.e"]]

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from host_tools.traversal import closed_loop, estimator, landscape, planner
-from host_tools.cli.beams import push_samples
+from host_tools.traversal.push import push_samples
 from host_tools.experiments.force_sensing import sections as fs
 
 # Tables 1, 2 and 4: the paper's relative errors (k1, k2, h_b as a fraction of 5 mm) for

@@ -42,7 +42,8 @@ SLOPPY = textwrap.dedent("""
     import sys
     from hil.bus import Bus
     from hil.clock import VirtualClock
-    from hil.serial_server import RealTimeServer, flush_print, install_sigterm, Stop
+    from hil.serial_server import RealTimeServer, install_sigterm, Stop
+    from host_tools.cli import flush_print
     from hil.servo import Servo
 
     class Sloppy(Servo):  # ignores packets with a bad checksum instead of answering bit 4
@@ -110,7 +111,8 @@ def test_results_shared_by_servos_are_shown_once_with_their_ids():
 QUIET_AND_LOCKED = textwrap.dedent("""
     from hil.bus import Bus
     from hil.clock import VirtualClock
-    from hil.serial_server import RealTimeServer, flush_print, install_sigterm, Stop
+    from hil.serial_server import RealTimeServer, install_sigterm, Stop
+    from host_tools.cli import flush_print
     from hil.servo import Servo
 
     s = [Servo(1), Servo(2), Servo(3)]

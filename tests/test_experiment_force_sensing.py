@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from host_tools.traversal import estimator, landscape
-from host_tools.cli.beams import push_samples
+from host_tools.traversal.push import push_samples
 from host_tools.experiments import force_sensing
 from host_tools.experiments.force_sensing import sections as fs
 
@@ -88,3 +88,16 @@ def test_cli_bad_out_or_seeds_is_one_line(tmp_path):
         r = subprocess.run([sys.executable, "-m", "host_tools.cli", "experiment", "force-sensing", *args],
                            capture_output=True, text=True, timeout=120)
         assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+
+
+def test_cli_prints_the_experiment_style_not_the_report(tiny, tmp_path, monkeypatch, capsys):
+    from experiment_output import check_output
+    from host_tools.cli import main as cli
+
+    out, s = tiny
+    monkeypatch.setattr(force_sensing, "main", lambda quick, o, seeds: s)   # the tiny run's summary
+    assert cli(["experiment", "force-sensing", "--out", str(out), "--json"]) == 0
+    printed = capsys.readouterr().out
+    assert check_output(printed, "force-sensing", out) == s
+    assert "planned modes: k = 0.01 pitch, k = 0.25 roll" in printed
+    assert "# " not in printed and (out / "force-sensing.md").read_text().startswith("# ")

@@ -12,35 +12,30 @@ def _square(x):
 
 
 def test_executor_keeps_spec_order_in_process_and_in_a_pool():
-    assert Executor(1, progress=False).map(_square, [3, 1, 2], "t") == [9, 1, 4]
-    assert Executor(2, progress=False).map(_square, list(range(7)), "t") == [i * i for i in range(7)]
+    assert Executor(1).map(_square, [3, 1, 2], "t") == [9, 1, 4]
+    assert Executor(2).map(_square, list(range(7)), "t") == [i * i for i in range(7)]
     with pytest.raises(UserError):
         Executor(0)
+
+
+def test_executor_reports_each_run_done_to_its_progress_callback():
+    for workers in (1, 2):
+        seen = []
+        Executor(workers, progress=lambda *a: seen.append(a)).map(_square, [3, 1, 2], "t")
+        assert seen == [("t", n, 3, "") for n in range(4)]
 
 
 def test_executor_on_a_dask_cluster():
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
-        ex = Executor(scheduler=cluster.scheduler_address, progress=False)
+        ex = Executor(scheduler=cluster.scheduler_address)
         assert ex.map(_square, [5, 6, 7], "t") == [25, 36, 49]
-
-
-def test_executor_hands_each_result_to_on_result_as_it_comes():
-    distributed = pytest.importorskip("distributed")
-    seen = []
-    Executor(1, progress=False).map(_square, [3, 1], "t", on_result=seen.append)
-    Executor(2, progress=False).map(_square, [2, 4], "t", on_result=seen.append)
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:
-        Executor(scheduler=cluster.scheduler_address, progress=False).map(
-            _square, [5], "t", on_result=seen.append)
-    assert seen[:2] == [9, 1] and sorted(seen[2:4]) == [4, 16] and seen[4:] == [25]
 
 
 def test_unreachable_scheduler_is_a_user_error():
     with pytest.raises(UserError, match="Dask scheduler"):
-        Executor(scheduler="tcp://127.0.0.1:9", progress=False).map(_square, [1], "t")
+        Executor(scheduler="tcp://127.0.0.1:9").map(_square, [1], "t")
 
 
 def test_plan_covers_the_papers_protocol():
@@ -147,3 +142,21 @@ def test_an_experiment_run_records_its_trace(tmp_path):
     assert topics["/body"] > 0 and topics["/serial"] > 0 and topics["/joints"] > 0
     assert summary["metadata"]  # scenario, seed, runtime
     assert summary["end_s"] == pytest.approx(r["sim_s"], abs=0.1)
+
+
+def test_cli_prints_the_experiment_style_not_the_report(tmp_path, monkeypatch, capsys):
+    """The whole CLI path on three real short runs (the sweep itself is the slow test)."""
+    from experiment_output import check_output
+    from host_tools.cli import main as cli
+
+    speed = 0.0326
+    runs = [th.run_one(th.RunSpec(stage, "tripod", 1.0, stage == "with", 1, "low", "small",
+                                  periods=2), speed) for stage in ("without", "with")]
+    sweep = {"model": "real", "obstacle_body": th.OBSTACLE_BODY, "speed_m_s": {"tripod": speed},
+             "periods": {"tripod 1 m": 2}, "runs": runs}
+    monkeypatch.setattr(th, "run_sweep", lambda *a: dict(sweep))
+    assert cli(["experiment", "tactile-hexapod", "--quick", "--out", str(tmp_path), "--json"]) == 0
+    printed = capsys.readouterr().out
+    summary = check_output(printed, "tactile-hexapod", tmp_path)
+    assert summary["runs"] == 2 and "mean relative goal error" in printed
+    assert "# Seed 003" not in printed and (tmp_path / "results.md").read_text().startswith("# Seed 003")

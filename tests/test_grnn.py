@@ -33,7 +33,7 @@ def synth(tmp_path_factory) -> dict[str, Path]:
     tmp = tmp_path_factory.mktemp("grnn")
     out = {"train": _write(tmp, "train", 12, 0, 1), "test": _write(tmp, "test", 6, 1, 101),
            "model": tmp / "model.pt"}
-    train.main(str(out["train"]), str(out["model"]), epochs=3, progress=False)
+    train.main(str(out["train"]), str(out["model"]), epochs=3)
     return out
 
 
@@ -123,6 +123,13 @@ def test_train_refuses_bad_input_in_one_line(synth, tmp_path, capsys):
         assert err.startswith("hexhil: ") and err.count("\n") == 1, err
 
 
+def test_training_reports_each_epoch_with_its_loss(synth):
+    seen = []
+    _, _, losses, _ = train.fit(data.read(synth["train"]), 3, progress=lambda *a: seen.append(a))
+    assert seen == [("epochs", 0, 3, "")] + [("epochs", i + 1, 3, f"loss={loss:.4f}")
+                                            for i, loss in enumerate(losses)]
+
+
 def test_training_shapes_and_loss_goes_down(synth):
     pred = model.load(synth["model"])
     loss = pred.meta["loss"]
@@ -138,11 +145,11 @@ def test_training_shapes_and_loss_goes_down(synth):
 def test_same_data_gives_byte_identical_weights(synth, tmp_path):
     a, b = tmp_path / "a.pt", tmp_path / "b.pt"
     for p in (a, b):
-        train.main(str(synth["train"]), str(p), epochs=2, progress=False)
+        train.main(str(synth["train"]), str(p), epochs=2)
     sa, sb = model.load(a).model.state_dict(), model.load(b).model.state_dict()
     assert all(sa[k].numpy().tobytes() == sb[k].numpy().tobytes() for k in sa)
     c = tmp_path / "c.pt"
-    train.main(str(synth["train"]), str(c), epochs=2, seed=1, progress=False)
+    train.main(str(synth["train"]), str(c), epochs=2, seed=1)
     assert model.load(c).model.state_dict()["head.bias"].numpy().tobytes() != \
         sa["head.bias"].numpy().tobytes()
 
@@ -220,7 +227,7 @@ def test_trained_model_beats_a_constant_on_held_out_walks(tmp_path):
     follow. 30 epochs on 24 walks, evaluated on 8 held-out terrain seeds."""
     tr = _write(tmp_path, "train", 24, 0, 1)
     te = _write(tmp_path, "test", 8, 1, 101)
-    train.main(str(tr), str(tmp_path / "m.pt"), epochs=30, progress=False)
+    train.main(str(tr), str(tmp_path / "m.pt"), epochs=30)
     res = evaluate.evaluate(str(tmp_path / "m.pt"), str(te))
     assert res["mae_grnn_m"] < 0.5 * res["mae_constant_m"], res
 

@@ -75,7 +75,7 @@ def tiny_model(tmp_path_factory) -> Path:
     tmp = tmp_path_factory.mktemp("nav-model")
     runs, rows = data.synthetic(6, 0, 1)
     ds = data.write(tmp / "train", runs, rows, data.feature_meta())
-    train.main(str(ds), str(tmp / "model.pt"), epochs=1, progress=False)
+    train.main(str(ds), str(tmp / "model.pt"), epochs=1)
     return tmp / "model.pt"
 
 

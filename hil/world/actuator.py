@@ -25,14 +25,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from protocol import ax12
-
-if TYPE_CHECKING:
-    from hil.world.hexapod import HexapodWorld
 
 STALL_TORQUE_NM = 1.5                           # AX-12A at 12 V (e-manual)
 NO_LOAD_SPEED_RAD_S = 59.0 * 2.0 * math.pi / 60.0  # 59 rpm at 12 V (e-manual)
@@ -123,10 +120,22 @@ class DriveBank:
         return u
 
 
+class JointWorld(Protocol):
+    """What a joint needs of its world (hil/world/hexapod.py's HexapodWorld): its drives,
+    the joint state and its clock. Declared here so this module never imports the world
+    that imports it."""
+
+    drives: DriveBank
+
+    def joint_state_lists(self) -> tuple[list[float], list[float], list[float]]: ...
+
+    def advance_to(self, t_us: int) -> None: ...
+
+
 class MujocoActuator:
     """One joint of the world, driven like its servo (implements the servo Actuator seam)."""
 
-    def __init__(self, world: "HexapodWorld", index: int) -> None:
+    def __init__(self, world: JointWorld, index: int) -> None:
         self.world = world
         self.index = index
         self._compliance: tuple[int, int, int, int, int] | None = None

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import logging
 import signal
 import sys
 from typing import Any
@@ -84,12 +85,68 @@ def emit_json(obj: dict[str, Any]) -> None:
     sys.stdout.flush()
 
 
+def flush_print(line: str) -> None:
+    """One line on stdout at once: an address a script waits for (a pty, a port)."""
+    sys.stdout.write(line + "\n")
+    sys.stdout.flush()
+
+
+class _LibraryLog(logging.Handler):
+    """What the library logs for the user (``logging``, never ``print``): INFO lines on
+    stdout as they come (the addresses ``hexhil run`` serves), warnings on stderr."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        line = self.format(record)
+        if record.levelno >= logging.WARNING:
+            sys.stderr.write(f"warning: {line}\n")
+        else:
+            flush_print(line)
+
+
+def _show_library_log() -> None:
+    """Route the project's loggers to the terminal, once per process."""
+    for name in ("hil", "host_tools"):
+        logger = logging.getLogger(name)
+        if not any(isinstance(h, _LibraryLog) for h in logger.handlers):
+            logger.addHandler(_LibraryLog())
+            logger.setLevel(logging.INFO)
+
+
 def emit(args: Any, obj: dict[str, Any], text: str) -> None:
     """A command's result: ``obj`` as JSON with ``--json``, else ``text`` for a person."""
     if getattr(args, "json", False):
         emit_json(obj)
     else:
         print(text)
+
+
+class ProgressBar:
+    """The library's ``Progress`` callback (host_tools/progress.py) drawn as a tqdm bar on
+    stderr, one bar per stage (a new ``desc`` or a restart at 0 closes the last one)."""
+
+    def __init__(self, unit: str) -> None:
+        self.unit = unit
+        self._bar: Any = None
+        self._desc = ""
+
+    def __call__(self, desc: str, done: int, total: int, note: str = "") -> None:
+        from tqdm import tqdm
+
+        if self._bar is None or done == 0 or desc != self._desc:
+            self.close()
+            self._bar = tqdm(total=total, desc=desc, unit=self.unit, file=sys.stderr,
+                             dynamic_ncols=True)
+            self._desc = desc
+        self._bar.update(done - self._bar.n)
+        if note:
+            self._bar.set_postfix_str(note)
+        if done >= total:
+            self.close()
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
 
 
 def _terminated(signum: int, frame: Any) -> None:
@@ -101,6 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     if argv is None:  # the console script, not a test calling main() in-process
         signal.signal(signal.SIGTERM, _terminated)
     argv = sys.argv[1:] if argv is None else argv
+    _show_library_log()
     try:
         parser = build_parser(argv)
         args = parser.parse_args(argv)

@@ -29,19 +29,9 @@ def _stiffness(name: str, v: float) -> float:
     return v
 
 
-def push_samples(k1: float, k2: float, hb1_m: float, hb2_m: float, noise: float, sensing_ms: float,
-                 seed: int, fx_n: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-    """Sec. III-B: push with F_x into the beams; (poses, sensed forces) at 100 Hz for T_s."""
-    from hil.world.beam_body import BeamParams
-    from hil.world.beams import BeamsWorld
-
-    world = BeamsWorld([BeamParams(k1, hb1_m), BeamParams(k2, hb2_m)], noise=noise, seed=seed)
-    return world.sample_after_contact(sensing_ms * 1000, lambda: world.command(fx_n, 0.0, 0.0),
-                                      10_000_000)
-
-
 def cmd_estimate(args: argparse.Namespace) -> int:
     from host_tools.traversal.estimator import estimate
+    from host_tools.traversal.push import push_samples
 
     k1, k2 = _stiffness("k1", args.k1), _stiffness("k2", args.k2)
     hb1 = _nonneg("hb-mm", args.hb_mm) * 1e-3
@@ -65,10 +55,11 @@ def cmd_estimate(args: argparse.Namespace) -> int:
 def cmd_plan(args: argparse.Namespace) -> int:
     from hil.world.beam_body import PAPER_BODY
     from host_tools.traversal import landscape, planner
+    from host_tools.traversal.push import start_after_delay
 
     k1, k2 = _stiffness("k1", args.k1), _stiffness("k2", args.k2)
     hb = _nonneg("hb-mm", args.hb_mm) * 1e-3
-    start = _start_after_delay(k1, k2, hb, _nonneg("delay-ms", args.delay_ms))
+    start = start_after_delay(k1, k2, hb, _nonneg("delay-ms", args.delay_ms))
     land = landscape.build(landscape.paper_grid(), hb, hb)
     p = planner.plan(land, k1, k2, start)
     out = {"mode": p.mode, "k0": PAPER_BODY.k0_nm_per_rad(), "barrier_J": p.barrier_j,
@@ -79,18 +70,6 @@ def cmd_plan(args: argparse.Namespace) -> int:
     emit(args, out, f"mode {p.mode}: barrier {p.barrier_j * 1e3:.1f} mJ, path cost {p.path_cost_j * 1e3:.1f} mJ, "
                     f"{len(p.path)} vertices; k0 = {out['k0']:.4f} N m/rad")
     return 0
-
-
-def _start_after_delay(k1: float, k2: float, hb_m: float, delay_ms: float) -> tuple[float, float, float]:
-    """The body pose after the sensory delay of a gentle (0.1 N) push from first contact."""
-    from hil.world.beam_body import BeamParams
-    from hil.world.beams import BeamsWorld
-
-    world = BeamsWorld([BeamParams(k1, hb_m), BeamParams(k2, hb_m)])
-    while world.first_contact_us is None or world.t_us - world.first_contact_us < delay_ms * 1000:
-        world.command(0.1, 0.0, 0.0)
-        world.step()
-    return world.state.q()
 
 
 def cmd_run(args: argparse.Namespace) -> int:

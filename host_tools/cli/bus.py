@@ -10,7 +10,7 @@ from typing import Any
 
 from hil.can_server import DEFAULT_PORT
 from hil.scenario import DEFAULT_BAUD
-from host_tools.cli import JSON_HELP
+from host_tools.cli import JSON_HELP, flush_print
 from protocol.errors import UserError
 
 _FAULT_FLAGS = ("unplug", "stall", "overheat", "voltage_sag")
@@ -105,12 +105,10 @@ def _sensor_id(args: argparse.Namespace, sc: dict[str, Any]) -> int | None:
 
 def _serve(server: Any, args: argparse.Namespace, hint: str | None) -> None:
     """Serve on the chosen transport; ``hint`` follows the announced address."""
-    from hil import serial_server
-
     def announce(line: str) -> None:
-        serial_server.flush_print(line)
+        flush_print(line)
         if hint:
-            serial_server.flush_print(hint)
+            flush_print(hint)
 
     try:
         if args.port is not None:
@@ -175,14 +173,14 @@ def run(args: argparse.Namespace) -> int:
     wrong = ", ".join(f"{k} {n}" for k, n in v["counts"].items() if n) or "none"
     if rt.world is not None:
         b = s["body"]
-        serial_server.flush_print(
+        flush_print(
             f"body: dx {b['dx_m']:+.3f} m, dy {b['dy_m']:+.3f} m, dyaw {b['dyaw_deg']:+.1f} deg "
             f"in {s['served_s']:.1f} s; pacing: lag p99 {p['p99_lag_ms']:.2f} ms, max "
             f"{p['max_lag_ms']:.2f} ms, {p['late_steps']} late of {p['advances']}")
         warning = lag_warning(p)
         if warning:
             sys.stderr.write(warning + "\n")
-    serial_server.flush_print(
+    flush_print(
         f"served {st['packets']} packets, {st['replies']} replies, {st['collisions']} collisions, "
         f"{st['bad_checksum']} bad checksums; faults: {counts}; master violations: {wrong}")
     if args.json:

@@ -6,41 +6,102 @@ torch is imported by the handlers only, so the rest of ``hexhil`` never loads it
 from __future__ import annotations
 
 import argparse
+import os
+from dataclasses import asdict
+from pathlib import Path
 
-from host_tools.cli import JSON_HELP
+from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
+from host_tools.cli import JSON_HELP, ProgressBar, emit, emit_json
+from protocol.errors import UserError
+
+WORKERS = max(1, os.cpu_count() or 1)
 
 
 def _dataset(args: argparse.Namespace) -> int:
     from host_tools.grnn import dataset
 
-    return dataset.run(args)
+    opts = dataset.DatasetOptions(tuple(args.traces), args.terrains, args.seed, args.distance,
+                                  args.obstacles, args.workers)
+    res = dataset.build(Path(args.out), opts, ProgressBar("run"))
+    times = res.build_s_per_run
+    for i, s in enumerate(times):
+        print(f"run {i + 1}/{len(times)}: {s:.1f} s")
+    print(f"wrote {res.dataset} ({res.runs} runs, {res.rows} steps) in "
+          f"{res.wall_s:.0f} s; build time per run: median "
+          f"{sorted(times)[len(times) // 2]:.1f} s")
+    if args.json:
+        emit_json(asdict(res))
+    return 0
 
 
 def _train(args: argparse.Namespace) -> int:
     from host_tools.grnn import train
 
-    return train.run(args)
+    r = train.main(args.data, args.out, args.epochs, args.seed, ProgressBar("epoch"))
+    emit(args, asdict(r), f"wrote {r.model}: {r.epochs} epochs on {r.runs} walks, final loss "
+                          f"{r.final_loss:.4f}, {r.s_per_epoch:.3f} s/epoch")
+    return 0
 
 
 def _eval(args: argparse.Namespace) -> int:
     from host_tools.grnn import evaluate
 
-    return evaluate.run(args)
+    res = evaluate.write_report(args.model, args.data, Path(args.out))
+    print(evaluate.markdown(res))
+    print(f"wrote {res['table']} and {len(res['plots'])} plots")
+    if args.json:
+        emit_json(res)
+    return 0
 
 
 def _closed_loop(args: argparse.Namespace) -> int:
     from host_tools.grnn import closed_loop
 
-    return closed_loop.run(args)
+    if args.workers < 1:
+        raise UserError(f"--workers must be at least 1, got {args.workers}")
+    res = closed_loop.closed_loop(args.model, args.data, args.workers, ProgressBar("run"))
+    print(closed_loop.markdown(res), end="")
+    if args.out:
+        closed_loop.write(res, Path(args.out))
+    a = res["arms"]
+    print(f"mean relative goal error: tactile only {100 * a['planned']['mean_rel_error']:.1f} %, "
+          f"+ Eq. 8-14 navigator {100 * a['model']['mean_rel_error']:.1f} %, "
+          f"+ GRNN navigator {100 * a['grnn']['mean_rel_error']:.1f} %")
+    if args.json:
+        emit_json(res)
+    return 0
+
+
+def _dataset_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("traces", nargs="*", metavar="MCAP", help="read these traces instead of "
+                   "running the sweep")
+    p.add_argument("--out", required=True, help="output folder (dataset.npz, dataset.json)")
+    p.add_argument("--terrains", type=int, default=32, help="terrain seeds to run (default 32)")
+    p.add_argument("--seed", type=int, default=1, help="first terrain seed (default 1)")
+    p.add_argument("--distance", type=float, default=1.0, metavar="M",
+                   help="goal distance d in m (default 1, as the paper's runs)")
+    p.add_argument("--obstacles", choices=OBSTACLE_BODIES, default=OBSTACLE_BODY,
+                   help="obstacles fixed to the ground (default: the paper's robot cannot shove "
+                        "its obstacles aside) or loose wooden ones")
+    p.add_argument("--workers", type=int, default=WORKERS,
+                   help="local worker processes (default: one per core)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
+
+
+def _closed_loop_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("model", help="the GRNN (hexhil grnn train)")
+    p.add_argument("data", help="a dataset of terrains the model never saw (hexhil grnn dataset)")
+    p.add_argument("--out", help="write closed_loop.json and closed_loop.md into this folder")
+    p.add_argument("--workers", type=int, default=WORKERS,
+                   help="local worker processes (default: one per core)")
+    p.add_argument("--json", action="store_true", help=JSON_HELP)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from host_tools.grnn import closed_loop, dataset
-
     p = sub.add_parser("grnn", help="GRNN positional-error predictor (seed 003 Sec. 2.6)")
     kinds = p.add_subparsers(dest="grnn", metavar="STAGE", parser_class=type(p))
     q = kinds.add_parser("dataset", help="build the training data from traced runs")
-    dataset.add_arguments(q)
+    _dataset_arguments(q)
     q.set_defaults(func=_dataset)
     q = kinds.add_parser("train", help="train the GRNN on a dataset")
     q.add_argument("data", help="dataset.npz (or its folder)")
@@ -57,5 +118,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     q.set_defaults(func=_eval)
     q = kinds.add_parser("closed-loop", help="held-out terrains walked three ways: tactile only, "
                          "+ Eq. 8-14 navigator, + GRNN navigator")
-    closed_loop.add_arguments(q)
+    _closed_loop_arguments(q)
     q.set_defaults(func=_closed_loop)

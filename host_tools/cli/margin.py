@@ -6,14 +6,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import sys
 
 from hil.link import IN_PROCESS, RUNTIMES
 from host_tools import cli
 
 
 def _run(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
 
     from hil import scenario as scenario_mod
     from host_tools.cli import emit_json
@@ -31,15 +29,8 @@ def _run(args: argparse.Namespace) -> int:
             raise UserError(f"--duration must be positive, got {args.duration}")
         case = dataclasses.replace(case, duration_s=args.duration)
     python = args.python or case.python
-    n = sum(len(v) for v in margin.AXES.values()) \
-        + len(margin.GRID_RETURN_DELAY_US) * len(margin.GRID_LATENCY_US)
-    bar = tqdm(total=n, desc="margin", unit="run", file=sys.stderr, disable=args.quiet,
-               dynamic_ncols=True)
-    try:
-        m = margin.sweep(case, python, workers=args.jobs, scheduler=args.scheduler,
-                         on_result=lambda r: bar.update())
-    finally:
-        bar.close()
+    m = margin.sweep(case, python, workers=args.jobs, scheduler=args.scheduler,
+                     progress=None if args.quiet else cli.ProgressBar("run"))
     for axis, points in m.axes.items():
         print(f"\n{axis}")
         for p in sorted(points, key=lambda p: p.settings[0][1]):

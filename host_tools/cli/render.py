@@ -7,10 +7,11 @@ import argparse
 
 def _render(args: argparse.Namespace) -> int:
     from host_tools import render as render_mod
+    from host_tools.cli import ProgressBar
 
     backend = render_mod.choose_gl()  # before MuJoCo is imported
     n = render_mod.render(args.trace, args.out, args.camera, args.fps, args.width, args.height,
-                          args.at)
+                          args.at, ProgressBar("frame"))
     print(f"{args.out}: {n} frame{'s' if n != 1 else ''} ({backend})")
     return 0
 

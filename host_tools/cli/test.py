@@ -4,10 +4,10 @@ JUnit XML for CI, and the trace of each failing case kept with its failures in i
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Sequence
 
 from hil.link import IN_PROCESS, RUNTIMES
+from host_tools import cli
 
 
 def table(results: Sequence) -> str:
@@ -24,8 +24,6 @@ def table(results: Sequence) -> str:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
-
     from host_tools.expect import junit, runner, spec
     from protocol.errors import UserError
 
@@ -38,12 +36,8 @@ def _run(args: argparse.Namespace) -> int:
         raise UserError(f"two files name the case {dup!r}: give one a [case] name")
     jobs = runner.jobs_for(cases, args.repeat, tactile=False if args.no_tactile else None,
                            python=args.python, keep_dir=args.keep_traces)
-    bar = tqdm(total=len(jobs), desc="cases", unit="run", file=sys.stderr,
-               disable=args.quiet or len(jobs) < 2, dynamic_ncols=True)
-    try:
-        results = runner.run_all(jobs, args.jobs, args.scheduler, on_result=lambda r: bar.update())
-    finally:
-        bar.close()
+    bar = None if args.quiet or len(jobs) < 2 else cli.ProgressBar("run")
+    results = runner.run_all(jobs, args.jobs, args.scheduler, progress=bar)
     print(table(results))
     failed = [r for r in results if not r.passed]
     n = sum(len(r.outcomes) for r in results)

@@ -17,10 +17,11 @@ from __future__ import annotations
 import copy
 import dataclasses
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Any, Sequence
 
 from host_tools.expect.runner import BusTiming, CaseResult, CaseRun, run_all
 from host_tools.expect.spec import Case
+from host_tools.progress import Progress
 
 AXES: dict[str, tuple[float, ...]] = {
     "return_delay_us": (0, 40, 80, 100, 120, 160, 250, 500),
@@ -86,8 +87,7 @@ def _point(settings: dict[str, float], r: CaseResult) -> Point:
 
 def sweep(case: Case, python: str, axes: dict[str, Sequence[float]] | None = None,
           grid: tuple[Sequence[float], Sequence[float]] | None = None, workers: int = 1,
-          scheduler: str | None = None, on_result: Callable[[CaseResult], None] | None = None
-          ) -> Margin:
+          scheduler: str | None = None, progress: Progress | None = None) -> Margin:
     """Every axis's settings alone, and the Return Delay x latency grid, in parallel."""
     axes = {k: tuple(v) for k, v in (axes or AXES).items()}
     rd, lat = grid or (GRID_RETURN_DELAY_US, GRID_LATENCY_US)
@@ -96,7 +96,7 @@ def sweep(case: Case, python: str, axes: dict[str, Sequence[float]] | None = Non
     settings += [{"return_delay_us": a, "adapter_latency_us": b} for a in rd for b in lat]
     jobs = [_job(case, python, s, f"{case.name} " + ", ".join(f"{k}={v:g}" for k, v in s.items()))
             for s in settings]
-    results = run_all(jobs, workers, scheduler, on_result)
+    results = run_all(jobs, workers, scheduler, progress)
     points = [_point(s, r) for s, r in zip(settings, results)]
     n_axes = sum(len(v) for v in axes.values())
     by_axis: dict[str, list[Point]] = {axis: [] for axis in axes}

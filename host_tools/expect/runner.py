@@ -8,7 +8,7 @@ import os
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Sequence
 
 from mcap.writer import CompressionType, Writer
 
@@ -17,6 +17,7 @@ from host_tools import run as run_mod
 from host_tools.expect.evaluate import Outcome, evaluate
 from host_tools.expect.spec import Case
 from host_tools.experiments.executor import Executor
+from host_tools.progress import Progress
 from host_tools.runner import Run
 from host_tools.trace import protobuf as pb
 from host_tools.trace import topics
@@ -180,8 +181,7 @@ def jobs_for(cases: Sequence[Case], repeat: int = 1, **options: Any) -> list[Cas
 
 
 def run_all(jobs: Sequence[CaseRun], workers: int = 1, scheduler: str | None = None,
-            on_result: Callable[[CaseResult], None] | None = None) -> list[CaseResult]:
+            progress: Progress | None = None) -> list[CaseResult]:
     """Every job, in parallel when ``workers`` > 1 or on a Dask ``scheduler``; results in
-    job order, ``on_result`` called as each finishes (progress)."""
-    return Executor(workers, scheduler, progress=False).map(run_case, list(jobs), "cases",
-                                                            on_result=on_result)
+    job order, each one done reported to ``progress``."""
+    return Executor(workers, scheduler, progress=progress).map(run_case, list(jobs), "cases")

@@ -2,70 +2,66 @@
 distributed cluster. Every run is a pure function of its spec (scenario + seed), so results
 do not depend on where or in what order runs finish; they come back in spec order.
 
-A tqdm progress bar on stderr shows runs done and the estimated time left; ``on_result``
-hands each result to the caller as it comes (a command's own progress display).
+Runs done are reported through a ``Progress`` callback (the CLI draws a bar with the
+estimated time left).
 """
 from __future__ import annotations
 
 import concurrent.futures as cf
 import multiprocessing
-import sys
 from typing import Any, Callable, Sequence
 
-from tqdm import tqdm
-
+from host_tools.extras import require
+from host_tools.progress import Progress, report
 from protocol.errors import UserError
 
 
 class Executor:
-    """Map a run function over specs with a progress bar.
+    """Map a run function over specs, reporting each run done to ``progress``.
 
     ``workers`` = 1 runs in this process; more uses a local process pool; ``scheduler``
     (``tcp://host:port``) sends runs to an existing Dask distributed cluster instead.
     """
 
-    def __init__(self, workers: int = 1, scheduler: str | None = None, progress: bool = True) -> None:
+    def __init__(self, workers: int = 1, scheduler: str | None = None,
+                 progress: Progress | None = None) -> None:
         if workers < 1:
             raise UserError(f"--workers must be at least 1, got {workers}")
+        if scheduler:
+            require("distributed")
         self.workers = workers
         self.scheduler = scheduler
         self.progress = progress
 
-    def map(self, fn: Callable[[Any], Any], specs: Sequence[Any], desc: str,
-            on_result: Callable[[Any], None] | None = None) -> list[Any]:
-        bar = tqdm(total=len(specs), desc=desc, unit="run", file=sys.stderr, disable=not self.progress,
-                   dynamic_ncols=True)
-        try:
-            if self.scheduler:
-                return self._dask(fn, specs, bar, on_result)
-            if self.workers == 1 or len(specs) <= 1:
-                out = []
-                for s in specs:
-                    out.append(fn(s))
-                    bar.update()
-                    if on_result is not None:
-                        on_result(out[-1])
-                return out
-            return self._local(fn, specs, bar, on_result)
-        finally:
-            bar.close()
+    def map(self, fn: Callable[[Any], Any], specs: Sequence[Any], desc: str) -> list[Any]:
+        def done(n: int) -> None:
+            report(self.progress, desc, n, len(specs))
 
-    def _local(self, fn: Callable[[Any], Any], specs: Sequence[Any], bar: tqdm,
-               on_result: Callable[[Any], None] | None) -> list[Any]:
+        done(0)
+        if self.scheduler:
+            return self._dask(fn, specs, done)
+        if self.workers == 1 or len(specs) <= 1:
+            out = []
+            for s in specs:
+                out.append(fn(s))
+                done(len(out))
+            return out
+        return self._local(fn, specs, done)
+
+    def _local(self, fn: Callable[[Any], Any], specs: Sequence[Any],
+               done: Callable[[int], None]) -> list[Any]:
         results: list[Any] = [None] * len(specs)
         # forkserver: children never inherit MuJoCo or socket state from this process
         ctx = multiprocessing.get_context("forkserver")
         with cf.ProcessPoolExecutor(max_workers=min(self.workers, len(specs)), mp_context=ctx) as pool:
             futures = {pool.submit(fn, s): i for i, s in enumerate(specs)}
-            for fut in cf.as_completed(futures):
+            for n, fut in enumerate(cf.as_completed(futures), 1):
                 results[futures[fut]] = fut.result()
-                bar.update()
-                if on_result is not None:
-                    on_result(results[futures[fut]])
+                done(n)
         return results
 
-    def _dask(self, fn: Callable[[Any], Any], specs: Sequence[Any], bar: tqdm,
-              on_result: Callable[[Any], None] | None) -> list[Any]:
+    def _dask(self, fn: Callable[[Any], Any], specs: Sequence[Any],
+              done: Callable[[int], None]) -> list[Any]:
         from distributed import Client, as_completed
 
         try:
@@ -76,11 +72,9 @@ class Executor:
             futures = client.map(fn, list(specs), pure=False)
             index = {f.key: i for i, f in enumerate(futures)}
             results: list[Any] = [None] * len(specs)
-            for fut in as_completed(futures):
+            for n, fut in enumerate(as_completed(futures), 1):
                 results[index[fut.key]] = fut.result()
-                bar.update()
-                if on_result is not None:
-                    on_result(results[index[fut.key]])
+                done(n)
             return results
         finally:
             client.close()

@@ -17,24 +17,20 @@ the same terrains and seeds as the low-density 1 m runs with it, so they pair up
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
-import os
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Callable
 
 from host_tools import error_model
-from host_tools.cli import JSON_HELP, emit_json
-from protocol.errors import UserError
 from host_tools.experiments.executor import Executor
 from host_tools.experiments.tactile_report import GAITS, markdown, plots, summary
-from hil.link import IN_PROCESS, RUNTIMES
+from hil.link import IN_PROCESS
 from hil.scenario import Scenario, parse
 from host_tools.runner import Run
-from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
+from hil.world.fidelity import OBSTACLE_BODY
 from protocol import hexapod
 
 DENSITIES = ("low", "high")
@@ -206,65 +202,33 @@ def run_sweep(quick: bool, seeds: int, executor: Executor, trace_dir: str | None
             "runs": runs}
 
 
-def main(quick: bool, out: Path, seeds: int, executor: Executor,
-         traces: bool = False, model: str = "real", obstacle_body: str = OBSTACLE_BODY,
-         python: str = IN_PROCESS) -> dict[str, Any]:
+@dataclass(frozen=True)
+class SweepOptions:
+    """The sweep ``main`` runs: the whole protocol, or ``quick`` (1 m only, one trial)."""
+    quick: bool = False
+    seeds: int = 3                       # terrains per case (as the paper's three trials)
+    traces: bool = False                 # one MCAP trace per run into OUT/traces
+    model: str = "real"                  # world.model (hil/world/fidelity.py MODELS)
+    obstacle_body: str = OBSTACLE_BODY   # with the real model (fidelity.OBSTACLE_BODIES)
+    python: str = IN_PROCESS             # firmware runtime
+
+
+def main(out: Path, opts: SweepOptions, executor: Executor) -> dict[str, Any]:
     """Run the sweep and write results.json, results.md and the PNG plots into ``out``
-    (and one MCAP trace per run into ``out/traces`` with ``traces``)."""
+    (and one MCAP trace per run into ``out/traces`` with ``opts.traces``); returns the
+    summary (files, runs, seconds and the headline numbers of ``tactile_report.summary``)."""
     out.mkdir(parents=True, exist_ok=True)
     trace_dir = None
-    if traces:
+    if opts.traces:
         (out / "traces").mkdir(exist_ok=True)
         trace_dir = str(out / "traces")
     t0 = time.perf_counter()
-    result = run_sweep(quick, seeds, executor, trace_dir, model, obstacle_body, python)
+    result = run_sweep(opts.quick, opts.seeds, executor, trace_dir, opts.model,
+                       opts.obstacle_body, opts.python)
     result["wall_s"] = time.perf_counter() - t0
     (out / "results.json").write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")
-    md = markdown(result, quick)
+    md = markdown(result, opts.quick)
     (out / "results.md").write_text(md)
     pngs = plots(result, out)
     return {"out": str(out), "table": str(out / "results.md"), "plots": [str(p) for p in pngs],
             "runs": len(result["runs"]), "wall_s": result["wall_s"], **summary(result)}
-
-
-# --- command line (``hexhil experiment tactile-hexapod``) -------------------------------
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--quick", action="store_true",
-                   help="reduced sweep: 1 m only, one seed per case (a few minutes on 2 cores)")
-    p.add_argument("--out", default="out/tactile-hexapod", help="output folder (table, plots, JSON)")
-    p.add_argument("--workers", type=int, default=max(1, os.cpu_count() or 1),
-                   help="local worker processes (default: one per core)")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="run on a Dask distributed cluster, e.g. tcp://127.0.0.1:8786")
-    p.add_argument("--seeds", type=int, default=None,
-                   help="terrains per case (default 1 with --quick, 3 otherwise)")
-    p.add_argument("--traces", action="store_true",
-                   help="record every run to an MCAP trace in OUT/traces")
-    p.add_argument("--model", choices=("real", "ideal"), default="real",
-                   help="world model: real (servo backlash and spread, trial noise; default) "
-                        "or ideal (the regression world of scenario files)")
-    p.add_argument("--obstacles", choices=OBSTACLE_BODIES, default=OBSTACLE_BODY,
-                   help="with the real model: obstacles fixed to the ground (default, as the "
-                        "paper's held) or loose wooden ones")
-    p.add_argument("--python", choices=(IN_PROCESS, *RUNTIMES), default=IN_PROCESS,
-                   help="firmware runtime: in this process (default; the same serial digest "
-                        "as micropython, without two process wake-ups a link round trip), or a "
-                        "child process under micropython (the reference) or cpython")
-    p.add_argument("--json", action="store_true", help=JSON_HELP)
-
-
-def run(args: argparse.Namespace) -> int:
-    seeds = args.seeds if args.seeds is not None else (1 if args.quick else 3)
-    if seeds < 1:
-        raise UserError(f"--seeds must be at least 1, got {seeds}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out} exists and is not a folder")
-    res = main(args.quick, out, seeds, Executor(args.workers, args.scheduler), args.traces,
-               args.model, args.obstacles, args.python)
-    print(Path(res["table"]).read_text())
-    print(f"wrote {res['table']} and {len(res['plots'])} plots in {res['out']} "
-          f"({res['runs']} runs, {res['wall_s']:.0f} s)")
-    if args.json:
-        emit_json(res)
-    return 0

@@ -12,16 +12,14 @@ training seeds are refused.
 """
 from __future__ import annotations
 
-import argparse
 import json
-import os
 from pathlib import Path
 from statistics import mean
 from typing import Any
 
 from hil.world.fidelity import OBSTACLE_BODY
-from host_tools.cli import JSON_HELP, emit_json
 from host_tools.grnn import data as data_mod
+from host_tools.progress import Progress
 from protocol.errors import UserError
 
 ARMS = (("planned", "tactile only"), ("model", "tactile + Eq. 8-14 navigator"),
@@ -48,7 +46,8 @@ def specs(ds: data_mod.Dataset, model_path: str) -> list[tuple[Any, float]]:
     return out
 
 
-def closed_loop(model_path: str, data_path: str, workers: int) -> dict[str, Any]:
+def closed_loop(model_path: str, data_path: str, workers: int,
+                progress: Progress | None = None) -> dict[str, Any]:
     """Run the three arms; returns per-arm means and the per-case table."""
     from host_tools.experiments.executor import Executor
     from host_tools.experiments.tactile_hexapod import run_with_speed
@@ -61,7 +60,8 @@ def closed_loop(model_path: str, data_path: str, workers: int) -> dict[str, Any]
     if seen:
         raise UserError(f"{data_path}: terrain seeds {seen} were in the model's training set; "
                         f"closed-loop runs need terrains it never saw")
-    runs = Executor(workers).map(run_with_speed, specs(ds, model_path), "closed-loop runs")
+    runs = Executor(workers, progress=progress).map(run_with_speed, specs(ds, model_path),
+                                                    "closed-loop runs")
     cases: dict[tuple[int, str], dict[str, Any]] = {}
     for r in runs:
         c = cases.setdefault((r["seed"], r["gait"]), {
@@ -102,30 +102,8 @@ def markdown(res: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("model", help="the GRNN (hexhil grnn train)")
-    p.add_argument("data", help="a dataset of terrains the model never saw (hexhil grnn dataset)")
-    p.add_argument("--out", help="write closed_loop.json and closed_loop.md into this folder")
-    p.add_argument("--workers", type=int, default=max(1, os.cpu_count() or 1),
-                   help="local worker processes (default: one per core)")
-    p.add_argument("--json", action="store_true", help=JSON_HELP)
-
-
-def run(args: argparse.Namespace) -> int:
-    if args.workers < 1:
-        raise UserError(f"--workers must be at least 1, got {args.workers}")
-    res = closed_loop(args.model, args.data, args.workers)
-    md = markdown(res)
-    print(md, end="")
-    if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "closed_loop.json").write_text(json.dumps(res, indent=1, sort_keys=True) + "\n")
-        (out / "closed_loop.md").write_text(md)
-    a = res["arms"]
-    print(f"mean relative goal error: tactile only {100 * a['planned']['mean_rel_error']:.1f} %, "
-          f"+ Eq. 8-14 navigator {100 * a['model']['mean_rel_error']:.1f} %, "
-          f"+ GRNN navigator {100 * a['grnn']['mean_rel_error']:.1f} %")
-    if args.json:
-        emit_json(res)
-    return 0
+def write(res: dict[str, Any], out: Path) -> None:
+    """closed_loop.json and closed_loop.md into the folder ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "closed_loop.json").write_text(json.dumps(res, indent=1, sort_keys=True) + "\n")
+    (out / "closed_loop.md").write_text(markdown(res))

@@ -10,21 +10,20 @@ those traces are read instead and their run facts come from the trace's metadata
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
-import os
 import subprocess
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
+from hil.world.fidelity import OBSTACLE_BODY
 from hil.world.hexapod import yaw_rad
-from host_tools.cli import JSON_HELP
 from host_tools.grnn import data as data_mod
 from hil.scenario import WorldKind
 from host_tools.grnn.features import StepRow, StepSampler
+from host_tools.progress import Progress
 from host_tools.runner import scenario_of_trace
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_BODY, T_CAN_RAW, T_JOINTS
@@ -95,19 +94,42 @@ def build_one(args: tuple[Any, float, str]) -> tuple[dict[str, Any], list[StepRo
     return facts, rows
 
 
-def simulate_runs(out_dir: Path, terrains: int, seed: int, workers: int, distance_m: float,
-                  obstacles: str = OBSTACLE_BODY
+@dataclass(frozen=True)
+class DatasetOptions:
+    """What ``build`` makes: from ``traces`` when given, else a sweep of ``terrains``
+    with-method runs from terrain seed ``seed`` to the goal ``distance_m`` ahead."""
+    traces: tuple[str, ...] = ()
+    terrains: int = 32
+    seed: int = 1
+    distance_m: float = 1.0      # d, as the paper's runs
+    obstacles: str = OBSTACLE_BODY   # world.obstacle_body (hil/world/fidelity.py)
+    workers: int = 1
+
+
+@dataclass(frozen=True)
+class DatasetResult:
+    """The files written and what building them took."""
+    dataset: str                 # dataset.npz
+    sidecar: str                 # dataset.json
+    runs: int
+    rows: int                    # steps over all runs
+    wall_s: float
+    build_s_per_run: list[float]
+
+
+def simulate_runs(out_dir: Path, opts: DatasetOptions, progress: Progress | None = None
                   ) -> tuple[list[dict[str, Any]], list[list[StepRow]], dict]:
     """The experiment's probe, then one traced with-method run per terrain seed."""
     from host_tools.experiments import tactile_hexapod as th
     from host_tools.experiments.executor import Executor
 
-    ex = Executor(workers)
+    ex = Executor(opts.workers, progress=progress)
+    distance_m, obstacles = opts.distance_m, opts.obstacles
     speed, periods_for = th.calibrate(ex, (distance_m,), "real", obstacles)
     trace_dir = out_dir / "traces"
     trace_dir.mkdir(parents=True, exist_ok=True)
     jobs = []
-    for s in range(seed, seed + terrains):
+    for s in range(opts.seed, opts.seed + opts.terrains):
         g, dens, h = COMBINATIONS[s % len(COMBINATIONS)]
         spec = th.RunSpec("with", g, distance_m, True, s, dens, h, periods_for[g, distance_m],
                           "real", obstacles)
@@ -133,15 +155,15 @@ def code_version() -> str:
     return software_version()
 
 
-def build(out_dir: Path, traces: list[str], terrains: int, seed: int, workers: int,
-          distance_m: float, obstacles: str = OBSTACLE_BODY) -> dict[str, Any]:
-    """Make the dataset; returns a summary (files, runs, rows, seconds per run)."""
+def build(out_dir: Path, opts: DatasetOptions, progress: Progress | None = None
+          ) -> DatasetResult:
+    """Make the dataset in ``out_dir``; a sweep's runs are reported to ``progress``."""
     if out_dir.exists() and not out_dir.is_dir():
         raise UserError(f"--out {out_dir} exists and is not a folder")
     t0 = time.perf_counter()
-    if traces:
+    if opts.traces:
         runs, rows = [], []
-        for p in traces:
+        for p in opts.traces:
             t1 = time.perf_counter()
             r, f = rows_from_trace(p)
             f["build_s"] = time.perf_counter() - t1
@@ -151,48 +173,15 @@ def build(out_dir: Path, traces: list[str], terrains: int, seed: int, workers: i
                                          "model_dx_m (Eq. 8-14) omitted (NaN), it needs the "
                                          "probe-calibrated speed the trace does not hold"}
     else:
-        if terrains < 1:
-            raise UserError(f"--terrains must be at least 1, got {terrains}")
-        if not distance_m > 0:
-            raise UserError(f"--distance must be positive, got {distance_m}")
-        runs, rows, extra = simulate_runs(out_dir, terrains, seed, workers, distance_m,
-                                          obstacles)
+        if opts.terrains < 1:
+            raise UserError(f"--terrains must be at least 1, got {opts.terrains}")
+        if not opts.distance_m > 0:
+            raise UserError(f"--distance must be positive, got {opts.distance_m}")
+        runs, rows, extra = simulate_runs(out_dir, opts, progress)
     meta = {**data_mod.feature_meta(), "code_version": code_version(), "terrain_seeds": [int(r["terrain_seed"]) for r in runs],
             "scenarios": sorted({f"{r['gait']}-{r['density']}-{r['height_class']}" for r in runs}),
             **extra}
     path = data_mod.write(out_dir, runs, rows, meta)
-    return {"dataset": str(path), "sidecar": str(out_dir / "dataset.json"), "runs": len(runs),
-            "rows": sum(len(r) for r in rows), "wall_s": time.perf_counter() - t0,
-            "build_s_per_run": [r["build_s"] for r in runs]}
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("traces", nargs="*", metavar="MCAP", help="read these traces instead of "
-                   "running the sweep")
-    p.add_argument("--out", required=True, help="output folder (dataset.npz, dataset.json)")
-    p.add_argument("--terrains", type=int, default=32, help="terrain seeds to run (default 32)")
-    p.add_argument("--seed", type=int, default=1, help="first terrain seed (default 1)")
-    p.add_argument("--distance", type=float, default=1.0, metavar="M",
-                   help="goal distance d in m (default 1, as the paper's runs)")
-    p.add_argument("--obstacles", choices=OBSTACLE_BODIES, default=OBSTACLE_BODY,
-                   help="obstacles fixed to the ground (default: the paper's robot cannot shove "
-                        "its obstacles aside) or loose wooden ones")
-    p.add_argument("--workers", type=int, default=max(1, os.cpu_count() or 1),
-                   help="local worker processes (default: one per core)")
-    p.add_argument("--json", action="store_true", help=JSON_HELP)
-
-
-def run(args: argparse.Namespace) -> int:
-    from host_tools.cli import emit_json
-
-    res = build(Path(args.out), args.traces, args.terrains, args.seed, args.workers,
-                args.distance, args.obstacles)
-    times = res["build_s_per_run"]
-    for i, s in enumerate(times):
-        print(f"run {i + 1}/{len(times)}: {s:.1f} s")
-    print(f"wrote {res['dataset']} ({res['runs']} runs, {res['rows']} steps) in "
-          f"{res['wall_s']:.0f} s; build time per run: median "
-          f"{sorted(times)[len(times) // 2]:.1f} s")
-    if args.json:
-        emit_json(res)
-    return 0
+    return DatasetResult(str(path), str(out_dir / "dataset.json"), len(runs),
+                         sum(len(r) for r in rows), time.perf_counter() - t0,
+                         [r["build_s"] for r in runs])

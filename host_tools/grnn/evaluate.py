@@ -12,7 +12,6 @@ predicted dx = d - that x: the same quantity as the measured dx_m = d - x_end.
 """
 from __future__ import annotations
 
-import argparse
 import math
 from pathlib import Path
 from typing import Any
@@ -116,20 +115,14 @@ def plots(res: dict[str, Any], losses: list[float], out: Path) -> list[Path]:
     return paths
 
 
-def run(args: argparse.Namespace) -> int:
-    from host_tools.cli import emit_json
-
-    res = evaluate(args.model, args.data)
-    out = Path(args.out)
+def write_report(model_path: str, data_path: str, out: Path) -> dict[str, Any]:
+    """``evaluate``, then eval.md and the plots into ``out``; the result names them
+    (``table``, ``plots``)."""
+    res = evaluate(model_path, data_path)
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
-    md = markdown(res)
-    (out / "eval.md").write_text(md)
-    res["plots"] = [str(p) for p in plots(res, load(args.model).meta["loss"], out)]
+    (out / "eval.md").write_text(markdown(res))
+    res["plots"] = [str(p) for p in plots(res, load(model_path).meta["loss"], out)]
     res["table"] = str(out / "eval.md")
-    print(md)
-    print(f"wrote {res['table']} and {len(res['plots'])} plots")
-    if args.json:
-        emit_json(res)
-    return 0
+    return res

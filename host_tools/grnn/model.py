@@ -10,13 +10,16 @@ own output is fed back (Fig. 8, dashed feedback connection).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
-import torch
+
+from host_tools.extras import require
+
+require("torch")   # before torch itself: a missing extra is one line, not a traceback
+import torch  # noqa: E402
 
 from host_tools.grnn.features import FEATURE_VERSION, LEGS, SENSING
 from protocol.errors import UserError

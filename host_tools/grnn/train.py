@@ -7,19 +7,22 @@ evaluation asks for: the known path X teacher-forced, the future path P fed back
 """
 from __future__ import annotations
 
-import argparse
-import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import torch
-from tqdm import tqdm
+
+from host_tools.extras import require
+
+require("torch")   # before torch itself: a missing extra is one line, not a traceback
+import torch  # noqa: E402
 
 from host_tools.grnn import data as data_mod
 from host_tools.grnn.features import LEGS, M_MAX, known_steps
 from host_tools.grnn.model import GRNN, Norm, save
+from host_tools.progress import Progress, report
 from protocol.errors import UserError
 
 LEARNING_RATE = 0.001   # Sec. 2.6
@@ -67,8 +70,9 @@ def masked_mse(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor) -> 
 
 
 def fit(ds: data_mod.Dataset, epochs: int = 50, seed: int = 0, batch: int = BATCH,
-        progress: bool = True) -> tuple[GRNN, Norm, list[float], float]:
-    """Train; returns the model, its normalisation, the loss per epoch and s per epoch."""
+        progress: Progress | None = None) -> tuple[GRNN, Norm, list[float], float]:
+    """Train; returns the model, its normalisation, the loss per epoch and s per epoch.
+    Each epoch done is reported to ``progress`` with its loss."""
     if epochs < 1:
         raise UserError(f"--epochs must be at least 1, got {epochs}")
     if not ds.sequences or not any(len(w.step) for w in ds.sequences):
@@ -84,9 +88,8 @@ def fit(ds: data_mod.Dataset, epochs: int = 50, seed: int = 0, batch: int = BATC
     n = t["sensing"].shape[0]
     losses: list[float] = []
     t0 = time.perf_counter()
-    bar = tqdm(range(epochs), desc="epochs", unit="epoch", file=sys.stderr,
-               disable=not progress, dynamic_ncols=True)
-    for _ in bar:
+    report(progress, "epochs", 0, epochs)
+    for epoch in range(epochs):
         total = 0.0
         for idx in torch.randperm(n, generator=gen).split(batch):
             pred = model(t["sensing"][idx], t["error"][idx], t["n_known"][idx], t["error0"])
@@ -96,7 +99,7 @@ def fit(ds: data_mod.Dataset, epochs: int = 50, seed: int = 0, batch: int = BATC
             opt.step()
             total += loss.item() * len(idx)
         losses.append(total / n)
-        bar.set_postfix(loss=f"{losses[-1]:.4f}")
+        report(progress, "epochs", epoch + 1, epochs, f"loss={losses[-1]:.4f}")
     return model, norm, losses, (time.perf_counter() - t0) / epochs
 
 
@@ -114,8 +117,19 @@ def run_facts(ds: data_mod.Dataset) -> dict[str, Any]:
             "tail_m": {g: float(np.mean(v)) for g, v in sorted(tails.items())}}
 
 
-def main(data: str, out: str, epochs: int = 50, seed: int = 0, progress: bool = True
-         ) -> dict[str, Any]:
+@dataclass(frozen=True)
+class TrainResult:
+    """What a training run wrote and how it went."""
+    model: str              # the model file
+    epochs: int
+    final_loss: float       # training MSE of the last epoch (normalised)
+    s_per_epoch: float
+    runs: int               # walks trained on
+
+
+def main(data: str, out: str, epochs: int = 50, seed: int = 0,
+         progress: Progress | None = None) -> TrainResult:
+    """Train on ``data`` (dataset.npz or its folder) and write the model file ``out``."""
     if not Path(out).parent.is_dir():
         raise UserError(f"--out {out}: no folder {Path(out).parent}")
     ds = data_mod.read(data)
@@ -124,14 +138,4 @@ def main(data: str, out: str, epochs: int = 50, seed: int = 0, progress: bool = 
             "train_runs": ds.runs, "epochs": epochs, "seed": seed, "batch": BATCH,
             "learning_rate": LEARNING_RATE, "loss": losses, **run_facts(ds)}
     save(out, model, norm, meta)
-    return {"model": out, "epochs": epochs, "final_loss": losses[-1], "s_per_epoch": s_per_epoch,
-            "runs": len(ds.runs)}
-
-
-def run(args: argparse.Namespace) -> int:
-    from host_tools.cli import emit
-
-    r = main(args.data, args.out, args.epochs, args.seed)
-    emit(args, r, f"wrote {r['model']}: {r['epochs']} epochs on {r['runs']} walks, final loss "
-                  f"{r['final_loss']:.4f}, {r['s_per_epoch']:.3f} s/epoch")
-    return 0
+    return TrainResult(out, epochs, losses[-1], s_per_epoch, len(ds.runs))

@@ -15,7 +15,6 @@ Everything reuses hil/world/ and host_tools/traversal/; this package only sweeps
 """
 from __future__ import annotations
 
-import argparse
 import math
 import time
 from pathlib import Path
@@ -23,13 +22,11 @@ from typing import Any
 
 import numpy as np
 
-from host_tools.cli import JSON_HELP, emit
 from host_tools.experiments.force_sensing import figures, report
 from host_tools.experiments.force_sensing.sections import (K_FLIMSY, K_STIFF, clear_gap_plans, energy_runs,
                                                            estimation_tables, no_control, planning,
                                                            robot_validation)
 from host_tools.traversal import landscape, planner
-from protocol.errors import UserError
 
 
 def main(quick: bool, out: Path, seeds: int | None = None, grid: landscape.Grid | None = None) -> dict[str, Any]:
@@ -84,25 +81,3 @@ def main(quick: bool, out: Path, seeds: int | None = None, grid: landscape.Grid 
                   for name, r in res["robot"].items()},
         "worse_than_paper": worse,
     }
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--quick", action="store_true", help="5 seeds and a 4 mm / 5 deg landscape grid (minutes)")
-    p.add_argument("--out", default="out/force-sensing", help="output folder (force-sensing.md and PNGs)")
-    p.add_argument("--seeds", type=int,
-                   help="noise seeds 0..N-1 for the tables and the rig (default 20, 5 with --quick)")
-    p.add_argument("--json", action="store_true", help=JSON_HELP)
-
-
-def run(args: argparse.Namespace) -> int:
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out} exists and is not a folder")
-    if args.seeds is not None and args.seeds < 1:
-        raise UserError(f"--seeds must be at least 1, got {args.seeds}")
-    try:
-        summary = main(args.quick, out, args.seeds)
-    except OSError as exc:
-        raise UserError(f"cannot write into {out}: {exc.strerror}") from None
-    emit(args, summary, f"report: {summary['report']} ({summary['wall_s']:.0f} s)")
-    return 0

@@ -13,7 +13,7 @@ import numpy as np
 
 from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
 from hil.world.beams import SENSOR_PERIOD_US, BeamsWorld, BodyState
-from host_tools.cli.beams import _start_after_delay, push_samples
+from host_tools.traversal.push import push_samples, start_after_delay
 from host_tools.traversal import closed_loop, estimator, landscape, planner
 
 K_FLIMSY, K_STIFF = 0.01, 0.25            # Sec. III-A
@@ -116,8 +116,8 @@ def planning(grid: landscape.Grid, delay_ms: float = 300.0) -> dict[str, Any]:
     """k0, the landscape's crossover (from x = -0.1 m, level), the modes after the delay, and the
     least push that can carry the undamped body over each kind of beam (Sec. III-A's check)."""
     land = landscape.build(grid)
-    plans = {k: planner.plan(land, k, k, _start_after_delay(k, k, 0.0, delay_ms)) for k in (K_FLIMSY, K_STIFF)}
-    contact = _start_after_delay(K_FLIMSY, K_FLIMSY, 0.0, 0.0)      # the free run ends at first contact
+    plans = {k: planner.plan(land, k, k, start_after_delay(k, k, 0.0, delay_ms)) for k in (K_FLIMSY, K_STIFF)}
+    contact = start_after_delay(K_FLIMSY, K_FLIMSY, 0.0, 0.0)      # the free run ends at first contact
     kinetic_j = 0.5 * PAPER_BODY.mass_kg * BodyState().vx_m_s ** 2
     return {"land": land, "plans": plans, "k0": PAPER_BODY.k0_nm_per_rad(),
             "crossover_k": planner.crossover_k(land, (-0.1, 0.0, 0.0), iterations=8),
