@@ -22,7 +22,8 @@ def test_our_xl430_bus_passes_every_check() -> None:
 FAULTY = textwrap.dedent("""
     from hil.bus2 import Bus2
     from hil.clock import VirtualClock
-    from hil.serial_server import RealTimeServer, flush_print, install_sigterm, Stop
+    from hil.serial_server import RealTimeServer, install_sigterm, Stop
+    from host_tools.cli import flush_print
     from hil.servo_xl430 import XL430Servo
     from protocol import dynamixel2 as dx2
 
