@@ -50,15 +50,16 @@ class ExecutableFirmware:
     runtime: str = EXECUTABLE
 
     @staticmethod
-    def of(path: str | Path, hang_wall_s: float = HANG_WALL_S) -> "ExecutableFirmware":
-        """``path`` checked: a file this user may execute (else ``UserError``)."""
+    def of(path: str | Path, hang_wall_s: float | None = None) -> "ExecutableFirmware":
+        """``path`` checked: a file this user may execute (else ``UserError``);
+        ``hang_wall_s`` defaults to ``HANG_WALL_S``."""
         p = Path(path)
         if not p.is_file():
             raise UserError(f"--firmware {path}: no such file")
         if not os.access(p, os.X_OK):
             raise UserError(f"--firmware {path}: not executable (build it with "
                             "`hexhil sdk build main.c -o fw`, or chmod +x)")
-        return ExecutableFirmware(p.resolve(), hang_wall_s)
+        return ExecutableFirmware(p.resolve(), HANG_WALL_S if hang_wall_s is None else hang_wall_s)
 
     def serve(self, server: Any, end_us: int, result: RunResult) -> None:
         fw = FirmwareProcess(self.runtime, command=[str(self.path)])
