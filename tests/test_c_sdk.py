@@ -140,3 +140,13 @@ def test_the_c_tripod_cross_compiles_for_the_f411():
     (e_flags,) = struct.unpack_from("<I", data, 36)
     assert e_flags & EF_ARM_ABI_FLOAT_HARD               # floats in VFP registers (M4F)
     assert b"cortex-m4" in data                          # the build attributes' CPU name
+
+
+def test_without_a_c_compiler_on_the_path_ziglang_builds_and_the_build_runs(tmp_path,
+                                                                            monkeypatch):
+    monkeypatch.delenv("CC", raising=False)
+    monkeypatch.setattr(c_sdk.shutil, "which", lambda name: None)
+    assert c_sdk.compiler() == [sys.executable, "-m", "ziglang", "cc"]
+    fw = c_sdk.build([str(PROGRAMS / "hal_check.c")], tmp_path / "hal_check")
+    s, result = run(FLAT, duration_s=0.5, firmware=str(fw))
+    assert result.exit_code == 0 and s["sim_time_s"] == 0.5
