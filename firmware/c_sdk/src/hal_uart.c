@@ -35,22 +35,24 @@ static HAL_StatusTypeDef init(UART_HandleTypeDef *h, uint32_t halfduplex)
 HAL_StatusTypeDef HAL_UART_Init(UART_HandleTypeDef *huart) { return init(huart, 0); }
 HAL_StatusTypeDef HAL_HalfDuplex_Init(UART_HandleTypeDef *huart) { return init(huart, 1); }
 
+/* CR1's TE and RE as the half-duplex turn leaves them. */
+static HAL_StatusTypeDef turn(UART_HandleTypeDef *h, uint32_t te)
+{
+    if (h == NULL || h->gState != HAL_UART_STATE_READY)
+        return HAL_BUSY;
+    h->te = te;
+    h->re = !te;
+    return HAL_OK;
+}
+
 HAL_StatusTypeDef HAL_HalfDuplex_EnableTransmitter(UART_HandleTypeDef *huart)
 {
-    if (huart == NULL || huart->gState != HAL_UART_STATE_READY)
-        return HAL_BUSY;
-    huart->te = 1;
-    huart->re = 0;
-    return HAL_OK;
+    return turn(huart, 1);
 }
 
 HAL_StatusTypeDef HAL_HalfDuplex_EnableReceiver(UART_HandleTypeDef *huart)
 {
-    if (huart == NULL || huart->gState != HAL_UART_STATE_READY)
-        return HAL_BUSY;
-    huart->te = 0;
-    huart->re = 1;
-    return HAL_OK;
+    return turn(huart, 0);
 }
 
 /* Held bytes go out as a posted write (before a sleep). */

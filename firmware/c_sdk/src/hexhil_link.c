@@ -107,6 +107,17 @@ static size_t request(uint8_t op, const void *payload, uint16_t n)
     return len - 8;
 }
 
+/* A payload of one byte and then text, cut to `cap`; its length. */
+static uint16_t byte_and_text(uint8_t *buf, size_t cap, uint8_t first, const char *text)
+{
+    size_t n = strlen(text);
+    if (n > cap - 1)
+        n = cap - 1;
+    buf[0] = first;
+    memcpy(buf + 1, text, n);
+    return (uint16_t)(n + 1);
+}
+
 void hx_link_open(const char *runtime)
 {
     const char *port = getenv("HEXHIL_LINK_PORT");
@@ -124,12 +135,8 @@ void hx_link_open(const char *runtime)
     int one = 1;
     setsockopt(sock, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
     uint8_t hello[64];
-    size_t n = strlen(runtime);
-    if (n > sizeof hello - 1)
-        n = sizeof hello - 1;
-    hello[0] = HX_LINK_VERSION;
-    memcpy(hello + 1, runtime, n);
-    size_t body = request(HX_OP_HELLO, hello, (uint16_t)(n + 1));
+    uint16_t n = byte_and_text(hello, sizeof hello, HX_LINK_VERSION, runtime);
+    size_t body = request(HX_OP_HELLO, hello, n);
     if (body < 2)
         fail("broken link: a hello reply without version and switches");
     if (reply[8] != HX_LINK_VERSION) {
@@ -153,12 +160,7 @@ void hx_link_post(uint8_t op, const void *payload, uint16_t n) { queue(op, paylo
 void hx_link_event(uint8_t kind, const char *text)
 {
     uint8_t buf[1024];
-    size_t n = strlen(text);
-    if (n > sizeof buf - 1)
-        n = sizeof buf - 1;
-    buf[0] = kind;
-    memcpy(buf + 1, text, n);
-    queue(HX_OP_EVENT, buf, (uint16_t)(n + 1));
+    queue(HX_OP_EVENT, buf, byte_and_text(buf, sizeof buf, kind, text));
 }
 
 void hx_link_can_send(uint16_t id, const uint8_t *data, uint8_t dlc)
