@@ -108,6 +108,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         scenario_mod.check_duration(duration_s, "--duration")
     if can_server_port is not None and not 0 <= can_server_port <= 65535:
         raise UserError(f"--can-server {can_server_port}: port must be 0-65535")
+    if firmware is not None and python is not None:
+        raise UserError(f"--firmware {firmware} runs that executable: leave out --python")
     if can_wait_clients < 0:
         raise UserError(f"--can-wait must be 0 or more, got {can_wait_clients}")
     attach_navigator = (_plan_navigation(sc, navigator, model_path) if navigator != "none"

@@ -91,6 +91,11 @@ def test_a_file_that_is_not_executable_is_refused_in_one_line(tmp_path):
                                                 "fw`, or chmod +x)"]
 
 
+def test_firmware_and_python_together_are_refused(built):
+    with pytest.raises(UserError, match="leave out --python"):
+        run(FLAT, python="cpython", firmware=built["c_tripod"])
+
+
 def test_the_link_conformance_suite_passes_against_the_c_client(built):
     env = {k: v for k, v in firmware_env(0).items() if k in ("MICROPYPATH", "PYTHONPATH")}
     results = run_suite([built["c_client"]], env)
