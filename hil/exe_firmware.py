@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import signal
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -62,15 +63,19 @@ class ExecutableFirmware:
         return ExecutableFirmware(p.resolve(), HANG_WALL_S if hang_wall_s is None else hang_wall_s)
 
     def serve(self, server: Any, end_us: int, result: RunResult) -> None:
-        fw = FirmwareProcess(self.runtime, command=[str(self.path)])
-        fw.conn.sock.settimeout(self.hang_wall_s)
-        hung = False
-        try:
-            server.serve(fw.conn, end_us, result)
-        except TimeoutError:
-            hung = True
-        finally:
-            code, _, err = fw.finish(timeout_s=0.0 if hung else 10.0)
+        # stdout to a file: a firmware that printf()s a lot never blocks on a full pipe
+        with tempfile.TemporaryFile() as console:
+            fw = FirmwareProcess(self.runtime, command=[str(self.path)], console=console)
+            fw.conn.sock.settimeout(self.hang_wall_s)
+            hung = False
+            try:
+                server.serve(fw.conn, end_us, result)
+            except TimeoutError:
+                hung = True
+            finally:
+                code, _, err = fw.finish(timeout_s=0.0 if hung else 10.0)
+            console.seek(0)
+            printed = console.read().decode(errors="replace")
         result.exit_code = code
         result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
         t_s = server.clock.t_us * 1e-6
@@ -78,7 +83,7 @@ class ExecutableFirmware:
         if hung:
             raise UserError(f"the firmware {name} hung: no link message for "
                             f"{self.hang_wall_s:g} s of wall time (at t={t_s:.6f} s)")
-        last = (err.strip().splitlines() or ["no message"])[-1]
+        last = (err.strip().splitlines() or printed.strip().splitlines() or ["no message"])[-1]
         if code != 0:
             raise UserError(f"the firmware {name} crashed at t={t_s:.6f} s ({_how(code)}): "
                             f"{last}")

@@ -35,7 +35,9 @@ def built(tmp_path_factory):
              "no_transmitter": ([PROGRAMS / "no_transmitter.c"], ()),
              "crash": ([PROGRAMS / "misbehave.c"], ("-DMODE=1",)),
              "hang": ([PROGRAMS / "misbehave.c"], ("-DMODE=2",)),
-             "early_exit": ([PROGRAMS / "misbehave.c"], ("-DMODE=3",))}
+             "early_exit": ([PROGRAMS / "misbehave.c"], ("-DMODE=3",)),
+             "no_link": ([PROGRAMS / "misbehave.c"], ("-DMODE=4",)),
+             "chatty": ([PROGRAMS / "misbehave.c"], ("-DMODE=5",))}
     return {name: str(c_sdk.build([str(s) for s in srcs], out / name, flags))
             for name, (srcs, flags) in progs.items()}
 
@@ -79,6 +81,17 @@ def test_a_misbehaving_executable_is_one_line_and_its_trace_is_kept(built, tmp_p
         assert "SIGSEGV" in str(err.value)
     kept = info(trace)   # every chunk's CRC checked; the 10 Hz ground truth up to the end
     assert kept["end_s"] >= 0.1 and "/body" in [t["topic"] for t in kept["topics"]]
+
+
+def test_an_executable_that_exits_before_it_connects_is_one_line(built):
+    with pytest.raises(UserError, match="exited with code 1 before it connected to the "
+                                         "link: no board here"):
+        run(FLAT, duration_s=0.5, firmware=built["no_link"])
+
+
+def test_a_firmware_that_prints_a_lot_runs_to_the_end(built):
+    s, result = run(FLAT, duration_s=0.5, firmware=built["chatty"])
+    assert result.exit_code == 0 and s["sim_time_s"] == 0.5
 
 
 def test_a_file_that_is_not_executable_is_refused_in_one_line(tmp_path):
