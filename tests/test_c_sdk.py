@@ -104,6 +104,19 @@ def test_a_file_that_is_not_executable_is_refused_in_one_line(tmp_path):
                                                 "fw`, or chmod +x)"]
 
 
+def test_the_first_firmware_of_the_docs_builds_with_the_documented_command_and_runs(tmp_path):
+    doc = (ROOT / "docs" / "c-firmware.md").read_text()
+    main = tmp_path / "main.c"
+    main.write_text(doc.split("```c\n", 1)[1].split("```", 1)[0])
+    fw = tmp_path / "fw"
+    subprocess.run([sys.executable, "-m", "host_tools.cli", "sdk", "build", str(main), "-o",
+                    str(fw)], cwd=tmp_path, check=True, capture_output=True)
+    s, result = run(FLAT, duration_s=1.0, firmware=str(fw))
+    assert result.exit_code == 0 and s["faults"] == {} and result.firmware["timeouts"] == 0
+    # one answered ping a cycle of 20 ms and the ping's bus time
+    assert result.firmware["transactions"] == result.firmware["cycles"] >= 45
+
+
 def test_firmware_and_python_together_are_refused(built):
     with pytest.raises(UserError, match="leave out --python"):
         run(FLAT, python="cpython", firmware=built["c_tripod"])
