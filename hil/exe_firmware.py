@@ -4,7 +4,8 @@ program that speaks docs/link.md), served in lockstep: ``hexhil run --firmware P
 The executable is started with ``HEXHIL_LINK_PORT`` in its environment (hil/link.py
 ``FirmwareProcess``) and served like our firmware. How it ended is judged in one line
 (``UserError``): a crash (a signal or a non-zero exit), a hang (no link message for
-``hang_wall_s`` of wall time) or an exit before the run's end. The trace recorded up to
+``hang_wall_s`` of wall time, or the C SDK's verdict: only polls for 2 virtual seconds) or
+an exit before the run's end. The trace recorded up to
 then is kept: the caller's recorder is closed as after any run.
 """
 from __future__ import annotations
@@ -22,6 +23,7 @@ from protocol.errors import UserError
 
 EXECUTABLE = "executable"   # the run's firmware_runtime
 HANG_WALL_S = 20.0          # wall seconds without a link message: the firmware hung
+BOARD_SAYS = "hexhil board: "   # the C SDK's one-line verdict on its firmware (hal_tick.c)
 
 
 class ServedFirmware(Protocol):
@@ -84,6 +86,8 @@ class ExecutableFirmware:
             raise UserError(f"the firmware {name} hung: no link message for "
                             f"{self.hang_wall_s:g} s of wall time (at t={t_s:.6f} s)")
         last = (err.strip().splitlines() or printed.strip().splitlines() or ["no message"])[-1]
+        if code != 0 and last.startswith(BOARD_SAYS):   # the C SDK's own verdict (a hang)
+            raise UserError(f"the firmware {name} {last[len(BOARD_SAYS):]}")
         if code != 0:
             raise UserError(f"the firmware {name} crashed at t={t_s:.6f} s ({_how(code)}): "
                             f"{last}")

@@ -37,7 +37,8 @@ def built(tmp_path_factory):
              "hang": ([PROGRAMS / "misbehave.c"], ("-DMODE=2",)),
              "early_exit": ([PROGRAMS / "misbehave.c"], ("-DMODE=3",)),
              "no_link": ([PROGRAMS / "misbehave.c"], ("-DMODE=4",)),
-             "chatty": ([PROGRAMS / "misbehave.c"], ("-DMODE=5",))}
+             "chatty": ([PROGRAMS / "misbehave.c"], ("-DMODE=5",)),
+             "polls": ([PROGRAMS / "misbehave.c"], ("-DMODE=6",))}
     return {name: str(c_sdk.build([str(s) for s in srcs], out / name, flags))
             for name, (srcs, flags) in progs.items()}
 
@@ -69,7 +70,10 @@ def test_a_firmware_that_never_enables_the_transmitter_times_out_and_is_named(bu
 
 
 @pytest.mark.parametrize("mode, says", [
-    ("crash", "crashed at t=0.2"), ("early_exit", "exited at t=0.2"), ("hang", "hung")])
+    ("crash", "crashed at t=0.2"), ("early_exit", "exited at t=0.2"),
+    ("hang", "hang hung: no link message for 2 s of wall time"),
+    ("polls", "polls hung: no UART write or read, direction turn or delay for 2 virtual "
+              "seconds (since t=0.2")])
 def test_a_misbehaving_executable_is_one_line_and_its_trace_is_kept(built, tmp_path, mode,
                                                                     says, monkeypatch):
     monkeypatch.setattr(exe_firmware, "HANG_WALL_S", 2.0)

@@ -28,6 +28,8 @@ GPIO_PinState HAL_GPIO_ReadPin(GPIO_TypeDef *GPIOx, uint16_t GPIO_Pin)
 
 void HAL_GPIO_WritePin(GPIO_TypeDef *GPIOx, uint16_t GPIO_Pin, GPIO_PinState PinState)
 {
+    if (GPIOx->id == HX_DIR_PORT && (GPIO_Pin & HX_DIR_PIN))
+        hx_board_active();
     if (PinState == GPIO_PIN_SET)
         out_level[port_index(GPIOx)] |= GPIO_Pin;
     else
@@ -36,6 +38,8 @@ void HAL_GPIO_WritePin(GPIO_TypeDef *GPIOx, uint16_t GPIO_Pin, GPIO_PinState Pin
 
 void HAL_GPIO_TogglePin(GPIO_TypeDef *GPIOx, uint16_t GPIO_Pin)
 {
+    if (GPIOx->id == HX_DIR_PORT && (GPIO_Pin & HX_DIR_PIN))
+        hx_board_active();
     out_level[port_index(GPIOx)] ^= GPIO_Pin;
 }
 

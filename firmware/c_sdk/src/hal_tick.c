@@ -2,7 +2,9 @@
  * every HAL_GetTick or HAL_GPIO_ReadPin costs HX_QUANTUM_US, so a loop that polls the tick
  * or a switch moves virtual time as it would on the board; once the board's clock is
  * HX_SYNC_US ahead of the host's it sleeps there (the switches and the run's end arrive).
- * At the run's end the stats go to the host and the process exits 0 (docs/c-firmware.md). */
+ * A firmware that only polls for HX_HANG_US (no UART write or read, direction turn or
+ * delay) is hung: one line on stderr, exit 2. At the run's end the stats go to the host
+ * and the process exits 0 (docs/c-firmware.md). */
 #include "stm32f4xx_hal.h"
 #include "hal_board.h"
 #include "hexhil_link.h"
@@ -12,6 +14,7 @@
 
 uint64_t hx_now_us;
 struct hx_counters hx_count;
+static uint64_t quiet_since_us;   /* the board's time of its last activity */
 
 void hx_board_start(void)
 {
@@ -48,10 +51,22 @@ void hx_board_sleep(uint64_t wake_us)
         finish();
 }
 
+void hx_board_active(void)
+{
+    quiet_since_us = hx_now_us;
+}
+
 void hx_board_poll(void)
 {
     hx_board_start();
     hx_now_us += HX_QUANTUM_US;
+    if (hx_now_us - quiet_since_us >= HX_HANG_US) {
+        fprintf(stderr, "hexhil board: hung: no UART write or read, direction turn or delay "
+                "for %u virtual seconds (since t=%.6f s)\n", HX_HANG_US / 1000000u,
+                (double)quiet_since_us * 1e-6);
+        hx_link_close();
+        exit(2);
+    }
     if (hx_now_us - hx_link_t_us() >= HX_SYNC_US)
         hx_board_sleep(hx_now_us);
 }
@@ -82,4 +97,5 @@ void HAL_Delay(uint32_t Delay)
         wait_ms += 1;   /* Cube's HAL_Delay waits at least one tick more than asked */
     hx_count.cycles++;
     hx_board_sleep(hx_now_us + wait_ms * 1000u);
+    hx_board_active();
 }

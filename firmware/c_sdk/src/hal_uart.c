@@ -73,6 +73,7 @@ HAL_StatusTypeDef HAL_UART_Transmit(UART_HandleTypeDef *huart, const uint8_t *pD
         return HAL_BUSY;
     if (pData == NULL || Size == 0)
         return HAL_ERROR;
+    hx_board_active();
     if (!on_line(huart) || !huart->te)
         return HAL_OK;   /* nothing wired there, or TE off: the bytes go nowhere */
     if (!hx_direction_tx()) {
@@ -99,6 +100,7 @@ HAL_StatusTypeDef HAL_UART_Receive(UART_HandleTypeDef *huart, uint8_t *pData,
         return HAL_ERROR;
     if (!on_line(huart)) {
         hx_board_sleep(hx_now_us + (uint64_t)Timeout * 1000u);
+        hx_board_active();
         return HAL_TIMEOUT;
     }
     uint32_t timeout_us = Timeout >= 0xFFFFFFFFu / 1000u ? 0xFFFFFFFFu : Timeout * 1000u;
@@ -108,6 +110,7 @@ HAL_StatusTypeDef HAL_UART_Receive(UART_HandleTypeDef *huart, uint8_t *pData,
     pending_len = 0;
     hx_count.transactions++;
     hx_board_synced();
+    hx_board_active();
     if (hx_direction_tx() || !huart->re) {
         if (got) {
             char detail[96];
