@@ -161,12 +161,11 @@ def test_sdk_build_bad_input_is_one_line_and_exit_2(argv, says):
     assert proc.returncode == 2 and len(lines) == 1 and says in lines[0]
 
 
-def test_the_c_tripod_cross_compiles_for_the_f411():
+def test_the_c_tripod_cross_compiles_for_the_f411(tmp_path):
     """The same source for the board's Cortex-M4F (hard float): compiled by the pinned
     ziglang (the test extra) against musl's headers for math.h and string.h; not linked
     (the registries hold no newlib, startup file or linker script for the F411)."""
-    out = ROOT / ".pytest_cache" / "c_tripod_m4.o"
-    out.parent.mkdir(exist_ok=True)
+    out = tmp_path / "c_tripod_m4.o"
     subprocess.run([sys.executable, "-m", "ziglang", "cc", "-target", "thumb-linux-musleabihf",
                     "-mcpu=cortex_m4", *c_sdk.CFLAGS, f"-I{c_sdk.INCLUDE_DIR}", "-c",
                     str(ROOT / "examples" / "c_tripod" / "main.c"), "-o", str(out)], check=True)
