@@ -111,6 +111,11 @@ class LinkServer:
             result.tactile_events.append(ev)
             if rec is not None:
                 rec.telemetry(t, ev)
+        elif kind == sim_link.EVENT_FAULT:   # a mistake the client's board saw: a run fault
+            name = str(json.loads(text).get(ls.NAME, "firmware_fault"))
+            result.faults[name] = result.faults.get(name, 0) + 1
+            if rec is not None:
+                rec.fault(t, name, text)
         elif rec is not None:
             rec.telemetry(t, {"event": kind, "text": text})
 

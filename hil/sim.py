@@ -23,6 +23,7 @@ from __future__ import annotations
 import time
 from typing import Any, Callable
 
+from hil.exe_firmware import ServedFirmware
 from hil.link import IN_PROCESS, DirectConnection, FirmwareProcess
 from hil.link_server import LinkServer, SwitchSampler, firmware_settings
 from hil.run_core import RunCore, WallClockPacing
@@ -76,7 +77,8 @@ class FirmwareDriver:
         return 0
 
     def run(self, python: str, command: list[str] | None,
-            in_process: InProcessFirmware | None, end_us: int, result: RunResult) -> None:
+            in_process: InProcessFirmware | None, end_us: int, result: RunResult,
+            firmware: ServedFirmware | None = None) -> None:
         core = self.core
         server = LinkServer(self, firmware_settings(core.scenario, self._tactile),
                             SwitchSampler(self._levels, core.recorder), core.tick_nodes,
@@ -86,6 +88,8 @@ class FirmwareDriver:
                 lambda conn, msgs, closed: server.answer(conn, msgs, closed, end_us, result)
             ).exchange)
             result.exit_code = 0
+        elif firmware is not None:
+            firmware.serve(server, end_us, result)
         else:
             fw = FirmwareProcess(python, command=command)
             try:
@@ -172,19 +176,22 @@ class Simulator:
         self.core.send_can(arb_id, data)
 
     def run(self, duration_s: float | None = None, python: str | None = None,
-            command: list[str] | None = None, in_process: InProcessFirmware | None = None
-            ) -> RunResult:
+            command: list[str] | None = None, in_process: InProcessFirmware | None = None,
+            firmware: ServedFirmware | None = None) -> RunResult:
         """Serve the firmware (or step the world) until ``duration_s`` of virtual time.
 
         The firmware is a child process (``python``, or ``command``), or with ``in_process``
         a function that runs it in this process, given the link's ``exchange``
-        (hil/link.py ``DirectConnection``): the same frames without a socket."""
+        (hil/link.py ``DirectConnection``): the same frames without a socket, or
+        ``firmware``, one that starts and serves itself (hil/exe_firmware.py)."""
         cfg = self.core.config
         duration_s = (cfg.scenario.duration_s if duration_s is None
                       else check_duration(duration_s, "duration_s"))
         python = python or cfg.firmware.python.value
         if in_process is not None:
             python = IN_PROCESS
+        if firmware is not None:
+            python = firmware.runtime
         end_us = int(round(duration_s * 1e6))
         result = RunResult(runtime="none" if self._stepped else python)
         wall0 = time.perf_counter()
@@ -192,7 +199,7 @@ class Simulator:
             if isinstance(self.driver, SteppedDriver):
                 self.driver.run(end_us, result)
             else:
-                self.driver.run(python, command, in_process, end_us, result)
+                self.driver.run(python, command, in_process, end_us, result, firmware)
         finally:
             self.core.shutdown()
         result.wall_time_s = time.perf_counter() - wall0

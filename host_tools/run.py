@@ -83,7 +83,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         out: str | None = None, can_server_port: int | None = None,
         can_wait_clients: int = 0, live_port: int | None = None,
         realtime: bool = False, navigator: str = "none",
-        model_path: str | None = None) -> tuple[dict[str, Any], RunResult]:
+        model_path: str | None = None, firmware: str | None = None
+        ) -> tuple[dict[str, Any], RunResult]:
     """Load, simulate, summarise. Returns (summary, raw result).
 
     A recorded run (``out``) carries the 3D scene. With ``live_port`` the trace's channels
@@ -97,6 +98,9 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
 
     ``navigator`` (``model``, ``grnn``; host_tools/grnn/navigator.py) stops the walk where
     it predicts the goal ``gait.distance_m`` is reached.
+
+    ``firmware``, an executable that speaks the link (hil/exe_firmware.py), runs instead
+    of our firmware.
     """
     sc = scenario_mod.load_scenario(path)
     seed = sc.scenario.seed if seed is None else seed
@@ -104,6 +108,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         scenario_mod.check_duration(duration_s, "--duration")
     if can_server_port is not None and not 0 <= can_server_port <= 65535:
         raise UserError(f"--can-server {can_server_port}: port must be 0-65535")
+    if firmware is not None and python is not None:
+        raise UserError(f"--firmware {firmware} runs that executable: leave out --python")
     if can_wait_clients < 0:
         raise UserError(f"--can-wait must be 0 or more, got {can_wait_clients}")
     attach_navigator = (_plan_navigation(sc, navigator, model_path) if navigator != "none"
@@ -113,7 +119,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         if can_server_port is not None:
             server = start_can_server(can_server_port, can_wait_clients)
         with Run(sc, seed=seed, runtime=python, duration_s=duration_s, tactile=tactile,
-                 trace=out, live_port=live_port, can_server=server, realtime=realtime) as r:
+                 trace=out, live_port=live_port, can_server=server, realtime=realtime,
+                 firmware=firmware) as r:
             if r.live is not None:
                 log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", r.live.port)
             if attach_navigator is not None:

@@ -17,6 +17,7 @@ from typing import Any
 
 from hil import scenario as scenario_mod
 from hil.can_bus import Endpoint
+from hil.exe_firmware import EXECUTABLE, ExecutableFirmware
 from hil.rig import make_world
 from hil.run_result import RunResult
 from hil.scenario import Runtime, Scenario, WorldKind
@@ -56,14 +57,17 @@ class Run:
     over the Foxglove WebSocket protocol on 127.0.0.1 (``live``, host_tools/trace/live.py;
     0 picks a free port; started once the world is built, so a viewer misses nothing); ``can_server`` bridges the CAN bus to socketcand
     clients; ``realtime`` paces virtual time to the wall clock; ``tactile`` overrides the
-    scenario's ``firmware.tactile``. Close it (or use ``with``) if ``run`` is never called."""
+    scenario's ``firmware.tactile``; ``firmware``, an executable that speaks the link (a C
+    firmware, docs/c-firmware.md), runs instead of ours. Close it (or use ``with``) if ``run`` is never called."""
 
     def __init__(self, scenario: Scenario | dict[str, Any] | str | Path, *,
                  seed: int | None = None,
                  runtime: Runtime | str | None = None, duration_s: float | None = None,
                  tactile: bool | None = None, trace: str | Path | None = None,
                  live_port: int | None = None, can_server: Any = None,
-                 realtime: bool = False) -> None:
+                 realtime: bool = False, firmware: str | Path | None = None) -> None:
+        # an executable firmware (hil/exe_firmware.py) is checked before anything opens
+        self.firmware = ExecutableFirmware.of(firmware) if firmware is not None else None
         self.scenario = (scenario_mod.load_scenario(scenario)
                          if isinstance(scenario, (str, Path)) else scenario_mod.parse(scenario))
         sc = self.scenario
@@ -86,7 +90,8 @@ class Run:
         if self.trace or live_port is not None:
             from host_tools.trace.recorder import Recorder
 
-            meta = trace_metadata(sc, self.seed, NO_RUNTIME if self.beams else self.runtime.value)
+            meta = trace_metadata(sc, self.seed, NO_RUNTIME if self.beams else
+                                  EXECUTABLE if self.firmware else self.runtime.value)
             extra = ({"flush_interval_us": self.live.flush_interval_us}
                      if self.live is not None else {})
             try:
@@ -136,6 +141,8 @@ class Run:
         try:
             if self.beams:
                 return self._traverse()
+            if self.firmware is not None:
+                return self._firmware_sim().run(self.duration_s, firmware=self.firmware)
             from host_tools import in_process
 
             return in_process.run(self._firmware_sim(), self.duration_s, self.runtime.value)

@@ -33,6 +33,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "grnn": ("grnn", "GRNN positional-error predictor: dataset, train, eval (seed 003)"),
     "test": ("test", "run expectation files against the firmware: pass/fail, JUnit XML"),
     "margin": ("margin", "sweep bus timing until a firmware's expectations fail"),
+    "sdk": ("sdk", "build a C firmware against the STM32Cube-style C SDK"),
 }
 
 

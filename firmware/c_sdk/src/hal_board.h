@@ -1,0 +1,30 @@
+/* What the HAL files share: the board's virtual clock, its counters and its faults. */
+#ifndef HAL_BOARD_H
+#define HAL_BOARD_H
+
+#include <stdint.h>
+
+#define HX_QUANTUM_US 5        /* virtual time one busy-wait poll costs (the virtual board's) */
+#define HX_SYNC_US 1000        /* a busy-wait this far ahead of the host sleeps to catch up */
+#define HX_HANG_US 2000000u    /* only polls this long: hung (the virtual board's HANG_S) */
+#define HX_DIR_PORT 'A'        /* the direction line: GPIOA pin 1, high = transmit */
+#define HX_DIR_PIN 0x0002u
+#define HX_SWITCH_PORT 'B'     /* the leg switches: GPIOB pins 0-5, pressed = low */
+
+extern uint64_t hx_now_us;     /* the board's virtual time (never behind the host's) */
+
+struct hx_counters {
+    uint32_t cycles, transactions, writes, timeouts, tx_while_receiving, rx_while_transmitting;
+};
+extern struct hx_counters hx_count;
+
+void hx_board_start(void);     /* HAL_Init: the link opened once */
+void hx_board_synced(void);    /* the host answered: hx_now_us catches up with it */
+void hx_board_sleep(uint64_t wake_us);  /* to wake_us through the host; exits at the end */
+void hx_board_poll(void);      /* one busy-wait poll (the quantum, a sleep when far ahead) */
+void hx_board_active(void);    /* a UART write or read, a direction turn, a delay: not hung */
+void hx_board_fault(const char *name, const char *detail);
+int hx_direction_tx(void);     /* the direction pin is high */
+void hx_uart_flush(void);      /* held line bytes out as a posted write */
+
+#endif

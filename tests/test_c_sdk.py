@@ -1,0 +1,186 @@
+"""The C SDK (firmware/c_sdk/, docs/c-firmware.md): C firmware built with ``hexhil sdk
+build`` runs in lockstep under ``hexhil run --firmware``. Every program here is compiled
+into a tmp folder by the machine's C compiler (or ziglang's, host_tools/c_sdk.py)."""
+import json
+import os
+import shlex
+import struct
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from hil import exe_firmware
+from hil.link import firmware_env
+from hil.link_conformance import SESSIONS, run_suite
+from host_tools import c_sdk
+from host_tools.run import run
+from host_tools.trace.reader import info
+from protocol.errors import UserError
+
+ROOT = Path(__file__).resolve().parent.parent
+PROGRAMS = ROOT / "tests" / "c_firmware"
+FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
+EF_ARM_ABI_FLOAT_HARD = 0x400   # ELF for the Arm Architecture, e_flags
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """name -> executable of every C program of these tests."""
+    out = tmp_path_factory.mktemp("c_firmware")
+    progs = {"c_tripod": ([ROOT / "examples" / "c_tripod" / "main.c"], ()),
+             "c_client": ([ROOT / "tests" / "link_clients" / "c_client.c"], ()),
+             "hal_check": ([PROGRAMS / "hal_check.c"], ()),
+             "no_transmitter": ([PROGRAMS / "no_transmitter.c"], ()),
+             "crash": ([PROGRAMS / "misbehave.c"], ("-DMODE=1",)),
+             "hang": ([PROGRAMS / "misbehave.c"], ("-DMODE=2",)),
+             "early_exit": ([PROGRAMS / "misbehave.c"], ("-DMODE=3",)),
+             "no_link": ([PROGRAMS / "misbehave.c"], ("-DMODE=4",)),
+             "chatty": ([PROGRAMS / "misbehave.c"], ("-DMODE=5",)),
+             "polls": ([PROGRAMS / "misbehave.c"], ("-DMODE=6",))}
+    return {name: str(c_sdk.build([str(s) for s in srcs], out / name, flags))
+            for name, (srcs, flags) in progs.items()}
+
+
+def test_the_c_tripod_walks_flat_tripod_with_the_same_digest_twice(built):
+    first, _ = run(FLAT, firmware=built["c_tripod"])
+    second, _ = run(FLAT, firmware=built["c_tripod"])
+    assert first["body"]["dx_m"] >= 0.3
+    assert first["serial_digest"] == second["serial_digest"]
+    assert first["faults"] == {} and first["firmware_runtime"] == "executable"
+
+
+def test_the_hal_keeps_cubes_promises_in_virtual_time(built):
+    s, result = run(FLAT, duration_s=0.5, firmware=built["hal_check"])
+    assert result.exit_code == 0 and s["sim_time_s"] == 0.5
+    assert result.firmware["timeouts"] == 1          # servo 99 only
+
+
+def test_a_firmware_that_never_enables_the_transmitter_times_out_and_is_named(built):
+    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", FLAT, "--duration",
+                           "1", "--firmware", built["no_transmitter"], "--json"],
+                          cwd=ROOT, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    faults = json.loads(lines[-1])["faults"]
+    # a 30 ms cycle (10 ms time-out, HAL_Delay(19) + 1) over 1 s: 34 packets lost, 34 time-outs
+    assert faults == {"detected_timeouts": 34, "tx_while_receiving": 34}
+    assert "faults: detected_timeouts 34, tx_while_receiving 34" in lines
+
+
+@pytest.mark.parametrize("mode, says", [
+    ("crash", "crashed at t=0.2"), ("early_exit", "exited at t=0.2"),
+    ("hang", "hang hung: no link message for 2 s of wall time"),
+    ("polls", "polls hung: no UART write or read, direction turn or delay for 2 virtual "
+              "seconds (since t=0.2")])
+def test_a_misbehaving_executable_is_one_line_and_its_trace_is_kept(built, tmp_path, mode,
+                                                                    says, monkeypatch):
+    monkeypatch.setattr(exe_firmware, "HANG_WALL_S", 2.0)
+    trace = tmp_path / "run.mcap"
+    with pytest.raises(UserError) as err:
+        run(FLAT, firmware=built[mode], out=str(trace))
+    assert says in str(err.value) and "\n" not in str(err.value)
+    if mode == "crash":
+        assert "SIGSEGV" in str(err.value)
+    kept = info(trace)   # every chunk's CRC checked; the 10 Hz ground truth up to the end
+    assert kept["end_s"] >= 0.1 and "/body" in [t["topic"] for t in kept["topics"]]
+
+
+def test_an_executable_that_exits_before_it_connects_is_one_line(built):
+    with pytest.raises(UserError, match="exited with code 1 before it connected to the "
+                                         "link: no board here"):
+        run(FLAT, duration_s=0.5, firmware=built["no_link"])
+
+
+def test_a_firmware_that_prints_a_lot_runs_to_the_end(built):
+    s, result = run(FLAT, duration_s=0.5, firmware=built["chatty"])
+    assert result.exit_code == 0 and s["sim_time_s"] == 0.5
+
+
+def test_a_file_that_is_not_executable_is_refused_in_one_line(tmp_path):
+    src = ROOT / "examples" / "c_tripod" / "main.c"
+    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", FLAT, "--firmware",
+                           str(src)], cwd=ROOT, capture_output=True, text=True)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.strip().splitlines() == [f"hexhil: --firmware {src}: not executable "
+                                                "(build it with `hexhil sdk build main.c -o "
+                                                "fw`, or chmod +x)"]
+
+
+def test_the_first_firmware_of_the_docs_builds_with_the_documented_command_and_runs(tmp_path):
+    doc = (ROOT / "docs" / "c-firmware.md").read_text()
+    main = tmp_path / "main.c"
+    main.write_text(doc.split("```c\n", 1)[1].split("```", 1)[0])
+    fw = tmp_path / "fw"
+    subprocess.run([sys.executable, "-m", "host_tools.cli", "sdk", "build", str(main), "-o",
+                    str(fw)], cwd=tmp_path, check=True, capture_output=True)
+    s, result = run(FLAT, duration_s=1.0, firmware=str(fw))
+    assert result.exit_code == 0 and s["faults"] == {} and result.firmware["timeouts"] == 0
+    # one answered ping a cycle of 20 ms and the ping's bus time
+    assert result.firmware["transactions"] == result.firmware["cycles"] >= 45
+
+
+def test_firmware_and_python_together_are_refused(built):
+    with pytest.raises(UserError, match="leave out --python"):
+        run(FLAT, python="cpython", firmware=built["c_tripod"])
+
+
+def test_the_link_conformance_suite_passes_against_the_c_client(built):
+    env = {k: v for k, v in firmware_env(0).items() if k in ("MICROPYPATH", "PYTHONPATH")}
+    results = run_suite([built["c_client"]], env)
+    assert [f"{r.name}: {r.detail}" for r in results if not r.passed] == []
+    assert len(results) == sum(len(checks) for _, checks in SESSIONS.values())
+
+
+def test_sdk_flags_build_a_firmware_from_a_users_own_makefile_line(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "sdk", "flags",
+                           "--lib-dir", str(tmp_path / "lib")], cwd=ROOT, capture_output=True,
+                          text=True)
+    assert proc.returncode == 0, proc.stderr
+    flags = dict(ln.split(" += ", 1) for ln in proc.stdout.splitlines())
+    assert sorted(flags) == ["CFLAGS", "LDLIBS"]
+    fw = tmp_path / "fw"
+    cmd = [*c_sdk.compiler(), *shlex.split(flags["CFLAGS"]),
+           str(ROOT / "examples" / "c_tripod" / "main.c"), "-o", str(fw),
+           *shlex.split(flags["LDLIBS"])]
+    subprocess.run(cmd, check=True)
+    assert os.access(fw, os.X_OK)
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["sdk", "build", "missing.c", "-o", "fw"], "missing.c: no such file"),
+    (["sdk", "build", "README.md", "-o", "fw"], "README.md: not a C source (.c)"),
+    (["sdk", "build", "examples/c_tripod/main.c", "-o", "docs"], "is a folder"),
+    (["sdk", "build", "tests/c_firmware/misbehave.c", "-o", "/tmp/x"], "does not build"),
+])
+def test_sdk_build_bad_input_is_one_line_and_exit_2(argv, says):
+    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", *argv], cwd=ROOT,
+                          capture_output=True, text=True)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and len(lines) == 1 and says in lines[0]
+
+
+def test_the_c_tripod_cross_compiles_for_the_f411(tmp_path):
+    """The same source for the board's Cortex-M4F (hard float): compiled by the pinned
+    ziglang (the test extra) against musl's headers for math.h and string.h; not linked
+    (the registries hold no newlib, startup file or linker script for the F411)."""
+    out = tmp_path / "c_tripod_m4.o"
+    subprocess.run([sys.executable, "-m", "ziglang", "cc", "-target", "thumb-linux-musleabihf",
+                    "-mcpu=cortex_m4", *c_sdk.CFLAGS, f"-I{c_sdk.INCLUDE_DIR}", "-c",
+                    str(ROOT / "examples" / "c_tripod" / "main.c"), "-o", str(out)], check=True)
+    data = out.read_bytes()
+    assert data[:4] == b"\x7fELF" and data[18] == 40     # e_machine EM_ARM
+    (e_flags,) = struct.unpack_from("<I", data, 36)
+    assert e_flags & EF_ARM_ABI_FLOAT_HARD               # floats in VFP registers (M4F)
+    assert b"cortex-m4" in data                          # the build attributes' CPU name
+
+
+def test_without_a_c_compiler_on_the_path_ziglang_builds_and_the_build_runs(tmp_path,
+                                                                            monkeypatch):
+    monkeypatch.delenv("CC", raising=False)
+    monkeypatch.setattr(c_sdk.shutil, "which", lambda name: None)
+    assert c_sdk.compiler() == [sys.executable, "-m", "ziglang", "cc"]
+    fw = c_sdk.build([str(PROGRAMS / "hal_check.c")], tmp_path / "hal_check")
+    s, result = run(FLAT, duration_s=0.5, firmware=str(fw))
+    assert result.exit_code == 0 and s["sim_time_s"] == 0.5
