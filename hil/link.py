@@ -15,7 +15,7 @@ import struct
 import subprocess
 import sys
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 from protocol import sim_link
 from protocol.errors import UserError
@@ -169,7 +169,10 @@ class FirmwareProcess:
     """The firmware as a child process connected on an ephemeral 127.0.0.1 port."""
 
     def __init__(self, python: str = "micropython", connect_timeout_s: float = 30.0,
-                 command: list[str] | None = None) -> None:
+                 command: list[str] | None = None, extra_env: dict[str, str] | None = None,
+                 console: Any = None) -> None:
+        """``extra_env`` is set over ``firmware_env``'s; ``console``, a file, takes the
+        firmware's stdout instead of a pipe (a chatty firmware never blocks on it)."""
         self.python = python
         cmd = command or firmware_command(python)
         srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
@@ -178,8 +181,10 @@ class FirmwareProcess:
         srv.settimeout(connect_timeout_s)
         self.port = srv.getsockname()[1]
         try:
-            self.proc = subprocess.Popen(cmd, cwd=ROOT, env=firmware_env(self.port),
-                                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+            self.proc = subprocess.Popen(cmd, cwd=ROOT,
+                                         env={**firmware_env(self.port), **(extra_env or {})},
+                                         stdout=console or subprocess.PIPE,
+                                         stderr=subprocess.PIPE)
         except OSError as exc:
             srv.close()
             raise UserError(f"cannot start the firmware ({' '.join(cmd)}): {exc.strerror}") from None
@@ -204,7 +209,8 @@ class FirmwareProcess:
             self.proc.kill()
             out, err = self.proc.communicate()
         self.conn.close()
-        return self.proc.returncode, out.decode(errors="replace"), err.decode(errors="replace")
+        return (self.proc.returncode, (out or b"").decode(errors="replace"),
+                err.decode(errors="replace"))
 
     def kill(self) -> None:
         if self.proc.poll() is None:

@@ -120,18 +120,21 @@ class Simulator:
 
     # --- running ----------------------------------------------------------------------
     def run(self, duration_s: float | None = None, python: str | None = None,
-            command: list[str] | None = None, in_process: InProcessFirmware | None = None
-            ) -> RunResult:
+            command: list[str] | None = None, in_process: InProcessFirmware | None = None,
+            board: Any = None) -> RunResult:
         """Serve the firmware (or step the world) until ``duration_s`` of virtual time.
 
         The firmware is a child process (``python``, or ``command``), or with ``in_process``
         a function that runs it in this process, given the link's ``exchange``
-        (hil/link.py ``DirectConnection``): the same frames without a socket."""
+        (hil/link.py ``DirectConnection``): the same frames without a socket, or with
+        ``board`` (hil/board_line.py ``BoardFirmware``) a main file on the virtual board."""
         if duration_s is None:
             duration_s = self.scenario["scenario"].get("duration_s", DEFAULT_DURATION_S)
         python = python or self.scenario["firmware"].get("python", "micropython")
         if in_process is not None:
             python = IN_PROCESS
+        if board is not None:
+            python = "micropython-board"
         end_us = int(round(duration_s * 1e6))
         result = RunResult(runtime="none" if self._stepped else python)
         wall0 = time.perf_counter()
@@ -139,7 +142,7 @@ class Simulator:
             if self._stepped:
                 self._step_world(end_us, result)
             else:
-                self._serve_firmware(python, command, in_process, end_us, result)
+                self._serve_firmware(python, command, in_process, end_us, result, board)
         finally:
             self.can.shutdown()
         result.wall_time_s = time.perf_counter() - wall0
@@ -168,7 +171,7 @@ class Simulator:
 
     def _serve_firmware(self, python: str, command: list[str] | None,
                         in_process: InProcessFirmware | None, end_us: int,
-                        result: RunResult) -> None:
+                        result: RunResult, board: Any = None) -> None:
         server = LinkServer(self, firmware_settings(self.scenario, self._tactile),
                             SwitchSampler(self._levels, self.recorder), self._tick,
                             self._ground_truth)
@@ -177,6 +180,8 @@ class Simulator:
                 lambda conn, msgs, closed: server.answer(conn, msgs, closed, end_us, result)
             ).exchange)
             result.exit_code = 0
+        elif board is not None:
+            board.serve(server, end_us, result)
         else:
             fw = FirmwareProcess(python, command=command)
             try:

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from hil import scenario as scenario_mod
+from hil.board_line import BoardFirmware
 from hil.rig import make_world
 from hil.run_result import RunResult
 from hil.sim import Simulator
@@ -104,7 +105,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         out: str | None = None, can_server_port: int | None = None,
         can_wait_clients: int = 0, live_port: int | None = None,
         realtime: bool = False, navigator: str = "none",
-        model_path: str | None = None) -> tuple[dict[str, Any], RunResult]:
+        model_path: str | None = None, firmware: str | None = None
+        ) -> tuple[dict[str, Any], RunResult]:
     """Load, simulate, summarise. Returns (summary, raw result).
 
     A recorded run (``out``) carries the 3D scene. With ``live_port`` the trace's channels
@@ -118,8 +120,12 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
 
     ``navigator`` (``model``, ``grnn``; host_tools/grnn/navigator.py) stops the walk where
     it predicts the goal ``gait.distance_m`` is reached.
+
+    ``firmware``, a MicroPython main file, runs on the virtual STM32F411 board
+    (hil/board_line.py, docs/your-firmware.md) instead of our firmware on the sim HAL.
     """
     sc = scenario_mod.load(path)
+    board = BoardFirmware.of(firmware) if firmware is not None else None
     if seed is None:
         seed = sc["scenario"].get("seed", 0)
     if duration_s is not None and not duration_s > 0:
@@ -154,7 +160,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
                         can_server=server, scene=recorder is not None, realtime=realtime)
         if attach_navigator is not None:
             nav = attach_navigator(sim, world)
-        result = in_process.run(sim, duration_s, python)
+        result = (sim.run(duration_s, board=board) if board is not None
+                  else in_process.run(sim, duration_s, python))
     finally:
         if server is not None:
             server.close()

@@ -17,7 +17,7 @@ def _run(args: argparse.Namespace) -> int:
     s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
                             False if args.no_tactile else None, args.out,
                             args.can_server, args.can_wait, args.live, args.realtime,
-                            args.navigator, args.model)
+                            args.navigator, args.model, args.firmware)
     if s.get("world") == "beams":
         what = "traversed" if s["traversed"] else ("flipped" if s["flipped"] else "stuck")
         print(f"{s['scenario']}: {s['strategy']}: {what} (mode {s['mode']}), energy "
@@ -77,5 +77,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "by Eq. 8-14 (model) or the GRNN (grnn, needs --model); none walks on")
     p.add_argument("--model", metavar="MODEL.pt", help="the GRNN for --navigator grnn "
                    "(hexhil grnn train)")
+    p.add_argument("--firmware", metavar="MAIN.py", help="run this MicroPython main file on "
+                   "the virtual STM32F411 board (machine, time, pyb in virtual time; "
+                   "docs/your-firmware.md) instead of our firmware")
     p.add_argument("--json", action="store_true", help="print the summary as JSON (last line)")
     p.set_defaults(func=_run)

@@ -1,0 +1,173 @@
+"""The host side of the virtual STM32F411 board (firmware/virtual_board/, issue 29).
+
+``BoardLine`` answers the link's line request (docs/link.md "L line"): the board's UART
+behind its 74HC126/74HC04 direction circuit, in virtual time. Bytes written while the
+direction pin is low do not reach the line; bytes that arrive while it is high are lost.
+Both are the master's mistakes: counted in the run's faults, recorded, and handed to the
+master check (hil/master_check.py) when one watches the bus.
+
+``BoardFirmware`` starts a MicroPython main file on the board (``hexhil run --firmware``)
+and tells how it ended: a crash, a hang or an early exit is one line (``UserError``).
+"""
+from __future__ import annotations
+
+import struct
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from hil.link import ROOT, FirmwareProcess, firmware_command, firmware_env
+from hil.run_result import RunResult
+from protocol import sim_link
+from protocol.errors import UserError
+
+BOARD_DIR = ROOT / "firmware" / "virtual_board"
+HANG_S = 2.0          # virtual seconds without a UART write, pin turn or sleep: a hang
+HANG_WALL_S = 20.0    # wall seconds without a link message: a hang outside virtual time
+TX_WHILE_RECEIVING = "tx_while_receiving"
+RX_WHILE_TRANSMITTING = "rx_while_transmitting"
+MISTAKES = (TX_WHILE_RECEIVING, RX_WHILE_TRANSMITTING)
+
+
+class LineViolation(ValueError):
+    """A line request the host cannot carry out (answered with an error reply)."""
+
+
+class BoardLine:
+    """The board's UART and direction line, served for one link (``server``: the
+    hil/link_server.py ``LinkServer`` whose bus, clock, switches and hooks it uses)."""
+
+    def __init__(self, server: Any) -> None:
+        self.server = server
+        self.bus, self.clock = server.bus, server.clock
+        self.tx_on = False
+        self.quiet_since_us = self.clock.t_us
+
+    def active(self) -> None:
+        """The firmware did something (a write, a pin turn, a sleep): it is not hung."""
+        self.quiet_since_us = self.clock.t_us
+
+    def _mistake(self, kind: str, detail: str, result: RunResult) -> None:
+        t = self.clock.t_us
+        result.faults[kind] = result.faults.get(kind, 0) + 1
+        rec = self.server.sim.recorder
+        if rec is not None:
+            rec.fault(t, kind, detail)
+        check = getattr(self.bus, "monitor", None)
+        if check is not None:
+            check.direction_mistake(t, kind, detail)
+
+    def _lose(self, result: RunResult) -> None:
+        lost = self.bus.master_discard()
+        if lost:
+            self._mistake(RX_WHILE_TRANSMITTING, f"{lost} status bytes arrived while the "
+                          "direction pin (A1) was high: the receiver was off", result)
+
+    def answer(self, payload: bytes, end_us: int, result: RunResult) -> bytes:
+        """Carry out one line request; the reply's body (after ``t_us``)."""
+        if len(payload) < sim_link.LINE_HEAD_LEN:
+            raise LineViolation(f"malformed line request ({len(payload)} bytes)")
+        at_us, flags, nrx = struct.unpack_from("<QBH", payload, 0)
+        if nrx > sim_link.MAX_REPLY_LEN - sim_link.LINE_REPLY_HEAD_LEN:
+            raise LineViolation(f"a line request asks for {nrx} bytes, more than a reply holds")
+        tx = payload[sim_link.LINE_HEAD_LEN:]
+        ended = at_us >= end_us
+        clock, bus, server = self.clock, self.bus, self.server
+        if ended:
+            at_us = end_us
+        if at_us > clock.t_us:
+            bus.idle_until(at_us)
+            server.on_wake(clock.t_us)
+            server.on_slept()
+        tx_on = bool(flags & sim_link.LINE_DIR_TX)
+        if not flags & sim_link.LINE_POLL or tx_on != self.tx_on:
+            self.active()
+        elif clock.t_us - self.quiet_since_us >= HANG_S * 1e6:
+            raise LineViolation(f"the firmware hung: no UART write, direction turn or sleep "
+                                f"for {HANG_S:g} virtual seconds (since t={self.quiet_since_us * 1e-6:.6f} s)")
+        if self.tx_on:
+            self._lose(result)   # what came in while transmitting (before a turn, too)
+        self.tx_on = tx_on
+        if tx and tx_on:
+            bus.master_write(tx)
+        elif tx:
+            self._mistake(TX_WHILE_RECEIVING, f"{len(tx)} bytes written while the direction "
+                          "pin (A1) was low: they did not reach the line", result)
+            bus.idle_until(clock.t_us + bus.wire_us(len(tx)))
+        if tx_on:
+            self._lose(result)
+            rx = b""
+        else:
+            rx = bus.master_read(nrx, 0)
+        bits = server.switches.sample(clock.t_us, result)
+        head = struct.pack("<BBQ", sim_link.FLAG_END if ended else 0, bits,
+                           bus.next_byte_us() or sim_link.NO_RX)
+        return head + rx
+
+
+@dataclass(frozen=True)
+class BoardFirmware:
+    """A MicroPython main file to run on the virtual board."""
+
+    main: Path
+
+    @staticmethod
+    def of(path: str) -> "BoardFirmware":
+        p = Path(path)
+        if not p.is_file():
+            raise UserError(f"--firmware {path}: not a file (give a MicroPython main file)")
+        return BoardFirmware(p.resolve())
+
+    def command(self) -> list[str]:
+        return [firmware_command("micropython")[0], str(self.main)]
+
+    def env(self) -> dict[str, str]:
+        return {"MICROPYPATH": f"{BOARD_DIR}:" + firmware_env(0)["MICROPYPATH"],
+                sim_link.ENV_BOARD: sim_link.BOARD_NAME}
+
+    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+        """Start the firmware, serve its link to the end, and judge how it ended: one
+        line (``UserError``) for a crash, a hang or an exit before ``end_us``. The
+        console's ``event KIND TEXT`` lines (hal/base.py ``Board.event``) are its events."""
+        with tempfile.TemporaryFile() as console:
+            fw = FirmwareProcess("micropython", command=self.command(), extra_env=self.env(),
+                                 console=console)
+            fw.conn.sock.settimeout(HANG_WALL_S)
+            hung = ""
+            try:
+                server.serve(fw.conn, end_us, result)
+            except TimeoutError:
+                hung = (f"the firmware hung: no link message for {HANG_WALL_S:g} s of wall "
+                        f"time (at t={server.clock.t_us * 1e-6:.6f} s)")
+                fw.proc.kill()
+            finally:
+                code, _, err = fw.finish()
+            console.seek(0)
+            printed = console.read().decode(errors="replace")
+            for kind, text in console_events(printed):
+                server.take_event(kind, text, result)
+        result.exit_code = code
+        result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
+        t_s = server.clock.t_us * 1e-6
+        last = (err.strip().splitlines() or printed.strip().splitlines() or ["no message"])[-1]
+        if hung:
+            raise UserError(hung)
+        if code != 0:
+            raise UserError(f"the firmware crashed at t={t_s:.6f} s (exit {code}): {last}")
+        if server.clock.t_us < end_us:
+            raise UserError(f"the firmware exited at t={t_s:.6f} s, before the run's end "
+                            f"({end_us * 1e-6:g} s)")
+
+
+def console_events(text: str) -> list[tuple[int, str]]:
+    """(kind, text) of each ``event KIND TEXT`` line a firmware printed (a traceback's
+    following lines belong to its event)."""
+    out: list[tuple[int, str]] = []
+    for line in text.splitlines():
+        parts = line.split(" ", 2)
+        if len(parts) >= 2 and parts[0] == "event" and parts[1].isdigit():
+            out.append((int(parts[1]), parts[2] if len(parts) > 2 else ""))
+        elif out and out[-1][0] == sim_link.EVENT_EXCEPTION:
+            out[-1] = (out[-1][0], out[-1][1] + "\n" + line)
+    return out
