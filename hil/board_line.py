@@ -143,10 +143,10 @@ class BoardFirmware:
                 fw.proc.kill()
             finally:
                 code, _, err = fw.finish()
-            console.seek(0)
-            printed = console.read().decode(errors="replace")
-            for kind, text in console_events(printed):
-                server.take_event(kind, text, result)
+                console.seek(0)
+                printed = console.read().decode(errors="replace")
+                for kind, text in console_events(printed):
+                    server.take_event(kind, text, result)
         result.exit_code = code
         result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
         t_s = server.clock.t_us * 1e-6
@@ -161,13 +161,15 @@ class BoardFirmware:
 
 
 def console_events(text: str) -> list[tuple[int, str]]:
-    """(kind, text) of each ``event KIND TEXT`` line a firmware printed (a traceback's
-    following lines belong to its event)."""
+    """(kind, text) of what a firmware printed: an ``event KIND TEXT`` line is that event
+    (a traceback's following lines belong to it), any other line an ``EVENT_LOG``."""
     out: list[tuple[int, str]] = []
     for line in text.splitlines():
         parts = line.split(" ", 2)
         if len(parts) >= 2 and parts[0] == "event" and parts[1].isdigit():
             out.append((int(parts[1]), parts[2] if len(parts) > 2 else ""))
-        elif out and out[-1][0] == sim_link.EVENT_EXCEPTION:
+        elif out and out[-1][0] == sim_link.EVENT_EXCEPTION and line.startswith(" "):
             out[-1] = (out[-1][0], out[-1][1] + "\n" + line)
+        else:
+            out.append((sim_link.EVENT_LOG, line))
     return out
