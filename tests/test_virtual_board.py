@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from hil import board_line
-from hil.board_line import BoardFirmware
+from hil.board_line import MISTAKES, BoardFirmware
+from hil.master_check import MasterCheck
 from hil.sim import Simulator
 from hil.scenario import SCHEMA
 from host_tools import cli
@@ -189,3 +190,25 @@ def test_our_firmware_runs_on_the_board_back_end():
     assert s["unhandled_exceptions"] == 0 and s["state"] == "walking"
     assert s["cycles"] >= 250 and s["body"]["dx_m"] > 0.15
     assert not s["faults"]
+
+
+def test_the_master_check_names_both_direction_mistakes(tmp_path):
+    main = tmp_path / "main.py"
+    main.write_text(PING + '''
+uart.write(packet(1, 1))                 # direction low: never reaches the line
+direction.value(1)
+uart.write(packet(2, 1))                 # ... and never lowered: the status is lost
+time.sleep_ms(5)
+direction.value(0)
+while True:
+    time.sleep_ms(20)
+''')
+    sc = {s: {} for s in SCHEMA}
+    sc["_path"] = "<test>"
+    sim = Simulator(sc, 0)
+    sim.bus.monitor = check = MasterCheck()
+    result = sim.run(0.1, board=BoardFirmware.of(str(main)))
+    assert result.exit_code == 0, result.stderr_tail
+    assert check.counts["tx_while_receiving"] == 1 and check.counts["rx_while_transmitting"] == 1
+    assert result.faults == {"tx_while_receiving": 1, "rx_while_transmitting": 1}
+    assert [e["kind"] for e in check.summary()["events"]] == list(MISTAKES)
