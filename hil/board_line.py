@@ -101,8 +101,9 @@ class BoardLine:
         else:
             rx = bus.master_read(nrx, 0)
         bits = server.switches.sample(clock.t_us, result)
-        head = struct.pack("<BBQ", sim_link.FLAG_END if ended else 0, bits,
-                           bus.next_byte_us() or sim_link.NO_RX)
+        next_us, pending = bus.next_bytes()
+        head = struct.pack("<BBQH", sim_link.FLAG_END if ended else 0, bits,
+                           next_us or sim_link.NO_RX, pending)
         return head + rx
 
 

@@ -252,13 +252,15 @@ class Bus:
         return any(b.reply and self.byte_end_us(b.start_us, len(b.data) - 1) > t_us
                    for b in self._rx)
 
-    def next_byte_us(self) -> int | None:
-        """When the next byte the master has not read will have arrived, or None (the
-        virtual board's UART, hil/board_line.py, sleeps until then instead of polling)."""
+    def next_bytes(self) -> tuple[int | None, int]:
+        """When the next byte the master has not read will have arrived (None: no byte on
+        its way), and how many bytes its burst holds from it on, back to back (the
+        virtual board's UART, hil/board_line.py, counts them itself instead of asking)."""
         for b in self._rx:
             if b.read < len(b.data):
-                return self.byte_end_us(b.start_us, b.read) + self.rx_latency_us
-        return None
+                return self.byte_end_us(b.start_us, b.read) + self.rx_latency_us, \
+                    len(b.data) - b.read
+        return None, 0
 
     def master_discard(self) -> int:
         """Drop the bytes that have arrived by now unread (the master's receiver was off);

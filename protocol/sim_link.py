@@ -16,8 +16,8 @@ Requests (client -> host):
                                                                 u8 n, n x (u16 id, u8 dlc, 8 data)
   M more        (empty): the CAN frames a reply with FLAG_MORE left queued; same reply as S
   L line        u64 at_us, u8 flags, u16 nrx, tx bytes   reply: t_us, u8 flags, u8 switches,
-                (the virtual board's UART and direction        u64 next_rx_us, rx bytes (<= nrx)
-                pin: docs/link.md "L line")
+                (the virtual board's UART and direction        u64 next_rx_us, u16 pending,
+                pin: docs/link.md "L line")                    rx bytes (<= nrx)
 Posted:
   W write       tx bytes (UART write, no reply expected)
   C can         u16 id, u8 dlc, data (dlc bytes)
@@ -62,7 +62,7 @@ BOARD_NAME = "stm32f411"
 LINE_DIR_TX = 0x01   # line request flag: the direction pin is high (transmit)
 LINE_POLL = 0x02     # line request flag: a busy-wait poll, not an action of the firmware
 LINE_HEAD_LEN = 11   # line request: u64 at_us, u8 flags, u16 nrx
-LINE_REPLY_HEAD_LEN = 18  # line reply: t_us, u8 flags, u8 switches, u64 next_rx_us
+LINE_REPLY_HEAD_LEN = 20  # line reply: t_us, u8 flags, u8 switches, u64 next_rx_us, u16 pending
 NO_RX = 0            # line reply's next_rx_us when no byte is on its way
 
 

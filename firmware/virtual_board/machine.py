@@ -110,7 +110,7 @@ class UART:
     def any(self):
         b = self.board
         b.poll()
-        return len(b.rxbuf)
+        return b.rx_count()
 
     def txdone(self):
         b = self.board
@@ -127,7 +127,7 @@ class UART:
         out = bytearray()
         wait = self.timeout_us
         while n is None or len(out) < n:
-            if not b.rxbuf and not b.wait_rx(b.now_us + wait):
+            if not b.rxbuf and not b.wait_rx(0 if n is None else n - len(out), b.now_us + wait):
                 break
             k = len(b.rxbuf) if n is None else min(n - len(out), len(b.rxbuf))
             out.extend(b.rxbuf[:k])
@@ -150,7 +150,7 @@ class UART:
         out = bytearray()
         wait = self.timeout_us
         while True:
-            if not b.rxbuf and not b.wait_rx(b.now_us + wait):
+            if not b.rxbuf and not b.wait_rx(1, b.now_us + wait):
                 break
             c = b.rxbuf[0]
             b.rxbuf = b.rxbuf[1:]

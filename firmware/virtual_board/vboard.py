@@ -78,6 +78,7 @@ class Board:
         self.dir_tx = False
         self.rxbuf = bytearray()
         self.next_rx_us = 0         # 0: no byte on its way
+        self.pending = 0            # bytes arriving back to back from next_rx_us on
         self.tx_end_us = 0          # when the last written byte has left the wire
         self.char_us = 10000000 // BAUD
         self.irqs = {}              # switch index -> (pin, handler, trigger)
@@ -90,15 +91,26 @@ class Board:
         self.now_us += QUANTUM_US
         if self.ended:   # the run is over; what the firmware does on its way out is free
             return
-        if (self.next_rx_us and self.now_us >= self.next_rx_us) or \
-                self.now_us - self.link.t_us >= SYNC_US:
+        if self.now_us - self.link.t_us >= SYNC_US:
             self.line(b"", True)
 
+    def rx_count(self):
+        """Bytes received by ``now_us``: the buffer's and those of the announced burst that
+        have arrived since (none while the direction pin is high: the receiver is off)."""
+        n = len(self.rxbuf)
+        if self.next_rx_us and not self.dir_tx and self.now_us >= self.next_rx_us:
+            n += min(self.pending, 1 + (self.now_us - self.next_rx_us) // self.char_us)
+        return n
+
     def sleep_until(self, t_us):
-        """Idle to ``t_us``: the host moves the world, samples switches, hands CAN frames."""
+        """Idle to ``t_us``: the host moves the world, samples switches, hands CAN frames.
+        A sleep that ends within ``SYNC_US`` of the host's time stays on the board."""
         self._check_end()
         if t_us < self.now_us:
             t_us = self.now_us
+        if t_us - self.link.t_us < SYNC_US:
+            self.now_us = t_us
+            return
         link = self.link
         k = link.begin(sim_link.OP_SLEEP, 8)
         struct.pack_into("<Q", link.out, k, t_us)
@@ -109,8 +121,6 @@ class Board:
         self.now_us = max(self.now_us, link.t_us)
         if flags & sim_link.FLAG_END:
             self._end()
-        if self.next_rx_us and self.now_us >= self.next_rx_us:
-            self.line(b"", True)
 
     def _sleep_reply(self, length):
         rx = self.link.rx
@@ -137,7 +147,7 @@ class Board:
             link.out[k + sim_link.LINE_HEAD_LEN:k + sim_link.LINE_HEAD_LEN + n] = tx
         length = link.call()
         rx = link.rx
-        self.next_rx_us = struct.unpack_from("<Q", rx, 10)[0]
+        self.next_rx_us, self.pending = struct.unpack_from("<QH", rx, 10)
         if length > sim_link.LINE_REPLY_HEAD_LEN:
             self.rxbuf.extend(link.rxmv[sim_link.LINE_REPLY_HEAD_LEN:length])
         if n:   # write returns when the last byte is in the shift register (stm32 port)
@@ -154,15 +164,17 @@ class Board:
         if self.now_us < self.tx_end_us:
             self.now_us = self.tx_end_us
 
-    def wait_rx(self, deadline_us):
-        """Move to the next byte's arrival, or to ``deadline_us`` if none comes before it;
-        True if a byte is in the buffer."""
-        if not self.rxbuf:
-            if self.next_rx_us and self.next_rx_us <= deadline_us:
-                self.now_us = max(self.now_us, self.next_rx_us)
-            else:
-                self.now_us = max(self.now_us, deadline_us)
-            self.line(b"", True)
+    def wait_rx(self, want, deadline_us):
+        """Move to the arrival of ``want`` more bytes (as many as the announced burst
+        holds; 0: all of it), or to ``deadline_us`` if none comes before; fetch what has
+        arrived. True if a byte is in the buffer."""
+        first = self.next_rx_us
+        if first and not self.dir_tx and first <= max(deadline_us, self.now_us):
+            k = self.pending if want <= 0 else min(want, self.pending)
+            self.now_us = max(self.now_us, first + (k - 1) * self.char_us)
+        else:
+            self.now_us = max(self.now_us, deadline_us)
+        self.line(b"", True)
         return len(self.rxbuf) > 0
 
     # --- switches -------------------------------------------------------------------
