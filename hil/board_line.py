@@ -23,6 +23,7 @@ from protocol import sim_link
 from protocol.errors import UserError
 
 BOARD_DIR = ROOT / "firmware" / "virtual_board"
+RUNTIME = "micropython-board"   # the run's firmware_runtime
 HANG_S = 2.0          # virtual seconds without a UART write, pin turn or sleep: a hang
 HANG_WALL_S = 20.0    # wall seconds without a link message: a hang outside virtual time
 TX_WHILE_RECEIVING = "tx_while_receiving"

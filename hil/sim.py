@@ -29,6 +29,7 @@ import struct
 import time
 from typing import Any, Callable
 
+from hil import board_line
 from hil import rig as rig_mod
 from hil.can_bus import CanBus, RecorderListener
 from hil.ground_truth import GroundTruth
@@ -134,7 +135,7 @@ class Simulator:
         if in_process is not None:
             python = IN_PROCESS
         if board is not None:
-            python = "micropython-board"
+            python = board_line.RUNTIME
         end_us = int(round(duration_s * 1e6))
         result = RunResult(runtime="none" if self._stepped else python)
         wall0 = time.perf_counter()

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from hil import scenario as scenario_mod
+from hil import board_line
 from hil.board_line import BoardFirmware
 from hil.rig import make_world
 from hil.run_result import RunResult
@@ -135,6 +136,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     if can_wait_clients < 0:
         raise UserError(f"--can-wait must be 0 or more, got {can_wait_clients}")
     python = python or sc["firmware"].get("python", "micropython")
+    if board is not None:
+        python = board_line.RUNTIME
     beams = sc["world"].get("kind") == "beams"
     if beams:
         from host_tools.traversal.closed_loop import config_from_scenario

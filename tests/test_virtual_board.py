@@ -212,3 +212,16 @@ while True:
     assert check.counts["tx_while_receiving"] == 1 and check.counts["rx_while_transmitting"] == 1
     assert result.faults == {"tx_while_receiving": 1, "rx_while_transmitting": 1}
     assert [e["kind"] for e in check.summary()["events"]] == list(MISTAKES)
+
+
+def test_a_board_trace_replays_into_its_firmware_and_a_change_diverges(tmp_path):
+    trace = tmp_path / "t.mcap"
+    assert hexhil("run", "scenarios/flat-tripod.toml", "--firmware", str(EXAMPLE),
+                  "--duration", "2", "--out", str(trace)).returncode == 0
+    same = hexhil("replay", str(trace), "--firmware", str(EXAMPLE))
+    assert same.returncode == 0 and same.stdout.startswith("identical:"), same.stdout
+    changed = tmp_path / "main.py"
+    changed.write_text(EXAMPLE.read_text().replace("STEP, LIFT, PERIOD_S, CYCLE_MS = 0.05",
+                                                   "STEP, LIFT, PERIOD_S, CYCLE_MS = 0.06"))
+    diff = hexhil("replay", str(trace), "--firmware", str(changed))
+    assert diff.returncode == 1 and " on uart:" in diff.stdout, diff.stdout
