@@ -14,6 +14,7 @@ import socket
 import struct
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Any, Callable
 
@@ -23,6 +24,7 @@ from protocol.errors import UserError
 ROOT = Path(__file__).resolve().parent.parent
 REQUEST_OPS = sim_link.REQUEST_OPS
 RUNTIMES = ("micropython", "cpython")
+ACCEPT_POLL_S = 0.1   # how often a firmware not connected yet is checked for having exited
 IN_PROCESS = "cpython-inprocess"   # the firmware under this CPython, in this process (sweeps)
 
 
@@ -178,7 +180,7 @@ class FirmwareProcess:
         srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         srv.bind(("127.0.0.1", 0))
         srv.listen(1)
-        srv.settimeout(connect_timeout_s)
+        srv.settimeout(ACCEPT_POLL_S)
         self.port = srv.getsockname()[1]
         try:
             self.proc = subprocess.Popen(cmd, cwd=ROOT,
@@ -189,17 +191,29 @@ class FirmwareProcess:
             srv.close()
             raise UserError(f"cannot start the firmware ({' '.join(cmd)}): {exc.strerror}") from None
         try:
-            sock, _ = srv.accept()
-        except socket.timeout:
-            self.proc.kill()
-            _, err = self.proc.communicate()
-            tail = err.decode(errors="replace").strip().splitlines()[-1:] or ["no output"]
-            raise UserError(f"the firmware ({' '.join(cmd)}) did not connect within "
-                            f"{connect_timeout_s:g} s: {tail[0]}") from None
+            sock = self._accept(srv, cmd, connect_timeout_s)
         finally:
             srv.close()
         sock.settimeout(None)
         self.conn = Connection(sock)
+
+    def _accept(self, srv: socket.socket, cmd: list[str], timeout_s: float) -> socket.socket:
+        """The firmware's connection; one line if it exits first or takes too long."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                return srv.accept()[0]
+            except socket.timeout:
+                code = self.proc.poll()
+                if code is None and time.monotonic() < deadline:
+                    continue
+            if code is None:
+                self.proc.kill()
+            _, err = self.proc.communicate()
+            tail = err.decode(errors="replace").strip().splitlines()[-1:] or ["no output"]
+            what = (f"did not connect within {timeout_s:g} s" if code is None
+                    else f"exited with code {code} before it connected to the link")
+            raise UserError(f"the firmware ({' '.join(cmd)}) {what}: {tail[0]}") from None
 
     def finish(self, timeout_s: float = 10.0) -> tuple[int, str, str]:
         """Wait for the process to exit; (return code, stdout, stderr)."""

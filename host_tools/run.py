@@ -127,6 +127,10 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     """
     sc = scenario_mod.load(path)
     board = BoardFirmware.of(firmware) if firmware is not None else None
+    if board is not None and (python is not None or sc["world"].get("kind") == "beams"):
+        raise UserError("--firmware runs a main file under micropython on the virtual board: "
+                        + ("not with --python" if python is not None
+                           else "a beams scenario has no firmware"))
     if seed is None:
         seed = sc["scenario"].get("seed", 0)
     if duration_s is not None and not duration_s > 0:

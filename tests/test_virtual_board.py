@@ -225,3 +225,11 @@ def test_a_board_trace_replays_into_its_firmware_and_a_change_diverges(tmp_path)
                                                    "STEP, LIFT, PERIOD_S, CYCLE_MS = 0.06"))
     diff = hexhil("replay", str(trace), "--firmware", str(changed))
     assert diff.returncode == 1 and " on uart:" in diff.stdout, diff.stdout
+
+
+def test_a_firmware_that_never_touches_the_board(tmp_path):
+    main = tmp_path / "main.py"
+    main.write_text("print('hello')\n")
+    r = hexhil("run", "scenarios/flat-tripod.toml", "--firmware", str(main))
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert "exited with code 0 before it connected to the link" in r.stderr, r.stderr
