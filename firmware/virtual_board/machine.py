@@ -8,6 +8,18 @@ written to them and drive nothing. Time is vboard.py's virtual time.
 import vboard
 
 
+FREQ_HZ = 100000000   # the STM32F411RE (seed 003 Sec. 3.1) at its rated maximum clock (ST datasheet)
+
+
+def freq():
+    return FREQ_HZ
+
+
+def idle():
+    """Wait for an interrupt: on the board, one busy-wait poll (vboard.py)."""
+    vboard.board().poll()
+
+
 def _switch_index(name):
     return vboard.SWITCH_PINS.index(name) if name in vboard.SWITCH_PINS else -1
 
