@@ -233,3 +233,39 @@ def test_a_firmware_that_never_touches_the_board(tmp_path):
     r = hexhil("run", "scenarios/flat-tripod.toml", "--firmware", str(main))
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
     assert "exited with code 0 before it connected to the link" in r.stderr, r.stderr
+
+
+def test_pyb_can_sends_and_receives_on_the_runs_bus(tmp_path):
+    main = tmp_path / "main.py"
+    main.write_text('''
+import json, time, pyb
+can = pyb.CAN(1, pyb.CAN.NORMAL, baudrate=500000)
+can.send(b"\\x07", 0x42)
+t0 = time.ticks_us()
+while not can.any():              # busy-waits: asks the host at most every millisecond
+    pass
+arb_id, rtr, fmi, data = can.recv(0, timeout=0)
+print("event 3", json.dumps({"id": arb_id, "data": list(data),
+                             "waited_us": time.ticks_diff(time.ticks_us(), t0)}))
+while True:
+    time.sleep_ms(20)
+''')
+
+    class Sender:
+        period_us = 50_000
+
+        def __init__(self, sim):
+            self.sim = sim
+
+        def tick(self, t_us):
+            self.sim.send_can(0x123, bytes((t_us // 1000,)))
+
+    sc = {s: {} for s in SCHEMA}
+    sc["_path"] = "<test>"
+    sim = Simulator(sc, 0)
+    sim.add_node(Sender(sim))
+    result = sim.run(0.2, board=BoardFirmware.of(str(main)))
+    assert result.exit_code == 0, result.stderr_tail
+    assert result.firmware["id"] == 0x123 and result.firmware["data"] == [50]
+    assert 50_000 <= result.firmware["waited_us"] < 51_100
+    assert sum(result.can_frames.values()) == 1

@@ -1,6 +1,6 @@
 """Stand-in for ``pyb`` on the virtual board: ``pyb.CAN(1)`` on the run's CAN bus (the
 stm32 port's API as firmware/hal/board.py uses it). Frames sent are posted at once;
-frames for the board arrive with each sleep (vboard.py)."""
+frames for the board arrive with its sleeps and ``any()`` (vboard.py)."""
 import vboard
 
 
@@ -28,8 +28,7 @@ class CAN:
         self.board.post_can(arb_id, bytes(data))
 
     def any(self, fifo=0):
-        self.board.poll()
-        return len(self.board.can_rx) > 0
+        return self.board.can_any()
 
     def recv(self, fifo=0, list=None, timeout=5000):
         """(id, rtr, fmi, data) of the oldest frame; OSError after ``timeout`` ms without one."""

@@ -10,8 +10,10 @@ reads the board's state (``time.ticks_*``, ``UART.any``/``txdone``, ``Pin.value(
 read) costs ``QUANTUM_US`` of virtual time, as on an instruction-counting emulator, so a
 loop that spins on them moves forward, deterministically. Sleeps jump to their end. The
 host is asked only when the answer can have changed: a UART write, a turn of the
-direction pin, a sleep, the time a received byte is due (each reply says when the next
-one arrives), and at least every ``SYNC_US`` of local time (switch levels, the run's end).
+direction pin, a read that needs bytes (each reply says when the next bytes arrive, so
+``any()`` counts them without asking), a sleep of ``SYNC_US`` or more, and after
+``SYNC_US`` of local time (switch levels, the run's end); CAN frames come with the
+sleeps, and ``pyb.CAN.any()`` asks for them at most every ``SYNC_US``.
 MicroPython-compatible (unix port).
 """
 import struct
@@ -37,15 +39,12 @@ def _link_class():
     import utime
     import firmware.hal.base  # noqa: F401  (keeps the stand-in time)
 
-    own = sys.modules.get("time")
+    own = sys.modules["time"]
     sys.modules["time"] = utime
     try:
         from firmware.hal.sim import Link
     finally:
-        if own is None:
-            del sys.modules["time"]
-        else:
-            sys.modules["time"] = own
+        sys.modules["time"] = own
     return Link
 
 
@@ -83,6 +82,7 @@ class Board:
         self.char_us = 10000000 // BAUD
         self.irqs = {}              # switch index -> (pin, handler, trigger)
         self.can_rx = []
+        self.can_sync_us = 0        # when the host last handed CAN frames over
         self.ended = False
 
     # --- time -----------------------------------------------------------------------
@@ -111,6 +111,11 @@ class Board:
         if t_us - self.link.t_us < SYNC_US:
             self.now_us = t_us
             return
+        self.sync(t_us)
+
+    def sync(self, t_us):
+        """The host's sleep request to ``t_us``: switches, CAN frames, the run's end."""
+        self._check_end()
         link = self.link
         k = link.begin(sim_link.OP_SLEEP, 8)
         struct.pack_into("<Q", link.out, k, t_us)
@@ -119,8 +124,17 @@ class Board:
             link.begin(sim_link.OP_MORE, 0)
             flags = self._sleep_reply(link.call())
         self.now_us = max(self.now_us, link.t_us)
+        self.can_sync_us = self.now_us
         if flags & sim_link.FLAG_END:
             self._end()
+
+    def can_any(self):
+        """Whether a CAN frame waits; with none, the host is asked (a sleep to now) once
+        ``SYNC_US`` has passed since it last handed frames over."""
+        self.poll()
+        if not self.can_rx and self.now_us - self.can_sync_us >= SYNC_US:
+            self.sync(self.now_us)
+        return len(self.can_rx) > 0
 
     def _sleep_reply(self, length):
         rx = self.link.rx
