@@ -44,6 +44,7 @@ class BoardLine:
         self.bus, self.clock = server.bus, server.clock
         self.tx_on = False
         self.quiet_since_us = self.clock.t_us
+        self._kept = b""     # bytes received before a turn to transmit, for the next reply
 
     def active(self) -> None:
         """The firmware did something (a write, a pin turn, a sleep): it is not hung."""
@@ -65,6 +66,30 @@ class BoardLine:
             self._mistake(RX_WHILE_TRANSMITTING, f"{lost} status bytes arrived while the "
                           "direction pin (A1) was high: the receiver was off", result)
 
+    def _idle_to(self, t_us: int) -> None:
+        if t_us > self.clock.t_us:
+            self.bus.idle_until(t_us)
+            self.server.on_wake(self.clock.t_us)
+            self.server.on_slept()
+
+    def _set_direction(self, tx_on: bool, result: RunResult) -> None:
+        """The pin turns now: a turn to receive loses what came in while transmitting;
+        a turn to transmit keeps what came in before it."""
+        if self.tx_on and not tx_on:
+            self._lose(result)
+        elif tx_on and not self.tx_on:
+            self._kept += self.bus.master_read(sim_link.MAX_RX_LEN, 0)
+        self.tx_on = tx_on
+
+    def turn(self, payload: bytes, end_us: int, result: RunResult) -> None:
+        """A posted direction message: the pin took ``level`` at ``turn_us``."""
+        if len(payload) != sim_link.DIRECTION_LEN:
+            raise LineViolation(f"malformed direction message ({len(payload)} bytes)")
+        turn_us, level = struct.unpack_from("<QB", payload, 0)
+        self._idle_to(min(turn_us, end_us))
+        self.active()
+        self._set_direction(bool(level), result)
+
     def answer(self, payload: bytes, end_us: int, result: RunResult) -> bytes:
         """Carry out one line request; the reply's body (after ``t_us``)."""
         if len(payload) < sim_link.LINE_HEAD_LEN:
@@ -77,19 +102,16 @@ class BoardLine:
         clock, bus, server = self.clock, self.bus, self.server
         if ended:
             at_us = end_us
-        if at_us > clock.t_us:
-            bus.idle_until(at_us)
-            server.on_wake(clock.t_us)
-            server.on_slept()
+        self._idle_to(at_us)
         tx_on = bool(flags & sim_link.LINE_DIR_TX)
         if not flags & sim_link.LINE_POLL or tx_on != self.tx_on:
             self.active()
         elif clock.t_us - self.quiet_since_us >= HANG_S * 1e6:
             raise LineViolation(f"the firmware hung: no UART write, direction turn or sleep "
                                 f"for {HANG_S:g} virtual seconds (since t={self.quiet_since_us * 1e-6:.6f} s)")
-        if self.tx_on:
-            self._lose(result)   # what came in while transmitting (before a turn, too)
-        self.tx_on = tx_on
+        self._set_direction(tx_on, result)
+        if tx_on:
+            self._lose(result)   # what came in while transmitting
         if tx and tx_on:
             bus.master_write(tx)
         elif tx:
@@ -98,9 +120,9 @@ class BoardLine:
             bus.idle_until(clock.t_us + bus.wire_us(len(tx)))
         if tx_on:
             self._lose(result)
-            rx = b""
-        else:
-            rx = bus.master_read(nrx, 0)
+        rx, self._kept = self._kept[:nrx], self._kept[nrx:]
+        if not tx_on and len(rx) < nrx:
+            rx += bus.master_read(nrx - len(rx), 0)
         bits = server.switches.sample(clock.t_us, result)
         next_us, pending = bus.next_bytes()
         head = struct.pack("<BBQH", sim_link.FLAG_END if ended else 0, bits,

@@ -232,10 +232,13 @@ class LinkServer:
             elif op == sim_link.OP_MORE:
                 more, body = self._can_records()
                 reply = struct.pack("<BB", more, self.switches.bits) + body
-            elif op == sim_link.OP_LINE:
+            elif op in (sim_link.OP_LINE, sim_link.OP_DIRECTION):
                 if self.line is None:
                     self.line = BoardLine(self)
-                reply = self.line.answer(payload, end_us, result)
+                if op == sim_link.OP_LINE:
+                    reply = self.line.answer(payload, end_us, result)
+                else:
+                    self.line.turn(payload, end_us, result)
             elif op == sim_link.OP_HELLO:
                 reply = self._hello_reply(payload, result)
             else:

@@ -49,8 +49,7 @@ class Pin:
         level = 1 if x else 0
         Pin._levels[self.name] = level
         if self.name == vboard.DIR_PIN and bool(level) != self.board.dir_tx:
-            self.board.dir_tx = bool(level)
-            self.board.line(b"")   # the host turns the line round at this instant
+            self.board.turn(level)   # the host turns the line round at this instant
         return None
 
     def _read(self):

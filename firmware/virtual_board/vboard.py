@@ -9,11 +9,12 @@ The busy-wait rule: the board keeps its own virtual time ``now_us``. Every call 
 reads the board's state (``time.ticks_*``, ``UART.any``/``txdone``, ``Pin.value()`` as a
 read) costs ``QUANTUM_US`` of virtual time, as on an instruction-counting emulator, so a
 loop that spins on them moves forward, deterministically. Sleeps jump to their end. The
-host is asked only when the answer can have changed: a UART write, a turn of the
-direction pin, a read that needs bytes (each reply says when the next bytes arrive, so
-``any()`` counts them without asking), a sleep of ``SYNC_US`` or more, and after
-``SYNC_US`` of local time (switch levels, the run's end); CAN frames come with the
-sleeps, and ``pyb.CAN.any()`` asks for them at most every ``SYNC_US``.
+host is asked only when the answer can have changed: a UART write, a read that needs
+bytes (each reply says when the next bytes arrive, so ``any()`` counts them without
+asking), a sleep of ``SYNC_US`` or more, and after ``SYNC_US`` of local time (switch
+levels, the run's end). A turn of the direction pin is posted with the next question.
+CAN frames come with the sleeps, and ``pyb.CAN.any()`` asks for them at most every
+``SYNC_US``.
 MicroPython-compatible (unix port).
 """
 import struct
@@ -172,6 +173,21 @@ class Board:
         self._switches(rx[9])
         if rx[8] & sim_link.FLAG_END:
             self._end()
+
+    def turn(self, level):
+        """The direction pin turns now: posted to the host (it goes with the next request),
+        unless bytes of the announced burst have arrived by now: a turn to transmit
+        fetches them first, a turn to receive asks at once (some were lost)."""
+        self._check_end()
+        due = self.next_rx_us and self.next_rx_us <= self.now_us
+        if level and due:
+            self.line(b"")
+        self.dir_tx = bool(level)
+        link = self.link
+        k = link.begin(sim_link.OP_DIRECTION, sim_link.DIRECTION_LEN)
+        struct.pack_into("<QB", link.out, k, self.now_us, 1 if level else 0)
+        if not level and due:
+            self.line(b"")
 
     def flush_tx(self):
         """Wait until the last written byte has left the wire (``UART.flush``)."""
