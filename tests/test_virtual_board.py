@@ -126,14 +126,15 @@ while True:
 def test_switch_pins_and_their_irq_follow_the_switches(tmp_path):
     main = tmp_path / "main.py"
     main.write_text('''
-import time
+import json, time
 from machine import Pin
 falls = []
 pins = [Pin(n, Pin.IN, Pin.PULL_UP) for n in ("B0", "B1", "B2", "B3", "B4", "B5")]
 pins[3].irq(lambda p: falls.append(time.ticks_ms()), Pin.IRQ_FALLING)
-print("event 0 before", [p.value() for p in pins])
+before = [p.value() for p in pins]
 time.sleep_ms(100)
-print("event 0 after", [p.value() for p in pins], falls)
+print("event 3", json.dumps({"before": before, "after": [p.value() for p in pins],
+                             "falls": falls}))
 while True:
     time.sleep_ms(20)
 ''')
@@ -143,6 +144,7 @@ while True:
         0.2, board=BoardFirmware.of(str(main)))
     assert result.exit_code == 0, result.stderr_tail
     assert result.switch_edges == 1
+    assert result.firmware == {"before": [1] * 6, "after": [1, 1, 1, 0, 1, 1], "falls": [50]}
 
 
 @pytest.mark.parametrize("tail,message", [

@@ -105,13 +105,16 @@ class Board:
 
     def sleep_until(self, t_us):
         """Idle to ``t_us``: the host moves the world, samples switches, hands CAN frames.
-        A sleep that ends within ``SYNC_US`` of the host's time stays on the board."""
+        A sleep that ends within ``SYNC_US`` of the host's time stays on the board; with a
+        pin ``irq`` set, the host is asked every ``SYNC_US`` of it."""
         self._check_end()
         if t_us < self.now_us:
             t_us = self.now_us
         if t_us - self.link.t_us < SYNC_US:
             self.now_us = t_us
             return
+        while self.irqs and t_us - self.now_us > SYNC_US:   # an edge interrupts the sleep
+            self.sync(self.now_us + SYNC_US)
         self.sync(t_us)
 
     def sync(self, t_us):
@@ -139,6 +142,7 @@ class Board:
 
     def _sleep_reply(self, length):
         rx = self.link.rx
+        self.now_us = max(self.now_us, self.link.t_us)
         self._switches(rx[9])
         p = sim_link.SLEEP_HEAD_LEN
         for _ in range(rx[10]):
