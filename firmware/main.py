@@ -20,11 +20,17 @@ def _board():
         from firmware.hal.serial import Board
         from firmware.sensor_switches import attach
         return attach(Board())
-    if sys.platform in ("linux", "darwin", "win32"):
+    if sys.platform in ("linux", "darwin", "win32") and not _on_virtual_board():
         from firmware.hal.sim import Board
     else:
         from firmware.hal.board import Board
     return Board()
+
+
+def _on_virtual_board():
+    """``hexhil run --firmware firmware/main.py``: the unix port stands in for the board."""
+    import os
+    return os.getenv(sim_link.ENV_BOARD) == sim_link.BOARD_NAME
 
 
 def _traceback(exc):

@@ -255,6 +255,36 @@ class Bus:
         return any(b.reply and self.byte_end_us(b.start_us, len(b.data) - 1) > t_us
                    for b in self._rx)
 
+    def next_bytes(self) -> tuple[int | None, int]:
+        """When the next byte the master has not read will have arrived (None: no byte on
+        its way), and how many bytes its burst holds from it on, back to back (the
+        virtual board's UART, hil/board_line.py, counts them itself instead of asking)."""
+        for b in self._rx:
+            if b.read < len(b.data):
+                return self.byte_end_us(b.start_us, b.read) + self.rx_latency_us, \
+                    len(b.data) - b.read
+        return None, 0
+
+    def master_discard(self) -> int:
+        """Drop the bytes that have arrived by now unread (the master's receiver was off);
+        returns how many of them were status bytes (echoed bytes are not counted)."""
+        now, rx, lost = self.clock.t_us, self._rx, 0
+        while rx:
+            b = rx[0]
+            i = b.read
+            while i < len(b.data) and self.byte_end_us(b.start_us, i) + self.rx_latency_us <= now:
+                i += 1
+            if b.reply:
+                lost += i - b.read
+            b.read = i
+            if i < len(b.data):
+                break
+            if b.reply and not b.emitted and self.on_bytes is not None:
+                b.emitted = True
+                self.on_bytes(b.start_us, "rx", bytes(b.data))
+            rx.pop(0)
+        return lost
+
     # --- the line -------------------------------------------------------------------
     def _collide(self, tx: bytearray, t0: int, t1: int) -> None:
         """Master bytes overlapping servo bytes: both become the wired AND."""

@@ -11,6 +11,7 @@ import json
 import struct
 from typing import Any, Callable
 
+from hil.board_line import BoardLine, LineViolation
 from hil.can_bus import CanBus
 from hil.link import Connection, DirectConnection
 from hil.run_result import RunResult
@@ -81,6 +82,7 @@ class LinkServer:
         self.byte_us = 10_000_000 / self.bus.baud
         self._counting = False   # bus time counts from the first sleep on (boot excluded)
         self._held: list = []    # frames taken from the inbox that the last reply had no room for
+        self.line: BoardLine | None = None   # the virtual board's UART, at its first line request
 
     def _event(self, payload: bytes, result: RunResult) -> None:
         if not payload:
@@ -88,11 +90,12 @@ class LinkServer:
         kind = payload[0]
         text = bytes(payload[1:]).decode("utf-8", errors="replace")
         try:
-            self._take_event(kind, text, result)
+            self.take_event(kind, text, result)
         except ValueError as exc:   # JSON that does not parse
             raise LinkViolation(f"malformed event {kind}: {exc}") from None
 
-    def _take_event(self, kind: int, text: str, result: RunResult) -> None:
+    def take_event(self, kind: int, text: str, result: RunResult) -> None:
+        """An event of the firmware's (``EVENT_*`` kind) into the result and the trace."""
         t = self.clock.t_us
         rec = self.sim.recorder
         if kind == sim_link.EVENT_EXCEPTION:
@@ -186,8 +189,8 @@ class LinkServer:
         UserError (docs/link.md)."""
         try:
             return self._answer(conn, msgs, closed, end_us, result)
-        except (LinkViolation, struct.error) as exc:
-            text = str(exc) if isinstance(exc, LinkViolation) else f"malformed message: {exc}"
+        except (LinkViolation, LineViolation, struct.error) as exc:
+            text = f"malformed message: {exc}" if isinstance(exc, struct.error) else str(exc)
             if not closed:
                 conn.reply_error(text)
             raise UserError(f"firmware link: {text}") from None
@@ -229,11 +232,20 @@ class LinkServer:
                 if self._counting:
                     result.loop_cycles += 1
                 self._counting = True
+                if self.line is not None:
+                    self.line.active()
                 reply, _ = self._sleep_reply(wake_us, end_us, result)
                 slept = True
             elif op == sim_link.OP_MORE:
                 more, body = self._can_records()
                 reply = struct.pack("<BB", more, self.switches.bits) + body
+            elif op in (sim_link.OP_LINE, sim_link.OP_DIRECTION):
+                if self.line is None:
+                    self.line = BoardLine(self)
+                if op == sim_link.OP_LINE:
+                    reply = self.line.answer(payload, end_us, result)
+                else:
+                    self.line.turn(payload, end_us, result)
             elif op == sim_link.OP_HELLO:
                 reply = self._hello_reply(payload, result)
             else:

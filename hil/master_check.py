@@ -12,7 +12,9 @@ bytes with their own arrival times. Violation kinds (``KINDS``):
 * ``inter_byte_gap``: over 100 ms between bytes of one packet (the servo drops it);
 * ``broadcast_read_ping``: READ or PING to ID 254 (no servo answers a broadcast);
 * ``talk_over_reply``: a new packet before the previous status could have fully arrived;
-* ``bad_checksum``: a packet whose checksum is wrong.
+* ``bad_checksum``: a packet whose checksum is wrong;
+* ``tx_while_receiving``, ``rx_while_transmitting``: the virtual board's direction pin was
+  low while the master wrote, or high while a status arrived (hil/board_line.py).
 
 On a Protocol 2.0 line (``MasterCheck(protocol=2)``) the same kinds are named by the
 X-series rules (hil/master_check2.py): ``bad_checksum`` is a bad CRC, ``bad_write`` is any
@@ -27,7 +29,8 @@ from typing import Any, Callable
 from protocol import dynamixel as dxl
 
 KINDS = ("eeprom_busy", "unsupported_instruction", "bad_write", "inter_byte_gap",
-         "broadcast_read_ping", "talk_over_reply", "bad_checksum")
+         "broadcast_read_ping", "talk_over_reply", "bad_checksum", "tx_while_receiving",
+         "rx_while_transmitting")
 KINDS_2 = KINDS + ("group_read_not_broadcast",)   # Protocol 2.0
 MAX_EVENTS = 1000  # kept with their times for the summary; counts go on past it
 
@@ -57,6 +60,11 @@ class MasterCheck:
             self.events.append((t_us, kind, detail))
         if self.on_violation is not None:
             self.on_violation(t_us, kind, detail)
+
+    def direction_mistake(self, t_us: int, kind: str, detail: str) -> None:
+        """The virtual board's direction pin was wrong (``tx_while_receiving`` or
+        ``rx_while_transmitting``, hil/board_line.py)."""
+        self._flag(t_us, kind, detail)
 
     def master_bytes(self, bus: Any, t0_us: int, data: bytes) -> None:
         """A burst the master starts sending at ``t0_us`` (before the line delivers it)."""

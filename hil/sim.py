@@ -23,7 +23,7 @@ from __future__ import annotations
 import time
 from typing import Any, Callable
 
-from hil.exe_firmware import ServedFirmware
+from hil.served_firmware import ServedFirmware
 from hil.link import IN_PROCESS, DirectConnection, FirmwareProcess
 from hil.link_server import LinkServer, SwitchSampler, firmware_settings
 from hil.run_core import RunCore, WallClockPacing
@@ -183,7 +183,7 @@ class Simulator:
         The firmware is a child process (``python``, or ``command``), or with ``in_process``
         a function that runs it in this process, given the link's ``exchange``
         (hil/link.py ``DirectConnection``): the same frames without a socket, or
-        ``firmware``, one that starts and serves itself (hil/exe_firmware.py)."""
+        ``firmware``, one that starts and serves itself (hil/served_firmware.py)."""
         cfg = self.core.config
         duration_s = (cfg.scenario.duration_s if duration_s is None
                       else check_duration(duration_s, "duration_s"))

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from protocol import sim_link
+from hil.served_firmware import served_firmware
 from hil.link import REQUEST_OPS, FirmwareProcess, split_messages
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
@@ -30,7 +31,8 @@ from protocol.errors import UserError
 # What each link message is, for reports and --topics.
 OP_TOPICS = {sim_link.OP_HELLO: "hello", sim_link.OP_TRANSACT: "uart", sim_link.OP_WRITE: "uart",
              sim_link.OP_SLEEP: "sleep", sim_link.OP_MORE: "sleep", sim_link.OP_CAN: "can",
-             sim_link.OP_EVENT: "event"}
+             sim_link.OP_EVENT: "event", sim_link.OP_LINE: "uart",
+             sim_link.OP_DIRECTION: "uart"}
 TOPICS = ("uart", "can", "sleep", "event", "hello")
 # Events whose text is not a firmware output: wall-clock profiling counters.
 UNCOMPARED_EVENTS = (sim_link.EVENT_STATS,)
@@ -125,13 +127,16 @@ def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | No
 def replay_firmware(path: str | Path, python: str = "micropython", rate: float = 0.0,
                     start_s: float | None = None, end_s: float | None = None,
                     topics: Iterable[str] | None = None, timeout_s: float = 60.0,
-                    command: list[str] | None = None) -> ReplayResult:
+                    command: list[str] | None = None, firmware: str | None = None
+                    ) -> ReplayResult:
     """Serve the logged replies to a fresh firmware process and compare its messages.
 
     ``start_s``/``end_s`` bound the compared stretch (the firmware always boots from t=0,
     so replay runs from the start and stops at ``end_s``); ``topics`` limits the
     comparison to some of ``TOPICS``; ``rate`` > 0 paces replies in wall time (1.0 =
-    real time), 0 runs as fast as the firmware goes.
+    real time), 0 runs as fast as the firmware goes. ``firmware`` is the one the trace was
+    recorded with (``hexhil run --firmware``'s: a main file for the virtual board or an
+    executable).
     """
     if python not in ("micropython", "cpython"):
         raise UserError(f"--python must be micropython or cpython, not {python!r}")
@@ -152,7 +157,10 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
 
     result = ReplayResult()
     wall0 = time.perf_counter()
-    fw = FirmwareProcess(python, connect_timeout_s=timeout_s, command=command)
+    theirs = served_firmware(firmware) if firmware is not None else None
+    fw = FirmwareProcess(python, connect_timeout_s=timeout_s,
+                         command=theirs.command() if theirs else command,
+                         extra_env=theirs.env() if theirs else None)
     try:
         conn = fw.conn
         prev_t_us = 0

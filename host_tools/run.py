@@ -99,8 +99,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     ``navigator`` (``model``, ``grnn``; host_tools/grnn/navigator.py) stops the walk where
     it predicts the goal ``gait.distance_m`` is reached.
 
-    ``firmware``, an executable that speaks the link (hil/exe_firmware.py), runs instead
-    of our firmware.
+    ``firmware``, a MicroPython main file for the virtual board or an executable that
+    speaks the link (hil/served_firmware.py), runs instead of our firmware.
     """
     sc = scenario_mod.load_scenario(path)
     seed = sc.scenario.seed if seed is None else seed
@@ -109,7 +109,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     if can_server_port is not None and not 0 <= can_server_port <= 65535:
         raise UserError(f"--can-server {can_server_port}: port must be 0-65535")
     if firmware is not None and python is not None:
-        raise UserError(f"--firmware {firmware} runs that executable: leave out --python")
+        raise UserError(f"--firmware {firmware} brings its own runtime: leave out --python")
     if can_wait_clients < 0:
         raise UserError(f"--can-wait must be 0 or more, got {can_wait_clients}")
     attach_navigator = (_plan_navigation(sc, navigator, model_path) if navigator != "none"

@@ -17,11 +17,11 @@ from typing import Any
 
 from hil import scenario as scenario_mod
 from hil.can_bus import Endpoint
-from hil.exe_firmware import EXECUTABLE, ExecutableFirmware
 from hil.rig import make_world
 from hil.run_result import RunResult
 from hil.scenario import Runtime, Scenario, WorldKind
 from hil.seams import HostNode, TraceRecorder
+from hil.served_firmware import served_firmware
 from hil.sim import Simulator
 from protocol.errors import UserError
 
@@ -57,8 +57,9 @@ class Run:
     over the Foxglove WebSocket protocol on 127.0.0.1 (``live``, host_tools/trace/live.py;
     0 picks a free port; started once the world is built, so a viewer misses nothing); ``can_server`` bridges the CAN bus to socketcand
     clients; ``realtime`` paces virtual time to the wall clock; ``tactile`` overrides the
-    scenario's ``firmware.tactile``; ``firmware``, an executable that speaks the link (a C
-    firmware, docs/c-firmware.md), runs instead of ours. Close it (or use ``with``) if ``run`` is never called."""
+    scenario's ``firmware.tactile``; ``firmware``, a MicroPython main file run on the virtual
+    board (docs/your-firmware.md) or an executable that speaks the link (a C firmware,
+    docs/c-firmware.md), runs instead of ours. Close it (or use ``with``) if ``run`` is never called."""
 
     def __init__(self, scenario: Scenario | dict[str, Any] | str | Path, *,
                  seed: int | None = None,
@@ -66,8 +67,8 @@ class Run:
                  tactile: bool | None = None, trace: str | Path | None = None,
                  live_port: int | None = None, can_server: Any = None,
                  realtime: bool = False, firmware: str | Path | None = None) -> None:
-        # an executable firmware (hil/exe_firmware.py) is checked before anything opens
-        self.firmware = ExecutableFirmware.of(firmware) if firmware is not None else None
+        # a firmware of the user's (hil/served_firmware.py) is checked before anything opens
+        self.firmware = served_firmware(firmware) if firmware is not None else None
         self.scenario = (scenario_mod.load_scenario(scenario)
                          if isinstance(scenario, (str, Path)) else scenario_mod.parse(scenario))
         sc = self.scenario
@@ -78,6 +79,8 @@ class Run:
         self.duration_s = (sc.scenario.duration_s if duration_s is None
                            else scenario_mod.check_duration(duration_s, "duration_s"))
         self.beams = sc.world.kind is WorldKind.BEAMS
+        if self.beams and self.firmware is not None:
+            raise UserError(f"{sc.path}: a beams scenario has no firmware (--firmware)")
         self.trace = str(trace) if trace else None
         self._can_server, self._realtime = can_server, realtime
         self.world = None if self.beams else make_world(sc, self.seed)
@@ -91,7 +94,7 @@ class Run:
             from host_tools.trace.recorder import Recorder
 
             meta = trace_metadata(sc, self.seed, NO_RUNTIME if self.beams else
-                                  EXECUTABLE if self.firmware else self.runtime.value)
+                                  self.firmware.runtime if self.firmware else self.runtime.value)
             extra = ({"flush_interval_us": self.live.flush_interval_us}
                      if self.live is not None else {})
             try:

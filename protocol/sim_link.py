@@ -15,10 +15,14 @@ Requests (client -> host):
   S sleep       u64 wake_us                              reply: t_us, u8 flags, u8 switches,
                                                                 u8 n, n x (u16 id, u8 dlc, 8 data)
   M more        (empty): the CAN frames a reply with FLAG_MORE left queued; same reply as S
+  L line        u64 at_us, u8 flags, u16 nrx, tx bytes   reply: t_us, u8 flags, u8 switches,
+                (the virtual board's UART and direction        u64 next_rx_us, u16 pending,
+                pin: docs/link.md "L line")                    rx bytes (<= nrx)
 Posted:
   W write       tx bytes (UART write, no reply expected)
   C can         u16 id, u8 dlc, data (dlc bytes)
   E event       u8 kind, utf-8 text (kinds below)
+  D direction   u64 turn_us, u8 level (the virtual board's direction pin turned; L)
 """
 VERSION = 1          # the hello's first byte; the host refuses any other with an error reply
 
@@ -26,11 +30,13 @@ OP_HELLO = 0x48   # 'H'
 OP_TRANSACT = 0x58  # 'X'
 OP_SLEEP = 0x53   # 'S'
 OP_MORE = 0x4D    # 'M'
+OP_LINE = 0x4C    # 'L': the virtual board's UART and direction line (docs/link.md)
 OP_WRITE = 0x57   # 'W'
 OP_CAN = 0x43     # 'C'
 OP_EVENT = 0x45   # 'E'
-REQUEST_OPS = (OP_HELLO, OP_TRANSACT, OP_SLEEP, OP_MORE)
-POSTED_OPS = (OP_WRITE, OP_CAN, OP_EVENT)
+OP_DIRECTION = 0x44  # 'D': the virtual board's direction pin turned (docs/link.md)
+REQUEST_OPS = (OP_HELLO, OP_TRANSACT, OP_SLEEP, OP_MORE, OP_LINE)
+POSTED_OPS = (OP_WRITE, OP_CAN, OP_EVENT, OP_DIRECTION)
 
 FLAG_END = 0x01   # sleep reply: the run is over, exit the loop
 FLAG_MORE = 0x02  # sleep or more reply: further CAN frames are queued, ask with OP_MORE
@@ -52,6 +58,15 @@ MAX_RX_LEN = MAX_REPLY_LEN - 8   # the most a transact may ask for (nrx)
 ERROR_T_US = 0xFFFFFFFFFFFFFFFF  # t_us of an error reply (virtual time never gets there)
 ERROR_MARK = b"\xff\xff\xff\xff\xff\xff\xff\xff"  # ERROR_T_US as it is on the wire
 ENV_PORT = "HEXHIL_LINK_PORT"
+ENV_BOARD = "HEXHIL_BOARD"   # set (to BOARD_NAME) when the firmware runs on the virtual board
+BOARD_NAME = "stm32f411"
+
+LINE_DIR_TX = 0x01   # line request flag: the direction pin is high (transmit)
+LINE_POLL = 0x02     # line request flag: a busy-wait poll, not an action of the firmware
+LINE_HEAD_LEN = 11   # line request: u64 at_us, u8 flags, u16 nrx
+DIRECTION_LEN = 9    # direction message: u64 turn_us, u8 level
+LINE_REPLY_HEAD_LEN = 20  # line reply: t_us, u8 flags, u8 switches, u64 next_rx_us, u16 pending
+NO_RX = 0            # line reply's next_rx_us when no byte is on its way
 
 
 class LinkError(OSError):

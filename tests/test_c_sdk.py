@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from hil import exe_firmware
+from hil import served_firmware
 from hil.link import firmware_env
 from hil.link_conformance import SESSIONS, run_suite
 from host_tools import c_sdk
@@ -76,7 +76,7 @@ def test_a_firmware_that_never_enables_the_transmitter_times_out_and_is_named(bu
               "seconds (since t=0.2")])
 def test_a_misbehaving_executable_is_one_line_and_its_trace_is_kept(built, tmp_path, mode,
                                                                     says, monkeypatch):
-    monkeypatch.setattr(exe_firmware, "HANG_WALL_S", 2.0)
+    monkeypatch.setattr(served_firmware, "HANG_WALL_S", 2.0)
     trace = tmp_path / "run.mcap"
     with pytest.raises(UserError) as err:
         run(FLAT, firmware=built[mode], out=str(trace))
@@ -103,9 +103,10 @@ def test_a_file_that_is_not_executable_is_refused_in_one_line(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", FLAT, "--firmware",
                            str(src)], cwd=ROOT, capture_output=True, text=True)
     assert proc.returncode == 2 and proc.stdout == ""
-    assert proc.stderr.strip().splitlines() == [f"hexhil: --firmware {src}: not executable "
-                                                "(build it with `hexhil sdk build main.c -o "
-                                                "fw`, or chmod +x)"]
+    assert proc.stderr.strip().splitlines() == [f"hexhil: --firmware {src}: neither a "
+                                                "MicroPython main file (.py) nor executable "
+                                                "(build a C firmware with `hexhil sdk build "
+                                                "main.c -o fw`, or chmod +x)"]
 
 
 def test_the_first_firmware_of_the_docs_builds_with_the_documented_command_and_runs(tmp_path):

@@ -1,8 +1,9 @@
 """One contract test (firmware/hal/base.py) on every HAL back end the host can run: the
 simulator link (micropython and CPython) and the serial back end over a pty (micropython,
 the unix port it is written for). tests/micropython/hal_contract.py makes the same calls on
-each; this side plays the host or the line and compares what it saw. hal/board.py needs
-the STM32: it must compile with mpy-cross and declare the same bases."""
+each; this side plays the host or the line and compares what it saw. hal/board.py must
+compile with mpy-cross and declare the same bases; it runs on the virtual board
+(tests/test_virtual_board.py, firmware/main.py walking)."""
 import ast
 import json
 import os

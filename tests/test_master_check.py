@@ -3,6 +3,7 @@ our firmware gets none (lockstep, serial digest unchanged); the sensor node answ
 from __future__ import annotations
 
 from hil import rig
+from hil.board_line import MISTAKES
 from hil.master_check import KINDS, MasterCheck
 from hil.sensor_node import MODEL_NUMBER, SWITCHES, SensorNode
 from hil.sim import Simulator
@@ -56,10 +57,11 @@ def test_a_wrong_master_gets_each_kind_named():
     bad = bytearray(dxl.ping(2))
     bad[-1] ^= 0xFF
     _transact(bus, bytes(bad))                                         # bad_checksum
-    assert all(check.counts[k] >= 1 for k in KINDS), check.counts
+    on_the_line = [k for k in KINDS if k not in MISTAKES]   # MISTAKES: tests/test_virtual_board.py
+    assert all(check.counts[k] >= 1 for k in on_the_line), check.counts
     assert check.counts["bad_write"] == 2 and check.counts["eeprom_busy"] == 1
     s = check.summary()
-    assert s["total"] == sum(check.counts.values()) and set(s["first_s"]) == set(KINDS)
+    assert s["total"] == sum(check.counts.values()) and set(s["first_s"]) == set(on_the_line)
     assert all(e["t_s"] >= t * 1e-6 for e in s["events"])
 
 

@@ -17,7 +17,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     r = replay.replay_firmware(args.file, python=args.python,
                                rate=0.0 if args.rate is None else args.rate,
-                               start_s=args.start, end_s=args.end, topics=args.topics)
+                               start_s=args.start, end_s=args.end, topics=args.topics,
+                               firmware=args.firmware)
     d = r.divergence
     if args.json:
         emit_json(r.as_dict())
@@ -37,6 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Exit 0: the firmware's outputs are identical to the "
                                    "trace's; 1: they diverge (first divergence reported).")
     p.add_argument("file", help="an MCAP trace recorded with --out")
+    p.add_argument("--firmware", metavar="PATH", help="the firmware the trace was recorded "
+                   "with (hexhil run --firmware: a MicroPython main file or an executable)")
     p.add_argument("--python", choices=("micropython", "cpython"), default="micropython",
                    help="runtime for the firmware (default micropython)")
     p.add_argument("--rate", type=float, default=None,

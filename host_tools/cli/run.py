@@ -77,8 +77,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "by Eq. 8-14 (model) or the GRNN (grnn, needs --model); none walks on")
     p.add_argument("--model", metavar="MODEL.pt", help="the GRNN for --navigator grnn "
                    "(hexhil grnn train)")
-    p.add_argument("--firmware", metavar="PATH", help="run this executable instead of our "
-                   "firmware: it speaks the link (docs/link.md), e.g. a C firmware built by "
-                   "`hexhil sdk build` (docs/c-firmware.md)")
+    p.add_argument("--firmware", metavar="PATH", help="run this firmware instead of ours: a "
+                   "MicroPython main file (.py) on the virtual STM32F411 board (machine, time, "
+                   "pyb in virtual time; docs/your-firmware.md), or an executable that speaks "
+                   "the link, e.g. a C firmware built by `hexhil sdk build` (docs/c-firmware.md)")
     p.add_argument("--json", action="store_true", help=cli.JSON_HELP)
     p.set_defaults(func=_run)
