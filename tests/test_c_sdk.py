@@ -15,6 +15,7 @@ from hil import served_firmware
 from hil.link import firmware_env
 from hil.link_conformance import SESSIONS, run_suite
 from host_tools import c_sdk
+from host_tools.replay import replay_firmware
 from host_tools.run import run
 from host_tools.trace.reader import info
 from protocol.errors import UserError
@@ -49,6 +50,16 @@ def test_the_c_tripod_walks_flat_tripod_with_the_same_digest_twice(built):
     assert first["body"]["dx_m"] >= 0.3
     assert first["serial_digest"] == second["serial_digest"]
     assert first["faults"] == {} and first["firmware_runtime"] == "executable"
+
+
+def test_a_c_firmwares_trace_replays_into_the_same_executable(built, tmp_path):
+    trace = tmp_path / "c.mcap"
+    run(FLAT, duration_s=1.0, out=str(trace), firmware=built["c_tripod"])
+    r = replay_firmware(trace, firmware=built["c_tripod"])
+    assert r.identical and r.divergence is None and r.compared_messages > 100
+    # a firmware that is not the recorded one diverges
+    other = replay_firmware(trace, firmware=built["no_transmitter"])
+    assert not other.identical and other.divergence is not None
 
 
 def test_the_hal_keeps_cubes_promises_in_virtual_time(built):
