@@ -29,6 +29,7 @@ from protocol import dynamixel as dxl
 EEPROM_BUSY_US = 5_000
 
 
+_OWNER = [ax12.owner(a) for a in range(ax12.TABLE_SIZE)]   # check_write's field lookups
 _sync_parsed: list = [b"", None]   # the last SYNC_WRITE's parameters and sync_entries()
 
 
@@ -318,8 +319,9 @@ class Servo:
                 return dxl.ERR_RANGE  # unlocked only by a power cycle
         a = address
         error = 0
+        wheel = wheel_mode(t)
         while a < end:
-            f = ax12.owner(a)
+            f = _OWNER[a]
             if f is None or f[3] == ax12.R:
                 return dxl.ERR_RANGE
             start, size = f[0], f[2]
@@ -330,10 +332,10 @@ class Servo:
                 v = lo | (hi << 8)
             else:
                 v = lo
-            hi_limit = 2047 if start == ax12.MOVING_SPEED and wheel_mode(t) else f[7]
+            hi_limit = 2047 if start == ax12.MOVING_SPEED and wheel else f[7]
             if v < f[6] or v > hi_limit:
                 return dxl.ERR_RANGE
-            if start == ax12.GOAL_POSITION and not wheel_mode(t):
+            if start == ax12.GOAL_POSITION and not wheel:
                 cw = t[6] | (t[7] << 8)
                 ccw = t[8] | (t[9] << 8)
                 if v < cw or v > ccw:
