@@ -104,10 +104,13 @@ class Master:
         p = self.parser
         p.reset()
         ok = False
-        for i in range(start, got):
-            if p.push(self.rx[i]) and p.id == dev_id and p.nparams == nparams:
-                ok = True
-                break
+        if p.take_whole(self.rx, start, got):
+            ok = p.id == dev_id and p.nparams == nparams
+        else:
+            for i in range(start, got):
+                if p.push(self.rx[i]) and p.id == dev_id and p.nparams == nparams:
+                    ok = True
+                    break
         if not ok:
             if s is not None:
                 s.corrupt += 1

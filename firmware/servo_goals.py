@@ -35,19 +35,23 @@ class ServoGoals:
         leg = self.legs[i]
         q = leg.ik(x, y, z)
         dt_s = self.dt_s
+        limits = self.limits
+        goal_rad = self.goal_rad
+        to_position = ax12.rad_to_position
+        k = 3 * i
         for j in range(3):
-            k = 3 * i + j
             rad = leg.servo_rad(j, q[j])
-            lo, hi = self.limits[k]
-            pos = ax12.rad_to_position(rad)
+            lo, hi = limits[k]
+            pos = to_position(rad)
             pos = lo if pos < lo else (hi if pos > hi else pos)
             if speed_rad_s > 0:
                 spd = speed_rad_s
             else:
-                spd = SPEED_MARGIN * abs(rad - self.goal_rad[k]) / dt_s
-            self.goal_rad[k] = rad
+                spd = SPEED_MARGIN * abs(rad - goal_rad[k]) / dt_s
+            goal_rad[k] = rad
             self.positions[k] = pos
             self.speeds[k] = ax12.rad_s_to_speed(spd)
+            k += 1
 
     def clamped(self):
         """IK targets moved to the workspace's edge or the joint limits, all legs."""

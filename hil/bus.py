@@ -221,12 +221,18 @@ class Bus:
         out = bytearray()
         t_last = deadline
         rx = self._rx
+        lat = self.rx_latency_us
         while rx and len(out) < n:
             b = rx[0]
             data = b.data
             i = b.read
+            j = min(len(data), i + n - len(out))
+            if j > i and self.byte_end_us(b.start_us, j - 1) + lat <= deadline:
+                out += data[i:j]   # the whole packet at once: its last byte is in time
+                t_last = self.byte_end_us(b.start_us, j - 1) + lat
+                i = j
             while i < len(data) and len(out) < n:
-                t = self.byte_end_us(b.start_us, i) + self.rx_latency_us
+                t = self.byte_end_us(b.start_us, i) + lat
                 if t > deadline:
                     break
                 out.append(data[i])

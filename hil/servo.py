@@ -29,6 +29,30 @@ from protocol import dynamixel as dxl
 EEPROM_BUSY_US = 5_000
 
 
+_OWNER = [ax12.owner(a) for a in range(ax12.TABLE_SIZE)]   # check_write's field lookups
+_sync_parsed: list = [b"", None]   # the last SYNC_WRITE's parameters and sync_entries()
+
+
+def sync_entries(params: bytes) -> tuple[int, dict[int, bytes]] | None:
+    """A SYNC_WRITE's start address and each ID's data (its first entry), or None when
+    malformed. Every servo on the line hears the same packet: it is parsed once, not once
+    per servo (the last parameters are kept; bytes are compared, so a copy hits too)."""
+    if params == _sync_parsed[0]:
+        return _sync_parsed[1]
+    out = None
+    if len(params) >= 2:
+        a, n = params[0], params[1]
+        stride = n + 1
+        if n and not (len(params) - 2) % stride:
+            data: dict[int, bytes] = {}
+            for i in range(2, len(params), stride):
+                if params[i] not in data:
+                    data[params[i]] = bytes(params[i + 1:i + stride])
+            out = (a, data)
+    _sync_parsed[0], _sync_parsed[1] = bytes(params), out
+    return out
+
+
 class Servo:
     """One AX-12A on the bus; ``handle`` takes a parsed instruction and returns the reply.
 
@@ -265,20 +289,14 @@ class Servo:
         return self._answer(code, error, data)
 
     def _sync_write(self, params: bytes) -> None:
-        if len(params) < 2:
+        entries = sync_entries(params)
+        if entries is None:
             return
-        a, n = params[0], params[1]
-        stride = n + 1
-        body = len(params) - 2
-        if n == 0 or body % stride:
-            return
-        me = self.table[ax12.ID]
-        for i in range(2, len(params), stride):
-            if params[i] == me:
-                d = bytes(params[i + 1:i + stride])
-                if not self.check_write(a, d) & dxl.ERR_RANGE:
-                    self._apply_write(a, d)
-                return
+        d = entries[1].get(self.table[ax12.ID])
+        if d is not None:
+            a = entries[0]
+            if not self.check_write(a, d) & dxl.ERR_RANGE:
+                self._apply_write(a, d)
 
     def check_write(self, address: int, data: bytes) -> int:
         """Error bits a WRITE of ``data`` at ``address`` earns; Range means it is refused.
@@ -301,8 +319,9 @@ class Servo:
                 return dxl.ERR_RANGE  # unlocked only by a power cycle
         a = address
         error = 0
+        wheel = wheel_mode(t)
         while a < end:
-            f = ax12.owner(a)
+            f = _OWNER[a]
             if f is None or f[3] == ax12.R:
                 return dxl.ERR_RANGE
             start, size = f[0], f[2]
@@ -313,10 +332,10 @@ class Servo:
                 v = lo | (hi << 8)
             else:
                 v = lo
-            hi_limit = 2047 if start == ax12.MOVING_SPEED and wheel_mode(t) else f[7]
+            hi_limit = 2047 if start == ax12.MOVING_SPEED and wheel else f[7]
             if v < f[6] or v > hi_limit:
                 return dxl.ERR_RANGE
-            if start == ax12.GOAL_POSITION and not wheel_mode(t):
+            if start == ax12.GOAL_POSITION and not wheel:
                 cw = t[6] | (t[7] << 8)
                 ccw = t[8] | (t[9] << 8)
                 if v < cw or v > ccw:

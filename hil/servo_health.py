@@ -35,8 +35,8 @@ class ServoHealth:
     check reads them twice per instruction.
     """
 
-    __slots__ = ("supply_v", "voltage_units", "temperature_c", "temperature_units",
-                 "hot_spot_c", "overload", "saturated_us")
+    __slots__ = ("supply_v", "supply_frac", "voltage_units", "temperature_c",
+                 "temperature_units", "hot_spot_c", "overload", "saturated_us")
 
     def __init__(self) -> None:
         self.set_supply_v(SUPPLY_V)
@@ -46,17 +46,15 @@ class ServoHealth:
         self.saturated_us = 0
 
     def set_supply_v(self, volts: float) -> None:
+        """The supply, and ``supply_frac``: its fraction of the rated 12 V, in [0, 1], what
+        scales speed and torque (kept, not computed at each of the servo's reads)."""
         self.supply_v = volts
+        self.supply_frac = min(1.0, max(0.0, volts / SUPPLY_V))
         self.voltage_units = _unit_byte(ax12.v_to_voltage(volts))
 
     def _set_temperature_c(self, celsius: float) -> None:
         self.temperature_c = celsius
         self.temperature_units = _unit_byte(int(round(celsius)))
-
-    @property
-    def supply_frac(self) -> float:
-        """Supply as a fraction of the rated 12 V, in [0, 1]: what scales speed and torque."""
-        return min(1.0, max(0.0, self.supply_v / SUPPLY_V))
 
     def rearm(self) -> None:
         """Torque Limit written again (or power back): the overload latch clears."""

@@ -180,6 +180,23 @@ class Parser(StreamParser):
         self.bad_checksum = 0
         self.last_bad_checksum_id = -1
 
+    def take_whole(self, data, start, end):
+        """Take ``data[start:end]`` at once if the parser holds nothing and it is exactly one
+        valid packet: the same state as pushing its bytes one by one (True at the last),
+        without a call per byte. Returns False and takes nothing otherwise (push them)."""
+        m = end - start
+        if (self._n or m < 6 or data[start] != HEADER or data[start + 1] != HEADER
+                or data[start + 2] == HEADER or data[start + 3] < 2 or data[start + 3] + 4 != m
+                or checksum(data, start + 2, end - 1) != data[end - 1]):
+            return False
+        self.buf[0:m] = data[start:end]
+        self._n = self._consumed = m
+        self.id = data[start + 2]
+        self.code = data[start + 4]
+        self.nparams = m - 6
+        self.packets += 1
+        return True
+
     def _scan(self):
         buf = self.buf
         while self._n:

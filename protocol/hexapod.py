@@ -60,6 +60,12 @@ DIRECTIONS = ((1, 1, 1),) * 6
 
 _REACH_MAX = FEMUR_M + TIBIA_M - 1e-6
 _REACH_MIN = abs(TIBIA_M - FEMUR_M) + 1e-6
+# The law of cosines' constant products, as Leg.ik's formulas group them.
+_FEMUR_SQ_M2 = FEMUR_M * FEMUR_M
+_TIBIA_SQ_M2 = TIBIA_M * TIBIA_M
+_LINKS_SQ_M2 = _FEMUR_SQ_M2 + _TIBIA_SQ_M2
+_TWO_FEMUR_M = 2 * FEMUR_M
+_TWO_FEMUR_TIBIA_M2 = 2 * FEMUR_M * TIBIA_M
 
 # Gaits (Fig. 13): name -> (period T in leg transfers, lift-off phase of each leg in LEGS
 # order). Tripod: LM+RF+RH in the first half of the period, LF+LH+RM in the second; wave:
@@ -123,14 +129,19 @@ class Leg:
 
         Out-of-reach targets are pulled onto the reachable shell and joint angles clamped to
         the limits; either counts once in ``clamped``. Returns ``self.q`` (no allocation).
+        The firmware's hottest function: names are bound to locals and the link-length
+        products precomputed (the same operations in the same order, so the same bits).
         """
+        c = self.c
+        s = self.s
         dx = x - self.mx
         dy = y - self.my
-        lx = self.c * dx + self.s * dy   # leg frame
-        ly = -self.s * dx + self.c * dy
+        lx = c * dx + s * dy   # leg frame
+        ly = -s * dx + c * dy
+        sqrt = math.sqrt
         q1 = math.atan2(ly, lx)
-        r = math.sqrt(lx * lx + ly * ly) - COXA_M
-        d = math.sqrt(r * r + z * z)
+        r = sqrt(lx * lx + ly * ly) - COXA_M
+        d = sqrt(r * r + z * z)
         clamped = False
         if d > _REACH_MAX or d < _REACH_MIN:
             clamped = True
@@ -141,8 +152,9 @@ class Leg:
                 r = r * target / d
                 z = z * target / d
                 d = target
-        a = (FEMUR_M * FEMUR_M + d * d - TIBIA_M * TIBIA_M) / (2 * FEMUR_M * d)
-        b = (FEMUR_M * FEMUR_M + TIBIA_M * TIBIA_M - d * d) / (2 * FEMUR_M * TIBIA_M)
+        dd = d * d
+        a = (_FEMUR_SQ_M2 + dd - _TIBIA_SQ_M2) / (_TWO_FEMUR_M * d)
+        b = (_LINKS_SQ_M2 - dd) / _TWO_FEMUR_TIBIA_M2
         a = 1.0 if a > 1.0 else (-1.0 if a < -1.0 else a)
         b = 1.0 if b > 1.0 else (-1.0 if b < -1.0 else b)
         q2 = math.atan2(z, r) + math.acos(a)   # knee up
@@ -152,10 +164,11 @@ class Leg:
         q[1] = q2
         q[2] = q3
         for j in range(3):
-            if q[j] < JOINT_MIN[j]:
+            v = q[j]
+            if v < JOINT_MIN[j]:
                 q[j] = JOINT_MIN[j]
                 clamped = True
-            elif q[j] > JOINT_MAX[j]:
+            elif v > JOINT_MAX[j]:
                 q[j] = JOINT_MAX[j]
                 clamped = True
         if clamped:

@@ -45,3 +45,29 @@ def test_max_length_packet() -> None:
     pkt = dxl.status(1, 0, bytes(range(253)))  # LEN 255, the most a byte holds
     assert len(pkt) == dxl.MAX_PACKET
     assert dxl.Parser().feed(pkt)[0].params == bytes(range(253))
+
+
+def _state(p: dxl.Parser) -> tuple:
+    return (p.id, p.code, p.nparams, p.packets, p.garbage, p.bad_checksum,
+            bytes(p.buf[:p.pending() + p._consumed]), p.pending())
+
+
+def test_take_whole_leaves_the_state_pushing_byte_by_byte_leaves() -> None:
+    """The firmware's one-call path for a reply (firmware/servo_bus.py) must be exactly the
+    per-byte parse: same fields, buffer and counters; anything else is refused untouched."""
+    status = dxl.status(7, dxl.ERR_OVERLOAD, bytes((1, 2, 3, 4, 5, 6)))
+    data = b"\x00\x01" + status
+    whole, byte = dxl.Parser(), dxl.Parser()
+    assert whole.take_whole(data, 2, len(data))
+    assert [byte.push(b) for b in status][-1]
+    assert _state(whole) == _state(byte)
+    assert whole.param_u16(4) == byte.param_u16(4) == 0x0605
+    for bad in (status[:-1] + bytes((status[-1] ^ 1,)), status[:-1], b"\xff" + status,
+                status + b"\x00", b"\xff\xff\x07\x01\x00\xf7"):
+        p = dxl.Parser()
+        before = _state(p)
+        assert not p.take_whole(bad, 0, len(bad))
+        assert _state(p) == before
+    busy = dxl.Parser()
+    busy.push(0xFF)
+    assert not busy.take_whole(status, 0, len(status))
