@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from hil.board_line import MISTAKES
 from hil.bus2 import Bus2
 from hil.clock import VirtualClock
 from hil.servo_health import OVERLOAD_TIME_US
@@ -210,7 +211,9 @@ def test_master_check_names_a_protocol_2_masters_mistakes() -> None:
     bus.idle_until(bus.clock.t_us + 200_000)
     bus.master_write(raw[4:])
     assert set(check.counts) == set(KINDS_2)
-    assert all(check.counts[k] >= 1 for k in KINDS_2), check.counts
+    # every kind the wire shows (the direction pin's come from the virtual board,
+    # tests/test_virtual_board.py)
+    assert all(check.counts[k] >= 1 for k in KINDS_2 if k not in MISTAKES), check.counts
     assert any("access error" in d for _, k, d in check.events if k == "bad_write")
 
 
