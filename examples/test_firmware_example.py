@@ -17,6 +17,7 @@ import pytest
 from host_tools.expect.pytest_plugin import assert_within
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
+BOARD_TRIPOD = Path(__file__).resolve().parent / "board_tripod.py"   # a firmware of yours
 
 
 @pytest.mark.parametrize("gait, speed_m_s", [("tripod", 0.036), ("wave", 0.013)])
@@ -25,6 +26,15 @@ def test_flat_walk_reaches_the_papers_speed(hexhil_run, gait: str, speed_m_s: fl
     assert_within(f"{gait} speed", run.body["dx_m"] / 12, low=0.75 * speed_m_s, unit="m/s")
     run.check("protocol", name="no protocol violations")
     run.check("no_exception")
+
+
+def test_your_firmware_walks(hexhil_run) -> None:
+    """``firmware=`` (or ``--hexhil-firmware``) runs a firmware of yours instead of ours: a
+    MicroPython main file on the virtual board, or an executable (docs/your-firmware.md)."""
+    run = hexhil_run(SCENARIOS / "flat-tripod.toml", duration_s=8, firmware=BOARD_TRIPOD)
+    assert run.summary["firmware_runtime"] == "micropython-board"
+    run.check("displacement", window_s=(2, 8), dx_m=(0.15, 0.6))
+    run.check("protocol")
 
 
 @pytest.mark.parametrize("seed", [1, 2])

@@ -50,17 +50,18 @@ class ServedFirmware(Protocol):
         """Start it, answer its link with ``server`` (hil/link_server.py) to the end."""
 
 
-def served_firmware(path: str | Path) -> BoardFirmware | ExecutableFirmware:
+def served_firmware(path: str | Path, what: str = "--firmware"
+                    ) -> BoardFirmware | ExecutableFirmware:
     """``path`` checked: a MicroPython main file (``.py``) for the virtual board, else an
-    executable file this user may run (``UserError`` if neither)."""
+    executable file this user may run (``UserError`` naming ``what`` if neither)."""
     p = Path(path)
     if not p.is_file():
-        raise UserError(f"--firmware {path}: not a file (give a MicroPython main file or an "
+        raise UserError(f"{what} {path}: not a file (give a MicroPython main file or an "
                         "executable)")
     if p.suffix in MAIN_SUFFIXES:
         return BoardFirmware(p.resolve())
     if not os.access(p, os.X_OK):
-        raise UserError(f"--firmware {path}: neither a MicroPython main file (.py) nor "
+        raise UserError(f"{what} {path}: neither a MicroPython main file (.py) nor "
                         "executable (build a C firmware with `hexhil sdk build main.c -o fw`, "
                         "or chmod +x)")
     return ExecutableFirmware(p.resolve())

@@ -62,6 +62,26 @@ def test_a_c_firmwares_trace_replays_into_the_same_executable(built, tmp_path):
     assert not other.identical and other.divergence is not None
 
 
+def test_hexhil_test_judges_the_c_tripod(built, tmp_path):
+    case = tmp_path / "c_tripod.toml"
+    case.write_text(f'[case]\nscenario = "{FLAT}"\nduration_s = 8\n' + """
+[[expect]]
+name = "walks ahead"
+kind = "displacement"
+window_s = [2, 8]
+dx_m = [0.15, 0.4]
+
+[[expect]]
+name = "no protocol violations"
+kind = "protocol"
+""")
+    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case),
+                           "--firmware", built["c_tripod"]], cwd=ROOT, capture_output=True,
+                          text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "2 of 2 expectations passed" in proc.stdout
+
+
 def test_the_hal_keeps_cubes_promises_in_virtual_time(built):
     s, result = run(FLAT, duration_s=0.5, firmware=built["hal_check"])
     assert result.exit_code == 0 and s["sim_time_s"] == 0.5

@@ -44,4 +44,9 @@ def test_a_failing_check_reports_measured_value_and_limit(tmp_path: Path) -> Non
 def test_the_example_passes_as_shipped() -> None:
     proc = _pytest("-k", "not tactile")
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    assert "4 passed" in proc.stdout
+    assert "5 passed" in proc.stdout
+
+
+def test_the_firmware_option_reaches_every_run() -> None:
+    proc = _pytest("-k", "flat_walk and tripod", "--hexhil-firmware", "nowhere.py")
+    assert proc.returncode == 1 and "--firmware nowhere.py: not a file" in proc.stdout

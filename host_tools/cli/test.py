@@ -1,5 +1,6 @@
-"""``hexhil test FILE...``: run expectation files (docs/testing.md) against our firmware and
-say pass or fail: a table, exit 0 (all pass), 1 (an expectation failed), 2 (bad input),
+"""``hexhil test FILE...``: run expectation files (docs/testing.md) against our firmware (or
+yours, ``--firmware``; or check a run recorded on a real board, ``--trace``) and say pass
+or fail: a table, exit 0 (all pass), 1 (an expectation failed), 2 (bad input),
 JUnit XML for CI, and the trace of each failing case kept with its failures in it."""
 from __future__ import annotations
 
@@ -29,15 +30,29 @@ def _run(args: argparse.Namespace) -> int:
 
     if args.jobs < 1 or args.repeat < 1:
         raise UserError("--jobs and --repeat must be at least 1")
+    if args.firmware is not None and args.python is not None:
+        raise UserError(f"--firmware {args.firmware} brings its own runtime: leave out --python")
+    if args.trace is not None and (len(args.files) != 1 or args.firmware or args.python
+                                   or args.no_tactile or args.repeat != 1):
+        raise UserError("--trace evaluates one recorded run: give one FILE, and no --firmware, "
+                        "--python, --no-tactile or --repeat")
+    if args.firmware is not None:
+        from hil.served_firmware import served_firmware
+
+        served_firmware(args.firmware)   # one line before anything runs
     cases = [spec.load(f) for f in args.files]
     names = [c.name for c in cases]
     if len(set(names)) != len(names):
         dup = next(n for n in names if names.count(n) > 1)
         raise UserError(f"two files name the case {dup!r}: give one a [case] name")
     jobs = runner.jobs_for(cases, args.repeat, tactile=False if args.no_tactile else None,
-                           python=args.python, keep_dir=args.keep_traces)
-    bar = None if args.quiet or len(jobs) < 2 else cli.ProgressBar("run")
-    results = runner.run_all(jobs, args.jobs, args.scheduler, progress=bar)
+                           python=args.python, firmware=args.firmware,
+                           keep_dir=args.keep_traces)
+    if args.trace is not None:
+        results = [runner.evaluate_recorded(cases[0], args.trace, args.keep_traces)]
+    else:
+        bar = None if args.quiet or len(jobs) < 2 else cli.ProgressBar("run")
+        results = runner.run_all(jobs, args.jobs, args.scheduler, progress=bar)
     print(table(results))
     failed = [r for r in results if not r.passed]
     n = sum(len(r.outcomes) for r in results)
@@ -70,6 +85,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--python", choices=(*RUNTIMES, IN_PROCESS),
                    help="firmware runtime for every case (default: each case's, else "
                         f"micropython); {IN_PROCESS} is faster with the same digest")
+    p.add_argument("--firmware", metavar="PATH",
+                   help="run every case with this firmware instead of ours (as hexhil run "
+                        "--firmware: a MicroPython main file for the virtual board, or an "
+                        "executable such as a C firmware); a case may name one itself "
+                        "([case] firmware)")
+    p.add_argument("--trace", metavar="RUN.mcap",
+                   help="run nothing: check one FILE's expectations on this recorded run, "
+                        "e.g. a real board's (hexhil bus --world SCENARIO --port DEVICE --out "
+                        "RUN.mcap)")
     p.add_argument("--no-tactile", action="store_true",
                    help="run every case with the Eq. 5-7 obstacle rule off, as "
                         "'hexhil run --no-tactile' (the tactile expectations should fail)")

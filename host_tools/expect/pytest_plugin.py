@@ -4,10 +4,12 @@ check it with the expectation kinds of docs/testing.md, and see measured value a
 when a check fails, with the run's trace (the failure written into it) named in the report
 and in ``--junitxml`` as the test's ``trace`` property.
 
-Fixtures: ``hexhil_run`` (a function: scenario, seed, duration, runtime, tactile -> ``Run``).
+Fixtures: ``hexhil_run`` (a function: scenario, seed, duration, runtime, tactile, firmware
+-> ``Run``).
 Helpers: ``Run.check(kind, **keys)``, ``assert_within(name, value, low, high)``.
-Options: ``--hexhil-python RUNTIME`` (default runtime), ``--hexhil-keep DIR`` (copy the
-trace of every failing test there).
+Options: ``--hexhil-python RUNTIME`` (default runtime), ``--hexhil-firmware PATH`` (a firmware
+of yours for every run, as ``hexhil run --firmware``), ``--hexhil-keep DIR`` (copy the trace
+of every failing test there).
 """
 from __future__ import annotations
 
@@ -73,6 +75,9 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--hexhil-python", default=None, metavar="RUNTIME",
                     help="firmware runtime of hexhil_run (default: the scenario's, else "
                          "micropython; cpython-inprocess is faster, same digest)")
+    group.addoption("--hexhil-firmware", default=None, metavar="PATH",
+                    help="run hexhil_run's scenarios with this firmware instead of ours (a "
+                         "MicroPython main file for the virtual board, or an executable)")
     group.addoption("--hexhil-keep", default=None, metavar="DIR",
                     help="copy the traces of every failing test here")
 
@@ -80,8 +85,9 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 @pytest.fixture
 def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
                record_property: Callable[[str, Any], None]) -> Callable[..., Run]:
-    """``hexhil_run(scenario, seed=None, duration_s=None, python=None, tactile=None)``: run
-    a scenario file with our firmware, recorded to this test's tmp_path."""
+    """``hexhil_run(scenario, seed=None, duration_s=None, python=None, tactile=None,
+    firmware=None)``: run a scenario file with our firmware (or ``firmware``, else
+    ``--hexhil-firmware``), recorded to this test's tmp_path."""
     from hil import scenario as scenario_mod
     from host_tools.expect import runner, spec
 
@@ -93,7 +99,8 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
         record_property("trace", str(path))
 
     def run(scenario: str | Path, seed: int | None = None, duration_s: float | None = None,
-            python: str | None = None, tactile: bool | None = None) -> Run:
+            python: str | None = None, tactile: bool | None = None,
+            firmware: str | Path | None = None) -> Run:
         sc = scenario_mod.load(scenario)
         seed = sc["scenario"].get("seed", 0) if seed is None else seed
         duration = duration_s or sc["scenario"].get("duration_s",
@@ -101,10 +108,13 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
         python = (python or request.config.getoption("--hexhil-python")
                   or sc["firmware"].get("python", "micropython"))
         trace = tmp_path / f"{Path(scenario).stem}-seed{seed}-{len(traces)}.mcap"
-        summary = runner.run_scenario(sc, seed, duration, python, tactile, trace)
+        firmware = firmware or request.config.getoption("--hexhil-firmware")
+        summary = runner.run_scenario(sc, seed, duration, python, tactile, trace,
+                                      firmware=str(firmware) if firmware else None)
         keep(trace)
         case = spec.Case(name=Path(scenario).stem, path=Path(scenario), scenario=sc, seed=seed,
-                         duration_s=duration, tactile=tactile, python=python, expectations=())
+                         duration_s=duration, tactile=tactile, python=python, expectations=(),
+                         firmware=str(firmware) if firmware else None)
         return Run(str(scenario), seed, python, summary, trace, case, keep)
 
     return run

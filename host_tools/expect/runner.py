@@ -21,7 +21,8 @@ from host_tools.progress import Progress
 from host_tools.runner import Run
 from host_tools.trace import protobuf as pb
 from host_tools.trace import topics
-from host_tools.trace.reader import Trace
+from host_tools.trace.reader import Trace, info
+from protocol.errors import UserError
 
 T_EXPECTATIONS = "/expectations"  # foxglove.Log: each failed expectation at its moment
 
@@ -50,6 +51,7 @@ class CaseRun:
     label: str                            # the case's name, "#k" added for a repeat
     tactile: bool | None = None
     python: str | None = None
+    firmware: str | None = None           # the command's --firmware, over the case's
     keep_dir: str | None = None           # keep the trace here when an expectation fails
     keep_all: bool = False                # ... or always (the pytest plugin's fixtures)
     timing: BusTiming = BusTiming()
@@ -85,13 +87,15 @@ class _Sender:
 
 def run_scenario(scenario: dict[str, Any], seed: int, duration_s: float, python: str,
                  tactile: bool | None, trace: Path, timing: BusTiming = BusTiming(),
-                 sends: Sequence[tuple[int, int, bytes]] = ()) -> dict[str, Any]:
-    """Run a checked hexapod scenario with our firmware through the one run path
+                 sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None
+                 ) -> dict[str, Any]:
+    """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
+    file or an executable: ``hexhil run --firmware``) through the one run path
     (host_tools/runner.py ``Run``), recorded to ``trace`` with the master's protocol check
     on; returns ``hexhil run --json``'s summary plus ``violations``. Every case and margin
     run goes through here."""
-    run = Run(scenario, seed=seed, runtime=python, duration_s=duration_s, tactile=tactile,
-              trace=trace)
+    run = Run(scenario, seed=seed, runtime=None if firmware else python,
+              duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware)
     try:
         check = MasterCheck(run.recorder.violation)
         sim = run.sim
@@ -119,7 +123,7 @@ def run_case(job: CaseRun) -> CaseResult:
     try:
         summary = run_scenario(job.scenario or dict(case.scenario), job.seed, case.duration_s,
                                job.python or case.python, tactile, trace, job.timing,
-                               case.sends)
+                               case.sends, job.firmware or case.firmware)
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
@@ -131,6 +135,26 @@ def run_case(job: CaseRun) -> CaseResult:
         trace.unlink(missing_ok=True)
     summary = {k: v for k, v in summary.items() if k != "trace"}
     return CaseResult(job.label, job.seed, outcomes, summary, kept)
+
+
+def evaluate_recorded(case: Case, trace: Path, keep_dir: str | None = None) -> CaseResult:
+    """``case``'s expectations on a run recorded elsewhere, nothing run: a real board in
+    real time (``hexhil bus --world SCENARIO --port DEVICE --out RUN.mcap``), or any trace.
+    The run's length is the trace's; a failing case's copy goes to ``keep_dir``."""
+    try:
+        end_s = info(trace)["end_s"]
+        with Trace(trace) as tr:
+            linked = tr.metadata().get("command") != "bus"   # hexhil bus --world: no link
+    except (OSError, ValueError) as exc:
+        raise UserError(f"--trace {trace}: not a readable hexhil trace ({exc})") from None
+    summary = {"sim_time_s": end_s, "firmware_link": linked}
+    outcomes = tuple(evaluate(case, summary, trace))
+    kept = None
+    if keep_dir is not None and not all(o.passed for o in outcomes):
+        Path(keep_dir).mkdir(parents=True, exist_ok=True)
+        kept = str(Path(keep_dir) / f"{case.name}.mcap")
+        annotate(trace, Path(kept), [o for o in outcomes if not o.passed], end_s)
+    return CaseResult(case.name, case.seed, outcomes, summary, kept)
 
 
 def annotate(src: Path, dst: Path, failed: Sequence[Outcome], end_s: float) -> None:

@@ -17,6 +17,7 @@ from typing import Any, Mapping
 from hil import scenario as scenario_mod
 from hil.link import IN_PROCESS, RUNTIMES
 from hil.master_check import KINDS as VIOLATION_KINDS
+from hil.served_firmware import served_firmware
 from protocol import can_frames
 from protocol.errors import UserError
 
@@ -95,7 +96,7 @@ KEYS: dict[Kind, dict[str, tuple[Any, bool]]] = {
 COMMON_KEYS = ("name", "kind", "window_s")
 AT_LEAST_ONE = (Kind.DISPLACEMENT, Kind.POSE, Kind.SERVO_LIMITS)
 CASE_KEYS: dict[str, type] = {"name": str, "scenario": str, "duration_s": float, "seed": int,
-                              "tactile": bool, "python": str, "send": list}
+                              "tactile": bool, "python": str, "firmware": str, "send": list}
 TACTILE_DEFAULTS = {"h_tolerance_m": 0.01, "l_tolerance_m": 0.015, "min_steps": 1,
                     "min_press_s": 0.04}
 
@@ -132,6 +133,7 @@ class Case:
     python: str
     expectations: tuple[Expectation, ...]
     sends: tuple[tuple[int, int, bytes], ...] = ()   # (t_us, arbitration id, data) from the host
+    firmware: str | None = None   # a firmware of the user's (hexhil run --firmware), not ours
 
 
 def _range(where: str, value: Any) -> Range:
@@ -330,7 +332,14 @@ def load(path: str | Path) -> Case:
     if python not in RUNTIME_CHOICES:
         raise UserError(f"{where}: key 'case.python' must be one of "
                         f"{', '.join(RUNTIME_CHOICES)}, got {python!r}")
-    return Case(name=case.get("name", p.stem), path=p, scenario=sc,
+    firmware = case.get("firmware")
+    if firmware is not None:
+        if "python" in case:
+            raise UserError(f"{where}: key 'case.firmware' brings its own runtime: leave out "
+                            "'case.python'")
+        firmware = str(p.parent / firmware)
+        served_firmware(firmware, f"{where}: key 'case.firmware'")   # checked now
+    return Case(name=case.get("name", p.stem), path=p, scenario=sc, firmware=firmware,
                 seed=case.get("seed", sc["scenario"].get("seed", 0)), duration_s=duration,
                 tactile=case.get("tactile"), python=python, expectations=expectations,
                 sends=_sends(where, case.get("send", [])))
