@@ -41,21 +41,11 @@ class BoardLine:
         """The firmware did something (a write, a pin turn, a sleep): it is not hung."""
         self.quiet_since_us = self.clock.t_us
 
-    def _mistake(self, kind: str, detail: str, result: RunResult) -> None:
-        t = self.clock.t_us
-        result.faults[kind] = result.faults.get(kind, 0) + 1
-        rec = self.server.sim.recorder
-        if rec is not None:
-            rec.fault(t, kind, detail)
-        check = getattr(self.bus, "monitor", None)
-        if check is not None:
-            check.direction_mistake(t, kind, detail)
-
     def _lose(self, result: RunResult) -> None:
         lost = self.bus.master_discard()
         if lost:
-            self._mistake(RX_WHILE_TRANSMITTING, f"{lost} status bytes arrived while the "
-                          "direction pin (A1) was high: the receiver was off", result)
+            self.server.run_fault(RX_WHILE_TRANSMITTING, f"{lost} status bytes arrived while "
+                                  "the direction pin (A1) was high: the receiver was off", result)
 
     def _idle_to(self, t_us: int) -> None:
         if t_us > self.clock.t_us:
@@ -106,8 +96,9 @@ class BoardLine:
         if tx and tx_on:
             bus.master_write(tx)
         elif tx:
-            self._mistake(TX_WHILE_RECEIVING, f"{len(tx)} bytes written while the direction "
-                          "pin (A1) was low: they did not reach the line", result)
+            self.server.run_fault(TX_WHILE_RECEIVING, f"{len(tx)} bytes written while the "
+                                  "direction pin (A1) was low: they did not reach the line",
+                                  result)
             bus.idle_until(clock.t_us + bus.wire_us(len(tx)))
         if tx_on:
             self._lose(result)

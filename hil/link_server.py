@@ -11,7 +11,7 @@ import json
 import struct
 from typing import Any, Callable
 
-from hil.board_line import BoardLine, LineViolation
+from hil.board_line import MISTAKES, BoardLine, LineViolation
 from hil.can_bus import CanBus
 from hil.link import Connection, DirectConnection
 from hil.run_result import RunResult
@@ -115,12 +115,20 @@ class LinkServer:
             if rec is not None:
                 rec.telemetry(t, ev)
         elif kind == sim_link.EVENT_FAULT:   # a mistake the client's board saw: a run fault
-            name = str(json.loads(text).get(ls.NAME, "firmware_fault"))
-            result.faults[name] = result.faults.get(name, 0) + 1
-            if rec is not None:
-                rec.fault(t, name, text)
+            self.run_fault(str(json.loads(text).get(ls.NAME, "firmware_fault")), text, result)
         elif rec is not None:
             rec.telemetry(t, {"event": kind, "text": text})
+
+    def run_fault(self, name: str, detail: str, result: RunResult) -> None:
+        """A fault of the run now: counted, recorded, and a direction mistake (the virtual
+        board's, or one a C SDK's board saw) handed to the master check if one watches."""
+        t = self.clock.t_us
+        result.faults[name] = result.faults.get(name, 0) + 1
+        if self.sim.recorder is not None:
+            self.sim.recorder.fault(t, name, detail)
+        check = getattr(self.bus, "monitor", None)
+        if check is not None and name in MISTAKES:
+            check.direction_mistake(t, name, detail)
 
     def _can_from_firmware(self, payload: bytes, result: RunResult) -> None:
         if len(payload) < 3 or payload[2] > sim_link.CAN_MAX_DLC or len(payload) != 3 + payload[2]:

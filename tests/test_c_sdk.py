@@ -75,11 +75,18 @@ dx_m = [0.15, 0.4]
 name = "no protocol violations"
 kind = "protocol"
 """)
-    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case),
-                           "--firmware", built["c_tripod"]], cwd=ROOT, capture_output=True,
-                          text=True)
+    def judge(firmware):
+        return subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case),
+                               "--firmware", firmware], cwd=ROOT, capture_output=True,
+                              text=True)
+
+    proc = judge(built["c_tripod"])
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "2 of 2 expectations passed" in proc.stdout
+    # the SDK's direction mistakes reach the master check, as the virtual board's do
+    proc = judge(built["no_transmitter"])
+    row = next(line for line in proc.stdout.splitlines() if "no protocol violations" in line)
+    assert proc.returncode == 1 and "tx_while_receiving" in row and row.endswith("FAIL"), row
 
 
 def test_the_hal_keeps_cubes_promises_in_virtual_time(built):
