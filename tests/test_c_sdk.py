@@ -64,17 +64,12 @@ def test_a_c_firmwares_trace_replays_into_the_same_executable(built, tmp_path):
 
 def test_hexhil_test_judges_the_c_tripod(built, tmp_path):
     case = tmp_path / "c_tripod.toml"
-    case.write_text(f'[case]\nscenario = "{FLAT}"\nduration_s = 8\n' + """
-[[expect]]
-name = "walks ahead"
-kind = "displacement"
-window_s = [2, 8]
-dx_m = [0.15, 0.4]
+    case.write_text('expect = [\n'
+                    '  { name = "walks ahead", kind = "displacement", window_s = [2, 8], '
+                    'dx_m = [0.15, 0.4] },\n'
+                    '  { name = "no protocol violations", kind = "protocol" }]\n'
+                    f'[case]\nscenario = "{FLAT}"\nduration_s = 8\n')
 
-[[expect]]
-name = "no protocol violations"
-kind = "protocol"
-""")
     def judge(firmware):
         return subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case),
                                "--firmware", firmware], cwd=ROOT, capture_output=True,

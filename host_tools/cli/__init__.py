@@ -41,6 +41,15 @@ COMMANDS: dict[str, tuple[str, str]] = {
 JSON_HELP = "end with the result as one JSON object, the last line of stdout (for scripts)"
 
 
+def actions(sub: argparse._SubParsersAction, name: str, help: str, metavar: str = "ACTION",
+            description: str | None = None) -> argparse._SubParsersAction:
+    """``hexhil NAME ACTION ...``: a command whose action is required (without one, a one-line
+    error names it)."""
+    p = sub.add_parser(name, help=help, description=description)
+    return p.add_subparsers(dest=f"{name}_action", metavar=metavar, parser_class=type(p),
+                            required=True)
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse that raises UserError instead of printing usage and exiting."""
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from host_tools.cli import JSON_HELP, emit
+from host_tools.cli import JSON_HELP, actions, emit
 from protocol.errors import UserError
 
 
@@ -111,8 +111,7 @@ def _beam_args(p: argparse.ArgumentParser, hb_mm: float | None = 0.0) -> None:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("beams", help="force-sensing beam traversal (seed 000)")
-    bs = p.add_subparsers(dest="beams_command", metavar="ACTION", parser_class=type(p))
+    bs = actions(sub, "beams", "force-sensing beam traversal (seed 000)")
     e = bs.add_parser("estimate", help="push into the beams, sense 100 Hz forces, estimate k and h_b")
     _beam_args(e, hb_mm=None)
     e.add_argument("--hb2-mm", type=float, metavar="MM",
@@ -152,4 +151,3 @@ def register(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--out", metavar="FILE.mcap", help="record the CAN traffic to this MCAP file")
     r.add_argument("--json", action="store_true", help=JSON_HELP)
     r.set_defaults(func=cmd_run)
-    p.set_defaults(func=lambda a: (p.print_help(), 2)[1])

@@ -14,7 +14,7 @@ from typing import Any, Callable
 
 from hil.link import IN_PROCESS, RUNTIMES
 from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
-from host_tools.cli import JSON_HELP, ProgressBar, emit_json
+from host_tools.cli import JSON_HELP, actions, emit_json, ProgressBar
 from protocol.errors import UserError
 
 
@@ -133,8 +133,7 @@ EXPERIMENTS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None], Han
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("experiment", help="reproduce a paper's experiments")
-    exp = p.add_subparsers(dest="experiment", metavar="EXPERIMENT", parser_class=type(p))
+    exp = actions(sub, "experiment", "reproduce a paper's experiments", "EXPERIMENT")
     for name, (help_text, add_arguments, handler) in EXPERIMENTS.items():
         q = exp.add_parser(name, help=help_text, description=help_text)
         add_arguments(q)

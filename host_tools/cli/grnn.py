@@ -11,7 +11,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
-from host_tools.cli import JSON_HELP, ProgressBar, emit, emit_json
+from host_tools.cli import JSON_HELP, actions, emit, emit_json, ProgressBar
 from protocol.errors import UserError
 
 WORKERS = max(1, os.cpu_count() or 1)
@@ -98,8 +98,8 @@ def _closed_loop_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("grnn", help="GRNN positional-error predictor (seed 003 Sec. 2.6)")
-    kinds = p.add_subparsers(dest="grnn", metavar="STAGE", parser_class=type(p))
+    kinds = actions(sub, "grnn", "GRNN positional-error predictor (seed 003 Sec. 2.6)",
+                        "STAGE")
     q = kinds.add_parser("dataset", help="build the training data from traced runs")
     _dataset_arguments(q)
     q.set_defaults(func=_dataset)

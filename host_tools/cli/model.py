@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from host_tools.cli import actions
+
 
 def _urdf(args: argparse.Namespace) -> int:
     from host_tools.robot_model import urdf
@@ -29,10 +31,8 @@ def _mjcf(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("model", help="the hexapod's robot description (URDF, MJCF)",
-                       description=__doc__)
-    kinds = p.add_subparsers(dest="kind", metavar="KIND", parser_class=type(p))
-    kinds.required = True
+    kinds = actions(sub, "model", "the hexapod's robot description (URDF, MJCF)", "KIND",
+                        __doc__)
     u = kinds.add_parser("urdf", help="URDF (joints as the MJCF: angle = servo angle)",
                          description="The hexapod as a URDF on stdout, for RViz, Foxglove's URDF "
                                      "layer or robotics libraries: generated from "

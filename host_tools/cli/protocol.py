@@ -19,7 +19,7 @@ import argparse
 import string
 from typing import Any
 
-from host_tools.cli import JSON_HELP, emit, emit_json
+from host_tools.cli import JSON_HELP, actions, emit, emit_json
 from protocol.errors import UserError
 from protocol import ax12
 from protocol import dynamixel as dxl
@@ -256,10 +256,8 @@ def decode(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("protocol", help="Dynamixel Protocol 1.0 tools (decode)",
-                       description="Dynamixel Protocol 1.0 tools.")
-    psub = p.add_subparsers(dest="protocol_command", metavar="SUBCOMMAND",
-                            parser_class=type(p))
+    psub = actions(sub, "protocol", "Dynamixel tools (decode Protocol 1.0 and 2.0)",
+                       "SUBCOMMAND", "Dynamixel tools, Protocol 1.0 and 2.0.")
     d = psub.add_parser("decode", help="decode Dynamixel packets given as hex",
                         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     d.add_argument("hex", nargs="+", metavar="HEX",
@@ -275,4 +273,3 @@ def register(sub: argparse._SubParsersAction) -> None:
     d.add_argument("--lenient", action="store_true",
                    help="report malformed packets as garbage (with the reason) instead of failing")
     d.set_defaults(func=decode)
-    p.set_defaults(func=lambda args: p.print_help() or 2)

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import argparse
 
+from host_tools.cli import actions
+
 
 def _build(args: argparse.Namespace) -> int:
     from host_tools import c_sdk
@@ -23,10 +25,8 @@ def _flags(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("sdk", help="build a C firmware against the STM32Cube-style C SDK",
-                       description=__doc__)
-    kinds = p.add_subparsers(dest="kind", metavar="KIND", parser_class=type(p))
-    kinds.required = True
+    kinds = actions(sub, "sdk", "build a C firmware against the STM32Cube-style C SDK",
+                        "KIND", __doc__)
     b = kinds.add_parser("build", help="compile C sources with the SDK into an executable",
                          description="Compile main.c (and more .c files) with the SDK's "
                                      "stm32f4xx_hal.h and HAL into a host executable that "

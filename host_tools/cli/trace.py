@@ -5,7 +5,7 @@ import argparse
 import json
 import sys
 
-from host_tools.cli import JSON_HELP, emit, emit_json
+from host_tools.cli import JSON_HELP, actions, emit, emit_json
 from host_tools.trace import export, import_csv, reader, recover
 from host_tools.trace.import_csv import CSV_OPTIONAL, CSV_POSE, CSV_REQUIRED
 from protocol.errors import UserError
@@ -85,8 +85,7 @@ _TRACE_HELP = "an MCAP trace (hexhil run/bus/beams run --out, or trace import-cs
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("trace", help="inspect, export, recover and import MCAP traces")
-    tsub = p.add_subparsers(dest="trace_command", metavar="ACTION", required=True)
+    tsub = actions(sub, "trace", "inspect, export, recover and import MCAP traces")
 
     q = tsub.add_parser("info", help="topics, schemas, counts, start, end, duration")
     q.add_argument("file", help=_TRACE_HELP)
