@@ -90,3 +90,37 @@ def test_the_grnn_dataset_reads_a_hexhil_run_trace_whose_scenario_file_is_gone(t
     path.unlink()
     rows, facts = rows_from_trace(out)
     assert facts["gait"] == "tripod" and facts["distance_m"] == 0.2 and len(rows) >= 1
+
+
+def test_a_real_time_run_serves_a_master_on_a_pty_and_records_its_scenario(tmp_path):
+    """RealTimeRun (hexhil bus): a master pings servo 1 over the pty; the trace says it was
+    a bus run and carries the scenario like a Run's."""
+    import threading
+
+    import serial
+
+    from protocol import dynamixel as dxl
+
+    out = tmp_path / "bus.mcap"
+    shipped = hx.load_scenario(ROOT / "scenarios" / "flat-tripod.toml")
+    run = hx.RealTimeRun(shipped, 4, trace=str(out), duration_s=1.5)
+    ready, where, summary = threading.Event(), [], {}
+
+    def announce(line):
+        where.append(line.split(": ", 1)[1])
+        ready.set()
+
+    server = threading.Thread(target=lambda: summary.update(run.serve(hx.Pty(), announce)))
+    server.start()
+    assert ready.wait(10)
+    with serial.Serial(where[0], 1_000_000, timeout=0.5) as port:
+        port.write(dxl.ping(1))
+        reply = port.read(6)
+    server.join(10)
+    assert reply == dxl.status(1, 0, b"")   # ID 1, no error, no parameters
+    assert summary["bus"]["replies"] == 1 and summary["served_s"] >= 1.4
+    with hx.open_trace(out) as trace:
+        meta = trace.metadata()
+        sc, seed = hx.scenario_of_trace(meta, str(out))
+    assert meta["command"] == "bus" and meta["firmware_runtime"] == "external"
+    assert seed == 4 and sc.as_toml_data() == shipped.as_toml_data()

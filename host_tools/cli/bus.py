@@ -103,30 +103,11 @@ def _sensor_id(args: argparse.Namespace, sc: dict[str, Any]) -> int | None:
     return bus.get("sensor_node_id", 100)
 
 
-def _serve(server: Any, args: argparse.Namespace, hint: str | None) -> None:
-    """Serve on the chosen transport; ``hint`` follows the announced address."""
-    def announce(line: str) -> None:
-        flush_print(line)
-        if hint:
-            flush_print(hint)
-
-    try:
-        if args.port is not None:
-            server.serve_port(args.port, args.baud or DEFAULT_BAUD, announce)
-        elif args.tcp is not None:
-            server.serve_tcp(args.tcp, args.host, announce)
-        else:
-            server.serve_pty(announce)
-    except OSError as exc:
-        raise UserError(str(exc)) from None
-
-
 def run(args: argparse.Namespace) -> int:
     from hil import serial_server
     from hil import scenario as scenario_mod
-    from hil.realtime_rig import RealTimeRig
     from host_tools import cli
-    from host_tools.trace.recorder import open_recorder
+    from host_tools.realtime_run import Pty, RealTimeRun, SerialPort, Tcp
 
     if sum((args.pty, args.tcp is not None, args.port is not None)) > 1:
         raise UserError("choose one transport: --pty, --tcp PORT or --port DEVICE")
@@ -138,40 +119,38 @@ def run(args: argparse.Namespace) -> int:
         scenario_mod.check_duration(args.duration, f"--duration {args.duration}:")
     path = args.world or args.scenario
     sc, seed, ids = scenario_from_flags(args, scenario_mod.load(path) if path else {})
+    transport = (SerialPort(args.port, args.baud or DEFAULT_BAUD) if args.port is not None
+                 else Tcp(args.tcp, args.host) if args.tcp is not None else Pty())
+    hint = None
+    if args.world:   # our firmware's settings for this scenario, as `hexhil run` sends them
+        from hil.link_server import firmware_settings
+        hint = "firmware --config " + json.dumps(firmware_settings(scenario_mod.check(sc)),
+                                                 sort_keys=True)
+
+    def announce(line: str) -> None:
+        flush_print(line)
+        if hint:
+            flush_print(hint)
+
     can_server = None
     if args.can_server is not None:
         from host_tools.run import start_can_server
         can_server = start_can_server(args.can_server, 0)
-    recorder = open_recorder(args.out, {"scenario": sc, "seed": seed, "command": "bus"})
     try:
-        rt = RealTimeRig(sc, seed, world=args.world is not None, ids=ids, recorder=recorder,
+        rt = RealTimeRun(sc, seed, world=args.world is not None, ids=ids, trace=args.out,
                          can_server=can_server, sensor_id=_sensor_id(args, sc),
-                         verbose=(lambda line: sys.stderr.write(line + "\n")) if args.verbose else None)
-        end_us = None if args.duration is None else int(round(args.duration * 1e6))
-        server = serial_server.RealTimeServer(rt.bus, step_us=2_000 if rt.world is not None else None,
-                                              on_tick=rt.tick, end_us=end_us)
+                         duration_s=args.duration,
+                         verbose=(lambda line: sys.stderr.write(line + "\n")) if args.verbose
+                         else None)
         serial_server.install_sigterm()
-        hint = None
-        if args.world:   # our firmware's settings for this scenario, as `hexhil run` sends them
-            from hil.link_server import firmware_settings
-            hint = "firmware --config " + json.dumps(firmware_settings(scenario_mod.check(sc)),
-                                                     sort_keys=True)
-        try:
-            _serve(server, args, hint)
-        except (KeyboardInterrupt, serial_server.Stop):
-            pass
-        finally:
-            rt.close()
+        s = rt.serve(transport, announce)
     finally:
-        if recorder is not None:
-            recorder.close()
         if can_server is not None:
             can_server.close()
-    s = rt.summary(server.pacing.summary())
     st, p, v = s["bus"], s["pacing"], s["violations"]
     counts = ", ".join(f"{k} {n}" for k, n in sorted(s["faults"].items())) or "none"
     wrong = ", ".join(f"{k} {n}" for k, n in v["counts"].items() if n) or "none"
-    if rt.world is not None:
+    if "body" in s:
         b = s["body"]
         flush_print(
             f"body: dx {b['dx_m']:+.3f} m, dy {b['dy_m']:+.3f} m, dyaw {b['dyaw_deg']:+.1f} deg "
