@@ -143,7 +143,7 @@ def test_a_file_that_is_not_executable_is_refused_in_one_line(tmp_path):
 
 
 def test_the_first_firmware_of_the_docs_builds_with_the_documented_command_and_runs(tmp_path):
-    doc = (ROOT / "docs" / "c-firmware.md").read_text()
+    doc = (ROOT / "docs" / "your-firmware.md").read_text()
     main = tmp_path / "main.c"
     main.write_text(doc.split("```c\n", 1)[1].split("```", 1)[0])
     fw = tmp_path / "fw"
