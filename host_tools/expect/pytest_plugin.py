@@ -5,8 +5,8 @@ when a check fails, with the run's trace (the failure written into it) named in 
 and in ``--junitxml`` as the test's ``trace`` property.
 
 Fixtures: ``hexhil_run`` (a function: scenario, seed, duration, runtime, tactile, firmware
--> ``Run``).
-Helpers: ``Run.check(kind, **keys)``, ``assert_within(name, value, low, high)``.
+-> ``FinishedRun``).
+Helpers: ``FinishedRun.check(kind, **keys)``, ``assert_within(name, value, low, high)``.
 Options: ``--hexhil-python RUNTIME`` (default runtime), ``--hexhil-firmware PATH`` (a firmware
 of yours for every run, as ``hexhil run --firmware``), ``--hexhil-keep DIR`` (copy the trace
 of every failing test there).
@@ -23,8 +23,8 @@ import pytest
 
 
 @dataclass(frozen=True)
-class Run:
-    """A finished run: ``hexhil run --json``'s summary (plus ``violations``) and its trace."""
+class FinishedRun:
+    """A run as a test sees it: ``hexhil run --json``'s summary (plus ``violations``) and its trace."""
 
     scenario: str
     seed: int
@@ -84,7 +84,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 @pytest.fixture
 def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
-               record_property: Callable[[str, Any], None]) -> Callable[..., Run]:
+               record_property: Callable[[str, Any], None]) -> Callable[..., FinishedRun]:
     """``hexhil_run(scenario, seed=None, duration_s=None, python=None, tactile=None,
     firmware=None)``: run a scenario file with our firmware (or ``firmware``, else
     ``--hexhil-firmware``), recorded to this test's tmp_path."""
@@ -100,7 +100,7 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
 
     def run(scenario: str | Path, seed: int | None = None, duration_s: float | None = None,
             python: str | None = None, tactile: bool | None = None,
-            firmware: str | Path | None = None) -> Run:
+            firmware: str | Path | None = None) -> FinishedRun:
         sc = scenario_mod.load(scenario)
         seed = sc["scenario"].get("seed", 0) if seed is None else seed
         duration = duration_s or sc["scenario"].get("duration_s",
@@ -115,7 +115,7 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
         case = spec.Case(name=Path(scenario).stem, path=Path(scenario), scenario=sc, seed=seed,
                          duration_s=duration, tactile=tactile, python=python, expectations=(),
                          firmware=str(firmware) if firmware else None)
-        return Run(str(scenario), seed, python, summary, trace, case, keep)
+        return FinishedRun(str(scenario), seed, python, summary, trace, case, keep)
 
     return run
 
