@@ -4,20 +4,18 @@ not wired to the controller (hal/serial.py), through a bus master of their own.
 MicroPython-compatible.
 """
 from firmware import servo_bus
-
-SENSOR_ID = 100            # the sensor node's factory ID
-SWITCHES_ADDR = 26         # its Switches byte, bit i = leg i pressed
+from protocol import sensor_node
 
 
 class SensorSwitches:
     """``read(board)`` -> the switch bits, or None when the node did not answer."""
 
     def __init__(self, uart, baud, sensor_id=None):
-        self.sensor_id = SENSOR_ID if sensor_id is None else sensor_id
+        self.sensor_id = sensor_node.DEFAULT_ID if sensor_id is None else sensor_id
         self.master = servo_bus.Master(uart, [self.sensor_id], baud)
 
     def __call__(self, board):
-        if self.master.read(self.sensor_id, SWITCHES_ADDR, 1, board):
+        if self.master.read(self.sensor_id, sensor_node.SWITCHES, 1, board):
             return self.master.parser.param(0) & 0x3F
         return None
 

@@ -29,13 +29,10 @@ from typing import Callable
 
 from protocol import ax12
 from protocol import dynamixel as dxl
-
-DEFAULT_ID = 100           # the AX-S1's factory ID
-MODEL_NUMBER = 0x5348      # "HS": hexhil switches
+from protocol.sensor_node import DEFAULT_ID, MODEL_NUMBER, PRESSES, SWITCHES
 FIRMWARE_VERSION = 1
 TABLE_SIZE = 28
 MODEL_L, VERSION, ID, BAUD_RATE, RETURN_DELAY, STATUS_RETURN_LEVEL = 0, 2, 3, 4, 5, 16
-SWITCHES, PRESSES = 26, 27
 # address -> (low, high) of each writable byte
 WRITABLE = {ID: (0, dxl.MAX_ID), BAUD_RATE: (0, 254), RETURN_DELAY: (0, 254),
             STATUS_RETURN_LEVEL: (0, 2)}

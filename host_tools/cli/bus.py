@@ -11,6 +11,7 @@ from typing import Any
 from hil.can_server import DEFAULT_PORT
 from hil.scenario import DEFAULT_BAUD
 from host_tools.cli import JSON_HELP, flush_print
+from protocol import sensor_node
 from protocol.errors import UserError
 
 _FAULT_FLAGS = ("unplug", "stall", "overheat", "voltage_sag")
@@ -100,7 +101,7 @@ def _sensor_id(args: argparse.Namespace, sc: dict[str, Any]) -> int | None:
         if not 0 <= args.sensor_id <= 253:
             raise UserError(f"--sensor-id {args.sensor_id}: must be 0-253")
         return args.sensor_id
-    return bus.get("sensor_node_id", 100)
+    return bus.get("sensor_node_id", sensor_node.DEFAULT_ID)
 
 
 def run(args: argparse.Namespace) -> int:
