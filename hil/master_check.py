@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
+from hil.packet_check import PacketCheck
 from protocol import dynamixel as dxl
 
 KINDS = ("eeprom_busy", "unsupported_instruction", "bad_write", "inter_byte_gap",
@@ -77,41 +78,6 @@ class MasterCheck:
                 "first_s": {k: round(t * 1e-6, 6) for k, t in self.first_us.items()},
                 "events": [{"t_s": round(t * 1e-6, 6), "kind": k, "detail": d}
                            for t, k, d in self.events[:20]]}
-
-
-class PacketCheck:
-    """One protocol's rules for a master's packets. ``feed`` parses a burst with its bytes'
-    arrival times and flags gaps and failed checks through ``flag``; a subclass counts the
-    failed checks (``bad``, ``bad_detail``) and judges each packet the parser completes
-    (``packet``)."""
-
-    def __init__(self, flag: OnViolation, parser: Any) -> None:
-        self.flag = flag
-        self.parser = parser
-
-    def feed(self, bus: Any, t0_us: int, data: bytes) -> None:
-        p = self.parser
-        gaps, bad = p.timeouts, self.bad()
-        for i, byte in enumerate(data):
-            t = bus.byte_end_us(t0_us, i)
-            done = p.push(byte, t)
-            if p.timeouts != gaps:
-                gaps = p.timeouts
-                self.flag(t, "inter_byte_gap", "over 100 ms between bytes; partial packet dropped")
-            if self.bad() != bad:
-                bad = self.bad()
-                self.flag(t, "bad_checksum", self.bad_detail())
-            if done:
-                self.packet(bus, t)
-
-    def bad(self) -> int:
-        raise NotImplementedError
-
-    def bad_detail(self) -> str:
-        raise NotImplementedError
-
-    def packet(self, bus: Any, t_us: int) -> None:
-        raise NotImplementedError
 
 
 class Packet1Check(PacketCheck):

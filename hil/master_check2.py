@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
-from hil.master_check import PacketCheck
+from hil.packet_check import PacketCheck
 from protocol import dynamixel2 as dx2
 
 GROUP_READS = (dx2.SYNC_READ, dx2.FAST_SYNC_READ, dx2.BULK_READ, dx2.FAST_BULK_READ)
