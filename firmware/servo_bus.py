@@ -45,6 +45,8 @@ class ServoStats:
 
 class Master:
     protocol = 1
+    present_addr = PRESENT_ADDR      # what read_present reads
+    present_len = PRESENT_LEN
 
     def __init__(self, uart, ids, baud=1000000, echo=None, retries=1):
         self.uart = uart
@@ -160,14 +162,17 @@ class Master:
 
     def read_present(self, dev_id, now):
         """Present position, speed and load into the servo's stats; True on success."""
-        if not self.read(dev_id, PRESENT_ADDR, PRESENT_LEN, now):
+        if not self.read(dev_id, self.present_addr, self.present_len, now):
             return False
+        self._take_present(self.servos[dev_id])
+        return True
+
+    def _take_present(self, s):
+        """The present values in the reply just parsed into ``s``."""
         p = self.parser
-        s = self.servos[dev_id]
         s.position = p.param_u16(0)
         s.speed = p.param_u16(2)
         s.load = p.param_u16(4)
-        return True
 
     def sync_write(self, positions, speeds, now):
         """One SYNC_WRITE of goal position + moving speed (AX-12 units) for every servo."""

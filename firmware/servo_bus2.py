@@ -33,10 +33,12 @@ def pulses_to_ax(pulses):
 
 
 class Master2(Master):
-    """servo_bus.Master's interface and counters (``scan``, ``counters``, the retries and
-    the unanswered send are inherited), its packets Protocol 2.0."""
+    """servo_bus.Master's interface and counters (``scan``, ``counters``, ``read_present``,
+    the retries and the unanswered send are inherited), its packets Protocol 2.0."""
 
     protocol = 2
+    present_addr = PRESENT_ADDR
+    present_len = PRESENT_LEN
 
     def __init__(self, uart, ids, baud=1000000, echo=None, retries=1):
         Master.__init__(self, uart, ids, baud, echo, retries)
@@ -140,17 +142,13 @@ class Master2(Master):
         n = self._build_read(dev_id, address, length)
         return self._retry(dev_id, n, length + 1, now) == OK
 
-    def read_present(self, dev_id, now):
-        """Present load, velocity and position of one servo into its stats (a single READ;
-        the loop reads all 18 at once with ``sync_read_present``)."""
-        if not self.read(dev_id, PRESENT_ADDR, PRESENT_LEN, now):
-            return False
+    def _take_present(self, s):
+        """Present load, velocity and position (after ERR) into ``s``: ``read_present``
+        reads one servo, the loop all 18 at once with ``sync_read_present``."""
         p = self.parser
-        s = self.servos[dev_id]
         s.load = p.param_u16(1)
         s.speed = p.param_u32(3)
         s.position = pulses_to_ax(p.param_u32(7))
-        return True
 
     def configure_eeprom(self, dev_id, cw_limit, ccw_limit, now):
         """Return delay 0 and the joint limits as Min/Max Position Limit (AX-12 units in):
@@ -247,9 +245,7 @@ class Master2(Master):
                 continue
             if j < len(ids) and p.id == ids[j] and p.nparams == PRESENT_LEN + 1:
                 s = self.servos[ids[j]]
-                s.load = p.param_u16(1)
-                s.speed = p.param_u32(3)
-                s.position = pulses_to_ax(p.param_u32(7))
+                self._take_present(s)
                 self._status(s, p.param(0), now)
                 j += 1
         return j

@@ -17,7 +17,7 @@ import shutil
 import struct
 import tempfile
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import cantools
 
@@ -49,31 +49,45 @@ class Broken(Exception):
     """An invariant the target checks did not hold (a crash, as an escape would be)."""
 
 
-# --- the Protocol 1.0 stream parser --------------------------------------------------------
-def parser_one_input(data: bytes) -> None:
-    """The bytes as garbage on the line, then (after a gap over the inter-byte timeout) one
-    valid packet the parser must find again; every packet it reports must be whole, with
-    a right checksum, and lie in what was sent."""
-    want = dxl.packet(len(data) % 0xFE, data[0] if data else dxl.PING, data[-3:])
-    sent = bytes(data)
-    p = dxl.Parser()
+def _resync(p: Any, data: bytes, want: bytes, max_packet: int,
+            reported: Callable[[Any, bytes, int], bytes]) -> None:
+    """Push ``data`` as garbage on the line, then (after a gap over the inter-byte timeout)
+    ``want``, which the parser ``p`` must find again. ``reported(p, stream, i)`` gives the
+    bytes of the packet the parser completed at ``stream[i]``, raising Broken if wrong."""
+    stream = bytes(data) + want
     t = 0
     found = False
-    for i, b in enumerate(data + want):
+    for i, b in enumerate(stream):
         if i == len(data):
             t += GAP_US
         t += 10
         if p.push(b, t):
-            raw = bytes(p.buf[0:dxl.PARAMS_OFFSET + p.nparams + 1])
-            if dxl.checksum(raw, 2, len(raw) - 1) != raw[-1] or raw[3] != p.nparams + 2:
-                raise Broken(f"parser reported a bad packet {raw.hex()}")
-            if raw not in sent + want:
-                raise Broken(f"parser reported bytes never sent {raw.hex()}")
+            raw = reported(p, stream, i)
             found = i >= len(data) and raw == want
-        if p.pending() > dxl.MAX_PACKET:
+        if p.pending() > max_packet:
             raise Broken(f"parser holds {p.pending()} bytes")
     if not found:
         raise Broken(f"no resync: {want.hex()} after the garbage was not found")
+
+
+# --- the Protocol 1.0 stream parser --------------------------------------------------------
+def _reported(p: dxl.Parser, stream: bytes, i: int) -> bytes:
+    """The packet in the parser's buffer: whole, a right checksum, in what was sent."""
+    raw = bytes(p.buf[0:dxl.PARAMS_OFFSET + p.nparams + 1])
+    if dxl.checksum(raw, 2, len(raw) - 1) != raw[-1] or raw[3] != p.nparams + 2:
+        raise Broken(f"parser reported a bad packet {raw.hex()}")
+    if raw not in stream:
+        raise Broken(f"parser reported bytes never sent {raw.hex()}")
+    return raw
+
+
+def parser_one_input(data: bytes) -> None:
+    """The bytes as garbage on the line, then one valid packet the parser must find again
+    (``_resync``); every packet it reports must be whole, with a right checksum, and lie in
+    what was sent, and so must what a flush at the end rescans."""
+    want = dxl.packet(len(data) % 0xFE, data[0] if data else dxl.PING, data[-3:])
+    sent = bytes(data)
+    _resync(dxl.Parser(), sent, want, dxl.MAX_PACKET, _reported)
     rest = dxl.Parser()
     rest.feed(data)
     for pkt in rest.flush():  # a host decoding a capture: rescans a partial packet
@@ -172,27 +186,27 @@ def _ops(data: bytes) -> list[tuple[int, bytes]]:
 def bus_one_input(data: bytes) -> None:
     """A fresh bus of 18 AX-12s, then the operations; after them every register within its
     range, identity registers unchanged, and a PING answered once the line idled."""
-    bus = fuzz_bus._fresh_bus()
+    spec = fuzz_bus.AX12
+    bus = spec.fresh_bus()
     for op, arg in _ops(data):
         if op in (0, 1):
             bus.master_write(arg)
-            bus.master_read(300, READS_US[len(arg) % 3])
+            bus.master_read(spec.read_bytes, READS_US[len(arg) % 3])
         elif op == 2:
             bus.master_read(arg[0] * 4 + 1, READS_US[arg[0] % 3])
         else:
             bus.idle_until(bus.clock.t_us + arg[0] * 2_000)
-    for s in bus.servos:
-        broken = fuzz_bus.check_servo(s)
-        if broken:
-            raise Broken(f"servo {s.id}: {broken}")
-    bus.idle_until(bus.clock.t_us + dxl.INTER_BYTE_TIMEOUT_US + 1)
-    bus.master_read(10_000, 0)
-    target = fuzz_bus._pingable(bus)
-    if target is None:
-        return
-    bus.master_write(dxl.ping(target.id))
-    reply = dxl.Parser().feed(bus.master_read(6, fuzz_bus.READ_TIMEOUT_US))
-    if not reply or reply[0].id != target.id:
+    _after_stream(spec, bus)
+
+
+def _after_stream(spec: fuzz_bus.BusSpec, bus: Any) -> None:
+    """Every register within its range, identity registers unchanged, and a PING answered
+    once the line idled (fuzz_bus.py's checks, raised as ``Broken``)."""
+    broken = fuzz_bus.broken_servo(spec, bus)
+    if broken:
+        raise Broken(broken)
+    target, answered = fuzz_bus.resync(spec, bus)
+    if target is not None and not answered:
         raise Broken(f"no resync: servo {target.id} did not answer a PING")
 
 
@@ -281,24 +295,16 @@ def parser2_one_input(data: bytes) -> None:
     parser must find again; every packet it reports took bytes on the line with a right
     CRC."""
     want = dx2.packet(len(data) % 0xFD, data[0] if data else dx2.PING, data[-5:])
-    stream = bytes(data) + want
-    p = dx2.Parser()
-    t = 0
-    found = False
-    for i, b in enumerate(stream):
-        if i == len(data):
-            t += GAP_US
-        t += 10
-        if p.push(b, t):
-            wire = stream[i + 1 - p.raw_len:i + 1]   # the bytes the packet took on the line
-            if wire[:4] != b"\xff\xff\xfd\x00" or \
-                    dx2.crc16(wire, 0, len(wire) - 2) != wire[-2] | wire[-1] << 8:
-                raise Broken(f"parser reported a packet with a bad CRC {wire.hex()}")
-            found = i >= len(data) and wire == want
-        if p.pending() > dx2.MAX_PACKET:
-            raise Broken(f"parser holds {p.pending()} bytes")
-    if not found:
-        raise Broken(f"no resync: {want.hex()} after the garbage was not found")
+    _resync(dx2.Parser(), data, want, dx2.MAX_PACKET, _reported2)
+
+
+def _reported2(p: dx2.Parser, stream: bytes, i: int) -> bytes:
+    """The bytes the packet took on the line: a header and a right CRC."""
+    wire = stream[i + 1 - p.raw_len:i + 1]
+    if wire[:4] != b"\xff\xff\xfd\x00" or \
+            dx2.crc16(wire, 0, len(wire) - 2) != wire[-2] | wire[-1] << 8:
+        raise Broken(f"parser reported a packet with a bad CRC {wire.hex()}")
+    return wire
 
 
 def parser2_seeds() -> list[bytes]:
@@ -311,28 +317,17 @@ def bus2_one_input(data: bytes) -> None:
     """A fresh bus of 18 XL430s, then the bytes as instructions (byte 0 of each: how many
     of the next bytes are its parameters) or raw; after them every register within its
     range and a PING answered once the line idled."""
-    bus = fuzz_bus2.fresh_bus()
+    spec = fuzz_bus2.XL430
+    bus = spec.fresh_bus()
     i = 0
     while i + 2 < len(data):
         n = data[i] & 15
         pkt = dx2.packet(data[i + 1] % 0xFD if data[i] & 16 else 1 + data[i + 1] % 18,
                          data[i + 2], data[i + 3:i + 3 + n])
         bus.master_write(pkt if data[i] & 32 == 0 else pkt[:len(pkt) // 2])
-        bus.master_read(4000, READS_US[data[i] >> 6 if data[i] >> 6 < 3 else 0])
+        bus.master_read(spec.read_bytes, READS_US[data[i] >> 6 if data[i] >> 6 < 3 else 0])
         i += 3 + n
-    for s in bus.servos:
-        broken = fuzz_bus2.check_servo(s)
-        if broken:
-            raise Broken(f"servo {s.id}: {broken}")
-    bus.idle_until(bus.clock.t_us + dx2.INTER_BYTE_TIMEOUT_US + 10_000)
-    bus.master_read(100_000, 0)
-    target = fuzz_bus2.pingable(bus)
-    if target is None:
-        return
-    bus.master_write(dx2.ping(target.id))
-    reply = dx2.Parser().feed(bus.master_read(14, fuzz_bus2.READ_TIMEOUT_US))
-    if not reply or reply[0].id != target.id:
-        raise Broken(f"no resync: servo {target.id} did not answer a PING")
+    _after_stream(spec, bus)
 
 
 def bus2_seeds() -> list[bytes]:

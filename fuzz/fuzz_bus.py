@@ -1,10 +1,14 @@
 """The emulated bus with 18 AX-12s (hil/bus.py, hil/servo.py) under random instruction
 streams. After each stream: no exception escaped, every register within its documented
 range (protocol/ax12.py FIELDS), the read-only identity registers unchanged, and after
-the line has idled past the inter-byte timeout a PING to a servo is answered (resync)."""
+the line has idled past the inter-byte timeout a PING to a servo is answered (resync).
+``run_streams`` and ``resync`` serve the Protocol 2.0 bus too (fuzz_bus2.py), through a
+``BusSpec``; cov_targets.py drives both buses through the same specs."""
 from __future__ import annotations
 
 import random
+from dataclasses import dataclass
+from typing import Any, Callable
 
 from fuzz.hostile import Rng, garbage
 from fuzz.tally import Budget, Tally
@@ -39,9 +43,15 @@ def _instruction(rng: random.Random) -> bytes:
             bytes((i,)) + rng.randbytes(n) for i in ids)
     else:
         params = rng.randbytes(rng.randrange(4))
-    if rng.random() < 0.3:  # the address-changing writes are kept rare
-        params = params.replace(bytes((ax12.ID,)), bytes((ax12.GOAL_POSITION,)), 1)
-    return dxl.packet(dev_id, code, params)
+    return dxl.packet(dev_id, code, rare_id_writes(rng, params, ax12.ID, ax12.GOAL_POSITION))
+
+
+def rare_id_writes(rng: random.Random, params: bytes, id_address: int, instead: int) -> bytes:
+    """``params``, sometimes with the first ``id_address`` byte made ``instead``: the
+    address-changing writes are kept rare."""
+    if rng.random() < 0.3:
+        params = params.replace(bytes((id_address,)), bytes((instead,)), 1)
+    return params
 
 
 def _fresh_bus() -> Bus:
@@ -75,41 +85,90 @@ def _pingable(bus: Bus) -> Servo | None:
     return None
 
 
-def run(seed: int, budget_s: float | None, limit: int | None) -> list[Tally]:
+@dataclass(frozen=True)
+class BusSpec:
+    """One protocol's emulated bus of 18 servos, as the bus fuzzers drive it."""
+
+    title: str                                   # the tally's
+    fresh_bus: Callable[[], Any]
+    instruction: Callable[[random.Random], bytes]
+    garbage: Callable[[Rng], bytes]
+    check_servo: Callable[[Any], str]            # the first broken invariant, or ''
+    pingable: Callable[[Any], Any]               # a servo a PING must reach, or None
+    ping: Callable[[int], bytes]
+    parser: Callable[[], Any]
+    rebuild_every: int      # streams on one bus before a fresh one (ID/baud drift)
+    read_bytes: int         # what the master reads after each instruction, at most
+    reads_us: tuple[int, ...]   # how long it waits for them (one picked at random)
+    settle_us: int          # the idle after a stream: past the inter-byte timeout
+    drain_bytes: int        # then what is still on the line is read and dropped
+    ping_reply_bytes: int
+    read_timeout_us: int
+
+
+def broken_servo(spec: BusSpec, bus: Any) -> str:
+    """``servo ID: what`` for the first servo with a broken invariant, or ''."""
+    for s in bus.servos:
+        broken = spec.check_servo(s)
+        if broken:
+            return f"servo {s.id}: {broken}"
+    return ""
+
+
+def resync(spec: BusSpec, bus: Any) -> tuple[Any, bool]:
+    """Idle past the inter-byte timeout, drop what is on the line and PING a servo: the
+    servo (None when none can be reached) and whether it answered."""
+    bus.idle_until(bus.clock.t_us + spec.settle_us)
+    bus.master_read(spec.drain_bytes, 0)
+    target = spec.pingable(bus)
+    if target is None:
+        return None, False
+    bus.master_write(spec.ping(target.id))
+    reply = spec.parser().feed(bus.master_read(spec.ping_reply_bytes, spec.read_timeout_us))
+    return target, bool(reply) and reply[0].id == target.id
+
+
+def run_streams(spec: BusSpec, seed: int, budget_s: float | None,
+                limit: int | None) -> list[Tally]:
+    """Random streams of instructions and garbage until the budget is spent."""
     rng = random.Random(seed)
     junk_rng = Rng(seed)
-    tally = Tally("emulated bus, 18 servos", "streams")
+    tally = Tally(spec.title, "streams")
     budget = Budget(budget_s, limit)
-    bus = _fresh_bus()
+    bus = spec.fresh_bus()
     while budget.more(tally.inputs):
         tally.inputs += 1
-        if tally.inputs % REBUILD_EVERY == 0 or _pingable(bus) is None:
-            bus = _fresh_bus()
+        if tally.inputs % spec.rebuild_every == 0 or spec.pingable(bus) is None:
+            bus = spec.fresh_bus()
         try:
             for _ in range(rng.randrange(1, 6)):
-                data = _instruction(rng) if rng.random() < 0.7 else bytes(garbage(junk_rng))
+                data = spec.instruction(rng) if rng.random() < 0.7 else \
+                    bytes(spec.garbage(junk_rng))
                 bus.master_write(data)
-                bus.master_read(300, rng.choice((0, 200, READ_TIMEOUT_US)))
-            for s in bus.servos:
-                broken = check_servo(s)
-                if broken:
-                    tally.escape(f"stream {tally.inputs}: servo {s.id}: {broken}")
-                    bus = _fresh_bus()
-                    break
-            bus.idle_until(bus.clock.t_us + dxl.INTER_BYTE_TIMEOUT_US + 1)
-            bus.master_read(10_000, 0)  # drop what is still on the line
-            target = _pingable(bus)
+                bus.master_read(spec.read_bytes, rng.choice(spec.reads_us))
+            broken = broken_servo(spec, bus)
+            if broken:
+                tally.escape(f"stream {tally.inputs}: {broken}")
+                bus = spec.fresh_bus()
+            target, answered = resync(spec, bus)
             if target is None:
                 continue
             tally.resync_checked += 1
-            bus.master_write(dxl.ping(target.id))
-            reply = dxl.Parser().feed(bus.master_read(6, READ_TIMEOUT_US))
-            if reply and reply[0].id == target.id:
+            if answered:
                 tally.resync_found += 1
             elif len(tally.notes) < 5:
                 tally.notes[f"no PING reply at stream {tally.inputs}"] = target.id
         except Exception as exc:  # an escape is what the fuzzer is for: count and report it
             tally.escape(f"stream {tally.inputs}: {exc.__class__.__name__}: {exc}")
-            bus = _fresh_bus()
+            bus = spec.fresh_bus()
     tally.wall_s = budget.elapsed_s()
     return [tally]
+
+
+AX12 = BusSpec("emulated bus, 18 servos", _fresh_bus, _instruction, garbage, check_servo,
+               _pingable, dxl.ping, dxl.Parser, REBUILD_EVERY, 300, (0, 200, READ_TIMEOUT_US),
+               dxl.INTER_BYTE_TIMEOUT_US + 1, 10_000, 6, READ_TIMEOUT_US)
+
+
+def run(seed: int, budget_s: float | None, limit: int | None) -> list[Tally]:
+    return run_streams(AX12, seed, budget_s, limit)

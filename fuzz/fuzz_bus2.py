@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import random
 
-from fuzz.hostile import Rng
+from fuzz.fuzz_bus import BusSpec, rare_id_writes, run_streams
 from fuzz.fuzz_parser2 import garbage
-from fuzz.tally import Budget, Tally
+from fuzz.tally import Tally
 from hil.bus2 import Bus2
 from hil.clock import VirtualClock
 from hil.servo_xl430 import XL430Servo
@@ -55,9 +55,7 @@ def instruction(rng: random.Random) -> bytes:
         params = bytes((dx2.RESET_EXCEPT_ID_BAUD,))   # the others move IDs and baud away
     else:
         params = rng.randbytes(rng.randrange(6))
-    if rng.random() < 0.3:  # the address-changing writes are kept rare
-        params = params.replace(bytes((xl.ID,)), bytes((xl.LED,)), 1)
-    return dx2.packet(dev_id, instr, params)
+    return dx2.packet(dev_id, instr, rare_id_writes(rng, params, xl.ID, xl.LED))
 
 
 def fresh_bus() -> Bus2:
@@ -93,41 +91,10 @@ def pingable(bus: Bus2) -> XL430Servo | None:
     return None
 
 
+XL430 = BusSpec("protocol 2.0 bus, 18 XL430s", fresh_bus, instruction, garbage, check_servo,
+                pingable, dx2.ping, dx2.Parser, REBUILD_EVERY, 4000, (0, 300, READ_TIMEOUT_US),
+                dx2.INTER_BYTE_TIMEOUT_US + 10_000, 100_000, 14, READ_TIMEOUT_US)
+
+
 def run(seed: int, budget_s: float | None, limit: int | None) -> list[Tally]:
-    rng = random.Random(seed)
-    junk_rng = Rng(seed)
-    tally = Tally("protocol 2.0 bus, 18 XL430s", "streams")
-    budget = Budget(budget_s, limit)
-    bus = fresh_bus()
-    while budget.more(tally.inputs):
-        tally.inputs += 1
-        if tally.inputs % REBUILD_EVERY == 0 or pingable(bus) is None:
-            bus = fresh_bus()
-        try:
-            for _ in range(rng.randrange(1, 6)):
-                data = instruction(rng) if rng.random() < 0.7 else garbage(junk_rng)
-                bus.master_write(data)
-                bus.master_read(4000, rng.choice((0, 300, READ_TIMEOUT_US)))
-            for s in bus.servos:
-                broken = check_servo(s)
-                if broken:
-                    tally.escape(f"stream {tally.inputs}: servo {s.id}: {broken}")
-                    bus = fresh_bus()
-                    break
-            bus.idle_until(bus.clock.t_us + dx2.INTER_BYTE_TIMEOUT_US + 10_000)
-            bus.master_read(100_000, 0)
-            target = pingable(bus)
-            if target is None:
-                continue
-            tally.resync_checked += 1
-            bus.master_write(dx2.ping(target.id))
-            reply = dx2.Parser().feed(bus.master_read(14, READ_TIMEOUT_US))
-            if reply and reply[0].id == target.id:
-                tally.resync_found += 1
-            elif len(tally.notes) < 5:
-                tally.notes[f"no PING reply at stream {tally.inputs}"] = target.id
-        except Exception as exc:  # an escape is what the fuzzer is for: count and report it
-            tally.escape(f"stream {tally.inputs}: {exc.__class__.__name__}: {exc}")
-            bus = fresh_bus()
-    tally.wall_s = budget.elapsed_s()
-    return [tally]
+    return run_streams(XL430, seed, budget_s, limit)

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
+from hil.packet_check import PacketCheck
 from protocol import dynamixel as dxl
 
 KINDS = ("eeprom_busy", "unsupported_instruction", "bad_write", "inter_byte_gap",
@@ -48,10 +49,9 @@ class MasterCheck:
         self.protocol = protocol
         if protocol == 2:
             from hil.master_check2 import Packet2Check
-            self._p2: Any = Packet2Check(self._flag)
-            self._parser = self._p2.parser
+            self._check: PacketCheck = Packet2Check(self._flag)
         else:
-            self._parser = dxl.Parser()
+            self._check = Packet1Check(self._flag)
 
     def _flag(self, t_us: int, kind: str, detail: str) -> None:
         self.counts[kind] += 1
@@ -70,39 +70,47 @@ class MasterCheck:
         """A burst the master starts sending at ``t0_us`` (before the line delivers it)."""
         if bus.reply_arriving_after(t0_us):
             self._flag(t0_us, "talk_over_reply", "master sent before the status had arrived")
-        if self.protocol == 2:
-            self._p2.feed(bus, t0_us, data)
-            return
-        p = self._parser
-        gaps, bad = p.timeouts, p.bad_checksum
-        for i, byte in enumerate(data):
-            t = bus.byte_end_us(t0_us, i)
-            done = p.push(byte, t)
-            if p.timeouts != gaps:
-                gaps = p.timeouts
-                self._flag(t, "inter_byte_gap", "over 100 ms between bytes; partial packet dropped")
-            if p.bad_checksum != bad:
-                bad = p.bad_checksum
-                self._flag(t, "bad_checksum", f"packet to id {p.last_bad_checksum_id}")
-            if done:
-                self._packet(bus, t, p.id, p.code, bytes(p.buf[5:5 + p.nparams]))
+        self._check.feed(bus, t0_us, data)
 
-    def _packet(self, bus: Any, t_us: int, dev_id: int, code: int, params: bytes) -> None:
+    def summary(self) -> dict[str, Any]:
+        """Counts per kind, first time of each, and the first few events (JSON-ready)."""
+        return {"counts": dict(self.counts), "total": sum(self.counts.values()),
+                "first_s": {k: round(t * 1e-6, 6) for k, t in self.first_us.items()},
+                "events": [{"t_s": round(t * 1e-6, 6), "kind": k, "detail": d}
+                           for t, k, d in self.events[:20]]}
+
+
+class Packet1Check(PacketCheck):
+    """The AX-12 rules (Protocol 1.0)."""
+
+    def __init__(self, flag: OnViolation) -> None:
+        PacketCheck.__init__(self, flag, dxl.Parser())
+
+    def bad(self) -> int:
+        return self.parser.bad_checksum
+
+    def bad_detail(self) -> str:
+        return f"packet to id {self.parser.last_bad_checksum_id}"
+
+    def packet(self, bus: Any, t_us: int) -> None:
+        p = self.parser
+        dev_id, code = p.id, p.code
+        params = bytes(p.buf[dxl.PARAMS_OFFSET:dxl.PARAMS_OFFSET + p.nparams])
         name = dxl.INSTRUCTION_NAMES.get(code)
         if name is None:
-            self._flag(t_us, "unsupported_instruction", f"instruction 0x{code:02X} to id {dev_id}")
+            self.flag(t_us, "unsupported_instruction", f"instruction 0x{code:02X} to id {dev_id}")
             return
         broadcast = dev_id == dxl.BROADCAST_ID
         if broadcast and code in (dxl.READ, dxl.PING):
-            self._flag(t_us, "broadcast_read_ping", f"{name} to the broadcast ID")
+            self.flag(t_us, "broadcast_read_ping", f"{name} to the broadcast ID")
         targets = bus.servos if broadcast else [d for d in bus.servos if d.id == dev_id]
         busy = [d.id for d in targets if t_us < getattr(d, "busy_until_us", 0)]
         if busy and (not broadcast or code != dxl.SYNC_WRITE or self._sync_ids(params) & set(busy)):
-            self._flag(t_us, "eeprom_busy", f"{name} while id {busy[0]} writes its EEPROM")
+            self.flag(t_us, "eeprom_busy", f"{name} while id {busy[0]} writes its EEPROM")
         for d, address, value in self._writes(code, dev_id, params, targets):
             if d.check_write(address, value) & dxl.ERR_RANGE:
-                self._flag(t_us, "bad_write", f"{name} id {d.id} address {address} "
-                                              f"data {value.hex()}")
+                self.flag(t_us, "bad_write", f"{name} id {d.id} address {address} "
+                                             f"data {value.hex()}")
 
     @staticmethod
     def _sync_ids(params: bytes) -> set[int]:
@@ -124,10 +132,3 @@ class MasterCheck:
                 if d.id == params[i]:
                     out.append((d, params[0], bytes(params[i + 1:i + stride])))
         return out
-
-    def summary(self) -> dict[str, Any]:
-        """Counts per kind, first time of each, and the first few events (JSON-ready)."""
-        return {"counts": dict(self.counts), "total": sum(self.counts.values()),
-                "first_s": {k: round(t * 1e-6, 6) for k, t in self.first_us.items()},
-                "events": [{"t_s": round(t * 1e-6, 6), "kind": k, "detail": d}
-                           for t, k, d in self.events[:20]]}

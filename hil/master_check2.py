@@ -4,37 +4,28 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
+from hil.packet_check import PacketCheck
 from protocol import dynamixel2 as dx2
 
 GROUP_READS = (dx2.SYNC_READ, dx2.FAST_SYNC_READ, dx2.BULK_READ, dx2.FAST_BULK_READ)
 
 
-class Packet2Check:
-    """Parses what a master sends on a Protocol 2.0 line and flags through ``flag``."""
+class Packet2Check(PacketCheck):
+    """The X-series rules (Protocol 2.0)."""
 
     def __init__(self, flag: Callable[[int, str, str], None]) -> None:
-        self.flag = flag
-        self.parser = dx2.Parser()
+        PacketCheck.__init__(self, flag, dx2.Parser())
 
-    def feed(self, bus: Any, t0_us: int, data: bytes) -> None:
-        if bus.reply_arriving_after(t0_us):
-            self.flag(t0_us, "talk_over_reply", "master sent before the status had arrived")
+    def bad(self) -> int:
+        return self.parser.bad_crc
+
+    def bad_detail(self) -> str:
+        return f"bad CRC in a packet to id {self.parser.last_bad_crc_id}"
+
+    def packet(self, bus: Any, t_us: int) -> None:
         p = self.parser
-        gaps, bad = p.timeouts, p.bad_crc
-        for i, byte in enumerate(data):
-            t = bus.byte_end_us(t0_us, i)
-            done = p.push(byte, t)
-            if p.timeouts != gaps:
-                gaps = p.timeouts
-                self.flag(t, "inter_byte_gap", "over 100 ms between bytes; partial packet dropped")
-            if p.bad_crc != bad:
-                bad = p.bad_crc
-                self.flag(t, "bad_checksum", f"bad CRC in a packet to id {p.last_bad_crc_id}")
-            if done:
-                self.packet(bus, t, p.id, p.instr,
-                            bytes(p.buf[dx2.PARAMS_OFFSET:dx2.PARAMS_OFFSET + p.nparams]))
-
-    def packet(self, bus: Any, t_us: int, dev_id: int, instr: int, params: bytes) -> None:
+        dev_id, instr = p.id, p.instr
+        params = bytes(p.buf[dx2.PARAMS_OFFSET:dx2.PARAMS_OFFSET + p.nparams])
         name = dx2.INSTRUCTION_NAMES.get(instr)
         if name is None or instr == dx2.STATUS:
             self.flag(t_us, "unsupported_instruction", f"instruction 0x{instr:02X} to id {dev_id}")

@@ -16,9 +16,8 @@ marked "our choice" and listed in docs/servo-bus.md.
 """
 from __future__ import annotations
 
-from typing import Any
-
 from hil.servo_actuator import Actuator, KinematicActuator, drive, is_moving, wheel_mode
+from hil.servo_base import TableServo
 from hil.servo_health import ServoHealth
 from protocol import ax12
 from protocol import dynamixel as dxl
@@ -53,12 +52,14 @@ def sync_entries(params: bytes) -> tuple[int, dict[int, bytes]] | None:
     return out
 
 
-class Servo:
+class Servo(TableServo):
     """One AX-12A on the bus; ``handle`` takes a parsed instruction and returns the reply.
 
     ``handle``/``checksum_error`` return the status packet to send (bytes) or None; the
     bus adds the return delay and wire time. ``instructions`` counts packets executed.
     """
+
+    layout = ax12
 
     def __init__(self, dev_id: int = 1, edition: str = ax12.EDITION_EMANUAL,
                  actuator: Actuator | None = None, position: int = 512, t_us: int = 0,
@@ -83,19 +84,6 @@ class Servo:
         self.ignored = 0                       # packets that arrived while deaf
         self._command()
         self._present_stale = True
-
-    # --- identity ----------------------------------------------------------------
-    @property
-    def id(self) -> int:
-        return self.table[ax12.ID]
-
-    @property
-    def baud_bps(self) -> int:
-        return ax12.baud_to_bps(self.table[ax12.BAUD_RATE])
-
-    @property
-    def return_delay_us(self) -> int:
-        return 2 * self.table[ax12.RETURN_DELAY_TIME]
 
     def value(self, name: str) -> int:
         """A control-table value by field name (tests, recorder)."""
@@ -145,19 +133,6 @@ class Servo:
         t[ax12.PRESENT_TEMPERATURE] = self.health.temperature_units
         t[ax12.MOVING] = 1 if is_moving(vel) else 0
 
-    @property
-    def moving(self) -> bool:
-        """The Moving flag (address 46) without refreshing the rest of the table."""
-        return is_moving(self.actuator.state()[1])
-
-    def snapshot(self) -> dict[str, Any]:
-        """The servo's state in SI units, as the recorder logs it on ``/servos``."""
-        pos, vel, load = self.actuator.state()
-        return {"id": self.id, "position_rad": pos, "velocity_rad_s": vel, "load_frac": load,
-                "temperature_c": self.health.temperature_c, "voltage_v": self.health.supply_v,
-                "torque_enabled": bool(self.table[ax12.TORQUE_ENABLE]),
-                "moving": is_moving(vel), "error": self.state_errors()}
-
     def state_errors(self) -> int:
         """Error bits that describe the servo's state (voltage, heat, overload)."""
         return self.health.errors(self.table)
@@ -182,10 +157,6 @@ class Servo:
         self.health.set_supply_v(volts)
         self._command()
         self._present_stale = True
-
-    def set_hot_spot(self, temperature_c: float | None, t_us: int) -> None:
-        self.advance_to(t_us)
-        self.health.hot_spot_c = temperature_c
 
     def set_stalled(self, stalled: bool, t_us: int) -> None:
         """External load blocks the horn (actuators without ``set_stalled`` ignore it)."""
@@ -222,12 +193,6 @@ class Servo:
             return None
         return self._answer(code, dxl.ERR_CHECKSUM, b"")
 
-    def _deaf(self, t_us: int) -> bool:
-        if t_us < self.busy_until_us:
-            self.ignored += 1
-            return True
-        return False
-
     def _answer(self, code: int, error: int, params: bytes) -> bytes | None:
         srl = self.table[ax12.STATUS_RETURN_LEVEL]
         if srl >= 2 or code == dxl.PING or (srl == 1 and code == dxl.READ):
@@ -236,10 +201,8 @@ class Servo:
 
     def handle(self, code: int, params: bytes, broadcast: bool, t_us: int) -> bytes | None:
         """Execute one instruction at t_us; return the status packet, or None (no reply)."""
-        self.advance_to(t_us)
-        if self._deaf(t_us):
+        if not self._take(t_us):
             return None
-        self.instructions += 1
         error = 0
         data = b""
         if code == dxl.READ:
@@ -259,19 +222,13 @@ class Servo:
                 d = bytes(params[1:])
                 error = self.check_write(a, d)
                 if not error & dxl.ERR_RANGE:
-                    if code == dxl.WRITE:
-                        self._apply_write(a, d)
-                    else:
-                        self._registered = (a, d)
-                        self.table[ax12.REGISTERED] = 1
+                    self._write_or_register(code == dxl.WRITE, a, d)
         elif code == dxl.ACTION:
-            if self._registered is None:
+            registered = self._take_registered()
+            if registered is None:
                 error = dxl.ERR_INSTRUCTION
             else:
-                a, d = self._registered
-                self._registered = None
-                self.table[ax12.REGISTERED] = 0
-                self._apply_write(a, d)
+                self._apply_write(*registered)
         elif code == dxl.SYNC_WRITE:
             self._sync_write(params)
             return None

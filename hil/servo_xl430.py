@@ -16,10 +16,10 @@ reboot). Choices the manual leaves open are marked "our choice" (docs/servo-bus.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 from hil.servo import EEPROM_BUSY_US
 from hil.servo_actuator import Actuator, KinematicActuator, is_moving
+from hil.servo_base import TableServo
 from hil.servo_health import ServoHealth
 from hil.servo_profile import Trapezoid
 from protocol import dynamixel2 as dx2
@@ -32,10 +32,11 @@ READ_INSTRUCTIONS = (dx2.READ, dx2.SYNC_READ, dx2.FAST_SYNC_READ, dx2.BULK_READ,
 BACKUP_RANGES = ((0, xl.EEPROM_END), (76, 92))
 
 
-class XL430Servo:
+class XL430Servo(TableServo):
     """One XL430 on a Protocol 2.0 bus; ``handle`` executes an instruction, returns the reply."""
 
     model = xl.MODEL_NAME
+    layout = xl
 
     def __init__(self, dev_id: int = 1, actuator: Actuator | None = None,
                  position: int = xl.POSITION_CENTRE, t_us: int = 0,
@@ -60,23 +61,6 @@ class XL430Servo:
         self._backup: bytes | None = None
         self._profile: Trapezoid | None = None
         self._command()
-
-    # --- identity ----------------------------------------------------------------
-    @property
-    def id(self) -> int:
-        return self.table[xl.ID]
-
-    @property
-    def baud_bps(self) -> int:
-        return xl.baud_to_bps(self.table[xl.BAUD_RATE])
-
-    @property
-    def return_delay_us(self) -> int:
-        return xl.return_delay_us(self.table[xl.RETURN_DELAY_TIME])
-
-    @property
-    def torque_on(self) -> bool:
-        return bool(self.table[xl.TORQUE_ENABLE])
 
     def _get(self, name: str) -> int:
         f = xl.BY_NAME[name]
@@ -158,17 +142,9 @@ class XL430Servo:
         goal = self._get("goal_position")
         return abs(self._present_pulses(pos) - goal) <= 1
 
-    @property
-    def moving(self) -> bool:
-        return is_moving(self.actuator.state()[1])
-
-    def snapshot(self) -> dict[str, Any]:
-        """The servo's state in SI units, as the recorder logs it on ``/servos``."""
-        pos, vel, load = self.actuator.state()
-        return {"id": self.id, "position_rad": pos, "velocity_rad_s": vel, "load_frac": load,
-                "temperature_c": self.health.temperature_c, "voltage_v": self.health.supply_v,
-                "torque_enabled": self.torque_on, "moving": is_moving(vel),
-                "error": self.table[xl.HARDWARE_ERROR_STATUS]}
+    def state_errors(self) -> int:
+        """Hardware Error Status (what the recorder logs as the servo's error)."""
+        return self.table[xl.HARDWARE_ERROR_STATUS]
 
     # --- the drive ----------------------------------------------------------------------
     def _torque_frac(self) -> float:
@@ -225,10 +201,6 @@ class XL430Servo:
         self._hardware_check()
         self._command()
 
-    def set_hot_spot(self, temperature_c: float | None, t_us: int) -> None:
-        self.advance_to(t_us)
-        self.health.hot_spot_c = temperature_c
-
     def set_stalled(self, stalled: bool, t_us: int) -> None:
         self.advance_to(t_us)
         fn = getattr(self.actuator, "set_stalled", None)
@@ -250,12 +222,6 @@ class XL430Servo:
         self._command()
 
     # --- instructions -------------------------------------------------------------------
-    def _deaf(self, t_us: int) -> bool:
-        if t_us < self.busy_until_us:
-            self.ignored += 1
-            return True
-        return False
-
     def _error_field(self, error: int) -> int:
         return error | (dx2.ALERT if self.table[xl.HARDWARE_ERROR_STATUS] else 0)
 
@@ -291,10 +257,8 @@ class XL430Servo:
 
     def handle(self, instr: int, params: bytes, broadcast: bool, t_us: int) -> bytes | None:
         """Execute one instruction at t_us; return the status packet, or None."""
-        self.advance_to(t_us)
-        if self._deaf(t_us):
+        if not self._take(t_us):
             return None
-        self.instructions += 1
         if instr == dx2.PING:
             return self.ping_reply()
         error, data = 0, b""
@@ -312,21 +276,15 @@ class XL430Servo:
                 a, d = params[0] | params[1] << 8, bytes(params[2:])
                 error = self.check_write(a, d)
                 if not error:
-                    if instr == dx2.WRITE:
-                        self._apply_write(a, d)
-                    else:
-                        self._registered = (a, d)
-                        self.table[xl.REGISTERED] = 1
+                    self._write_or_register(instr == dx2.WRITE, a, d)
         elif instr == dx2.ACTION:
-            if self._registered is None:
+            registered = self._take_registered()
+            if registered is None:
                 error = dx2.ERR_INSTRUCTION
             else:
-                a, d = self._registered
-                self._registered = None
-                self.table[xl.REGISTERED] = 0
-                error = self.check_write(a, d)
+                error = self.check_write(*registered)
                 if not error:
-                    self._apply_write(a, d)
+                    self._apply_write(*registered)
         elif instr == dx2.SYNC_WRITE:
             self._sync_write(params)
             return None

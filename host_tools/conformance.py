@@ -67,17 +67,23 @@ class Link:
     def wire_s(self, nbytes: int) -> float:
         return nbytes * 10.0 / self.baud
 
+    def send(self, pkt: bytes) -> float:
+        """Write ``pkt`` after dropping stale input; the time (perf_counter) of the write.
+
+        The clock starts before the write: flush() (tcdrain) returns only once the bus has
+        read the packet, and a checker descheduled after it would start late and time a
+        reply as sooner than the servo's Return Delay (0.37 ms at 500 us on a loaded host)."""
+        self.ser.reset_input_buffer()
+        t0 = time.perf_counter()
+        self.ser.write(pkt)
+        self.ser.flush()
+        return t0
+
     def transact(self, pkt: bytes, timeout_s: float | None = None
                  ) -> tuple[dxl.Packet | None, float]:
         """Send ``pkt``; the first status packet heard (echo skipped) and its latency in s."""
         timeout_s = self.timeout_s if timeout_s is None else timeout_s
-        self.ser.reset_input_buffer()
-        # the clock starts before the write: flush() (tcdrain) returns only once the bus has
-        # read the packet, and a checker descheduled after it would start late and time a
-        # reply as sooner than the servo's Return Delay (0.37 ms at 500 us on a loaded host)
-        t0 = time.perf_counter()
-        self.ser.write(pkt)
-        self.ser.flush()
+        t0 = self.send(pkt)
         deadline = t0 + timeout_s
         parser = dxl.Parser()
         while True:
@@ -152,6 +158,24 @@ class Checker:
         return self.ask(pkt, count=count)
 
     # --- the run --------------------------------------------------------------------
+    def run(self, ids: list[int] | None, scan_timeout_s: float) -> list[int]:
+        """Scan (or ping ``ids``), check what answered, close the link; the IDs found."""
+        try:
+            found = self.scan(ids, scan_timeout_s)
+            self.check_found(found)
+        finally:
+            self.link.close()
+        return found
+
+    def check_found(self, found: list[int]) -> None:
+        """Each device found: a servo, or a sensor node (told apart by its model number)."""
+        for i in found:
+            model = self.read(i, 0, 2)
+            if model is not None and dxl.u16(model[0], model[1]) == sensor_node.MODEL_NUMBER:
+                self.sensor_node(i)
+            else:
+                self.servo(i)
+
     def scan(self, ids: list[int] | None, scan_timeout_s: float) -> list[int]:
         if ids is None:
             found = [i for i in range(dxl.MAX_ID + 1)
@@ -360,15 +384,6 @@ def run_checks(port: str, baud: int, ids: list[int] | None, timeout_s: float = 0
                scan_timeout_s: float = 0.015) -> dict[str, Any]:
     """Run every check; the result as a JSON-ready dict (``ok`` true when none failed)."""
     link = Link(port, baud, timeout_s)
-    try:
-        checker = Checker(link)
-        found = checker.scan(ids, scan_timeout_s)
-        for i in found:
-            model = checker.read(i, 0, 2)
-            if model is not None and dxl.u16(model[0], model[1]) == sensor_node.MODEL_NUMBER:
-                checker.sensor_node(i)
-            else:
-                checker.servo(i)
-    finally:
-        link.close()
+    checker = Checker(link)
+    found = checker.run(ids, scan_timeout_s)
     return summarise(port, baud, link.echo, found, checker.rows)

@@ -37,10 +37,7 @@ class Link2(Link):
         """Send ``pkt``; up to ``n_packets`` status packets (not our echo) and the time
         from the write to the last one."""
         timeout_s = self.timeout_s if timeout_s is None else timeout_s
-        self.ser.reset_input_buffer()
-        t0 = time.perf_counter()
-        self.ser.write(pkt)
-        self.ser.flush()
+        t0 = self.send(pkt)
         deadline = t0 + timeout_s
         parser = dx2.Parser()
         wire = bytearray()
@@ -99,6 +96,13 @@ class Checker2(Checker):
         if ids is None:
             self.add(None, "scan", bool(found), f"IDs 0-252: found {found}")
         return found
+
+    def check_found(self, found: list[int]) -> None:
+        """Each servo found, then the bus-wide group reads."""
+        for i in found:
+            self.servo(i)
+        if found:
+            self.group_reads(found)
 
     def servo(self, i: int) -> None:
         link = self.link
@@ -211,16 +215,8 @@ class Checker2(Checker):
 def run_checks(port: str, baud: int, ids: list[int] | None, timeout_s: float = 0.05,
                scan_timeout_s: float = 0.015) -> dict[str, Any]:
     """Every Protocol 2.0 check; a JSON-ready dict shaped like Protocol 1.0's result."""
-    link = Link2(port, baud, timeout_s)
-    try:
-        checker = Checker2(link)
-        found = checker.scan(ids, scan_timeout_s)
-        for i in found:
-            checker.servo(i)
-        if found:
-            checker.group_reads(found)
-    finally:
-        link.close()
+    checker = Checker2(Link2(port, baud, timeout_s))
+    found = checker.run(ids, scan_timeout_s)
     rows = checker.rows
     return {"port": port, "baud": baud, "echo": False, "protocol": 2, "servos": found,
             "ok": bool(rows) and all(r.result != "fail" for r in rows),

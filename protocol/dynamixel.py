@@ -9,7 +9,8 @@ instruction ``FF FF ID LEN INSTR P1..PN CHK`` and status ``FF FF ID LEN ERR P1..
 LEN = N + 2, CHK = ~(ID + LEN + INSTR/ERR + P1 + ... + PN) & 0xFF.
 """
 
-from protocol.stream import StreamParser
+from protocol.stream import (ACTION, FACTORY_RESET, PING, READ, REG_WRITE, SYNC_WRITE, WRITE,
+                             Packet, StreamParser, sync_params, u16)
 
 HEADER = 0xFF
 BROADCAST_ID = 0xFE
@@ -18,15 +19,7 @@ MAX_PACKET = 259  # 4 header bytes + LEN up to 255
 PARAMS_OFFSET = 5
 INTER_BYTE_TIMEOUT_US = 100000  # a servo drops a partial packet after a 100 ms gap
 
-# Instructions (the AX-12 supports exactly these seven).
-PING = 0x01
-READ = 0x02
-WRITE = 0x03
-REG_WRITE = 0x04
-ACTION = 0x05
-FACTORY_RESET = 0x06
-SYNC_WRITE = 0x83
-
+# Instructions: the AX-12 supports exactly the seven Protocol 2.0 kept (protocol/stream.py).
 INSTRUCTION_NAMES = {
     PING: "PING",
     READ: "READ",
@@ -126,40 +119,11 @@ def factory_reset(dev_id):
 
 def sync_write(address, data_len, entries):
     """SYNC_WRITE to the broadcast ID; ``entries`` is a list of (id, data) pairs."""
-    params = bytearray((address, data_len))
-    for dev_id, data in entries:
-        if len(data) != data_len:
-            raise ValueError("sync_write entry for id %d has %d bytes, not %d"
-                             % (dev_id, len(data), data_len))
-        params.append(dev_id)
-        params.extend(data)
-    return packet(BROADCAST_ID, SYNC_WRITE, params)
+    return packet(BROADCAST_ID, SYNC_WRITE, sync_params((address, data_len), data_len, entries))
 
 
 def status(dev_id, error=0, params=b""):
     return packet(dev_id, error, params)
-
-
-def u16(lo, hi):
-    return lo | (hi << 8)
-
-
-class Packet:
-    """A parsed packet (host convenience; the firmware reads the Parser's fields)."""
-
-    __slots__ = ("id", "code", "params", "raw")
-
-    def __init__(self, dev_id, code, params, raw):
-        self.id = dev_id
-        self.code = code
-        self.params = params
-        self.raw = raw
-
-    def __eq__(self, other):
-        return isinstance(other, Packet) and self.raw == other.raw
-
-    def __repr__(self):
-        return "Packet(id=%d, code=0x%02X, params=%s)" % (self.id, self.code, list(self.params))
 
 
 class Parser(StreamParser):
@@ -173,10 +137,8 @@ class Parser(StreamParser):
     """
 
     def __init__(self):
-        StreamParser.__init__(self, MAX_PACKET, INTER_BYTE_TIMEOUT_US)
-        self.id = -1
+        StreamParser.__init__(self, MAX_PACKET, INTER_BYTE_TIMEOUT_US, PARAMS_OFFSET)
         self.code = 0
-        self.nparams = 0
         self.bad_checksum = 0
         self.last_bad_checksum_id = -1
 
@@ -200,13 +162,8 @@ class Parser(StreamParser):
     def _scan(self):
         buf = self.buf
         while self._n:
-            if buf[0] != HEADER:  # drop the whole run up to the next FF in one shift:
-                k = 1             # byte by byte, a rejected 259-byte packet cost n^2
-                n = self._n
-                while k < n and buf[k] != HEADER:
-                    k += 1
-                self.garbage += k
-                self._drop(k)
+            if buf[0] != HEADER:
+                self._skip_to(HEADER)
                 continue
             if self._n < 2:
                 return False
@@ -224,9 +181,7 @@ class Parser(StreamParser):
                 return False
             length = buf[3]
             if length < 2:
-                self.bad_length += 1
-                self.last_reject = "bad_length"
-                self._drop(1)
+                self._bad_length()
                 continue
             total = length + 4
             if self._n < total:
@@ -245,12 +200,6 @@ class Parser(StreamParser):
             return True
         return False
 
-    def param(self, i):
-        return self.buf[PARAMS_OFFSET + i]
-
-    def param_u16(self, i):
-        return self.buf[PARAMS_OFFSET + i] | (self.buf[PARAMS_OFFSET + i + 1] << 8)
-
     def current(self):
         """The complete packet just parsed, as a new Packet (allocates)."""
         end = PARAMS_OFFSET + self.nparams
@@ -258,10 +207,6 @@ class Parser(StreamParser):
                       bytes(self.buf[0:end + 1]))
 
     def counters(self):
-        return {
-            "packets": self.packets,
-            "garbage": self.garbage,
-            "bad_length": self.bad_length,
-            "bad_checksum": self.bad_checksum,
-            "timeouts": self.timeouts,
-        }
+        c = StreamParser.counters(self)
+        c["bad_checksum"] = self.bad_checksum
+        return c

@@ -19,7 +19,9 @@ far and the last one the packet's own. Those packets are not stuffed (the SDK 4.
 reads them without unstuffing; decoding is by position).
 """
 
-from protocol.stream import StreamParser
+from protocol.stream import Packet as _Packet
+from protocol.stream import (ACTION, FACTORY_RESET, PING, READ, REG_WRITE, SYNC_WRITE, WRITE,
+                             StreamParser, sync_params, u16)
 
 HEADER0 = 0xFF
 HEADER1 = 0xFF
@@ -32,19 +34,13 @@ INSTR_OFFSET = 7
 PARAMS_OFFSET = 8
 INTER_BYTE_TIMEOUT_US = 100000  # as Protocol 1.0: a long gap drops a partial packet
 
-# Instructions (e-manual, Protocol 2.0, "Instruction").
-PING = 0x01
-READ = 0x02
-WRITE = 0x03
-REG_WRITE = 0x04
-ACTION = 0x05
-FACTORY_RESET = 0x06
+# Instructions (e-manual, Protocol 2.0, "Instruction"); PING to FACTORY_RESET and
+# SYNC_WRITE are Protocol 1.0's (protocol/stream.py).
 REBOOT = 0x08
 CLEAR = 0x10
 CONTROL_TABLE_BACKUP = 0x20
 STATUS = 0x55
 SYNC_READ = 0x82
-SYNC_WRITE = 0x83
 FAST_SYNC_READ = 0x8A
 BULK_READ = 0x92
 BULK_WRITE = 0x93
@@ -206,14 +202,8 @@ def sync_read(address, length, ids, fast=False):
 
 def sync_write(address, length, entries):
     """SYNC_WRITE to the broadcast ID; ``entries`` is a list of (id, data) pairs."""
-    params = bytearray(_u16(address) + _u16(length))
-    for dev_id, data in entries:
-        if len(data) != length:
-            raise ValueError("sync_write entry for id %d has %d bytes, not %d"
-                             % (dev_id, len(data), length))
-        params.append(dev_id)
-        params.extend(data)
-    return packet(BROADCAST_ID, SYNC_WRITE, params)
+    return packet(BROADCAST_ID, SYNC_WRITE,
+                  sync_params(_u16(address) + _u16(length), length, entries))
 
 
 def bulk_read(entries, fast=False):
@@ -280,34 +270,25 @@ def fast_blocks(params, lengths):
     return out
 
 
-def u16(lo, hi):
-    return lo | (hi << 8)
-
-
 def u32(buf, i):
     return buf[i] | (buf[i + 1] << 8) | (buf[i + 2] << 16) | (buf[i + 3] << 24)
 
 
-class Packet:
+class Packet(_Packet):
     """A parsed packet (host convenience; the firmware reads the Parser's fields).
 
     ``params`` are unstuffed and start after INSTR (a status packet's ERR is params[0]);
     ``raw`` is the packet as it was on the wire."""
 
-    __slots__ = ("id", "instr", "params", "raw")
+    __slots__ = ()
 
-    def __init__(self, dev_id, instr, params, raw):
-        self.id = dev_id
-        self.instr = instr
-        self.params = params
-        self.raw = raw
+    @property
+    def instr(self):
+        return self.code
 
     @property
     def error(self):
-        return self.params[0] if self.instr == STATUS and self.params else 0
-
-    def __eq__(self, other):
-        return isinstance(other, Packet) and self.raw == other.raw
+        return self.params[0] if self.code == STATUS and self.params else 0
 
     def __repr__(self):
         return "Packet(id=%d, instr=0x%02X, params=%s)" % (self.id, self.instr, list(self.params))
@@ -325,10 +306,8 @@ class Parser(StreamParser):
     """
 
     def __init__(self):
-        StreamParser.__init__(self, MAX_PACKET, INTER_BYTE_TIMEOUT_US)
-        self.id = -1
+        StreamParser.__init__(self, MAX_PACKET, INTER_BYTE_TIMEOUT_US, PARAMS_OFFSET)
         self.instr = 0
-        self.nparams = 0
         self.raw_len = 0
         self.bad_crc = 0
         self.last_bad_crc_id = -1
@@ -338,12 +317,7 @@ class Parser(StreamParser):
         buf = self.buf
         while self._n:
             if buf[0] != HEADER0:
-                k = 1
-                n = self._n
-                while k < n and buf[k] != HEADER0:
-                    k += 1
-                self.garbage += k
-                self._drop(k)
+                self._skip_to(HEADER0)
                 continue
             n = self._n
             if n >= 2 and buf[1] != HEADER1 or n >= 3 and buf[2] != HEADER2 \
@@ -356,9 +330,7 @@ class Parser(StreamParser):
             dev_id = buf[4]
             length = buf[5] | (buf[6] << 8)
             if dev_id == 0xFD or dev_id == 0xFF or length < 3 or length + 7 > MAX_PACKET:
-                self.bad_length += 1
-                self.last_reject = "bad_length"
-                self._drop(1)
+                self._bad_length()
                 continue
             total = length + 7
             if n < total:
@@ -401,12 +373,6 @@ class Parser(StreamParser):
             a = x
         return w - PARAMS_OFFSET
 
-    def param(self, i):
-        return self.buf[PARAMS_OFFSET + i]
-
-    def param_u16(self, i):
-        return self.buf[PARAMS_OFFSET + i] | (self.buf[PARAMS_OFFSET + i + 1] << 8)
-
     def param_u32(self, i):
         return u32(self.buf, PARAMS_OFFSET + i)
 
@@ -423,10 +389,6 @@ class Parser(StreamParser):
         return Packet(self.id, self.instr, params, raw)
 
     def counters(self):
-        return {
-            "packets": self.packets,
-            "garbage": self.garbage,
-            "bad_length": self.bad_length,
-            "bad_crc": self.bad_crc,
-            "timeouts": self.timeouts,
-        }
+        c = StreamParser.counters(self)
+        c["bad_crc"] = self.bad_crc
+        return c

@@ -1,12 +1,8 @@
 # protocol/dynamixel.py under the real micropython binary (checks.py asserts, no pytest).
 # Prints lines the pytest side compares with CPython's, then "OK dynamixel <checks>".
-import sys
-
 from protocol import dynamixel as dxl
 from tests.micropython.checks import check, done
-
-def hx(b):
-    return "".join("%02x" % x for x in b)
+from tests.micropython.packet_checks import Lcg, byte_path_allocates_nothing, round_trip
 
 
 def unhex(s):
@@ -29,46 +25,28 @@ check(sync == unhex("FFFFFE18831E04001000500101200260030230007001032002800312"),
 check(dxl.error_names(0x24) == ["overheating", "overload"], "error names")
 
 # Round trips over a deterministic pseudo-random stream (same numbers in both interpreters).
-seed = 12345
+rnd = Lcg(12345)
 
 
-def rnd(n):
-    global seed
-    seed = (seed * 1103515245 + 12345) & 0x7FFFFFFF
-    return seed % n
+def random_bytes(n):
+    return bytes(rnd(256) for _ in range(n))
 
 
-stream = bytearray()
-want = []
-for k in range(300):
-    kind = rnd(8)
-    dev = rnd(254)
-    if kind == 0:
-        pkt = dxl.ping(dev)
-    elif kind == 1:
-        pkt = dxl.read(dev, rnd(50), 1 + rnd(50))
-    elif kind == 2:
-        pkt = dxl.write(dev, rnd(50), bytes(rnd(256) for _ in range(1 + rnd(8))))
-    elif kind == 3:
-        pkt = dxl.reg_write(dev, rnd(50), bytes(rnd(256) for _ in range(1 + rnd(8))))
-    elif kind == 4:
-        pkt = dxl.action(dev)
-    elif kind == 5:
-        pkt = dxl.factory_reset(dev)
-    elif kind == 6:
-        n = 1 + rnd(4)
-        pkt = dxl.sync_write(rnd(50), n, [(i, bytes(rnd(256) for _ in range(n)))
-                                          for i in range(1 + rnd(18))])
-    else:
-        pkt = dxl.status(dev, rnd(128), bytes(rnd(256) for _ in range(rnd(6))))
-    if rnd(4) == 0:  # garbage without FF between some packets
-        stream.extend(bytes(rnd(255) for _ in range(1 + rnd(5))))
-    stream.extend(pkt)
-    want.append(pkt)
-p = dxl.Parser()
-got = p.feed(stream)
-check([q.raw for q in got] == want, "round trip of %d packets" % len(want))
-print("stream", len(stream), "packets", p.packets, "garbage", p.garbage)
+def sync_write(dev):
+    n = 1 + rnd(4)
+    return dxl.sync_write(rnd(50), n, [(i, random_bytes(n)) for i in range(1 + rnd(18))])
+
+
+round_trip(dxl, rnd, (
+    dxl.ping,
+    lambda dev: dxl.read(dev, rnd(50), 1 + rnd(50)),
+    lambda dev: dxl.write(dev, rnd(50), random_bytes(1 + rnd(8))),
+    lambda dev: dxl.reg_write(dev, rnd(50), random_bytes(1 + rnd(8))),
+    dxl.action,
+    dxl.factory_reset,
+    sync_write,
+    lambda dev: dxl.status(dev, rnd(128), random_bytes(rnd(6))),
+), 254, 300)
 
 # Bad checksum, bad length, resync, timeout, flush.
 p = dxl.Parser()
@@ -87,32 +65,9 @@ check(p.feed(hidden) == [], "hidden while the long packet may complete")
 check([q.id for q in p.flush()] == [5], "flush recovers it")
 print("counters", sorted(p.counters().items()))
 
-# build_into and push do not allocate (MicroPython only: CPython boxes every int).
-def allocated_by_byte_path():
-    """Bytes allocated while building 20 packets and parsing 20 SYNC_WRITEs (locals only)."""
-    import gc
-
-    buf = bytearray(dxl.MAX_PACKET)
-    params = bytearray(b"\x1e\x04\x00\x02\x00\x01")
-    p = dxl.Parser()
-    data = dxl.sync_write(30, 4, [(i, b"\x00\x02\x00\x01") for i in range(18)])
-    push = p.push
-    n = 0
-    gc.collect()
-    gc.disable()
-    before = gc.mem_alloc()
-    for _ in range(20):
-        n = dxl.build_into(buf, 1, dxl.WRITE, params, 6)
-        for i in range(len(data)):
-            push(data[i], i)
-    after = gc.mem_alloc()
-    gc.enable()
-    check(p.packets == 20 and n == 12, "parsed while measuring")
-    return after - before
-
-
-if sys.implementation.name == "micropython":
-    grew = allocated_by_byte_path()
-    check(grew == 0, "byte path allocated %d bytes" % grew)
+# build_into (a WRITE) and push (20 SYNC_WRITEs) do not allocate.
+byte_path_allocates_nothing(
+    dxl, dxl.WRITE, bytearray(b"\x1e\x04\x00\x02\x00\x01"), 6,
+    dxl.sync_write(30, 4, [(i, b"\x00\x02\x00\x01") for i in range(18)]), 12)
 
 done("dynamixel")

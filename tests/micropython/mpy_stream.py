@@ -19,7 +19,7 @@ class Pairs(StreamParser):
         return self.buf[1]
 
 
-p = Pairs(8, 1000)
+p = Pairs(8, 1000, 0)
 check(p.feed(b"\x01\xaa\x05\x02\xaa\x06") == [5, 6], "two packets through garbage")
 check(p.garbage == 2 and p.packets == 2, "counted")
 p.push(0xAA, 0)
