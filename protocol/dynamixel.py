@@ -9,6 +9,7 @@ instruction ``FF FF ID LEN INSTR P1..PN CHK`` and status ``FF FF ID LEN ERR P1..
 LEN = N + 2, CHK = ~(ID + LEN + INSTR/ERR + P1 + ... + PN) & 0xFF.
 """
 
+from protocol.native import micropython
 from protocol.stream import StreamParser
 
 HEADER = 0xFF
@@ -63,6 +64,7 @@ def error_names(error):
     return [name for bit, name in ERROR_BITS if error & bit]
 
 
+@micropython.native
 def checksum(buf, start, end):
     """Protocol 1.0 checksum over buf[start:end] (ID through the last parameter)."""
     s = 0
@@ -71,6 +73,7 @@ def checksum(buf, start, end):
     return (~s) & 0xFF
 
 
+@micropython.native
 def build_into(buf, dev_id, code, params=b"", nparams=-1):
     """Write one packet (instruction or status) into ``buf``; return its length.
 
@@ -180,6 +183,7 @@ class Parser(StreamParser):
         self.bad_checksum = 0
         self.last_bad_checksum_id = -1
 
+    @micropython.native
     def take_whole(self, data, start, end):
         """Take ``data[start:end]`` at once if the parser holds nothing and it is exactly one
         valid packet: the same state as pushing its bytes one by one (True at the last),
@@ -248,6 +252,7 @@ class Parser(StreamParser):
     def param(self, i):
         return self.buf[PARAMS_OFFSET + i]
 
+    @micropython.native
     def param_u16(self, i):
         return self.buf[PARAMS_OFFSET + i] | (self.buf[PARAMS_OFFSET + i + 1] << 8)
 
