@@ -57,10 +57,13 @@ class FaultPolicy:
         """
         flags = 0
         self.reason = None
+        servos = master.servos
+        ids = self.ids
+        suspect = self.suspect
+        lost_us = self.lost_us
         for k in range(18):
-            s = master.servos[self.ids[k]]
-            silent = now_us - s.last_ok_us
-            if k in self.suspect:
+            s = servos[ids[k]]
+            if k in suspect:
                 flags |= cf.FAULT_SERVO_LOST
             if s.error_bits:
                 flags |= cf.FAULT_SERVO_ERROR
@@ -68,8 +71,11 @@ class FaultPolicy:
                     flags |= cf.FAULT_VOLTAGE
                 if s.error_bits & dxl.ERR_OVERHEATING:
                     flags |= cf.FAULT_OVERHEAT
+            if s.timeouts or s.corrupt:   # master.counters()'s, over the same 18 servos
+                flags |= cf.FAULT_BUS_ERROR
             if armed:
-                if silent > self.lost_us:
+                silent = now_us - s.last_ok_us
+                if silent > lost_us:
                     self.reason = ("servo %d (%s %s) lost: no valid status for %.1f s"
                                    % (s.id, LEGS[k // 3], JOINTS[k % 3], silent * 1e-6))
                 elif s.critical_run >= self.critical_errors:
@@ -77,7 +83,4 @@ class FaultPolicy:
                                    % (s.id, LEGS[k // 3], JOINTS[k % 3],
                                       "+".join(dxl.error_names(s.error_bits & servo_bus.CRITICAL_BITS))))
                 armed = self.reason is None
-        t, c, _ = master.counters()
-        if t or c:
-            flags |= cf.FAULT_BUS_ERROR
         return flags
