@@ -64,12 +64,14 @@ def error_names(error):
     return [name for bit, name in ERROR_BITS if error & bit]
 
 
-@micropython.native
-def checksum(buf, start, end):
-    """Protocol 1.0 checksum over buf[start:end] (ID through the last parameter)."""
+@micropython.viper
+def checksum(buf, start: int, end: int) -> int:
+    """Protocol 1.0 checksum over buf[start:end] (ID through the last parameter); bytes-like
+    ``buf`` (viper, as ``_fill``)."""
+    p = ptr8(buf)
     s = 0
     for i in range(start, end):
-        s += buf[i]
+        s += p[i]
     return (~s) & 0xFF
 
 
