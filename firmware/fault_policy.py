@@ -9,6 +9,7 @@ from firmware import servo_bus
 from protocol import can_frames as cf
 from protocol import dynamixel as dxl
 from protocol.hexapod import JOINTS, LEGS
+from protocol.native import micropython
 
 
 class FaultPolicy:
@@ -23,6 +24,7 @@ class FaultPolicy:
         self.suspect = []          # servo indices whose last read failed
         self.reason = None         # why the last ``check`` wants a stop (None: no reason)
 
+    @micropython.native
     def read_status(self, master, board):
         """Poll servos whose last read failed first, then the rotating subset; on an
         X-series bus one SYNC_READ of all 18 instead."""
@@ -46,6 +48,7 @@ class FaultPolicy:
             if not master.read_present(self.ids[k], board):
                 self.suspect.append(k)
 
+    @micropython.native
     def check(self, master, now_us, armed):
         """Heartbeat fault flags of the 18 servos and the bus at ``now_us``.
 
@@ -54,10 +57,13 @@ class FaultPolicy:
         """
         flags = 0
         self.reason = None
+        servos = master.servos
+        ids = self.ids
+        suspect = self.suspect
+        lost_us = self.lost_us
         for k in range(18):
-            s = master.servos[self.ids[k]]
-            silent = now_us - s.last_ok_us
-            if k in self.suspect:
+            s = servos[ids[k]]
+            if k in suspect:
                 flags |= cf.FAULT_SERVO_LOST
             if s.error_bits:
                 flags |= cf.FAULT_SERVO_ERROR
@@ -65,8 +71,11 @@ class FaultPolicy:
                     flags |= cf.FAULT_VOLTAGE
                 if s.error_bits & dxl.ERR_OVERHEATING:
                     flags |= cf.FAULT_OVERHEAT
+            if s.timeouts or s.corrupt:   # master.counters()'s, over the same 18 servos
+                flags |= cf.FAULT_BUS_ERROR
             if armed:
-                if silent > self.lost_us:
+                silent = now_us - s.last_ok_us
+                if silent > lost_us:
                     self.reason = ("servo %d (%s %s) lost: no valid status for %.1f s"
                                    % (s.id, LEGS[k // 3], JOINTS[k % 3], silent * 1e-6))
                 elif s.critical_run >= self.critical_errors:
@@ -74,7 +83,4 @@ class FaultPolicy:
                                    % (s.id, LEGS[k // 3], JOINTS[k % 3],
                                       "+".join(dxl.error_names(s.error_bits & servo_bus.CRITICAL_BITS))))
                 armed = self.reason is None
-        t, c, _ = master.counters()
-        if t or c:
-            flags |= cf.FAULT_BUS_ERROR
         return flags

@@ -9,6 +9,7 @@ MicroPython-compatible.
 """
 from protocol import ax12
 from protocol import dynamixel as dxl
+from protocol.native import micropython, ptr8
 
 TIMEOUT_MARGIN_US = 100
 EEPROM_SETTLE_US = 10_000       # a real AX-12 is deaf for a few ms after an EEPROM write
@@ -20,6 +21,24 @@ CRITICAL_BITS = dxl.ERR_OVERHEATING | dxl.ERR_OVERLOAD  # the AX-12's default sh
 OK = 0
 TIMEOUT = 1
 CORRUPT = 2
+
+
+@micropython.viper
+def _pack_goals(prm, ids, positions, speeds) -> int:
+    """SYNC_WRITE parameters from offset 2: each servo's ID, goal position and moving speed
+    (AX-12 units, 0-1023: viper's machine-word integers give the same bytes); the end offset."""
+    out = ptr8(prm)
+    k = 2
+    for j in range(int(len(ids))):
+        pos = int(positions[j])
+        spd = int(speeds[j])
+        out[k] = int(ids[j])
+        out[k + 1] = pos & 0xFF
+        out[k + 2] = pos >> 8
+        out[k + 3] = spd & 0xFF
+        out[k + 4] = spd >> 8
+        k += 5
+    return k
 
 
 class ServoStats:
@@ -69,6 +88,7 @@ class Master:
         self.error = 0                   # error byte of the last good status
 
     # --- one transaction -------------------------------------------------------------
+    @micropython.native
     def _transact(self, dev_id, n, nparams, now):
         """Send ``tx[:n]`` to ``dev_id`` and parse its status with ``nparams`` parameters.
 
@@ -131,6 +151,7 @@ class Master:
                 s.critical_run = 0
         return OK
 
+    @micropython.native
     def _retry(self, dev_id, n, nparams, now):
         r = self._transact(dev_id, n, nparams, now)
         k = 0
@@ -153,6 +174,7 @@ class Master:
         n = dxl.build_into(self.tx, dev_id, dxl.WRITE, buf, ndata + 1)
         return self._retry(dev_id, n, 0, now) == OK
 
+    @micropython.native
     def read(self, dev_id, address, length, now):
         """READ; on success the data is at ``parser.buf[PARAMS_OFFSET:]``."""
         self.small[0] = address
@@ -160,6 +182,7 @@ class Master:
         n = dxl.build_into(self.tx, dev_id, dxl.READ, self.small, 2)
         return self._retry(dev_id, n, length, now) == OK
 
+    @micropython.native
     def read_present(self, dev_id, now):
         """Present position, speed and load into the servo's stats; True on success."""
         if not self.read(dev_id, self.present_addr, self.present_len, now):
@@ -174,26 +197,18 @@ class Master:
         s.speed = p.param_u16(2)
         s.load = p.param_u16(4)
 
+    @micropython.native
     def sync_write(self, positions, speeds, now):
         """One SYNC_WRITE of goal position + moving speed (AX-12 units) for every servo."""
         prm = self.params
         prm[0] = ax12.GOAL_POSITION
         prm[1] = SYNC_LEN
-        k = 2
-        ids = self.ids
-        for j in range(len(ids)):
-            pos = positions[j]
-            spd = speeds[j]
-            prm[k] = ids[j]
-            prm[k + 1] = pos & 0xFF
-            prm[k + 2] = pos >> 8
-            prm[k + 3] = spd & 0xFF
-            prm[k + 4] = spd >> 8
-            k += 5
+        k = _pack_goals(prm, self.ids, positions, speeds)
         n = dxl.build_into(self.tx, dxl.BROADCAST_ID, dxl.SYNC_WRITE, prm, k)
         self._send_unanswered(n)
         return n
 
+    @micropython.native
     def _send_unanswered(self, n):
         """Send ``tx[:n]``, which no servo answers (SYNC_WRITE), consuming our echo."""
         if self.echo:
@@ -231,6 +246,7 @@ class Master:
         ram = bytes((1, 0, margin, margin, slope, slope))  # torque, LED, margins, slopes
         return self.write(dev_id, ax12.TORQUE_ENABLE, ram, 6, now)
 
+    @micropython.native
     def counters(self):
         t = c = e = 0
         for s in self.servos.values():

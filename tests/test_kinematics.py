@@ -1,10 +1,13 @@
 """Leg IK/FK (protocol/hexapod.py) over the walking workspace, in CPython and MicroPython."""
 import math
+import os
+import subprocess
+import sys
 
 import pytest
 
 from firmware import trajectory as traj
-from mpy import run_micropython
+from mpy import ROOT, run_micropython
 from protocol import hexapod as kin
 
 
@@ -85,3 +88,45 @@ def test_round_trip_under_micropython(tmp_path):
     r = run_micropython(script)
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == ["True", "0"]
+
+
+GOALS_AGREE = """
+from firmware.servo_goals import ServoGoals
+from protocol import ax12, hexapod as kin
+goals = ServoGoals(20000)
+goals.legs[4].directions = (1, -1, 1)          # a mirrored horn and calibration offsets
+goals.legs[4].offsets = (0.01, -0.02, 0.03)
+prev = [0.0] * 18
+bad = n = 0
+for leg in range(6):
+    nx, ny, nz = kin.neutral_foot(leg)
+    for dx in (-0.06, -0.013, 0.0, 0.021, 0.075, 0.4):
+        for dz in (0.0, 0.031, 0.07, -0.2):
+            for speed in (0.0, 1.0, 0.37):
+                goals.set_leg(leg, nx + dx, ny + dx / 3, nz + dz, speed)
+                L = goals.legs[leg]
+                for j in range(3):
+                    k = 3 * leg + j
+                    rad = L.servo_rad(j, L.q[j])
+                    lo, hi = goals.limits[k]
+                    pos = min(hi, max(lo, ax12.rad_to_position(rad)))
+                    spd = speed if speed > 0 else 1.5 * abs(rad - prev[k]) / 0.02
+                    want = (rad, pos, ax12.rad_s_to_speed(spd))
+                    bad += want != (goals.goal_rad[k], goals.positions[k], goals.speeds[k])
+                    prev[k] = rad
+                    n += 1
+print(n, bad)
+"""
+
+
+def test_servo_goals_are_the_protocol_conversions(tmp_path):
+    """ServoGoals.set_leg writes Leg.servo_rad, ax12.rad_to_position and rad_s_to_speed out
+    for speed: its goals are those functions' bit for bit, clamped targets and a mirrored,
+    offset leg included, under CPython and MicroPython."""
+    script = tmp_path / "goals.py"
+    script.write_text(GOALS_AGREE)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    for r in (subprocess.run([sys.executable, str(script)], env=env, capture_output=True,
+                             text=True, timeout=120), run_micropython(script)):
+        assert r.returncode == 0, r.stderr
+        assert r.stdout.split() == ["1296", "0"]
