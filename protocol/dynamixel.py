@@ -57,14 +57,12 @@ def error_names(error):
     return [name for bit, name in ERROR_BITS if error & bit]
 
 
-@micropython.viper
-def checksum(buf, start: int, end: int) -> int:
-    """Protocol 1.0 checksum over buf[start:end] (ID through the last parameter); bytes-like
-    ``buf`` (viper, as ``_fill``)."""
-    p = ptr8(buf)
+@micropython.native
+def checksum(buf, start, end):
+    """Protocol 1.0 checksum over buf[start:end] (ID through the last parameter)."""
     s = 0
     for i in range(start, end):
-        s += p[i]
+        s += buf[i]
     return (~s) & 0xFF
 
 
