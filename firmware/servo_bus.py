@@ -9,7 +9,7 @@ MicroPython-compatible.
 """
 from protocol import ax12
 from protocol import dynamixel as dxl
-from protocol.native import micropython, ptr8
+from protocol.native import micropython
 
 TIMEOUT_MARGIN_US = 100
 EEPROM_SETTLE_US = 10_000       # a real AX-12 is deaf for a few ms after an EEPROM write
@@ -21,24 +21,6 @@ CRITICAL_BITS = dxl.ERR_OVERHEATING | dxl.ERR_OVERLOAD  # the AX-12's default sh
 OK = 0
 TIMEOUT = 1
 CORRUPT = 2
-
-
-@micropython.viper
-def _pack_goals(prm, ids, positions, speeds) -> int:
-    """SYNC_WRITE parameters from offset 2: each servo's ID, goal position and moving speed
-    (AX-12 units, 0-1023: viper's machine-word integers give the same bytes); the end offset."""
-    out = ptr8(prm)
-    k = 2
-    for j in range(int(len(ids))):
-        pos = int(positions[j])
-        spd = int(speeds[j])
-        out[k] = int(ids[j])
-        out[k + 1] = pos & 0xFF
-        out[k + 2] = pos >> 8
-        out[k + 3] = spd & 0xFF
-        out[k + 4] = spd >> 8
-        k += 5
-    return k
 
 
 class ServoStats:
@@ -203,7 +185,17 @@ class Master:
         prm = self.params
         prm[0] = ax12.GOAL_POSITION
         prm[1] = SYNC_LEN
-        k = _pack_goals(prm, self.ids, positions, speeds)
+        k = 2
+        ids = self.ids
+        for j in range(len(ids)):
+            pos = positions[j]
+            spd = speeds[j]
+            prm[k] = ids[j]
+            prm[k + 1] = pos & 0xFF
+            prm[k + 2] = pos >> 8
+            prm[k + 3] = spd & 0xFF
+            prm[k + 4] = spd >> 8
+            k += 5
         n = dxl.build_into(self.tx, dxl.BROADCAST_ID, dxl.SYNC_WRITE, prm, k)
         self._send_unanswered(n)
         return n
