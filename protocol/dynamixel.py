@@ -9,7 +9,7 @@ instruction ``FF FF ID LEN INSTR P1..PN CHK`` and status ``FF FF ID LEN ERR P1..
 LEN = N + 2, CHK = ~(ID + LEN + INSTR/ERR + P1 + ... + PN) & 0xFF.
 """
 
-from protocol.native import micropython, ptr8
+from protocol.native import micropython
 from protocol.stream import (ACTION, FACTORY_RESET, PING, READ, REG_WRITE, SYNC_WRITE, WRITE,
                              Packet, StreamParser, sync_params, u16)
 
@@ -74,30 +74,18 @@ def build_into(buf, dev_id, code, params=b"", nparams=-1):
     packet. ``nparams`` limits how much of ``params`` is used (default: all of it), so
     a firmware can keep one preallocated parameter buffer.
     """
-    return _fill(buf, dev_id, code, params, len(params) if nparams < 0 else nparams)
-
-
-@micropython.viper
-def _fill(buf, dev_id: int, code: int, params, n: int) -> int:
-    """``build_into``'s bytes: header, ``params[:n]`` and the checksum. Viper, the emitter
-    whose integers are machine words: every value here is a byte or a sum of fewer than 260
-    bytes, so the same packet, ten times faster than bytecode for a SYNC_WRITE. Under
-    MicroPython a value over 255 is cut to its low byte rather than refused."""
-    out = ptr8(buf)
-    src = ptr8(params)
-    header = int(HEADER)
-    first = int(PARAMS_OFFSET)
-    out[0] = header
-    out[1] = header
-    out[2] = dev_id
-    out[3] = n + 2
-    out[4] = code
+    n = len(params) if nparams < 0 else nparams
+    buf[0] = HEADER
+    buf[1] = HEADER
+    buf[2] = dev_id
+    buf[3] = n + 2
+    buf[4] = code
     s = dev_id + n + 2 + code
     for i in range(n):
-        b = src[i]
-        out[first + i] = b
+        b = params[i]
+        buf[PARAMS_OFFSET + i] = b
         s += b
-    out[first + n] = (~s) & 0xFF
+    buf[PARAMS_OFFSET + n] = (~s) & 0xFF
     return n + 6
 
 
