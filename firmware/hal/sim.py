@@ -99,7 +99,6 @@ class Link:
                 raise sim_link.LinkError("the simulator closed the link")
             got += k
 
-    @micropython.native
     def call(self):
         """Send everything queued (ending in a request); return the reply's length.
 
@@ -109,10 +108,10 @@ class Link:
         try:
             self._write_all(self.nout)
             self._read_exact(2)
+        except sim_link.LinkError:
+            raise
         except OSError as exc:   # reset or broken pipe: the host is gone
             self.dead = True
-            if isinstance(exc, sim_link.LinkError):
-                raise exc        # (native code has no bare raise)
             raise sim_link.LinkError("the simulator link failed: %s" % exc)
         length = self.rx[0] | (self.rx[1] << 8)
         if length < 8 or length > len(self.rx):
