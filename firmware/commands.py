@@ -7,7 +7,6 @@ effect at each leg's next lift-off (Eq. 5-7), and so does a new walking directio
 included) are ignored.
 """
 from protocol import can_frames as cf
-from protocol.native import micropython
 
 
 class GaitCommands:
@@ -17,7 +16,6 @@ class GaitCommands:
         self.max_obstacle_height_m = max_obstacle_height_m
         self.count = 0
 
-    @micropython.native
     def take(self, ctl, now_us):
         """Drain the CAN receive queue at virtual time ``now_us``."""
         can = ctl.board.can

@@ -26,7 +26,6 @@ from protocol import can_frames as cf
 from protocol import hexapod
 from protocol import link_schema as ls
 from protocol import sim_link
-from protocol.native import micropython
 
 SAFE_SPEED_RAD_S = 1.0      # joint speed limit while going to the safe stance
 COMPLIANCE_MARGIN = 1       # AX-12 units, e-manual default
@@ -72,7 +71,6 @@ class Controller:
         self.found = []
 
     # --- time -------------------------------------------------------------------------
-    @micropython.native
     def _clock(self):
         t = self.board.ticks_us()
         self.now_us += self.board.ticks_diff(t, self._tick)
@@ -138,7 +136,6 @@ class Controller:
             self.swinging = 0
 
     # --- the loop ---------------------------------------------------------------------
-    @micropython.native
     def run(self):
         board = self.board
         telemetry = self.telemetry
@@ -156,7 +153,6 @@ class Controller:
                 t_next = board.ticks_add(t_next, (late // self.period_us + 1) * self.period_us)
             board.sleep_until(t_next)
 
-    @micropython.native
     def step(self):
         """One control cycle."""
         now = self._clock()
@@ -194,7 +190,6 @@ class Controller:
             if not report:
                 self._tactile_frame()
 
-    @micropython.native
     def _walk_targets(self, now, pressed):
         g = self.gait
         g.advance(now)
@@ -229,7 +224,6 @@ class Controller:
             nx, ny, nz = goals.neutral[i]
             goals.set_leg(i, nx, ny, nz, SAFE_SPEED_RAD_S)
 
-    @micropython.native
     def _check_faults(self):
         now = self._clock()
         armed = self.state in (cf.STATE_WALKING, cf.STATE_STOPPED)

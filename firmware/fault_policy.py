@@ -9,7 +9,6 @@ from firmware import servo_bus
 from protocol import can_frames as cf
 from protocol import dynamixel as dxl
 from protocol.hexapod import JOINTS, LEGS
-from protocol.native import micropython
 
 
 class FaultPolicy:
@@ -24,7 +23,6 @@ class FaultPolicy:
         self.suspect = []          # servo indices whose last read failed
         self.reason = None         # why the last ``check`` wants a stop (None: no reason)
 
-    @micropython.native
     def read_status(self, master, board):
         """Poll servos whose last read failed first, then the rotating subset; on an
         X-series bus one SYNC_READ of all 18 instead."""
@@ -48,7 +46,6 @@ class FaultPolicy:
             if not master.read_present(self.ids[k], board):
                 self.suspect.append(k)
 
-    @micropython.native
     def check(self, master, now_us, armed):
         """Heartbeat fault flags of the 18 servos and the bus at ``now_us``.
 

@@ -7,7 +7,6 @@ leg at a time in the order LF, LM, LH, RF, RM, RH (T = 6, duty factor 5/6). The 
 virtual microseconds to normalised time and applies requested changes at a wrap.
 """
 from protocol.hexapod import GAITS
-from protocol.native import micropython
 
 
 class Gait:
@@ -39,7 +38,6 @@ class Gait:
         self.t0_us = t_us
         self.t = 0.0
 
-    @micropython.native
     def advance(self, t_us):
         """Normalised time at virtual time ``t_us``; applies a pending change at a wrap.
 

@@ -9,7 +9,6 @@ MicroPython-compatible.
 """
 from protocol import ax12
 from protocol import dynamixel as dxl
-from protocol.native import micropython
 
 TIMEOUT_MARGIN_US = 100
 EEPROM_SETTLE_US = 10_000       # a real AX-12 is deaf for a few ms after an EEPROM write
@@ -70,7 +69,6 @@ class Master:
         self.error = 0                   # error byte of the last good status
 
     # --- one transaction -------------------------------------------------------------
-    @micropython.native
     def _transact(self, dev_id, n, nparams, now):
         """Send ``tx[:n]`` to ``dev_id`` and parse its status with ``nparams`` parameters.
 
@@ -133,7 +131,6 @@ class Master:
                 s.critical_run = 0
         return OK
 
-    @micropython.native
     def _retry(self, dev_id, n, nparams, now):
         r = self._transact(dev_id, n, nparams, now)
         k = 0
@@ -156,7 +153,6 @@ class Master:
         n = dxl.build_into(self.tx, dev_id, dxl.WRITE, buf, ndata + 1)
         return self._retry(dev_id, n, 0, now) == OK
 
-    @micropython.native
     def read(self, dev_id, address, length, now):
         """READ; on success the data is at ``parser.buf[PARAMS_OFFSET:]``."""
         self.small[0] = address
@@ -164,7 +160,6 @@ class Master:
         n = dxl.build_into(self.tx, dev_id, dxl.READ, self.small, 2)
         return self._retry(dev_id, n, length, now) == OK
 
-    @micropython.native
     def read_present(self, dev_id, now):
         """Present position, speed and load into the servo's stats; True on success."""
         if not self.read(dev_id, self.present_addr, self.present_len, now):
@@ -179,7 +174,6 @@ class Master:
         s.speed = p.param_u16(2)
         s.load = p.param_u16(4)
 
-    @micropython.native
     def sync_write(self, positions, speeds, now):
         """One SYNC_WRITE of goal position + moving speed (AX-12 units) for every servo."""
         prm = self.params
@@ -200,7 +194,6 @@ class Master:
         self._send_unanswered(n)
         return n
 
-    @micropython.native
     def _send_unanswered(self, n):
         """Send ``tx[:n]``, which no servo answers (SYNC_WRITE), consuming our echo."""
         if self.echo:
@@ -238,7 +231,6 @@ class Master:
         ram = bytes((1, 0, margin, margin, slope, slope))  # torque, LED, margins, slopes
         return self.write(dev_id, ax12.TORQUE_ENABLE, ram, 6, now)
 
-    @micropython.native
     def counters(self):
         t = c = e = 0
         for s in self.servos.values():

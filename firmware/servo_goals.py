@@ -10,7 +10,6 @@ import math
 from protocol import ax12
 from protocol import hexapod
 from protocol.hexapod import JOINT_ZERO
-from protocol.native import micropython
 
 SPEED_MARGIN = 1.5          # moving-speed limit = margin x the speed the targets need
 TWO_PI = 2.0 * math.pi      # ax12.rad_s_to_speed's (2.0 * math.pi), computed once
@@ -32,7 +31,6 @@ class ServoGoals:
             lo, hi = self.legs[j // 3].servo_limits_rad(j % 3)
             self.limits[j] = (ax12.rad_to_position(lo), ax12.rad_to_position(hi))
 
-    @micropython.native
     def set_leg(self, i, x, y, z, speed_rad_s):
         """Goals for leg ``i``'s foot at (x, y, z) in the body frame (m).
 

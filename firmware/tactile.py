@@ -5,7 +5,6 @@ pressed at lift-off) takes the obstacle trajectory for its next step: l_k = 2 l_
 and h_k = H + 2 cm (Eq. 7). Parameters change only at lift-off, never mid-swing; a step
 without contact returns the leg to l_i, h_i. MicroPython-compatible.
 """
-from protocol.native import micropython
 
 OBSTACLE_CLEARANCE_M = 0.02  # Eq. 7: h_k = H + 2 cm
 STEP_FACTOR = 2.0            # Eq. 6: l_k = 2 l_i
@@ -22,7 +21,6 @@ class Switches:
         self._count = [0] * n
         self.edges = 0         # debounced edges seen
 
-    @micropython.native
     def update(self, raw_bits):
         """Take one sample of the raw levels; return the bits whose debounced level changed."""
         changed = 0
@@ -61,7 +59,6 @@ class ObstacleRule:
         self.l_k = STEP_FACTOR * step_length_m
         self.h_k = max_obstacle_height_m + OBSTACLE_CLEARANCE_M
 
-    @micropython.native
     def touched(self, pressed_bits):
         """Note debounced presses (call every cycle with the debounced levels)."""
         self.contact |= pressed_bits

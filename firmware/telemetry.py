@@ -12,7 +12,6 @@ from protocol import dynamixel as dxl
 from protocol import link_schema as ls
 from protocol import sim_link
 from protocol.hexapod import LEGS
-from protocol.native import micropython
 
 
 class Telemetry:
@@ -27,7 +26,6 @@ class Telemetry:
         self.compute_max_us = 0
         self.compute_cycles = 0
 
-    @micropython.native
     def due(self, now_us):
         """True once per ``telemetry_hz`` period (and schedules the next one)."""
         if now_us >= self.next_us:
@@ -56,7 +54,6 @@ class Telemetry:
             {ls.LEG: LEGS[leg], ls.OVERCOMING: 1 if rule.overcoming & (1 << leg) else 0,
              ls.STEP_LENGTH_M: rule.l[leg], ls.STEP_HEIGHT_M: rule.h[leg]}))
 
-    @micropython.native
     def compute(self, dt_us):
         """Note one cycle's compute time (wall µs, host waits excluded)."""
         self.compute_us += dt_us

@@ -21,10 +21,7 @@ of l T / (T - 1) per period (2 l for tripod, 1.2 l for wave).
 """
 import math
 
-from protocol.native import micropython
 
-
-@micropython.native
 def stroke(t, l, T, phi):
     """Eq. 2-3's scalar stroke s(t) (m) at normalised time 0 <= t < T."""
     if t <= phi:
@@ -34,7 +31,6 @@ def stroke(t, l, T, phi):
     return l / 2 - l * (T - 2 * phi + 2 * t - 1) / (2 * (T - 1)) + l * T / (T - 1)
 
 
-@micropython.native
 def lift(t, h, phi):
     """Eq. 4: foot height z(t) (m) above the stance plane."""
     if phi < t <= phi + 1:

@@ -9,7 +9,6 @@ instruction ``FF FF ID LEN INSTR P1..PN CHK`` and status ``FF FF ID LEN ERR P1..
 LEN = N + 2, CHK = ~(ID + LEN + INSTR/ERR + P1 + ... + PN) & 0xFF.
 """
 
-from protocol.native import micropython
 from protocol.stream import (ACTION, FACTORY_RESET, PING, READ, REG_WRITE, SYNC_WRITE, WRITE,
                              Packet, StreamParser, sync_params, u16)
 
@@ -57,7 +56,6 @@ def error_names(error):
     return [name for bit, name in ERROR_BITS if error & bit]
 
 
-@micropython.native
 def checksum(buf, start, end):
     """Protocol 1.0 checksum over buf[start:end] (ID through the last parameter)."""
     s = 0
@@ -66,7 +64,6 @@ def checksum(buf, start, end):
     return (~s) & 0xFF
 
 
-@micropython.native
 def build_into(buf, dev_id, code, params=b"", nparams=-1):
     """Write one packet (instruction or status) into ``buf``; return its length.
 
@@ -145,7 +142,6 @@ class Parser(StreamParser):
         self.bad_checksum = 0
         self.last_bad_checksum_id = -1
 
-    @micropython.native
     def take_whole(self, data, start, end):
         """Take ``data[start:end]`` at once if the parser holds nothing and it is exactly one
         valid packet: the same state as pushing its bytes one by one (True at the last),

@@ -17,8 +17,6 @@ joints take servo angles.
 """
 import math
 
-from protocol.native import micropython
-
 # Leg order everywhere: servo IDs (leg i has coxa 3i+1, femur 3i+2, tibia 3i+3), CAN
 # tactile bit i = leg i; Fig. 13's abbreviations.
 LEGS = ("LF", "LM", "LH", "RF", "RM", "RH")
@@ -81,7 +79,6 @@ STEP_LENGTH_M = 0.05  # l_i: Eq. 1 and 16, L <= l_i = 5 cm
 GAIT_SPEED_M_S = {"tripod": 0.036, "wave": 0.013}  # Sec. 3.3
 
 
-@micropython.native
 def speed_m_s(gait, step_length_m, period_s):
     """Body speed of ``gait``: a stance foot sweeps l in T - 1 of the T units (Eq. 2-3)."""
     T = GAITS[gait][0]
@@ -127,7 +124,6 @@ class Leg:
         self.clamped = 0          # targets moved to the edge of the workspace or limits
         self.q = [0.0, 0.0, 0.0]  # last IK solution (joint angles, rad)
 
-    @micropython.native
     def ik(self, x, y, z):
         """Joint angles for a foot at (x, y, z) in the body frame; stored in ``self.q``.
 

@@ -7,7 +7,6 @@ complete) and ``current`` (the packet just found, as an object). Beside it, the 
 pieces both protocols build the same way: the parsed ``Packet`` and SYNC_WRITE's
 parameters.
 """
-from protocol.native import micropython
 
 # The instruction codes Protocol 2.0 kept from 1.0 (ROBOTIS e-manual, "Instruction").
 PING = 0x01
@@ -88,7 +87,6 @@ class StreamParser:
     def param(self, i):
         return self.buf[self._params_at + i]
 
-    @micropython.native
     def param_u16(self, i):
         at = self._params_at + i
         return self.buf[at] | (self.buf[at + 1] << 8)

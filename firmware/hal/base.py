@@ -15,8 +15,6 @@ and the methods below. The control clock is ``ticks_us`` with ``ticks_diff``/``t
 """
 import time
 
-from protocol.native import micropython
-
 
 class CAN:
     """A classic CAN port; frames for the firmware wait in ``rxq``, oldest first. This
@@ -30,7 +28,6 @@ class CAN:
         """Send ``data`` (<= 8 bytes) with standard ID ``arb_id`` (pyb.CAN's order)."""
         self.dropped += 1
 
-    @micropython.native
     def any(self):
         return len(self.rxq) > 0
 
@@ -47,7 +44,6 @@ class Switch:
         self.board = board
         self.bit = 1 << index
 
-    @micropython.native
     def value(self):
         return 1 if self.board.switch_bits & self.bit else 0
 

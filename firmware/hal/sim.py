@@ -13,7 +13,6 @@ import sys
 
 from firmware.hal import base
 from protocol import sim_link
-from protocol.native import micropython
 
 try:
     from time import ticks_us as _perf_us  # MicroPython
@@ -53,7 +52,6 @@ class Link:
         self.round_trips = 0
         self.dead = False    # the host closed the link or refused a message: send no more
 
-    @micropython.native
     def begin(self, op, n):
         """Reserve a message of ``n`` payload bytes; return the payload's offset in ``out``."""
         if self.nout + 3 + n > len(self.out):
@@ -68,7 +66,6 @@ class Link:
         self.nout = k + 3 + n
         return k + 3
 
-    @micropython.native
     def post(self, op, payload, n):
         k = self.begin(op, n)
         self.out[k:k + n] = payload[:n] if n != len(payload) else payload
@@ -79,7 +76,6 @@ class Link:
             self._write_all(self.nout)
             self.io_us += _perf_us() - t0
 
-    @micropython.native
     def _write_all(self, n):
         mv = self.outmv
         done = 0
@@ -88,7 +84,6 @@ class Link:
             done += w if w else 0
         self.nout = 0
 
-    @micropython.native
     def _read_exact(self, n):
         mv = self.rxmv
         got = 0
@@ -141,12 +136,10 @@ class HalfDuplexUART:
     def __init__(self, link):
         self.link = link
 
-    @micropython.native
     def write(self, buf, n):
         """Send ``buf[:n]``, no reply expected (SYNC_WRITE); posted, no round trip."""
         self.link.post(sim_link.OP_WRITE, buf, n)
 
-    @micropython.native
     def transact(self, buf, n, rx, nrx, timeout_us):
         """Send ``buf[:n]``, then receive up to ``nrx`` bytes into ``rx``, giving up
         ``timeout_us`` of bus time after the last byte went out. Returns the count."""
@@ -168,7 +161,6 @@ class CAN(base.CAN):
         base.CAN.__init__(self)
         self.link = link
 
-    @micropython.native
     def send(self, data, arb_id):
         n = len(data)
         k = self.link.begin(sim_link.OP_CAN, 3 + n)
@@ -205,27 +197,21 @@ class Board(base.Board):
         """Settings the host passes at boot (scenario overrides of firmware/config.py)."""
         return self._config
 
-    @micropython.native
     def ticks_us(self):
         return self.link.t_us
 
-    @micropython.native
     def ticks_diff(self, a, b):
         return a - b
 
-    @micropython.native
     def ticks_add(self, a, dt):
         return a + dt
 
-    @micropython.native
     def perf_us(self):
         return _perf_us()
 
-    @micropython.native
     def io_us(self):
         return self.link.io_us
 
-    @micropython.native
     def sleep_until(self, t_us):
         """End of cycle: idle the bus until ``t_us``; sample switches, collect CAN frames."""
         link = self.link
@@ -238,7 +224,6 @@ class Board(base.Board):
         if flags & sim_link.FLAG_END:
             self.ended = True
 
-    @micropython.native
     def _take(self, length):
         """The switches and CAN records of a sleep or more reply of ``length`` bytes; its flags."""
         rx = self.link.rx
