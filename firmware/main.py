@@ -54,8 +54,8 @@ def main(board=None):
         ctl = Controller(board, config.merged(board.config()))
         ctl.boot()
         ctl.run()
-    except sim_link.LinkError:
-        raise
+    except sim_link.LinkError as exc:   # (a bare raise: not under the native emitter)
+        raise exc
     except Exception as exc:  # reported to the host, which counts it; never silent
         board.event(sim_link.EVENT_EXCEPTION, _traceback(exc))
     finally:

@@ -26,6 +26,12 @@ REQUEST_OPS = sim_link.REQUEST_OPS
 RUNTIMES = ("micropython", "cpython")
 ACCEPT_POLL_S = 0.1   # how often a firmware not connected yet is checked for having exited
 IN_PROCESS = "cpython-inprocess"   # the firmware under this CPython, in this process (sweeps)
+# Our firmware's modules compiled by MicroPython's native emitter as they load: the same
+# runtime calls as bytecode (every float operation: the same bits, the same serial digest),
+# without its dispatch; the firmware's compute a cycle 255 -> 160 us (docs/performance.md).
+# The source stays plain Python, so plain mpy-cross compiles it; a board build passes the
+# same option with its target (mpy-cross -X emit=native -march=armv7emsp).
+NATIVE = ("-X", "emit=native")
 
 
 def firmware_command(python: str) -> list[str]:
@@ -35,7 +41,7 @@ def firmware_command(python: str) -> list[str]:
         if not exe.exists():
             raise UserError("the micropython binary is not in this environment "
                             "(run `make test` once, or use --python cpython)")
-        return [str(exe), "-m", "firmware.main"]
+        return [str(exe), *NATIVE, "-m", "firmware.main"]
     if python == "cpython":
         return [sys.executable, "-m", "firmware.main"]
     raise UserError(f"--python must be one of {', '.join(RUNTIMES)}, not {python!r}")

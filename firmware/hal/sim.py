@@ -103,8 +103,8 @@ class Link:
         try:
             self._write_all(self.nout)
             self._read_exact(2)
-        except sim_link.LinkError:
-            raise
+        except sim_link.LinkError as exc:   # (a bare raise: not under the native emitter)
+            raise exc
         except OSError as exc:   # reset or broken pipe: the host is gone
             self.dead = True
             raise sim_link.LinkError("the simulator link failed: %s" % exc)
