@@ -45,12 +45,12 @@ def _run(args: argparse.Namespace) -> int:
     if len(set(names)) != len(names):
         dup = next(n for n in names if names.count(n) > 1)
         raise UserError(f"two files name the case {dup!r}: give one a [case] name")
-    jobs = runner.jobs_for(cases, args.repeat, tactile=False if args.no_tactile else None,
-                           python=args.python, firmware=args.firmware,
-                           keep_dir=args.keep_traces)
     if args.trace is not None:
         results = [runner.evaluate_recorded(cases[0], args.trace, args.keep_traces)]
     else:
+        jobs = runner.jobs_for(cases, args.repeat, tactile=False if args.no_tactile else None,
+                               python=args.python, firmware=args.firmware,
+                               keep_dir=args.keep_traces)
         bar = None if args.quiet or len(jobs) < 2 else cli.ProgressBar("run")
         results = runner.run_all(jobs, args.jobs, args.scheduler, progress=bar)
     print(table(results))

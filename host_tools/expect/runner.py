@@ -127,10 +127,7 @@ def run_case(job: CaseRun) -> CaseResult:
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
-            Path(job.keep_dir).mkdir(parents=True, exist_ok=True)
-            name = job.label.replace("/", "_").replace("#", "-") + ".mcap"
-            kept = str(Path(job.keep_dir) / name)
-            annotate(trace, Path(kept), failed, summary["sim_time_s"])
+            kept = keep(trace, job.keep_dir, job.label, failed, summary["sim_time_s"])
     finally:
         trace.unlink(missing_ok=True)
     summary = {k: v for k, v in summary.items() if k != "trace"}
@@ -142,19 +139,25 @@ def evaluate_recorded(case: Case, trace: Path, keep_dir: str | None = None) -> C
     real time (``hexhil bus --world SCENARIO --port DEVICE --out RUN.mcap``), or any trace.
     The run's length is the trace's; a failing case's copy goes to ``keep_dir``."""
     try:
-        end_s = info(trace)["end_s"]
-        with Trace(trace) as tr:
-            linked = tr.metadata().get("command") != "bus"   # hexhil bus --world: no link
+        about = info(trace)
     except (OSError, ValueError) as exc:
         raise UserError(f"--trace {trace}: not a readable hexhil trace ({exc})") from None
+    end_s = about["end_s"]
+    linked = about["metadata"].get("command") != "bus"   # hexhil bus --world: no link
     summary = {"sim_time_s": end_s, "firmware_link": linked}
     outcomes = tuple(evaluate(case, summary, trace))
-    kept = None
-    if keep_dir is not None and not all(o.passed for o in outcomes):
-        Path(keep_dir).mkdir(parents=True, exist_ok=True)
-        kept = str(Path(keep_dir) / f"{case.name}.mcap")
-        annotate(trace, Path(kept), [o for o in outcomes if not o.passed], end_s)
+    failed = [o for o in outcomes if not o.passed]
+    kept = keep(trace, keep_dir, case.name, failed, end_s) if keep_dir and failed else None
     return CaseResult(case.name, case.seed, outcomes, summary, kept)
+
+
+def keep(trace: Path, keep_dir: str, label: str, failed: Sequence[Outcome],
+         end_s: float) -> str:
+    """``trace`` copied to ``keep_dir/<label>.mcap`` with ``failed`` written into it."""
+    Path(keep_dir).mkdir(parents=True, exist_ok=True)
+    kept = Path(keep_dir) / (label.replace("/", "_").replace("#", "-") + ".mcap")
+    annotate(trace, kept, failed, end_s)
+    return str(kept)
 
 
 def annotate(src: Path, dst: Path, failed: Sequence[Outcome], end_s: float) -> None:
