@@ -13,6 +13,7 @@ from __future__ import annotations
 import struct
 from typing import Any
 
+from hil.link import LinkViolation
 from hil.run_result import RunResult
 from protocol import sim_link
 
@@ -20,10 +21,6 @@ HANG_S = 2.0          # virtual seconds without a UART write, pin turn or sleep:
 TX_WHILE_RECEIVING = "tx_while_receiving"
 RX_WHILE_TRANSMITTING = "rx_while_transmitting"
 MISTAKES = (TX_WHILE_RECEIVING, RX_WHILE_TRANSMITTING)
-
-
-class LineViolation(ValueError):
-    """A line request the host cannot carry out (answered with an error reply)."""
 
 
 class BoardLine:
@@ -65,7 +62,7 @@ class BoardLine:
     def turn(self, payload: bytes, end_us: int, result: RunResult) -> None:
         """A posted direction message: the pin took ``level`` at ``turn_us``."""
         if len(payload) != sim_link.DIRECTION_LEN:
-            raise LineViolation(f"malformed direction message ({len(payload)} bytes)")
+            raise LinkViolation(f"malformed direction message ({len(payload)} bytes)")
         turn_us, level = struct.unpack_from("<QB", payload, 0)
         self._idle_to(min(turn_us, end_us))
         self.active()
@@ -74,10 +71,10 @@ class BoardLine:
     def answer(self, payload: bytes, end_us: int, result: RunResult) -> bytes:
         """Carry out one line request; the reply's body (after ``t_us``)."""
         if len(payload) < sim_link.LINE_HEAD_LEN:
-            raise LineViolation(f"malformed line request ({len(payload)} bytes)")
+            raise LinkViolation(f"malformed line request ({len(payload)} bytes)")
         at_us, flags, nrx = struct.unpack_from("<QBH", payload, 0)
         if nrx > sim_link.MAX_REPLY_LEN - sim_link.LINE_REPLY_HEAD_LEN:
-            raise LineViolation(f"a line request asks for {nrx} bytes, more than a reply holds")
+            raise LinkViolation(f"a line request asks for {nrx} bytes, more than a reply holds")
         tx = payload[sim_link.LINE_HEAD_LEN:]
         ended = at_us >= end_us
         clock, bus, server = self.clock, self.bus, self.server
@@ -88,7 +85,7 @@ class BoardLine:
         if not flags & sim_link.LINE_POLL or tx_on != self.tx_on:
             self.active()
         elif clock.t_us - self.quiet_since_us >= HANG_S * 1e6:
-            raise LineViolation(f"the firmware hung: no UART write, direction turn or sleep "
+            raise LinkViolation(f"the firmware hung: no UART write, direction turn or sleep "
                                 f"for {HANG_S:g} virtual seconds (since t={self.quiet_since_us * 1e-6:.6f} s)")
         self._set_direction(tx_on, result)
         if tx_on:

@@ -34,6 +34,11 @@ IN_PROCESS = "cpython-inprocess"   # the firmware under this CPython, in this pr
 NATIVE = ("-X", "emit=native")
 
 
+class LinkViolation(Exception):
+    """A client message the host cannot carry out (unknown op, malformed, another link
+    version): answered with an error reply (hil/link_server.py)."""
+
+
 def firmware_command(python: str) -> list[str]:
     """The command line that runs the firmware under ``python`` (micropython or cpython)."""
     if python == "micropython":

@@ -11,19 +11,15 @@ import json
 import struct
 from typing import Any, Callable
 
-from hil.board_line import MISTAKES, BoardLine, LineViolation
+from hil.board_line import MISTAKES, BoardLine
 from hil.can_bus import CanBus
-from hil.link import Connection, DirectConnection
+from hil.link import Connection, DirectConnection, LinkViolation
 from hil.run_result import RunResult
 from protocol import hexapod, sim_link
 from protocol import link_schema as ls
 from protocol.errors import UserError
 
 RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)
-
-
-class LinkViolation(Exception):
-    """A client message the host cannot carry out: answered with an error reply."""
 
 
 def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> dict[str, Any]:
@@ -197,7 +193,7 @@ class LinkServer:
         UserError (docs/link.md)."""
         try:
             return self._answer(conn, msgs, closed, end_us, result)
-        except (LinkViolation, LineViolation, struct.error) as exc:
+        except (LinkViolation, struct.error) as exc:
             text = f"malformed message: {exc}" if isinstance(exc, struct.error) else str(exc)
             if not closed:
                 conn.reply_error(text)
