@@ -22,7 +22,7 @@ from typing import Any, Callable
 import cantools
 
 from fuzz import fuzz_bus, fuzz_bus2, fuzz_can, fuzz_trace
-from fuzz.hostile import GAP_US, Rng, garbage, valid_packet
+from fuzz.hostile import GAP_US, Rng, garbage
 from hil import scenario
 from hil.faults import Faults
 from host_tools.trace import reader, recover

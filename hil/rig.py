@@ -7,7 +7,7 @@ table edition, return delay, baud register, EEPROM busy time and fault schedule.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Any, Sequence
 
 from hil import scenario as scenario_mod
 from hil.bus import Bus, OnBytes

@@ -58,7 +58,7 @@ class Trapezoid:
     def at(self, t_us: int) -> tuple[float, float]:
         """(position_rad, velocity_rad_s) of the trajectory at ``t_us``."""
         t = max(0.0, (t_us - self.t0_us) * 1e-6)
-        (t1, t2, t3), (d1, d2, d3) = self._t, self._d
+        (t1, t2, t3), (d1, d2, _) = self._t, self._d
         u, peak, a, s = self._u, self._peak, self._a, self._dir
         if t >= t1 + t2 + t3:
             return self.goal_rad, 0.0

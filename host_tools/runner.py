@@ -89,7 +89,7 @@ class Run:
         if live_port is not None:
             from host_tools.trace.live import LiveServer
 
-            self.live = live = LiveServer(live_port)
+            self.live = LiveServer(live_port)
         if self.trace or live_port is not None:
             from host_tools.trace.recorder import Recorder
 

@@ -4,7 +4,6 @@ from protocol/ax12.py, and the signs from the legs' forward kinematics."""
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 
 import pytest

@@ -10,7 +10,6 @@ those traces are read instead and their run facts come from the trace's metadata
 """
 from __future__ import annotations
 
-import json
 import math
 import subprocess
 import time
