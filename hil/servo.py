@@ -28,7 +28,26 @@ from protocol import dynamixel as dxl
 EEPROM_BUSY_US = 5_000
 
 
-_OWNER = [ax12.owner(a) for a in range(ax12.TABLE_SIZE)]   # check_write's field lookups
+_OWNER = [ax12.owner(a) for a in range(ax12.TABLE_SIZE)]
+
+
+def _fields(address: int, end: int) -> tuple[tuple[int, int, int, int], ...] | None:
+    """The fields a write over address..end touches, as (start, size, min, max); None
+    when it touches a read-only or reserved cell."""
+    out = []
+    a = address
+    while a < end:
+        f = _OWNER[a]
+        if f is None or f[3] == ax12.R:
+            return None
+        out.append((f[0], f[2], f[6], f[7]))
+        a = f[0] + f[2]
+    return tuple(out)
+
+
+# check_write's fields for every (address, end) inside the table, looked up once
+_FIELDS = {(a, e): _fields(a, e) for a in range(ax12.TABLE_SIZE)
+           for e in range(a + 1, ax12.TABLE_SIZE + 1)}
 _sync_parsed: list = [b"", None]   # the last SYNC_WRITE's parameters and sync_entries()
 
 
@@ -100,11 +119,12 @@ class Servo(TableServo):
         act = self.actuator
         act.advance_to(t_us)
         table = self.table
+        health = self.health
         torque_limit = table[ax12.TORQUE_LIMIT] | (table[ax12.TORQUE_LIMIT + 1] << 8) \
             if table[ax12.TORQUE_ENABLE] else 0
-        self.health.advance(dt_us, act.state()[2], torque_limit)
+        health.advance(dt_us, act.state()[2], torque_limit)
         self._present_stale = True
-        errors = self.state_errors()
+        errors = health.errors(table)   # state_errors(), without its call: every instruction
         if errors:
             self._alarm(errors)
 
@@ -203,6 +223,9 @@ class Servo(TableServo):
         """Execute one instruction at t_us; return the status packet, or None (no reply)."""
         if not self._take(t_us):
             return None
+        if code == dxl.SYNC_WRITE:   # every cycle, to every servo: tested first
+            self._sync_write(params)
+            return None
         error = 0
         data = b""
         if code == dxl.READ:
@@ -229,9 +252,6 @@ class Servo(TableServo):
                 error = dxl.ERR_INSTRUCTION
             else:
                 self._apply_write(*registered)
-        elif code == dxl.SYNC_WRITE:
-            self._sync_write(params)
-            return None
         elif code == dxl.FACTORY_RESET:
             reply = None if broadcast else self._answer(code, 0, b"")
             self._factory_reset()
@@ -274,14 +294,12 @@ class Servo(TableServo):
             elif address < ax12.EEPROM_END or (address <= ax12.LOCK < end
                                               and data[ax12.LOCK - address] == 0):
                 return dxl.ERR_RANGE  # unlocked only by a power cycle
-        a = address
+        fields = _FIELDS.get((address, end), ())
+        if fields is None:
+            return dxl.ERR_RANGE
         error = 0
         wheel = wheel_mode(t)
-        while a < end:
-            f = _OWNER[a]
-            if f is None or f[3] == ax12.R:
-                return dxl.ERR_RANGE
-            start, size = f[0], f[2]
+        for start, size, v_min, v_max in fields:
             lo = data[start - address] if start >= address else t[start]
             if size == 2:
                 hi_i = start + 1
@@ -289,15 +307,13 @@ class Servo(TableServo):
                 v = lo | (hi << 8)
             else:
                 v = lo
-            hi_limit = 2047 if start == ax12.MOVING_SPEED and wheel else f[7]
-            if v < f[6] or v > hi_limit:
+            if v < v_min or v > (2047 if start == ax12.MOVING_SPEED and wheel else v_max):
                 return dxl.ERR_RANGE
             if start == ax12.GOAL_POSITION and not wheel:
                 cw = t[6] | (t[7] << 8)
                 ccw = t[8] | (t[9] << 8)
                 if v < cw or v > ccw:
                     error |= dxl.ERR_ANGLE_LIMIT
-            a = start + size
         return error
 
     def _apply_write(self, address: int, data: bytes) -> None:

@@ -44,6 +44,14 @@ class Actuator(Protocol):
         """Move to virtual time t_us (kinematic model only; physics steps itself)."""
 
 
+# Goal Position and Moving Speed in SI units for every register value, computed once by
+# protocol/ax12.py's own conversions (the same floats): ``drive`` runs for every servo on
+# every SYNC_WRITE. Moving Speed keeps 11 bits (a wheel-mode value stays after a return to
+# joint mode).
+_POSITION_RAD = [ax12.position_to_rad(v) for v in range(ax12.POSITION_MAX + 1)]
+_SPEED_RAD_S = [ax12.speed_to_rad_s(v) for v in range(2048)]
+
+
 def drive(actuator: Actuator, table: bytearray, supply_frac: float) -> None:
     """Hand the control table's set-point to ``actuator``, at ``supply_frac`` of 12 V.
 
@@ -53,7 +61,9 @@ def drive(actuator: Actuator, table: bytearray, supply_frac: float) -> None:
     """
     t = table
     speed = t[32] | (t[33] << 8)
-    if wheel_mode(t):
+    cw = t[6] | (t[7] << 8)
+    ccw = t[8] | (t[9] << 8)
+    if not (cw or ccw):   # wheel mode
         mag = speed & 0x3FF
         if mag:
             goal_rad = -math.inf if speed & ax12.DIRECTION_BIT else math.inf
@@ -61,11 +71,9 @@ def drive(actuator: Actuator, table: bytearray, supply_frac: float) -> None:
             goal_rad = actuator.state()[0]
         speed_rad_s = mag * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0
     else:
-        cw = t[6] | (t[7] << 8)
-        ccw = t[8] | (t[9] << 8)
         goal = t[30] | (t[31] << 8)
-        goal_rad = ax12.position_to_rad(cw if goal < cw else (ccw if goal > ccw else goal))
-        speed_rad_s = ax12.speed_to_rad_s(speed)
+        goal_rad = _POSITION_RAD[cw if goal < cw else (ccw if goal > ccw else goal)]
+        speed_rad_s = _SPEED_RAD_S[speed]
     actuator.command(
         goal_rad,
         min(speed_rad_s, NO_LOAD_RAD_S * supply_frac),

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hil.servo import EEPROM_BUSY_US, Servo
-from hil.servo_actuator import KinematicActuator, wheel_mode
+from hil.servo_actuator import NO_LOAD_RAD_S, KinematicActuator, drive, wheel_mode
 from hil.servo_health import OVERLOAD_TIME_US
 from protocol import ax12
 from protocol import dynamixel as dxl
@@ -270,3 +270,37 @@ def test_control_table_invariants_under_random_writes(writes, edition):
         if locked and edition == ax12.EDITION_ORIGINAL:
             changed = [a for a in range(50) if after[a] != before[a] and a not in _MOTION]
             assert all(24 <= a <= 35 for a in changed), changed
+
+
+class _Recorder:
+    """An actuator that keeps what ``drive`` commanded."""
+
+    def __init__(self) -> None:
+        self.commands: list[tuple] = []
+
+    def command(self, *args) -> None:
+        self.commands.append(args)
+
+    def state(self) -> tuple[float, float, float]:
+        return 0.25, 0.0, 0.0
+
+
+def test_drive_commands_what_the_conversions_give_for_every_register_value():
+    """drive() reads Goal Position and Moving Speed from tables made once by ax12's own
+    conversions: every goal (clamped to the angle limits) and every 11-bit speed in joint
+    mode, and a wheel-mode speed, reach the actuator as the conversions give them."""
+    act = _Recorder()
+    t = ax12.defaults(ax12.EDITION_EMANUAL, 512)
+    t[6:10] = bytes((100, 0, 0xE8, 0x03))   # CW limit 100, CCW limit 1000
+    for goal in range(0, 1024, 7):
+        for speed in (0, 1, 300, 1023, 1024, 1500, 2047):
+            t[30:34] = bytes((goal & 0xFF, goal >> 8, speed & 0xFF, speed >> 8))
+            drive(act, t, 1.0)
+            goal_rad, speed_rad_s = act.commands[-1][:2]
+            assert goal_rad == ax12.position_to_rad(min(1000, max(100, goal)))
+            assert speed_rad_s == min(ax12.speed_to_rad_s(speed), NO_LOAD_RAD_S)
+    t[6:10] = bytes(4)                        # wheel mode: the speed's sign picks the way
+    t[32:34] = bytes((0x2C, 0x05))            # 300 | DIRECTION_BIT
+    drive(act, t, 1.0)
+    assert act.commands[-1][0] == -math.inf
+    assert act.commands[-1][1] == 300 * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0
