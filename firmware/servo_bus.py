@@ -15,7 +15,6 @@ EEPROM_SETTLE_US = 10_000       # a real AX-12 is deaf for a few ms after an EEP
 STATUS_LEN = 6                  # FF FF ID LEN ERR CHK, without parameters
 PRESENT_ADDR = ax12.PRESENT_POSITION
 PRESENT_LEN = 6                 # present position, speed and load
-SYNC_LEN = 4                    # goal position + moving speed
 CRITICAL_BITS = dxl.ERR_OVERHEATING | dxl.ERR_OVERLOAD  # the AX-12's default shutdown set
 OK = 0
 TIMEOUT = 1
@@ -60,7 +59,6 @@ class Master:
         self.return_delay_us = 500       # factory default until configure() writes 0
         self.tx = bytearray(dxl.MAX_PACKET)
         self.rx = bytearray(dxl.MAX_PACKET * 2)
-        self.params = bytearray(2 + len(ids) * (1 + SYNC_LEN))
         self.small = bytearray(8)
         self.parser = dxl.Parser()
         self.transactions = 0
@@ -176,21 +174,7 @@ class Master:
 
     def sync_write(self, positions, speeds, now):
         """One SYNC_WRITE of goal position + moving speed (AX-12 units) for every servo."""
-        prm = self.params
-        prm[0] = ax12.GOAL_POSITION
-        prm[1] = SYNC_LEN
-        k = 2
-        ids = self.ids
-        for j in range(len(ids)):
-            pos = positions[j]
-            spd = speeds[j]
-            prm[k] = ids[j]
-            prm[k + 1] = pos & 0xFF
-            prm[k + 2] = pos >> 8
-            prm[k + 3] = spd & 0xFF
-            prm[k + 4] = spd >> 8
-            k += 5
-        n = dxl.build_into(self.tx, dxl.BROADCAST_ID, dxl.SYNC_WRITE, prm, k)
+        n = dxl.sync_write_into(self.tx, ax12.GOAL_POSITION, self.ids, positions, speeds)
         self._send_unanswered(n)
         return n
 

@@ -13,6 +13,9 @@ from protocol.hexapod import JOINT_ZERO
 
 SPEED_MARGIN = 1.5          # moving-speed limit = margin x the speed the targets need
 TWO_PI = 2.0 * math.pi      # ax12.rad_s_to_speed's (2.0 * math.pi), computed once
+# math.degrees multiplies by 180 / pi (CPython's radToDeg, MicroPython's modmath alike):
+# the same product without the call
+RAD_TO_DEG = 180.0 / math.pi
 SPEED_MAX = 1023            # ax12.rad_s_to_speed's upper clamp
 
 
@@ -38,8 +41,9 @@ class ServoGoals:
         goal in one cycle (times ``SPEED_MARGIN``).
 
         The loop's hottest lines after the IK: ``Leg.servo_rad``, ``ax12.rad_to_position``
-        and ``ax12.rad_s_to_speed`` are written out here with their constants bound to
-        locals, the same operations in the same order, so the same bits
+        (its ``math.degrees`` as the product it is) and ``ax12.rad_s_to_speed`` are written
+        out here with their constants bound to locals, the same operations in the same
+        order, so the same bits
         (tests/test_kinematics.py compares them over the joints' range).
         """
         leg = self.legs[i]
@@ -51,7 +55,7 @@ class ServoGoals:
         goal_rad = self.goal_rad
         positions = self.positions
         speeds = self.speeds
-        degrees = math.degrees
+        rad_to_deg = RAD_TO_DEG
         centre_deg = ax12.POSITION_CENTRE_DEG
         position_max = ax12.POSITION_MAX
         range_deg = ax12.POSITION_RANGE_DEG
@@ -60,7 +64,7 @@ class ServoGoals:
         for j in range(3):
             rad = directions[j] * (q[j] - JOINT_ZERO[j]) + offsets[j]
             # rad_to_position clamps to 0-1023, then to the joint's limits inside that range
-            pos = round((degrees(rad) + centre_deg) * position_max / range_deg)
+            pos = round((rad * rad_to_deg + centre_deg) * position_max / range_deg)
             lo, hi = limits[k]
             positions[k] = lo if pos < lo else (hi if pos > hi else pos)
             # both speeds are >= 0: rad_s_to_speed's abs() changes no bit

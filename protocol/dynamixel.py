@@ -86,6 +86,41 @@ def build_into(buf, dev_id, code, params=b"", nparams=-1):
     return n + 6
 
 
+def sync_write_into(buf, address, ids, first, second):
+    """A SYNC_WRITE of two u16 values per ID (``first[j]``, ``second[j]`` for ``ids[j]``:
+    Goal Position and Moving Speed) into ``buf`` in one pass; returns its length. The
+    packet ``sync_write`` builds, without a parameter buffer copied a second time: the
+    firmware sends it every cycle."""
+    n = len(ids)
+    nparams = 2 + 5 * n
+    buf[0] = HEADER
+    buf[1] = HEADER
+    buf[2] = BROADCAST_ID
+    buf[3] = nparams + 2
+    buf[4] = SYNC_WRITE
+    buf[5] = address
+    buf[6] = 4
+    s = BROADCAST_ID + nparams + 2 + SYNC_WRITE + address + 4
+    k = 7
+    for j in range(n):
+        i = ids[j]
+        a = first[j]
+        b = second[j]
+        a_lo = a & 0xFF
+        a_hi = a >> 8
+        b_lo = b & 0xFF
+        b_hi = b >> 8
+        buf[k] = i
+        buf[k + 1] = a_lo
+        buf[k + 2] = a_hi
+        buf[k + 3] = b_lo
+        buf[k + 4] = b_hi
+        s += i + a_lo + a_hi + b_lo + b_hi
+        k += 5
+    buf[k] = (~s) & 0xFF
+    return k + 1
+
+
 def packet(dev_id, code, params=b""):
     """A packet as new ``bytes`` (host side and tests; the firmware uses build_into)."""
     buf = bytearray(len(params) + 6)

@@ -23,6 +23,15 @@ sync = dxl.sync_write(0x1E, 4, [(0, unhex("10005001")), (1, unhex("20026003")),
                                 (2, unhex("30007001")), (3, unhex("20028003"))])
 check(sync == unhex("FFFFFE18831E04001000500101200260030230007001032002800312"), "sync write")
 check(dxl.error_names(0x24) == ["overheating", "overload"], "error names")
+# The firmware's one-pass SYNC_WRITE: the same packet as sync_write, for every value's bytes.
+ids = list(range(1, 19))
+first = [(j * 977 + 5) % 1024 for j in range(18)]
+second = [(j * 131 + 255) % 2048 for j in range(18)]
+buf = bytearray(dxl.MAX_PACKET)
+n = dxl.sync_write_into(buf, 0x1E, ids, first, second)
+want = dxl.sync_write(0x1E, 4, [(ids[j], bytes((first[j] & 0xFF, first[j] >> 8, second[j] & 0xFF,
+                                                second[j] >> 8))) for j in range(18)])
+check(bytes(buf[:n]) == want, "sync_write_into is sync_write")
 
 # Round trips over a deterministic pseudo-random stream (same numbers in both interpreters).
 rnd = Lcg(12345)
