@@ -61,9 +61,7 @@ def drive(actuator: Actuator, table: bytearray, supply_frac: float) -> None:
     """
     t = table
     speed = t[32] | (t[33] << 8)
-    cw = t[6] | (t[7] << 8)
-    ccw = t[8] | (t[9] << 8)
-    if not (cw or ccw):   # wheel mode
+    if wheel_mode(t):
         mag = speed & 0x3FF
         if mag:
             goal_rad = -math.inf if speed & ax12.DIRECTION_BIT else math.inf
@@ -71,6 +69,8 @@ def drive(actuator: Actuator, table: bytearray, supply_frac: float) -> None:
             goal_rad = actuator.state()[0]
         speed_rad_s = mag * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0
     else:
+        cw = t[6] | (t[7] << 8)
+        ccw = t[8] | (t[9] << 8)
         goal = t[30] | (t[31] << 8)
         goal_rad = _POSITION_RAD[cw if goal < cw else (ccw if goal > ccw else goal)]
         speed_rad_s = _SPEED_RAD_S[speed]
