@@ -42,6 +42,7 @@ F411_LDFLAGS = (*ARM_CPU, "--specs=nano.specs", "--specs=nosys.specs", f"-T{LINK
                 "-Wl,--gc-sections")
 ARM_GCC = "arm-none-eabi-gcc"
 ARM_PACKAGES = "gcc-arm-none-eabi binutils-arm-none-eabi libnewlib-arm-none-eabi"
+LINE_ERRORS = ("error", "overflowed", "undefined reference", "multiple definition")
 log = logging.getLogger(__name__)
 
 
@@ -85,8 +86,10 @@ def arm_compiler() -> str:
 def _compile(args: list[str], what: str) -> None:
     proc = subprocess.run(args, capture_output=True, text=True)
     if proc.returncode != 0:
-        errors = [ln for ln in proc.stderr.splitlines() if "error" in ln] or \
-            proc.stderr.strip().splitlines() or [f"exit {proc.returncode}"]
+        lines = proc.stderr.strip().splitlines()
+        # the compiler's and the linker's own words, not collect2's "ld returned 1"
+        errors = [ln for ln in lines if any(w in ln for w in LINE_ERRORS)
+                  and "ld returned" not in ln] or lines or [f"exit {proc.returncode}"]
         log.info("compiler output:\n%s", proc.stderr)
         raise UserError(f"{what} does not build: {errors[0]}"
                         + (f" (and {len(errors) - 1} more errors)" if len(errors) > 1 else ""))
@@ -104,6 +107,11 @@ def _sources(paths: list[str]) -> list[Path]:
             raise UserError(f"{p}: no such file")
         out.append(path)
     return out
+
+
+def _f411_includes() -> tuple[str, ...]:
+    # the board's stm32f4xx_hal.h first; the shared hexhil_hal_api.h next to the host's
+    return (f"-I{F411_INCLUDE_DIR}", f"-I{INCLUDE_DIR}")
 
 
 def build(sources: list[str], output: str | Path, cflags: tuple[str, ...] = (),
@@ -133,11 +141,6 @@ def build(sources: list[str], output: str | Path, cflags: tuple[str, ...] = (),
                   *map(str, srcs), *map(str, F411_SOURCES), *F411_LDFLAGS, "-o", str(out),
                   *LDLIBS], what)
     return out
-
-
-def _f411_includes() -> tuple[str, ...]:
-    # the board's stm32f4xx_hal.h first; the shared hexhil_hal_api.h next to the host's
-    return (f"-I{F411_INCLUDE_DIR}", f"-I{INCLUDE_DIR}")
 
 
 def library(folder: str | Path, target: Target | str = Target.HOST) -> Path:
