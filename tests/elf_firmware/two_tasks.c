@@ -16,11 +16,13 @@ static uint32_t stacks[2][STACK_WORDS] __attribute__((aligned(8)));
 static uint32_t *task_sp[2];
 static volatile uint32_t current;
 static volatile uint32_t runs[2];
+static volatile uint32_t started;   /* SysTick runs from HAL_Init; tasks only after SVC */
 
 void SysTick_Handler(void)
 {
     HAL_IncTick();
-    SCB->ICSR = SCB_ICSR_PENDSVSET;
+    if (started)
+        SCB->ICSR = SCB_ICSR_PENDSVSET;
 }
 
 /* Called by PendSV with the outgoing task's saved stack; returns the incoming task's. */
@@ -31,7 +33,11 @@ uint32_t *hx_switch_task(uint32_t *sp)
     return task_sp[current];
 }
 
-uint32_t *hx_first_task(void) { return task_sp[0]; }
+uint32_t *hx_first_task(void)
+{
+    started = 1;
+    return task_sp[0];
+}
 
 __attribute__((naked)) void PendSV_Handler(void)
 {
