@@ -1,0 +1,427 @@
+"""The robot's STM32F411 board: the core, its peripherals at their RM0383 addresses, the
+wiring to the servo line, the switches, the console and CAN, and the run loop.
+
+The loop runs the core in chunks that end at the next scheduled event, so every flag
+changes at its exact cycle. Waiting costs no host time: WFI/WFE sleep to the next event,
+and a poll loop is skipped: when the same register read returns the same value twice
+with nothing else in between, the next pass is watched (the same instruction count, the
+same core registers, no RAM written): confirmed, virtual time jumps to the next event,
+when the flag can change, and the loop resumes from its read. A loop whose passes differ
+(a counter) runs instruction by instruction.
+"""
+from __future__ import annotations
+
+import logging
+from typing import Callable
+
+from unicorn import UC_HOOK_INTR, UC_HOOK_MEM_WRITE
+from unicorn import arm_const as A
+
+from hil.bus import resample
+from hil.mcu.console import Console, semihost
+from hil.mcu.core import (EXC_SVCALL, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT, INTR_INVSTATE,
+                          INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
+from hil.mcu.elf_image import SRAM_BASE, SRAM_SIZE, ElfImage
+from hil.mcu.events import Events
+from hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
+from hil.mcu.link_client import LinkClient, Reply
+from hil.mcu.peripherals import extra_peripherals
+from hil.mcu.rcc import CLOCK_BITS, HSI_HZ, Rcc, flash_interface, power
+from hil.mcu.system import Nvic, SysTick, SystemBlock
+from hil.mcu.usart import Usart
+from protocol import sim_link
+
+log = logging.getLogger(__name__)
+PERIPH_BASE, PERIPH_SIZE = 0x40000000, 0x80000      # APB1, APB2, AHB1
+PPB_BASE, PPB_SIZE = 0xE0000000, 0x100000
+MAX_CHUNK = 20_000           # instructions: the most an interrupt a write pends waits
+TICK_US = 1000               # a quiet millisecond: a sleep to now (world, switches, CAN)
+LINE_BAUD = 1_000_000
+BAUD_TOLERANCE = 0.03        # a UART frame survives about this much clock error
+PA1 = 1
+
+
+class Board:
+    """One run of an ELF; ``run`` serves it until the host ends the run."""
+
+    def __init__(self, image: ElfImage, exchange: Callable[[bytes, bool], bytes],
+                 console_events: Callable[[str], list[tuple[int, str]]]) -> None:
+        self.image = image
+        self.console_events = console_events
+        self.link = LinkClient(exchange)
+        self.core = core = Core(image, HSI_HZ)
+        self.events = ev = Events()
+        self.nvic = Nvic(core)
+        self.rcc = Rcc(ev, core.now_fs, self._clock_changed)
+        self.systick = SysTick(core, self.nvic, ev, lambda: self.rcc.hclk_hz)
+        self.ppb = SystemBlock(core, self.nvic, self.systick, self._reset_request)
+        self.console = Console(self._console_line)
+        self.exti = Exti(self.nvic.line)
+        self.switches = 0
+        self.direction = 0
+        self.exit_code: int | None = None
+        self.ended = False
+        self.fault: str | None = None
+        self.skipped_cycles = 0
+        self.unmodelled: set[int] = set()
+        self._burst = bytearray()
+        self._burst_fs = 0
+        self._burst_dir = 0
+        self._bad_baud: set[int] = set()
+        self._last_request_us = -TICK_US
+        self._pages: dict[int, object] = {}
+        gpio = [GpioPort(n, i, self._gpio_out, self._external(i))
+                for i, n in enumerate(("GPIOA", "GPIOB", "GPIOC"))]
+        for i, port in enumerate(gpio):
+            self._map(0x40020000 + 0x400 * i, port)
+        self.gpio = gpio
+        line = self.nvic.line
+        self.usart1 = Usart("USART1", 37, core, ev, lambda: self.rcc.pclk2_hz, line, self)
+        self.usart2 = Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self)
+        self.usart6 = Usart("USART6", 71, core, ev, lambda: self.rcc.pclk2_hz, line, self)
+        for base, p in ((0x40023800, self.rcc), (0x40023C00, flash_interface()),
+                        (0x40007000, power()), (0x40013C00, self.exti),
+                        (0x40013800, Syscfg(self.exti)), (0x40011000, self.usart1),
+                        (0x40004400, self.usart2), (0x40011400, self.usart6)):
+            self._map(base, p)
+        self.extra = extra_peripherals(self)
+        for base, p in self.extra:
+            self._map(base, p)
+        self.rx_timer = ev.timer(self._rx_arrives)
+        self.tick = ev.timer(self._tick)
+        self.tick.set(TICK_US * FS_PER_US)
+        uc = core.uc
+        uc.mmio_map(PERIPH_BASE, PERIPH_SIZE, self._read, None, self._write, None)
+        uc.mmio_map(PPB_BASE, PPB_SIZE, self._ppb_read, None, self._ppb_write, None)
+        uc.hook_add(UC_HOOK_INTR, self._intr)
+        self._poll_key: tuple[int, int] | None = None
+        self._poll_at = 0
+        self._watch: tuple | None = None
+        self._watch_hook = None
+        self._ram_written = False
+        self._skip = False
+        self._reread = False
+        self._loops_ok: dict[tuple[int, int, int], bool] = {}
+
+    def _map(self, base: int, periph: object) -> None:
+        self._pages[(base - PERIPH_BASE) >> 10] = periph
+
+    # --- the world ----------------------------------------------------------------
+    def _external(self, port: int) -> Callable[[int], int | None]:
+        def level(pin: int) -> int | None:
+            if port == 1 and pin < SWITCH_PINS and self.switches >> pin & 1:
+                return 0          # pressed: the switch shorts the pin to ground
+            return None
+        return level
+
+    def _take(self, reply: Reply) -> Reply:
+        if reply.switches != self.switches:
+            port = self.gpio[1]
+            before = [port.input_level(p) for p in range(SWITCH_PINS)]
+            self.switches = reply.switches
+            for p in range(SWITCH_PINS):
+                now = port.input_level(p)
+                if now != before[p]:
+                    self.exti.edge(1, p, bool(now))
+        if reply.next_rx_us and reply.pending:
+            self.rx_timer.set(max(reply.next_rx_us * FS_PER_US, self.core.now_fs()))
+        else:
+            self.rx_timer.clear()
+        for arb_id, data in reply.can:
+            self.can_received(arb_id, data)
+        if reply.ended:
+            self.ended = True
+            self.core.stop()
+        self._last_request_us = self.link.t_us
+        return reply
+
+    def now_us(self) -> int:
+        return self.core.now_fs() // FS_PER_US
+
+    def _tick(self, at_fs: int) -> None:
+        at_us = at_fs // FS_PER_US
+        if at_us - self._last_request_us >= TICK_US:
+            self._take(self.link.sleep(at_us))
+        self.tick.set(at_fs + TICK_US * FS_PER_US)
+
+    def can_received(self, arb_id: int, data: bytes) -> None:
+        can = getattr(self, "can", None)
+        if can is not None:
+            can.received(arb_id, data)
+
+    # --- the servo line and the console (UsartWiring) -----------------------------
+    def sent(self, usart: Usart, byte: int, start_fs: int, end_fs: int) -> None:
+        if usart is not self.usart2:
+            self.console.put(bytes((byte,)))
+            return
+        if not self._burst:
+            self._burst_fs, self._burst_dir = start_fs, self.direction
+        self._burst.append(byte)
+
+    def idle(self, usart: Usart, at_fs: int) -> None:
+        if usart is self.usart2:
+            self._flush()
+
+    def _flush(self) -> None:
+        if not self._burst:
+            return
+        tx, self._burst = bytes(self._burst), bytearray()
+        line = int(self.link.config.get("baud", LINE_BAUD))
+        baud = round(self.usart2.baud())
+        if abs(baud - line) > BAUD_TOLERANCE * line:
+            if baud not in self._bad_baud:
+                self._bad_baud.add(baud)
+                self.link.fault("uart_baud", f"USART2 runs at {baud} baud (BRR 0x{self.usart2.regs[8]:x}, "
+                                f"PCLK1 {self.rcc.pclk1_hz} Hz), the servo line at {line}: the "
+                                "servos hear garbage and never answer")
+            tx = resample(tx, max(1, baud), line)
+        self._take(self.link.line(self._burst_fs // FS_PER_US, tx, bool(self._burst_dir),
+                                  False, 0))
+
+    def _direction_turned(self, level: int) -> None:
+        usart = self.usart2
+        if self._burst and usart.shift_end.at_fs is not None and not level:
+            self._burst.pop()     # the byte on the wire now is cut by the turn
+            self.link.fault("tx_while_receiving", "1 byte cut: the direction pin (A1) turned "
+                            "low while it was on the wire (turn after TC, not TXE)")
+        self._flush()
+        self.direction = level
+        self.link.direction(self.now_us(), bool(level))
+
+    def _gpio_out(self, port: GpioPort, old_odr: int) -> None:
+        if port.index == 0:
+            level = port.output(PA1)
+            if level != self.direction:
+                self._direction_turned(level)
+
+    def _rx_arrives(self, at_fs: int) -> None:
+        reply = self._take(self.link.line(at_fs // FS_PER_US, b"", bool(self.direction), True, 1))
+        for b in reply.rx:
+            self.usart2.received(b)
+
+    def _console_line(self, text: str) -> None:
+        for kind, body in self.console_events(text):
+            self.link.event(kind, body)
+
+    # --- clocks and reset -------------------------------------------------------------
+    def _clock_changed(self) -> None:
+        self.core.set_hz(self.rcc.hclk_hz)
+        self.systick.rebase()
+        for _, p in self.extra:
+            rebase = getattr(p, "rebase", None)
+            if rebase is not None:
+                rebase()
+
+    def _reset_request(self) -> None:
+        self.fault = "a system reset (SCB AIRCR SYSRESETREQ): the board restarts, which a run does not model"
+
+    # --- registers ----------------------------------------------------------------
+    def _unmodelled(self, addr: int, kind: str) -> None:
+        page = addr & ~0x3FF
+        if page not in self.unmodelled:
+            self.unmodelled.add(page)
+            log.warning("firmware %s an unmodelled peripheral at 0x%08x (reads 0, writes are "
+                        "dropped)", kind, addr)
+
+    def _periph(self, offset: int) -> object | None:
+        p = self._pages.get(offset >> 10)
+        name = getattr(p, "name", None)
+        if p is not None and name in CLOCK_BITS and not self.rcc.enabled(name):
+            self._unmodelled(PERIPH_BASE + offset, f"used {name} with its RCC clock off:")
+            return None
+        return p
+
+    def _read(self, uc, offset: int, size: int, _) -> int:
+        now = self.core.now_fs()
+        self.events.fire_due(now)
+        p = self._periph(offset)
+        if p is None:
+            self._poll_key = None
+            if offset >> 10 not in self._pages:
+                self._unmodelled(PERIPH_BASE + offset, "read")
+            return 0
+        off = offset & 0x3FC
+        value = (p.read(off) >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
+        if off in p.pollable:
+            self._polled(PERIPH_BASE + offset, value)
+        else:
+            self._poll_key = None
+        return value
+
+    def _write(self, uc, offset: int, size: int, value: int, _) -> None:
+        self.events.fire_due(self.core.now_fs())
+        self._poll_key = None
+        p = self._periph(offset)
+        if p is None:
+            if offset >> 10 not in self._pages:
+                self._unmodelled(PERIPH_BASE + offset, "wrote")
+            return
+        shift = 8 * (offset & 3)
+        if size < 4:
+            mask = ((1 << 8 * size) - 1) << shift
+            value = (p.read(offset & 0x3FC) & ~mask) | ((value << shift) & mask) \
+                if p.pollable and (offset & 0x3FC) in p.pollable else value << shift
+        p.write(offset & 0x3FC, value & 0xFFFFFFFF)
+
+    def _ppb_read(self, uc, offset: int, size: int, _) -> int:
+        self.events.fire_due(self.core.now_fs())
+        addr = PPB_BASE + offset
+        value = (self.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
+        if addr & ~3 in self.ppb.pollable:
+            self._polled(addr, value)
+        else:
+            self._poll_key = None
+        return value
+
+    def _ppb_write(self, uc, offset: int, size: int, value: int, _) -> None:
+        self.events.fire_due(self.core.now_fs())
+        self._poll_key = None
+        addr = PPB_BASE + offset
+        if size < 4 and (0xE000E400 <= addr < 0xE000E500 or 0xE000ED18 <= addr < 0xE000ED24):
+            word = self.ppb.read(addr & ~3)
+            shift = 8 * (addr & 3)
+            mask = ((1 << 8 * size) - 1) << shift
+            value = (word & ~mask) | ((value << shift) & mask)
+        self.ppb.write(addr & ~3, value)
+
+    # --- poll skipping ------------------------------------------------------------
+    def _polled(self, addr: int, value: int) -> None:
+        core = self.core
+        if self._reread:           # the read a stop made run again: already counted
+            self._reread = False
+            return
+        now = core.now()
+        key = (addr, value)
+        if key != self._poll_key:
+            self._poll_key, self._poll_at = key, now
+            return
+        delta = now - self._poll_at
+        self._poll_at = now
+        pc = core.reg(A.UC_ARM_REG_PC)
+        loop = (pc, addr, delta)
+        watch = self._watch
+        if watch is None:
+            if self._loops_ok.get(loop) is False:
+                return
+            self._watch = (loop, value, core.context(), loop in self._loops_ok)
+            self._reread = True
+            core.stop()
+        elif watch[0] == loop and watch[1] == value and not self._ram_written \
+                and core.context() == watch[2]:
+            self._loops_ok[loop] = True
+            self._skip = True
+            core.stop()
+        else:
+            self._loops_ok[watch[0]] = False
+            self._end_watch()
+
+    def _end_watch(self) -> None:
+        self._watch = None
+        if self._watch_hook is not None:
+            self.core.uc.hook_del(self._watch_hook)
+            self._watch_hook = None
+            self.core.uc.ctl_flush_tb()
+
+    def _after_chunk(self) -> None:
+        core = self.core
+        if self._skip:
+            self._skip = False
+            self._end_watch()
+            self._poll_key = None
+            self._reread = False
+            target = self.events.next_fs()
+            cyc = core.time.cycle_of(target)
+            if cyc > core.cyc:
+                self.skipped_cycles += cyc - core.cyc
+                core.cyc = cyc
+        elif self._watch is not None and self._watch_hook is None and core.stopped:
+            self._ram_written = False
+            if not self._watch[3]:     # a loop seen for the first time: watch its stores
+                self._watch_hook = core.uc.hook_add(UC_HOOK_MEM_WRITE, self._stored, None,
+                                                    SRAM_BASE, SRAM_BASE + SRAM_SIZE - 1)
+                core.uc.ctl_flush_tb()
+        elif self._watch is not None and not core.stopped:
+            self._end_watch()
+
+    def _stored(self, *args) -> None:
+        self._ram_written = True
+
+    # --- exceptions ---------------------------------------------------------------
+    def _intr(self, uc, intno: int, _) -> None:
+        core = self.core
+        pc = core.reg(A.UC_ARM_REG_PC)
+        try:
+            if intno == INTR_EXC_EXIT:
+                exc = core.leave(pc | 1)
+                self.nvic.returned(exc)
+                nxt = self.nvic.next_exception()
+                if nxt is not None:
+                    self.nvic.take(nxt)     # tail-chained: the interrupted code waits
+                elif core.sleeping:
+                    core.stop()
+            elif intno == INTR_SWI:
+                core.pc = pc
+                self.nvic.take(EXC_SVCALL)
+            elif intno == INTR_BKPT:
+                self._breakpoint(pc)
+            else:
+                what = {INTR_UDEF: "an undefined instruction (UsageFault)",
+                        INTR_NOCP: "a coprocessor instruction with the FPU off (UsageFault NOCP)",
+                        INTR_INVSTATE: "a branch to ARM state (UsageFault INVSTATE: an address "
+                        "without its Thumb bit)"}.get(intno, f"CPU exception {intno}")
+                raise CoreFault(what)
+        except CoreFault as exc:
+            self.fault = str(exc)
+            uc.emu_stop()
+
+    def _breakpoint(self, pc: int) -> None:
+        core = self.core
+        op = int.from_bytes(core.uc.mem_read(pc, 2), "little")
+        if op != 0xBEAB:
+            raise CoreFault(f"a breakpoint (BKPT 0x{op & 0xFF:02x}) with no debugger attached")
+        code = semihost(core, self.console)
+        core.uc.reg_write(A.UC_ARM_REG_PC, (pc + 2) | 1)
+        if code is not None:
+            self.exit_code = code
+            self.console.flush()
+            core.uc.emu_stop()
+
+    # --- the run --------------------------------------------------------------------
+    def _fault_line(self, text: str) -> str:
+        pc = self.core.pc
+        return (f"{text} at PC 0x{pc:08x} in {self.image.function_at(pc)} "
+                f"(t={self.now_us() * 1e-6:.6f} s)")
+
+    def run(self) -> None:
+        """Boot and run until the host ends the run, the firmware exits or faults
+        (``CoreFault`` carrying the one line)."""
+        core, events, nvic = self.core, self.events, self.nvic
+        self.link.hello()
+        while not self.ended and self.exit_code is None:
+            events.fire_due(core.time.fs_at(core.cyc))
+            if self.ended:
+                break
+            if self.fault is not None:
+                raise CoreFault(self._fault_line(self.fault))
+            exc = nvic.next_exception()
+            if exc is not None:
+                nvic.take(exc)
+            elif core.sleeping:
+                if nvic.wakes():
+                    core.sleeping = False
+                else:
+                    core.cyc = max(core.cyc, core.time.cycle_of(events.next_fs()))
+                    continue
+            n = core.time.cycle_of(events.next_fs()) - core.cyc
+            try:
+                core.run(max(1, min(n, MAX_CHUNK)))
+            except CoreFault as exc:
+                raise CoreFault(self._fault_line(str(exc))) from None
+            if self.fault is not None:
+                raise CoreFault(self._fault_line(self.fault))
+            self._after_chunk()
+        self.console.flush()
+        self._flush()
+
+    def close(self) -> None:
+        self.link.close()
