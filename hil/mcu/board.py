@@ -70,8 +70,10 @@ class Board:
         self._bad_baud: set[int] = set()
         self._last_request_us = -TICK_US
         self._pages: dict[int, object] = {}
+        self._gates: dict[int, tuple[int, int]] = {}
         gpio = [GpioPort(n, i, self._gpio_out, self._external(i))
                 for i, n in enumerate(("GPIOA", "GPIOB", "GPIOC"))]
+        gpio[1].before_input = self.fresh_switches
         for i, port in enumerate(gpio):
             self._map(0x40020000 + 0x400 * i, port)
         self.gpio = gpio
@@ -88,6 +90,9 @@ class Board:
         for base, p in self.extra:
             self._map(base, p)
         self.rx_timer = ev.timer(self._rx_arrives)
+        self.rx_deliver = ev.timer(self._deliver)
+        self._rx_queue: list[tuple[int, int]] = []
+        self._rx_burst = (0, 0)        # (first byte's arrival, bytes back to back)
         self.tick = ev.timer(self._tick)
         self.tick.set(TICK_US * FS_PER_US)
         uc = core.uc
@@ -104,7 +109,11 @@ class Board:
         self._loops_ok: dict[tuple[int, int, int], bool] = {}
 
     def _map(self, base: int, periph: object) -> None:
-        self._pages[(base - PERIPH_BASE) >> 10] = periph
+        page = (base - PERIPH_BASE) >> 10
+        self._pages[page] = periph
+        name = getattr(periph, "name", None)
+        if name in CLOCK_BITS:
+            self._gates[page] = CLOCK_BITS[name]
 
     # --- the world ----------------------------------------------------------------
     def _external(self, port: int) -> Callable[[int], int | None]:
@@ -124,6 +133,7 @@ class Board:
                 if now != before[p]:
                     self.exti.edge(1, p, bool(now))
         if reply.next_rx_us and reply.pending:
+            self._rx_burst = (reply.next_rx_us, reply.pending)
             self.rx_timer.set(max(reply.next_rx_us * FS_PER_US, self.core.now_fs()))
         else:
             self.rx_timer.clear()
@@ -139,10 +149,20 @@ class Board:
         return self.core.now_fs() // FS_PER_US
 
     def _tick(self, at_fs: int) -> None:
+        """A sleep to now after a quiet while: each millisecond while an interrupt waits
+        for a switch or a CAN frame, else every 10 ms (a read of the switch pins asks
+        for fresh levels itself, ``fresh_switches``)."""
         at_us = at_fs // FS_PER_US
         if at_us - self._last_request_us >= TICK_US:
             self._take(self.link.sleep(at_us))
-        self.tick.set(at_fs + TICK_US * FS_PER_US)
+        listening = self.exti.regs[0x00] & 0x3F or getattr(self, "can_listening", False)
+        self.tick.set(at_fs + (1 if listening else 10) * TICK_US * FS_PER_US)
+
+    def fresh_switches(self) -> None:
+        """The firmware reads port B: the switch levels of the last millisecond."""
+        now_us = self.now_us()
+        if now_us - self._last_request_us >= TICK_US:
+            self._take(self.link.sleep(now_us))
 
     def can_received(self, arb_id: int, data: bytes) -> None:
         can = getattr(self, "can", None)
@@ -184,6 +204,11 @@ class Board:
             self._burst.pop()     # the byte on the wire now is cut by the turn
             self.link.fault("tx_while_receiving", "1 byte cut: the direction pin (A1) turned "
                             "low while it was on the wire (turn after TC, not TXE)")
+        if level and self._rx_queue:
+            self.link.fault("rx_while_transmitting", f"{len(self._rx_queue)} status bytes "
+                            "arrived while the direction pin (A1) was high: the receiver was off")
+            self._rx_queue.clear()
+            self.rx_deliver.clear()
         self._flush()
         self.direction = level
         self.link.direction(self.now_us(), bool(level))
@@ -195,9 +220,23 @@ class Board:
                 self._direction_turned(level)
 
     def _rx_arrives(self, at_fs: int) -> None:
-        reply = self._take(self.link.line(at_fs // FS_PER_US, b"", bool(self.direction), True, 1))
-        for b in reply.rx:
-            self.usart2.received(b)
+        """The first byte of a burst arrives: fetch the whole burst at once (the host's
+        clock runs ahead by its length) and hand each byte to USART2 at its own time."""
+        first_us, pending = self._rx_burst
+        byte_us = 10_000_000 / int(self.link.config.get("baud", LINE_BAUD))
+        last_us = first_us + int((pending - 1) * byte_us) + 1
+        reply = self.link.line(last_us, b"", bool(self.direction), True, pending)
+        self._rx_queue = [(at_fs + round(k * byte_us * FS_PER_US), b)
+                          for k, b in enumerate(reply.rx)]
+        self._take(reply)
+        self._deliver(at_fs)
+
+    def _deliver(self, at_fs: int) -> None:
+        queue = self._rx_queue
+        while queue and queue[0][0] <= at_fs:
+            self.usart2.received(queue.pop(0)[1])
+        if queue:
+            self.rx_deliver.set(queue[0][0])
 
     def _console_line(self, text: str) -> None:
         for kind, body in self.console_events(text):
@@ -224,16 +263,22 @@ class Board:
                         "dropped)", kind, addr)
 
     def _periph(self, offset: int) -> object | None:
-        p = self._pages.get(offset >> 10)
-        name = getattr(p, "name", None)
-        if p is not None and name in CLOCK_BITS and not self.rcc.enabled(name):
-            self._unmodelled(PERIPH_BASE + offset, f"used {name} with its RCC clock off:")
+        page = offset >> 10
+        p = self._pages.get(page)
+        gate = self._gates.get(page)
+        if gate is not None and not self.rcc.regs.get(gate[0], 0) >> gate[1] & 1:
+            self._unmodelled(PERIPH_BASE + offset, f"used {p.name} with its RCC clock off:")
             return None
         return p
 
+    def _due(self) -> None:
+        """Fire what fell due by the instruction running now (a register access)."""
+        heap = self.events.heap
+        if heap and heap[0][0] <= self.core.now_fs():
+            self.events.fire_due(self.core.now_fs())
+
     def _read(self, uc, offset: int, size: int, _) -> int:
-        now = self.core.now_fs()
-        self.events.fire_due(now)
+        self._due()
         p = self._periph(offset)
         if p is None:
             self._poll_key = None
@@ -241,15 +286,17 @@ class Board:
                 self._unmodelled(PERIPH_BASE + offset, "read")
             return 0
         off = offset & 0x3FC
-        value = (p.read(off) >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
-        if off in p.pollable:
-            self._polled(PERIPH_BASE + offset, value)
-        else:
+        value = p.read(off)
+        if offset & 3 or size < 4:
+            value = (value >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
+        if off not in p.pollable:
             self._poll_key = None
+        elif self._polled(PERIPH_BASE + offset, value):
+            value = (p.read(off) >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
         return value
 
     def _write(self, uc, offset: int, size: int, value: int, _) -> None:
-        self.events.fire_due(self.core.now_fs())
+        self._due()
         self._poll_key = None
         p = self._periph(offset)
         if p is None:
@@ -264,17 +311,17 @@ class Board:
         p.write(offset & 0x3FC, value & 0xFFFFFFFF)
 
     def _ppb_read(self, uc, offset: int, size: int, _) -> int:
-        self.events.fire_due(self.core.now_fs())
+        self._due()
         addr = PPB_BASE + offset
         value = (self.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
-        if addr & ~3 in self.ppb.pollable:
-            self._polled(addr, value)
-        else:
+        if addr & ~3 not in self.ppb.pollable:
             self._poll_key = None
+        elif self._polled(addr, value):
+            value = (self.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
         return value
 
     def _ppb_write(self, uc, offset: int, size: int, value: int, _) -> None:
-        self.events.fire_due(self.core.now_fs())
+        self._due()
         self._poll_key = None
         addr = PPB_BASE + offset
         if size < 4 and (0xE000E400 <= addr < 0xE000E500 or 0xE000ED18 <= addr < 0xE000ED24):
@@ -285,27 +332,30 @@ class Board:
         self.ppb.write(addr & ~3, value)
 
     # --- poll skipping ------------------------------------------------------------
-    def _polled(self, addr: int, value: int) -> None:
+    def _polled(self, addr: int, value: int) -> bool:
+        """A side-effect-free register read: the poll detector's view. True when it
+        skipped the wait here, so the read is to be done again at the new time."""
         core = self.core
         if self._reread:           # the read a stop made run again: already counted
             self._reread = False
-            return
+            return False
         now = core.now()
         key = (addr, value)
         if key != self._poll_key:
             self._poll_key, self._poll_at = key, now
-            return
+            return False
         delta = now - self._poll_at
         self._poll_at = now
-        pc = core.reg(A.UC_ARM_REG_PC)
-        loop = (pc, addr, delta)
+        loop = (core.reg(A.UC_ARM_REG_PC), addr, delta)
         watch = self._watch
         if watch is None:
-            if self._loops_ok.get(loop) is False:
-                return
-            self._watch = (loop, value, core.context(), loop in self._loops_ok)
-            self._reread = True
-            core.stop()
+            known = self._loops_ok.get(loop)
+            if known:                  # watched once: the same code, the same pass
+                return self._jump_here()
+            if known is None:
+                self._watch = (loop, value, core.context())
+                self._reread = True
+                core.stop()
         elif watch[0] == loop and watch[1] == value and not self._ram_written \
                 and core.context() == watch[2]:
             self._loops_ok[loop] = True
@@ -314,6 +364,24 @@ class Board:
         else:
             self._loops_ok[watch[0]] = False
             self._end_watch()
+        return False
+
+    def _jump_here(self) -> bool:
+        """Skip a known poll loop inside the chunk: time jumps to the next event, which
+        fires now; an exception it makes ready ends the chunk (the read runs again)."""
+        core = self.core
+        cyc = core.time.cycle_of(self.events.next_fs())
+        now = core.now()
+        if cyc <= now:
+            return False
+        core.jump(cyc - now)
+        self.skipped_cycles += cyc - now
+        self._poll_key = None
+        self._due()
+        if self.nvic.ready() and self.nvic.next_exception() is not None:
+            self._reread = True
+            core.stop()
+        return True
 
     def _end_watch(self) -> None:
         self._watch = None
@@ -329,17 +397,15 @@ class Board:
             self._end_watch()
             self._poll_key = None
             self._reread = False
-            target = self.events.next_fs()
-            cyc = core.time.cycle_of(target)
+            cyc = core.time.cycle_of(self.events.next_fs())
             if cyc > core.cyc:
                 self.skipped_cycles += cyc - core.cyc
                 core.cyc = cyc
         elif self._watch is not None and self._watch_hook is None and core.stopped:
-            self._ram_written = False
-            if not self._watch[3]:     # a loop seen for the first time: watch its stores
-                self._watch_hook = core.uc.hook_add(UC_HOOK_MEM_WRITE, self._stored, None,
-                                                    SRAM_BASE, SRAM_BASE + SRAM_SIZE - 1)
-                core.uc.ctl_flush_tb()
+            self._ram_written = False      # a loop seen for the first time: watch its stores
+            self._watch_hook = core.uc.hook_add(UC_HOOK_MEM_WRITE, self._stored, None,
+                                                SRAM_BASE, SRAM_BASE + SRAM_SIZE - 1)
+            core.uc.ctl_flush_tb()
         elif self._watch is not None and not core.stopped:
             self._end_watch()
 

@@ -159,6 +159,13 @@ class Core:
     def now_fs(self) -> int:
         return self.time.fs_at(self.now())
 
+    def jump(self, cycles: int) -> None:
+        """Let ``cycles`` pass without running them (a skipped wait)."""
+        if self.running:
+            self._chunk0 += cycles
+        else:
+            self.cyc += cycles
+
     def set_hz(self, hz: int) -> None:
         self.time.set_hz(self.now(), hz)
 
@@ -202,7 +209,7 @@ class Core:
                 ran += 1
                 self.sleeping = True
         ran = max(0, min(ran, n))
-        self.cyc += ran
+        self.cyc = self._chunk0 + ran     # _chunk0 has moved by any jump inside the chunk
         self.executed += ran
         if error is not None:
             raise CoreFault(_error_text(error, self))

@@ -27,6 +27,7 @@ class GpioPort:
                  external: Callable[[int], int | None]) -> None:
         self.name, self.index = name, index
         self.on_output, self.external = on_output, external
+        self.before_input: Callable[[], None] | None = None    # IDR is about to be read
         self.regs = {MODER: 0, OTYPER: 0, OSPEEDR: 0, PUPDR: 0, ODR: 0, LCKR: 0, AFRL: 0,
                      AFRH: 0, **RESET.get(name, {})}
 
@@ -53,6 +54,8 @@ class GpioPort:
 
     def read(self, off: int) -> int:
         if off == IDR:
+            if self.before_input is not None:
+                self.before_input()
             return sum(self.input_level(p) << p for p in range(16))
         return self.regs.get(off, 0) if off != BSRR else 0
 
