@@ -86,6 +86,7 @@ class Board:
                         (0x40013800, Syscfg(self.exti)), (0x40011000, self.usart1),
                         (0x40004400, self.usart2), (0x40011400, self.usart6)):
             self._map(base, p)
+        self.can_listening = False     # bxCAN1 in normal mode: CAN input each millisecond
         self.extra = extra_peripherals(self)
         for base, p in self.extra:
             self._map(base, p)
@@ -155,7 +156,7 @@ class Board:
         at_us = at_fs // FS_PER_US
         if at_us - self._last_request_us >= TICK_US:
             self._take(self.link.sleep(at_us))
-        listening = self.exti.regs[0x00] & 0x3F or getattr(self, "can_listening", False)
+        listening = self.exti.regs[0x00] & 0x3F or self.can_listening
         self.tick.set(at_fs + (1 if listening else 10) * TICK_US * FS_PER_US)
 
     def fresh_switches(self) -> None:
@@ -165,9 +166,12 @@ class Board:
             self._take(self.link.sleep(now_us))
 
     def can_received(self, arb_id: int, data: bytes) -> None:
-        can = getattr(self, "can", None)
-        if can is not None:
-            can.received(arb_id, data)
+        self.can.received(arb_id, data)
+
+    def dma_kick(self) -> None:
+        """A DMA stream was enabled: a USART whose request is already up is served."""
+        for usart in (self.usart1, self.usart2, self.usart6):
+            usart.dma_request()
 
     # --- the servo line and the console (UsartWiring) -----------------------------
     def sent(self, usart: Usart, byte: int, start_fs: int, end_fs: int) -> None:

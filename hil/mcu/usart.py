@@ -86,7 +86,7 @@ class Usart:
             byte, self.tdr = self.tdr, None
             self.regs[SR] |= TXE
             self._transmit(byte, at_fs)
-            self._dma_tx()
+            self.dma_request()
         else:
             self.regs[SR] |= TC
             self.wiring.idle(self, at_fs)
@@ -102,11 +102,14 @@ class Usart:
             self.tdr = byte
             self.regs[SR] &= ~TXE
 
-    def _dma_tx(self) -> None:
-        if self.regs[CR3] & DMAT and self.dma_tx is not None and self.regs[SR] & TXE:
+    def dma_request(self) -> None:
+        """TXE with DMAT: the DMA fills DR (twice when the shift register is free too)."""
+        while self.regs[CR3] & DMAT and self.dma_tx is not None and self.regs[SR] & TXE \
+                and self.regs[CR1] & UE and self.regs[CR1] & TE:
             byte = self.dma_tx()
-            if byte is not None:
-                self._write_dr(byte)
+            if byte is None:
+                return
+            self._write_dr(byte)
 
     # --- receive ------------------------------------------------------------------
     def received(self, byte: int) -> None:
@@ -150,5 +153,5 @@ class Usart:
                 self.tdr = None
                 self.shift_end.clear()
             if off == CR3:
-                self._dma_tx()
+                self.dma_request()
         self._irq()
