@@ -122,6 +122,16 @@ HAL_StatusTypeDef HAL_HalfDuplex_EnableReceiver(UART_HandleTypeDef *huart)
     return turn(huart, USART_CR1_RE);
 }
 
+/* Cube's checks before a transfer: HAL_BUSY while that direction is busy (or before
+ * init), HAL_ERROR without data. */
+static HAL_StatusTypeDef can_start(const UART_HandleTypeDef *h, int rx, const void *data,
+                                   uint16_t size)
+{
+    if (h == NULL || (rx ? h->RxState : h->gState) != HAL_UART_STATE_READY)
+        return HAL_BUSY;
+    return data == NULL || size == 0 ? HAL_ERROR : HAL_OK;
+}
+
 /* Polls SR for `flag` until the tick says `timeout_ms` passed since `start`. */
 static HAL_StatusTypeDef wait_flag(USART_TypeDef *u, uint32_t flag, uint32_t start,
                                    uint32_t timeout_ms)
@@ -137,13 +147,11 @@ static HAL_StatusTypeDef wait_flag(USART_TypeDef *u, uint32_t flag, uint32_t sta
 HAL_StatusTypeDef HAL_UART_Transmit(UART_HandleTypeDef *huart, const uint8_t *pData,
                                     uint16_t Size, uint32_t Timeout)
 {
-    if (huart == NULL || huart->gState != HAL_UART_STATE_READY)
-        return HAL_BUSY;
-    if (pData == NULL || Size == 0)
-        return HAL_ERROR;
+    HAL_StatusTypeDef st = can_start(huart, 0, pData, Size);
+    if (st != HAL_OK)
+        return st;
     USART_TypeDef *u = huart->Instance;
     uint32_t start = HAL_GetTick();
-    HAL_StatusTypeDef st = HAL_OK;
     huart->gState = HAL_UART_STATE_BUSY_TX;
     for (uint16_t i = 0; i < Size && st == HAL_OK; i++) {
         st = wait_flag(u, USART_SR_TXE, start, Timeout);
@@ -159,13 +167,11 @@ HAL_StatusTypeDef HAL_UART_Transmit(UART_HandleTypeDef *huart, const uint8_t *pD
 HAL_StatusTypeDef HAL_UART_Receive(UART_HandleTypeDef *huart, uint8_t *pData,
                                    uint16_t Size, uint32_t Timeout)
 {
-    if (huart == NULL || huart->RxState != HAL_UART_STATE_READY)
-        return HAL_BUSY;
-    if (pData == NULL || Size == 0)
-        return HAL_ERROR;
+    HAL_StatusTypeDef st = can_start(huart, 1, pData, Size);
+    if (st != HAL_OK)
+        return st;
     USART_TypeDef *u = huart->Instance;
     uint32_t start = HAL_GetTick();
-    HAL_StatusTypeDef st = HAL_OK;
     huart->RxState = HAL_UART_STATE_BUSY_RX;
     for (uint16_t i = 0; i < Size && st == HAL_OK; i++) {
         st = wait_flag(u, USART_SR_RXNE, start, Timeout);
@@ -180,10 +186,9 @@ HAL_StatusTypeDef HAL_UART_Receive(UART_HandleTypeDef *huart, uint8_t *pData,
 HAL_StatusTypeDef HAL_UART_Transmit_IT(UART_HandleTypeDef *huart, const uint8_t *pData,
                                        uint16_t Size)
 {
-    if (huart == NULL || huart->gState != HAL_UART_STATE_READY)
-        return HAL_BUSY;
-    if (pData == NULL || Size == 0)
-        return HAL_ERROR;
+    HAL_StatusTypeDef ok = can_start(huart, 0, pData, Size);
+    if (ok != HAL_OK)
+        return ok;
     huart->pTxBuffPtr = pData;
     huart->TxXferSize = huart->TxXferCount = Size;
     huart->gState = HAL_UART_STATE_BUSY_TX;
@@ -194,10 +199,9 @@ HAL_StatusTypeDef HAL_UART_Transmit_IT(UART_HandleTypeDef *huart, const uint8_t 
 HAL_StatusTypeDef HAL_UART_Receive_IT(UART_HandleTypeDef *huart, uint8_t *pData,
                                       uint16_t Size)
 {
-    if (huart == NULL || huart->RxState != HAL_UART_STATE_READY)
-        return HAL_BUSY;
-    if (pData == NULL || Size == 0)
-        return HAL_ERROR;
+    HAL_StatusTypeDef ok = can_start(huart, 1, pData, Size);
+    if (ok != HAL_OK)
+        return ok;
     huart->pRxBuffPtr = pData;
     huart->RxXferSize = huart->RxXferCount = Size;
     huart->ErrorCode = HAL_UART_ERROR_NONE;
@@ -271,10 +275,9 @@ static void stream_start(const struct port *p, uint32_t s, const void *mem, uint
 HAL_StatusTypeDef HAL_UART_Transmit_DMA(UART_HandleTypeDef *huart, const uint8_t *pData,
                                         uint16_t Size)
 {
-    if (huart == NULL || huart->gState != HAL_UART_STATE_READY)
-        return HAL_BUSY;
-    if (pData == NULL || Size == 0)
-        return HAL_ERROR;
+    HAL_StatusTypeDef ok = can_start(huart, 0, pData, Size);
+    if (ok != HAL_OK)
+        return ok;
     const struct port *p = port_of(huart);
     huart->pTxBuffPtr = pData;
     huart->TxXferSize = huart->TxXferCount = Size;
@@ -288,10 +291,9 @@ HAL_StatusTypeDef HAL_UART_Transmit_DMA(UART_HandleTypeDef *huart, const uint8_t
 HAL_StatusTypeDef HAL_UART_Receive_DMA(UART_HandleTypeDef *huart, uint8_t *pData,
                                        uint16_t Size)
 {
-    if (huart == NULL || huart->RxState != HAL_UART_STATE_READY)
-        return HAL_BUSY;
-    if (pData == NULL || Size == 0)
-        return HAL_ERROR;
+    HAL_StatusTypeDef ok = can_start(huart, 1, pData, Size);
+    if (ok != HAL_OK)
+        return ok;
     const struct port *p = port_of(huart);
     huart->pRxBuffPtr = pData;
     huart->RxXferSize = huart->RxXferCount = Size;
