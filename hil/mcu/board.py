@@ -39,6 +39,7 @@ TICK_US = 1000               # a quiet millisecond: a sleep to now (world, switc
 LINE_BAUD = 1_000_000
 BAUD_TOLERANCE = 0.03        # a UART frame survives about this much clock error
 PA1 = 1
+CONSOLE_TAIL = 5             # console lines a run result keeps (its stderr_tail)
 
 
 class Board:
@@ -56,6 +57,7 @@ class Board:
         self.systick = SysTick(core, self.nvic, ev, lambda: self.rcc.hclk_hz)
         self.ppb = SystemBlock(core, self.nvic, self.systick, self._reset_request)
         self.console = Console(self._console_line)
+        self.console_tail: list[str] = []
         self.exti = Exti(self.nvic.line)
         self.switches = 0
         self.direction = 0
@@ -243,6 +245,7 @@ class Board:
             self.rx_deliver.set(queue[0][0])
 
     def _console_line(self, text: str) -> None:
+        self.console_tail = self.console_tail[-(CONSOLE_TAIL - 1):] + [text]
         for kind, body in self.console_events(text):
             self.link.event(kind, body)
 

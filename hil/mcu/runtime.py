@@ -40,6 +40,7 @@ def serve_elf(image: ElfImage, server: Any, end_us: int, result: RunResult,
         result.exceptions.append(f"{name}: {exc}")
         raise UserError(f"the firmware {name} faulted: {exc}") from None
     finally:
+        result.stderr_tail = "\n".join(board.console_tail)
         if tracer is not None:
             tracer.write(coverage)
         if debugger is not None:
