@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any, Callable, Protocol
 
 from hil.link import ROOT, FirmwareProcess, firmware_command, firmware_env
-from hil.mcu.elf_image import ElfImage, is_arm_elf, load_elf
+from hil.mcu.elf_image import ELF_MAGIC, ElfImage, is_arm_elf, load_elf
 from hil.mcu.runtime import serve_elf
 from hil.run_result import RunResult
 from protocol import sim_link
@@ -55,19 +55,28 @@ class ServedFirmware(Protocol):
         """Start it, answer its link with ``server`` (hil/link_server.py) to the end."""
 
 
-def served_firmware(path: str | Path, what: str = "--firmware"
+def served_firmware(path: str | Path, what: str = "--firmware", gdb_port: int | None = None,
+                    coverage: str | Path | None = None
                     ) -> BoardFirmware | ExecutableFirmware | ElfFirmware:
     """``path`` checked: a MicroPython main file (``.py``) for the virtual board, an ARM
     ELF for the emulated STM32F411, else an executable file this user may run
-    (``UserError`` naming ``what`` if neither)."""
+    (``UserError`` naming ``what`` if neither). ``gdb_port`` and ``coverage`` (an ELF's
+    only: ``--gdb``, ``--coverage``) go to the ELF runtime."""
     p = Path(path)
+    if (gdb_port is not None or coverage is not None) and not is_arm_elf(p):
+        raise UserError(f"--gdb and --coverage need an STM32F411 ELF as {what}, not {path}")
+    if gdb_port is not None and not 1 <= gdb_port <= 65535:
+        raise UserError(f"--gdb {gdb_port}: port must be 1-65535")
     if not p.is_file():
         raise UserError(f"{what} {path}: not a file (give a MicroPython main file, an "
                         "STM32F411 ELF or an executable)")
     if p.suffix in MAIN_SUFFIXES:
         return BoardFirmware(p.resolve())
     if is_arm_elf(p):
-        return ElfFirmware(load_elf(p, what))
+        return ElfFirmware(load_elf(p, what), gdb_port,
+                           Path(coverage) if coverage is not None else None)
+    if not os.access(p, os.X_OK) and p.read_bytes()[:4] == ELF_MAGIC:
+        load_elf(p, what)     # names what the ELF is for, in one line
     if not os.access(p, os.X_OK):
         raise UserError(f"{what} {path}: neither a MicroPython main file (.py) nor "
                         "executable (build a C firmware with `hexhil sdk build main.c -o fw`, "

@@ -59,16 +59,21 @@ class Run:
     clients; ``realtime`` paces virtual time to the wall clock; ``tactile`` overrides the
     scenario's ``firmware.tactile``; ``firmware``, a MicroPython main file run on the virtual
     board (docs/your-firmware.md) or an executable that speaks the link (a C firmware,
-    docs/c-firmware.md), runs instead of ours. Close it (or use ``with``) if ``run`` is never called."""
+    docs/c-firmware.md) or an STM32F411 ELF (docs/elf-firmware.md: ``gdb_port``, ``coverage``),
+    runs instead of ours. Close it (or use ``with``) if ``run`` is never called."""
 
     def __init__(self, scenario: Scenario | dict[str, Any] | str | Path, *,
                  seed: int | None = None,
                  runtime: Runtime | str | None = None, duration_s: float | None = None,
                  tactile: bool | None = None, trace: str | Path | None = None,
                  live_port: int | None = None, can_server: Any = None,
-                 realtime: bool = False, firmware: str | Path | None = None) -> None:
+                 realtime: bool = False, firmware: str | Path | None = None,
+                 gdb_port: int | None = None, coverage: str | Path | None = None) -> None:
         # a firmware of the user's (hil/served_firmware.py) is checked before anything opens
-        self.firmware = served_firmware(firmware) if firmware is not None else None
+        self.firmware = (served_firmware(firmware, gdb_port=gdb_port, coverage=coverage)
+                         if firmware is not None else None)
+        if firmware is None and (gdb_port is not None or coverage is not None):
+            raise UserError("--gdb and --coverage need an STM32F411 ELF given as --firmware")
         self.scenario = (scenario_mod.load_scenario(scenario)
                          if isinstance(scenario, (str, Path)) else scenario_mod.parse(scenario))
         sc = self.scenario
