@@ -35,7 +35,8 @@ def elfs(tmp_path_factory):
               "two_tasks": ([FW / "two_tasks.c"], (), False),
               "uart_it": ([FW / "servo_async.c"], (), False),
               "uart_dma": ([FW / "servo_async.c"], ("-DUSE_DMA",), False),
-              "hardfault": ([FW / "hardfault.c"], (), False)}
+              "hardfault": ([FW / "hardfault.c"], (), False),
+              "switches_timer": ([FW / "switches_timer.c"], (), False)}
     return {name: str(c_sdk.build([str(s) for s in srcs], out / f"{name}.elf", flags,
                                   "stm32f411", bare))
             for name, (srcs, flags, bare) in builds.items()}
@@ -138,6 +139,22 @@ def test_interrupt_and_dma_uart_exchanges_reach_every_servo(elfs, tmp_path, name
     assert m and int(m[1]) == 18 and 0 <= int(m[2]) <= 1023, console(trace)
     seen = packets(trace)
     assert [p["id"] for p in seen if p["direction"] == "rx"] == [*range(1, 19), 1]
+
+
+def test_switch_edges_arrive_as_exti_interrupts_and_tim2_counts_at_1_khz(elfs, tmp_path):
+    summary, _, trace = run_traced(elfs["switches_timer"], tmp_path, 2.0)
+    assert summary["faults"] == {}
+    lines = console(trace)
+    updates = int(re.fullmatch(r"tim2: (\d+) updates in 500 ms", lines[0])[1])
+    assert abs(updates - 500) <= 1, updates   # the phase of TIM2 against SysTick: one update
+    said = [re.fullmatch(r"switch (\w\w) (pressed|released) at (\d+) ms", ln).groups()
+            for ln in lines[1:]]
+    with Trace(trace) as t:
+        edges = [(msg["leg_name"], "pressed" if msg["level"] else "released",
+                  m.log_time_ns / 1e6) for m, msg in t.decoded(["/switches"])]
+    assert len(edges) >= 2 and len(said) == len(edges)   # the robot sags onto its switches
+    for (leg, what, t_ms), (f_leg, f_what, f_ms) in zip(sorted(edges), sorted(said)):
+        assert (leg, what) == (f_leg, f_what) and abs(int(f_ms) - t_ms) <= 2
 
 
 def test_a_hardfault_is_one_line_with_the_pc_and_the_function_and_the_trace_is_kept(

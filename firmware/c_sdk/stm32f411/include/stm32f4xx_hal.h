@@ -33,6 +33,15 @@ struct __UART_HandleTypeDef {
 #define HAL_UART_ERROR_ORE 0x00000008U
 #define HAL_UART_ERROR_DMA 0x00000010U
 
+/* Pins as interrupt sources (EXTI through SYSCFG's selection): Cube's mode codes. The
+ * SDK's EXTIx_IRQHandler (weak) calls HAL_GPIO_EXTI_IRQHandler, which clears the pending
+ * bit and calls HAL_GPIO_EXTI_Callback; the firmware enables the IRQ in the NVIC. */
+#define GPIO_MODE_IT_RISING         0x10110000U
+#define GPIO_MODE_IT_FALLING        0x10210000U
+#define GPIO_MODE_IT_RISING_FALLING 0x10310000U
+void HAL_GPIO_EXTI_IRQHandler(uint16_t GPIO_Pin);
+void HAL_GPIO_EXTI_Callback(uint16_t GPIO_Pin);
+
 /* The clock tree (system_stm32f411.c): SYSCLK 100 MHz from HSI through the PLL, APB1
  * 50 MHz, APB2 100 MHz; SystemInit sets it before main. */
 extern uint32_t SystemCoreClock;

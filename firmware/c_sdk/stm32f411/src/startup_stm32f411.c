@@ -3,7 +3,7 @@
  * .data from flash, zeroes .bss, runs SystemInit (the 100 MHz clock tree), the C library's
  * constructors and main. Every handler is weak: a firmware's own SysTick_Handler,
  * USART2_IRQHandler or HardFault_Handler takes the place of this file's (or of the HAL's, for
- * SysTick, the USARTs and their DMA streams). An interrupt with no handler lands in
+ * SysTick, EXTI, the USARTs and their DMA streams). An interrupt with no handler lands in
  * Default_Handler, a loop that keeps the fault visible to a debugger (and to hexhil's
  * emulator, which names the PC and the function). The symbols come from stm32f411.ld. */
 #include "stm32f411xe.h"
@@ -13,11 +13,14 @@ extern int main(void);
 extern void __libc_init_array(void);
 void SystemInit(void);
 void Reset_Handler(void);
-/* The SDK's own, weak in hal_core.c and hal_uart.c (a firmware's definition wins). */
+/* The SDK's own, weak in hal_core.c, hal_gpio.c and hal_uart.c (a firmware's wins). */
 void SysTick_Handler(void), USART1_IRQHandler(void), USART2_IRQHandler(void);
 void USART6_IRQHandler(void), DMA1_Stream5_IRQHandler(void), DMA1_Stream6_IRQHandler(void);
 void DMA2_Stream1_IRQHandler(void), DMA2_Stream2_IRQHandler(void);
 void DMA2_Stream6_IRQHandler(void), DMA2_Stream7_IRQHandler(void);
+void EXTI0_IRQHandler(void), EXTI1_IRQHandler(void), EXTI2_IRQHandler(void);
+void EXTI3_IRQHandler(void), EXTI4_IRQHandler(void), EXTI9_5_IRQHandler(void);
+void EXTI15_10_IRQHandler(void);
 
 void Default_Handler(void)
 {
@@ -31,16 +34,14 @@ SYSTEM(BusFault_Handler) SYSTEM(UsageFault_Handler) SYSTEM(SVC_Handler)
 SYSTEM(DebugMon_Handler) SYSTEM(PendSV_Handler)
 
 #define IRQ(name) void name##_IRQHandler(void) __attribute__((weak, alias("Default_Handler")));
-IRQ(WWDG) IRQ(PVD) IRQ(TAMP_STAMP) IRQ(RTC_WKUP) IRQ(FLASH) IRQ(RCC) IRQ(EXTI0) IRQ(EXTI1)
-IRQ(EXTI2) IRQ(EXTI3) IRQ(EXTI4) IRQ(DMA1_Stream0) IRQ(DMA1_Stream1) IRQ(DMA1_Stream2)
-IRQ(DMA1_Stream3) IRQ(DMA1_Stream4) IRQ(ADC)
-IRQ(CAN1_TX) IRQ(CAN1_RX0) IRQ(CAN1_RX1) IRQ(CAN1_SCE) IRQ(EXTI9_5) IRQ(TIM1_BRK_TIM9)
+IRQ(WWDG) IRQ(PVD) IRQ(TAMP_STAMP) IRQ(RTC_WKUP) IRQ(FLASH) IRQ(RCC) IRQ(DMA1_Stream0)
+IRQ(DMA1_Stream1) IRQ(DMA1_Stream2) IRQ(DMA1_Stream3) IRQ(DMA1_Stream4) IRQ(ADC)
+IRQ(CAN1_TX) IRQ(CAN1_RX0) IRQ(CAN1_RX1) IRQ(CAN1_SCE) IRQ(TIM1_BRK_TIM9)
 IRQ(TIM1_UP_TIM10) IRQ(TIM1_TRG_COM_TIM11) IRQ(TIM1_CC) IRQ(TIM2) IRQ(TIM3) IRQ(TIM4)
-IRQ(I2C1_EV) IRQ(I2C1_ER) IRQ(I2C2_EV) IRQ(I2C2_ER) IRQ(SPI1) IRQ(SPI2)
-IRQ(EXTI15_10) IRQ(RTC_Alarm) IRQ(OTG_FS_WKUP) IRQ(DMA1_Stream7) IRQ(SDIO)
-IRQ(TIM5) IRQ(SPI3) IRQ(DMA2_Stream0) IRQ(DMA2_Stream3)
-IRQ(DMA2_Stream4) IRQ(OTG_FS) IRQ(DMA2_Stream5)
-IRQ(I2C3_EV) IRQ(I2C3_ER) IRQ(FPU) IRQ(SPI4) IRQ(SPI5)
+IRQ(I2C1_EV) IRQ(I2C1_ER) IRQ(I2C2_EV) IRQ(I2C2_ER) IRQ(SPI1) IRQ(SPI2) IRQ(RTC_Alarm)
+IRQ(OTG_FS_WKUP) IRQ(DMA1_Stream7) IRQ(SDIO) IRQ(TIM5) IRQ(SPI3) IRQ(DMA2_Stream0)
+IRQ(DMA2_Stream3) IRQ(DMA2_Stream4) IRQ(OTG_FS) IRQ(DMA2_Stream5) IRQ(I2C3_EV)
+IRQ(I2C3_ER) IRQ(FPU) IRQ(SPI4) IRQ(SPI5)
 
 typedef void (*vector_t)(void);
 
