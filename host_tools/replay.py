@@ -21,8 +21,8 @@ from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from protocol import sim_link
-from hil.served_firmware import served_firmware
-from hil.link import REQUEST_OPS, FirmwareProcess, split_messages
+from hil.link.served_firmware import served_firmware
+from hil.link.firmware_process import REQUEST_OPS, FirmwareProcess, split_messages
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_CAN_RAW, T_LINK

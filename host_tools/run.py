@@ -51,7 +51,7 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
 
 
 def start_can_server(port: int, wait_clients: int) -> Any:
-    from hil.can_server import CanServer
+    from hil.canbus.socketcand import CanServer
 
     try:
         server = CanServer(port=port)
@@ -101,7 +101,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     it predicts the goal ``gait.distance_m`` is reached.
 
     ``firmware``, a MicroPython main file for the virtual board or an executable that
-    speaks the link (hil/served_firmware.py), or an STM32F411 ELF, runs instead of our
+    speaks the link (hil/link/served_firmware.py), or an STM32F411 ELF, runs instead of our
     firmware; an ELF's ``gdb_port`` waits for a GDB client, ``coverage`` writes LCOV there
     (docs/elf-firmware.md).
     """

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from hil.scenario import load_scenario
-from hil.served_firmware import served_firmware
-from hil.sim import Simulator
+from hil.link.served_firmware import served_firmware
+from hil.run.lockstep import Simulator
 
 ROOT = Path(__file__).resolve().parent.parent
 MCU = ROOT / "tests" / "mcu"

@@ -17,7 +17,7 @@ from typing import Callable
 from unicorn import UC_HOOK_INTR, UC_HOOK_MEM_WRITE
 from unicorn import arm_const as A
 
-from hil.bus import resample
+from hil.servobus.line import resample
 from hil.mcu.console import Console, semihost
 from hil.mcu.core import (EXC_SVCALL, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT, INTR_INVSTATE,
                           INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)

@@ -7,7 +7,7 @@ a turn of PA1 a direction message, a byte arriving at the RX pin a line request 
 arrival, a console line an event, a bxCAN frame a CAN message, and a quiet millisecond a
 sleep to now (the world, switches and CAN input move on). The host answers it all with
 hil/link/ as for any firmware, so trace, replay, faults, master check and expectations work
-unchanged; ``exchange`` is the in-process link (hil/link.py ``DirectConnection``).
+unchanged; ``exchange`` is the in-process link (hil/link/firmware_process.py ``DirectConnection``).
 """
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """An ELF served in this process: the board's link goes straight to the run's link server
-(hil/link.py ``DirectConnection``), no socket, no child process.
+(hil/link/firmware_process.py ``DirectConnection``), no socket, no child process.
 
-Ends as the other served firmwares do (hil/served_firmware.py): a fault, or an exit
+Ends as the other served firmwares do (hil/link/served_firmware.py): a fault, or an exit
 before the run's end, is one ``UserError`` line and the trace recorded up to then is kept.
 """
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Callable
 
-from hil.link import DirectConnection
+from hil.link.firmware_process import DirectConnection
 from hil.mcu.board import Board
 from hil.mcu.core import CoreFault
 from hil.mcu.elf_image import ElfImage
@@ -20,7 +20,7 @@ from protocol.errors import UserError
 def serve_elf(image: ElfImage, server: Any, end_us: int, result: RunResult,
               console_events: Callable[[str], list[tuple[int, str]]],
               gdb_port: int | None = None, coverage: Path | None = None) -> Board:
-    """Run ``image`` against ``server`` (hil/link_server.py) until ``end_us``."""
+    """Run ``image`` against ``server`` (hil/link/server.py) until ``end_us``."""
     conn = DirectConnection(lambda c, msgs, closed: server.answer(c, msgs, closed, end_us,
                                                                   result))
     board = Board(image, conn.exchange, console_events)

@@ -42,7 +42,8 @@ from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, CHANNELS, METADATA_NAME,
                                      T_SERVOS, T_SWITCHES, T_TELEMETRY, T_VIOLATIONS,
                                      schema_encoding)
 from host_tools.trace.writer import TraceWriter
-from protocol import can_frames, dynamixel
+from protocol import can_frames
+from protocol.dynamixel import v1 as dynamixel
 from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
 from protocol.errors import UserError
 
@@ -61,7 +62,7 @@ def software_version() -> str:
 def _dbc():
     """The project's DBC through cantools (loaded once a process: ~13 ms, as much as
     recording 10 s of a run), or None while protocol/hexhil.dbc is absent."""
-    path = Path(dynamixel.__file__).with_name("hexhil.dbc")
+    path = Path(can_frames.__file__).with_name("hexhil.dbc")
     if not path.exists():
         return None
     import cantools
@@ -436,7 +437,7 @@ class Recorder:
         out.append((t, self._topic_channel(T_FAULTS), msg.SerializeToString()))
 
     def violation(self, t_us: int, kind: str, detail: str) -> None:
-        """A bus master's protocol mistake (hil/master_check.py) on ``/bus/violations``."""
+        """A bus master's protocol mistake (hil/servobus/master_check.py) on ``/bus/violations``."""
         self._defer(t_us, self._encode_json, (T_VIOLATIONS, {"kind": kind, "detail": detail}))
 
     def scene(self, t_us: int, shapes: Sequence[Any]) -> None:

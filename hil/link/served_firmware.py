@@ -1,0 +1,212 @@
+"""A firmware that is not ours, started and served by the simulator in lockstep:
+``hexhil run --firmware PATH`` (``Run(firmware=...)``).
+
+* ``BoardFirmware``: a MicroPython main file run under the real ``micropython`` binary on
+  the virtual STM32F411 board (firmware/virtual_board/, hil/link/board_line.py,
+  docs/your-firmware.md);
+* ``ExecutableFirmware``: any executable that speaks docs/link.md, such as a C firmware
+  built against firmware/c_sdk/ (docs/c-firmware.md). It finds the link through
+  ``HEXHIL_LINK_PORT`` in its environment (hil/link/firmware_process.py ``FirmwareProcess``);
+* ``ElfFirmware``: an STM32F411 ELF (its header says ARM, 32-bit), run unchanged on the
+  emulated board in this process (hil/mcu/, docs/elf-firmware.md).
+
+Both end the same way (``serve_process``): a crash, a hang (no link message for
+``HANG_WALL_S`` of wall time, or the board's own verdict: only polls for 2 virtual seconds)
+or an exit before the run's end is one line (``UserError``), and the trace recorded up to
+then is kept: the caller's recorder is closed as after any run.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Protocol
+
+from hil.link.firmware_process import ROOT, FirmwareProcess, firmware_command, firmware_env
+from hil.mcu.elf_image import ELF_MAGIC, ElfImage, is_arm_elf, load_elf
+from hil.mcu.runtime import serve_elf
+from hil.run_result import RunResult
+from protocol import sim_link
+from protocol.errors import UserError
+
+BOARD_DIR = ROOT / "firmware" / "virtual_board"
+BOARD_RUNTIME = "micropython-board"   # a run's firmware_runtime
+EXECUTABLE = "executable"
+ELF_RUNTIME = "stm32f411-elf"
+HANG_WALL_S = 20.0          # wall seconds without a link message: the firmware hung
+BOARD_SAYS = "hexhil board: "   # the C SDK's one-line verdict on its firmware (hal_tick.c)
+MAIN_SUFFIXES = (".py",)    # a MicroPython main file; anything else is an executable
+
+
+class ServedFirmware(Protocol):
+    """A firmware the simulator starts and serves itself (hil/run/lockstep.py ``Simulator.run``)."""
+
+    runtime: str
+
+    def command(self) -> list[str]:
+        """The command line that starts it."""
+
+    def env(self) -> dict[str, str]:
+        """What its environment needs beyond the link's."""
+
+    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+        """Start it, answer its link with ``server`` (hil/link/server.py) to the end."""
+
+
+def served_firmware(path: str | Path, what: str = "--firmware", gdb_port: int | None = None,
+                    coverage: str | Path | None = None
+                    ) -> BoardFirmware | ExecutableFirmware | ElfFirmware:
+    """``path`` checked: a MicroPython main file (``.py``) for the virtual board, an ARM
+    ELF for the emulated STM32F411, else an executable file this user may run
+    (``UserError`` naming ``what`` if neither). ``gdb_port`` and ``coverage`` (an ELF's
+    only: ``--gdb``, ``--coverage``) go to the ELF runtime."""
+    p = Path(path)
+    if (gdb_port is not None or coverage is not None) and not is_arm_elf(p):
+        raise UserError(f"--gdb and --coverage need an STM32F411 ELF as {what}, not {path}")
+    if gdb_port is not None and not 1 <= gdb_port <= 65535:
+        raise UserError(f"--gdb {gdb_port}: port must be 1-65535")
+    if not p.is_file():
+        raise UserError(f"{what} {path}: not a file (give a MicroPython main file, an "
+                        "STM32F411 ELF or an executable)")
+    if p.suffix in MAIN_SUFFIXES:
+        return BoardFirmware(p.resolve())
+    if is_arm_elf(p):
+        return ElfFirmware(load_elf(p, what), gdb_port,
+                           Path(coverage) if coverage is not None else None)
+    if not os.access(p, os.X_OK) and p.read_bytes()[:4] == ELF_MAGIC:
+        load_elf(p, what)     # names what the ELF is for, in one line
+    if not os.access(p, os.X_OK):
+        raise UserError(f"{what} {path}: neither a MicroPython main file (.py) nor "
+                        "executable (build a C firmware with `hexhil sdk build main.c -o fw`, "
+                        "or chmod +x)")
+    return ExecutableFirmware(p.resolve())
+
+
+@dataclass(frozen=True)
+class BoardFirmware:
+    """A MicroPython main file to run on the virtual board."""
+
+    main: Path
+    runtime: str = BOARD_RUNTIME
+
+    def command(self) -> list[str]:
+        return [firmware_command("micropython")[0], str(self.main)]
+
+    def env(self) -> dict[str, str]:
+        return {"MICROPYPATH": f"{BOARD_DIR}:" + firmware_env(0)["MICROPYPATH"],
+                sim_link.ENV_BOARD: sim_link.BOARD_NAME}
+
+    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+        """The console's ``event KIND TEXT`` lines (hal/base.py ``Board.event``) are its
+        events."""
+        def take_console(printed: str) -> None:
+            for kind, text in console_events(printed):
+                server.take_event(kind, text, result)
+
+        serve_process(self, self.main.name, server, end_us, result, take_console)
+
+
+@dataclass(frozen=True)
+class ExecutableFirmware:
+    """An executable file that speaks the firmware link."""
+
+    path: Path
+    runtime: str = EXECUTABLE
+
+    def command(self) -> list[str]:
+        return [str(self.path)]
+
+    def env(self) -> dict[str, str]:
+        return {}
+
+    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+        serve_process(self, self.path.name, server, end_us, result)
+
+
+@dataclass(frozen=True)
+class ElfFirmware:
+    """An STM32F411 ELF on the emulated board (hil/mcu/); ``gdb_port`` waits for a GDB
+    client before the first instruction, ``coverage`` writes LCOV line coverage there."""
+
+    image: ElfImage
+    gdb_port: int | None = None
+    coverage: Path | None = None
+    runtime: str = ELF_RUNTIME
+
+    @property
+    def path(self) -> Path:
+        return self.image.path
+
+    def command(self) -> list[str]:
+        return []
+
+    def env(self) -> dict[str, str]:
+        return {}
+
+    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+        serve_elf(self.image, server, end_us, result, console_events, self.gdb_port,
+                  self.coverage)
+
+
+def _how(code: int) -> str:
+    if code < 0:
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit {code}"
+
+
+def serve_process(firmware: ServedFirmware, name: str, server: Any, end_us: int,
+                  result: RunResult, take_console: Callable[[str], None] | None = None
+                  ) -> None:
+    """Start ``firmware``, serve its link to ``end_us`` and judge how it ended, in one
+    line (``UserError``). Its stdout goes to a file: a firmware that prints a lot never
+    blocks on a full pipe; ``take_console`` reads what it printed."""
+    hang_wall_s = HANG_WALL_S
+    with tempfile.TemporaryFile() as console:
+        fw = FirmwareProcess(firmware.runtime, command=firmware.command(),
+                             extra_env=firmware.env(), console=console)
+        fw.conn.sock.settimeout(hang_wall_s)
+        hung = False
+        try:
+            server.serve(fw.conn, end_us, result)
+        except TimeoutError:
+            hung = True
+        finally:
+            code, _, err = fw.finish(timeout_s=0.0 if hung else 10.0)
+            console.seek(0)
+            printed = console.read().decode(errors="replace")
+            if take_console is not None:
+                take_console(printed)
+    result.exit_code = code
+    result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
+    t_s = server.clock.t_us * 1e-6
+    if hung:
+        raise UserError(f"the firmware {name} hung: no link message for {hang_wall_s:g} s "
+                        f"of wall time (at t={t_s:.6f} s)")
+    last = (err.strip().splitlines() or printed.strip().splitlines() or ["no message"])[-1]
+    if code != 0 and last.startswith(BOARD_SAYS):   # the C SDK's own verdict (a hang)
+        raise UserError(f"the firmware {name} {last[len(BOARD_SAYS):]}")
+    if code != 0:
+        raise UserError(f"the firmware {name} crashed at t={t_s:.6f} s ({_how(code)}): {last}")
+    if server.clock.t_us < end_us:
+        raise UserError(f"the firmware {name} exited at t={t_s:.6f} s, before the run's end "
+                        f"({end_us * 1e-6:g} s)")
+
+
+def console_events(text: str) -> list[tuple[int, str]]:
+    """(kind, text) of what a firmware printed: an ``event KIND TEXT`` line is that event
+    (a traceback's following lines belong to it), any other line an ``EVENT_LOG``."""
+    out: list[tuple[int, str]] = []
+    for line in text.splitlines():
+        parts = line.split(" ", 2)
+        if len(parts) >= 2 and parts[0] == "event" and parts[1].isdigit():
+            out.append((int(parts[1]), parts[2] if len(parts) > 2 else ""))
+        elif out and out[-1][0] == sim_link.EVENT_EXCEPTION and line.startswith(" "):
+            out[-1] = (out[-1][0], out[-1][1] + "\n" + line)
+        else:
+            out.append((sim_link.EVENT_LOG, line))
+    return out
