@@ -15,17 +15,18 @@ from hil.run.lockstep import Simulator
 ROOT = Path(__file__).resolve().parent.parent
 MCU = ROOT / "tests" / "mcu"
 APT_LINE = "apt-get install -y gcc-arm-none-eabi libnewlib-arm-none-eabi"
-FLAGS = ["-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard", "-O2", "-g",
+FLAGS = ["-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard", "-g",
          "-ffreestanding", "-nostdlib", "-Wall"]
 
 
-def build(tmp_path: Path, source: str, *defines: str, script: Path | None = None) -> Path:
+def build(tmp_path: Path, source: str, *defines: str, script: Path | None = None,
+          opt: str = "-O2") -> Path:
     """``tests/mcu/source`` with the test startup file, as ``tmp_path/<name>.elf``."""
     gcc = shutil.which("arm-none-eabi-gcc")
     if gcc is None:
         pytest.fail(f"arm-none-eabi-gcc is missing: {APT_LINE} (make does it as root)")
     out = tmp_path / (Path(source).stem + "".join(d.replace("=", "") for d in defines) + ".elf")
-    cmd = [gcc, *FLAGS, *(f"-D{d}" for d in defines), "-T", str(script or MCU / "f411.ld"),
+    cmd = [gcc, *FLAGS, opt, *(f"-D{d}" for d in defines), "-T", str(script or MCU / "f411.ld"),
            str(MCU / "startup.c"), str(MCU / source), "-o", str(out), "-lgcc"]
     r = subprocess.run(cmd, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr

@@ -12,7 +12,7 @@ when the flag can change, and the loop resumes from its read. A loop whose passe
 from __future__ import annotations
 
 import logging
-from typing import Callable
+from typing import Any, Callable
 
 from unicorn import UC_HOOK_INTR, UC_HOOK_MEM_WRITE
 from unicorn import arm_const as A
@@ -88,6 +88,7 @@ class Board:
                         (0x40013800, Syscfg(self.exti)), (0x40011000, self.usart1),
                         (0x40004400, self.usart2), (0x40011400, self.usart6)):
             self._map(base, p)
+        self.debugger: Any = None      # hil/mcu/gdb.py, with --gdb
         self.can_listening = False     # bxCAN1 in normal mode: CAN input each millisecond
         self.extra = extra_peripherals(self)
         for base, p in self.extra:
@@ -485,14 +486,18 @@ class Board:
                 else:
                     core.cyc = max(core.cyc, core.time.cycle_of(events.next_fs()))
                     continue
-            n = core.time.cycle_of(events.next_fs()) - core.cyc
+            n = max(1, min(core.time.cycle_of(events.next_fs()) - core.cyc, MAX_CHUNK))
+            if self.debugger is not None:
+                n = self.debugger.chunk_limit(n)
             try:
-                core.run(max(1, min(n, MAX_CHUNK)))
+                core.run(n)
             except CoreFault as exc:
                 raise CoreFault(self._fault_line(str(exc))) from None
             if self.fault is not None:
                 raise CoreFault(self._fault_line(self.fault))
             self._after_chunk()
+            if self.debugger is not None:
+                self.debugger.after_chunk()
         self.console.flush()
         self._flush()
 

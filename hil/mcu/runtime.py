@@ -13,6 +13,7 @@ from hil.link.firmware_process import DirectConnection
 from hil.mcu.board import Board
 from hil.mcu.core import CoreFault
 from hil.mcu.elf_image import ElfImage
+from hil.mcu.gdb import GdbServer
 from hil.run_result import RunResult
 from protocol.errors import UserError
 
@@ -28,10 +29,8 @@ def serve_elf(image: ElfImage, server: Any, end_us: int, result: RunResult,
     if coverage is not None:
         from hil.mcu.coverage import LineCounter
         tracer = LineCounter(image, board.core.uc)
-    debugger = None
     if gdb_port is not None:
-        from hil.mcu.gdb import attach
-        debugger = attach(board, gdb_port)
+        board.debugger = GdbServer(board, gdb_port)
     name = image.path.name
     try:
         board.run()
@@ -43,8 +42,8 @@ def serve_elf(image: ElfImage, server: Any, end_us: int, result: RunResult,
         result.stderr_tail = "\n".join(board.console_tail)
         if tracer is not None:
             tracer.write(coverage)
-        if debugger is not None:
-            debugger.detach()
+        if board.debugger is not None:
+            board.debugger.run_ended(board.exit_code or 0)
         result.firmware.setdefault("mcu", {"hclk_hz": board.rcc.hclk_hz,
                                            "cycles": board.core.cyc,
                                            "instructions": board.core.executed,
