@@ -3,41 +3,36 @@ wiring to the servo line, the switches, the console and CAN, and the run loop.
 
 The loop runs the core in chunks that end at the next scheduled event, so every flag
 changes at its exact cycle. Waiting costs no host time: WFI/WFE sleep to the next event,
-and a poll loop is skipped: when the same register read returns the same value twice
-with nothing else in between, the next pass is watched (the same instruction count, the
-same core registers, no RAM written): confirmed, virtual time jumps to the next event,
-when the flag can change, and the loop resumes from its read. A loop whose passes differ
-(a counter) runs instruction by instruction.
+and a poll loop is skipped to it (hil/mcu/poll.py). Every register access first fires
+what fell due by its cycle, so a read sees the state of its own instant.
 """
 from __future__ import annotations
 
 import logging
 from typing import Any, Callable
 
-from unicorn import UC_HOOK_INTR, UC_HOOK_MEM_WRITE
+from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
 
-from hil.servobus.line import resample
 from hil.mcu.console import Console, semihost
 from hil.mcu.core import (EXC_SVCALL, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT, INTR_INVSTATE,
                           INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
-from hil.mcu.elf_image import SRAM_BASE, SRAM_SIZE, ElfImage
+from hil.mcu.elf_image import ElfImage
 from hil.mcu.events import Events
 from hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
 from hil.mcu.link_client import LinkClient, Reply
+from hil.mcu.poll import PollSkipper
+from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import extra_peripherals
 from hil.mcu.rcc import CLOCK_BITS, HSI_HZ, Rcc, flash_interface, power
 from hil.mcu.system import Nvic, SysTick, SystemBlock
 from hil.mcu.usart import Usart
-from protocol import sim_link
 
 log = logging.getLogger(__name__)
 PERIPH_BASE, PERIPH_SIZE = 0x40000000, 0x80000      # APB1, APB2, AHB1
 PPB_BASE, PPB_SIZE = 0xE0000000, 0x100000
 MAX_CHUNK = 20_000           # instructions: the most an interrupt a write pends waits
 TICK_US = 1000               # a quiet millisecond: a sleep to now (world, switches, CAN)
-LINE_BAUD = 1_000_000
-BAUD_TOLERANCE = 0.03        # a UART frame survives about this much clock error
 PA1 = 1
 CONSOLE_TAIL = 5             # console lines a run result keeps (its stderr_tail)
 
@@ -60,16 +55,11 @@ class Board:
         self.console_tail: list[str] = []
         self.exti = Exti(self.nvic.line)
         self.switches = 0
-        self.direction = 0
         self.exit_code: int | None = None
         self.ended = False
         self.fault: str | None = None
         self.skipped_cycles = 0
         self.unmodelled: set[int] = set()
-        self._burst = bytearray()
-        self._burst_fs = 0
-        self._burst_dir = 0
-        self._bad_baud: set[int] = set()
         self._last_request_us = -TICK_US
         self._pages: dict[int, object] = {}
         self._gates: dict[int, tuple[int, int]] = {}
@@ -81,7 +71,8 @@ class Board:
         self.gpio = gpio
         line = self.nvic.line
         self.usart1 = Usart("USART1", 37, core, ev, lambda: self.rcc.pclk2_hz, line, self)
-        self.usart2 = Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self)
+        self.line = ServoLine(self)
+        self.usart2 = Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self.line)
         self.usart6 = Usart("USART6", 71, core, ev, lambda: self.rcc.pclk2_hz, line, self)
         for base, p in ((0x40023800, self.rcc), (0x40023C00, flash_interface()),
                         (0x40007000, power()), (0x40013C00, self.exti),
@@ -93,24 +84,13 @@ class Board:
         self.extra = extra_peripherals(self)
         for base, p in self.extra:
             self._map(base, p)
-        self.rx_timer = ev.timer(self._rx_arrives)
-        self.rx_deliver = ev.timer(self._deliver)
-        self._rx_queue: list[tuple[int, int]] = []
-        self._rx_burst = (0, 0)        # (first byte's arrival, bytes back to back)
         self.tick = ev.timer(self._tick)
         self.tick.set(TICK_US * FS_PER_US)
         uc = core.uc
         uc.mmio_map(PERIPH_BASE, PERIPH_SIZE, self._read, None, self._write, None)
         uc.mmio_map(PPB_BASE, PPB_SIZE, self._ppb_read, None, self._ppb_write, None)
         uc.hook_add(UC_HOOK_INTR, self._intr)
-        self._poll_key: tuple[int, int] | None = None
-        self._poll_at = 0
-        self._watch: tuple | None = None
-        self._watch_hook = None
-        self._ram_written = False
-        self._skip = False
-        self._reread = False
-        self._loops_ok: dict[tuple[int, int, int], bool] = {}
+        self.poll = PollSkipper(self)
 
     def _map(self, base: int, periph: object) -> None:
         page = (base - PERIPH_BASE) >> 10
@@ -127,7 +107,7 @@ class Board:
             return None
         return level
 
-    def _take(self, reply: Reply) -> Reply:
+    def take(self, reply: Reply) -> Reply:
         if reply.switches != self.switches:
             port = self.gpio[1]
             before = [port.input_level(p) for p in range(SWITCH_PINS)]
@@ -136,11 +116,7 @@ class Board:
                 now = port.input_level(p)
                 if now != before[p]:
                     self.exti.edge(1, p, bool(now))
-        if reply.next_rx_us and reply.pending:
-            self._rx_burst = (reply.next_rx_us, reply.pending)
-            self.rx_timer.set(max(reply.next_rx_us * FS_PER_US, self.core.now_fs()))
-        else:
-            self.rx_timer.clear()
+        self.line.reply(reply.next_rx_us, reply.pending)
         for arb_id, data in reply.can:
             self.can_received(arb_id, data)
         if reply.ended:
@@ -158,7 +134,7 @@ class Board:
         for fresh levels itself, ``fresh_switches``)."""
         at_us = at_fs // FS_PER_US
         if at_us - self._last_request_us >= TICK_US:
-            self._take(self.link.sleep(at_us))
+            self.take(self.link.sleep(at_us))
         listening = self.exti.regs[0x00] & 0x3F or self.can_listening
         self.tick.set(at_fs + (1 if listening else 10) * TICK_US * FS_PER_US)
 
@@ -166,7 +142,7 @@ class Board:
         """The firmware reads port B: the switch levels of the last millisecond."""
         now_us = self.now_us()
         if now_us - self._last_request_us >= TICK_US:
-            self._take(self.link.sleep(now_us))
+            self.take(self.link.sleep(now_us))
 
     def can_received(self, arb_id: int, data: bytes) -> None:
         self.can.received(arb_id, data)
@@ -176,74 +152,16 @@ class Board:
         for usart in (self.usart1, self.usart2, self.usart6):
             usart.dma_request()
 
-    # --- the servo line and the console (UsartWiring) -----------------------------
+    # --- the console (USART1 and USART6: UsartWiring) ----------------------------------
     def sent(self, usart: Usart, byte: int, start_fs: int, end_fs: int) -> None:
-        if usart is not self.usart2:
-            self.console.put(bytes((byte,)))
-            return
-        if not self._burst:
-            self._burst_fs, self._burst_dir = start_fs, self.direction
-        self._burst.append(byte)
+        self.console.put(bytes((byte,)))
 
     def idle(self, usart: Usart, at_fs: int) -> None:
-        if usart is self.usart2:
-            self._flush()
-
-    def _flush(self) -> None:
-        if not self._burst:
-            return
-        tx, self._burst = bytes(self._burst), bytearray()
-        line = int(self.link.config.get("baud", LINE_BAUD))
-        baud = round(self.usart2.baud())
-        if abs(baud - line) > BAUD_TOLERANCE * line:
-            if baud not in self._bad_baud:
-                self._bad_baud.add(baud)
-                self.link.fault("uart_baud", f"USART2 runs at {baud} baud (BRR 0x{self.usart2.regs[8]:x}, "
-                                f"PCLK1 {self.rcc.pclk1_hz} Hz), the servo line at {line}: the "
-                                "servos hear garbage and never answer")
-            tx = resample(tx, max(1, baud), line)
-        self._take(self.link.line(self._burst_fs // FS_PER_US, tx, bool(self._burst_dir),
-                                  False, 0))
-
-    def _direction_turned(self, level: int) -> None:
-        usart = self.usart2
-        if self._burst and usart.shift_end.at_fs is not None and not level:
-            self._burst.pop()     # the byte on the wire now is cut by the turn
-            self.link.fault("tx_while_receiving", "1 byte cut: the direction pin (A1) turned "
-                            "low while it was on the wire (turn after TC, not TXE)")
-        if level and self._rx_queue:
-            self.link.fault("rx_while_transmitting", f"{len(self._rx_queue)} status bytes "
-                            "arrived while the direction pin (A1) was high: the receiver was off")
-            self._rx_queue.clear()
-            self.rx_deliver.clear()
-        self._flush()
-        self.direction = level
-        self.link.direction(self.now_us(), bool(level))
+        """Nothing waits for a console line's end."""
 
     def _gpio_out(self, port: GpioPort, old_odr: int) -> None:
         if port.index == 0:
-            level = port.output(PA1)
-            if level != self.direction:
-                self._direction_turned(level)
-
-    def _rx_arrives(self, at_fs: int) -> None:
-        """The first byte of a burst arrives: fetch the whole burst at once (the host's
-        clock runs ahead by its length) and hand each byte to USART2 at its own time."""
-        first_us, pending = self._rx_burst
-        byte_us = 10_000_000 / int(self.link.config.get("baud", LINE_BAUD))
-        last_us = first_us + int((pending - 1) * byte_us) + 1
-        reply = self.link.line(last_us, b"", bool(self.direction), True, pending)
-        self._rx_queue = [(at_fs + round(k * byte_us * FS_PER_US), b)
-                          for k, b in enumerate(reply.rx)]
-        self._take(reply)
-        self._deliver(at_fs)
-
-    def _deliver(self, at_fs: int) -> None:
-        queue = self._rx_queue
-        while queue and queue[0][0] <= at_fs:
-            self.usart2.received(queue.pop(0)[1])
-        if queue:
-            self.rx_deliver.set(queue[0][0])
+            self.line.pin(port.output(PA1))
 
     def _console_line(self, text: str) -> None:
         self.console_tail = self.console_tail[-(CONSOLE_TAIL - 1):] + [text]
@@ -279,17 +197,17 @@ class Board:
             return None
         return p
 
-    def _due(self) -> None:
+    def due(self) -> None:
         """Fire what fell due by the instruction running now (a register access)."""
         heap = self.events.heap
         if heap and heap[0][0] <= self.core.now_fs():
             self.events.fire_due(self.core.now_fs())
 
     def _read(self, uc, offset: int, size: int, _) -> int:
-        self._due()
+        self.due()
         p = self._periph(offset)
         if p is None:
-            self._poll_key = None
+            self.poll.other_access()
             if offset >> 10 not in self._pages:
                 self._unmodelled(PERIPH_BASE + offset, "read")
             return 0
@@ -298,14 +216,14 @@ class Board:
         if offset & 3 or size < 4:
             value = (value >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
         if off not in p.pollable:
-            self._poll_key = None
-        elif self._polled(PERIPH_BASE + offset, value):
+            self.poll.other_access()
+        elif self.poll.polled(PERIPH_BASE + offset, value):
             value = (p.read(off) >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
         return value
 
     def _write(self, uc, offset: int, size: int, value: int, _) -> None:
-        self._due()
-        self._poll_key = None
+        self.due()
+        self.poll.other_access()
         p = self._periph(offset)
         if p is None:
             if offset >> 10 not in self._pages:
@@ -319,18 +237,18 @@ class Board:
         p.write(offset & 0x3FC, value & 0xFFFFFFFF)
 
     def _ppb_read(self, uc, offset: int, size: int, _) -> int:
-        self._due()
+        self.due()
         addr = PPB_BASE + offset
         value = (self.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
         if addr & ~3 not in self.ppb.pollable:
-            self._poll_key = None
-        elif self._polled(addr, value):
+            self.poll.other_access()
+        elif self.poll.polled(addr, value):
             value = (self.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
         return value
 
     def _ppb_write(self, uc, offset: int, size: int, value: int, _) -> None:
-        self._due()
-        self._poll_key = None
+        self.due()
+        self.poll.other_access()
         addr = PPB_BASE + offset
         if size < 4 and (0xE000E400 <= addr < 0xE000E500 or 0xE000ED18 <= addr < 0xE000ED24):
             word = self.ppb.read(addr & ~3)
@@ -340,86 +258,6 @@ class Board:
         self.ppb.write(addr & ~3, value)
 
     # --- poll skipping ------------------------------------------------------------
-    def _polled(self, addr: int, value: int) -> bool:
-        """A side-effect-free register read: the poll detector's view. True when it
-        skipped the wait here, so the read is to be done again at the new time."""
-        core = self.core
-        if self._reread:           # the read a stop made run again: already counted
-            self._reread = False
-            return False
-        now = core.now()
-        key = (addr, value)
-        if key != self._poll_key:
-            self._poll_key, self._poll_at = key, now
-            return False
-        delta = now - self._poll_at
-        self._poll_at = now
-        loop = (core.reg(A.UC_ARM_REG_PC), addr, delta)
-        watch = self._watch
-        if watch is None:
-            known = self._loops_ok.get(loop)
-            if known:                  # watched once: the same code, the same pass
-                return self._jump_here()
-            if known is None:
-                self._watch = (loop, value, core.context())
-                self._reread = True
-                core.stop()
-        elif watch[0] == loop and watch[1] == value and not self._ram_written \
-                and core.context() == watch[2]:
-            self._loops_ok[loop] = True
-            self._skip = True
-            core.stop()
-        else:
-            self._loops_ok[watch[0]] = False
-            self._end_watch()
-        return False
-
-    def _jump_here(self) -> bool:
-        """Skip a known poll loop inside the chunk: time jumps to the next event, which
-        fires now; an exception it makes ready ends the chunk (the read runs again)."""
-        core = self.core
-        cyc = core.time.cycle_of(self.events.next_fs())
-        now = core.now()
-        if cyc <= now:
-            return False
-        core.jump(cyc - now)
-        self.skipped_cycles += cyc - now
-        self._poll_key = None
-        self._due()
-        if self.nvic.ready() and self.nvic.next_exception() is not None:
-            self._reread = True
-            core.stop()
-        return True
-
-    def _end_watch(self) -> None:
-        self._watch = None
-        if self._watch_hook is not None:
-            self.core.uc.hook_del(self._watch_hook)
-            self._watch_hook = None
-            self.core.uc.ctl_flush_tb()
-
-    def _after_chunk(self) -> None:
-        core = self.core
-        if self._skip:
-            self._skip = False
-            self._end_watch()
-            self._poll_key = None
-            self._reread = False
-            cyc = core.time.cycle_of(self.events.next_fs())
-            if cyc > core.cyc:
-                self.skipped_cycles += cyc - core.cyc
-                core.cyc = cyc
-        elif self._watch is not None and self._watch_hook is None and core.stopped:
-            self._ram_written = False      # a loop seen for the first time: watch its stores
-            self._watch_hook = core.uc.hook_add(UC_HOOK_MEM_WRITE, self._stored, None,
-                                                SRAM_BASE, SRAM_BASE + SRAM_SIZE - 1)
-            core.uc.ctl_flush_tb()
-        elif self._watch is not None and not core.stopped:
-            self._end_watch()
-
-    def _stored(self, *args) -> None:
-        self._ram_written = True
-
     # --- exceptions ---------------------------------------------------------------
     def _intr(self, uc, intno: int, _) -> None:
         core = self.core
@@ -495,11 +333,11 @@ class Board:
                 raise CoreFault(self._fault_line(str(exc))) from None
             if self.fault is not None:
                 raise CoreFault(self._fault_line(self.fault))
-            self._after_chunk()
+            self.poll.after_chunk()
             if self.debugger is not None:
                 self.debugger.after_chunk()
         self.console.flush()
-        self._flush()
+        self.line.flush()
 
     def close(self) -> None:
         self.link.close()
