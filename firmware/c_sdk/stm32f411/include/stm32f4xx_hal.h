@@ -47,11 +47,16 @@ void HAL_GPIO_EXTI_Callback(uint16_t GPIO_Pin);
 extern uint32_t SystemCoreClock;
 void SystemInit(void);
 void SystemClock_Config100MHz(void);
+void SystemCoreClockUpdate(void);
 uint32_t HAL_RCC_GetSysClockFreq(void);
+uint32_t HAL_RCC_GetHCLKFreq(void);
 uint32_t HAL_RCC_GetPCLK1Freq(void);
 uint32_t HAL_RCC_GetPCLK2Freq(void);
 
-/* The tick: SysTick at 1 ms. A firmware with its own SysTick_Handler calls HAL_IncTick. */
+/* The tick: SysTick at 1 ms (HAL_InitTick, weak). A firmware with its own SysTick_Handler
+ * calls HAL_IncTick. HAL_Init ends with the firmware's HAL_MspInit, if it has one. */
+HAL_StatusTypeDef HAL_InitTick(uint32_t TickPriority);
+void HAL_MspInit(void);
 void HAL_IncTick(void);
 #define TICK_INT_PRIORITY 15U
 

@@ -14,16 +14,27 @@ static void set_priority(IRQn_Type irq, uint32_t priority)
         NVIC->IPR[irq] = value;
 }
 
+/* SysTick at 1 ms of SystemCoreClock; weak, as Cube's, for a firmware that ticks from a
+ * timer instead. */
+HAL_StatusTypeDef __attribute__((weak)) HAL_InitTick(uint32_t TickPriority)
+{
+    SysTick->CSR = 0;
+    SysTick->RVR = SystemCoreClock / 1000u - 1u;
+    SysTick->CVR = 0;
+    set_priority(SysTick_IRQn, TickPriority);
+    SysTick->CSR = SysTick_CSR_CLKSOURCE | SysTick_CSR_TICKINT | SysTick_CSR_ENABLE;
+    return HAL_OK;
+}
+
+void __attribute__((weak)) HAL_MspInit(void) {}
+
 HAL_StatusTypeDef HAL_Init(void)
 {
     FLASH->ACR |= FLASH_ACR_PRFTEN | FLASH_ACR_ICEN | FLASH_ACR_DCEN;
     /* priority group 4: all four bits are preemption priority */
     SCB->AIRCR = SCB_AIRCR_VECTKEY | (3u << SCB_AIRCR_PRIGROUP_Pos);
-    SysTick->CSR = 0;
-    SysTick->RVR = SystemCoreClock / 1000u - 1u;
-    SysTick->CVR = 0;
-    set_priority(SysTick_IRQn, TICK_INT_PRIORITY);
-    SysTick->CSR = SysTick_CSR_CLKSOURCE | SysTick_CSR_TICKINT | SysTick_CSR_ENABLE;
+    HAL_InitTick(TICK_INT_PRIORITY);
+    HAL_MspInit();
     return HAL_OK;
 }
 

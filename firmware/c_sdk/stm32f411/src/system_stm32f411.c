@@ -39,7 +39,7 @@ void SystemClock_Config100MHz(void)
                 (0u << RCC_CFGR_PPRE2_Pos) | RCC_CFGR_SW_PLL;
     while ((RCC->CFGR >> RCC_CFGR_SWS_Pos & 3u) != RCC_CFGR_SW_PLL) {
     }
-    SystemCoreClock = HAL_RCC_GetSysClockFreq();
+    SystemCoreClockUpdate();
 }
 
 void __attribute__((weak)) SystemInit(void)
@@ -62,15 +62,19 @@ uint32_t HAL_RCC_GetSysClockFreq(void)
     return m ? (uint32_t)((uint64_t)in / m * n / p) : HSI_VALUE;
 }
 
-static uint32_t hclk(void)
+uint32_t HAL_RCC_GetHCLKFreq(void)
 {
     static const uint8_t shift[16] = {0, 0, 0, 0, 0, 0, 0, 0, 1, 2, 3, 4, 6, 7, 8, 9};
     return HAL_RCC_GetSysClockFreq() >> shift[RCC->CFGR >> RCC_CFGR_HPRE_Pos & 0xFu];
 }
 
+/* CMSIS's: SystemCoreClock (the core's clock, HCLK) from the registers as they are now. */
+void SystemCoreClockUpdate(void) { SystemCoreClock = HAL_RCC_GetHCLKFreq(); }
+
 static uint32_t apb(uint32_t code)
 {
-    return code < 4u ? hclk() : hclk() >> (code - 3u);
+    uint32_t hclk = HAL_RCC_GetHCLKFreq();
+    return code < 4u ? hclk : hclk >> (code - 3u);
 }
 
 uint32_t HAL_RCC_GetPCLK1Freq(void) { return apb(RCC->CFGR >> RCC_CFGR_PPRE1_Pos & 7u); }
