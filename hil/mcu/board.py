@@ -200,8 +200,10 @@ class Board:
     def due(self) -> None:
         """Fire what fell due by the instruction running now (a register access)."""
         heap = self.events.heap
-        if heap and heap[0][0] <= self.core.now_fs():
-            self.events.fire_due(self.core.now_fs())
+        if heap:
+            now = self.core.now_fs()
+            if heap[0][0] <= now:
+                self.events.fire_due(now)
 
     def _read(self, uc, offset: int, size: int, _) -> int:
         self.due()

@@ -6,7 +6,8 @@ registers, no RAM written: a Unicorn store hook for that one pass). Confirmed, v
 time jumps to the next scheduled event (the only moment a register can change) and the
 loop goes on from its read; a loop whose passes differ (a counter in a register or in RAM)
 runs instruction by instruction. A loop once confirmed (its PC, register and pass length)
-is skipped at its second read from then on, inside the chunk, without stopping the core.
+is skipped from then on inside the chunk, without stopping the core, at its first read of
+the value it waited on.
 """
 from __future__ import annotations
 
@@ -29,6 +30,8 @@ class PollSkipper:
         self._skip = False
         self._reread = False
         self._loops_ok: dict[tuple[int, int, int], bool] = {}
+        self._waits: set[tuple[int, int, int]] = set()        # (pc, register, value)
+        self._wait_values: set[tuple[int, int]] = set()
 
     def other_access(self) -> None:
         """A register access that is not a side-effect-free read: no poll goes on."""
@@ -45,6 +48,9 @@ class PollSkipper:
         key = (addr, value)
         if key != self._poll_key:
             self._poll_key, self._poll_at = key, now
+            if key in self._wait_values and self._watch is None and \
+                    (core.reg(A.UC_ARM_REG_PC), addr, value) in self._waits:
+                return self._jump_here()   # a known loop waiting on this very value
             return False
         delta = now - self._poll_at
         self._poll_at = now
@@ -53,6 +59,7 @@ class PollSkipper:
         if watch is None:
             known = self._loops_ok.get(loop)
             if known:                  # watched once: the same code, the same pass
+                self._known_wait(loop[0], addr, value)
                 return self._jump_here()
             if known is None:
                 self._watch = (loop, value, core.context())
@@ -61,12 +68,19 @@ class PollSkipper:
         elif watch[0] == loop and watch[1] == value and not self._ram_written \
                 and core.context() == watch[2]:
             self._loops_ok[loop] = True
+            self._known_wait(loop[0], addr, value)
             self._skip = True
             core.stop()
         else:
             self._loops_ok[watch[0]] = False
             self._end_watch()
         return False
+
+    def _known_wait(self, pc: int, addr: int, value: int) -> None:
+        """From now on the loop at ``pc`` is skipped at its first read of ``value``: it
+        was confirmed pure, so until the next event it could only read the same again."""
+        self._waits.add((pc, addr, value))
+        self._wait_values.add((addr, value))
 
     def _jump_here(self) -> bool:
         """Skip a known poll loop inside the chunk: time jumps to the next event, which
