@@ -158,6 +158,10 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     result = ReplayResult()
     wall0 = time.perf_counter()
     theirs = served_firmware(firmware) if firmware is not None else None
+    if theirs is not None and not theirs.command():
+        raise UserError(f"--firmware {firmware}: an STM32F411 ELF is not replayed yet (it runs "
+                        "in this process, not as a process on the link); run it again: the "
+                        "same scenario and seed give the same trace")
     fw = FirmwareProcess(python, connect_timeout_s=timeout_s,
                          command=theirs.command() if theirs else command,
                          extra_env=theirs.env() if theirs else None)

@@ -18,6 +18,15 @@ from hil.run_result import RunResult
 from protocol.errors import UserError
 
 
+class FirmwareFault(UserError):
+    """The firmware faulted (one line): a failing case in ``hexhil test``, exit 2 in
+    ``hexhil run``; ``t_s`` is when."""
+
+    def __init__(self, text: str, t_s: float) -> None:
+        super().__init__(text)
+        self.t_s = t_s
+
+
 def serve_elf(image: ElfImage, server: Any, end_us: int, result: RunResult,
               console_events: Callable[[str], list[tuple[int, str]]],
               gdb_port: int | None = None, coverage: Path | None = None) -> Board:
@@ -37,7 +46,8 @@ def serve_elf(image: ElfImage, server: Any, end_us: int, result: RunResult,
     except CoreFault as exc:
         result.exit_code = 1
         result.exceptions.append(f"{name}: {exc}")
-        raise UserError(f"the firmware {name} faulted: {exc}") from None
+        raise FirmwareFault(f"the firmware {name} faulted: {exc}",
+                            board.now_us() * 1e-6) from None
     finally:
         result.stderr_tail = "\n".join(board.console_tail)
         if tracer is not None:
