@@ -63,17 +63,19 @@ def run_traced(elf: str, tmp_path: Path, duration_s: float):
 
 
 def test_the_c_tripod_elf_walks_flat_tripod_with_the_same_digest_twice(elfs):
-    first, _ = run(FLAT, firmware=elfs["c_tripod"])
+    first, result = run(FLAT, firmware=elfs["c_tripod"])
     second, _ = run(FLAT, firmware=elfs["c_tripod"])
     assert first["firmware_runtime"] == "stm32f411-elf" and first["sim_time_s"] == 30.0
+    assert result.firmware["mcu"]["hclk_hz"] == 100_000_000   # the SDK's SystemInit
     assert first["body"]["dx_m"] >= 0.3, first["body"]
     assert first["faults"] == {}
     assert first["serial_digest"] == second["serial_digest"]
 
 
 def test_the_bare_metal_firmware_pings_18_servos_moves_one_and_counts_cycles(elfs, tmp_path):
-    summary, _, trace = run_traced(elfs["bare"], tmp_path, 1.2)
-    assert summary["faults"] == {} and summary["sim_time_s"] == 1.2
+    summary, result, trace = run_traced(elfs["bare"], tmp_path, 1.2)
+    assert summary["faults"] == {} and summary["sim_time_s"] == 1.2   # idle in WFI to the end
+    assert result.firmware["mcu"]["hclk_hz"] == 100_000_000            # its PLL from HSI
     lines = console(trace)
     assert lines[0] == "bare-metal: 18 of 18 servos answered, servo 1 moved", lines
     # DWT's CYCCNT over 1000 SysTick periods: 100 M cycles a virtual second (PLL at 100 MHz)
