@@ -51,6 +51,14 @@ class Target(str, enum.Enum):
     HOST = "host"
     STM32F411 = "stm32f411"
 
+    @classmethod
+    def of(cls, name: "Target | str") -> "Target":
+        try:
+            return cls(name)
+        except ValueError:
+            raise UserError(f"unknown target {name!r}: one of "
+                            + ", ".join(t.value for t in cls)) from None
+
 
 def compiler() -> list[str]:
     """The host C compiler's command: ``$CC``, else cc or gcc, else ``python -m ziglang cc``."""
@@ -119,7 +127,7 @@ def build(sources: list[str], output: str | Path, cflags: tuple[str, ...] = (),
     """Compile ``sources`` with the SDK into ``output`` (a host executable, or an F411 ELF);
     returns its path. ``bare``: for the board, only the linker script (the firmware brings
     its own vector table and Reset_Handler; no startup file, HAL or C library)."""
-    target = Target(target)
+    target = Target.of(target)
     srcs = _sources(sources)
     out = Path(output)
     if out.is_dir():
@@ -146,7 +154,7 @@ def build(sources: list[str], output: str | Path, cflags: tuple[str, ...] = (),
 def library(folder: str | Path, target: Target | str = Target.HOST) -> Path:
     """The SDK's static library for ``target`` in ``folder`` (built when missing or older
     than a source); returns its path."""
-    target = Target(target)
+    target = Target.of(target)
     where = Path(folder)
     where.mkdir(parents=True, exist_ok=True)
     if target is Target.HOST:
@@ -185,7 +193,7 @@ def _archiver(target: Target) -> list[str]:
 def default_library_dir(target: Target | str = Target.HOST) -> Path:
     """Where ``hexhil sdk flags`` keeps the library: the user's cache."""
     base = Path(os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")) / "hexhil"
-    target = Target(target)
+    target = Target.of(target)
     return base / ("c_sdk" if target is Target.HOST else f"c_sdk-{target.value}")
 
 
@@ -193,7 +201,7 @@ def make_flags(lib: Path, target: Target | str = Target.HOST) -> dict[str, str]:
     """The Makefile variables that build a firmware against ``lib``. For the board the whole
     library is linked: its startup file (the vector table) and system calls are reached by
     no call of the firmware's."""
-    if Target(target) is Target.HOST:
+    if Target.of(target) is Target.HOST:
         return {"CFLAGS": " ".join((*CFLAGS, f"-I{INCLUDE_DIR}")),
                 "LDLIBS": f"-L{lib.parent} -l{LIBRARY} " + " ".join(LDLIBS)}
     return {"CC": arm_compiler(),

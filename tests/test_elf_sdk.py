@@ -126,6 +126,8 @@ def test_a_bare_build_links_only_the_linker_script(tmp_path):
     assert other.read_bytes() != fw.read_bytes()
     with pytest.raises(UserError, match="--bare builds for the board only"):
         c_sdk.build([str(ELF_FW / "bare_metal.c")], tmp_path / "x", bare=True)
+    with pytest.raises(UserError, match="unknown target 'stm32f405': one of host, stm32f411"):
+        c_sdk.build([str(ELF_FW / "bare_metal.c")], tmp_path / "x", target="stm32f405")
 
 
 def test_a_firmware_whose_data_does_not_fit_the_ram_fails_to_link_in_one_line(tmp_path):
