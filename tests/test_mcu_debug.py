@@ -74,3 +74,23 @@ def test_lcov_names_source_lines_with_counts_and_zero_for_lines_never_run(tmp_pa
     # the console line is printed after 1 s of WFI: never reached in 0.3 s
     assert ping[line["console_puts(line);"]] == 0
     assert merge([text, text]).count("DA:") == text.count("DA:")
+
+
+def test_hexhil_test_counts_a_fault_as_a_failing_case_and_merges_coverage(tmp_path):
+    case = tmp_path / "short.toml"
+    case.write_text(f'[case]\nscenario = "{ROOT}/scenarios/flat-tripod.toml"\nduration_s = 0.2\n\n'
+                    '[[expect]]\nname = "no firmware exception"\nkind = "no_exception"\n')
+    hard = build(tmp_path, "faults.c", "FAULT=1")
+    r = subprocess.run([HEXHIL, "test", str(case), "--firmware", str(hard)], cwd=ROOT,
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert "faulted: an undefined instruction (UsageFault)" in r.stdout and "FAIL" in r.stdout
+    info = tmp_path / "all.info"
+    ping = build(tmp_path, "ping.c", "BAUD_BRR=50", "RAISE_A1=1", opt="-O0")
+    r = subprocess.run([HEXHIL, "test", str(case),
+                        "--repeat", "2", "--firmware", str(ping), "--coverage", str(info)],
+                       cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert "coverage of 2 runs" in r.stdout, r.stdout + r.stderr
+    handler = next(row for row in info.read_text().splitlines()
+                   if row.startswith("DA:5,"))       # SysTick_Handler's line, 1 kHz
+    assert int(handler.split(",")[1]) >= 2 * 190
