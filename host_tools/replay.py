@@ -21,7 +21,8 @@ from pathlib import Path
 from typing import Any, Callable, Iterable
 
 from protocol import sim_link
-from hil.link.served_firmware import served_firmware
+from hil.link.served_firmware import ElfFirmware, console_events, served_firmware
+from hil.mcu.replayed import ReplayedElf
 from hil.link.firmware_process import REQUEST_OPS, FirmwareProcess, split_messages
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
@@ -158,13 +159,12 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     result = ReplayResult()
     wall0 = time.perf_counter()
     theirs = served_firmware(firmware) if firmware is not None else None
-    if theirs is not None and not theirs.command():
-        raise UserError(f"--firmware {firmware}: an STM32F411 ELF is not replayed yet (it runs "
-                        "in this process, not as a process on the link); run it again: the "
-                        "same scenario and seed give the same trace")
-    fw = FirmwareProcess(python, connect_timeout_s=timeout_s,
-                         command=theirs.command() if theirs else command,
-                         extra_env=theirs.env() if theirs else None)
+    if isinstance(theirs, ElfFirmware):      # runs in this process, on a thread
+        fw: Any = ReplayedElf(theirs.image, console_events)
+    else:
+        fw = FirmwareProcess(python, connect_timeout_s=timeout_s,
+                             command=theirs.command() if theirs else command,
+                             extra_env=theirs.env() if theirs else None)
     try:
         conn = fw.conn
         prev_t_us = 0

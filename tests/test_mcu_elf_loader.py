@@ -81,3 +81,18 @@ def test_the_loader_refuses_without_a_traceback(tmp_path):
     bad.write_bytes(b"\x7fELF\x01\x01\x01" + bytes(200))
     with pytest.raises(UserError):
         load_elf(bad)
+
+
+def test_replay_of_an_elf_is_identical_and_a_changed_elf_diverges(tmp_path):
+    elf = build(tmp_path, "ping.c", "BAUD_BRR=50", "RAISE_A1=1")
+    trace = tmp_path / "t.mcap"
+    r = hexhil_run(elf, "--out", str(trace))
+    assert r.returncode == 0, r.stderr
+    replay = [HEXHIL, "replay", str(trace), "--firmware"]
+    same = subprocess.run(replay + [str(elf)], cwd=ROOT, capture_output=True, text=True,
+                          timeout=300)
+    assert same.returncode == 0 and same.stdout.startswith("identical:"), same.stdout + same.stderr
+    quiet = build(tmp_path, "ping.c", "BAUD_BRR=50", "RAISE_A1=0")   # never raises PA1
+    changed = subprocess.run(replay + [str(quiet)], cwd=ROOT, capture_output=True, text=True,
+                             timeout=300)
+    assert "DIVERGED at t=0.0" in changed.stdout, changed.stdout + changed.stderr
