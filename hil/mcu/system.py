@@ -13,7 +13,7 @@ from typing import Any, Callable
 
 from unicorn import arm_const as A
 
-from hil.mcu.core import EXC_PENDSV, EXC_SYSTICK, FS_PER_S, Core
+from hil.mcu.core import EXC_PENDSV, EXC_SYSTICK, FS_PER_S, Core, Regs
 from hil.mcu.events import Events
 
 NUM_IRQS = 86                 # RM0383 table 37: positions 0..85
@@ -28,6 +28,8 @@ class Nvic:
 
     def __init__(self, core: Core) -> None:
         self.core = core
+        self._masks = Regs(core.uc, (A.UC_ARM_REG_FAULTMASK, A.UC_ARM_REG_PRIMASK,
+                                     A.UC_ARM_REG_BASEPRI))
         self.enabled: set[int] = set()           # IRQ numbers
         self.pending: set[int] = set()           # exception numbers
         self.lines: set[int] = set()             # IRQ lines a peripheral holds high
@@ -59,11 +61,12 @@ class Nvic:
         level = 256
         for exc in core.active:
             level = min(level, self._group(self._priority(exc)))
-        if core.reg(A.UC_ARM_REG_FAULTMASK) & 1:
+        faultmask, primask, basepri = self._masks.read()
+        if faultmask & 1:
             return -1
-        if core.reg(A.UC_ARM_REG_PRIMASK) & 1:
+        if primask & 1:
             level = min(level, 0)
-        basepri = core.reg(A.UC_ARM_REG_BASEPRI) & 0xF0
+        basepri &= 0xF0
         if basepri:
             level = min(level, self._group(basepri))
         return level
