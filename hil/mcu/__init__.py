@@ -2,9 +2,12 @@
 
 ``elf_image`` reads and checks the ELF; ``core`` runs it on Unicorn in chunks of exact
 instruction counts (one instruction is one cycle of HCLK) and does the exception model
-Unicorn leaves out; ``system`` (NVIC, SCB, SysTick, DWT), ``rcc``, ``gpio``, ``usart``,
-``timers``, ``dma`` and ``bxcan`` are the board's peripherals at register level (facts from
-RM0383); ``board`` joins them and speaks the simulator link (protocol/sim_link.py) as a
-client, so the line, switches, CAN and console reach hil/link/ like any other runtime's;
-``runtime`` is the ``--firmware fw.elf`` runtime. docs/elf-firmware.md is the user's page.
+Unicorn leaves out; ``events`` schedules what the peripherals will do; ``system`` (NVIC,
+SCB, SysTick, DWT), ``rcc``, ``gpio``, ``usart`` and ``peripherals`` (TIM2-5, DMA, bxCAN1)
+are the board's peripherals at register level (facts from RM0383); ``board`` joins them,
+``servo_line`` wires USART2 to the servo bus through the PA1 direction buffer, ``console``
+takes USART1/6 and semihosting, ``poll`` skips waiting, and ``link_client`` speaks the
+simulator link as a client, so the line, switches, CAN and console reach hil/link/ as any
+runtime's do. ``runtime`` serves an ELF in a run, ``replayed`` under ``hexhil replay``;
+``gdb`` is ``--gdb``, ``coverage`` is ``--coverage``. docs/elf-firmware.md is the page.
 """
