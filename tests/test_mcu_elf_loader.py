@@ -83,11 +83,14 @@ def test_the_loader_refuses_without_a_traceback(tmp_path):
         load_elf(bad)
 
 
-def test_replay_of_an_elf_is_identical_and_a_changed_elf_diverges(tmp_path):
+def test_the_trace_is_the_same_bytes_twice_replay_is_identical_a_changed_elf_diverges(tmp_path):
     elf = build(tmp_path, "ping.c", "BAUD_BRR=50", "RAISE_A1=1")
     trace = tmp_path / "t.mcap"
     r = hexhil_run(elf, "--out", str(trace))
     assert r.returncode == 0, r.stderr
+    again = tmp_path / "again.mcap"
+    assert hexhil_run(elf, "--out", str(again)).returncode == 0
+    assert again.read_bytes() == trace.read_bytes()      # the same ELF, scenario, seed
     replay = [HEXHIL, "replay", str(trace), "--firmware"]
     same = subprocess.run(replay + [str(elf)], cwd=ROOT, capture_output=True, text=True,
                           timeout=300)
