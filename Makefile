@@ -38,7 +38,7 @@ bench: $(STAMP) toolchain
 	$(BIN)/python -m bench
 
 # hostile inputs for every parser and loader (issue 20); FUZZ="--scale 0.1" for a short run
-fuzz: $(STAMP) toolchain
+fuzz: $(STAMP)
 	$(BIN)/python -m fuzz $(FUZZ)
 
 clean:
