@@ -111,6 +111,10 @@ def test_compiler_flags_pass_through_for_both_targets(tmp_path):
         proc = hexhil("sdk", "build", "--target", target, str(src), "-o",
                       str(tmp_path / f"pi-{target}"))
         assert proc.returncode == 2 and "no ANSWER" in proc.stderr
+    # an optional level never swallows the source that follows it
+    proc = hexhil("sdk", "build", "-O", str(src), "-o", str(tmp_path / "x"))
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and len(lines) == 1 and "not an optimisation level" in lines[0]
 
 
 def test_a_bare_build_links_only_the_linker_script(tmp_path):

@@ -5,6 +5,7 @@ STM32F411 (docs/elf-firmware.md)."""
 from __future__ import annotations
 
 import argparse
+import re
 
 from host_tools.cli import actions
 
@@ -20,6 +21,15 @@ class _CompilerFlag(argparse.Action):
         sep = "=" if option_string == "-std" else ""
         flags.append(f"{option_string}{sep}{values if values is not None else ''}")
         setattr(namespace, self.dest, flags)
+
+
+def _level(pattern: str, what: str):
+    """An optional level's check, so that ``-O main.c`` is not read as ``-Omain.c``."""
+    def check(value: str) -> str:
+        if re.fullmatch(pattern, value) is None:
+            raise argparse.ArgumentTypeError(f"{value!r} is not {what}")
+        return value
+    return check
 
 
 def _build(args: argparse.Namespace) -> int:
@@ -67,10 +77,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         b.add_argument(flag, dest="cflags", action=_CompilerFlag, metavar=what,
                        help=f"passed to the compiler as {flag}{what}")
     b.add_argument("-O", dest="cflags", action=_CompilerFlag, nargs="?", metavar="LEVEL",
+                   type=_level(r"[0-3sgz]|fast", "an optimisation level (0-3, s, g, z, fast)"),
                    help="optimisation, as -O0, -O2, -Os (default -O2)")
     b.add_argument("-std", dest="cflags", action=_CompilerFlag, metavar="STD",
                    help="C standard, as -std=c11 (default gnu11)")
     b.add_argument("-g", dest="cflags", action=_CompilerFlag, nargs="?", metavar="LEVEL",
+                   type=_level(r"[0-3]|gdb|dwarf(-[2-5])?", "a debug level (0-3, gdb, dwarf-N)"),
                    help="debug information (the board's ELF always has -g)")
     b.set_defaults(func=_build)
     f = kinds.add_parser("flags", help="the compiler and library flags for your own Makefile",
