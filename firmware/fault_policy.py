@@ -5,7 +5,7 @@ servos whose last read failed first, then a rotating subset. A servo with no val
 for ``servo_lost_s`` (long enough to ride a 2 s unplug), or ``critical_errors`` overload or
 overheat statuses in a row, is a reason to stop in the neutral stance. MicroPython-compatible.
 """
-from firmware import servo_bus
+from firmware.servo_bus.v1 import CRITICAL_BITS
 from protocol import can_frames as cf
 from protocol.dynamixel import v1 as dxl
 from protocol.hexapod import JOINTS, LEGS
@@ -78,6 +78,6 @@ class FaultPolicy:
                 elif s.critical_run >= self.critical_errors:
                     self.reason = ("servo %d (%s %s) critical error: %s"
                                    % (s.id, LEGS[k // 3], JOINTS[k % 3],
-                                      "+".join(dxl.error_names(s.error_bits & servo_bus.CRITICAL_BITS))))
+                                      "+".join(dxl.error_names(s.error_bits & CRITICAL_BITS))))
                 armed = self.reason is None
         return flags

@@ -42,8 +42,8 @@ from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, CHANNELS, METADATA_NAME,
                                      T_SERVOS, T_SWITCHES, T_TELEMETRY, T_VIOLATIONS,
                                      schema_encoding)
 from host_tools.trace.writer import TraceWriter
+from host_tools.dynamixel.decode import DECODERS
 from protocol import can_frames
-from protocol.dynamixel import v1 as dynamixel
 from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
 from protocol.errors import UserError
 
@@ -108,7 +108,8 @@ class Recorder:
 
     def __init__(self, path: str | Path, metadata: Mapping[str, Any] | None = None, *,
                  flush_interval_us: int = DEFAULT_FLUSH_INTERVAL_US,
-                 decode_serial: bool = True, decode_can: bool = True, live: Any = None) -> None:
+                 decode_serial: bool = True, decode_can: bool = True, live: Any = None,
+                 protocol: int = 1) -> None:
         self.path = Path(path)
         self._live = live  # a LiveServer (host_tools/trace/live.py) that sees what is written
         self._schema_data: dict[str, bytes] = {}  # for the live server's channels
@@ -131,7 +132,8 @@ class Recorder:
         self._idle_seen = False
         self._channels: dict[str, int] = {}
         self._schemas: dict[str, int] = {}
-        self._parsers = {"tx": dynamixel.Parser(), "rx": dynamixel.Parser()} \
+        # /serial's bytes cut into the packets of the line's Dynamixel protocol
+        self._parsers = {d: DECODERS[protocol].TracePackets(d) for d in ("tx", "rx")} \
             if decode_serial else None
         self._dbc = _dbc() if decode_can else None
         self._can_kinds: dict[tuple[int, bool], tuple[str, Any, bool]] = {}
@@ -261,8 +263,7 @@ class Recorder:
         msgs = self._encode_pending()
         if self._parsers is not None:  # packets hidden behind a bad header, found at the end
             for direction, parser in self._parsers.items():
-                late = [pb.encode_dynamixel_packet(direction, p.id, p.code, p.params, p.raw)
-                        for p in parser.flush()]
+                late = parser.flush()
                 if late:  # on a burst of no new bytes at the last serial time
                     msgs.append((self._last_serial_ns, self._channels[T_SERIAL],
                                  pb.encode_serial_bytes(direction, b"", late)))
@@ -299,24 +300,7 @@ class Recorder:
     def _packets(self, t: int, direction: str, data: bytes) -> list[bytes]:
         """The packets ``data`` completes, encoded (``data`` may end or start one)."""
         parser = self._parsers.get(direction) if self._parsers is not None else None
-        if parser is None:
-            return []
-        n = len(data)
-        if (not parser.pending() and n >= 6 and data[0] == 0xFF and data[1] == 0xFF
-                and data[2] != 0xFF and data[3] + 4 == n
-                and (~sum(data[2:n - 1])) & 0xFF == data[n - 1]):
-            # one whole valid packet, nothing held: what push() would find, ~20x faster
-            return [pb.encode_dynamixel_packet(direction, data[2], data[4], data[5:n - 1], data)]
-        found = []
-        t_us = t // 1000
-        for b in data:
-            if parser.push(b, t_us):
-                end = dynamixel.PARAMS_OFFSET + parser.nparams
-                buf = parser.buf
-                found.append(pb.encode_dynamixel_packet(
-                    direction, parser.id, parser.code,
-                    bytes(buf[dynamixel.PARAMS_OFFSET:end]), bytes(buf[0:end + 1])))
-        return found
+        return parser.feed(data, t // 1000) if parser is not None else []
 
     def can(self, t_us: int, arb_id: int, data: bytes, direction: str = "tx",
             is_extended_id: bool = False) -> None:
