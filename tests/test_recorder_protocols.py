@@ -1,11 +1,12 @@
 """The recorder decodes /serial in the line's own protocol (host_tools/dynamixel/decode/):
 a Protocol 2.0 trace carries its packets like a 1.0 trace (instruction, id, parameters,
-errors) in the same schema, and `trace cat` and export read them."""
+errors) in the same schema; `trace cat`, export and replay's divergences read them."""
 from __future__ import annotations
 
 import json
 
-from host_tools import runner
+from host_tools import replay, runner
+from host_tools.dynamixel.decode import DECODERS
 from host_tools.cli import main
 from host_tools.trace import reader as trace_reader
 from host_tools.trace import recorder as rec
@@ -53,6 +54,10 @@ def test_an_xl430_run_trace_names_its_sync_writes_and_sync_reads(tmp_path, capsy
     assert {("tx", "PING"), ("tx", "SYNC_WRITE"), ("tx", "SYNC_READ"), ("rx", "")} <= names
     assert main(["trace", "cat", str(out), "--topics", "/serial"]) == 0
     assert '"instruction": "SYNC_READ"' in capsys.readouterr().out
+    with trace_reader.open_trace(out) as tr:      # replay decodes its divergences so
+        assert replay.trace_protocol(tr) == 2
+    assert DECODERS[2].names(dx2.sync_read(132, 4, [1, 2]) + dx2.status(1, 0, bytes(4))) == [
+        "SYNC_READ to 254", "status from 1: ok"]
     csv = tmp_path / "serial.csv"
     assert main(["trace", "export", str(out), str(csv), "--topics", "/serial"]) == 0
     assert "SYNC_WRITE" in csv.read_text() and "SYNC_READ" in csv.read_text()

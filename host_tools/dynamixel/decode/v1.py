@@ -158,6 +158,23 @@ def decode(data: bytes, lenient: bool = False, force: str | None = None
     return out
 
 
+def names(data: bytes) -> list[str]:
+    """Each packet in ``data`` in a few words ("SYNC_WRITE to 254", "status from 3: ok");
+    malformed packets and garbage are left out (replay's divergences)."""
+    try:
+        records = decode(data, lenient=True)
+    except UserError:        # not one packet in it
+        return []
+    return [summary(r) for r in records if r["kind"] != "garbage"]
+
+
+def summary(rec: dict[str, Any]) -> str:
+    """A decoded packet record (``describe``'s) in a few words."""
+    if rec["kind"] == "status":
+        return f"status from {rec['id']}: {','.join(rec['error']) or 'ok'}"
+    return f"{rec['instruction']} to {rec['id']}"
+
+
 class TracePackets:
     """One direction's serial bytes cut into packets, encoded for the trace's ``/serial``
     (``SerialBytes.packets``: a status packet's code is its error byte)."""

@@ -75,6 +75,13 @@ def decode(data: bytes) -> list[dict[str, Any]]:
     return out
 
 
+def names(data: bytes) -> list[str]:
+    """Each packet in ``data`` in a few words ("SYNC_READ to 254", "status from 3: ok");
+    garbage is left out (replay's divergences)."""
+    return [f"status from {r['id']}: {','.join(r['error']) or 'ok'}" if r["kind"] == "status"
+            else f"{r['instruction']} to {r['id']}" for r in decode(data) if r["kind"] != "garbage"]
+
+
 class TracePackets:
     """One direction's serial bytes cut into packets, encoded for the trace's ``/serial`` as
     Protocol 1.0's are (v1.py): an instruction's code is its instruction, a status packet's
