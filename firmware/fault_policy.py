@@ -24,11 +24,12 @@ class FaultPolicy:
         self.reason = None         # why the last ``check`` wants a stop (None: no reason)
 
     def read_status(self, master, board):
-        """Poll servos whose last read failed first, then the rotating subset; on an
-        X-series bus one SYNC_READ of all 18 instead."""
-        if master.protocol == 2:
-            self.suspect = master.sync_read_present(board)
-            return
+        """This cycle's status reads, as the master's protocol does them (``read_cycle``:
+        the rotating reads below, or one SYNC_READ of all 18 on an X-series bus)."""
+        master.read_cycle(self, board)
+
+    def read_rotating(self, master, board):
+        """Poll servos whose last read failed first, then the rotating subset."""
         budget = self.reads_per_cycle
         retry = self.suspect
         self.suspect = []

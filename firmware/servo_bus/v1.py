@@ -158,6 +158,10 @@ class Master:
         n = dxl.build_into(self.tx, dev_id, dxl.READ, self.small, 2)
         return self._retry(dev_id, n, length, now) == OK
 
+    def read_cycle(self, policy, now):
+        """A cycle's status reads: a few servos, as the fault policy rotates them."""
+        policy.read_rotating(self, now)
+
     def read_present(self, dev_id, now):
         """Present position, speed and load into the servo's stats; True on success."""
         if not self.read(dev_id, self.present_addr, self.present_len, now):

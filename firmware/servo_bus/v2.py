@@ -196,6 +196,10 @@ class Master2(Master):
         self._send_unanswered(n)
         return n
 
+    def read_cycle(self, policy, now):
+        """A cycle's status reads: one SYNC_READ of all 18 (the failed ones are suspect)."""
+        policy.suspect = self.sync_read_present(now)
+
     def sync_read_present(self, now):
         """ONE SYNC_READ of load, velocity and position of every servo; the servo indices
         that did not answer (a silent one ends the chain, so the rest are missing too)."""
