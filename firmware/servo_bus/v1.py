@@ -43,7 +43,6 @@ class ServoStats:
 
 
 class Master:
-    protocol = 1
     present_addr = PRESENT_ADDR      # what read_present reads
     present_len = PRESENT_LEN
 

@@ -36,7 +36,6 @@ class Master2(Master):
     """v1.Master's interface and counters (``scan``, ``counters``, ``read_present``,
     the retries and the unanswered send are inherited), its packets Protocol 2.0."""
 
-    protocol = 2
     present_addr = PRESENT_ADDR
     present_len = PRESENT_LEN
 
