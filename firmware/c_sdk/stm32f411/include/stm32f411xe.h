@@ -241,6 +241,9 @@ typedef enum {
     FPU_IRQn = 81
 } IRQn_Type;
 
+#ifndef __weak
+#define __weak __attribute__((weak))   /* a definition the firmware's own replaces */
+#endif
 #define __enable_irq()  __asm volatile ("cpsie i" : : : "memory")
 #define __disable_irq() __asm volatile ("cpsid i" : : : "memory")
 #define __WFI()         __asm volatile ("wfi" : : : "memory")

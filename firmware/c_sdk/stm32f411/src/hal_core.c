@@ -16,7 +16,7 @@ static void set_priority(IRQn_Type irq, uint32_t priority)
 
 /* SysTick at 1 ms of SystemCoreClock; weak, as Cube's, for a firmware that ticks from a
  * timer instead. */
-HAL_StatusTypeDef __attribute__((weak)) HAL_InitTick(uint32_t TickPriority)
+HAL_StatusTypeDef __weak HAL_InitTick(uint32_t TickPriority)
 {
     SysTick->CSR = 0;
     SysTick->RVR = SystemCoreClock / 1000u - 1u;
@@ -26,7 +26,7 @@ HAL_StatusTypeDef __attribute__((weak)) HAL_InitTick(uint32_t TickPriority)
     return HAL_OK;
 }
 
-void __attribute__((weak)) HAL_MspInit(void) {}
+void __weak HAL_MspInit(void) {}
 
 HAL_StatusTypeDef HAL_Init(void)
 {
@@ -42,7 +42,7 @@ void HAL_IncTick(void) { uwTick++; }
 
 uint32_t HAL_GetTick(void) { return uwTick; }
 
-void __attribute__((weak)) SysTick_Handler(void) { HAL_IncTick(); }
+void __weak SysTick_Handler(void) { HAL_IncTick(); }
 
 void HAL_Delay(uint32_t Delay)
 {

@@ -59,7 +59,7 @@ void HAL_GPIO_TogglePin(GPIO_TypeDef *GPIOx, uint16_t GPIO_Pin)
     GPIOx->BSRR = ((odr & GPIO_Pin) << 16) | (~odr & GPIO_Pin);
 }
 
-void __attribute__((weak)) HAL_GPIO_EXTI_Callback(uint16_t GPIO_Pin) { (void)GPIO_Pin; }
+void __weak HAL_GPIO_EXTI_Callback(uint16_t GPIO_Pin) { (void)GPIO_Pin; }
 
 void HAL_GPIO_EXTI_IRQHandler(uint16_t GPIO_Pin)
 {
@@ -76,10 +76,10 @@ static void exti_lines(uint32_t first, uint32_t last)
         HAL_GPIO_EXTI_IRQHandler((uint16_t)(1u << line));
 }
 
-void __attribute__((weak)) EXTI0_IRQHandler(void) { exti_lines(0, 0); }
-void __attribute__((weak)) EXTI1_IRQHandler(void) { exti_lines(1, 1); }
-void __attribute__((weak)) EXTI2_IRQHandler(void) { exti_lines(2, 2); }
-void __attribute__((weak)) EXTI3_IRQHandler(void) { exti_lines(3, 3); }
-void __attribute__((weak)) EXTI4_IRQHandler(void) { exti_lines(4, 4); }
-void __attribute__((weak)) EXTI9_5_IRQHandler(void) { exti_lines(5, 9); }
-void __attribute__((weak)) EXTI15_10_IRQHandler(void) { exti_lines(10, 15); }
+void __weak EXTI0_IRQHandler(void) { exti_lines(0, 0); }
+void __weak EXTI1_IRQHandler(void) { exti_lines(1, 1); }
+void __weak EXTI2_IRQHandler(void) { exti_lines(2, 2); }
+void __weak EXTI3_IRQHandler(void) { exti_lines(3, 3); }
+void __weak EXTI4_IRQHandler(void) { exti_lines(4, 4); }
+void __weak EXTI9_5_IRQHandler(void) { exti_lines(5, 9); }
+void __weak EXTI15_10_IRQHandler(void) { exti_lines(10, 15); }

@@ -40,7 +40,7 @@ static const struct port *port_of(const UART_HandleTypeDef *h)
     return i < 0 ? NULL : &PORTS[i];
 }
 
-void __attribute__((weak)) HAL_UART_MspInit(UART_HandleTypeDef *huart)
+void __weak HAL_UART_MspInit(UART_HandleTypeDef *huart)
 {
     const struct port *p = port_of(huart);
     GPIO_InitTypeDef io = {0};
@@ -66,9 +66,9 @@ void __attribute__((weak)) HAL_UART_MspInit(UART_HandleTypeDef *huart)
     HAL_NVIC_EnableIRQ(p->rx_irq);
 }
 
-void __attribute__((weak)) HAL_UART_TxCpltCallback(UART_HandleTypeDef *huart) { (void)huart; }
-void __attribute__((weak)) HAL_UART_RxCpltCallback(UART_HandleTypeDef *huart) { (void)huart; }
-void __attribute__((weak)) HAL_UART_ErrorCallback(UART_HandleTypeDef *huart) { (void)huart; }
+void __weak HAL_UART_TxCpltCallback(UART_HandleTypeDef *huart) { (void)huart; }
+void __weak HAL_UART_RxCpltCallback(UART_HandleTypeDef *huart) { (void)huart; }
+void __weak HAL_UART_ErrorCallback(UART_HandleTypeDef *huart) { (void)huart; }
 
 /* BRR for the baud at the USART's bus clock: f_PCLK / baud in sixteenths at 16x
  * oversampling; at 8x the fraction has three bits. */
@@ -352,12 +352,12 @@ static void usart_irq(int i)
         HAL_UART_IRQHandler(handles[i]);
 }
 
-void __attribute__((weak)) USART1_IRQHandler(void) { usart_irq(0); }
-void __attribute__((weak)) USART2_IRQHandler(void) { usart_irq(1); }
-void __attribute__((weak)) USART6_IRQHandler(void) { usart_irq(2); }
-void __attribute__((weak)) DMA2_Stream7_IRQHandler(void) { dma_irq(0, 1); }
-void __attribute__((weak)) DMA2_Stream2_IRQHandler(void) { dma_irq(0, 0); }
-void __attribute__((weak)) DMA1_Stream6_IRQHandler(void) { dma_irq(1, 1); }
-void __attribute__((weak)) DMA1_Stream5_IRQHandler(void) { dma_irq(1, 0); }
-void __attribute__((weak)) DMA2_Stream6_IRQHandler(void) { dma_irq(2, 1); }
-void __attribute__((weak)) DMA2_Stream1_IRQHandler(void) { dma_irq(2, 0); }
+void __weak USART1_IRQHandler(void) { usart_irq(0); }
+void __weak USART2_IRQHandler(void) { usart_irq(1); }
+void __weak USART6_IRQHandler(void) { usart_irq(2); }
+void __weak DMA2_Stream7_IRQHandler(void) { dma_irq(0, 1); }
+void __weak DMA2_Stream2_IRQHandler(void) { dma_irq(0, 0); }
+void __weak DMA1_Stream6_IRQHandler(void) { dma_irq(1, 1); }
+void __weak DMA1_Stream5_IRQHandler(void) { dma_irq(1, 0); }
+void __weak DMA2_Stream6_IRQHandler(void) { dma_irq(2, 1); }
+void __weak DMA2_Stream1_IRQHandler(void) { dma_irq(2, 0); }

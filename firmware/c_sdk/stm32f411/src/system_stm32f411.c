@@ -42,7 +42,7 @@ void SystemClock_Config100MHz(void)
     SystemCoreClockUpdate();
 }
 
-void __attribute__((weak)) SystemInit(void)
+void __weak SystemInit(void)
 {
     SCB_CPACR |= 0xFu << 20;   /* the FPU: CP10, CP11 full access */
     SystemClock_Config100MHz();
