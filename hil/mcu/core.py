@@ -14,6 +14,7 @@ store again: a UART byte sent twice).
 from __future__ import annotations
 
 import ctypes
+import struct
 from typing import Callable
 
 from unicorn import (UC_ARCH_ARM, UC_HOOK_INTR, UC_MODE_MCLASS, UC_MODE_THUMB, UC_PROT_ALL,
@@ -116,11 +117,12 @@ class Core:
         self._flash = ctypes.create_string_buffer(FLASH_SIZE)
         uc.mem_map_ptr(0, FLASH_SIZE, UC_PROT_READ | UC_PROT_EXEC, self._flash)
         uc.mem_map_ptr(FLASH_BASE, FLASH_SIZE, UC_PROT_READ | UC_PROT_EXEC, self._flash)
-        uc.mem_map(SRAM_BASE, SRAM_SIZE, UC_PROT_ALL)
+        self._sram = ctypes.create_string_buffer(SRAM_SIZE)   # frames go in and out here
+        uc.mem_map_ptr(SRAM_BASE, SRAM_SIZE, UC_PROT_ALL, self._sram)
         for seg in image.segments:
             uc.mem_write(seg.addr, seg.data)
         self._state = Regs(uc, FRAME_REGS + STATE_REGS)
-        self._fp = Regs(uc, FP_REGS)
+        self._state_fp = Regs(uc, FRAME_REGS + STATE_REGS + FP_REGS)
         self._context = Regs(uc, CONTEXT_REGS)
         self._one = ctypes.c_uint64(0)
         self._batches: dict[tuple[int, ...], Regs] = {}
@@ -171,6 +173,10 @@ class Core:
 
     # --- memory -------------------------------------------------------------------
     def read32(self, addr: int) -> int:
+        if FLASH_BASE <= addr <= FLASH_BASE + FLASH_SIZE - 4:
+            return struct.unpack_from("<I", self._flash, addr - FLASH_BASE)[0]
+        if SRAM_BASE <= addr <= SRAM_BASE + SRAM_SIZE - 4:
+            return struct.unpack_from("<I", self._sram, addr - SRAM_BASE)[0]
         return int.from_bytes(self.uc.mem_read(addr, 4), "little")
 
     def write32(self, addr: int, value: int) -> None:
@@ -230,14 +236,14 @@ class Core:
 
     def enter(self, exc: int) -> None:
         """Take exception ``exc`` at ``self.pc``: stack the frame, jump to its vector."""
-        r = self._state.read()
+        fpu = self.fpu_on
+        r = self._state_fp.read() if fpu else self._state.read()
         xpsr, control, msp, psp_value = r[6:10]
         psp = not self.active and bool(control & 2)
         sp = psp_value if psp else msp
         values = r[:6] + [self.pc & ~1, xpsr | (1 << 24)]
-        fpu = self.fpu_on
         if fpu:
-            values += self._fp.read() + [0]
+            values += r[10:] + [0]
         if sp & 4:
             sp -= 4
             values[7] |= 1 << 9
@@ -245,7 +251,7 @@ class Core:
         if sp < SRAM_BASE:
             raise CoreFault(f"a stack overflow: exception {exc} stacks its frame at "
                             f"0x{sp:08x}, below SRAM")
-        self.uc.mem_write(sp, b"".join((v & 0xFFFFFFFF).to_bytes(4, "little") for v in values))
+        self._store(sp, values)
         vector = self.read32(self.vtor_base() + 4 * exc)
         if vector == 0 or not vector & 1:
             raise CoreFault(f"exception {exc} has no handler (vector 0x{vector:08x})")
@@ -278,15 +284,19 @@ class Core:
         sp = psp_value if psp else msp
         fpu = not exc_return & 0x10
         n = 26 if fpu else 8
-        words = self.uc.mem_read(sp, 4 * n)
-        values = [int.from_bytes(words[4 * i:4 * i + 4], "little") for i in range(n)]
+        if SRAM_BASE <= sp <= SRAM_BASE + SRAM_SIZE - 4 * n:
+            values = list(struct.unpack_from(f"<{n}I", self._sram, sp - SRAM_BASE))
+        else:
+            words = self.uc.mem_read(sp, 4 * n)
+            values = [int.from_bytes(words[4 * i:4 * i + 4], "little") for i in range(n)]
         xpsr = values[7]
         sp += 4 * n + (4 if xpsr & (1 << 9) else 0)
         ipsr = self.active[-1] if self.active else 0
-        self._state.write(values[:6] + [(xpsr & ~0x3FF), control, msp, psp_value])
+        pairs = list(zip(FRAME_REGS + STATE_REGS,
+                         values[:6] + [(xpsr & ~0x3FF), control, msp, psp_value]))
         if fpu:
-            self._fp.write(values[8:25])
-        pairs = [(A.UC_ARM_REG_IPSR, ipsr)]
+            pairs += zip(FP_REGS, values[8:25])
+        pairs.append((A.UC_ARM_REG_IPSR, ipsr))
         if psp:
             pairs.append((A.UC_ARM_REG_CONTROL, control | 2))
         pairs += [(A.UC_ARM_REG_PSP if psp else A.UC_ARM_REG_MSP, sp),
@@ -294,6 +304,17 @@ class Core:
         self._set(*pairs)
         self.pc = values[6] & ~1
         return exc
+
+    def _store(self, sp: int, values: list[int]) -> None:
+        """An exception frame at ``sp``: straight into SRAM's buffer, else through Unicorn
+        (which faults where nothing is mapped)."""
+        n = len(values)
+        if SRAM_BASE <= sp <= SRAM_BASE + SRAM_SIZE - 4 * n:
+            struct.pack_into(f"<{n}I", self._sram, sp - SRAM_BASE,
+                             *[v & 0xFFFFFFFF for v in values])
+        else:
+            self.uc.mem_write(sp, b"".join((v & 0xFFFFFFFF).to_bytes(4, "little")
+                                           for v in values))
 
     def context(self) -> tuple[int, ...]:
         """The integer registers, to tell one pass of a poll loop from the next."""
