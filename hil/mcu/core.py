@@ -34,30 +34,37 @@ FRAME_REGS = (A.UC_ARM_REG_R0, A.UC_ARM_REG_R1, A.UC_ARM_REG_R2, A.UC_ARM_REG_R3
               A.UC_ARM_REG_R12, A.UC_ARM_REG_LR)
 FP_REGS = tuple(A.UC_ARM_REG_S0 + i for i in range(16)) + (A.UC_ARM_REG_FPSCR,)
 STATE_REGS = (A.UC_ARM_REG_XPSR, A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_MSP, A.UC_ARM_REG_PSP)
+_ENTER_MSP = (A.UC_ARM_REG_MSP, A.UC_ARM_REG_IPSR, A.UC_ARM_REG_LR)
+_ENTER_PSP = (A.UC_ARM_REG_PSP, A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_IPSR, A.UC_ARM_REG_LR)
+_LEAVE = {(fpu, psp): FRAME_REGS + STATE_REGS + (FP_REGS if fpu else ()) + (A.UC_ARM_REG_IPSR,)
+          + ((A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_PSP) if psp else (A.UC_ARM_REG_MSP,))
+          + (A.UC_ARM_REG_PC,) for fpu in (False, True) for psp in (False, True)}
 CONTEXT_REGS = tuple(A.UC_ARM_REG_R0 + i for i in range(13)) + (A.UC_ARM_REG_SP,
                                                                    A.UC_ARM_REG_LR)
 
 
 class Regs:
     """A fixed list of registers read or written in one call into libunicorn: its Python
-    binding costs ~10 us a register, a batch of 30 here ~4 us."""
+    binding costs ~10 us a register, a batch of 30 here ~4 us (the values go in and out
+    of the ctypes array with one struct call, not item by item)."""
 
     def __init__(self, uc: Uc, ids: tuple[int, ...]) -> None:
         n = self._n = len(ids)
         self._h = uc._uch
         self._ids = (ctypes.c_int * n)(*ids)
         self._vals = (ctypes.c_uint64 * n)()
+        self._fmt = struct.Struct(f"<{n}Q")
         base = ctypes.addressof(self._vals)
         self._ptrs = (ctypes.c_void_p * n)(*[base + 8 * i for i in range(n)])
+        self._zero = bytes(8 * n)
 
     def read(self) -> list[int]:
-        ctypes.memset(self._vals, 0, 8 * self._n)
+        ctypes.memmove(self._vals, self._zero, 8 * self._n)
         uclib.uc_reg_read_batch(self._h, self._ids, self._ptrs, self._n)
-        return list(self._vals)
+        return list(self._fmt.unpack_from(self._vals))
 
     def write(self, values: list[int]) -> None:
-        for i, v in enumerate(values):
-            self._vals[i] = v & 0xFFFFFFFF
+        self._fmt.pack_into(self._vals, 0, *[v & 0xFFFFFFFF for v in values])
         uclib.uc_reg_write_batch(self._h, self._ids, self._ptrs, self._n)
 
 
@@ -123,6 +130,7 @@ class Core:
             uc.mem_write(seg.addr, seg.data)
         self._state = Regs(uc, FRAME_REGS + STATE_REGS)
         self._state_fp = Regs(uc, FRAME_REGS + STATE_REGS + FP_REGS)
+        self._stacks = Regs(uc, STATE_REGS[1:])
         self._context = Regs(uc, CONTEXT_REGS)
         self._one = ctypes.c_uint64(0)
         self._batches: dict[tuple[int, ...], Regs] = {}
@@ -227,12 +235,11 @@ class Core:
         uclib.uc_reg_read(self.uc._uch, reg_id, ctypes.byref(self._one))
         return self._one.value & 0xFFFFFFFF
 
-    def _set(self, *pairs: tuple[int, int]) -> None:
-        ids = tuple(p[0] for p in pairs)
+    def _set(self, ids: tuple[int, ...], values: list[int]) -> None:
         regs = self._batches.get(ids)
         if regs is None:
             regs = self._batches[ids] = Regs(self.uc, ids)
-        regs.write([p[1] for p in pairs])
+        regs.write(values)
 
     def enter(self, exc: int) -> None:
         """Take exception ``exc`` at ``self.pc``: stack the frame, jump to its vector."""
@@ -258,13 +265,13 @@ class Core:
         exc_return = 0xFFFFFFF1 if self.active else (0xFFFFFFFD if psp else 0xFFFFFFF9)
         if fpu:
             exc_return &= ~0x10
-        pairs = [(A.UC_ARM_REG_PSP if psp else A.UC_ARM_REG_MSP, sp)]
         if psp:
-            pairs.append((A.UC_ARM_REG_CONTROL, control & ~2))
-        pairs += [(A.UC_ARM_REG_IPSR, exc), (A.UC_ARM_REG_LR, exc_return)]
+            ids, values = _ENTER_PSP, [sp, control & ~2, exc, exc_return]
+        else:
+            ids, values = _ENTER_MSP, [sp, exc, exc_return]
         if self.running:
-            pairs.append((A.UC_ARM_REG_PC, vector | 1))
-        self._set(*pairs)
+            ids, values = ids + (A.UC_ARM_REG_PC,), values + [vector | 1]
+        self._set(ids, values)
         self.active.append(exc)
         self.pc = vector & ~1
         self.sleeping = False
@@ -278,8 +285,7 @@ class Core:
         if to_thread and self.active:
             raise CoreFault(f"an exception return to thread mode with {len(self.active)} "
                             "exceptions still active (a lockup)")
-        r = self._state.read()
-        control, msp, psp_value = r[7:10]
+        control, msp, psp_value = self._stacks.read()
         psp = exc_return & 0xF == 0xD
         sp = psp_value if psp else msp
         fpu = not exc_return & 0x10
@@ -292,16 +298,15 @@ class Core:
         xpsr = values[7]
         sp += 4 * n + (4 if xpsr & (1 << 9) else 0)
         ipsr = self.active[-1] if self.active else 0
-        pairs = list(zip(FRAME_REGS + STATE_REGS,
-                         values[:6] + [(xpsr & ~0x3FF), control, msp, psp_value]))
+        regs = values[:6] + [(xpsr & ~0x3FF), control, msp, psp_value]
         if fpu:
-            pairs += zip(FP_REGS, values[8:25])
-        pairs.append((A.UC_ARM_REG_IPSR, ipsr))
+            regs += values[8:25]
+        regs.append(ipsr)
         if psp:
-            pairs.append((A.UC_ARM_REG_CONTROL, control | 2))
-        pairs += [(A.UC_ARM_REG_PSP if psp else A.UC_ARM_REG_MSP, sp),
-                  (A.UC_ARM_REG_PC, values[6] | 1)]
-        self._set(*pairs)
+            regs += [control | 2, sp, values[6] | 1]
+        else:
+            regs += [sp, values[6] | 1]
+        self._set(_LEAVE[fpu, psp], regs)
         self.pc = values[6] & ~1
         return exc
 
