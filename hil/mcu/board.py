@@ -205,9 +205,21 @@ class Board:
             if heap[0][0] <= now:
                 self.events.fire_due(now)
 
+    def _periph_page(self, offset: int) -> object | None:
+        """The peripheral at ``offset``, its clock gate checked (``_periph``) only where
+        it has one."""
+        page = offset >> 10
+        if page in self._gates:
+            return self._periph(offset)
+        return self._pages.get(page)
+
     def _read(self, uc, offset: int, size: int, _) -> int:
-        self.due()
-        p = self._periph(offset)
+        heap = self.events.heap
+        if heap:
+            now = self.core.now_fs()
+            if heap[0][0] <= now:
+                self.events.fire_due(now)
+        p = self._periph_page(offset)
         if p is None:
             self.poll.other_access()
             if offset >> 10 not in self._pages:
@@ -224,9 +236,13 @@ class Board:
         return value
 
     def _write(self, uc, offset: int, size: int, value: int, _) -> None:
-        self.due()
-        self.poll.other_access()
-        p = self._periph(offset)
+        heap = self.events.heap
+        if heap:
+            now = self.core.now_fs()
+            if heap[0][0] <= now:
+                self.events.fire_due(now)
+        self.poll._poll_key = None           # poll.other_access()
+        p = self._periph_page(offset)
         if p is None:
             if offset >> 10 not in self._pages:
                 self._unmodelled(PERIPH_BASE + offset, "wrote")

@@ -167,7 +167,9 @@ class Core:
         return self.cyc
 
     def now_fs(self) -> int:
-        return self.time.fs_at(self.now())
+        t = self.time
+        cyc = self._chunk0 + self._ctr.value - 1 if self.running else self.cyc
+        return t._fs0 + (cyc - t._cyc0) * FS_PER_S // t.hz
 
     def jump(self, cycles: int) -> None:
         """Let ``cycles`` pass without running them (a skipped wait)."""

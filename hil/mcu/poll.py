@@ -85,16 +85,18 @@ class PollSkipper:
     def _jump_here(self) -> bool:
         """Skip a known poll loop inside the chunk: time jumps to the next event, which
         fires now; an exception it makes ready ends the chunk (the read runs again)."""
-        core = self.board.core
-        cyc = core.time.cycle_of(self.board.events.next_fs())
+        board = self.board
+        core = board.core
+        cyc = core.time.cycle_of(board.events.next_fs())
         now = core.now()
         if cyc <= now:
             return False
         core.jump(cyc - now)
-        self.board.skipped_cycles += cyc - now
+        board.skipped_cycles += cyc - now
         self._poll_key = None
-        self.board.due()
-        if self.board.nvic.ready() and self.board.nvic.next_exception() is not None:
+        board.due()
+        nvic = board.nvic
+        if nvic.pending and nvic.ready() and nvic.next_exception() is not None:
             self._reread = True
             core.stop()
         return True

@@ -39,6 +39,8 @@ class Nvic:
 
     def line(self, irq: int, level: bool) -> None:
         """A peripheral's interrupt line ``irq`` is now ``level``."""
+        if not level and irq not in self.lines:
+            return
         if level:
             self.lines.add(irq)
             if irq + 16 not in self.core.active:
@@ -76,6 +78,8 @@ class Nvic:
 
     def next_exception(self) -> int | None:
         """The pending exception that preempts what runs now, if any."""
+        if not self.pending:
+            return None
         ready = self.ready()
         if not ready:
             return None

@@ -128,6 +128,9 @@ class Usart:
 
     def _irq(self) -> None:
         sr, cr1 = self.regs[SR], self.regs[CR1]
+        if not cr1 & (TXEIE | TCIE | RXNEIE) and not self.regs[CR3] & EIE:
+            self.line(self.irq, False)
+            return
         level = bool(cr1 & UE) and bool(
             (cr1 & TXEIE and sr & TXE) or (cr1 & TCIE and sr & TC)
             or (cr1 & RXNEIE and sr & (RXNE | ORE)) or (self.regs[CR3] & EIE and sr & ORE))
