@@ -189,13 +189,14 @@ class Board:
                         "dropped)", kind, addr)
 
     def _periph(self, offset: int) -> object | None:
+        """The peripheral at ``offset``; None (logged) where its RCC clock is off."""
         page = offset >> 10
-        p = self._pages.get(page)
         gate = self._gates.get(page)
         if gate is not None and not self.rcc.regs.get(gate[0], 0) >> gate[1] & 1:
-            self._unmodelled(PERIPH_BASE + offset, f"used {p.name} with its RCC clock off:")
+            self._unmodelled(PERIPH_BASE + offset, f"used {self._pages[page].name} with "
+                             "its RCC clock off:")
             return None
-        return p
+        return self._pages.get(page)
 
     def due(self) -> None:
         """Fire what fell due by the instruction running now (a register access)."""
@@ -205,21 +206,13 @@ class Board:
             if heap[0][0] <= now:
                 self.events.fire_due(now)
 
-    def _periph_page(self, offset: int) -> object | None:
-        """The peripheral at ``offset``, its clock gate checked (``_periph``) only where
-        it has one."""
-        page = offset >> 10
-        if page in self._gates:
-            return self._periph(offset)
-        return self._pages.get(page)
-
     def _read(self, uc, offset: int, size: int, _) -> int:
         heap = self.events.heap
         if heap:
             now = self.core.now_fs()
             if heap[0][0] <= now:
                 self.events.fire_due(now)
-        p = self._periph_page(offset)
+        p = self._periph(offset)
         if p is None:
             self.poll.other_access()
             if offset >> 10 not in self._pages:
@@ -242,7 +235,7 @@ class Board:
             if heap[0][0] <= now:
                 self.events.fire_due(now)
         self.poll._poll_key = None           # poll.other_access()
-        p = self._periph_page(offset)
+        p = self._periph(offset)
         if p is None:
             if offset >> 10 not in self._pages:
                 self._unmodelled(PERIPH_BASE + offset, "wrote")

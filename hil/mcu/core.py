@@ -189,6 +189,11 @@ class Core:
             return struct.unpack_from("<I", self._sram, addr - SRAM_BASE)[0]
         return int.from_bytes(self.uc.mem_read(addr, 4), "little")
 
+    def read16(self, addr: int) -> int:
+        if FLASH_BASE <= addr <= FLASH_BASE + FLASH_SIZE - 2:
+            return struct.unpack_from("<H", self._flash, addr - FLASH_BASE)[0]
+        return int.from_bytes(self.uc.mem_read(addr, 2), "little")
+
     def write32(self, addr: int, value: int) -> None:
         self.uc.mem_write(addr, (value & 0xFFFFFFFF).to_bytes(4, "little"))
 
@@ -220,7 +225,7 @@ class Core:
         if error is None and ran < n and not self.stopped:
             if self.pc == 0:
                 raise CoreFault("a jump to address 0 (a null function pointer)")
-            op = int.from_bytes(uc.mem_read(self.pc - 2, 2), "little")
+            op = self.read16(self.pc - 2)
             if op in (WFI, WFE):
                 ran += 1
                 self.sleeping = True
