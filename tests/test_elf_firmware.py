@@ -36,6 +36,7 @@ def elfs(tmp_path_factory):
               "uart_it": ([FW / "servo_async.c"], (), False),
               "uart_dma": ([FW / "servo_async.c"], ("-DUSE_DMA",), False),
               "hardfault": ([FW / "hardfault.c"], (), False),
+              "unhandled_irq": ([FW / "unhandled_irq.c"], (), False),
               "switches_timer": ([FW / "switches_timer.c"], (), False)}
     return {name: str(c_sdk.build([str(s) for s in srcs], out / f"{name}.elf", flags,
                                   "stm32f411", bare))
@@ -178,6 +179,28 @@ def test_a_hardfault_is_one_line_with_the_pc_and_the_function_and_the_trace_is_k
                            "0.5", "--firmware", elfs["hardfault"]], cwd=ROOT,
                           capture_output=True, text=True)
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+
+
+def test_an_interrupt_without_a_handler_is_a_lockup_in_one_line_and_a_failing_case(
+        elfs, tmp_path):
+    with open(elfs["unhandled_irq"], "rb") as f:
+        loop = next(s for s in ELFFile(f).get_section_by_name(".symtab").iter_symbols()
+                    if s.name == "Default_Handler")["st_value"] & ~1
+    trace = tmp_path / "run.mcap"
+    with pytest.raises(UserError) as err:
+        run(FLAT, duration_s=0.5, firmware=elfs["unhandled_irq"], out=str(trace))
+    line = str(err.value)
+    assert "\n" not in line and "a lockup" in line and "interrupt 29" in line, line
+    assert f"PC 0x{loop:08x} in Default_Handler" in line, line
+    assert console(trace) == ["unhandled: enabling TIM3_IRQn"]     # the trace is kept
+    case = tmp_path / "short.toml"
+    case.write_text(f'[case]\nscenario = "{FLAT}"\nduration_s = 0.2\n\n[[expect]]\n'
+                    'name = "no firmware exception"\nkind = "no_exception"\n')
+    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case),
+                           "--firmware", elfs["unhandled_irq"]], cwd=ROOT,
+                          capture_output=True, text=True)
+    assert proc.returncode == 1 and "a lockup" in proc.stdout and "FAIL" in proc.stdout, \
+        proc.stdout + proc.stderr
 
 
 def test_the_docs_first_elf_builds_for_both_targets_and_answers_every_ping(tmp_path):

@@ -15,8 +15,8 @@ from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
 
 from hil.mcu.console import Console, semihost
-from hil.mcu.core import (EXC_SVCALL, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT, INTR_INVSTATE,
-                          INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
+from hil.mcu.core import (EXC_SVCALL, EXC_SYSTICK, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT,
+                          INTR_INVSTATE, INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
 from hil.mcu.elf_image import ElfImage
 from hil.mcu.events import Events
 from hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
@@ -34,6 +34,10 @@ PPB_BASE, PPB_SIZE = 0xE0000000, 0x100000
 MAX_CHUNK = 20_000           # instructions: the most an interrupt a write pends waits
 TICK_US = 1000               # a quiet millisecond: a sleep to now (world, switches, CAN)
 PA1 = 1
+BRANCH_TO_SELF = (0xE7FE,)    # Thumb `b .` (GCC's `for (;;) {}`)
+SYSTEM_EXCEPTIONS = {2: "the NMI handler", 3: "the HardFault handler", 4: "MemManage",
+                     5: "BusFault", 6: "UsageFault", 11: "the SVC handler",
+                     14: "the PendSV handler", 15: "the SysTick handler"}
 CONSOLE_TAIL = 5             # console lines a run result keeps (its stderr_tail)
 
 
@@ -309,6 +313,23 @@ class Board:
             self.console.flush()
             core.uc.emu_stop()
 
+    def _lockup(self) -> None:
+        """An exception handler branches to itself (the startup's Default_Handler for an
+        interrupt without a handler of its own): a lockup when nothing enabled could ever
+        preempt it, since then no event can end the loop."""
+        nvic, core = self.nvic, self.core
+        level = nvic.execution_priority()
+        could = set(nvic.pending) | {irq + 16 for irq in nvic.enabled}
+        if self.systick.csr & 3 == 3:
+            could.add(EXC_SYSTICK)
+        if any(nvic.group_priority(e) < level for e in could):
+            return
+        exc = core.active[-1]
+        name = SYSTEM_EXCEPTIONS.get(exc, f"interrupt {exc - 16} (exception {exc})")
+        raise CoreFault(self._fault_line(
+            f"a lockup: {name} runs a loop that branches to itself and nothing can preempt "
+            "it (an interrupt enabled without a handler of its own?)"))
+
     # --- the run --------------------------------------------------------------------
     def _fault_line(self, text: str) -> str:
         pc = self.core.pc
@@ -344,6 +365,8 @@ class Board:
                 raise CoreFault(self._fault_line(str(exc))) from None
             if self.fault is not None:
                 raise CoreFault(self._fault_line(self.fault))
+            if core.active and self.debugger is None and core.read16(core.pc) in BRANCH_TO_SELF:
+                self._lockup()
             self.poll.after_chunk()
             if self.debugger is not None:
                 self.debugger.after_chunk()

@@ -134,7 +134,7 @@ def _read(p: Path, raw: bytes, what: str) -> ElfImage:
 
 def _functions(elf: ELFFile) -> tuple[tuple[str, ...], tuple[int, ...], tuple[int, ...],
                                       dict[str, int]]:
-    funcs: list[tuple[int, int, str]] = []
+    funcs: list[tuple[int, int, int, str]] = []
     symbols: dict[str, int] = {}
     tab = elf.get_section_by_name(".symtab")
     if tab is not None:
@@ -144,7 +144,8 @@ def _functions(elf: ELFFile) -> tuple[tuple[str, ...], tuple[int, ...], tuple[in
             symbols.setdefault(sym.name, sym["st_value"])
             if sym["st_info"]["type"] == "STT_FUNC" and sym["st_value"]:
                 start = sym["st_value"] & ~1
-                funcs.append((start, start + max(2, sym["st_size"]), sym.name))
-    funcs.sort()
-    return (tuple(f[2] for f in funcs), tuple(f[0] for f in funcs),
-            tuple(f[1] for f in funcs), symbols)
+                weak = sym["st_info"]["bind"] == "STB_WEAK"   # an alias: Default_Handler wins
+                funcs.append((start, not weak, start + max(2, sym["st_size"]), sym.name))
+    funcs.sort()                 # function_at takes the last of those at one address
+    return (tuple(f[3] for f in funcs), tuple(f[0] for f in funcs),
+            tuple(f[2] for f in funcs), symbols)

@@ -46,6 +46,7 @@ def serve_elf(image: ElfImage, server: Any, end_us: int, result: RunResult,
     except CoreFault as exc:
         result.exit_code = 1
         result.exceptions.append(f"{name}: {exc}")
+        board.close()           # what the board had posted (a console line) is recorded
         raise FirmwareFault(f"the firmware {name} faulted: {exc}",
                             board.now_us() * 1e-6) from None
     finally:

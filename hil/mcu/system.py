@@ -58,6 +58,10 @@ class Nvic:
             return prio
         return prio & ~((2 << self.prigroup) - 1) & 0xFF
 
+    def group_priority(self, exc: int) -> int:
+        """The preemption priority of exception ``exc`` (lower preempts)."""
+        return self._group(self._priority(exc))
+
     def execution_priority(self) -> int:
         core = self.core
         level = 256
