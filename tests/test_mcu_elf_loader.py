@@ -8,7 +8,7 @@ import pytest
 
 from hil.mcu.elf_image import load_elf
 from host_tools.trace.reader import Trace
-from mcu_elf import MCU, build
+from mcu_elf import build
 from protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -39,10 +39,8 @@ def test_hostile_elfs_are_one_line_each(tmp_path):
     good = build(tmp_path, "ping.c", "BAUD_BRR=50", "RAISE_A1=1")
     vectors = next(s for s in load_elf(good).segments if s.addr == 0x08000000)
     at = good.read_bytes().find(vectors.data[:16])
-    script = tmp_path / "bad.ld"
-    script.write_text((MCU / "f411.ld").read_text().replace(
-        ".isr_vector : { KEEP(*(.isr_vector)) } > FLASH",
-        ".isr_vector : { KEEP(*(.isr_vector)) } > FLASH\n  .regs 0x40004400 : { LONG(1) }"))
+    regs = tmp_path / "regs.c"          # a section linked over USART2's registers
+    regs.write_text('__attribute__((section(".regs"))) const unsigned over_usart2 = 1;\n')
     cases = {
         "truncated": (tmp_path / "cut.elf", "truncated"),
         "riscv": (patched(tmp_path, good, 18, (243).to_bytes(2, "little"), "rv.elf"),
@@ -51,7 +49,9 @@ def test_hostile_elfs_are_one_line_each(tmp_path):
                        "reset vector 0x00000000"),
         "reset in RAM": (patched(tmp_path, good, at + 4, (0x20000101).to_bytes(4, "little"),
                                  "ramreset.elf"), "not a Thumb address in flash"),
-        "over USART2": (build(tmp_path, "ping.c", "BAUD_BRR=50", "RAISE_A1=1", script=script),
+        "over USART2": (build(tmp_path, "ping.c", "BAUD_BRR=50", "RAISE_A1=1", extra=(str(regs),),
+                              cflags=("-Wl,--section-start=.regs=0x40004400",
+                                      "-Wl,--require-defined=over_usart2")),
                         "0x40004400 lies outside flash"),
     }
     (tmp_path / "cut.elf").write_bytes(good.read_bytes()[:600])
