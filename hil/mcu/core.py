@@ -133,6 +133,8 @@ class Core:
         self._stacks = Regs(uc, STATE_REGS[1:])
         self._context = Regs(uc, CONTEXT_REGS)
         self._one = ctypes.c_uint64(0)
+        self._one_ref = ctypes.byref(self._one)
+        self._h = uc._uch
         self._batches: dict[tuple[int, ...], Regs] = {}
         self.executed = 0
         self._ctr = ctypes.c_uint64.from_address(
@@ -238,9 +240,10 @@ class Core:
 
     # --- exceptions ---------------------------------------------------------------
     def reg(self, reg_id: int) -> int:
-        self._one.value = 0
-        uclib.uc_reg_read(self.uc._uch, reg_id, ctypes.byref(self._one))
-        return self._one.value & 0xFFFFFFFF
+        one = self._one
+        one.value = 0
+        uclib.uc_reg_read(self._h, reg_id, self._one_ref)
+        return one.value & 0xFFFFFFFF
 
     def _set(self, ids: tuple[int, ...], values: list[int]) -> None:
         regs = self._batches.get(ids)

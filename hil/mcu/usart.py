@@ -47,6 +47,8 @@ class Usart:
         self.tdr: int | None = None
         self.rdr = 0
         self._echo: int | None = None        # HDSEL: the byte on the wire comes back
+        self._frame_key: tuple[int, ...] = ()
+        self._frame_fs = 0
         self.shift_end = events.timer(self._shifted)
         self.dma_tx: Callable[[], int | None] | None = None     # set by the DMA controller
         self.dma_rx: Callable[[int], bool] | None = None
@@ -63,10 +65,15 @@ class Usart:
         return self.pclk_hz() / div if div else 0.0
 
     def frame_fs(self) -> int:
-        cr1 = self.regs[CR1]
-        half_bits = 2 + 2 * (9 if cr1 & M_9BIT else 8) + STOP_HALF_BITS[(self.regs[CR2] >> 12) & 3]
-        div = max(1, self.divider())
-        return half_bits * FS_PER_S * div // (2 * self.pclk_hz())
+        regs = self.regs
+        key = (regs[CR1], regs[CR2], regs[BRR], self.pclk_hz())
+        if key != self._frame_key:       # the frame's length changes only with these
+            cr1 = regs[CR1]
+            half_bits = 2 + 2 * (9 if cr1 & M_9BIT else 8) + STOP_HALF_BITS[(regs[CR2] >> 12) & 3]
+            div = max(1, self.divider())
+            self._frame_key = key
+            self._frame_fs = half_bits * FS_PER_S * div // (2 * key[3])
+        return self._frame_fs
 
     # --- transmit -----------------------------------------------------------------
     def _transmit(self, byte: int, at_fs: int) -> None:
