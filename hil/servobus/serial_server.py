@@ -6,14 +6,29 @@ arrival time (wire time + return delay + wire time) has passed on the wall clock
 stock client (dynamixel-sdk, pyserial) sees the latency of a real bus. A pty ignores
 baud, so all timing comes from here. This is the one place in ``hil`` that reads the
 wall clock; lockstep runs never import it.
+
+The client's line settings count on a pty: the master side reads the bit rate the client
+set (``line_baud``; Linux keeps one termios for both sides), and the bus judges each packet
+by it against each servo's Baud Rate register (``Bus.set_master_baud``: a servo at another
+rate decodes garbage, and the client garbage from it). The pty starts at the bus's rate, as
+an adapter already set up, for clients that never set one.
+
+A reply the host could not hand over in time is host lag, never a collision: the server
+knows when it read the client's bytes, not when they were written, and a client cannot
+have seen a reply not yet written to it. So a packet read while a status is still on its
+way starts when that status has ended (``Pacing.deferred_packets``); packets read together
+are fed one by one the same way. A master that talks over replies is judged exactly in
+lockstep runs (``hexhil run``, the master check's ``talk_over_reply``).
 """
 from __future__ import annotations
 
 import errno
+import fcntl
 import os
 import select
 import signal
 import socket
+import struct
 import time
 import tty
 from array import array
@@ -23,6 +38,10 @@ from hil.servobus.line import Bus
 
 MAX_WAIT_S = 0.2  # wake at least this often so timed faults and signals are handled
 LATE_US = 2_000   # one physics step (hil/world/hexapod.py): a step finished later is late
+# Linux <asm/termbits.h>: struct termios2 is 44 bytes, c_cflag at 8, c_ispeed/c_ospeed at
+# 36/40 in bit/s (any rate, BOTHER); TCGETS2 on a pty's master reads the slave's settings.
+_TCGETS2, _TCSETS2 = 0x802C542A, 0x402C542B
+_CBAUD, _BOTHER = 0o010017, 0o010000
 
 
 class Stop(Exception):
@@ -33,12 +52,37 @@ def _raise_stop(signum, frame) -> None:
     raise Stop()
 
 
+def line_baud(fd: int) -> int | None:
+    """The bit rate set on a tty (a pty's master: the client's), None where unknown."""
+    try:
+        buf = fcntl.ioctl(fd, _TCGETS2, bytes(44))
+    except OSError:
+        return None
+    return struct.unpack_from("I", buf, 40)[0] or None
+
+
+def set_line_baud(fd: int, baud: int) -> bool:
+    """Set a tty's bit rate (any rate); False where the system cannot."""
+    try:
+        buf = bytearray(fcntl.ioctl(fd, _TCGETS2, bytes(44)))
+        cflag = struct.unpack_from("I", buf, 8)[0]
+        struct.pack_into("I", buf, 8, (cflag & ~_CBAUD) | _BOTHER)
+        struct.pack_into("II", buf, 36, baud, baud)
+        fcntl.ioctl(fd, _TCSETS2, bytes(buf))
+    except OSError:
+        return False
+    return True
+
+
 class Pacing:
-    """How far the simulation lags the wall clock each time the world is advanced."""
+    """How far the simulation lags the wall clock each time the world is advanced, and the
+    client packets that waited for a status the host had not yet handed over (host lag)."""
 
     def __init__(self) -> None:
         self.lag_us = array("l")
         self.late = 0
+        self.deferred_packets = 0
+        self.deferred_us = 0
 
     def add(self, lag_us: int) -> None:
         lag_us = max(0, lag_us)
@@ -50,6 +94,8 @@ class Pacing:
         lags = sorted(self.lag_us)
         n = len(lags)
         return {"advances": n, "late_steps": self.late, "late_threshold_ms": LATE_US / 1000,
+                "deferred_packets": self.deferred_packets,
+                "deferred_ms": self.deferred_us / 1000,
                 "max_lag_ms": lags[-1] / 1000 if n else 0.0,
                 "p99_lag_ms": lags[min(n - 1, (99 * n) // 100)] / 1000 if n else 0.0,
                 "median_lag_ms": lags[n // 2] / 1000 if n else 0.0}
@@ -78,6 +124,8 @@ class RealTimeServer:
             bus.advance = self._advance
         self._wall0_ns: int | None = None      # set at the master's first byte
         self._v0_us = bus.clock.t_us
+        self._framer = bus.parser_class()      # cuts what one read brought into packets
+        self.client_bauds: list[int] = []      # each bit rate the client set, in order
 
     def now_us(self) -> int:
         """Virtual time that corresponds to the wall clock now."""
@@ -113,8 +161,40 @@ class RealTimeServer:
         ready, _, _ = select.select([fd], [], [], self._wait_s())
         return bool(ready)
 
-    def pump(self, fd: int, read: Callable[[], bytes | None], write: Callable[[bytes], None]) -> None:
-        """Serve until ``read`` reports the client gone (None) or Stop is raised."""
+    def client_baud(self, baud: int | None) -> None:
+        """The client's line now runs at ``baud`` (None: unknown, nothing changes)."""
+        if baud and baud != self.bus.baud:
+            self.bus.set_master_baud(baud)
+        if baud and (not self.client_bauds or self.client_bauds[-1] != baud):
+            self.client_bauds.append(baud)
+
+    def feed(self, data: bytes) -> None:
+        """The client's bytes onto the line, packet by packet, none over a status still on
+        its way (see the module docstring)."""
+        if self._wall0_ns is None:
+            self._wall0_ns = time.monotonic_ns()
+        self._catch_up()
+        bus, framer, start = self.bus, self._framer, 0
+        for i, byte in enumerate(data):
+            if framer.push(byte, bus.clock.t_us):
+                self._put(data[start:i + 1])
+                start = i + 1
+        if start < len(data):
+            self._put(data[start:])
+
+    def _put(self, chunk: bytes) -> None:
+        bus = self.bus
+        owed = bus.reply_end_us()
+        if owed is not None and owed > bus.clock.t_us:
+            self.pacing.deferred_packets += 1
+            self.pacing.deferred_us += owed - bus.clock.t_us
+            bus.idle_until(owed)
+        bus.master_write(chunk)
+
+    def pump(self, fd: int, read: Callable[[], bytes | None], write: Callable[[bytes], None],
+             baud: Callable[[], int | None] | None = None) -> None:
+        """Serve until ``read`` reports the client gone (None) or Stop is raised; ``baud``
+        tells the client's line rate before each of its bursts is judged (a pty)."""
         bus = self.bus
         while True:
             self._catch_up()
@@ -127,15 +207,15 @@ class RealTimeServer:
                 if data is None:
                     return
                 if data:
-                    if self._wall0_ns is None:
-                        self._wall0_ns = time.monotonic_ns()
-                    self._catch_up()
-                    bus.master_write(data)
+                    if baud is not None:
+                        self.client_baud(baud())
+                    self.feed(data)
 
     def serve_pty(self, announce: Callable[[str], None]) -> None:
         """Open a pty, announce its path, serve until SIGTERM/Ctrl-C."""
         master, slave = os.openpty()
         tty.setraw(slave)  # no echo, no line discipline: bytes pass untouched
+        set_line_baud(slave, self.bus.baud)  # as an adapter already set up
         os.set_blocking(master, False)
         path = os.ttyname(slave)
 
@@ -158,7 +238,7 @@ class RealTimeServer:
 
         announce(f"pty: {path}")
         try:
-            self.pump(master, read, write)
+            self.pump(master, read, write, lambda: line_baud(master))
         finally:
             os.close(master)
             os.close(slave)
