@@ -22,9 +22,10 @@ from hil.servobus.health import ServoHealth
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
 
-# A real servo ignores packets for a few ms after an EEPROM write (shared/reference, from
-# the USB2AX notes); "a few" is our 5 ms. Firmware that writes EEPROM and then talks to the
-# same servo at once loses that packet.
+# An EEPROM write keeps a real servo busy for "a few ms" (the USB2AX notes; no source gives
+# a figure: 5 ms is ours). A packet that arrives meanwhile is taken when the write is done,
+# not lost (ROBOTIS's wheel-mode advice writes two EEPROM fields back to back; sources in
+# docs/servo-bus.md); its status is that much later. A factory reset reboots: deaf as long.
 EEPROM_BUSY_US = 5_000
 
 
@@ -99,8 +100,10 @@ class Servo(TableServo):
         self.address_changed = False           # ID or Baud Rate written: bus re-indexes
         self.instructions = 0
         self.eeprom_busy_us = eeprom_busy_us
-        self.busy_until_us = 0                 # deaf after an EEPROM write until then
+        self.busy_until_us = 0                 # an EEPROM write under way until then
+        self.deaf_until_us = 0                 # rebooting until then
         self.ignored = 0                       # packets that arrived while deaf
+        self.held = self.held_us = 0           # packets that waited for an EEPROM write
         self._command()
         self._present_stale = True
 
@@ -335,7 +338,7 @@ class Servo(TableServo):
         t = self._present()
         pos = t[36] | (t[37] << 8)
         self.table = ax12.defaults(self.edition, pos)
-        self.busy_until_us = self.t_us + self.eeprom_busy_us
+        self.deaf_until_us = self.t_us + self.eeprom_busy_us
         self._registered = None
         self.health.overload = False
         self.alarm_led = False

@@ -83,6 +83,10 @@ class Pacing:
         self.late = 0
         self.deferred_packets = 0
         self.deferred_us = 0
+        self.reply_lag_us = array("l")     # how late each reply reached the client
+
+    def reply(self, lag_us: int) -> None:
+        self.reply_lag_us.append(max(0, lag_us))
 
     def add(self, lag_us: int) -> None:
         lag_us = max(0, lag_us)
@@ -93,9 +97,13 @@ class Pacing:
     def summary(self) -> dict[str, float | int]:
         lags = sorted(self.lag_us)
         n = len(lags)
+        rl = sorted(self.reply_lag_us)
         return {"advances": n, "late_steps": self.late, "late_threshold_ms": LATE_US / 1000,
                 "deferred_packets": self.deferred_packets,
                 "deferred_ms": self.deferred_us / 1000,
+                "late_replies": sum(1 for x in rl if x > LATE_US),
+                "reply_lag_p50_ms": rl[len(rl) // 2] / 1000 if rl else 0.0,
+                "max_reply_lag_ms": rl[-1] / 1000 if rl else 0.0,
                 "max_lag_ms": lags[-1] / 1000 if n else 0.0,
                 "p99_lag_ms": lags[min(n - 1, (99 * n) // 100)] / 1000 if n else 0.0,
                 "median_lag_ms": lags[n // 2] / 1000 if n else 0.0}
@@ -198,9 +206,12 @@ class RealTimeServer:
         bus = self.bus
         while True:
             self._catch_up()
+            due = bus.next_rx_us()
             out = bus.master_read(1 << 16, 0)
             if out:
                 write(out)
+                if due is not None and due <= bus.clock.t_us:
+                    self.pacing.reply(self.now_us() - due)
             ready, _, _ = select.select([fd], [], [], self._wait_s())
             if ready:
                 data = read()
@@ -236,6 +247,7 @@ class RealTimeServer:
             except (BlockingIOError, OSError):
                 pass  # client not reading: bytes lost, as a UART overrun
 
+        self._catch_up()   # everything a first packet needs is done before the announcement
         announce(f"pty: {path}")
         try:
             self.pump(master, read, write, lambda: line_baud(master))
@@ -253,6 +265,7 @@ class RealTimeServer:
             srv.close()
             raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
         srv.listen(1)
+        self._catch_up()
         announce(f"tcp: {host}:{srv.getsockname()[1]}")
         try:
             while True:

@@ -51,8 +51,10 @@ class XL430Servo(TableServo):
         self.t0_us = t_us                      # power-on, for the Realtime Tick
         self.health = ServoHealth()
         self.eeprom_busy_us = eeprom_busy_us
-        self.busy_until_us = 0
+        self.busy_until_us = 0                 # an EEPROM write under way until then
+        self.deaf_until_us = 0                 # rebooting until then
         self.ignored = 0
+        self.held = self.held_us = 0           # packets that waited for an EEPROM write
         self.instructions = 0
         self.address_changed = False
         self.alarm_led = False
@@ -306,7 +308,7 @@ class XL430Servo(TableServo):
         elif instr == dx2.REBOOT:
             reply = None if broadcast else self._answer(instr, 0)
             self.power_cycle(t_us)
-            self.busy_until_us = t_us + self.eeprom_busy_us
+            self.deaf_until_us = t_us + self.eeprom_busy_us
             return reply
         elif instr == dx2.CLEAR:
             error = self._clear(bytes(params))
@@ -407,7 +409,7 @@ class XL430Servo(TableServo):
             self.table[xl.ID] = keep_id
         if option == dx2.RESET_EXCEPT_ID_BAUD:
             self.table[xl.BAUD_RATE] = keep_baud
-        self.busy_until_us = self.t_us + self.eeprom_busy_us
+        self.deaf_until_us = self.t_us + self.eeprom_busy_us
         self._registered = None
         self.turn_offset = 0
         self.health.rearm()
