@@ -37,6 +37,16 @@ class Tcp:
 
 
 @dataclass(frozen=True)
+class Rfc2217:
+    """pyserial's RFC 2217 server (clients open ``rfc2217://host:port``); with
+    ``rts_direction`` RTS is the direction line."""
+
+    port: int
+    host: str = "127.0.0.1"
+    rts_direction: bool = False
+
+
+@dataclass(frozen=True)
 class SerialPort:
     """A real serial device (a USB adapter on the robot's bus)."""
 
@@ -44,7 +54,7 @@ class SerialPort:
     baud: int = DEFAULT_BAUD
 
 
-Transport = Union[Pty, Tcp, SerialPort]
+Transport = Union[Pty, Tcp, Rfc2217, SerialPort]
 
 
 class RealTimeRun:
@@ -90,10 +100,16 @@ class RealTimeRun:
     def serve(self, transport: Transport, announce: Callable[[str], None]) -> dict[str, Any]:
         """Serve until the run's end, an interrupt (``KeyboardInterrupt``) or
         ``serial_server.Stop`` (SIGTERM); ``announce`` gets the address line (``pty: PATH``,
-        ``tcp: ...``, ``port: ...``) once it is ready. The trace is complete on return;
-        returns the summary (time served, body, faults, bus, master violations, pacing)."""
+        ``tcp: ...``, ``rfc2217: ...``, ``port: ...``) once it is ready. The trace is
+        complete on return; returns the summary (time served, body, faults, bus, master
+        violations, pacing, and for RFC 2217 the client's line settings)."""
         try:
-            if isinstance(transport, SerialPort):
+            if isinstance(transport, Rfc2217):
+                from hil.servobus.rfc2217_server import serve_rfc2217
+
+                serve_rfc2217(self.server, transport.port, transport.host, announce,
+                                         transport.rts_direction)
+            elif isinstance(transport, SerialPort):
                 self.server.serve_port(transport.device, transport.baud, announce)
             elif isinstance(transport, Tcp):
                 self.server.serve_tcp(transport.port, transport.host, announce)
@@ -106,4 +122,6 @@ class RealTimeRun:
         finally:
             self.rig.close()
             self._close_trace()
-        return self.rig.summary(self.server.pacing.summary())
+        summary = self.rig.summary(self.server.pacing.summary())
+        summary["client_bauds"] = list(self.server.client_bauds)
+        return summary

@@ -147,3 +147,68 @@ def test_the_first_ping_after_the_announcement_is_answered():
             took_s = time.monotonic() - t0
             port.closePort()
         assert (result, error) == (sdk.COMM_SUCCESS, 0), took_s
+
+
+@contextmanager
+def rfc2217_bus(*flags: str) -> Iterator[tuple[str, dict]]:
+    proc = subprocess.Popen([*HEXHIL, "bus", "--rfc2217", "0", "--json", "--servos", "3", *flags],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    summary: dict = {}
+    try:
+        line = proc.stdout.readline().strip()
+        assert line.startswith("rfc2217: rfc2217://127.0.0.1:"), \
+            (line, proc.stderr.read() if proc.poll() else "")
+        yield line.split(": ", 1)[1], summary
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=20)
+    assert proc.returncode == 0 and "Traceback" not in err, err
+    summary.update(json.loads(out.strip().splitlines()[-1]))
+
+
+def _transact(port, packet: bytes, n: int) -> bytes:
+    port.reset_input_buffer()
+    port.write(packet)
+    return port.read(n)
+
+
+def test_a_pyserial_client_on_rfc2217_pings_sets_baud_and_rts():
+    import serial
+    from protocol.dynamixel import v1 as dxl
+
+    ping = dxl.packet(1, dxl.PING)
+    with rfc2217_bus() as (url, summary):
+        port = serial.serial_for_url(url, baudrate=1_000_000, timeout=0.5)
+        try:
+            port.rts, port.dtr = True, True      # a pty would refuse both (ENOTTY)
+            assert _transact(port, ping, 6) == dxl.status(1)
+            port.rts = False
+            assert _transact(port, ping, 6) == dxl.status(1)   # RTS alone is no direction
+            port.baudrate = 57600                # the servos stay at 1 Mbps: nothing parses
+            assert dxl.Parser().feed(_transact(port, ping, 6)) == []
+        finally:
+            port.close()
+    assert summary["client_bauds"] == [1_000_000, 57600]
+    assert summary["bus"]["collisions"] == 0
+
+
+def test_rts_as_the_direction_line_is_judged_like_pa1():
+    import serial
+    from protocol.dynamixel import v1 as dxl
+
+    ping = dxl.packet(2, dxl.PING)
+    with rfc2217_bus("--rts-direction") as (url, summary):
+        port = serial.serial_for_url(url, baudrate=1_000_000, timeout=0.3)
+        try:
+            port.rts = False                     # receive: the ping never reaches the line
+            assert _transact(port, ping, 6) == b""
+            port.rts = True                      # transmit, and left high: the status is lost
+            assert _transact(port, ping, 6) == b""
+            port.rts = True                      # the master's job: transmit, then receive
+            port.write(ping)
+            port.rts = False                     # (commands and data keep their order)
+            assert port.read(6) == dxl.status(2)
+        finally:
+            port.close()
+    counts = summary["violations"]["counts"]
+    assert counts["tx_while_receiving"] == 1 and counts["rx_while_transmitting"] >= 1

@@ -163,6 +163,11 @@ class RealTimeServer:
             wait = min(wait, max(0.0, (nxt - self.now_us()) * 1e-6))
         return wait
 
+    def idle_ready(self) -> None:
+        """What a first packet would wait for (the first catch-up: the world's and the rig's
+        first tick) is done before the address is announced: ready when announced."""
+        self._catch_up()
+
     def idle(self, fd: int) -> bool:
         """Keep the world going until ``fd`` is readable (a client knocks); True then."""
         self._catch_up()
@@ -247,7 +252,7 @@ class RealTimeServer:
             except (BlockingIOError, OSError):
                 pass  # client not reading: bytes lost, as a UART overrun
 
-        self._catch_up()   # everything a first packet needs is done before the announcement
+        self.idle_ready()
         announce(f"pty: {path}")
         try:
             self.pump(master, read, write, lambda: line_baud(master))
@@ -265,7 +270,7 @@ class RealTimeServer:
             srv.close()
             raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
         srv.listen(1)
-        self._catch_up()
+        self.idle_ready()
         announce(f"tcp: {host}:{srv.getsockname()[1]}")
         try:
             while True:
