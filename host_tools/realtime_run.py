@@ -88,9 +88,25 @@ class RealTimeRun:
             self._close_trace()
             raise
         end_us = None if duration_s is None else int(round(duration_s * 1e6))
+        self._injections: list[tuple[str, dict[str, Any], Callable[[str], None]]] = []
         self.server = serial_server.RealTimeServer(
             self.rig.bus, step_us=WORLD_STEP_US if self.rig.world is not None else None,
-            on_tick=self.rig.tick, end_us=end_us)
+            on_tick=self._tick, end_us=end_us)
+
+    def inject(self, kind: str, on_error: Callable[[str], None] | None = None,
+               **params: Any) -> None:
+        """A named fault while serving (any thread: ``hexhil bus --inject-stdin``), applied
+        at the server's next tick, now or at ``at_s``; a bad one goes to ``on_error``."""
+        self._injections.append((kind, params, on_error or (lambda line: None)))
+
+    def _tick(self, t_us: int) -> None:
+        while self._injections:
+            kind, params, on_error = self._injections.pop(0)
+            try:
+                self.rig.core.inject(kind, **params)
+            except UserError as exc:
+                on_error(str(exc))
+        self.rig.tick(t_us)
 
     def _close_trace(self) -> None:
         if self.recorder is not None:

@@ -72,9 +72,8 @@ class FirmwareDriver:
     def _levels(self, t_us: int) -> int:
         if self.core.world is not None:
             return self.core.switch_bits()
-        if self._switches is not None:
-            return int(self._switches(t_us))
-        return 0
+        bits = int(self._switches(t_us)) if self._switches is not None else 0
+        return self.core.faults.switch_bits(t_us, bits) if self.core.faults else bits
 
     def run(self, python: str, command: list[str] | None,
             in_process: InProcessFirmware | None, end_us: int, result: RunResult,

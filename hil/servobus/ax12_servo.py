@@ -143,7 +143,7 @@ class Servo(TableServo):
         self._present_stale = False
         pos, vel, load = self.actuator.state()
         t = self.table
-        p = ax12.rad_to_position(pos)
+        p = max(0, min(1023, self._position_read(ax12.rad_to_position(pos))))
         t[36] = p & 0xFF
         t[37] = p >> 8
         s = ax12.rad_s_to_signed(vel)

@@ -34,6 +34,7 @@ class TableServo:
     held: int                       # packets that waited for an EEPROM write
     held_us: int                    # how long the packet last taken waited
     instructions: int               # packets executed
+    reading: Any = None             # a Present Position fault (hil/servobus/faults.py), or None
     _registered: tuple[int, bytes] | None
 
     def advance_to(self, t_us: int) -> None:
@@ -43,6 +44,9 @@ class TableServo:
         raise NotImplementedError
 
     def _apply_write(self, address: int, data: bytes) -> None:
+        raise NotImplementedError
+
+    def _refresh_present(self) -> None:
         raise NotImplementedError
 
     # --- identity ----------------------------------------------------------------------
@@ -80,6 +84,21 @@ class TableServo:
     def set_hot_spot(self, temperature_c: float | None, t_us: int) -> None:
         self.advance_to(t_us)
         self.health.hot_spot_c = temperature_c
+
+    # --- injected faults (hil/servobus/faults.py) ---------------------------------------
+    def set_reading(self, reading: Any, t_us: int) -> None:
+        """Present Position read through ``reading.apply(units)`` (stuck, noisy), or true."""
+        self.advance_to(t_us)
+        self.reading = reading
+        self._refresh_present()   # a stuck reading keeps what it reads now
+
+    def set_id(self, dev_id: int, t_us: int) -> None:
+        """The ID register changed behind the master's back (a spare with another ID)."""
+        self.advance_to(t_us)
+        self.table[self.layout.ID] = dev_id
+
+    def _position_read(self, units: int) -> int:
+        return units if self.reading is None else self.reading.apply(units)
 
     # --- instructions ------------------------------------------------------------------
     def _deaf(self, t_us: int) -> bool:

@@ -126,7 +126,7 @@ class XL430Servo(TableServo):
         t = self.table
         traj_p, traj_v = (self._profile.at(self.t_us) if self._profile is not None
                           else (pos, vel))
-        xl.put(t, xl.PRESENT_POSITION, 4, self._present_pulses(pos))
+        xl.put(t, xl.PRESENT_POSITION, 4, self._position_read(self._present_pulses(pos)))
         xl.put(t, xl.PRESENT_VELOCITY, 4, xl.rad_s_to_velocity(vel))
         xl.put(t, xl.PRESENT_LOAD, 2, int(round(max(-1.0, min(1.0, load)) * 1000)))
         xl.put(t, xl.PRESENT_PWM, 2, int(round(max(-1.0, min(1.0, load)) * xl.PWM_MAX)))

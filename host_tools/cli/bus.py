@@ -32,6 +32,40 @@ def lag_warning(pacing: dict[str, Any]) -> str | None:
             f"(our firmware waits 10 ms, the dynamixel-sdk 34 ms); the machine is overloaded")
 
 
+def parse_injection(line: str) -> tuple[str, dict[str, Any]]:
+    """``KIND key=value ...`` (a ``--inject-stdin`` line) -> the kind and its parameters;
+    values are JSON (3, 0.5, true) or else strings."""
+    words = line.split()
+    if not words:
+        raise UserError("empty fault line: expected KIND key=value ..., e.g. brownout id=3")
+    params: dict[str, Any] = {}
+    for word in words[1:]:
+        key, eq, text = word.partition("=")
+        if not eq or not key:
+            raise UserError(f"{line.strip()!r}: expected key=value, got {word!r}")
+        try:
+            params[key] = json.loads(text)
+        except ValueError:
+            params[key] = text
+    return words[0], params
+
+
+def _read_injections(rt: Any) -> None:
+    """Each stdin line a fault for ``rt`` (a thread: serving goes on meanwhile)."""
+    def complain(message: str) -> None:
+        sys.stderr.write(f"hexhil: {message}\n")
+
+    for line in sys.stdin:
+        if not line.strip():
+            continue
+        try:
+            kind, params = parse_injection(line)
+        except UserError as exc:
+            complain(str(exc))
+            continue
+        rt.inject(kind, on_error=complain, **params)
+
+
 def parse_ids(spec: str) -> list[int]:
     """``1-18`` or ``1,3,5-7`` -> sorted unique servo IDs (0-253)."""
     ids: set[int] = set()
@@ -149,6 +183,10 @@ def run(args: argparse.Namespace) -> int:
                          verbose=(lambda line: sys.stderr.write(line + "\n")) if args.verbose
                          else None)
         serial_server.install_sigterm()
+        if args.inject_stdin:
+            import threading
+
+            threading.Thread(target=_read_injections, args=(rt,), daemon=True).start()
         s = rt.serve(transport, announce)
     finally:
         if can_server is not None:
@@ -232,5 +270,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="servo heats towards TEMP_C; repeatable")
     p.add_argument("--voltage-sag", dest="voltage_sag", action="append",
                    metavar="VOLTS:AT_S[:UNTIL_S]", help="supply of every servo drops; repeatable")
+    p.add_argument("--inject-stdin", action="store_true",
+                   help="read faults from stdin while serving, one a line: KIND key=value ... "
+                        "(e.g. 'brownout id=3', 'switch_stuck leg=0 pressed=true until_s=9'; "
+                        "docs/servo-bus.md, Fault vocabulary)")
     p.add_argument("-v", "--verbose", action="store_true", help="print each injected fault on stderr")
     p.set_defaults(func=run)
