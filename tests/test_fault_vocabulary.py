@@ -100,6 +100,8 @@ def test_switch_stuck_and_bounce_reach_the_firmware_as_edges():
     r, _ = run_with(switch_stuck=[{"leg": 0, "pressed": True, "at_s": 1.0}])
     assert r.faults["switch_stuck"] == 1 and r.switch_edges == 1
     assert r.stop_reason is None and r.firmware["state"] == "walking"
+    longer = [e for e in r.tactile_events if e.get("overcoming") and e["leg"] == "LF"]
+    assert longer and longer[0]["step_length_m"] == pytest.approx(0.10)   # l_k = 2 l_i
     # a 30 ms chatter seen by a 50 Hz reader; 20 ms would alias to no edge at all
     r, _ = run_with(switch_bounce=[{"leg": 2, "period_s": 0.03, "at_s": 1.0, "until_s": 1.6}])
     assert r.faults["switch_bounce"] == 1 and r.switch_edges >= 10
