@@ -177,3 +177,29 @@ def test_hexhil_bus_takes_faults_on_stdin_in_real_time():
     assert "unknown fault kind 'meltdown'" in err
     summary = json.loads(out.strip().splitlines()[-1])
     assert summary["faults"]["brownout"] == 1 and summary["faults"]["overload"] == 1
+
+
+def test_can_sensor_node_silent_then_garbage_on_the_real_time_rig():
+    """`hexhil bus --world`'s CAN sensor node (limit_switches at 10 Hz): silent, then
+    babbling frames our DBC does not define, then itself again. Our firmware reads the
+    switches from the servo bus's sensor node, never these frames: no reaction of its own;
+    a CAN client sees the gap (its `sequence` jumps) or frames it cannot decode."""
+    from hil.run.realtime_rig import RealTimeRig
+    from protocol import can_frames as cf
+
+    sc = scenario(faults={"can_silent": [{"at_s": 0.5, "until_s": 1.0}],
+                          "can_garbage": [{"at_s": 1.5, "until_s": 2.0}]})
+    rig = RealTimeRig(sc, 0, sensor_id=None)
+    port = rig.can.endpoint("rx")
+    seen = []
+    for t_us in range(0, 2_500_000, 50_000):
+        rig.bus.idle_until(t_us)
+        rig.tick(t_us)
+        seen += [(m.timestamp, m.arbitration_id) for m in port.frames()]
+    rig.close()
+    switches = [t for t, i in seen if i == cf.ID_LIMIT_SWITCHES]
+    garbage = [(t, i) for t, i in seen if i != cf.ID_LIMIT_SWITCHES]
+    assert switches and not [t for t in switches if 0.5 <= t < 1.0 or 1.5 <= t < 2.0]
+    assert garbage and all(1.5 <= t < 2.0 and i >= 0x700 for t, i in garbage)
+    assert [t for t in switches if t >= 2.0]                   # itself again
+    assert rig.core.faults.counts["can_silent"] == 1 and rig.core.faults.counts["can_garbage"] == 1

@@ -197,6 +197,8 @@ class FaultsConfig:
     id_conflict: tuple[dict[str, Any], ...] = ()
     switch_stuck: tuple[dict[str, Any], ...] = ()
     switch_bounce: tuple[dict[str, Any], ...] = ()
+    can_silent: tuple[dict[str, Any], ...] = ()
+    can_garbage: tuple[dict[str, Any], ...] = ()
 
     @classmethod
     def parse(cls, where: str, d: dict[str, Any]) -> "FaultsConfig":

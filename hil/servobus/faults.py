@@ -6,7 +6,8 @@ virtual microseconds: a servo unplugged, stalled by an external load, overheatin
 voltage sag; and the vocabulary of issue 42 (docs/servo-bus.md "Fault vocabulary"): a
 servo's brown-out (it reboots), its Present Position stuck or noisy (seeded), an overload
 (the Overload bit, torque off per Alarm Shutdown), two servos answering one ID, a leg's
-limit switch stuck or bouncing. ``inject`` adds one at run time. Every injected fault, and
+limit switch stuck or bouncing, the CAN sensor node silent or sending garbage. ``inject``
+adds one at run time. Every injected fault, and
 every collision the bus sees, goes to ``on_fault(t_us, name, detail)`` and into ``counts``
 for the run summary.
 """
@@ -41,9 +42,12 @@ _ENTRY_KEYS: dict[str, dict[str, tuple[type, bool]]] = {
                      "until_s": (float, False)},
     "switch_bounce": {"leg": (int, True), "period_s": (float, True), "at_s": (float, True),
                       "until_s": (float, False)},
+    "can_silent": {"at_s": (float, True), "until_s": (float, False)},
+    "can_garbage": {"at_s": (float, True), "until_s": (float, False)},
 }
 KINDS = tuple(_ENTRY_KEYS)
 SWITCH_KINDS = ("switch_stuck", "switch_bounce")
+CAN_KINDS = ("can_silent", "can_garbage")
 
 
 def _entry(kind: str, raw: Any, where: str) -> dict[str, Any]:
@@ -137,6 +141,8 @@ class Faults:
         self._t0_us = 0
         self._switches: dict[int, tuple[dict[str, Any], int]] = {}   # leg -> (entry, since)
         self._conflicts: dict[int, Any] = {}                          # id(entry) -> servo
+        self._can_node: str | None = None                             # a CAN_KINDS, or None
+        self._garbage_rng = random.Random(f"{seed}:can_garbage")
         self.next_us = NEVER_US
         self.bus = None
 
@@ -214,7 +220,24 @@ class Faults:
             self._fire(te, kind, start, e)
         self.next_us = self._events[0][0] if self._events else NEVER_US
 
+    def can_frame(self, arb_id: int, data: bytes) -> tuple[int, bytes] | None:
+        """The CAN sensor node's frame as it goes out: None while it is silent, a garbage
+        frame (an ID and bytes our DBC does not define, seeded) while it babbles."""
+        if self._can_node == "can_silent":
+            return None
+        if self._can_node == "can_garbage":
+            rng = self._garbage_rng
+            return 0x700 + rng.randrange(0x100), bytes(rng.randrange(256) for _ in range(8))
+        return arb_id, data
+
     def _fire(self, t_us: int, kind: str, start: bool, e: dict[str, Any]) -> None:
+        if kind in CAN_KINDS:
+            self._can_node = kind if start else None
+            self.report(t_us, kind if start else kind + "_end",
+                        "the CAN sensor node " + ("silent" if kind == "can_silent"
+                                                  else "sends garbage frames") if start
+                        else "the CAN sensor node speaks normally again")
+            return
         if kind in SWITCH_KINDS:
             if start:
                 self._switches[e["leg"]] = (e, t_us)
