@@ -203,3 +203,28 @@ def test_can_sensor_node_silent_then_garbage_on_the_real_time_rig():
     assert garbage and all(1.5 <= t < 2.0 and i >= 0x700 for t, i in garbage)
     assert [t for t in switches if t >= 2.0]                   # itself again
     assert rig.core.faults.counts["can_silent"] == 1 and rig.core.faults.counts["can_garbage"] == 1
+
+
+def _beams(faults: dict):
+    import tomllib
+
+    sc = tomllib.loads((ROOT / "scenarios" / "beams-stiff.toml").read_text())
+    sc["_path"] = "beams-stiff"
+    sc["traversal"]["max_time_s"] = 1.0
+    sc["faults"] = faults
+    with Run(sc) as run:
+        return run.run()
+
+
+def test_force_sensor_dropout_and_bias_on_seed_000():
+    """Seed 000's host loop has no sensor-fault detection: without force samples it never
+    plans and keeps its gentle push (stuck, no harm); a biased sensor gives a wrong
+    stiffness estimate and a wrong plan (pitch instead of roll on stiff beams)."""
+    r = _beams({"force_dropout": [{"at_s": 0.0}]})
+    assert r.faults == {"force_dropout": 1}
+    assert r.world["force_samples"] == 0 and r.world["mode"] == "none"
+    assert not r.world["traversed"] and not r.world["flipped"]
+    r = _beams({"force_bias": [{"at_s": 0.0, "fx_n": 0.5}]})
+    assert r.faults == {"force_bias": 1} and r.world["force_samples"] > 0
+    assert r.world["estimate"]["k1"] < 0.1 < 0.25             # truth 0.25 N m/rad
+    assert r.world["mode"] != "roll" and not r.world["traversed"]

@@ -124,14 +124,19 @@ class SteppedDriver:
     def __init__(self, core: RunCore) -> None:
         self.core = core
         core.world.attach(core.can)
+        if hasattr(core.world, "faults"):    # seed 000's force sensor faults ([faults])
+            core.world.faults = core.faults
+        core.faults.start(core.clock, 0)
 
     def run(self, end_us: int, result: RunResult) -> None:
         core = self.core
-        world, rec = core.world, core.recorder
+        world, rec, faults = core.world, core.recorder, core.faults
         while True:
             world.step()
             t = world.t_us
             core.clock.advance_to(t)
+            if faults.next_us <= t:
+                faults.apply_due(t)
             core.tick_nodes(t)
             if t % BODY_SAMPLE_US == 0:
                 core.pacing.pace(t)

@@ -199,6 +199,8 @@ class FaultsConfig:
     switch_bounce: tuple[dict[str, Any], ...] = ()
     can_silent: tuple[dict[str, Any], ...] = ()
     can_garbage: tuple[dict[str, Any], ...] = ()
+    force_bias: tuple[dict[str, Any], ...] = ()
+    force_dropout: tuple[dict[str, Any], ...] = ()
 
     @classmethod
     def parse(cls, where: str, d: dict[str, Any]) -> "FaultsConfig":

@@ -6,8 +6,8 @@ virtual microseconds: a servo unplugged, stalled by an external load, overheatin
 voltage sag; and the vocabulary of issue 42 (docs/servo-bus.md "Fault vocabulary"): a
 servo's brown-out (it reboots), its Present Position stuck or noisy (seeded), an overload
 (the Overload bit, torque off per Alarm Shutdown), two servos answering one ID, a leg's
-limit switch stuck or bouncing, the CAN sensor node silent or sending garbage. ``inject``
-adds one at run time. Every injected fault, and
+limit switch stuck or bouncing, the CAN sensor node silent or sending garbage, seed 000's
+force sensor biased or dropping out. ``inject`` adds one at run time. Every injected fault, and
 every collision the bus sees, goes to ``on_fault(t_us, name, detail)`` and into ``counts``
 for the run summary.
 """
@@ -44,10 +44,14 @@ _ENTRY_KEYS: dict[str, dict[str, tuple[type, bool]]] = {
                       "until_s": (float, False)},
     "can_silent": {"at_s": (float, True), "until_s": (float, False)},
     "can_garbage": {"at_s": (float, True), "until_s": (float, False)},
+    "force_bias": {"at_s": (float, True), "until_s": (float, False), "fx_n": (float, True),
+                   "fz_n": (float, False)},
+    "force_dropout": {"at_s": (float, True), "until_s": (float, False)},
 }
 KINDS = tuple(_ENTRY_KEYS)
 SWITCH_KINDS = ("switch_stuck", "switch_bounce")
 CAN_KINDS = ("can_silent", "can_garbage")
+FORCE_KINDS = ("force_bias", "force_dropout")   # seed 000's force sensor (hil/world/beams_node.py)
 
 
 def _entry(kind: str, raw: Any, where: str) -> dict[str, Any]:
@@ -139,10 +143,13 @@ class Faults:
         self._events: list[tuple[int, int, str, bool, dict[str, Any]]] = []
         self._seq = 0
         self._t0_us = 0
+        self._clock: Any = None                                       # set by start
         self._switches: dict[int, tuple[dict[str, Any], int]] = {}   # leg -> (entry, since)
         self._conflicts: dict[int, Any] = {}                          # id(entry) -> servo
         self._can_node: str | None = None                             # a CAN_KINDS, or None
         self._garbage_rng = random.Random(f"{seed}:can_garbage")
+        self._force_bias: tuple[float, float] | None = None           # (fx_n, fz_n) added
+        self._force_dropout = False
         self.next_us = NEVER_US
         self.bus = None
 
@@ -170,7 +177,14 @@ class Faults:
         """Schedule the timed faults against ``bus``, relative to ``t0_us`` (default: its
         clock's now)."""
         self.bus = bus
-        self._t0_us = bus.clock.t_us if t0_us is None else t0_us
+        self.start(bus.clock, t0_us)
+
+    def start(self, clock: Any, t0_us: int | None = None) -> None:
+        """Schedule the timed faults from ``t0_us`` (default: ``clock``'s now); whoever
+        moves the clock calls ``apply_due`` (the bus, or a self-stepping world's driver:
+        hil/run/lockstep.py)."""
+        self._clock = clock
+        self._t0_us = clock.t_us if t0_us is None else t0_us
         for kind, entries in self.entries.items():
             for e in entries:
                 self._schedule(kind, e)
@@ -189,9 +203,9 @@ class Faults:
         time, default now) and ``until_s`` as in ``[faults]``; returns the checked entry."""
         if kind not in KINDS:
             raise UserError(f"inject: unknown fault kind {kind!r} (known: {', '.join(KINDS)})")
-        if self.bus is None:
-            raise UserError("inject: these faults are on no bus yet")
-        now_s = (self.bus.clock.t_us - self._t0_us) * 1e-6
+        if self._clock is None:
+            raise UserError("inject: these faults are on no run yet")
+        now_s = (self._clock.t_us - self._t0_us) * 1e-6
         params.setdefault("at_s", now_s)
         e = _entry(kind, params, "inject")
         if e["at_s"] < now_s:
@@ -230,7 +244,25 @@ class Faults:
             return 0x700 + rng.randrange(0x100), bytes(rng.randrange(256) for _ in range(8))
         return arb_id, data
 
+    def force_sample(self, f: tuple[float, float, float]) -> tuple[float, float, float] | None:
+        """A force sample as the sensor sends it: biased, or None while it drops out."""
+        if self._force_dropout:
+            return None
+        if self._force_bias is None:
+            return f
+        return f[0] + self._force_bias[0], f[1], f[2] + self._force_bias[1]
+
     def _fire(self, t_us: int, kind: str, start: bool, e: dict[str, Any]) -> None:
+        if kind in FORCE_KINDS:
+            if kind == "force_bias":
+                self._force_bias = (e["fx_n"], e.get("fz_n", 0.0)) if start else None
+                detail = (f"force sensor biased by fx {e['fx_n']:+g} N, fz {e.get('fz_n', 0.0):+g} N"
+                          if start else "force sensor unbiased")
+            else:
+                self._force_dropout = start
+                detail = "force sensor silent" if start else "force sensor back"
+            self.report(t_us, kind if start else kind + "_end", detail)
+            return
         if kind in CAN_KINDS:
             self._can_node = kind if start else None
             self.report(t_us, kind if start else kind + "_end",
