@@ -22,13 +22,6 @@ from hil.servobus.health import ServoHealth
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
 
-# An EEPROM write keeps a real servo busy for "a few ms" (the USB2AX notes; no source gives
-# a figure: 5 ms is ours). A packet that arrives meanwhile is taken when the write is done,
-# not lost (ROBOTIS's wheel-mode advice writes two EEPROM fields back to back; sources in
-# docs/servo-bus.md); its status is that much later. A factory reset reboots: deaf as long.
-EEPROM_BUSY_US = 5_000
-
-
 _OWNER = [ax12.owner(a) for a in range(ax12.TABLE_SIZE)]
 
 
@@ -83,7 +76,7 @@ class Servo(TableServo):
 
     def __init__(self, dev_id: int = 1, edition: str = ax12.EDITION_EMANUAL,
                  actuator: Actuator | None = None, position: int = 512, t_us: int = 0,
-                 eeprom_busy_us: int = EEPROM_BUSY_US) -> None:
+                 eeprom_busy_us: int | None = None) -> None:
         if edition not in ax12.EDITIONS:
             raise ValueError(f"unknown AX-12 manual edition {edition!r}")
         if not 0 <= dev_id <= dxl.MAX_ID:
@@ -99,9 +92,10 @@ class Servo(TableServo):
         self.alarm_led = False                 # the LED blinks for errors in Alarm LED
         self.address_changed = False           # ID or Baud Rate written: bus re-indexes
         self.instructions = 0
-        self.eeprom_busy_us = eeprom_busy_us
+        # busy this long after an EEPROM write (a packet then waits: docs/servo-bus.md)
+        self.eeprom_busy_us = ax12.EEPROM_BUSY_US if eeprom_busy_us is None else eeprom_busy_us
         self.busy_until_us = 0                 # an EEPROM write under way until then
-        self.deaf_until_us = 0                 # rebooting until then
+        self.deaf_until_us = 0                 # rebooting (factory reset) until then
         self.ignored = 0                       # packets that arrived while deaf
         self.held = self.held_us = 0           # packets that waited for an EEPROM write
         self._command()
