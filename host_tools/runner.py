@@ -140,6 +140,11 @@ class Run:
         """Tick ``node`` on the run's clock, after the nodes added before it."""
         self._firmware_sim().add_node(node)
 
+    def inject(self, kind: str, **params: Any) -> dict[str, Any]:
+        """A named fault, now or at ``at_s`` (run time), as a ``[faults]`` entry: before
+        ``run()`` or from a host node's tick (docs/servo-bus.md "Fault vocabulary")."""
+        return self._firmware_sim().core.inject(kind, **params)
+
     def send_can(self, arb_id: int, data: bytes) -> None:
         """One frame from the host to the firmware, now (virtual time)."""
         self._firmware_sim().send_can(arb_id, data)
@@ -168,7 +173,8 @@ class Run:
                               scene=self.recorder is not None, realtime=self._realtime,
                               scenario=self.scenario)
         return RunResult(NO_RUNTIME, sim_time_s=out["t_end_s"],
-                         wall_time_s=time.perf_counter() - wall0, world=out)
+                         wall_time_s=time.perf_counter() - wall0,
+                         faults=out.pop("faults", {}), world=out)
 
     def close(self) -> None:
         """Close the trace (complete as far as the run went), then the live server."""
