@@ -12,7 +12,7 @@ from pathlib import Path
 
 from bench import Row
 from hil.link.firmware_process import IN_PROCESS
-from hil.world.fidelity import OBSTACLE_BODY
+from hil.scenario.world import OBSTACLE_BODY
 from hil.world.hexapod import HexapodWorld
 from hil import scenario as scenario_mod
 
@@ -25,7 +25,7 @@ def world_alone(path: Path = ROOT / "scenarios" / "obstacles-high-large.toml",
                 seed: int = 1) -> float:
     """Physics + AX-12 drives over a scenario's terrain, joints commanded at 50 Hz through
     the seam."""
-    sc = scenario_mod.load(path)
+    sc = scenario_mod.load_scenario(path)
     world = HexapodWorld(sc, seed=seed)
     acts = world.actuators()
     q0 = [a.state()[0] for a in acts]

@@ -161,11 +161,11 @@ def test_a_servo_deaf_longer_than_the_firmware_waits_fails_configuration_cleanly
 def test_can_heading_turns_the_walk_at_each_legs_next_lift_off():
     """``heading_command`` (the navigator's correction) sets Eq. 2-3's epsilon; a +0.3 rad
     heading walks the body to the left of the straight walk on the same ground."""
-    from hil.scenario import check
+    from hil.scenario import parse
     from hil.world.hexapod import HexapodWorld
 
     def walk(heading_rad: float | None):
-        sc = check({"scenario": {"name": "heading"}, "gait": {"name": "tripod"},
+        sc = parse({"scenario": {"name": "heading"}, "gait": {"name": "tripod"},
                     "world": {"kind": "hexapod"}}, "<heading>")
         world = HexapodWorld(sc, 0)
         sim = Simulator(sc, seed=0, world=world)

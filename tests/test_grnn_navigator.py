@@ -57,7 +57,7 @@ def short_goal(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def planned_run(short_goal: Path, tmp_path_factory) -> tuple[navigator.Navigator, Path]:
     """The tactile-only arm (stop after the planned steps), recorded."""
-    sc = scenario_mod.load(str(short_goal))
+    sc = scenario_mod.load_scenario(str(short_goal))
     trace = tmp_path_factory.mktemp("nav-trace") / "planned.mcap"
     navs: list[navigator.Navigator] = []
 

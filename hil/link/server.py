@@ -15,33 +15,11 @@ from hil.link.board_line import MISTAKES, BoardLine
 from hil.canbus.bus import CanBus
 from hil.link.firmware_process import Connection, DirectConnection, LinkViolation
 from hil.run_result import RunResult
-from protocol import hexapod, sim_link
+from protocol import sim_link
 from protocol import link_schema as ls
 from protocol.errors import UserError
 
 RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)
-
-
-def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> dict[str, Any]:
-    """The firmware/config.py overrides a checked scenario asks for (the hello's config,
-    keys from protocol/link_schema.py CONFIG)."""
-    fw, gait, bus = scenario["firmware"], scenario["gait"], scenario["bus"]
-    out: dict[str, Any] = {k: fw[k] for k in (ls.CYCLE_HZ, ls.TACTILE_ON, ls.SERVO_LOST_S,
-                                               ls.READS_PER_CYCLE) if k in fw}
-    name = gait.get("name", hexapod.DEFAULT_GAIT)
-    out[ls.GAIT] = name
-    out[ls.PERIOD_S] = gait.get(ls.PERIOD_S, hexapod.GAIT_PERIOD_S[name])
-    for key in (ls.STEP_LENGTH_M, ls.STEP_HEIGHT_M, ls.MAX_OBSTACLE_HEIGHT_M, ls.DIRECTION_DEG):
-        if key in gait:
-            out[key] = gait[key]
-    for key in (ls.FIRST_ID, ls.BAUD):
-        if key in bus:
-            out[key] = bus[key]
-    if bus.get("model", "ax-12a") != "ax-12a":
-        out[ls.PROTOCOL] = 2
-    if tactile is not None:
-        out[ls.TACTILE_ON] = tactile
-    return out
 
 
 class SwitchSampler:

@@ -72,7 +72,7 @@ class RunCore:
         self._digest = hashlib.sha256()
         self.rig = rig_mod.build(scenario, seed, world=world, ids=ids, on_fault=self._on_fault,
                                  on_bytes=self._on_bytes)
-        self.config, self.scenario, self.seed = self.rig.config, self.rig.scenario, seed
+        self.config, self.seed = self.rig.config, seed
         self.world = world
         self.clock, self.bus, self.faults = self.rig.clock, self.rig.bus, self.rig.faults
         self.can = (CanBus(self.clock, self.config.faults.can_drop_rate, seed, self._on_fault)

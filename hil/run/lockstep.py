@@ -25,7 +25,7 @@ from typing import Any, Callable
 
 from hil.link.served_firmware import ServedFirmware
 from hil.link.firmware_process import IN_PROCESS, DirectConnection, FirmwareProcess
-from hil.link.server import LinkServer, SwitchSampler, firmware_settings
+from hil.link.server import LinkServer, SwitchSampler
 from hil.run.core import RunCore, WallClockPacing
 from hil.run_result import RunResult, body_displacement
 from hil.scenario import Scenario, check_duration
@@ -80,7 +80,7 @@ class FirmwareDriver:
             in_process: InProcessFirmware | None, end_us: int, result: RunResult,
             firmware: ServedFirmware | None = None) -> None:
         core = self.core
-        server = LinkServer(self, firmware_settings(core.scenario, self._tactile),
+        server = LinkServer(self, core.config.firmware_settings(self._tactile),
                             SwitchSampler(self._levels, core.recorder), core.tick_nodes,
                             self._ground_truth)
         if in_process is not None:
@@ -157,7 +157,7 @@ class Simulator:
                             can_server=can_server, scene=scene,
                             pacing=WallClockPacing() if realtime else None)
         core = self.core
-        self.rig, self.scenario, self.seed, self.world = core.rig, core.scenario, seed, world
+        self.rig, self.seed, self.world = core.rig, seed, world
         self.clock, self.bus, self.faults = core.clock, core.bus, core.faults
         self.can, self.recorder = core.can, core.recorder
         self._stepped = world is not None and self.bus is None

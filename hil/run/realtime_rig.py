@@ -103,7 +103,7 @@ class RealTimeRig:
         """The ``--json`` summary: time served, body, faults, bus, master violations, pacing."""
         st = self.bus.stats
         out: dict[str, Any] = {
-            "scenario": self.rig.scenario["_path"], "seed": self.rig.seed,
+            "scenario": self.rig.config.path, "seed": self.rig.seed,
             "served_s": round(self.clock.t_us * 1e-6, 6),
             "bus": dict(st), "faults": dict(self.rig.faults.counts),
             "switch_edges": self._edges, "violations": self.check.summary(), "pacing": pacing,

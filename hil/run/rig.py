@@ -26,7 +26,6 @@ class Rig:
     """What a scenario builds; ``bus`` is None for a world with no servo bus (beams)."""
 
     config: scenario_mod.Scenario
-    scenario: dict[str, Any]       # ``config.data``: what the worlds and the hello read
     seed: int
     clock: VirtualClock
     world: Any
@@ -42,7 +41,7 @@ def make_world(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int) -> A
     if cfg.world.kind is None:
         return None
     from hil.world.hexapod import HexapodWorld
-    return HexapodWorld(cfg.data, seed)
+    return HexapodWorld(cfg, seed)
 
 
 def _servos(bus: scenario_mod.BusConfig, ids: Sequence[int], world: Any) -> list[Servo]:
@@ -76,15 +75,13 @@ def build(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int = 0, *, wo
           on_bytes: OnBytes | None = None) -> Rig:
     """The rig of ``scenario`` (checked here, so a hand-built dict obeys the same rules)."""
     cfg = scenario_mod.parse(scenario)
-    sc = cfg.data
     clock = VirtualClock()
     if world is not None and not hasattr(world, "actuators"):
-        return Rig(cfg, sc, seed, clock, world, None, None)   # a world without a servo bus
+        return Rig(cfg, seed, clock, world, None, None)   # a world without a servo bus
     bus_cfg = cfg.bus
-    faults = Faults.from_scenario(sc["faults"], seed, where=f"{cfg.path} [faults]",
-                                  on_fault=on_fault)
+    faults = Faults(cfg.faults, seed, on_fault=on_fault)
     line = Bus2 if bus_cfg.model == xl430.MODEL_NAME else Bus
     bus = line(_servos(bus_cfg, list(bus_cfg.ids if ids is None else ids), world), clock,
               baud=bus_cfg.baud, echo=bus_cfg.echo, faults=faults if faults.active() else None,
               on_bytes=on_bytes, advance=world.advance_to if world is not None else None)
-    return Rig(cfg, sc, seed, clock, world, bus, faults)
+    return Rig(cfg, seed, clock, world, bus, faults)

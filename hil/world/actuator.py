@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -57,9 +57,9 @@ XL430 = Motor("xl430-w250", 1.4, 57.0 * 2.0 * math.pi / 60.0, 11.1)
 MOTORS = {m.name: m for m in (AX12, XL430)}
 
 
-def motor_of(scenario: dict[str, Any]) -> Motor:
-    """The motor of a scenario's servos (``bus.model``, checked by hil/scenario.py)."""
-    return MOTORS[scenario.get("bus", {}).get("model", AX12.name)]
+def motor_of(model: str) -> Motor:
+    """The motor of a scenario's servos (``bus.model``, checked by hil/scenario)."""
+    return MOTORS[model]
 
 
 # (cw margin, ccw margin, cw slope, ccw slope, punch) in AX-12 raw units: e-manual defaults.

@@ -20,11 +20,11 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
-from typing import Any
 
 import mujoco
 import numpy as np
 
+from hil.scenario import Scenario, WorldKind
 from hil.world import actuator as act
 from hil.world import fidelity
 from hil.world import scene as scene_mod
@@ -198,26 +198,25 @@ class SwitchEvent:
 class HexapodWorld:
     """The robot and its terrain, advanced in integer virtual microseconds.
 
-    ``scenario`` is a loaded scenario (``hil.scenario.load``); its ``[world]``
-    section selects flat ground or obstacles and the ground friction.
+    ``scenario`` is a checked scenario (``hil.scenario.parse``); its ``[world]``
+    section selects flat ground or obstacles, the ground friction and the fidelity.
     """
 
-    scenario: dict[str, Any]
+    scenario: Scenario
     seed: int = 0
     params: RobotParams = field(default_factory=RobotParams)
 
     def __post_init__(self) -> None:
-        world = self.scenario.get("world", {})
-        kind = world.get("kind", "hexapod")
-        if kind != "hexapod":
-            raise UserError(f"{self.scenario.get('_path', 'scenario')}: world.kind {kind!r} "
+        world = self.scenario.world
+        if world.kind not in (None, WorldKind.HEXAPOD):
+            raise UserError(f"{self.scenario.path}: world.kind {world.kind.value!r} "
                             f"is not the hexapod world")
-        self.obstacles = terrain_mod.from_scenario(self.scenario, self.seed)
-        self.real = fidelity.from_scenario(self.scenario, self.seed, self.params.foot_friction,
-                                           len(LEGS) * len(JOINTS), len(LEGS))
-        self.motor = act.motor_of(self.scenario)
-        self.xml = mjcf(self.params, self.obstacles, world.get("friction", 1.0), self.real,
-                        self.motor)
+        self.obstacles = terrain_mod.from_scenario(world, self.seed)
+        self.motor = act.motor_of(self.scenario.bus.model)
+        self.real = fidelity.from_scenario(world, self.motor, self.seed,
+                                           self.params.foot_friction, len(LEGS) * len(JOINTS),
+                                           len(LEGS))
+        self.xml = mjcf(self.params, self.obstacles, world.friction, self.real, self.motor)
         self.model = mujoco.MjModel.from_xml_string(self.xml)
         if self.real is not None:   # this trial's foot friction (slip noise)
             for leg, mu in zip(LEGS, self.real.foot_friction):

@@ -10,7 +10,7 @@ import os
 from dataclasses import asdict
 from pathlib import Path
 
-from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
+from hil.scenario.world import OBSTACLE_BODIES, OBSTACLE_BODY
 from host_tools.cli import JSON_HELP, actions, emit, emit_json, ProgressBar
 from protocol.errors import UserError
 

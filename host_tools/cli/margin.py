@@ -21,9 +21,9 @@ def _run(args: argparse.Namespace) -> int:
     if args.jobs < 1:
         raise UserError("--jobs must be at least 1")
     case = spec.load(args.expect)
-    sc = scenario_mod.load(args.scenario)
-    case = dataclasses.replace(case, scenario=sc, name=sc["scenario"].get("name") or case.name,
-                               seed=sc["scenario"].get("seed", case.seed))
+    sc = scenario_mod.load_scenario(args.scenario)
+    case = dataclasses.replace(case, scenario=sc, name=sc.scenario.name or case.name,
+                               seed=sc.scenario.seed)
     if args.duration is not None:
         if not args.duration > 0:
             raise UserError(f"--duration must be positive, got {args.duration}")

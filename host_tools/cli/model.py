@@ -22,8 +22,8 @@ def _mjcf(args: argparse.Namespace) -> int:
     from hil.world.hexapod import RobotParams, mjcf
 
     if args.scenario:
-        sc = scenario_mod.load(args.scenario)
-        xml = make_world(sc, sc["scenario"].get("seed", 0) if args.seed is None else args.seed).xml
+        sc = scenario_mod.load_scenario(args.scenario)
+        xml = make_world(sc, sc.scenario.seed if args.seed is None else args.seed).xml
     else:
         xml = mjcf(RobotParams(), [], 1.0)
     sys.stdout.write(xml)

@@ -129,15 +129,15 @@ def _tactile(case: Case, e: Expectation, rec: Recording
              ) -> tuple[str, str, bool, float | None, float | None]:
     """H from the expectation, else the scenario's gait (the loader makes sure of one);
     l_i is the scenario's step length, else protocol/hexapod.py's."""
-    gait = case.scenario["gait"]
-    h_k = e.get("max_obstacle_height_m", gait.get("max_obstacle_height_m")) \
+    gait = case.scenario.gait
+    h_k = e.get("max_obstacle_height_m", gait.max_obstacle_height_m) \
         + steps_mod.OBSTACLE_CLEARANCE_M
-    l_k = steps_mod.STEP_FACTOR * gait.get("step_length_m", hexapod.STEP_LENGTH_M)
+    l_k = steps_mod.STEP_FACTOR * (gait.step_length_m or hexapod.STEP_LENGTH_M)
     h_tol, l_tol = e.get("h_tolerance_m"), e.get("l_tolerance_m")
     limit = f"h_k {h_k:.3f}±{h_tol:g} m, l_k {l_k:.3f}±{l_tol:g} m (Eq. 6-7)"
     joints = [(t, [j["position"] for j in m["joints"]]) for t, m in rec.on(topics.T_JOINTS)]
     times = [t for t, _ in joints]
-    direction = math.radians(gait.get("direction_deg", 0.0))
+    direction = math.radians(gait.direction_deg or 0.0)
     all_steps = [s for leg, track in enumerate(steps_mod.foot_tracks(joints))
                  for s in steps_mod.steps(times, track, leg, direction)]
     edges = [(t, m["leg"], bool(m["level"])) for t, m in rec.on(topics.T_SWITCHES)]

@@ -14,7 +14,6 @@ master waits for. Results: every point's outcomes and the first failing setting 
 """
 from __future__ import annotations
 
-import copy
 import dataclasses
 from dataclasses import dataclass
 from typing import Any, Sequence
@@ -65,7 +64,7 @@ class Margin:
 
 def _job(case: Case, python: str, settings: dict[str, float], label: str) -> CaseRun:
     """The case's run with ``settings`` applied: bus hooks, or the scenario's faults."""
-    baud = case.scenario["bus"].get("baud", 1_000_000)
+    baud = case.scenario.bus.baud
     timing = BusTiming(
         return_delay_us=int(settings["return_delay_us"]) if "return_delay_us" in settings
         else None,
@@ -74,8 +73,7 @@ def _job(case: Case, python: str, settings: dict[str, float], label: str) -> Cas
         if settings.get("baud_error_pct") else None)
     scenario = None
     if settings.get("bit_error_rate"):
-        scenario = copy.deepcopy(dict(case.scenario))
-        scenario["faults"]["bit_error_rate"] = settings["bit_error_rate"]
+        scenario = case.scenario.overlay({"faults": {"bit_error_rate": settings["bit_error_rate"]}})
     return CaseRun(case, case.seed, label, python=python, timing=timing, scenario=scenario)
 
 

@@ -101,12 +101,11 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
     def run(scenario: str | Path, seed: int | None = None, duration_s: float | None = None,
             python: str | None = None, tactile: bool | None = None,
             firmware: str | Path | None = None) -> FinishedRun:
-        sc = scenario_mod.load(scenario)
-        seed = sc["scenario"].get("seed", 0) if seed is None else seed
-        duration = duration_s or sc["scenario"].get("duration_s",
-                                                    scenario_mod.DEFAULT_DURATION_S)
+        sc = scenario_mod.load_scenario(scenario)
+        seed = sc.scenario.seed if seed is None else seed
+        duration = duration_s or sc.scenario.duration_s
         python = (python or request.config.getoption("--hexhil-python")
-                  or sc["firmware"].get("python", "micropython"))
+                  or sc.firmware.python.value)
         trace = tmp_path / f"{Path(scenario).stem}-seed{seed}-{len(traces)}.mcap"
         firmware = firmware or request.config.getoption("--hexhil-firmware")
         summary = runner.run_scenario(sc, seed, duration, python, tactile, trace,

@@ -12,6 +12,7 @@ from typing import Any, Sequence
 
 from mcap.writer import CompressionType, Writer
 
+from hil.scenario import Scenario
 from hil.servobus.master_check import MasterCheck
 from host_tools import run as run_mod
 from host_tools.expect.evaluate import Outcome, evaluate
@@ -55,7 +56,7 @@ class CaseRun:
     keep_dir: str | None = None           # keep the trace here when an expectation fails
     keep_all: bool = False                # ... or always (the pytest plugin's fixtures)
     timing: BusTiming = BusTiming()
-    scenario: dict[str, Any] | None = None  # a changed copy of the case's scenario (margin)
+    scenario: Scenario | None = None  # the case's scenario changed (margin)
 
 
 @dataclass(frozen=True)
@@ -85,7 +86,7 @@ class _Sender:
             self.run.send_can(arb_id, data)
 
 
-def run_scenario(scenario: dict[str, Any], seed: int, duration_s: float, python: str,
+def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
                  tactile: bool | None, trace: Path, timing: BusTiming = BusTiming(),
                  sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None
                  ) -> dict[str, Any]:
@@ -121,7 +122,7 @@ def run_case(job: CaseRun) -> CaseResult:
     trace = Path(tmp)
     kept = None
     try:
-        summary = run_scenario(job.scenario or dict(case.scenario), job.seed, case.duration_s,
+        summary = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
                                job.python or case.python, tactile, trace, job.timing,
                                case.sends, job.firmware or case.firmware)
         outcomes = tuple(evaluate(case, summary, trace))

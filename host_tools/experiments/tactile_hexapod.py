@@ -30,7 +30,7 @@ from host_tools.experiments.tactile_report import GAITS, markdown, plots, summar
 from hil.link.firmware_process import IN_PROCESS
 from hil.scenario import Scenario, parse
 from host_tools.runner import Run
-from hil.world.fidelity import OBSTACLE_BODY
+from hil.scenario.world import OBSTACLE_BODY
 from protocol import hexapod
 
 DENSITIES = ("low", "high")

@@ -17,7 +17,7 @@ from pathlib import Path
 from statistics import mean
 from typing import Any
 
-from hil.world.fidelity import OBSTACLE_BODY
+from hil.scenario.world import OBSTACLE_BODY
 from host_tools.grnn import data as data_mod
 from host_tools.progress import Progress
 from protocol.errors import UserError

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hil.world.fidelity import OBSTACLE_BODY
+from hil.scenario.world import OBSTACLE_BODY
 from hil.world.hexapod import yaw_rad
 from host_tools.grnn import data as data_mod
 from hil.scenario import WorldKind
@@ -37,7 +37,7 @@ def rows_from_trace(path: str | Path) -> tuple[list[StepRow], dict[str, Any]]:
     """One trace's rows and its run facts (gait, terrain, d, N, dx at the last pose)."""
     with Trace(path) as tr:
         sc, seed = scenario_of_trace(tr.metadata(), str(tr.path))
-        gait, kind, world = sc.gait, sc.world.kind, sc.data["world"]
+        gait, kind, world = sc.gait, sc.world.kind, sc.world
         name, period_s, distance_m = gait.name, gait.period_s, gait.distance_m or 0.0
         if kind is not WorldKind.HEXAPOD or not distance_m > 0:
             raise UserError(f"{tr.path}: not a hexapod walk to a goal (world.kind "
@@ -72,8 +72,10 @@ def rows_from_trace(path: str | Path) -> tuple[list[StepRow], dict[str, Any]]:
     if first is None or last is None:
         raise UserError(f"{path}: no ground-truth samples on {T_BODY}")
     x_end = last[1] - first[1]
-    facts = {"terrain_seed": world.get("terrain_seed", seed), "gait": name,
-             "density": world.get("density", ""), "height_class": world.get("height_class", ""),
+    generated = world.terrain == "obstacles" and world.obstacles is None
+    facts = {"terrain_seed": seed if world.terrain_seed is None else world.terrain_seed,
+             "gait": name, "density": world.density if generated else "",
+             "height_class": world.height_class if generated else "",
              "distance_m": distance_m, "periods": max(1, round(end_s / period_s)),
              "dx_m": distance_m - x_end, "x_end_m": x_end, "model_dx_m": math.nan,
              "source": str(path)}
