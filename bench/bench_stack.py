@@ -118,7 +118,7 @@ def breakdown(record: bool = True, in_process: bool = False) -> dict[str, float]
     parts["total"] = total
     cycles = max(1, r.cycles)
     out = {k: v / cycles * 1e6 for k, v in parts.items()}
-    compute = out[wait] if in_process else r.firmware.get("compute_us_mean", 0.0)
+    compute = out[wait] if in_process else r.firmware.compute_us_mean or 0.0
     if not in_process:
         out["firmware compute (overlaps)"] = compute
     out[OVERHEAD] = 100.0 * (out["total"] - out["world step"] - compute) / out["total"]

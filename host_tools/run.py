@@ -9,7 +9,6 @@ from hil import scenario as scenario_mod
 from hil.run_result import RunResult
 from hil.scenario import Scenario, WorldKind
 from host_tools.runner import Run
-from protocol import link_schema as ls
 from protocol.errors import UserError
 
 CAN_WAIT_TIMEOUT_S = 60.0
@@ -20,7 +19,8 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
             trace: str | None) -> dict[str, Any]:
     """The ``--json`` object of a firmware run (keys fixed by issue 4)."""
     wall = result.wall_time_s
-    stopped = result.firmware.get(ls.STATE) in ("safe_stop", "fault")
+    fw = result.firmware
+    stopped = fw.state in ("safe_stop", "fault")
     return {
         "scenario": scenario.name,
         "seed": seed,
@@ -28,7 +28,7 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
         "sim_time_s": round(result.sim_time_s, 6),
         "wall_time_s": round(wall, 3),
         "real_time_factor": round(result.sim_time_s / wall, 2) if wall > 0 else None,
-        "boot_s": round(result.firmware.get(ls.BOOT_S, 0.0), 6),
+        "boot_s": round(fw.boot_s, 6),
         "cycles": result.cycles,
         "overruns": result.overruns,
         "unhandled_exceptions": result.unhandled_exceptions,
@@ -36,13 +36,13 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
         "faults": dict(sorted(result.faults.items())),
         "stopped_safely": stopped and result.stop_reason is not None,
         "stop_reason": result.stop_reason,
-        "body": {k: round(v, 4) for k, v in result.body.items()},
-        "commanded_distance_m": round(result.firmware.get(ls.COMMANDED_DISTANCE_M, 0.0), 4),
+        "body": {k: round(v, 4) for k, v in result.body.as_dict().items()},
+        "commanded_distance_m": round(fw.commanded_distance_m, 4),
         "trace": trace,
-        "state": result.firmware.get(ls.STATE),
+        "state": fw.state,
         "switch_edges": result.switch_edges,
-        "trajectory_changes": result.firmware.get(ls.TRAJECTORY_CHANGES, 0),
-        "steps": result.firmware.get(ls.STEPS, 0),
+        "trajectory_changes": fw.trajectory_changes,
+        "steps": fw.steps,
         "bus_time_per_cycle_us": round(result.bus_busy_us / result.loop_cycles, 1)
         if result.loop_cycles else None,
         "bus_wire_min_per_cycle_us": round(result.bus_wire_us / result.loop_cycles, 1)
@@ -74,7 +74,7 @@ def _beams_summary(sc: Scenario, seed: int, result: RunResult,
          "sim_time_s": round(result.sim_time_s, 6), "wall_time_s": round(wall, 3),
          "real_time_factor": round(result.sim_time_s / wall, 2) if wall > 0 else None,
          "trace": trace}
-    s.update(result.world)
+    s.update(result.host_nodes)
     return s
 
 
@@ -134,7 +134,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     s = summary(sc, seed, result, out)
     if nav is not None:
         s["navigator"] = {"kind": navigator, **nav.summary(),
-                          "goal_dx_m": round(nav.distance_m - result.body.get("dx_m", 0.0), 4)}
+                          "goal_dx_m": round(nav.distance_m - result.body.dx_m, 4)}
     return s, result
 
 

@@ -161,7 +161,7 @@ class Run:
                               scene=self.recorder is not None, realtime=self._realtime,
                               scenario=self.scenario)
         return RunResult(NO_RUNTIME, sim_time_s=out["t_end_s"],
-                         wall_time_s=time.perf_counter() - wall0, world=out)
+                         wall_time_s=time.perf_counter() - wall0, host_nodes=out)
 
     def close(self) -> None:
         """Close the trace (complete as far as the run went), then the live server."""

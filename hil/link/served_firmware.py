@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any, Callable, Protocol
 
 from hil.link.firmware_process import ROOT, FirmwareProcess, firmware_command, firmware_env
-from hil.run_result import RunResult
+from hil.run_result import RunTally
 from protocol import sim_link
 from protocol.errors import UserError
 
@@ -46,7 +46,7 @@ class ServedFirmware(Protocol):
     def env(self) -> dict[str, str]:
         """What its environment needs beyond the link's."""
 
-    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+    def serve(self, server: Any, end_us: int, result: RunTally) -> None:
         """Start it, answer its link with ``server`` (hil/link/server.py) to the end."""
 
 
@@ -81,7 +81,7 @@ class BoardFirmware:
         return {"MICROPYPATH": f"{BOARD_DIR}:" + firmware_env(0)["MICROPYPATH"],
                 sim_link.ENV_BOARD: sim_link.BOARD_NAME}
 
-    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+    def serve(self, server: Any, end_us: int, result: RunTally) -> None:
         """The console's ``event KIND TEXT`` lines (hal/base.py ``Board.event``) are its
         events."""
         def take_console(printed: str) -> None:
@@ -104,7 +104,7 @@ class ExecutableFirmware:
     def env(self) -> dict[str, str]:
         return {}
 
-    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+    def serve(self, server: Any, end_us: int, result: RunTally) -> None:
         serve_process(self, self.path.name, server, end_us, result)
 
 
@@ -118,7 +118,7 @@ def _how(code: int) -> str:
 
 
 def serve_process(firmware: ServedFirmware, name: str, server: Any, end_us: int,
-                  result: RunResult, take_console: Callable[[str], None] | None = None
+                  result: RunTally, take_console: Callable[[str], None] | None = None
                   ) -> None:
     """Start ``firmware``, serve its link to ``end_us`` and judge how it ended, in one
     line (``UserError``). Its stdout goes to a file: a firmware that prints a lot never

@@ -27,7 +27,7 @@ from hil.link.served_firmware import ServedFirmware
 from hil.link.firmware_process import IN_PROCESS, DirectConnection, FirmwareProcess
 from hil.link.server import LinkServer, SwitchSampler
 from hil.run.core import RunCore, WallClockPacing
-from hil.run_result import RunResult, body_displacement
+from hil.run_result import BodyDisplacement, RunResult, RunTally
 from hil.scenario import Scenario, check_duration
 from hil.seams import FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
 from protocol import link_schema as ls
@@ -41,18 +41,12 @@ DETECTED_COUNTERS = (ls.TIMEOUTS, ls.CORRUPT_REPLIES, ls.ERROR_STATUSES, ls.ECHO
                      ls.OVERRUNS)
 
 
-def _firmware_counters(result: RunResult) -> None:
-    """The run's cycle, overrun and stop figures and detected faults from the firmware's
-    last stats event (``result.firmware``)."""
-    stats = result.firmware
-    result.cycles = int(stats.get(ls.CYCLES, 0))
-    result.overruns = int(stats.get(ls.OVERRUNS, 0))
-    if result.stop_reason is None:
-        result.stop_reason = stats.get(ls.STOP_REASON)
+def _detected_faults(tally: RunTally) -> None:
+    """The faults the firmware detected, from its last stats event, as the run's faults."""
     for key in DETECTED_COUNTERS:
-        v = stats.get(key, 0)
+        v = tally.firmware.get(key, 0)
         if v:
-            result.faults["detected_" + key] = v
+            tally.faults["detected_" + key] = v
 
 
 class FirmwareDriver:
@@ -77,7 +71,7 @@ class FirmwareDriver:
         return 0
 
     def run(self, python: str, command: list[str] | None,
-            in_process: InProcessFirmware | None, end_us: int, result: RunResult,
+            in_process: InProcessFirmware | None, end_us: int, result: RunTally,
             firmware: ServedFirmware | None = None) -> None:
         core = self.core
         server = LinkServer(self, core.config.firmware_settings(self._tactile),
@@ -99,9 +93,9 @@ class FirmwareDriver:
             result.exit_code = code
             result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
         result.serial_digest = core.serial_digest
-        _firmware_counters(result)
+        _detected_faults(result)
         if self._pose0 is not None:
-            result.body = body_displacement(self._pose0, core.world.body_pose())
+            result.body = BodyDisplacement.between(self._pose0, core.world.body_pose())
 
     def _ground_truth(self) -> None:
         """Body pose, joints, scene and servo states to the recorder at 10 Hz of virtual time."""
@@ -126,7 +120,7 @@ class SteppedDriver:
         self.core = core
         core.world.attach(core.can)
 
-    def run(self, end_us: int, result: RunResult) -> None:
+    def run(self, end_us: int, result: RunTally) -> None:
         core = self.core
         world, rec = core.world, core.recorder
         while True:
@@ -193,7 +187,7 @@ class Simulator:
         if firmware is not None:
             python = firmware.runtime
         end_us = int(round(duration_s * 1e6))
-        result = RunResult(runtime="none" if self._stepped else python)
+        result = RunTally(runtime="none" if self._stepped else python)
         wall0 = time.perf_counter()
         try:
             if isinstance(self.driver, SteppedDriver):
@@ -208,4 +202,4 @@ class Simulator:
             result.faults.update(self.faults.counts)
         if self.can.dropped:
             result.faults["can_drop"] = self.can.dropped
-        return result
+        return result.result()

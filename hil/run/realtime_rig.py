@@ -16,7 +16,7 @@ from hil.run import rig as rig_mod
 from hil import scenario as scenario_mod
 from hil.servobus.master_check import MasterCheck
 from hil.run.core import RunCore
-from hil.run_result import body_displacement
+from hil.run_result import BodyDisplacement
 from hil.servobus.switch_node import DEFAULT_ID, SensorNode
 from protocol import can_frames as cf
 from protocol.errors import UserError
@@ -111,7 +111,7 @@ class RealTimeRig:
             {"id": self.node.id, "instructions": self.node.instructions}}
         if self.world is not None:
             out["body"] = {k: round(v, 6) for k, v in
-                           body_displacement(self._pose0, self.world.body_pose()).items()}
+                           BodyDisplacement.between(self._pose0, self.world.body_pose()).as_dict().items()}
             out["world_s"] = self.world.t_us * 1e-6
         return out
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, NamedTuple
 
-from hil.run_result import body_displacement
+from hil.run_result import BodyDisplacement
 from host_tools.expect import steps as steps_mod
 from host_tools.expect.spec import Case, Expectation, Kind, Range, Stat
 from host_tools.trace import topics
@@ -108,7 +108,7 @@ def _body(e: Expectation, rec: Recording) -> tuple[str, str, bool, float | None,
         return "no /body samples", "", False, None, None
     t0, t1 = _window(e, rec)
     p0, p1 = _pose_at(poses, t0), _pose_at(poses, t1)
-    d = body_displacement(p0, p1)
+    d = BodyDisplacement.between(p0, p1).as_dict()
     dt = max(p1.t_s - p0.t_s, 1e-9)
     if e.kind is Kind.DISPLACEMENT:
         values = d

@@ -51,10 +51,10 @@ def run(cfg: RunConfig, recorder: Any = None, geometry: BodyGeometry = PAPER_BOD
     out = {
         "strategy": cfg.strategy, "k1": cfg.k1, "k2": cfg.k2, "hb1_mm": cfg.hb1_m * 1e3,
         "hb2_mm": cfg.hb2_m * 1e3, "fx_n": cfg.fx_n, "noise": cfg.noise, "delay_ms": cfg.delay_ms,
-        "seed": cfg.seed, "traversed": w["traversed"], "flipped": w["flipped"], "stuck": w["stuck"],
-        "mode": plan.plan.mode if plan.plan else "none", "energy_J": w["energy_J"], "k0": w["k0"],
-        "t_contact_s": w["t_contact_s"], "t_end_s": w["t_end_s"], "x_end_m": w["x_end_m"],
-        "max_roll_deg": w["max_roll_deg"], "max_pitch_deg": w["max_pitch_deg"],
+        "seed": cfg.seed, "traversed": w.traversed, "flipped": w.flipped, "stuck": w.stuck,
+        "mode": plan.plan.mode if plan.plan else "none", "energy_J": w.energy_J, "k0": w.k0,
+        "t_contact_s": w.t_contact_s, "t_end_s": w.t_end_s, "x_end_m": w.x_end_m,
+        "max_roll_deg": w.max_roll_deg, "max_pitch_deg": w.max_pitch_deg,
         "force_samples": len(plan.samples),
     }
     if plan.start_pose is not None:
