@@ -3,12 +3,11 @@ recorder and the link's host side must offer (hil/run/core.py, hil/run/lockstep.
 hil/link/). Anything with these methods plugs in; nothing needs to inherit from them."""
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence, runtime_checkable
+from typing import TYPE_CHECKING, Any, Iterator, Mapping, Protocol, Sequence, runtime_checkable
 
 if TYPE_CHECKING:
     import can
 
-    from hil.canbus.bus import CanBus
     from hil.clock import VirtualClock
     from hil.run_result import BeamsOutcome, RunTally
 
@@ -42,6 +41,19 @@ class Actuator(Protocol):
         """Move to virtual time t_us (kinematic model only; physics steps itself)."""
 
 
+class CanPort(Protocol):
+    """A node's port on the run's CAN bus (hil/canbus/bus.py ``Endpoint``)."""
+
+    def send(self, arb_id: int, data: bytes) -> None: ...
+    def frames(self, limit: int = -1) -> Iterator["can.Message"]: ...
+
+
+class CanHub(Protocol):
+    """The run's CAN bus as a node attaches to it (hil/canbus/bus.py ``CanBus``)."""
+
+    def endpoint(self, direction: str) -> CanPort: ...
+
+
 class CanGateway(Protocol):
     """A way in and out of the run's CAN bus for programs outside it (hil/canbus/socketcand.py
     ``CanServer``): it hears every frame, and ``poll`` hands over what came in since."""
@@ -51,13 +63,21 @@ class CanGateway(Protocol):
 
 
 class ServoLine(Protocol):
-    """The timing hooks of a simulated servo line (hil/servobus/line.py ``Bus``, ``Bus2``) that
-    a timing-margin run turns."""
+    """A simulated servo line (hil/servobus/line.py ``Bus``, ``Bus2``) as its master's side
+    sees it: bytes written and read in virtual time, and the timing hooks a timing-margin
+    run turns."""
 
     return_delay_override_us: int | None
     rx_latency_us: int
+    baud: int
 
     def set_master_baud(self, baud: int) -> None: ...
+    def master_write(self, data: bytes) -> None: ...
+    def master_read(self, n: int, timeout_us: int) -> bytes: ...
+    def master_discard(self) -> int: ...
+    def next_bytes(self) -> tuple[int | None, int]: ...
+    def idle_until(self, t_us: int) -> None: ...
+    def wire_us(self, nbytes: int) -> int: ...
 
 
 class LinkHost(Protocol):
@@ -66,6 +86,7 @@ class LinkHost(Protocol):
     board's sleeps, and ``serve`` for a connection."""
 
     clock: "VirtualClock"
+    bus: ServoLine
 
     def serve(self, conn: Any, end_us: int, result: "RunTally") -> None: ...
     def take_event(self, kind: int, text: str, result: "RunTally") -> None: ...
@@ -101,7 +122,7 @@ class SteppedWorld(Protocol):
 
     @property
     def t_us(self) -> int: ...
-    def attach(self, can: "CanBus") -> None: ...
+    def attach(self, can: CanHub) -> None: ...
     def step(self) -> None: ...
     def done(self) -> bool: ...
     def outcome(self) -> "BeamsOutcome": ...

@@ -16,7 +16,8 @@ from typing import Any, Callable, Sequence, Union
 from hil import scenario as scenario_mod
 from hil.servobus import serial_server
 from hil.run.realtime_rig import RealTimeRig
-from hil.scenario import DEFAULT_BAUD
+from hil.scenario import DEFAULT_BAUD, Scenario
+from hil.seams import CanGateway
 from hil.servobus.switch_node import DEFAULT_ID
 from host_tools.runner import trace_metadata
 from protocol.errors import UserError
@@ -54,9 +55,9 @@ class RealTimeRun:
     the bus (None: none); ``duration_s`` ends it (None: until interrupted); ``verbose``
     receives a line for each injected fault and master mistake."""
 
-    def __init__(self, scenario: Any, seed: int, *, world: bool = False,
+    def __init__(self, scenario: Scenario | dict[str, Any], seed: int, *, world: bool = False,
                  ids: Sequence[int] | None = None, trace: str | None = None,
-                 can_server: Any = None, sensor_id: int | None = DEFAULT_ID,
+                 can_server: CanGateway | None = None, sensor_id: int | None = DEFAULT_ID,
                  duration_s: float | None = None,
                  verbose: Callable[[str], None] | None = None) -> None:
         sc = scenario_mod.parse(scenario)

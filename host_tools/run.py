@@ -6,6 +6,7 @@ import logging
 from typing import Any, Callable
 
 from hil import scenario as scenario_mod
+from hil.canbus.socketcand import CanServer
 from hil.run_result import RunResult
 from hil.scenario import Scenario, WorldKind
 from host_tools.runner import Run
@@ -50,9 +51,7 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
     }
 
 
-def start_can_server(port: int, wait_clients: int) -> Any:
-    from hil.canbus.socketcand import CanServer
-
+def start_can_server(port: int, wait_clients: int) -> CanServer:
     try:
         server = CanServer(port=port)
     except OSError as exc:

@@ -16,11 +16,11 @@ from pathlib import Path
 from typing import Any
 
 from hil import scenario as scenario_mod
-from hil.canbus.bus import Endpoint
+from hil.canbus.bus import CanBus, Endpoint
 from hil.run.rig import make_world
 from hil.run_result import RunResult
 from hil.scenario import Runtime, Scenario, WorldKind
-from hil.seams import HostNode, TraceRecorder
+from hil.seams import CanGateway, HostNode, TraceRecorder
 from hil.link.served_firmware import served_firmware
 from hil.run.lockstep import Simulator
 from protocol.errors import UserError
@@ -65,7 +65,7 @@ class Run:
                  seed: int | None = None,
                  runtime: Runtime | str | None = None, duration_s: float | None = None,
                  tactile: bool | None = None, trace: str | Path | None = None,
-                 live_port: int | None = None, can_server: Any = None,
+                 live_port: int | None = None, can_server: CanGateway | None = None,
                  realtime: bool = False, firmware: str | Path | None = None) -> None:
         # a firmware of the user's (hil/link/served_firmware.py) is checked before anything opens
         self.firmware = served_firmware(firmware) if firmware is not None else None
@@ -125,7 +125,7 @@ class Run:
         return self._firmware_sim().can.endpoint("rx")
 
     @property
-    def can(self) -> Any:
+    def can(self) -> CanBus:
         """The run's CAN bus (hil/canbus/bus.py)."""
         return self._firmware_sim().can
 

@@ -15,6 +15,7 @@ from typing import Any
 
 from hil.link.firmware_process import LinkViolation
 from hil.run_result import RunTally
+from hil.seams import LinkHost
 from protocol import sim_link
 
 HANG_S = 2.0          # virtual seconds without a UART write, pin turn or sleep: a hang
@@ -27,7 +28,7 @@ class BoardLine:
     """The board's UART and direction line, served for one link (``server``: the
     hil/link/server.py ``LinkServer`` whose bus, clock, switches and hooks it uses)."""
 
-    def __init__(self, server: Any) -> None:
+    def __init__(self, server: LinkHost) -> None:
         self.server = server
         self.bus, self.clock = server.bus, server.clock
         self.tx_on = False

@@ -24,6 +24,7 @@ from typing import Any, Callable, Protocol
 
 from hil.link.firmware_process import ROOT, FirmwareProcess, firmware_command, firmware_env
 from hil.run_result import RunTally
+from hil.seams import LinkHost
 from protocol import sim_link
 from protocol.errors import UserError
 
@@ -46,7 +47,7 @@ class ServedFirmware(Protocol):
     def env(self) -> dict[str, str]:
         """What its environment needs beyond the link's."""
 
-    def serve(self, server: Any, end_us: int, result: RunTally) -> None:
+    def serve(self, server: LinkHost, end_us: int, result: RunTally) -> None:
         """Start it, answer its link with ``server`` (hil/link/server.py) to the end."""
 
 
@@ -81,7 +82,7 @@ class BoardFirmware:
         return {"MICROPYPATH": f"{BOARD_DIR}:" + firmware_env(0)["MICROPYPATH"],
                 sim_link.ENV_BOARD: sim_link.BOARD_NAME}
 
-    def serve(self, server: Any, end_us: int, result: RunTally) -> None:
+    def serve(self, server: LinkHost, end_us: int, result: RunTally) -> None:
         """The console's ``event KIND TEXT`` lines (hal/base.py ``Board.event``) are its
         events."""
         def take_console(printed: str) -> None:
@@ -104,7 +105,7 @@ class ExecutableFirmware:
     def env(self) -> dict[str, str]:
         return {}
 
-    def serve(self, server: Any, end_us: int, result: RunTally) -> None:
+    def serve(self, server: LinkHost, end_us: int, result: RunTally) -> None:
         serve_process(self, self.path.name, server, end_us, result)
 
 
@@ -117,7 +118,7 @@ def _how(code: int) -> str:
     return f"exit {code}"
 
 
-def serve_process(firmware: ServedFirmware, name: str, server: Any, end_us: int,
+def serve_process(firmware: ServedFirmware, name: str, server: LinkHost, end_us: int,
                   result: RunTally, take_console: Callable[[str], None] | None = None
                   ) -> None:
     """Start ``firmware``, serve its link to ``end_us`` and judge how it ended, in one

@@ -15,6 +15,7 @@ from hil.link.board_line import MISTAKES, BoardLine
 from hil.canbus.bus import CanBus
 from hil.link.firmware_process import Connection, DirectConnection, LinkViolation
 from hil.run_result import RunTally
+from hil.seams import TraceRecorder
 from protocol import sim_link
 from protocol import link_schema as ls
 from protocol.errors import UserError
@@ -25,7 +26,7 @@ RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wai
 class SwitchSampler:
     """The six limit-switch levels at each sleep; edges go to the result and the recorder."""
 
-    def __init__(self, levels: Callable[[int], int], recorder: Any) -> None:
+    def __init__(self, levels: Callable[[int], int], recorder: TraceRecorder | None) -> None:
         self.levels, self.recorder = levels, recorder
         self.bits = 0
 

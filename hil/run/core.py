@@ -18,7 +18,7 @@ from hil.run import rig as rig_mod
 from hil.canbus.bus import CanBus, RecorderListener
 from hil.run.ground_truth import GroundTruth
 from hil.scenario import Scenario
-from hil.seams import FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
+from hil.seams import CanGateway, FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
 from hil.servobus.ax12_servo import Servo
 from hil.servobus.xl430_servo import XL430Servo
 
@@ -62,7 +62,7 @@ class RunCore:
 
     def __init__(self, scenario: dict[str, Any] | Scenario, seed: int = 0, *,
                  world: FirmwareWorld | SteppedWorld | None = None,
-                 recorder: TraceRecorder | None = None, can_server: Any = None,
+                 recorder: TraceRecorder | None = None, can_server: CanGateway | None = None,
                  scene: bool = False, pacing: Pacing | None = None,
                  ids: Sequence[int] | None = None, on_fault: OnFault | None = None,
                  can_faults: bool = True) -> None:

@@ -29,7 +29,7 @@ from hil.link.server import LinkServer, SwitchSampler
 from hil.run.core import RunCore, WallClockPacing
 from hil.run_result import BodyDisplacement, RunResult, RunTally
 from hil.scenario import Scenario, check_duration
-from hil.seams import FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
+from hil.seams import CanGateway, FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
 from protocol import link_schema as ls
 
 BODY_SAMPLE_US = 100_000  # ground truth and servo state to the recorder at 10 Hz
@@ -145,7 +145,7 @@ class Simulator:
                  world: FirmwareWorld | SteppedWorld | None = None,
                  recorder: TraceRecorder | None = None,
                  switches: Callable[[int], int] | None = None,
-                 tactile: bool | None = None, can_server: Any = None, scene: bool = False,
+                 tactile: bool | None = None, can_server: CanGateway | None = None, scene: bool = False,
                  realtime: bool = False) -> None:
         self.core = RunCore(scenario, seed, world=world, recorder=recorder,
                             can_server=can_server, scene=scene,

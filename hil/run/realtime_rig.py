@@ -10,12 +10,14 @@ hil/servobus/serial_server.py paces it to the wall clock and calls ``tick`` afte
 """
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from hil.run import rig as rig_mod
 from hil import scenario as scenario_mod
 from hil.servobus.master_check import MasterCheck
 from hil.run.core import RunCore
+from hil.scenario import Scenario
+from hil.seams import CanGateway, TraceRecorder
 from hil.run_result import BodyDisplacement
 from hil.servobus.switch_node import DEFAULT_ID, SensorNode
 from protocol import can_frames as cf
@@ -27,10 +29,10 @@ SAMPLE_US = 100_000        # ground truth, servo states and the CAN switches fra
 class RealTimeRig:
     """Builds the rig with its extras; ``tick(t_us)`` samples, ``summary()`` reports."""
 
-    def __init__(self, scenario: dict[str, Any], seed: int, *, world: bool = False,
-                 ids: Sequence[int] | None = None, recorder: Any = None,
-                 can_server: Any = None, sensor_id: int | None = DEFAULT_ID,
-                 verbose: Any = None, scene: bool = True) -> None:
+    def __init__(self, scenario: Scenario | dict[str, Any], seed: int, *, world: bool = False,
+                 ids: Sequence[int] | None = None, recorder: TraceRecorder | None = None,
+                 can_server: CanGateway | None = None, sensor_id: int | None = DEFAULT_ID,
+                 verbose: Callable[[str], None] | None = None, scene: bool = True) -> None:
         self.recorder, self.verbose = recorder, verbose
         sc = scenario_mod.parse(scenario)
         w = rig_mod.make_world(sc, seed) if world else None

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 from hil import scenario as scenario_mod
+from hil.seams import FirmwareWorld, SteppedWorld
 from hil.servobus.line import Bus, OnBytes
 from hil.servobus.bus2 import Bus2
 from hil.clock import VirtualClock
@@ -28,12 +29,13 @@ class Rig:
     config: scenario_mod.Scenario
     seed: int
     clock: VirtualClock
-    world: Any
+    world: FirmwareWorld | SteppedWorld | None
     bus: Bus | None
     faults: Faults | None
 
 
-def make_world(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int) -> Any:
+def make_world(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int
+               ) -> FirmwareWorld | None:
     """The hexapod world of a scenario's ``[world]``, or None (kinematic servos); the hexapod
     world refuses another kind. Seed 000's beams world is built with its host nodes
     (host_tools/traversal/closed_loop.py)."""
@@ -44,7 +46,8 @@ def make_world(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int) -> A
     return HexapodWorld(cfg, seed)
 
 
-def _servos(bus: scenario_mod.BusConfig, ids: Sequence[int], world: Any) -> list[Servo]:
+def _servos(bus: scenario_mod.BusConfig, ids: Sequence[int], world: FirmwareWorld | None
+            ) -> list[Servo | XL430Servo]:
     actuators = world.actuators() if world is not None else []
     servos: list = []
     for k, dev_id in enumerate(ids):
@@ -70,7 +73,8 @@ def _servos(bus: scenario_mod.BusConfig, ids: Sequence[int], world: Any) -> list
     return servos
 
 
-def build(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int = 0, *, world: Any = None,
+def build(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int = 0, *,
+          world: FirmwareWorld | SteppedWorld | None = None,
           ids: Sequence[int] | None = None, on_fault: OnFault | None = None,
           on_bytes: OnBytes | None = None) -> Rig:
     """The rig of ``scenario`` (checked here, so a hand-built dict obeys the same rules)."""

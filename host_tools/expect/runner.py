@@ -13,6 +13,7 @@ from typing import Any, Sequence
 from mcap.writer import CompressionType, Writer
 
 from hil.scenario import Scenario
+from hil.seams import ServoLine
 from hil.servobus.master_check import MasterCheck
 from host_tools import run as run_mod
 from host_tools.expect.evaluate import Outcome, evaluate
@@ -36,7 +37,7 @@ class BusTiming:
     adapter_latency_us: int = 0          # before the master sees a received byte
     master_baud: int | None = None       # the master UART's true rate (None: the scenario's)
 
-    def apply(self, bus: Any) -> None:
+    def apply(self, bus: ServoLine) -> None:
         bus.return_delay_override_us = self.return_delay_us
         bus.rx_latency_us = self.adapter_latency_us
         if self.master_baud is not None:
