@@ -1,6 +1,6 @@
 """What a lockstep run produced. During the run the link's host side and the drivers add into
 a ``RunTally`` (hil/link/server.py, hil/run/lockstep.py); when it ends, ``RunTally.result()``
-freezes it into the public ``RunResult`` (host_tools/run.py turns that into the ``--json``
+freezes it into the public ``RunResult`` (host_tools/run_summary.py turns that into the ``--json``
 summary). Below hil/link/ and hil/run/, so no arrow runs back up."""
 from __future__ import annotations
 

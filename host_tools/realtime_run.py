@@ -3,7 +3,7 @@ scenario's emulated servos, and with ``world`` its robot, paced to the wall cloc
 serial line: a real board behind a USB adapter (``SerialPort``), a client on a pty
 (``Pty``, e.g. the stock dynamixel-sdk) or a TCP socket (``Tcp``).
 
-It is ``Run``'s counterpart (host_tools/runner.py): the same run core (hil/run/realtime_rig.py
+It is ``Run``'s counterpart (host_tools/lockstep_run.py): the same run core (hil/run/realtime_rig.py
 on hil/run/core.py) and a trace with the same metadata, the scenario's data included, so
 ``hexhil test --trace`` and ``scenario_of_trace`` read it like a lockstep run's. The trace's
 ``command`` is ``bus`` (nothing spoke the firmware link).
@@ -19,7 +19,7 @@ from hil.run.realtime_rig import RealTimeRig
 from hil.scenario import DEFAULT_BAUD, Scenario
 from hil.seams import CanGateway
 from hil.servobus.switch_node import DEFAULT_ID
-from host_tools.runner import trace_metadata
+from host_tools.lockstep_run import trace_metadata
 from protocol.errors import UserError
 
 EXTERNAL = "external"        # a run's firmware_runtime: the master on the line is not ours

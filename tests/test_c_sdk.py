@@ -16,7 +16,7 @@ from hil.link.firmware_process import firmware_env
 from hil.link.client_conformance import SESSIONS, run_suite
 from host_tools import c_sdk
 from host_tools.replay import replay_firmware
-from host_tools.run import run
+from host_tools.run_summary import run
 from host_tools.trace.reader import info
 from protocol.errors import UserError
 

@@ -1,10 +1,10 @@
 """The tactile-hexapod experiment: scenarios, plan, executor, and (with the Simulator) runs."""
 import pytest
 
-from host_tools.experiments import tactile_hexapod as th
-from host_tools.experiments.executor import Executor
+from host_tools.papers.tactile_hexapod import experiment as th
+from host_tools.executor import Executor
 from protocol.errors import UserError
-from hil.world.hexapod import HexapodWorld
+from hil.world.hexapod_world import HexapodWorld
 
 
 def _square(x):

@@ -162,7 +162,7 @@ def test_can_heading_turns_the_walk_at_each_legs_next_lift_off():
     """``heading_command`` (the navigator's correction) sets Eq. 2-3's epsilon; a +0.3 rad
     heading walks the body to the left of the straight walk on the same ground."""
     from hil.scenario import parse
-    from hil.world.hexapod import HexapodWorld
+    from hil.world.hexapod_world import HexapodWorld
 
     def walk(heading_rad: float | None):
         sc = parse({"scenario": {"name": "heading"}, "gait": {"name": "tripod"},

@@ -11,7 +11,7 @@ from hil.link.firmware_process import IN_PROCESS
 from hil.run.rig import make_world
 from hil.scenario import SCHEMA, load_scenario
 from hil.run.lockstep import Simulator
-from host_tools.experiments import tactile_hexapod as th
+from host_tools.papers.tactile_hexapod import experiment as th
 from host_tools.in_process import run_firmware
 
 from mpy import ROOT

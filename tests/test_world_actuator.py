@@ -6,7 +6,7 @@ import pytest
 
 from hil.world import actuator as act
 from hil.scenario import parse
-from hil.world.hexapod import HexapodWorld
+from hil.world.hexapod_world import HexapodWorld
 
 UNIT = act.POSITION_UNIT_RAD
 

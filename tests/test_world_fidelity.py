@@ -4,7 +4,7 @@ import math
 import pytest
 
 from hil.scenario import parse
-from hil.world.hexapod import HexapodWorld
+from hil.world.hexapod_world import HexapodWorld
 from protocol.errors import UserError
 
 

@@ -5,7 +5,7 @@ import pytest
 
 from hil.scenario import parse
 from hil.world import actuator as act
-from hil.world.hexapod import LEGS, HexapodWorld, RobotParams
+from hil.world.hexapod_world import LEGS, HexapodWorld, RobotParams
 from hil.world.switches import SwitchBank
 from protocol import hexapod as kin
 

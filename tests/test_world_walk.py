@@ -10,7 +10,7 @@ import pytest
 from firmware import gait as gait_mod
 from firmware import trajectory as traj
 from hil.scenario import parse
-from hil.world.hexapod import HexapodWorld
+from hil.world.hexapod_world import HexapodWorld
 from protocol import hexapod as kin
 
 CYCLE_US = 20_000  # the firmware's 50 Hz loop

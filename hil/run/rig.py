@@ -38,11 +38,11 @@ def make_world(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int
                ) -> FirmwareWorld | None:
     """The hexapod world of a scenario's ``[world]``, or None (kinematic servos); the hexapod
     world refuses another kind. Seed 000's beams world is built with its host nodes
-    (host_tools/traversal/closed_loop.py)."""
+    (host_tools/papers/beam_traversal/beams_run.py)."""
     cfg = scenario_mod.parse(scenario)
     if cfg.world.kind is None:
         return None
-    from hil.world.hexapod import HexapodWorld
+    from hil.world.hexapod_world import HexapodWorld
     return HexapodWorld(cfg, seed)
 
 

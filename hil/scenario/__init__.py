@@ -14,13 +14,13 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from hil.scenario.beams import BeamsConfig, TraversalConfig
-from hil.scenario.faults import FaultEntry, FaultKind, FaultsConfig
-from hil.scenario.schema import SCHEMA, check_table, optional
+from hil.scenario.faults_section import FaultEntry, FaultKind, FaultsConfig
+from hil.scenario.rules import SCHEMA, check_table, optional
 from hil.scenario.sections import (BAUD_TOLERANCE, DEFAULT_BAUD, DEFAULT_DURATION_S, GAITS,
                                    MAX_DURATION_S, RETURN_DELAY_MAX_US, BusConfig, FirmwareConfig,
                                    GaitConfig, Runtime, ScenarioInfo, baud_register,
                                    check_duration)
-from hil.scenario.world import Obstacle, WorldConfig, WorldKind
+from hil.scenario.world_section import Obstacle, WorldConfig, WorldKind
 from protocol import link_schema as ls
 from protocol.errors import UserError
 

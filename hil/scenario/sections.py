@@ -13,7 +13,7 @@ from enum import Enum
 from typing import Any
 
 from hil.servobus.ax12_servo import EEPROM_BUSY_US
-from hil.scenario.schema import at_least, positive
+from hil.scenario.rules import at_least, positive
 from protocol import hexapod
 from protocol.dynamixel import ax12
 from protocol.dynamixel import xl430

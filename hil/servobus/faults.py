@@ -1,4 +1,4 @@
-"""Fault injection on the servo bus, from a scenario's ``[faults]`` (hil/scenario/faults.py:
+"""Fault injection on the servo bus, from a scenario's ``[faults]`` (hil/scenario/faults_section.py:
 its keys, defaults and rules; ``hexhil bus``'s flags write into it).
 
 Line faults (bit errors, dropped status packets) draw from seeded RNGs, one stream each,
@@ -13,7 +13,7 @@ import math
 import random
 from typing import Callable
 
-from hil.scenario.faults import FaultEntry, FaultsConfig
+from hil.scenario.faults_section import FaultEntry, FaultsConfig
 from hil.servobus.health import SUPPLY_V
 
 OnFault = Callable[[int, str, str], None]

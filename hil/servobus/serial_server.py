@@ -22,7 +22,7 @@ from typing import Callable
 from hil.servobus.line import Bus
 
 MAX_WAIT_S = 0.2  # wake at least this often so timed faults and signals are handled
-LATE_US = 2_000   # one physics step (hil/world/hexapod.py): a step finished later is late
+LATE_US = 2_000   # one physics step (hil/world/hexapod_world.py): a step finished later is late
 
 
 class Stop(Exception):

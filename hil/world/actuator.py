@@ -121,7 +121,7 @@ class DriveBank:
 
 
 class JointWorld(Protocol):
-    """What a joint needs of its world (hil/world/hexapod.py's HexapodWorld): its drives,
+    """What a joint needs of its world (hil/world/hexapod_world.py's HexapodWorld): its drives,
     the joint state and its clock. Declared here so this module never imports the world
     that imports it."""
 

@@ -24,7 +24,7 @@ import math
 from dataclasses import dataclass
 import numpy as np
 
-from hil.scenario.world import WorldConfig
+from hil.scenario.world_section import WorldConfig
 from hil.world import actuator as act
 
 RATED_SUPPLY_V = 12.0          # e-manual: stall torque and no-load speed are given at 12 V

@@ -21,7 +21,7 @@ from typing import Callable
 
 import numpy as np
 
-from hil.scenario.world import Obstacle, WorldConfig
+from hil.scenario.world_section import Obstacle, WorldConfig
 from protocol.errors import UserError
 
 DENSITY_SPACING_M = {"low": (0.15, 0.25), "high": (0.10, 0.15)}  # Sec. 2.2, R ranges

@@ -161,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
 
     can_server = None
     if args.can_server is not None:
-        from host_tools.run import start_can_server
+        from host_tools.run_summary import start_can_server
         can_server = start_can_server(args.can_server, 0)
     try:
         rt = RealTimeRun(sc, seed, world=args.world is not None, ids=ids, trace=args.out,

@@ -15,7 +15,7 @@ def _run(args: argparse.Namespace) -> int:
 
     from hil import scenario as scenario_mod
     from host_tools.cli import emit_json
-    from host_tools.expect import margin, spec
+    from host_tools.expect import margin_sweep, spec
     from protocol.errors import UserError
 
     if args.jobs < 1:
@@ -29,7 +29,7 @@ def _run(args: argparse.Namespace) -> int:
             raise UserError(f"--duration must be positive, got {args.duration}")
         case = dataclasses.replace(case, duration_s=args.duration)
     python = args.python or case.python
-    m = margin.sweep(case, python, workers=args.jobs, scheduler=args.scheduler,
+    m = margin_sweep.sweep(case, python, workers=args.jobs, scheduler=args.scheduler,
                      progress=None if args.quiet else cli.ProgressBar("run"))
     for axis, points in m.axes.items():
         print(f"\n{axis}")
@@ -51,7 +51,7 @@ def _run(args: argparse.Namespace) -> int:
                                      f"({case.duration_s:g} s, seed {case.seed})")
         print(f"heat map: {args.png}")
     if args.json:
-        emit_json(json.loads(json.dumps(margin.to_json(m))))
+        emit_json(json.loads(json.dumps(margin_sweep.to_json(m))))
     return 0
 
 

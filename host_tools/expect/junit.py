@@ -7,7 +7,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Sequence
 
-from host_tools.expect.runner import CaseResult
+from host_tools.expect.case_runs import CaseResult
 from protocol.errors import UserError
 
 

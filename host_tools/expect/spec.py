@@ -16,7 +16,7 @@ from typing import Any
 
 from hil import scenario as scenario_mod
 from hil.scenario import Scenario, WorldKind
-from hil.scenario.schema import check_table, optional, typed
+from hil.scenario.rules import check_table, optional, typed
 from hil.link.firmware_process import IN_PROCESS, RUNTIMES
 from hil.servobus.master_check import KINDS as VIOLATION_KINDS
 from hil.link.served_firmware import served_firmware

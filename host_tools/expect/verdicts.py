@@ -1,6 +1,6 @@
 """What a run measured against its expectations: read the trace (and the run summary) once,
 then one function a kind turns the recording into an ``Outcome``: measured value, limit,
-pass or fail, and the moment it failed (written into a kept trace, host_tools/expect/runner.py).
+pass or fail, and the moment it failed (written into a kept trace, host_tools/expect/case_runs.py).
 """
 from __future__ import annotations
 

@@ -7,15 +7,18 @@ scenario call; ``config_from_scenario`` reads a scenario's ``[beams]`` and ``[tr
 from __future__ import annotations
 
 import math
+import time
 from typing import Any
 
+from hil.run_result import RunResult
 from hil.scenario import Scenario, parse
+from hil.seams import CanGateway, TraceRecorder
 from hil.scenario.beams import STRATEGIES
 from hil.run.lockstep import Simulator
 from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
 from hil.world.beams import BeamsWorld, BodyState
 from hil.world.beams_node import NO_CONTACT_LIMIT_US, BeamsNode
-from host_tools.traversal.nodes import ControllerNode, PlannerNode, RunConfig
+from host_tools.papers.beam_traversal.nodes import ControllerNode, PlannerNode, RunConfig
 
 
 
@@ -28,9 +31,9 @@ def config_from_scenario(sc: Scenario, seed: int) -> RunConfig:
                      t.max_time_s, preload_nm=b.preload_nm, beam_mass_kg=b.mass_kg)
 
 
-def run(cfg: RunConfig, recorder: Any = None, geometry: BodyGeometry = PAPER_BODY,
-        can_server: Any = None, scene: bool = False, realtime: bool = False,
-        scenario: Scenario | None = None) -> dict:
+def run(cfg: RunConfig, recorder: TraceRecorder | None = None,
+        geometry: BodyGeometry = PAPER_BODY, can_server: CanGateway | None = None,
+        scene: bool = False, realtime: bool = False, scenario: Scenario | None = None) -> dict:
     """One traversal; returns the outcome, the estimate, the plan and the Eq. 11 energy.
     ``scene``/``realtime``: as ``hil.run.lockstep.Simulator`` takes them; ``scenario`` (the file
     ``cfg`` came from) gives the run its CAN faults, else none."""
@@ -67,3 +70,14 @@ def run(cfg: RunConfig, recorder: Any = None, geometry: BodyGeometry = PAPER_BOD
         out["barrier_J"], out["path_cost_J"] = plan.plan.barrier_j, plan.plan.path_cost_j
         out["plan_duration_s"] = plan.plan.duration_s
     return out
+
+
+def run_scenario(sc: Scenario, seed: int, recorder: TraceRecorder | None,
+                 can_server: CanGateway | None, scene: bool, realtime: bool) -> RunResult:
+    """A beams scenario's traversal as ``hexhil run`` and ``host_tools.Run`` run it (the
+    plug-in this package registers): the outcome in the result's ``host_nodes``."""
+    wall0 = time.perf_counter()
+    out = run(config_from_scenario(sc, seed), recorder, can_server=can_server, scene=scene,
+              realtime=realtime, scenario=sc)
+    return RunResult("none", sim_time_s=out["t_end_s"],
+                     wall_time_s=time.perf_counter() - wall0, host_nodes=out)

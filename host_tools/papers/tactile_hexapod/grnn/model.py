@@ -21,7 +21,7 @@ from host_tools.extras import require
 require("torch")   # before torch itself: a missing extra is one line, not a traceback
 import torch  # noqa: E402
 
-from host_tools.grnn.features import FEATURE_VERSION, LEGS, SENSING
+from host_tools.papers.tactile_hexapod.grnn.features import FEATURE_VERSION, LEGS, SENSING
 from protocol.errors import UserError
 
 HIDDEN = 64        # Sec. 2.6: hidden state size 64

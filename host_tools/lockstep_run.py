@@ -5,13 +5,13 @@ A ``Run`` takes a scenario (a ``Scenario``, or a file), picks the firmware runti
 the trace (with the scenario's own data in its metadata, so a trace can be read back
 without the file), builds the world and the lockstep simulator (hil/run/lockstep.py), and takes
 host nodes (hil/seams.py ``HostNode``) before ``run()`` returns the typed ``RunResult``.
-A beams scenario (seed 000) runs its own host nodes (host_tools/traversal/closed_loop.py).
+A beams scenario (seed 000) runs its own host nodes, plugged in by its paper's package
+(host_tools/plugins.py).
 """
 from __future__ import annotations
 
 import json
 import os
-import time
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +23,7 @@ from hil.scenario import Runtime, Scenario, WorldKind
 from hil.seams import CanGateway, HostNode, TraceRecorder
 from hil.link.served_firmware import served_firmware
 from hil.run.lockstep import Simulator
+from host_tools import plugins
 from protocol.errors import UserError
 
 NO_RUNTIME = "none"   # a beams run has no firmware
@@ -80,7 +81,9 @@ class Run:
                            else scenario_mod.check_duration(duration_s, "duration_s"))
         self.beams = sc.world.kind is WorldKind.BEAMS
         if self.beams and self.firmware is not None:
-            raise UserError(f"{sc.path}: a beams scenario has no firmware (--firmware)")
+            raise UserError(f"{sc.path}: a beams scenario has no firmware to run")
+        # a world that steps itself is run by its paper's package (host_tools/plugins.py)
+        self._stepped = plugins.stepped_run(sc.world.kind) if self.beams else None
         self.trace = str(trace) if trace else None
         self._can_server, self._realtime = can_server, realtime
         self.world = None if self.beams else make_world(sc, self.seed)
@@ -116,7 +119,7 @@ class Run:
     def _firmware_sim(self) -> Simulator:
         if self.sim is None:
             raise UserError(f"{self.scenario.path}: a beams run has its own host nodes "
-                            "(host_tools/traversal/closed_loop.py); it takes no others")
+                            "(its paper's package); it takes no others")
         return self.sim
 
     def can_endpoint(self) -> Endpoint:
@@ -153,15 +156,9 @@ class Run:
             self.close()
 
     def _traverse(self) -> RunResult:
-        from host_tools.traversal import closed_loop
-
-        wall0 = time.perf_counter()
-        out = closed_loop.run(closed_loop.config_from_scenario(self.scenario, self.seed),
-                              self.recorder, can_server=self._can_server,
-                              scene=self.recorder is not None, realtime=self._realtime,
-                              scenario=self.scenario)
-        return RunResult(NO_RUNTIME, sim_time_s=out["t_end_s"],
-                         wall_time_s=time.perf_counter() - wall0, host_nodes=out)
+        assert self._stepped is not None
+        return self._stepped(self.scenario, self.seed, self.recorder, self._can_server,
+                             self.recorder is not None, self._realtime)
 
     def close(self) -> None:
         """Close the trace (complete as far as the run went), then the live server."""

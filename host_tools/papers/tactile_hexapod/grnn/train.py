@@ -19,9 +19,9 @@ from host_tools.extras import require
 require("torch")   # before torch itself: a missing extra is one line, not a traceback
 import torch  # noqa: E402
 
-from host_tools.grnn import data as data_mod
-from host_tools.grnn.features import LEGS, M_MAX, known_steps
-from host_tools.grnn.model import GRNN, Norm, save
+from host_tools.papers.tactile_hexapod.grnn import data as data_mod
+from host_tools.papers.tactile_hexapod.grnn.features import LEGS, M_MAX, known_steps
+from host_tools.papers.tactile_hexapod.grnn.model import GRNN, Norm, save
 from host_tools.progress import Progress, report
 from protocol.errors import UserError
 

@@ -1,6 +1,6 @@
 """Running expectation cases: one run each (``run_scenario``, the one place a scenario is
 run), its outcomes, the trace of a failing case kept with the failures written into it, and
-many cases in parallel (host_tools/experiments/executor.py: a local process pool or Dask).
+many cases in parallel (host_tools/executor.py: a local process pool or Dask).
 """
 from __future__ import annotations
 
@@ -15,12 +15,12 @@ from mcap.writer import CompressionType, Writer
 from hil.scenario import Scenario
 from hil.seams import ServoLine
 from hil.servobus.master_check import MasterCheck
-from host_tools import run as run_mod
-from host_tools.expect.evaluate import Outcome, evaluate
+from host_tools import run_summary as run_mod
+from host_tools.expect.verdicts import Outcome, evaluate
 from host_tools.expect.spec import Case
-from host_tools.experiments.executor import Executor
+from host_tools.executor import Executor
 from host_tools.progress import Progress
-from host_tools.runner import Run
+from host_tools.lockstep_run import Run
 from host_tools.trace import protobuf as pb
 from host_tools.trace import topics
 from host_tools.trace.reader import Trace, info
@@ -93,7 +93,7 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
                  ) -> dict[str, Any]:
     """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
     file or an executable: ``hexhil run --firmware``) through the one run path
-    (host_tools/runner.py ``Run``), recorded to ``trace`` with the master's protocol check
+    (host_tools/lockstep_run.py ``Run``), recorded to ``trace`` with the master's protocol check
     on; returns ``hexhil run --json``'s summary plus ``violations``. Every case and margin
     run goes through here."""
     run = Run(scenario, seed=seed, runtime=None if firmware else python,

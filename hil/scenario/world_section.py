@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
-from hil.scenario.schema import check_table, one_of, positive
+from hil.scenario.rules import check_table, one_of, positive
 from protocol.errors import UserError
 
 TERRAINS = ("flat", "obstacles")
@@ -20,7 +20,7 @@ DEFAULT_GOAL_M = 1.0                 # the goal ahead when the gait names none
 
 
 class WorldKind(str, Enum):
-    HEXAPOD = "hexapod"   # the MuJoCo hexapod (hil/world/hexapod.py), driven by the firmware
+    HEXAPOD = "hexapod"   # the MuJoCo hexapod (hil/world/hexapod_world.py), driven by the firmware
     BEAMS = "beams"       # seed 000's two beams (hil/world/beams.py), stepped by the simulator
 
 

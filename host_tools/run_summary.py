@@ -3,13 +3,14 @@ run summary."""
 from __future__ import annotations
 
 import logging
-from typing import Any, Callable
+from typing import Any
 
 from hil import scenario as scenario_mod
 from hil.canbus.socketcand import CanServer
 from hil.run_result import RunResult
 from hil.scenario import Scenario, WorldKind
-from host_tools.runner import Run
+from host_tools import plugins
+from host_tools.lockstep_run import Run
 from protocol.errors import UserError
 
 CAN_WAIT_TIMEOUT_S = 60.0
@@ -95,8 +96,9 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     (0 picks a free port); ``can_wait_clients`` holds the start until that many stock
     clients are attached, so they see every frame.
 
-    ``navigator`` (``model``, ``grnn``; host_tools/grnn/navigator.py) stops the walk where
-    it predicts the goal ``gait.distance_m`` is reached.
+    ``navigator`` (``model``, ``grnn``: registered by host_tools/papers/tactile_hexapod,
+    host_tools/plugins.py) stops the walk where it predicts the goal ``gait.distance_m``
+    is reached.
 
     ``firmware``, a MicroPython main file for the virtual board or an executable that
     speaks the link (hil/link/served_firmware.py), runs instead of our firmware.
@@ -111,8 +113,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         raise UserError(f"--firmware {firmware} brings its own runtime: leave out --python")
     if can_wait_clients < 0:
         raise UserError(f"--can-wait must be 0 or more, got {can_wait_clients}")
-    attach_navigator = (_plan_navigation(sc, navigator, model_path) if navigator != "none"
-                        else None)
+    attach_navigator = (plugins.navigator_plan(navigator)(sc, model_path)
+                        if navigator != "none" else None)
     server = nav = None
     try:
         if can_server_port is not None:
@@ -135,29 +137,3 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         s["navigator"] = {"kind": navigator, **nav.summary(),
                           "goal_dx_m": round(nav.distance_m - result.body.dx_m, 4)}
     return s, result
-
-
-def _plan_navigation(sc: Scenario, kind: str, model_path: str | None
-                     ) -> Callable[[Run], Any]:
-    """What attaches the navigator to a run: its options checked and its estimator made
-    (a GRNN file loaded) before anything opens; the goal ``gait.distance_m``, planned at the
-    gait's nominal speed."""
-    if kind not in ("model", "grnn"):
-        raise UserError(f"--navigator {kind}: choose one of none, model, grnn")
-    if sc.world.kind is not WorldKind.HEXAPOD:
-        raise UserError("--navigator walks the hexapod: this scenario's world is "
-                        f"{sc.world.kind.value if sc.world.kind else 'none'}")
-    if sc.gait.distance_m is None:
-        raise UserError("--navigator needs the goal: the scenario has no gait.distance_m")
-    if kind == "grnn" and not model_path:
-        raise UserError("--navigator grnn needs --model MODEL.pt (hexhil grnn train)")
-    from host_tools.grnn import navigator
-    from protocol import hexapod
-
-    gait, period_s = sc.gait.name, sc.gait.period_s
-    step_m = sc.gait.step_length_m or hexapod.STEP_LENGTH_M
-    d = sc.gait.distance_m
-    steps = hexapod.periods_for_distance(d, hexapod.speed_m_s(gait, step_m, period_s), period_s)
-    estimator = navigator.make_estimator(kind, model_path, gait, period_s, step_m, d)
-    return lambda run: navigator.attach(run, run.world, estimator, gait, period_s, step_m,
-                                        d, steps)

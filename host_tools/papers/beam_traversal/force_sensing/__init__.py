@@ -10,7 +10,7 @@ Sections, in the paper's order (Sec. III-IV):
 * sensory delay (Sec. III-E, Fig. 7): energy at 100 / 300 / 600 ms;
 * robot validation (Sec. IV, Eq. 12): k and tau_0 from a prescribed-speed push.
 
-Everything reuses hil/world/ and host_tools/traversal/; this package only sweeps
+Everything reuses hil/world/ and host_tools/papers/beam_traversal/; this package only sweeps
 (``sections``), draws (``figures``) and reports (``report``).
 """
 from __future__ import annotations
@@ -22,11 +22,11 @@ from typing import Any
 
 import numpy as np
 
-from host_tools.experiments.force_sensing import figures, report
-from host_tools.experiments.force_sensing.sections import (K_FLIMSY, K_STIFF, clear_gap_plans, energy_runs,
+from host_tools.papers.beam_traversal.force_sensing import figures, report
+from host_tools.papers.beam_traversal.force_sensing.sections import (K_FLIMSY, K_STIFF, clear_gap_plans, energy_runs,
                                                            estimation_tables, no_control, planning,
                                                            robot_validation)
-from host_tools.traversal import landscape, planner
+from host_tools.papers.beam_traversal import landscape, planner
 
 
 def main(quick: bool, out: Path, seeds: int | None = None, grid: landscape.Grid | None = None) -> dict[str, Any]:

@@ -13,8 +13,8 @@ import numpy as np
 
 from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
 from hil.world.beams import SENSOR_PERIOD_US, BeamsWorld, BodyState
-from host_tools.traversal.push import push_samples, start_after_delay
-from host_tools.traversal import closed_loop, estimator, landscape, planner
+from host_tools.papers.beam_traversal.push import push_samples, start_after_delay
+from host_tools.papers.beam_traversal import beams_run, estimator, landscape, planner
 
 K_FLIMSY, K_STIFF = 0.01, 0.25            # Sec. III-A
 K1_TRUE, K2_TRUE = 0.25, 0.27             # Sec. III-B
@@ -105,7 +105,7 @@ def no_control() -> list[dict[str, Any]]:
     out = []
     for fx in (0.1, 1.0):
         for k in (K_FLIMSY, K_STIFF):
-            r = closed_loop.run(closed_loop.RunConfig(k, k, strategy="none", fx_n=fx))
+            r = beams_run.run(beams_run.RunConfig(k, k, strategy="none", fx_n=fx))
             r["outcome"] = "traversed" if r["traversed"] else ("flipped" if r["flipped"] else "stuck")
             r["paper"] = PAPER_NO_CONTROL[(fx, k)]
             out.append(r)
@@ -140,12 +140,12 @@ def energy_runs(grid: landscape.Grid) -> dict[str, Any]:
     runs: dict[str, Any] = {}
     for k in (K_FLIMSY, K_STIFF):
         for d in DELAYS_MS:
-            runs[f"interact/{k}/{d}"] = closed_loop.run(closed_loop.RunConfig(k, k, fx_n=FX_GENTLE_N, delay_ms=d,
+            runs[f"interact/{k}/{d}"] = beams_run.run(beams_run.RunConfig(k, k, fx_n=FX_GENTLE_N, delay_ms=d,
                                                                               grid=grid))
-        runs[f"avoid/{k}"] = closed_loop.run(closed_loop.RunConfig(k, k, strategy="avoid", fx_n=FX_GENTLE_N,
+        runs[f"avoid/{k}"] = beams_run.run(beams_run.RunConfig(k, k, strategy="avoid", fx_n=FX_GENTLE_N,
                                                                    grid=grid))
     for d in DELAYS_MS:
-        runs[f"sensing/{K_STIFF}/{d}"] = closed_loop.run(closed_loop.RunConfig(K_STIFF, K_STIFF, fx_n=FX_SENSING_N,
+        runs[f"sensing/{K_STIFF}/{d}"] = beams_run.run(beams_run.RunConfig(K_STIFF, K_STIFF, fx_n=FX_SENSING_N,
                                                                                delay_ms=d, grid=grid))
     return runs
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
-from hil.scenario.schema import check_table, within
+from hil.scenario.rules import check_table, within
 from protocol.errors import UserError
 
 

@@ -1,5 +1,5 @@
 """``hexhil margin``: where a firmware's expectations stop holding as the bus's timing gets
-worse. In lockstep, each setting is one run of the case (host_tools/expect/runner.py) with one
+worse. In lockstep, each setting is one run of the case (host_tools/expect/case_runs.py) with one
 thing changed on the simulated bus (hil/servobus/line.py's margin hooks, or the scenario's faults):
 
 * ``return_delay_us``: the servos answer this long after a packet, whatever register 5 holds
@@ -18,7 +18,7 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any, Sequence
 
-from host_tools.expect.runner import BusTiming, CaseResult, CaseRun, run_all
+from host_tools.expect.case_runs import BusTiming, CaseResult, CaseRun, run_all
 from host_tools.expect.spec import Case
 from host_tools.progress import Progress
 
