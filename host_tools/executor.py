@@ -26,7 +26,7 @@ class Executor:
     def __init__(self, workers: int = 1, scheduler: str | None = None,
                  progress: Progress | None = None) -> None:
         if workers < 1:
-            raise UserError(f"--workers must be at least 1, got {workers}")
+            raise UserError(f"workers must be at least 1, got {workers}", params=("workers",))
         if scheduler:
             require("distributed")
         self.workers = workers

@@ -56,13 +56,14 @@ def start_can_server(port: int, wait_clients: int) -> CanServer:
     try:
         server = CanServer(port=port)
     except OSError as exc:
-        raise UserError(f"--can-server: cannot listen on 127.0.0.1:{port}: {exc.strerror}") from None
+        raise UserError(f"can_server_port: cannot listen on 127.0.0.1:{port}: {exc.strerror}",
+                        params=("can_server_port",)) from None
     log.info("can-server: %s:%s channel %s (socketcand)", server.host, server.port,
              server.channel)
     if wait_clients and not server.wait_for_clients(wait_clients, CAN_WAIT_TIMEOUT_S):
         server.close()
-        raise UserError(f"--can-wait: {wait_clients} socketcand client(s) did not attach "
-                        f"within {CAN_WAIT_TIMEOUT_S:.0f} s")
+        raise UserError(f"can_wait_clients: {wait_clients} socketcand client(s) did not attach "
+                        f"within {CAN_WAIT_TIMEOUT_S:.0f} s", params=("can_wait_clients",))
     return server
 
 
@@ -106,13 +107,16 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     sc = scenario_mod.load_scenario(path)
     seed = sc.scenario.seed if seed is None else seed
     if duration_s is not None:
-        scenario_mod.check_duration(duration_s, "--duration")
+        scenario_mod.check_duration(duration_s, "duration_s", params=("duration_s",))
     if can_server_port is not None and not 0 <= can_server_port <= 65535:
-        raise UserError(f"--can-server {can_server_port}: port must be 0-65535")
+        raise UserError(f"can_server_port {can_server_port}: port must be 0-65535",
+                        params=("can_server_port",))
     if firmware is not None and python is not None:
-        raise UserError(f"--firmware {firmware} brings its own runtime: leave out --python")
+        raise UserError(f"firmware {firmware} brings its own runtime: leave out python",
+                        params=("firmware", "python"))
     if can_wait_clients < 0:
-        raise UserError(f"--can-wait must be 0 or more, got {can_wait_clients}")
+        raise UserError(f"can_wait_clients must be 0 or more, got {can_wait_clients}",
+                        params=("can_wait_clients",))
     attach_navigator = (plugins.navigator_plan(navigator)(sc, model_path)
                         if navigator != "none" else None)
     server = nav = None

@@ -51,20 +51,20 @@ class ServedFirmware(Protocol):
         """Start it, answer its link with ``server`` (hil/link/server.py) to the end."""
 
 
-def served_firmware(path: str | Path, what: str = "--firmware"
+def served_firmware(path: str | Path, what: str = "firmware"
                     ) -> BoardFirmware | ExecutableFirmware:
     """``path`` checked: a MicroPython main file (``.py``) for the virtual board, else an
     executable file this user may run (``UserError`` naming ``what`` if neither)."""
     p = Path(path)
     if not p.is_file():
         raise UserError(f"{what} {path}: not a file (give a MicroPython main file or an "
-                        "executable)")
+                        "executable)", params=(what,))
     if p.suffix in MAIN_SUFFIXES:
         return BoardFirmware(p.resolve())
     if not os.access(p, os.X_OK):
         raise UserError(f"{what} {path}: neither a MicroPython main file (.py) nor "
                         "executable (build a C firmware with `hexhil sdk build main.c -o fw`, "
-                        "or chmod +x)")
+                        "or chmod +x)", params=(what,))
     return ExecutableFirmware(p.resolve())
 
 

@@ -37,7 +37,8 @@ class RealTimeRig:
         sc = scenario_mod.parse(scenario)
         w = rig_mod.make_world(sc, seed) if world else None
         if world and w is None:
-            raise UserError(f"{sc.path}: --world needs a scenario with a [world] section")
+            raise UserError(f"{sc.path}: world needs a scenario with a [world] section",
+                            params=("world",))
         # the run core: rig, CAN bus, recorder hooks and ground truth, as hexhil run's
         self.core = RunCore(sc, seed, world=w, recorder=recorder, can_server=can_server,
                             scene=scene, ids=ids, on_fault=self._verbose_fault,

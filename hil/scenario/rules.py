@@ -78,9 +78,9 @@ def optional(types: Mapping[str, type]) -> dict[str, tuple[Want, bool]]:
 
 
 # --- range rules: each section's parse states its numbers' ranges with these --------------
-def positive(what: str, value: float) -> float:
+def positive(what: str, value: float, params: tuple[str, ...] = ()) -> float:
     if not value > 0:
-        raise UserError(f"{what} must be positive, got {value}")
+        raise UserError(f"{what} must be positive, got {value}", params=params)
     return value
 
 

@@ -50,12 +50,13 @@ class Runtime(str, Enum):
                             f"got {value!r}") from None
 
 
-def check_duration(value: float, what: str) -> float:
-    """A run's length in seconds: positive, finite and within ``MAX_DURATION_S``."""
-    positive(what, value)
+def check_duration(value: float, what: str, params: tuple[str, ...] = ()) -> float:
+    """A run's length in seconds: positive, finite and within ``MAX_DURATION_S``; ``params``:
+    the API parameter ``what`` names (protocol/errors.py)."""
+    positive(what, value, params)
     if not value <= MAX_DURATION_S:
         raise UserError(f"{what} must be at most {MAX_DURATION_S:g} s (a trace's clock is "
-                        f"u64 nanoseconds), got {value}")
+                        f"u64 nanoseconds), got {value}", params=params)
     return float(value)
 
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
+from hil.servobus.line import Bus
 from hil.servobus.packet_check import PacketCheck
 from protocol.dynamixel import v1 as dxl
 
@@ -66,7 +67,7 @@ class MasterCheck:
         ``rx_while_transmitting``, hil/link/board_line.py)."""
         self._flag(t_us, kind, detail)
 
-    def master_bytes(self, bus: Any, t0_us: int, data: bytes) -> None:
+    def master_bytes(self, bus: Bus, t0_us: int, data: bytes) -> None:
         """A burst the master starts sending at ``t0_us`` (before the line delivers it)."""
         if bus.reply_arriving_after(t0_us):
             self._flag(t0_us, "talk_over_reply", "master sent before the status had arrived")
@@ -92,7 +93,7 @@ class Packet1Check(PacketCheck):
     def bad_detail(self) -> str:
         return f"packet to id {self.parser.last_bad_checksum_id}"
 
-    def packet(self, bus: Any, t_us: int) -> None:
+    def packet(self, bus: Bus, t_us: int) -> None:
         p = self.parser
         dev_id, code = p.id, p.code
         params = bytes(p.buf[dxl.PARAMS_OFFSET:dxl.PARAMS_OFFSET + p.nparams])

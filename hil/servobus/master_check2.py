@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
+from hil.servobus.line import Bus
 from hil.servobus.packet_check import PacketCheck
 from protocol.dynamixel import v2 as dx2
 
@@ -22,7 +23,7 @@ class Packet2Check(PacketCheck):
     def bad_detail(self) -> str:
         return f"bad CRC in a packet to id {self.parser.last_bad_crc_id}"
 
-    def packet(self, bus: Any, t_us: int) -> None:
+    def packet(self, bus: Bus, t_us: int) -> None:
         p = self.parser
         dev_id, instr = p.id, p.instr
         params = bytes(p.buf[dx2.PARAMS_OFFSET:dx2.PARAMS_OFFSET + p.nparams])

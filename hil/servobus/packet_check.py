@@ -2,7 +2,10 @@
 for Protocol 1.0, master_check2.py for 2.0): the loop both share."""
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
+
+if TYPE_CHECKING:
+    from hil.servobus.line import Bus
 
 
 class PacketCheck:
@@ -15,7 +18,7 @@ class PacketCheck:
         self.flag = flag
         self.parser = parser
 
-    def feed(self, bus: Any, t0_us: int, data: bytes) -> None:
+    def feed(self, bus: "Bus", t0_us: int, data: bytes) -> None:
         p = self.parser
         gaps, bad = p.timeouts, self.bad()
         for i, byte in enumerate(data):
@@ -36,5 +39,5 @@ class PacketCheck:
     def bad_detail(self) -> str:
         raise NotImplementedError
 
-    def packet(self, bus: Any, t_us: int) -> None:
+    def packet(self, bus: "Bus", t_us: int) -> None:
         raise NotImplementedError

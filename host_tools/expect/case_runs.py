@@ -143,7 +143,8 @@ def evaluate_recorded(case: Case, trace: Path, keep_dir: str | None = None) -> C
     try:
         about = info(trace)
     except (OSError, ValueError) as exc:
-        raise UserError(f"--trace {trace}: not a readable hexhil trace ({exc})") from None
+        raise UserError(f"trace {trace}: not a readable hexhil trace ({exc})",
+                        params=("trace",)) from None
     end_s = about["end_s"]
     linked = about["metadata"].get("command") != "bus"   # hexhil bus --world: no link
     summary = {"sim_time_s": end_s, "firmware_link": linked}

@@ -24,7 +24,8 @@ def _plan(kind: str) -> plugins.NavigatorPlan:
             raise UserError(f"the {kind} navigator needs the goal: the scenario has no "
                             "gait.distance_m")
         if kind == "grnn" and not model_path:
-            raise UserError("the grnn navigator needs a model file (hexhil grnn train)")
+            raise UserError("the grnn navigator needs model_path, a model file (hexhil grnn "
+                            "train)", params=("model_path",))
         from host_tools.papers.tactile_hexapod.grnn import navigator
 
         gait, period_s = sc.gait.name, sc.gait.period_s

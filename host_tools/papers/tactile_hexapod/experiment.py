@@ -84,10 +84,10 @@ def scenario_for(spec: RunSpec) -> Scenario:
         world.update(terrain="obstacles", density=spec.density, height_class=spec.height_class,
                      length_m=spec.distance_m + GOAL_MARGIN_M)
         gait["max_obstacle_height_m"] = HEIGHT_MAX_M[spec.height_class]
-    data = {"scenario": {"name": f"tactile-hexapod-{spec.stage}", "seed": spec.seed,
-                         "duration_s": spec.duration_s},
+    name = f"tactile-hexapod-{spec.stage}"
+    data = {"scenario": {"name": name, "seed": spec.seed, "duration_s": spec.duration_s},
             "gait": gait, "firmware": {"tactile": spec.tactile}, "world": world}
-    return parse(data, f"<{data['scenario']['name']}>")
+    return parse(data, f"<{name}>")
 
 
 def simulate(scenario: Scenario, seed: int, duration_s: float, trace: str | None = None,

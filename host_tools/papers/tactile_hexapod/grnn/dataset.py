@@ -160,7 +160,7 @@ def build(out_dir: Path, opts: DatasetOptions, progress: Progress | None = None
           ) -> DatasetResult:
     """Make the dataset in ``out_dir``; a sweep's runs are reported to ``progress``."""
     if out_dir.exists() and not out_dir.is_dir():
-        raise UserError(f"--out {out_dir} exists and is not a folder")
+        raise UserError(f"out_dir {out_dir} exists and is not a folder", params=("out_dir",))
     t0 = time.perf_counter()
     if opts.traces:
         runs, rows = [], []
@@ -175,9 +175,11 @@ def build(out_dir: Path, opts: DatasetOptions, progress: Progress | None = None
                                          "probe-calibrated speed the trace does not hold"}
     else:
         if opts.terrains < 1:
-            raise UserError(f"--terrains must be at least 1, got {opts.terrains}")
+            raise UserError(f"terrains must be at least 1, got {opts.terrains}",
+                            params=("terrains",))
         if not opts.distance_m > 0:
-            raise UserError(f"--distance must be positive, got {opts.distance_m}")
+            raise UserError(f"distance_m must be positive, got {opts.distance_m}",
+                            params=("distance_m",))
         runs, rows, extra = simulate_runs(out_dir, opts, progress)
     meta = {**data_mod.feature_meta(), "code_version": code_version(), "terrain_seeds": [int(r["terrain_seed"]) for r in runs],
             "scenarios": sorted({f"{r['gait']}-{r['density']}-{r['height_class']}" for r in runs}),

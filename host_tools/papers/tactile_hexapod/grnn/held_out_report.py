@@ -120,7 +120,7 @@ def write_report(model_path: str, data_path: str, out: Path) -> dict[str, Any]:
     (``table``, ``plots``)."""
     res = evaluate(model_path, data_path)
     if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out} exists and is not a folder")
+        raise UserError(f"out {out} exists and is not a folder", params=("out",))
     out.mkdir(parents=True, exist_ok=True)
     (out / "eval.md").write_text(markdown(res))
     res["plots"] = [str(p) for p in plots(res, load(model_path).meta["loss"], out)]

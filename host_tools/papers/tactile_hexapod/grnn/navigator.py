@@ -29,6 +29,8 @@ from typing import Any
 
 from hil.canbus.bus import Endpoint, t_us_of
 from hil.run.lockstep import BODY_SAMPLE_US
+from hil.seams import FirmwareWorld
+from host_tools.plugins import RunWithNodes
 from host_tools.papers.tactile_hexapod import error_model
 from host_tools.papers.tactile_hexapod.grnn.features import LEGS, StepRow, StepSampler, known_steps
 from protocol import can_frames as cf
@@ -124,7 +126,7 @@ class Navigator:
     period_us = BODY_SAMPLE_US    # at the trace's ground-truth instants, as the dataset reads
     first_tick_us = 0
 
-    def __init__(self, port: Endpoint, world: Any, estimator: Estimator, gait: str,
+    def __init__(self, port: Endpoint, world: FirmwareWorld, estimator: Estimator, gait: str,
                  period_s: float, step_length_m: float, distance_m: float, planned_steps: int,
                  speed_m_s: float | None = None) -> None:
         self.port, self.world, self.estimator = port, world, estimator
@@ -211,7 +213,7 @@ def make_estimator(kind: str, model_path: str | None, gait: str, period_s: float
     raise ValueError(f"unknown navigator {kind!r}")
 
 
-def attach(sim: Any, world: Any, estimator: Estimator, gait: str, period_s: float,
+def attach(sim: RunWithNodes, world: FirmwareWorld, estimator: Estimator, gait: str, period_s: float,
            step_length_m: float, distance_m: float, planned_steps: int,
            speed_m_s: float | None = None) -> Navigator:
     """A navigator on ``sim``'s CAN bus, ticked with its ground truth."""

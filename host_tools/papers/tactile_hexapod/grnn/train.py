@@ -74,7 +74,7 @@ def fit(ds: data_mod.Dataset, epochs: int = 50, seed: int = 0, batch: int = BATC
     """Train; returns the model, its normalisation, the loss per epoch and s per epoch.
     Each epoch done is reported to ``progress`` with its loss."""
     if epochs < 1:
-        raise UserError(f"--epochs must be at least 1, got {epochs}")
+        raise UserError(f"epochs must be at least 1, got {epochs}", params=("epochs",))
     if not ds.sequences or not any(len(w.step) for w in ds.sequences):
         raise UserError("the dataset has no steps to train on")
     torch.manual_seed(seed)
@@ -131,7 +131,7 @@ def main(data: str, out: str, epochs: int = 50, seed: int = 0,
          progress: Progress | None = None) -> TrainResult:
     """Train on ``data`` (dataset.npz or its folder) and write the model file ``out``."""
     if not Path(out).parent.is_dir():
-        raise UserError(f"--out {out}: no folder {Path(out).parent}")
+        raise UserError(f"out {out}: no folder {Path(out).parent}", params=("out",))
     ds = data_mod.read(data)
     model, norm, losses, s_per_epoch = fit(ds, epochs, seed, progress=progress)
     meta = {"dataset": {k: v for k, v in ds.meta.items() if k != "runs"},
