@@ -1,5 +1,4 @@
 """The firmware under real MicroPython against the lockstep simulator (no physics world)."""
-import json
 import math
 import subprocess
 import sys

@@ -9,7 +9,6 @@ import pytest
 from hil.run.lockstep import Simulator
 from hil.scenario import SCHEMA
 from protocol import can_frames as cf
-from protocol import link_schema as ls
 from protocol import sim_link
 from mpy import micropython_binary
 

@@ -11,7 +11,6 @@ The firmware itself is started and judged by hil/link/served_firmware.py ``Board
 from __future__ import annotations
 
 import struct
-from typing import Any
 
 from hil.link.firmware_process import LinkViolation
 from hil.run_result import RunTally

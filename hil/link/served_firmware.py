@@ -20,7 +20,7 @@ import signal
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Protocol
+from typing import Callable, Protocol
 
 from hil.link.firmware_process import ROOT, FirmwareProcess, firmware_command, firmware_env
 from hil.run_result import RunTally

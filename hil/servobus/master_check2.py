@@ -2,7 +2,7 @@
 mistakes, named with the same kinds (see there)."""
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Callable
 
 from hil.servobus.line import Bus
 from hil.servobus.packet_check import PacketCheck

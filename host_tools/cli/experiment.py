@@ -1,6 +1,6 @@
 """``hexhil experiment NAME``: reproduce a paper's experiments.
 
-Each experiment is a library module (under ``host_tools.experiments``) whose ``main`` runs
+Each experiment is a library module (under ``host_tools.papers``) whose ``main`` runs
 it and writes its report; here each gets its options and its handler, and one line in
 ``EXPERIMENTS`` (name -> (help, add_arguments, handler)). Heavy imports (MuJoCo,
 matplotlib) stay inside the handlers.

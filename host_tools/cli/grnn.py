@@ -60,9 +60,9 @@ def _closed_loop(args: argparse.Namespace) -> int:
     if args.workers < 1:
         raise UserError(f"--workers must be at least 1, got {args.workers}")
     res = navigator_trials.closed_loop(args.model, args.data, args.workers, ProgressBar("run"))
-    print(closed_loop.markdown(res), end="")
+    print(navigator_trials.markdown(res), end="")
     if args.out:
-        closed_loop.write(res, Path(args.out))
+        navigator_trials.write(res, Path(args.out))
     a = res["arms"]
     print(f"mean relative goal error: tactile only {100 * a['planned']['mean_rel_error']:.1f} %, "
           f"+ Eq. 8-14 navigator {100 * a['model']['mean_rel_error']:.1f} %, "

@@ -47,7 +47,7 @@ def _run(args: argparse.Namespace) -> int:
     print("\nfirst failing setting: " + ", ".join(
         f"{k} {'none' if v is None else f'{v:g}'}" for k, v in m.first_failing().items()))
     if args.png:
-        margin.heat_map(m, args.png, f"{case.name}: expectations of {args.expect} "
+        margin_sweep.heat_map(m, args.png, f"{case.name}: expectations of {args.expect} "
                                      f"({case.duration_s:g} s, seed {case.seed})")
         print(f"heat map: {args.png}")
     if args.json:

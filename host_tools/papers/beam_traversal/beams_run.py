@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any
 
 from hil.run_result import RunResult
 from hil.scenario import Scenario, parse
