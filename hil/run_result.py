@@ -158,8 +158,8 @@ class RunTally:
         key = "0x%03X" % arb_id
         self.can_frames[key] = self.can_frames.get(key, 0) + 1
 
-    def count_fault(self, name: str, n: int = 1) -> None:
-        self.faults[name] = self.faults.get(name, 0) + n
+    def count_fault(self, name: str) -> None:
+        self.faults[name] = self.faults.get(name, 0) + 1
 
     def result(self) -> RunResult:
         """The frozen result; cycles, overruns and the stop reason from the firmware's stats."""

@@ -219,3 +219,6 @@ def test_the_cli_writes_the_parameters_as_flags(tmp_path: Path) -> None:
     assert flag_message(UserError("x.toml: world needs a [world] section", params=("world",))) \
         == "x.toml: --world needs a [world] section"
     assert flag_message(UserError("rate must be >= 0")) == "rate must be >= 0"
+    assert flag_message(UserError("firmware x.c: not executable (build a C firmware)",
+                                  params=("firmware",))) == \
+        "--firmware x.c: not executable (build a C firmware)"

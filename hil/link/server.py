@@ -101,7 +101,7 @@ class LinkServer:
         """A fault of the run now: counted, recorded, and a direction mistake (the virtual
         board's, or one a C SDK's board saw) handed to the master check if one watches."""
         t = self.clock.t_us
-        result.faults[name] = result.faults.get(name, 0) + 1
+        result.count_fault(name)
         if self.sim.recorder is not None:
             self.sim.recorder.fault(t, name, detail)
         check = getattr(self.bus, "monitor", None)

@@ -63,12 +63,13 @@ FLAGS = {"python": "--python", "firmware": "--firmware", "duration_s": "--durati
 
 
 def flag_message(exc: UserError) -> str:
-    """``exc``'s message with the API parameters it names written as the flags that set them."""
+    """``exc``'s message with the API parameters it names written as the flags that set them:
+    each one's first mention (a later one is the plain word: "a C firmware")."""
     msg = str(exc)
     for param in exc.params:
         if param in FLAGS:
             msg = re.sub(rf"(?<![\w\-\[.'])({re.escape(param)})(?![\w\]])",
-                         FLAGS[param], msg)
+                         FLAGS[param], msg, count=1)
     return msg
 
 
