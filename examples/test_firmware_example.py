@@ -23,7 +23,7 @@ BOARD_TRIPOD = Path(__file__).resolve().parent / "board_tripod.py"   # a firmwar
 @pytest.mark.parametrize("gait, speed_m_s", [("tripod", 0.036), ("wave", 0.013)])
 def test_flat_walk_reaches_the_papers_speed(hexhil_run, gait: str, speed_m_s: float) -> None:
     run = hexhil_run(SCENARIOS / f"flat-{gait}.toml", duration_s=12)
-    assert_within(f"{gait} speed", run.body.dx_m / 12, low=0.75 * speed_m_s, unit="m/s")
+    assert_within(f"{gait} speed", run.body["dx_m"] / 12, low=0.75 * speed_m_s, unit="m/s")
     run.check("protocol", name="no protocol violations")
     run.check("no_exception")
 

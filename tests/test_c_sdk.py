@@ -156,7 +156,7 @@ def test_the_first_firmware_of_the_docs_builds_with_the_documented_command_and_r
 
 
 def test_firmware_and_python_together_are_refused(built):
-    with pytest.raises(UserError, match="leave out --python"):
+    with pytest.raises(UserError, match="brings its own runtime: leave out python"):
         run(FLAT, python="cpython", firmware=built["c_tripod"])
 
 
