@@ -24,6 +24,7 @@ from hil.seams import CanGateway, HostNode, TraceRecorder
 from hil.link.served_firmware import served_firmware
 from hil.run.lockstep import Simulator
 from host_tools import plugins
+from protocol.dynamixel import models
 from protocol.errors import UserError
 
 NO_RUNTIME = "none"   # a beams run has no firmware
@@ -101,7 +102,8 @@ class Run:
             extra = ({"flush_interval_us": self.live.flush_interval_us}
                      if self.live is not None else {})
             try:
-                self.recorder = Recorder(self.trace or os.devnull, meta, live=self.live, **extra)
+                self.recorder = Recorder(self.trace or os.devnull, meta, live=self.live,
+                                         protocol=models.protocol(sc.bus.model), **extra)
             except BaseException:
                 self.close()
                 raise

@@ -18,6 +18,7 @@ from hil.run_result import RunTally
 from hil.seams import TraceRecorder
 from protocol import sim_link
 from protocol import link_schema as ls
+from protocol.dynamixel import models
 from protocol.errors import UserError
 
 RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)

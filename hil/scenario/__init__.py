@@ -16,12 +16,13 @@ from typing import Any, Mapping
 from hil.scenario.beams import BeamsConfig, TraversalConfig
 from hil.scenario.faults_section import FaultEntry, FaultKind, FaultsConfig
 from hil.scenario.rules import SCHEMA, check_table, optional
-from hil.scenario.sections import (BAUD_TOLERANCE, DEFAULT_BAUD, DEFAULT_DURATION_S, GAITS,
+from hil.scenario.sections import (DEFAULT_BAUD, DEFAULT_DURATION_S, GAITS,
                                    MAX_DURATION_S, RETURN_DELAY_MAX_US, BusConfig, FirmwareConfig,
-                                   GaitConfig, Runtime, ScenarioInfo, baud_register,
+                                   GaitConfig, Runtime, ScenarioInfo,
                                    check_duration)
 from hil.scenario.world_section import Obstacle, WorldConfig, WorldKind
 from protocol import link_schema as ls
+from protocol.dynamixel import models
 from protocol.errors import UserError
 
 
@@ -79,8 +80,9 @@ class Scenario:
         for key in (ls.FIRST_ID, ls.BAUD):
             if key in bus:
                 out[key] = bus[key]
-        if self.bus.model != "ax-12a":
-            out[ls.PROTOCOL] = 2
+        version = models.protocol(self.bus.model)
+        if version != models.protocol(models.DEFAULT):   # the firmware's default stays unsaid
+            out[ls.PROTOCOL] = version
         if tactile is not None:
             out[ls.TACTILE_ON] = tactile
         return out
@@ -144,5 +146,5 @@ def load_scenario(path: str | Path) -> Scenario:
 __all__ = ["SCHEMA", "Scenario", "ScenarioInfo", "BusConfig", "FirmwareConfig", "GaitConfig",
            "FaultsConfig", "FaultEntry", "FaultKind", "WorldConfig", "Obstacle", "BeamsConfig",
            "TraversalConfig", "Runtime", "WorldKind", "GAITS", "DEFAULT_BAUD",
-           "DEFAULT_DURATION_S", "MAX_DURATION_S", "BAUD_TOLERANCE", "RETURN_DELAY_MAX_US",
-           "baud_register", "check_duration", "parse", "from_text", "load_scenario"]
+           "DEFAULT_DURATION_S", "MAX_DURATION_S", "RETURN_DELAY_MAX_US",
+           "check_duration", "parse", "from_text", "load_scenario"]

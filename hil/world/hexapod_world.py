@@ -212,7 +212,7 @@ class HexapodWorld:
             raise UserError(f"{self.scenario.path}: world.kind {world.kind.value!r} "
                             f"is not the hexapod world")
         self.obstacles = terrain_mod.from_scenario(world, self.seed)
-        self.motor = act.motor_of(self.scenario.bus.model)
+        self.motor = act.motor(self.scenario.bus.model)
         self.real = fidelity.from_scenario(world, self.motor, self.seed,
                                            self.params.foot_friction, len(LEGS) * len(JOINTS),
                                            len(LEGS))
