@@ -3,7 +3,7 @@ hil/servobus/line.py's ``Bus``) and the master check's rules (hil/servobus/maste
 from __future__ import annotations
 
 from types import ModuleType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from hil.scenario import BusConfig
 from hil.servobus.ax12_servo import Servo

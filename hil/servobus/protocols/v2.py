@@ -23,7 +23,7 @@ status packet that never comes and send nothing.
 from __future__ import annotations
 
 from types import ModuleType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from hil.scenario import BusConfig
 from hil.servobus.drive import Actuator
