@@ -106,7 +106,7 @@ def fig_gap_readings(c2c: dict[str, Any], clear: dict[str, Any], path: Path) -> 
             span_deg = max(np.ptp(roll_deg), np.ptp(pitch_deg))
             if span_deg < 0.1 * np.ptp(np.degrees(g.pitch_rad)):   # a tick: point it out
                 ax.annotate(f"the whole path: within {span_deg:.1f} deg",
-                            (roll_deg.max(), pitch_deg.max()), xytext=(0.55, 0.85),
+                            (roll_deg.max(), pitch_deg.max()), xytext=(0.05, 0.88), ha="left",
                             textcoords="axes fraction", color="white", fontsize=9,
                             arrowprops={"arrowstyle": "->", "color": "white", "lw": 1.5})
             ax.set_title(f"{name}, k = {k}: plans {p.mode}", fontsize=10)
