@@ -32,7 +32,7 @@ from protocol.errors import UserError
 OP_TOPICS = {sim_link.OP_HELLO: "hello", sim_link.OP_TRANSACT: "uart", sim_link.OP_WRITE: "uart",
              sim_link.OP_SLEEP: "sleep", sim_link.OP_MORE: "sleep", sim_link.OP_CAN: "can",
              sim_link.OP_EVENT: "event", sim_link.OP_LINE: "uart",
-             sim_link.OP_DIRECTION: "uart"}
+             sim_link.OP_DIRECTION: "uart", sim_link.OP_READS: "uart"}
 TOPICS = ("uart", "can", "sleep", "event", "hello")
 # Events whose text is not a firmware output: wall-clock profiling counters.
 UNCOMPARED_EVENTS = (sim_link.EVENT_STATS,)

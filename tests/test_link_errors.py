@@ -27,7 +27,7 @@ def _bare():
 def test_the_host_refuses_a_firmware_of_another_version(runtime):
     cmd = [RUNTIMES[runtime](), "tests/link_clients/firmware_other_version.py"]
     with pytest.raises(UserError, match="^firmware link: link version mismatch: the firmware "
-                       "speaks version 2, this host speaks 1$"):
+                       "speaks version 3, this host speaks 1 and 2$"):
         Simulator(_bare(), seed=1).run(0.2, command=cmd)
 
 
