@@ -3,8 +3,9 @@
 docs/link.md is the specification (byte tables, limits, the conformance suite); the JSON
 inside the hello and the events is protocol/link_schema.py. Every client message is
 ``op (1 byte) | length (u16 LE) | payload``. Posted messages (W, C, E) get no answer: the
-client batches them in front of its next request, so a cycle costs one round trip per bus
-read plus one for the end-of-cycle sleep. Replies are ``length (u16 LE) | payload`` and
+client batches them in front of its next request. On version 1 a cycle costs one round
+trip per bus read plus one for the end-of-cycle sleep; version 2 (negotiated in the hello)
+adds R, a cycle's status reads in one round trip. Replies are ``length (u16 LE) | payload`` and
 start with the virtual time ``t_us`` (u64 LE) after the request; an error reply has
 ``t_us = ERROR_T_US`` and utf-8 text, and the host closes the link after it.
 
