@@ -6,10 +6,18 @@ STAMP := $(VENV)/.installed
 
 .PHONY: demo test test-slow bench fuzz clean
 
-$(STAMP): pyproject.toml
+DRIVE_CORE := hil/world/_drive_core.so
+
+$(STAMP): pyproject.toml hil/world/drive_core.c
 	test -d $(VENV) || $(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --disable-pip-version-check -e '.[test,grnn,dask]'
+	$(MAKE) $(DRIVE_CORE)
 	touch $(STAMP)
+
+# the drive bank's compiled step (hil/world/drive_core.py), by the pinned ziglang's cc;
+# no fused multiply-add, so its duties are numpy's bits
+$(DRIVE_CORE): hil/world/drive_core.c
+	$(BIN)/python -m ziglang cc -O2 -shared -fPIC -ffp-contract=off -o $@ $<
 
 demo: $(STAMP)
 	$(BIN)/hexhil demo
@@ -28,4 +36,4 @@ fuzz: $(STAMP)
 	$(BIN)/python -m fuzz $(FUZZ)
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache
+	rm -rf $(VENV) build *.egg-info .pytest_cache $(DRIVE_CORE)

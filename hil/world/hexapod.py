@@ -256,7 +256,7 @@ class HexapodWorld:
         """Step the physics up to ``t_us`` (whole 2 ms steps; never past it)."""
         m, d = self.model, self.data
         while self.t_us + PHYSICS_DT_US <= t_us:
-            d.ctrl[:] = self.drives.control(self._q, self.dt_s)
+            self.drives.control_into(self._q, self.dt_s, d.ctrl)
             mujoco.mj_step(m, d)
             self.t_us += PHYSICS_DT_US
             if self.switches.update(self._plate_n):
