@@ -20,7 +20,7 @@ from protocol.dynamixel import v1 as dxl
 from protocol import link_schema as ls
 from protocol.errors import UserError
 
-RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)
+RECORDER_SLICE = 4  # held messages the recorder encodes between looks at the link (~10 us)
 
 
 def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> dict[str, Any]:
@@ -311,7 +311,8 @@ class LinkServer:
             self.on_slept()
         if rec is not None and raw is not None:
             rec.link(clock.t_us, bytes(conn.raw), raw)
-            rec.idle(0 if conn.answered() else RECORDER_SLICE)
+            while not conn.answered() and rec.idle(RECORDER_SLICE):
+                pass   # write a closed window, encode until the firmware's next batch is in
         if closed:
             result.round_trips = conn.round_trips
         return closed
