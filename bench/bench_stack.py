@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import resource
 import statistics
 import subprocess
 import sys
@@ -51,22 +52,32 @@ def _median_rtf(record: bool, *extra: str) -> float:
 
 
 class _Stopwatch:
-    """Seconds spent inside wrapped callables, by label (nested labels are not subtracted)."""
+    """Seconds spent inside wrapped callables, by label (nested labels are not subtracted),
+    on ``clock`` (wall time, or this thread's CPU time)."""
 
-    def __init__(self) -> None:
+    def __init__(self, clock: Callable[[], float] = time.perf_counter) -> None:
         self.s: dict[str, float] = {}
+        self.clock = clock
 
     def wrap(self, label: str, fn: Callable[..., Any]) -> Callable[..., Any]:
+        clock = self.clock
+
         def timed(*args: Any, **kw: Any) -> Any:
-            t0 = time.perf_counter()
+            t0 = clock()
             try:
                 return fn(*args, **kw)
             finally:
-                self.s[label] = self.s.get(label, 0.0) + time.perf_counter() - t0
+                self.s[label] = self.s.get(label, 0.0) + clock() - t0
         return timed
 
 
-def breakdown(record: bool = True, in_process: bool = False) -> dict[str, float]:
+def _children_cpu_s() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
+              ) -> dict[str, float]:
     """Microseconds of the host's wall time per control cycle: waiting on the firmware (its
     compute and the link's latency, where the host has nothing else to do; with a child
     process this includes sending the reply, where the woken firmware often takes the
@@ -76,9 +87,14 @@ def breakdown(record: bool = True, in_process: bool = False) -> dict[str, float]
     or records, so it is not one of the parts.
 
     ``in_process``: the firmware runs in this process, so "waiting" is its compute itself
-    (the wall time outside the link's exchange), with no link latency."""
+    (the wall time outside the link's exchange), with no link latency.
+
+    ``cpu``: every part in this thread's CPU time instead of wall time, and the firmware
+    process's CPU time (getrusage) beside them: figures a shared, loaded machine does not
+    inflate (waiting is then the host's own CPU in the link's calls)."""
     sc = scenario_mod.load(SCENARIO)
-    sw = _Stopwatch()
+    clock = time.thread_time if cpu else time.perf_counter
+    sw = _Stopwatch(clock)
     world = make_world(sc, 3)
     world.advance_to = sw.wrap("world", world.advance_to)
     rec = None
@@ -98,9 +114,11 @@ def breakdown(record: bool = True, in_process: bool = False) -> dict[str, float]
         Connection.reply = sw.wrap("wait", reply)
         DirectConnection.exchange = sw.wrap("host", exchange)
         try:
-            t0 = time.perf_counter()
+            child0 = _children_cpu_s()
+            t0 = clock()
             r = sim.run(BREAKDOWN_S, in_process=run_firmware if in_process else None)
-            total = time.perf_counter() - t0
+            total = clock() - t0
+            child = _children_cpu_s() - child0
         finally:
             Connection.batch, Connection.reply = batch, reply
             DirectConnection.exchange = exchange
@@ -121,6 +139,11 @@ def breakdown(record: bool = True, in_process: bool = False) -> dict[str, float]
     compute = out[wait] if in_process else r.firmware.get("compute_us_mean", 0.0)
     if not in_process:
         out["firmware compute (overlaps)"] = compute
+    if cpu and not in_process:   # a cycle's CPU: the host's and the firmware process's
+        fw = child / cycles * 1e6
+        out["firmware process CPU"] = fw
+        compute = min(compute, fw)
+        out["total"] += fw
     out[OVERHEAD] = 100.0 * (out["total"] - out["world step"] - compute) / out["total"]
     return out
 
@@ -161,9 +184,34 @@ def _bus_and_servos(n: int) -> float:
     return GROWTH_S / (time.perf_counter() - t0)
 
 
+def _cpu_rows(alone_us: float, bare_us: float) -> list[Row]:
+    """The cycle in CPU time (host thread + firmware process): what this shared machine's
+    load does not inflate; the ratios are those of a machine where nothing else runs and
+    the two processes never overlap."""
+    rows = [Row("stack CPU: world alone / bare mj_step", bare_us / alone_us, "ratio", ">= 0.8",
+                f"CPU a cycle: world alone {alone_us:.0f} us, bare mj_step {bare_us:.0f} us")]
+    for label, ip in (("micropython", False), (IN_PROCESS, True)):
+        parts = breakdown(in_process=ip, cpu=True)
+        for name, us in parts.items():
+            if name == OVERHEAD:
+                rows.append(Row(f"stack CPU ({label}): {name}", us, "% of total",
+                                "<= 10 %" if ip else "<= 25 %",
+                                "total - world step - firmware compute, in CPU time"))
+            else:
+                rows.append(Row(f"stack CPU ({label}): {name}", us, "us / cycle", "",
+                                f"{BREAKDOWN_S:.0f} s run with recording, CPU time"))
+        rows.append(Row(f"stack CPU ({label}): world alone / cycle", alone_us / parts["total"],
+                        "ratio", ">= 0.9" if ip else ">= 0.65",
+                        "the run / world alone ratio on CPU time (recording included)"))
+    return rows
+
+
 def run() -> list[Row]:
     bare = bare_mj_step(SCENARIO, seed=3)
     alone = world_alone(SCENARIO, seed=3)
+    cycle_us = 1e6 / 50
+    alone_cpu_us = cycle_us / world_alone(SCENARIO, seed=3, clock=time.thread_time)
+    bare_cpu_us = cycle_us / bare_mj_step(SCENARIO, seed=3, clock=time.thread_time)
     plain, recorded = _median_rtf(False), _median_rtf(True)
     rows = [Row("stack: bare mj_step (same model, terrain, controls)", bare, "x real time", "",
                 "obstacles-low-small, seed 3: the world alone's recorded controls, mj_step only"),
@@ -183,6 +231,7 @@ def run() -> list[Row]:
                  f"firmware in the host's process (the sweeps' runtime), median of {RUNS}"),
              Row(f"stack: run --python {IN_PROCESS} / world alone", inproc / alone, "ratio",
                  ">= 0.9", "issue 43 goal; same serial digest as micropython")]
+    rows += _cpu_rows(alone_cpu_us, bare_cpu_us)
     for label, ip in (("micropython", False), (IN_PROCESS, True)):
         for name, us in breakdown(in_process=ip).items():
             note = f"{BREAKDOWN_S:.0f} s run with recording, 50 Hz cycles"
