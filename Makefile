@@ -14,10 +14,11 @@ $(STAMP): pyproject.toml hil/world/drive_core.c
 	$(MAKE) $(DRIVE_CORE)
 	touch $(STAMP)
 
-# the drive bank's compiled step (hil/world/drive_core.py), by the pinned ziglang's cc;
-# no fused multiply-add, so its duties are numpy's bits
+# the drive bank's compiled step (hil/world/drive_core.py), by the pinned ziglang's cc for
+# the baseline CPU (the tree may be copied to another machine); no fused multiply-add, so
+# its duties are numpy's bits
 $(DRIVE_CORE): hil/world/drive_core.c
-	$(BIN)/python -m ziglang cc -O2 -shared -fPIC -ffp-contract=off -o $@ $<
+	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ $<
 
 demo: $(STAMP)
 	$(BIN)/hexhil demo
