@@ -23,6 +23,7 @@ from hil.scenario import Runtime, Scenario, WorldKind
 from hil.seams import HostNode, TraceRecorder
 from hil.link.served_firmware import served_firmware
 from hil.run.lockstep import Simulator
+from protocol.dynamixel import models
 from protocol.errors import UserError
 
 NO_RUNTIME = "none"   # a beams run has no firmware
@@ -98,7 +99,8 @@ class Run:
             extra = ({"flush_interval_us": self.live.flush_interval_us}
                      if self.live is not None else {})
             try:
-                self.recorder = Recorder(self.trace or os.devnull, meta, live=self.live, **extra)
+                self.recorder = Recorder(self.trace or os.devnull, meta, live=self.live,
+                                         protocol=models.protocol(sc.bus.model), **extra)
             except BaseException:
                 self.close()
                 raise

@@ -7,13 +7,16 @@ from __future__ import annotations
 import numpy as np
 
 from hil.world import drive_core
-from hil.world.actuator import POSITION_UNIT_RAD, XL430, DriveBank
+from hil.world.actuator import POSITION_UNIT_RAD, DriveBank, motor
+from protocol.dynamixel import xl430
+
+XL430 = motor(xl430.MODEL_NAME)
 
 
-def _banks(n: int, motor=None) -> tuple[DriveBank, DriveBank]:
+def _banks(n: int, kind=None) -> tuple[DriveBank, DriveBank]:
     q0 = np.linspace(-1.0, 1.0, n)
-    fast = DriveBank(q0) if motor is None else DriveBank(q0, motor)
-    slow = DriveBank(q0) if motor is None else DriveBank(q0, motor)
+    fast = DriveBank(q0) if kind is None else DriveBank(q0, kind)
+    slow = DriveBank(q0) if kind is None else DriveBank(q0, kind)
     slow._compiled = None
     return fast, slow
 
@@ -24,8 +27,8 @@ def test_the_library_is_built():
 
 def test_the_compiled_step_is_numpys_to_the_bit():
     rng = np.random.default_rng(7)
-    for motor in (None, XL430):
-        fast, slow = _banks(18, motor)
+    for kind in (None, XL430):
+        fast, slow = _banks(18, kind)
         q = np.linspace(-1.0, 1.0, 18)
         ctrl_fast, ctrl_slow = np.zeros(18), np.zeros(18)
         for k in range(3000):

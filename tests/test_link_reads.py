@@ -65,7 +65,7 @@ class _Master:
 
 
 def _reference(policy: FaultPolicy, master: _Master) -> None:
-    """FaultPolicy.read_status as it was before the plan (one read after the other)."""
+    """FaultPolicy.read_rotating as it was before the plan (one read after the other)."""
     budget = policy.reads_per_cycle
     retry = policy.suspect
     policy.suspect = []
@@ -100,8 +100,7 @@ def test_the_plan_reads_what_one_read_after_the_other_read(reads_per_cycle):
             return out
 
         m_new.read_present_many = many
-        m_new.protocol = m_ref.protocol = 1
         for _ in range(40):
             _reference(ref, m_ref)
-            new.read_status(m_new, None)
+            new.read_rotating(m_new, None)
             assert (new.suspect, new.cursor, m_new.log) == (ref.suspect, ref.cursor, m_ref.log)

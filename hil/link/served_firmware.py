@@ -31,7 +31,7 @@ BOARD_DIR = ROOT / "firmware" / "virtual_board"
 BOARD_RUNTIME = "micropython-board"   # a run's firmware_runtime
 EXECUTABLE = "executable"
 HANG_WALL_S = 20.0          # wall seconds without a link message: the firmware hung
-BOARD_SAYS = "hexhil board: "   # the C SDK's one-line verdict on its firmware (hal_tick.c)
+BOARD_SAYS = "hexhil board: "   # the C SDK's one-line verdict on its firmware (hal_board.c)
 MAIN_SUFFIXES = (".py",)    # a MicroPython main file; anything else is an executable
 
 

@@ -18,6 +18,7 @@ from hil.run_result import RunResult
 from protocol import hexapod, sim_link
 from protocol.dynamixel import v1 as dxl
 from protocol import link_schema as ls
+from protocol.dynamixel import models
 from protocol.errors import UserError
 
 RECORDER_SLICE = 4  # held messages the recorder encodes between looks at the link (~10 us)
@@ -38,8 +39,9 @@ def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> 
     for key in (ls.FIRST_ID, ls.BAUD):
         if key in bus:
             out[key] = bus[key]
-    if bus.get("model", "ax-12a") != "ax-12a":
-        out[ls.PROTOCOL] = 2
+    version = models.protocol(bus.get("model", models.DEFAULT))
+    if version != models.protocol(models.DEFAULT):   # the firmware's default stays unsaid
+        out[ls.PROTOCOL] = version
     if tactile is not None:
         out[ls.TACTILE_ON] = tactile
     return out
