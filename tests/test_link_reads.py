@@ -20,7 +20,7 @@ from host_tools import replay
 from host_tools.trace import recorder as rec
 from mpy import ROOT
 
-V1_CLIENT = "tests/link_clients/firmware_version_1.py"
+V1_CLIENT = "tests/link_clients/firmware_base_link.py"
 DURATION_S = 2.0
 
 
