@@ -165,7 +165,7 @@ def status(dev_id, error=0, params=b""):
 def status_ok(parser, data, start, end, dev_id, nparams):
     """Whether ``data[start:end]`` holds a status packet of ``dev_id`` with ``nparams``
     parameters, parsed into ``parser`` (its fields stay valid): the bus master's test of a
-    reply (firmware/servo_bus.py), which the host of link version 2 applies to retry a
+    reply (firmware/servo_bus/v1.py), which the host of link version 2 applies to retry a
     read exactly when the master would (docs/link.md "R reads")."""
     if end - start < STATUS_LEN + nparams:
         return False
