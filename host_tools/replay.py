@@ -105,7 +105,17 @@ def _describe(op: int, payload: bytes) -> str:
 
 def uart_bytes(op: int, payload: bytes) -> bytes | None:
     """The servo-line bytes a link message carries (protocol/sim_link.py: a transact's, a
-    line request's, a posted write's)."""
+    line request's, a posted write's, the packets of a version 2 reads request, in order)."""
+    if op == sim_link.OP_READS:
+        out, at = bytearray(), 1
+        for _ in range(payload[0] if payload else 0):
+            at += sim_link.READ_HEAD_LEN
+            if at >= len(payload):
+                break
+            n = payload[at]
+            out += payload[at + 1:at + 1 + n]
+            at += 1 + n
+        return bytes(out)
     skip = {sim_link.OP_TRANSACT: 6, sim_link.OP_LINE: 11, sim_link.OP_WRITE: 0}.get(op)
     return None if skip is None else payload[skip:]
 
