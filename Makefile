@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-slow bench fuzz clean
+.PHONY: demo test test-slow bench fuzz clean toolchain
 
 DRIVE_CORE := hil/world/_drive_core.so
 
@@ -20,16 +20,30 @@ $(STAMP): pyproject.toml hil/world/drive_core.c
 $(DRIVE_CORE): hil/world/drive_core.c
 	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ $<
 
+# The ARM toolchain for STM32F411 ELFs (hexhil sdk build --target stm32f411, the ELF tests):
+# Debian's packages, installed here when missing and we are root, else the line to run.
+ARM_PACKAGES := gcc-arm-none-eabi binutils-arm-none-eabi libnewlib-arm-none-eabi gdb-multiarch
+toolchain:
+	@if command -v arm-none-eabi-gcc >/dev/null && command -v gdb-multiarch >/dev/null && \
+	    test -f "$$(arm-none-eabi-gcc -mcpu=cortex-m4 -mthumb -mfloat-abi=hard \
+	        -mfpu=fpv4-sp-d16 -print-file-name=libc_nano.a)"; then :; \
+	elif [ "$$(id -u)" = 0 ]; then \
+	    apt-get update && apt-get install -y $(ARM_PACKAGES); \
+	else \
+	    echo "the ARM toolchain is missing; install it with:"; \
+	    echo "  sudo apt-get install -y $(ARM_PACKAGES)"; exit 1; \
+	fi
+
 demo: $(STAMP)
 	$(BIN)/hexhil demo
 
-test: $(STAMP)
+test: $(STAMP) toolchain
 	$(BIN)/python -m pytest -q
 
-test-slow: $(STAMP)
+test-slow: $(STAMP) toolchain
 	$(BIN)/python -m pytest -q -m slow
 
-bench: $(STAMP)
+bench: $(STAMP) toolchain
 	$(BIN)/python -m bench
 
 # hostile inputs for every parser and loader (issue 20); FUZZ="--scale 0.1" for a short run
