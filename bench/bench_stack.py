@@ -92,7 +92,7 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
     ``cpu``: every part in this thread's CPU time instead of wall time, and the firmware
     process's CPU time (getrusage) beside them: figures a shared, loaded machine does not
     inflate (waiting is then the host's own CPU in the link's calls)."""
-    sc = scenario_mod.load(SCENARIO)
+    sc = scenario_mod.load_scenario(SCENARIO)
     clock = time.thread_time if cpu else time.perf_counter
     sw = _Stopwatch(clock)
     world = make_world(sc, 3)
@@ -136,7 +136,7 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
     parts["total"] = total
     cycles = max(1, r.cycles)
     out = {k: v / cycles * 1e6 for k, v in parts.items()}
-    compute = out[wait] if in_process else r.firmware.get("compute_us_mean", 0.0)
+    compute = out[wait] if in_process else r.firmware.compute_us_mean or 0.0
     if not in_process:
         out["firmware compute (overlaps)"] = compute
     if cpu and not in_process:   # a cycle's CPU: the host's and the firmware process's
@@ -156,9 +156,9 @@ def _obstacle_field(n: int) -> list[dict[str, float]]:
 
 
 def _full_stack_with_obstacles(n: int) -> float:
-    sc = scenario_mod.load(ROOT / "scenarios" / "flat-tripod.toml")
+    sc = scenario_mod.load_scenario(ROOT / "scenarios" / "flat-tripod.toml")
     if n:
-        sc["world"].update(terrain="obstacles", obstacles=_obstacle_field(n))
+        sc = sc.overlay({"world": {"terrain": "obstacles", "obstacles": _obstacle_field(n)}})
     r = Run(sc, seed=1, duration_s=GROWTH_S).run()
     return r.sim_time_s / r.wall_time_s
 

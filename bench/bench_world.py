@@ -13,8 +13,8 @@ from typing import Any, Callable
 
 from bench import Row
 from hil.link.firmware_process import IN_PROCESS
-from hil.world.fidelity import OBSTACLE_BODY
-from hil.world.hexapod import PHYSICS_DT_US, HexapodWorld
+from hil.scenario.world_section import OBSTACLE_BODY
+from hil.world.hexapod_world import PHYSICS_DT_US, HexapodWorld
 from hil import scenario as scenario_mod
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -28,7 +28,7 @@ def world_alone(path: Path = ROOT / "scenarios" / "obstacles-high-large.toml",
     """Physics + AX-12 drives over a scenario's terrain, joints commanded at 50 Hz through
     the seam, timed on ``clock`` (wall, or CPU time). ``controls``, if given, gets each
     physics step's actuator controls."""
-    sc = scenario_mod.load(path)
+    sc = scenario_mod.load_scenario(path)
     world = HexapodWorld(sc, seed=seed)
     acts = world.actuators()
     q0 = [a.state()[0] for a in acts]
@@ -58,7 +58,7 @@ def bare_mj_step(path: Path = ROOT / "scenarios" / "obstacles-high-large.toml",
 
     controls: list = []
     world_alone(path, seed, controls)
-    world = HexapodWorld(scenario_mod.load(path), seed=seed)
+    world = HexapodWorld(scenario_mod.load_scenario(path), seed=seed)
     m, d = world.model, world.data
     t0 = clock()
     for ctrl in controls:
@@ -73,7 +73,7 @@ def _full_stack() -> tuple[float, float, float, float]:
     alternated, best of ``REPEATS`` each (the machine is shared); (RTF recorded, RTF plain,
     RTF real model, sim s). The host and the firmware process are
     pinned to one core, as the issue's target is stated: nothing overlaps."""
-    from host_tools.experiments import tactile_hexapod as th
+    from host_tools.papers.tactile_hexapod import experiment as th
 
     spec = th.RunSpec("bench", "tripod", 1.0, True, 1, "low", "small", periods=15, model="ideal",
                       python="micropython")
@@ -101,8 +101,8 @@ def _full_stack() -> tuple[float, float, float, float]:
 def _sweep(python: str) -> tuple[float, int]:
     """The whole ``hexhil experiment tactile-hexapod`` sweep (its defaults: 3 seeds, real
     model, one worker process per core) with the firmware under ``python``; (wall s, runs)."""
-    from host_tools.experiments import tactile_hexapod as th
-    from host_tools.experiments.executor import Executor
+    from host_tools.papers.tactile_hexapod import experiment as th
+    from host_tools.executor import Executor
 
     with tempfile.TemporaryDirectory() as tmp:
         res = th.main(Path(tmp), th.SweepOptions(seeds=3, python=python),

@@ -25,7 +25,7 @@ DURATION_S = 2.0
 
 
 def _run(path: Path, command: list[str]) -> tuple[str, int]:
-    sc = scenario.load(ROOT / "scenarios" / "faults.toml")   # echo, bit errors, unplugs
+    sc = scenario.load_scenario(ROOT / "scenarios" / "faults.toml")   # echo, bit errors, unplugs
     with rec.Recorder(path, {"scenario": "faults", "seed": 3}) as r:
         result = Simulator(sc, seed=3, recorder=r).run(duration_s=DURATION_S, command=command)
     assert result.exit_code == 0 and result.cycles > 50
