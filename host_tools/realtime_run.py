@@ -3,7 +3,7 @@ scenario's emulated servos, and with ``world`` its robot, paced to the wall cloc
 serial line: a real board behind a USB adapter (``SerialPort``), a client on a pty
 (``Pty``, e.g. the stock dynamixel-sdk) or a TCP socket (``Tcp``).
 
-It is ``Run``'s counterpart (host_tools/runner.py): the same run core (hil/run/realtime_rig.py
+It is ``Run``'s counterpart (host_tools/lockstep_run.py): the same run core (hil/run/realtime_rig.py
 on hil/run/core.py) and a trace with the same metadata, the scenario's data included, so
 ``hexhil test --trace`` and ``scenario_of_trace`` read it like a lockstep run's. The trace's
 ``command`` is ``bus`` (nothing spoke the firmware link).
@@ -16,9 +16,10 @@ from typing import Any, Callable, Sequence, Union
 from hil import scenario as scenario_mod
 from hil.servobus import serial_server
 from hil.run.realtime_rig import RealTimeRig
-from hil.scenario import DEFAULT_BAUD
+from hil.scenario import DEFAULT_BAUD, Scenario
+from hil.seams import CanGateway
 from hil.servobus.switch_node import DEFAULT_ID
-from host_tools.runner import trace_metadata
+from host_tools.lockstep_run import trace_metadata
 from protocol.dynamixel import models
 from protocol.errors import UserError
 
@@ -38,6 +39,16 @@ class Tcp:
 
 
 @dataclass(frozen=True)
+class Rfc2217:
+    """pyserial's RFC 2217 server (clients open ``rfc2217://host:port``); with
+    ``rts_direction`` RTS is the direction line."""
+
+    port: int
+    host: str = "127.0.0.1"
+    rts_direction: bool = False
+
+
+@dataclass(frozen=True)
 class SerialPort:
     """A real serial device (a USB adapter on the robot's bus)."""
 
@@ -45,7 +56,7 @@ class SerialPort:
     baud: int = DEFAULT_BAUD
 
 
-Transport = Union[Pty, Tcp, SerialPort]
+Transport = Union[Pty, Tcp, Rfc2217, SerialPort]
 
 
 class RealTimeRun:
@@ -55,9 +66,9 @@ class RealTimeRun:
     the bus (None: none); ``duration_s`` ends it (None: until interrupted); ``verbose``
     receives a line for each injected fault and master mistake."""
 
-    def __init__(self, scenario: Any, seed: int, *, world: bool = False,
+    def __init__(self, scenario: Scenario | dict[str, Any], seed: int, *, world: bool = False,
                  ids: Sequence[int] | None = None, trace: str | None = None,
-                 can_server: Any = None, sensor_id: int | None = DEFAULT_ID,
+                 can_server: CanGateway | None = None, sensor_id: int | None = DEFAULT_ID,
                  duration_s: float | None = None,
                  verbose: Callable[[str], None] | None = None) -> None:
         sc = scenario_mod.parse(scenario)
@@ -80,9 +91,25 @@ class RealTimeRun:
             self._close_trace()
             raise
         end_us = None if duration_s is None else int(round(duration_s * 1e6))
+        self._injections: list[tuple[str, dict[str, Any], Callable[[str], None]]] = []
         self.server = serial_server.RealTimeServer(
             self.rig.bus, step_us=WORLD_STEP_US if self.rig.world is not None else None,
-            on_tick=self.rig.tick, end_us=end_us)
+            on_tick=self._tick, end_us=end_us)
+
+    def inject(self, kind: str, on_error: Callable[[str], None] | None = None,
+               **params: Any) -> None:
+        """A named fault while serving (any thread: ``hexhil bus --inject-stdin``), applied
+        at the server's next tick, now or at ``at_s``; a bad one goes to ``on_error``."""
+        self._injections.append((kind, params, on_error or (lambda line: None)))
+
+    def _tick(self, t_us: int) -> None:
+        while self._injections:
+            kind, params, on_error = self._injections.pop(0)
+            try:
+                self.rig.core.inject(kind, **params)
+            except UserError as exc:
+                on_error(str(exc))
+        self.rig.tick(t_us)
 
     def _close_trace(self) -> None:
         if self.recorder is not None:
@@ -92,10 +119,16 @@ class RealTimeRun:
     def serve(self, transport: Transport, announce: Callable[[str], None]) -> dict[str, Any]:
         """Serve until the run's end, an interrupt (``KeyboardInterrupt``) or
         ``serial_server.Stop`` (SIGTERM); ``announce`` gets the address line (``pty: PATH``,
-        ``tcp: ...``, ``port: ...``) once it is ready. The trace is complete on return;
-        returns the summary (time served, body, faults, bus, master violations, pacing)."""
+        ``tcp: ...``, ``rfc2217: ...``, ``port: ...``) once it is ready. The trace is
+        complete on return; returns the summary (time served, body, faults, bus, master
+        violations, pacing, and for RFC 2217 the client's line settings)."""
         try:
-            if isinstance(transport, SerialPort):
+            if isinstance(transport, Rfc2217):
+                from hil.servobus.rfc2217_server import serve_rfc2217
+
+                serve_rfc2217(self.server, transport.port, transport.host, announce,
+                                         transport.rts_direction)
+            elif isinstance(transport, SerialPort):
                 self.server.serve_port(transport.device, transport.baud, announce)
             elif isinstance(transport, Tcp):
                 self.server.serve_tcp(transport.port, transport.host, announce)
@@ -108,4 +141,6 @@ class RealTimeRun:
         finally:
             self.rig.close()
             self._close_trace()
-        return self.rig.summary(self.server.pacing.summary())
+        summary = self.rig.summary(self.server.pacing.summary())
+        summary["client_bauds"] = list(self.server.client_bauds)
+        return summary

@@ -14,46 +14,25 @@ from typing import Any, Callable
 from hil.link.board_line import MISTAKES, BoardLine
 from hil.canbus.bus import CanBus
 from hil.link.firmware_process import Connection, DirectConnection, LinkViolation
-from hil.run_result import RunResult
-from protocol import hexapod, sim_link
+from hil.run_result import RunTally
+from hil.seams import TraceRecorder
+from protocol import sim_link
+from protocol.dynamixel import v1 as dxl
 from protocol import link_schema as ls
 from protocol.dynamixel import models
 from protocol.errors import UserError
 
-RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)
-
-
-def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> dict[str, Any]:
-    """The firmware/config.py overrides a checked scenario asks for (the hello's config,
-    keys from protocol/link_schema.py CONFIG)."""
-    fw, gait, bus = scenario["firmware"], scenario["gait"], scenario["bus"]
-    out: dict[str, Any] = {k: fw[k] for k in (ls.CYCLE_HZ, ls.TACTILE_ON, ls.SERVO_LOST_S,
-                                               ls.READS_PER_CYCLE) if k in fw}
-    name = gait.get("name", hexapod.DEFAULT_GAIT)
-    out[ls.GAIT] = name
-    out[ls.PERIOD_S] = gait.get(ls.PERIOD_S, hexapod.GAIT_PERIOD_S[name])
-    for key in (ls.STEP_LENGTH_M, ls.STEP_HEIGHT_M, ls.MAX_OBSTACLE_HEIGHT_M, ls.DIRECTION_DEG):
-        if key in gait:
-            out[key] = gait[key]
-    for key in (ls.FIRST_ID, ls.BAUD):
-        if key in bus:
-            out[key] = bus[key]
-    version = models.protocol(bus.get("model", models.DEFAULT))
-    if version != models.protocol(models.DEFAULT):   # the firmware's default stays unsaid
-        out[ls.PROTOCOL] = version
-    if tactile is not None:
-        out[ls.TACTILE_ON] = tactile
-    return out
+RECORDER_SLICE = 4  # held messages the recorder encodes between looks at the link (~10 us)
 
 
 class SwitchSampler:
     """The six limit-switch levels at each sleep; edges go to the result and the recorder."""
 
-    def __init__(self, levels: Callable[[int], int], recorder: Any) -> None:
+    def __init__(self, levels: Callable[[int], int], recorder: TraceRecorder | None) -> None:
         self.levels, self.recorder = levels, recorder
         self.bits = 0
 
-    def sample(self, t_us: int, result: RunResult) -> int:
+    def sample(self, t_us: int, result: RunTally) -> int:
         bits = self.levels(t_us) & 0x3F
         changed = bits ^ self.bits
         if changed:
@@ -81,8 +60,10 @@ class LinkServer:
         self._counting = False   # bus time counts from the first sleep on (boot excluded)
         self._held: list = []    # frames taken from the inbox that the last reply had no room for
         self.line: BoardLine | None = None   # the virtual board's UART, at its first line request
+        self.version = sim_link.VERSION      # the link version the hello agreed
+        self._parser = dxl.Parser()          # R's retry rule: the master's test of a reply
 
-    def _event(self, payload: bytes, result: RunResult) -> None:
+    def _event(self, payload: bytes, result: RunTally) -> None:
         if not payload:
             raise LinkViolation("malformed event (no kind byte)")
         kind = payload[0]
@@ -92,7 +73,7 @@ class LinkServer:
         except ValueError as exc:   # JSON that does not parse
             raise LinkViolation(f"malformed event {kind}: {exc}") from None
 
-    def take_event(self, kind: int, text: str, result: RunResult) -> None:
+    def take_event(self, kind: int, text: str, result: RunTally) -> None:
         """An event of the firmware's (``EVENT_*`` kind) into the result and the trace."""
         t = self.clock.t_us
         rec = self.sim.recorder
@@ -105,7 +86,10 @@ class LinkServer:
             if rec is not None:
                 rec.fault(t, "safe_stop", text)
         elif kind == sim_link.EVENT_STATS:
-            result.firmware = json.loads(text)
+            stats = json.loads(text)
+            if not isinstance(stats, dict):
+                raise ValueError("the stats are not a JSON object")
+            result.firmware = stats
         elif kind == sim_link.EVENT_TACTILE:
             ev = json.loads(text)
             ev[ls.T_S] = t * 1e-6
@@ -117,18 +101,18 @@ class LinkServer:
         elif rec is not None:
             rec.telemetry(t, {"event": kind, "text": text})
 
-    def run_fault(self, name: str, detail: str, result: RunResult) -> None:
+    def run_fault(self, name: str, detail: str, result: RunTally) -> None:
         """A fault of the run now: counted, recorded, and a direction mistake (the virtual
         board's, or one a C SDK's board saw) handed to the master check if one watches."""
         t = self.clock.t_us
-        result.faults[name] = result.faults.get(name, 0) + 1
+        result.count_fault(name)
         if self.sim.recorder is not None:
             self.sim.recorder.fault(t, name, detail)
         check = getattr(self.bus, "monitor", None)
         if check is not None and name in MISTAKES:
             check.direction_mistake(t, name, detail)
 
-    def _can_from_firmware(self, payload: bytes, result: RunResult) -> None:
+    def _can_from_firmware(self, payload: bytes, result: RunTally) -> None:
         if len(payload) < 3 or payload[2] > sim_link.CAN_MAX_DLC or len(payload) != 3 + payload[2]:
             raise LinkViolation(f"malformed CAN message ({len(payload)} bytes)")
         arb_id, dlc = struct.unpack_from("<HB", payload, 0)
@@ -148,7 +132,7 @@ class LinkServer:
                 bytes(msg.data).ljust(8, b"\0")
         return (sim_link.FLAG_MORE if self._held else 0), bytes(body)
 
-    def _sleep_reply(self, wake_us: int, end_us: int, result: RunResult) -> tuple[bytes, bool]:
+    def _sleep_reply(self, wake_us: int, end_us: int, result: RunTally) -> tuple[bytes, bool]:
         flags = 0
         ended = wake_us >= end_us
         if ended:
@@ -165,11 +149,13 @@ class LinkServer:
             flags |= more
         return struct.pack("<BB", flags, bits) + body, ended
 
-    def _hello_reply(self, payload: bytes, result: RunResult) -> bytes:
-        if not payload or payload[0] != sim_link.VERSION:
+    def _hello_reply(self, payload: bytes, result: RunTally) -> bytes:
+        """The hello's reply in the version the client offers: the host speaks both."""
+        if not payload or payload[0] not in sim_link.VERSIONS:
             raise LinkViolation(f"link version mismatch: the firmware speaks version "
                                 f"{payload[0] if payload else 'none'}, this host speaks "
-                                f"{sim_link.VERSION}")
+                                f"{' and '.join(str(v) for v in sim_link.VERSIONS)}")
+        self.version = payload[0]
         bad = ls.problems(self.settings, ls.CONFIG)
         if bad:
             raise LinkViolation(f"the config does not fit protocol/link_schema.py: {bad[0]}")
@@ -177,10 +163,61 @@ class LinkServer:
         if len(config) + 10 > sim_link.MAX_REPLY_LEN:
             raise LinkViolation(f"the config is {len(config)} bytes of JSON: the hello reply "
                                 f"holds {sim_link.MAX_REPLY_LEN - 10}")
-        return struct.pack("<BB", sim_link.VERSION,
+        return struct.pack("<BB", self.version,
                            self.switches.sample(self.clock.t_us, result)) + config
 
-    def serve(self, conn: Connection, end_us: int, result: RunResult) -> None:
+    def _transact(self, tx: bytes, nrx: int, timeout_us: int, result: RunTally) -> bytes:
+        """Write ``tx`` on the servo line, then read up to ``nrx`` bytes within the timeout."""
+        bus, clock = self.bus, self.clock
+        t0 = clock.t_us
+        bus.master_write(tx)
+        rx = bus.master_read(nrx, timeout_us)
+        if self._counting:
+            result.bus_busy_us += clock.t_us - t0
+            heard = len(rx) - (min(len(tx), len(rx)) if bus.echo else 0)
+            result.bus_wire_us += round((len(tx) + heard) * self.byte_us)
+        return rx
+
+    def _reads(self, payload: bytes, result: RunTally) -> bytes:
+        """Link version 2's R (docs/link.md): each read in order, tried again while its
+        reply is not its servo's status (protocol/dynamixel/v1.py ``status_ok``, the
+        master's own test) and retries are left, skipped when the read it names did not
+        succeed; the reply holds every attempt's time and bytes."""
+        reads, at, room = [], 1, sim_link.MAX_REPLY_LEN - 9
+        for _ in range(payload[0]):
+            dev_id, nparams, retries, flags, skip, nrx, timeout_us, ntx = struct.unpack_from(
+                "<BBBBBHIB", payload, at)
+            at += sim_link.READ_HEAD_LEN + 1
+            if skip != sim_link.NO_SKIP and skip >= len(reads):
+                raise LinkViolation(f"read {len(reads)} skips on read {skip}, not an earlier one")
+            room -= (1 + retries) * (sim_link.ATTEMPT_HEAD_LEN + nrx)
+            reads.append((dev_id, nparams, retries, flags, skip, nrx, timeout_us,
+                          payload[at:at + ntx]))
+            at += ntx
+        if at != len(payload):
+            raise LinkViolation(f"malformed reads ({len(payload)} bytes, {at} announced)")
+        if room < 0:
+            raise LinkViolation("the reads' replies could be longer than a reply holds "
+                                f"({sim_link.MAX_REPLY_LEN})")
+        done: list[bool | None] = []
+        body = bytearray(1)
+        for dev_id, nparams, retries, flags, skip, nrx, timeout_us, tx in reads:
+            if skip != sim_link.NO_SKIP and done[skip] is not True:
+                done.append(None)
+                continue
+            start = len(tx) if flags & sim_link.READ_ECHO else 0
+            ok = False
+            for _ in range(1 + retries):
+                rx = self._transact(tx, nrx, timeout_us, result)
+                body += struct.pack("<QH", self.clock.t_us, len(rx)) + rx
+                body[0] += 1
+                ok = dxl.status_ok(self._parser, rx, start, len(rx), dev_id, nparams)
+                if ok:
+                    break
+            done.append(ok)
+        return bytes(body)
+
+    def serve(self, conn: Connection, end_us: int, result: RunTally) -> None:
         """Answer a socket connection's batches until the firmware closes it."""
         while True:
             msgs, closed = conn.batch()
@@ -188,7 +225,7 @@ class LinkServer:
                 return
 
     def answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
-               closed: bool, end_us: int, result: RunResult) -> bool:
+               closed: bool, end_us: int, result: RunTally) -> bool:
         """Carry out one batch (posted messages, then the request) and reply to it;
         True once the firmware has closed the link. A message the host cannot carry out
         (unknown op, malformed, another link version) gets an error reply and raises
@@ -202,7 +239,7 @@ class LinkServer:
             raise UserError(f"firmware link: {text}") from None
 
     def _answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
-                closed: bool, end_us: int, result: RunResult) -> bool:
+                closed: bool, end_us: int, result: RunTally) -> bool:
         bus, clock, rec = self.bus, self.clock, self.sim.recorder
         reply = None
         slept = False
@@ -218,15 +255,9 @@ class LinkServer:
                 if nrx > sim_link.MAX_RX_LEN:
                     raise LinkViolation(f"a transact asks for {nrx} bytes, more than a reply "
                                         f"holds ({sim_link.MAX_RX_LEN})")
-                tx = payload[6:]
-                t0 = clock.t_us
-                bus.master_write(tx)
-                rx = bus.master_read(nrx, timeout_us)
-                if self._counting:
-                    result.bus_busy_us += clock.t_us - t0
-                    heard = len(rx) - (min(len(tx), len(rx)) if bus.echo else 0)
-                    result.bus_wire_us += round((len(tx) + heard) * self.byte_us)
-                reply = rx
+                reply = self._transact(payload[6:], nrx, timeout_us, result)
+            elif op == sim_link.OP_READS and self.version == sim_link.VERSION_READS:
+                reply = self._reads(payload, result)
             elif op == sim_link.OP_CAN:
                 self._can_from_firmware(payload, result)
             elif op == sim_link.OP_EVENT:
@@ -263,7 +294,8 @@ class LinkServer:
             self.on_slept()
         if rec is not None and raw is not None:
             rec.link(clock.t_us, bytes(conn.raw), raw)
-            rec.idle(0 if conn.answered() else RECORDER_SLICE)
+            while not conn.answered() and rec.idle(RECORDER_SLICE):
+                pass   # write a closed window, encode until the firmware's next batch is in
         if closed:
             result.round_trips = conn.round_trips
         return closed

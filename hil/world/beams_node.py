@@ -8,9 +8,9 @@ experiments report: the Eq. 11 energy of the applied actuation and the peak angl
 from __future__ import annotations
 
 import math
-from typing import Any
 
 from hil.canbus.bus import CanBus, Endpoint
+from hil.run_result import BeamsOutcome
 from hil.scenario.beams import MAX_TIME_S
 from hil.world import scene
 from hil.world.beams import DT_US, SENSOR_PERIOD_US, BeamsWorld
@@ -38,6 +38,7 @@ class BeamsNode:
         self.peak_rad = [0.0, 0.0]
         self.sample_no = 0
         self.port: Endpoint | None = None
+        self.faults: Any = None   # the run's (hil/servobus/faults.py): force_bias, force_dropout
 
     def attach(self, can: CanBus) -> None:
         self.port = can.endpoint("tx")
@@ -65,9 +66,12 @@ class BeamsNode:
             if not world.free_run:
                 self.energy_j += energy_increment_j(world.applied, s.qd())
         if t % SENSOR_PERIOD_US == 0:
-            fx, fy, fz = world.sense_force()
-            port.send(*can_frames.encode("force", fx_n=fx, fy_n=fy, fz_n=fz,
-                                         sample=self.sample_no))
+            f = world.sense_force()
+            if self.faults is not None:
+                f = self.faults.force_sample(f)
+            if f is not None:
+                port.send(*can_frames.encode("force", fx_n=f[0], fy_n=f[1], fz_n=f[2],
+                                             sample=self.sample_no))
             self.sample_no += 1
 
     def scene_shapes(self) -> list[scene.Shape]:
@@ -87,13 +91,13 @@ class BeamsNode:
             return w.t_us > NO_CONTACT_LIMIT_US
         return w.t_us - w.first_contact_us > self.max_time_us
 
-    def outcome(self) -> dict[str, Any]:
+    def outcome(self) -> BeamsOutcome:
         w = self.world
-        return {"traversed": w.passed(), "flipped": w.flipped,
-                "stuck": not w.passed() and not w.flipped, "energy_J": self.energy_j,
-                "k0": w.geometry.k0_nm_per_rad(),
-                "t_contact_s": None if w.first_contact_us is None else w.first_contact_us * 1e-6,
-                "t_end_s": w.t_us * 1e-6, "x_end_m": w.state.x_m,
-                "max_roll_deg": math.degrees(self.peak_rad[0]),
-                "max_pitch_deg": math.degrees(self.peak_rad[1])}
+        return BeamsOutcome(
+            traversed=w.passed(), flipped=w.flipped, stuck=not w.passed() and not w.flipped,
+            energy_J=self.energy_j, k0=w.geometry.k0_nm_per_rad(),
+            t_contact_s=None if w.first_contact_us is None else w.first_contact_us * 1e-6,
+            t_end_s=w.t_us * 1e-6, x_end_m=w.state.x_m,
+            max_roll_deg=math.degrees(self.peak_rad[0]),
+            max_pitch_deg=math.degrees(self.peak_rad[1]))
 

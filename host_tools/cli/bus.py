@@ -4,13 +4,13 @@ TCP port."""
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import sys
 from typing import Any
 
 from hil.canbus.socketcand import DEFAULT_PORT
-from hil.scenario import DEFAULT_BAUD
+from hil.scenario import DEFAULT_BAUD, FaultEntry, FaultKind, Scenario
+from hil.scenario import parse as parse_scenario
 from hil.scenario.sections import SENSOR_NODE_PROTOCOL
 from host_tools.cli import JSON_HELP, flush_print
 from protocol import sensor_node
@@ -35,6 +35,40 @@ def lag_warning(pacing: dict[str, Any]) -> str | None:
             f"(our firmware waits 10 ms, the dynamixel-sdk 34 ms); the machine is overloaded")
 
 
+def parse_injection(line: str) -> tuple[str, dict[str, Any]]:
+    """``KIND key=value ...`` (a ``--inject-stdin`` line) -> the kind and its parameters;
+    values are JSON (3, 0.5, true) or else strings."""
+    words = line.split()
+    if not words:
+        raise UserError("empty fault line: expected KIND key=value ..., e.g. brownout id=3")
+    params: dict[str, Any] = {}
+    for word in words[1:]:
+        key, eq, text = word.partition("=")
+        if not eq or not key:
+            raise UserError(f"{line.strip()!r}: expected key=value, got {word!r}")
+        try:
+            params[key] = json.loads(text)
+        except ValueError:
+            params[key] = text
+    return words[0], params
+
+
+def _read_injections(rt: Any) -> None:
+    """Each stdin line a fault for ``rt`` (a thread: serving goes on meanwhile)."""
+    def complain(message: str) -> None:
+        sys.stderr.write(f"hexhil: {message}\n")
+
+    for line in sys.stdin:
+        if not line.strip():
+            continue
+        try:
+            kind, params = parse_injection(line)
+        except UserError as exc:
+            complain(str(exc))
+            continue
+        rt.inject(kind, on_error=complain, **params)
+
+
 def parse_ids(spec: str) -> list[int]:
     """``1-18`` or ``1,3,5-7`` -> sorted unique servo IDs (0-253)."""
     ids: set[int] = set()
@@ -53,38 +87,66 @@ def parse_ids(spec: str) -> list[int]:
     return sorted(ids)
 
 
-def scenario_from_flags(args: argparse.Namespace, scenario: dict[str, Any]
-                        ) -> tuple[dict[str, Any], int, list[int] | None]:
-    """Flags over scenario over defaults: the scenario to build, its seed and the servo IDs."""
-    from hil.servobus.faults import parse_flag
+def parse_flag(kind: str, spec: str) -> dict[str, Any]:
+    """A ``hexhil bus`` fault flag as a [faults] entry, as a scenario file writes it.
 
-    sc = copy.deepcopy(scenario) or {"_path": "flags"}
-    sb = sc.setdefault("bus", {})
+    ``--unplug ID:AT_S[:UNTIL_S]``, ``--stall ID:AT_S[:UNTIL_S]``,
+    ``--overheat ID:TEMP_C:AT_S[:UNTIL_S]``, ``--voltage-sag VOLTS:AT_S[:UNTIL_S]``.
+    """
+    parts = spec.split(":")
+    head = 2 if kind in ("overheat",) else 1
+    try:
+        nums = [float(p) for p in parts]
+    except ValueError:
+        raise UserError(f"--{kind.replace('_', '-')} {spec!r}: expected numbers separated by ':'") from None
+    if not head + 1 <= len(nums) <= head + 2:
+        raise UserError(f"--{kind.replace('_', '-')} {spec!r}: see 'hexhil bus --help' for the form")
+    out: dict[str, Any] = {"at_s": nums[head]}
+    if len(nums) == head + 2:
+        out["until_s"] = nums[head + 1]
+    if kind == "voltage_sag":
+        out["volts"] = nums[0]
+    else:
+        if nums[0] != int(nums[0]):
+            raise UserError(f"--{kind} {spec!r}: servo id must be an integer")
+        out["id"] = int(nums[0])
+        if kind == "overheat":
+            out["temperature_c"] = nums[1]
+    FaultEntry.parse(FaultKind(kind), out, f"--{kind.replace('_', '-')}")   # its rules
+    return out
+
+
+def scenario_from_flags(args: argparse.Namespace, scenario: Scenario | None
+                        ) -> tuple[Scenario, int, list[int] | None]:
+    """Flags over scenario over defaults: the scenario to build, its seed and the servo IDs."""
     ids = None
+    bus: dict[str, Any] = {}
     if args.ids:
         ids = parse_ids(args.ids)
         if args.servos is not None and args.servos != len(ids):
             raise UserError(f"--servos {args.servos} but --ids lists {len(ids)} IDs")
     elif args.servos is not None:
-        sb["servos"] = args.servos
+        bus["servos"] = args.servos
     for key in ("edition", "baud", "model"):
         if getattr(args, key) is not None:
-            sb[key] = getattr(args, key)
+            bus[key] = getattr(args, key)
     if args.echo:
-        sb["echo"] = True
-    sf = sc.setdefault("faults", {})
+        bus["echo"] = True
+    faults: dict[str, Any] = {}
     if args.bit_error_rate is not None:
-        sf["bit_error_rate"] = args.bit_error_rate
+        faults["bit_error_rate"] = args.bit_error_rate
     if args.drop_status_rate is not None:
-        sf["drop_status_rate"] = args.drop_status_rate
+        faults["drop_status_rate"] = args.drop_status_rate
     for kind in _FAULT_FLAGS:
         for spec in getattr(args, kind) or []:
-            sf.setdefault(kind, []).append(parse_flag(kind, spec))
-    seed = args.seed if args.seed is not None else sc.get("scenario", {}).get("seed", 0)
+            faults.setdefault(kind, []).append(parse_flag(kind, spec))
+    base = scenario if scenario is not None else parse_scenario({}, "flags")
+    sc = base.overlay({"bus": bus, "faults": faults})
+    seed = args.seed if args.seed is not None else sc.scenario.seed
     return sc, seed, ids
 
 
-def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None):
+def build_bus(args: argparse.Namespace, scenario: Scenario | None, on_fault=None):
     """Servos, clock, faults and bus from flags over scenario over defaults (hil/run/rig.py)."""
     from hil.run import rig
 
@@ -93,44 +155,46 @@ def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None)
     return built.bus, built.faults
 
 
-def _sensor_id(args: argparse.Namespace, sc: dict[str, Any]) -> int | None:
+def _sensor_id(args: argparse.Namespace, sc: Scenario) -> int | None:
     """The sensor node's ID, or None: on with --world unless --no-sensor-node or
     ``[bus] sensor_node = false``; ``--sensor-id``/``sensor_node_id`` move it."""
-    bus = sc.get("bus", {})
-    protocol = models.protocol(bus.get("model", models.DEFAULT))
-    if args.no_sensor_node or protocol != SENSOR_NODE_PROTOCOL \
-            or not bus.get("sensor_node", args.world is not None):
+    bus = sc.bus
+    on = bus.sensor_node if bus.sensor_node is not None else args.world is not None
+    if args.no_sensor_node or models.protocol(bus.model) != SENSOR_NODE_PROTOCOL or not on:
         return None
     if args.sensor_id is not None:
         if not 0 <= args.sensor_id <= 253:
             raise UserError(f"--sensor-id {args.sensor_id}: must be 0-253")
         return args.sensor_id
-    return bus.get("sensor_node_id", sensor_node.DEFAULT_ID)
+    return bus.sensor_node_id if bus.sensor_node_id is not None else sensor_node.DEFAULT_ID
 
 
 def run(args: argparse.Namespace) -> int:
     from hil.servobus import serial_server
     from hil import scenario as scenario_mod
     from host_tools import cli
-    from host_tools.realtime_run import Pty, RealTimeRun, SerialPort, Tcp
+    from host_tools.realtime_run import Pty, RealTimeRun, Rfc2217, SerialPort, Tcp
 
-    if sum((args.pty, args.tcp is not None, args.port is not None)) > 1:
-        raise UserError("choose one transport: --pty, --tcp PORT or --port DEVICE")
-    if args.tcp is not None and not 0 <= args.tcp <= 65535:
-        raise UserError(f"--tcp {args.tcp}: port must be 0-65535")
+    if sum((args.pty, args.tcp is not None, args.rfc2217 is not None, args.port is not None)) > 1:
+        raise UserError("choose one transport: --pty, --tcp PORT, --rfc2217 PORT or --port DEVICE")
+    for flag in ("tcp", "rfc2217"):
+        if getattr(args, flag) is not None and not 0 <= getattr(args, flag) <= 65535:
+            raise UserError(f"--{flag} {getattr(args, flag)}: port must be 0-65535")
+    if args.rts_direction and args.rfc2217 is None:
+        raise UserError("--rts-direction needs --rfc2217 PORT (a pty has no RTS line)")
     if args.world and args.scenario:
         raise UserError("give the scenario once: --world SCENARIO or --scenario SCENARIO")
     if args.duration is not None:
         scenario_mod.check_duration(args.duration, f"--duration {args.duration}:")
     path = args.world or args.scenario
-    sc, seed, ids = scenario_from_flags(args, scenario_mod.load(path) if path else {})
+    sc, seed, ids = scenario_from_flags(args, scenario_mod.load_scenario(path) if path else None)
     transport = (SerialPort(args.port, args.baud or DEFAULT_BAUD) if args.port is not None
-                 else Tcp(args.tcp, args.host) if args.tcp is not None else Pty())
+                 else Tcp(args.tcp, args.host) if args.tcp is not None
+                 else Rfc2217(args.rfc2217, args.host, args.rts_direction)
+                 if args.rfc2217 is not None else Pty())
     hint = None
     if args.world:   # our firmware's settings for this scenario, as `hexhil run` sends them
-        from hil.link.server import firmware_settings
-        hint = "firmware --config " + json.dumps(firmware_settings(scenario_mod.check(sc)),
-                                                 sort_keys=True)
+        hint = "firmware --config " + json.dumps(sc.firmware_settings(), sort_keys=True)
 
     def announce(line: str) -> None:
         flush_print(line)
@@ -139,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
 
     can_server = None
     if args.can_server is not None:
-        from host_tools.run import start_can_server
+        from host_tools.run_summary import start_can_server
         can_server = start_can_server(args.can_server, 0)
     try:
         rt = RealTimeRun(sc, seed, world=args.world is not None, ids=ids, trace=args.out,
@@ -148,6 +212,10 @@ def run(args: argparse.Namespace) -> int:
                          verbose=(lambda line: sys.stderr.write(line + "\n")) if args.verbose
                          else None)
         serial_server.install_sigterm()
+        if args.inject_stdin:
+            import threading
+
+            threading.Thread(target=_read_injections, args=(rt,), daemon=True).start()
         s = rt.serve(transport, announce)
     finally:
         if can_server is not None:
@@ -164,9 +232,14 @@ def run(args: argparse.Namespace) -> int:
         warning = lag_warning(p)
         if warning:
             sys.stderr.write(warning + "\n")
+    lag = ""
+    if p["late_replies"] or p["deferred_packets"]:
+        lag = (f"; host lag (not the line's): {p['late_replies']} replies over "
+               f"{p['late_threshold_ms']:g} ms late (max {p['max_reply_lag_ms']:.1f} ms), "
+               f"{p['deferred_packets']} packets waited for a status")
     flush_print(
         f"served {st['packets']} packets, {st['replies']} replies, {st['collisions']} collisions, "
-        f"{st['bad_checksum']} bad checksums; faults: {counts}; master violations: {wrong}")
+        f"{st['bad_checksum']} bad checksums; faults: {counts}; master violations: {wrong}{lag}")
     if args.json:
         cli.emit_json(s)
     return 0
@@ -183,6 +256,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--ids", default=None, help="servo IDs, e.g. 1-18 or 1,3,5-7")
     p.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal, the default (prints 'pty: PATH')")
     p.add_argument("--tcp", type=int, default=None, metavar="PORT", help="serve on a TCP port")
+    p.add_argument("--rfc2217", type=int, default=None, metavar="PORT",
+                   help="serve pyserial's RFC 2217 (clients open rfc2217://127.0.0.1:PORT and "
+                        "set baud, RTS, DTR: for clients that drive modem lines)")
+    p.add_argument("--rts-direction", action="store_true",
+                   help="with --rfc2217: RTS is the direction line (high: transmit), judged "
+                        "like the board's PA1")
     p.add_argument("--port", default=None, metavar="DEVICE",
                    help="serve a real serial port through pyserial (a board's servo UART on a "
                         "USB adapter); --baud sets its rate")
@@ -199,7 +278,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--sensor-id", type=int, default=None, metavar="ID",
                    help="the limit-switch sensor node's ID (default 100; on with --world)")
     p.add_argument("--no-sensor-node", action="store_true", help="no sensor node on the bus")
-    p.add_argument("--host", default="127.0.0.1", help="address for --tcp (default 127.0.0.1)")
+    p.add_argument("--host", default="127.0.0.1",
+                   help="address for --tcp and --rfc2217 (default 127.0.0.1)")
     p.add_argument("--baud", type=int, default=None, help="line rate in bit/s (default 1000000)")
     p.add_argument("--echo", action="store_true", help="echo the master's bytes (single-wire adapter)")
     p.add_argument("--scenario", default=None, help="scenario TOML ([bus], [faults], [scenario].seed)")
@@ -222,5 +302,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="servo heats towards TEMP_C; repeatable")
     p.add_argument("--voltage-sag", dest="voltage_sag", action="append",
                    metavar="VOLTS:AT_S[:UNTIL_S]", help="supply of every servo drops; repeatable")
+    p.add_argument("--inject-stdin", action="store_true",
+                   help="read faults from stdin while serving, one a line: KIND key=value ... "
+                        "(e.g. 'brownout id=3', 'switch_stuck leg=0 pressed=true until_s=9'; "
+                        "docs/servo-bus.md, Fault vocabulary)")
     p.add_argument("-v", "--verbose", action="store_true", help="print each injected fault on stderr")
     p.set_defaults(func=run)
