@@ -365,7 +365,8 @@ class Board:
                 raise CoreFault(self._fault_line(str(exc))) from None
             if self.fault is not None:
                 raise CoreFault(self._fault_line(self.fault))
-            if core.active and self.debugger is None and core.read16(core.pc) in BRANCH_TO_SELF:
+            if core.active and self.debugger is None and \
+                    core.read16(core.pc) in BRANCH_TO_SELF:
                 self._lockup()
             self.poll.after_chunk()
             if self.debugger is not None:
