@@ -43,7 +43,7 @@ def run() -> list[Row]:
                     elf = result
     h, e = statistics.median(wall["host"]), statistics.median(wall["elf"])
     hc, ec = statistics.median(cpu["host"]), statistics.median(cpu["elf"])
-    mcu = elf.firmware.get("mcu", {})
+    mcu = elf.firmware.other.get("mcu", {})
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     return [
         Row("c_tripod ELF speed / host build", h / e, "ratio", ">= 0.5",
