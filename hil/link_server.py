@@ -13,11 +13,10 @@ from typing import Any, Callable
 
 from hil.board_line import MISTAKES, BoardLine
 from hil.can_bus import CanBus
-from hil.link import Connection, DirectConnection, LinkViolation
+from hil.link import Connection, DirectConnection, FirmwareError, LinkViolation
 from hil.run_result import RunResult
 from protocol import hexapod, sim_link
 from protocol import link_schema as ls
-from protocol.errors import UserError
 
 RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)
 
@@ -190,14 +189,14 @@ class LinkServer:
         """Carry out one batch (posted messages, then the request) and reply to it;
         True once the firmware has closed the link. A message the host cannot carry out
         (unknown op, malformed, another link version) gets an error reply and raises
-        UserError (docs/link.md)."""
+        FirmwareError, a UserError (docs/link.md)."""
         try:
             return self._answer(conn, msgs, closed, end_us, result)
         except (LinkViolation, struct.error) as exc:
             text = f"malformed message: {exc}" if isinstance(exc, struct.error) else str(exc)
             if not closed:
                 conn.reply_error(text)
-            raise UserError(f"firmware link: {text}") from None
+            raise FirmwareError(f"firmware link: {text}") from None
 
     def _answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
                 closed: bool, end_us: int, result: RunResult) -> bool:

@@ -3,7 +3,43 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from enum import Enum
 from typing import Any
+
+LAST_LINES = 5   # of what the firmware printed, kept with an ending that is not COMPLETED
+
+
+class Ending(str, Enum):
+    """How the firmware under test ended its run: anything but COMPLETED fails the run
+    (a verdict on the firmware, not an error of hexhil)."""
+
+    COMPLETED = "completed"              # served to the run's end (or stopped on its own)
+    CRASHED = "crashed"                  # exited non-zero, or broke the link's rules
+    HUNG = "hung"                        # no link message for a while, or only polls
+    EXITED_EARLY = "exited_early"        # exited cleanly before the run's end
+    FAILED_TO_START = "failed_to_start"  # never connected to the link
+
+
+@dataclass(frozen=True)
+class FirmwareEnding:
+    """``kind`` with its one-line ``reason``, the firmware's last lines (stderr, else
+    stdout), the virtual time it ended at and its exit status (None: still running)."""
+
+    kind: Ending = Ending.COMPLETED
+    reason: str = ""
+    last_lines: tuple[str, ...] = ()
+    t_s: float | None = None
+    exit_code: int | None = None
+
+    @property
+    def completed(self) -> bool:
+        return self.kind is Ending.COMPLETED
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind.value, "reason": self.reason,
+                "last_lines": list(self.last_lines),
+                "t_s": None if self.t_s is None else round(self.t_s, 6),
+                "exit_code": self.exit_code}
 
 
 @dataclass
@@ -30,6 +66,7 @@ class RunResult:
     body: dict[str, float] = field(default_factory=lambda: {"dx_m": 0.0, "dy_m": 0.0,
                                                             "dyaw_deg": 0.0})
     world: dict[str, Any] = field(default_factory=dict)   # a self-stepping world's outcome
+    ending: FirmwareEnding = FirmwareEnding()
 
     @property
     def unhandled_exceptions(self) -> int:

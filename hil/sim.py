@@ -23,7 +23,7 @@ from __future__ import annotations
 import time
 from typing import Any, Callable
 
-from hil.served_firmware import ServedFirmware
+from hil.served_firmware import ServedFirmware, judge
 from hil.link import IN_PROCESS, DirectConnection, FirmwareProcess
 from hil.link_server import LinkServer, SwitchSampler, firmware_settings
 from hil.run_core import RunCore, WallClockPacing
@@ -95,9 +95,11 @@ class FirmwareDriver:
             try:
                 server.serve(fw.conn, end_us, result)
             finally:
-                code, _, err = fw.finish()
+                code, out, err = fw.finish()
             result.exit_code = code
             result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
+            # ours may stop before the end on its own (a safe stop): only a crash counts
+            result.ending = judge(python, code, err, out, core.clock.t_us, core.clock.t_us)
         result.serial_digest = core.serial_digest
         _firmware_counters(result)
         if self._pose0 is not None:

@@ -3,6 +3,7 @@ robot, in lockstep."""
 from __future__ import annotations
 
 import argparse
+import sys
 
 from hil.can_server import DEFAULT_PORT
 from hil.link import IN_PROCESS, RUNTIMES
@@ -43,9 +44,16 @@ def _run(args: argparse.Namespace) -> int:
         print(f"navigator {n['kind']}: stopped after step {n['stop_step']} of "
               f"{n['planned_steps']} planned (known path {n['known_steps']}); "
               f"{n['goal_dx_m']:+.3f} m short of the goal")
+    ending = result.ending
+    if not ending.completed:   # a verdict on the firmware: its lines here, the reason on stderr
+        if ending.last_lines:
+            print("the firmware's last lines:\n" + "\n".join(f"  {x}" for x in ending.last_lines))
+        if s["trace"]:
+            print(f"trace (kept up to then): {s['trace']}")
+        print(f"hexhil: {ending.reason}", file=sys.stderr)
     if args.json:
         cli.emit_json(s)
-    return 1 if s["unhandled_exceptions"] else 0
+    return 1 if s["unhandled_exceptions"] or not ending.completed else 0
 
 
 def register(sub: argparse._SubParsersAction) -> None:

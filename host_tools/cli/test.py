@@ -59,6 +59,11 @@ def _run(args: argparse.Namespace) -> int:
     bad = sum(not o.passed for r in results for o in r.outcomes)
     print(f"{n - bad} of {n} expectations passed in {len(results)} runs"
           + (f"; {bad} failed" if bad else ""))
+    for r in results:
+        ending = r.summary.get("ending") or {}
+        if ending.get("kind", "completed") != "completed":
+            print(f"{r.label}: {ending['reason']}"
+                  + "".join(f"\n  {x}" for x in ending.get("last_lines", ())))
     for r in failed:
         if r.trace:
             print(f"trace of {r.label} (failures on /expectations): {r.trace}")
