@@ -84,8 +84,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         out: str | None = None, can_server_port: int | None = None,
         can_wait_clients: int = 0, live_port: int | None = None,
         realtime: bool = False, navigator: str = "none",
-        model_path: str | None = None, firmware: str | None = None
-        ) -> tuple[dict[str, Any], RunResult]:
+        model_path: str | None = None, firmware: str | None = None,
+        overwrite: bool = False) -> tuple[dict[str, Any], RunResult]:
     """Load, simulate, summarise. Returns (summary, raw result).
 
     A recorded run (``out``) carries the 3D scene. With ``live_port`` the trace's channels
@@ -121,7 +121,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
             server = start_can_server(can_server_port, can_wait_clients)
         with Run(sc, seed=seed, runtime=python, duration_s=duration_s, tactile=tactile,
                  trace=out, live_port=live_port, can_server=server, realtime=realtime,
-                 firmware=firmware) as r:
+                 firmware=firmware, overwrite=overwrite) as r:
             if r.live is not None:
                 log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", r.live.port)
             if attach_navigator is not None:

@@ -59,14 +59,16 @@ class Run:
     clients; ``realtime`` paces virtual time to the wall clock; ``tactile`` overrides the
     scenario's ``firmware.tactile``; ``firmware``, a MicroPython main file run on the virtual
     board (docs/your-firmware.md) or an executable that speaks the link (a C firmware,
-    docs/c-firmware.md), runs instead of ours. Close it (or use ``with``) if ``run`` is never called."""
+    docs/c-firmware.md), runs instead of ours. An existing ``trace`` file is refused unless
+    ``overwrite`` (host_tools/trace/target.py). Close it (or use ``with``) if ``run`` is never called."""
 
     def __init__(self, scenario: Scenario | dict[str, Any] | str | Path, *,
                  seed: int | None = None,
                  runtime: Runtime | str | None = None, duration_s: float | None = None,
                  tactile: bool | None = None, trace: str | Path | None = None,
                  live_port: int | None = None, can_server: Any = None,
-                 realtime: bool = False, firmware: str | Path | None = None) -> None:
+                 realtime: bool = False, firmware: str | Path | None = None,
+                 overwrite: bool = False) -> None:
         # a firmware of the user's (hil/served_firmware.py) is checked before anything opens
         self.firmware = served_firmware(firmware) if firmware is not None else None
         self.scenario = (scenario_mod.load_scenario(scenario)
@@ -98,7 +100,8 @@ class Run:
             extra = ({"flush_interval_us": self.live.flush_interval_us}
                      if self.live is not None else {})
             try:
-                self.recorder = Recorder(self.trace or os.devnull, meta, live=self.live, **extra)
+                self.recorder = Recorder(self.trace or os.devnull, meta, live=self.live,
+                                         overwrite=overwrite, **extra)
             except BaseException:
                 self.close()
                 raise

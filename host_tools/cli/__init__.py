@@ -39,6 +39,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
 
 # every --json says this, whatever the command: scripts may rely on the last line
 JSON_HELP = "end with the result as one JSON object, the last line of stdout (for scripts)"
+OVERWRITE_HELP = "replace a trace file that already exists (without it, an existing file is refused)"
 
 
 def actions(sub: argparse._SubParsersAction, name: str, help: str, metavar: str = "ACTION",

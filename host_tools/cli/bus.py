@@ -10,7 +10,7 @@ from typing import Any
 
 from hil.can_server import DEFAULT_PORT
 from hil.scenario import DEFAULT_BAUD
-from host_tools.cli import JSON_HELP, flush_print
+from host_tools.cli import JSON_HELP, OVERWRITE_HELP, flush_print
 from protocol import sensor_node
 from protocol.errors import UserError
 
@@ -140,7 +140,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         rt = RealTimeRun(sc, seed, world=args.world is not None, ids=ids, trace=args.out,
                          can_server=can_server, sensor_id=_sensor_id(args, sc),
-                         duration_s=args.duration,
+                         duration_s=args.duration, overwrite=args.overwrite,
                          verbose=(lambda line: sys.stderr.write(line + "\n")) if args.verbose
                          else None)
         serial_server.install_sigterm()
@@ -186,6 +186,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="stop after S seconds (default: until Ctrl-C/SIGTERM)")
     p.add_argument("--out", default=None, metavar="FILE.mcap",
                    help="record serial, CAN, ground truth, switches, faults and violations")
+    p.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.add_argument("--can-server", type=int, nargs="?", const=DEFAULT_PORT, metavar="PORT",
                    help="serve the rig's CAN bus (limit_switches frames) over socketcand "

@@ -18,7 +18,7 @@ def _run(args: argparse.Namespace) -> int:
     s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
                             False if args.no_tactile else None, args.out,
                             args.can_server, args.can_wait, args.live, args.realtime,
-                            args.navigator, args.model, args.firmware)
+                            args.navigator, args.model, args.firmware, args.overwrite)
     if s.get("world") == "beams":
         what = "traversed" if s["traversed"] else ("flipped" if s["flipped"] else "stuck")
         print(f"{s['scenario']}: {s['strategy']}: {what} (mode {s['mode']}), energy "
@@ -70,6 +70,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="turn the Eq. 5-7 obstacle rule off (the paper's baseline)")
     p.add_argument("--out", metavar="FILE.mcap", help="record the run to an MCAP trace "
                    "(with the 3D scene: robot, obstacles, switch plates, contact forces)")
+    p.add_argument("--overwrite", action="store_true", help=cli.OVERWRITE_HELP)
     p.add_argument("--live", type=int, nargs="?", const=LIVE_PORT, metavar="PORT",
                    help="serve the trace's channels over the Foxglove WebSocket protocol on "
                         f"127.0.0.1 while the run goes (default port {LIVE_PORT}; 0 picks one)")

@@ -46,11 +46,17 @@ def _run(args: argparse.Namespace) -> int:
         dup = next(n for n in names if names.count(n) > 1)
         raise UserError(f"two files name the case {dup!r}: give one a [case] name")
     if args.trace is not None:
-        results = [runner.evaluate_recorded(cases[0], args.trace, args.keep_traces)]
+        results = [runner.evaluate_recorded(cases[0], args.trace, args.keep_traces,
+                                            args.overwrite)]
     else:
         jobs = runner.jobs_for(cases, args.repeat, tactile=False if args.no_tactile else None,
                                python=args.python, firmware=args.firmware,
-                               keep_dir=args.keep_traces)
+                               keep_dir=args.keep_traces, overwrite=args.overwrite)
+        if args.keep_traces and not args.overwrite:   # refused before anything runs
+            for job in jobs:
+                if runner.kept_path(args.keep_traces, job.label).exists():
+                    raise UserError(f"--keep-traces: {runner.kept_path(args.keep_traces, job.label)} "
+                                    "exists: pass --overwrite to replace it")
         bar = None if args.quiet or len(jobs) < 2 else cli.ProgressBar("run")
         results = runner.run_all(jobs, args.jobs, args.scheduler, progress=bar)
     print(table(results))
@@ -87,6 +93,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--keep-traces", metavar="DIR",
                    help="keep the MCAP trace of every failing case here, its failed "
                         "expectations on /expectations at the moment each failed")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a kept trace of the same name in --keep-traces DIR (without "
+                        "it, an existing one is refused before anything runs)")
     p.add_argument("--python", choices=(*RUNTIMES, IN_PROCESS),
                    help="firmware runtime for every case (default: each case's, else "
                         f"micropython); {IN_PROCESS} is faster with the same digest")

@@ -140,6 +140,17 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
 _TRACES = pytest.StashKey[list]()
 
 
+def _copy(src: Path, dst: Path) -> Path:
+    """``src`` copied to ``dst`` as every trace is written (host_tools/trace/target.py); a
+    session's ``--hexhil-keep DIR`` replaces a copy an earlier session kept by that name."""
+    from host_tools.trace.target import TraceTarget
+
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    with open(src, "rb") as f, TraceTarget(dst, overwrite=True) as out:
+        shutil.copyfileobj(f, out)
+    return dst
+
+
 @pytest.hookimpl(wrapper=True)
 def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo) -> Any:
     """A failing test's report names its traces (kept in DIR with --hexhil-keep)."""
@@ -150,8 +161,7 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo) -> Any:
         paths = []
         for t in traces:
             if keep_dir:
-                Path(keep_dir).mkdir(parents=True, exist_ok=True)
-                t = Path(shutil.copy(t, Path(keep_dir) / f"{item.name}-{t.name}"))
+                t = _copy(t, Path(keep_dir) / f"{item.name}-{t.name}")
             paths.append(str(t))
         report.sections.append(("hexhil traces", "\n".join(paths)))
     return report

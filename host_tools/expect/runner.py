@@ -4,7 +4,6 @@ many cases in parallel (host_tools/experiments/executor.py: a local process pool
 """
 from __future__ import annotations
 
-import os
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +21,7 @@ from host_tools.runner import Run
 from host_tools.trace import protobuf as pb
 from host_tools.trace import topics
 from host_tools.trace.reader import Trace, info
+from host_tools.trace.target import TraceTarget
 from protocol.errors import UserError
 
 T_EXPECTATIONS = "/expectations"  # foxglove.Log: each failed expectation at its moment
@@ -54,6 +54,7 @@ class CaseRun:
     firmware: str | None = None           # the command's --firmware, over the case's
     keep_dir: str | None = None           # keep the trace here when an expectation fails
     keep_all: bool = False                # ... or always (the pytest plugin's fixtures)
+    overwrite: bool = False               # replace a kept trace of the same name
     timing: BusTiming = BusTiming()
     scenario: dict[str, Any] | None = None  # a changed copy of the case's scenario (margin)
 
@@ -116,25 +117,23 @@ def run_case(job: CaseRun) -> CaseResult:
     """Run one case, evaluate it, keep its trace if asked; picklable for worker processes."""
     case = job.case
     tactile = job.tactile if job.tactile is not None else case.tactile
-    fd, tmp = tempfile.mkstemp(suffix=".mcap", prefix="hexhil-test-")
-    os.close(fd)
-    trace = Path(tmp)
     kept = None
-    try:
+    with tempfile.TemporaryDirectory(prefix="hexhil-test-") as tmp:
+        trace = Path(tmp) / "run.mcap"
         summary = run_scenario(job.scenario or dict(case.scenario), job.seed, case.duration_s,
                                job.python or case.python, tactile, trace, job.timing,
                                case.sends, job.firmware or case.firmware)
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
-            kept = keep(trace, job.keep_dir, job.label, failed, summary["sim_time_s"])
-    finally:
-        trace.unlink(missing_ok=True)
+            kept = keep(trace, job.keep_dir, job.label, failed, summary["sim_time_s"],
+                        job.overwrite)
     summary = {k: v for k, v in summary.items() if k != "trace"}
     return CaseResult(job.label, job.seed, outcomes, summary, kept)
 
 
-def evaluate_recorded(case: Case, trace: Path, keep_dir: str | None = None) -> CaseResult:
+def evaluate_recorded(case: Case, trace: Path, keep_dir: str | None = None,
+                      overwrite: bool = False) -> CaseResult:
     """``case``'s expectations on a run recorded elsewhere, nothing run: a real board in
     real time (``hexhil bus --world SCENARIO --port DEVICE --out RUN.mcap``), or any trace.
     The run's length is the trace's; a failing case's copy goes to ``keep_dir``."""
@@ -147,24 +146,36 @@ def evaluate_recorded(case: Case, trace: Path, keep_dir: str | None = None) -> C
     summary = {"sim_time_s": end_s, "firmware_link": linked}
     outcomes = tuple(evaluate(case, summary, trace))
     failed = [o for o in outcomes if not o.passed]
-    kept = keep(trace, keep_dir, case.name, failed, end_s) if keep_dir and failed else None
+    kept = (keep(trace, keep_dir, case.name, failed, end_s, overwrite)
+            if keep_dir and failed else None)
     return CaseResult(case.name, case.seed, outcomes, summary, kept)
 
 
+def kept_path(keep_dir: str, label: str) -> Path:
+    """Where ``--keep-traces DIR`` keeps the trace of the case run ``label``."""
+    return Path(keep_dir) / (label.replace("/", "_").replace("#", "-") + ".mcap")
+
+
 def keep(trace: Path, keep_dir: str, label: str, failed: Sequence[Outcome],
-         end_s: float) -> str:
+         end_s: float, overwrite: bool = False) -> str:
     """``trace`` copied to ``keep_dir/<label>.mcap`` with ``failed`` written into it."""
-    Path(keep_dir).mkdir(parents=True, exist_ok=True)
-    kept = Path(keep_dir) / (label.replace("/", "_").replace("#", "-") + ".mcap")
-    annotate(trace, kept, failed, end_s)
+    try:
+        Path(keep_dir).mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"--keep-traces {keep_dir}: cannot make the folder "
+                        f"({exc.strerror})") from None
+    kept = kept_path(keep_dir, label)
+    annotate(trace, kept, failed, end_s, overwrite)
     return str(kept)
 
 
-def annotate(src: Path, dst: Path, failed: Sequence[Outcome], end_s: float) -> None:
+def annotate(src: Path, dst: Path, failed: Sequence[Outcome], end_s: float,
+             overwrite: bool = False) -> None:
     """Copy a trace and add each failed expectation as a ``foxglove.Log`` (ERROR) on
     ``/expectations`` at the moment it failed (the run's end when it has none), so a viewer
-    opened at that message sees the robot when it went wrong."""
-    with Trace(src) as tr, open(dst, "wb") as f:
+    opened at that message sees the robot when it went wrong. Written as every trace is
+    (host_tools/trace/target.py: an existing ``dst`` refused unless ``overwrite``)."""
+    with Trace(src) as tr, TraceTarget(dst, overwrite) as f:
         w = Writer(f, compression=CompressionType.ZSTD)
         w.start(profile=topics.PROFILE, library=tr.header.library)
         schema_ids = {sid: w.register_schema(s.name, s.encoding, s.data)

@@ -28,6 +28,7 @@ from mcap.records import Channel, Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk, get_chunk_data_stream
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 
+from host_tools.trace.target import partial_of
 from protocol.errors import UserError
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -44,6 +45,11 @@ class TraceMessage(NamedTuple):
 def check_file(path: Path) -> None:
     """A one-line ``UserError`` unless ``path`` is a readable file that starts as MCAP."""
     if not path.exists():
+        partial = partial_of(path)
+        if partial.exists():
+            raise UserError(f"{path}: no such trace file, but {partial.name} beside it is "
+                            f"the unfinished trace of a run that was killed: 'hexhil trace "
+                            f"recover {path} OUT.mcap' salvages it")
         raise UserError(f"{path}: no such trace file")
     if path.is_dir():
         raise UserError(f"{path}: is a directory, not a trace file")

@@ -10,7 +10,9 @@ Why it is built this way:
   then sorted into log-time order, written as one zstd chunk and flushed to the OS (at the
   next ``idle()`` call, at the same virtual time, when the owner calls it). A run killed
   with SIGKILL therefore loses at most the last window (0.5 s by default), which
-  ``hexhil trace recover`` proves by reading the file without its summary.
+  ``hexhil trace recover`` proves by reading the file without its summary. The file is
+  ``TARGET.partial`` until ``close()`` renames it (host_tools/trace/target.py: an
+  existing target refused unless ``overwrite``, a second writer refused by a lock).
 * Determinism: nothing here reads the wall clock; the same run gives the same bytes.
 * Cost: the parts hand over raw values (about 1 us a call) and the encoding (hand-rolled
   protobuf for the ~360 serial bursts a simulated second) is done in ``idle()``, which the
@@ -41,6 +43,7 @@ from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, CHANNELS, METADATA_NAME,
                                      T_SCENE, T_SCENE_FORCES, T_SCENE_FRAMES, T_SERIAL,
                                      T_SERVOS, T_SWITCHES, T_TELEMETRY, T_VIOLATIONS,
                                      schema_encoding)
+from host_tools.trace.target import TraceTarget
 from host_tools.trace.writer import TraceWriter
 from protocol import can_frames, dynamixel
 from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
@@ -107,20 +110,25 @@ class Recorder:
 
     def __init__(self, path: str | Path, metadata: Mapping[str, Any] | None = None, *,
                  flush_interval_us: int = DEFAULT_FLUSH_INTERVAL_US,
-                 decode_serial: bool = True, decode_can: bool = True, live: Any = None) -> None:
+                 decode_serial: bool = True, decode_can: bool = True, live: Any = None,
+                 overwrite: bool = False) -> None:
         self.path = Path(path)
         self._live = live  # a LiveServer (host_tools/trace/live.py) that sees what is written
         self._schema_data: dict[str, bytes] = {}  # for the live server's channels
-        try:
-            self._file: BinaryIO = open(self.path, "wb")
-        except OSError as exc:
-            raise UserError(f"{self.path}: cannot write trace ({exc.strerror})") from None
-        self._writer = TraceWriter(self._file, f"hexhil {software_version()}")
+        self.messages = 0
+        self.closed = False
+        # a partial file beside the target, locked, renamed at close (host_tools/trace/target.py)
+        self._target = TraceTarget(self.path, overwrite)
+        self._file: BinaryIO = self._target.file
         meta = {"software_version": software_version()}
         for k, v in (metadata or {}).items():
             meta[str(k)] = v if isinstance(v, str) else json.dumps(v, sort_keys=True,
                                                                    default=_json_default)
-        self._writer.metadata(METADATA_NAME, meta)
+        try:
+            self._writer = TraceWriter(self._file, f"hexhil {software_version()}")
+            self._writer.metadata(METADATA_NAME, meta)
+        except OSError as exc:
+            self._write_failed(exc)
         self._flush_interval_us = int(flush_interval_us)
         self._window_end_us = self._flush_interval_us
         self._pending: list[tuple] = []  # (log_time_ns, encode, args) in call order
@@ -136,8 +144,6 @@ class Recorder:
         self._can_kinds: dict[tuple[int, bool], tuple[str, Any, bool]] = {}
         self._links: bytearray | None = None  # this window's exchanges, encoded
         self._switches = 0
-        self.messages = 0
-        self.closed = False
 
     # -- plumbing -------------------------------------------------------------------------
     def _channel(self, topic: str, schema_name: str, encoding: str,
@@ -147,10 +153,16 @@ class Recorder:
         if sid is None:
             sid = len(self._schemas) + 1
             data = self._schema_data[schema_name] = schema_data()
-            self._writer.schema(sid, schema_name, schema_encoding(encoding), data)
+            try:
+                self._writer.schema(sid, schema_name, schema_encoding(encoding), data)
+            except OSError as exc:
+                self._write_failed(exc)
             self._schemas[schema_name] = sid
         cid = len(self._channels) + 1
-        self._writer.channel(cid, topic, encoding, sid)
+        try:
+            self._writer.channel(cid, topic, encoding, sid)
+        except OSError as exc:
+            self._write_failed(exc)
         self._channels[topic] = cid
         if self._live is not None:
             self._live.channel(cid, topic, schema_name, schema_encoding(encoding),
@@ -237,15 +249,11 @@ class Recorder:
 
     def _write_failed(self, exc: OSError) -> None:
         """A full disk or a file-size limit: stop recording, keep what is on disk, one line."""
-        try:
-            self._file.close()
-        except OSError:
-            pass  # the buffered tail is what the disk refused
+        where = self._target.abandon()
         self.closed = True
         self._window_end_us = -1
         raise UserError(f"{self.path}: cannot write trace ({exc.strerror or exc}); the "
-                        f"{self.messages} messages written before stay readable with "
-                        f"'hexhil trace recover'") from None
+                        f"{self.messages} messages written before stay in {where}") from None
 
     def advance(self, t_us: int) -> None:
         """Tell the recorder virtual time has reached ``t_us`` (flushes a finished window)."""
@@ -269,11 +277,12 @@ class Recorder:
         self._write_chunk(msgs)
         try:
             self._writer.finish()
-            self._file.close()
+            self._file.flush()
         except OSError as exc:
             self._write_failed(exc)
         self.closed = True
         self._window_end_us = -1
+        self._target.commit()
 
     def __enter__(self) -> "Recorder":
         return self
@@ -485,5 +494,6 @@ class Recorder:
 
 def open_recorder(path: str | Path | None, metadata: Mapping[str, Any] | None = None,
                   **kwargs: Any) -> Recorder | None:
-    """A Recorder for ``--out PATH``, or None when no path was given."""
+    """A Recorder for ``--out PATH`` (``overwrite=True`` for ``--overwrite``), or None when
+    no path was given."""
     return Recorder(path, metadata, **kwargs) if path else None
