@@ -60,6 +60,7 @@ class RealTimeRun:
                  duration_s: float | None = None,
                  verbose: Callable[[str], None] | None = None, overwrite: bool = False) -> None:
         sc = scenario_mod.parse(scenario)
+        scenario_mod.check_seed(seed, "seed")
         if duration_s is not None:
             scenario_mod.check_duration(duration_s, "duration_s")
         self.recorder = None

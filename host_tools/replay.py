@@ -20,12 +20,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
-from protocol import sim_link
-from hil.served_firmware import served_firmware
 from hil.link import REQUEST_OPS, FirmwareProcess, split_messages
+from hil.scenario import check_number, check_span
+from hil.served_firmware import BOARD_RUNTIME, EXECUTABLE, served_firmware
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_CAN_RAW, T_LINK
+from protocol import ax12, sim_link
+from protocol import dynamixel as dxl
 from protocol.errors import UserError
 
 # What each link message is, for reports and --topics.
@@ -34,6 +36,7 @@ OP_TOPICS = {sim_link.OP_HELLO: "hello", sim_link.OP_TRANSACT: "uart", sim_link.
              sim_link.OP_EVENT: "event", sim_link.OP_LINE: "uart",
              sim_link.OP_DIRECTION: "uart"}
 TOPICS = ("uart", "can", "sleep", "event", "hello")
+MAX_RATE = 1e6   # wall-clock pacing: a million times real time is as good as none
 # Events whose text is not a firmware output: wall-clock profiling counters.
 UNCOMPARED_EVENTS = (sim_link.EVENT_STATS,)
 # Events whose text is a JSON object: compared decoded, because MicroPython's dicts do not
@@ -70,10 +73,14 @@ class Divergence:
     expected: str
     actual: str
     exchange: int
+    expected_packets: list[str] = field(default_factory=list)   # the servo packets decoded
+    actual_packets: list[str] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
         return {"t_s": self.t_s, "topic": self.topic, "expected": self.expected,
-                "actual": self.actual, "exchange": self.exchange}
+                "actual": self.actual, "exchange": self.exchange,
+                "expected_packets": self.expected_packets,
+                "actual_packets": self.actual_packets}
 
 
 @dataclass
@@ -95,6 +102,34 @@ class ReplayResult:
 
 def _describe(op: int, payload: bytes) -> str:
     return "%s %s" % (chr(op) if 32 < op < 127 else "0x%02X" % op, payload.hex())
+
+
+# where a UART message's bytes for the servos start (protocol/sim_link.py framing)
+_UART_BYTES_AT = {sim_link.OP_WRITE: 0, sim_link.OP_TRANSACT: 6,
+                  sim_link.OP_LINE: sim_link.LINE_HEAD_LEN}
+
+
+def decode_packets(message: tuple[int, bytes] | None) -> list[str]:
+    """The Protocol 1.0 packets a UART message sends, one line each: instruction, id and
+    parameters (the register named), as the protocol parser reads them."""
+    if message is None or message[0] not in _UART_BYTES_AT:
+        return []
+    parser = dxl.Parser()
+    out = []
+    for b in message[1][_UART_BYTES_AT[message[0]]:]:
+        if parser.push(b):
+            out.append(_packet_text(parser.current()))
+    return out
+
+
+def _packet_text(p: dxl.Packet) -> str:
+    name = dxl.INSTRUCTION_NAMES.get(p.code, f"0x{p.code:02X}")
+    params = list(p.params)
+    if p.code in (dxl.READ, dxl.WRITE, dxl.REG_WRITE, dxl.SYNC_WRITE) and params:
+        field_ = ax12.field_at(params[0])
+        where = f"address {params[0]}" + (f" ({field_[1]})" if field_ else "")
+        return f"{name} id {p.id} {where} params {params[1:]}"
+    return f"{name} id {p.id} params {params}"
 
 
 def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | None = None
@@ -140,8 +175,8 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     """
     if python not in ("micropython", "cpython"):
         raise UserError(f"--python must be micropython or cpython, not {python!r}")
-    if rate < 0:
-        raise UserError("--rate must be >= 0 (0 = as fast as possible)")
+    check_number(rate, "--rate (0: as fast as possible)", 0.0, MAX_RATE)
+    check_span(start_s, end_s)
     wanted = set(TOPICS)
     if topics:
         wanted = {t for item in topics for t in item.split(",") if t}
@@ -150,6 +185,9 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
             raise UserError(f"unknown replay topic(s) {', '.join(bad)} "
                             f"(known: {', '.join(TOPICS)})")
     with Trace(path) as tr:
+        recorded_with = tr.metadata().get("firmware_runtime")
+        if firmware is None and recorded_with in (BOARD_RUNTIME, EXECUTABLE):
+            _needs_firmware(path, recorded_with, tr.metadata())
         exchanges = load_exchanges(tr, start_s, end_s)
     if not exchanges:
         raise UserError(f"{path}: the {T_LINK} topic is empty in the chosen time range")
@@ -203,6 +241,17 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     return result
 
 
+def _needs_firmware(path: str | Path, runtime: str, metadata: dict[str, str]) -> None:
+    """A trace of a firmware of the user's replays into that firmware only: say so."""
+    try:
+        recorded = json.loads(metadata.get("overrides", "{}")).get("firmware")
+    except ValueError:
+        recorded = None
+    was = f" ({recorded})" if recorded else ""
+    raise UserError(f"{path} was recorded with --firmware{was}, runtime {runtime}: pass "
+                    "--firmware PATH to replay it")
+
+
 def _compare(expected: list[tuple[int, bytes]], actual: list[tuple[int, bytes]],
              wanted: set[str], t_us: int, index: int, compare: bool) -> Divergence | None:
     """First differing compared message of one exchange, or None."""
@@ -223,14 +272,15 @@ def _compare(expected: list[tuple[int, bytes]], actual: list[tuple[int, bytes]],
                 return Divergence(t_us / 1e6, OP_TOPICS.get(op, "?"),
                                   _describe(*e) if e else "(nothing)",
                                   _describe(*a) if a else "(nothing: firmware stopped)",
-                                  index)
+                                  index, decode_packets(e), decode_packets(a))
     if exp_req != act_req:
         op = (exp_req or act_req)[0]
         e = next(((o, p) for o, p in expected if o in REQUEST_OPS), None)
         a = next(((o, p) for o, p in actual if o in REQUEST_OPS), None)
         return Divergence(t_us / 1e6, OP_TOPICS.get(op, "?"),
                           _describe(*e) if e else "(nothing)",
-                          _describe(*a) if a else "(nothing: firmware stopped)", index)
+                          _describe(*a) if a else "(nothing: firmware stopped)", index,
+                          decode_packets(e), decode_packets(a))
     return None
 
 
@@ -263,8 +313,8 @@ def replay_can(path: str | Path, spec: str, rate: float = 1.0, start_s: float | 
     (divided by ``rate``; 0 sends back to back)."""
     import can
 
-    if rate < 0:
-        raise UserError("--rate must be >= 0 (0 = back to back)")
+    check_number(rate, "--rate (0: back to back)", 0.0, MAX_RATE)
+    check_span(start_s, end_s)
     interface, channel = parse_can_target(spec)
     cls = CanFrame
     with Trace(path) as tr:

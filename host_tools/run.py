@@ -17,8 +17,9 @@ log = logging.getLogger(__name__)   # the addresses a client attaches to (hexhil
 
 
 def summary(scenario: Scenario, seed: int, result: RunResult,
-            trace: str | None) -> dict[str, Any]:
-    """The ``--json`` object of a firmware run (keys fixed by issue 4)."""
+            trace: str | None, what_ran: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The ``--json`` object of a firmware run (keys fixed by issue 4; ``what_ran``,
+    ``Run.what_ran()``: the tactile rule as run and every override, issue 41)."""
     wall = result.wall_time_s
     stopped = result.firmware.get(ls.STATE) in ("safe_stop", "fault")
     return {
@@ -48,6 +49,7 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
         if result.loop_cycles else None,
         "bus_wire_min_per_cycle_us": round(result.bus_wire_us / result.loop_cycles, 1)
         if result.loop_cycles else None,
+        "tactile": None, "overrides": {}, **(what_ran or {}),
     }
 
 
@@ -104,7 +106,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     speaks the link (hil/served_firmware.py), runs instead of our firmware.
     """
     sc = scenario_mod.load_scenario(path)
-    seed = sc.scenario.seed if seed is None else seed
+    given_seed = None if seed is None else scenario_mod.check_seed(seed, "--seed")
+    seed = sc.scenario.seed if given_seed is None else given_seed
     if duration_s is not None:
         scenario_mod.check_duration(duration_s, "--duration")
     if can_server_port is not None and not 0 <= can_server_port <= 65535:
@@ -119,7 +122,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     try:
         if can_server_port is not None:
             server = start_can_server(can_server_port, can_wait_clients)
-        with Run(sc, seed=seed, runtime=python, duration_s=duration_s, tactile=tactile,
+        with Run(sc, seed=given_seed, runtime=python, duration_s=duration_s, tactile=tactile,
                  trace=out, live_port=live_port, can_server=server, realtime=realtime,
                  firmware=firmware, overwrite=overwrite) as r:
             if r.live is not None:
@@ -127,12 +130,13 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
             if attach_navigator is not None:
                 nav = attach_navigator(r)
             result = r.run()
+            what_ran = r.what_ran()
     finally:
         if server is not None:
             server.close()
     if sc.world.kind is WorldKind.BEAMS:
         return _beams_summary(sc, seed, result, out), result
-    s = summary(sc, seed, result, out)
+    s = summary(sc, seed, result, out, what_ran)
     if nav is not None:
         s["navigator"] = {"kind": navigator, **nav.summary(),
                           "goal_dx_m": round(nav.distance_m - result.body.get("dx_m", 0.0), 4)}

@@ -9,12 +9,14 @@ A beams scenario (seed 000) runs its own host nodes (host_tools/traversal/closed
 """
 from __future__ import annotations
 
+import copy
 import json
 import os
 import time
 from pathlib import Path
 from typing import Any
 
+from firmware.config import DEFAULTS as FIRMWARE_DEFAULTS
 from hil import scenario as scenario_mod
 from hil.can_bus import Endpoint
 from hil.rig import make_world
@@ -23,15 +25,32 @@ from hil.scenario import Runtime, Scenario, WorldKind
 from hil.seams import HostNode, TraceRecorder
 from hil.served_firmware import served_firmware
 from hil.sim import Simulator
+from protocol import link_schema as ls
 from protocol.errors import UserError
 
 NO_RUNTIME = "none"   # a beams run has no firmware
 
 
-def trace_metadata(sc: Scenario, seed: int, runtime: str) -> dict[str, Any]:
-    """What a trace says about its run: the scenario's name and its data, seed, runtime."""
+def trace_metadata(sc: Scenario, seed: int, runtime: str,
+                   overrides: dict[str, Any] | None = None) -> dict[str, Any]:
+    """What a trace says about its run: the scenario's name and its data as run (every
+    override applied: ``as_run``), seed, runtime, and the overrides themselves (what the
+    command or the caller changed: tactile, seed, duration, firmware, bus timing...)."""
+    overrides = dict(overrides or {})
     return {"scenario": sc.path, "seed": seed, "firmware_runtime": runtime,
-            "scenario_data": sc.as_toml_data()}
+            "scenario_data": as_run(sc, seed, overrides), "overrides": overrides}
+
+
+def as_run(sc: Scenario, seed: int, overrides: dict[str, Any]) -> dict[str, Any]:
+    """The scenario's data with what a run changed written in, so that ``scenario_of_trace``
+    gives what was run: its seed, its ``duration_s`` and its ``firmware.tactile``."""
+    data = copy.deepcopy(sc.as_toml_data())
+    data.setdefault("scenario", {})["seed"] = seed
+    if "duration_s" in overrides:
+        data["scenario"]["duration_s"] = overrides["duration_s"]
+    if "tactile" in overrides:
+        data.setdefault("firmware", {})["tactile"] = overrides["tactile"]
+    return data
 
 
 def scenario_of_trace(metadata: dict[str, str], where: str) -> tuple[Scenario, int]:
@@ -60,7 +79,9 @@ class Run:
     scenario's ``firmware.tactile``; ``firmware``, a MicroPython main file run on the virtual
     board (docs/your-firmware.md) or an executable that speaks the link (a C firmware,
     docs/c-firmware.md), runs instead of ours. An existing ``trace`` file is refused unless
-    ``overwrite`` (host_tools/trace/target.py). Close it (or use ``with``) if ``run`` is never called."""
+    ``overwrite`` (host_tools/trace/target.py). Every argument given is an override, recorded
+    in the trace's metadata with the scenario as run (``overrides`` adds what else the caller
+    changed, e.g. margin's bus timing); ``what_ran()`` says the same for the summary. Close it (or use ``with``) if ``run`` is never called."""
 
     def __init__(self, scenario: Scenario | dict[str, Any] | str | Path, *,
                  seed: int | None = None,
@@ -68,13 +89,16 @@ class Run:
                  tactile: bool | None = None, trace: str | Path | None = None,
                  live_port: int | None = None, can_server: Any = None,
                  realtime: bool = False, firmware: str | Path | None = None,
-                 overwrite: bool = False) -> None:
+                 overwrite: bool = False, overrides: dict[str, Any] | None = None) -> None:
         # a firmware of the user's (hil/served_firmware.py) is checked before anything opens
         self.firmware = served_firmware(firmware) if firmware is not None else None
         self.scenario = (scenario_mod.load_scenario(scenario)
                          if isinstance(scenario, (str, Path)) else scenario_mod.parse(scenario))
         sc = self.scenario
-        self.seed = sc.scenario.seed if seed is None else seed
+        self.seed = sc.scenario.seed if seed is None else scenario_mod.check_seed(seed, "seed")
+        if tactile is not None and self.firmware is not None:
+            raise UserError("--no-tactile (tactile) sets our firmware's obstacle rule: a "
+                            f"firmware of yours ({firmware}) reads no such setting")
         self.runtime = (sc.firmware.python if runtime is None
                         else Runtime.parse(runtime, "runtime") if isinstance(runtime, str)
                         else runtime)
@@ -83,6 +107,17 @@ class Run:
         self.beams = sc.world.kind is WorldKind.BEAMS
         if self.beams and self.firmware is not None:
             raise UserError(f"{sc.path}: a beams scenario has no firmware (--firmware)")
+        given = {"seed": seed, "duration_s": duration_s, "tactile": tactile,
+                 "runtime": None if runtime is None else self.runtime.value,
+                 "firmware": None if self.firmware is None else str(firmware),
+                 "firmware_runtime": None if self.firmware is None else self.firmware.runtime}
+        # every override, in the trace, the summary and JUnit (``what_ran``)
+        self.overrides: dict[str, Any] = {**{k: v for k, v in given.items() if v is not None},
+                                          **(overrides or {})}
+        self.tactile = (None if self.firmware is not None or self.beams
+                        else tactile if tactile is not None
+                        else sc.firmware.tactile if sc.firmware.tactile is not None
+                        else bool(FIRMWARE_DEFAULTS[ls.TACTILE_ON]))
         self.trace = str(trace) if trace else None
         self._can_server, self._realtime = can_server, realtime
         self.world = None if self.beams else make_world(sc, self.seed)
@@ -96,7 +131,8 @@ class Run:
             from host_tools.trace.recorder import Recorder
 
             meta = trace_metadata(sc, self.seed, NO_RUNTIME if self.beams else
-                                  self.firmware.runtime if self.firmware else self.runtime.value)
+                                  self.firmware.runtime if self.firmware else self.runtime.value,
+                                  self.overrides)
             extra = ({"flush_interval_us": self.live.flush_interval_us}
                      if self.live is not None else {})
             try:
@@ -114,6 +150,11 @@ class Run:
             except BaseException:
                 self.close()
                 raise
+
+    def what_ran(self) -> dict[str, Any]:
+        """The summary's account of the run's settings: the tactile rule as run (None: a
+        firmware of yours, or a beams run) and every override."""
+        return {"tactile": self.tactile, "overrides": dict(self.overrides)}
 
     # --- host nodes ---------------------------------------------------------------------
     def _firmware_sim(self) -> Simulator:

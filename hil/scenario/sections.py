@@ -7,6 +7,7 @@ file does not set them: their defaults live with their owner, on the other floor
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any
@@ -26,6 +27,18 @@ BAUD_TOLERANCE = 0.03            # AX-12 e-manual: a line within 3 % of the serv
 SERVO_MODELS = ("ax-12a", xl430.MODEL_NAME)  # Protocol 1.0, Protocol 2.0
 GAITS = tuple(hexapod.GAITS)     # tripod, wave
 DEFAULT_GAIT = hexapod.DEFAULT_GAIT
+# Every number a scenario, a flag or an argument takes has a physical range (docs/api.md):
+SEED_MAX = 2**32 - 1             # the RNGs' seed (numpy SeedSequence, MuJoCo terrain): 32 bits
+PERIOD_S = (0.1, 60.0)           # a gait cycle: at least 5 of the firmware's 20 ms cycles
+STEP_LENGTH_M = (0.0, 0.2)       # within the leg's reach (coxa 5 + femur 8.2 + tibia 12 cm)
+STEP_HEIGHT_M = (0.0, 0.15)
+OBSTACLE_HEIGHT_M = (0.0, 0.15)
+DIRECTION_DEG = (-360.0, 360.0)
+DISTANCE_M = (0.0, 1000.0)       # a goal ahead (above 0)
+CYCLE_HZ = (0.0, 1000.0)         # the firmware's control rate (above 0)
+SERVO_LOST_S = (0.0, 3600.0)     # (above 0)
+READS_PER_CYCLE = (0, 254)
+RATE = (0.0, 1.0)                # a fault's probability
 
 
 class Runtime(str, Enum):
@@ -51,19 +64,58 @@ class WorldKind(str, Enum):
     BEAMS = "beams"       # seed 000's two beams (hil/world/beams.py), stepped by the simulator
 
 
-def check_duration(value: float, what: str) -> float:
-    """A run's length in seconds: positive, finite and within ``MAX_DURATION_S``."""
-    if not value > 0:
-        raise UserError(f"{what} must be positive, got {value}")
-    if not value <= MAX_DURATION_S:
-        raise UserError(f"{what} must be at most {MAX_DURATION_S:g} s (a trace's clock is "
-                        f"u64 nanoseconds), got {value}")
+def check_number(value: Any, what: str, low: float, high: float, unit: str = "", *,
+                 above: bool = False) -> float:
+    """The one check of a number given to hexhil (a scenario key, a flag, an argument): a
+    finite number from ``low`` (excluded with ``above``) to ``high``; else one line naming
+    ``what`` (``UserError``)."""
+    ok = (isinstance(value, (int, float)) and not isinstance(value, bool)
+          and math.isfinite(value) and (value > low if above else value >= low)
+          and value <= high)
+    if not ok:
+        lo = f"above {low:g}" if above else f"from {low:g}"
+        raise UserError(f"{what} must be a finite number {lo} to {high:g}{unit}, got {value!r}")
     return float(value)
+
+
+def check_seed(value: Any, what: str) -> int:
+    """A seed: an integer from 0 to ``SEED_MAX`` (the RNGs take 32 bits)."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= SEED_MAX:
+        raise UserError(f"{what} must be an integer from 0 to {SEED_MAX} (2**32 - 1), "
+                        f"got {value!r}")
+    return value
+
+
+def check_span(start_s: float | None, end_s: float | None) -> None:
+    """A stretch of a trace (``--start``/``--end``, seconds from its start; None: open):
+    finite, within a trace's clock, and not empty."""
+    for value, what in ((start_s, "--start"), (end_s, "--end")):
+        if value is not None:
+            check_number(value, what, 0.0, MAX_DURATION_S, " s")
+    if start_s is not None and end_s is not None and not start_s < end_s:
+        raise UserError(f"--start {start_s:g} s is not before --end {end_s:g} s: the range "
+                        "is empty")
+
+
+def check_duration(value: float, what: str) -> float:
+    """A run's length in seconds: positive, finite and within ``MAX_DURATION_S`` (a trace's
+    clock is u64 nanoseconds)."""
+    return check_number(value, what, 0.0, MAX_DURATION_S, " s", above=True)
 
 
 def baud_register(baud: int) -> int:
     """The AX-12 Baud Rate register (2 Mbps / (n + 1)) nearest ``baud`` bps."""
     return min(254, max(0, round(2_000_000 / baud) - 1))
+
+
+def _check_keys(where: str, section: str, values: Any,
+                ranges: dict[str, tuple[tuple[float, float], str, bool]]) -> None:
+    """Each key of ``ranges`` that ``values`` sets (not None): ``check_number``'s range,
+    unit and whether the low end is excluded."""
+    for key, ((low, high), unit, above) in ranges.items():
+        v = getattr(values, key)
+        if v is not None:
+            check_number(v, f"{where}: key '{section}.{key}'", low, high, unit, above=above)
 
 
 @dataclass(frozen=True)
@@ -77,6 +129,7 @@ class ScenarioInfo:
     def parse(cls, where: str, d: dict[str, Any]) -> "ScenarioInfo":
         out = cls(**d)
         check_duration(out.duration_s, f"{where}: key 'scenario.duration_s'")
+        check_seed(out.seed, f"{where}: key 'scenario.seed'")
         return out
 
 
@@ -149,8 +202,9 @@ class FirmwareConfig:
         if "python" in d:
             d["python"] = Runtime.parse(d["python"], f"{where}: key 'firmware.python'")
         f = cls(**d)
-        if f.cycle_hz is not None and not f.cycle_hz > 0:
-            raise UserError(f"{where}: 'cycle_hz' must be positive")
+        _check_keys(where, "firmware", f, {"cycle_hz": (CYCLE_HZ, " Hz", True),
+                                           "servo_lost_s": (SERVO_LOST_S, " s", True),
+                                           "reads_per_cycle": (READS_PER_CYCLE, "", False)})
         return f
 
 
@@ -172,8 +226,12 @@ class GaitConfig:
         if name not in GAITS:
             raise UserError(f"{where}: key 'gait.name' must be tripod or wave, got {name!r}")
         g = cls(**{"period_s": hexapod.GAIT_PERIOD_S[name], **d})
-        if not g.period_s > 0:
-            raise UserError(f"{where}: 'period_s' must be positive")
+        _check_keys(where, "gait", g, {"period_s": (PERIOD_S, " s", False),
+                                       "step_length_m": (STEP_LENGTH_M, " m", False),
+                                       "step_height_m": (STEP_HEIGHT_M, " m", False),
+                                       "max_obstacle_height_m": (OBSTACLE_HEIGHT_M, " m", False),
+                                       "direction_deg": (DIRECTION_DEG, " deg", False),
+                                       "distance_m": (DISTANCE_M, " m", True)})
         return g
 
 
@@ -192,9 +250,8 @@ class FaultsConfig:
     @classmethod
     def parse(cls, where: str, d: dict[str, Any]) -> "FaultsConfig":
         f = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
-        if not 0.0 <= f.can_drop_rate <= 1.0:
-            raise UserError(f"{where}: key 'faults.can_drop_rate' must be in [0, 1], "
-                            f"got {f.can_drop_rate}")
+        # bit_error_rate and drop_status_rate: checked by hil/faults.py, their owner
+        _check_keys(where, "faults", f, {"can_drop_rate": (RATE, "", False)})
         return f
 
 

@@ -9,7 +9,7 @@ import sys
 from typing import Any
 
 from hil.can_server import DEFAULT_PORT
-from hil.scenario import DEFAULT_BAUD
+from hil.scenario import DEFAULT_BAUD, check_seed
 from host_tools.cli import JSON_HELP, OVERWRITE_HELP, flush_print
 from protocol import sensor_node
 from protocol.errors import UserError
@@ -77,7 +77,8 @@ def scenario_from_flags(args: argparse.Namespace, scenario: dict[str, Any]
     for kind in _FAULT_FLAGS:
         for spec in getattr(args, kind) or []:
             sf.setdefault(kind, []).append(parse_flag(kind, spec))
-    seed = args.seed if args.seed is not None else sc.get("scenario", {}).get("seed", 0)
+    seed = (check_seed(args.seed, "--seed") if args.seed is not None
+            else sc.get("scenario", {}).get("seed", 0))
     return sc, seed, ids
 
 

@@ -32,6 +32,9 @@ def _run(args: argparse.Namespace) -> int:
         raise UserError("--jobs and --repeat must be at least 1")
     if args.firmware is not None and args.python is not None:
         raise UserError(f"--firmware {args.firmware} brings its own runtime: leave out --python")
+    if args.firmware is not None and args.no_tactile:
+        raise UserError("--no-tactile sets our firmware's obstacle rule: a firmware of yours "
+                        f"({args.firmware}) reads no such setting")
     if args.trace is not None and (len(args.files) != 1 or args.firmware or args.python
                                    or args.no_tactile or args.repeat != 1):
         raise UserError("--trace evaluates one recorded run: give one FILE, and no --firmware, "

@@ -34,6 +34,10 @@ def to_xml(results: Sequence[CaseResult], name: str = "hexhil test") -> ET.Eleme
         ending = r.summary.get("ending")
         if ending is not None:
             ET.SubElement(props, "property", name="firmware_ending", value=ending["kind"])
+        if "tactile" in r.summary:   # what the run was: the tactile rule and every override
+            ET.SubElement(props, "property", name="tactile", value=str(r.summary["tactile"]))
+        for key, value in sorted(r.summary.get("overrides", {}).items()):
+            ET.SubElement(props, "property", name=f"override.{key}", value=str(value))
         if r.trace:
             ET.SubElement(props, "property", name="trace", value=r.trace)
         for o in r.outcomes:

@@ -4,6 +4,7 @@ many cases in parallel (host_tools/experiments/executor.py: a local process pool
 """
 from __future__ import annotations
 
+import dataclasses
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,6 +13,7 @@ from typing import Any, Sequence
 from mcap.writer import CompressionType, Writer
 
 from hil.master_check import MasterCheck
+from hil.scenario import check_seed
 from host_tools import run as run_mod
 from host_tools.expect.evaluate import Outcome, evaluate
 from host_tools.expect.spec import Case
@@ -34,6 +36,11 @@ class BusTiming:
     return_delay_us: int | None = None   # servos answer after this, whatever register 5 says
     adapter_latency_us: int = 0          # before the master sees a received byte
     master_baud: int | None = None       # the master UART's true rate (None: the scenario's)
+
+    def overrides(self) -> dict[str, int]:
+        """The settings that differ from the scenario's (a run's recorded overrides)."""
+        return {k: v for k, v in dataclasses.asdict(self).items()
+                if v is not None and not (k == "adapter_latency_us" and v == 0)}
 
     def apply(self, bus: Any) -> None:
         bus.return_delay_override_us = self.return_delay_us
@@ -96,7 +103,8 @@ def run_scenario(scenario: dict[str, Any], seed: int, duration_s: float, python:
     on; returns ``hexhil run --json``'s summary plus ``violations``. Every case and margin
     run goes through here."""
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
-              duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware)
+              duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
+              overrides=timing.overrides())
     try:
         check = MasterCheck(run.recorder.violation)
         sim = run.sim
@@ -108,7 +116,7 @@ def run_scenario(scenario: dict[str, Any], seed: int, duration_s: float, python:
         run.close()
         raise
     result = run.run()
-    summary = run_mod.summary(run.scenario, seed, result, str(trace))
+    summary = run_mod.summary(run.scenario, seed, result, str(trace), run.what_ran())
     summary["violations"] = check.summary()
     return summary
 
@@ -212,6 +220,8 @@ def jobs_for(cases: Sequence[Case], repeat: int = 1, **options: Any) -> list[Cas
     """Each case ``repeat`` times: repeat k runs with the case's seed + k."""
     out = []
     for case in cases:
+        check_seed(case.seed + repeat - 1, f"{case.name}: the last repeat's seed ({case.seed} + "
+                                           f"{repeat - 1})")
         for k in range(repeat):
             label = case.name if repeat == 1 else f"{case.name}#{k}"
             out.append(CaseRun(case, case.seed + k, label, **options))

@@ -86,12 +86,10 @@ def import_csv(src: str | Path, dst: str | Path, metadata: dict[str, Any] | None
             if n == 0:
                 raise UserError(f"{src}: CSV has no data rows")
         except csv.Error as exc:
-            out.close()
-            Path(dst).unlink(missing_ok=True)
+            out.discard()
             raise UserError(f"{src}: malformed CSV ({why(exc)})") from None
         except UserError:
-            out.close()
-            Path(dst).unlink(missing_ok=True)
+            out.discard()
             raise
         out.close()
     return {"input": str(src), "output": str(dst), "samples": n, "pose": has_pose,

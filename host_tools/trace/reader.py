@@ -28,6 +28,7 @@ from mcap.records import Channel, Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk, get_chunk_data_stream
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 
+from hil.scenario import check_span
 from host_tools.trace.target import partial_of
 from protocol.errors import UserError
 
@@ -135,11 +136,10 @@ class Trace:
                  end_s: float | None = None, log_time_order: bool = True
                  ) -> Iterator[TraceMessage]:
         """Raw messages in log-time order; ``start_s`` inclusive, ``end_s`` exclusive."""
+        check_span(start_s, end_s)
         sel = self.select_topics(topics)
-        start_ns = None if start_s is None else max(0, int(round(start_s * 1e9)))
-        end_ns = None if end_s is None else max(0, int(round(end_s * 1e9)))
-        if start_ns is not None and end_ns is not None and start_ns > end_ns:
-            raise UserError(f"--start ({start_s:g} s) is after --end ({end_s:g} s)")
+        start_ns = None if start_s is None else int(round(start_s * 1e9))
+        end_ns = None if end_s is None else int(round(end_s * 1e9))
         if self.file_order_is_time_order or not log_time_order:
             it = self._chunk_messages(sel, start_ns, end_ns)
         else:

@@ -284,6 +284,14 @@ class Recorder:
         self._window_end_us = -1
         self._target.commit()
 
+    def discard(self) -> None:
+        """Stop and remove what was written, keeping whatever the target held (an import
+        that failed half-way)."""
+        if not self.closed:
+            self.closed = True
+            self._window_end_us = -1
+            self._target.discard()
+
     def __enter__(self) -> "Recorder":
         return self
 

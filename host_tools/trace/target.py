@@ -115,6 +115,16 @@ class TraceTarget:
             return f"{self.path}"
         return f"{self.partial} ('hexhil trace recover {self.path} OUT.mcap' salvages it)"
 
+    def discard(self) -> None:
+        """Close and remove what was written (a conversion that failed): the target, if
+        there was one, stays as it was."""
+        try:
+            self.file.close()
+        except OSError:
+            pass
+        if self.partial is not None:
+            self.partial.unlink(missing_ok=True)
+
     def __enter__(self) -> BinaryIO:
         return self.file
 
