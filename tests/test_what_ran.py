@@ -112,3 +112,22 @@ def test_a_divergence_shows_the_servo_packets_decoded(tmp_path: Path) -> None:
     assert all(" id " in p for p in d["expected_packets"] + d["actual_packets"])
     text = hexhil("replay", str(trace), "--firmware", str(changed))
     assert "expected packets:" in text.stdout and "actual packets:" in text.stdout
+
+
+def test_margin_settings_are_the_runs_overrides(tmp_path: Path) -> None:
+    import dataclasses
+
+    from host_tools.expect import margin, runner, spec
+
+    case_file = tmp_path / "m.toml"
+    case_file.write_text(f'[case]\nscenario = "{FLAT}"\nduration_s = 0.5\n\n[[expect]]\n'
+                         'name = "n"\nkind = "no_exception"\n')
+    job = margin._job(spec.load(case_file), "cpython-inprocess",
+                      {"return_delay_us": 100, "bit_error_rate": 1e-4}, "m")
+    r = runner.run_case(dataclasses.replace(job, keep_dir=str(tmp_path / "k"), keep_all=True))
+    assert r.summary["overrides"]["return_delay_us"] == 100
+    assert r.summary["overrides"]["faults.bit_error_rate"] == 1e-4
+    with Trace(r.trace) as t:
+        meta = t.metadata()
+    assert json.loads(meta["overrides"])["return_delay_us"] == 100
+    assert json.loads(meta["scenario_data"])["faults"]["bit_error_rate"] == 1e-4

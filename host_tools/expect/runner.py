@@ -64,6 +64,7 @@ class CaseRun:
     overwrite: bool = False               # replace a kept trace of the same name
     timing: BusTiming = BusTiming()
     scenario: dict[str, Any] | None = None  # a changed copy of the case's scenario (margin)
+    changed: tuple[tuple[str, float], ...] = ()  # ... and what was changed in it (overrides)
 
 
 @dataclass(frozen=True)
@@ -95,16 +96,17 @@ class _Sender:
 
 def run_scenario(scenario: dict[str, Any], seed: int, duration_s: float, python: str,
                  tactile: bool | None, trace: Path, timing: BusTiming = BusTiming(),
-                 sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None
-                 ) -> dict[str, Any]:
+                 sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None,
+                 changed: dict[str, Any] | None = None) -> dict[str, Any]:
     """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
     file or an executable: ``hexhil run --firmware``) through the one run path
     (host_tools/runner.py ``Run``), recorded to ``trace`` with the master's protocol check
     on; returns ``hexhil run --json``'s summary plus ``violations``. Every case and margin
-    run goes through here."""
+    run goes through here; ``timing`` and ``changed`` (a scenario key changed, e.g.
+    ``faults.bit_error_rate``) are recorded as the run's overrides."""
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
-              overrides=timing.overrides())
+              overrides={**timing.overrides(), **(changed or {})})
     try:
         check = MasterCheck(run.recorder.violation)
         sim = run.sim
@@ -130,7 +132,7 @@ def run_case(job: CaseRun) -> CaseResult:
         trace = Path(tmp) / "run.mcap"
         summary = run_scenario(job.scenario or dict(case.scenario), job.seed, case.duration_s,
                                job.python or case.python, tactile, trace, job.timing,
-                               case.sends, job.firmware or case.firmware)
+                               case.sends, job.firmware or case.firmware, dict(job.changed))
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
