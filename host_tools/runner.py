@@ -16,7 +16,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-from firmware.config import DEFAULTS as FIRMWARE_DEFAULTS
 from hil import scenario as scenario_mod
 from hil.can_bus import Endpoint
 from hil.rig import make_world
@@ -117,7 +116,7 @@ class Run:
         self.tactile = (None if self.firmware is not None or self.beams
                         else tactile if tactile is not None
                         else sc.firmware.tactile if sc.firmware.tactile is not None
-                        else bool(FIRMWARE_DEFAULTS[ls.TACTILE_ON]))
+                        else ls.TACTILE_DEFAULT)
         self.trace = str(trace) if trace else None
         self._can_server, self._realtime = can_server, realtime
         self.world = None if self.beams else make_world(sc, self.seed)

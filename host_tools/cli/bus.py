@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     if args.world and args.scenario:
         raise UserError("give the scenario once: --world SCENARIO or --scenario SCENARIO")
     if args.duration is not None:
-        scenario_mod.check_duration(args.duration, f"--duration {args.duration}:")
+        scenario_mod.check_duration(args.duration, "--duration")
     path = args.world or args.scenario
     sc, seed, ids = scenario_from_flags(args, scenario_mod.load(path) if path else {})
     transport = (SerialPort(args.port, args.baud or DEFAULT_BAUD) if args.port is not None

@@ -115,10 +115,8 @@ class Recorder:
         self.path = Path(path)
         self._live = live  # a LiveServer (host_tools/trace/live.py) that sees what is written
         self._schema_data: dict[str, bytes] = {}  # for the live server's channels
-        self.messages = 0
-        self.closed = False
-        # a partial file beside the target, locked, renamed at close (host_tools/trace/target.py)
-        self._target = TraceTarget(self.path, overwrite)
+        self.messages, self.closed = 0, False
+        self._target = TraceTarget(self.path, overwrite)   # TARGET.partial, renamed at close
         self._file: BinaryIO = self._target.file
         meta = {"software_version": software_version()}
         for k, v in (metadata or {}).items():
@@ -150,16 +148,12 @@ class Recorder:
                  schema_data: Callable[[], bytes]) -> int:
         """The channel id of ``topic``, writing its schema (first use) and channel."""
         sid = self._schemas.get(schema_name)
-        if sid is None:
-            sid = len(self._schemas) + 1
-            data = self._schema_data[schema_name] = schema_data()
-            try:
-                self._writer.schema(sid, schema_name, schema_encoding(encoding), data)
-            except OSError as exc:
-                self._write_failed(exc)
-            self._schemas[schema_name] = sid
         cid = len(self._channels) + 1
-        try:
+        try:   # a full disk: one line (_write_failed)
+            if sid is None:
+                sid = self._schemas[schema_name] = len(self._schemas) + 1
+                data = self._schema_data[schema_name] = schema_data()
+                self._writer.schema(sid, schema_name, schema_encoding(encoding), data)
             self._writer.channel(cid, topic, encoding, sid)
         except OSError as exc:
             self._write_failed(exc)
@@ -285,8 +279,7 @@ class Recorder:
         self._target.commit()
 
     def discard(self) -> None:
-        """Stop and remove what was written, keeping whatever the target held (an import
-        that failed half-way)."""
+        """Stop and remove what was written; the target stays as it was (a failed import)."""
         if not self.closed:
             self.closed = True
             self._window_end_us = -1
