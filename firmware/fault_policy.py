@@ -7,7 +7,7 @@ overheat statuses in a row, is a reason to stop in the neutral stance. MicroPyth
 """
 from firmware import servo_bus
 from protocol import can_frames as cf
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 from protocol.hexapod import JOINTS, LEGS
 
 

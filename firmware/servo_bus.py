@@ -1,14 +1,14 @@
 """AX-12 bus master: scan, configure, one SYNC_WRITE per cycle, rotating status reads.
 
-Packets are built with protocol/dynamixel.py's ``build_into`` and parsed with its
+Packets are built with protocol/dynamixel/v1.py's ``build_into`` and parsed with its
 ``Parser`` into preallocated buffers: no per-byte allocation. On a line that echoes the
 master's own bytes (single-wire adapter without a direction circuit) the master skips
 exactly the bytes it sent, which it knows, before parsing the reply. Timeouts are bus
 time: the reply's wire time plus the servos' return delay plus a margin.
 MicroPython-compatible.
 """
-from protocol import ax12
-from protocol import dynamixel as dxl
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 TIMEOUT_MARGIN_US = 100
 EEPROM_SETTLE_US = 10_000       # a real AX-12 is deaf for a few ms after an EEPROM write

@@ -6,13 +6,13 @@ The same interface as servo_bus.Master (the controller and the fault policy use 
 goals come in AX-12 units from firmware/servo_goals.py and are converted here, at the
 bus, to XL430 pulses and velocity units; ``ServoStats`` keep the AX-12 meaning of their
 error bits (the XL430's Hardware Error Status uses the same bit for input voltage,
-overheating and overload). Packets are built with protocol/dynamixel2.py's ``build_into``
+overheating and overload). Packets are built with protocol/dynamixel/v2.py's ``build_into``
 into preallocated buffers. MicroPython-compatible.
 """
 from firmware.servo_bus import CORRUPT, OK, TIMEOUT, TIMEOUT_MARGIN_US, Master
-from protocol import ax12
-from protocol import dynamixel2 as dx2
-from protocol import xl430 as xl
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v2 as dx2
+from protocol.dynamixel import xl430 as xl
 
 EEPROM_SETTLE_US = 10_000
 STATUS_LEN = 11                 # FF FF FD 00 ID LEN LEN 55 ERR CRC CRC

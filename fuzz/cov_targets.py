@@ -24,12 +24,12 @@ import cantools
 from fuzz import fuzz_bus, fuzz_bus2, fuzz_can, fuzz_trace
 from fuzz.hostile import GAP_US, Rng, garbage
 from hil import scenario
-from hil.faults import Faults
+from hil.servobus.faults import Faults
 from host_tools.trace import reader, recover
-from protocol import ax12
+from protocol.dynamixel import ax12
 from protocol import can_frames as cf
-from protocol import dynamixel as dxl
-from protocol import dynamixel2 as dx2
+from protocol.dynamixel import v1 as dxl
+from protocol.dynamixel import v2 as dx2
 from protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent

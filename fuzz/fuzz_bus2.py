@@ -1,6 +1,6 @@
-"""The Protocol 2.0 bus with 18 emulated XL430s (hil/bus2.py, hil/servo_xl430.py) under
+"""The Protocol 2.0 bus with 18 emulated XL430s (hil/servobus/bus2.py, hil/servobus/xl430_servo.py) under
 random instruction streams: no exception escapes, every register within its documented
-range (protocol/xl430.py FIELDS), the identity registers unchanged, and after the line
+range (protocol/dynamixel/xl430.py FIELDS), the identity registers unchanged, and after the line
 has idled a PING to a servo is answered (resync)."""
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ import random
 from fuzz.fuzz_bus import BusSpec, rare_id_writes, run_streams
 from fuzz.fuzz_parser2 import garbage
 from fuzz.tally import Tally
-from hil.bus2 import Bus2
+from hil.servobus.bus2 import Bus2
 from hil.clock import VirtualClock
-from hil.servo_xl430 import XL430Servo
-from protocol import dynamixel2 as dx2
-from protocol import xl430 as xl
+from hil.servobus.xl430_servo import XL430Servo
+from protocol.dynamixel import v2 as dx2
+from protocol.dynamixel import xl430 as xl
 
 SERVOS = 18
 READ_TIMEOUT_US = 20_000       # a SYNC_READ of 18 x 148 bytes would take longer: fine

@@ -1,11 +1,11 @@
-"""The Protocol 2.0 stream parser (protocol/dynamixel2.py) under hostile streams: garbage
+"""The Protocol 2.0 stream parser (protocol/dynamixel/v2.py) under hostile streams: garbage
 (noise, packets hit by bit errors, cut-off packets, headers promising more than comes,
 stuffed payloads), then after an idle gap one valid packet the parser must find again."""
 from __future__ import annotations
 
 from fuzz.hostile import Rng
 from fuzz.tally import Budget, Tally
-from protocol import dynamixel2 as dx2
+from protocol.dynamixel import v2 as dx2
 
 GAP_US = dx2.INTER_BYTE_TIMEOUT_US + 1
 BATCH = 2000

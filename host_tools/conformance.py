@@ -21,16 +21,16 @@ from typing import Any
 
 import serial
 
-from hil import sensor_node
+from hil.servobus import switch_node as sensor_node
 from host_tools.conformance_report import Cause, Check, summarise
-from protocol import ax12
-from protocol import dynamixel as dxl
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 from protocol.errors import UserError
 
 EEPROM_PAUSE_S = 0.01
 TRIES = 3  # sends of a repeatable instruction before its reply counts as missing
 # before a resend after silence: a servo that took a corrupt length byte for a long packet
-# keeps reading until the line is quiet this long (protocol/dynamixel.py), then listens anew
+# keeps reading until the line is quiet this long (protocol/dynamixel/v1.py), then listens anew
 RESYNC_S = dxl.INTER_BYTE_TIMEOUT_US * 1e-6
 TIMING_ROUNDS = 3  # return-delay measurements, all taken: noise only adds time
 _NEED_REPLIES = ("bad_checksum_reply", "out_of_range_goal", "action_nothing_registered",
@@ -239,7 +239,7 @@ class Checker:
             self._restore(i, table, srl0, locked)
 
     def sensor_node(self, i: int) -> None:
-        """The limit-switch sensor node (hil/sensor_node.py): its table, switches read-only."""
+        """The limit-switch sensor node (hil/servobus/switch_node.py): its table, switches read-only."""
         p = self.ask(dxl.ping(i))
         ok = p is not None and p.raw[3] == 2 and not p.code & _PROTOCOL_ERRORS
         self.add(i, "ping_status_format", ok, "sensor node answers PING" if ok else f"PING: {said(p)}")

@@ -17,8 +17,8 @@ from dataclasses import asdict
 from typing import Any
 
 from host_tools.conformance import EEPROM_PAUSE_S, SILENCE_S, Checker, Link
-from protocol import dynamixel2 as dx2
-from protocol import xl430 as xl
+from protocol.dynamixel import v2 as dx2
+from protocol.dynamixel import xl430 as xl
 
 STUFFED_OFFSET = int.from_bytes(b"\xff\xff\xfd\xff", "little", signed=True)  # in range
 TIMING_ROUNDS = 12   # the fastest of these: a loaded host only adds time

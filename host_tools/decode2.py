@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from protocol import dynamixel2 as dx2
-from protocol import xl430 as xl
+from protocol.dynamixel import v2 as dx2
+from protocol.dynamixel import xl430 as xl
 
 
 def register(address: int) -> str | None:

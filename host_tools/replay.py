@@ -20,14 +20,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
-from hil.link import REQUEST_OPS, FirmwareProcess, split_messages
+from hil.link.firmware_process import REQUEST_OPS, FirmwareProcess, split_messages
+from hil.link.served_firmware import BOARD_RUNTIME, EXECUTABLE, served_firmware
 from hil.scenario import check_number, check_span
-from hil.served_firmware import BOARD_RUNTIME, EXECUTABLE, served_firmware
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_CAN_RAW, T_LINK
-from protocol import ax12, sim_link
-from protocol import dynamixel as dxl
+from protocol import sim_link
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 from protocol.errors import UserError
 
 # What each link message is, for reports and --topics.

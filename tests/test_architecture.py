@@ -56,7 +56,7 @@ def test_imports_stay_on_or_below_their_floor(path: Path) -> None:
 
 def test_the_walker_sees_a_violation(tmp_path: Path) -> None:
     src = tmp_path / "m.py"
-    src.write_text("import os\ndef f():\n    from firmware import config\nfrom hil.bus import Bus\n")
+    src.write_text("import os\ndef f():\n    from firmware import config\nfrom hil.servobus.line import Bus\n")
     assert sorted(project_imports(src)) == [(3, "firmware"), (4, "hil")]
 
 

@@ -20,12 +20,12 @@ def test_our_xl430_bus_passes_every_check() -> None:
 
 
 FAULTY = textwrap.dedent("""
-    from hil.bus2 import Bus2
+    from hil.servobus.bus2 import Bus2
     from hil.clock import VirtualClock
-    from hil.serial_server import RealTimeServer, install_sigterm, Stop
+    from hil.servobus.serial_server import RealTimeServer, install_sigterm, Stop
     from host_tools.cli import flush_print
-    from hil.servo_xl430 import XL430Servo
-    from protocol import dynamixel2 as dx2
+    from hil.servobus.xl430_servo import XL430Servo
+    from protocol.dynamixel import v2 as dx2
 
     def unstuffed(reply):  # the same packet as sent by a servo that forgets to stuff
         p = dx2.Parser().feed(reply)[0]

@@ -7,12 +7,12 @@ import dataclasses
 from pathlib import Path
 
 from firmware.servo_bus import TIMEOUT_MARGIN_US
-from hil.bus import Bus
+from hil.servobus.line import Bus
 from hil.clock import VirtualClock
-from hil.servo import Servo
+from hil.servobus.ax12_servo import Servo
 from host_tools.expect import margin, spec
-from protocol import ax12
-from protocol import dynamixel as dxl
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -1,7 +1,7 @@
-"""protocol/dynamixel.py API details the conformance suite does not reach."""
+"""protocol/dynamixel/v1.py API details the conformance suite does not reach."""
 from __future__ import annotations
 
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 
 
 def test_reset_drops_the_partial_packet() -> None:

@@ -1,4 +1,4 @@
-"""protocol/dynamixel2.py against the stock DynamixelSDK 4.1.0 packet builder (property
+"""protocol/dynamixel/v2.py against the stock DynamixelSDK 4.1.0 packet builder (property
 tests) and the e-manual's worked examples."""
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from dynamixel_sdk import PacketHandler
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from protocol import dynamixel2 as dx2
+from protocol.dynamixel import v2 as dx2
 
 PH = PacketHandler(2.0)
 INSTRS = sorted(set(dx2.INSTRUCTION_NAMES) - {dx2.STATUS})

@@ -27,7 +27,8 @@ from host_tools.trace import recorder as rec
 from host_tools.trace import recover as trace_recover
 from host_tools.trace.target import partial_of
 from host_tools.trace import topics
-from protocol import can_frames, dynamixel
+from protocol import can_frames
+from protocol.dynamixel import v1 as dynamixel
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import can
 import pytest
 
-from hil.sim import Simulator
+from hil.run.lockstep import Simulator
 from hil import scenario
 from host_tools import replay
 from host_tools.cli import main

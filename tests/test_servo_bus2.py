@@ -4,10 +4,10 @@ servo ending the chain."""
 from __future__ import annotations
 
 from firmware import servo_bus2
-from hil.bus2 import Bus2
+from hil.servobus.bus2 import Bus2
 from hil.clock import VirtualClock
-from hil.servo_xl430 import XL430Servo
-from protocol import xl430 as xl
+from hil.servobus.xl430_servo import XL430Servo
+from protocol.dynamixel import xl430 as xl
 
 
 class BusUart:

@@ -12,8 +12,10 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
-from hil.servo import EEPROM_BUSY_US
-from protocol import ax12, hexapod, xl430
+from hil.servobus.ax12_servo import EEPROM_BUSY_US
+from protocol import hexapod
+from protocol.dynamixel import ax12
+from protocol.dynamixel import xl430
 from protocol.errors import UserError
 
 DEFAULT_DURATION_S = 30.0
@@ -237,7 +239,7 @@ class GaitConfig:
 
 @dataclass(frozen=True)
 class FaultsConfig:
-    """Rates, and the scheduled faults' tables (checked by hil/faults.py, their owner)."""
+    """Rates, and the scheduled faults' tables (checked by hil/servobus/faults.py, their owner)."""
 
     bit_error_rate: float = 0.0
     drop_status_rate: float = 0.0

@@ -1,4 +1,4 @@
-"""AX-12-like joint drives in MuJoCo, behind the servo ``Actuator`` seam (hil/servo_actuator.py).
+"""AX-12-like joint drives in MuJoCo, behind the servo ``Actuator`` seam (hil/servobus/drive.py).
 
 The emulated servo owns its control table; it hands Goal Position, Moving Speed, Torque
 Limit, Torque Enable and the compliance registers to ``command`` and reads Present
@@ -29,7 +29,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from protocol import ax12
+from protocol.dynamixel import ax12
 
 STALL_TORQUE_NM = 1.5                           # AX-12A at 12 V (e-manual)
 NO_LOAD_SPEED_RAD_S = 59.0 * 2.0 * math.pi / 60.0  # 59 rpm at 12 V (e-manual)

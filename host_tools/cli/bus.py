@@ -8,7 +8,7 @@ import json
 import sys
 from typing import Any
 
-from hil.can_server import DEFAULT_PORT
+from hil.canbus.socketcand import DEFAULT_PORT
 from hil.scenario import DEFAULT_BAUD, check_seed
 from host_tools.cli import JSON_HELP, OVERWRITE_HELP, flush_print
 from protocol import sensor_node
@@ -53,7 +53,7 @@ def parse_ids(spec: str) -> list[int]:
 def scenario_from_flags(args: argparse.Namespace, scenario: dict[str, Any]
                         ) -> tuple[dict[str, Any], int, list[int] | None]:
     """Flags over scenario over defaults: the scenario to build, its seed and the servo IDs."""
-    from hil.faults import parse_flag
+    from hil.servobus.faults import parse_flag
 
     sc = copy.deepcopy(scenario) or {"_path": "flags"}
     sb = sc.setdefault("bus", {})
@@ -83,8 +83,8 @@ def scenario_from_flags(args: argparse.Namespace, scenario: dict[str, Any]
 
 
 def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None):
-    """Servos, clock, faults and bus from flags over scenario over defaults (hil/rig.py)."""
-    from hil import rig
+    """Servos, clock, faults and bus from flags over scenario over defaults (hil/run/rig.py)."""
+    from hil.run import rig
 
     sc, seed, ids = scenario_from_flags(args, scenario)
     built = rig.build(sc, seed, ids=ids, on_fault=on_fault)
@@ -106,7 +106,7 @@ def _sensor_id(args: argparse.Namespace, sc: dict[str, Any]) -> int | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hil import serial_server
+    from hil.servobus import serial_server
     from hil import scenario as scenario_mod
     from host_tools import cli
     from host_tools.realtime_run import Pty, RealTimeRun, SerialPort, Tcp
@@ -125,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
                  else Tcp(args.tcp, args.host) if args.tcp is not None else Pty())
     hint = None
     if args.world:   # our firmware's settings for this scenario, as `hexhil run` sends them
-        from hil.link_server import firmware_settings
+        from hil.link.server import firmware_settings
         hint = "firmware --config " + json.dumps(firmware_settings(scenario_mod.check(sc)),
                                                  sort_keys=True)
 

@@ -21,8 +21,8 @@ from typing import Any
 
 from host_tools.cli import JSON_HELP, actions, emit, emit_json
 from protocol.errors import UserError
-from protocol import ax12
-from protocol import dynamixel as dxl
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 HEXDIGITS = set(string.hexdigits)
 

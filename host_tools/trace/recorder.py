@@ -11,8 +11,7 @@ Why it is built this way:
   next ``idle()`` call, at the same virtual time, when the owner calls it). A run killed
   with SIGKILL therefore loses at most the last window (0.5 s by default), which
   ``hexhil trace recover`` proves by reading the file without its summary. The file is
-  ``TARGET.partial`` until ``close()`` renames it (host_tools/trace/target.py: an
-  existing target refused unless ``overwrite``, a second writer refused by a lock).
+  ``TARGET.partial``, locked, until ``close()`` renames it (host_tools/trace/target.py).
 * Determinism: nothing here reads the wall clock; the same run gives the same bytes.
 * Cost: the parts hand over raw values (about 1 us a call) and the encoding (hand-rolled
   protobuf for the ~360 serial bursts a simulated second) is done in ``idle()``, which the
@@ -45,7 +44,8 @@ from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, CHANNELS, METADATA_NAME,
                                      schema_encoding)
 from host_tools.trace.target import TraceTarget
 from host_tools.trace.writer import TraceWriter
-from protocol import can_frames, dynamixel
+from protocol import can_frames
+from protocol.dynamixel import v1 as dynamixel
 from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
 from protocol.errors import UserError
 
@@ -64,7 +64,7 @@ def software_version() -> str:
 def _dbc():
     """The project's DBC through cantools (loaded once a process: ~13 ms, as much as
     recording 10 s of a run), or None while protocol/hexhil.dbc is absent."""
-    path = Path(dynamixel.__file__).with_name("hexhil.dbc")
+    path = Path(can_frames.__file__).with_name("hexhil.dbc")
     if not path.exists():
         return None
     import cantools
@@ -446,7 +446,7 @@ class Recorder:
         out.append((t, self._topic_channel(T_FAULTS), msg.SerializeToString()))
 
     def violation(self, t_us: int, kind: str, detail: str) -> None:
-        """A bus master's protocol mistake (hil/master_check.py) on ``/bus/violations``."""
+        """A bus master's protocol mistake (hil/servobus/master_check.py) on ``/bus/violations``."""
         self._defer(t_us, self._encode_json, (T_VIOLATIONS, {"kind": kind, "detail": detail}))
 
     def scene(self, t_us: int, shapes: Sequence[Any]) -> None:

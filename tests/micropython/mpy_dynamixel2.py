@@ -1,6 +1,6 @@
-# protocol/dynamixel2.py under the real micropython binary (checks.py asserts, no pytest).
+# protocol/dynamixel/v2.py under the real micropython binary (checks.py asserts, no pytest).
 # Prints lines the pytest side compares with CPython's, then "OK dynamixel2 <checks>".
-from protocol import dynamixel2 as dx2
+from protocol.dynamixel import v2 as dx2
 from tests.micropython.checks import check, done
 from tests.micropython.packet_checks import Lcg, byte_path_allocates_nothing, round_trip
 

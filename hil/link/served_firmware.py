@@ -1,0 +1,210 @@
+"""A firmware that is not ours, started and served by the simulator in lockstep:
+``hexhil run --firmware PATH`` (``Run(firmware=...)``).
+
+* ``BoardFirmware``: a MicroPython main file run under the real ``micropython`` binary on
+  the virtual STM32F411 board (firmware/virtual_board/, hil/link/board_line.py,
+  docs/your-firmware.md);
+* ``ExecutableFirmware``: any executable that speaks docs/link.md, such as a C firmware
+  built against firmware/c_sdk/ (docs/c-firmware.md). It finds the link through
+  ``HEXHIL_LINK_PORT`` in its environment (hil/link/firmware_process.py ``FirmwareProcess``).
+
+Both end the same way (``serve_process``): a crash, a hang (no link message for
+``HANG_WALL_S`` of wall time, or the board's own verdict: only polls for 2 virtual seconds),
+an exit before the run's end or a failed start is the run's ``FirmwareEnding``
+(hil/run_result.py), a verdict on the firmware and not an error of hexhil; the trace
+recorded up to then is kept: the caller's recorder is closed as after any run.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Protocol
+
+from hil.link.firmware_process import (ROOT, FirmwareError, FirmwareProcess, firmware_command,
+                                      firmware_env)
+from hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunResult
+from protocol import sim_link
+from protocol.errors import UserError
+
+BOARD_DIR = ROOT / "firmware" / "virtual_board"
+BOARD_RUNTIME = "micropython-board"   # a run's firmware_runtime
+EXECUTABLE = "executable"
+HANG_WALL_S = 20.0          # wall seconds without a link message: the firmware hung
+BOARD_SAYS = "hexhil board: "   # the C SDK's one-line verdict on its firmware (hal_tick.c)
+HUNG_SAYS = "the firmware hung"   # the board's verdict (hil/link/board_line.py)
+MAIN_SUFFIXES = (".py",)    # a MicroPython main file; anything else is an executable
+
+
+class ServedFirmware(Protocol):
+    """A firmware the simulator starts and serves itself (hil/run/lockstep.py ``Simulator.run``)."""
+
+    runtime: str
+
+    def command(self) -> list[str]:
+        """The command line that starts it."""
+
+    def env(self) -> dict[str, str]:
+        """What its environment needs beyond the link's."""
+
+    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+        """Start it, answer its link with ``server`` (hil/link/server.py) to the end."""
+
+
+def served_firmware(path: str | Path, what: str = "--firmware"
+                    ) -> BoardFirmware | ExecutableFirmware:
+    """``path`` checked: a MicroPython main file (``.py``) for the virtual board, else an
+    executable file this user may run (``UserError`` naming ``what`` if neither)."""
+    p = Path(path)
+    if not p.is_file():
+        raise UserError(f"{what} {path}: not a file (give a MicroPython main file or an "
+                        "executable)")
+    if p.suffix in MAIN_SUFFIXES:
+        return BoardFirmware(p.resolve())
+    if not os.access(p, os.X_OK):
+        raise UserError(f"{what} {path}: neither a MicroPython main file (.py) nor "
+                        "executable (build a C firmware with `hexhil sdk build main.c -o fw`, "
+                        "or chmod +x)")
+    return ExecutableFirmware(p.resolve())
+
+
+@dataclass(frozen=True)
+class BoardFirmware:
+    """A MicroPython main file to run on the virtual board."""
+
+    main: Path
+    runtime: str = BOARD_RUNTIME
+
+    def command(self) -> list[str]:
+        return [firmware_command("micropython")[0], str(self.main)]
+
+    def env(self) -> dict[str, str]:
+        return {"MICROPYPATH": f"{BOARD_DIR}:" + firmware_env(0)["MICROPYPATH"],
+                sim_link.ENV_BOARD: sim_link.BOARD_NAME}
+
+    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+        """The console's ``event KIND TEXT`` lines (hal/base.py ``Board.event``) are its
+        events."""
+        def take_console(printed: str) -> None:
+            for kind, text in console_events(printed):
+                server.take_event(kind, text, result)
+
+        serve_process(self, self.main.name, server, end_us, result, take_console)
+
+
+@dataclass(frozen=True)
+class ExecutableFirmware:
+    """An executable file that speaks the firmware link."""
+
+    path: Path
+    runtime: str = EXECUTABLE
+
+    def command(self) -> list[str]:
+        return [str(self.path)]
+
+    def env(self) -> dict[str, str]:
+        return {}
+
+    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+        serve_process(self, self.path.name, server, end_us, result)
+
+
+def _how(code: int) -> str:
+    if code < 0:
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit {code}"
+
+
+def serve_process(firmware: ServedFirmware, name: str, server: Any, end_us: int,
+                  result: RunResult, take_console: Callable[[str], None] | None = None
+                  ) -> None:
+    """Start ``firmware``, serve its link to ``end_us`` and judge how it ended
+    (``result.ending``: a crash, a hang, an early exit or a failed start is the run's
+    verdict, not an error). Its stdout goes to a file: a firmware that prints a lot never
+    blocks on a full pipe; ``take_console`` reads what it printed."""
+    hang_wall_s = HANG_WALL_S
+    with tempfile.TemporaryFile() as console:
+        try:
+            fw = FirmwareProcess(firmware.runtime, command=firmware.command(),
+                                 extra_env=firmware.env(), console=console)
+        except FirmwareError as exc:
+            console.seek(0)
+            printed = console.read().decode(errors="replace")
+            result.exit_code = exc.exit_code
+            result.ending = FirmwareEnding(
+                Ending.FAILED_TO_START, f"the firmware {name} failed to start: {exc}",
+                exc.last_lines or _last_lines("", printed), 0.0, exc.exit_code)
+            return
+        fw.conn.sock.settimeout(hang_wall_s)
+        hung, broke = False, None
+        try:
+            server.serve(fw.conn, end_us, result)
+        except TimeoutError:
+            hung = True
+        except FirmwareError as exc:   # it broke the link's rules (hil/link/server.py)
+            broke = exc
+        finally:
+            code, _, err = fw.finish(timeout_s=0.0 if hung or broke else 10.0)
+            console.seek(0)
+            printed = console.read().decode(errors="replace")
+            if take_console is not None:
+                take_console(printed)
+    result.exit_code = code
+    result.stderr_tail = "\n".join(err.strip().splitlines()[-LAST_LINES:])
+    result.ending = judge(name, code, err, printed, server.clock.t_us, end_us,
+                          hang_wall_s if hung else None, broke)
+
+
+def _last_lines(err: str, printed: str) -> tuple[str, ...]:
+    return tuple((err.strip().splitlines() or printed.strip().splitlines())[-LAST_LINES:])
+
+
+def judge(name: str, code: int, err: str, printed: str, t_us: int, end_us: int,
+          hung_after_s: float | None = None, broke: Exception | None = None
+          ) -> FirmwareEnding:
+    """How a served firmware ended, in one line and its last lines."""
+    t_s = t_us * 1e-6
+    last = _last_lines(err, printed)
+    if hung_after_s is not None:
+        return FirmwareEnding(Ending.HUNG, f"the firmware {name} hung: no link message for "
+                              f"{hung_after_s:g} s of wall time (at t={t_s:.6f} s)", last, t_s,
+                              code)
+    if broke is not None:   # hil/link/server.py's "firmware link: ..." (the board's hang)
+        text = str(broke).removeprefix("firmware link: ")
+        if text.startswith(HUNG_SAYS):
+            return FirmwareEnding(Ending.HUNG, f"the firmware {name} hung"
+                                  f"{text[len(HUNG_SAYS):]}", last, t_s, code)
+        return FirmwareEnding(Ending.CRASHED, f"the firmware {name} broke the link at "
+                              f"t={t_s:.6f} s: {text}", last, t_s, code)
+    line = (last or ("no message",))[-1]
+    if code != 0 and line.startswith(BOARD_SAYS):   # the C SDK's own verdict (a hang)
+        return FirmwareEnding(Ending.HUNG, f"the firmware {name} {line[len(BOARD_SAYS):]}",
+                              last, t_s, code)
+    if code != 0:
+        return FirmwareEnding(Ending.CRASHED, f"the firmware {name} crashed at t={t_s:.6f} s "
+                              f"({_how(code)}): {line}", last, t_s, code)
+    if t_us < end_us:
+        return FirmwareEnding(Ending.EXITED_EARLY, f"the firmware {name} exited at "
+                              f"t={t_s:.6f} s, before the run's end ({end_us * 1e-6:g} s)",
+                              last, t_s, code)
+    return FirmwareEnding(Ending.COMPLETED, "", (), t_s, code)
+
+
+def console_events(text: str) -> list[tuple[int, str]]:
+    """(kind, text) of what a firmware printed: an ``event KIND TEXT`` line is that event
+    (a traceback's following lines belong to it), any other line an ``EVENT_LOG``."""
+    out: list[tuple[int, str]] = []
+    for line in text.splitlines():
+        parts = line.split(" ", 2)
+        if len(parts) >= 2 and parts[0] == "event" and parts[1].isdigit():
+            out.append((int(parts[1]), parts[2] if len(parts) > 2 else ""))
+        elif out and out[-1][0] == sim_link.EVENT_EXCEPTION and line.startswith(" "):
+            out[-1] = (out[-1][0], out[-1][1] + "\n" + line)
+        else:
+            out.append((sim_link.EVENT_LOG, line))
+    return out

@@ -1,0 +1,40 @@
+"""A master's burst checked byte by byte against one protocol's rules (hil/servobus/master_check.py
+for Protocol 1.0, master_check2.py for 2.0): the loop both share."""
+from __future__ import annotations
+
+from typing import Any, Callable
+
+
+class PacketCheck:
+    """One protocol's rules for a master's packets. ``feed`` parses a burst with its bytes'
+    arrival times and flags gaps and failed checks through ``flag``; a subclass counts the
+    failed checks (``bad``, ``bad_detail``) and judges each packet the parser completes
+    (``packet``)."""
+
+    def __init__(self, flag: Callable[[int, str, str], None], parser: Any) -> None:
+        self.flag = flag
+        self.parser = parser
+
+    def feed(self, bus: Any, t0_us: int, data: bytes) -> None:
+        p = self.parser
+        gaps, bad = p.timeouts, self.bad()
+        for i, byte in enumerate(data):
+            t = bus.byte_end_us(t0_us, i)
+            done = p.push(byte, t)
+            if p.timeouts != gaps:
+                gaps = p.timeouts
+                self.flag(t, "inter_byte_gap", "over 100 ms between bytes; partial packet dropped")
+            if self.bad() != bad:
+                bad = self.bad()
+                self.flag(t, "bad_checksum", self.bad_detail())
+            if done:
+                self.packet(bus, t)
+
+    def bad(self) -> int:
+        raise NotImplementedError
+
+    def bad_detail(self) -> str:
+        raise NotImplementedError
+
+    def packet(self, bus: Any, t_us: int) -> None:
+        raise NotImplementedError
