@@ -36,7 +36,7 @@ STEP_LENGTH_M = (0.0, 0.2)       # within the leg's reach (coxa 5 + femur 8.2 + 
 STEP_HEIGHT_M = (0.0, 0.15)
 OBSTACLE_HEIGHT_M = (0.0, 0.15)
 DIRECTION_DEG = (-360.0, 360.0)
-DISTANCE_M = (0.0, 1000.0)       # a goal ahead (above 0)
+DISTANCE_M = (0.0, 1000.0)       # a goal ahead (0: none; the experiments' probe)
 CYCLE_HZ = (0.0, 1000.0)         # the firmware's control rate (above 0)
 SERVO_LOST_S = (0.0, 3600.0)     # (above 0)
 READS_PER_CYCLE = (0, 254)
@@ -233,7 +233,7 @@ class GaitConfig:
                                        "step_height_m": (STEP_HEIGHT_M, " m", False),
                                        "max_obstacle_height_m": (OBSTACLE_HEIGHT_M, " m", False),
                                        "direction_deg": (DIRECTION_DEG, " deg", False),
-                                       "distance_m": (DISTANCE_M, " m", True)})
+                                       "distance_m": (DISTANCE_M, " m", False)})
         return g
 
 
