@@ -3,7 +3,7 @@ an AX-S1-like node, docs/servo-bus.md): the switch levels of a back end whose sw
 not wired to the controller (hal/serial.py), through a bus master of their own.
 MicroPython-compatible.
 """
-from firmware import servo_bus
+from firmware.servo_bus import v1 as servo_bus
 from protocol import sensor_node
 
 

@@ -2,7 +2,7 @@
 streams. After each stream: no exception escaped, every register within its documented
 range (protocol/dynamixel/ax12.py FIELDS), the read-only identity registers unchanged, and after
 the line has idled past the inter-byte timeout a PING to a servo is answered (resync).
-``run_streams`` and ``resync`` serve the Protocol 2.0 bus too (fuzz_bus2.py), through a
+``run_streams`` and ``resync`` serve the Protocol 2.0 bus too (fuzz_v2_bus.py), through a
 ``BusSpec``; cov_targets.py drives both buses through the same specs."""
 from __future__ import annotations
 

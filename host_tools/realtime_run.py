@@ -19,6 +19,7 @@ from hil.run.realtime_rig import RealTimeRig
 from hil.scenario import DEFAULT_BAUD
 from hil.servobus.switch_node import DEFAULT_ID
 from host_tools.runner import trace_metadata
+from protocol.dynamixel import models
 from protocol.errors import UserError
 
 EXTERNAL = "external"        # a run's firmware_runtime: the master on the line is not ours
@@ -68,7 +69,8 @@ class RealTimeRun:
             from host_tools.trace.recorder import Recorder
 
             self.recorder = Recorder(trace, {**trace_metadata(sc, seed, EXTERNAL),
-                                             "command": "bus"}, overwrite=overwrite)
+                                             "command": "bus"},
+                                     protocol=models.protocol(sc.bus.model), overwrite=overwrite)
         try:
             self.rig = RealTimeRig(sc, seed, world=world, ids=ids, recorder=self.recorder,
                                    can_server=can_server, sensor_id=sensor_id, verbose=verbose)

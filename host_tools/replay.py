@@ -20,15 +20,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
-from hil.link.firmware_process import REQUEST_OPS, FirmwareProcess, split_messages
-from hil.link.served_firmware import BOARD_RUNTIME, EXECUTABLE, served_firmware
+from hil import scenario as scenario_mod
 from hil.scenario import check_number, check_span
+from host_tools.dynamixel.decode import DECODERS
+from protocol import sim_link
+from protocol.dynamixel import models
+from hil.link.served_firmware import BOARD_RUNTIME, EXECUTABLE, served_firmware
+from hil.link.firmware_process import REQUEST_OPS, FirmwareProcess, split_messages
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_CAN_RAW, T_LINK
-from protocol import sim_link
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
 from protocol.errors import UserError
 
 # What each link message is, for reports and --topics.
@@ -74,14 +75,13 @@ class Divergence:
     expected: str
     actual: str
     exchange: int
-    expected_packets: list[str] = field(default_factory=list)   # the servo packets decoded
-    actual_packets: list[str] = field(default_factory=list)
+    # on the servo line: each side's bytes in the diverging exchange as Dynamixel packets,
+    # decoded in the protocol of the trace's servo model ("SYNC_WRITE to 254")
+    packets: dict[str, list[str]] | None = None
 
     def as_dict(self) -> dict[str, Any]:
         return {"t_s": self.t_s, "topic": self.topic, "expected": self.expected,
-                "actual": self.actual, "exchange": self.exchange,
-                "expected_packets": self.expected_packets,
-                "actual_packets": self.actual_packets}
+                "actual": self.actual, "exchange": self.exchange, "packets": self.packets}
 
 
 @dataclass
@@ -105,32 +105,32 @@ def _describe(op: int, payload: bytes) -> str:
     return "%s %s" % (chr(op) if 32 < op < 127 else "0x%02X" % op, payload.hex())
 
 
-# where a UART message's bytes for the servos start (protocol/sim_link.py framing)
-_UART_BYTES_AT = {sim_link.OP_WRITE: 0, sim_link.OP_TRANSACT: 6,
-                  sim_link.OP_LINE: sim_link.LINE_HEAD_LEN}
+def uart_bytes(op: int, payload: bytes) -> bytes | None:
+    """The servo-line bytes a link message carries (protocol/sim_link.py: a transact's, a
+    line request's, a posted write's)."""
+    skip = {sim_link.OP_TRANSACT: 6, sim_link.OP_LINE: 11, sim_link.OP_WRITE: 0}.get(op)
+    return None if skip is None else payload[skip:]
 
 
-def decode_packets(message: tuple[int, bytes] | None) -> list[str]:
-    """The Protocol 1.0 packets a UART message sends, one line each: instruction, id and
-    parameters (the register named), as the protocol parser reads them."""
-    if message is None or message[0] not in _UART_BYTES_AT:
-        return []
-    parser = dxl.Parser()
-    out = []
-    for b in message[1][_UART_BYTES_AT[message[0]]:]:
-        if parser.push(b):
-            out.append(_packet_text(parser.current()))
-    return out
+def _decoded(div: Divergence, expected: list[tuple[int, bytes]],
+             actual: list[tuple[int, bytes]], protocol: int) -> None:
+    """Name the packets of a divergence on the servo line (``Divergence.packets``)."""
+    if div.topic != "uart":
+        return
+    names = DECODERS[protocol].names
+    div.packets = {side: [n for op, p in msgs if (b := uart_bytes(op, p)) for n in names(b)]
+                   for side, msgs in (("expected", expected), ("actual", actual))}
 
 
-def _packet_text(p: dxl.Packet) -> str:
-    name = dxl.INSTRUCTION_NAMES.get(p.code, f"0x{p.code:02X}")
-    params = list(p.params)
-    if p.code in (dxl.READ, dxl.WRITE, dxl.REG_WRITE, dxl.SYNC_WRITE) and params:
-        field_ = ax12.field_at(params[0])
-        where = f"address {params[0]}" + (f" ({field_[1]})" if field_ else "")
-        return f"{name} id {p.id} {where} params {params[1:]}"
-    return f"{name} id {p.id} params {params}"
+def trace_protocol(trace: Trace) -> int:
+    """The Dynamixel protocol of the trace's servo model (its scenario, in the metadata);
+    Protocol 1.0 for a trace that does not carry its scenario."""
+    data = trace.metadata().get("scenario_data")
+    try:
+        model = scenario_mod.parse(json.loads(data)).bus.model if data else models.DEFAULT
+    except (ValueError, UserError):
+        model = models.DEFAULT
+    return models.protocol(model)
 
 
 def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | None = None
@@ -190,6 +190,7 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
         if firmware is None and recorded_with in (BOARD_RUNTIME, EXECUTABLE):
             _needs_firmware(path, recorded_with, tr.metadata())
         exchanges = load_exchanges(tr, start_s, end_s)
+        protocol = trace_protocol(tr)
     if not exchanges:
         raise UserError(f"{path}: the {T_LINK} topic is empty in the chosen time range")
     start_us = int(round((start_s or 0.0) * 1e6))
@@ -212,6 +213,7 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
             div = _compare(expected, actual, wanted, prev_t_us, i,
                            compare=prev_t_us >= start_us)
             if div is not None:
+                _decoded(div, expected, actual, protocol)
                 result.divergence = div
                 result.identical = False
                 break
@@ -273,15 +275,14 @@ def _compare(expected: list[tuple[int, bytes]], actual: list[tuple[int, bytes]],
                 return Divergence(t_us / 1e6, OP_TOPICS.get(op, "?"),
                                   _describe(*e) if e else "(nothing)",
                                   _describe(*a) if a else "(nothing: firmware stopped)",
-                                  index, decode_packets(e), decode_packets(a))
+                                  index)
     if exp_req != act_req:
         op = (exp_req or act_req)[0]
         e = next(((o, p) for o, p in expected if o in REQUEST_OPS), None)
         a = next(((o, p) for o, p in actual if o in REQUEST_OPS), None)
         return Divergence(t_us / 1e6, OP_TOPICS.get(op, "?"),
                           _describe(*e) if e else "(nothing)",
-                          _describe(*a) if a else "(nothing: firmware stopped)", index,
-                          decode_packets(e), decode_packets(a))
+                          _describe(*a) if a else "(nothing: firmware stopped)", index)
     return None
 
 

@@ -25,6 +25,7 @@ from hil.seams import HostNode, TraceRecorder
 from hil.link.served_firmware import served_firmware
 from hil.run.lockstep import Simulator
 from protocol import link_schema as ls
+from protocol.dynamixel import models
 from protocol.errors import UserError
 
 NO_RUNTIME = "none"   # a beams run has no firmware
@@ -136,7 +137,8 @@ class Run:
                      if self.live is not None else {})
             try:
                 self.recorder = Recorder(self.trace or os.devnull, meta, live=self.live,
-                                         overwrite=overwrite, **extra)
+                                         overwrite=overwrite,
+                                         protocol=models.protocol(sc.bus.model), **extra)
             except BaseException:
                 self.close()
                 raise

@@ -7,7 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hil.servobus.line import Bus, resample
+from hil.servobus.line import Bus
+from hil.servobus.wire import resample
 from hil.clock import VirtualClock
 from hil.servobus.faults import Faults, parse_flag
 from hil.servobus.ax12_servo import Servo

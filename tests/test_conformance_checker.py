@@ -99,7 +99,7 @@ def test_lost_replies_are_retried_and_never_blamed_on_the_servo():
 
 
 def test_results_shared_by_servos_are_shown_once_with_their_ids():
-    from host_tools.conformance_report import collapse, format_ids
+    from host_tools.dynamixel.conformance.report import collapse, format_ids
 
     assert format_ids([5, 1, 2, 3, 7, 8, None]) == "1-3,5,7-8" and format_ids([None]) == "-"
     rows = [{"id": i, "check": c, "result": "pass", "detail": d, "cause": ""}

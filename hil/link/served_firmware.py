@@ -33,7 +33,7 @@ BOARD_DIR = ROOT / "firmware" / "virtual_board"
 BOARD_RUNTIME = "micropython-board"   # a run's firmware_runtime
 EXECUTABLE = "executable"
 HANG_WALL_S = 20.0          # wall seconds without a link message: the firmware hung
-BOARD_SAYS = "hexhil board: "   # the C SDK's one-line verdict on its firmware (hal_tick.c)
+BOARD_SAYS = "hexhil board: "   # the C SDK's one-line verdict on its firmware (hal_board.c)
 HUNG_SAYS = "the firmware hung"   # the board's verdict (hil/link/board_line.py)
 MAIN_SUFFIXES = (".py",)    # a MicroPython main file; anything else is an executable
 

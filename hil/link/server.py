@@ -17,6 +17,8 @@ from hil.link.firmware_process import Connection, DirectConnection, FirmwareErro
 from hil.run_result import RunResult
 from protocol import hexapod, sim_link
 from protocol import link_schema as ls
+from protocol.dynamixel import models
+from protocol.errors import UserError
 
 RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)
 
@@ -36,8 +38,9 @@ def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> 
     for key in (ls.FIRST_ID, ls.BAUD):
         if key in bus:
             out[key] = bus[key]
-    if bus.get("model", "ax-12a") != "ax-12a":
-        out[ls.PROTOCOL] = 2
+    version = models.protocol(bus.get("model", models.DEFAULT))
+    if version != models.protocol(models.DEFAULT):   # the firmware's default stays unsaid
+        out[ls.PROTOCOL] = version
     if tactile is not None:
         out[ls.TACTILE_ON] = tactile
     return out

@@ -19,8 +19,7 @@ from hil.canbus.bus import CanBus, RecorderListener
 from hil.run.ground_truth import GroundTruth
 from hil.scenario import Scenario
 from hil.seams import FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
-from hil.servobus.ax12_servo import Servo
-from hil.servobus.xl430_servo import XL430Servo
+from hil.servobus.table_servo import TableServo
 
 OnFault = Callable[[int, str, str], None]
 
@@ -83,7 +82,7 @@ class RunCore:
             self.can.add_gateway(can_server)
         self._nodes: list[HostNode] = []
         self._next_tick_us: list[int] = []
-        servos = ([s for s in self.bus.servos if isinstance(s, (Servo, XL430Servo))]
+        servos = ([s for s in self.bus.servos if isinstance(s, TableServo)]
                   if self.bus else [])
         self.truth = (GroundTruth(world, servos, recorder, scene) if recorder is not None
                       else None)

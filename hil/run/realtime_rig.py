@@ -19,6 +19,7 @@ from hil.run.core import RunCore
 from hil.run_result import body_displacement
 from hil.servobus.switch_node import DEFAULT_ID, SensorNode
 from protocol import can_frames as cf
+from protocol.dynamixel import ax12
 from protocol.errors import UserError
 
 SAMPLE_US = 100_000        # ground truth, servo states and the CAN switches frame: 10 Hz
@@ -52,7 +53,7 @@ class RealTimeRig:
             if self.bus.servo(sensor_id) is not None:
                 raise UserError(f"sensor node ID {sensor_id} is already a servo's")
             self.node = SensorNode(self.core.switch_bits, sensor_id,
-                                   scenario_mod.baud_register(self.bus.baud))
+                                   ax12.bps_to_baud(self.bus.baud))
             self.bus.add_device(self.node)
         self._pose0 = w.body_pose() if w is not None else None
         self._bits = 0

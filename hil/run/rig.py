@@ -10,15 +10,12 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 from hil import scenario as scenario_mod
-from hil.servobus.line import Bus, OnBytes
-from hil.servobus.bus2 import Bus2
 from hil.clock import VirtualClock
+from hil.servobus import protocols
 from hil.servobus.faults import Faults, OnFault
-from hil.servobus.ax12_servo import Servo
-from hil.servobus.xl430_servo import XL430Servo
-from protocol.dynamixel import ax12
-from protocol.dynamixel import xl430
-from protocol.errors import UserError
+from hil.servobus.line import Bus, OnBytes
+from hil.servobus.table_servo import TableServo
+from protocol.dynamixel import models
 
 
 @dataclass
@@ -45,30 +42,14 @@ def make_world(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int) -> A
     return HexapodWorld(cfg.data, seed)
 
 
-def _servos(bus: scenario_mod.BusConfig, ids: Sequence[int], world: Any) -> list[Servo]:
+def _servos(bus: scenario_mod.BusConfig, ids: Sequence[int], world: Any) -> list[TableServo]:
+    """The scenario's model (protocol/dynamixel/models.py), one servo an ID, each on its
+    joint's actuator when there is a world."""
     actuators = world.actuators() if world is not None else []
-    servos: list = []
-    for k, dev_id in enumerate(ids):
-        a = actuators[k] if k < len(actuators) else None
-        if bus.model == xl430.MODEL_NAME:   # its bauds: checked by BusConfig
-            if dev_id > 252:                 # IDs given apart from the scenario (hexhil bus --ids)
-                raise UserError(f"servo ID {dev_id}: an {xl430.MODEL_NAME} takes IDs 0-252")
-            x = XL430Servo(dev_id, actuator=a, eeprom_busy_us=bus.eeprom_busy_us, position=(
-                xl430.rad_to_position(a.state()[0]) if a is not None else xl430.POSITION_CENTRE))
-            x.table[xl430.RETURN_DELAY_TIME] = (500 if bus.return_delay_us is None
-                                                else bus.return_delay_us) // 2
-            x.table[xl430.BAUD_RATE] = xl430.bps_to_baud(bus.baud)
-            servos.append(x)
-            continue
-        pos = ax12.rad_to_position(a.state()[0]) if a is not None else 512
-        s = Servo(dev_id, bus.edition, actuator=a, position=pos,
-                  eeprom_busy_us=bus.eeprom_busy_us)
-        if bus.return_delay_us is not None:
-            s.table[ax12.RETURN_DELAY_TIME] = bus.return_delay_us // 2
-        # The register nearest the line's rate (checked within 3 % by the scenario rules).
-        s.table[ax12.BAUD_RATE] = scenario_mod.baud_register(bus.baud)
-        servos.append(s)
-    return servos
+    layout = models.table(bus.model)
+    make = protocols.for_model(bus.model).make_servo
+    return [make(layout, dev_id, actuators[k] if k < len(actuators) else None, bus)
+            for k, dev_id in enumerate(ids)]
 
 
 def build(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int = 0, *, world: Any = None,
@@ -83,7 +64,7 @@ def build(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int = 0, *, wo
     bus_cfg = cfg.bus
     faults = Faults.from_scenario(sc["faults"], seed, where=f"{cfg.path} [faults]",
                                   on_fault=on_fault)
-    line = Bus2 if bus_cfg.model == xl430.MODEL_NAME else Bus
+    line = protocols.for_model(bus_cfg.model).line
     bus = line(_servos(bus_cfg, list(bus_cfg.ids if ids is None else ids), world), clock,
               baud=bus_cfg.baud, echo=bus_cfg.echo, faults=faults if faults.active() else None,
               on_bytes=on_bytes, advance=world.advance_to if world is not None else None)

@@ -22,12 +22,6 @@ from hil.servobus.health import ServoHealth
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
 
-# A real servo ignores packets for a few ms after an EEPROM write (shared/reference, from
-# the USB2AX notes); "a few" is our 5 ms. Firmware that writes EEPROM and then talks to the
-# same servo at once loses that packet.
-EEPROM_BUSY_US = 5_000
-
-
 _OWNER = [ax12.owner(a) for a in range(ax12.TABLE_SIZE)]
 
 
@@ -82,7 +76,7 @@ class Servo(TableServo):
 
     def __init__(self, dev_id: int = 1, edition: str = ax12.EDITION_EMANUAL,
                  actuator: Actuator | None = None, position: int = 512, t_us: int = 0,
-                 eeprom_busy_us: int = EEPROM_BUSY_US) -> None:
+                 eeprom_busy_us: int | None = None) -> None:
         if edition not in ax12.EDITIONS:
             raise ValueError(f"unknown AX-12 manual edition {edition!r}")
         if not 0 <= dev_id <= dxl.MAX_ID:
@@ -98,7 +92,8 @@ class Servo(TableServo):
         self.alarm_led = False                 # the LED blinks for errors in Alarm LED
         self.address_changed = False           # ID or Baud Rate written: bus re-indexes
         self.instructions = 0
-        self.eeprom_busy_us = eeprom_busy_us
+        # deaf this long after an EEPROM write (a packet then is lost: docs/servo-bus.md)
+        self.eeprom_busy_us = ax12.EEPROM_BUSY_US if eeprom_busy_us is None else eeprom_busy_us
         self.busy_until_us = 0                 # deaf after an EEPROM write until then
         self.ignored = 0                       # packets that arrived while deaf
         self._command()

@@ -19,71 +19,17 @@ from typing import Callable, Iterable
 
 from hil.clock import VirtualClock
 from hil.servobus.ax12_servo import Servo
+from hil.servobus.wire import US_BITS, Burst, resample
 from protocol.dynamixel import v1 as dxl
-
-BITS_PER_BYTE = 10  # 8N1: start, 8 data, stop
-_US_BITS = 1_000_000 * BITS_PER_BYTE
 
 OnBytes = Callable[[int, str, bytes], None]
 Advance = Callable[[int], None]
 
 
-def resample(data: bytes, from_bps: int, to_bps: int) -> bytes:
-    """What an 8N1 UART at ``to_bps`` decodes from ``data`` sent back to back at ``from_bps``.
-
-    Samples each bit in the middle of the receiver's bit time after a falling start
-    edge; bytes with a framing error are kept (the AX-12's UART hands them on too).
-    """
-    if from_bps == to_bps:
-        return bytes(data)
-    bits: list[int] = []
-    for b in data:
-        bits.append(0)
-        bits.extend((b >> k) & 1 for k in range(8))
-        bits.append(1)
-    n = len(bits)
-    ratio = from_bps / to_bps  # receiver bit time, in sender bit times
-
-    def level(t: float) -> int:
-        i = int(t)
-        return bits[i] if 0 <= i < n else 1
-
-    out = bytearray()
-    i = 0
-    while i < n:
-        if bits[i] != 0 or (i and bits[i - 1] != 1):
-            i += 1
-            continue
-        te = float(i)
-        if level(te + 0.5 * ratio):  # false start: the low was shorter than half a bit
-            i += 1
-            continue
-        byte = 0
-        for k in range(8):
-            if level(te + (1.5 + k) * ratio):
-                byte |= 1 << k
-        out.append(byte)
-        i = max(i + 1, int(te + 9.5 * ratio) + 1)
-    return bytes(out)
-
-
-class _Burst:
-    """Bytes sent back to back on the line from ``start_us`` (a reply, or echoed tx)."""
-
-    __slots__ = ("start_us", "data", "read", "reply", "emitted")
-
-    def __init__(self, start_us: int, data: bytearray, reply: bool) -> None:
-        self.start_us = start_us
-        self.data = data
-        self.read = 0
-        self.reply = reply
-        self.emitted = False
-
-
 class Bus:
     """The line, its servos and the master's receive FIFO; see the module docstring."""
 
-    protocol = 1  # Dynamixel Protocol 1.0 (hil/servobus/bus2.py: 2.0)
+    protocol = 1  # Dynamixel Protocol 1.0 (hil/servobus/protocols/v2.py: 2.0)
     parser_class = dxl.Parser
 
     def __init__(self, servos: Iterable[Servo], clock: VirtualClock, baud: int = 1_000_000,
@@ -105,7 +51,7 @@ class Bus:
         # master's configure write did not change).
         self.rx_latency_us = 0
         self.return_delay_override_us: int | None = None
-        self._rx: list[_Burst] = []     # heard by the master, oldest first, never overlapping
+        self._rx: list[Burst] = []     # heard by the master, oldest first, never overlapping
         self._parser = self.parser_class()
         self._off: set[int] = set()      # id(servo) of unplugged servos
         self.stats = {"tx_bytes": 0, "rx_bytes": 0, "packets": 0, "replies": 0,
@@ -158,10 +104,10 @@ class Bus:
 
     def byte_end_us(self, start_us: int, i: int) -> int:
         """When byte ``i`` of a burst starting at ``start_us`` has fully arrived."""
-        return start_us + ((i + 1) * _US_BITS) // self.baud
+        return start_us + ((i + 1) * US_BITS) // self.baud
 
     def wire_us(self, nbytes: int) -> int:
-        return (nbytes * _US_BITS) // self.baud
+        return (nbytes * US_BITS) // self.baud
 
     def _move_to(self, t_us: int) -> None:
         clock = self.clock
@@ -207,7 +153,7 @@ class Bus:
         if self.on_bytes is not None:
             self.on_bytes(t0, "tx", bytes(tx))
         if self.echo:
-            self._put(_Burst(t0, bytearray(tx), False))
+            self._put(Burst(t0, bytearray(tx), False))
         self._move_to(t1)
         self._deliver(tx, t1)
         for s, parser in self._foreign:
@@ -294,7 +240,7 @@ class Bus:
     # --- the line -------------------------------------------------------------------
     def _collide(self, tx: bytearray, t0: int, t1: int) -> None:
         """Master bytes overlapping servo bytes: both become the wired AND."""
-        per = _US_BITS / self.baud
+        per = US_BITS / self.baud
         hit = False
         for b in self._rx:
             if not b.reply:
@@ -315,9 +261,9 @@ class Bus:
             if self.faults is not None:
                 self.faults.report(t0, "collision", "master talked over a servo's reply")
 
-    def _put(self, burst: _Burst) -> None:
+    def _put(self, burst: Burst) -> None:
         """Add a burst to what the master hears, merging (AND) any overlap."""
-        per = _US_BITS / self.baud
+        per = US_BITS / self.baud
         for b in self._rx:
             end = b.start_us + per * len(b.data)
             if burst.start_us < end and b.start_us < burst.start_us + per * len(burst.data):
@@ -416,4 +362,4 @@ class Bus:
                 return
             faults.corrupt(data, start, "rx")
         self.stats["replies"] += 1
-        self._put(_Burst(start, data, True))
+        self._put(Burst(start, data, True))

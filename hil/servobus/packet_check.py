@@ -1,8 +1,16 @@
-"""A master's burst checked byte by byte against one protocol's rules (hil/servobus/master_check.py
-for Protocol 1.0, master_check2.py for 2.0): the loop both share."""
+"""A master's burst checked byte by byte against one protocol's rules (hil/servobus/protocols/:
+v1.py's ``Packet1Check``, v2.py's ``Packet2Check``): the loop and the kinds they share."""
 from __future__ import annotations
 
 from typing import Any, Callable
+
+# What a master can do wrong on any Dynamixel line (hil/servobus/master_check.py says each);
+# a protocol adds its own (hil/servobus/protocols/).
+KINDS = ("eeprom_busy", "unsupported_instruction", "bad_write", "inter_byte_gap",
+         "broadcast_read_ping", "talk_over_reply", "bad_checksum", "tx_while_receiving",
+         "rx_while_transmitting")
+
+OnViolation = Callable[[int, str, str], None]
 
 
 class PacketCheck:
@@ -11,7 +19,7 @@ class PacketCheck:
     failed checks (``bad``, ``bad_detail``) and judges each packet the parser completes
     (``packet``)."""
 
-    def __init__(self, flag: Callable[[int, str, str], None], parser: Any) -> None:
+    def __init__(self, flag: OnViolation, parser: Any) -> None:
         self.flag = flag
         self.parser = parser
 

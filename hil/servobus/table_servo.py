@@ -1,4 +1,4 @@
-"""What the emulated AX-12 (hil/servobus/ax12_servo.py) and XL430 (hil/servobus/xl430_servo.py) share.
+"""What the emulated AX-12 (hil/servobus/ax12_servo.py) and XL430 (hil/servobus/xseries_servo.py) share.
 
 Both keep their state in a control table laid out by a protocol module (``layout``:
 protocol/dynamixel/ax12.py or xl430.py, which name the same registers alike), turn the horn through

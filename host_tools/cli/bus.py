@@ -1,5 +1,6 @@
-"""``hexhil bus``: serve emulated AX-12A (Protocol 1.0) or XL430-W250-T (Protocol 2.0)
-servos in real time on a pty or a TCP port."""
+"""``hexhil bus``: serve emulated Dynamixel servos of any model in protocol/dynamixel/models.py
+(AX-12A: Protocol 1.0; XL430-W250-T, XM430-W350-T: Protocol 2.0) in real time on a pty or a
+TCP port."""
 from __future__ import annotations
 
 import argparse
@@ -10,8 +11,10 @@ from typing import Any
 
 from hil.canbus.socketcand import DEFAULT_PORT
 from hil.scenario import DEFAULT_BAUD, check_seed
+from hil.scenario.sections import SENSOR_NODE_PROTOCOL
 from host_tools.cli import JSON_HELP, OVERWRITE_HELP, flush_print
 from protocol import sensor_node
+from protocol.dynamixel import models
 from protocol.errors import UserError
 
 _FAULT_FLAGS = ("unplug", "stall", "overheat", "voltage_sag")
@@ -95,7 +98,8 @@ def _sensor_id(args: argparse.Namespace, sc: dict[str, Any]) -> int | None:
     """The sensor node's ID, or None: on with --world unless --no-sensor-node or
     ``[bus] sensor_node = false``; ``--sensor-id``/``sensor_node_id`` move it."""
     bus = sc.get("bus", {})
-    if args.no_sensor_node or bus.get("model", "ax-12a") != "ax-12a" \
+    protocol = models.protocol(bus.get("model", models.DEFAULT))
+    if args.no_sensor_node or protocol != SENSOR_NODE_PROTOCOL \
             or not bus.get("sensor_node", args.world is not None):
         return None
     if args.sensor_id is not None:
@@ -170,10 +174,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("bus", help="serve emulated AX-12 or XL430 servos on a pty or TCP port",
-                       description="Serve emulated AX-12A (Protocol 1.0) or XL430-W250-T "
-                                   "(Protocol 2.0) servos in real time (wire time and return "
-                                   "delay honoured) for stock Dynamixel clients.")
+    p = sub.add_parser("bus", help="serve emulated Dynamixel servos (Protocol 1.0 or 2.0) on a "
+                                   "pty or TCP port",
+                       description="Serve emulated Dynamixel servos of any model in "
+                                   "protocol/dynamixel/models.py (Protocol 1.0 or 2.0) in real "
+                                   "time (wire time and return delay honoured) for stock "
+                                   "Dynamixel clients.")
     p.add_argument("--servos", type=int, default=None, help="number of servos (default 18)")
     p.add_argument("--ids", default=None, help="servo IDs, e.g. 1-18 or 1,3,5-7")
     p.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal, the default (prints 'pty: PATH')")
@@ -199,9 +205,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--baud", type=int, default=None, help="line rate in bit/s (default 1000000)")
     p.add_argument("--echo", action="store_true", help="echo the master's bytes (single-wire adapter)")
     p.add_argument("--scenario", default=None, help="scenario TOML ([bus], [faults], [scenario].seed)")
-    p.add_argument("--model", choices=("ax-12a", "xl430-w250"), default=None,
-                   help="servo model: ax-12a (Protocol 1.0, the default) or xl430-w250 "
-                        "(Protocol 2.0); the sensor node is Protocol 1.0 only")
+    p.add_argument("--model", choices=tuple(models.MODELS), default=None,
+                   help="servo model: " + ", ".join(
+                       f"{m} (Protocol {v}.0)" for m, (_, v) in models.MODELS.items())
+                   + f"; default {models.DEFAULT}; the sensor node is Protocol 1.0 only")
     p.add_argument("--edition", choices=("emanual", "original"), default=None,
                    help="control-table defaults of this manual edition (default emanual)")
     p.add_argument("--seed", type=int, default=None, help="fault RNG seed (default: scenario's, else 0)")

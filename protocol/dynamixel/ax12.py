@@ -9,6 +9,10 @@ import math
 
 MODEL_NUMBER = 12
 FIRMWARE_VERSION = 24
+MODEL_NAME = "ax-12a"
+# A real servo ignores packets for a few ms after an EEPROM write (shared/reference, from
+# the USB2AX notes); "a few" is our 5 ms.
+EEPROM_BUSY_US = 5000
 
 EDITION_EMANUAL = "emanual"    # ROBOTIS e-manual, AX-12A
 EDITION_ORIGINAL = "original"  # AX-12 user's manual, 2006
@@ -157,6 +161,10 @@ SPEED_RPM_PER_UNIT = 0.111
 # speed control, so the motor runs at this; register values above 59/0.111 = 531 ask for
 # more than the motor can give (the actuator model saturates, not this table).
 MAX_SPEED_RPM = 59.0
+# e-manual AX-12A specifications: stall torque 1.5 N m at 12 V, no-load speed 59 rpm.
+RATED_SUPPLY_V = 12.0
+STALL_TORQUE_NM = 1.5
+NO_LOAD_RPM = MAX_SPEED_RPM
 DIRECTION_BIT = 0x400           # bit 10 of Present Speed and Present Load: CW when set
 LOAD_FRACTION_PER_UNIT = 1.0 / 1023.0
 VOLTAGE_V_PER_UNIT = 0.1
@@ -221,6 +229,16 @@ def v_to_voltage(volts):
 def baud_to_bps(value):
     """Baud Rate register to bits per second: 2 000 000 / (value + 1)."""
     return 2000000 // (value + 1)
+
+
+BAUD_TOLERANCE = 0.03  # e-manual: a line within 3 % of the servo's rate decodes
+BAUD_RULE = "no AX-12 rate 2000000/(n+1) within 3 % of it"
+
+
+def bps_to_baud(bps):
+    """The Baud Rate register nearest a line rate, or -1 when none is within 3 % of it."""
+    n = min(254, max(0, round(2000000 / bps) - 1))
+    return n if abs(baud_to_bps(n) - bps) <= BAUD_TOLERANCE * bps else -1
 
 
 def return_delay_us(value):

@@ -11,6 +11,7 @@ import math
 MODEL_NUMBER = 1060
 FIRMWARE_VERSION = 46
 MODEL_NAME = "xl430-w250"
+EEPROM_BUSY_US = 5000  # deaf after an EEPROM write: our 5 ms, as the AX-12's (docs/servo-bus.md)
 
 R = "R"
 RW = "RW"
@@ -68,6 +69,9 @@ MODE_POSITION = 3
 MODE_EXTENDED_POSITION = 4
 MODE_PWM = 16
 MODES = (MODE_VELOCITY, MODE_POSITION, MODE_EXTENDED_POSITION, MODE_PWM)
+POSITION_MODES = (MODE_POSITION, MODE_EXTENDED_POSITION)
+LIMITED_POSITION_MODES = (MODE_POSITION,)   # Goal Position within the position limits
+CURRENT_MODES = ()                           # no current sensor: Present Load, not Current
 
 # Hardware Error Status bits (address 70) and Shutdown (63) use the same bits.
 HW_INPUT_VOLTAGE = 0x01
@@ -134,14 +138,18 @@ FIELDS = (
     (147, "backup_ready", 1, R, 0, 0, 1, False),
 )
 
-BY_ADDRESS = {}
-BY_NAME = {}
-OWNER = [None] * TABLE_SIZE  # the field covering each address, None where undefined
-for _f in FIELDS:
-    BY_ADDRESS[_f[0]] = _f
-    BY_NAME[_f[1]] = _f
-    for _a in range(_f[0], _f[0] + _f[2]):
-        OWNER[_a] = _f
+def index(fields):
+    """(by address, by name, the field covering each address or None) of a field list."""
+    by_address, by_name, owner = {}, {}, [None] * TABLE_SIZE
+    for f in fields:
+        by_address[f[0]] = f
+        by_name[f[1]] = f
+        for a in range(f[0], f[0] + f[2]):
+            owner[a] = f
+    return by_address, by_name, owner
+
+
+BY_ADDRESS, BY_NAME, OWNER = index(FIELDS)
 
 
 def get(table, address, size, signed=False):
@@ -159,15 +167,20 @@ def put(table, address, size, value):
         table[address + i] = (value >> (8 * i)) & 0xFF
 
 
-def defaults(position=2048):
-    """The control table at power-on, the horn at ``position`` (pulses)."""
+def table_of(fields, position):
+    """A control table at power-on from a field list, the horn at ``position`` (pulses)."""
     table = bytearray(TABLE_SIZE)
-    for f in FIELDS:
+    for f in fields:
         value = f[4]
         if value is None:
             value = position
         put(table, f[0], f[2], value)
     return table
+
+
+def defaults(position=2048):
+    """The control table at power-on, the horn at ``position`` (pulses)."""
+    return table_of(FIELDS, position)
 
 
 # --- Units (SI inside hexhil, XL430 units only here) --------------------------------
@@ -186,6 +199,11 @@ RATED_SUPPLY_V = 11.1
 STALL_TORQUE_NM = 1.4
 NO_LOAD_RPM = 57.0
 BAUD_BPS = (9600, 57600, 115200, 1000000, 2000000, 3000000, 4000000, 4500000)
+
+
+def fraction_to_load(fraction):
+    """Present Load (0.1 % units, signed) of a load fraction."""
+    return int(round(max(-1.0, min(1.0, fraction)) * 1000))
 
 
 def position_to_rad(value):
@@ -211,6 +229,9 @@ def acceleration_to_rad_s2(value):
 def baud_to_bps(value):
     """Baud Rate register (0-7) to bits per second."""
     return BAUD_BPS[value] if 0 <= value < len(BAUD_BPS) else 0
+
+
+BAUD_RULE = "not one of " + "/".join(str(b) for b in BAUD_BPS) + " bps"
 
 
 def bps_to_baud(bps):

@@ -22,7 +22,7 @@ from typing import Any
 import serial
 
 from hil.servobus import switch_node as sensor_node
-from host_tools.conformance_report import Cause, Check, summarise
+from host_tools.dynamixel.conformance.report import Cause, Check, summarise
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
 from protocol.errors import UserError

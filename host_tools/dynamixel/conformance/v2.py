@@ -1,14 +1,16 @@
-"""Check a Protocol 2.0 bus (our XL430 emulator, or real X-series servos behind a USB
+"""Check a Protocol 2.0 bus (our X-series emulators, or real X-series servos behind a USB
 adapter) against the spec: the ``hexhil conformance --protocol 2`` checks.
 
-A pyserial client, like host_tools/conformance.py for Protocol 1.0 (whose ``Check`` rows
+A pyserial client, like host_tools/dynamixel/conformance/v1.py for Protocol 1.0 (whose ``Check`` rows
 and table it shares). Per servo: PING status format and CRC, no reply to a bad CRC, byte
 stuffing of a status packet that holds FF FF FD, the error numbers (instruction, data
 length, data limit, access), the EEPROM lock while the torque is on, Status Return
 Levels, response timing against Return Delay Time; per bus: the reply order of SYNC_READ
 and BULK_READ, and FAST_SYNC_READ / FAST_BULK_READ as one packet in list order. What it
 changes (Homing Offset, Return Delay, Status Return Level, Torque Enable) it restores and
-checks that it did.
+checks that it did. Each servo is checked against its own model's control table, found
+from the model number its PING returns (protocol/dynamixel/models.py; a model not listed
+there is checked as an XL430, whose layout the X series shares).
 """
 from __future__ import annotations
 
@@ -16,7 +18,10 @@ import time
 from dataclasses import asdict
 from typing import Any
 
-from host_tools.conformance import EEPROM_PAUSE_S, SILENCE_S, Checker, Link
+from types import ModuleType
+
+from host_tools.dynamixel.conformance.v1 import EEPROM_PAUSE_S, SILENCE_S, Checker, Link
+from protocol.dynamixel import models
 from protocol.dynamixel import v2 as dx2
 from protocol.dynamixel import xl430 as xl
 
@@ -71,6 +76,15 @@ class Checker2(Checker):
 
     link: Link2
 
+    def __init__(self, link: Link2) -> None:
+        super().__init__(link)
+        self.model_numbers: dict[int, int] = {}     # what each servo's PING said
+
+    def layout(self, i: int) -> ModuleType:
+        """The control table of servo ``i``'s model (the XL430's when unknown)."""
+        name = models.by_number(2, self.model_numbers.get(i, -1))
+        return models.table(name) if name is not None else xl
+
     def read(self, i: int, address: int, n: int) -> bytes | None:  # type: ignore[override]
         p = self.link.transact(dx2.read(i, address, n))
         return p.params[1:] if p is not None and p.id == i and len(p.params) == n + 1 else None
@@ -108,6 +122,8 @@ class Checker2(Checker):
         link = self.link
         p = link.transact(dx2.ping(i))
         ok = p is not None and len(p.params) == 4 and p.error & 0x7F == 0
+        if ok:
+            self.model_numbers[i] = p.params[1] | p.params[2] << 8
         self.add(i, "ping_status_format", ok, "55 ERR model_L model_H firmware, CRC valid"
                  if ok else f"got {p!r}")
         bad = bytearray(dx2.ping(i))
@@ -185,7 +201,8 @@ class Checker2(Checker):
         if after is None:
             self.add(i, "restored", False, "READ of the table failed")
             return
-        changed = [f[1] for f in xl.FIELDS if f[3] == xl.RW and
+        layout = self.layout(i)
+        changed = [f[1] for f in layout.FIELDS if f[3] == xl.RW and
                    xl.get(after, f[0], f[2]) != xl.get(table, f[0], f[2])]
         self.add(i, "restored", not changed, "every writable cell as found" if not changed
                  else f"changed: {changed}")
@@ -193,18 +210,20 @@ class Checker2(Checker):
     def group_reads(self, ids: list[int]) -> None:
         """Reply order of sync and bulk reads, and their fast forms, over the found IDs."""
         order = list(reversed(ids))
+        number = {d: self.model_numbers.get(d, -1).to_bytes(2, "little", signed=True)
+                  for d in order}          # what each servo's PING said its model is
         got, _ = self.link.exchange(dx2.sync_read(xl.MODEL_NUMBER_L, 2, order), len(order))
-        ok = [p.id for p in got] == order and all(p.params[1:] == b"\x24\x04" for p in got)
+        ok = [p.id for p in got] == order and all(p.params[1:] == number[p.id] for p in got)
         self.add(None, "sync_read_order", ok, f"asked {order}, answered {[p.id for p in got]}")
         got, _ = self.link.exchange(dx2.sync_read(xl.MODEL_NUMBER_L, 2, order, fast=True))
         blocks = dx2.fast_blocks(got[0].params, [2] * len(order)) if got else []
         ok = len(got) == 1 and got[0].id == dx2.BROADCAST_ID and \
-            [b[1] for b in blocks] == order and all(b[2] == b"\x24\x04" for b in blocks)
+            [b[1] for b in blocks] == order and all(b[2] == number[b[1]] for b in blocks)
         self.add(None, "fast_sync_read", ok, f"one packet from ID 254, blocks {[b[1] for b in blocks]}")
         req = [(d, xl.ID, 1) if k % 2 else (d, xl.MODEL_NUMBER_L, 2) for k, d in enumerate(order)]
         got, _ = self.link.exchange(dx2.bulk_read(req), len(req))
         ok = [p.id for p in got] == order and all(
-            p.params[1:] == (bytes((d,)) if n == 1 else b"\x24\x04") for p, (d, _, n) in zip(got, req))
+            p.params[1:] == (bytes((d,)) if n == 1 else number[d]) for p, (d, _, n) in zip(got, req))
         self.add(None, "bulk_read_order", ok, f"asked {order}, answered {[p.id for p in got]}")
         got, _ = self.link.exchange(dx2.bulk_read(req, fast=True))
         blocks = dx2.fast_blocks(got[0].params, [n for _, _, n in req]) if got else []

@@ -43,7 +43,6 @@ class ServoStats:
 
 
 class Master:
-    protocol = 1
     present_addr = PRESENT_ADDR      # what read_present reads
     present_len = PRESENT_LEN
 
@@ -157,6 +156,10 @@ class Master:
         self.small[1] = length
         n = dxl.build_into(self.tx, dev_id, dxl.READ, self.small, 2)
         return self._retry(dev_id, n, length, now) == OK
+
+    def read_cycle(self, policy, now):
+        """A cycle's status reads: a few servos, as the fault policy rotates them."""
+        policy.read_rotating(self, now)
 
     def read_present(self, dev_id, now):
         """Present position, speed and load into the servo's stats; True on success."""

@@ -2,14 +2,14 @@
 profile velocity + goal position and ONE SYNC_READ of load, velocity and position for all
 18 servos per cycle.
 
-The same interface as servo_bus.Master (the controller and the fault policy use either):
+The same interface as v1.Master (the controller and the fault policy use either):
 goals come in AX-12 units from firmware/servo_goals.py and are converted here, at the
 bus, to XL430 pulses and velocity units; ``ServoStats`` keep the AX-12 meaning of their
 error bits (the XL430's Hardware Error Status uses the same bit for input voltage,
 overheating and overload). Packets are built with protocol/dynamixel/v2.py's ``build_into``
 into preallocated buffers. MicroPython-compatible.
 """
-from firmware.servo_bus import CORRUPT, OK, TIMEOUT, TIMEOUT_MARGIN_US, Master
+from firmware.servo_bus.v1 import CORRUPT, OK, TIMEOUT, TIMEOUT_MARGIN_US, Master
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v2 as dx2
 from protocol.dynamixel import xl430 as xl
@@ -33,10 +33,9 @@ def pulses_to_ax(pulses):
 
 
 class Master2(Master):
-    """servo_bus.Master's interface and counters (``scan``, ``counters``, ``read_present``,
+    """v1.Master's interface and counters (``scan``, ``counters``, ``read_present``,
     the retries and the unanswered send are inherited), its packets Protocol 2.0."""
 
-    protocol = 2
     present_addr = PRESENT_ADDR
     present_len = PRESENT_LEN
 
@@ -195,6 +194,10 @@ class Master2(Master):
         n = dx2.build_into(self.tx, dx2.BROADCAST_ID, dx2.SYNC_WRITE, prm, k)
         self._send_unanswered(n)
         return n
+
+    def read_cycle(self, policy, now):
+        """A cycle's status reads: one SYNC_READ of all 18 (the failed ones are suspect)."""
+        policy.suspect = self.sync_read_present(now)
 
     def sync_read_present(self, now):
         """ONE SYNC_READ of load, velocity and position of every servo; the servo indices

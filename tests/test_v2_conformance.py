@@ -20,11 +20,11 @@ def test_our_xl430_bus_passes_every_check() -> None:
 
 
 FAULTY = textwrap.dedent("""
-    from hil.servobus.bus2 import Bus2
+    from hil.servobus.protocols.v2 import Bus2
     from hil.clock import VirtualClock
     from hil.servobus.serial_server import RealTimeServer, install_sigterm, Stop
     from host_tools.cli import flush_print
-    from hil.servobus.xl430_servo import XL430Servo
+    from hil.servobus.xseries_servo import XSeriesServo
     from protocol.dynamixel import v2 as dx2
 
     def unstuffed(reply):  # the same packet as sent by a servo that forgets to stuff
@@ -33,18 +33,18 @@ FAULTY = textwrap.dedent("""
             + bytes((p.instr,)) + p.params
         return body + dx2.crc16(body, 0, len(body)).to_bytes(2, "little")
 
-    class NoStuffing(XL430Servo):
+    class NoStuffing(XSeriesServo):
         def handle(self, instr, params, broadcast, t_us):
             reply = super().handle(instr, params, broadcast, t_us)
             return None if reply is None else unstuffed(reply)
 
-    class WrongCrc(XL430Servo):
+    class WrongCrc(XSeriesServo):
         def ping_reply(self):
             r = bytearray(super().ping_reply())
             r[-1] ^= 0x55
             return bytes(r)
 
-    class Hasty(XL430Servo):  # answers at once whatever its Return Delay Time says
+    class Hasty(XSeriesServo):  # answers at once whatever its Return Delay Time says
         return_delay_us = 0
 
     servos = [NoStuffing(1), WrongCrc(2), Hasty(3)]

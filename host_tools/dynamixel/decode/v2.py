@@ -1,12 +1,16 @@
-"""Dynamixel Protocol 2.0 bytes as records for humans (``hexhil protocol decode``): each
-packet with its instruction, error names, addresses and XL430 register names, and the
-garbage between packets."""
+"""Dynamixel Protocol 2.0 bytes decoded: each packet with its instruction, error names,
+addresses and X-series register names, and the garbage between packets, as records for
+humans (``hexhil protocol decode``); and the packets each serial burst completes for the
+trace, in the same ``DynamixelPacket`` schema as Protocol 1.0's (v1.py)."""
 from __future__ import annotations
 
 from typing import Any
 
+from host_tools.trace import protobuf as pb
 from protocol.dynamixel import v2 as dx2
 from protocol.dynamixel import xl430 as xl
+
+HEADER = b"\xff\xff\xfd\x00"
 
 
 def register(address: int) -> str | None:
@@ -71,5 +75,34 @@ def decode(data: bytes) -> list[dict[str, Any]]:
     return out
 
 
-def looks_like_protocol_2(data: bytes) -> bool:
-    return b"\xff\xff\xfd\x00" in data
+def names(data: bytes) -> list[str]:
+    """Each packet in ``data`` in a few words ("SYNC_READ to 254", "status from 3: ok");
+    garbage is left out (replay's divergences)."""
+    return [f"status from {r['id']}: {','.join(r['error']) or 'ok'}" if r["kind"] == "status"
+            else f"{r['instruction']} to {r['id']}" for r in decode(data) if r["kind"] != "garbage"]
+
+
+class TracePackets:
+    """One direction's serial bytes cut into packets, encoded for the trace's ``/serial`` as
+    Protocol 1.0's are (v1.py): an instruction's code is its instruction, a status packet's
+    its error field (the parameters after it)."""
+
+    def __init__(self, direction: str) -> None:
+        self.direction = direction
+        self.parser = dx2.Parser()
+
+    def feed(self, data: bytes, t_us: int) -> list[bytes]:
+        """The packets ``data`` completes (``data`` may end or start one)."""
+        parser = self.parser
+        return [self._encode(parser.current()) for b in data if parser.push(b, t_us)]
+
+    def flush(self) -> list[bytes]:
+        """Packets hidden behind a bad header, found at the end of the stream."""
+        return [self._encode(p) for p in self.parser.flush()]
+
+    def _encode(self, p: dx2.Packet) -> bytes:
+        if p.instr == dx2.STATUS:
+            return pb.encode_dynamixel_packet(self.direction, p.id, p.error, p.params[1:], p.raw,
+                                              codec=dx2, status=True)
+        return pb.encode_dynamixel_packet(self.direction, p.id, p.instr, p.params, p.raw,
+                                          codec=dx2, status=False)

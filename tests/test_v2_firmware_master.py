@@ -1,12 +1,12 @@
-"""firmware/servo_bus2.py (the X-series master) against the emulated Protocol 2.0 bus:
+"""firmware/servo_bus/v2.py (the X-series master) against the emulated Protocol 2.0 bus:
 scan, configuration, one SYNC_WRITE, one SYNC_READ of all 18, stuffed replies, a silent
 servo ending the chain."""
 from __future__ import annotations
 
-from firmware import servo_bus2
-from hil.servobus.bus2 import Bus2
+from firmware.servo_bus import v2 as servo_bus2
+from hil.servobus.protocols.v2 import Bus2
 from hil.clock import VirtualClock
-from hil.servobus.xl430_servo import XL430Servo
+from hil.servobus.xseries_servo import XSeriesServo
 from protocol.dynamixel import xl430 as xl
 
 
@@ -36,7 +36,7 @@ class BusUart:
         self.bus.idle_until(t_us)
 
 
-class Stuffed(XL430Servo):
+class Stuffed(XSeriesServo):
     """Present Load -1 and Present Velocity -3: FF FF FD FF ... on the wire (stuffed)."""
 
     def read_block(self, address: int, length: int) -> tuple[int, bytes]:
@@ -47,7 +47,7 @@ class Stuffed(XL430Servo):
 
 
 def rig(stuffed: int = 0) -> tuple[Bus2, servo_bus2.Master2, BusUart]:
-    servos = [(Stuffed if i == stuffed else XL430Servo)(i) for i in range(1, 19)]
+    servos = [(Stuffed if i == stuffed else XSeriesServo)(i) for i in range(1, 19)]
     for s in servos:
         s.table[xl.BAUD_RATE] = 3
     bus = Bus2(servos, VirtualClock())

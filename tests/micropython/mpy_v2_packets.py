@@ -1,5 +1,5 @@
 # protocol/dynamixel/v2.py under the real micropython binary (checks.py asserts, no pytest).
-# Prints lines the pytest side compares with CPython's, then "OK dynamixel2 <checks>".
+# Prints lines the pytest side compares with CPython's, then "OK v2_packets <checks>".
 from protocol.dynamixel import v2 as dx2
 from tests.micropython.checks import check, done
 from tests.micropython.packet_checks import Lcg, byte_path_allocates_nothing, round_trip
@@ -46,4 +46,4 @@ byte_path_allocates_nothing(
     dx2, dx2.SYNC_WRITE, bytearray(b"\x74\x00\x04\x00\x01\xff\xff\xfd\x00"), 9,
     dx2.sync_write(116, 4, [(i, b"\xff\xff\xfd\x00") for i in range(18)]), 20)
 
-done("dynamixel2")
+done("v2_packets")

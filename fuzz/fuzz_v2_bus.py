@@ -1,4 +1,4 @@
-"""The Protocol 2.0 bus with 18 emulated XL430s (hil/servobus/bus2.py, hil/servobus/xl430_servo.py) under
+"""The Protocol 2.0 bus with 18 emulated XL430s (hil/servobus/protocols/v2.py, hil/servobus/xseries_servo.py) under
 random instruction streams: no exception escapes, every register within its documented
 range (protocol/dynamixel/xl430.py FIELDS), the identity registers unchanged, and after the line
 has idled a PING to a servo is answered (resync)."""
@@ -7,11 +7,11 @@ from __future__ import annotations
 import random
 
 from fuzz.fuzz_bus import BusSpec, rare_id_writes, run_streams
-from fuzz.fuzz_parser2 import garbage
+from fuzz.fuzz_v2_parser import garbage
 from fuzz.tally import Tally
-from hil.servobus.bus2 import Bus2
+from hil.servobus.protocols.v2 import Bus2
 from hil.clock import VirtualClock
-from hil.servobus.xl430_servo import XL430Servo
+from hil.servobus.xseries_servo import XSeriesServo
 from protocol.dynamixel import v2 as dx2
 from protocol.dynamixel import xl430 as xl
 
@@ -59,13 +59,13 @@ def instruction(rng: random.Random) -> bytes:
 
 
 def fresh_bus() -> Bus2:
-    servos = [XL430Servo(i) for i in range(1, SERVOS + 1)]
+    servos = [XSeriesServo(i) for i in range(1, SERVOS + 1)]
     for s in servos:
         s.table[xl.BAUD_RATE] = 3
     return Bus2(servos, VirtualClock())
 
 
-def check_servo(s: XL430Servo) -> str:
+def check_servo(s: XSeriesServo) -> str:
     s._refresh_present()
     t = s.table
     if len(t) != xl.TABLE_SIZE:
@@ -83,7 +83,7 @@ def check_servo(s: XL430Servo) -> str:
     return ""
 
 
-def pingable(bus: Bus2) -> XL430Servo | None:
+def pingable(bus: Bus2) -> XSeriesServo | None:
     ids = [s.id for s in bus.servos if s.baud_bps == bus.baud]
     for s in bus.servos:
         if s.baud_bps == bus.baud and ids.count(s.id) == 1:
