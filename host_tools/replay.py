@@ -18,10 +18,11 @@ import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import TYPE_CHECKING, Any, Callable, Iterable
 
 from hil import scenario as scenario_mod
-from hil.scenario import check_number, check_span
+from hil.scenario import check_span
+from hil.scenario.rules import within
 from host_tools.dynamixel.decode import DECODERS
 from protocol import sim_link
 from protocol.dynamixel import models
@@ -33,6 +34,9 @@ from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_CAN_RAW, T_LINK
 from protocol.errors import UserError
+
+if TYPE_CHECKING:
+    import can
 
 # What each link message is, for reports and --topics.
 OP_TOPICS = {sim_link.OP_HELLO: "hello", sim_link.OP_TRANSACT: "uart", sim_link.OP_WRITE: "uart",
@@ -140,7 +144,7 @@ def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | No
     """(t_us, request, reply) of every logged link exchange, in order."""
     if T_LINK not in trace.topics():
         raise UserError(f"{trace.path}: no {T_LINK} topic: this trace holds no "
-                        "firmware link exchanges to replay (record with 'hexhil run --out')")
+                        "firmware link exchanges to replay (a recorded firmware run's trace has them)")
     cls = LinkExchanges
     schemas = {trace.schemas[c.schema_id].name for c in trace.channels.values()
                if c.topic == T_LINK and c.schema_id in trace.schemas}
@@ -177,8 +181,9 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     executable).
     """
     if python not in ("micropython", "cpython"):
-        raise UserError(f"--python must be micropython or cpython, not {python!r}")
-    check_number(rate, "--rate (0: as fast as possible)", 0.0, MAX_RATE)
+        raise UserError(f"python must be micropython or cpython, not {python!r}",
+                        params=("python",))
+    within("rate (0: as fast as possible)", rate, 0.0, MAX_RATE, params=("rate",))
     check_span(start_s, end_s)
     wanted = set(TOPICS)
     if topics:
@@ -256,8 +261,8 @@ def _needs_firmware(path: str | Path, runtime: str, metadata: dict[str, str]) ->
     except ValueError:
         recorded = None
     was = f" ({recorded})" if recorded else ""
-    raise UserError(f"{path} was recorded with --firmware{was}, runtime {runtime}: pass "
-                    "--firmware PATH to replay it")
+    raise UserError(f"{path} was recorded with firmware{was}, runtime {runtime}: give the "
+                    "same PATH to replay it", params=("firmware",))
 
 
 def _compare(expected: list[tuple[int, bytes]], actual: list[tuple[int, bytes]],
@@ -295,8 +300,8 @@ def _compare(expected: list[tuple[int, bytes]], actual: list[tuple[int, bytes]],
 def parse_can_target(spec: str) -> tuple[str, str]:
     interface, sep, channel = spec.partition(":")
     if not sep or not interface or not channel:
-        raise UserError(f"--can wants INTERFACE:CHANNEL (e.g. virtual:0, "
-                        f"socketcand:hexhil0), got {spec!r}")
+        raise UserError(f"spec wants INTERFACE:CHANNEL (e.g. virtual:0, "
+                        f"socketcand:hexhil0), got {spec!r}", params=("spec",))
     return interface, channel
 
 
@@ -305,7 +310,7 @@ def _bus_kwargs(items: Iterable[str]) -> dict[str, Any]:
     for item in items or ():
         key, sep, value = item.partition("=")
         if not sep or not key:
-            raise UserError(f"--can-arg wants KEY=VALUE, got {item!r}")
+            raise UserError(f"bus_args wants KEY=VALUE, got {item!r}", params=("bus_args",))
         try:
             out[key] = int(value)
         except ValueError:
@@ -315,12 +320,12 @@ def _bus_kwargs(items: Iterable[str]) -> dict[str, Any]:
 
 def replay_can(path: str | Path, spec: str, rate: float = 1.0, start_s: float | None = None,
                end_s: float | None = None, bus_args: Iterable[str] = (),
-               bus: Any = None, sleep: Callable[[float], None] = time.sleep) -> dict[str, Any]:
+               bus: can.BusABC | None = None, sleep: Callable[[float], None] = time.sleep) -> dict[str, Any]:
     """Send the logged ``/can/raw`` frames through python-can, keeping their spacing
     (divided by ``rate``; 0 sends back to back)."""
     import can
 
-    check_number(rate, "--rate (0: back to back)", 0.0, MAX_RATE)
+    within("rate (0: back to back)", rate, 0.0, MAX_RATE, params=("rate",))
     check_span(start_s, end_s)
     interface, channel = parse_can_target(spec)
     cls = CanFrame

@@ -129,13 +129,13 @@ def test_the_api_says_a_good_firmware_completed() -> None:
 
 def test_margin_goes_on_past_a_crashing_setting(tmp_path: Path) -> None:
     """A firmware that crashes at a setting (here: every setting) is the sweep's result."""
-    from host_tools.expect import margin, spec
+    from host_tools.expect import margin_sweep, spec
 
     p = tmp_path / "c.toml"
     p.write_text(CASE.format(name="c", flat=FLAT,
                              firmware=f'firmware = "{firmware(tmp_path, "crash")}"\n'))
     case = spec.load(p)
-    m = margin.sweep(case, "cpython", axes={"return_delay_us": (0, 100)}, grid=((0,), (0,)))
+    m = margin_sweep.sweep(case, "cpython", axes={"return_delay_us": (0, 100)}, grid=((0,), (0,)))
     points = m.axes["return_delay_us"] + m.grid
     assert len(points) == 3 and all(not p.holds for p in points)
     assert all("firmware ending" in p.failed for p in points)

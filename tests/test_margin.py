@@ -10,7 +10,7 @@ from firmware.servo_bus.v1 import TIMEOUT_MARGIN_US
 from hil.servobus.line import Bus
 from hil.clock import VirtualClock
 from hil.servobus.ax12_servo import Servo
-from host_tools.expect import margin, spec
+from host_tools.expect import margin_sweep, spec
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
 
@@ -50,12 +50,12 @@ def test_the_sweep_finds_the_firmwares_reply_budget(tmp_path: Path) -> None:
     case = spec.load(ROOT / "tests" / "firmware" / "flat-tripod.toml")
     case = dataclasses.replace(case, duration_s=6.0, expectations=(spec.expectation(
         "test", {"name": "walks", "kind": "displacement", "window_s": [1, 6], "dx_m": [0.1, 1]}),))
-    m = margin.sweep(case, "cpython-inprocess",
+    m = margin_sweep.sweep(case, "cpython-inprocess",
                      axes={"return_delay_us": (0, TIMEOUT_MARGIN_US, TIMEOUT_MARGIN_US + 20),
                            "adapter_latency_us": (TIMEOUT_MARGIN_US, 1000)},
                      grid=((0,), (0,)), workers=2)
     assert m.first_failing() == {"return_delay_us": TIMEOUT_MARGIN_US + 20,
                                  "adapter_latency_us": 1000}
     assert m.grid[0].holds
-    margin.heat_map(m, str(tmp_path / "m.png"), "test")
+    margin_sweep.heat_map(m, str(tmp_path / "m.png"), "test")
     assert (tmp_path / "m.png").stat().st_size > 1000

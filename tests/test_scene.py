@@ -56,8 +56,8 @@ def test_scene_decodes_and_has_the_worlds_sizes(hexapod_trace):
     assert {topics.T_BODY, topics.T_JOINTS, topics.T_SCENE, topics.T_SCENE_FRAMES,
             topics.T_SCENE_FORCES} <= set(msgs)
     assert len(msgs[topics.T_SCENE_FRAMES]) == len(msgs[topics.T_BODY]) == 30  # 10 Hz
-    sc = scenario_mod.load(ROOT / "scenarios/obstacles-high-large.toml")
-    world = make_world(sc, sc["scenario"]["seed"])
+    sc = scenario_mod.load_scenario(ROOT / "scenarios/obstacles-high-large.toml")
+    world = make_world(sc, sc.scenario.seed)
     m = world.model
     entities = {e.id: e for e in msgs[topics.T_SCENE][0].entities}
     for name, (kind, size) in {"body": ("cubes", [2 * v for v in world.params.body_half_m]),
@@ -120,7 +120,7 @@ def test_quaternion_of_beams_body_is_ry_rx():
 
 
 def test_relative_frames_compose_to_mujocos_world_poses():
-    sc = scenario_mod.load(ROOT / "scenarios/obstacles-high-large.toml")
+    sc = scenario_mod.load_scenario(ROOT / "scenarios/obstacles-high-large.toml")
     world = make_world(sc, 0)
     world.drives.goal_rad += np.linspace(-0.4, 0.4, 18)  # bend every joint a little
     world.advance_to(200_000)

@@ -112,7 +112,7 @@ def test_the_api_refuses_an_existing_file_and_writes_a_partial_first(tmp_path: P
         rec.telemetry(0, {"x": 1})
         assert partial_of(path).exists() and not path.exists()
     assert path.exists() and not partial_of(path).exists()
-    with pytest.raises(UserError, match="exists: pass --overwrite"):
+    with pytest.raises(UserError, match="exists: pass overwrite"):
         Recorder(path)
     with Recorder(path, overwrite=True) as rec:
         rec.telemetry(0, {"x": 2})

@@ -62,7 +62,7 @@ def test_a_firmware_run_records_its_path_and_runtime(tmp_path: Path) -> None:
     rep = hexhil("replay", str(out))
     assert rep.returncode == 2 and rep.stderr.strip().splitlines() == [
         f"hexhil: {out} was recorded with --firmware ({EXAMPLE}), runtime micropython-board: "
-        "pass --firmware PATH to replay it"]
+        "give the same PATH to replay it"]
 
 
 def test_a_flag_that_cannot_apply_is_refused(tmp_path: Path) -> None:
@@ -115,14 +115,14 @@ def test_a_divergence_shows_the_servo_packets_decoded(tmp_path: Path) -> None:
 def test_margin_settings_are_the_runs_overrides(tmp_path: Path) -> None:
     import dataclasses
 
-    from host_tools.expect import margin, runner, spec
+    from host_tools.expect import case_runs, margin_sweep, spec
 
     case_file = tmp_path / "m.toml"
     case_file.write_text(f'[case]\nscenario = "{FLAT}"\nduration_s = 0.5\n\n[[expect]]\n'
                          'name = "n"\nkind = "no_exception"\n')
-    job = margin._job(spec.load(case_file), "cpython-inprocess",
+    job = margin_sweep._job(spec.load(case_file), "cpython-inprocess",
                       {"return_delay_us": 100, "bit_error_rate": 1e-4}, "m")
-    r = runner.run_case(dataclasses.replace(job, keep_dir=str(tmp_path / "k"), keep_all=True))
+    r = case_runs.run_case(dataclasses.replace(job, keep_dir=str(tmp_path / "k"), keep_all=True))
     assert r.summary["overrides"]["return_delay_us"] == 100
     assert r.summary["overrides"]["faults.bit_error_rate"] == 1e-4
     with Trace(r.trace) as t:

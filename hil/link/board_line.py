@@ -11,10 +11,10 @@ The firmware itself is started and judged by hil/link/served_firmware.py ``Board
 from __future__ import annotations
 
 import struct
-from typing import Any
 
 from hil.link.firmware_process import LinkViolation
-from hil.run_result import RunResult
+from hil.run_result import RunTally
+from hil.seams import LinkHost
 from protocol import sim_link
 
 HANG_S = 2.0          # virtual seconds without a UART write, pin turn or sleep: a hang
@@ -27,7 +27,7 @@ class BoardLine:
     """The board's UART and direction line, served for one link (``server``: the
     hil/link/server.py ``LinkServer`` whose bus, clock, switches and hooks it uses)."""
 
-    def __init__(self, server: Any) -> None:
+    def __init__(self, server: LinkHost) -> None:
         self.server = server
         self.bus, self.clock = server.bus, server.clock
         self.tx_on = False
@@ -38,7 +38,7 @@ class BoardLine:
         """The firmware did something (a write, a pin turn, a sleep): it is not hung."""
         self.quiet_since_us = self.clock.t_us
 
-    def _lose(self, result: RunResult) -> None:
+    def _lose(self, result: RunTally) -> None:
         lost = self.bus.master_discard()
         if lost:
             self.server.run_fault(RX_WHILE_TRANSMITTING, f"{lost} status bytes arrived while "
@@ -50,7 +50,7 @@ class BoardLine:
             self.server.on_wake(self.clock.t_us)
             self.server.on_slept()
 
-    def _set_direction(self, tx_on: bool, result: RunResult) -> None:
+    def _set_direction(self, tx_on: bool, result: RunTally) -> None:
         """The pin turns now: a turn to receive loses what came in while transmitting;
         a turn to transmit keeps what came in before it."""
         if self.tx_on and not tx_on:
@@ -59,7 +59,7 @@ class BoardLine:
             self._kept += self.bus.master_read(sim_link.MAX_RX_LEN, 0)
         self.tx_on = tx_on
 
-    def turn(self, payload: bytes, end_us: int, result: RunResult) -> None:
+    def turn(self, payload: bytes, end_us: int, result: RunTally) -> None:
         """A posted direction message: the pin took ``level`` at ``turn_us``."""
         if len(payload) != sim_link.DIRECTION_LEN:
             raise LinkViolation(f"malformed direction message ({len(payload)} bytes)")
@@ -68,7 +68,7 @@ class BoardLine:
         self.active()
         self._set_direction(bool(level), result)
 
-    def answer(self, payload: bytes, end_us: int, result: RunResult) -> bytes:
+    def answer(self, payload: bytes, end_us: int, result: RunTally) -> bytes:
         """Carry out one line request; the reply's body (after ``t_us``)."""
         if len(payload) < sim_link.LINE_HEAD_LEN:
             raise LinkViolation(f"malformed line request ({len(payload)} bytes)")

@@ -2,16 +2,19 @@
 its type, applied once when a scenario is loaded (hil/scenario/__init__.py).
 
 Keys a section leaves to the firmware (``firmware/config.py``: cycle rate, tactile rule,
-servo loss time) or to the world (``hil/world``: terrain, model) stay None here when the
-file does not set them: their defaults live with their owner, on the other floor.
+servo loss time) stay None here when the file does not set them: their defaults live with
+their owner, on the other floor. The world's and the faults' sections are world.py and
+faults.py; range rules come from rules.py. Every number a scenario, a flag or an argument
+takes has a stated range (docs/api.md): the ranges below, ``check_duration``, ``check_seed``
+and ``check_span`` are the CLI's and the API's checks too.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
+from hil.scenario.rules import at_least, positive, within
 from protocol import hexapod
 from protocol.dynamixel import ax12, models
 from protocol.errors import UserError
@@ -27,18 +30,21 @@ SERVO_MODELS = tuple(models.MODELS)   # protocol/dynamixel/models.py
 SENSOR_NODE_PROTOCOL = 1         # the limit-switch node (hil/servobus/switch_node.py) speaks 1.0
 GAITS = tuple(hexapod.GAITS)     # tripod, wave
 DEFAULT_GAIT = hexapod.DEFAULT_GAIT
-# Every number a scenario, a flag or an argument takes has a physical range (docs/api.md):
 SEED_MAX = 2**32 - 1             # the RNGs' seed (numpy SeedSequence, MuJoCo terrain): 32 bits
-PERIOD_S = (0.1, 60.0)           # a gait cycle: at least 5 of the firmware's 20 ms cycles
-STEP_LENGTH_M = (0.0, 0.2)       # within the leg's reach (coxa 5 + femur 8.2 + tibia 12 cm)
-STEP_HEIGHT_M = (0.0, 0.15)
-OBSTACLE_HEIGHT_M = (0.0, 0.15)
-DIRECTION_DEG = (-360.0, 360.0)
-DISTANCE_M = (0.0, 1000.0)       # a goal ahead (0: none; the experiments' probe)
-CYCLE_HZ = (0.0, 1000.0)         # the firmware's control rate (above 0)
-SERVO_LOST_S = (0.0, 3600.0)     # (above 0)
-READS_PER_CYCLE = (0, 254)
-RATE = (0.0, 1.0)                # a fault's probability
+# (low, high, low excluded) of the gait's and the firmware's numbers:
+GAIT_RANGES = {
+    "period_s": (0.1, 60.0, False),        # a gait cycle: at least 5 of the firmware's 20 ms
+    "step_length_m": (0.0, 0.2, False),    # the leg's reach (coxa 5 + femur 8.2 + tibia 12 cm)
+    "step_height_m": (0.0, 0.15, False),
+    "max_obstacle_height_m": (0.0, 0.15, False),
+    "direction_deg": (-360.0, 360.0, False),
+    "distance_m": (0.0, 1000.0, False),    # a goal ahead (0: none; the experiments' probe)
+}
+FIRMWARE_RANGES = {
+    "cycle_hz": (0.0, 1000.0, True),       # the firmware's control rate
+    "servo_lost_s": (0.0, 3600.0, True),
+    "reads_per_cycle": (0, 254, False),
+}
 
 
 class Runtime(str, Enum):
@@ -59,58 +65,42 @@ class Runtime(str, Enum):
                             f"got {value!r}") from None
 
 
-class WorldKind(str, Enum):
-    HEXAPOD = "hexapod"   # the MuJoCo hexapod (hil/world/hexapod.py), driven by the firmware
-    BEAMS = "beams"       # seed 000's two beams (hil/world/beams.py), stepped by the simulator
-
-
-def check_number(value: Any, what: str, low: float, high: float, unit: str = "", *,
-                 above: bool = False) -> float:
-    """The one check of a number given to hexhil (a scenario key, a flag, an argument): a
-    finite number from ``low`` (excluded with ``above``) to ``high``; else one line naming
-    ``what`` (``UserError``)."""
-    ok = (isinstance(value, (int, float)) and not isinstance(value, bool)
-          and math.isfinite(value) and (value > low if above else value >= low)
-          and value <= high)
-    if not ok:
-        lo = f"above {low:g}" if above else f"from {low:g}"
-        raise UserError(f"{what} must be a finite number {lo} to {high:g}{unit}, got {value!r}")
+def check_duration(value: float, what: str, params: tuple[str, ...] = ()) -> float:
+    """A run's length in seconds: positive, finite and within ``MAX_DURATION_S``; ``params``:
+    the API parameter ``what`` names (protocol/errors.py)."""
+    positive(what, value, params)
+    if not value <= MAX_DURATION_S:
+        raise UserError(f"{what} must be at most {MAX_DURATION_S:g} s (a trace's clock is "
+                        f"u64 nanoseconds), got {value}", params=params)
     return float(value)
 
 
-def check_seed(value: Any, what: str) -> int:
+def check_seed(value: int, what: str, params: tuple[str, ...] = ()) -> int:
     """A seed: an integer from 0 to ``SEED_MAX`` (the RNGs take 32 bits)."""
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= SEED_MAX:
         raise UserError(f"{what} must be an integer from 0 to {SEED_MAX} (2**32 - 1), "
-                        f"got {value!r}")
+                        f"got {value!r}", params=params)
     return value
 
 
 def check_span(start_s: float | None, end_s: float | None) -> None:
-    """A stretch of a trace (``--start``/``--end``, seconds from its start; None: open):
+    """A stretch of a trace (``start_s``/``end_s``, seconds from its start; None: open):
     finite, within a trace's clock, and not empty."""
-    for value, what in ((start_s, "--start"), (end_s, "--end")):
+    for value, what in ((start_s, "start_s"), (end_s, "end_s")):
         if value is not None:
-            check_number(value, what, 0.0, MAX_DURATION_S, " s")
+            within(what, value, 0.0, MAX_DURATION_S, params=(what,))
     if start_s is not None and end_s is not None and not start_s < end_s:
-        raise UserError(f"--start {start_s:g} s is not before --end {end_s:g} s: the range "
-                        "is empty")
+        raise UserError(f"start_s {start_s:g} s is not before end_s {end_s:g} s: the range "
+                        "is empty", params=("start_s", "end_s"))
 
 
-def check_duration(value: float, what: str) -> float:
-    """A run's length in seconds: positive, finite and within ``MAX_DURATION_S`` (a trace's
-    clock is u64 nanoseconds)."""
-    return check_number(value, what, 0.0, MAX_DURATION_S, " s", above=True)
-
-
-def _check_keys(where: str, section: str, values: Any,
-                ranges: dict[str, tuple[tuple[float, float], str, bool]]) -> None:
-    """Each key of ``ranges`` that ``values`` sets (not None): ``check_number``'s range,
-    unit and whether the low end is excluded."""
-    for key, ((low, high), unit, above) in ranges.items():
+def _check_ranges(where: str, section: str, values: Any,
+                  ranges: dict[str, tuple[float, float, bool]]) -> None:
+    """Each key of ``ranges`` that ``values`` sets (not None) within its range."""
+    for key, (low, high, low_open) in ranges.items():
         v = getattr(values, key)
         if v is not None:
-            check_number(v, f"{where}: key '{section}.{key}'", low, high, unit, above=above)
+            within(f"{where}: key '{section}.{key}'", v, low, high, low_open=low_open)
 
 
 @dataclass(frozen=True)
@@ -151,8 +141,7 @@ class BusConfig:
         if b.servos < 1 or b.first_id < 0 or b.first_id + b.servos - 1 > 253:
             raise UserError(f"{where}: servos {b.servos} from ID {b.first_id} do not fit "
                             "IDs 0-253")
-        if b.baud <= 0:
-            raise UserError(f"{where}: key 'bus.baud' must be positive, got {b.baud}")
+        positive(f"{where}: key 'bus.baud'", b.baud)
         if b.model not in SERVO_MODELS:
             raise UserError(f"{where}: key 'bus.model' must be one of "
                             f"{', '.join(SERVO_MODELS)}, got {b.model!r}")
@@ -177,9 +166,8 @@ class BusConfig:
         if node is not None and (not 0 <= node <= 253 or node in b.ids):
             raise UserError(f"{where}: key 'bus.sensor_node_id' must be 0-253 and no servo's "
                             f"ID, got {node}")
-        if b.eeprom_busy_us is not None and b.eeprom_busy_us < 0:
-            raise UserError(f"{where}: key 'bus.eeprom_busy_us' must be 0 or more, "
-                            f"got {b.eeprom_busy_us}")
+        if b.eeprom_busy_us is not None:
+            at_least(f"{where}: key 'bus.eeprom_busy_us'", b.eeprom_busy_us, 0)
         return b
 
 
@@ -199,9 +187,7 @@ class FirmwareConfig:
         if "python" in d:
             d["python"] = Runtime.parse(d["python"], f"{where}: key 'firmware.python'")
         f = cls(**d)
-        _check_keys(where, "firmware", f, {"cycle_hz": (CYCLE_HZ, " Hz", True),
-                                           "servo_lost_s": (SERVO_LOST_S, " s", True),
-                                           "reads_per_cycle": (READS_PER_CYCLE, "", False)})
+        _check_ranges(where, "firmware", f, FIRMWARE_RANGES)
         return f
 
 
@@ -223,60 +209,5 @@ class GaitConfig:
         if name not in GAITS:
             raise UserError(f"{where}: key 'gait.name' must be tripod or wave, got {name!r}")
         g = cls(**{"period_s": hexapod.GAIT_PERIOD_S[name], **d})
-        _check_keys(where, "gait", g, {"period_s": (PERIOD_S, " s", False),
-                                       "step_length_m": (STEP_LENGTH_M, " m", False),
-                                       "step_height_m": (STEP_HEIGHT_M, " m", False),
-                                       "max_obstacle_height_m": (OBSTACLE_HEIGHT_M, " m", False),
-                                       "direction_deg": (DIRECTION_DEG, " deg", False),
-                                       "distance_m": (DISTANCE_M, " m", False)})
+        _check_ranges(where, "gait", g, GAIT_RANGES)
         return g
-
-
-@dataclass(frozen=True)
-class FaultsConfig:
-    """Rates, and the scheduled faults' tables (checked by hil/servobus/faults.py, their owner)."""
-
-    bit_error_rate: float = 0.0
-    drop_status_rate: float = 0.0
-    can_drop_rate: float = 0.0
-    unplug: tuple[dict[str, Any], ...] = ()
-    stall: tuple[dict[str, Any], ...] = ()
-    overheat: tuple[dict[str, Any], ...] = ()
-    voltage_sag: tuple[dict[str, Any], ...] = ()
-    brownout: tuple[dict[str, Any], ...] = ()
-    overload: tuple[dict[str, Any], ...] = ()
-    position_stuck: tuple[dict[str, Any], ...] = ()
-    position_noise: tuple[dict[str, Any], ...] = ()
-    id_conflict: tuple[dict[str, Any], ...] = ()
-    switch_stuck: tuple[dict[str, Any], ...] = ()
-    switch_bounce: tuple[dict[str, Any], ...] = ()
-    can_silent: tuple[dict[str, Any], ...] = ()
-    can_garbage: tuple[dict[str, Any], ...] = ()
-    force_bias: tuple[dict[str, Any], ...] = ()
-    force_dropout: tuple[dict[str, Any], ...] = ()
-
-    @classmethod
-    def parse(cls, where: str, d: dict[str, Any]) -> "FaultsConfig":
-        f = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
-        # bit_error_rate and drop_status_rate: checked by hil/faults.py, their owner
-        _check_keys(where, "faults", f, {"can_drop_rate": (RATE, "", False)})
-        return f
-
-
-@dataclass(frozen=True)
-class WorldConfig:
-    """``kind`` None: no world (kinematic servos); a ``[world]`` without ``kind`` is the
-    hexapod. Its other keys (terrain, model, obstacles, ...) are read by hil/world/."""
-
-    kind: WorldKind | None = None
-
-    @classmethod
-    def parse(cls, where: str, d: dict[str, Any]) -> "WorldConfig":
-        if not d:
-            return cls()
-        kind = d.get("kind", WorldKind.HEXAPOD.value)
-        try:
-            return cls(WorldKind(kind))
-        except ValueError:
-            raise UserError(f"{where}: key 'world.kind' must be one of "
-                            f"{', '.join(k.value for k in WorldKind)}, got {kind!r}") from None

@@ -9,8 +9,8 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Sequence
 
-from host_tools.expect.evaluate import ENDING
-from host_tools.expect.runner import CaseResult
+from host_tools.expect.case_runs import CaseResult
+from host_tools.expect.verdicts import ENDING
 from protocol.errors import UserError
 
 
@@ -62,4 +62,4 @@ def write(results: Sequence[CaseResult], path: str | Path) -> None:
     try:
         to_xml(results).write(path, encoding="utf-8", xml_declaration=True)
     except OSError as exc:
-        raise UserError(f"--junit {path}: cannot write ({exc.strerror})") from None
+        raise UserError(f"the JUnit report {path}: cannot write ({exc.strerror})") from None

@@ -43,8 +43,8 @@ class TraceTarget:
             self.file = self._open_direct()   # a device: /dev/null, /dev/full
             return
         if self.path.exists() and not overwrite:
-            raise UserError(f"{self.path} exists: pass --overwrite to replace it "
-                            "(or write the trace elsewhere)")
+            raise UserError(f"{self.path} exists: pass overwrite to replace it "
+                            "(or write the trace elsewhere)", params=("overwrite",))
         self.partial = partial_of(self.path)
         self.file = self._open_partial(self.partial)
 
@@ -64,7 +64,7 @@ class TraceTarget:
         except OSError:
             os.close(fd)
             raise UserError(f"{self.path}: another run is writing this trace now "
-                            f"({partial.name} is locked); give this one another --out") from None
+                            f"({partial.name} is locked); write this one elsewhere") from None
         try:
             same = os.stat(partial).st_ino == os.fstat(fd).st_ino
         except OSError:
@@ -72,12 +72,13 @@ class TraceTarget:
         if not same:   # the run before renamed it onto the target meanwhile
             os.close(fd)
             raise UserError(f"{self.path}: another run has just written this trace; pass "
-                            "--overwrite to replace it")
+                            "overwrite to replace it", params=("overwrite",))
         if os.fstat(fd).st_size and not self.overwrite:
             os.close(fd)
             raise UserError(f"{partial}: the unfinished trace of a run that was killed; "
                             f"'hexhil trace recover {self.path} OUT.mcap' salvages it "
-                            "(remove it, or pass --overwrite, to write over it)")
+                            "(remove it, or pass overwrite, to write over it)",
+                            params=("overwrite",))
         os.ftruncate(fd, 0)
         return os.fdopen(fd, "wb")
 
