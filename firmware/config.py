@@ -18,7 +18,7 @@ DEFAULTS = {
     ls.CRITICAL_ERRORS: 3,         # consecutive overload/overheat statuses -> safe stop
     ls.DEBOUNCE_MS: 20,            # a switch level must hold this long to count
     ls.TELEMETRY_HZ: 10.0,         # heartbeat and periodic tactile frame
-    ls.TACTILE_ON: True,           # Eq. 5-7 obstacle rule on (False: the paper's baseline)
+    ls.TACTILE_ON: ls.TACTILE_DEFAULT,  # Eq. 5-7 obstacle rule on (False: the paper's baseline)
     ls.AUTOSTART: True,            # walk after boot without waiting for a CAN start command
     # Gait (Sec. 3.3): the default gait at the paper's speed with l_i = 5 cm.
     ls.GAIT: hexapod.DEFAULT_GAIT,

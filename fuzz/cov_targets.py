@@ -235,7 +235,7 @@ def trace_one_input(data: bytes) -> None:
     src.write_bytes(data)
     for step, fn in (("read", lambda: fuzz_trace._read_all(src)),
                      ("info", lambda: reader.info(src)),
-                     ("recover", lambda: recover.recover(src, dst)),
+                     ("recover", lambda: recover.recover(src, dst, overwrite=True)),
                      ("read recovered", lambda: fuzz_trace._read_all(dst))):
         try:
             fn()

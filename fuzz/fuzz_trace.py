@@ -72,7 +72,7 @@ def run(seed: int, budget_s: float | None, limit: int | None) -> list[Tally]:
             src.write_bytes(mutate(rng, base))
             for step, fn in (("read", lambda: _read_all(src)),
                              ("info", lambda: reader.info(src)),
-                             ("recover", lambda: recover.recover(src, dst)),
+                             ("recover", lambda: recover.recover(src, dst, overwrite=True)),
                              ("read recovered", lambda: _read_all(dst))):
                 try:
                     fn()

@@ -6,10 +6,46 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
+from enum import Enum
 from types import MappingProxyType
 from typing import Any, Mapping
 
 from protocol import link_schema as ls
+
+LAST_LINES = 5   # of what the firmware printed, kept with an ending that is not COMPLETED
+
+
+class Ending(str, Enum):
+    """How the firmware under test ended its run: anything but COMPLETED fails the run
+    (a verdict on the firmware, not an error of hexhil)."""
+
+    COMPLETED = "completed"              # served to the run's end (or stopped on its own)
+    CRASHED = "crashed"                  # exited non-zero, or broke the link's rules
+    HUNG = "hung"                        # no link message for a while, or only polls
+    EXITED_EARLY = "exited_early"        # exited cleanly before the run's end
+    FAILED_TO_START = "failed_to_start"  # never connected to the link
+
+
+@dataclass(frozen=True)
+class FirmwareEnding:
+    """``kind`` with its one-line ``reason``, the firmware's last lines (stderr, else
+    stdout), the virtual time it ended at and its exit status (None: still running)."""
+
+    kind: Ending = Ending.COMPLETED
+    reason: str = ""
+    last_lines: tuple[str, ...] = ()
+    t_s: float | None = None
+    exit_code: int | None = None
+
+    @property
+    def completed(self) -> bool:
+        return self.kind is Ending.COMPLETED
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind.value, "reason": self.reason,
+                "last_lines": list(self.last_lines),
+                "t_s": None if self.t_s is None else round(self.t_s, 6),
+                "exit_code": self.exit_code}
 
 
 def _frozen(d: Mapping[str, Any]) -> Mapping[str, Any]:
@@ -123,6 +159,7 @@ class RunResult:
     # What the run's host nodes report at its end (seed 000's traversal: strategy, estimate,
     # plan; the papers' packages fill it), as they report it.
     host_nodes: Mapping[str, Any] = field(default_factory=lambda: _frozen({}))
+    ending: FirmwareEnding = FirmwareEnding()   # how the firmware ended (COMPLETED: served on)
 
     @property
     def unhandled_exceptions(self) -> int:
@@ -153,6 +190,7 @@ class RunTally:
     round_trips: int = 0
     body: BodyDisplacement = BodyDisplacement()
     world: BeamsOutcome | None = None
+    ending: FirmwareEnding = FirmwareEnding()
 
     def count_can(self, arb_id: int) -> None:
         key = "0x%03X" % arb_id
@@ -171,4 +209,4 @@ class RunTally:
             self.stop_reason if self.stop_reason is not None else stats.stop_reason, stats,
             tuple(_frozen(e) for e in self.tactile_events), self.switch_edges,
             _frozen(self.can_frames), self.bus_busy_us, self.bus_wire_us, self.loop_cycles,
-            self.round_trips, self.body, self.world)
+            self.round_trips, self.body, self.world, ending=self.ending)

@@ -19,6 +19,7 @@ _WHERE = {
     "TraceRecorder": "hil.seams",
     # a run and its result
     "Run": "host_tools.lockstep_run", "RunResult": "hil.run_result",
+    "FirmwareEnding": "hil.run_result", "Ending": "hil.run_result",
     "scenario_of_trace": "host_tools.lockstep_run",
     # a master that is not ours, in real time (hexhil bus)
     "RealTimeRun": "host_tools.realtime_run", "Pty": "host_tools.realtime_run",
@@ -53,7 +54,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:   # for type checkers and editors: the same names, eagerly
-    from hil.run_result import RunResult
+    from hil.run_result import Ending, FirmwareEnding, RunResult
     from hil.scenario import Runtime, Scenario, WorldKind, load_scenario
     from hil.scenario import parse as parse_scenario
     from hil.seams import FirmwareWorld, HostNode, SteppedWorld, TraceRecorder

@@ -24,16 +24,32 @@ from hil.seams import CanGateway, HostNode, TraceRecorder
 from hil.link.served_firmware import served_firmware
 from hil.run.lockstep import Simulator
 from host_tools import plugins
+from protocol import link_schema as ls
 from protocol.dynamixel import models
 from protocol.errors import UserError
 
 NO_RUNTIME = "none"   # a beams run has no firmware
 
 
-def trace_metadata(sc: Scenario, seed: int, runtime: str) -> dict[str, Any]:
-    """What a trace says about its run: the scenario's name and its data, seed, runtime."""
+def trace_metadata(sc: Scenario, seed: int, runtime: str,
+                   overrides: dict[str, Any] | None = None) -> dict[str, Any]:
+    """What a trace says about its run: the scenario's name and its data as run (every
+    override applied: ``as_run``), seed, runtime, and the overrides themselves (what the
+    command or the caller changed: tactile, seed, duration, firmware, bus timing...)."""
+    overrides = dict(overrides or {})
     return {"scenario": sc.path, "seed": seed, "firmware_runtime": runtime,
-            "scenario_data": sc.as_toml_data()}
+            "scenario_data": as_run(sc, seed, overrides), "overrides": overrides}
+
+
+def as_run(sc: Scenario, seed: int, overrides: dict[str, Any]) -> dict[str, Any]:
+    """The scenario's data with what a run changed written in, so that ``scenario_of_trace``
+    gives what was run: its seed, its ``duration_s`` and its ``firmware.tactile``."""
+    changes: dict[str, dict[str, Any]] = {"scenario": {"seed": seed}}
+    if "duration_s" in overrides:
+        changes["scenario"]["duration_s"] = overrides["duration_s"]
+    if "tactile" in overrides:
+        changes["firmware"] = {"tactile": overrides["tactile"]}
+    return sc.overlay(changes).as_toml_data()
 
 
 def scenario_of_trace(metadata: dict[str, str], where: str) -> tuple[Scenario, int]:
@@ -62,7 +78,11 @@ class Run:
     scenario's ``firmware.tactile``; ``firmware``, a MicroPython main file run on the virtual
     board (docs/your-firmware.md) or an executable that speaks the link (a C firmware,
     docs/c-firmware.md) or an STM32F411 ELF (docs/elf-firmware.md: ``gdb_port``, ``coverage``),
-    runs instead of ours. Close it (or use ``with``) if ``run`` is never called."""
+    runs instead of ours. An existing ``trace`` file is refused unless ``overwrite``
+    (host_tools/trace/target.py). Every argument given is an override, recorded in the
+    trace's metadata with the scenario as run (``overrides`` adds what else the caller
+    changed, e.g. margin's bus timing); ``what_ran()`` says the same for the summary. Close it
+    (or use ``with``) if ``run`` is never called."""
 
     def __init__(self, scenario: Scenario | dict[str, Any] | str | Path, *,
                  seed: int | None = None,
@@ -70,7 +90,8 @@ class Run:
                  tactile: bool | None = None, trace: str | Path | None = None,
                  live_port: int | None = None, can_server: CanGateway | None = None,
                  realtime: bool = False, firmware: str | Path | None = None,
-                 gdb_port: int | None = None, coverage: str | Path | None = None) -> None:
+                 gdb_port: int | None = None, coverage: str | Path | None = None,
+                 overwrite: bool = False, overrides: dict[str, Any] | None = None) -> None:
         # a firmware of the user's (hil/link/served_firmware.py) is checked before anything opens
         self.firmware = (served_firmware(firmware, gdb_port=gdb_port, coverage=coverage)
                          if firmware is not None else None)
@@ -80,7 +101,11 @@ class Run:
         self.scenario = (scenario_mod.load_scenario(scenario)
                          if isinstance(scenario, (str, Path)) else scenario_mod.parse(scenario))
         sc = self.scenario
-        self.seed = sc.scenario.seed if seed is None else seed
+        self.seed = sc.scenario.seed if seed is None else scenario_mod.check_seed(
+            seed, "seed", params=("seed",))
+        if tactile is not None and self.firmware is not None:
+            raise UserError("tactile sets our firmware's obstacle rule: a firmware of yours "
+                            f"({firmware}) reads no such setting", params=("tactile",))
         self.runtime = (sc.firmware.python if runtime is None
                         else Runtime.parse(runtime, "runtime") if isinstance(runtime, str)
                         else runtime)
@@ -91,6 +116,17 @@ class Run:
             raise UserError(f"{sc.path}: a beams scenario has no firmware to run")
         # a world that steps itself is run by its paper's package (host_tools/plugins.py)
         self._stepped = plugins.stepped_run(sc.world.kind) if self.beams else None
+        given = {"seed": seed, "duration_s": duration_s, "tactile": tactile,
+                 "runtime": None if runtime is None else self.runtime.value,
+                 "firmware": None if self.firmware is None else str(firmware),
+                 "firmware_runtime": None if self.firmware is None else self.firmware.runtime}
+        # every override, in the trace, the summary and JUnit (``what_ran``)
+        self.overrides: dict[str, Any] = {**{k: v for k, v in given.items() if v is not None},
+                                          **(overrides or {})}
+        self.tactile = (None if self.firmware is not None or self.beams
+                        else tactile if tactile is not None
+                        else sc.firmware.tactile if sc.firmware.tactile is not None
+                        else ls.TACTILE_DEFAULT)
         self.trace = str(trace) if trace else None
         self._can_server, self._realtime = can_server, realtime
         self.world = None if self.beams else make_world(sc, self.seed)
@@ -104,11 +140,13 @@ class Run:
             from host_tools.trace.recorder import Recorder
 
             meta = trace_metadata(sc, self.seed, NO_RUNTIME if self.beams else
-                                  self.firmware.runtime if self.firmware else self.runtime.value)
+                                  self.firmware.runtime if self.firmware else self.runtime.value,
+                                  self.overrides)
             extra = ({"flush_interval_us": self.live.flush_interval_us}
                      if self.live is not None else {})
             try:
                 self.recorder = Recorder(self.trace or os.devnull, meta, live=self.live,
+                                         overwrite=overwrite,
                                          protocol=models.protocol(sc.bus.model), **extra)
             except BaseException:
                 self.close()
@@ -122,6 +160,11 @@ class Run:
             except BaseException:
                 self.close()
                 raise
+
+    def what_ran(self) -> dict[str, Any]:
+        """The summary's account of the run's settings: the tactile rule as run (None: a
+        firmware of yours, or a beams run) and every override."""
+        return {"tactile": self.tactile, "overrides": dict(self.overrides)}
 
     # --- host nodes ---------------------------------------------------------------------
     def _firmware_sim(self) -> Simulator:

@@ -70,20 +70,18 @@ class RealTimeRun:
                  ids: Sequence[int] | None = None, trace: str | None = None,
                  can_server: CanGateway | None = None, sensor_id: int | None = DEFAULT_ID,
                  duration_s: float | None = None,
-                 verbose: Callable[[str], None] | None = None) -> None:
+                 verbose: Callable[[str], None] | None = None, overwrite: bool = False) -> None:
         sc = scenario_mod.parse(scenario)
+        scenario_mod.check_seed(seed, "seed", params=("seed",))
         if duration_s is not None:
             scenario_mod.check_duration(duration_s, "duration_s")
         self.recorder = None
         if trace:
             from host_tools.trace.recorder import Recorder
 
-            try:
-                self.recorder = Recorder(trace, {**trace_metadata(sc, seed, EXTERNAL),
-                                                 "command": "bus"},
-                                         protocol=models.protocol(sc.bus.model))
-            except OSError as exc:
-                raise UserError(f"cannot write {trace}: {exc.strerror}") from None
+            self.recorder = Recorder(trace, {**trace_metadata(sc, seed, EXTERNAL),
+                                             "command": "bus"},
+                                     protocol=models.protocol(sc.bus.model), overwrite=overwrite)
         try:
             self.rig = RealTimeRig(sc, seed, world=world, ids=ids, recorder=self.recorder,
                                    can_server=can_server, sensor_id=sensor_id, verbose=verbose)

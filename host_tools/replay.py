@@ -21,10 +21,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterable
 
 from hil import scenario as scenario_mod
+from hil.scenario import check_span
+from hil.scenario.rules import within
 from host_tools.dynamixel.decode import DECODERS
 from protocol import sim_link
 from protocol.dynamixel import models
-from hil.link.served_firmware import ElfFirmware, console_events, served_firmware
+from hil.link.served_firmware import (BOARD_RUNTIME, EXECUTABLE, ElfFirmware, console_events,
+                                      served_firmware)
 from hil.mcu.replayed import ReplayedElf
 from hil.link.firmware_process import REQUEST_OPS, FirmwareProcess, split_messages
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
@@ -41,6 +44,7 @@ OP_TOPICS = {sim_link.OP_HELLO: "hello", sim_link.OP_TRANSACT: "uart", sim_link.
              sim_link.OP_EVENT: "event", sim_link.OP_LINE: "uart",
              sim_link.OP_DIRECTION: "uart", sim_link.OP_READS: "uart"}
 TOPICS = ("uart", "can", "sleep", "event", "hello")
+MAX_RATE = 1e6   # wall-clock pacing: a million times real time is as good as none
 # Events whose text is not a firmware output: wall-clock profiling counters.
 UNCOMPARED_EVENTS = (sim_link.EVENT_STATS,)
 # Events whose text is a JSON object: compared decoded, because MicroPython's dicts do not
@@ -189,8 +193,8 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     if python not in ("micropython", "cpython"):
         raise UserError(f"python must be micropython or cpython, not {python!r}",
                         params=("python",))
-    if rate < 0:
-        raise UserError("rate must be >= 0 (0 = as fast as possible)", params=("rate",))
+    within("rate (0: as fast as possible)", rate, 0.0, MAX_RATE, params=("rate",))
+    check_span(start_s, end_s)
     wanted = set(TOPICS)
     if topics:
         wanted = {t for item in topics for t in item.split(",") if t}
@@ -199,6 +203,9 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
             raise UserError(f"unknown replay topic(s) {', '.join(bad)} "
                             f"(known: {', '.join(TOPICS)})")
     with Trace(path) as tr:
+        recorded_with = tr.metadata().get("firmware_runtime")
+        if firmware is None and recorded_with in (BOARD_RUNTIME, EXECUTABLE):
+            _needs_firmware(path, recorded_with, tr.metadata())
         exchanges = load_exchanges(tr, start_s, end_s)
         protocol = trace_protocol(tr)
     if not exchanges:
@@ -255,6 +262,17 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
             result.stderr_tail = err[-2000:]
     result.extra["wall_s"] = time.perf_counter() - wall0
     return result
+
+
+def _needs_firmware(path: str | Path, runtime: str, metadata: dict[str, str]) -> None:
+    """A trace of a firmware of the user's replays into that firmware only: say so."""
+    try:
+        recorded = json.loads(metadata.get("overrides", "{}")).get("firmware")
+    except ValueError:
+        recorded = None
+    was = f" ({recorded})" if recorded else ""
+    raise UserError(f"{path} was recorded with firmware{was}, runtime {runtime}: give the "
+                    "same PATH to replay it", params=("firmware",))
 
 
 def _compare(expected: list[tuple[int, bytes]], actual: list[tuple[int, bytes]],
@@ -317,8 +335,8 @@ def replay_can(path: str | Path, spec: str, rate: float = 1.0, start_s: float | 
     (divided by ``rate``; 0 sends back to back)."""
     import can
 
-    if rate < 0:
-        raise UserError("rate must be >= 0 (0 = back to back)", params=("rate",))
+    within("rate (0: back to back)", rate, 0.0, MAX_RATE, params=("rate",))
+    check_span(start_s, end_s)
     interface, channel = parse_can_target(spec)
     cls = CanFrame
     with Trace(path) as tr:

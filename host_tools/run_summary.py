@@ -18,8 +18,9 @@ log = logging.getLogger(__name__)   # the addresses a client attaches to (hexhil
 
 
 def summary(scenario: Scenario, seed: int, result: RunResult,
-            trace: str | None) -> dict[str, Any]:
-    """The ``--json`` object of a firmware run (keys fixed by issue 4)."""
+            trace: str | None, what_ran: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The ``--json`` object of a firmware run (keys fixed by issue 4; ``what_ran``,
+    ``Run.what_ran()``: the tactile rule as run and every override, issue 41)."""
     wall = result.wall_time_s
     fw = result.firmware
     stopped = fw.state in ("safe_stop", "fault")
@@ -34,6 +35,7 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
         "cycles": result.cycles,
         "overruns": result.overruns,
         "unhandled_exceptions": result.unhandled_exceptions,
+        "ending": result.ending.as_dict(),
         "serial_digest": result.serial_digest,
         "faults": dict(sorted(result.faults.items())),
         "stopped_safely": stopped and result.stop_reason is not None,
@@ -49,6 +51,7 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
         if result.loop_cycles else None,
         "bus_wire_min_per_cycle_us": round(result.bus_wire_us / result.loop_cycles, 1)
         if result.loop_cycles else None,
+        "tactile": None, "overrides": {}, **(what_ran or {}),
     }
 
 
@@ -85,8 +88,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         can_wait_clients: int = 0, live_port: int | None = None,
         realtime: bool = False, navigator: str = "none",
         model_path: str | None = None, firmware: str | None = None,
-        gdb_port: int | None = None, coverage: str | None = None
-        ) -> tuple[dict[str, Any], RunResult]:
+        gdb_port: int | None = None, coverage: str | None = None,
+        overwrite: bool = False) -> tuple[dict[str, Any], RunResult]:
     """Load, simulate, summarise. Returns (summary, raw result).
 
     A recorded run (``out``) carries the 3D scene. With ``live_port`` the trace's channels
@@ -108,7 +111,9 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     (docs/elf-firmware.md).
     """
     sc = scenario_mod.load_scenario(path)
-    seed = sc.scenario.seed if seed is None else seed
+    given_seed = None if seed is None else scenario_mod.check_seed(seed, "seed",
+                                                                 params=("seed",))
+    seed = sc.scenario.seed if given_seed is None else given_seed
     if duration_s is not None:
         scenario_mod.check_duration(duration_s, "duration_s", params=("duration_s",))
     if can_server_port is not None and not 0 <= can_server_port <= 65535:
@@ -126,20 +131,22 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     try:
         if can_server_port is not None:
             server = start_can_server(can_server_port, can_wait_clients)
-        with Run(sc, seed=seed, runtime=python, duration_s=duration_s, tactile=tactile,
+        with Run(sc, seed=given_seed, runtime=python, duration_s=duration_s, tactile=tactile,
                  trace=out, live_port=live_port, can_server=server, realtime=realtime,
-                 firmware=firmware, gdb_port=gdb_port, coverage=coverage) as r:
+                 firmware=firmware, gdb_port=gdb_port, coverage=coverage,
+                 overwrite=overwrite) as r:
             if r.live is not None:
                 log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", r.live.port)
             if attach_navigator is not None:
                 nav = attach_navigator(r)
             result = r.run()
+            what_ran = r.what_ran()
     finally:
         if server is not None:
             server.close()
     if sc.world.kind is WorldKind.BEAMS:
         return _beams_summary(sc, seed, result, out), result
-    s = summary(sc, seed, result, out)
+    s = summary(sc, seed, result, out, what_ran)
     if nav is not None:
         s["navigator"] = {"kind": navigator, **nav.summary(),
                           "goal_dx_m": round(nav.distance_m - result.body.dx_m, 4)}

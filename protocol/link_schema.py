@@ -16,6 +16,7 @@ CRITICAL_ERRORS = "critical_errors"
 DEBOUNCE_MS = "debounce_ms"
 TELEMETRY_HZ = "telemetry_hz"
 TACTILE_ON = "tactile"
+TACTILE_DEFAULT = True   # the obstacle rule is on unless the config turns it off
 AUTOSTART = "autostart"
 GAIT = "gait"
 STEP_LENGTH_M = "step_length_m"

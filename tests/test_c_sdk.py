@@ -13,6 +13,7 @@ import pytest
 from hil.link import served_firmware
 from hil.link.firmware_process import firmware_env
 from hil.link.client_conformance import SESSIONS, run_suite
+from hil.run_result import Ending
 from host_tools import c_sdk
 from host_tools.replay import replay_firmware
 from host_tools.run_summary import run
@@ -109,19 +110,21 @@ def test_a_misbehaving_executable_is_one_line_and_its_trace_is_kept(built, tmp_p
                                                                     says, monkeypatch):
     monkeypatch.setattr(served_firmware, "HANG_WALL_S", 2.0)
     trace = tmp_path / "run.mcap"
-    with pytest.raises(UserError) as err:
-        run(FLAT, firmware=built[mode], out=str(trace))
-    assert says in str(err.value) and "\n" not in str(err.value)
+    s, result = run(FLAT, firmware=built[mode], out=str(trace))   # a verdict, not an error
+    reason = result.ending.reason
+    assert not result.ending.completed and s["ending"]["reason"] == reason
+    assert says in reason and "\n" not in reason
     if mode == "crash":
-        assert "SIGSEGV" in str(err.value)
+        assert "SIGSEGV" in reason
     kept = info(trace)   # every chunk's CRC checked; the 10 Hz ground truth up to the end
     assert kept["end_s"] >= 0.1 and "/body" in [t["topic"] for t in kept["topics"]]
 
 
 def test_an_executable_that_exits_before_it_connects_is_one_line(built):
-    with pytest.raises(UserError, match="exited with code 1 before it connected to the "
-                                         "link: no board here"):
-        run(FLAT, duration_s=0.5, firmware=built["no_link"])
+    _, result = run(FLAT, duration_s=0.5, firmware=built["no_link"])
+    assert result.ending.kind is Ending.FAILED_TO_START
+    assert result.ending.reason.endswith("exited with code 1 before it connected to the "
+                                         "link: no board here")
 
 
 def test_a_firmware_that_prints_a_lot_runs_to_the_end(built):

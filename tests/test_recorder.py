@@ -25,6 +25,7 @@ from host_tools.trace import protobuf as pb
 from host_tools.trace import reader as trace_reader
 from host_tools.trace import recorder as rec
 from host_tools.trace import recover as trace_recover
+from host_tools.trace.target import partial_of
 from host_tools.trace import topics
 from protocol import can_frames
 from protocol.dynamixel import v1 as dynamixel
@@ -280,8 +281,8 @@ def test_a_recorded_run_is_the_same_bytes_however_it_is_scheduled(tmp_path):
 def test_an_idle_owner_gets_a_closed_window_written_at_its_next_idle(tmp_path):
     """idle() moves the chunk write off the call that closes the window, not later than
     the next idle() (same virtual time), so crash safety is unchanged."""
-    path = tmp_path / "w.mcap"
-    r = rec.Recorder(path, flush_interval_us=100_000)
+    path = partial_of(tmp_path / "w.mcap")   # the file being written, renamed at close
+    r = rec.Recorder(tmp_path / "w.mcap", flush_interval_us=100_000)
     r.serial(0, "tx", dynamixel.ping(1))
     r.idle(0)
     size = path.stat().st_size
@@ -383,7 +384,8 @@ def test_sigkilled_hexhil_run_recovers_to_an_exact_prefix(tmp_path):
     deadline = time.monotonic() + 60
     # wait until the file holds more than the first 4 simulated seconds' worth of chunks
     while time.monotonic() < deadline and proc.poll() is None:
-        if killed.exists() and killed.stat().st_size > full.stat().st_size:
+        partial = partial_of(killed)   # what a run writes until it renames it at the end
+        if partial.exists() and partial.stat().st_size > full.stat().st_size:
             break
         time.sleep(0.05)
     proc.send_signal(signal.SIGKILL)

@@ -152,13 +152,13 @@ while True:
     ("raise ValueError('boom')\n",
      r"the firmware main.py crashed at t=0\.\d+ s \(exit 1\): ValueError: boom"),
     ("while True:\n    time.ticks_us()\n",
-     r"firmware link: the firmware hung: no UART write, direction turn or sleep for 2 "
+     r"the firmware main.py hung: no UART write, direction turn or sleep for 2 "
      r"virtual seconds"),
     ("pass\n", r"the firmware main.py exited at t=0\.\d+ s, before the run's end \(30 s\)"),
 ])
 def test_a_bad_firmware_is_one_line_and_keeps_its_trace(tmp_path, tail, message):
     r, _ = board_run(tmp_path, PING + "ping(1)\ntime.sleep_ms(50)\n" + tail)
-    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.returncode == 1 and "Traceback" not in r.stderr   # a verdict, not bad input
     assert len(r.stderr.strip().splitlines()) == 1 and re.search(message, r.stderr), r.stderr
     with Trace(tmp_path / "t.mcap") as t:
         assert len(list(t.messages(["/serial"]))) == 2   # the ping and its status
@@ -172,7 +172,7 @@ def test_a_firmware_that_hangs_outside_virtual_time(tmp_path, monkeypatch, capsy
     code = cli.main(["run", "scenarios/flat-tripod.toml", "--firmware", str(main), "--out",
                      str(trace)])
     err = capsys.readouterr().err
-    assert code == 2 and err.startswith("hexhil: the firmware main.py hung: no link message for 1 s "
+    assert code == 1 and err.startswith("hexhil: the firmware main.py hung: no link message for 1 s "
                                         "of wall time"), err
     with Trace(trace) as t:
         assert t.topics()
@@ -234,7 +234,7 @@ def test_a_firmware_that_never_touches_the_board(tmp_path):
     main = tmp_path / "main.py"
     main.write_text("print('hello')\n")
     r = hexhil("run", "scenarios/flat-tripod.toml", "--firmware", str(main))
-    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1
     assert "exited with code 0 before it connected to the link" in r.stderr, r.stderr
 
 

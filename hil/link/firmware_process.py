@@ -39,6 +39,18 @@ class LinkViolation(Exception):
     version): answered with an error reply (hil/link/server.py)."""
 
 
+class FirmwareError(UserError):
+    """The firmware itself went wrong: it never connected to the link (``started``
+    False), or broke the link's rules. One line for our own firmware; for a firmware under
+    test, a verdict (hil/link/served_firmware.py: its ``FirmwareEnding``). ``last_lines`` are
+    what it printed last."""
+
+    def __init__(self, message: str, last_lines: tuple[str, ...] = (),
+                 started: bool = True, exit_code: int | None = None) -> None:
+        super().__init__(message)
+        self.last_lines, self.started, self.exit_code = tuple(last_lines), started, exit_code
+
+
 def firmware_command(python: str) -> list[str]:
     """The command line that runs the firmware under ``python`` (micropython or cpython)."""
     if python == "micropython":
@@ -201,7 +213,8 @@ class FirmwareProcess:
                                          stderr=subprocess.PIPE)
         except OSError as exc:
             srv.close()
-            raise UserError(f"cannot start the firmware ({' '.join(cmd)}): {exc.strerror}") from None
+            raise FirmwareError(f"cannot start the firmware ({' '.join(cmd)}): {exc.strerror}",
+                                started=False) from None
         try:
             sock = self._accept(srv, cmd, connect_timeout_s)
         finally:
@@ -222,10 +235,13 @@ class FirmwareProcess:
             if code is None:
                 self.proc.kill()
             _, err = self.proc.communicate()
-            tail = err.decode(errors="replace").strip().splitlines()[-1:] or ["no output"]
+            lines = err.decode(errors="replace").strip().splitlines()
+            tail = lines[-1:] or ["no output"]
             what = (f"did not connect within {timeout_s:g} s" if code is None
                     else f"exited with code {code} before it connected to the link")
-            raise UserError(f"the firmware ({' '.join(cmd)}) {what}: {tail[0]}") from None
+            raise FirmwareError(f"the firmware ({' '.join(cmd)}) {what}: {tail[0]}",
+                                tuple(lines[-5:]), started=False,
+                                exit_code=self.proc.returncode) from None
 
     def finish(self, timeout_s: float = 10.0) -> tuple[int, str, str]:
         """Wait for the process to exit; (return code, stdout, stderr)."""

@@ -11,9 +11,10 @@
   emulated board in this process (hil/mcu/, docs/elf-firmware.md).
 
 Both end the same way (``serve_process``): a crash, a hang (no link message for
-``HANG_WALL_S`` of wall time, or the board's own verdict: only polls for 2 virtual seconds)
-or an exit before the run's end is one line (``UserError``), and the trace recorded up to
-then is kept: the caller's recorder is closed as after any run.
+``HANG_WALL_S`` of wall time, or the board's own verdict: only polls for 2 virtual seconds),
+an exit before the run's end or a failed start is the run's ``FirmwareEnding``
+(hil/run_result.py), a verdict on the firmware and not an error of hexhil; the trace
+recorded up to then is kept: the caller's recorder is closed as after any run.
 """
 from __future__ import annotations
 
@@ -24,10 +25,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Protocol
 
-from hil.link.firmware_process import ROOT, FirmwareProcess, firmware_command, firmware_env
+from hil.link.firmware_process import (ROOT, FirmwareError, FirmwareProcess, firmware_command,
+                                      firmware_env)
 from hil.mcu.elf_image import ELF_MAGIC, ElfImage, is_arm_elf, load_elf
 from hil.mcu.runtime import serve_elf
-from hil.run_result import RunTally
+from hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
 from hil.seams import LinkHost
 from protocol import sim_link
 from protocol.errors import UserError
@@ -38,6 +40,7 @@ EXECUTABLE = "executable"
 ELF_RUNTIME = "stm32f411-elf"
 HANG_WALL_S = 20.0          # wall seconds without a link message: the firmware hung
 BOARD_SAYS = "hexhil board: "   # the C SDK's one-line verdict on its firmware (hal_board.c)
+HUNG_SAYS = "the firmware hung"   # the board's verdict (hil/link/board_line.py)
 MAIN_SUFFIXES = (".py",)    # a MicroPython main file; anything else is an executable
 
 
@@ -164,39 +167,76 @@ def _how(code: int) -> str:
 def serve_process(firmware: ServedFirmware, name: str, server: LinkHost, end_us: int,
                   result: RunTally, take_console: Callable[[str], None] | None = None
                   ) -> None:
-    """Start ``firmware``, serve its link to ``end_us`` and judge how it ended, in one
-    line (``UserError``). Its stdout goes to a file: a firmware that prints a lot never
+    """Start ``firmware``, serve its link to ``end_us`` and judge how it ended
+    (``result.ending``: a crash, a hang, an early exit or a failed start is the run's
+    verdict, not an error). Its stdout goes to a file: a firmware that prints a lot never
     blocks on a full pipe; ``take_console`` reads what it printed."""
     hang_wall_s = HANG_WALL_S
     with tempfile.TemporaryFile() as console:
-        fw = FirmwareProcess(firmware.runtime, command=firmware.command(),
-                             extra_env=firmware.env(), console=console)
+        try:
+            fw = FirmwareProcess(firmware.runtime, command=firmware.command(),
+                                 extra_env=firmware.env(), console=console)
+        except FirmwareError as exc:
+            console.seek(0)
+            printed = console.read().decode(errors="replace")
+            result.exit_code = exc.exit_code
+            result.ending = FirmwareEnding(
+                Ending.FAILED_TO_START, f"the firmware {name} failed to start: {exc}",
+                exc.last_lines or _last_lines("", printed), 0.0, exc.exit_code)
+            return
         fw.conn.sock.settimeout(hang_wall_s)
-        hung = False
+        hung, broke = False, None
         try:
             server.serve(fw.conn, end_us, result)
         except TimeoutError:
             hung = True
+        except FirmwareError as exc:   # it broke the link's rules (hil/link/server.py)
+            broke = exc
         finally:
-            code, _, err = fw.finish(timeout_s=0.0 if hung else 10.0)
+            code, _, err = fw.finish(timeout_s=0.0 if hung or broke else 10.0)
             console.seek(0)
             printed = console.read().decode(errors="replace")
             if take_console is not None:
                 take_console(printed)
     result.exit_code = code
-    result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
-    t_s = server.clock.t_us * 1e-6
-    if hung:
-        raise UserError(f"the firmware {name} hung: no link message for {hang_wall_s:g} s "
-                        f"of wall time (at t={t_s:.6f} s)")
-    last = (err.strip().splitlines() or printed.strip().splitlines() or ["no message"])[-1]
-    if code != 0 and last.startswith(BOARD_SAYS):   # the C SDK's own verdict (a hang)
-        raise UserError(f"the firmware {name} {last[len(BOARD_SAYS):]}")
+    result.stderr_tail = "\n".join(err.strip().splitlines()[-LAST_LINES:])
+    result.ending = judge(name, code, err, printed, server.clock.t_us, end_us,
+                          hang_wall_s if hung else None, broke)
+
+
+def _last_lines(err: str, printed: str) -> tuple[str, ...]:
+    return tuple((err.strip().splitlines() or printed.strip().splitlines())[-LAST_LINES:])
+
+
+def judge(name: str, code: int, err: str, printed: str, t_us: int, end_us: int,
+          hung_after_s: float | None = None, broke: Exception | None = None
+          ) -> FirmwareEnding:
+    """How a served firmware ended, in one line and its last lines."""
+    t_s = t_us * 1e-6
+    last = _last_lines(err, printed)
+    if hung_after_s is not None:
+        return FirmwareEnding(Ending.HUNG, f"the firmware {name} hung: no link message for "
+                              f"{hung_after_s:g} s of wall time (at t={t_s:.6f} s)", last, t_s,
+                              code)
+    if broke is not None:   # hil/link/server.py's "firmware link: ..." (the board's hang)
+        text = str(broke).removeprefix("firmware link: ")
+        if text.startswith(HUNG_SAYS):
+            return FirmwareEnding(Ending.HUNG, f"the firmware {name} hung"
+                                  f"{text[len(HUNG_SAYS):]}", last, t_s, code)
+        return FirmwareEnding(Ending.CRASHED, f"the firmware {name} broke the link at "
+                              f"t={t_s:.6f} s: {text}", last, t_s, code)
+    line = (last or ("no message",))[-1]
+    if code != 0 and line.startswith(BOARD_SAYS):   # the C SDK's own verdict (a hang)
+        return FirmwareEnding(Ending.HUNG, f"the firmware {name} {line[len(BOARD_SAYS):]}",
+                              last, t_s, code)
     if code != 0:
-        raise UserError(f"the firmware {name} crashed at t={t_s:.6f} s ({_how(code)}): {last}")
-    if server.clock.t_us < end_us:
-        raise UserError(f"the firmware {name} exited at t={t_s:.6f} s, before the run's end "
-                        f"({end_us * 1e-6:g} s)")
+        return FirmwareEnding(Ending.CRASHED, f"the firmware {name} crashed at t={t_s:.6f} s "
+                              f"({_how(code)}): {line}", last, t_s, code)
+    if t_us < end_us:
+        return FirmwareEnding(Ending.EXITED_EARLY, f"the firmware {name} exited at "
+                              f"t={t_s:.6f} s, before the run's end ({end_us * 1e-6:g} s)",
+                              last, t_s, code)
+    return FirmwareEnding(Ending.COMPLETED, "", (), t_s, code)
 
 
 def console_events(text: str) -> list[tuple[int, str]]:

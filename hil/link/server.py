@@ -13,14 +13,12 @@ from typing import Any, Callable
 
 from hil.link.board_line import MISTAKES, BoardLine
 from hil.canbus.bus import CanBus
-from hil.link.firmware_process import Connection, DirectConnection, LinkViolation
+from hil.link.firmware_process import Connection, DirectConnection, FirmwareError, LinkViolation
 from hil.run_result import RunTally
 from hil.seams import TraceRecorder
 from protocol import sim_link
 from protocol.dynamixel import v1 as dxl
 from protocol import link_schema as ls
-from protocol.dynamixel import models
-from protocol.errors import UserError
 
 RECORDER_SLICE = 4  # held messages the recorder encodes between looks at the link (~10 us)
 
@@ -229,14 +227,14 @@ class LinkServer:
         """Carry out one batch (posted messages, then the request) and reply to it;
         True once the firmware has closed the link. A message the host cannot carry out
         (unknown op, malformed, another link version) gets an error reply and raises
-        UserError (docs/link.md)."""
+        FirmwareError, a UserError (docs/link.md)."""
         try:
             return self._answer(conn, msgs, closed, end_us, result)
         except (LinkViolation, struct.error) as exc:
             text = f"malformed message: {exc}" if isinstance(exc, struct.error) else str(exc)
             if not closed:
                 conn.reply_error(text)
-            raise UserError(f"firmware link: {text}") from None
+            raise FirmwareError(f"firmware link: {text}") from None
 
     def _answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
                 closed: bool, end_us: int, result: RunTally) -> bool:

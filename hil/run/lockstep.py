@@ -23,7 +23,7 @@ from __future__ import annotations
 import time
 from typing import Any, Callable
 
-from hil.link.served_firmware import ServedFirmware
+from hil.link.served_firmware import ServedFirmware, judge
 from hil.link.firmware_process import IN_PROCESS, DirectConnection, FirmwareProcess
 from hil.link.server import LinkServer, SwitchSampler
 from hil.run.core import RunCore, WallClockPacing
@@ -88,9 +88,11 @@ class FirmwareDriver:
             try:
                 server.serve(fw.conn, end_us, result)
             finally:
-                code, _, err = fw.finish()
+                code, out, err = fw.finish()
             result.exit_code = code
             result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
+            # ours may stop before the end on its own (a safe stop): only a crash counts
+            result.ending = judge(python, code, err, out, core.clock.t_us, core.clock.t_us)
         result.serial_digest = core.serial_digest
         _detected_faults(result)
         if self._pose0 is not None:

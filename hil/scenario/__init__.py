@@ -16,10 +16,10 @@ from typing import Any, Mapping
 from hil.scenario.beams import BeamsConfig, TraversalConfig
 from hil.scenario.faults_section import FaultEntry, FaultKind, FaultsConfig
 from hil.scenario.rules import SCHEMA, check_table, optional
-from hil.scenario.sections import (DEFAULT_BAUD, DEFAULT_DURATION_S, GAITS,
-                                   MAX_DURATION_S, RETURN_DELAY_MAX_US, BusConfig, FirmwareConfig,
-                                   GaitConfig, Runtime, ScenarioInfo,
-                                   check_duration)
+from hil.scenario.sections import (DEFAULT_BAUD, DEFAULT_DURATION_S, GAITS, MAX_DURATION_S,
+                                   RETURN_DELAY_MAX_US, SEED_MAX, BusConfig, FirmwareConfig,
+                                   GaitConfig, Runtime, ScenarioInfo, check_duration, check_seed,
+                                   check_span)
 from hil.scenario.world_section import Obstacle, WorldConfig, WorldKind
 from protocol import link_schema as ls
 from protocol.dynamixel import models
@@ -146,5 +146,5 @@ def load_scenario(path: str | Path) -> Scenario:
 __all__ = ["SCHEMA", "Scenario", "ScenarioInfo", "BusConfig", "FirmwareConfig", "GaitConfig",
            "FaultsConfig", "FaultEntry", "FaultKind", "WorldConfig", "Obstacle", "BeamsConfig",
            "TraversalConfig", "Runtime", "WorldKind", "GAITS", "DEFAULT_BAUD",
-           "DEFAULT_DURATION_S", "MAX_DURATION_S", "RETURN_DELAY_MAX_US",
-           "check_duration", "parse", "from_text", "load_scenario"]
+           "DEFAULT_DURATION_S", "MAX_DURATION_S", "RETURN_DELAY_MAX_US", "SEED_MAX",
+           "check_duration", "check_seed", "check_span", "parse", "from_text", "load_scenario"]

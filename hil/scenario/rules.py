@@ -81,24 +81,40 @@ def optional(types: Mapping[str, type]) -> dict[str, tuple[Want, bool]]:
     return {k: (t, False) for k, t in types.items()}
 
 
-# --- range rules: each section's parse states its numbers' ranges with these --------------
+# --- range rules: each section's parse states its numbers' ranges with these; the CLI's and
+# the API's numbers go through them too (a flag's or an argument's value need not be a finite
+# number: each rule refuses what is not one). ``params``: the API parameters ``what`` names.
+def _real(what: str, value: Any, params: tuple[str, ...]) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise UserError(f"{what} must be a number, got {type(value).__name__} {value!r}",
+                        params=params)
+
+
 def positive(what: str, value: float, params: tuple[str, ...] = ()) -> float:
+    _real(what, value, params)
     if not value > 0:
         raise UserError(f"{what} must be positive, got {value}", params=params)
     return value
 
 
-def at_least(what: str, value: float, low: float) -> float:
-    if not value >= low:
-        raise UserError(f"{what} must be {'0' if low == 0 else low} or more, got {value}")
+def at_least(what: str, value: float, low: float, params: tuple[str, ...] = ()) -> float:
+    _real(what, value, params)
+    if not low <= value < math.inf:
+        raise UserError(f"{what} must be {'0' if low == 0 else low} or more, got {value}",
+                        params=params)
     return value
 
 
-def within(what: str, value: float, low: float, high: float, high_open: bool = False) -> float:
-    """``low <= value <= high`` (``< high`` with ``high_open``)."""
-    if not (low <= value < high if high_open else low <= value <= high):
-        raise UserError(f"{what} must be in [{low:g}, {high:g}{')' if high_open else ']'}, "
-                        f"got {value}")
+def within(what: str, value: float, low: float, high: float, high_open: bool = False,
+           low_open: bool = False, params: tuple[str, ...] = ()) -> float:
+    """``low <= value <= high`` (``< high`` with ``high_open``, ``low <`` with
+    ``low_open``); NaN and infinities are outside every range."""
+    _real(what, value, params)
+    above = low < value if low_open else low <= value
+    below = value < high if high_open else value <= high
+    if not (above and below):
+        raise UserError(f"{what} must be in {'(' if low_open else '['}{low:g}, {high:g}"
+                        f"{')' if high_open else ']'}, got {value}", params=params)
     return value
 
 

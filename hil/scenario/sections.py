@@ -4,7 +4,9 @@ its type, applied once when a scenario is loaded (hil/scenario/__init__.py).
 Keys a section leaves to the firmware (``firmware/config.py``: cycle rate, tactile rule,
 servo loss time) stay None here when the file does not set them: their defaults live with
 their owner, on the other floor. The world's and the faults' sections are world.py and
-faults.py; range rules come from schema.py.
+faults.py; range rules come from rules.py. Every number a scenario, a flag or an argument
+takes has a stated range (docs/api.md): the ranges below, ``check_duration``, ``check_seed``
+and ``check_span`` are the CLI's and the API's checks too.
 """
 from __future__ import annotations
 
@@ -12,7 +14,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
-from hil.scenario.rules import at_least, positive
+from hil.scenario.rules import at_least, positive, within
 from protocol import hexapod
 from protocol.dynamixel import ax12, models
 from protocol.errors import UserError
@@ -28,6 +30,21 @@ SERVO_MODELS = tuple(models.MODELS)   # protocol/dynamixel/models.py
 SENSOR_NODE_PROTOCOL = 1         # the limit-switch node (hil/servobus/switch_node.py) speaks 1.0
 GAITS = tuple(hexapod.GAITS)     # tripod, wave
 DEFAULT_GAIT = hexapod.DEFAULT_GAIT
+SEED_MAX = 2**32 - 1             # the RNGs' seed (numpy SeedSequence, MuJoCo terrain): 32 bits
+# (low, high, low excluded) of the gait's and the firmware's numbers:
+GAIT_RANGES = {
+    "period_s": (0.1, 60.0, False),        # a gait cycle: at least 5 of the firmware's 20 ms
+    "step_length_m": (0.0, 0.2, False),    # the leg's reach (coxa 5 + femur 8.2 + tibia 12 cm)
+    "step_height_m": (0.0, 0.15, False),
+    "max_obstacle_height_m": (0.0, 0.15, False),
+    "direction_deg": (-360.0, 360.0, False),
+    "distance_m": (0.0, 1000.0, False),    # a goal ahead (0: none; the experiments' probe)
+}
+FIRMWARE_RANGES = {
+    "cycle_hz": (0.0, 1000.0, True),       # the firmware's control rate
+    "servo_lost_s": (0.0, 3600.0, True),
+    "reads_per_cycle": (0, 254, False),
+}
 
 
 class Runtime(str, Enum):
@@ -58,6 +75,34 @@ def check_duration(value: float, what: str, params: tuple[str, ...] = ()) -> flo
     return float(value)
 
 
+def check_seed(value: int, what: str, params: tuple[str, ...] = ()) -> int:
+    """A seed: an integer from 0 to ``SEED_MAX`` (the RNGs take 32 bits)."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= SEED_MAX:
+        raise UserError(f"{what} must be an integer from 0 to {SEED_MAX} (2**32 - 1), "
+                        f"got {value!r}", params=params)
+    return value
+
+
+def check_span(start_s: float | None, end_s: float | None) -> None:
+    """A stretch of a trace (``start_s``/``end_s``, seconds from its start; None: open):
+    finite, within a trace's clock, and not empty."""
+    for value, what in ((start_s, "start_s"), (end_s, "end_s")):
+        if value is not None:
+            within(what, value, 0.0, MAX_DURATION_S, params=(what,))
+    if start_s is not None and end_s is not None and not start_s < end_s:
+        raise UserError(f"start_s {start_s:g} s is not before end_s {end_s:g} s: the range "
+                        "is empty", params=("start_s", "end_s"))
+
+
+def _check_ranges(where: str, section: str, values: Any,
+                  ranges: dict[str, tuple[float, float, bool]]) -> None:
+    """Each key of ``ranges`` that ``values`` sets (not None) within its range."""
+    for key, (low, high, low_open) in ranges.items():
+        v = getattr(values, key)
+        if v is not None:
+            within(f"{where}: key '{section}.{key}'", v, low, high, low_open=low_open)
+
+
 @dataclass(frozen=True)
 class ScenarioInfo:
     name: str = ""
@@ -69,6 +114,7 @@ class ScenarioInfo:
     def parse(cls, where: str, d: dict[str, Any]) -> "ScenarioInfo":
         out = cls(**d)
         check_duration(out.duration_s, f"{where}: key 'scenario.duration_s'")
+        check_seed(out.seed, f"{where}: key 'scenario.seed'")
         return out
 
 
@@ -141,8 +187,7 @@ class FirmwareConfig:
         if "python" in d:
             d["python"] = Runtime.parse(d["python"], f"{where}: key 'firmware.python'")
         f = cls(**d)
-        if f.cycle_hz is not None:
-            positive(f"{where}: 'cycle_hz'", f.cycle_hz)
+        _check_ranges(where, "firmware", f, FIRMWARE_RANGES)
         return f
 
 
@@ -164,5 +209,5 @@ class GaitConfig:
         if name not in GAITS:
             raise UserError(f"{where}: key 'gait.name' must be tripod or wave, got {name!r}")
         g = cls(**{"period_s": hexapod.GAIT_PERIOD_S[name], **d})
-        positive(f"{where}: 'period_s'", g.period_s)
+        _check_ranges(where, "gait", g, GAIT_RANGES)
         return g

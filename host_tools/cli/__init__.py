@@ -40,6 +40,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
 
 # every --json says this, whatever the command: scripts may rely on the last line
 JSON_HELP = "end with the result as one JSON object, the last line of stdout (for scripts)"
+OVERWRITE_HELP = "replace a trace file that already exists (without it, an existing file is refused)"
 
 
 def actions(sub: argparse._SubParsersAction, name: str, help: str, metavar: str = "ACTION",
@@ -60,7 +61,9 @@ FLAGS = {"python": "--python", "firmware": "--firmware", "duration_s": "--durati
          "fps": "--fps", "at_s": "--at", "workers": "--workers", "trace": "--trace",
          "terrains": "--terrains", "distance_m": "--distance", "epochs": "--epochs",
          "world": "--world", "model_path": "--model", "topics": "--topics",
-         "gdb_port": "--gdb", "coverage": "--coverage", "bare": "--bare", "target": "--target"}
+         "gdb_port": "--gdb", "coverage": "--coverage", "bare": "--bare", "target": "--target",
+         "seed": "--seed", "tactile": "--no-tactile", "overwrite": "--overwrite",
+         "keep_dir": "--keep-traces"}
 
 
 def flag_message(exc: UserError) -> str:

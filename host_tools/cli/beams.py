@@ -6,7 +6,8 @@ import math
 
 import numpy as np
 
-from host_tools.cli import JSON_HELP, actions, emit
+from hil.scenario import check_seed
+from host_tools.cli import JSON_HELP, OVERWRITE_HELP, actions, emit
 from protocol.errors import UserError
 
 
@@ -39,7 +40,8 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     if not 10 <= args.sensing_ms <= 5000:
         raise UserError(f"--sensing-ms must be in 10..5000, got {args.sensing_ms}")
     _nonneg("noise", args.noise)
-    poses, forces = push_samples(k1, k2, hb1, hb2, args.noise, args.sensing_ms, args.seed)
+    poses, forces = push_samples(k1, k2, hb1, hb2, args.noise, args.sensing_ms,
+                                 check_seed(args.seed, "--seed"))
     if len(poses) < 2:
         raise UserError("too few force samples in the sensing window (no contact?)")
     est = estimate(poses, forces, args.unknowns, args.method)
@@ -81,12 +83,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     if abs(fx) > 2.0:
         raise UserError(f"--fx must be within the actuator limit |F_x| <= 2 N, got {fx}")
     cfg = RunConfig(_stiffness("k1", args.k1), _stiffness("k2", args.k2), hb, hb, args.strategy, fx,
-                    _nonneg("noise", args.noise), _nonneg("delay-ms", args.delay_ms), seed=args.seed)
+                    _nonneg("noise", args.noise), _nonneg("delay-ms", args.delay_ms),
+                    seed=check_seed(args.seed, "--seed"))
     meta = {"command": "beams run", "k1": cfg.k1, "k2": cfg.k2, "strategy": cfg.strategy, "seed": cfg.seed}
-    try:
-        rec = open_recorder(args.out, meta) if args.out else None
-    except OSError as exc:
-        raise UserError(f"cannot write {args.out}: {exc.strerror}") from None
+    rec = open_recorder(args.out, meta, overwrite=args.overwrite)
     try:
         out = run(cfg, recorder=rec)
     finally:
@@ -149,5 +149,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="sensory delay from first contact to control, in ms (default 300)")
     r.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
     r.add_argument("--out", metavar="FILE.mcap", help="record the CAN traffic to this MCAP file")
+    r.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     r.add_argument("--json", action="store_true", help=JSON_HELP)
     r.set_defaults(func=cmd_run)

@@ -9,10 +9,10 @@ import sys
 from typing import Any
 
 from hil.canbus.socketcand import DEFAULT_PORT
-from hil.scenario import DEFAULT_BAUD, FaultEntry, FaultKind, Scenario
+from hil.scenario import DEFAULT_BAUD, FaultEntry, FaultKind, Scenario, check_seed
 from hil.scenario import parse as parse_scenario
 from hil.scenario.sections import SENSOR_NODE_PROTOCOL
-from host_tools.cli import JSON_HELP, flush_print
+from host_tools.cli import JSON_HELP, OVERWRITE_HELP, flush_print
 from protocol import sensor_node
 from protocol.dynamixel import models
 from protocol.errors import UserError
@@ -142,7 +142,7 @@ def scenario_from_flags(args: argparse.Namespace, scenario: Scenario | None
             faults.setdefault(kind, []).append(parse_flag(kind, spec))
     base = scenario if scenario is not None else parse_scenario({}, "flags")
     sc = base.overlay({"bus": bus, "faults": faults})
-    seed = args.seed if args.seed is not None else sc.scenario.seed
+    seed = check_seed(args.seed, "--seed") if args.seed is not None else sc.scenario.seed
     return sc, seed, ids
 
 
@@ -185,7 +185,7 @@ def run(args: argparse.Namespace) -> int:
     if args.world and args.scenario:
         raise UserError("give the scenario once: --world SCENARIO or --scenario SCENARIO")
     if args.duration is not None:
-        scenario_mod.check_duration(args.duration, f"--duration {args.duration}:")
+        scenario_mod.check_duration(args.duration, "--duration")
     path = args.world or args.scenario
     sc, seed, ids = scenario_from_flags(args, scenario_mod.load_scenario(path) if path else None)
     transport = (SerialPort(args.port, args.baud or DEFAULT_BAUD) if args.port is not None
@@ -208,7 +208,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         rt = RealTimeRun(sc, seed, world=args.world is not None, ids=ids, trace=args.out,
                          can_server=can_server, sensor_id=_sensor_id(args, sc),
-                         duration_s=args.duration,
+                         duration_s=args.duration, overwrite=args.overwrite,
                          verbose=(lambda line: sys.stderr.write(line + "\n")) if args.verbose
                          else None)
         serial_server.install_sigterm()
@@ -271,6 +271,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="stop after S seconds (default: until Ctrl-C/SIGTERM)")
     p.add_argument("--out", default=None, metavar="FILE.mcap",
                    help="record serial, CAN, ground truth, switches, faults and violations")
+    p.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.add_argument("--can-server", type=int, nargs="?", const=DEFAULT_PORT, metavar="PORT",
                    help="serve the rig's CAN bus (limit_switches frames) over socketcand "

@@ -21,7 +21,7 @@ def _walks(out_dir: Path) -> dict:
     from host_tools.run_summary import run
 
     trace = out_dir / "tactile.mcap"
-    with_method, _ = run(SCENARIO, out=str(trace))
+    with_method, _ = run(SCENARIO, out=str(trace), overwrite=True)   # the demo's folder
     without, _ = run(SCENARIO, tactile=False)
     for label, s in (("tactile on ", with_method), ("tactile off", without)):
         b = s["body"]

@@ -25,8 +25,7 @@ def _run(args: argparse.Namespace) -> int:
     case = dataclasses.replace(case, scenario=sc, name=sc.scenario.name or case.name,
                                seed=sc.scenario.seed)
     if args.duration is not None:
-        if not args.duration > 0:
-            raise UserError(f"--duration must be positive, got {args.duration}")
+        scenario_mod.check_duration(args.duration, "--duration")
         case = dataclasses.replace(case, duration_s=args.duration)
     python = args.python or case.python
     m = margin_sweep.sweep(case, python, workers=args.jobs, scheduler=args.scheduler,

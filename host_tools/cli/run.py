@@ -3,6 +3,7 @@ robot, in lockstep."""
 from __future__ import annotations
 
 import argparse
+import sys
 
 from hil.canbus.socketcand import DEFAULT_PORT
 from hil.link.firmware_process import IN_PROCESS, RUNTIMES
@@ -19,7 +20,7 @@ def _run(args: argparse.Namespace) -> int:
                             False if args.no_tactile else None, args.out,
                             args.can_server, args.can_wait, args.live, args.realtime,
                             args.navigator, args.model, args.firmware, args.gdb,
-                            args.coverage)
+                            args.coverage, args.overwrite)
     if s.get("world") == "beams":
         what = "traversed" if s["traversed"] else ("flipped" if s["flipped"] else "stuck")
         print(f"{s['scenario']}: {s['strategy']}: {what} (mode {s['mode']}), energy "
@@ -45,9 +46,16 @@ def _run(args: argparse.Namespace) -> int:
         print(f"navigator {n['kind']}: stopped after step {n['stop_step']} of "
               f"{n['planned_steps']} planned (known path {n['known_steps']}); "
               f"{n['goal_dx_m']:+.3f} m short of the goal")
+    ending = result.ending
+    if not ending.completed:   # a verdict on the firmware: its lines here, the reason on stderr
+        if ending.last_lines:
+            print("the firmware's last lines:\n" + "\n".join(f"  {x}" for x in ending.last_lines))
+        if s["trace"]:
+            print(f"trace (kept up to then): {s['trace']}")
+        print(f"hexhil: {ending.reason}", file=sys.stderr)
     if args.json:
         cli.emit_json(s)
-    return 1 if s["unhandled_exceptions"] else 0
+    return 1 if s["unhandled_exceptions"] or not ending.completed else 0
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -64,6 +72,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="turn the Eq. 5-7 obstacle rule off (the paper's baseline)")
     p.add_argument("--out", metavar="FILE.mcap", help="record the run to an MCAP trace "
                    "(with the 3D scene: robot, obstacles, switch plates, contact forces)")
+    p.add_argument("--overwrite", action="store_true", help=cli.OVERWRITE_HELP)
     p.add_argument("--live", type=int, nargs="?", const=LIVE_PORT, metavar="PORT",
                    help="serve the trace's channels over the Foxglove WebSocket protocol on "
                         f"127.0.0.1 while the run goes (default port {LIVE_PORT}; 0 picks one)")

@@ -32,6 +32,9 @@ def _run(args: argparse.Namespace) -> int:
         raise UserError("--jobs and --repeat must be at least 1")
     if args.firmware is not None and args.python is not None:
         raise UserError(f"--firmware {args.firmware} brings its own runtime: leave out --python")
+    if args.firmware is not None and args.no_tactile:
+        raise UserError("--no-tactile sets our firmware's obstacle rule: a firmware of yours "
+                        f"({args.firmware}) reads no such setting")
     if args.trace is not None and (len(args.files) != 1 or args.firmware or args.python
                                    or args.no_tactile or args.repeat != 1):
         raise UserError("--trace evaluates one recorded run: give one FILE, and no --firmware, "
@@ -48,11 +51,19 @@ def _run(args: argparse.Namespace) -> int:
         dup = next(n for n in names if names.count(n) > 1)
         raise UserError(f"two files name the case {dup!r}: give one a [case] name")
     if args.trace is not None:
-        results = [case_runs.evaluate_recorded(cases[0], args.trace, args.keep_traces)]
+        results = [case_runs.evaluate_recorded(cases[0], args.trace, args.keep_traces,
+                                               args.overwrite)]
     else:
-        jobs = case_runs.jobs_for(cases, args.repeat, tactile=False if args.no_tactile else None,
-                               python=args.python, firmware=args.firmware,
-                               keep_dir=args.keep_traces)
+        jobs = case_runs.jobs_for(cases, args.repeat,
+                                  tactile=False if args.no_tactile else None,
+                                  python=args.python, firmware=args.firmware,
+                                  keep_dir=args.keep_traces, overwrite=args.overwrite)
+        if args.keep_traces and not args.overwrite:   # refused before anything runs
+            for job in jobs:
+                kept = case_runs.kept_path(args.keep_traces, job.label)
+                if kept.exists():
+                    raise UserError(f"--keep-traces: {kept} exists: pass --overwrite to "
+                                    "replace it")
         bar = None if args.quiet or len(jobs) < 2 else cli.ProgressBar("run")
         if args.coverage is None:
             results = case_runs.run_all(jobs, args.jobs, args.scheduler, progress=bar)
@@ -64,6 +75,11 @@ def _run(args: argparse.Namespace) -> int:
     bad = sum(not o.passed for r in results for o in r.outcomes)
     print(f"{n - bad} of {n} expectations passed in {len(results)} runs"
           + (f"; {bad} failed" if bad else ""))
+    for r in results:
+        ending = r.summary.get("ending") or {}
+        if ending.get("kind", "completed") != "completed":
+            print(f"{r.label}: {ending['reason']}"
+                  + "".join(f"\n  {x}" for x in ending.get("last_lines", ())))
     for r in failed:
         if r.trace:
             print(f"trace of {r.label} (failures on /expectations): {r.trace}")
@@ -106,6 +122,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--keep-traces", metavar="DIR",
                    help="keep the MCAP trace of every failing case here, its failed "
                         "expectations on /expectations at the moment each failed")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a kept trace of the same name in --keep-traces DIR (without "
+                        "it, an existing one is refused before anything runs)")
     p.add_argument("--python", choices=(*RUNTIMES, IN_PROCESS),
                    help="firmware runtime for every case (default: each case's, else "
                         f"micropython); {IN_PROCESS} is faster with the same digest")

@@ -5,7 +5,7 @@ import argparse
 import json
 import sys
 
-from host_tools.cli import JSON_HELP, actions, emit, emit_json
+from host_tools.cli import JSON_HELP, OVERWRITE_HELP, actions, emit, emit_json
 from host_tools.trace import export, import_csv, reader, recover
 from host_tools.trace.import_csv import CSV_OPTIONAL, CSV_POSE, CSV_REQUIRED
 from protocol.errors import UserError
@@ -63,7 +63,7 @@ def _export(args: argparse.Namespace) -> int:
 
 
 def _recover(args: argparse.Namespace) -> int:
-    r = recover.recover(args.file, args.out)
+    r = recover.recover(args.file, args.out, args.overwrite)
     skipped = "".join(f"; skipped {d['bytes']} damaged bytes at byte {d['byte']} "
                       f"({d['after_s']:.6f} s .. {d['before_s']:.6f} s)"
                       for d in r["damaged"] if d["why"] == "damaged" and d["before_s"] is not None)
@@ -75,7 +75,7 @@ def _recover(args: argparse.Namespace) -> int:
 
 
 def _import_csv(args: argparse.Namespace) -> int:
-    r = import_csv.import_csv(args.csv, args.out)
+    r = import_csv.import_csv(args.csv, args.out, overwrite=args.overwrite)
     emit(args, r, f"imported {r['samples']} samples ({'with' if r['pose'] else 'without'} pose) "
                   f"into {r['output']}")
     return 0
@@ -110,6 +110,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     q = tsub.add_parser("recover", help="salvage an unfinished/crashed MCAP into a valid one")
     q.add_argument("file", help="the unfinished or damaged MCAP (a run killed mid-write)")
     q.add_argument("out", help="the valid MCAP to write (not the input file)")
+    q.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     q.add_argument("--json", action="store_true", help=JSON_HELP)
     q.set_defaults(func=_recover)
 
@@ -121,5 +122,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                                     "columns are ignored.")
     q.add_argument("csv", help="the robot's CSV log (columns above)")
     q.add_argument("out", help="the MCAP trace to write")
+    q.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     q.add_argument("--json", action="store_true", help=JSON_HELP)
     q.set_defaults(func=_import_csv)

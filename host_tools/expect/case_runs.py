@@ -4,7 +4,7 @@ many cases in parallel (host_tools/executor.py: a local process pool or Dask).
 """
 from __future__ import annotations
 
-import os
+import dataclasses
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,7 +12,7 @@ from typing import Any, Sequence
 
 from mcap.writer import CompressionType, Writer
 
-from hil.scenario import Scenario
+from hil.scenario import Scenario, check_seed
 from hil.seams import ServoLine
 from hil.servobus.master_check import MasterCheck
 from host_tools import run_summary as run_mod
@@ -25,6 +25,7 @@ from host_tools.trace import protobuf as pb
 from host_tools.trace import topics
 from host_tools.trace.reader import Trace, info
 from hil.mcu.runtime import FirmwareFault
+from host_tools.trace.target import TraceTarget
 from protocol.errors import UserError
 
 T_EXPECTATIONS = "/expectations"  # foxglove.Log: each failed expectation at its moment
@@ -37,6 +38,11 @@ class BusTiming:
     return_delay_us: int | None = None   # servos answer after this, whatever register 5 says
     adapter_latency_us: int = 0          # before the master sees a received byte
     master_baud: int | None = None       # the master UART's true rate (None: the scenario's)
+
+    def overrides(self) -> dict[str, int]:
+        """The settings that differ from the scenario's (a run's recorded overrides)."""
+        return {k: v for k, v in dataclasses.asdict(self).items()
+                if v is not None and not (k == "adapter_latency_us" and v == 0)}
 
     def apply(self, bus: ServoLine) -> None:
         bus.return_delay_override_us = self.return_delay_us
@@ -57,8 +63,10 @@ class CaseRun:
     firmware: str | None = None           # the command's --firmware, over the case's
     keep_dir: str | None = None           # keep the trace here when an expectation fails
     keep_all: bool = False                # ... or always (the pytest plugin's fixtures)
+    overwrite: bool = False               # replace a kept trace of the same name
     timing: BusTiming = BusTiming()
     scenario: Scenario | None = None      # the case's scenario changed (margin)
+    changed: tuple[tuple[str, float], ...] = ()  # ... and what was changed in it (overrides)
     coverage: str | None = None           # an ELF's LCOV to this file (hexhil test --coverage)
 
 
@@ -92,15 +100,17 @@ class _Sender:
 def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
                  tactile: bool | None, trace: Path, timing: BusTiming = BusTiming(),
                  sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None,
-                 coverage: str | None = None) -> dict[str, Any]:
+                 changed: dict[str, Any] | None = None, coverage: str | None = None
+                 ) -> dict[str, Any]:
     """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
     file or an executable: ``hexhil run --firmware``) through the one run path
     (host_tools/lockstep_run.py ``Run``), recorded to ``trace`` with the master's protocol check
     on; returns ``hexhil run --json``'s summary plus ``violations``. Every case and margin
-    run goes through here."""
+    run goes through here; ``timing`` and ``changed`` (a scenario key changed, e.g.
+    ``faults.bit_error_rate``) are recorded as the run's overrides."""
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
-              coverage=coverage)
+              overrides={**timing.overrides(), **(changed or {})}, coverage=coverage)
     try:
         check = MasterCheck(run.recorder.violation)
         sim = run.sim
@@ -112,7 +122,7 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
         run.close()
         raise
     result = run.run()
-    summary = run_mod.summary(run.scenario, seed, result, str(trace))
+    summary = run_mod.summary(run.scenario, seed, result, str(trace), run.what_ran())
     summary["violations"] = check.summary()
     return summary
 
@@ -121,15 +131,14 @@ def run_case(job: CaseRun) -> CaseResult:
     """Run one case, evaluate it, keep its trace if asked; picklable for worker processes."""
     case = job.case
     tactile = job.tactile if job.tactile is not None else case.tactile
-    fd, tmp = tempfile.mkstemp(suffix=".mcap", prefix="hexhil-test-")
-    os.close(fd)
-    trace = Path(tmp)
     kept = None
-    try:
+    with tempfile.TemporaryDirectory(prefix="hexhil-test-") as tmp:
+        trace = Path(tmp) / "run.mcap"
         try:
             summary = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
                                    job.python or case.python, tactile, trace, job.timing,
-                                   case.sends, job.firmware or case.firmware, job.coverage)
+                                   case.sends, job.firmware or case.firmware,
+                                   dict(job.changed), job.coverage)
             outcomes = tuple(evaluate(case, summary, trace))
         except FirmwareFault as exc:   # an ELF's fault (hil/mcu/): this case fails
             summary = {"sim_time_s": exc.t_s, "trace": str(trace)}
@@ -137,14 +146,14 @@ def run_case(job: CaseRun) -> CaseResult:
                                 exc.t_s),)
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
-            kept = keep(trace, job.keep_dir, job.label, failed, summary["sim_time_s"])
-    finally:
-        trace.unlink(missing_ok=True)
+            kept = keep(trace, job.keep_dir, job.label, failed, summary["sim_time_s"],
+                        job.overwrite)
     summary = {k: v for k, v in summary.items() if k != "trace"}
     return CaseResult(job.label, job.seed, outcomes, summary, kept)
 
 
-def evaluate_recorded(case: Case, trace: Path, keep_dir: str | None = None) -> CaseResult:
+def evaluate_recorded(case: Case, trace: Path, keep_dir: str | None = None,
+                      overwrite: bool = False) -> CaseResult:
     """``case``'s expectations on a run recorded elsewhere, nothing run: a real board in
     real time (``hexhil bus --world SCENARIO --port DEVICE --out RUN.mcap``), or any trace.
     The run's length is the trace's; a failing case's copy goes to ``keep_dir``."""
@@ -158,24 +167,36 @@ def evaluate_recorded(case: Case, trace: Path, keep_dir: str | None = None) -> C
     summary = {"sim_time_s": end_s, "firmware_link": linked}
     outcomes = tuple(evaluate(case, summary, trace))
     failed = [o for o in outcomes if not o.passed]
-    kept = keep(trace, keep_dir, case.name, failed, end_s) if keep_dir and failed else None
+    kept = (keep(trace, keep_dir, case.name, failed, end_s, overwrite)
+            if keep_dir and failed else None)
     return CaseResult(case.name, case.seed, outcomes, summary, kept)
 
 
+def kept_path(keep_dir: str, label: str) -> Path:
+    """Where ``--keep-traces DIR`` keeps the trace of the case run ``label``."""
+    return Path(keep_dir) / (label.replace("/", "_").replace("#", "-") + ".mcap")
+
+
 def keep(trace: Path, keep_dir: str, label: str, failed: Sequence[Outcome],
-         end_s: float) -> str:
+         end_s: float, overwrite: bool = False) -> str:
     """``trace`` copied to ``keep_dir/<label>.mcap`` with ``failed`` written into it."""
-    Path(keep_dir).mkdir(parents=True, exist_ok=True)
-    kept = Path(keep_dir) / (label.replace("/", "_").replace("#", "-") + ".mcap")
-    annotate(trace, kept, failed, end_s)
+    try:
+        Path(keep_dir).mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"keep_dir {keep_dir}: cannot make the folder "
+                        f"({exc.strerror})", params=("keep_dir",)) from None
+    kept = kept_path(keep_dir, label)
+    annotate(trace, kept, failed, end_s, overwrite)
     return str(kept)
 
 
-def annotate(src: Path, dst: Path, failed: Sequence[Outcome], end_s: float) -> None:
+def annotate(src: Path, dst: Path, failed: Sequence[Outcome], end_s: float,
+             overwrite: bool = False) -> None:
     """Copy a trace and add each failed expectation as a ``foxglove.Log`` (ERROR) on
     ``/expectations`` at the moment it failed (the run's end when it has none), so a viewer
-    opened at that message sees the robot when it went wrong."""
-    with Trace(src) as tr, open(dst, "wb") as f:
+    opened at that message sees the robot when it went wrong. Written as every trace is
+    (host_tools/trace/target.py: an existing ``dst`` refused unless ``overwrite``)."""
+    with Trace(src) as tr, TraceTarget(dst, overwrite) as f:
         w = Writer(f, compression=CompressionType.ZSTD)
         w.start(profile=topics.PROFILE, library=tr.header.library)
         schema_ids = {sid: w.register_schema(s.name, s.encoding, s.data)
@@ -212,6 +233,8 @@ def jobs_for(cases: Sequence[Case], repeat: int = 1, **options: Any) -> list[Cas
     """Each case ``repeat`` times: repeat k runs with the case's seed + k."""
     out = []
     for case in cases:
+        check_seed(case.seed + repeat - 1, f"{case.name}: the last repeat's seed ({case.seed} + "
+                                           f"{repeat - 1})")
         for k in range(repeat):
             label = case.name if repeat == 1 else f"{case.name}#{k}"
             out.append(CaseRun(case, case.seed + k, label, **options))

@@ -72,9 +72,13 @@ def _job(case: Case, python: str, settings: dict[str, float], label: str) -> Cas
         master_baud=round(baud * (1 + settings["baud_error_pct"] / 100))
         if settings.get("baud_error_pct") else None)
     scenario = None
+    changed: tuple[tuple[str, float], ...] = ()
     if settings.get("bit_error_rate"):
-        scenario = case.scenario.overlay({"faults": {"bit_error_rate": settings["bit_error_rate"]}})
-    return CaseRun(case, case.seed, label, python=python, timing=timing, scenario=scenario)
+        scenario = case.scenario.overlay(
+            {"faults": {"bit_error_rate": settings["bit_error_rate"]}})
+        changed = (("faults.bit_error_rate", settings["bit_error_rate"]),)
+    return CaseRun(case, case.seed, label, python=python, timing=timing, scenario=scenario,
+                   changed=changed)
 
 
 def _point(settings: dict[str, float], r: CaseResult) -> Point:

@@ -4,8 +4,8 @@ check it with the expectation kinds of docs/testing.md, and see measured value a
 when a check fails, with the run's trace (the failure written into it) named in the report
 and in ``--junitxml`` as the test's ``trace`` property.
 
-Fixtures: ``hexhil_run`` (a function: scenario, seed, duration, runtime, tactile, firmware
--> ``FinishedRun``).
+Fixtures: ``hexhil_run`` (a function: scenario, seed, duration, runtime, tactile, firmware,
+allow_failure -> ``FinishedRun``; a firmware that does not complete its run fails the test).
 Helpers: ``FinishedRun.check(kind, **keys)``, ``assert_within(name, value, low, high)``.
 Options: ``--hexhil-python RUNTIME`` (default runtime), ``--hexhil-firmware PATH`` (a firmware
 of yours for every run, as ``hexhil run --firmware``), ``--hexhil-keep DIR`` (copy the trace
@@ -38,6 +38,12 @@ class FinishedRun:
     def body(self) -> dict[str, float]:
         return self.summary["body"]
 
+    @property
+    def ending(self) -> dict[str, Any]:
+        """How the firmware ended (``hexhil run --json``'s ``ending``: kind, reason, last
+        lines, t_s, exit_code)."""
+        return self.summary["ending"]
+
     def check(self, kind: str, name: str | None = None, **keys: Any) -> Any:
         """One expectation (an ``[[expect]]`` table's keys as arguments, ranges as
         ``(low, high)`` or ``{"min": ..}``); returns its ``Outcome``, or fails the test
@@ -46,8 +52,8 @@ class FinishedRun:
 
         table = {"name": name or kind, "kind": kind, **keys}
         e = spec.expectation(f"{self.scenario} check", table)
-        (outcome,) = verdicts.evaluate(dataclasses.replace(self.case, expectations=(e,)),
-                                       self.summary, self.trace)
+        outcome = verdicts.evaluate(dataclasses.replace(self.case, expectations=(e,)),
+                                    self.summary, self.trace)[-1]
         if not outcome.passed:
             slug = "".join(c if c.isalnum() else "-" for c in outcome.name)
             failed = self.trace.with_name(f"{self.trace.stem}-failed-{slug}.mcap")
@@ -86,10 +92,13 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
                record_property: Callable[[str, Any], None]) -> Callable[..., FinishedRun]:
     """``hexhil_run(scenario, seed=None, duration_s=None, python=None, tactile=None,
-    firmware=None)``: run a scenario file with our firmware (or ``firmware``, else
-    ``--hexhil-firmware``), recorded to this test's tmp_path."""
+    firmware=None, allow_failure=False)``: run a scenario file with our firmware (or
+    ``firmware``, else ``--hexhil-firmware``), recorded to this test's tmp_path. A firmware
+    that crashes, hangs, exits early or never starts fails the test with its reason and
+    last lines (the trace kept), unless ``allow_failure``: then ``FinishedRun.ending``
+    says how it ended and ``check("no_exception")`` judges it."""
     from hil import scenario as scenario_mod
-    from host_tools.expect import case_runs, spec
+    from host_tools.expect import case_runs, spec, verdicts
 
     traces: list[Path] = []
     request.node.stash[_TRACES] = traces
@@ -100,7 +109,7 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
 
     def run(scenario: str | Path, seed: int | None = None, duration_s: float | None = None,
             python: str | None = None, tactile: bool | None = None,
-            firmware: str | Path | None = None) -> FinishedRun:
+            firmware: str | Path | None = None, allow_failure: bool = False) -> FinishedRun:
         sc = scenario_mod.load_scenario(scenario)
         seed = sc.scenario.seed if seed is None else seed
         duration = duration_s or sc.scenario.duration_s
@@ -114,12 +123,31 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
         case = spec.Case(name=Path(scenario).stem, path=Path(scenario), scenario=sc, seed=seed,
                          duration_s=duration, tactile=tactile, python=python, expectations=(),
                          firmware=str(firmware) if firmware else None)
-        return FinishedRun(str(scenario), seed, python, summary, trace, case, keep)
+        done = FinishedRun(str(scenario), seed, python, summary, trace, case, keep)
+        ended = verdicts.ending_outcome(case.name, summary)
+        if ended is not None and not allow_failure:   # a verdict: the test fails, not errors
+            failed = trace.with_name(f"{trace.stem}-failed-firmware.mcap")
+            case_runs.annotate(trace, failed, [ended], summary["sim_time_s"])
+            keep(failed)
+            last = "".join(f"\n  {x}" for x in summary["ending"]["last_lines"])
+            raise AssertionError(f"{ended.measured}{last}\n(trace: {failed})")
+        return done
 
     return run
 
 
 _TRACES = pytest.StashKey[list]()
+
+
+def _copy(src: Path, dst: Path) -> Path:
+    """``src`` copied to ``dst`` as every trace is written (host_tools/trace/target.py); a
+    session's ``--hexhil-keep DIR`` replaces a copy an earlier session kept by that name."""
+    from host_tools.trace.target import TraceTarget
+
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    with open(src, "rb") as f, TraceTarget(dst, overwrite=True) as out:
+        shutil.copyfileobj(f, out)
+    return dst
 
 
 @pytest.hookimpl(wrapper=True)
@@ -132,8 +160,7 @@ def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo) -> Any:
         paths = []
         for t in traces:
             if keep_dir:
-                Path(keep_dir).mkdir(parents=True, exist_ok=True)
-                t = Path(shutil.copy(t, Path(keep_dir) / f"{item.name}-{t.name}"))
+                t = _copy(t, Path(keep_dir) / f"{item.name}-{t.name}")
             paths.append(str(t))
         report.sections.append(("hexhil traces", "\n".join(paths)))
     return report

@@ -306,9 +306,8 @@ def load(path: str | Path) -> Case:
                 and sc.gait.max_obstacle_height_m is None:
             raise UserError(f"{where}: expect[{i}] ({e.name!r}): key 'max_obstacle_height_m' "
                             f"is required (H of Eq. 7: the scenario's gait does not give it)")
-    duration = float(case.get("duration_s", sc.scenario.duration_s))
-    if not duration > 0:
-        raise UserError(f"{where}: key 'case.duration_s' must be positive, got {duration}")
+    duration = scenario_mod.check_duration(case.get("duration_s", sc.scenario.duration_s),
+                                           f"{where}: key 'case.duration_s'")
     python = case.get("python", sc.firmware.python.value)
     if python not in RUNTIME_CHOICES:
         raise UserError(f"{where}: key 'case.python' must be one of "
@@ -318,9 +317,14 @@ def load(path: str | Path) -> Case:
         if "python" in case:
             raise UserError(f"{where}: key 'case.firmware' brings its own runtime: leave out "
                             "'case.python'")
+        if "tactile" in case:
+            raise UserError(f"{where}: key 'case.tactile' sets our firmware's obstacle rule: "
+                            "the case's firmware reads no such setting")
         firmware = str(p.parent / firmware)
         served_firmware(firmware, f"{where}: key 'case.firmware'")   # checked now
     return Case(name=case.get("name", p.stem), path=p, scenario=sc, firmware=firmware,
-                seed=case.get("seed", sc.scenario.seed), duration_s=duration,
+                seed=scenario_mod.check_seed(case.get("seed", sc.scenario.seed),
+                                             f"{where}: key 'case.seed'"),
+                duration_s=duration,
                 tactile=case.get("tactile"), python=python, expectations=expectations,
                 sends=_sends(where, case.get("send", [])))

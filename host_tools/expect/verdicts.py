@@ -298,8 +298,22 @@ def _signal(e: Expectation, rec: Recording) -> tuple[str, str, bool, float | Non
     return f"{value:.6g}", limit, r.holds(value), t, value
 
 
+ENDING = "firmware ending"   # the outcome a firmware that did not complete its run adds
+
+
+def ending_outcome(case: str, summary: dict[str, Any]) -> Outcome | None:
+    """A firmware that crashed, hung, exited early or never started fails its case
+    (``summary["ending"]``, hil/run_result.py ``FirmwareEnding``), at the moment it ended."""
+    ending = summary.get("ending") or {}
+    if ending.get("kind", "completed") == "completed":
+        return None
+    return Outcome(case, ENDING, ending["kind"], ending["reason"], "completed", False,
+                   ending.get("t_s"))
+
+
 def evaluate(case: Case, summary: dict[str, Any], trace: Path) -> list[Outcome]:
-    """Every expectation of ``case`` on the run that produced ``summary`` and ``trace``."""
+    """Every expectation of ``case`` on the run that produced ``summary`` and ``trace``,
+    after the firmware's own ending when it did not complete the run."""
     extra = {e.get("topic") for e in case.expectations if e.kind is Kind.SIGNAL}
     rec = read(trace, summary, extra)
     kinds: dict[Kind, Callable[[Expectation, Recording], tuple]] = {
@@ -308,7 +322,8 @@ def evaluate(case: Case, summary: dict[str, Any], trace: Path) -> list[Outcome]:
         Kind.SERVO_LIMITS: _servo_limits, Kind.NO_EXCEPTION: _no_exception,
         Kind.SIGNAL: _signal,
         Kind.TACTILE_RULE: lambda e, r: _tactile(case, e, r)}
-    out = []
+    ended = ending_outcome(case.name, summary)
+    out = [ended] if ended is not None else []
     for e in case.expectations:
         measured, limit, ok, t_s, value = kinds[e.kind](e, rec)
         out.append(Outcome(case.name, e.name, e.kind.value, measured, limit, ok, t_s, value))

@@ -13,9 +13,11 @@ from host_tools.trace.writer import TraceWriter
 class Channels:
     """Topic -> channel id (``ids``), schemas shared by name."""
 
-    def __init__(self, writer: TraceWriter, live: Any = None) -> None:
+    def __init__(self, writer: TraceWriter, live: Any = None,
+                 write_failed: Callable[[OSError], None] | None = None) -> None:
         self._writer = writer
         self._live = live
+        self._write_failed = write_failed   # a full disk: the recorder's one line
         self.ids: dict[str, int] = {}
         self._schemas: dict[str, int] = {}
         self._schema_data: dict[str, bytes] = {}  # for the live server's channels
@@ -24,13 +26,17 @@ class Channels:
             schema_data: Callable[[], bytes]) -> int:
         """The channel id of ``topic``, writing its schema (first use) and channel."""
         sid = self._schemas.get(schema_name)
-        if sid is None:
-            sid = len(self._schemas) + 1
-            data = self._schema_data[schema_name] = schema_data()
-            self._writer.schema(sid, schema_name, schema_encoding(encoding), data)
-            self._schemas[schema_name] = sid
         cid = len(self.ids) + 1
-        self._writer.channel(cid, topic, encoding, sid)
+        try:
+            if sid is None:
+                sid = self._schemas[schema_name] = len(self._schemas) + 1
+                data = self._schema_data[schema_name] = schema_data()
+                self._writer.schema(sid, schema_name, schema_encoding(encoding), data)
+            self._writer.channel(cid, topic, encoding, sid)
+        except OSError as exc:
+            if self._write_failed is None:
+                raise
+            self._write_failed(exc)
         self.ids[topic] = cid
         if self._live is not None:
             self._live.channel(cid, topic, schema_name, schema_encoding(encoding),

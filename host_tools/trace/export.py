@@ -5,6 +5,7 @@ import csv
 from pathlib import Path
 from typing import Any, Iterable
 
+from hil.scenario import check_span
 from host_tools.trace.protobuf import CanFrame
 from host_tools.trace.reader import Trace, why
 from host_tools.trace.topics import T_CAN_RAW
@@ -29,6 +30,7 @@ def _flatten(prefix: str, value: Any, out: dict[str, Any]) -> None:
 def export(path: str | Path, out: str | Path, topics: Iterable[str] | None = None,
            start_s: float | None = None, end_s: float | None = None) -> dict[str, Any]:
     """CSV (one wide table per topic) or, by suffix, a python-can CAN log of /can/raw."""
+    check_span(start_s, end_s)
     out = Path(out)
     suffix = out.suffix.lower()
     if suffix in CAN_LOG_SUFFIXES:

@@ -26,8 +26,8 @@ def _quat_wxyz(roll_rad: float, pitch_rad: float, yaw_rad: float = 0.0) -> tuple
             cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy)
 
 
-def import_csv(src: str | Path, dst: str | Path, metadata: dict[str, Any] | None = None
-               ) -> dict[str, Any]:
+def import_csv(src: str | Path, dst: str | Path, metadata: dict[str, Any] | None = None,
+               overwrite: bool = False) -> dict[str, Any]:
     """A physical robot's CSV (``time_s, fx_n, fy_n, fz_n`` and, for the estimator, the
     body pose ``x_m, roll_rad, pitch_rad``; optional ``y_m, z_m``) -> an MCAP trace with the
     same ``force`` and ``body_pose`` CAN frames a simulated beams run records."""
@@ -53,7 +53,7 @@ def import_csv(src: str | Path, dst: str | Path, metadata: dict[str, Any] | None
         reader.fieldnames = header
         meta = {"source": "import-csv", "csv": src.name}
         meta.update(metadata or {})
-        out = Recorder(dst, meta)
+        out = Recorder(dst, meta, overwrite=overwrite)
         n = 0
         last_us = -1
         try:
@@ -86,12 +86,10 @@ def import_csv(src: str | Path, dst: str | Path, metadata: dict[str, Any] | None
             if n == 0:
                 raise UserError(f"{src}: CSV has no data rows")
         except csv.Error as exc:
-            out.close()
-            Path(dst).unlink(missing_ok=True)
+            out.discard()
             raise UserError(f"{src}: malformed CSV ({why(exc)})") from None
         except UserError:
-            out.close()
-            Path(dst).unlink(missing_ok=True)
+            out.discard()
             raise
         out.close()
     return {"input": str(src), "output": str(dst), "samples": n, "pose": has_pose,

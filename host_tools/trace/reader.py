@@ -28,6 +28,8 @@ from mcap.records import Channel, Chunk, Message
 from mcap.stream_reader import StreamReader, breakup_chunk, get_chunk_data_stream
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 
+from hil.scenario import check_span
+from host_tools.trace.target import partial_of
 from protocol.errors import UserError
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -44,6 +46,11 @@ class TraceMessage(NamedTuple):
 def check_file(path: Path) -> None:
     """A one-line ``UserError`` unless ``path`` is a readable file that starts as MCAP."""
     if not path.exists():
+        partial = partial_of(path)
+        if partial.exists():
+            raise UserError(f"{path}: no such trace file, but {partial.name} beside it is "
+                            f"the unfinished trace of a run that was killed: 'hexhil trace "
+                            f"recover {path} OUT.mcap' salvages it")
         raise UserError(f"{path}: no such trace file")
     if path.is_dir():
         raise UserError(f"{path}: is a directory, not a trace file")
@@ -129,12 +136,10 @@ class Trace:
                  end_s: float | None = None, log_time_order: bool = True
                  ) -> Iterator[TraceMessage]:
         """Raw messages in log-time order; ``start_s`` inclusive, ``end_s`` exclusive."""
+        check_span(start_s, end_s)
         sel = self.select_topics(topics)
-        start_ns = None if start_s is None else max(0, int(round(start_s * 1e9)))
-        end_ns = None if end_s is None else max(0, int(round(end_s * 1e9)))
-        if start_ns is not None and end_ns is not None and start_ns > end_ns:
-            raise UserError(f"start_s ({start_s:g} s) is after end_s ({end_s:g} s)",
-                            params=("start_s", "end_s"))
+        start_ns = None if start_s is None else int(round(start_s * 1e9))
+        end_ns = None if end_s is None else int(round(end_s * 1e9))
         if self.file_order_is_time_order or not log_time_order:
             it = self._chunk_messages(sel, start_ns, end_ns)
         else:

@@ -10,7 +10,8 @@ Why it is built this way:
   then sorted into log-time order, written as one zstd chunk and flushed to the OS (at the
   next ``idle()`` call, at the same virtual time, when the owner calls it). A run killed
   with SIGKILL therefore loses at most the last window (0.5 s by default), which
-  ``hexhil trace recover`` proves by reading the file without its summary.
+  ``hexhil trace recover`` proves by reading the file without its summary. The file is
+  ``TARGET.partial``, locked, until ``close()`` renames it (host_tools/trace/target.py).
 * Determinism: nothing here reads the wall clock; the same run gives the same bytes.
 * Cost: the parts hand over raw values (about 1 us a call) and the encoding (hand-rolled
   protobuf for the ~360 serial bursts a simulated second) is done in ``idle()``, which the
@@ -42,6 +43,7 @@ from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, METADATA_NAME, T_BODY, T
                                      T_SCENE_FORCES, T_SCENE_FRAMES, T_SERIAL, T_SERVOS,
                                      T_SWITCHES, T_TELEMETRY, T_VIOLATIONS)
 from host_tools.trace.channels import Channels
+from host_tools.trace.target import TraceTarget
 from host_tools.trace.writer import TraceWriter, software_version
 from host_tools.dynamixel.decode import DECODERS
 from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
@@ -61,19 +63,21 @@ class Recorder:
     def __init__(self, path: str | Path, metadata: Mapping[str, Any] | None = None, *,
                  flush_interval_us: int = DEFAULT_FLUSH_INTERVAL_US,
                  decode_serial: bool = True, decode_can: bool = True, live: Any = None,
-                 protocol: int = 1) -> None:
+                 protocol: int = 1, overwrite: bool = False) -> None:
         self.path = Path(path)
         self._live = live  # a LiveServer (host_tools/trace/live.py) that sees what is written
-        try:
-            self._file: BinaryIO = open(self.path, "wb")
-        except OSError as exc:
-            raise UserError(f"{self.path}: cannot write trace ({exc.strerror})") from None
-        self._writer = TraceWriter(self._file, f"hexhil {software_version()}")
+        self.messages, self.closed = 0, False
+        self._target = TraceTarget(self.path, overwrite)   # TARGET.partial, renamed at close
+        self._file: BinaryIO = self._target.file
         meta = {"software_version": software_version()}
         for k, v in (metadata or {}).items():
             meta[str(k)] = v if isinstance(v, str) else json.dumps(v, sort_keys=True,
                                                                    default=json_default)
-        self._writer.metadata(METADATA_NAME, meta)
+        try:
+            self._writer = TraceWriter(self._file, f"hexhil {software_version()}")
+            self._writer.metadata(METADATA_NAME, meta)
+        except OSError as exc:
+            self._write_failed(exc)
         self._flush_interval_us = int(flush_interval_us)
         self._window_end_us = self._flush_interval_us
         self._pending: list[tuple] = []  # (log_time_ns, encode, args) in call order
@@ -81,15 +85,13 @@ class Recorder:
         self._done = 0
         self._ready: list[tuple[int, int, bytes]] | None = None  # a closed window, unwritten
         self._idle_seen = False
-        self._channels = Channels(self._writer, live)
+        self._channels = Channels(self._writer, live, self._write_failed)
         # /serial's bytes cut into the packets of the line's Dynamixel protocol
         self._parsers = {d: DECODERS[protocol].TracePackets(d) for d in ("tx", "rx")} \
             if decode_serial else None
         self._can = CanSignals(decode_can)
         self._links: bytearray | None = None  # this window's exchanges, encoded
         self._switches = 0
-        self.messages = 0
-        self.closed = False
 
     # -- plumbing -------------------------------------------------------------------------
     def _defer(self, t_us: int, encode: Callable[..., None], args: tuple) -> None:
@@ -162,15 +164,11 @@ class Recorder:
 
     def _write_failed(self, exc: OSError) -> None:
         """A full disk or a file-size limit: stop recording, keep what is on disk, one line."""
-        try:
-            self._file.close()
-        except OSError:
-            pass  # the buffered tail is what the disk refused
+        where = self._target.abandon()
         self.closed = True
         self._window_end_us = -1
         raise UserError(f"{self.path}: cannot write trace ({exc.strerror or exc}); the "
-                        f"{self.messages} messages written before stay readable with "
-                        f"'hexhil trace recover'") from None
+                        f"{self.messages} messages written before stay in {where}") from None
 
     def advance(self, t_us: int) -> None:
         """Tell the recorder virtual time has reached ``t_us`` (flushes a finished window)."""
@@ -193,11 +191,19 @@ class Recorder:
         self._write_chunk(msgs)
         try:
             self._writer.finish()
-            self._file.close()
+            self._file.flush()
         except OSError as exc:
             self._write_failed(exc)
         self.closed = True
         self._window_end_us = -1
+        self._target.commit()
+
+    def discard(self) -> None:
+        """Stop and remove what was written; the target stays as it was (a failed import)."""
+        if not self.closed:
+            self.closed = True
+            self._window_end_us = -1
+            self._target.discard()
 
     def __enter__(self) -> "Recorder":
         return self
@@ -369,5 +375,6 @@ class Recorder:
 
 def open_recorder(path: str | Path | None, metadata: Mapping[str, Any] | None = None,
                   **kwargs: Any) -> Recorder | None:
-    """A Recorder for ``--out PATH``, or None when no path was given."""
+    """A Recorder for ``--out PATH`` (``overwrite=True`` for ``--overwrite``), or None when
+    no path was given."""
     return Recorder(path, metadata, **kwargs) if path else None

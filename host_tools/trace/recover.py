@@ -21,6 +21,7 @@ from mcap.writer import CompressionType, Writer
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 
 from host_tools.trace.reader import MAGIC, check_file, why
+from host_tools.trace.target import TraceTarget, partial_of
 from protocol.errors import UserError
 
 _OP_CHUNK = 0x06  # the chunk record's opcode (mcap.opcode.Opcode.CHUNK)
@@ -126,24 +127,25 @@ def _summary_channels(data: bytes) -> tuple[dict[int, Schema], dict[int, Channel
             dict(summary.channels))
 
 
-def recover(src: str | Path, dst: str | Path) -> dict[str, Any]:
+def recover(src: str | Path, dst: str | Path, overwrite: bool = False) -> dict[str, Any]:
     """Copy every readable message of an unfinished or damaged MCAP into a finished one.
 
-    A crashed writer leaves a cut-off tail; a bad disk leaves a damaged chunk in the middle.
+    A crashed writer leaves a cut-off tail (in ``SRC.partial`` when ``SRC`` was a run's
+    target: host_tools/trace/target.py; found from ``SRC``); a bad disk leaves a damaged
+    chunk in the middle.
     Both are skipped and reported: reading goes on at the next chunk that passes its CRC.
     """
     src, dst = Path(src), Path(dst)
+    if not src.exists() and partial_of(src).exists():   # a killed run's unfinished file
+        src = partial_of(src)
     check_file(src)
-    if dst.resolve() == src.resolve():
+    if dst.resolve() == src.resolve() or partial_of(dst).resolve() == src.resolve():
         raise UserError(f"{dst}: recover needs a different output file")
     try:
         data = src.read_bytes()
     except OSError as exc:
         raise UserError(f"{src}: cannot read ({exc.strerror})") from None
-    try:
-        out_f = open(dst, "wb")
-    except OSError as exc:
-        raise UserError(f"{dst}: cannot write ({exc.strerror})") from None
+    target = TraceTarget(dst, overwrite)
     schemas, channels = _summary_channels(data)
     schema_ids: dict[int, int] = {}
     channel_ids: dict[int, int] = {}
@@ -151,7 +153,7 @@ def recover(src: str | Path, dst: str | Path) -> dict[str, Any]:
     first_ns = last_ns = None
     damaged: list[dict[str, Any]] = []
     complete = False
-    with out_f:
+    with target as out_f:
         writer = Writer(out_f, compression=CompressionType.ZSTD)
         header_written = False
         for record in _salvaged_records(data):

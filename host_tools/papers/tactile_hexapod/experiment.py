@@ -95,7 +95,9 @@ def simulate(scenario: Scenario, seed: int, duration_s: float, trace: str | None
     """Run the firmware (under ``python``) against the hexapod world (recorded to ``trace``
     if given: its metadata carries the scenario itself, whose path names no file); returns
     the world at the end. ``navigate(run)`` may add a host node first."""
-    with Run(scenario, seed=seed, runtime=python, duration_s=duration_s, trace=trace) as run:
+    # the experiment's own folder: a re-run replaces its traces
+    with Run(scenario, seed=seed, runtime=python, duration_s=duration_s, trace=trace,
+             overwrite=True) as run:
         if navigate is not None:
             navigate(run)
         run.run()
