@@ -142,6 +142,22 @@ def test_margin_goes_on_past_a_crashing_setting(tmp_path: Path) -> None:
     assert "crashed" in points[0].measured[0]
 
 
+def test_margin_firmware_runs_yours_in_place_of_the_cases(tmp_path: Path) -> None:
+    """``hexhil margin --firmware``: the case names none, the sweep runs the one given (here
+    a crashing one, so every point says so); a missing file is one line, exit 2."""
+    from host_tools.expect import margin_sweep, spec
+
+    p = tmp_path / "ours.toml"
+    p.write_text(CASE.format(name="ours", flat=FLAT, firmware=""))
+    case = spec.load(p)
+    m = margin_sweep.sweep(case, "cpython", axes={"return_delay_us": (0,)}, grid=((0,), (0,)),
+                           firmware=str(firmware(tmp_path, "crash")))
+    points = m.axes["return_delay_us"] + m.grid
+    assert len(points) == 2 and all("firmware ending" in p.failed for p in points)
+    r = hexhil("margin", FLAT, "--expect", str(p), "--firmware", str(tmp_path / "nope.py"))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--firmware" in r.stderr, r.stderr
+
+
 PLUGIN_TEST = '''
 def test_crash(hexhil_run):
     hexhil_run("{flat}", duration_s=2, firmware="{fw}")

@@ -20,6 +20,13 @@ def _run(args: argparse.Namespace) -> int:
 
     if args.jobs < 1:
         raise UserError("--jobs must be at least 1")
+    if args.firmware is not None:
+        from hil.link.served_firmware import served_firmware
+
+        if args.python is not None:
+            raise UserError(f"--firmware {args.firmware} brings its own runtime: leave out "
+                            "--python")
+        served_firmware(args.firmware)   # one line before anything runs
     case = spec.load(args.expect)
     sc = scenario_mod.load_scenario(args.scenario)
     case = dataclasses.replace(case, scenario=sc, name=sc.scenario.name or case.name,
@@ -29,7 +36,8 @@ def _run(args: argparse.Namespace) -> int:
         case = dataclasses.replace(case, duration_s=args.duration)
     python = args.python or case.python
     m = margin_sweep.sweep(case, python, workers=args.jobs, scheduler=args.scheduler,
-                     progress=None if args.quiet else cli.ProgressBar("run"))
+                           progress=None if args.quiet else cli.ProgressBar("run"),
+                           firmware=args.firmware)
     for axis, points in m.axes.items():
         print(f"\n{axis}")
         for p in sorted(points, key=lambda p: p.settings[0][1]):
@@ -68,6 +76,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="run on this Dask distributed scheduler instead")
     p.add_argument("--python", choices=(*RUNTIMES, IN_PROCESS),
                    help=f"firmware runtime (default: the case's); {IN_PROCESS} is faster")
+    p.add_argument("--firmware", metavar="PATH",
+                   help="your firmware in place of the case's: a MicroPython main file, an "
+                        "executable (a C firmware) or an STM32F411 ELF")
     p.add_argument("--png", metavar="OUT.png", help="write the heat map")
     p.add_argument("--json", action="store_true", help=cli.JSON_HELP + ": every point of the sweep")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

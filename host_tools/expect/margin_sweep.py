@@ -62,7 +62,8 @@ class Margin:
         return out
 
 
-def _job(case: Case, python: str, settings: dict[str, float], label: str) -> CaseRun:
+def _job(case: Case, python: str, settings: dict[str, float], label: str,
+         firmware: str | None = None) -> CaseRun:
     """The case's run with ``settings`` applied: bus hooks, or the scenario's faults."""
     baud = case.scenario.bus.baud
     timing = BusTiming(
@@ -78,7 +79,7 @@ def _job(case: Case, python: str, settings: dict[str, float], label: str) -> Cas
             {"faults": {"bit_error_rate": settings["bit_error_rate"]}})
         changed = (("faults.bit_error_rate", settings["bit_error_rate"]),)
     return CaseRun(case, case.seed, label, python=python, timing=timing, scenario=scenario,
-                   changed=changed)
+                   changed=changed, firmware=firmware)
 
 
 def _point(settings: dict[str, float], r: CaseResult) -> Point:
@@ -89,15 +90,18 @@ def _point(settings: dict[str, float], r: CaseResult) -> Point:
 
 def sweep(case: Case, python: str, axes: dict[str, Sequence[float]] | None = None,
           grid: tuple[Sequence[float], Sequence[float]] | None = None, workers: int = 1,
-          scheduler: str | None = None, progress: Progress | None = None) -> Margin:
-    """Every axis's settings alone, and the Return Delay x latency grid, in parallel."""
+          scheduler: str | None = None, progress: Progress | None = None,
+          firmware: str | None = None) -> Margin:
+    """Every axis's settings alone, and the Return Delay x latency grid, in parallel;
+    ``firmware`` (a MicroPython main file, an executable or an ELF) runs in place of the
+    case's firmware."""
     axes = {k: tuple(v) for k, v in (axes or AXES).items()}
     rd, lat = grid or (GRID_RETURN_DELAY_US, GRID_LATENCY_US)
     settings: list[dict[str, float]] = [{axis: v} for axis, values in axes.items()
                                         for v in values]
     settings += [{"return_delay_us": a, "adapter_latency_us": b} for a in rd for b in lat]
-    jobs = [_job(case, python, s, f"{case.name} " + ", ".join(f"{k}={v:g}" for k, v in s.items()))
-            for s in settings]
+    jobs = [_job(case, python, s, f"{case.name} " + ", ".join(f"{k}={v:g}" for k, v in s.items()),
+                 firmware) for s in settings]
     results = run_all(jobs, workers, scheduler, progress)
     points = [_point(s, r) for s, r in zip(settings, results)]
     n_axes = sum(len(v) for v in axes.values())
