@@ -59,12 +59,29 @@ def served_firmware(path: str | Path, what: str = "--firmware"
         raise UserError(f"{what} {path}: not a file (give a MicroPython main file or an "
                         "executable)")
     if p.suffix in MAIN_SUFFIXES:
+        try:
+            text = _is_text(p.read_bytes())
+        except OSError as exc:
+            raise UserError(f"{what} {path}: cannot read it ({exc.strerror})") from None
+        if not text:
+            raise UserError(f"{what} {path}: not a MicroPython source file (it holds binary "
+                            "data, not UTF-8 text)")
         return BoardFirmware(p.resolve())
     if not os.access(p, os.X_OK):
         raise UserError(f"{what} {path}: neither a MicroPython main file (.py) nor "
                         "executable (build a C firmware with `hexhil sdk build main.c -o fw`, "
                         "or chmod +x)")
     return ExecutableFirmware(p.resolve())
+
+
+def _is_text(data: bytes) -> bool:
+    """A source micropython can parse: UTF-8 without NUL bytes (micropython itself only
+    says ``SyntaxError: invalid syntax`` of a binary file)."""
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError:
+        return False
+    return b"\0" not in data
 
 
 @dataclass(frozen=True)
