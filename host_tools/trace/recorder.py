@@ -79,6 +79,26 @@ def _can_json_schema(msg: Any) -> str:
                        "properties": props}, sort_keys=True)
 
 
+def topic_schema(topic: str) -> bytes:
+    """The schema data of one of the fixed topics (``topics.CHANNELS``)."""
+    schema_name, encoding = CHANNELS[topic]
+    if encoding == "protobuf":
+        return pb.descriptor_set(schema_name)
+    return json.dumps({"title": schema_name, "type": "object"}, sort_keys=True).encode()
+
+
+def every_channel() -> list[tuple[str, str, str, bytes, str]]:
+    """(topic, schema name, schema encoding, schema data, message encoding) of every
+    channel a recorder may open: the fixed topics and one per DBC frame."""
+    out = [(topic, name, schema_encoding(enc), topic_schema(topic), enc)
+           for topic, (name, enc) in CHANNELS.items()]
+    dbc = _dbc()
+    for msg in dbc.messages if dbc is not None else ():
+        out.append((T_CAN_PREFIX + msg.name, CAN_SCHEMA_PREFIX + msg.name, "jsonschema",
+                    _can_json_schema(msg).encode(), "json"))
+    return out
+
+
 def _to_json(values: Any) -> str:
     return _JSON_ENCODER.encode(values)
 
@@ -163,11 +183,7 @@ class Recorder:
         if cid is not None:
             return cid
         schema_name, encoding = CHANNELS[topic]
-        if encoding == "protobuf":
-            return self._channel(topic, schema_name, encoding,
-                                 lambda: pb.descriptor_set(schema_name))
-        return self._channel(topic, schema_name, encoding, lambda: json.dumps(
-            {"title": schema_name, "type": "object"}, sort_keys=True).encode())
+        return self._channel(topic, schema_name, encoding, lambda: topic_schema(topic))
 
     def _defer(self, t_us: int, encode: Callable[..., None], args: tuple) -> None:
         """Hold the raw values; ``encode(out, t_ns, *args)`` appends the encoded messages
