@@ -11,7 +11,7 @@ import json
 import struct
 from typing import Any, Callable
 
-from hil.board_line import MISTAKES, BoardLine
+from hil.board_line import MISTAKES, BoardLine, set_master_baud
 from hil.can_bus import CanBus
 from hil.link import Connection, DirectConnection, LinkViolation
 from hil.run_result import RunResult
@@ -250,6 +250,8 @@ class LinkServer:
                     reply = self.line.answer(payload, end_us, result)
                 else:
                     self.line.turn(payload, end_us, result)
+            elif op == sim_link.OP_BAUD:
+                set_master_baud(self, payload, result)
             elif op == sim_link.OP_HELLO:
                 reply = self._hello_reply(payload, result)
             else:

@@ -30,6 +30,7 @@ class RunResult:
     body: dict[str, float] = field(default_factory=lambda: {"dx_m": 0.0, "dy_m": 0.0,
                                                             "dyaw_deg": 0.0})
     world: dict[str, Any] = field(default_factory=dict)   # a self-stepping world's outcome
+    no_servo_answered: str | None = None   # why, when the firmware wrote and none answered
 
     @property
     def unhandled_exceptions(self) -> int:

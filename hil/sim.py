@@ -23,6 +23,7 @@ from __future__ import annotations
 import time
 from typing import Any, Callable
 
+from hil.board_line import why_no_servo_answered
 from hil.served_firmware import ServedFirmware
 from hil.link import IN_PROCESS, DirectConnection, FirmwareProcess
 from hil.link_server import LinkServer, SwitchSampler, firmware_settings
@@ -100,6 +101,7 @@ class FirmwareDriver:
             result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
         result.serial_digest = core.serial_digest
         _firmware_counters(result)
+        result.no_servo_answered = why_no_servo_answered(core.bus, result.faults)
         if self._pose0 is not None:
             result.body = body_displacement(self._pose0, core.world.body_pose())
 

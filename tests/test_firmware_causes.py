@@ -40,3 +40,70 @@ def test_a_binary_file_named_py_is_refused_as_not_a_source(tmp_path, capsys):
     assert code == 2
     assert err.strip() == (f"hexhil: --firmware {main}: not a MicroPython source file "
                            "(it holds binary data, not UTF-8 text)"), err
+
+
+PING = '''
+import time
+from machine import UART, Pin
+uart = UART(2, baudrate=1000000, timeout=5, timeout_char=1)
+direction = Pin("A1", Pin.OUT, value=0)
+
+def ping(i, raise_pin=True):
+    b = bytes((i, 2, 1))
+    direction.value(1 if raise_pin else 0)
+    uart.write(b"\\xff\\xff" + b + bytes(((~sum(b)) & 0xFF,)))
+    uart.flush()
+    direction.value(0)
+    return uart.read(6)
+
+while True:
+    for i in IDS:
+        ping(i, RAISE)
+    time.sleep_ms(20)
+'''
+
+
+@pytest.mark.parametrize("ids,raise_pin,cause", [
+    ((1, 2), False, "no servo answered: 4 writes went out while the direction pin (A1) "
+                    "was low (tx_while_receiving)"),
+    ((30, 31), True, "no servo answered: the packets went to IDs 30, 31, and no servo on "
+                     "the line has them (IDs 1-18)"),
+])
+def test_a_run_where_no_servo_answered_says_why(tmp_path, capsys, ids, raise_pin, cause):
+    main = tmp_path / "main.py"
+    main.write_text(f"IDS = {ids!r}\nRAISE = {raise_pin}\n" + PING)
+    code, out, _ = run_cli(capsys, "--firmware", str(main), "--duration", "0.05", "--json")
+    assert code == 0
+    assert cause in out.splitlines(), out
+
+
+def test_a_run_where_servos_answered_has_no_such_line(tmp_path, capsys):
+    main = tmp_path / "main.py"
+    main.write_text("IDS = (1,)\nRAISE = True\n" + PING)
+    code, out, _ = run_cli(capsys, "--firmware", str(main), "--duration", "0.05", "--json")
+    assert code == 0 and "no servo answered" not in out
+    assert '"no_servo_answered": null' in out
+
+
+def _c_tripod_at(tmp_path, baud: int) -> str:
+    from host_tools import c_sdk
+
+    src = (ROOT / "examples" / "c_tripod" / "main.c").read_text()
+    assert "huart2.Init.BaudRate = 1000000;" in src
+    main = tmp_path / f"tripod_{baud}.c"
+    main.write_text(src.replace("huart2.Init.BaudRate = 1000000;",
+                                f"huart2.Init.BaudRate = {baud};"))
+    return str(c_sdk.build([str(main)], tmp_path / f"tripod_{baud}"))
+
+
+def test_a_c_firmware_at_the_wrong_baud_hears_no_servo_and_the_run_says_so(tmp_path, capsys):
+    """On the robot a 57600 baud USART2 reaches no AX-12 at 1 Mbps: no replies, no walk."""
+    code, out, _ = run_cli(capsys, "--firmware", _c_tripod_at(tmp_path, 57600),
+                           "--duration", "1", "--json")
+    assert code == 0
+    assert ("no servo answered: the master's UART ran at 57600 baud, the servos at "
+            "1000000 baud") in out.splitlines(), out
+    assert '"wrong_baud": 1' in out
+    right, out_right, _ = run_cli(capsys, "--firmware", _c_tripod_at(tmp_path, 1000000),
+                                  "--duration", "1", "--json")
+    assert right == 0 and "no servo answered" not in out_right

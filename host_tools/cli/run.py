@@ -36,6 +36,8 @@ def _run(args: argparse.Namespace) -> int:
           + (f", stopped: {s['stop_reason']}" if s["stop_reason"] else ""))
     if s["faults"]:
         print("faults: " + ", ".join(f"{k} {v}" for k, v in s["faults"].items()))
+    if s["no_servo_answered"]:
+        print(s["no_servo_answered"])
     print(f"body: dx {s['body']['dx_m']:+.3f} m, dy {s['body']['dy_m']:+.3f} m, "
           f"dyaw {s['body']['dyaw_deg']:+.1f} deg; serial sha256 {s['serial_digest'][:16]}...")
     if "navigator" in s:
