@@ -36,6 +36,7 @@ from typing import Any, BinaryIO, Callable, Iterable, Mapping, Sequence
 
 from host_tools.trace import protobuf as pb
 from host_tools.trace import scene as scene_msgs
+from host_tools.trace.schemas import can_json_schema, dbc, topic_schema
 from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, CHANNELS, METADATA_NAME, T_BODY,
                                      T_CAN_PREFIX, T_CAN_RAW, T_FAULTS, T_JOINTS, T_LINK,
                                      T_SCENE, T_SCENE_FORCES, T_SCENE_FRAMES, T_SERIAL,
@@ -55,48 +56,6 @@ def software_version() -> str:
         return _pkg_metadata.version("hexhil")
     except _pkg_metadata.PackageNotFoundError:
         return "unknown"
-
-
-@functools.cache
-def _dbc():
-    """The project's DBC through cantools (loaded once a process: ~13 ms, as much as
-    recording 10 s of a run), or None while protocol/hexhil.dbc is absent."""
-    path = Path(dynamixel.__file__).with_name("hexhil.dbc")
-    if not path.exists():
-        return None
-    import cantools
-
-    return cantools.database.load_file(str(path))
-
-
-@functools.cache
-def _can_json_schema(msg: Any) -> str:
-    """The JSON schema of one DBC frame's decoded signals, units in the descriptions."""
-    props = {s.name: {"type": "number", "description": f"{s.comment or s.name} [{s.unit or '-'}]"}
-             for s in msg.signals}
-    props["direction"] = {"type": "string"}
-    return json.dumps({"title": CAN_SCHEMA_PREFIX + msg.name, "type": "object",
-                       "properties": props}, sort_keys=True)
-
-
-def topic_schema(topic: str) -> bytes:
-    """The schema data of one of the fixed topics (``topics.CHANNELS``)."""
-    schema_name, encoding = CHANNELS[topic]
-    if encoding == "protobuf":
-        return pb.descriptor_set(schema_name)
-    return json.dumps({"title": schema_name, "type": "object"}, sort_keys=True).encode()
-
-
-def every_channel() -> list[tuple[str, str, str, bytes, str]]:
-    """(topic, schema name, schema encoding, schema data, message encoding) of every
-    channel a recorder may open: the fixed topics and one per DBC frame."""
-    out = [(topic, name, schema_encoding(enc), topic_schema(topic), enc)
-           for topic, (name, enc) in CHANNELS.items()]
-    dbc = _dbc()
-    for msg in dbc.messages if dbc is not None else ():
-        out.append((T_CAN_PREFIX + msg.name, CAN_SCHEMA_PREFIX + msg.name, "jsonschema",
-                    _can_json_schema(msg).encode(), "json"))
-    return out
 
 
 def _to_json(values: Any) -> str:
@@ -152,7 +111,7 @@ class Recorder:
         self._schemas: dict[str, int] = {}
         self._parsers = {"tx": dynamixel.Parser(), "rx": dynamixel.Parser()} \
             if decode_serial else None
-        self._dbc = _dbc() if decode_can else None
+        self._dbc = dbc() if decode_can else None
         self._can_kinds: dict[tuple[int, bool], tuple[str, Any, bool]] = {}
         self._links: bytearray | None = None  # this window's exchanges, encoded
         self._switches = 0
@@ -364,7 +323,7 @@ class Recorder:
         cid = self._channels.get(topic)
         if cid is None:
             cid = self._channel(topic, CAN_SCHEMA_PREFIX + name, "json",
-                                lambda: _can_json_schema(msg).encode())
+                                lambda: can_json_schema(msg).encode())
         signals["direction"] = direction
         out.append((t, cid, _to_json(signals).encode()))
 
