@@ -95,8 +95,7 @@ class BoardLine:
 
     def _idle_to(self, t_us: int) -> None:
         if t_us > self.clock.t_us:
-            self.bus.idle_until(t_us)
-            self.server.on_wake(self.clock.t_us)
+            self.server.idle_to(t_us)
             self.server.on_slept()
 
     def _set_direction(self, tx_on: bool, result: RunResult) -> None:

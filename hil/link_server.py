@@ -146,15 +146,28 @@ class LinkServer:
                 bytes(msg.data).ljust(8, b"\0")
         return (sim_link.FLAG_MORE if self._held else 0), bytes(body)
 
+    def idle_to(self, wake_us: int) -> None:
+        """The line idles to ``wake_us``, stopping at each host node's tick on the way
+        (docs/api.md ``HostNode``); then ``on_wake`` at the wake."""
+        clock, bus, next_tick = self.clock, self.bus, self.sim.next_tick_us
+        while True:
+            due = next_tick()
+            if due is None or due >= wake_us:
+                break
+            if due > clock.t_us:
+                bus.idle_until(due)
+            self.on_wake(clock.t_us)
+        if wake_us > clock.t_us:
+            bus.idle_until(wake_us)
+        self.on_wake(clock.t_us)
+
     def _sleep_reply(self, wake_us: int, end_us: int, result: RunResult) -> tuple[bytes, bool]:
         flags = 0
         ended = wake_us >= end_us
         if ended:
             wake_us = end_us
             flags |= sim_link.FLAG_END
-        if wake_us > self.clock.t_us:
-            self.bus.idle_until(wake_us)
-        self.on_wake(self.clock.t_us)
+        self.idle_to(wake_us)
         bits = self.switches.sample(self.clock.t_us, result)
         body = b"\0"
         if not ended:

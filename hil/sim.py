@@ -42,6 +42,11 @@ DETECTED_COUNTERS = (ls.TIMEOUTS, ls.CORRUPT_REPLIES, ls.ERROR_STATUSES, ls.ECHO
                      ls.OVERRUNS)
 
 
+def _next_on_grid(t_us: int) -> int:
+    """The first ground-truth instant after ``t_us`` (multiples of ``BODY_SAMPLE_US``)."""
+    return (t_us // BODY_SAMPLE_US + 1) * BODY_SAMPLE_US
+
+
 def _firmware_counters(result: RunResult) -> None:
     """The run's cycle, overrun and stop figures and detected faults from the firmware's
     last stats event (``result.firmware``)."""
@@ -70,6 +75,30 @@ class FirmwareDriver:
         self._next_body_us = 0
         self._next_servo_us = 0
 
+    def next_tick_us(self) -> int | None:
+        """The next host node tick or ground-truth sample: a sleep stops there, so both
+        come on their grids (a node at its period, the samples every 100 ms)."""
+        due = self.core.next_tick_us()
+        if self.core.recorder is not None:
+            truth = (min(self._next_body_us, self._next_servo_us) if self.core.world is not None
+                     else self._next_servo_us)
+            due = truth if due is None else min(due, truth)
+        return due
+
+    def _wake(self, t_us: int) -> None:
+        """The line idled to ``t_us``: host nodes due tick, then the ground truth due is
+        taken (body pose, joints, scene and servo states, at 10 Hz on the 100 ms grid)."""
+        core = self.core
+        core.tick_nodes(t_us)
+        if core.recorder is None:
+            return
+        if core.world is not None and t_us >= self._next_body_us:
+            self._next_body_us = _next_on_grid(t_us)
+            core.truth.world_sample(t_us)
+        if t_us >= self._next_servo_us:
+            self._next_servo_us = _next_on_grid(t_us)
+            core.truth.servo_sample(t_us)
+
     def _levels(self, t_us: int) -> int:
         if self.core.world is not None:
             return self.core.switch_bits()
@@ -82,7 +111,7 @@ class FirmwareDriver:
             firmware: ServedFirmware | None = None) -> None:
         core = self.core
         server = LinkServer(self, firmware_settings(core.scenario, self._tactile),
-                            SwitchSampler(self._levels, core.recorder), core.tick_nodes,
+                            SwitchSampler(self._levels, core.recorder), self._wake,
                             self._ground_truth)
         if in_process is not None:
             in_process(DirectConnection(
@@ -106,19 +135,12 @@ class FirmwareDriver:
             result.body = body_displacement(self._pose0, core.world.body_pose())
 
     def _ground_truth(self) -> None:
-        """Body pose, joints, scene and servo states to the recorder at 10 Hz of virtual time."""
+        """After a sleep's reply: the wall-clock pacing and the recorder's window."""
         core = self.core
         t = core.clock.t_us
         core.pacing.pace(t)
-        if core.recorder is None:
-            return
-        core.recorder.advance(t)
-        if core.world is not None and t >= self._next_body_us:
-            self._next_body_us = t + BODY_SAMPLE_US
-            core.truth.world_sample(t)
-        if t >= self._next_servo_us:
-            self._next_servo_us = t + BODY_SAMPLE_US
-            core.truth.servo_sample(t)
+        if core.recorder is not None:
+            core.recorder.advance(t)
 
 
 class SteppedDriver:
