@@ -111,7 +111,11 @@ class LinkServer:
             if rec is not None:
                 rec.telemetry(t, ev)
         elif kind == sim_link.EVENT_FAULT:   # a mistake the client's board saw: a run fault
-            self.run_fault(str(json.loads(text).get(ls.NAME, "firmware_fault")), text, result)
+            fault = json.loads(text)
+            if not isinstance(fault, dict):
+                raise ValueError("a fault event is not a JSON object")
+            self.run_fault(str(fault.get(ls.NAME, "firmware_fault")),
+                           str(fault.get(ls.DETAIL, "")), result)
         elif rec is not None:
             rec.telemetry(t, {"event": kind, "text": text})
 

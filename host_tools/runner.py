@@ -121,8 +121,8 @@ class Run:
 
     def can_endpoint(self) -> Endpoint:
         """A host node's port on the run's CAN bus: it reads the frames the firmware sends
-        and sends frames the firmware receives."""
-        return self._firmware_sim().can.endpoint("rx")
+        (not the host's own, nor another node's) and sends frames the firmware receives."""
+        return self._firmware_sim().can.endpoint("rx", hears="tx")
 
     @property
     def can(self) -> Any:

@@ -107,3 +107,49 @@ def test_a_c_firmware_at_the_wrong_baud_hears_no_servo_and_the_run_says_so(tmp_p
     right, out_right, _ = run_cli(capsys, "--firmware", _c_tripod_at(tmp_path, 1000000),
                                   "--duration", "1", "--json")
     assert right == 0 and "no servo answered" not in out_right
+
+
+def _fault_details(trace) -> list[tuple[str, str]]:
+    from host_tools.trace.reader import Trace
+
+    with Trace(trace) as t:
+        return [(v["name"], v["message"]) for _, v in t.decoded(["/faults"])]
+
+
+def test_faults_are_plain_text_from_the_board_and_the_c_sdk(tmp_path):
+    """/faults holds the fault's detail as text, whichever board saw the mistake."""
+    from host_tools.run import run
+
+    main = tmp_path / "main.py"
+    main.write_text("IDS = (1,)\nRAISE = False\n" + PING)
+    run(SCENARIO, duration_s=0.05, out=str(tmp_path / "board.mcap"), firmware=str(main))
+    board = [d for n, d in _fault_details(tmp_path / "board.mcap") if n == "tx_while_receiving"]
+    src = (ROOT / "tests" / "c_firmware" / "no_transmitter.c")
+    from host_tools import c_sdk
+
+    exe = c_sdk.build([str(src)], tmp_path / "no_tx")
+    run(SCENARIO, duration_s=0.05, out=str(tmp_path / "c.mcap"), firmware=str(exe))
+    c = [d for n, d in _fault_details(tmp_path / "c.mcap") if n == "tx_while_receiving"]
+    assert board and c
+    assert board[0] == c[0] == ("6 bytes written while the direction pin (A1) was low: they "
+                                "did not reach the line")
+
+
+def test_can_endpoint_frames_are_the_firmwares_only():
+    import host_tools as hx
+
+    scenario = hx.load_scenario(SCENARIO)
+    run = hx.Run(scenario, runtime=hx.Runtime.CPYTHON_INPROCESS, duration_s=0.3)
+    port = run.can_endpoint()
+    other = run.can_endpoint()
+
+    class Talker:
+        period_us = 100_000
+
+        def tick(self, t_us):
+            other.send(0x7F0, b"\x01")
+
+    run.add_node(Talker())
+    run.run()
+    ids = {m.arbitration_id for m in port.frames()}
+    assert ids and 0x7F0 not in ids
