@@ -79,6 +79,7 @@ class LinkServer:
         self._counting = False   # bus time counts from the first sleep on (boot excluded)
         self._held: list = []    # frames taken from the inbox that the last reply had no room for
         self.line: BoardLine | None = None   # the virtual board's UART, at its first line request
+        self.console: Callable[[], None] | None = None  # takes what the firmware printed
 
     def _event(self, payload: bytes, result: RunResult) -> None:
         if not payload:
@@ -152,7 +153,10 @@ class LinkServer:
 
     def idle_to(self, wake_us: int) -> None:
         """The line idles to ``wake_us``, stopping at each host node's tick on the way
-        (docs/api.md ``HostNode``); then ``on_wake`` at the wake."""
+        (docs/api.md ``HostNode``); then ``on_wake`` at the wake. What the firmware printed
+        before it slept is taken first, stamped now."""
+        if self.console is not None:
+            self.console()
         clock, bus, next_tick = self.clock, self.bus, self.sim.next_tick_us
         while True:
             due = next_tick()

@@ -101,11 +101,7 @@ class BoardFirmware:
     def serve(self, server: Any, end_us: int, result: RunResult) -> None:
         """The console's ``event KIND TEXT`` lines (hal/base.py ``Board.event``) are its
         events."""
-        def take_console(printed: str) -> None:
-            for kind, text in console_events(printed):
-                server.take_event(kind, text, result)
-
-        serve_process(self, self.main.name, server, end_us, result, take_console)
+        serve_process(self, self.main.name, server, end_us, result, _console_to(server, result))
 
 
 @dataclass(frozen=True)
@@ -122,7 +118,16 @@ class ExecutableFirmware:
         return {}
 
     def serve(self, server: Any, end_us: int, result: RunResult) -> None:
-        serve_process(self, self.path.name, server, end_us, result)
+        """What it prints on stdout goes to ``/telemetry`` as log lines (the C SDK makes
+        stdout line-buffered, so a line arrives when printed)."""
+        serve_process(self, self.path.name, server, end_us, result, _console_to(server, result))
+
+
+def _console_to(server: Any, result: RunResult) -> Callable[[str], None]:
+    def take_console(printed: str) -> None:
+        for kind, text in console_events(printed):
+            server.take_event(kind, text, result)
+    return take_console
 
 
 def _how(code: int) -> str:
@@ -139,23 +144,25 @@ def serve_process(firmware: ServedFirmware, name: str, server: Any, end_us: int,
                   ) -> None:
     """Start ``firmware``, serve its link to ``end_us`` and judge how it ended, in one
     line (``UserError``). Its stdout goes to a file: a firmware that prints a lot never
-    blocks on a full pipe; ``take_console`` reads what it printed."""
+    blocks on a full pipe; ``take_console`` reads what it printed, whole lines as the line
+    idles (so each is stamped with the virtual time it was printed at), the rest at the
+    end."""
     hang_wall_s = HANG_WALL_S
     with tempfile.TemporaryFile() as console:
         fw = FirmwareProcess(firmware.runtime, command=firmware.command(),
                              extra_env=firmware.env(), console=console)
         fw.conn.sock.settimeout(hang_wall_s)
         hung = False
+        reader = _ConsoleReader(console, take_console)
+        server.console = reader.lines if take_console is not None else None
         try:
             server.serve(fw.conn, end_us, result)
         except TimeoutError:
             hung = True
         finally:
+            server.console = None
             code, _, err = fw.finish(timeout_s=0.0 if hung else 10.0)
-            console.seek(0)
-            printed = console.read().decode(errors="replace")
-            if take_console is not None:
-                take_console(printed)
+            printed = reader.rest()
     result.exit_code = code
     result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
     t_s = server.clock.t_us * 1e-6
@@ -170,6 +177,35 @@ def serve_process(firmware: ServedFirmware, name: str, server: Any, end_us: int,
     if server.clock.t_us < end_us:
         raise UserError(f"the firmware {name} exited at t={t_s:.6f} s, before the run's end "
                         f"({end_us * 1e-6:g} s)")
+
+
+class _ConsoleReader:
+    """A firmware's console file, read on as it grows (``os.pread``: the file offset the
+    firmware writes at is shared, and stays untouched): whole lines to ``take``."""
+
+    def __init__(self, console: Any, take: Callable[[str], None] | None) -> None:
+        self._fd, self._take = console.fileno(), take
+        self._done = 0            # bytes handed on
+        self._text = b""          # everything read so far
+
+    def _read(self) -> None:
+        while chunk := os.pread(self._fd, 65536, len(self._text)):
+            self._text += chunk
+
+    def lines(self) -> None:
+        self._read()
+        cut = self._text.rfind(b"\n") + 1
+        if cut > self._done and self._take is not None:
+            self._take(self._text[self._done:cut].decode(errors="replace"))
+            self._done = cut
+
+    def rest(self) -> str:
+        """Everything printed (for the verdict); what was not handed on yet, handed on."""
+        self._read()
+        if self._done < len(self._text) and self._take is not None:
+            self._take(self._text[self._done:].decode(errors="replace"))
+            self._done = len(self._text)
+        return self._text.decode(errors="replace")
 
 
 def console_events(text: str) -> list[tuple[int, str]]:

@@ -153,3 +153,62 @@ def test_can_endpoint_frames_are_the_firmwares_only():
     run.run()
     ids = {m.arbitration_id for m in port.frames()}
     assert ids and 0x7F0 not in ids
+
+
+SAYS_AND_CRASHES = r'''
+#include "stm32f4xx_hal.h"
+#include <signal.h>
+#include <stdio.h>
+
+int main(void)
+{
+    HAL_Init();
+    printf("booted\n");
+    HAL_Delay(300);
+    printf("about to crash\n");
+    HAL_Delay(100);
+    raise(SIGSEGV);
+    return 0;
+}
+'''
+
+
+def _console_lines(trace) -> list[tuple[float, str]]:
+    from host_tools.trace.reader import Trace
+
+    with Trace(trace) as t:
+        return [(m.log_time_ns * 1e-9, v["text"]) for m, v in t.decoded(["/telemetry"])
+                if v.get("event") == 0]
+
+
+def test_a_c_firmwares_console_is_in_the_trace_when_printed_and_a_crash_keeps_body(tmp_path):
+    from host_tools import c_sdk
+    from host_tools.run import run
+    from host_tools.trace.reader import Trace
+    from protocol.errors import UserError
+
+    src = tmp_path / "says.c"
+    src.write_text(SAYS_AND_CRASHES)
+    exe = c_sdk.build([str(src)], tmp_path / "says")
+    trace = tmp_path / "c.mcap"
+    try:
+        run(SCENARIO, duration_s=2.0, out=str(trace), firmware=str(exe))
+    except UserError:
+        pass                        # a crash: the trace is kept either way
+    lines = _console_lines(trace)
+    assert [text for _, text in lines] == ["booted", "about to crash"]
+    assert lines[0][0] < 0.05 and 0.29 < lines[1][0] < 0.35, lines   # when printed
+    with Trace(trace) as t:
+        assert "/body" in t.topics()
+
+
+def test_a_board_firmwares_prints_are_stamped_when_printed(tmp_path):
+    from host_tools.run import run
+
+    main = tmp_path / "main.py"
+    main.write_text("import time\nprint('one')\ntime.sleep_ms(300)\nprint('two')\n"
+                    "while True:\n    time.sleep_ms(20)\n")
+    run(SCENARIO, duration_s=1.0, out=str(tmp_path / "b.mcap"), firmware=str(main))
+    lines = _console_lines(tmp_path / "b.mcap")
+    assert [text for _, text in lines] == ["one", "two"]
+    assert lines[0][0] < 0.05 and 0.29 < lines[1][0] < 0.35, lines

@@ -20,6 +20,7 @@ static uint64_t slept_us;         /* the board's time of its last sleep */
 void hx_board_start(void)
 {
     if (!hx_link_is_open()) {
+        setvbuf(stdout, NULL, _IOLBF, 0);   /* a printed line reaches the host's trace then */
         hx_link_open("c-stm32cube");
         hx_now_us = hx_link_t_us();
     }
