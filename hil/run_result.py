@@ -31,6 +31,7 @@ class RunResult:
                                                             "dyaw_deg": 0.0})
     world: dict[str, Any] = field(default_factory=dict)   # a self-stepping world's outcome
     no_servo_answered: str | None = None   # why, when the firmware wrote and none answered
+    interrupted: bool = False   # Ctrl-C (or SIGTERM) ended it early
 
     @property
     def unhandled_exceptions(self) -> int:
@@ -40,6 +41,16 @@ class RunResult:
     def count_can(self, arb_id: int) -> None:
         key = "0x%03X" % arb_id
         self.can_frames[key] = self.can_frames.get(key, 0) + 1
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """Ctrl-C (or SIGTERM) during a run: ``result`` is the run up to then (its trace is
+    closed and kept); ``summary``, set by host_tools/run.py, its ``--json`` object."""
+
+    def __init__(self, result: RunResult) -> None:
+        super().__init__()
+        self.result = result
+        self.summary: dict[str, Any] = {}
 
 
 def body_displacement(p0: Any, p1: Any) -> dict[str, float]:

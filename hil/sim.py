@@ -28,7 +28,7 @@ from hil.served_firmware import ServedFirmware
 from hil.link import IN_PROCESS, DirectConnection, FirmwareProcess
 from hil.link_server import LinkServer, SwitchSampler, firmware_settings
 from hil.run_core import RunCore, WallClockPacing
-from hil.run_result import RunResult, body_displacement
+from hil.run_result import RunInterrupted, RunResult, body_displacement
 from hil.scenario import Scenario, check_duration
 from hil.seams import FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
 from protocol import link_schema as ls
@@ -224,6 +224,9 @@ class Simulator:
                 self.driver.run(end_us, result)
             else:
                 self.driver.run(python, command, in_process, end_us, result, firmware)
+        except KeyboardInterrupt:
+            result.interrupted = True
+            result.serial_digest = self.core.serial_digest
         finally:
             self.core.shutdown()
         result.wall_time_s = time.perf_counter() - wall0
@@ -232,4 +235,6 @@ class Simulator:
             result.faults.update(self.faults.counts)
         if self.can.dropped:
             result.faults["can_drop"] = self.can.dropped
+        if result.interrupted:
+            raise RunInterrupted(result)
         return result

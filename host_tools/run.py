@@ -6,7 +6,7 @@ import logging
 from typing import Any, Callable
 
 from hil import scenario as scenario_mod
-from hil.run_result import RunResult
+from hil.run_result import RunInterrupted, RunResult
 from hil.scenario import Scenario, WorldKind
 from host_tools.runner import Run
 from protocol import link_schema as ls
@@ -35,6 +35,7 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
         "serial_digest": result.serial_digest,
         "faults": dict(sorted(result.faults.items())),
         "no_servo_answered": result.no_servo_answered,
+        "interrupted": result.interrupted,
         "stopped_safely": stopped and result.stop_reason is not None,
         "stop_reason": result.stop_reason,
         "body": {k: round(v, 4) for k, v in result.body.items()},
@@ -126,7 +127,13 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
                 log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", r.live.port)
             if attach_navigator is not None:
                 nav = attach_navigator(r)
-            result = r.run()
+            try:
+                result = r.run()
+            except RunInterrupted as exc:
+                beams = sc.world.kind is WorldKind.BEAMS
+                exc.summary = (_beams_summary if beams else summary)(sc, seed, exc.result, out)
+                exc.summary["interrupted"] = True
+                raise
     finally:
         if server is not None:
             server.close()

@@ -212,3 +212,31 @@ def test_a_board_firmwares_prints_are_stamped_when_printed(tmp_path):
     lines = _console_lines(tmp_path / "b.mcap")
     assert [text for _, text in lines] == ["one", "two"]
     assert lines[0][0] < 0.05 and 0.29 < lines[1][0] < 0.35, lines
+
+
+def test_ctrl_c_keeps_the_trace_says_so_and_prints_the_summary(tmp_path):
+    import json
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from host_tools.trace.reader import Trace
+
+    trace = tmp_path / "long.mcap"
+    proc = subprocess.Popen([str(Path(sys.executable).with_name("hexhil")), "run", SCENARIO,
+                             "--duration", "600", "--python", "cpython-inprocess", "--out",
+                             str(trace), "--json"], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while (not trace.exists() or trace.stat().st_size < 200_000) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert len(err.strip().splitlines()) == 1 and "interrupted at t=" in err, err
+    assert f"the trace {trace} is kept" in err
+    summary = json.loads(out.strip().splitlines()[-1])
+    assert summary["interrupted"] is True and summary["sim_time_s"] > 0
+    with Trace(trace) as t:
+        assert "/body" in t.topics()

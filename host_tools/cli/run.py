@@ -3,9 +3,11 @@ robot, in lockstep."""
 from __future__ import annotations
 
 import argparse
+import sys
 
 from hil.can_server import DEFAULT_PORT
 from hil.link import IN_PROCESS, RUNTIMES
+from hil.run_result import RunInterrupted
 from host_tools import cli
 
 LIVE_PORT = 8765  # Foxglove's default WebSocket port (host_tools/trace/live.py)
@@ -14,10 +16,18 @@ LIVE_PORT = 8765  # Foxglove's default WebSocket port (host_tools/trace/live.py)
 def _run(args: argparse.Namespace) -> int:
     from host_tools import run as run_mod
 
-    s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
-                            False if args.no_tactile else None, args.out,
-                            args.can_server, args.can_wait, args.live, args.realtime,
-                            args.navigator, args.model, args.firmware)
+    try:
+        s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
+                                False if args.no_tactile else None, args.out,
+                                args.can_server, args.can_wait, args.live, args.realtime,
+                                args.navigator, args.model, args.firmware)
+    except RunInterrupted as exc:
+        kept = (f"the trace {args.out} is kept and replays" if args.out
+                else "nothing was recorded (no --out)")
+        sys.stderr.write(f"hexhil: interrupted at t={exc.result.sim_time_s:.3f} s: {kept}\n")
+        if args.json and exc.summary:
+            cli.emit_json(exc.summary)
+        return 130
     if s.get("world") == "beams":
         what = "traversed" if s["traversed"] else ("flipped" if s["flipped"] else "stuck")
         print(f"{s['scenario']}: {s['strategy']}: {what} (mode {s['mode']}), energy "
