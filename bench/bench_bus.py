@@ -9,11 +9,11 @@ import time
 from pathlib import Path
 
 from bench import Row
-from hil.bus import Bus
+from hil.servobus.line import Bus
 from hil.clock import VirtualClock
-from hil.servo import Servo
-from protocol import ax12
-from protocol import dynamixel as dxl
+from hil.servobus.ax12_servo import Servo
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 ROOT = Path(__file__).resolve().parent.parent
 

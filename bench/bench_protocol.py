@@ -16,7 +16,7 @@ from pathlib import Path
 
 from bench import Row
 from protocol import can_frames
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 from tests.mpy import ROOT, run_micropython
 
 CYCLES = 300
@@ -24,7 +24,7 @@ CAN_ROUNDS = 20000
 
 MPY_SCRIPT = """
 import time
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 from protocol import can_frames as cf
 
 with open(%(path)r, "rb") as f:

@@ -18,16 +18,16 @@ from typing import Any, Callable
 from bench import Row
 from bench.bench_world import ROOT, world_alone
 from hil import scenario as scenario_mod
-from hil.bus import Bus
+from hil.servobus.line import Bus
 from hil.clock import VirtualClock
-from hil.link import IN_PROCESS, Connection, DirectConnection
-from hil.rig import make_world
-from hil.servo import Servo
-from hil.sim import Simulator
+from hil.link.firmware_process import IN_PROCESS, Connection, DirectConnection
+from hil.run.rig import make_world
+from hil.servobus.ax12_servo import Servo
+from hil.run.lockstep import Simulator
 from host_tools import Run
 from host_tools.in_process import run_firmware
-from protocol import ax12
-from protocol import dynamixel as dxl
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 SCENARIO = ROOT / "scenarios" / "obstacles-low-small.toml"   # the command, seed 3
 RUNS = 5

@@ -113,7 +113,8 @@ def _overhead(tmp: Path) -> list[Row]:
 def _rates(tmp: Path) -> list[Row]:
     from host_tools.trace.recorder import Recorder
     from host_tools.trace.reader import Trace
-    from protocol import can_frames, dynamixel
+    from protocol import can_frames
+    from protocol.dynamixel import v1 as dynamixel
 
     path = tmp / "big.mcap"
     pkt = dynamixel.read(1, 36, 2)

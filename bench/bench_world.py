@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 
 from bench import Row
-from hil.link import IN_PROCESS
+from hil.link.firmware_process import IN_PROCESS
 from hil.world.fidelity import OBSTACLE_BODY
 from hil.world.hexapod import HexapodWorld
 from hil import scenario as scenario_mod

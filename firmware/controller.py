@@ -14,7 +14,8 @@ commands), ``telemetry`` (frames, events, the run summary).
 """
 import math
 
-from firmware import servo_bus, servo_bus2
+from firmware.servo_bus import MASTERS
+from firmware.servo_bus.v1 import EEPROM_SETTLE_US
 from firmware import tactile
 from firmware import trajectory as traj
 from firmware.commands import GaitCommands
@@ -43,7 +44,7 @@ class Controller:
             raise ValueError("the hexapod needs 18 servos, config says %d" % n)
         first = cfg["first_id"]
         self.ids = [first + k for k in range(18)]
-        master = servo_bus2.Master2 if cfg[ls.PROTOCOL] == 2 else servo_bus.Master
+        master = MASTERS[cfg[ls.PROTOCOL]]
         self.master = master(board.uart, self.ids, cfg["baud"], retries=cfg["read_retries"])
         self.gait = Gait(cfg["gait"], cfg["period_s"])
         self.period_us = int(1000000 / cfg["cycle_hz"])
@@ -95,7 +96,7 @@ class Controller:
             lo, hi = self.goals.limits[j]
             if not self.master.configure_eeprom(self.ids[j], lo, hi, board):
                 return self._not_configured(self.ids[j])
-        board.sleep_until(board.ticks_add(board.ticks_us(), servo_bus.EEPROM_SETTLE_US))
+        board.sleep_until(board.ticks_add(board.ticks_us(), EEPROM_SETTLE_US))
         for j in range(18):
             if not self.master.configure_ram(self.ids[j], COMPLIANCE_MARGIN, COMPLIANCE_SLOPE,
                                              board):

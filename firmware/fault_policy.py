@@ -5,9 +5,9 @@ servos whose last read failed first, then a rotating subset. A servo with no val
 for ``servo_lost_s`` (long enough to ride a 2 s unplug), or ``critical_errors`` overload or
 overheat statuses in a row, is a reason to stop in the neutral stance. MicroPython-compatible.
 """
-from firmware import servo_bus
+from firmware.servo_bus.v1 import CRITICAL_BITS
 from protocol import can_frames as cf
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 from protocol.hexapod import JOINTS, LEGS
 
 
@@ -24,11 +24,12 @@ class FaultPolicy:
         self.reason = None         # why the last ``check`` wants a stop (None: no reason)
 
     def read_status(self, master, board):
-        """Poll servos whose last read failed first, then the rotating subset; on an
-        X-series bus one SYNC_READ of all 18 instead."""
-        if master.protocol == 2:
-            self.suspect = master.sync_read_present(board)
-            return
+        """This cycle's status reads, as the master's protocol does them (``read_cycle``:
+        the rotating reads below, or one SYNC_READ of all 18 on an X-series bus)."""
+        master.read_cycle(self, board)
+
+    def read_rotating(self, master, board):
+        """Poll servos whose last read failed first, then the rotating subset."""
         budget = self.reads_per_cycle
         retry = self.suspect
         self.suspect = []
@@ -78,6 +79,6 @@ class FaultPolicy:
                 elif s.critical_run >= self.critical_errors:
                     self.reason = ("servo %d (%s %s) critical error: %s"
                                    % (s.id, LEGS[k // 3], JOINTS[k % 3],
-                                      "+".join(dxl.error_names(s.error_bits & servo_bus.CRITICAL_BITS))))
+                                      "+".join(dxl.error_names(s.error_bits & CRITICAL_BITS))))
                 armed = self.reason is None
         return flags

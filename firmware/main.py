@@ -3,7 +3,7 @@
 Real time on a serial device (``hexhil bus --world`` or a real bus):
 ``micropython firmware/main.py --serial /dev/pts/N [--config JSON]`` (hal/serial.py).
 Simulator: ``micropython firmware/main.py PORT`` (or ``python -m firmware.main PORT``) with
-the repository root on the import path; the port is the host's link (hil/link.py).
+the repository root on the import path; the port is the host's link (hil/link/firmware_process.py).
 On the STM32 board, ``main.py`` runs at reset with the board back end.
 """
 import json

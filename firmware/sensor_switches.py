@@ -1,9 +1,9 @@
-"""The six limit switches read from the sensor node on the servo line (hil/sensor_node.py,
+"""The six limit switches read from the sensor node on the servo line (hil/servobus/switch_node.py,
 an AX-S1-like node, docs/servo-bus.md): the switch levels of a back end whose switches are
 not wired to the controller (hal/serial.py), through a bus master of their own.
 MicroPython-compatible.
 """
-from firmware import servo_bus
+from firmware.servo_bus import v1 as servo_bus
 from protocol import sensor_node
 
 

@@ -7,7 +7,7 @@ every cycle (no allocation in the loop).
 """
 import math
 
-from protocol import ax12
+from protocol.dynamixel import ax12
 from protocol import hexapod
 from protocol.hexapod import JOINT_ZERO
 

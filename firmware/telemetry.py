@@ -8,7 +8,7 @@ EVENT_STATS summary; the JSON keys are protocol/link_schema.py's. MicroPython-co
 import json
 
 from protocol import can_frames as cf
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 from protocol import link_schema as ls
 from protocol import sim_link
 from protocol.hexapod import LEGS

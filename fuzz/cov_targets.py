@@ -21,15 +21,15 @@ from typing import Any, Callable
 
 import cantools
 
-from fuzz import fuzz_bus, fuzz_bus2, fuzz_can, fuzz_trace
+from fuzz import fuzz_bus, fuzz_v2_bus, fuzz_can, fuzz_trace
 from fuzz.hostile import GAP_US, Rng, garbage
 from hil import scenario
-from hil.faults import Faults
+from hil.servobus.faults import Faults
 from host_tools.trace import reader, recover
-from protocol import ax12
+from protocol.dynamixel import ax12
 from protocol import can_frames as cf
-from protocol import dynamixel as dxl
-from protocol import dynamixel2 as dx2
+from protocol.dynamixel import v1 as dxl
+from protocol.dynamixel import v2 as dx2
 from protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -317,7 +317,7 @@ def bus2_one_input(data: bytes) -> None:
     """A fresh bus of 18 XL430s, then the bytes as instructions (byte 0 of each: how many
     of the next bytes are its parameters) or raw; after them every register within its
     range and a PING answered once the line idled."""
-    spec = fuzz_bus2.XL430
+    spec = fuzz_v2_bus.XL430
     bus = spec.fresh_bus()
     i = 0
     while i + 2 < len(data):

@@ -1,8 +1,8 @@
-"""The emulated bus with 18 AX-12s (hil/bus.py, hil/servo.py) under random instruction
+"""The emulated bus with 18 AX-12s (hil/servobus/line.py, hil/servobus/ax12_servo.py) under random instruction
 streams. After each stream: no exception escaped, every register within its documented
-range (protocol/ax12.py FIELDS), the read-only identity registers unchanged, and after
+range (protocol/dynamixel/ax12.py FIELDS), the read-only identity registers unchanged, and after
 the line has idled past the inter-byte timeout a PING to a servo is answered (resync).
-``run_streams`` and ``resync`` serve the Protocol 2.0 bus too (fuzz_bus2.py), through a
+``run_streams`` and ``resync`` serve the Protocol 2.0 bus too (fuzz_v2_bus.py), through a
 ``BusSpec``; cov_targets.py drives both buses through the same specs."""
 from __future__ import annotations
 
@@ -12,11 +12,11 @@ from typing import Any, Callable
 
 from fuzz.hostile import Rng, garbage
 from fuzz.tally import Budget, Tally
-from hil.bus import Bus
+from hil.servobus.line import Bus
 from hil.clock import VirtualClock
-from hil.servo import Servo
-from protocol import ax12
-from protocol import dynamixel as dxl
+from hil.servobus.ax12_servo import Servo
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 SERVOS = 18
 READ_TIMEOUT_US = 3_000        # the longest reply (50-byte READ) after 508 us return delay

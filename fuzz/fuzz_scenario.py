@@ -1,4 +1,4 @@
-"""The TOML scenario loader (hil/scenario.py, and the fault lists hil/faults.py checks):
+"""The TOML scenario loader (hil/scenario.py, and the fault lists hil/servobus/faults.py checks):
 random documents and mutated shipped scenarios give a checked dict or a one-line
 UserError, never another exception."""
 from __future__ import annotations
@@ -12,7 +12,7 @@ from typing import Any
 
 from fuzz.tally import Budget, Tally
 from hil import scenario
-from hil.faults import Faults
+from hil.servobus.faults import Faults
 from protocol.errors import UserError
 
 SHIPPED = sorted((Path(__file__).resolve().parent.parent / "scenarios").glob("*.toml"))

@@ -11,7 +11,7 @@ from fuzz.tally import Budget, Tally
 from host_tools.trace import reader, recover
 from host_tools.trace.recorder import Recorder
 from protocol import can_frames as cf
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 from protocol.errors import UserError
 
 SECONDS = 3  # six 0.5 s chunks

@@ -7,7 +7,7 @@ flipped bits, cut-off packets, runs of FF, a header with a large LEN) followed, 
 line has been idle longer than the AX-12's inter-byte timeout (100 ms), by one valid
 packet: the parser must find that packet again ("resync").
 """
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 
 GAP_US = dxl.INTER_BYTE_TIMEOUT_US + 1
 MASK32 = 0xFFFFFFFF

@@ -1,11 +1,11 @@
 """The run's seams, declared: what a world, a host node and a recorder must offer the run core
-(hil/sim.py). Anything with these methods plugs in; nothing needs to inherit from them."""
+(hil/run/lockstep.py). Anything with these methods plugs in; nothing needs to inherit from them."""
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence, runtime_checkable
 
 if TYPE_CHECKING:
-    from hil.can_bus import CanBus
+    from hil.canbus.bus import CanBus
 
 
 @runtime_checkable

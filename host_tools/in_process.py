@@ -2,7 +2,7 @@
 
 ``firmware/main.py`` runs unchanged on the simulator HAL (``firmware/hal/sim.py``), whose
 link writes to ``Wire`` instead of a socket. A link call hands the written frames to the
-simulator (hil/link.py ``DirectConnection``) and reads its reply back, so a run trades two
+simulator (hil/link/firmware_process.py ``DirectConnection``) and reads its reply back, so a run trades two
 process wake-ups a round trip for one function call. Same frames, same answers: the
 serial digest is micropython's (tests/test_in_process.py). micropython stays the
 reference and the default of ``hexhil run``; this lives on the top floor because it joins
@@ -14,9 +14,9 @@ from typing import Callable
 
 from firmware import main as firmware_main
 from firmware.hal.sim import Board
-from hil.link import IN_PROCESS
+from hil.link.firmware_process import IN_PROCESS
 from hil.run_result import RunResult
-from hil.sim import Simulator
+from hil.run.lockstep import Simulator
 
 
 class Wire:

@@ -3,8 +3,8 @@ scenario's emulated servos, and with ``world`` its robot, paced to the wall cloc
 serial line: a real board behind a USB adapter (``SerialPort``), a client on a pty
 (``Pty``, e.g. the stock dynamixel-sdk) or a TCP socket (``Tcp``).
 
-It is ``Run``'s counterpart (host_tools/runner.py): the same run core (hil/realtime_rig.py
-on hil/run_core.py) and a trace with the same metadata, the scenario's data included, so
+It is ``Run``'s counterpart (host_tools/runner.py): the same run core (hil/run/realtime_rig.py
+on hil/run/core.py) and a trace with the same metadata, the scenario's data included, so
 ``hexhil test --trace`` and ``scenario_of_trace`` read it like a lockstep run's. The trace's
 ``command`` is ``bus`` (nothing spoke the firmware link).
 """
@@ -14,11 +14,12 @@ from dataclasses import dataclass
 from typing import Any, Callable, Sequence, Union
 
 from hil import scenario as scenario_mod
-from hil import serial_server
-from hil.realtime_rig import RealTimeRig
+from hil.servobus import serial_server
+from hil.run.realtime_rig import RealTimeRig
 from hil.scenario import DEFAULT_BAUD
-from hil.sensor_node import DEFAULT_ID
+from hil.servobus.switch_node import DEFAULT_ID
 from host_tools.runner import trace_metadata
+from protocol.dynamixel import models
 from protocol.errors import UserError
 
 EXTERNAL = "external"        # a run's firmware_runtime: the master on the line is not ours
@@ -68,7 +69,8 @@ class RealTimeRun:
 
             try:
                 self.recorder = Recorder(trace, {**trace_metadata(sc, seed, EXTERNAL),
-                                                 "command": "bus"})
+                                                 "command": "bus"},
+                                         protocol=models.protocol(sc.bus.model))
             except OSError as exc:
                 raise UserError(f"cannot write {trace}: {exc.strerror}") from None
         try:

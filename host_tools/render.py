@@ -75,7 +75,7 @@ def _ground_truth(path: str) -> tuple[dict[str, str], list[tuple[float, list[flo
 
 def _world(meta: dict[str, str], path: str) -> Any:
     """The run's world (its obstacles) from the trace's scenario and seed."""
-    from hil.rig import make_world
+    from hil.run.rig import make_world
     from host_tools.runner import scenario_of_trace
 
     return make_world(*scenario_of_trace(meta, path))

@@ -20,9 +20,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
+from hil import scenario as scenario_mod
+from host_tools.dynamixel.decode import DECODERS
 from protocol import sim_link
-from hil.served_firmware import served_firmware
-from hil.link import REQUEST_OPS, FirmwareProcess, split_messages
+from protocol.dynamixel import models
+from hil.link.served_firmware import served_firmware
+from hil.link.firmware_process import REQUEST_OPS, FirmwareProcess, split_messages
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_CAN_RAW, T_LINK
@@ -70,10 +73,13 @@ class Divergence:
     expected: str
     actual: str
     exchange: int
+    # on the servo line: each side's bytes in the diverging exchange as Dynamixel packets,
+    # decoded in the protocol of the trace's servo model ("SYNC_WRITE to 254")
+    packets: dict[str, list[str]] | None = None
 
     def as_dict(self) -> dict[str, Any]:
         return {"t_s": self.t_s, "topic": self.topic, "expected": self.expected,
-                "actual": self.actual, "exchange": self.exchange}
+                "actual": self.actual, "exchange": self.exchange, "packets": self.packets}
 
 
 @dataclass
@@ -95,6 +101,34 @@ class ReplayResult:
 
 def _describe(op: int, payload: bytes) -> str:
     return "%s %s" % (chr(op) if 32 < op < 127 else "0x%02X" % op, payload.hex())
+
+
+def uart_bytes(op: int, payload: bytes) -> bytes | None:
+    """The servo-line bytes a link message carries (protocol/sim_link.py: a transact's, a
+    line request's, a posted write's)."""
+    skip = {sim_link.OP_TRANSACT: 6, sim_link.OP_LINE: 11, sim_link.OP_WRITE: 0}.get(op)
+    return None if skip is None else payload[skip:]
+
+
+def _decoded(div: Divergence, expected: list[tuple[int, bytes]],
+             actual: list[tuple[int, bytes]], protocol: int) -> None:
+    """Name the packets of a divergence on the servo line (``Divergence.packets``)."""
+    if div.topic != "uart":
+        return
+    names = DECODERS[protocol].names
+    div.packets = {side: [n for op, p in msgs if (b := uart_bytes(op, p)) for n in names(b)]
+                   for side, msgs in (("expected", expected), ("actual", actual))}
+
+
+def trace_protocol(trace: Trace) -> int:
+    """The Dynamixel protocol of the trace's servo model (its scenario, in the metadata);
+    Protocol 1.0 for a trace that does not carry its scenario."""
+    data = trace.metadata().get("scenario_data")
+    try:
+        model = scenario_mod.parse(json.loads(data)).bus.model if data else models.DEFAULT
+    except (ValueError, UserError):
+        model = models.DEFAULT
+    return models.protocol(model)
 
 
 def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | None = None
@@ -151,6 +185,7 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
                             f"(known: {', '.join(TOPICS)})")
     with Trace(path) as tr:
         exchanges = load_exchanges(tr, start_s, end_s)
+        protocol = trace_protocol(tr)
     if not exchanges:
         raise UserError(f"{path}: the {T_LINK} topic is empty in the chosen time range")
     start_us = int(round((start_s or 0.0) * 1e6))
@@ -173,6 +208,7 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
             div = _compare(expected, actual, wanted, prev_t_us, i,
                            compare=prev_t_us >= start_us)
             if div is not None:
+                _decoded(div, expected, actual, protocol)
                 result.divergence = div
                 result.identical = False
                 break

@@ -59,8 +59,8 @@ def _joint(name: str, parent: str, xyz: tuple[float, float, float], yaw_rad: flo
     return (f'  <joint name="{name}" type="revolute"><parent link="{parent}"/>'
             f'<child link="{name}"/><origin xyz="{_f(*xyz)}" rpy="0 0 {yaw_rad:.12g}"/>'
             f'<axis xyz="{_f(*axis)}"/><limit lower="{-SERVO_RANGE_RAD:.6g}" '
-            f'upper="{SERVO_RANGE_RAD:.6g}" effort="{act.STALL_TORQUE_NM:.6g}" '
-            f'velocity="{act.NO_LOAD_SPEED_RAD_S:.6g}"/></joint>\n')
+            f'upper="{SERVO_RANGE_RAD:.6g}" effort="{act.AX12.stall_torque_nm:.6g}" '
+            f'velocity="{act.AX12.no_load_speed_rad_s:.6g}"/></joint>\n')
 
 
 def urdf(params: RobotParams | None = None) -> str:

@@ -53,7 +53,7 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
 
 
 def start_can_server(port: int, wait_clients: int) -> Any:
-    from hil.can_server import CanServer
+    from hil.canbus.socketcand import CanServer
 
     try:
         server = CanServer(port=port)
@@ -102,7 +102,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     it predicts the goal ``gait.distance_m`` is reached.
 
     ``firmware``, a MicroPython main file for the virtual board or an executable that
-    speaks the link (hil/served_firmware.py), runs instead of our firmware.
+    speaks the link (hil/link/served_firmware.py), runs instead of our firmware.
     """
     sc = scenario_mod.load_scenario(path)
     seed = sc.scenario.seed if seed is None else seed

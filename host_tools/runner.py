@@ -3,7 +3,7 @@ the GRNN dataset, the bench and the public API (docs/api.md) all run the robot t
 
 A ``Run`` takes a scenario (a ``Scenario``, or a file), picks the firmware runtime, opens
 the trace (with the scenario's own data in its metadata, so a trace can be read back
-without the file), builds the world and the lockstep simulator (hil/sim.py), and takes
+without the file), builds the world and the lockstep simulator (hil/run/lockstep.py), and takes
 host nodes (hil/seams.py ``HostNode``) before ``run()`` returns the typed ``RunResult``.
 A beams scenario (seed 000) runs its own host nodes (host_tools/traversal/closed_loop.py).
 """
@@ -16,13 +16,14 @@ from pathlib import Path
 from typing import Any
 
 from hil import scenario as scenario_mod
-from hil.can_bus import Endpoint
-from hil.rig import make_world
+from hil.canbus.bus import Endpoint
+from hil.run.rig import make_world
 from hil.run_result import RunResult
 from hil.scenario import Runtime, Scenario, WorldKind
 from hil.seams import HostNode, TraceRecorder
-from hil.served_firmware import served_firmware
-from hil.sim import Simulator
+from hil.link.served_firmware import served_firmware
+from hil.run.lockstep import Simulator
+from protocol.dynamixel import models
 from protocol.errors import UserError
 
 NO_RUNTIME = "none"   # a beams run has no firmware
@@ -67,7 +68,7 @@ class Run:
                  tactile: bool | None = None, trace: str | Path | None = None,
                  live_port: int | None = None, can_server: Any = None,
                  realtime: bool = False, firmware: str | Path | None = None) -> None:
-        # a firmware of the user's (hil/served_firmware.py) is checked before anything opens
+        # a firmware of the user's (hil/link/served_firmware.py) is checked before anything opens
         self.firmware = served_firmware(firmware) if firmware is not None else None
         self.scenario = (scenario_mod.load_scenario(scenario)
                          if isinstance(scenario, (str, Path)) else scenario_mod.parse(scenario))
@@ -98,7 +99,8 @@ class Run:
             extra = ({"flush_interval_us": self.live.flush_interval_us}
                      if self.live is not None else {})
             try:
-                self.recorder = Recorder(self.trace or os.devnull, meta, live=self.live, **extra)
+                self.recorder = Recorder(self.trace or os.devnull, meta, live=self.live,
+                                         protocol=models.protocol(sc.bus.model), **extra)
             except BaseException:
                 self.close()
                 raise
@@ -126,7 +128,7 @@ class Run:
 
     @property
     def can(self) -> Any:
-        """The run's CAN bus (hil/can_bus.py)."""
+        """The run's CAN bus (hil/canbus/bus.py)."""
         return self._firmware_sim().can
 
     def add_node(self, node: HostNode) -> None:

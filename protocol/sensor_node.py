@@ -1,5 +1,5 @@
 """The limit-switch sensor node on the servo line (an AX-S1-like Protocol 1.0 device): the
-addresses its master reads and the emulated node serves (hil/sensor_node.py has the whole
+addresses its master reads and the emulated node serves (hil/servobus/switch_node.py has the whole
 table; firmware/sensor_switches.py reads it). MicroPython-compatible.
 """
 DEFAULT_ID = 100           # the AX-S1's factory ID

@@ -1,4 +1,4 @@
-"""Simulator-link wire format, version 1, shared by firmware/hal/sim.py and hil/link.py.
+"""Simulator-link wire format, version 1, shared by firmware/hal/sim.py and hil/link/firmware_process.py.
 
 docs/link.md is the specification (byte tables, limits, the conformance suite); the JSON
 inside the hello and the events is protocol/link_schema.py. Every client message is

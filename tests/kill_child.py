@@ -11,7 +11,7 @@ import os
 import resource
 import sys
 
-from hil import bus
+from hil.servobus import line as bus
 from host_tools import cli
 from host_tools.trace import recorder
 

@@ -99,7 +99,7 @@ def test_a_real_time_run_serves_a_master_on_a_pty_and_records_its_scenario(tmp_p
 
     import serial
 
-    from protocol import dynamixel as dxl
+    from protocol.dynamixel import v1 as dxl
 
     out = tmp_path / "bus.mcap"
     shipped = hx.load_scenario(ROOT / "scenarios" / "flat-tripod.toml")

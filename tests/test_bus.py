@@ -7,15 +7,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hil.bus import Bus, resample
+from hil.servobus.line import Bus
+from hil.servobus.wire import resample
 from hil.clock import VirtualClock
-from hil.faults import Faults, parse_flag
-from hil.servo import Servo
-from hil.servo_health import OVERLOAD_TIME_US
+from hil.servobus.faults import Faults, parse_flag
+from hil.servobus.ax12_servo import Servo
+from hil.servobus.health import OVERLOAD_TIME_US
 from hil import scenario
 from protocol.errors import UserError
-from protocol import ax12
-from protocol import dynamixel as dxl
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 
 def make_bus(n: int = 18, **kw) -> Bus:

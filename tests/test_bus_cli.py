@@ -9,8 +9,8 @@ import pytest
 from hil import scenario
 from host_tools.cli.bus import build_bus, parse_ids, register
 from protocol.errors import UserError
-from protocol import ax12
-from protocol import dynamixel as dxl
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 
 def args(*argv: str) -> argparse.Namespace:

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from hil import served_firmware
-from hil.link import firmware_env
-from hil.link_conformance import SESSIONS, run_suite
+from hil.link import served_firmware
+from hil.link.firmware_process import firmware_env
+from hil.link.client_conformance import SESSIONS, run_suite
 from host_tools import c_sdk
 from host_tools.replay import replay_firmware
 from host_tools.run import run

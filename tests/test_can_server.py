@@ -9,8 +9,8 @@ import time
 import can
 import pytest
 
-from hil.can_server import CanServer, frame_line, parse_send
-from hil.sim import Simulator
+from hil.canbus.socketcand import CanServer, frame_line, parse_send
+from hil.run.lockstep import Simulator
 from hil import scenario
 from host_tools.trace import protobuf as pb
 from host_tools.trace import recorder as rec

@@ -40,11 +40,11 @@ def test_scan_and_echo_line_with_original_edition():
 
 SLOPPY = textwrap.dedent("""
     import sys
-    from hil.bus import Bus
+    from hil.servobus.line import Bus
     from hil.clock import VirtualClock
-    from hil.serial_server import RealTimeServer, install_sigterm, Stop
+    from hil.servobus.serial_server import RealTimeServer, install_sigterm, Stop
     from host_tools.cli import flush_print
-    from hil.servo import Servo
+    from hil.servobus.ax12_servo import Servo
 
     class Sloppy(Servo):  # ignores packets with a bad checksum instead of answering bit 4
         def checksum_error(self, code, t_us):
@@ -99,7 +99,7 @@ def test_lost_replies_are_retried_and_never_blamed_on_the_servo():
 
 
 def test_results_shared_by_servos_are_shown_once_with_their_ids():
-    from host_tools.conformance_report import collapse, format_ids
+    from host_tools.dynamixel.conformance.report import collapse, format_ids
 
     assert format_ids([5, 1, 2, 3, 7, 8, None]) == "1-3,5,7-8" and format_ids([None]) == "-"
     rows = [{"id": i, "check": c, "result": "pass", "detail": d, "cause": ""}
@@ -109,11 +109,11 @@ def test_results_shared_by_servos_are_shown_once_with_their_ids():
 
 
 QUIET_AND_LOCKED = textwrap.dedent("""
-    from hil.bus import Bus
+    from hil.servobus.line import Bus
     from hil.clock import VirtualClock
-    from hil.serial_server import RealTimeServer, install_sigterm, Stop
+    from hil.servobus.serial_server import RealTimeServer, install_sigterm, Stop
     from host_tools.cli import flush_print
-    from hil.servo import Servo
+    from hil.servobus.ax12_servo import Servo
 
     s = [Servo(1), Servo(2), Servo(3)]
     s[0].table[16] = 0  # Status Return Level 0: PING only

@@ -64,7 +64,7 @@ def test_run_scenarios_are_valid_and_pair_terrain_across_the_method():
 
 def _one_obstacle(tactile: bool):
     """Tripod, firmware under micropython, one 4.5 cm obstacle in the left-front leg's path."""
-    from hil.sim import Simulator
+    from hil.run.lockstep import Simulator
 
     spec = th.RunSpec("with" if tactile else "without", "tripod", 1.0, tactile, 0, periods=4,
                       model="ideal")   # the firmware pipeline on the regression world

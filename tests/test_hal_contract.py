@@ -14,8 +14,8 @@ import threading
 
 import pytest
 
-from hil import link_conformance as lc
-from hil.link import firmware_env
+from hil.link import client_conformance as lc
+from hil.link.firmware_process import firmware_env
 from protocol import sim_link
 from mpy import ROOT, micropython_binary
 

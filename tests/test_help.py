@@ -70,3 +70,12 @@ def test_a_positional_is_named_the_same_wherever_it_appears():
             if not a.option_strings and not isinstance(a, argparse._SubParsersAction):
                 shown.setdefault(a.dest, set()).add(str(a.metavar or a.dest))
     assert {dest: names for dest, names in shown.items() if len(names) > 1} == {}
+
+
+def test_the_command_listing_says_what_each_command_says_of_itself():
+    """``hexhil --help`` lists a command with the line that command registers: the listing
+    a partial parser shows (cli.COMMANDS) cannot drift from it."""
+    top = cli.build_parser([])
+    sub = next(a for a in top._actions if isinstance(a, argparse._SubParsersAction))
+    registered = {c.dest: c.help for c in sub._choices_actions}
+    assert {name: text for name, (_, text) in cli.COMMANDS.items()} == registered

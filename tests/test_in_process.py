@@ -7,10 +7,10 @@ from dataclasses import replace
 
 import pytest
 
-from hil.link import IN_PROCESS
-from hil.rig import make_world
+from hil.link.firmware_process import IN_PROCESS
+from hil.run.rig import make_world
 from hil.scenario import SCHEMA, load
-from hil.sim import Simulator
+from hil.run.lockstep import Simulator
 from host_tools.experiments import tactile_hexapod as th
 from host_tools.in_process import run_firmware
 

@@ -92,7 +92,8 @@ def test_round_trip_under_micropython(tmp_path):
 
 GOALS_AGREE = """
 from firmware.servo_goals import ServoGoals
-from protocol import ax12, hexapod as kin
+from protocol import hexapod as kin
+from protocol.dynamixel import ax12
 goals = ServoGoals(20000)
 goals.legs[4].directions = (1, -1, 1)          # a mirrored horn and calibration offsets
 goals.legs[4].offsets = (0.01, -0.02, 0.03)

@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from hil.sim import Simulator
+from hil.run.lockstep import Simulator
 from hil.scenario import SCHEMA
 from protocol import can_frames as cf
 from protocol import link_schema as ls

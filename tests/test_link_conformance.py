@@ -1,4 +1,4 @@
-"""The link conformance suite (hil/link_conformance.py, docs/link.md) against the Python
+"""The link conformance suite (hil/link/client_conformance.py, docs/link.md) against the Python
 link client under micropython and CPython, and against a deliberately broken client.
 
 ``HEXHIL_LINK_CLIENT="cmd args"`` points the suite at another client instead (run from the
@@ -9,8 +9,8 @@ import sys
 
 import pytest
 
-from hil.link import firmware_env
-from hil.link_conformance import BURST, SESSIONS, run_suite
+from hil.link.firmware_process import firmware_env
+from hil.link.client_conformance import BURST, SESSIONS, run_suite
 from mpy import micropython_binary
 
 CLIENT = "tests/link_clients/python_client.py"

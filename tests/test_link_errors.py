@@ -6,10 +6,10 @@ import sys
 
 import pytest
 
-from hil import link_conformance as lc
-from hil.link import firmware_env
+from hil.link import client_conformance as lc
+from hil.link.firmware_process import firmware_env
 from hil.scenario import SCHEMA
-from hil.sim import Simulator
+from hil.run.lockstep import Simulator
 from protocol.errors import UserError
 from mpy import micropython_binary
 

@@ -1,4 +1,4 @@
-"""The listeners against hostile clients (issue 20): the socketcand server (hil/can_server.py),
+"""The listeners against hostile clients (issue 20): the socketcand server (hil/canbus/socketcand.py),
 the serial TCP server of ``hexhil bus --tcp`` and the live view of ``hexhil run --live``
 (host_tools/trace/live.py) bind 127.0.0.1 by default, survive garbage and clients that
 vanish mid-message, and stay bounded under a client that never reads. The socketcand
@@ -18,10 +18,10 @@ from pathlib import Path
 import can
 import pytest
 
-from hil import can_server
-from hil.can_server import CanServer
+from hil.canbus import socketcand as can_server
+from hil.canbus.socketcand import CanServer
 from host_tools.trace.live import LiveServer
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 
 ROOT = Path(__file__).resolve().parent.parent
 

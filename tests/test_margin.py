@@ -1,18 +1,18 @@
 """``hexhil margin``: the bus hooks it sweeps (off by default, so every shipped run keeps its
 bytes) and a small sweep that finds the firmware's reply budget: a reply later than
-TIMEOUT_MARGIN_US (100 us, firmware/servo_bus.py) after its wire time is a time-out."""
+TIMEOUT_MARGIN_US (100 us, firmware/servo_bus/v1.py) after its wire time is a time-out."""
 from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
 
-from firmware.servo_bus import TIMEOUT_MARGIN_US
-from hil.bus import Bus
+from firmware.servo_bus.v1 import TIMEOUT_MARGIN_US
+from hil.servobus.line import Bus
 from hil.clock import VirtualClock
-from hil.servo import Servo
+from hil.servobus.ax12_servo import Servo
 from host_tools.expect import margin, spec
-from protocol import ax12
-from protocol import dynamixel as dxl
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -2,13 +2,13 @@
 our firmware gets none (lockstep, serial digest unchanged); the sensor node answers."""
 from __future__ import annotations
 
-from hil import rig
-from hil.board_line import MISTAKES
-from hil.master_check import KINDS, MasterCheck
-from hil.sensor_node import MODEL_NUMBER, SWITCHES, SensorNode
-from hil.sim import Simulator
-from protocol import ax12
-from protocol import dynamixel as dxl
+from hil.run import rig
+from hil.link.board_line import MISTAKES
+from hil.servobus.master_check import KINDS, MasterCheck
+from hil.servobus.switch_node import MODEL_NUMBER, SWITCHES, SensorNode
+from hil.run.lockstep import Simulator
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 
 def _bus(levels=lambda: 0b100101):

@@ -8,7 +8,7 @@ import sys
 import pytest
 
 from host_tools.cli import main
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 
 SYNC_4 = "FF FF FE 18 83 1E 04 00 10 00 50 01 01 20 02 60 03 02 30 00 70 01 03 20 02 80 03 12"
 
@@ -144,7 +144,7 @@ def test_console_script_no_traceback() -> None:
 
 
 def test_protocol_2_bytes_are_recognised_and_unstuffed(capsys: pytest.CaptureFixture) -> None:
-    from protocol import dynamixel2 as dx2
+    from protocol.dynamixel import v2 as dx2
 
     data = b"\x00" + dx2.sync_read(132, 4, [1, 2]) + dx2.status(1, dx2.ERR_ACCESS | dx2.ALERT,
                                                                 b"\xff\xff\xfd\x00")

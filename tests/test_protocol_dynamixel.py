@@ -1,7 +1,7 @@
-"""protocol/dynamixel.py API details the conformance suite does not reach."""
+"""protocol/dynamixel/v1.py API details the conformance suite does not reach."""
 from __future__ import annotations
 
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 
 
 def test_reset_drops_the_partial_packet() -> None:
@@ -53,7 +53,7 @@ def _state(p: dxl.Parser) -> tuple:
 
 
 def test_take_whole_leaves_the_state_pushing_byte_by_byte_leaves() -> None:
-    """The firmware's one-call path for a reply (firmware/servo_bus.py) must be exactly the
+    """The firmware's one-call path for a reply (firmware/servo_bus/v1.py) must be exactly the
     per-byte parse: same fields, buffer and counters; anything else is refused untouched."""
     status = dxl.status(7, dxl.ERR_OVERLOAD, bytes((1, 2, 3, 4, 5, 6)))
     data = b"\x00\x01" + status

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_BODY, T_SERIAL
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 
 ROOT = Path(__file__).resolve().parent.parent
 HEXHIL = [sys.executable, "-m", "host_tools.cli"]

@@ -26,7 +26,8 @@ from host_tools.trace import reader as trace_reader
 from host_tools.trace import recorder as rec
 from host_tools.trace import recover as trace_recover
 from host_tools.trace import topics
-from protocol import can_frames, dynamixel
+from protocol import can_frames
+from protocol.dynamixel import v1 as dynamixel
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import can
 import pytest
 
-from hil.sim import Simulator
+from hil.run.lockstep import Simulator
 from hil import scenario
 from host_tools import replay
 from host_tools.cli import main
@@ -76,6 +76,10 @@ def test_changed_parameter_reports_first_divergence(trace, tmp_path):
     assert d.topic == "uart"  # the servo goal positions of the SYNC_WRITE change
     assert d.expected != d.actual and d.expected.startswith("W ")
     assert 0 <= d.t_s < DURATION_S
+    # the exchange's servo-line bytes decoded in the trace's protocol (its scenario's model;
+    # Protocol 1.0 here): the cycle's SYNC_WRITE, then a status READ
+    assert d.packets is not None and d.packets["expected"][0] == "SYNC_WRITE to 254"
+    assert [p.split()[0] for p in d.packets["actual"]] == ["SYNC_WRITE", "READ"]
     # the same firmware with the original value is identical again
     same = replay.replay_firmware(trace, command=_changed_firmware(tmp_path, "step_height_m",
                                                                    0.03))
@@ -89,6 +93,7 @@ def test_cli_exit_1_on_divergence(trace, tmp_path, capsys, monkeypatch):
                         lambda python, **kw: real(python, **{**kw, "command": cmd}))
     rc, out, _ = _cli(capsys, "replay", str(trace))
     assert rc == 1 and "DIVERGED at t=" in out and "expected W " in out
+    assert "expected packets: SYNC_WRITE to 254" in out
     # a step-height change moves the servos but not the CAN or event outputs of 1.5 s:
     # --topics leaves the servo line out, so this replay passes
     rc, r, _ = _cli(capsys, "replay", str(trace), "--topics", "can,event", "--json")

@@ -14,7 +14,7 @@ from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
 from hil import scenario as scenario_mod
-from hil.rig import make_world
+from hil.run.rig import make_world
 from hil.world import scene as scene_mod
 from hil.world.beam_body import PAPER_BODY
 from hil.world.beams import BeamsWorld, BodyState

@@ -14,8 +14,8 @@ import pytest
 import dynamixel_sdk as sdk
 import dynamixel_sdk.port_handler
 
-from protocol import ax12
-from protocol import dynamixel as dxl
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 ROOT = Path(__file__).resolve().parent.parent
 HEXHIL = [sys.executable, "-m", "host_tools.cli"]

@@ -7,11 +7,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hil.servo import EEPROM_BUSY_US, Servo
-from hil.servo_actuator import NO_LOAD_RAD_S, KinematicActuator, drive, wheel_mode
-from hil.servo_health import OVERLOAD_TIME_US
-from protocol import ax12
-from protocol import dynamixel as dxl
+from hil.servobus.ax12_servo import Servo
+from protocol.dynamixel.ax12 import EEPROM_BUSY_US
+from hil.servobus.drive import NO_LOAD_RAD_S, KinematicActuator, drive, wheel_mode
+from hil.servobus.health import OVERLOAD_TIME_US
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 
 def status(reply: bytes) -> dxl.Packet:

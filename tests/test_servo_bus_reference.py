@@ -1,6 +1,6 @@
 """docs/servo-bus.md's quick reference says what the code does: the ID -> leg and joint
 table and neutral stance from the robot description (protocol/hexapod.py), the addresses
-from protocol/ax12.py, and the signs from the legs' forward kinematics."""
+from protocol/dynamixel/ax12.py, and the signs from the legs' forward kinematics."""
 from __future__ import annotations
 
 import math
@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from protocol import ax12, hexapod
+from protocol import hexapod
+from protocol.dynamixel import ax12
 
 DOC = (Path(__file__).resolve().parent.parent / "docs" / "servo-bus.md").read_text()
 QUICK = DOC.split("## Quick reference", 1)[1].split("\n## ", 1)[0]

@@ -1,23 +1,23 @@
-"""The emulated XL430-W250-T (hil/servo_xl430.py) on a Protocol 2.0 line (hil/bus2.py):
+"""The emulated XL430-W250-T (hil/servobus/xseries_servo.py) on a Protocol 2.0 line (hil/servobus/protocols/v2.py):
 instructions, EEPROM lock, operating modes, the profile, hardware errors, reply timing."""
 from __future__ import annotations
 
 import pytest
 
-from hil.board_line import MISTAKES
-from hil.bus2 import Bus2
+from hil.link.board_line import MISTAKES
+from hil.servobus.protocols.v2 import Bus2
 from hil.clock import VirtualClock
-from hil.servo_health import OVERLOAD_TIME_US
-from hil.servo_profile import Trapezoid
-from hil.servo_xl430 import XL430Servo
-from protocol import dynamixel2 as dx2
-from protocol import xl430 as xl
+from hil.servobus.health import OVERLOAD_TIME_US
+from hil.servobus.profile import Trapezoid
+from hil.servobus.xseries_servo import XSeriesServo
+from protocol.dynamixel import v2 as dx2
+from protocol.dynamixel import xl430 as xl
 
 
 def make_bus(n: int = 18, rd_units: int = 0, **kw) -> Bus2:
     servos = []
     for i in range(1, n + 1):
-        s = XL430Servo(i)
+        s = XSeriesServo(i)
         s.table[xl.BAUD_RATE] = 3            # 1 Mbps
         s.table[xl.RETURN_DELAY_TIME] = rd_units
         servos.append(s)
@@ -187,7 +187,9 @@ def test_stuffed_write_reaches_the_table() -> None:
 
 
 def test_master_check_names_a_protocol_2_masters_mistakes() -> None:
-    from hil.master_check import KINDS_2, MasterCheck
+    from hil.servobus.master_check import MasterCheck
+    from hil.servobus.protocols import RULES
+    KINDS_2 = RULES[2].kinds
 
     bus = make_bus(2)
     check = MasterCheck(protocol=2)
@@ -218,7 +220,7 @@ def test_master_check_names_a_protocol_2_masters_mistakes() -> None:
 
 
 def test_the_ax12_faults_reach_xl430s_through_the_scenario() -> None:
-    from hil import rig
+    from hil.run import rig
 
     sc = {"_path": "t", "bus": {"model": "xl430-w250", "servos": 3, "return_delay_us": 0},
           "faults": {"unplug": [{"id": 2, "at_s": 0.05, "until_s": 0.1}],

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from hil import scenario
-from hil.can_bus import CanBus
+from hil.canbus.bus import CanBus
 from hil.clock import VirtualClock
 from protocol.errors import UserError
 

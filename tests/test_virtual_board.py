@@ -8,11 +8,11 @@ from pathlib import Path
 
 import pytest
 
-from hil import served_firmware
-from hil.board_line import MISTAKES
-from hil.served_firmware import served_firmware as board_firmware
-from hil.master_check import MasterCheck
-from hil.sim import Simulator
+from hil.link import served_firmware
+from hil.link.board_line import MISTAKES
+from hil.link.served_firmware import served_firmware as board_firmware
+from hil.servobus.master_check import MasterCheck
+from hil.run.lockstep import Simulator
 from hil.scenario import SCHEMA
 from host_tools import cli
 from host_tools.trace.reader import Trace

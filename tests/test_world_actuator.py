@@ -21,13 +21,13 @@ def test_compliance_curve_margin_slope_punch_and_torque_limit():
     bank.torque_limit[:] = [1.0, 1.0, 1.0, 0.25]
     tau = bank.control(np.zeros(4), 0.002)
     assert tau[0] == 0.0                                              # inside the margin
-    assert tau[1] == pytest.approx(act.STALL_TORQUE_NM * 16 / 32)      # half-way up the slope
-    assert tau[2] == pytest.approx(act.STALL_TORQUE_NM * (100 / 1023 + 1 / 32))  # punch first
-    assert tau[3] == pytest.approx(act.STALL_TORQUE_NM * 0.25)        # torque limit saturates
+    assert tau[1] == pytest.approx(act.AX12.stall_torque_nm * 16 / 32)      # half-way up the slope
+    assert tau[2] == pytest.approx(act.AX12.stall_torque_nm * (100 / 1023 + 1 / 32))  # punch first
+    assert tau[3] == pytest.approx(act.AX12.stall_torque_nm * 0.25)        # torque limit saturates
     # CW side uses the CW slope: same error the other way, different slope
     bank.setpoint_rad[3] = bank.goal_rad[3] = -16 * UNIT
     bank.torque_limit[3] = 1.0
-    assert bank.control(np.zeros(4), 0.002)[3] == pytest.approx(-act.STALL_TORQUE_NM * 0.5)
+    assert bank.control(np.zeros(4), 0.002)[3] == pytest.approx(-act.AX12.stall_torque_nm * 0.5)
 
 
 def test_set_point_moves_at_the_speed_limit_and_disabled_gives_no_torque():
@@ -38,7 +38,7 @@ def test_set_point_moves_at_the_speed_limit_and_disabled_gives_no_torque():
     for _ in range(100):
         tau = bank.control(np.zeros(2), 0.002)
     assert bank.setpoint_rad == pytest.approx([0.4, 0.1])
-    assert tau[1] == 0.0 and tau[0] == pytest.approx(act.STALL_TORQUE_NM)
+    assert tau[1] == 0.0 and tau[0] == pytest.approx(act.AX12.stall_torque_nm)
 
 
 def _stand(world, t_s):
@@ -79,8 +79,8 @@ def test_speed_limit_and_no_load_speed_in_physics():
     for _ in range(60):
         _stand(world, 0.004)
         top = max(top, abs(coxa.state()[1]))
-    assert 0.5 * act.NO_LOAD_SPEED_RAD_S < top <= 1.03 * act.NO_LOAD_SPEED_RAD_S
-    assert act.NO_LOAD_SPEED_RAD_S == pytest.approx(59 * 2 * math.pi / 60)
+    assert 0.5 * act.AX12.no_load_speed_rad_s < top <= 1.03 * act.AX12.no_load_speed_rad_s
+    assert act.AX12.no_load_speed_rad_s == pytest.approx(59 * 2 * math.pi / 60)
 
 
 def test_advance_to_through_an_actuator_steps_the_world():

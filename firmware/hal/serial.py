@@ -6,7 +6,7 @@ transaction of hal/realtime.py and the wall clock of hal/base.py, shared with ha
 over a raw tty
 (``termios.setraw``; reads byte by byte after ``select.poll`` says one is there, since a
 unix-port file has no non-blocking read). The six limit switches are read from the
-sensor node (hil/sensor_node.py, docs/servo-bus.md) once per cycle, right after the
+sensor node (hil/servobus/switch_node.py, docs/servo-bus.md) once per cycle, right after the
 sleep, by the reader the firmware attaches as ``switch_reader`` (firmware/sensor_switches.py:
 the HAL does not import the application). CAN frames are counted and dropped (hal/base.py
 ``CAN``), as on the F411. A hung-up line ends the loop at the next sleep.

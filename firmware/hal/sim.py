@@ -26,7 +26,7 @@ RUNTIME = "micropython" if sys.implementation.name == "micropython" else "cpytho
 
 
 class Link:
-    """One TCP connection to hil/link.py. Posted messages queue in ``out`` and go out in
+    """One TCP connection to hil/link/firmware_process.py. Posted messages queue in ``out`` and go out in
     the same write as the next request, so they cost no round trip.
 
     ``io`` replaces the socket with any object that has ``write``, ``readinto`` and

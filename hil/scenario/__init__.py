@@ -16,10 +16,10 @@ from pathlib import Path
 from typing import Any
 
 from hil.scenario.beams import BeamsConfig, TraversalConfig
-from hil.scenario.sections import (BAUD_TOLERANCE, DEFAULT_BAUD, DEFAULT_DURATION_S, GAITS,
+from hil.scenario.sections import (DEFAULT_BAUD, DEFAULT_DURATION_S, GAITS,
                                    MAX_DURATION_S, RETURN_DELAY_MAX_US, BusConfig, FaultsConfig, FirmwareConfig,
                                    GaitConfig, Runtime, ScenarioInfo, WorldConfig, WorldKind,
-                                   baud_register, check_duration)
+                                   check_duration)
 from protocol.errors import UserError
 
 SCHEMA: dict[str, dict[str, type]] = {
@@ -162,6 +162,6 @@ def load(path: str | Path) -> dict[str, Any]:
 
 __all__ = ["SCHEMA", "Scenario", "ScenarioInfo", "BusConfig", "FirmwareConfig", "GaitConfig",
            "FaultsConfig", "WorldConfig", "BeamsConfig", "TraversalConfig", "Runtime",
-           "WorldKind", "GAITS", "DEFAULT_BAUD", "DEFAULT_DURATION_S", "MAX_DURATION_S", "BAUD_TOLERANCE",
-           "RETURN_DELAY_MAX_US", "baud_register", "check_duration", "parse", "check",
+           "WorldKind", "GAITS", "DEFAULT_BAUD", "DEFAULT_DURATION_S", "MAX_DURATION_S",
+           "RETURN_DELAY_MAX_US", "check_duration", "parse", "check",
            "from_text", "load_scenario", "load"]

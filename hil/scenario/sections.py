@@ -11,8 +11,8 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
-from hil.servo import EEPROM_BUSY_US
-from protocol import ax12, hexapod, xl430
+from protocol import hexapod
+from protocol.dynamixel import ax12, models
 from protocol.errors import UserError
 
 DEFAULT_DURATION_S = 30.0
@@ -22,8 +22,8 @@ DEFAULT_SERVOS = 18              # protocol/hexapod.py: 6 legs x 3 joints
 DEFAULT_FIRST_ID = 1
 DEFAULT_BAUD = 1_000_000         # the AX-12's factory rate (register 4 = 1)
 RETURN_DELAY_MAX_US = 508        # AX-12 register 5: 2 us a unit, 0-254
-BAUD_TOLERANCE = 0.03            # AX-12 e-manual: a line within 3 % of the servo's rate decodes
-SERVO_MODELS = ("ax-12a", xl430.MODEL_NAME)  # Protocol 1.0, Protocol 2.0
+SERVO_MODELS = tuple(models.MODELS)   # protocol/dynamixel/models.py
+SENSOR_NODE_PROTOCOL = 1         # the limit-switch node (hil/servobus/switch_node.py) speaks 1.0
 GAITS = tuple(hexapod.GAITS)     # tripod, wave
 DEFAULT_GAIT = hexapod.DEFAULT_GAIT
 
@@ -61,11 +61,6 @@ def check_duration(value: float, what: str) -> float:
     return float(value)
 
 
-def baud_register(baud: int) -> int:
-    """The AX-12 Baud Rate register (2 Mbps / (n + 1)) nearest ``baud`` bps."""
-    return min(254, max(0, round(2_000_000 / baud) - 1))
-
-
 @dataclass(frozen=True)
 class ScenarioInfo:
     name: str = ""
@@ -88,10 +83,10 @@ class BusConfig:
     echo: bool = False
     return_delay_us: int | None = None      # None: the servo's own (the control table's)
     edition: str = ax12.EDITION_EMANUAL
-    eeprom_busy_us: int = EEPROM_BUSY_US
+    eeprom_busy_us: int | None = None       # None: the model's own (its table's)
     sensor_node: bool | None = None         # None: on with ``hexhil bus --world``
     sensor_node_id: int | None = None
-    model: str = "ax-12a"                   # SERVO_MODELS: Protocol 1.0 or 2.0 servos
+    model: str = models.DEFAULT             # SERVO_MODELS: Protocol 1.0 or 2.0 servos
 
     @property
     def ids(self) -> range:
@@ -108,14 +103,16 @@ class BusConfig:
         if b.model not in SERVO_MODELS:
             raise UserError(f"{where}: key 'bus.model' must be one of "
                             f"{', '.join(SERVO_MODELS)}, got {b.model!r}")
-        if b.model == xl430.MODEL_NAME:
-            if b.baud not in xl430.BAUD_BPS or b.first_id + b.servos - 1 > 252 or b.sensor_node:
-                raise UserError(f"{where}: an {b.model} bus needs a baud of "
-                                f"{'/'.join(map(str, xl430.BAUD_BPS))}, IDs 0-252, "
-                                "no sensor node")
-        elif abs(ax12.baud_to_bps(baud_register(b.baud)) - b.baud) > BAUD_TOLERANCE * b.baud:
-            raise UserError(f"{where}: baud {b.baud}: no AX-12 rate 2000000/(n+1) within "
-                            "3 % of it")
+        table = models.table(b.model)
+        if table.bps_to_baud(b.baud) < 0:
+            raise UserError(f"{where}: baud {b.baud}: {table.BAUD_RULE}")
+        max_id = models.codec(b.model).MAX_ID
+        if b.first_id + b.servos - 1 > max_id:
+            raise UserError(f"{where}: servos {b.servos} from ID {b.first_id} do not fit an "
+                            f"{b.model}'s IDs 0-{max_id}")
+        if b.sensor_node and models.protocol(b.model) != SENSOR_NODE_PROTOCOL:
+            raise UserError(f"{where}: the sensor node speaks Protocol 1.0, not an "
+                            f"{b.model}'s Protocol {models.protocol(b.model)}.0")
         if b.edition not in ax12.EDITIONS:
             raise UserError(f"{where}: key 'bus.edition' must be one of "
                             f"{', '.join(ax12.EDITIONS)}, got {b.edition!r}")
@@ -127,7 +124,7 @@ class BusConfig:
         if node is not None and (not 0 <= node <= 253 or node in b.ids):
             raise UserError(f"{where}: key 'bus.sensor_node_id' must be 0-253 and no servo's "
                             f"ID, got {node}")
-        if b.eeprom_busy_us < 0:
+        if b.eeprom_busy_us is not None and b.eeprom_busy_us < 0:
             raise UserError(f"{where}: key 'bus.eeprom_busy_us' must be 0 or more, "
                             f"got {b.eeprom_busy_us}")
         return b
@@ -179,7 +176,7 @@ class GaitConfig:
 
 @dataclass(frozen=True)
 class FaultsConfig:
-    """Rates, and the scheduled faults' tables (checked by hil/faults.py, their owner)."""
+    """Rates, and the scheduled faults' tables (checked by hil/servobus/faults.py, their owner)."""
 
     bit_error_rate: float = 0.0
     drop_status_rate: float = 0.0

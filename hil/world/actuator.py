@@ -1,4 +1,4 @@
-"""AX-12-like joint drives in MuJoCo, behind the servo ``Actuator`` seam (hil/servo_actuator.py).
+"""AX-12-like joint drives in MuJoCo, behind the servo ``Actuator`` seam (hil/servobus/drive.py).
 
 The emulated servo owns its control table; it hands Goal Position, Moving Speed, Torque
 Limit, Torque Enable and the compliance registers to ``command`` and reads Present
@@ -17,9 +17,9 @@ Drive model (one vectorised bank for all 18 joints, evaluated every physics step
   actuator control. With Torque Enable off the duty is 0 and the joint is back-driven
   against the gear train's damping only.
 
-Constants (``Motor``): AX-12A e-manual, stall torque 1.5 N m at 12 V, no-load speed 59 rpm
-at 12 V; XL430-W250-T e-manual, stall torque 1.4 N m at 11.1 V (1.3 A), no-load speed
-57 rpm at 11.1 V. The scenario's ``bus.model`` picks one for all 18 joints.
+Constants (``Motor``): the model's e-manual specifications, held by its control table
+(protocol/dynamixel/ax12.py, xl430.py, xm430.py: stall torque, no-load speed, rated
+supply). The scenario's ``bus.model`` picks one for all 18 joints.
 """
 from __future__ import annotations
 
@@ -29,10 +29,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from protocol import ax12
+from protocol.dynamixel import ax12, models
 
-STALL_TORQUE_NM = 1.5                           # AX-12A at 12 V (e-manual)
-NO_LOAD_SPEED_RAD_S = 59.0 * 2.0 * math.pi / 60.0  # 59 rpm at 12 V (e-manual)
 ROTOR_ARMATURE_KG_M2 = 0.0015   # reflected rotor inertia through the 254:1 gear train
 POSITION_UNIT_RAD = math.radians(ax12.POSITION_RANGE_DEG / ax12.POSITION_MAX)
 PUNCH_FRACTION_PER_UNIT = 1.0 / 1023.0
@@ -52,14 +50,20 @@ class Motor:
         return self.stall_torque_nm / self.no_load_speed_rad_s
 
 
-AX12 = Motor("ax-12a", STALL_TORQUE_NM, NO_LOAD_SPEED_RAD_S, 12.0)
-XL430 = Motor("xl430-w250", 1.4, 57.0 * 2.0 * math.pi / 60.0, 11.1)
-MOTORS = {m.name: m for m in (AX12, XL430)}
+def motor(model: str) -> Motor:
+    """A servo model's gearmotor, from its control table's specifications
+    (protocol/dynamixel/models.py)."""
+    t = models.table(model)
+    return Motor(model, t.STALL_TORQUE_NM, t.NO_LOAD_RPM * 2.0 * math.pi / 60.0,
+                 t.RATED_SUPPLY_V)
+
+
+AX12 = motor(ax12.MODEL_NAME)
 
 
 def motor_of(scenario: dict[str, Any]) -> Motor:
     """The motor of a scenario's servos (``bus.model``, checked by hil/scenario.py)."""
-    return MOTORS[scenario.get("bus", {}).get("model", AX12.name)]
+    return motor(scenario.get("bus", {}).get("model", models.DEFAULT))
 
 
 # (cw margin, ccw margin, cw slope, ccw slope, punch) in AX-12 raw units: e-manual defaults.

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from hil.can_bus import CanBus, Endpoint
+from hil.canbus.bus import CanBus, Endpoint
 from hil.scenario.beams import MAX_TIME_S
 from hil.world import scene
 from hil.world.beams import DT_US, SENSOR_PERIOD_US, BeamsWorld

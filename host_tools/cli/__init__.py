@@ -18,9 +18,9 @@ from protocol.errors import UserError
 
 # command name -> (module in this package, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
-    "demo": ("demo", "set-up check and the main job (what `make demo` runs)"),
-    "protocol": ("protocol", "Dynamixel Protocol 1.0 tools (decode)"),
-    "bus": ("bus", "serve emulated AX-12 servos on a pty or TCP port"),
+    "demo": ("demo", "the whole stack once, end to end (what `make demo` runs)"),
+    "protocol": ("protocol", "Dynamixel tools (decode Protocol 1.0 and 2.0)"),
+    "bus": ("bus", "serve emulated Dynamixel servos (Protocol 1.0 or 2.0) on a pty or TCP port"),
     "conformance": ("conformance", "check any Dynamixel bus (Protocol 1.0 or 2.0) against the spec"),
     "run": ("run", "run the firmware against the simulated robot"),
     "experiment": ("experiment", "reproduce a paper's experiments"),
@@ -30,9 +30,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "estimate": ("estimate", "re-run the beam estimator on a trace's force frames"),
     "model": ("model", "the hexapod's robot description (URDF, MJCF)"),
     "render": ("render", "render a trace's ground truth to a video or PNG"),
-    "grnn": ("grnn", "GRNN positional-error predictor: dataset, train, eval (seed 003)"),
+    "grnn": ("grnn", "GRNN positional-error predictor (seed 003 Sec. 2.6)"),
     "test": ("test", "run expectation files against the firmware: pass/fail, JUnit XML"),
-    "margin": ("margin", "sweep bus timing until a firmware's expectations fail"),
+    "margin": ("margin", "sweep bus timing (Return Delay, adapter latency, bit errors, baud) until the expectations fail"),
     "sdk": ("sdk", "build a C firmware against the STM32Cube-style C SDK"),
 }
 

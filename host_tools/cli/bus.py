@@ -1,5 +1,6 @@
-"""``hexhil bus``: serve emulated AX-12A (Protocol 1.0) or XL430-W250-T (Protocol 2.0)
-servos in real time on a pty or a TCP port."""
+"""``hexhil bus``: serve emulated Dynamixel servos of any model in protocol/dynamixel/models.py
+(AX-12A: Protocol 1.0; XL430-W250-T, XM430-W350-T: Protocol 2.0) in real time on a pty or a
+TCP port."""
 from __future__ import annotations
 
 import argparse
@@ -8,10 +9,12 @@ import json
 import sys
 from typing import Any
 
-from hil.can_server import DEFAULT_PORT
+from hil.canbus.socketcand import DEFAULT_PORT
 from hil.scenario import DEFAULT_BAUD
+from hil.scenario.sections import SENSOR_NODE_PROTOCOL
 from host_tools.cli import JSON_HELP, flush_print
 from protocol import sensor_node
+from protocol.dynamixel import models
 from protocol.errors import UserError
 
 _FAULT_FLAGS = ("unplug", "stall", "overheat", "voltage_sag")
@@ -53,7 +56,7 @@ def parse_ids(spec: str) -> list[int]:
 def scenario_from_flags(args: argparse.Namespace, scenario: dict[str, Any]
                         ) -> tuple[dict[str, Any], int, list[int] | None]:
     """Flags over scenario over defaults: the scenario to build, its seed and the servo IDs."""
-    from hil.faults import parse_flag
+    from hil.servobus.faults import parse_flag
 
     sc = copy.deepcopy(scenario) or {"_path": "flags"}
     sb = sc.setdefault("bus", {})
@@ -82,8 +85,8 @@ def scenario_from_flags(args: argparse.Namespace, scenario: dict[str, Any]
 
 
 def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None):
-    """Servos, clock, faults and bus from flags over scenario over defaults (hil/rig.py)."""
-    from hil import rig
+    """Servos, clock, faults and bus from flags over scenario over defaults (hil/run/rig.py)."""
+    from hil.run import rig
 
     sc, seed, ids = scenario_from_flags(args, scenario)
     built = rig.build(sc, seed, ids=ids, on_fault=on_fault)
@@ -94,7 +97,8 @@ def _sensor_id(args: argparse.Namespace, sc: dict[str, Any]) -> int | None:
     """The sensor node's ID, or None: on with --world unless --no-sensor-node or
     ``[bus] sensor_node = false``; ``--sensor-id``/``sensor_node_id`` move it."""
     bus = sc.get("bus", {})
-    if args.no_sensor_node or bus.get("model", "ax-12a") != "ax-12a" \
+    protocol = models.protocol(bus.get("model", models.DEFAULT))
+    if args.no_sensor_node or protocol != SENSOR_NODE_PROTOCOL \
             or not bus.get("sensor_node", args.world is not None):
         return None
     if args.sensor_id is not None:
@@ -105,7 +109,7 @@ def _sensor_id(args: argparse.Namespace, sc: dict[str, Any]) -> int | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hil import serial_server
+    from hil.servobus import serial_server
     from hil import scenario as scenario_mod
     from host_tools import cli
     from host_tools.realtime_run import Pty, RealTimeRun, SerialPort, Tcp
@@ -124,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
                  else Tcp(args.tcp, args.host) if args.tcp is not None else Pty())
     hint = None
     if args.world:   # our firmware's settings for this scenario, as `hexhil run` sends them
-        from hil.link_server import firmware_settings
+        from hil.link.server import firmware_settings
         hint = "firmware --config " + json.dumps(firmware_settings(scenario_mod.check(sc)),
                                                  sort_keys=True)
 
@@ -169,10 +173,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("bus", help="serve emulated AX-12 or XL430 servos on a pty or TCP port",
-                       description="Serve emulated AX-12A (Protocol 1.0) or XL430-W250-T "
-                                   "(Protocol 2.0) servos in real time (wire time and return "
-                                   "delay honoured) for stock Dynamixel clients.")
+    p = sub.add_parser("bus", help="serve emulated Dynamixel servos (Protocol 1.0 or 2.0) on a "
+                                   "pty or TCP port",
+                       description="Serve emulated Dynamixel servos of any model in "
+                                   "protocol/dynamixel/models.py (Protocol 1.0 or 2.0) in real "
+                                   "time (wire time and return delay honoured) for stock "
+                                   "Dynamixel clients.")
     p.add_argument("--servos", type=int, default=None, help="number of servos (default 18)")
     p.add_argument("--ids", default=None, help="servo IDs, e.g. 1-18 or 1,3,5-7")
     p.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal, the default (prints 'pty: PATH')")
@@ -197,9 +203,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--baud", type=int, default=None, help="line rate in bit/s (default 1000000)")
     p.add_argument("--echo", action="store_true", help="echo the master's bytes (single-wire adapter)")
     p.add_argument("--scenario", default=None, help="scenario TOML ([bus], [faults], [scenario].seed)")
-    p.add_argument("--model", choices=("ax-12a", "xl430-w250"), default=None,
-                   help="servo model: ax-12a (Protocol 1.0, the default) or xl430-w250 "
-                        "(Protocol 2.0); the sensor node is Protocol 1.0 only")
+    p.add_argument("--model", choices=tuple(models.MODELS), default=None,
+                   help="servo model: " + ", ".join(
+                       f"{m} (Protocol {v}.0)" for m, (_, v) in models.MODELS.items())
+                   + f"; default {models.DEFAULT}; the sensor node is Protocol 1.0 only")
     p.add_argument("--edition", choices=("emanual", "original"), default=None,
                    help="control-table defaults of this manual edition (default emanual)")
     p.add_argument("--seed", type=int, default=None, help="fault RNG seed (default: scenario's, else 0)")

@@ -1,28 +1,27 @@
 """``hexhil conformance``: check any Dynamixel bus (emulated or real AX-12s, Protocol 1.0; X series,
-Protocol 2.0) against the spec."""
+Protocol 2.0) against the spec (host_tools/dynamixel/conformance/)."""
 from __future__ import annotations
 
 import argparse
 
 from hil.scenario import DEFAULT_BAUD
 from host_tools.cli import JSON_HELP, emit_json
+from protocol.dynamixel import models
 from protocol.errors import UserError
 
 
 def run(args: argparse.Namespace) -> int:
     from host_tools.cli.bus import parse_ids
-    from host_tools.conformance_report import format_table
-    if args.protocol == 2:
-        from host_tools.conformance2 import run_checks
-    else:
-        from host_tools.conformance import run_checks
+    from host_tools.dynamixel.conformance import CHECKS
+    from host_tools.dynamixel.conformance.report import format_table
 
     if args.baud <= 0:
         raise UserError(f"--baud must be positive, got {args.baud}")
     if args.timeout_ms <= 0 or args.scan_timeout_ms <= 0:
         raise UserError("--timeout-ms and --scan-timeout-ms must be positive")
     ids = parse_ids(args.ids) if args.ids else None
-    result = run_checks(args.port, args.baud, ids, args.timeout_ms / 1000.0,
+    protocol = models.protocol(args.model) if args.model else args.protocol
+    result = CHECKS[protocol](args.port, args.baud, ids, args.timeout_ms / 1000.0,
                         args.scan_timeout_ms / 1000.0)
     print(format_table(result), flush=True)
     if args.json:
@@ -46,5 +45,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--protocol", type=int, choices=(1, 2), default=1,
                    help="Dynamixel protocol: 1 (AX-12, the default) or 2 (X series: CRC, "
                         "stuffing, sync/bulk/fast reads, EEPROM lock)")
+    p.add_argument("--model", choices=tuple(models.MODELS), default=None,
+                   help="the servos' model: checks in its protocol (instead of --protocol); "
+                        "each servo is checked against the table of the model it says it is")
     p.add_argument("--json", action="store_true", help=JSON_HELP)
     p.set_defaults(func=run)

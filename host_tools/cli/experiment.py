@@ -12,7 +12,7 @@ import os
 from pathlib import Path
 from typing import Any, Callable
 
-from hil.link import IN_PROCESS, RUNTIMES
+from hil.link.firmware_process import IN_PROCESS, RUNTIMES
 from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
 from host_tools.cli import JSON_HELP, actions, emit_json, ProgressBar
 from protocol.errors import UserError

@@ -7,7 +7,7 @@ import argparse
 import dataclasses
 import json
 
-from hil.link import IN_PROCESS, RUNTIMES
+from hil.link.firmware_process import IN_PROCESS, RUNTIMES
 from host_tools import cli
 
 

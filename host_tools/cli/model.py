@@ -18,7 +18,7 @@ def _urdf(args: argparse.Namespace) -> int:
 
 def _mjcf(args: argparse.Namespace) -> int:
     from hil import scenario as scenario_mod
-    from hil.rig import make_world
+    from hil.run.rig import make_world
     from hil.world.hexapod import RobotParams, mjcf
 
     if args.scenario:

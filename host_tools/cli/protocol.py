@@ -20,9 +20,8 @@ import string
 from typing import Any
 
 from host_tools.cli import JSON_HELP, actions, emit, emit_json
+from host_tools.dynamixel.decode import DECODERS, guess_protocol
 from protocol.errors import UserError
-from protocol import ax12
-from protocol import dynamixel as dxl
 
 HEXDIGITS = set(string.hexdigits)
 
@@ -50,129 +49,6 @@ def _fmt(data: bytes) -> str:
     return " ".join(f"{b:02X}" for b in data)
 
 
-def _malformed(data: bytes, j: int, next_packet: int | None) -> str | None:
-    """Why a header candidate at ``data[j]`` is no packet, or None if ``j`` starts no header."""
-    if data[j] != dxl.HEADER or j + 1 >= len(data) or data[j + 1] != dxl.HEADER:
-        return None
-    if j + 2 < len(data) and data[j + 2] == dxl.HEADER:
-        return None  # FF FF FF: a header may start one byte later
-    if j + 4 > len(data):
-        return f"truncated packet at byte {j}: {len(data) - j} bytes, no room for ID and LEN"
-    dev_id, length = data[j + 2], data[j + 3]
-    if length < 2:
-        return f"bad length at byte {j}: LEN {length} (id {dev_id}), the least is 2"
-    end = j + length + 4
-    if next_packet is not None and end > next_packet:
-        return (f"bad packet at byte {j} (id {dev_id}): LEN {length} runs into the packet "
-                f"at byte {next_packet}")
-    if end > len(data):
-        return (f"truncated packet at byte {j} (id {dev_id}): LEN {length} needs {length + 4} "
-                f"bytes, {len(data) - j} given")
-    want = dxl.checksum(data, j + 2, end - 1)
-    return (f"bad checksum at byte {j} (id {dev_id}): 0x{data[end - 1]:02X}, "
-            f"expected 0x{want:02X}")
-
-
-def split_stream(data: bytes, lenient: bool = False) -> list[tuple[str, int, Any, str | None]]:
-    """``[("packet", offset, Packet, None) | ("garbage", offset, bytes, reason)]`` in order.
-
-    Raises UserError for the first malformed packet (bad length or checksum, truncated),
-    unless ``lenient``: then its reason goes with the garbage that holds it.
-    """
-    parser = dxl.Parser()
-    found: list[tuple[int, dxl.Packet]] = []
-    for i, b in enumerate(data):
-        if parser.push(b):
-            pkt = parser.current()
-            found.append((i + 1 - len(pkt.raw), pkt))
-    pos = found[-1][0] + len(found[-1][1].raw) if found else 0
-    for pkt in parser.flush():  # packets hidden behind a garbage header's long LEN
-        start = data.find(pkt.raw, pos)
-        found.append((start, pkt))
-        pos = start + len(pkt.raw)
-    out: list[tuple[str, int, Any, str | None]] = []
-    pos = 0
-    for k in range(len(found) + 1):
-        start = found[k][0] if k < len(found) else len(data)
-        if start > pos:
-            reasons = [_malformed(data, j, start if k < len(found) else None)
-                       for j in range(pos, start)]
-            why = next((r for r in reasons if r), None)
-            if why and not lenient:
-                raise UserError(why)
-            out.append(("garbage", pos, data[pos:start], why))
-        if k < len(found):
-            out.append(("packet", start, found[k][1], None))
-            pos = start + len(found[k][1].raw)
-    if not any(part[0] == "packet" for part in out):
-        raise UserError(f"no Dynamixel packet in {len(data)} bytes (no FF FF header)")
-    return out
-
-
-def _field(address: int) -> str | None:
-    f = ax12.field_at(address)
-    return f[1] if f else None
-
-
-def describe(pkt: dxl.Packet, kind: str, reply_to: dxl.Packet | None = None) -> dict[str, Any]:
-    """A packet as a JSON-ready dict (the ``--json`` record)."""
-    params = list(pkt.params)
-    d: dict[str, Any] = {"id": pkt.id, "kind": kind, "params": params, "raw": pkt.raw.hex()}
-    if kind == "status":
-        d["error"] = dxl.error_names(pkt.code)
-        if reply_to is not None:
-            d["reply_to"] = dxl.INSTRUCTION_NAMES[reply_to.code]
-            if reply_to.code == dxl.READ and len(reply_to.params) == 2:
-                d["address"] = reply_to.params[0]
-                d["register"] = _field(reply_to.params[0])
-        return d
-    name = dxl.INSTRUCTION_NAMES.get(pkt.code)
-    d["instruction"] = name if name else f"UNKNOWN_0x{pkt.code:02X}"
-    if pkt.code == dxl.READ and len(params) == 2:
-        d.update(address=params[0], register=_field(params[0]), length=params[1])
-    elif pkt.code in (dxl.WRITE, dxl.REG_WRITE) and params:
-        d.update(address=params[0], register=_field(params[0]), data=params[1:])
-    elif pkt.code == dxl.SYNC_WRITE and len(params) >= 2:
-        address, n = params[0], params[1]
-        body = params[2:]
-        if n and len(body) % (n + 1) == 0:
-            entries = [{"id": body[i], "data": body[i + 1:i + 1 + n]}
-                       for i in range(0, len(body), n + 1)]
-        else:
-            raise UserError(f"bad SYNC_WRITE (id {pkt.id}): {len(body)} parameter bytes are no "
-                            f"whole number of {n}-byte entries plus ids")
-        d.update(address=address, register=_field(address), length=n, entries=entries)
-    return d
-
-
-def _is_reply(pkt: dxl.Packet, previous: dxl.Packet | None) -> bool:
-    """Could ``pkt`` be the status reply to the instruction ``previous``?"""
-    if previous is None or previous.id == dxl.BROADCAST_ID or pkt.id != previous.id:
-        return False
-    if previous.code == dxl.READ and len(previous.params) == 2:
-        return len(pkt.params) == previous.params[1]
-    return previous.code in dxl.INSTRUCTION_NAMES and not pkt.params
-
-
-def classify(packets: list[dxl.Packet], force: str | None = None) -> list[dict[str, Any]]:
-    """Describe each packet, deciding instruction/status by the module docstring's rule."""
-    out = []
-    previous: dxl.Packet | None = None  # the last packet taken as an instruction
-    for pkt in packets:
-        reply_to = None
-        if force:
-            kind = force
-        elif _is_reply(pkt, previous):
-            kind, reply_to = "status", previous
-        elif pkt.code in dxl.INSTRUCTION_NAMES:
-            kind = "instruction"
-        else:
-            kind = "status"
-        out.append(describe(pkt, kind, reply_to))
-        previous = pkt if kind == "instruction" else None
-    return out
-
-
 def _text(rec: dict[str, Any], offset: int) -> str:
     head = f"@{offset:<4} id {rec['id']:>3}  "
     reg = f" ({rec['register']})" if rec.get("register") else ""
@@ -198,11 +74,9 @@ def _text(rec: dict[str, Any], offset: int) -> str:
     return line
 
 
-def decode2(args: argparse.Namespace, data: bytes) -> int:
-    """Protocol 2.0 bytes (host_tools/decode2.py), one line (or JSON object) a record."""
-    from host_tools.decode2 import decode as decode_v2
-
-    records = decode_v2(data)
+def print_v2(args: argparse.Namespace, data: bytes) -> int:
+    """Protocol 2.0 bytes (host_tools/dynamixel/decode/v2.py), one line (or JSON object) a record."""
+    records = DECODERS[2].decode(data)
     for rec in records:
         if args.json:
             emit_json(rec)
@@ -222,37 +96,37 @@ def decode2(args: argparse.Namespace, data: bytes) -> int:
     return 0
 
 
-def decode(args: argparse.Namespace) -> int:
-    from host_tools.decode2 import looks_like_protocol_2
-
-    data = parse_hex(args.hex)
-    if args.protocol == 2 or (args.protocol is None and looks_like_protocol_2(data)):
-        return decode2(args, data)
-    parts = split_stream(data, args.lenient)
+def print_v1(args: argparse.Namespace, data: bytes) -> int:
+    """Protocol 1.0 bytes (host_tools/dynamixel/decode/v1.py), one line (or JSON object) a record."""
     force = "status" if args.status else ("instruction" if args.instruction else None)
-    records = iter(classify([p[2] for p in parts if p[0] == "packet"], force))
-    n_packets = n_garbage = 0
-    for kind, offset, item, why in parts:
-        if kind == "garbage":
-            n_garbage += len(item)
+    records = DECODERS[1].decode(data, args.lenient, force)
+    for rec in records:
+        if rec["kind"] == "garbage":
             if args.json:
-                emit_json({"kind": "garbage", "offset": offset, "bytes": list(item),
-                           "reason": why})
+                emit_json(rec)
             else:
-                print(f"@{offset:<4} garbage: {len(item)} bytes: {_fmt(item)}"
-                      + (f"  ({why})" if why else ""))
-            continue
-        rec = next(records)
-        n_packets += 1
-        if args.json:
-            emit_json(dict(rec, offset=offset))
+                why = rec["reason"]
+                print(f"@{rec['offset']:<4} garbage: {len(rec['bytes'])} bytes: "
+                      f"{_fmt(bytes(rec['bytes']))}" + (f"  ({why})" if why else ""))
+        elif args.json:
+            emit_json(rec)
         else:
-            print(_text(rec, offset))
-            print(f"      {_fmt(item.raw)}")
+            print(_text(rec, rec["offset"]))
+            print(f"      {_fmt(bytes.fromhex(rec['raw']))}")
+    n_packets = sum(r["kind"] != "garbage" for r in records)
+    n_garbage = sum(len(r["bytes"]) for r in records if r["kind"] == "garbage")
     summary = {"kind": "summary", "packets": n_packets, "garbage_bytes": n_garbage,
                "bytes": len(data)}
     emit(args, summary, f"{n_packets} packets, {n_garbage} garbage bytes, {len(data)} bytes")
     return 0
+
+
+PRINTERS = {1: print_v1, 2: print_v2}
+
+
+def decode(args: argparse.Namespace) -> int:
+    data = parse_hex(args.hex)
+    return PRINTERS[args.protocol or guess_protocol(data)](args, data)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -28,6 +28,9 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(f"DIVERGED at t={d.t_s:.6f} s (exchange {d.exchange}) on {d.topic}:\n"
               f"  expected {d.expected}\n  actual   {d.actual}")
+        if d.packets is not None:
+            print(f"  expected packets: {'; '.join(d.packets['expected']) or '(none)'}\n"
+                  f"  actual packets:   {'; '.join(d.packets['actual']) or '(none)'}")
     if d is not None and r.stderr_tail.strip():
         sys.stderr.write(r.stderr_tail.strip().splitlines()[-1] + "\n")
     return 0 if d is None else 1

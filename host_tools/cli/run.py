@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from hil.can_server import DEFAULT_PORT
-from hil.link import IN_PROCESS, RUNTIMES
+from hil.canbus.socketcand import DEFAULT_PORT
+from hil.link.firmware_process import IN_PROCESS, RUNTIMES
 from hil.run_result import RunInterrupted
 from host_tools import cli
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 from typing import Sequence
 
-from hil.link import IN_PROCESS, RUNTIMES
+from hil.link.firmware_process import IN_PROCESS, RUNTIMES
 from host_tools import cli
 
 
@@ -37,7 +37,7 @@ def _run(args: argparse.Namespace) -> int:
         raise UserError("--trace evaluates one recorded run: give one FILE, and no --firmware, "
                         "--python, --no-tactile or --repeat")
     if args.firmware is not None:
-        from hil.served_firmware import served_firmware
+        from hil.link.served_firmware import served_firmware
 
         served_firmware(args.firmware)   # one line before anything runs
     cases = [spec.load(f) for f in args.files]

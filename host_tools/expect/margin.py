@@ -1,6 +1,6 @@
 """``hexhil margin``: where a firmware's expectations stop holding as the bus's timing gets
 worse. In lockstep, each setting is one run of the case (host_tools/expect/runner.py) with one
-thing changed on the simulated bus (hil/bus.py's margin hooks, or the scenario's faults):
+thing changed on the simulated bus (hil/servobus/line.py's margin hooks, or the scenario's faults):
 
 * ``return_delay_us``: the servos answer this long after a packet, whatever register 5 holds
   (the firmware writes 0 there at configure; a servo that keeps its delay is what this is);

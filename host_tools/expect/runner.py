@@ -12,7 +12,7 @@ from typing import Any, Sequence
 
 from mcap.writer import CompressionType, Writer
 
-from hil.master_check import MasterCheck
+from hil.servobus.master_check import MasterCheck
 from host_tools import run as run_mod
 from host_tools.expect.evaluate import Outcome, evaluate
 from host_tools.expect.spec import Case
@@ -29,7 +29,7 @@ T_EXPECTATIONS = "/expectations"  # foxglove.Log: each failed expectation at its
 
 @dataclass(frozen=True)
 class BusTiming:
-    """Timing-margin settings applied to the simulated bus (hil/bus.py's hooks)."""
+    """Timing-margin settings applied to the simulated bus (hil/servobus/line.py's hooks)."""
 
     return_delay_us: int | None = None   # servos answer after this, whatever register 5 says
     adapter_latency_us: int = 0          # before the master sees a received byte

@@ -15,9 +15,9 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from hil import scenario as scenario_mod
-from hil.link import IN_PROCESS, RUNTIMES
-from hil.master_check import KINDS as VIOLATION_KINDS
-from hil.served_firmware import served_firmware
+from hil.link.firmware_process import IN_PROCESS, RUNTIMES
+from hil.servobus.master_check import KINDS as VIOLATION_KINDS
+from hil.link.served_firmware import served_firmware
 from protocol import can_frames
 from protocol.errors import UserError
 
@@ -30,7 +30,7 @@ class Kind(str, Enum):
     POSE = "pose"                      # world pose at the window's end
     SPEED = "speed"                    # mean walking speed over the window
     TACTILE_RULE = "tactile_rule"      # seed 003 Eq. 6-7 after each switch press
-    PROTOCOL = "protocol"              # the master's protocol violations (hil/master_check.py)
+    PROTOCOL = "protocol"              # the master's protocol violations (hil/servobus/master_check.py)
     FAULT_RESPONSE = "fault_response"  # safe stop or ride-through after an injected fault
     CAN = "can"                        # a DBC frame's rate and signal ranges
     SERVO_LIMITS = "servo_limits"      # temperature, load, voltage never out of range

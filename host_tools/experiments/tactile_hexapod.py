@@ -27,7 +27,7 @@ from typing import Any, Callable
 from host_tools import error_model
 from host_tools.experiments.executor import Executor
 from host_tools.experiments.tactile_report import GAITS, markdown, plots, summary
-from hil.link import IN_PROCESS
+from hil.link.firmware_process import IN_PROCESS
 from hil.scenario import Scenario, parse
 from host_tools.runner import Run
 from hil.world.fidelity import OBSTACLE_BODY

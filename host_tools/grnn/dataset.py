@@ -149,7 +149,7 @@ def code_version() -> str:
             return out.stdout.strip()
     except OSError:
         pass
-    from host_tools.trace.recorder import software_version
+    from host_tools.trace.writer import software_version
 
     return software_version()
 

@@ -27,8 +27,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from hil.can_bus import Endpoint, t_us_of
-from hil.sim import BODY_SAMPLE_US
+from hil.canbus.bus import Endpoint, t_us_of
+from hil.run.lockstep import BODY_SAMPLE_US
 from host_tools import error_model
 from host_tools.grnn.features import LEGS, StepRow, StepSampler, known_steps
 from protocol import can_frames as cf

@@ -19,7 +19,7 @@ from typing import Any, Iterable
 
 import foxglove
 
-from host_tools.trace.schemas import every_channel
+from host_tools.trace.channels import every_channel
 from protocol.errors import UserError
 
 # Messages held per client (the SDK's default, set here so the bound is ours): a client
@@ -37,7 +37,7 @@ class LiveServer:
                  channels: Iterable[tuple[str, str, str, bytes, str]] | None = None) -> None:
         """``channels``: (topic, schema name, schema encoding, schema data, message
         encoding) made before the server listens; by default every channel a recorder may
-        open (host_tools/trace/schemas.py ``every_channel``)."""
+        open (host_tools/trace/channels.py ``every_channel``)."""
         self._context = foxglove.Context()
         self._by_topic = {spec[0]: self._new_channel(*spec)
                           for spec in (every_channel() if channels is None else channels)}

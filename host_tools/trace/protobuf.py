@@ -21,7 +21,7 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from mcap_protobuf.schema import build_file_descriptor_set
 
-from protocol import dynamixel
+from protocol.dynamixel import v1 as dynamixel
 
 _F = descriptor_pb2.FieldDescriptorProto
 _TYPES = {"string": _F.TYPE_STRING, "bytes": _F.TYPE_BYTES, "uint32": _F.TYPE_UINT32,
@@ -270,20 +270,26 @@ def encode_servo_states(servos: Iterable[Mapping[str, Any]]) -> bytes:
     return b"".join(out)
 
 
-_PACKET_HEADS: dict[tuple[str, int], tuple[bytes, bytes]] = {}  # (direction, code) -> fields
+_PACKET_HEADS: dict[tuple, tuple[bytes, bytes]] = {}  # (direction, code, ...) -> fields
 _ID_FIELD = [_field_uint(0x10, i) for i in range(256)]
 
 
 def encode_dynamixel_packet(direction: str, servo_id: int, code: int, params: bytes,
-                            raw: bytes) -> bytes:
-    """``hexhil.DynamixelPacket``, with the instruction or error names filled in."""
-    heads = _PACKET_HEADS.get((direction, code))
+                            raw: bytes, codec: Any = dynamixel, status: bool | None = None
+                            ) -> bytes:
+    """``hexhil.DynamixelPacket``, with the instruction or error names filled in from the
+    packet's protocol (``codec``: protocol/dynamixel/v1.py or v2.py). A status packet
+    (``status``; by default what the servos send, ``"rx"``) has its error byte as
+    ``code`` and its names in ``errors``."""
+    key = (direction, code) if codec is dynamixel and status is None else \
+        (direction, code, codec.__name__, status)
+    heads = _PACKET_HEADS.get(key)
     if heads is None:
-        if direction == "rx":
-            instruction, errors = "", ",".join(dynamixel.error_names(code))
+        if direction == "rx" if status is None else status:
+            instruction, errors = "", ",".join(codec.error_names(code))
         else:
-            instruction, errors = dynamixel.INSTRUCTION_NAMES.get(code, "0x%02X" % code), ""
-        heads = _PACKET_HEADS[(direction, code)] = (
+            instruction, errors = codec.INSTRUCTION_NAMES.get(code, "0x%02X" % code), ""
+        heads = _PACKET_HEADS[key] = (
             _string_1(direction),
             _field_uint(0x18, code) + _field_bytes(0x22, instruction.encode())
             + _field_bytes(0x2A, errors.encode()))

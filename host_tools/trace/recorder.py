@@ -18,7 +18,9 @@ Why it is built this way:
   firmware instead of adding to the run. What ``idle()`` has not done is done when the
   window is written. ``make bench`` measures what recording adds to a run. Each message
   costs its framing and index entry, so a serial burst carries its decoded Dynamixel
-  packets (``SerialBytes.packets``) instead of a second topic repeating the bytes.
+  packets (``SerialBytes.packets``) instead of a second topic repeating the bytes, decoded
+  in the line's protocol (``protocol``: host_tools/dynamixel/decode/, the same schema for
+  Protocol 1.0 and 2.0).
 * ``/link`` holds every simulator-link request the firmware made and the reply it got
   (the firmware's whole view of the world), so ``hexhil replay`` can serve the replies
   back and compare the requests byte for byte. Nobody plots them, so each window's
@@ -27,53 +29,25 @@ Why it is built this way:
 """
 from __future__ import annotations
 
-import functools
 import json
-from importlib import metadata as _pkg_metadata
 from operator import itemgetter
 from pathlib import Path
 from typing import Any, BinaryIO, Callable, Iterable, Mapping, Sequence
 
 from host_tools.trace import protobuf as pb
+from host_tools.trace.can_signals import CanSignals, json_default, json_schema, to_json
 from host_tools.trace import scene as scene_msgs
-from host_tools.trace.schemas import can_json_schema, dbc, topic_schema
-from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, CHANNELS, METADATA_NAME, T_BODY,
-                                     T_CAN_PREFIX, T_CAN_RAW, T_FAULTS, T_JOINTS, T_LINK,
-                                     T_SCENE, T_SCENE_FORCES, T_SCENE_FRAMES, T_SERIAL,
-                                     T_SERVOS, T_SWITCHES, T_TELEMETRY, T_VIOLATIONS,
-                                     schema_encoding)
-from host_tools.trace.writer import TraceWriter
-from protocol import can_frames, dynamixel
+from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, METADATA_NAME, T_BODY, T_CAN_PREFIX,
+                                     T_CAN_RAW, T_FAULTS, T_JOINTS, T_LINK, T_SCENE,
+                                     T_SCENE_FORCES, T_SCENE_FRAMES, T_SERIAL, T_SERVOS,
+                                     T_SWITCHES, T_TELEMETRY, T_VIOLATIONS)
+from host_tools.trace.channels import Channels
+from host_tools.trace.writer import TraceWriter, software_version
+from host_tools.dynamixel.decode import DECODERS
 from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
 from protocol.errors import UserError
 
 DEFAULT_FLUSH_INTERVAL_US = 500_000  # well inside the issue's "once per simulated second"
-
-
-@functools.cache
-def software_version() -> str:
-    try:
-        return _pkg_metadata.version("hexhil")
-    except _pkg_metadata.PackageNotFoundError:
-        return "unknown"
-
-
-def _to_json(values: Any) -> str:
-    return _JSON_ENCODER.encode(values)
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, (bytes, bytearray)):
-        return o.hex()
-    if hasattr(o, "tolist"):  # numpy scalars and arrays
-        return o.tolist()
-    if hasattr(o, "value"):  # cantools NamedSignalValue
-        return o.value
-    return str(o)
-
-
-# one encoder for the run (json.dumps with default= builds a new one per call)
-_JSON_ENCODER = json.JSONEncoder(default=_json_default)
 
 
 class Recorder:
@@ -86,10 +60,10 @@ class Recorder:
 
     def __init__(self, path: str | Path, metadata: Mapping[str, Any] | None = None, *,
                  flush_interval_us: int = DEFAULT_FLUSH_INTERVAL_US,
-                 decode_serial: bool = True, decode_can: bool = True, live: Any = None) -> None:
+                 decode_serial: bool = True, decode_can: bool = True, live: Any = None,
+                 protocol: int = 1) -> None:
         self.path = Path(path)
         self._live = live  # a LiveServer (host_tools/trace/live.py) that sees what is written
-        self._schema_data: dict[str, bytes] = {}  # for the live server's channels
         try:
             self._file: BinaryIO = open(self.path, "wb")
         except OSError as exc:
@@ -98,7 +72,7 @@ class Recorder:
         meta = {"software_version": software_version()}
         for k, v in (metadata or {}).items():
             meta[str(k)] = v if isinstance(v, str) else json.dumps(v, sort_keys=True,
-                                                                   default=_json_default)
+                                                                   default=json_default)
         self._writer.metadata(METADATA_NAME, meta)
         self._flush_interval_us = int(flush_interval_us)
         self._window_end_us = self._flush_interval_us
@@ -107,43 +81,17 @@ class Recorder:
         self._done = 0
         self._ready: list[tuple[int, int, bytes]] | None = None  # a closed window, unwritten
         self._idle_seen = False
-        self._channels: dict[str, int] = {}
-        self._schemas: dict[str, int] = {}
-        self._parsers = {"tx": dynamixel.Parser(), "rx": dynamixel.Parser()} \
+        self._channels = Channels(self._writer, live)
+        # /serial's bytes cut into the packets of the line's Dynamixel protocol
+        self._parsers = {d: DECODERS[protocol].TracePackets(d) for d in ("tx", "rx")} \
             if decode_serial else None
-        self._dbc = dbc() if decode_can else None
-        self._can_kinds: dict[tuple[int, bool], tuple[str, Any, bool]] = {}
+        self._can = CanSignals(decode_can)
         self._links: bytearray | None = None  # this window's exchanges, encoded
         self._switches = 0
         self.messages = 0
         self.closed = False
 
     # -- plumbing -------------------------------------------------------------------------
-    def _channel(self, topic: str, schema_name: str, encoding: str,
-                 schema_data: Callable[[], bytes]) -> int:
-        """The channel id of ``topic``, writing its schema (first use) and channel."""
-        sid = self._schemas.get(schema_name)
-        if sid is None:
-            sid = len(self._schemas) + 1
-            data = self._schema_data[schema_name] = schema_data()
-            self._writer.schema(sid, schema_name, schema_encoding(encoding), data)
-            self._schemas[schema_name] = sid
-        cid = len(self._channels) + 1
-        self._writer.channel(cid, topic, encoding, sid)
-        self._channels[topic] = cid
-        if self._live is not None:
-            self._live.channel(cid, topic, schema_name, schema_encoding(encoding),
-                               self._schema_data[schema_name], encoding)
-        return cid
-
-    def _topic_channel(self, topic: str) -> int:
-        """The channel id of one of the fixed topics (``topics.CHANNELS``)."""
-        cid = self._channels.get(topic)
-        if cid is not None:
-            return cid
-        schema_name, encoding = CHANNELS[topic]
-        return self._channel(topic, schema_name, encoding, lambda: topic_schema(topic))
-
     def _defer(self, t_us: int, encode: Callable[..., None], args: tuple) -> None:
         """Hold the raw values; ``encode(out, t_ns, *args)`` appends the encoded messages
         in ``idle()`` or when the window is written, so a call costs about 1 us."""
@@ -235,10 +183,9 @@ class Recorder:
         msgs = self._encode_pending()
         if self._parsers is not None:  # packets hidden behind a bad header, found at the end
             for direction, parser in self._parsers.items():
-                late = [pb.encode_dynamixel_packet(direction, p.id, p.code, p.params, p.raw)
-                        for p in parser.flush()]
+                late = parser.flush()
                 if late:  # on a burst of no new bytes at the last serial time
-                    msgs.append((self._last_serial_ns, self._channels[T_SERIAL],
+                    msgs.append((self._last_serial_ns, self._channels.ids[T_SERIAL],
                                  pb.encode_serial_bytes(direction, b"", late)))
             msgs.sort(key=itemgetter(0))
         self._write_chunk(msgs)
@@ -265,7 +212,7 @@ class Recorder:
         self._defer(t_us, self._encode_serial, (direction, bytes(data)))
 
     def _encode_serial(self, out: list, t: int, direction: str, data: bytes) -> None:
-        cid = self._topic_channel(T_SERIAL)
+        cid = self._channels.of(T_SERIAL)
         out.append((t, cid, pb.encode_serial_bytes(direction, data, self._packets(t, direction,
                                                                                data))))
         self._last_serial_ns = t
@@ -273,24 +220,7 @@ class Recorder:
     def _packets(self, t: int, direction: str, data: bytes) -> list[bytes]:
         """The packets ``data`` completes, encoded (``data`` may end or start one)."""
         parser = self._parsers.get(direction) if self._parsers is not None else None
-        if parser is None:
-            return []
-        n = len(data)
-        if (not parser.pending() and n >= 6 and data[0] == 0xFF and data[1] == 0xFF
-                and data[2] != 0xFF and data[3] + 4 == n
-                and (~sum(data[2:n - 1])) & 0xFF == data[n - 1]):
-            # one whole valid packet, nothing held: what push() would find, ~20x faster
-            return [pb.encode_dynamixel_packet(direction, data[2], data[4], data[5:n - 1], data)]
-        found = []
-        t_us = t // 1000
-        for b in data:
-            if parser.push(b, t_us):
-                end = dynamixel.PARAMS_OFFSET + parser.nparams
-                buf = parser.buf
-                found.append(pb.encode_dynamixel_packet(
-                    direction, parser.id, parser.code,
-                    bytes(buf[dynamixel.PARAMS_OFFSET:end]), bytes(buf[0:end + 1])))
-        return found
+        return parser.feed(data, t // 1000) if parser is not None else []
 
     def can(self, t_us: int, arb_id: int, data: bytes, direction: str = "tx",
             is_extended_id: bool = False) -> None:
@@ -301,41 +231,18 @@ class Recorder:
 
     def _encode_can(self, out: list, t: int, arb_id: int, data: bytes, direction: str,
                     is_extended_id: bool) -> None:
-        kind = self._can_kinds.get((arb_id, is_extended_id))
-        if kind is None:
-            kind = self._can_kinds[(arb_id, is_extended_id)] = self._can_kind(arb_id,
-                                                                             is_extended_id)
-        name, msg, ours = kind
-        out.append((t, self._topic_channel(T_CAN_RAW),
+        name, msg, signals = self._can.decode(arb_id, data, is_extended_id)
+        out.append((t, self._channels.of(T_CAN_RAW),
                     pb.encode_can_frame(direction, arb_id, is_extended_id, data, name)))
-        if msg is None:
-            return
-        try:
-            if ours:
-                # our frames: protocol/can_frames.py, which tests/test_can_frames.py holds
-                # to the DBC through cantools for every frame; ~10x faster than cantools
-                signals = can_frames.decode(arb_id, data)[1]
-            else:
-                signals = msg.decode(data, decode_choices=False)
-        except Exception:  # a frame the DBC cannot decode stays raw only
+        if signals is None:
             return
         topic = T_CAN_PREFIX + name
-        cid = self._channels.get(topic)
+        cid = self._channels.ids.get(topic)
         if cid is None:
-            cid = self._channel(topic, CAN_SCHEMA_PREFIX + name, "json",
-                                lambda: can_json_schema(msg).encode())
+            cid = self._channels.add(topic, CAN_SCHEMA_PREFIX + name, "json",
+                                lambda: json_schema(msg).encode())
         signals["direction"] = direction
-        out.append((t, cid, _to_json(signals).encode()))
-
-    def _can_kind(self, arb_id: int, is_extended_id: bool) -> tuple[str, Any, bool]:
-        """(DBC name or "", the DBC message or None, whether protocol/can_frames knows it)."""
-        if self._dbc is None or is_extended_id:
-            return "", None, False
-        try:
-            msg = self._dbc.get_message_by_frame_id(arb_id)
-        except KeyError:
-            return "", None, False
-        return msg.name, msg, can_frames.BY_ID.get(arb_id) == msg.name
+        out.append((t, cid, to_json(signals).encode()))
 
     def switch_edge(self, t_us: int, leg: int, level: bool) -> None:
         """A tactile limit switch changed (leg 0..5 in ``LEG_NAMES`` order; True = pressed)."""
@@ -347,7 +254,7 @@ class Recorder:
 
     def _encode_switch_edge(self, out: list, t: int, leg: int, level: bool, switches: int
                             ) -> None:
-        out.append((t, self._topic_channel(T_SWITCHES), pb.SwitchEdge(
+        out.append((t, self._channels.of(T_SWITCHES), pb.SwitchEdge(
             leg=leg, leg_name=LEG_NAMES[leg] if leg < len(LEG_NAMES) else "", level=level,
             switches=switches).SerializeToString()))
 
@@ -359,8 +266,8 @@ class Recorder:
         self._encode_json(out, t, T_TELEMETRY, values)
 
     def _encode_json(self, out: list, t: int, topic: str, values: dict[str, Any]) -> None:
-        cid = self._topic_channel(topic)
-        out.append((t, cid, json.dumps(values, sort_keys=True, default=_json_default).encode()))
+        cid = self._channels.of(topic)
+        out.append((t, cid, json.dumps(values, sort_keys=True, default=json_default).encode()))
 
     def servo_state(self, t_us: int, servos: Iterable[Mapping[str, Any]]) -> None:
         """Emulated servo state, one message for all servos. Each mapping may hold ``id``,
@@ -369,7 +276,7 @@ class Recorder:
         self._defer(t_us, self._encode_servo_state, ([dict(s) for s in servos],))
 
     def _encode_servo_state(self, out: list, t: int, servos: list[dict[str, Any]]) -> None:
-        out.append((t, self._topic_channel(T_SERVOS), pb.encode_servo_states(servos)))
+        out.append((t, self._channels.of(T_SERVOS), pb.encode_servo_states(servos)))
 
     def body_pose(self, t_us: int, position_m: Sequence[float],
                   quaternion_wxyz: Sequence[float], parent: str = "world",
@@ -381,7 +288,7 @@ class Recorder:
 
     def _encode_body_pose(self, out: list, t: int, position_m: tuple[float, ...],
                           quaternion_wxyz: tuple[float, ...], parent: str, child: str) -> None:
-        out.append((t, self._topic_channel(T_BODY),
+        out.append((t, self._channels.of(T_BODY),
                     pb.encode_frame_transform(t, parent, child, position_m, quaternion_wxyz)))
 
     def joints(self, t_us: int, names: Sequence[str], positions_rad: Sequence[float],
@@ -398,7 +305,7 @@ class Recorder:
 
     def _encode_joints(self, out: list, t: int, names: list[str], positions: list[float],
                        velocities: list[float], efforts: list[float]) -> None:
-        out.append((t, self._topic_channel(T_JOINTS),
+        out.append((t, self._channels.of(T_JOINTS),
                     pb.encode_joint_states(t, names, positions, velocities, efforts)))
 
     def fault(self, t_us: int, name: str, detail: str = "") -> None:
@@ -408,10 +315,10 @@ class Recorder:
     def _encode_fault(self, out: list, t: int, name: str, detail: str) -> None:
         msg = pb.Log(level=pb.Log.WARNING, name=name, message=detail or name)
         msg.timestamp.FromNanoseconds(t)
-        out.append((t, self._topic_channel(T_FAULTS), msg.SerializeToString()))
+        out.append((t, self._channels.of(T_FAULTS), msg.SerializeToString()))
 
     def violation(self, t_us: int, kind: str, detail: str) -> None:
-        """A bus master's protocol mistake (hil/master_check.py) on ``/bus/violations``."""
+        """A bus master's protocol mistake (hil/servobus/master_check.py) on ``/bus/violations``."""
         self._defer(t_us, self._encode_json, (T_VIOLATIONS, {"kind": kind, "detail": detail}))
 
     def scene(self, t_us: int, shapes: Sequence[Any]) -> None:
@@ -432,7 +339,7 @@ class Recorder:
 
     def _encode_scene(self, out: list, t: int, topic: str,
                       encode: Callable[[int, list], bytes], values: list) -> None:
-        out.append((t, self._topic_channel(topic), encode(t, values)))
+        out.append((t, self._channels.of(topic), encode(t, values)))
 
     def link(self, t_us: int, request: bytes, reply: bytes, kind: str = "") -> None:
         """One simulator-link exchange: the firmware's request and the host's reply, at the
@@ -454,7 +361,7 @@ class Recorder:
     def _encode_links(self, out: list, t: int, links: bytearray) -> None:
         """The window's one message; its exchanges are appended to ``links`` as they are
         encoded, all before the window is written."""
-        cid = self._topic_channel(T_LINK)
+        cid = self._channels.of(T_LINK)
         out.append((t, cid, links))
 
 

@@ -18,8 +18,10 @@ writer / ours"), writes to a path only, and writes other bytes too.
 """
 from __future__ import annotations
 
+import functools
 import struct
 import zlib
+from importlib import metadata as _pkg_metadata
 from typing import BinaryIO
 
 import zstandard
@@ -32,6 +34,16 @@ from mcap.writer import MCAP0_MAGIC
 from host_tools.trace.topics import PROFILE
 
 _MESSAGE_HEADER = struct.Struct("<BQHIQQ")  # opcode, length, channel, sequence, times
+
+
+
+@functools.cache
+def software_version() -> str:
+    """hexhil's version, for the header's library and the metadata record."""
+    try:
+        return _pkg_metadata.version("hexhil")
+    except _pkg_metadata.PackageNotFoundError:
+        return "unknown"
 
 
 class TraceWriter:

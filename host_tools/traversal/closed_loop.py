@@ -1,5 +1,5 @@
 """The closed loop of Sec. III-C/D/E: the beams world and the host nodes on one CAN bus,
-run by the lockstep simulator (hil/sim.py) like every other run.
+run by the lockstep simulator (hil/run/lockstep.py) like every other run.
 
 ``run(cfg)`` is what ``hexhil beams run``, the experiments and ``hexhil run`` of a beams
 scenario call; ``config_from_scenario`` reads a scenario's ``[beams]`` and ``[traversal]``.
@@ -11,7 +11,7 @@ from typing import Any
 
 from hil.scenario import Scenario, parse
 from hil.scenario.beams import STRATEGIES
-from hil.sim import Simulator
+from hil.run.lockstep import Simulator
 from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
 from hil.world.beams import BeamsWorld, BodyState
 from hil.world.beams_node import NO_CONTACT_LIMIT_US, BeamsNode
@@ -32,7 +32,7 @@ def run(cfg: RunConfig, recorder: Any = None, geometry: BodyGeometry = PAPER_BOD
         can_server: Any = None, scene: bool = False, realtime: bool = False,
         scenario: Scenario | None = None) -> dict:
     """One traversal; returns the outcome, the estimate, the plan and the Eq. 11 energy.
-    ``scene``/``realtime``: as ``hil.sim.Simulator`` takes them; ``scenario`` (the file
+    ``scene``/``realtime``: as ``hil.run.lockstep.Simulator`` takes them; ``scenario`` (the file
     ``cfg`` came from) gives the run its CAN faults, else none."""
     if cfg.strategy not in STRATEGIES:
         raise ValueError(f"unknown strategy {cfg.strategy!r}")

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 import numpy as np
 
-from hil.can_bus import Endpoint
+from hil.canbus.bus import Endpoint
 from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
 from hil.world.beams import DT_US
 from hil.world.beams_node import CONTROL_PERIOD_US, MAX_TIME_S

@@ -1,8 +1,8 @@
 """A port object for the official ``dynamixel_sdk``: records what the SDK writes and answers
-with status packets built by ``protocol.dynamixel``, so one exchange checks both directions."""
+with status packets built by ``protocol.dynamixel.v1``, so one exchange checks both directions."""
 from __future__ import annotations
 
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 
 
 class ScriptedPort:

@@ -20,14 +20,14 @@ def _mpy_cross() -> str:
 
 
 def test_protocol_files_are_all_there() -> None:
-    names = {p.name for p in FILES if p.parent.name == "protocol"}
-    assert {"dynamixel.py", "ax12.py", "can_frames.py"} <= names
+    names = {str(p.relative_to(ROOT / "protocol")) for p in FILES if "protocol" in p.parts}
+    assert {"dynamixel/v1.py", "dynamixel/ax12.py", "can_frames.py"} <= names
 
 
 @pytest.mark.parametrize("native", [False, True], ids=["bytecode", "native-f411"])
 @pytest.mark.parametrize("path", FILES, ids=lambda p: str(p.relative_to(ROOT)))
 def test_mpy_cross_compiles(path: Path, tmp_path: Path, native: bool) -> None:
-    """As bytecode, and as the native code our firmware runs as (hil/link.py ``NATIVE``) for
+    """As bytecode, and as the native code our firmware runs as (hil/link/firmware_process.py ``NATIVE``) for
     the board's Cortex-M4F: native code has no bare ``raise``, for one."""
     out = tmp_path / (path.stem + ".mpy")
     flags = ["-X", "emit=native", "-march=armv7emsp"] if native else []

@@ -11,8 +11,8 @@ import tty
 import dynamixel_sdk as sdk
 import pytest
 
-from protocol import ax12
-from protocol import dynamixel as dxl
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 
 class PtyServo:

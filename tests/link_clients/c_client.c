@@ -1,5 +1,5 @@
 /* The conformance script (docs/link.md "Conformance suite") spoken by the C SDK's link
- * client, firmware/c_sdk/src/hexhil_link.c: hil/link_conformance.py serves it
+ * client, firmware/c_sdk/src/hexhil_link.c: hil/link/client_conformance.py serves it
  * (tests/test_c_sdk.py builds it and runs the suite through HEXHIL_LINK_CLIENT). */
 #include "hexhil_link.h"
 

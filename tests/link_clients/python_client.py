@@ -1,5 +1,5 @@
 # The conformance script (docs/link.md "Conformance suite") spoken by the Python link client,
-# firmware/hal/sim.py, under micropython or CPython: hil/link_conformance.py serves it.
+# firmware/hal/sim.py, under micropython or CPython: hil/link/client_conformance.py serves it.
 # `--drop-more` makes a deliberately broken client that ignores FLAG_MORE (the suite must
 # catch it: tests/test_link_conformance.py).
 import sys

@@ -1,5 +1,5 @@
-# protocol/ax12.py under the real micropython binary (checks.py asserts, no pytest).
-from protocol import ax12
+# protocol/dynamixel/ax12.py under the real micropython binary (checks.py asserts, no pytest).
+from protocol.dynamixel import ax12
 from tests.micropython.checks import check, done, raises
 
 new = ax12.defaults(ax12.EDITION_EMANUAL)

@@ -1,6 +1,6 @@
-# protocol/dynamixel.py under the real micropython binary (checks.py asserts, no pytest).
+# protocol/dynamixel/v1.py under the real micropython binary (checks.py asserts, no pytest).
 # Prints lines the pytest side compares with CPython's, then "OK dynamixel <checks>".
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 from tests.micropython.checks import check, done
 from tests.micropython.packet_checks import Lcg, byte_path_allocates_nothing, round_trip
 

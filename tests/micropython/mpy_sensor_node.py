@@ -1,6 +1,6 @@
 # protocol/sensor_node.py under the real micropython binary: the switch read the firmware
 # sends to the node (firmware/sensor_switches.py) is the AX-S1-like READ of byte 26 at ID 100.
-from protocol import dynamixel as dxl
+from protocol.dynamixel import v1 as dxl
 from protocol import sensor_node
 from tests.micropython.checks import check, done
 

@@ -1,5 +1,5 @@
 # protocol/sim_link.py under the real micropython binary: the framing constants both
-# programs (firmware/hal/sim.py and hil/link.py) agree on.
+# programs (firmware/hal/sim.py and hil/link/firmware_process.py) agree on.
 import struct
 
 from protocol import sim_link

@@ -1,6 +1,6 @@
-# protocol/stream.py under the real micropython binary: the shared byte path, through a
+# protocol/dynamixel/stream.py under the real micropython binary: the shared byte path, through a
 # minimal subclass (packets are any two bytes starting 0xAA).
-from protocol.stream import StreamParser
+from protocol.dynamixel.stream import StreamParser
 from tests.micropython.checks import check, done
 
 

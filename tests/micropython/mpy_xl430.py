@@ -1,5 +1,5 @@
-# protocol/xl430.py under the real micropython binary: table, access, units.
-from protocol import xl430 as xl
+# protocol/dynamixel/xl430.py under the real micropython binary: table, access, units.
+from protocol.dynamixel import xl430 as xl
 from tests.micropython.checks import check, done
 
 t = xl.defaults(1000)

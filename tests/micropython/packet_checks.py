@@ -1,4 +1,4 @@
-# What the Dynamixel protocol scripts share (mpy_dynamixel.py, mpy_dynamixel2.py), the
+# What the Dynamixel protocol scripts share (mpy_dynamixel.py, mpy_v2_packets.py), the
 # same under micropython and CPython: deterministic numbers, the stream round trip and the
 # byte path's allocation check, each given the protocol module.
 import sys

@@ -1,6 +1,7 @@
 /* HAL_GPIO_* on the virtual board's wiring: GPIOB pins 0-5 read the leg switches (pressed:
  * GPIO_PIN_RESET, as a switch to ground with a pull-up), GPIOA pin 1 drives the servo
- * line's direction buffer (hal_uart.c); other pins keep what was written. */
+ * line's direction buffer (its level goes to the board core, hal_board.c, where the UART
+ * reads it); other pins keep what was written. */
 #include "stm32f4xx_hal.h"
 #include "hal_board.h"
 #include "hexhil_link.h"
@@ -26,24 +27,24 @@ GPIO_PinState HAL_GPIO_ReadPin(GPIO_TypeDef *GPIOx, uint16_t GPIO_Pin)
     return (out_level[port_index(GPIOx)] & GPIO_Pin) ? GPIO_PIN_SET : GPIO_PIN_RESET;
 }
 
-void HAL_GPIO_WritePin(GPIO_TypeDef *GPIOx, uint16_t GPIO_Pin, GPIO_PinState PinState)
+/* A write to the direction pin turns the line (the board core keeps its level). */
+static void written(const GPIO_TypeDef *GPIOx, uint16_t GPIO_Pin)
 {
     if (GPIOx->id == HX_DIR_PORT && (GPIO_Pin & HX_DIR_PIN))
-        hx_board_active();
+        hx_direction_set((out_level[HX_DIR_PORT - 'A'] & HX_DIR_PIN) != 0);
+}
+
+void HAL_GPIO_WritePin(GPIO_TypeDef *GPIOx, uint16_t GPIO_Pin, GPIO_PinState PinState)
+{
     if (PinState == GPIO_PIN_SET)
         out_level[port_index(GPIOx)] |= GPIO_Pin;
     else
         out_level[port_index(GPIOx)] &= (uint16_t)~GPIO_Pin;
+    written(GPIOx, GPIO_Pin);
 }
 
 void HAL_GPIO_TogglePin(GPIO_TypeDef *GPIOx, uint16_t GPIO_Pin)
 {
-    if (GPIOx->id == HX_DIR_PORT && (GPIO_Pin & HX_DIR_PIN))
-        hx_board_active();
     out_level[port_index(GPIOx)] ^= GPIO_Pin;
-}
-
-int hx_direction_tx(void)
-{
-    return (out_level[HX_DIR_PORT - 'A'] & HX_DIR_PIN) != 0;
+    written(GPIOx, GPIO_Pin);
 }

@@ -1,7 +1,7 @@
 /* HAL_UART_* and HAL_HalfDuplex_* for USART2, the servo line, over the link. Bytes go on
  * the line when the direction pin (GPIOA pin 1) is high and the transmitter is enabled;
- * they are held and sent with the next receive (one transact) or the next sleep (a posted
- * write). A status reaches the firmware when the pin is low and the receiver is enabled.
+ * the board core (hal_board.c) holds them and sends them with the next receive (one
+ * transact) or the next sleep (a posted write). A status reaches the firmware when the pin is low and the receiver is enabled.
  * Bytes written with the pin low, or a status awaited with it high, are lost as on the
  * board: HAL_UART_Receive times out, and the mistake goes to the host as a fault event
  * (tx_while_receiving, rx_while_transmitting) that the run's summary counts. USART2's
@@ -16,9 +16,6 @@
 
 USART_TypeDef hexhil_usart1 = {1}, hexhil_usart2 = {2}, hexhil_usart6 = {6};
 
-static uint8_t pending[4096];
-static uint16_t pending_len;
-
 static int on_line(const UART_HandleTypeDef *h) { return h->Instance == USART2; }
 
 static HAL_StatusTypeDef init(UART_HandleTypeDef *h, uint32_t halfduplex)
@@ -27,7 +24,7 @@ static HAL_StatusTypeDef init(UART_HandleTypeDef *h, uint32_t halfduplex)
         return HAL_ERROR;
     hx_board_start();
     if (on_line(h))
-        hx_link_baud(h->Init.BaudRate);   /* the host's line judges the rate, as the servos do */
+        hx_board_baud(h->Init.BaudRate);   /* the line runs at it; the servos judge it */
     h->halfduplex = halfduplex;
     h->te = (h->Init.Mode & UART_MODE_TX) != 0;
     h->re = (h->Init.Mode & UART_MODE_RX) != 0;
@@ -59,16 +56,6 @@ HAL_StatusTypeDef HAL_HalfDuplex_EnableReceiver(UART_HandleTypeDef *huart)
     return turn(huart, 0);
 }
 
-/* Held bytes go out as a posted write (before a sleep). */
-void hx_uart_flush(void)
-{
-    if (pending_len) {
-        hx_link_post(HX_OP_WRITE, pending, pending_len);
-        hx_count.writes++;
-        pending_len = 0;
-    }
-}
-
 HAL_StatusTypeDef HAL_UART_Transmit(UART_HandleTypeDef *huart, const uint8_t *pData,
                                     uint16_t Size, uint32_t Timeout)
 {
@@ -88,10 +75,7 @@ HAL_StatusTypeDef HAL_UART_Transmit(UART_HandleTypeDef *huart, const uint8_t *pD
         hx_board_fault("tx_while_receiving", detail);
         return HAL_OK;
     }
-    if (pending_len + Size > sizeof pending)
-        hx_uart_flush();
-    memcpy(pending + pending_len, pData, Size);
-    pending_len += Size;
+    hx_line_hold(pData, Size);
     return HAL_OK;
 }
 
@@ -110,10 +94,7 @@ HAL_StatusTypeDef HAL_UART_Receive(UART_HandleTypeDef *huart, uint8_t *pData,
     uint32_t timeout_us = Timeout >= 0xFFFFFFFFu / 1000u ? 0xFFFFFFFFu : Timeout * 1000u;
     static uint8_t rx[HX_MAX_RX_LEN];
     uint16_t want = Size > HX_MAX_RX_LEN ? HX_MAX_RX_LEN : Size;
-    uint16_t got = hx_link_transact(pending, pending_len, rx, want, timeout_us);
-    pending_len = 0;
-    hx_count.transactions++;
-    hx_board_synced();
+    uint16_t got = hx_line_transact(rx, want, timeout_us);
     hx_board_active();
     hx_board_check_end();
     if (hx_direction_tx() || !huart->re) {

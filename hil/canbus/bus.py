@@ -1,0 +1,137 @@
+"""The run's CAN bus: one python-can bus per run, fanned out to ``can.Listener``s in lockstep.
+
+Every participant is a python-can ``Listener``: the firmware's inbox, seed 000's world and
+host nodes (``Endpoint``, a ``can.BufferedReader`` that can also send), the recorder
+(``RecorderListener``) and the socketcand server (``hil.canbus.socketcand.CanServer``, a gateway:
+its clients' frames come in through ``poll()``). A frame sent
+by one is delivered to every other at the same virtual time, and is also put on the run's
+python-can ``virtual`` bus (``channel``), so in-process python-can code can join the run;
+``poll()`` brings what such code sends back in.
+
+python-can's ``Notifier`` is not used: it dispatches on a thread per bus, so when a frame
+reached a listener would depend on the wall clock and a seed would no longer give the same
+trace. Dispatch here is synchronous, in the order listeners were added.
+
+Frame loss (the scenario's ``faults.can_drop_rate``): each frame is lost with that
+probability before anyone sees it, drawn from an RNG seeded by the run's seed (and drawn
+only when the rate is set, so runs without it are unchanged); every loss is reported
+through ``on_fault`` ("can_drop") and counted in ``dropped``.
+"""
+from __future__ import annotations
+
+import itertools
+import random
+from typing import Any, Callable, Iterator
+
+import can
+
+from hil.clock import VirtualClock
+
+_channels = itertools.count()
+
+
+def t_us_of(msg: can.Message) -> int:
+    """A frame's virtual time (its timestamp is virtual seconds)."""
+    return round(msg.timestamp * 1e6)
+
+
+class Endpoint(can.BufferedReader):
+    """A node on the bus: frames the others send queue here until the node reads them.
+
+    ``direction`` is how the recorder logs what this node sends, relative to the robot's
+    controller (``tx``: the controller's side sent it; ``rx``: it is for the controller).
+    """
+
+    def __init__(self, bus: "CanBus", direction: str, hears: str | None = None) -> None:
+        """``hears``: only frames sent in that direction (``tx``: the controller's), else
+        every frame but its own."""
+        super().__init__()
+        self._bus, self.direction, self.hears = bus, direction, hears
+
+    def on_message_received(self, msg: can.Message) -> None:
+        if self.hears is None or (msg.is_rx == (self.hears == "rx")):
+            super().on_message_received(msg)
+
+    def send(self, arb_id: int, data: bytes) -> None:
+        self._bus.send(arb_id, data, sender=self, direction=self.direction)
+
+    def frames(self, limit: int = -1) -> Iterator[can.Message]:
+        """The queued frames, oldest first (at most ``limit``; all if negative)."""
+        while limit:
+            msg = self.get_message(0)
+            if msg is None:
+                return
+            limit -= 1
+            yield msg
+
+
+class RecorderListener(can.Listener):
+    """Every frame to the recorder's ``/can`` topics, with its sender's direction."""
+
+    def __init__(self, recorder: Any) -> None:
+        self.recorder = recorder
+
+    def on_message_received(self, msg: can.Message) -> None:
+        self.recorder.can(t_us_of(msg), msg.arbitration_id, bytes(msg.data),
+                          "rx" if msg.is_rx else "tx")
+
+
+class CanBus:
+    """The fan-out; ``send`` stamps each frame with the clock's virtual time."""
+
+    def __init__(self, clock: VirtualClock, drop_rate: float = 0.0, seed: int = 0,
+                 on_fault: Callable[[int, str, str], None] | None = None) -> None:
+        self.clock = clock
+        self.drop_rate = drop_rate
+        self.dropped = 0
+        self._drop_rng = random.Random(f"{seed}:can")
+        self._on_fault = on_fault
+        self.channel = f"hexhil-run-{next(_channels)}"
+        self.bus = can.Bus(interface="virtual", channel=self.channel,
+                           receive_own_messages=False, preserve_timestamps=True)
+        self.listeners: list[can.Listener] = []
+        self.gateways: list[Any] = []
+
+    def add_gateway(self, gateway: Any) -> None:
+        """A listener that also brings frames in from outside (``poll() -> [(id, data,
+        extended)]``), e.g. the socketcand server's clients."""
+        self.add(gateway)
+        self.gateways.append(gateway)
+
+    def add(self, listener: can.Listener) -> can.Listener:
+        self.listeners.append(listener)
+        return listener
+
+    def endpoint(self, direction: str, hears: str | None = None) -> Endpoint:
+        return self.add(Endpoint(self, direction, hears))
+
+    def send(self, arb_id: int, data: bytes, sender: Any = None, direction: str = "rx") -> None:
+        """One standard (11-bit) frame, the only kind our DBC defines."""
+        if self.drop_rate and self._drop_rng.random() < self.drop_rate:
+            self.dropped += 1
+            if self._on_fault is not None:
+                self._on_fault(self.clock.t_us, "can_drop", f"frame 0x{arb_id:03X} lost")
+            return
+        msg = can.Message(timestamp=self.clock.t_us * 1e-6, arbitration_id=arb_id,
+                          is_extended_id=False, data=data, is_rx=direction == "rx")
+        self.bus.send(msg)
+        self._deliver(msg, sender)
+
+    def _deliver(self, msg: can.Message, sender: Any) -> None:
+        for listener in self.listeners:
+            if listener is not sender:
+                listener.on_message_received(msg)
+
+    def poll(self) -> None:
+        """Deliver what came in from outside since the last call (logged as ``rx``): the
+        gateways' frames, then what in-process python-can code sent on ``channel``."""
+        for gateway in self.gateways:
+            for arb_id, data, extended in gateway.poll():
+                if not extended:
+                    self.send(arb_id, data, sender=gateway)
+        while (msg := self.bus.recv(timeout=0)) is not None:
+            msg.timestamp, msg.is_rx = self.clock.t_us * 1e-6, True
+            self._deliver(msg, None)
+
+    def shutdown(self) -> None:
+        self.bus.shutdown()

@@ -1,0 +1,280 @@
+"""Host side of the simulator link: start the firmware process and serve its requests.
+
+The firmware (``firmware/main.py`` under ``micropython`` or CPython) connects to a
+127.0.0.1 TCP port given in ``HEXHIL_LINK_PORT`` and speaks ``protocol/sim_link.py``'s
+framing. ``Connection.exchanges`` yields, per round trip, the messages the firmware sent
+since the last reply (posted ones first, the request last); the caller answers with
+``reply``. The raw bytes of both sides are kept for the recorder (``hexhil replay``).
+"""
+from __future__ import annotations
+
+import os
+import re
+import select
+import socket
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+from protocol import sim_link
+from protocol.errors import UserError
+
+ROOT = Path(__file__).resolve().parents[2]
+REQUEST_OPS = sim_link.REQUEST_OPS
+RUNTIMES = ("micropython", "cpython")
+ACCEPT_POLL_S = 0.1   # how often a firmware not connected yet is checked for having exited
+IN_PROCESS = "cpython-inprocess"   # the firmware under this CPython, in this process (sweeps)
+# Our firmware's modules compiled by MicroPython's native emitter as they load: the same
+# runtime calls as bytecode (every float operation: the same bits, the same serial digest),
+# without its dispatch; the firmware's compute a cycle 255 -> 160 us (docs/performance.md).
+# The source stays plain Python, so plain mpy-cross compiles it; a board build passes the
+# same option with its target (mpy-cross -X emit=native -march=armv7emsp).
+NATIVE = ("-X", "emit=native")
+
+
+class LinkViolation(Exception):
+    """A client message the host cannot carry out (unknown op, malformed, another link
+    version): answered with an error reply (hil/link/server.py)."""
+
+
+def firmware_command(python: str) -> list[str]:
+    """The command line that runs the firmware under ``python`` (micropython or cpython)."""
+    if python == "micropython":
+        exe = Path(sys.executable).with_name("micropython")
+        if not exe.exists():
+            raise UserError("the micropython binary is not in this environment "
+                            "(run `make test` once, or use --python cpython)")
+        return [str(exe), *NATIVE, "-m", "firmware.main"]
+    if python == "cpython":
+        return [sys.executable, "-m", "firmware.main"]
+    raise UserError(f"--python must be one of {', '.join(RUNTIMES)}, not {python!r}")
+
+
+def firmware_env(port: int) -> dict[str, str]:
+    env = dict(os.environ)
+    env[sim_link.ENV_PORT] = str(port)
+    env["MICROPYPATH"] = f"{ROOT}:.frozen:{ROOT}/firmware/lib"
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    return env
+
+
+def last_words(err: str, out: str = "") -> str:
+    """Why a firmware stopped, in one line: the last traceback's exception with where the
+    firmware raised it (micropython prints tracebacks on stdout, CPython on stderr), else
+    the last line it wrote; stderr first."""
+    for text in (err, out):
+        lines = text.strip().splitlines()
+        if not lines:
+            continue
+        starts = [i for i, line in enumerate(lines) if line.startswith("Traceback (most recent")]
+        if not starts:
+            return lines[-1]
+        body = lines[starts[-1] + 1:]
+        raised = next((line for line in reversed(body) if not line.startswith(" ")), body[-1])
+        frames = [m for m in (_FRAME.match(line) for line in body) if m]
+        own = [m for m in frames if not _hexhil_source(m.group(1))]
+        if not own:
+            return raised.strip()
+        return f"{raised.strip()} ({Path(own[-1].group(1)).name}, line {own[-1].group(2)})"
+    return "no output"
+
+
+_FRAME = re.compile(r'\s+File "([^"]+)", line (\d+)')
+
+
+def _hexhil_source(path: str) -> bool:
+    """Whether a traceback frame is in hexhil's own board or library code, not the user's."""
+    full = (ROOT / path).resolve()
+    return any(full.is_relative_to(ROOT / d) for d in ("firmware/virtual_board", "firmware/hal",
+                                                         "protocol"))
+
+
+def split_messages(data: bytes) -> list[tuple[int, bytes]]:
+    """``op | u16 len | payload`` records -> [(op, payload)]; raises ValueError if cut."""
+    out = []
+    i, n = 0, len(data)
+    while i < n:
+        if i + sim_link.HEADER_LEN > n:
+            raise ValueError("link record header cut off")
+        op = data[i]
+        length = data[i + 1] | (data[i + 2] << 8)
+        j = i + sim_link.HEADER_LEN + length
+        if j > n:
+            raise ValueError("link record payload cut off")
+        out.append((op, bytes(data[i + sim_link.HEADER_LEN:j])))
+        i = j
+    return out
+
+
+class Connection:
+    """One firmware connection: batches of messages in, replies out."""
+
+    def __init__(self, sock: socket.socket) -> None:
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.sock = sock
+        self.reader = sock.makefile("rb", buffering=65536)
+        self.raw = bytearray()        # bytes of the batch being read (for the recorder)
+        self.round_trips = 0
+        self._poll = select.poll()
+        self._poll.register(sock, select.POLLIN)
+
+    def _message(self) -> tuple[int, bytes] | None:
+        try:
+            return self._read_message()
+        except ConnectionResetError:   # the client died with bytes unread: a closed link
+            return None
+
+    def _read_message(self) -> tuple[int, bytes] | None:
+        head = self.reader.read(sim_link.HEADER_LEN)
+        if len(head) < sim_link.HEADER_LEN:
+            return None
+        n = head[1] | (head[2] << 8)
+        payload = self.reader.read(n) if n else b""
+        if len(payload) < n:
+            return None
+        self.raw += head
+        self.raw += payload
+        return head[0], payload
+
+    def batch(self) -> tuple[list[tuple[int, bytes]], bool]:
+        """Messages up to and including the next request: (messages, closed)."""
+        self.raw = bytearray()
+        msgs = []
+        while True:
+            m = self._message()
+            if m is None:
+                return msgs, True
+            msgs.append(m)
+            if m[0] in REQUEST_OPS:
+                return msgs, False
+
+    def reply(self, t_us: int, body: bytes = b"") -> bytes:
+        """Answer the pending request; returns the raw reply bytes (length prefix included)."""
+        payload = struct.pack("<Q", t_us) + body
+        raw = struct.pack("<H", len(payload)) + payload
+        self.sock.sendall(raw)
+        self.round_trips += 1
+        return raw
+
+    def reply_error(self, text: str) -> None:
+        """Answer the pending request with an error reply (docs/link.md); the link is over."""
+        try:
+            self.sock.sendall(sim_link.error_reply(text))
+        except OSError:
+            pass  # the client is gone already: the host reports the error either way
+
+    def answered(self) -> bool:
+        """Whether the firmware's next batch has arrived (after a reply, nothing else is
+        buffered: the firmware waits for each reply before it sends more)."""
+        return bool(self._poll.poll(0))
+
+    def close(self) -> None:
+        try:
+            self.reader.close()
+        finally:
+            self.sock.close()
+
+
+class DirectConnection:
+    """The link without a socket, for a firmware running in this process: the firmware's
+    link hands over the bytes it would have written (``exchange``) and gets the reply's
+    bytes back. The same frames as ``Connection``'s, so a run answers them the same way."""
+
+    def __init__(self, answer: Callable[["DirectConnection", list[tuple[int, bytes]], bool], bool]
+                 ) -> None:
+        self._answer = answer
+        self.raw = b""
+        self.round_trips = 0
+        self._reply = b""
+
+    def exchange(self, data: bytes, closed: bool) -> bytes:
+        """One batch (posted messages, then the request unless ``closed``); the reply."""
+        self.raw, self._reply = data, b""
+        self._answer(self, split_messages(data), closed)
+        return self._reply
+
+    def reply(self, t_us: int, body: bytes = b"") -> bytes:
+        payload = struct.pack("<Q", t_us) + body
+        self._reply = struct.pack("<H", len(payload)) + payload
+        self.round_trips += 1
+        return self._reply
+
+    def reply_error(self, text: str) -> None:
+        self._reply = sim_link.error_reply(text)
+
+    def answered(self) -> bool:
+        """The firmware waits on this very call: the recorder has no time to fill."""
+        return True
+
+
+class FirmwareProcess:
+    """The firmware as a child process connected on an ephemeral 127.0.0.1 port."""
+
+    def __init__(self, python: str = "micropython", connect_timeout_s: float = 30.0,
+                 command: list[str] | None = None, extra_env: dict[str, str] | None = None,
+                 console: Any = None) -> None:
+        """``extra_env`` is set over ``firmware_env``'s; ``console``, a file, takes the
+        firmware's stdout instead of a pipe (a chatty firmware never blocks on it)."""
+        self.python = python
+        self._console = console
+        cmd = command or firmware_command(python)
+        srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        srv.bind(("127.0.0.1", 0))
+        srv.listen(1)
+        srv.settimeout(ACCEPT_POLL_S)
+        self.port = srv.getsockname()[1]
+        try:
+            self.proc = subprocess.Popen(cmd, cwd=ROOT,
+                                         env={**firmware_env(self.port), **(extra_env or {})},
+                                         stdout=console or subprocess.PIPE,
+                                         stderr=subprocess.PIPE)
+        except OSError as exc:
+            srv.close()
+            raise UserError(f"cannot start the firmware ({' '.join(cmd)}): {exc.strerror}") from None
+        try:
+            sock = self._accept(srv, cmd, connect_timeout_s)
+        finally:
+            srv.close()
+        sock.settimeout(None)
+        self.conn = Connection(sock)
+
+    def _accept(self, srv: socket.socket, cmd: list[str], timeout_s: float) -> socket.socket:
+        """The firmware's connection; one line if it exits first or takes too long."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                return srv.accept()[0]
+            except socket.timeout:
+                code = self.proc.poll()
+                if code is None and time.monotonic() < deadline:
+                    continue
+            if code is None:
+                self.proc.kill()
+            out, err = self.proc.communicate()
+            if self._console is not None:
+                self._console.seek(0)
+                out = self._console.read()
+            tail = last_words(err.decode(errors="replace"), (out or b"").decode(errors="replace"))
+            what = (f"did not connect within {timeout_s:g} s" if code is None
+                    else f"exited with code {code} before it connected to the link")
+            raise UserError(f"the firmware ({' '.join(cmd)}) {what}: {tail}") from None
+
+    def finish(self, timeout_s: float = 10.0) -> tuple[int, str, str]:
+        """Wait for the process to exit; (return code, stdout, stderr)."""
+        try:
+            out, err = self.proc.communicate(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            out, err = self.proc.communicate()
+        self.conn.close()
+        return (self.proc.returncode, (out or b"").decode(errors="replace"),
+                err.decode(errors="replace"))
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.communicate()
+        self.conn.close()

@@ -1,0 +1,223 @@
+"""A firmware that is not ours, started and served by the simulator in lockstep:
+``hexhil run --firmware PATH`` (``Run(firmware=...)``).
+
+* ``BoardFirmware``: a MicroPython main file run under the real ``micropython`` binary on
+  the virtual STM32F411 board (firmware/virtual_board/, hil/link/board_line.py,
+  docs/your-firmware.md);
+* ``ExecutableFirmware``: any executable that speaks docs/link.md, such as a C firmware
+  built against firmware/c_sdk/ (docs/c-firmware.md). It finds the link through
+  ``HEXHIL_LINK_PORT`` in its environment (hil/link/firmware_process.py ``FirmwareProcess``).
+
+Both end the same way (``serve_process``): a crash, a hang (no link message for
+``HANG_WALL_S`` of wall time, or the board's own verdict: only polls for 2 virtual seconds)
+or an exit before the run's end is one line (``UserError``), and the trace recorded up to
+then is kept: the caller's recorder is closed as after any run.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Protocol
+
+from hil.link.firmware_process import ROOT, FirmwareProcess, firmware_command, firmware_env
+from hil.run_result import RunResult
+from protocol import sim_link
+from protocol.errors import UserError
+
+BOARD_DIR = ROOT / "firmware" / "virtual_board"
+BOARD_RUNTIME = "micropython-board"   # a run's firmware_runtime
+EXECUTABLE = "executable"
+HANG_WALL_S = 20.0          # wall seconds without a link message: the firmware hung
+BOARD_SAYS = "hexhil board: "   # the C SDK's one-line verdict on its firmware (hal_board.c)
+MAIN_SUFFIXES = (".py",)    # a MicroPython main file; anything else is an executable
+
+
+class ServedFirmware(Protocol):
+    """A firmware the simulator starts and serves itself (hil/run/lockstep.py ``Simulator.run``)."""
+
+    runtime: str
+
+    def command(self) -> list[str]:
+        """The command line that starts it."""
+
+    def env(self) -> dict[str, str]:
+        """What its environment needs beyond the link's."""
+
+    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+        """Start it, answer its link with ``server`` (hil/link/server.py) to the end."""
+
+
+def served_firmware(path: str | Path, what: str = "--firmware"
+                    ) -> BoardFirmware | ExecutableFirmware:
+    """``path`` checked: a MicroPython main file (``.py``) for the virtual board, else an
+    executable file this user may run (``UserError`` naming ``what`` if neither)."""
+    p = Path(path)
+    if not p.is_file():
+        raise UserError(f"{what} {path}: not a file (give a MicroPython main file or an "
+                        "executable)")
+    if p.suffix in MAIN_SUFFIXES:
+        try:
+            text = _is_text(p.read_bytes())
+        except OSError as exc:
+            raise UserError(f"{what} {path}: cannot read it ({exc.strerror})") from None
+        if not text:
+            raise UserError(f"{what} {path}: not a MicroPython source file (it holds binary "
+                            "data, not UTF-8 text)")
+        return BoardFirmware(p.resolve())
+    if not os.access(p, os.X_OK):
+        raise UserError(f"{what} {path}: neither a MicroPython main file (.py) nor "
+                        "executable (build a C firmware with `hexhil sdk build main.c -o fw`, "
+                        "or chmod +x)")
+    return ExecutableFirmware(p.resolve())
+
+
+def _is_text(data: bytes) -> bool:
+    """A source micropython can parse: UTF-8 without NUL bytes (micropython itself only
+    says ``SyntaxError: invalid syntax`` of a binary file)."""
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError:
+        return False
+    return b"\0" not in data
+
+
+@dataclass(frozen=True)
+class BoardFirmware:
+    """A MicroPython main file to run on the virtual board."""
+
+    main: Path
+    runtime: str = BOARD_RUNTIME
+
+    def command(self) -> list[str]:
+        return [firmware_command("micropython")[0], str(self.main)]
+
+    def env(self) -> dict[str, str]:
+        return {"MICROPYPATH": f"{BOARD_DIR}:" + firmware_env(0)["MICROPYPATH"],
+                sim_link.ENV_BOARD: sim_link.BOARD_NAME}
+
+    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+        """The console's ``event KIND TEXT`` lines (hal/base.py ``Board.event``) are its
+        events."""
+        serve_process(self, self.main.name, server, end_us, result, _console_to(server, result))
+
+
+@dataclass(frozen=True)
+class ExecutableFirmware:
+    """An executable file that speaks the firmware link."""
+
+    path: Path
+    runtime: str = EXECUTABLE
+
+    def command(self) -> list[str]:
+        return [str(self.path)]
+
+    def env(self) -> dict[str, str]:
+        return {}
+
+    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+        """What it prints on stdout goes to ``/telemetry`` as log lines (the C SDK makes
+        stdout line-buffered, so a line arrives when printed)."""
+        serve_process(self, self.path.name, server, end_us, result, _console_to(server, result))
+
+
+def _console_to(server: Any, result: RunResult) -> Callable[[str], None]:
+    def take_console(printed: str) -> None:
+        for kind, text in console_events(printed):
+            server.take_event(kind, text, result)
+    return take_console
+
+
+def _how(code: int) -> str:
+    if code < 0:
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit {code}"
+
+
+def serve_process(firmware: ServedFirmware, name: str, server: Any, end_us: int,
+                  result: RunResult, take_console: Callable[[str], None] | None = None
+                  ) -> None:
+    """Start ``firmware``, serve its link to ``end_us`` and judge how it ended, in one
+    line (``UserError``). Its stdout goes to a file: a firmware that prints a lot never
+    blocks on a full pipe; ``take_console`` reads what it printed, whole lines as the line
+    idles (so each is stamped with the virtual time it was printed at), the rest at the
+    end."""
+    hang_wall_s = HANG_WALL_S
+    with tempfile.TemporaryFile() as console:
+        fw = FirmwareProcess(firmware.runtime, command=firmware.command(),
+                             extra_env=firmware.env(), console=console)
+        fw.conn.sock.settimeout(hang_wall_s)
+        hung = False
+        reader = _ConsoleReader(console, take_console)
+        server.console = reader.lines if take_console is not None else None
+        try:
+            server.serve(fw.conn, end_us, result)
+        except TimeoutError:
+            hung = True
+        finally:
+            server.console = None
+            code, _, err = fw.finish(timeout_s=0.0 if hung else 10.0)
+            printed = reader.rest()
+    result.exit_code = code
+    result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
+    t_s = server.clock.t_us * 1e-6
+    if hung:
+        raise UserError(f"the firmware {name} hung: no link message for {hang_wall_s:g} s "
+                        f"of wall time (at t={t_s:.6f} s)")
+    last = (err.strip().splitlines() or printed.strip().splitlines() or ["no message"])[-1]
+    if code != 0 and last.startswith(BOARD_SAYS):   # the C SDK's own verdict (a hang)
+        raise UserError(f"the firmware {name} {last[len(BOARD_SAYS):]}")
+    if code != 0:
+        raise UserError(f"the firmware {name} crashed at t={t_s:.6f} s ({_how(code)}): {last}")
+    if server.clock.t_us < end_us:
+        raise UserError(f"the firmware {name} exited at t={t_s:.6f} s, before the run's end "
+                        f"({end_us * 1e-6:g} s)")
+
+
+class _ConsoleReader:
+    """A firmware's console file, read on as it grows (``os.pread``: the file offset the
+    firmware writes at is shared, and stays untouched): whole lines to ``take``."""
+
+    def __init__(self, console: Any, take: Callable[[str], None] | None) -> None:
+        self._fd, self._take = console.fileno(), take
+        self._done = 0            # bytes handed on
+        self._text = b""          # everything read so far
+
+    def _read(self) -> None:
+        while chunk := os.pread(self._fd, 65536, len(self._text)):
+            self._text += chunk
+
+    def lines(self) -> None:
+        self._read()
+        cut = self._text.rfind(b"\n") + 1
+        if cut > self._done and self._take is not None:
+            self._take(self._text[self._done:cut].decode(errors="replace"))
+            self._done = cut
+
+    def rest(self) -> str:
+        """Everything printed (for the verdict); what was not handed on yet, handed on."""
+        self._read()
+        if self._done < len(self._text) and self._take is not None:
+            self._take(self._text[self._done:].decode(errors="replace"))
+            self._done = len(self._text)
+        return self._text.decode(errors="replace")
+
+
+def console_events(text: str) -> list[tuple[int, str]]:
+    """(kind, text) of what a firmware printed: an ``event KIND TEXT`` line is that event
+    (a traceback's following lines belong to it), any other line an ``EVENT_LOG``."""
+    out: list[tuple[int, str]] = []
+    for line in text.splitlines():
+        parts = line.split(" ", 2)
+        if len(parts) >= 2 and parts[0] == "event" and parts[1].isdigit():
+            out.append((int(parts[1]), parts[2] if len(parts) > 2 else ""))
+        elif out and out[-1][0] == sim_link.EVENT_EXCEPTION and line.startswith(" "):
+            out[-1] = (out[-1][0], out[-1][1] + "\n" + line)
+        else:
+            out.append((sim_link.EVENT_LOG, line))
+    return out

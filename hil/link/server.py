@@ -1,0 +1,292 @@
+"""Serving one firmware connection: its link requests become bus, switch and CAN traffic.
+
+The firmware speaks ``protocol/sim_link.py`` (hil/link/firmware_process.py reads the frames); this module
+answers each batch in virtual time: UART writes and transactions go to the servo bus, CAN
+frames to the run's CAN bus, events to the run result, and a sleep moves the clock, samples
+the limit switches and hands over the CAN frames queued for the firmware.
+"""
+from __future__ import annotations
+
+import json
+import struct
+from typing import Any, Callable
+
+from hil.link.board_line import MISTAKES, BoardLine, set_master_baud
+from hil.canbus.bus import CanBus
+from hil.link.firmware_process import Connection, DirectConnection, LinkViolation
+from hil.run_result import RunResult
+from protocol import hexapod, sim_link
+from protocol import link_schema as ls
+from protocol.dynamixel import models
+from protocol.errors import UserError
+
+RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)
+
+
+def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> dict[str, Any]:
+    """The firmware/config.py overrides a checked scenario asks for (the hello's config,
+    keys from protocol/link_schema.py CONFIG)."""
+    fw, gait, bus = scenario["firmware"], scenario["gait"], scenario["bus"]
+    out: dict[str, Any] = {k: fw[k] for k in (ls.CYCLE_HZ, ls.TACTILE_ON, ls.SERVO_LOST_S,
+                                               ls.READS_PER_CYCLE) if k in fw}
+    name = gait.get("name", hexapod.DEFAULT_GAIT)
+    out[ls.GAIT] = name
+    out[ls.PERIOD_S] = gait.get(ls.PERIOD_S, hexapod.GAIT_PERIOD_S[name])
+    for key in (ls.STEP_LENGTH_M, ls.STEP_HEIGHT_M, ls.MAX_OBSTACLE_HEIGHT_M, ls.DIRECTION_DEG):
+        if key in gait:
+            out[key] = gait[key]
+    for key in (ls.FIRST_ID, ls.BAUD):
+        if key in bus:
+            out[key] = bus[key]
+    version = models.protocol(bus.get("model", models.DEFAULT))
+    if version != models.protocol(models.DEFAULT):   # the firmware's default stays unsaid
+        out[ls.PROTOCOL] = version
+    if tactile is not None:
+        out[ls.TACTILE_ON] = tactile
+    return out
+
+
+class SwitchSampler:
+    """The six limit-switch levels at each sleep; edges go to the result and the recorder."""
+
+    def __init__(self, levels: Callable[[int], int], recorder: Any) -> None:
+        self.levels, self.recorder = levels, recorder
+        self.bits = 0
+
+    def sample(self, t_us: int, result: RunResult) -> int:
+        bits = self.levels(t_us) & 0x3F
+        changed = bits ^ self.bits
+        if changed:
+            for i in range(6):
+                if changed & (1 << i):
+                    result.switch_edges += 1
+                    if self.recorder is not None:
+                        self.recorder.switch_edge(t_us, i, bool(bits & (1 << i)))
+        self.bits = bits
+        return bits
+
+
+class LinkServer:
+    """Answers one firmware's requests until it closes the link."""
+
+    def __init__(self, sim: Any, settings: dict[str, Any], switches: SwitchSampler,
+                 on_wake: Callable[[int], None], on_slept: Callable[[], None]) -> None:
+        self.sim, self.settings, self.switches = sim, settings, switches
+        self.on_wake, self.on_slept = on_wake, on_slept
+        self.bus = sim.rig.bus
+        self.clock = sim.rig.clock
+        self.can: CanBus = sim.can
+        self.inbox = sim.firmware_port
+        self.byte_us = 10_000_000 / self.bus.baud
+        self._counting = False   # bus time counts from the first sleep on (boot excluded)
+        self._held: list = []    # frames taken from the inbox that the last reply had no room for
+        self.line: BoardLine | None = None   # the virtual board's UART, at its first line request
+        self.console: Callable[[], None] | None = None  # takes what the firmware printed
+
+    def _event(self, payload: bytes, result: RunResult) -> None:
+        if not payload:
+            raise LinkViolation("malformed event (no kind byte)")
+        kind = payload[0]
+        text = bytes(payload[1:]).decode("utf-8", errors="replace")
+        try:
+            self.take_event(kind, text, result)
+        except ValueError as exc:   # JSON that does not parse
+            raise LinkViolation(f"malformed event {kind}: {exc}") from None
+
+    def take_event(self, kind: int, text: str, result: RunResult) -> None:
+        """An event of the firmware's (``EVENT_*`` kind) into the result and the trace."""
+        t = self.clock.t_us
+        rec = self.sim.recorder
+        if kind == sim_link.EVENT_EXCEPTION:
+            result.exceptions.append(text)
+            if rec is not None:
+                rec.fault(t, "firmware_exception", text)
+        elif kind == sim_link.EVENT_STOP:
+            result.stop_reason = text
+            if rec is not None:
+                rec.fault(t, "safe_stop", text)
+        elif kind == sim_link.EVENT_STATS:
+            result.firmware = json.loads(text)
+        elif kind == sim_link.EVENT_TACTILE:
+            ev = json.loads(text)
+            ev[ls.T_S] = t * 1e-6
+            result.tactile_events.append(ev)
+            if rec is not None:
+                rec.telemetry(t, ev)
+        elif kind == sim_link.EVENT_FAULT:   # a mistake the client's board saw: a run fault
+            fault = json.loads(text)
+            if not isinstance(fault, dict):
+                raise ValueError("a fault event is not a JSON object")
+            self.run_fault(str(fault.get(ls.NAME, "firmware_fault")),
+                           str(fault.get(ls.DETAIL, "")), result)
+        elif rec is not None:
+            rec.telemetry(t, {"event": kind, "text": text})
+
+    def run_fault(self, name: str, detail: str, result: RunResult) -> None:
+        """A fault of the run now: counted, recorded, and a direction mistake (the virtual
+        board's, or one a C SDK's board saw) handed to the master check if one watches."""
+        t = self.clock.t_us
+        result.faults[name] = result.faults.get(name, 0) + 1
+        if self.sim.recorder is not None:
+            self.sim.recorder.fault(t, name, detail)
+        check = getattr(self.bus, "monitor", None)
+        if check is not None and name in MISTAKES:
+            check.direction_mistake(t, name, detail)
+
+    def _can_from_firmware(self, payload: bytes, result: RunResult) -> None:
+        if len(payload) < 3 or payload[2] > sim_link.CAN_MAX_DLC or len(payload) != 3 + payload[2]:
+            raise LinkViolation(f"malformed CAN message ({len(payload)} bytes)")
+        arb_id, dlc = struct.unpack_from("<HB", payload, 0)
+        result.count_can(arb_id)
+        self.inbox.send(arb_id, bytes(payload[3:3 + dlc]))
+
+    def _can_records(self) -> tuple[int, bytes]:
+        """(flags, u8 n + records) of the frames queued for the client, as many as one
+        reply holds; FLAG_MORE when some are left (the client asks with OP_MORE)."""
+        limit = sim_link.MAX_CAN_PER_REPLY
+        frames = self._held
+        frames += self.inbox.frames(limit + 1 - len(frames))
+        self._held = frames[limit:]
+        body = bytearray((min(len(frames), limit),))
+        for msg in frames[:limit]:
+            body += struct.pack("<HB", msg.arbitration_id, msg.dlc) + \
+                bytes(msg.data).ljust(8, b"\0")
+        return (sim_link.FLAG_MORE if self._held else 0), bytes(body)
+
+    def idle_to(self, wake_us: int) -> None:
+        """The line idles to ``wake_us``, stopping at each host node's tick on the way
+        (docs/api.md ``HostNode``); then ``on_wake`` at the wake. What the firmware printed
+        before it slept is taken first, stamped now."""
+        if self.console is not None:
+            self.console()
+        clock, bus, next_tick = self.clock, self.bus, self.sim.next_tick_us
+        while True:
+            due = next_tick()
+            if due is None or due >= wake_us:
+                break
+            if due > clock.t_us:
+                bus.idle_until(due)
+            self.on_wake(clock.t_us)
+        if wake_us > clock.t_us:
+            bus.idle_until(wake_us)
+        self.on_wake(clock.t_us)
+
+    def _sleep_reply(self, wake_us: int, end_us: int, result: RunResult) -> tuple[bytes, bool]:
+        flags = 0
+        ended = wake_us >= end_us
+        if ended:
+            wake_us = end_us
+            flags |= sim_link.FLAG_END
+        self.idle_to(wake_us)
+        bits = self.switches.sample(self.clock.t_us, result)
+        body = b"\0"
+        if not ended:
+            self.can.poll()
+            more, body = self._can_records()
+            flags |= more
+        return struct.pack("<BB", flags, bits) + body, ended
+
+    def _hello_reply(self, payload: bytes, result: RunResult) -> bytes:
+        if not payload or payload[0] != sim_link.VERSION:
+            raise LinkViolation(f"link version mismatch: the firmware speaks version "
+                                f"{payload[0] if payload else 'none'}, this host speaks "
+                                f"{sim_link.VERSION}")
+        bad = ls.problems(self.settings, ls.CONFIG)
+        if bad:
+            raise LinkViolation(f"the config does not fit protocol/link_schema.py: {bad[0]}")
+        config = json.dumps(self.settings, sort_keys=True).encode()
+        if len(config) + 10 > sim_link.MAX_REPLY_LEN:
+            raise LinkViolation(f"the config is {len(config)} bytes of JSON: the hello reply "
+                                f"holds {sim_link.MAX_REPLY_LEN - 10}")
+        return struct.pack("<BB", sim_link.VERSION,
+                           self.switches.sample(self.clock.t_us, result)) + config
+
+    def serve(self, conn: Connection, end_us: int, result: RunResult) -> None:
+        """Answer a socket connection's batches until the firmware closes it."""
+        while True:
+            msgs, closed = conn.batch()
+            if self.answer(conn, msgs, closed, end_us, result):
+                return
+
+    def answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
+               closed: bool, end_us: int, result: RunResult) -> bool:
+        """Carry out one batch (posted messages, then the request) and reply to it;
+        True once the firmware has closed the link. A message the host cannot carry out
+        (unknown op, malformed, another link version) gets an error reply and raises
+        UserError (docs/link.md)."""
+        try:
+            return self._answer(conn, msgs, closed, end_us, result)
+        except (LinkViolation, struct.error) as exc:
+            text = f"malformed message: {exc}" if isinstance(exc, struct.error) else str(exc)
+            if not closed:
+                conn.reply_error(text)
+            raise UserError(f"firmware link: {text}") from None
+
+    def _answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
+                closed: bool, end_us: int, result: RunResult) -> bool:
+        bus, clock, rec = self.bus, self.clock, self.sim.recorder
+        reply = None
+        slept = False
+        for op, payload in msgs:
+            if op == sim_link.OP_WRITE:
+                t0 = clock.t_us
+                bus.master_write(payload)
+                if self._counting:
+                    result.bus_busy_us += clock.t_us - t0
+                    result.bus_wire_us += round(len(payload) * self.byte_us)
+            elif op == sim_link.OP_TRANSACT:
+                nrx, timeout_us = struct.unpack_from("<HI", payload, 0)
+                if nrx > sim_link.MAX_RX_LEN:
+                    raise LinkViolation(f"a transact asks for {nrx} bytes, more than a reply "
+                                        f"holds ({sim_link.MAX_RX_LEN})")
+                tx = payload[6:]
+                t0 = clock.t_us
+                bus.master_write(tx)
+                rx = bus.master_read(nrx, timeout_us)
+                if self._counting:
+                    result.bus_busy_us += clock.t_us - t0
+                    heard = len(rx) - (min(len(tx), len(rx)) if bus.echo else 0)
+                    result.bus_wire_us += round((len(tx) + heard) * self.byte_us)
+                reply = rx
+            elif op == sim_link.OP_CAN:
+                self._can_from_firmware(payload, result)
+            elif op == sim_link.OP_EVENT:
+                self._event(payload, result)
+            elif op == sim_link.OP_SLEEP:
+                if len(payload) != 8:
+                    raise LinkViolation(f"malformed sleep ({len(payload)} bytes, not 8)")
+                (wake_us,) = struct.unpack_from("<Q", payload, 0)
+                if self._counting:
+                    result.loop_cycles += 1
+                self._counting = True
+                if self.line is not None:
+                    self.line.active()
+                reply, _ = self._sleep_reply(wake_us, end_us, result)
+                slept = True
+            elif op == sim_link.OP_MORE:
+                more, body = self._can_records()
+                reply = struct.pack("<BB", more, self.switches.bits) + body
+            elif op in (sim_link.OP_LINE, sim_link.OP_DIRECTION):
+                if self.line is None:
+                    self.line = BoardLine(self)
+                if op == sim_link.OP_LINE:
+                    reply = self.line.answer(payload, end_us, result)
+                else:
+                    self.line.turn(payload, end_us, result)
+            elif op == sim_link.OP_BAUD:
+                set_master_baud(self, payload, result)
+            elif op == sim_link.OP_HELLO:
+                reply = self._hello_reply(payload, result)
+            else:
+                raise LinkViolation(f"unknown message op 0x{op:02x}")
+        # Recording comes after the reply: nothing here moves until the firmware's next
+        # batch, so the recorder's work overlaps the firmware's instead of delaying it.
+        raw = conn.reply(clock.t_us, reply) if reply is not None and not closed else None
+        if slept:
+            self.on_slept()
+        if rec is not None and raw is not None:
+            rec.link(clock.t_us, bytes(conn.raw), raw)
+            rec.idle(0 if conn.answered() else RECORDER_SLICE)
+        if closed:
+            result.round_trips = conn.round_trips
+        return closed

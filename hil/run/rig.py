@@ -1,0 +1,71 @@
+"""One rig builder: the servos, bus, faults and world a scenario describes.
+
+``hexhil run`` (through the lockstep ``Simulator``), ``hexhil bus`` and the tests all build
+their rig here, so a scenario means the same thing everywhere: the same servo IDs, control
+table edition, return delay, baud register, EEPROM busy time and fault schedule.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+from hil import scenario as scenario_mod
+from hil.clock import VirtualClock
+from hil.servobus import protocols
+from hil.servobus.faults import Faults, OnFault
+from hil.servobus.line import Bus, OnBytes
+from hil.servobus.table_servo import TableServo
+from protocol.dynamixel import models
+
+
+@dataclass
+class Rig:
+    """What a scenario builds; ``bus`` is None for a world with no servo bus (beams)."""
+
+    config: scenario_mod.Scenario
+    scenario: dict[str, Any]       # ``config.data``: what the worlds and the hello read
+    seed: int
+    clock: VirtualClock
+    world: Any
+    bus: Bus | None
+    faults: Faults | None
+
+
+def make_world(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int) -> Any:
+    """The hexapod world of a scenario's ``[world]``, or None (kinematic servos); the hexapod
+    world refuses another kind. Seed 000's beams world is built with its host nodes
+    (host_tools/traversal/closed_loop.py)."""
+    cfg = scenario_mod.parse(scenario)
+    if cfg.world.kind is None:
+        return None
+    from hil.world.hexapod import HexapodWorld
+    return HexapodWorld(cfg.data, seed)
+
+
+def _servos(bus: scenario_mod.BusConfig, ids: Sequence[int], world: Any) -> list[TableServo]:
+    """The scenario's model (protocol/dynamixel/models.py), one servo an ID, each on its
+    joint's actuator when there is a world."""
+    actuators = world.actuators() if world is not None else []
+    layout = models.table(bus.model)
+    make = protocols.for_model(bus.model).make_servo
+    return [make(layout, dev_id, actuators[k] if k < len(actuators) else None, bus)
+            for k, dev_id in enumerate(ids)]
+
+
+def build(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int = 0, *, world: Any = None,
+          ids: Sequence[int] | None = None, on_fault: OnFault | None = None,
+          on_bytes: OnBytes | None = None) -> Rig:
+    """The rig of ``scenario`` (checked here, so a hand-built dict obeys the same rules)."""
+    cfg = scenario_mod.parse(scenario)
+    sc = cfg.data
+    clock = VirtualClock()
+    if world is not None and not hasattr(world, "actuators"):
+        return Rig(cfg, sc, seed, clock, world, None, None)   # a world without a servo bus
+    bus_cfg = cfg.bus
+    faults = Faults.from_scenario(sc["faults"], seed, where=f"{cfg.path} [faults]",
+                                  on_fault=on_fault)
+    line = protocols.for_model(bus_cfg.model).line
+    bus = line(_servos(bus_cfg, list(bus_cfg.ids if ids is None else ids), world), clock,
+              baud=bus_cfg.baud, echo=bus_cfg.echo, faults=faults if faults.active() else None,
+              on_bytes=on_bytes, advance=world.advance_to if world is not None else None)
+    return Rig(cfg, sc, seed, clock, world, bus, faults)

@@ -1,0 +1,339 @@
+"""One emulated AX-12A: control table, every instruction, error bits, alarms.
+
+The servo owns its 50-byte control table (``protocol/dynamixel/ax12.py``), executes instructions
+against it and drives an ``Actuator`` (hil/servobus/drive.py), the seam to whatever moves
+the horn: ``KinematicActuator`` (no physics) or a MuJoCo joint in the hexapod world.
+Supply, temperature and overload live in ``ServoHealth`` (hil/servobus/health.py); the
+servo turns their error bits into the Alarm LED and alarm shutdown.
+
+State is evaluated lazily: the bus calls ``advance_to(t_us)`` before a servo answers,
+and the kinematic model is integrated exactly over any interval in which the command
+is constant, so lazy and stepped evaluation give the same table.
+
+Behaviour follows the ROBOTIS e-manual (AX-12A, Protocol 1.0) and the original AX-12
+manual (2006) where they differ (defaults, Lock). Choices the manuals leave open are
+marked "our choice" and listed in docs/servo-bus.md.
+"""
+from __future__ import annotations
+
+from hil.servobus.drive import Actuator, KinematicActuator, drive, is_moving, wheel_mode
+from hil.servobus.table_servo import TableServo
+from hil.servobus.health import ServoHealth
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
+
+_OWNER = [ax12.owner(a) for a in range(ax12.TABLE_SIZE)]
+
+
+def _fields(address: int, end: int) -> tuple[tuple[int, int, int, int], ...] | None:
+    """The fields a write over address..end touches, as (start, size, min, max); None
+    when it touches a read-only or reserved cell."""
+    out = []
+    a = address
+    while a < end:
+        f = _OWNER[a]
+        if f is None or f[3] == ax12.R:
+            return None
+        out.append((f[0], f[2], f[6], f[7]))
+        a = f[0] + f[2]
+    return tuple(out)
+
+
+# check_write's fields for every (address, end) inside the table, looked up once
+_FIELDS = {(a, e): _fields(a, e) for a in range(ax12.TABLE_SIZE)
+           for e in range(a + 1, ax12.TABLE_SIZE + 1)}
+_sync_parsed: list = [b"", None]   # the last SYNC_WRITE's parameters and sync_entries()
+
+
+def sync_entries(params: bytes) -> tuple[int, dict[int, bytes]] | None:
+    """A SYNC_WRITE's start address and each ID's data (its first entry), or None when
+    malformed. Every servo on the line hears the same packet: it is parsed once, not once
+    per servo (the last parameters are kept; bytes are compared, so a copy hits too)."""
+    if params == _sync_parsed[0]:
+        return _sync_parsed[1]
+    out = None
+    if len(params) >= 2:
+        a, n = params[0], params[1]
+        stride = n + 1
+        if n and not (len(params) - 2) % stride:
+            data: dict[int, bytes] = {}
+            for i in range(2, len(params), stride):
+                if params[i] not in data:
+                    data[params[i]] = bytes(params[i + 1:i + stride])
+            out = (a, data)
+    _sync_parsed[0], _sync_parsed[1] = bytes(params), out
+    return out
+
+
+class Servo(TableServo):
+    """One AX-12A on the bus; ``handle`` takes a parsed instruction and returns the reply.
+
+    ``handle``/``checksum_error`` return the status packet to send (bytes) or None; the
+    bus adds the return delay and wire time. ``instructions`` counts packets executed.
+    """
+
+    layout = ax12
+
+    def __init__(self, dev_id: int = 1, edition: str = ax12.EDITION_EMANUAL,
+                 actuator: Actuator | None = None, position: int = 512, t_us: int = 0,
+                 eeprom_busy_us: int | None = None) -> None:
+        if edition not in ax12.EDITIONS:
+            raise ValueError(f"unknown AX-12 manual edition {edition!r}")
+        if not 0 <= dev_id <= dxl.MAX_ID:
+            raise ValueError(f"servo id {dev_id} outside 0-{dxl.MAX_ID}")
+        self.edition = edition
+        self.table = ax12.defaults(edition, position)
+        self.table[ax12.ID] = dev_id
+        self.actuator: Actuator = actuator if actuator is not None else \
+            KinematicActuator(ax12.position_to_rad(position), t_us)
+        self.t_us = t_us
+        self.health = ServoHealth()
+        self._registered: tuple[int, bytes] | None = None
+        self.alarm_led = False                 # the LED blinks for errors in Alarm LED
+        self.address_changed = False           # ID or Baud Rate written: bus re-indexes
+        self.instructions = 0
+        # deaf this long after an EEPROM write (a packet then is lost: docs/servo-bus.md)
+        self.eeprom_busy_us = ax12.EEPROM_BUSY_US if eeprom_busy_us is None else eeprom_busy_us
+        self.busy_until_us = 0                 # deaf after an EEPROM write until then
+        self.ignored = 0                       # packets that arrived while deaf
+        self._command()
+        self._present_stale = True
+
+    def value(self, name: str) -> int:
+        """A control-table value by field name (tests, recorder)."""
+        f = ax12.BY_NAME[name]
+        return ax12.get(self._present(), f[0], f[2])
+
+    # --- time, motion, alarms ---------------------------------------------------------
+    def advance_to(self, t_us: int) -> None:
+        """Bring motion, temperature, voltage and alarms up to virtual time t_us."""
+        dt_us = t_us - self.t_us
+        if dt_us <= 0:
+            return
+        self.t_us = t_us
+        act = self.actuator
+        act.advance_to(t_us)
+        table = self.table
+        health = self.health
+        torque_limit = table[ax12.TORQUE_LIMIT] | (table[ax12.TORQUE_LIMIT + 1] << 8) \
+            if table[ax12.TORQUE_ENABLE] else 0
+        health.advance(dt_us, act.state()[2], torque_limit)
+        self._present_stale = True
+        errors = health.errors(table)   # state_errors(), without its call: every instruction
+        if errors:
+            self._alarm(errors)
+
+    def _present(self) -> bytearray:
+        """The control table with Present Position..Moving brought up to date: they are
+        computed when read, not after every motion step (a walking run reads 3 of 18
+        servos a cycle)."""
+        if self._present_stale:
+            self._refresh_present()
+        return self.table
+
+    def _refresh_present(self) -> None:
+        self._present_stale = False
+        pos, vel, load = self.actuator.state()
+        t = self.table
+        p = ax12.rad_to_position(pos)
+        t[36] = p & 0xFF
+        t[37] = p >> 8
+        s = ax12.rad_s_to_signed(vel)
+        t[38] = s & 0xFF
+        t[39] = s >> 8
+        ld = ax12.fraction_to_load(load)
+        t[40] = ld & 0xFF
+        t[41] = ld >> 8
+        t[ax12.PRESENT_VOLTAGE] = self.health.voltage_units
+        t[ax12.PRESENT_TEMPERATURE] = self.health.temperature_units
+        t[ax12.MOVING] = 1 if is_moving(vel) else 0
+
+    def state_errors(self) -> int:
+        """Error bits that describe the servo's state (voltage, heat, overload)."""
+        return self.health.errors(self.table)
+
+    def _alarm(self, errors: int) -> None:
+        """Alarm LED and alarm shutdown: Torque Limit drops to 0 (e-manual, address 34)."""
+        t = self.table
+        if errors & t[ax12.ALARM_LED]:
+            self.alarm_led = True
+        if errors & t[ax12.SHUTDOWN] and (t[ax12.TORQUE_LIMIT] or t[ax12.TORQUE_LIMIT + 1]):
+            t[ax12.TORQUE_LIMIT] = 0
+            t[ax12.TORQUE_LIMIT + 1] = 0
+            self._command()
+            self._present_stale = True
+
+    def _command(self) -> None:
+        drive(self.actuator, self.table, self.health.supply_frac)
+
+    # --- faults (hil/servobus/faults.py) -----------------------------------------------------
+    def set_supply_v(self, volts: float, t_us: int) -> None:
+        self.advance_to(t_us)
+        self.health.set_supply_v(volts)
+        self._command()
+        self._present_stale = True
+
+    def set_stalled(self, stalled: bool, t_us: int) -> None:
+        """External load blocks the horn (actuators without ``set_stalled`` ignore it)."""
+        self.advance_to(t_us)
+        fn = getattr(self.actuator, "set_stalled", None)
+        if fn is not None:
+            fn(stalled)
+            self._present_stale = True
+
+    def power_cycle(self, t_us: int) -> None:
+        """Power lost and back (a plug pulled): RAM to defaults, EEPROM kept, Lock cleared."""
+        self.advance_to(t_us)
+        eeprom = bytes(self.table[:ax12.EEPROM_END])
+        t = self._present()
+        pos = t[36] | (t[37] << 8)
+        self.table = ax12.defaults(self.edition, pos)
+        self.table[:ax12.EEPROM_END] = eeprom
+        self.table[ax12.TORQUE_LIMIT] = eeprom[ax12.MAX_TORQUE]
+        self.table[ax12.TORQUE_LIMIT + 1] = eeprom[ax12.MAX_TORQUE + 1]
+        self.health.rearm()
+        self.alarm_led = False
+        self._registered = None
+        self._command()
+        self._present_stale = True
+
+    # --- instructions --------------------------------------------------------------
+    def _reply(self, error: int, params: bytes = b"") -> bytes:
+        return dxl.status(self.table[ax12.ID], error | self.state_errors(), params)
+
+    def checksum_error(self, code: int, t_us: int) -> bytes | None:
+        """A packet addressed to this servo arrived with a bad checksum: answer bit 4."""
+        self.advance_to(t_us)
+        if self._deaf(t_us):
+            return None
+        return self._answer(code, dxl.ERR_CHECKSUM, b"")
+
+    def _answer(self, code: int, error: int, params: bytes) -> bytes | None:
+        srl = self.table[ax12.STATUS_RETURN_LEVEL]
+        if srl >= 2 or code == dxl.PING or (srl == 1 and code == dxl.READ):
+            return self._reply(error, params)
+        return None
+
+    def handle(self, code: int, params: bytes, broadcast: bool, t_us: int) -> bytes | None:
+        """Execute one instruction at t_us; return the status packet, or None (no reply)."""
+        if not self._take(t_us):
+            return None
+        if code == dxl.SYNC_WRITE:   # every cycle, to every servo: tested first
+            self._sync_write(params)
+            return None
+        error = 0
+        data = b""
+        if code == dxl.READ:
+            if len(params) != 2:
+                error = dxl.ERR_INSTRUCTION
+            else:
+                a, n = params[0], params[1]
+                if a + n > ax12.TABLE_SIZE or n == 0:
+                    error = dxl.ERR_RANGE
+                else:
+                    data = bytes(self._present()[a:a + n])
+        elif code == dxl.WRITE or code == dxl.REG_WRITE:
+            if len(params) < 2:
+                error = dxl.ERR_INSTRUCTION
+            else:
+                a = params[0]
+                d = bytes(params[1:])
+                error = self.check_write(a, d)
+                if not error & dxl.ERR_RANGE:
+                    self._write_or_register(code == dxl.WRITE, a, d)
+        elif code == dxl.ACTION:
+            registered = self._take_registered()
+            if registered is None:
+                error = dxl.ERR_INSTRUCTION
+            else:
+                self._apply_write(*registered)
+        elif code == dxl.FACTORY_RESET:
+            reply = None if broadcast else self._answer(code, 0, b"")
+            self._factory_reset()
+            return reply
+        elif code != dxl.PING:
+            error = dxl.ERR_INSTRUCTION
+        alarms = error | self.state_errors()  # a limit just written may already be exceeded
+        if alarms:
+            self._alarm(alarms)
+        if broadcast:
+            return None
+        return self._answer(code, error, data)
+
+    def _sync_write(self, params: bytes) -> None:
+        entries = sync_entries(params)
+        if entries is None:
+            return
+        d = entries[1].get(self.table[ax12.ID])
+        if d is not None:
+            a = entries[0]
+            if not self.check_write(a, d) & dxl.ERR_RANGE:
+                self._apply_write(a, d)
+
+    def check_write(self, address: int, data: bytes) -> int:
+        """Error bits a WRITE of ``data`` at ``address`` earns; Range means it is refused.
+
+        Refused (our choice of the Range bit where the manuals say only "cannot be
+        written"): past the table, read-only or reserved cells, values outside a field's
+        range, EEPROM while locked (original manual: everything but 24-35 while locked).
+        Angle limit: a goal outside CW..CCW is stored, the horn stops at the limit.
+        """
+        end = address + len(data)
+        t = self.table
+        if end > ax12.TABLE_SIZE:
+            return dxl.ERR_RANGE
+        if t[ax12.LOCK]:
+            if self.edition == ax12.EDITION_ORIGINAL:
+                if address < ax12.TORQUE_ENABLE or end > ax12.PRESENT_POSITION:
+                    return dxl.ERR_RANGE
+            elif address < ax12.EEPROM_END or (address <= ax12.LOCK < end
+                                              and data[ax12.LOCK - address] == 0):
+                return dxl.ERR_RANGE  # unlocked only by a power cycle
+        fields = _FIELDS.get((address, end), ())
+        if fields is None:
+            return dxl.ERR_RANGE
+        error = 0
+        wheel = wheel_mode(t)
+        for start, size, v_min, v_max in fields:
+            lo = data[start - address] if start >= address else t[start]
+            if size == 2:
+                hi_i = start + 1
+                hi = data[hi_i - address] if hi_i < end else t[hi_i]
+                v = lo | (hi << 8)
+            else:
+                v = lo
+            if v < v_min or v > (2047 if start == ax12.MOVING_SPEED and wheel else v_max):
+                return dxl.ERR_RANGE
+            if start == ax12.GOAL_POSITION and not wheel:
+                cw = t[6] | (t[7] << 8)
+                ccw = t[8] | (t[9] << 8)
+                if v < cw or v > ccw:
+                    error |= dxl.ERR_ANGLE_LIMIT
+        return error
+
+    def _apply_write(self, address: int, data: bytes) -> None:
+        t = self.table
+        end = address + len(data)
+        t[address:end] = data
+        if address < ax12.EEPROM_END:
+            self.busy_until_us = self.t_us + self.eeprom_busy_us
+        if address <= ax12.BAUD_RATE and end > ax12.ID:
+            self.address_changed = True
+        if address <= ax12.TORQUE_LIMIT + 1 and end > ax12.TORQUE_LIMIT:
+            self.health.rearm()  # writing Torque Limit again re-arms the servo
+        if end > ax12.TORQUE_ENABLE and address < ax12.PRESENT_POSITION or end > ax12.PUNCH \
+                or (address <= ax12.CCW_ANGLE_LIMIT + 1 and end > ax12.CW_ANGLE_LIMIT):
+            self._command()
+            self._present_stale = True
+
+    def _factory_reset(self) -> None:
+        t = self._present()
+        pos = t[36] | (t[37] << 8)
+        self.table = ax12.defaults(self.edition, pos)
+        self.busy_until_us = self.t_us + self.eeprom_busy_us
+        self._registered = None
+        self.health.overload = False
+        self.alarm_led = False
+        self.address_changed = True
+        self._command()
+        self._present_stale = True

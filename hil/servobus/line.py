@@ -1,0 +1,367 @@
+"""A half-duplex TTL serial line carrying bytes between one master and AX-12 servos.
+
+Lockstep, in virtual integer microseconds on a ``hil.clock.VirtualClock``: no threads,
+no sleeps, no wall clock. The master's bytes take wire time (10 bits a byte at the
+baud); each servo parses the line, answers after its Return Delay Time, and its status
+bytes take wire time too. Bytes that overlap on the line (the master talking while a
+servo answers, two servos answering at once) are corrupted for everyone: the line is
+modelled as a wired AND, the idle-high level losing to any driven low bit. A servo at
+another baud decodes the master's bits with its own UART timing (``resample``), which
+yields the garbage a real mismatch does. With ``echo`` the master also hears its own
+bytes, as on a single-wire adapter.
+
+Exact accounting: a 2-byte READ (8 bytes out) answered after Return Delay 250 (500 us)
+with 8 bytes costs 80 + 500 + 80 us at 1 Mbps.
+"""
+from __future__ import annotations
+
+from typing import Callable, Iterable
+
+from hil.clock import VirtualClock
+from hil.servobus.ax12_servo import Servo
+from hil.servobus.wire import US_BITS, Burst, resample
+from protocol.dynamixel import v1 as dxl
+
+OnBytes = Callable[[int, str, bytes], None]
+Advance = Callable[[int], None]
+
+
+class Bus:
+    """The line, its servos and the master's receive FIFO; see the module docstring."""
+
+    protocol = 1  # Dynamixel Protocol 1.0 (hil/servobus/protocols/v2.py: 2.0)
+    parser_class = dxl.Parser
+
+    def __init__(self, servos: Iterable[Servo], clock: VirtualClock, baud: int = 1_000_000,
+                 echo: bool = False, faults=None, on_bytes: OnBytes | None = None,
+                 advance: Advance | None = None) -> None:
+        if baud <= 0:
+            raise ValueError(f"baud must be positive, got {baud}")
+        self.servos = list(servos)
+        self.clock = clock
+        self.baud = int(baud)
+        self.echo = echo
+        self.faults = faults
+        self.on_bytes = on_bytes
+        self.advance = advance
+        self.monitor = None              # hil/servobus/master_check.py: sees what the master sends
+        # Timing-margin hooks (hexhil margin; both off by default). The master sees a received
+        # byte this long after it arrived (a USB-serial adapter's latency timer), and every
+        # servo answers after this delay whatever its register 5 holds (a Return Delay the
+        # master's configure write did not change).
+        self.rx_latency_us = 0
+        self.return_delay_override_us: int | None = None
+        self._rx: list[Burst] = []     # heard by the master, oldest first, never overlapping
+        self._parser = self.parser_class()
+        self._off: set[int] = set()      # id(servo) of unplugged servos
+        self.missing_ids: set[int] = set()   # IDs packets went to that no servo has
+        self.stats = {"tx_bytes": 0, "rx_bytes": 0, "packets": 0, "replies": 0,
+                      "collisions": 0, "bad_checksum": 0}
+        self._reindex()
+        if faults is not None:
+            faults.attach(self)
+
+    # --- wiring ---------------------------------------------------------------------
+    def _reindex(self) -> None:
+        self._by_id: dict[int, list[Servo]] = {}
+        self._same: list[Servo] = []
+        self._foreign: list[tuple[Servo, dxl.Parser]] = []
+        for s in self.servos:
+            s.address_changed = False
+            if s.baud_bps == self.baud:
+                self._same.append(s)
+                self._by_id.setdefault(s.id, []).append(s)
+            else:
+                self._foreign.append((s, self.parser_class()))
+
+    def add_device(self, device) -> None:
+        """Another Protocol 1.0 device on the line (hil/servobus/switch_node.py), served like a servo."""
+        self.servos.append(device)
+        self._reindex()
+
+    def servo(self, dev_id: int) -> Servo | None:
+        """The first servo configured with ``dev_id`` (whatever its baud)."""
+        for s in self.servos:
+            if s.id == dev_id:
+                return s
+        return None
+
+    def set_plugged(self, servo: Servo, plugged: bool, t_us: int) -> None:
+        """Unplug a servo (it hears and says nothing); plugging it back power-cycles it."""
+        if plugged:
+            if id(servo) in self._off:
+                self._off.discard(id(servo))
+                servo.power_cycle(t_us)
+                self._reindex()
+        else:
+            self._off.add(id(servo))
+
+    # --- time -----------------------------------------------------------------------
+    def set_master_baud(self, baud: int) -> None:
+        """The master's UART runs at ``baud`` (a clock error): servos at another rate now
+        decode its bytes, and it theirs, with their own timing (``resample``)."""
+        self.baud = int(baud)
+        self._reindex()
+
+    def byte_end_us(self, start_us: int, i: int) -> int:
+        """When byte ``i`` of a burst starting at ``start_us`` has fully arrived."""
+        return start_us + ((i + 1) * US_BITS) // self.baud
+
+    def wire_us(self, nbytes: int) -> int:
+        return (nbytes * US_BITS) // self.baud
+
+    def _move_to(self, t_us: int) -> None:
+        clock = self.clock
+        if t_us <= clock.t_us:
+            return
+        faults = self.faults
+        while faults is not None and faults.next_us <= t_us:
+            te = faults.next_us
+            if te > clock.t_us:
+                clock.advance_to(te)
+                if self.advance is not None:
+                    self.advance(te)
+            faults.apply_due(te)
+        clock.advance_to(t_us)
+        if self.advance is not None:
+            self.advance(t_us)
+        if self.on_bytes is not None:
+            for b in self._rx:
+                if not b.emitted and b.reply and self.byte_end_us(b.start_us, len(b.data) - 1) <= t_us:
+                    b.emitted = True
+                    self.on_bytes(b.start_us, "rx", bytes(b.data))
+
+    def idle_until(self, t_us: int) -> None:
+        """Let the line stay idle until t_us (servos keep moving, faults keep firing)."""
+        self._move_to(int(t_us))
+
+    # --- master side ----------------------------------------------------------------
+    def master_write(self, data: bytes) -> None:
+        """Send bytes now; returns when the last has left (the clock moves by wire time)."""
+        if not data:
+            return
+        t0 = self.clock.t_us
+        if self.monitor is not None:
+            self.monitor.master_bytes(self, t0, data)
+        tx = bytearray(data)
+        faults = self.faults
+        if faults is not None:
+            faults.corrupt(tx, t0, "tx")
+        t1 = t0 + self.wire_us(len(tx))
+        if self._rx:
+            self._collide(tx, t0, t1)
+        self.stats["tx_bytes"] += len(tx)
+        if self.on_bytes is not None:
+            self.on_bytes(t0, "tx", bytes(tx))
+        if self.echo:
+            self._put(Burst(t0, bytearray(tx), False))
+        self._move_to(t1)
+        self._deliver(tx, t1)
+        for s, parser in self._foreign:
+            if id(s) not in self._off:
+                self._deliver_foreign(s, parser, tx, t1)
+
+    def master_read(self, n: int, timeout_us: int) -> bytes:
+        """Up to n bytes heard before now + timeout_us; the clock moves to the n-th byte's
+        arrival, or to the deadline when fewer came."""
+        deadline = self.clock.t_us + int(timeout_us)
+        out = bytearray()
+        t_last = deadline
+        rx = self._rx
+        lat = self.rx_latency_us
+        while rx and len(out) < n:
+            b = rx[0]
+            data = b.data
+            i = b.read
+            j = min(len(data), i + n - len(out))
+            if j > i and self.byte_end_us(b.start_us, j - 1) + lat <= deadline:
+                out += data[i:j]   # the whole packet at once: its last byte is in time
+                t_last = self.byte_end_us(b.start_us, j - 1) + lat
+                i = j
+            while i < len(data) and len(out) < n:
+                t = self.byte_end_us(b.start_us, i) + lat
+                if t > deadline:
+                    break
+                out.append(data[i])
+                t_last = t
+                i += 1
+            b.read = i
+            if i < len(data):
+                break
+            if b.reply and not b.emitted and self.on_bytes is not None:
+                b.emitted = True
+                self.on_bytes(b.start_us, "rx", bytes(data))
+            rx.pop(0)
+        self.stats["rx_bytes"] += len(out)
+        self._move_to(t_last if len(out) >= n else deadline)
+        return bytes(out)
+
+    def next_rx_us(self) -> int | None:
+        """When the burst now arriving has fully arrived (real-time server), or None."""
+        for b in self._rx:
+            if b.read < len(b.data):
+                return self.byte_end_us(b.start_us, len(b.data) - 1)
+        return None
+
+    def reply_arriving_after(self, t_us: int) -> bool:
+        """A status packet is still on its way at ``t_us`` (the master must not talk)."""
+        return any(b.reply and self.byte_end_us(b.start_us, len(b.data) - 1) > t_us
+                   for b in self._rx)
+
+    def next_bytes(self) -> tuple[int | None, int]:
+        """When the next byte the master has not read will have arrived (None: no byte on
+        its way), and how many bytes its burst holds from it on, back to back (the
+        virtual board's UART, hil/link/board_line.py, counts them itself instead of asking)."""
+        for b in self._rx:
+            if b.read < len(b.data):
+                return self.byte_end_us(b.start_us, b.read) + self.rx_latency_us, \
+                    len(b.data) - b.read
+        return None, 0
+
+    def master_discard(self) -> int:
+        """Drop the bytes that have arrived by now unread (the master's receiver was off);
+        returns how many of them were status bytes (echoed bytes are not counted)."""
+        now, rx, lost = self.clock.t_us, self._rx, 0
+        while rx:
+            b = rx[0]
+            i = b.read
+            while i < len(b.data) and self.byte_end_us(b.start_us, i) + self.rx_latency_us <= now:
+                i += 1
+            if b.reply:
+                lost += i - b.read
+            b.read = i
+            if i < len(b.data):
+                break
+            if b.reply and not b.emitted and self.on_bytes is not None:
+                b.emitted = True
+                self.on_bytes(b.start_us, "rx", bytes(b.data))
+            rx.pop(0)
+        return lost
+
+    # --- the line -------------------------------------------------------------------
+    def _collide(self, tx: bytearray, t0: int, t1: int) -> None:
+        """Master bytes overlapping servo bytes: both become the wired AND."""
+        per = US_BITS / self.baud
+        hit = False
+        for b in self._rx:
+            if not b.reply:
+                continue
+            end = b.start_us + per * len(b.data)
+            if end <= t0 or b.start_us >= t1:
+                continue
+            for i in range(b.read, len(b.data)):
+                mid = b.start_us + (i + 0.5) * per
+                if t0 <= mid < t1:
+                    j = int((mid - t0) / per)
+                    c = b.data[i] & tx[j]
+                    b.data[i] = c
+                    tx[j] = c
+                    hit = True
+        if hit:
+            self.stats["collisions"] += 1
+            if self.faults is not None:
+                self.faults.report(t0, "collision", "master talked over a servo's reply")
+
+    def _put(self, burst: Burst) -> None:
+        """Add a burst to what the master hears, merging (AND) any overlap."""
+        per = US_BITS / self.baud
+        for b in self._rx:
+            end = b.start_us + per * len(b.data)
+            if burst.start_us < end and b.start_us < burst.start_us + per * len(burst.data):
+                k = int(round((burst.start_us - b.start_us) / per))
+                if k < 0:  # keep the earlier start
+                    b.data[0:0] = b"\xff" * -k
+                    b.start_us = burst.start_us
+                    k = 0
+                for i, v in enumerate(burst.data):
+                    if k + i < len(b.data):
+                        b.data[k + i] &= v
+                    else:
+                        b.data.append(v)
+                if b.reply and burst.reply:  # echo over a reply was counted by _collide
+                    self.stats["collisions"] += 1
+                    if self.faults is not None:
+                        self.faults.report(burst.start_us, "collision", "two servos answered at once")
+                b.reply = b.reply or burst.reply
+                return
+        self._rx.append(burst)
+        self._rx.sort(key=lambda x: x.start_us)
+
+    def _deliver(self, tx: bytearray, t_us: int) -> None:
+        """Servos at the line's baud parse the bytes that ended at t_us."""
+        parser = self._parser
+        n = len(tx)
+        if (parser.pending() == 0 and n >= 6 and tx[0] == 0xFF and tx[1] == 0xFF
+                and tx[2] != 0xFF and tx[3] + 4 == n
+                and (~sum(tx[2:n - 1])) & 0xFF == tx[n - 1]):
+            self.stats["packets"] += 1
+            self._dispatch(tx[2], tx[4], bytes(tx[5:n - 1]), t_us)
+            return
+        bad = parser.bad_checksum
+        for byte in tx:
+            if parser.push(byte, t_us):
+                self.stats["packets"] += 1
+                self._dispatch(parser.id, parser.code,
+                               bytes(parser.buf[5:5 + parser.nparams]), t_us)
+            elif parser.bad_checksum != bad:
+                bad = parser.bad_checksum
+                self.stats["bad_checksum"] += 1
+                # the rejected packet's first byte was dropped: ID now at 1, INSTR at 3
+                for s in self._by_id.get(parser.last_bad_checksum_id, ()):
+                    if id(s) not in self._off:
+                        self._schedule(s, s.checksum_error(parser.buf[3], t_us), t_us)
+
+    def _dispatch(self, dev_id: int, code: int, params: bytes, t_us: int) -> None:
+        if dev_id == dxl.BROADCAST_ID:
+            targets = self._same
+        else:
+            targets = self._by_id.get(dev_id)
+            if not targets:
+                self.missing_ids.add(dev_id)
+                return
+        off = self._off
+        changed = False
+        for s in targets:
+            if off and id(s) in off:
+                continue
+            reply = s.handle(code, params, dev_id == dxl.BROADCAST_ID, t_us)
+            if reply is not None:
+                self._schedule(s, reply, t_us)
+            changed = changed or s.address_changed
+        if changed:
+            self._reindex()
+
+    def _deliver_foreign(self, s: Servo, parser: dxl.Parser, tx: bytearray, t_us: int) -> None:
+        """A servo at another baud decodes the line with its own UART timing."""
+        bad = parser.bad_checksum
+        for byte in resample(tx, self.baud, s.baud_bps):
+            reply = None
+            if parser.push(byte, t_us):
+                dev_id = parser.id
+                if dev_id != s.id and dev_id != dxl.BROADCAST_ID:
+                    continue
+                reply = s.handle(parser.code, bytes(parser.buf[5:5 + parser.nparams]),
+                                 dev_id == dxl.BROADCAST_ID, t_us)
+            elif parser.bad_checksum != bad:
+                bad = parser.bad_checksum
+                if parser.last_bad_checksum_id == s.id:
+                    reply = s.checksum_error(parser.buf[3], t_us)
+            if reply is not None:
+                self._schedule(s, resample(reply, s.baud_bps, self.baud), t_us)
+            if s.address_changed:
+                self._reindex()
+                return
+
+    def _schedule(self, s: Servo, reply: bytes | None, t_us: int) -> None:
+        if not reply:
+            return
+        data = bytearray(reply)
+        delay = self.return_delay_override_us
+        start = t_us + (s.return_delay_us if delay is None else delay)
+        faults = self.faults
+        if faults is not None:
+            if faults.drop_status(s.id, start):
+                return
+            faults.corrupt(data, start, "rx")
+        self.stats["replies"] += 1
+        self._put(Burst(start, data, True))

@@ -1,0 +1,238 @@
+"""Serve a ``Bus`` in real time on a pseudo-terminal or a 127.0.0.1 TCP port.
+
+Virtual time is pinned to the wall clock: bytes from the client enter the line at the
+virtual time they arrived, and each reply byte is handed back only once its virtual
+arrival time (wire time + return delay + wire time) has passed on the wall clock, so a
+stock client (dynamixel-sdk, pyserial) sees the latency of a real bus. A pty ignores
+baud, so all timing comes from here. This is the one place in ``hil`` that reads the
+wall clock; lockstep runs never import it.
+"""
+from __future__ import annotations
+
+import errno
+import os
+import select
+import signal
+import socket
+import time
+import tty
+from array import array
+from typing import Callable
+
+from hil.servobus.line import Bus
+
+MAX_WAIT_S = 0.2  # wake at least this often so timed faults and signals are handled
+LATE_US = 2_000   # one physics step (hil/world/hexapod.py): a step finished later is late
+
+
+class Stop(Exception):
+    """Raised by the SIGTERM handler (or the end of ``--duration``) to leave serving cleanly."""
+
+
+def _raise_stop(signum, frame) -> None:
+    raise Stop()
+
+
+class Pacing:
+    """How far the simulation lags the wall clock each time the world is advanced."""
+
+    def __init__(self) -> None:
+        self.lag_us = array("l")
+        self.late = 0
+
+    def add(self, lag_us: int) -> None:
+        lag_us = max(0, lag_us)
+        self.lag_us.append(lag_us)
+        if lag_us > LATE_US:
+            self.late += 1
+
+    def summary(self) -> dict[str, float | int]:
+        lags = sorted(self.lag_us)
+        n = len(lags)
+        return {"advances": n, "late_steps": self.late, "late_threshold_ms": LATE_US / 1000,
+                "max_lag_ms": lags[-1] / 1000 if n else 0.0,
+                "p99_lag_ms": lags[min(n - 1, (99 * n) // 100)] / 1000 if n else 0.0,
+                "median_lag_ms": lags[n // 2] / 1000 if n else 0.0}
+
+
+class RealTimeServer:
+    """Pins ``bus`` virtual time to the wall clock and shuttles bytes to one client.
+
+    With a world on the bus (its ``advance`` hook) the server wakes every ``step_us`` even
+    when the line is idle, so physics keeps pace with the wall clock; ``pacing`` measures
+    how late it is. ``on_tick(t_us)`` runs after each catch-up (recording, switches);
+    ``end_us`` ends serving (``Stop``) once virtual time reaches it. Time starts at the
+    master's first byte, as a robot powered on its bench waits for its board: the world
+    holds still until then, so ``--duration`` counts the master's time, not the wait.
+    """
+
+    def __init__(self, bus: Bus, step_us: int | None = None,
+                 on_tick: Callable[[int], None] | None = None, end_us: int | None = None) -> None:
+        self.bus = bus
+        self.step_s = MAX_WAIT_S if step_us is None else step_us * 1e-6
+        self.on_tick = on_tick
+        self.end_us = end_us
+        self.pacing = Pacing()
+        self._world_advance = bus.advance
+        if bus.advance is not None:
+            bus.advance = self._advance
+        self._wall0_ns: int | None = None      # set at the master's first byte
+        self._v0_us = bus.clock.t_us
+
+    def now_us(self) -> int:
+        """Virtual time that corresponds to the wall clock now."""
+        if self._wall0_ns is None:
+            return self._v0_us
+        return self._v0_us + (time.monotonic_ns() - self._wall0_ns) // 1000
+
+    def _advance(self, t_us: int) -> None:
+        self._world_advance(t_us)
+        self.pacing.add(self.now_us() - t_us)
+
+    def _catch_up(self) -> None:
+        t = self.now_us()
+        if self.end_us is not None and t >= self.end_us:
+            t = self.end_us
+        if t > self.bus.clock.t_us:
+            self.bus.idle_until(t)
+        if self.on_tick is not None:
+            self.on_tick(self.bus.clock.t_us)
+        if self.end_us is not None and t >= self.end_us:
+            raise Stop()
+
+    def _wait_s(self) -> float:
+        nxt = self.bus.next_rx_us()
+        wait = self.step_s
+        if nxt is not None:
+            wait = min(wait, max(0.0, (nxt - self.now_us()) * 1e-6))
+        return wait
+
+    def idle(self, fd: int) -> bool:
+        """Keep the world going until ``fd`` is readable (a client knocks); True then."""
+        self._catch_up()
+        ready, _, _ = select.select([fd], [], [], self._wait_s())
+        return bool(ready)
+
+    def pump(self, fd: int, read: Callable[[], bytes | None], write: Callable[[bytes], None]) -> None:
+        """Serve until ``read`` reports the client gone (None) or Stop is raised."""
+        bus = self.bus
+        while True:
+            self._catch_up()
+            out = bus.master_read(1 << 16, 0)
+            if out:
+                write(out)
+            ready, _, _ = select.select([fd], [], [], self._wait_s())
+            if ready:
+                data = read()
+                if data is None:
+                    return
+                if data:
+                    if self._wall0_ns is None:
+                        self._wall0_ns = time.monotonic_ns()
+                    self._catch_up()
+                    bus.master_write(data)
+
+    def serve_pty(self, announce: Callable[[str], None]) -> None:
+        """Open a pty, announce its path, serve until SIGTERM/Ctrl-C."""
+        master, slave = os.openpty()
+        tty.setraw(slave)  # no echo, no line discipline: bytes pass untouched
+        os.set_blocking(master, False)
+        path = os.ttyname(slave)
+
+        def read() -> bytes | None:
+            try:
+                return os.read(master, 4096)
+            except BlockingIOError:
+                return b""
+            except OSError as exc:  # EIO: no client has the slave open (we hold it, so rare)
+                if exc.errno == errno.EIO:
+                    time.sleep(0.01)
+                    return b""
+                raise
+
+        def write(data: bytes) -> None:
+            try:
+                os.write(master, data)
+            except (BlockingIOError, OSError):
+                pass  # client not reading: bytes lost, as a UART overrun
+
+        announce(f"pty: {path}")
+        try:
+            self.pump(master, read, write)
+        finally:
+            os.close(master)
+            os.close(slave)
+
+    def serve_tcp(self, port: int, host: str, announce: Callable[[str], None]) -> None:
+        """Listen on host:port; serve one client at a time until SIGTERM/Ctrl-C."""
+        srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            srv.bind((host, port))
+        except OSError as exc:
+            srv.close()
+            raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
+        srv.listen(1)
+        announce(f"tcp: {host}:{srv.getsockname()[1]}")
+        try:
+            while True:
+                if not self.idle(srv.fileno()):
+                    continue
+                conn, _ = srv.accept()
+                conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+                conn.setblocking(False)
+
+                def read() -> bytes | None:
+                    try:
+                        data = conn.recv(4096)
+                    except BlockingIOError:
+                        return b""
+                    except OSError:
+                        return None
+                    return data if data else None
+
+                def write(data: bytes) -> None:
+                    try:
+                        conn.sendall(data)
+                    except OSError:
+                        pass
+
+                try:
+                    self.pump(conn.fileno(), read, write)
+                finally:
+                    conn.close()
+        finally:
+            srv.close()
+
+    def serve_port(self, device: str, baud: int, announce: Callable[[str], None]) -> None:
+        """Serve a real serial port (a board's servo UART on a USB adapter) through pyserial."""
+        import serial
+
+        try:
+            port = serial.Serial(device, baud, timeout=0, write_timeout=0)
+        except (serial.SerialException, ValueError, OSError) as exc:
+            raise OSError(f"cannot open {device}: {exc}") from None
+
+        def read() -> bytes | None:
+            try:
+                return port.read(4096)
+            except serial.SerialException:
+                return None  # adapter unplugged
+
+        def write(data: bytes) -> None:
+            try:
+                port.write(data)
+            except serial.SerialException:
+                pass
+
+        announce(f"port: {device}")
+        try:
+            self.pump(port.fileno(), read, write)
+        finally:
+            port.close()
+
+
+def install_sigterm() -> None:
+    """SIGTERM ends serving the way Ctrl-C does."""
+    signal.signal(signal.SIGTERM, _raise_stop)
+
