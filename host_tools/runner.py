@@ -166,7 +166,11 @@ class Run:
                          wall_time_s=time.perf_counter() - wall0, world=out)
 
     def close(self) -> None:
-        """Close the trace (complete as far as the run went), then the live server."""
+        """Close the trace (complete as far as the run went), then the live server; a
+        simulator never run lets its CAN bus go too."""
+        sim = getattr(self, "sim", None)   # None until made (close() runs on a failed start)
+        if sim is not None:
+            sim.core.shutdown()
         if self.recorder is not None:
             self.recorder.close()
         if self.live is not None:

@@ -240,3 +240,16 @@ def test_ctrl_c_keeps_the_trace_says_so_and_prints_the_summary(tmp_path):
     assert summary["interrupted"] is True and summary["sim_time_s"] > 0
     with Trace(trace) as t:
         assert "/body" in t.topics()
+
+
+def test_a_run_closed_without_running_leaves_no_warning():
+    import subprocess
+    import sys
+
+    code = ("import gc, host_tools as hx\n"
+            f"r = hx.Run(hx.load_scenario({SCENARIO!r}))\n"
+            "r.close()\ndel r\ngc.collect()\n"
+            f"with hx.Run(hx.load_scenario({SCENARIO!r})):\n    pass\ngc.collect()\n")
+    p = subprocess.run([sys.executable, "-W", "default", "-c", code], cwd=ROOT,
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and "not properly shut down" not in p.stderr, p.stderr

@@ -27,7 +27,7 @@ WRONG_BAUD = "wrong_baud"
 def set_master_baud(server: Any, payload: bytes, result: RunResult) -> None:
     """A posted baud message (the C SDK's ``HAL_UART_Init`` of USART2): the master's UART
     runs at that rate from now on. The servos decode it with their own timing
-    (hil/bus.py ``resample``), so at a rate they do not listen at they hear garbage and do
+    (hil/servobus/wire.py ``resample``), so at a rate they do not listen at they hear garbage and do
     not answer, as on the robot (the virtual board's ``machine.UART`` refuses such a rate
     outright); the run counts a ``wrong_baud`` fault that says so."""
     if len(payload) != sim_link.BAUD_LEN:
