@@ -253,3 +253,13 @@ def test_a_run_closed_without_running_leaves_no_warning():
     p = subprocess.run([sys.executable, "-W", "default", "-c", code], cwd=ROOT,
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 0 and "not properly shut down" not in p.stderr, p.stderr
+
+
+def test_a_hexapod_runs_result_has_its_worlds_final_state():
+    import host_tools as hx
+
+    run = hx.Run(hx.load_scenario(SCENARIO), runtime=hx.Runtime.CPYTHON_INPROCESS,
+                 duration_s=0.5)
+    world = run.run().world
+    assert set(world) == {"x_m", "y_m", "z_m", "yaw_deg", "feet_on_ground"}
+    assert 0.02 < world["z_m"] < 0.3 and 0 <= world["feet_on_ground"] <= 6

@@ -20,6 +20,7 @@ every ground-truth sample. ``realtime=True`` paces the samples to the wall clock
 """
 from __future__ import annotations
 
+import math
 import time
 from typing import Any, Callable
 
@@ -40,6 +41,18 @@ InProcessFirmware = Callable[[Callable[[bytes, bool], bytes]], None]
 # define the stats schema (issue 28 part 3); until then its names are read here only.
 DETECTED_COUNTERS = (ls.TIMEOUTS, ls.CORRUPT_REPLIES, ls.ERROR_STATUSES, ls.ECHO_MISMATCH,
                      ls.OVERRUNS)
+
+
+def _final_state(world: FirmwareWorld) -> dict[str, Any]:
+    """A firmware-driven world's state at the run's end (``RunResult.world``): the body's
+    pose in the world frame and the feet that carry load."""
+    pose = world.body_pose()
+    out: dict[str, Any] = {"x_m": pose.x_m, "y_m": pose.y_m, "z_m": pose.z_m,
+                           "yaw_deg": math.degrees(pose.yaw_rad)}
+    contacts = getattr(world, "foot_contacts", None)
+    if contacts is not None:
+        out["feet_on_ground"] = sum(contacts())
+    return out
 
 
 def _next_on_grid(t_us: int) -> int:
@@ -133,6 +146,7 @@ class FirmwareDriver:
         result.no_servo_answered = why_no_servo_answered(core.bus, result.faults)
         if self._pose0 is not None:
             result.body = body_displacement(self._pose0, core.world.body_pose())
+            result.world = _final_state(core.world)
 
     def _ground_truth(self) -> None:
         """After a sleep's reply: the wall-clock pacing and the recorder's window."""
