@@ -263,3 +263,16 @@ def test_a_hexapod_runs_result_has_its_worlds_final_state():
     world = run.run().world
     assert set(world) == {"x_m", "y_m", "z_m", "yaw_deg", "feet_on_ground"}
     assert 0.02 < world["z_m"] < 0.3 and 0 <= world["feet_on_ground"] <= 6
+
+
+def test_junit_testcases_have_their_own_times():
+    from host_tools.expect import junit
+    from host_tools.expect.evaluate import Outcome
+    from host_tools.expect.runner import CaseResult
+
+    outcomes = (Outcome("c", "quick", "protocol", "0", "0", True, time_s=0.002),
+                Outcome("c", "slow", "tactile_rule", "h", "h_k", True, time_s=0.75))
+    result = CaseResult("c", 1, outcomes, {"wall_time_s": 9.0}, None)
+    root = junit.to_xml([result]).getroot()
+    assert [c.get("time") for c in root.findall(".//testcase")] == ["0.002", "0.750"]
+    assert root.find("testsuite").get("time") == "9.000"
