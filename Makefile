@@ -4,23 +4,37 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-slow bench fuzz clean
+.PHONY: demo test test-slow bench fuzz clean toolchain
 
 $(STAMP): pyproject.toml
 	test -d $(VENV) || $(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --disable-pip-version-check -e '.[test,grnn,dask]'
 	touch $(STAMP)
 
+# The ARM toolchain for STM32F411 ELFs (hexhil sdk build --target stm32f411, the ELF tests):
+# Debian's packages, installed here when missing and we are root, else the line to run.
+ARM_PACKAGES := gcc-arm-none-eabi binutils-arm-none-eabi libnewlib-arm-none-eabi gdb-multiarch
+toolchain:
+	@if command -v arm-none-eabi-gcc >/dev/null && command -v gdb-multiarch >/dev/null && \
+	    test -f "$$(arm-none-eabi-gcc -mcpu=cortex-m4 -mthumb -mfloat-abi=hard \
+	        -mfpu=fpv4-sp-d16 -print-file-name=libc_nano.a)"; then :; \
+	elif [ "$$(id -u)" = 0 ]; then \
+	    apt-get update && apt-get install -y $(ARM_PACKAGES); \
+	else \
+	    echo "the ARM toolchain is missing; install it with:"; \
+	    echo "  sudo apt-get install -y $(ARM_PACKAGES)"; exit 1; \
+	fi
+
 demo: $(STAMP)
 	$(BIN)/hexhil demo
 
-test: $(STAMP)
+test: $(STAMP) toolchain
 	$(BIN)/python -m pytest -q
 
-test-slow: $(STAMP)
+test-slow: $(STAMP) toolchain
 	$(BIN)/python -m pytest -q -m slow
 
-bench: $(STAMP)
+bench: $(STAMP) toolchain
 	$(BIN)/python -m bench
 
 # hostile inputs for every parser and loader (issue 20); FUZZ="--scale 0.1" for a short run

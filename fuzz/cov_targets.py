@@ -21,9 +21,10 @@ from typing import Any, Callable
 
 import cantools
 
-from fuzz import fuzz_bus, fuzz_v2_bus, fuzz_can, fuzz_trace
+from fuzz import fuzz_bus, fuzz_v2_bus, fuzz_can, fuzz_elf, fuzz_trace
 from fuzz.hostile import GAP_US, Rng, garbage
 from hil import scenario
+from hil.mcu.elf_image import load_elf
 from hil.servobus.faults import Faults
 from host_tools.trace import reader, recover
 from protocol.dynamixel import ax12
@@ -336,6 +337,23 @@ def bus2_seeds() -> list[bytes]:
             bytes((7, 0xFE, dx2.SYNC_READ, 132, 0, 4, 0, 1, 2, 3))]
 
 
+# --- the STM32F411 ELF loader ---------------------------------------------------------------
+def elf_one_input(data: bytes) -> None:
+    """The bytes as an ELF given to --firmware: loaded, or one line."""
+    path = scratch() / "fuzz.elf"
+    path.write_bytes(data)
+    try:
+        load_elf(path).function_at(0x08000000)
+    except UserError as exc:
+        if "\n" in str(exc):
+            raise Broken(f"UserError over several lines: {exc!r}") from None
+
+
+def elf_seeds() -> list[bytes]:
+    whole = fuzz_elf.sample_elf()
+    return [whole, whole[:len(whole) // 2]]
+
+
 TARGETS = {
     "parser": Target("protocol parser (atheris)", "streams", parser_one_input, parser_seeds,
                      dxl.MAX_PACKET + 41),
@@ -349,5 +367,6 @@ TARGETS = {
                       parser2_seeds, 600),
     "bus2": Target("protocol 2.0 bus, 18 XL430s (atheris)", "streams", bus2_one_input,
                    bus2_seeds),
+    "elf": Target("STM32F411 ELF loader (atheris)", "files", elf_one_input, elf_seeds, 0),
 }
 

@@ -38,6 +38,16 @@ class Tcp:
 
 
 @dataclass(frozen=True)
+class Rfc2217:
+    """pyserial's RFC 2217 server (clients open ``rfc2217://host:port``); with
+    ``rts_direction`` RTS is the direction line."""
+
+    port: int
+    host: str = "127.0.0.1"
+    rts_direction: bool = False
+
+
+@dataclass(frozen=True)
 class SerialPort:
     """A real serial device (a USB adapter on the robot's bus)."""
 
@@ -45,7 +55,7 @@ class SerialPort:
     baud: int = DEFAULT_BAUD
 
 
-Transport = Union[Pty, Tcp, SerialPort]
+Transport = Union[Pty, Tcp, Rfc2217, SerialPort]
 
 
 class RealTimeRun:
@@ -80,9 +90,25 @@ class RealTimeRun:
             self._close_trace()
             raise
         end_us = None if duration_s is None else int(round(duration_s * 1e6))
+        self._injections: list[tuple[str, dict[str, Any], Callable[[str], None]]] = []
         self.server = serial_server.RealTimeServer(
             self.rig.bus, step_us=WORLD_STEP_US if self.rig.world is not None else None,
-            on_tick=self.rig.tick, end_us=end_us)
+            on_tick=self._tick, end_us=end_us)
+
+    def inject(self, kind: str, on_error: Callable[[str], None] | None = None,
+               **params: Any) -> None:
+        """A named fault while serving (any thread: ``hexhil bus --inject-stdin``), applied
+        at the server's next tick, now or at ``at_s``; a bad one goes to ``on_error``."""
+        self._injections.append((kind, params, on_error or (lambda line: None)))
+
+    def _tick(self, t_us: int) -> None:
+        while self._injections:
+            kind, params, on_error = self._injections.pop(0)
+            try:
+                self.rig.core.inject(kind, **params)
+            except UserError as exc:
+                on_error(str(exc))
+        self.rig.tick(t_us)
 
     def _close_trace(self) -> None:
         if self.recorder is not None:
@@ -92,10 +118,16 @@ class RealTimeRun:
     def serve(self, transport: Transport, announce: Callable[[str], None]) -> dict[str, Any]:
         """Serve until the run's end, an interrupt (``KeyboardInterrupt``) or
         ``serial_server.Stop`` (SIGTERM); ``announce`` gets the address line (``pty: PATH``,
-        ``tcp: ...``, ``port: ...``) once it is ready. The trace is complete on return;
-        returns the summary (time served, body, faults, bus, master violations, pacing)."""
+        ``tcp: ...``, ``rfc2217: ...``, ``port: ...``) once it is ready. The trace is
+        complete on return; returns the summary (time served, body, faults, bus, master
+        violations, pacing, and for RFC 2217 the client's line settings)."""
         try:
-            if isinstance(transport, SerialPort):
+            if isinstance(transport, Rfc2217):
+                from hil.servobus.rfc2217_server import serve_rfc2217
+
+                serve_rfc2217(self.server, transport.port, transport.host, announce,
+                                         transport.rts_direction)
+            elif isinstance(transport, SerialPort):
                 self.server.serve_port(transport.device, transport.baud, announce)
             elif isinstance(transport, Tcp):
                 self.server.serve_tcp(transport.port, transport.host, announce)
@@ -108,4 +140,6 @@ class RealTimeRun:
         finally:
             self.rig.close()
             self._close_trace()
-        return self.rig.summary(self.server.pacing.summary())
+        summary = self.rig.summary(self.server.pacing.summary())
+        summary["client_bauds"] = list(self.server.client_bauds)
+        return summary

@@ -24,7 +24,8 @@ from hil import scenario as scenario_mod
 from host_tools.dynamixel.decode import DECODERS
 from protocol import sim_link
 from protocol.dynamixel import models
-from hil.link.served_firmware import served_firmware
+from hil.link.served_firmware import ElfFirmware, console_events, served_firmware
+from hil.mcu.replayed import ReplayedElf
 from hil.link.firmware_process import REQUEST_OPS, FirmwareProcess, split_messages
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
@@ -193,9 +194,12 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     result = ReplayResult()
     wall0 = time.perf_counter()
     theirs = served_firmware(firmware) if firmware is not None else None
-    fw = FirmwareProcess(python, connect_timeout_s=timeout_s,
-                         command=theirs.command() if theirs else command,
-                         extra_env=theirs.env() if theirs else None)
+    if isinstance(theirs, ElfFirmware):      # runs in this process, on a thread
+        fw: Any = ReplayedElf(theirs.image, console_events)
+    else:
+        fw = FirmwareProcess(python, connect_timeout_s=timeout_s,
+                             command=theirs.command() if theirs else command,
+                             extra_env=theirs.env() if theirs else None)
     try:
         conn = fw.conn
         prev_t_us = 0

@@ -85,7 +85,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         out: str | None = None, can_server_port: int | None = None,
         can_wait_clients: int = 0, live_port: int | None = None,
         realtime: bool = False, navigator: str = "none",
-        model_path: str | None = None, firmware: str | None = None
+        model_path: str | None = None, firmware: str | None = None,
+        gdb_port: int | None = None, coverage: str | None = None
         ) -> tuple[dict[str, Any], RunResult]:
     """Load, simulate, summarise. Returns (summary, raw result).
 
@@ -102,7 +103,9 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     it predicts the goal ``gait.distance_m`` is reached.
 
     ``firmware``, a MicroPython main file for the virtual board or an executable that
-    speaks the link (hil/link/served_firmware.py), runs instead of our firmware.
+    speaks the link (hil/link/served_firmware.py), or an STM32F411 ELF, runs instead of our
+    firmware; an ELF's ``gdb_port`` waits for a GDB client, ``coverage`` writes LCOV there
+    (docs/elf-firmware.md).
     """
     sc = scenario_mod.load_scenario(path)
     seed = sc.scenario.seed if seed is None else seed
@@ -122,7 +125,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
             server = start_can_server(can_server_port, can_wait_clients)
         with Run(sc, seed=seed, runtime=python, duration_s=duration_s, tactile=tactile,
                  trace=out, live_port=live_port, can_server=server, realtime=realtime,
-                 firmware=firmware) as r:
+                 firmware=firmware, gdb_port=gdb_port, coverage=coverage) as r:
             if r.live is not None:
                 log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", r.live.port)
             if attach_navigator is not None:

@@ -60,16 +60,21 @@ class Run:
     clients; ``realtime`` paces virtual time to the wall clock; ``tactile`` overrides the
     scenario's ``firmware.tactile``; ``firmware``, a MicroPython main file run on the virtual
     board (docs/your-firmware.md) or an executable that speaks the link (a C firmware,
-    docs/c-firmware.md), runs instead of ours. Close it (or use ``with``) if ``run`` is never called."""
+    docs/c-firmware.md) or an STM32F411 ELF (docs/elf-firmware.md: ``gdb_port``, ``coverage``),
+    runs instead of ours. Close it (or use ``with``) if ``run`` is never called."""
 
     def __init__(self, scenario: Scenario | dict[str, Any] | str | Path, *,
                  seed: int | None = None,
                  runtime: Runtime | str | None = None, duration_s: float | None = None,
                  tactile: bool | None = None, trace: str | Path | None = None,
                  live_port: int | None = None, can_server: Any = None,
-                 realtime: bool = False, firmware: str | Path | None = None) -> None:
+                 realtime: bool = False, firmware: str | Path | None = None,
+                 gdb_port: int | None = None, coverage: str | Path | None = None) -> None:
         # a firmware of the user's (hil/link/served_firmware.py) is checked before anything opens
-        self.firmware = served_firmware(firmware) if firmware is not None else None
+        self.firmware = (served_firmware(firmware, gdb_port=gdb_port, coverage=coverage)
+                         if firmware is not None else None)
+        if firmware is None and (gdb_port is not None or coverage is not None):
+            raise UserError("--gdb and --coverage need an STM32F411 ELF given as --firmware")
         self.scenario = (scenario_mod.load_scenario(scenario)
                          if isinstance(scenario, (str, Path)) else scenario_mod.parse(scenario))
         sc = self.scenario
@@ -135,6 +140,11 @@ class Run:
         """Tick ``node`` on the run's clock, after the nodes added before it."""
         self._firmware_sim().add_node(node)
 
+    def inject(self, kind: str, **params: Any) -> dict[str, Any]:
+        """A named fault, now or at ``at_s`` (run time), as a ``[faults]`` entry: before
+        ``run()`` or from a host node's tick (docs/servo-bus.md "Fault vocabulary")."""
+        return self._firmware_sim().core.inject(kind, **params)
+
     def send_can(self, arb_id: int, data: bytes) -> None:
         """One frame from the host to the firmware, now (virtual time)."""
         self._firmware_sim().send_can(arb_id, data)
@@ -163,7 +173,8 @@ class Run:
                               scene=self.recorder is not None, realtime=self._realtime,
                               scenario=self.scenario)
         return RunResult(NO_RUNTIME, sim_time_s=out["t_end_s"],
-                         wall_time_s=time.perf_counter() - wall0, world=out)
+                         wall_time_s=time.perf_counter() - wall0,
+                         faults=out.pop("faults", {}), world=out)
 
     def close(self) -> None:
         """Close the trace (complete as far as the run went), then the live server; a

@@ -4,7 +4,6 @@ into a tmp folder by the machine's C compiler (or ziglang's, host_tools/c_sdk.py
 import json
 import os
 import shlex
-import struct
 import subprocess
 import sys
 from pathlib import Path
@@ -23,7 +22,6 @@ from protocol.errors import UserError
 ROOT = Path(__file__).resolve().parent.parent
 PROGRAMS = ROOT / "tests" / "c_firmware"
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
-EF_ARM_ABI_FLOAT_HARD = 0x400   # ELF for the Arm Architecture, e_flags
 
 
 @pytest.fixture(scope="module")
@@ -193,21 +191,6 @@ def test_sdk_build_bad_input_is_one_line_and_exit_2(argv, says):
                           capture_output=True, text=True)
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 2 and len(lines) == 1 and says in lines[0]
-
-
-def test_the_c_tripod_cross_compiles_for_the_f411(tmp_path):
-    """The same source for the board's Cortex-M4F (hard float): compiled by the pinned
-    ziglang (the test extra) against musl's headers for math.h and string.h; not linked
-    (the registries hold no newlib, startup file or linker script for the F411)."""
-    out = tmp_path / "c_tripod_m4.o"
-    subprocess.run([sys.executable, "-m", "ziglang", "cc", "-target", "thumb-linux-musleabihf",
-                    "-mcpu=cortex_m4", *c_sdk.CFLAGS, f"-I{c_sdk.INCLUDE_DIR}", "-c",
-                    str(ROOT / "examples" / "c_tripod" / "main.c"), "-o", str(out)], check=True)
-    data = out.read_bytes()
-    assert data[:4] == b"\x7fELF" and data[18] == 40     # e_machine EM_ARM
-    (e_flags,) = struct.unpack_from("<I", data, 36)
-    assert e_flags & EF_ARM_ABI_FLOAT_HARD               # floats in VFP registers (M4F)
-    assert b"cortex-m4" in data                          # the build attributes' CPU name
 
 
 def test_without_a_c_compiler_on_the_path_ziglang_builds_and_the_build_runs(tmp_path,

@@ -112,32 +112,37 @@ def test_factory_reset_and_sync_write():
     reply = s.handle(dxl.FACTORY_RESET, b"", False, s.busy_until_us)
     assert status(reply).id == 9 and s.id == 1 and s.value("return_delay_time") == 250
     params = bytes((ax12.GOAL_POSITION, 2, 3, 0, 1, 1, 0x10, 0x02))
-    assert s.handle(dxl.SYNC_WRITE, params, True, s.busy_until_us) is None
+    assert s.handle(dxl.SYNC_WRITE, params, True, s.deaf_until_us - 1) is None  # rebooting
+    assert s.value("goal_position") != 0x210 and s.ignored == 1
+    assert s.handle(dxl.SYNC_WRITE, params, True, s.deaf_until_us) is None
     assert s.value("goal_position") == 0x210
 
 
-def test_eeprom_write_leaves_the_servo_deaf_for_a_few_ms():
+def test_a_packet_during_an_eeprom_write_is_taken_when_the_write_is_done():
     s = Servo(3)
-    assert write(s, ax12.CW_ANGLE_LIMIT, b"\x10\x00", t_us=1_000) == 0  # its status still goes out
-    deaf_until = 1_000 + EEPROM_BUSY_US
-    assert s.busy_until_us == deaf_until
+    assert write(s, ax12.CW_ANGLE_LIMIT, b"\x10\x00", t_us=1_000) == 0  # its status goes out
+    done = 1_000 + EEPROM_BUSY_US
+    assert s.busy_until_us == done and s.return_delay_us == 500
     n = s.instructions
-    assert s.handle(dxl.PING, b"", False, deaf_until - 1) is None
-    assert s.handle(dxl.WRITE, bytes((ax12.LED, 1)), False, deaf_until - 1) is None
-    assert s.checksum_error(dxl.PING, deaf_until - 1) is None
-    assert s.ignored == 3 and s.instructions == n and s.value("led") == 0  # nothing executed
-    assert s.handle(dxl.PING, b"", False, deaf_until) == dxl.status(3)
-    # RAM writes and refused EEPROM writes leave it listening
+    # the next EEPROM write (dynamixel-controller's wheel mode: CW then CCW) is not lost
+    assert s.handle(dxl.WRITE, bytes((ax12.CCW_ANGLE_LIMIT, 0, 0)), False, done - 3_000) \
+        == dxl.status(3)
+    assert s.value("ccw_angle_limit") == 0 and s.instructions == n + 1 and s.held == 1
+    assert s.return_delay_us == 500 + 3_000          # its status 3 ms later than usual
+    assert s.busy_until_us == done + EEPROM_BUSY_US  # and it writes its own EEPROM
+    assert s.handle(dxl.PING, b"", False, s.busy_until_us) == dxl.status(3)
+    assert s.return_delay_us == 500 and s.ignored == 0
+    # RAM writes and refused EEPROM writes leave it free
     assert write(s, ax12.LED, b"\x01") == 0 and write(s, ax12.CW_ANGLE_LIMIT, b"\xff\x07") == dxl.ERR_RANGE
-    assert s.handle(dxl.PING, b"", False, s.t_us) == dxl.status(3)
-    # a broadcast SYNC_WRITE of an EEPROM field makes every addressed servo deaf, silently
+    assert s.handle(dxl.PING, b"", False, s.t_us) == dxl.status(3) and s.held == 1
+    # a broadcast SYNC_WRITE of an EEPROM field keeps every addressed servo busy, silently
     t = s.t_us + 10
     s.handle(dxl.SYNC_WRITE, bytes((ax12.CW_ANGLE_LIMIT, 2, 3, 0, 0)), True, t)
     assert s.value("cw_angle_limit") == 0 and s.busy_until_us == t + EEPROM_BUSY_US
     # and the busy time is the servo's own setting
     quick = Servo(4, eeprom_busy_us=0)
     assert write(quick, ax12.RETURN_DELAY_TIME, b"\x00", t_us=0) == 0
-    assert quick.handle(dxl.PING, b"", False, 0) == dxl.status(4)
+    assert quick.handle(dxl.PING, b"", False, 0) == dxl.status(4) and quick.held == 0
 
 
 def test_goal_outside_angle_limits_sets_bit_and_horn_stops_at_limit():

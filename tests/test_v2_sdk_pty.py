@@ -84,7 +84,7 @@ def test_bulk_read_of_two_addresses_and_fast_bulk_read(port) -> None:
     assert gbr.addParam(11, xl.PRESENT_TEMPERATURE, 1)
     assert retry(gbr.txRxPacket) == sdk.COMM_SUCCESS
     pos = gbr.getData(3, xl.PRESENT_POSITION, 4)
-    assert pos == PH.read4ByteTxRx(port, 3, xl.PRESENT_POSITION)[0]
+    assert pos == retry(lambda: PH.read4ByteTxRx(port, 3, xl.PRESENT_POSITION))[0]
     assert gbr.getData(11, xl.PRESENT_TEMPERATURE, 1) == 32
     assert retry(gbr.fastBulkRead) == sdk.COMM_SUCCESS
     assert gbr.getData(3, xl.PRESENT_POSITION, 4) == pos

@@ -182,7 +182,7 @@ def test_a_firmware_that_is_not_a_file(tmp_path):
     r = hexhil("run", "scenarios/flat-tripod.toml", "--firmware", str(tmp_path))
     assert r.returncode == 2
     assert r.stderr.strip() == f"hexhil: --firmware {tmp_path}: not a file (give a " \
-        "MicroPython main file or an executable)"
+        "MicroPython main file, an STM32F411 ELF or an executable)"
 
 
 def test_our_firmware_runs_on_the_board_back_end():

@@ -6,7 +6,9 @@
   docs/your-firmware.md);
 * ``ExecutableFirmware``: any executable that speaks docs/link.md, such as a C firmware
   built against firmware/c_sdk/ (docs/c-firmware.md). It finds the link through
-  ``HEXHIL_LINK_PORT`` in its environment (hil/link/firmware_process.py ``FirmwareProcess``).
+  ``HEXHIL_LINK_PORT`` in its environment (hil/link/firmware_process.py ``FirmwareProcess``);
+* ``ElfFirmware``: an STM32F411 ELF (its header says ARM, 32-bit), run unchanged on the
+  emulated board in this process (hil/mcu/, docs/elf-firmware.md).
 
 Both end the same way (``serve_process``): a crash, a hang (no link message for
 ``HANG_WALL_S`` of wall time, or the board's own verdict: only polls for 2 virtual seconds)
@@ -23,6 +25,8 @@ from pathlib import Path
 from typing import Any, Callable, Protocol
 
 from hil.link.firmware_process import ROOT, FirmwareProcess, firmware_command, firmware_env
+from hil.mcu.elf_image import ELF_MAGIC, ElfImage, is_arm_elf, load_elf
+from hil.mcu.runtime import serve_elf
 from hil.run_result import RunResult
 from protocol import sim_link
 from protocol.errors import UserError
@@ -30,6 +34,7 @@ from protocol.errors import UserError
 BOARD_DIR = ROOT / "firmware" / "virtual_board"
 BOARD_RUNTIME = "micropython-board"   # a run's firmware_runtime
 EXECUTABLE = "executable"
+ELF_RUNTIME = "stm32f411-elf"
 HANG_WALL_S = 20.0          # wall seconds without a link message: the firmware hung
 BOARD_SAYS = "hexhil board: "   # the C SDK's one-line verdict on its firmware (hal_board.c)
 MAIN_SUFFIXES = (".py",)    # a MicroPython main file; anything else is an executable
@@ -50,14 +55,21 @@ class ServedFirmware(Protocol):
         """Start it, answer its link with ``server`` (hil/link/server.py) to the end."""
 
 
-def served_firmware(path: str | Path, what: str = "--firmware"
-                    ) -> BoardFirmware | ExecutableFirmware:
-    """``path`` checked: a MicroPython main file (``.py``) for the virtual board, else an
-    executable file this user may run (``UserError`` naming ``what`` if neither)."""
+def served_firmware(path: str | Path, what: str = "--firmware", gdb_port: int | None = None,
+                    coverage: str | Path | None = None
+                    ) -> BoardFirmware | ExecutableFirmware | ElfFirmware:
+    """``path`` checked: a MicroPython main file (``.py``) for the virtual board, an ARM
+    ELF for the emulated STM32F411, else an executable file this user may run
+    (``UserError`` naming ``what`` if neither). ``gdb_port`` and ``coverage`` (an ELF's
+    only: ``--gdb``, ``--coverage``) go to the ELF runtime."""
     p = Path(path)
+    if (gdb_port is not None or coverage is not None) and not is_arm_elf(p):
+        raise UserError(f"--gdb and --coverage need an STM32F411 ELF as {what}, not {path}")
+    if gdb_port is not None and not 1 <= gdb_port <= 65535:
+        raise UserError(f"--gdb {gdb_port}: port must be 1-65535")
     if not p.is_file():
-        raise UserError(f"{what} {path}: not a file (give a MicroPython main file or an "
-                        "executable)")
+        raise UserError(f"{what} {path}: not a file (give a MicroPython main file, an "
+                        "STM32F411 ELF or an executable)")
     if p.suffix in MAIN_SUFFIXES:
         try:
             text = _is_text(p.read_bytes())
@@ -67,6 +79,11 @@ def served_firmware(path: str | Path, what: str = "--firmware"
             raise UserError(f"{what} {path}: not a MicroPython source file (it holds binary "
                             "data, not UTF-8 text)")
         return BoardFirmware(p.resolve())
+    if is_arm_elf(p):
+        return ElfFirmware(load_elf(p, what), gdb_port,
+                           Path(coverage) if coverage is not None else None)
+    if not os.access(p, os.X_OK) and p.read_bytes()[:4] == ELF_MAGIC:
+        load_elf(p, what)     # names what the ELF is for, in one line
     if not os.access(p, os.X_OK):
         raise UserError(f"{what} {path}: neither a MicroPython main file (.py) nor "
                         "executable (build a C firmware with `hexhil sdk build main.c -o fw`, "
@@ -128,6 +145,31 @@ def _console_to(server: Any, result: RunResult) -> Callable[[str], None]:
         for kind, text in console_events(printed):
             server.take_event(kind, text, result)
     return take_console
+
+
+@dataclass(frozen=True)
+class ElfFirmware:
+    """An STM32F411 ELF on the emulated board (hil/mcu/); ``gdb_port`` waits for a GDB
+    client before the first instruction, ``coverage`` writes LCOV line coverage there."""
+
+    image: ElfImage
+    gdb_port: int | None = None
+    coverage: Path | None = None
+    runtime: str = ELF_RUNTIME
+
+    @property
+    def path(self) -> Path:
+        return self.image.path
+
+    def command(self) -> list[str]:
+        return []
+
+    def env(self) -> dict[str, str]:
+        return {}
+
+    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+        serve_elf(self.image, server, end_us, result, console_events, self.gdb_port,
+                  self.coverage)
 
 
 def _how(code: int) -> str:

@@ -128,18 +128,29 @@ class RunCore:
                 self._next_tick_us[i] = due if due > t_us else t_us + node.period_us
                 node.tick(t_us)
 
+    def inject(self, kind: str, **params: Any) -> dict[str, Any]:
+        """A named fault (hil/servobus/faults.py ``KINDS``) as a ``[faults]`` entry, now or
+        at ``at_s`` of run time: from the API or a host node; it goes to /faults and the
+        summary's counts like a scenario's."""
+        faults = self.faults
+        if self.bus is not None and self.bus.faults is None:
+            self.bus.faults = faults          # a run without faults gets its first now
+            faults.attach(self.bus, t0_us=0)
+        return faults.inject(kind, **params)
+
     def send_can(self, arb_id: int, data: bytes) -> None:
         """Put a frame on the run's CAN bus from the host."""
         self.can.send(arb_id, data)
 
     def switch_bits(self) -> int:
-        """The world's six limit switches as bits (bit i = leg i pressed), 0 without one."""
+        """The world's six limit switches as bits (bit i = leg i pressed), 0 without one,
+        as the firmware reads them: stuck or bouncing legs applied (``[faults]``)."""
         bits = 0
         if self.world is not None:
             for i, pressed in enumerate(self.world.switch_levels()):
                 if pressed:
                     bits |= 1 << i
-        return bits
+        return self.faults.switch_bits(self.clock.t_us, bits) if self.faults else bits
 
     def shutdown(self) -> None:
         self.can.shutdown()

@@ -115,9 +115,8 @@ class FirmwareDriver:
     def _levels(self, t_us: int) -> int:
         if self.core.world is not None:
             return self.core.switch_bits()
-        if self._switches is not None:
-            return int(self._switches(t_us))
-        return 0
+        bits = int(self._switches(t_us)) if self._switches is not None else 0
+        return self.core.faults.switch_bits(t_us, bits) if self.core.faults else bits
 
     def run(self, python: str, command: list[str] | None,
             in_process: InProcessFirmware | None, end_us: int, result: RunResult,
@@ -163,14 +162,19 @@ class SteppedDriver:
     def __init__(self, core: RunCore) -> None:
         self.core = core
         core.world.attach(core.can)
+        if hasattr(core.world, "faults"):    # seed 000's force sensor faults ([faults])
+            core.world.faults = core.faults
+        core.faults.start(core.clock, 0)
 
     def run(self, end_us: int, result: RunResult) -> None:
         core = self.core
-        world, rec = core.world, core.recorder
+        world, rec, faults = core.world, core.recorder, core.faults
         while True:
             world.step()
             t = world.t_us
             core.clock.advance_to(t)
+            if faults.next_us <= t:
+                faults.apply_due(t)
             core.tick_nodes(t)
             if t % BODY_SAMPLE_US == 0:
                 core.pacing.pace(t)

@@ -72,7 +72,11 @@ class RealTimeRig:
             self.verbose(f"master t={t_us / 1e6:.6f}s {kind}: {detail}")
 
     def _send_switches(self, bits: int) -> None:
-        self.can.send(*cf.encode("limit_switches", switches=bits, sequence=self._seq))
+        frame = cf.encode("limit_switches", switches=bits, sequence=self._seq)
+        if self.core.faults is not None:
+            frame = self.core.faults.can_frame(*frame)   # [faults] can_silent, can_garbage
+        if frame is not None:
+            self.can.send(*frame)
         self._seq = (self._seq + 1) & 0xFF
 
     def tick(self, t_us: int) -> None:

@@ -59,11 +59,11 @@ def build(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int = 0, *, wo
     cfg = scenario_mod.parse(scenario)
     sc = cfg.data
     clock = VirtualClock()
-    if world is not None and not hasattr(world, "actuators"):
-        return Rig(cfg, sc, seed, clock, world, None, None)   # a world without a servo bus
-    bus_cfg = cfg.bus
     faults = Faults.from_scenario(sc["faults"], seed, where=f"{cfg.path} [faults]",
                                   on_fault=on_fault)
+    if world is not None and not hasattr(world, "actuators"):
+        return Rig(cfg, sc, seed, clock, world, None, faults)   # a world without a servo bus
+    bus_cfg = cfg.bus
     line = protocols.for_model(bus_cfg.model).line
     bus = line(_servos(bus_cfg, list(bus_cfg.ids if ids is None else ids), world), clock,
               baud=bus_cfg.baud, echo=bus_cfg.echo, faults=faults if faults.active() else None,

@@ -185,6 +185,17 @@ class FaultsConfig:
     stall: tuple[dict[str, Any], ...] = ()
     overheat: tuple[dict[str, Any], ...] = ()
     voltage_sag: tuple[dict[str, Any], ...] = ()
+    brownout: tuple[dict[str, Any], ...] = ()
+    overload: tuple[dict[str, Any], ...] = ()
+    position_stuck: tuple[dict[str, Any], ...] = ()
+    position_noise: tuple[dict[str, Any], ...] = ()
+    id_conflict: tuple[dict[str, Any], ...] = ()
+    switch_stuck: tuple[dict[str, Any], ...] = ()
+    switch_bounce: tuple[dict[str, Any], ...] = ()
+    can_silent: tuple[dict[str, Any], ...] = ()
+    can_garbage: tuple[dict[str, Any], ...] = ()
+    force_bias: tuple[dict[str, Any], ...] = ()
+    force_dropout: tuple[dict[str, Any], ...] = ()
 
     @classmethod
     def parse(cls, where: str, d: dict[str, Any]) -> "FaultsConfig":

@@ -92,10 +92,12 @@ class Servo(TableServo):
         self.alarm_led = False                 # the LED blinks for errors in Alarm LED
         self.address_changed = False           # ID or Baud Rate written: bus re-indexes
         self.instructions = 0
-        # deaf this long after an EEPROM write (a packet then is lost: docs/servo-bus.md)
+        # busy this long after an EEPROM write (a packet then waits: docs/servo-bus.md)
         self.eeprom_busy_us = ax12.EEPROM_BUSY_US if eeprom_busy_us is None else eeprom_busy_us
-        self.busy_until_us = 0                 # deaf after an EEPROM write until then
+        self.busy_until_us = 0                 # an EEPROM write under way until then
+        self.deaf_until_us = 0                 # rebooting (factory reset) until then
         self.ignored = 0                       # packets that arrived while deaf
+        self.held = self.held_us = 0           # packets that waited for an EEPROM write
         self._command()
         self._present_stale = True
 
@@ -135,7 +137,7 @@ class Servo(TableServo):
         self._present_stale = False
         pos, vel, load = self.actuator.state()
         t = self.table
-        p = ax12.rad_to_position(pos)
+        p = max(0, min(1023, self._position_read(ax12.rad_to_position(pos))))
         t[36] = p & 0xFF
         t[37] = p >> 8
         s = ax12.rad_s_to_signed(vel)
@@ -330,7 +332,7 @@ class Servo(TableServo):
         t = self._present()
         pos = t[36] | (t[37] << 8)
         self.table = ax12.defaults(self.edition, pos)
-        self.busy_until_us = self.t_us + self.eeprom_busy_us
+        self.deaf_until_us = self.t_us + self.eeprom_busy_us
         self._registered = None
         self.health.overload = False
         self.alarm_led = False

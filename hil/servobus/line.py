@@ -203,6 +203,12 @@ class Bus:
                 return self.byte_end_us(b.start_us, len(b.data) - 1)
         return None
 
+    def reply_end_us(self) -> int | None:
+        """When the last status the master has not fully read will have arrived, or None."""
+        ends = [self.byte_end_us(b.start_us, len(b.data) - 1) for b in self._rx
+                if b.reply and b.read < len(b.data)]
+        return max(ends) if ends else None
+
     def reply_arriving_after(self, t_us: int) -> bool:
         """A status packet is still on its way at ``t_us`` (the master must not talk)."""
         return any(b.reply and self.byte_end_us(b.start_us, len(b.data) - 1) > t_us

@@ -2,9 +2,15 @@
 
 Both keep their state in a control table laid out by a protocol module (``layout``:
 protocol/dynamixel/ax12.py or xl430.py, which name the same registers alike), turn the horn through
-an ``Actuator`` and go deaf for a while after an EEPROM write. From those this base reads
-the identity, takes an instruction (or ignores it while deaf), keeps a REG_WRITE for
-ACTION and gives the recorder its snapshot; each servo executes its own instruction set.
+an ``Actuator``, finish an EEPROM write before they take the next packet and go deaf while
+they reboot. From those this base reads the identity, takes an instruction (late while an
+EEPROM write finishes; not at all while deaf), keeps a REG_WRITE for ACTION and gives the
+recorder its snapshot; each servo executes its own instruction set.
+
+An EEPROM write is not a deaf time (issue 42, sources in docs/servo-bus.md): ROBOTIS's own
+advice for wheel mode is two WRITEs back to back, each waiting for its status, and users
+confirm it on AX-12 and X-series servos. The servo's UART keeps receiving while the write
+finishes; the packet is executed when it is done and its Return Delay counts from then.
 """
 from __future__ import annotations
 
@@ -22,9 +28,13 @@ class TableServo:
     table: bytearray
     actuator: Actuator
     health: ServoHealth
-    busy_until_us: int              # deaf after an EEPROM write until then
+    busy_until_us: int              # an EEPROM write under way until then: packets wait
+    deaf_until_us: int              # rebooting until then: packets are lost
     ignored: int                    # packets that arrived while deaf
+    held: int                       # packets that waited for an EEPROM write
+    held_us: int                    # how long the packet last taken waited
     instructions: int               # packets executed
+    reading: Any = None             # a Present Position fault (hil/servobus/faults.py), or None
     _registered: tuple[int, bytes] | None
 
     def advance_to(self, t_us: int) -> None:
@@ -34,6 +44,9 @@ class TableServo:
         raise NotImplementedError
 
     def _apply_write(self, address: int, data: bytes) -> None:
+        raise NotImplementedError
+
+    def _refresh_present(self) -> None:
         raise NotImplementedError
 
     # --- identity ----------------------------------------------------------------------
@@ -47,7 +60,9 @@ class TableServo:
 
     @property
     def return_delay_us(self) -> int:
-        return self.layout.return_delay_us(self.table[self.layout.RETURN_DELAY_TIME])
+        """From the end of the packet to the status: Return Delay Time after the servo took
+        it (later when it waited for an EEPROM write)."""
+        return self.layout.return_delay_us(self.table[self.layout.RETURN_DELAY_TIME]) + self.held_us
 
     @property
     def torque_on(self) -> bool:
@@ -70,18 +85,38 @@ class TableServo:
         self.advance_to(t_us)
         self.health.hot_spot_c = temperature_c
 
+    # --- injected faults (hil/servobus/faults.py) ---------------------------------------
+    def set_reading(self, reading: Any, t_us: int) -> None:
+        """Present Position read through ``reading.apply(units)`` (stuck, noisy), or true."""
+        self.advance_to(t_us)
+        self.reading = reading
+        self._refresh_present()   # a stuck reading keeps what it reads now
+
+    def set_id(self, dev_id: int, t_us: int) -> None:
+        """The ID register changed behind the master's back (a spare with another ID)."""
+        self.advance_to(t_us)
+        self.table[self.layout.ID] = dev_id
+
+    def _position_read(self, units: int) -> int:
+        return units if self.reading is None else self.reading.apply(units)
+
     # --- instructions ------------------------------------------------------------------
     def _deaf(self, t_us: int) -> bool:
-        if t_us < self.busy_until_us:
+        self.held_us = 0
+        if t_us < self.deaf_until_us:
             self.ignored += 1
             return True
         return False
 
     def _take(self, t_us: int) -> bool:
-        """Catch up to ``t_us`` and take an instruction: False when deaf (ignored)."""
-        self.advance_to(t_us)
-        if self._deaf(t_us):
+        """Catch up to ``t_us`` (or the end of an EEPROM write under way) and take an
+        instruction: False when deaf (ignored)."""
+        hold = max(0, self.busy_until_us - t_us)
+        self.advance_to(t_us + hold)
+        if self._deaf(t_us + hold):
             return False
+        self.held_us = hold
+        self.held += hold > 0
         self.instructions += 1
         return True
 

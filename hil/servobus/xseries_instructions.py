@@ -114,7 +114,7 @@ class XSeriesInstructions(TableServo):
         elif instr == dx2.REBOOT:
             reply = None if broadcast else self._answer(instr, 0)
             self.power_cycle(t_us)
-            self.busy_until_us = t_us + self.eeprom_busy_us
+            self.deaf_until_us = t_us + self.eeprom_busy_us
             return reply
         elif instr == dx2.CLEAR:
             error = self._clear(bytes(params))
@@ -221,7 +221,7 @@ class XSeriesInstructions(TableServo):
             self.table[xl.ID] = keep_id
         if option == dx2.RESET_EXCEPT_ID_BAUD:
             self.table[xl.BAUD_RATE] = keep_baud
-        self.busy_until_us = self.t_us + self.eeprom_busy_us
+        self.deaf_until_us = self.t_us + self.eeprom_busy_us
         self._registered = None
         self.turn_offset = 0
         self.health.rearm()

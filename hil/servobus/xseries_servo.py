@@ -47,8 +47,10 @@ class XSeriesServo(XSeriesInstructions):
         self.t0_us = t_us                      # power-on, for the Realtime Tick
         self.health = ServoHealth()
         self.eeprom_busy_us = xl.EEPROM_BUSY_US if eeprom_busy_us is None else eeprom_busy_us
-        self.busy_until_us = 0
+        self.busy_until_us = 0                 # an EEPROM write under way until then
+        self.deaf_until_us = 0                 # rebooting until then
         self.ignored = 0
+        self.held = self.held_us = 0           # packets that waited for an EEPROM write
         self.instructions = 0
         self.address_changed = False
         self.alarm_led = False
@@ -130,7 +132,7 @@ class XSeriesServo(XSeriesInstructions):
         t = self.table
         traj_p, traj_v = (self._profile.at(self.t_us) if self._profile is not None
                           else (pos, vel))
-        xl.put(t, xl.PRESENT_POSITION, 4, self._present_pulses(pos))
+        xl.put(t, xl.PRESENT_POSITION, 4, self._position_read(self._present_pulses(pos)))
         xl.put(t, xl.PRESENT_VELOCITY, 4, xl.rad_s_to_velocity(vel))
         xl.put(t, xl.PRESENT_LOAD, 2, xl.fraction_to_load(load))
         xl.put(t, xl.PRESENT_PWM, 2, int(round(max(-1.0, min(1.0, load)) * xl.PWM_MAX)))

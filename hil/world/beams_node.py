@@ -38,6 +38,7 @@ class BeamsNode:
         self.peak_rad = [0.0, 0.0]
         self.sample_no = 0
         self.port: Endpoint | None = None
+        self.faults: Any = None   # the run's (hil/servobus/faults.py): force_bias, force_dropout
 
     def attach(self, can: CanBus) -> None:
         self.port = can.endpoint("tx")
@@ -65,9 +66,12 @@ class BeamsNode:
             if not world.free_run:
                 self.energy_j += energy_increment_j(world.applied, s.qd())
         if t % SENSOR_PERIOD_US == 0:
-            fx, fy, fz = world.sense_force()
-            port.send(*can_frames.encode("force", fx_n=fx, fy_n=fy, fz_n=fz,
-                                         sample=self.sample_no))
+            f = world.sense_force()
+            if self.faults is not None:
+                f = self.faults.force_sample(f)
+            if f is not None:
+                port.send(*can_frames.encode("force", fx_n=f[0], fy_n=f[1], fz_n=f[2],
+                                             sample=self.sample_no))
             self.sample_no += 1
 
     def scene_shapes(self) -> list[scene.Shape]:

@@ -35,6 +35,40 @@ def lag_warning(pacing: dict[str, Any]) -> str | None:
             f"(our firmware waits 10 ms, the dynamixel-sdk 34 ms); the machine is overloaded")
 
 
+def parse_injection(line: str) -> tuple[str, dict[str, Any]]:
+    """``KIND key=value ...`` (a ``--inject-stdin`` line) -> the kind and its parameters;
+    values are JSON (3, 0.5, true) or else strings."""
+    words = line.split()
+    if not words:
+        raise UserError("empty fault line: expected KIND key=value ..., e.g. brownout id=3")
+    params: dict[str, Any] = {}
+    for word in words[1:]:
+        key, eq, text = word.partition("=")
+        if not eq or not key:
+            raise UserError(f"{line.strip()!r}: expected key=value, got {word!r}")
+        try:
+            params[key] = json.loads(text)
+        except ValueError:
+            params[key] = text
+    return words[0], params
+
+
+def _read_injections(rt: Any) -> None:
+    """Each stdin line a fault for ``rt`` (a thread: serving goes on meanwhile)."""
+    def complain(message: str) -> None:
+        sys.stderr.write(f"hexhil: {message}\n")
+
+    for line in sys.stdin:
+        if not line.strip():
+            continue
+        try:
+            kind, params = parse_injection(line)
+        except UserError as exc:
+            complain(str(exc))
+            continue
+        rt.inject(kind, on_error=complain, **params)
+
+
 def parse_ids(spec: str) -> list[int]:
     """``1-18`` or ``1,3,5-7`` -> sorted unique servo IDs (0-253)."""
     ids: set[int] = set()
@@ -112,12 +146,15 @@ def run(args: argparse.Namespace) -> int:
     from hil.servobus import serial_server
     from hil import scenario as scenario_mod
     from host_tools import cli
-    from host_tools.realtime_run import Pty, RealTimeRun, SerialPort, Tcp
+    from host_tools.realtime_run import Pty, RealTimeRun, Rfc2217, SerialPort, Tcp
 
-    if sum((args.pty, args.tcp is not None, args.port is not None)) > 1:
-        raise UserError("choose one transport: --pty, --tcp PORT or --port DEVICE")
-    if args.tcp is not None and not 0 <= args.tcp <= 65535:
-        raise UserError(f"--tcp {args.tcp}: port must be 0-65535")
+    if sum((args.pty, args.tcp is not None, args.rfc2217 is not None, args.port is not None)) > 1:
+        raise UserError("choose one transport: --pty, --tcp PORT, --rfc2217 PORT or --port DEVICE")
+    for flag in ("tcp", "rfc2217"):
+        if getattr(args, flag) is not None and not 0 <= getattr(args, flag) <= 65535:
+            raise UserError(f"--{flag} {getattr(args, flag)}: port must be 0-65535")
+    if args.rts_direction and args.rfc2217 is None:
+        raise UserError("--rts-direction needs --rfc2217 PORT (a pty has no RTS line)")
     if args.world and args.scenario:
         raise UserError("give the scenario once: --world SCENARIO or --scenario SCENARIO")
     if args.duration is not None:
@@ -125,7 +162,9 @@ def run(args: argparse.Namespace) -> int:
     path = args.world or args.scenario
     sc, seed, ids = scenario_from_flags(args, scenario_mod.load(path) if path else {})
     transport = (SerialPort(args.port, args.baud or DEFAULT_BAUD) if args.port is not None
-                 else Tcp(args.tcp, args.host) if args.tcp is not None else Pty())
+                 else Tcp(args.tcp, args.host) if args.tcp is not None
+                 else Rfc2217(args.rfc2217, args.host, args.rts_direction)
+                 if args.rfc2217 is not None else Pty())
     hint = None
     if args.world:   # our firmware's settings for this scenario, as `hexhil run` sends them
         from hil.link.server import firmware_settings
@@ -148,6 +187,10 @@ def run(args: argparse.Namespace) -> int:
                          verbose=(lambda line: sys.stderr.write(line + "\n")) if args.verbose
                          else None)
         serial_server.install_sigterm()
+        if args.inject_stdin:
+            import threading
+
+            threading.Thread(target=_read_injections, args=(rt,), daemon=True).start()
         s = rt.serve(transport, announce)
     finally:
         if can_server is not None:
@@ -164,9 +207,14 @@ def run(args: argparse.Namespace) -> int:
         warning = lag_warning(p)
         if warning:
             sys.stderr.write(warning + "\n")
+    lag = ""
+    if p["late_replies"] or p["deferred_packets"]:
+        lag = (f"; host lag (not the line's): {p['late_replies']} replies over "
+               f"{p['late_threshold_ms']:g} ms late (max {p['max_reply_lag_ms']:.1f} ms), "
+               f"{p['deferred_packets']} packets waited for a status")
     flush_print(
         f"served {st['packets']} packets, {st['replies']} replies, {st['collisions']} collisions, "
-        f"{st['bad_checksum']} bad checksums; faults: {counts}; master violations: {wrong}")
+        f"{st['bad_checksum']} bad checksums; faults: {counts}; master violations: {wrong}{lag}")
     if args.json:
         cli.emit_json(s)
     return 0
@@ -183,6 +231,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--ids", default=None, help="servo IDs, e.g. 1-18 or 1,3,5-7")
     p.add_argument("--pty", action="store_true", help="serve on a pseudo-terminal, the default (prints 'pty: PATH')")
     p.add_argument("--tcp", type=int, default=None, metavar="PORT", help="serve on a TCP port")
+    p.add_argument("--rfc2217", type=int, default=None, metavar="PORT",
+                   help="serve pyserial's RFC 2217 (clients open rfc2217://127.0.0.1:PORT and "
+                        "set baud, RTS, DTR: for clients that drive modem lines)")
+    p.add_argument("--rts-direction", action="store_true",
+                   help="with --rfc2217: RTS is the direction line (high: transmit), judged "
+                        "like the board's PA1")
     p.add_argument("--port", default=None, metavar="DEVICE",
                    help="serve a real serial port through pyserial (a board's servo UART on a "
                         "USB adapter); --baud sets its rate")
@@ -199,7 +253,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--sensor-id", type=int, default=None, metavar="ID",
                    help="the limit-switch sensor node's ID (default 100; on with --world)")
     p.add_argument("--no-sensor-node", action="store_true", help="no sensor node on the bus")
-    p.add_argument("--host", default="127.0.0.1", help="address for --tcp (default 127.0.0.1)")
+    p.add_argument("--host", default="127.0.0.1",
+                   help="address for --tcp and --rfc2217 (default 127.0.0.1)")
     p.add_argument("--baud", type=int, default=None, help="line rate in bit/s (default 1000000)")
     p.add_argument("--echo", action="store_true", help="echo the master's bytes (single-wire adapter)")
     p.add_argument("--scenario", default=None, help="scenario TOML ([bus], [faults], [scenario].seed)")
@@ -222,5 +277,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="servo heats towards TEMP_C; repeatable")
     p.add_argument("--voltage-sag", dest="voltage_sag", action="append",
                    metavar="VOLTS:AT_S[:UNTIL_S]", help="supply of every servo drops; repeatable")
+    p.add_argument("--inject-stdin", action="store_true",
+                   help="read faults from stdin while serving, one a line: KIND key=value ... "
+                        "(e.g. 'brownout id=3', 'switch_stuck leg=0 pressed=true until_s=9'; "
+                        "docs/servo-bus.md, Fault vocabulary)")
     p.add_argument("-v", "--verbose", action="store_true", help="print each injected fault on stderr")
     p.set_defaults(func=run)

@@ -20,7 +20,8 @@ def _run(args: argparse.Namespace) -> int:
         s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
                                 False if args.no_tactile else None, args.out,
                                 args.can_server, args.can_wait, args.live, args.realtime,
-                                args.navigator, args.model, args.firmware)
+                                args.navigator, args.model, args.firmware, args.gdb,
+                                args.coverage)
     except RunInterrupted as exc:
         kept = (f"the trace {args.out} is kept and replays" if args.out
                 else "nothing was recorded (no --out)")
@@ -93,5 +94,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "MicroPython main file (.py) on the virtual STM32F411 board (machine, time, "
                    "pyb in virtual time; docs/your-firmware.md), or an executable that speaks "
                    "the link, e.g. a C firmware built by `hexhil sdk build` (docs/c-firmware.md)")
+    p.add_argument("--gdb", type=int, metavar="PORT", help="an ELF firmware waits for a GDB "
+                   "client on 127.0.0.1:PORT before its first instruction; virtual time stands "
+                   "still while it is halted (docs/elf-firmware.md)")
+    p.add_argument("--coverage", metavar="FILE.info", help="an ELF firmware's line coverage "
+                   "from its DWARF line table, as LCOV (genhtml, CI coverage reports)")
     p.add_argument("--json", action="store_true", help=cli.JSON_HELP)
     p.set_defaults(func=_run)

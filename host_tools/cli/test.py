@@ -39,7 +39,9 @@ def _run(args: argparse.Namespace) -> int:
     if args.firmware is not None:
         from hil.link.served_firmware import served_firmware
 
-        served_firmware(args.firmware)   # one line before anything runs
+        served_firmware(args.firmware, coverage=args.coverage)   # one line before anything runs
+    elif args.coverage is not None:
+        raise UserError("--coverage needs an STM32F411 ELF given as --firmware")
     cases = [spec.load(f) for f in args.files]
     names = [c.name for c in cases]
     if len(set(names)) != len(names):
@@ -52,7 +54,10 @@ def _run(args: argparse.Namespace) -> int:
                                python=args.python, firmware=args.firmware,
                                keep_dir=args.keep_traces)
         bar = None if args.quiet or len(jobs) < 2 else cli.ProgressBar("run")
-        results = runner.run_all(jobs, args.jobs, args.scheduler, progress=bar)
+        if args.coverage is None:
+            results = runner.run_all(jobs, args.jobs, args.scheduler, progress=bar)
+        else:
+            results = _covered(jobs, args, bar)
     print(table(results))
     failed = [r for r in results if not r.passed]
     n = sum(len(r.outcomes) for r in results)
@@ -65,6 +70,25 @@ def _run(args: argparse.Namespace) -> int:
     if args.junit:
         junit.write(results, args.junit)
     return 1 if failed else 0
+
+
+def _covered(jobs: list, args: argparse.Namespace, bar: object) -> list:
+    """Run the cases, each with an ELF's line coverage of its own, merged into one file."""
+    import dataclasses
+    import tempfile
+    from pathlib import Path
+
+    from hil.mcu.coverage import merge
+    from host_tools.expect import runner
+
+    with tempfile.TemporaryDirectory(prefix="hexhil-cov-") as tmp:
+        jobs = [dataclasses.replace(j, coverage=str(Path(tmp) / f"{k}.info"))
+                for k, j in enumerate(jobs)]
+        results = runner.run_all(jobs, args.jobs, args.scheduler, progress=bar)
+        infos = [Path(j.coverage).read_text() for j in jobs if Path(j.coverage).exists()]
+    Path(args.coverage).write_text(merge(infos))
+    print(f"coverage of {len(infos)} runs: {args.coverage}")
+    return results
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -85,6 +109,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--python", choices=(*RUNTIMES, IN_PROCESS),
                    help="firmware runtime for every case (default: each case's, else "
                         f"micropython); {IN_PROCESS} is faster with the same digest")
+    p.add_argument("--coverage", metavar="FILE.info", help="with an ELF --firmware: its LCOV "
+                   "line coverage over every case, merged (docs/elf-firmware.md)")
     p.add_argument("--firmware", metavar="PATH",
                    help="run every case with this firmware instead of ours (as hexhil run "
                         "--firmware: a MicroPython main file for the virtual board, or an "

@@ -22,6 +22,7 @@ from host_tools.runner import Run
 from host_tools.trace import protobuf as pb
 from host_tools.trace import topics
 from host_tools.trace.reader import Trace, info
+from hil.mcu.runtime import FirmwareFault
 from protocol.errors import UserError
 
 T_EXPECTATIONS = "/expectations"  # foxglove.Log: each failed expectation at its moment
@@ -56,6 +57,7 @@ class CaseRun:
     keep_all: bool = False                # ... or always (the pytest plugin's fixtures)
     timing: BusTiming = BusTiming()
     scenario: dict[str, Any] | None = None  # a changed copy of the case's scenario (margin)
+    coverage: str | None = None           # an ELF's LCOV to this file (hexhil test --coverage)
 
 
 @dataclass(frozen=True)
@@ -87,15 +89,16 @@ class _Sender:
 
 def run_scenario(scenario: dict[str, Any], seed: int, duration_s: float, python: str,
                  tactile: bool | None, trace: Path, timing: BusTiming = BusTiming(),
-                 sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None
-                 ) -> dict[str, Any]:
+                 sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None,
+                 coverage: str | None = None) -> dict[str, Any]:
     """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
     file or an executable: ``hexhil run --firmware``) through the one run path
     (host_tools/runner.py ``Run``), recorded to ``trace`` with the master's protocol check
     on; returns ``hexhil run --json``'s summary plus ``violations``. Every case and margin
     run goes through here."""
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
-              duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware)
+              duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
+              coverage=coverage)
     try:
         check = MasterCheck(run.recorder.violation)
         sim = run.sim
@@ -121,10 +124,16 @@ def run_case(job: CaseRun) -> CaseResult:
     trace = Path(tmp)
     kept = None
     try:
-        summary = run_scenario(job.scenario or dict(case.scenario), job.seed, case.duration_s,
-                               job.python or case.python, tactile, trace, job.timing,
-                               case.sends, job.firmware or case.firmware)
-        outcomes = tuple(evaluate(case, summary, trace))
+        try:
+            summary = run_scenario(job.scenario or dict(case.scenario), job.seed,
+                                   case.duration_s, job.python or case.python, tactile, trace,
+                                   job.timing, case.sends, job.firmware or case.firmware,
+                                   job.coverage)
+            outcomes = tuple(evaluate(case, summary, trace))
+        except FirmwareFault as exc:   # an ELF's fault (hil/mcu/): this case fails
+            summary = {"sim_time_s": exc.t_s, "trace": str(trace)}
+            outcomes = (Outcome(case.name, "firmware", "fault", str(exc), "no fault", False,
+                                exc.t_s),)
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
             kept = keep(trace, job.keep_dir, job.label, failed, summary["sim_time_s"])

@@ -16,6 +16,7 @@ from typing import Any, Mapping
 
 from hil import scenario as scenario_mod
 from hil.link.firmware_process import IN_PROCESS, RUNTIMES
+from hil.servobus.faults import KINDS
 from hil.servobus.master_check import KINDS as VIOLATION_KINDS
 from hil.link.served_firmware import served_firmware
 from protocol import can_frames
@@ -49,7 +50,7 @@ class Stat(str, Enum):
     COUNT = "count"    # how many messages
 
 
-FAULTS = ("unplug", "overheat", "voltage_sag", "bit_error", "stall", "drop_status")
+FAULTS = (*KINDS, "bit_error", "drop_status")   # hil/servobus/faults.py's timed kinds
 RESPONSES = ("safe_stop", "ride_through")
 RUNTIME_CHOICES = (*RUNTIMES, IN_PROCESS)
 

@@ -57,6 +57,8 @@ def run(cfg: RunConfig, recorder: Any = None, geometry: BodyGeometry = PAPER_BOD
         "max_roll_deg": w["max_roll_deg"], "max_pitch_deg": w["max_pitch_deg"],
         "force_samples": len(plan.samples),
     }
+    if result.faults:
+        out["faults"] = dict(result.faults)   # [faults] force_bias, force_dropout
     if plan.start_pose is not None:
         x, roll, pitch = plan.start_pose
         out["control_start"] = {"x_m": x, "roll_deg": math.degrees(roll),

@@ -10,8 +10,9 @@ import math
 MODEL_NUMBER = 12
 FIRMWARE_VERSION = 24
 MODEL_NAME = "ax-12a"
-# A real servo ignores packets for a few ms after an EEPROM write (shared/reference, from
-# the USB2AX notes); "a few" is our 5 ms.
+# An EEPROM write keeps a real servo busy for "a few ms" (the USB2AX notes; no source gives
+# a figure: 5 ms is ours). A packet arriving meanwhile is taken when the write is done, not
+# lost (ROBOTIS's wheel-mode advice writes two EEPROM fields back to back; docs/servo-bus.md).
 EEPROM_BUSY_US = 5000
 
 EDITION_EMANUAL = "emanual"    # ROBOTIS e-manual, AX-12A

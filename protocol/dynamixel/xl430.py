@@ -11,7 +11,7 @@ import math
 MODEL_NUMBER = 1060
 FIRMWARE_VERSION = 46
 MODEL_NAME = "xl430-w250"
-EEPROM_BUSY_US = 5000  # deaf after an EEPROM write: our 5 ms, as the AX-12's (docs/servo-bus.md)
+EEPROM_BUSY_US = 5000  # busy after an EEPROM write (packets wait): our 5 ms, as the AX-12's (docs/servo-bus.md)
 
 R = "R"
 RW = "RW"

@@ -27,7 +27,7 @@ from protocol.dynamixel.xl430 import (  # the X series' shared layout and units
 MODEL_NUMBER = 1020
 FIRMWARE_VERSION = 46
 MODEL_NAME = "xm430-w350"
-EEPROM_BUSY_US = 5000  # deaf after an EEPROM write: our 5 ms, as the XL430's
+EEPROM_BUSY_US = 5000  # busy after an EEPROM write (packets wait): our 5 ms, as the XL430's
 
 CURRENT_LIMIT = 38
 GOAL_CURRENT = 102

@@ -1,0 +1,345 @@
+"""The robot's STM32F411 board: the core, its peripherals at their RM0383 addresses, the
+wiring to the servo line, the switches, the console and CAN, and the run loop.
+
+The loop runs the core in chunks that end at the next scheduled event, so every flag
+changes at its exact cycle. Waiting costs no host time: WFI/WFE sleep to the next event,
+and a poll loop is skipped to it (hil/mcu/poll.py). Every register access first fires
+what fell due by its cycle, so a read sees the state of its own instant.
+"""
+from __future__ import annotations
+
+import logging
+from typing import Any, Callable
+
+from unicorn import UC_HOOK_INTR
+from unicorn import arm_const as A
+
+from hil.mcu.console import Console, semihost
+from hil.mcu.core import (EXC_SVCALL, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT, INTR_INVSTATE,
+                          INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
+from hil.mcu.elf_image import ElfImage
+from hil.mcu.events import Events
+from hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
+from hil.mcu.link_client import LinkClient, Reply
+from hil.mcu.poll import PollSkipper
+from hil.mcu.servo_line import ServoLine
+from hil.mcu.peripherals import extra_peripherals
+from hil.mcu.rcc import CLOCK_BITS, HSI_HZ, Rcc, flash_interface, power
+from hil.mcu.system import Nvic, SysTick, SystemBlock
+from hil.mcu.usart import Usart
+
+log = logging.getLogger(__name__)
+PERIPH_BASE, PERIPH_SIZE = 0x40000000, 0x80000      # APB1, APB2, AHB1
+PPB_BASE, PPB_SIZE = 0xE0000000, 0x100000
+MAX_CHUNK = 20_000           # instructions: the most an interrupt a write pends waits
+TICK_US = 1000               # a quiet millisecond: a sleep to now (world, switches, CAN)
+PA1 = 1
+CONSOLE_TAIL = 5             # console lines a run result keeps (its stderr_tail)
+
+
+class Board:
+    """One run of an ELF; ``run`` serves it until the host ends the run."""
+
+    def __init__(self, image: ElfImage, exchange: Callable[[bytes, bool], bytes],
+                 console_events: Callable[[str], list[tuple[int, str]]]) -> None:
+        self.image = image
+        self.console_events = console_events
+        self.link = LinkClient(exchange)
+        self.core = core = Core(image, HSI_HZ)
+        self.events = ev = Events()
+        self.nvic = Nvic(core)
+        self.rcc = Rcc(ev, core.now_fs, self._clock_changed)
+        self.systick = SysTick(core, self.nvic, ev, lambda: self.rcc.hclk_hz)
+        self.ppb = SystemBlock(core, self.nvic, self.systick, self._reset_request)
+        self.console = Console(self._console_line)
+        self.console_tail: list[str] = []
+        self.exti = Exti(self.nvic.line)
+        self.switches = 0
+        self.exit_code: int | None = None
+        self.ended = False
+        self.fault: str | None = None
+        self.skipped_cycles = 0
+        self.unmodelled: set[int] = set()
+        self._last_request_us = -TICK_US
+        self._pages: dict[int, object] = {}
+        self._gates: dict[int, tuple[int, int]] = {}
+        gpio = [GpioPort(n, i, self._gpio_out, self._external(i))
+                for i, n in enumerate(("GPIOA", "GPIOB", "GPIOC"))]
+        gpio[1].before_input = self.fresh_switches
+        for i, port in enumerate(gpio):
+            self._map(0x40020000 + 0x400 * i, port)
+        self.gpio = gpio
+        line = self.nvic.line
+        self.usart1 = Usart("USART1", 37, core, ev, lambda: self.rcc.pclk2_hz, line, self)
+        self.line = ServoLine(self)
+        self.usart2 = Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self.line)
+        self.usart6 = Usart("USART6", 71, core, ev, lambda: self.rcc.pclk2_hz, line, self)
+        for base, p in ((0x40023800, self.rcc), (0x40023C00, flash_interface()),
+                        (0x40007000, power()), (0x40013C00, self.exti),
+                        (0x40013800, Syscfg(self.exti)), (0x40011000, self.usart1),
+                        (0x40004400, self.usart2), (0x40011400, self.usart6)):
+            self._map(base, p)
+        self.debugger: Any = None      # hil/mcu/gdb.py, with --gdb
+        self.can_listening = False     # bxCAN1 in normal mode: CAN input each millisecond
+        self.extra = extra_peripherals(self)
+        for base, p in self.extra:
+            self._map(base, p)
+        self.tick = ev.timer(self._tick)
+        self.tick.set(TICK_US * FS_PER_US)
+        uc = core.uc
+        uc.mmio_map(PERIPH_BASE, PERIPH_SIZE, self._read, None, self._write, None)
+        uc.mmio_map(PPB_BASE, PPB_SIZE, self._ppb_read, None, self._ppb_write, None)
+        uc.hook_add(UC_HOOK_INTR, self._intr)
+        self.poll = PollSkipper(self)
+
+    def _map(self, base: int, periph: object) -> None:
+        page = (base - PERIPH_BASE) >> 10
+        self._pages[page] = periph
+        name = getattr(periph, "name", None)
+        if name in CLOCK_BITS:
+            self._gates[page] = CLOCK_BITS[name]
+
+    # --- the world ----------------------------------------------------------------
+    def _external(self, port: int) -> Callable[[int], int | None]:
+        def level(pin: int) -> int | None:
+            if port == 1 and pin < SWITCH_PINS and self.switches >> pin & 1:
+                return 0          # pressed: the switch shorts the pin to ground
+            return None
+        return level
+
+    def take(self, reply: Reply) -> Reply:
+        if reply.switches != self.switches:
+            port = self.gpio[1]
+            before = [port.input_level(p) for p in range(SWITCH_PINS)]
+            self.switches = reply.switches
+            for p in range(SWITCH_PINS):
+                now = port.input_level(p)
+                if now != before[p]:
+                    self.exti.edge(1, p, bool(now))
+        self.line.reply(reply.next_rx_us, reply.pending)
+        for arb_id, data in reply.can:
+            self.can_received(arb_id, data)
+        if reply.ended:
+            self.ended = True
+            self.core.stop()
+        self._last_request_us = self.link.t_us
+        return reply
+
+    def now_us(self) -> int:
+        return self.core.now_fs() // FS_PER_US
+
+    def _tick(self, at_fs: int) -> None:
+        """A sleep to now after a quiet while: each millisecond while an interrupt waits
+        for a switch or a CAN frame, else every 10 ms (a read of the switch pins asks
+        for fresh levels itself, ``fresh_switches``)."""
+        at_us = at_fs // FS_PER_US
+        if at_us - self._last_request_us >= TICK_US:
+            self.take(self.link.sleep(at_us))
+        listening = self.exti.regs[0x00] & 0x3F or self.can_listening
+        self.tick.set(at_fs + (1 if listening else 10) * TICK_US * FS_PER_US)
+
+    def fresh_switches(self) -> None:
+        """The firmware reads port B: the switch levels of the last millisecond."""
+        now_us = self.now_us()
+        if now_us - self._last_request_us >= TICK_US:
+            self.take(self.link.sleep(now_us))
+
+    def can_received(self, arb_id: int, data: bytes) -> None:
+        self.can.received(arb_id, data)
+
+    def dma_kick(self) -> None:
+        """A DMA stream was enabled: a USART whose request is already up is served."""
+        for usart in (self.usart1, self.usart2, self.usart6):
+            usart.dma_request()
+
+    # --- the console (USART1 and USART6: UsartWiring) ----------------------------------
+    def sent(self, usart: Usart, byte: int, start_fs: int, end_fs: int) -> None:
+        self.console.put(bytes((byte,)))
+
+    def idle(self, usart: Usart, at_fs: int) -> None:
+        """Nothing waits for a console line's end."""
+
+    def _gpio_out(self, port: GpioPort, old_odr: int) -> None:
+        if port.index == 0:
+            self.line.pin(port.output(PA1))
+
+    def _console_line(self, text: str) -> None:
+        self.console_tail = self.console_tail[-(CONSOLE_TAIL - 1):] + [text]
+        for kind, body in self.console_events(text):
+            self.link.event(kind, body)
+
+    # --- clocks and reset -------------------------------------------------------------
+    def _clock_changed(self) -> None:
+        self.core.set_hz(self.rcc.hclk_hz)
+        self.systick.rebase()
+        for _, p in self.extra:
+            rebase = getattr(p, "rebase", None)
+            if rebase is not None:
+                rebase()
+
+    def _reset_request(self) -> None:
+        self.fault = "a system reset (SCB AIRCR SYSRESETREQ): the board restarts, which a run does not model"
+
+    # --- registers ----------------------------------------------------------------
+    def _unmodelled(self, addr: int, kind: str) -> None:
+        page = addr & ~0x3FF
+        if page not in self.unmodelled:
+            self.unmodelled.add(page)
+            log.warning("firmware %s an unmodelled peripheral at 0x%08x (reads 0, writes are "
+                        "dropped)", kind, addr)
+
+    def _periph(self, offset: int) -> object | None:
+        page = offset >> 10
+        p = self._pages.get(page)
+        gate = self._gates.get(page)
+        if gate is not None and not self.rcc.regs.get(gate[0], 0) >> gate[1] & 1:
+            self._unmodelled(PERIPH_BASE + offset, f"used {p.name} with its RCC clock off:")
+            return None
+        return p
+
+    def due(self) -> None:
+        """Fire what fell due by the instruction running now (a register access)."""
+        heap = self.events.heap
+        if heap:
+            now = self.core.now_fs()
+            if heap[0][0] <= now:
+                self.events.fire_due(now)
+
+    def _read(self, uc, offset: int, size: int, _) -> int:
+        self.due()
+        p = self._periph(offset)
+        if p is None:
+            self.poll.other_access()
+            if offset >> 10 not in self._pages:
+                self._unmodelled(PERIPH_BASE + offset, "read")
+            return 0
+        off = offset & 0x3FC
+        value = p.read(off)
+        if offset & 3 or size < 4:
+            value = (value >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
+        if off not in p.pollable:
+            self.poll.other_access()
+        elif self.poll.polled(PERIPH_BASE + offset, value):
+            value = (p.read(off) >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
+        return value
+
+    def _write(self, uc, offset: int, size: int, value: int, _) -> None:
+        self.due()
+        self.poll.other_access()
+        p = self._periph(offset)
+        if p is None:
+            if offset >> 10 not in self._pages:
+                self._unmodelled(PERIPH_BASE + offset, "wrote")
+            return
+        shift = 8 * (offset & 3)
+        if size < 4:
+            mask = ((1 << 8 * size) - 1) << shift
+            value = (p.read(offset & 0x3FC) & ~mask) | ((value << shift) & mask) \
+                if p.pollable and (offset & 0x3FC) in p.pollable else value << shift
+        p.write(offset & 0x3FC, value & 0xFFFFFFFF)
+
+    def _ppb_read(self, uc, offset: int, size: int, _) -> int:
+        self.due()
+        addr = PPB_BASE + offset
+        value = (self.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
+        if addr & ~3 not in self.ppb.pollable:
+            self.poll.other_access()
+        elif self.poll.polled(addr, value):
+            value = (self.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
+        return value
+
+    def _ppb_write(self, uc, offset: int, size: int, value: int, _) -> None:
+        self.due()
+        self.poll.other_access()
+        addr = PPB_BASE + offset
+        if size < 4 and (0xE000E400 <= addr < 0xE000E500 or 0xE000ED18 <= addr < 0xE000ED24):
+            word = self.ppb.read(addr & ~3)
+            shift = 8 * (addr & 3)
+            mask = ((1 << 8 * size) - 1) << shift
+            value = (word & ~mask) | ((value << shift) & mask)
+        self.ppb.write(addr & ~3, value)
+
+    # --- poll skipping ------------------------------------------------------------
+    # --- exceptions ---------------------------------------------------------------
+    def _intr(self, uc, intno: int, _) -> None:
+        core = self.core
+        pc = core.reg(A.UC_ARM_REG_PC)
+        try:
+            if intno == INTR_EXC_EXIT:
+                exc = core.leave(pc | 1)
+                self.nvic.returned(exc)
+                nxt = self.nvic.next_exception()
+                if nxt is not None:
+                    self.nvic.take(nxt)     # tail-chained: the interrupted code waits
+                elif core.sleeping:
+                    core.stop()
+            elif intno == INTR_SWI:
+                core.pc = pc
+                self.nvic.take(EXC_SVCALL)
+            elif intno == INTR_BKPT:
+                self._breakpoint(pc)
+            else:
+                what = {INTR_UDEF: "an undefined instruction (UsageFault)",
+                        INTR_NOCP: "a coprocessor instruction with the FPU off (UsageFault NOCP)",
+                        INTR_INVSTATE: "a branch to ARM state (UsageFault INVSTATE: an address "
+                        "without its Thumb bit)"}.get(intno, f"CPU exception {intno}")
+                raise CoreFault(what)
+        except CoreFault as exc:
+            self.fault = str(exc)
+            uc.emu_stop()
+
+    def _breakpoint(self, pc: int) -> None:
+        core = self.core
+        op = int.from_bytes(core.uc.mem_read(pc, 2), "little")
+        if op != 0xBEAB:
+            raise CoreFault(f"a breakpoint (BKPT 0x{op & 0xFF:02x}) with no debugger attached")
+        code = semihost(core, self.console)
+        core.uc.reg_write(A.UC_ARM_REG_PC, (pc + 2) | 1)
+        if code is not None:
+            self.exit_code = code
+            self.console.flush()
+            core.uc.emu_stop()
+
+    # --- the run --------------------------------------------------------------------
+    def _fault_line(self, text: str) -> str:
+        pc = self.core.pc
+        return (f"{text} at PC 0x{pc:08x} in {self.image.function_at(pc)} "
+                f"(t={self.now_us() * 1e-6:.6f} s)")
+
+    def run(self) -> None:
+        """Boot and run until the host ends the run, the firmware exits or faults
+        (``CoreFault`` carrying the one line)."""
+        core, events, nvic = self.core, self.events, self.nvic
+        self.link.hello()
+        while not self.ended and self.exit_code is None:
+            events.fire_due(core.time.fs_at(core.cyc))
+            if self.ended:
+                break
+            if self.fault is not None:
+                raise CoreFault(self._fault_line(self.fault))
+            exc = nvic.next_exception()
+            if exc is not None:
+                nvic.take(exc)
+            elif core.sleeping:
+                if nvic.wakes():
+                    core.sleeping = False
+                else:
+                    core.cyc = max(core.cyc, core.time.cycle_of(events.next_fs()))
+                    continue
+            n = max(1, min(core.time.cycle_of(events.next_fs()) - core.cyc, MAX_CHUNK))
+            if self.debugger is not None:
+                n = self.debugger.chunk_limit(n)
+            try:
+                core.run(n)
+            except CoreFault as exc:
+                raise CoreFault(self._fault_line(str(exc))) from None
+            if self.fault is not None:
+                raise CoreFault(self._fault_line(self.fault))
+            self.poll.after_chunk()
+            if self.debugger is not None:
+                self.debugger.after_chunk()
+        self.console.flush()
+        self.line.flush()
+
+    def close(self) -> None:
+        self.link.close()

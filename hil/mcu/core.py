@@ -1,0 +1,317 @@
+"""The Cortex-M4F core on Unicorn: exact instruction counts, time, and the exception model.
+
+Unicorn runs Thumb-2 and the FPU but has no NVIC: exception entry (the 8-word frame, or
+26 words with the FPU's S0-S15 and FPSCR), EXC_RETURN and the return are done here.
+Virtual time counts instructions, one instruction one cycle of HCLK (no wait states, no
+pipeline refills, no stacking cycles: say it as it is). The count inside a chunk comes
+from Unicorn's own instruction counter, whose place in its engine struct is found by
+calibration once per process, so a register read knows its exact cycle.
+
+Stopping: only a register *read* may stop a chunk (``stop``; the load is then executed
+again on resume, so only side-effect-free reads stop), never a write (Unicorn executes the
+store again: a UART byte sent twice).
+"""
+from __future__ import annotations
+
+import ctypes
+from typing import Callable
+
+from unicorn import (UC_ARCH_ARM, UC_HOOK_INTR, UC_MODE_MCLASS, UC_MODE_THUMB, UC_PROT_ALL,
+                     UC_PROT_EXEC, UC_PROT_READ, Uc, UcError)
+from unicorn import arm_const as A
+from unicorn.unicorn_py3.unicorn import uclib
+
+from hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
+
+FS_PER_S = 10 ** 15            # virtual time inside the MCU is in femtoseconds (exact)
+FS_PER_US = 10 ** 9
+EXC_HARDFAULT, EXC_SVCALL, EXC_PENDSV, EXC_SYSTICK = 3, 11, 14, 15
+INTR_UDEF, INTR_SWI, INTR_PREFETCH, INTR_DATA_ABORT, INTR_BKPT, INTR_EXC_EXIT = 1, 2, 3, 4, 7, 8
+INTR_NOCP, INTR_INVSTATE = 17, 18
+WFI, WFE = 0xBF30, 0xBF20
+FRAME_REGS = (A.UC_ARM_REG_R0, A.UC_ARM_REG_R1, A.UC_ARM_REG_R2, A.UC_ARM_REG_R3,
+              A.UC_ARM_REG_R12, A.UC_ARM_REG_LR)
+FP_REGS = tuple(A.UC_ARM_REG_S0 + i for i in range(16)) + (A.UC_ARM_REG_FPSCR,)
+STATE_REGS = (A.UC_ARM_REG_XPSR, A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_MSP, A.UC_ARM_REG_PSP)
+CONTEXT_REGS = tuple(A.UC_ARM_REG_R0 + i for i in range(13)) + (A.UC_ARM_REG_SP,
+                                                                   A.UC_ARM_REG_LR)
+
+
+class Regs:
+    """A fixed list of registers read or written in one call into libunicorn: its Python
+    binding costs ~10 us a register, a batch of 30 here ~4 us."""
+
+    def __init__(self, uc: Uc, ids: tuple[int, ...]) -> None:
+        n = self._n = len(ids)
+        self._h = uc._uch
+        self._ids = (ctypes.c_int * n)(*ids)
+        self._vals = (ctypes.c_uint64 * n)()
+        base = ctypes.addressof(self._vals)
+        self._ptrs = (ctypes.c_void_p * n)(*[base + 8 * i for i in range(n)])
+
+    def read(self) -> list[int]:
+        ctypes.memset(self._vals, 0, 8 * self._n)
+        uclib.uc_reg_read_batch(self._h, self._ids, self._ptrs, self._n)
+        return list(self._vals)
+
+    def write(self, values: list[int]) -> None:
+        for i, v in enumerate(values):
+            self._vals[i] = v & 0xFFFFFFFF
+        uclib.uc_reg_write_batch(self._h, self._ids, self._ptrs, self._n)
+
+
+class CoreFault(Exception):
+    """The firmware did what ends a run (a fault, a lockup, an access to nothing)."""
+
+
+_COUNTER: list[int] = []
+
+
+def _counter_offset() -> int:
+    """Where Unicorn keeps the instructions run by the current ``emu_start``: the one
+    8-byte word of its engine that equals what two runs of known length counted."""
+    if _COUNTER:
+        return _COUNTER[0]
+    uc = Uc(UC_ARCH_ARM, UC_MODE_THUMB | UC_MODE_MCLASS)
+    uc.mem_map(0x1000, 0x1000)
+    uc.mem_write(0x1000, bytes.fromhex("0130fde7"))        # adds r0, #1; b .-2
+    base = ctypes.cast(uc._uch, ctypes.c_void_p).value
+    words = (ctypes.c_uint64 * 4096).from_address(base)
+    found = None
+    for n in (12345, 777, 4321):
+        uc.emu_start(0x1001, 0, 0, n)
+        here = {i for i in range(4095) if words[i] == n + 1 and words[i + 1] == n}
+        found = here if found is None else found & here
+    if not found or len(found) != 1:
+        raise RuntimeError("this Unicorn build keeps no instruction counter where 2.1.4 does")
+    _COUNTER.append(found.pop() * 8)
+    return _COUNTER[0]
+
+
+class TimeBase:
+    """Cycles and femtoseconds at a clock that the firmware may change: exact integers."""
+
+    def __init__(self, hz: int) -> None:
+        self.hz = hz
+        self._cyc0 = 0
+        self._fs0 = 0
+
+    def fs_at(self, cyc: int) -> int:
+        return self._fs0 + (cyc - self._cyc0) * FS_PER_S // self.hz
+
+    def cycle_of(self, fs: int) -> int:
+        """The first cycle at or after time ``fs``."""
+        return self._cyc0 + -(-(fs - self._fs0) * self.hz // FS_PER_S)
+
+    def set_hz(self, cyc: int, hz: int) -> None:
+        self._fs0, self._cyc0, self.hz = self.fs_at(cyc), cyc, hz
+
+
+class Core:
+    """The CPU, its memory (flash aliased at 0 as with BOOT0 low, SRAM) and its time."""
+
+    def __init__(self, image: ElfImage, hz: int) -> None:
+        self.image = image
+        uc = self.uc = Uc(UC_ARCH_ARM, UC_MODE_THUMB | UC_MODE_MCLASS)
+        self._flash = ctypes.create_string_buffer(FLASH_SIZE)
+        uc.mem_map_ptr(0, FLASH_SIZE, UC_PROT_READ | UC_PROT_EXEC, self._flash)
+        uc.mem_map_ptr(FLASH_BASE, FLASH_SIZE, UC_PROT_READ | UC_PROT_EXEC, self._flash)
+        uc.mem_map(SRAM_BASE, SRAM_SIZE, UC_PROT_ALL)
+        for seg in image.segments:
+            uc.mem_write(seg.addr, seg.data)
+        self._state = Regs(uc, FRAME_REGS + STATE_REGS)
+        self._fp = Regs(uc, FP_REGS)
+        self._context = Regs(uc, CONTEXT_REGS)
+        self._one = ctypes.c_uint64(0)
+        self._batches: dict[tuple[int, ...], Regs] = {}
+        self.executed = 0
+        self._ctr = ctypes.c_uint64.from_address(
+            ctypes.cast(uc._uch, ctypes.c_void_p).value + _counter_offset())
+        self.time = TimeBase(hz)
+        self.cyc = 0                 # instructions run before the current chunk
+        self._chunk0 = 0
+        self.running = False
+        self.stopped = False         # a read asked for the chunk to end
+        self.sleeping = False        # WFI/WFE: asleep until an event or interrupt
+        self.active: list[int] = []  # active exceptions, innermost last
+        self.vtor = 0
+        self.fpu_on = False          # CPACR grants CP10/CP11: frames carry the FPU registers
+        self.on_intr: Callable[[int], None] = lambda intno: None
+        self.reset()
+
+    def reset(self) -> None:
+        uc = self.uc
+        self.active.clear()
+        uc.reg_write(A.UC_ARM_REG_CONTROL, 0)
+        uc.reg_write(A.UC_ARM_REG_MSP, self.read32(self.vtor_base()))
+        uc.reg_write(A.UC_ARM_REG_PRIMASK, 0)
+        uc.reg_write(A.UC_ARM_REG_IPSR, 0)
+        self.pc = self.read32(self.vtor_base() + 4)
+        self.sleeping = False
+
+    # --- time ---------------------------------------------------------------------
+    def now(self) -> int:
+        """The cycle of the instruction running now (inside a chunk) or next."""
+        if self.running:
+            return self._chunk0 + self._ctr.value - 1
+        return self.cyc
+
+    def now_fs(self) -> int:
+        return self.time.fs_at(self.now())
+
+    def jump(self, cycles: int) -> None:
+        """Let ``cycles`` pass without running them (a skipped wait)."""
+        if self.running:
+            self._chunk0 += cycles
+        else:
+            self.cyc += cycles
+
+    def set_hz(self, hz: int) -> None:
+        self.time.set_hz(self.now(), hz)
+
+    # --- memory -------------------------------------------------------------------
+    def read32(self, addr: int) -> int:
+        return int.from_bytes(self.uc.mem_read(addr, 4), "little")
+
+    def write32(self, addr: int, value: int) -> None:
+        self.uc.mem_write(addr, (value & 0xFFFFFFFF).to_bytes(4, "little"))
+
+    def vtor_base(self) -> int:
+        return self.vtor or FLASH_BASE
+
+    # --- running ------------------------------------------------------------------
+    def stop(self) -> None:
+        """End the chunk at the instruction now running (a read: it runs again)."""
+        if self.running and not self.stopped:
+            self.stopped = True
+            self.uc.emu_stop()
+
+    def run(self, n: int) -> int:
+        """Run up to ``n`` instructions from ``self.pc``; how many ran."""
+        uc = self.uc
+        self._chunk0 = self.cyc
+        self.stopped = False
+        self.running = True
+        try:
+            uc.emu_start(self.pc | 1, 0, 0, n)
+            error = None
+        except UcError as exc:
+            error = exc
+        finally:
+            self.running = False
+        ran = self._ctr.value - 1
+        self.pc = self.reg(A.UC_ARM_REG_PC)
+        if error is None and ran < n and not self.stopped:
+            if self.pc == 0:
+                raise CoreFault("a jump to address 0 (a null function pointer)")
+            op = int.from_bytes(uc.mem_read(self.pc - 2, 2), "little")
+            if op in (WFI, WFE):
+                ran += 1
+                self.sleeping = True
+        ran = max(0, min(ran, n))
+        self.cyc = self._chunk0 + ran     # _chunk0 has moved by any jump inside the chunk
+        self.executed += ran
+        if error is not None:
+            raise CoreFault(_error_text(error, self))
+        return ran
+
+    # --- exceptions ---------------------------------------------------------------
+    def reg(self, reg_id: int) -> int:
+        self._one.value = 0
+        uclib.uc_reg_read(self.uc._uch, reg_id, ctypes.byref(self._one))
+        return self._one.value & 0xFFFFFFFF
+
+    def _set(self, *pairs: tuple[int, int]) -> None:
+        ids = tuple(p[0] for p in pairs)
+        regs = self._batches.get(ids)
+        if regs is None:
+            regs = self._batches[ids] = Regs(self.uc, ids)
+        regs.write([p[1] for p in pairs])
+
+    def enter(self, exc: int) -> None:
+        """Take exception ``exc`` at ``self.pc``: stack the frame, jump to its vector."""
+        r = self._state.read()
+        xpsr, control, msp, psp_value = r[6:10]
+        psp = not self.active and bool(control & 2)
+        sp = psp_value if psp else msp
+        values = r[:6] + [self.pc & ~1, xpsr | (1 << 24)]
+        fpu = self.fpu_on
+        if fpu:
+            values += self._fp.read() + [0]
+        if sp & 4:
+            sp -= 4
+            values[7] |= 1 << 9
+        sp -= 4 * len(values)
+        if sp < SRAM_BASE:
+            raise CoreFault(f"a stack overflow: exception {exc} stacks its frame at "
+                            f"0x{sp:08x}, below SRAM")
+        self.uc.mem_write(sp, b"".join((v & 0xFFFFFFFF).to_bytes(4, "little") for v in values))
+        vector = self.read32(self.vtor_base() + 4 * exc)
+        if vector == 0 or not vector & 1:
+            raise CoreFault(f"exception {exc} has no handler (vector 0x{vector:08x})")
+        exc_return = 0xFFFFFFF1 if self.active else (0xFFFFFFFD if psp else 0xFFFFFFF9)
+        if fpu:
+            exc_return &= ~0x10
+        pairs = [(A.UC_ARM_REG_PSP if psp else A.UC_ARM_REG_MSP, sp)]
+        if psp:
+            pairs.append((A.UC_ARM_REG_CONTROL, control & ~2))
+        pairs += [(A.UC_ARM_REG_IPSR, exc), (A.UC_ARM_REG_LR, exc_return)]
+        if self.running:
+            pairs.append((A.UC_ARM_REG_PC, vector | 1))
+        self._set(*pairs)
+        self.active.append(exc)
+        self.pc = vector & ~1
+        self.sleeping = False
+
+    def leave(self, exc_return: int) -> int:
+        """Return from the innermost exception through ``exc_return``; its number."""
+        if not self.active:
+            raise CoreFault(f"an exception return (0x{exc_return:08x}) in thread mode")
+        exc = self.active.pop()
+        to_thread = exc_return & 0xF in (0x9, 0xD)
+        if to_thread and self.active:
+            raise CoreFault(f"an exception return to thread mode with {len(self.active)} "
+                            "exceptions still active (a lockup)")
+        r = self._state.read()
+        control, msp, psp_value = r[7:10]
+        psp = exc_return & 0xF == 0xD
+        sp = psp_value if psp else msp
+        fpu = not exc_return & 0x10
+        n = 26 if fpu else 8
+        words = self.uc.mem_read(sp, 4 * n)
+        values = [int.from_bytes(words[4 * i:4 * i + 4], "little") for i in range(n)]
+        xpsr = values[7]
+        sp += 4 * n + (4 if xpsr & (1 << 9) else 0)
+        ipsr = self.active[-1] if self.active else 0
+        self._state.write(values[:6] + [(xpsr & ~0x3FF), control, msp, psp_value])
+        if fpu:
+            self._fp.write(values[8:25])
+        pairs = [(A.UC_ARM_REG_IPSR, ipsr)]
+        if psp:
+            pairs.append((A.UC_ARM_REG_CONTROL, control | 2))
+        pairs += [(A.UC_ARM_REG_PSP if psp else A.UC_ARM_REG_MSP, sp),
+                  (A.UC_ARM_REG_PC, values[6] | 1)]
+        self._set(*pairs)
+        self.pc = values[6] & ~1
+        return exc
+
+    def context(self) -> tuple[int, ...]:
+        """The integer registers, to tell one pass of a poll loop from the next."""
+        return tuple(self._context.read())
+
+
+def _error_text(error: UcError, core: Core) -> str:
+    from unicorn import unicorn_const as U
+    kinds = {U.UC_ERR_READ_UNMAPPED: "a read of nothing", U.UC_ERR_WRITE_UNMAPPED:
+             "a write to nothing", U.UC_ERR_FETCH_UNMAPPED: "an instruction fetch from nothing",
+             U.UC_ERR_WRITE_PROT: "a write to flash", U.UC_ERR_FETCH_PROT:
+             "an instruction fetch from SRAM that is not executable",
+             U.UC_ERR_INSN_INVALID: "an undefined instruction (UsageFault)",
+             U.UC_ERR_READ_UNALIGNED: "an unaligned read", U.UC_ERR_WRITE_UNALIGNED:
+             "an unaligned write", U.UC_ERR_EXCEPTION: "an unhandled CPU exception"}
+    text = kinds.get(error.errno, str(error))
+    sp = core.uc.reg_read(A.UC_ARM_REG_SP)
+    if error.errno in (U.UC_ERR_WRITE_UNMAPPED, U.UC_ERR_READ_UNMAPPED) and \
+            SRAM_BASE - 0x1000 <= sp <= SRAM_BASE + 64:
+        return f"a stack overflow (SP 0x{sp:08x} ran below SRAM, {text})"
+    return text

@@ -1,0 +1,150 @@
+"""An STM32F411 ELF, read and checked before a single instruction runs.
+
+What the core needs from the file: the bytes each loadable segment puts in flash or SRAM
+(at its load address, as a programmer writes them), the vector table at the start of
+flash (initial SP, reset vector), the function symbols (a fault names the function) and
+the file itself for the DWARF line table (hil/mcu/coverage.py). A file that cannot be that
+firmware is one ``UserError`` line: truncated, another architecture or class, no
+loadable segment, nothing at the vector table, a reset vector outside flash, a segment
+outside flash and SRAM (over the peripherals, say).
+"""
+from __future__ import annotations
+
+import bisect
+import io
+from dataclasses import dataclass
+from pathlib import Path
+
+from elftools.common.exceptions import ELFError
+from elftools.elf.elffile import ELFFile
+
+from protocol.errors import UserError
+
+ELF_MAGIC = b"\x7fELF"
+EM_ARM = 40
+FLASH_BASE, FLASH_SIZE = 0x08000000, 512 * 1024     # RM0383 2.3: 512 KB main flash
+SRAM_BASE, SRAM_SIZE = 0x20000000, 128 * 1024       # 128 KB SRAM
+MAX_FILE_BYTES = 64 * 1024 * 1024                   # an ELF this large is not an F411's
+
+
+def is_arm_elf(path: str | Path) -> bool:
+    """The header says ELF, 32-bit, ARM: the file is meant for the emulated board."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(20)
+    except OSError:
+        return False
+    return (len(head) >= 20 and head[:4] == ELF_MAGIC and head[4] == 1
+            and int.from_bytes(head[18:20], "little" if head[5] == 1 else "big") == EM_ARM)
+
+
+@dataclass(frozen=True)
+class Segment:
+    addr: int
+    data: bytes
+
+
+@dataclass(frozen=True)
+class ElfImage:
+    path: Path
+    segments: tuple[Segment, ...]
+    initial_sp: int
+    reset: int
+    entry_names: tuple[str, ...]        # function names, sorted by address with ...
+    entry_starts: tuple[int, ...]       # ... their start addresses
+    entry_ends: tuple[int, ...]
+    symbols: dict[str, int]             # every named symbol's value (stack limits, main)
+
+    def function_at(self, pc: int) -> str:
+        """The function holding ``pc`` (``?`` where no symbol covers it)."""
+        pc &= ~1
+        i = bisect.bisect_right(self.entry_starts, pc) - 1
+        if i >= 0 and pc < self.entry_ends[i]:
+            return self.entry_names[i]
+        return "?"
+
+
+def _inside(addr: int, size: int, base: int, span: int) -> bool:
+    return base <= addr and addr + size <= base + span
+
+
+def load_elf(path: str | Path, what: str = "--firmware") -> ElfImage:
+    """Read and check ``path`` (``UserError`` naming ``what`` and the problem)."""
+    p = Path(path)
+    try:
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise UserError(f"{what} {path}: {exc.strerror}") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise UserError(f"{what} {path}: {len(raw)} bytes, too large for an STM32F411 ELF")
+    if raw[:4] != ELF_MAGIC:
+        raise UserError(f"{what} {path}: not an ELF file")
+    try:
+        return _read(p, raw, what)
+    except (ELFError, ValueError, KeyError, IndexError, AssertionError, TypeError,
+            AttributeError, OverflowError, RecursionError, UnicodeDecodeError) as exc:
+        raise UserError(f"{what} {path}: a broken ELF file ({type(exc).__name__}: "
+                        f"{str(exc)[:80]})") from None
+    except Exception as exc:    # construct.StreamError and kin: a truncated file
+        if type(exc).__module__.startswith(("elftools", "construct")):
+            raise UserError(f"{what} {path}: a truncated or broken ELF file "
+                            f"({str(exc)[:80]})") from None
+        raise
+
+
+def _read(p: Path, raw: bytes, what: str) -> ElfImage:
+    elf = ELFFile(io.BytesIO(raw))
+    name = f"{what} {p}"
+    if elf.elfclass != 32 or elf["e_machine"] != "EM_ARM" or not elf.little_endian:
+        raise UserError(f"{name}: an ELF for {elf['e_machine']} ({elf.elfclass}-bit), not "
+                        "a 32-bit little-endian ARM (Cortex-M4) one")
+    if elf["e_type"] != "ET_EXEC":
+        raise UserError(f"{name}: not a linked executable ({elf['e_type']}): link it with a "
+                        "linker script for the F411 (`hexhil sdk build --target stm32f411`)")
+    segments: list[Segment] = []
+    for seg in elf.iter_segments():
+        if seg["p_type"] != "PT_LOAD" or seg["p_filesz"] == 0:
+            continue
+        addr, size = seg["p_paddr"], seg["p_filesz"]
+        data = seg.data()
+        if len(data) != size:
+            raise UserError(f"{name}: truncated (a segment at 0x{addr:08x} holds "
+                            f"{len(data)} of its {size} bytes)")
+        if not (_inside(addr, size, FLASH_BASE, FLASH_SIZE)
+                or _inside(addr, size, SRAM_BASE, SRAM_SIZE)):
+            raise UserError(f"{name}: a segment of {size} bytes at 0x{addr:08x} lies outside "
+                            f"flash (0x{FLASH_BASE:08x}, 512 KB) and SRAM (0x{SRAM_BASE:08x}, "
+                            "128 KB): over the peripherals or nothing")
+        segments.append(Segment(addr, data))
+    if not segments:
+        raise UserError(f"{name}: no loadable segment (nothing to put in flash)")
+    vectors = next((s for s in segments if s.addr == FLASH_BASE and len(s.data) >= 8), None)
+    if vectors is None:
+        raise UserError(f"{name}: no vector table at the start of flash (0x{FLASH_BASE:08x}): "
+                        "the startup file's .isr_vector must come first")
+    sp = int.from_bytes(vectors.data[0:4], "little")
+    reset = int.from_bytes(vectors.data[4:8], "little")
+    if not _inside(reset & ~1, 2, FLASH_BASE, FLASH_SIZE) or not reset & 1:
+        raise UserError(f"{name}: the reset vector 0x{reset:08x} is not a Thumb address in "
+                        "flash")
+    if not _inside(sp - 4, 4, SRAM_BASE, SRAM_SIZE):
+        raise UserError(f"{name}: the initial stack pointer 0x{sp:08x} is not in SRAM")
+    return ElfImage(p, tuple(segments), sp, reset, *_functions(elf))
+
+
+def _functions(elf: ELFFile) -> tuple[tuple[str, ...], tuple[int, ...], tuple[int, ...],
+                                      dict[str, int]]:
+    funcs: list[tuple[int, int, str]] = []
+    symbols: dict[str, int] = {}
+    tab = elf.get_section_by_name(".symtab")
+    if tab is not None:
+        for sym in tab.iter_symbols():
+            if not sym.name:
+                continue
+            symbols.setdefault(sym.name, sym["st_value"])
+            if sym["st_info"]["type"] == "STT_FUNC" and sym["st_value"]:
+                start = sym["st_value"] & ~1
+                funcs.append((start, start + max(2, sym["st_size"]), sym.name))
+    funcs.sort()
+    return (tuple(f[2] for f in funcs), tuple(f[0] for f in funcs),
+            tuple(f[1] for f in funcs), symbols)

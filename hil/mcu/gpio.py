@@ -1,0 +1,132 @@
+"""GPIOA-C, EXTI and SYSCFG's EXTI selection (RM0383 8, 10, 7), wired as on the robot.
+
+PA1 drives the 74HC126/74HC04 direction buffer of the servo line (high: transmit); it
+counts only while PA1 is an output. PB0-PB5 are the six leg switches to ground: a pressed
+switch reads 0, a released one reads 1 through the pin's pull-up (PUPDR 01) and 0 without
+one (the board has no pull-up resistors of its own). Any other input reads its pull: 1
+with a pull-up, else 0. A switch edge sets EXTI's pending bit when SYSCFG routes that line
+to port B and the edge is enabled in RTSR/FTSR; IMR passes it to the NVIC.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+MODER, OTYPER, OSPEEDR, PUPDR, IDR, ODR, BSRR, LCKR, AFRL, AFRH = range(0, 0x28, 4)
+RESET = {"GPIOA": {MODER: 0xA8000000, OSPEEDR: 0x0C000000, PUPDR: 0x64000000},
+         "GPIOB": {MODER: 0x00000280, OSPEEDR: 0x000000C0, PUPDR: 0x00000100}}
+SWITCH_PINS = 6
+EXTI_IRQS = (6, 7, 8, 9, 10) + (23,) * 5 + (40,) * 6
+
+
+class GpioPort:
+    """One port; ``external(pin)`` says what drives an input pin (None: nothing)."""
+
+    pollable = frozenset({IDR, ODR})
+
+    def __init__(self, name: str, index: int, on_output: Callable[["GpioPort", int], None],
+                 external: Callable[[int], int | None]) -> None:
+        self.name, self.index = name, index
+        self.on_output, self.external = on_output, external
+        self.before_input: Callable[[], None] | None = None    # IDR is about to be read
+        self.regs = {MODER: 0, OTYPER: 0, OSPEEDR: 0, PUPDR: 0, ODR: 0, LCKR: 0, AFRL: 0,
+                     AFRH: 0, **RESET.get(name, {})}
+
+    def mode(self, pin: int) -> int:
+        return (self.regs[MODER] >> 2 * pin) & 3
+
+    def pull_up(self, pin: int) -> bool:
+        return (self.regs[PUPDR] >> 2 * pin) & 3 == 1
+
+    def input_level(self, pin: int) -> int:
+        mode = self.mode(pin)
+        if mode == 1:
+            return (self.regs[ODR] >> pin) & 1
+        if mode == 3:
+            return 0
+        driven = self.external(pin)
+        if driven is not None:
+            return driven
+        return 1 if self.pull_up(pin) else 0
+
+    def output(self, pin: int) -> int:
+        """The level the port drives on ``pin`` (0 unless it is an output)."""
+        return (self.regs[ODR] >> pin) & 1 if self.mode(pin) == 1 else 0
+
+    def read(self, off: int) -> int:
+        if off == IDR:
+            if self.before_input is not None:
+                self.before_input()
+            return sum(self.input_level(p) << p for p in range(16))
+        return self.regs.get(off, 0) if off != BSRR else 0
+
+    def write(self, off: int, value: int) -> None:
+        old = self.regs[ODR]
+        if off == BSRR:
+            self.regs[ODR] = (old & ~(value >> 16)) | (value & 0xFFFF)   # set wins
+        elif off == IDR:
+            return
+        else:
+            self.regs[off] = value & (0xFFFF if off == ODR else 0xFFFFFFFF)
+        self.on_output(self, old)
+
+
+class Exti:
+    """EXTI lines 0-15 from GPIO pins (SYSCFG_EXTICRx picks the port), to the NVIC."""
+
+    name = "EXTI"
+    pollable = frozenset({0x14})
+
+    def __init__(self, line: Callable[[int, bool], None]) -> None:
+        self.line = line
+        self.regs = {0x00: 0, 0x04: 0, 0x08: 0, 0x0C: 0, 0x10: 0, 0x14: 0}
+        self.exticr = [0, 0, 0, 0]
+
+    def port_of(self, line: int) -> int:
+        return (self.exticr[line // 4] >> 4 * (line % 4)) & 0xF
+
+    def edge(self, port: int, pin: int, rising: bool) -> None:
+        """Pin ``pin`` of port ``port`` (0 = A) changed level."""
+        if self.port_of(pin) != port:
+            return
+        if self.regs[0x08 if rising else 0x0C] >> pin & 1:
+            self.regs[0x14] |= 1 << pin
+            self._lines()
+
+    def _lines(self) -> None:
+        active = self.regs[0x14] & self.regs[0x00]
+        for irq in set(EXTI_IRQS):
+            self.line(irq, any(active >> i & 1 for i in range(16) if EXTI_IRQS[i] == irq))
+
+    def read(self, off: int) -> int:
+        return self.regs.get(off, 0)
+
+    def write(self, off: int, value: int) -> None:
+        if off == 0x14:
+            self.regs[0x14] &= ~value
+        elif off == 0x10:
+            self.regs[0x14] |= value & self.regs[0x00] & 0x7FFFFF
+        elif off in self.regs:
+            self.regs[off] = value & 0x7FFFFF
+        self._lines()
+
+
+class Syscfg:
+    """SYSCFG: EXTICR1-4 route EXTI lines to ports; the rest keeps what is written."""
+
+    name = "SYSCFG"
+    pollable = frozenset()
+
+    def __init__(self, exti: Exti) -> None:
+        self.exti = exti
+        self.regs: dict[int, int] = {}
+
+    def read(self, off: int) -> int:
+        if 0x08 <= off <= 0x14:
+            return self.exti.exticr[(off - 0x08) // 4]
+        return self.regs.get(off, 0)
+
+    def write(self, off: int, value: int) -> None:
+        if 0x08 <= off <= 0x14:
+            self.exti.exticr[(off - 0x08) // 4] = value & 0xFFFF
+        else:
+            self.regs[off] = value

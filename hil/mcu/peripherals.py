@@ -1,0 +1,301 @@
+"""The peripherals beyond the core's, the clocks, GPIO and the USARTs: TIM2-5, DMA1/2 and
+bxCAN1, each at its RM0383 base address (hil/mcu/board.py maps them).
+
+* TIM2-5 (RM0383 13): up-counting at TIMxCLK / (PSC + 1), the update event at ARR (UIF,
+  its interrupt, one-pulse mode, UG). Not modelled: down/centre counting, capture/compare,
+  PWM outputs, slave modes, preload timing (PSC and ARR take effect at once).
+* DMA1/DMA2 (RM0383 9): the streams and channels the USARTs use (USART2: DMA1 stream 6
+  channel 4 TX, stream 5 channel 4 RX; USART1: DMA2 stream 7 / 2 and 5, channel 4; USART6:
+  DMA2 stream 6 and 7 / 1 and 2, channel 5), byte transfers, MINC, circular mode, HT/TC
+  flags and interrupts. Not modelled: memory-to-memory, FIFO mode and bursts, double
+  buffer, transfer errors.
+* bxCAN1 at 0x4000_6400, the F4 family's address. The STM32F411 itself has **no** bxCAN:
+  it is modelled so that a CAN firmware for a bigger F4 runs on the robot's virtual CAN
+  bus. Initialisation and sleep handshakes, three TX mailboxes (sent at once), FIFO 0 of
+  three frames with FMP/FULL/FOVR and the FMPIE0 interrupt. Not modelled: filters (every
+  frame reaches FIFO 0), FIFO 1, bit timing, error counters, extended IDs on the link.
+"""
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from hil.mcu.core import FS_PER_S
+from hil.mcu.system import IRQS
+
+log = logging.getLogger(__name__)
+UIF, UIE, CEN, OPM = 1, 1, 1, 1 << 3
+
+
+class BasicTimer:
+    """TIM2-TIM5 as up-counters with update interrupts."""
+
+    pollable = frozenset({0x00, 0x0C, 0x10})
+
+    def __init__(self, board: Any, name: str, irq: int, bits: int) -> None:
+        self.board, self.name, self.irq = board, name, irq
+        self.top = (1 << bits) - 1
+        self.regs = {0x00: 0, 0x0C: 0, 0x10: 0, 0x28: 0, 0x2C: self.top}
+        self._c0 = 0
+        self._t0 = 0
+        self.update = board.events.timer(self._overflow)
+
+    def _hz(self) -> int:
+        return self.board.rcc.timer_hz(False) // (self.regs[0x28] + 1)
+
+    def count(self) -> int:
+        if not self.regs[0x00] & CEN:
+            return self._c0
+        ticks = (self.board.core.now_fs() - self._t0) * self._hz() // FS_PER_S
+        return (self._c0 + ticks) % (self.regs[0x2C] + 1)
+
+    def _anchor(self, value: int) -> None:
+        self._c0, self._t0 = value, self.board.core.now_fs()
+        if self.regs[0x00] & CEN and self.regs[0x2C]:
+            left = self.regs[0x2C] + 1 - value
+            self.update.set(self._t0 + -(-left * FS_PER_S // self._hz()))
+        else:
+            self.update.clear()
+
+    def _overflow(self, at_fs: int) -> None:
+        self.regs[0x10] |= UIF
+        self._line()
+        if self.regs[0x00] & OPM:
+            self.regs[0x00] &= ~CEN
+            self._c0 = 0
+            return
+        self._c0, self._t0 = 0, at_fs
+        period = self.regs[0x2C] + 1
+        self.update.set(at_fs + -(-period * FS_PER_S // self._hz()))
+
+    def _line(self) -> None:
+        self.board.nvic.line(self.irq, bool(self.regs[0x10] & self.regs[0x0C] & UIF))
+
+    def rebase(self) -> None:
+        self._anchor(self.count())
+
+    def read(self, off: int) -> int:
+        if off == 0x24:
+            return self.count()
+        return self.regs.get(off, 0)
+
+    def write(self, off: int, value: int) -> None:
+        now = self.count()
+        if off == 0x10:
+            self.regs[0x10] &= value
+        elif off == 0x14:
+            if value & 1:                 # UG: reload, and an update event unless URS
+                now = 0
+                if not self.regs[0x00] & 4:
+                    self.regs[0x10] |= UIF
+        elif off == 0x24:
+            now = value & self.top
+        else:
+            self.regs[off] = value & (self.top if off == 0x2C else 0xFFFFFFFF)
+        self._anchor(now)
+        self._line()
+
+
+FLAG_SHIFT = (0, 6, 16, 22)
+TCIF, HTIF, TEIF = 0x20, 0x10, 0x08
+EN, TEIE, HTIE, TCIE, CIRC, MINC = 1, 1 << 2, 1 << 3, 1 << 4, 1 << 8, 1 << 10
+# (DMA controller, stream, channel, direction bits: 1 memory->peripheral, 0 the other way)
+USART_DMA = {"USART2": ((1, 6, 4, 1), (1, 5, 4, 0)),
+             "USART1": ((2, 7, 4, 1), (2, 2, 4, 0), (2, 5, 4, 0)),
+             "USART6": ((2, 6, 5, 1), (2, 7, 5, 1), (2, 1, 5, 0), (2, 2, 5, 0))}
+
+
+class Dma:
+    """One DMA controller's eight streams, serving the USARTs' requests."""
+
+    pollable = frozenset({0x00, 0x04} | {0x10 + 0x18 * s + r for s in range(8) for r in (0, 4)})
+
+    def __init__(self, board: Any, number: int) -> None:
+        self.board, self.number = board, number
+        self.name = f"DMA{number}"
+        self.flags = [0] * 8
+        self.regs = {0x10 + 0x18 * s + r: (0x21 if r == 0x14 else 0)
+                     for s in range(8) for r in range(0, 0x18, 4)}
+        self.done = [0] * 8          # items moved since EN
+        self.irqs = IRQS[self.name]
+
+    def _reg(self, s: int, r: int) -> int:
+        return self.regs[0x10 + 0x18 * s + r]
+
+    def _ready(self, s: int, channel: int, to_periph: int) -> bool:
+        cr = self._reg(s, 0)
+        return bool(cr & EN) and (cr >> 25) & 7 == channel and (cr >> 6) & 3 == to_periph \
+            and self._reg(s, 4) > 0
+
+    def _step(self, s: int) -> int:
+        """Account one byte moved on stream ``s``; the memory address it used."""
+        cr, base = self._reg(s, 0), 0x10 + 0x18 * s
+        addr = self._reg(s, 0xC) + (self.done[s] if cr & MINC else 0)
+        self.done[s] += 1
+        left = self.regs[base + 4] - 1
+        total = left + self.done[s]
+        if left == total // 2:
+            self.flags[s] |= HTIF
+        if left == 0:
+            self.flags[s] |= TCIF
+            if cr & CIRC:
+                left, self.done[s] = total, 0
+            else:
+                self.regs[base] &= ~EN
+        self.regs[base + 4] = left
+        self._line(s)
+        return addr
+
+    def pull(self, s: int, channel: int) -> int | None:
+        if not self._ready(s, channel, 1):
+            return None
+        return self.board.core.uc.mem_read(self._step(s), 1)[0]
+
+    def push(self, s: int, channel: int, byte: int) -> bool:
+        if not self._ready(s, channel, 0):
+            return False
+        self.board.core.uc.mem_write(self._step(s), bytes((byte,)))
+        return True
+
+    def _line(self, s: int) -> None:
+        cr, f = self._reg(s, 0), self.flags[s]
+        level = bool((f & TCIF and cr & TCIE) or (f & HTIF and cr & HTIE) or (f & TEIF and cr & TEIE))
+        self.board.nvic.line(self.irqs[s], level)
+
+    def read(self, off: int) -> int:
+        if off in (0x00, 0x04):
+            first = 0 if off == 0 else 4
+            return sum(self.flags[first + i] << FLAG_SHIFT[i] for i in range(4))
+        return self.regs.get(off, 0)
+
+    def write(self, off: int, value: int) -> None:
+        if off in (0x08, 0x0C):
+            first = 0 if off == 0x08 else 4
+            for i in range(4):
+                self.flags[first + i] &= ~(value >> FLAG_SHIFT[i]) & 0x3D
+                self._line(first + i)
+            return
+        if off not in self.regs:
+            return
+        s, r = (off - 0x10) // 0x18, (off - 0x10) % 0x18
+        was = self._reg(s, 0) & EN
+        self.regs[off] = value
+        if r == 0:
+            if value & EN and not was:
+                self.done[s] = 0
+                self.board.dma_kick()
+            self._line(s)
+
+
+def wire_usart_dma(usart: Any, controllers: dict[int, Dma]) -> None:
+    """Give ``usart`` its DMA requests (its TXE and RXNE served by these streams)."""
+    routes = USART_DMA[usart.name]
+
+    def tx() -> int | None:
+        for ctl, s, ch, to_periph in routes:
+            if to_periph:
+                byte = controllers[ctl].pull(s, ch)
+                if byte is not None:
+                    return byte
+        return None
+
+    def rx(byte: int) -> bool:
+        return any(controllers[ctl].push(s, ch, byte)
+                   for ctl, s, ch, to_periph in routes if not to_periph)
+
+    usart.dma_tx, usart.dma_rx = tx, rx
+
+
+class BxCan:
+    """bxCAN1 (see the module docstring: the F411 has none; modelled for F4 CAN firmware)."""
+
+    name = "CAN1"
+    pollable = frozenset({0x04, 0x08, 0x0C, 0x10})
+
+    def __init__(self, board: Any) -> None:
+        self.board = board
+        self.regs: dict[int, int] = {0x00: 0x00010002, 0x04: 0x00000C02, 0x08: 0x1C000000,
+                                     0x14: 0, 0x1C: 0x01230000}
+        self.fifo: list[tuple[int, bytes]] = []
+        self.overrun = False
+
+    @property
+    def normal(self) -> bool:
+        return not self.regs[0x00] & 3
+
+    def received(self, arb_id: int, data: bytes) -> None:
+        if not self.normal:
+            return
+        if len(self.fifo) >= 3:
+            self.overrun = True
+        else:
+            self.fifo.append((arb_id, data))
+        self._lines()
+
+    def _lines(self) -> None:
+        ier, tsr = self.regs[0x14], self.regs[0x08]
+        nvic = self.board.nvic
+        nvic.line(IRQS["CAN1_RX0"], bool(ier & 2 and self.fifo))
+        nvic.line(IRQS["CAN1_TX"], bool(ier & 1 and tsr & 0x010101))
+
+    def _send(self, box: int) -> None:
+        base = 0x180 + 0x10 * box
+        tir = self.regs.get(base, 0)
+        dlc = min(8, self.regs.get(base + 4, 0) & 0xF)
+        data = (self.regs.get(base + 8, 0).to_bytes(4, "little")
+                + self.regs.get(base + 12, 0).to_bytes(4, "little"))[:dlc]
+        if tir & 4:
+            log.warning("bxCAN: an extended-ID frame (0x%08x) is not carried by the link",
+                        tir >> 3)
+        else:
+            self.board.link.can(tir >> 21, data)
+        self.regs[base] = tir & ~1
+        self.regs[0x08] |= (0x3 << 8 * box) | (1 << (26 + box))
+
+    def read(self, off: int) -> int:
+        if off == 0x0C:
+            n = len(self.fifo)
+            return n | (8 if n >= 3 else 0) | (0x10 if self.overrun else 0)
+        if 0x1B0 <= off < 0x1C0:
+            if not self.fifo:
+                return 0
+            arb_id, data = self.fifo[0]
+            word = {0x1B0: arb_id << 21, 0x1B4: len(data),
+                    0x1B8: int.from_bytes(data[:4].ljust(4, b"\0"), "little"),
+                    0x1BC: int.from_bytes(data[4:8].ljust(4, b"\0"), "little")}
+            return word[off]
+        return self.regs.get(off, 0)
+
+    def write(self, off: int, value: int) -> None:
+        if off == 0x00:
+            self.regs[0x00] = value
+            self.regs[0x04] = (self.regs[0x04] & ~3) | (value & 1) | (value >> 1 & 1) << 1
+            self.board.can_listening = self.normal
+        elif off == 0x08:
+            self.regs[0x08] &= ~(value & 0x0F0F0F)       # RQCP/TXOK... write 1 to clear
+        elif off == 0x0C:
+            if value & 0x20 and self.fifo:
+                self.fifo.pop(0)
+            if value & 0x10:
+                self.overrun = False
+        elif off in (0x180, 0x190, 0x1A0):
+            self.regs[off] = value
+            if value & 1 and self.normal:
+                self._send((off - 0x180) // 0x10)
+        elif off != 0x04:
+            self.regs[off] = value
+        self._lines()
+
+
+def extra_peripherals(board: Any) -> list[tuple[int, object]]:
+    """(base address, peripheral) of the timers, DMA controllers and bxCAN1 of ``board``;
+    also wires the USARTs' DMA requests and the board's CAN input."""
+    timers = [(0x40000000, BasicTimer(board, "TIM2", IRQS["TIM2"], 32)),
+              (0x40000400, BasicTimer(board, "TIM3", IRQS["TIM3"], 16)),
+              (0x40000800, BasicTimer(board, "TIM4", IRQS["TIM4"], 16)),
+              (0x40000C00, BasicTimer(board, "TIM5", IRQS["TIM5"], 32))]
+    dmas = {1: Dma(board, 1), 2: Dma(board, 2)}
+    for usart in (board.usart1, board.usart2, board.usart6):
+        wire_usart_dma(usart, dmas)
+    board.can = BxCan(board)
+    return timers + [(0x40026000, dmas[1]), (0x40026400, dmas[2]), (0x40006400, board.can)]

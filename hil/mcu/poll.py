@@ -1,0 +1,129 @@
+"""Waiting costs no host time: a poll loop is skipped to the moment its flag can change.
+
+When the same register read returns the same value twice with nothing else in between,
+the next pass is watched (the same instruction count between the reads, the same core
+registers, no RAM written: a Unicorn store hook for that one pass). Confirmed, virtual
+time jumps to the next scheduled event (the only moment a register can change) and the
+loop goes on from its read; a loop whose passes differ (a counter in a register or in RAM)
+runs instruction by instruction. A loop once confirmed (its PC, register and pass length)
+is skipped from then on inside the chunk, without stopping the core, at its first read of
+the value it waited on.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+from unicorn import UC_HOOK_MEM_WRITE
+from unicorn import arm_const as A
+
+from hil.mcu.elf_image import SRAM_BASE, SRAM_SIZE
+
+
+class PollSkipper:
+    def __init__(self, board: Any) -> None:
+        self.board = board
+        self._poll_key: tuple[int, int] | None = None
+        self._poll_at = 0
+        self._watch: tuple | None = None
+        self._watch_hook = None
+        self._ram_written = False
+        self._skip = False
+        self._reread = False
+        self._loops_ok: dict[tuple[int, int, int], bool] = {}
+        self._waits: set[tuple[int, int, int]] = set()        # (pc, register, value)
+        self._wait_values: set[tuple[int, int]] = set()
+
+    def other_access(self) -> None:
+        """A register access that is not a side-effect-free read: no poll goes on."""
+        self._poll_key = None
+
+    def polled(self, addr: int, value: int) -> bool:
+        """A side-effect-free register read: the poll detector's view. True when it
+        skipped the wait here, so the read is to be done again at the new time."""
+        core = self.board.core
+        if self._reread:           # the read a stop made run again: already counted
+            self._reread = False
+            return False
+        now = core.now()
+        key = (addr, value)
+        if key != self._poll_key:
+            self._poll_key, self._poll_at = key, now
+            if key in self._wait_values and self._watch is None and \
+                    (core.reg(A.UC_ARM_REG_PC), addr, value) in self._waits:
+                return self._jump_here()   # a known loop waiting on this very value
+            return False
+        delta = now - self._poll_at
+        self._poll_at = now
+        loop = (core.reg(A.UC_ARM_REG_PC), addr, delta)
+        watch = self._watch
+        if watch is None:
+            known = self._loops_ok.get(loop)
+            if known:                  # watched once: the same code, the same pass
+                self._known_wait(loop[0], addr, value)
+                return self._jump_here()
+            if known is None:
+                self._watch = (loop, value, core.context())
+                self._reread = True
+                core.stop()
+        elif watch[0] == loop and watch[1] == value and not self._ram_written \
+                and core.context() == watch[2]:
+            self._loops_ok[loop] = True
+            self._known_wait(loop[0], addr, value)
+            self._skip = True
+            core.stop()
+        else:
+            self._loops_ok[watch[0]] = False
+            self._end_watch()
+        return False
+
+    def _known_wait(self, pc: int, addr: int, value: int) -> None:
+        """From now on the loop at ``pc`` is skipped at its first read of ``value``: it
+        was confirmed pure, so until the next event it could only read the same again."""
+        self._waits.add((pc, addr, value))
+        self._wait_values.add((addr, value))
+
+    def _jump_here(self) -> bool:
+        """Skip a known poll loop inside the chunk: time jumps to the next event, which
+        fires now; an exception it makes ready ends the chunk (the read runs again)."""
+        core = self.board.core
+        cyc = core.time.cycle_of(self.board.events.next_fs())
+        now = core.now()
+        if cyc <= now:
+            return False
+        core.jump(cyc - now)
+        self.board.skipped_cycles += cyc - now
+        self._poll_key = None
+        self.board.due()
+        if self.board.nvic.ready() and self.board.nvic.next_exception() is not None:
+            self._reread = True
+            core.stop()
+        return True
+
+    def _end_watch(self) -> None:
+        self._watch = None
+        if self._watch_hook is not None:
+            self.board.core.uc.hook_del(self._watch_hook)
+            self._watch_hook = None
+            self.board.core.uc.ctl_flush_tb()
+
+    def after_chunk(self) -> None:
+        core = self.board.core
+        if self._skip:
+            self._skip = False
+            self._end_watch()
+            self._poll_key = None
+            self._reread = False
+            cyc = core.time.cycle_of(self.board.events.next_fs())
+            if cyc > core.cyc:
+                self.board.skipped_cycles += cyc - core.cyc
+                core.cyc = cyc
+        elif self._watch is not None and self._watch_hook is None and core.stopped:
+            self._ram_written = False      # a loop seen for the first time: watch its stores
+            self._watch_hook = core.uc.hook_add(UC_HOOK_MEM_WRITE, self._stored, None,
+                                                SRAM_BASE, SRAM_BASE + SRAM_SIZE - 1)
+            core.uc.ctl_flush_tb()
+        elif self._watch is not None and not core.stopped:
+            self._end_watch()
+
+    def _stored(self, *args) -> None:
+        self._ram_written = True

@@ -1,0 +1,339 @@
+"""The Cortex-M4's own peripherals (the private peripheral bus at 0xE000_0000): NVIC, SCB,
+SysTick, DWT's cycle counter, CPACR and the FPU's context registers.
+
+The NVIC decides which exception runs: enable, pending (set by a peripheral's interrupt
+line, by ISPR, or by the SCB for PendSV and SysTick), 4 priority bits as on the F411,
+AIRCR's PRIGROUP for preemption, PRIMASK/BASEPRI/FAULTMASK, tail-chaining (a pending
+exception is taken at a return before the interrupted code runs again). A peripheral's
+line is a level: an IRQ whose flag is still set when its handler returns is pending again.
+"""
+from __future__ import annotations
+
+from typing import Any, Callable
+
+from unicorn import arm_const as A
+
+from hil.mcu.core import EXC_PENDSV, EXC_SYSTICK, FS_PER_S, Core, Regs
+from hil.mcu.events import Events
+
+NUM_IRQS = 86                 # RM0383 table 37: positions 0..85
+CPUID = 0x410FC241            # Cortex-M4 r0p1
+NVIC, SYSTICK, SCB, DWT = 0xE000E100, 0xE000E010, 0xE000ED00, 0xE0001000
+CPACR, DEMCR, STIR, FPCCR = 0xE000ED88, 0xE000EDFC, 0xE000EF00, 0xE000EF34
+SCR_SLEEPONEXIT = 0x2
+
+
+class Nvic:
+    """Which exception is pending, enabled, active, and which one runs next."""
+
+    def __init__(self, core: Core) -> None:
+        self.core = core
+        self._masks = Regs(core.uc, (A.UC_ARM_REG_FAULTMASK, A.UC_ARM_REG_PRIMASK,
+                                     A.UC_ARM_REG_BASEPRI))
+        self.enabled: set[int] = set()           # IRQ numbers
+        self.pending: set[int] = set()           # exception numbers
+        self.lines: set[int] = set()             # IRQ lines a peripheral holds high
+        self.prio = bytearray(16 + NUM_IRQS)
+        self.prigroup = 0
+        self.sleep_on_exit = False
+
+    def line(self, irq: int, level: bool) -> None:
+        """A peripheral's interrupt line ``irq`` is now ``level``."""
+        if level:
+            self.lines.add(irq)
+            if irq + 16 not in self.core.active:
+                self.pending.add(irq + 16)
+        else:
+            self.lines.discard(irq)
+
+    def _priority(self, exc: int) -> int:
+        if exc <= 3:
+            return exc - 4   # reset -3, NMI -2, HardFault -1
+        return self.prio[exc] & 0xF0
+
+    def _group(self, prio: int) -> int:
+        if prio < 0:
+            return prio
+        return prio & ~((2 << self.prigroup) - 1) & 0xFF
+
+    def execution_priority(self) -> int:
+        core = self.core
+        level = 256
+        for exc in core.active:
+            level = min(level, self._group(self._priority(exc)))
+        faultmask, primask, basepri = self._masks.read()
+        if faultmask & 1:
+            return -1
+        if primask & 1:
+            level = min(level, 0)
+        basepri &= 0xF0
+        if basepri:
+            level = min(level, self._group(basepri))
+        return level
+
+    def ready(self) -> list[int]:
+        return [e for e in self.pending if e < 16 or e - 16 in self.enabled]
+
+    def next_exception(self) -> int | None:
+        """The pending exception that preempts what runs now, if any."""
+        ready = self.ready()
+        if not ready:
+            return None
+        best = min(ready, key=lambda e: (self._priority(e), e))
+        if self._group(self._priority(best)) < self.execution_priority():
+            return best
+        return None
+
+    def take(self, exc: int) -> None:
+        self.pending.discard(exc)
+        self.core.enter(exc)
+
+    def returned(self, exc: int) -> None:
+        if exc >= 16 and exc - 16 in self.lines:
+            self.pending.add(exc)
+        if not self.core.active and self.sleep_on_exit:
+            self.core.sleeping = True
+
+    def wakes(self) -> bool:
+        """WFI ends: an enabled exception is pending (whatever its priority)."""
+        return bool(self.ready())
+
+
+class SysTick:
+    """The 24-bit down counter: COUNTFLAG, reload, the SysTick exception at each wrap."""
+
+    def __init__(self, core: Core, nvic: Nvic, events: Events, hclk: Callable[[], int]) -> None:
+        self.core, self.nvic, self.hclk = core, nvic, hclk
+        self.csr = 0
+        self.rvr = 0
+        self.countflag = False
+        self._c0 = 0              # the counter's value at _t0
+        self._t0 = 0
+        self.wrap = events.timer(self._wrapped)
+
+    def _hz(self) -> int:
+        return self.hclk() if self.csr & 4 else self.hclk() // 8
+
+    def _ticks(self, fs: int) -> int:
+        return (fs - self._t0) * self._hz() // FS_PER_S
+
+    def value(self) -> int:
+        if not self.csr & 1:
+            return self._c0
+        k = self._ticks(self.core.now_fs())
+        if k < self._c0:
+            return self._c0 - k
+        m = (k - self._c0) % (self.rvr + 1)
+        return 0 if m == 0 else self.rvr + 1 - m
+
+    def _anchor(self, value: int) -> None:
+        self._c0, self._t0 = value, self.core.now_fs()
+        self._schedule()
+
+    def _schedule(self) -> None:
+        if not self.csr & 1 or (self.rvr == 0 and self._c0 == 0):
+            self.wrap.clear()
+            return
+        k = self._ticks(self.core.now_fs())
+        first = self._c0 if self._c0 > 0 else self.rvr + 1
+        if k >= first:
+            first += ((k - first) // (self.rvr + 1) + 1) * (self.rvr + 1)
+        hz = self._hz()
+        self.wrap.set(self._t0 + -(-first * FS_PER_S // hz))
+
+    def _wrapped(self, at_fs: int) -> None:
+        self.countflag = True
+        if self.csr & 2:
+            self.nvic.pending.add(EXC_SYSTICK)
+        self._schedule_after(at_fs)
+
+    def _schedule_after(self, at_fs: int) -> None:
+        if self.rvr == 0:
+            return
+        self.wrap.set(at_fs + -(-(self.rvr + 1) * FS_PER_S // self._hz()))
+
+    def rebase(self) -> None:
+        """HCLK changed: the counter goes on from its value now at the new rate."""
+        if self.csr & 1:
+            self._anchor(self.value())
+
+    def read(self, off: int) -> int:
+        if off == 0:
+            v = (self.csr & 7) | (0x10000 if self.countflag else 0)
+            self.countflag = False
+            return v
+        if off == 4:
+            return self.rvr
+        if off == 8:
+            return self.value()
+        return 0x40000000 if off == 0xC else 0   # CALIB: no reference clock
+
+    def write(self, off: int, value: int) -> None:
+        if off == 0:
+            was = self.csr & 1
+            value_now = self.value()
+            self.csr = value & 7
+            if self.csr & 1 and not was:
+                self._anchor(value_now)
+            elif was and not self.csr & 1:
+                self._c0 = value_now
+                self.wrap.clear()
+            else:
+                self._anchor(value_now)
+        elif off == 4:
+            value_now = self.value()
+            self.rvr = value & 0xFFFFFF
+            self._anchor(value_now)
+        elif off == 8:
+            self.countflag = False
+            self._anchor(0)
+
+
+class SystemBlock:
+    """The private peripheral bus: SCB, NVIC, SysTick, DWT, CPACR, FPU context registers."""
+
+    def __init__(self, core: Core, nvic: Nvic, systick: SysTick,
+                 on_reset: Callable[[], None]) -> None:
+        self.core, self.nvic, self.systick = core, nvic, systick
+        self.on_reset = on_reset
+        self.regs: dict[int, int] = {CPACR: 0, FPCCR: 0xC0000000, SCB + 0x14: 0x200}
+        self.cyccnt_on = False
+        self._cyc_base = 0
+        self._cyc_anchor = 0
+        self.pollable = frozenset({SYSTICK, SCB + 0x04})
+
+    def cyccnt(self) -> int:
+        if not self.cyccnt_on:
+            return self._cyc_base & 0xFFFFFFFF
+        return (self._cyc_base + self.core.now() - self._cyc_anchor) & 0xFFFFFFFF
+
+    def _icsr(self) -> int:
+        nvic, active = self.nvic, self.core.active
+        ready = nvic.ready()
+        v = (active[-1] if active else 0) | ((min(ready) if ready else 0) << 12)
+        if any(e >= 16 for e in nvic.pending):
+            v |= 1 << 22
+        if EXC_PENDSV in nvic.pending:
+            v |= 1 << 28
+        if EXC_SYSTICK in nvic.pending:
+            v |= 1 << 26
+        if len(active) <= 1:
+            v |= 1 << 11   # RETTOBASE
+        return v
+
+    def read(self, addr: int) -> int:
+        nvic = self.nvic
+        if SYSTICK <= addr < SYSTICK + 0x10:
+            return self.systick.read(addr - SYSTICK)
+        if 0xE000E100 <= addr < 0xE000E500:
+            return self._nvic_read(addr)
+        if addr == DWT + 4:
+            return self.cyccnt()
+        if addr == DWT:
+            return 0x40000000 | int(self.cyccnt_on)
+        if addr == SCB:
+            return CPUID
+        if addr == SCB + 0x04:
+            return self._icsr()
+        if addr == SCB + 0x08:
+            return self.core.vtor
+        if addr == SCB + 0x0C:
+            return 0xFA050000 | (nvic.prigroup << 8)
+        if addr == SCB + 0x10:
+            return SCR_SLEEPONEXIT if nvic.sleep_on_exit else 0
+        if SCB + 0x18 <= addr < SCB + 0x24:
+            e = addr - (SCB + 0x18) + 4
+            return int.from_bytes(nvic.prio[e:e + 4], "little")
+        return self.regs.get(addr, 0)
+
+    def _nvic_read(self, addr: int) -> int:
+        nvic = self.nvic
+        if addr >= 0xE000E400:
+            e = addr - 0xE000E400 + 16
+            return int.from_bytes(nvic.prio[e:e + 4].ljust(4, b"\0"), "little")
+        group, word = (addr - 0xE000E100) // 0x80, (addr & 0x7F) // 4
+        if word > 2:
+            return 0
+        bits = range(32 * word, min(32 * word + 32, NUM_IRQS))
+        if group in (0, 1):
+            have = nvic.enabled
+            return sum(1 << (i & 31) for i in bits if i in have)
+        if group in (2, 3):
+            return sum(1 << (i & 31) for i in bits if i + 16 in nvic.pending)
+        if group == 4:
+            return sum(1 << (i & 31) for i in bits if i + 16 in self.core.active)
+        return 0
+
+    def write(self, addr: int, value: int) -> None:
+        nvic = self.nvic
+        if SYSTICK <= addr < SYSTICK + 0x10:
+            self.systick.write(addr - SYSTICK, value)
+        elif 0xE000E100 <= addr < 0xE000E400:
+            group, word = (addr - 0xE000E100) // 0x80, (addr & 0x7F) // 4
+            irqs = [32 * word + i for i in range(32) if value >> i & 1 and 32 * word + i < NUM_IRQS]
+            for i in irqs:
+                if group == 0:
+                    nvic.enabled.add(i)
+                elif group == 1:
+                    nvic.enabled.discard(i)
+                elif group == 2:
+                    nvic.pending.add(i + 16)
+                elif group == 3:
+                    nvic.pending.discard(i + 16)
+        elif 0xE000E400 <= addr < 0xE000E400 + NUM_IRQS:
+            e = addr - 0xE000E400 + 16
+            nvic.prio[e:e + 4] = (value & 0xF0F0F0F0).to_bytes(4, "little")[:len(nvic.prio) - e]
+        elif addr == STIR:
+            if (value & 0x1FF) < NUM_IRQS:
+                nvic.pending.add((value & 0x1FF) + 16)
+        elif addr == DWT:
+            on = bool(value & 1)
+            if on != self.cyccnt_on:
+                self._cyc_base, self._cyc_anchor = self.cyccnt(), self.core.now()
+                self.cyccnt_on = on
+        elif addr == DWT + 4:
+            self._cyc_base, self._cyc_anchor = value, self.core.now()
+        elif addr == SCB + 0x04:
+            self._icsr_write(value)
+        elif addr == SCB + 0x08:
+            self.core.vtor = value & 0xFFFFFE00
+        elif addr == SCB + 0x0C:
+            if value >> 16 == 0x05FA:
+                nvic.prigroup = (value >> 8) & 7
+                if value & 4:
+                    self.on_reset()
+        elif addr == SCB + 0x10:
+            nvic.sleep_on_exit = bool(value & SCR_SLEEPONEXIT)
+        elif SCB + 0x18 <= addr < SCB + 0x24:
+            e = addr - (SCB + 0x18) + 4
+            nvic.prio[e:e + 4] = (value & 0xF0F0F0F0).to_bytes(4, "little")
+        elif addr == CPACR:
+            self.regs[addr] = value
+            self.core.fpu_on = (value >> 20) & 0xF == 0xF
+        else:
+            self.regs[addr] = value
+
+    def _icsr_write(self, value: int) -> None:
+        pending = self.nvic.pending
+        if value & (1 << 28):
+            pending.add(EXC_PENDSV)
+        if value & (1 << 27):
+            pending.discard(EXC_PENDSV)
+        if value & (1 << 26):
+            pending.add(EXC_SYSTICK)
+        if value & (1 << 25):
+            pending.discard(EXC_SYSTICK)
+
+
+def irq_of(name: str) -> int:
+    """The F411's IRQ position of ``name`` (RM0383 table 37), for the peripherals."""
+    return IRQS[name]
+
+
+IRQS: dict[str, Any] = {
+    "EXTI0": 6, "EXTI1": 7, "EXTI2": 8, "EXTI3": 9, "EXTI4": 10, "EXTI9_5": 23,
+    "EXTI15_10": 40, "TIM2": 28, "TIM3": 29, "TIM4": 30, "TIM5": 50,
+    "USART1": 37, "USART2": 38, "USART6": 71,
+    "CAN1_TX": 19, "CAN1_RX0": 20, "CAN1_RX1": 21, "CAN1_SCE": 22,
+    "DMA1": (11, 12, 13, 14, 15, 16, 17, 47), "DMA2": (56, 57, 58, 59, 60, 68, 69, 70),
+}

@@ -1,0 +1,157 @@
+"""USART1/2/6 at register level (RM0383 19.6), bytes timed at the baud the firmware set.
+
+The baud comes from BRR and the APB clock (OVER8 honoured); a frame is start + 8 or 9
+data bits + the stop bits of CR2. A byte written to DR moves into the shift register at
+once when it is free (TXE stays set), else waits in DR (TXE clear) until the shift
+register takes it; TC sets when the last stop bit has gone. A byte received sets RXNE,
+or ORE when RXNE was still set (the byte is lost). Interrupts (TXEIE, TCIE, RXNEIE, EIE)
+and DMA requests (CR3 DMAT/DMAR, served by hil/mcu/dma.py) as on the chip. HDSEL (single
+wire): the receiver hears the transmitter's own bytes. Not modelled: parity errors,
+framing/noise errors, IDLE and LIN break detection, synchronous mode, smartcard, IrDA.
+
+Where the bytes go is the board's (``UsartWiring``): USART2 to the servo line through the
+direction buffer, USART1 and USART6 to the console.
+"""
+from __future__ import annotations
+
+from typing import Callable, Protocol
+
+from hil.mcu.core import FS_PER_S, Core
+from hil.mcu.events import Events
+
+SR, DR, BRR, CR1, CR2, CR3, GTPR = range(0, 0x1C, 4)
+PE, FE, NF, ORE, IDLE, RXNE, TC, TXE = (1 << i for i in range(8))
+UE, M_9BIT, OVER8 = 1 << 13, 1 << 12, 1 << 15
+TE, RE, RXNEIE, TCIE, TXEIE = 1 << 3, 1 << 2, 1 << 5, 1 << 6, 1 << 7
+EIE, HDSEL, DMAR, DMAT = 1 << 0, 1 << 3, 1 << 6, 1 << 7
+STOP_HALF_BITS = {0: 2, 1: 1, 2: 4, 3: 3}
+
+
+class UsartWiring(Protocol):
+    def sent(self, usart: "Usart", byte: int, start_fs: int, end_fs: int) -> None:
+        """A byte started leaving the shift register at ``start_fs``."""
+
+    def idle(self, usart: "Usart", at_fs: int) -> None:
+        """The transmitter went idle (TC) at ``at_fs``."""
+
+
+class Usart:
+    pollable = frozenset({SR, CR1, CR2, CR3, BRR})
+
+    def __init__(self, name: str, irq: int, core: Core, events: Events,
+                 pclk_hz: Callable[[], int], line: Callable[[int, bool], None],
+                 wiring: UsartWiring) -> None:
+        self.name, self.irq, self.core = name, irq, core
+        self.pclk_hz, self.line, self.wiring = pclk_hz, line, wiring
+        self.regs = {SR: TXE | TC, BRR: 0, CR1: 0, CR2: 0, CR3: 0, GTPR: 0}
+        self.tdr: int | None = None
+        self.rdr = 0
+        self._echo: int | None = None        # HDSEL: the byte on the wire comes back
+        self.shift_end = events.timer(self._shifted)
+        self.dma_tx: Callable[[], int | None] | None = None     # set by the DMA controller
+        self.dma_rx: Callable[[int], bool] | None = None
+
+    # --- timing -------------------------------------------------------------------
+    def divider(self) -> int:
+        brr = self.regs[BRR] & 0xFFFF
+        if self.regs[CR1] & OVER8:
+            return (brr >> 4) * 8 + (brr & 7)
+        return brr
+
+    def baud(self) -> float:
+        div = self.divider()
+        return self.pclk_hz() / div if div else 0.0
+
+    def frame_fs(self) -> int:
+        cr1 = self.regs[CR1]
+        half_bits = 2 + 2 * (9 if cr1 & M_9BIT else 8) + STOP_HALF_BITS[(self.regs[CR2] >> 12) & 3]
+        div = max(1, self.divider())
+        return half_bits * FS_PER_S * div // (2 * self.pclk_hz())
+
+    # --- transmit -----------------------------------------------------------------
+    def _transmit(self, byte: int, at_fs: int) -> None:
+        end = at_fs + self.frame_fs()
+        self.shift_end.set(end)
+        self.regs[SR] &= ~TC
+        self.wiring.sent(self, byte, at_fs, end)
+        if self.regs[CR3] & HDSEL and self.regs[CR1] & RE:
+            self._echo = byte
+
+    def _shifted(self, at_fs: int) -> None:
+        echo = self._echo
+        if echo is not None:
+            self._echo = None
+            self.received(echo)
+        if self.tdr is not None:
+            byte, self.tdr = self.tdr, None
+            self.regs[SR] |= TXE
+            self._transmit(byte, at_fs)
+            self.dma_request()
+        else:
+            self.regs[SR] |= TC
+            self.wiring.idle(self, at_fs)
+        self._irq()
+
+    def _write_dr(self, byte: int) -> None:
+        cr1 = self.regs[CR1]
+        if not (cr1 & UE and cr1 & TE):
+            return
+        if self.shift_end.at_fs is None:
+            self._transmit(byte, self.core.now_fs())
+        else:
+            self.tdr = byte
+            self.regs[SR] &= ~TXE
+
+    def dma_request(self) -> None:
+        """TXE with DMAT: the DMA fills DR (twice when the shift register is free too)."""
+        while self.regs[CR3] & DMAT and self.dma_tx is not None and self.regs[SR] & TXE \
+                and self.regs[CR1] & UE and self.regs[CR1] & TE:
+            byte = self.dma_tx()
+            if byte is None:
+                return
+            self._write_dr(byte)
+
+    # --- receive ------------------------------------------------------------------
+    def received(self, byte: int) -> None:
+        """A byte arrived at the RX pin now."""
+        cr1 = self.regs[CR1]
+        if not (cr1 & UE and cr1 & RE):
+            return
+        if self.regs[SR] & RXNE:
+            self.regs[SR] |= ORE
+        else:
+            self.rdr = byte
+            self.regs[SR] |= RXNE
+            if self.regs[CR3] & DMAR and self.dma_rx is not None and self.dma_rx(byte):
+                self.regs[SR] &= ~RXNE
+        self._irq()
+
+    def _irq(self) -> None:
+        sr, cr1 = self.regs[SR], self.regs[CR1]
+        level = bool(cr1 & UE) and bool(
+            (cr1 & TXEIE and sr & TXE) or (cr1 & TCIE and sr & TC)
+            or (cr1 & RXNEIE and sr & (RXNE | ORE)) or (self.regs[CR3] & EIE and sr & ORE))
+        self.line(self.irq, level)
+
+    # --- registers ----------------------------------------------------------------
+    def read(self, off: int) -> int:
+        if off == DR:
+            self.regs[SR] &= ~(RXNE | ORE)
+            self._irq()
+            return self.rdr
+        return self.regs.get(off, 0)
+
+    def write(self, off: int, value: int) -> None:
+        if off == DR:
+            self._write_dr(value & 0x1FF)
+        elif off == SR:
+            self.regs[SR] &= value | ~(TC | RXNE | 0x300)
+        elif off in self.regs:
+            self.regs[off] = value & 0xFFFF
+            if off == CR1 and not value & UE:
+                self.regs[SR] = TXE | TC
+                self.tdr = None
+                self.shift_end.clear()
+            if off == CR3:
+                self.dma_request()
+        self._irq()

@@ -1,0 +1,61 @@
+"""The emulated STM32F411 (hil/mcu/, issue 40) on bare-metal ELFs of its own
+(tests/mcu/*.c, registers from RM0383): clocks, SysTick, DWT, the servo line through the
+PA1 buffer at the baud the firmware sets, the console, timers, EXTI, bxCAN."""
+import pytest
+
+from mcu_elf import build, console, run_elf
+from protocol.errors import UserError
+
+
+def test_bare_metal_pings_18_servos_at_100_mhz_the_same_twice(tmp_path):
+    elf = build(tmp_path, "ping.c", "BAUD_BRR=50", "RAISE_A1=1")
+    (a, _), (b, _) = run_elf(elf, 1.2), run_elf(elf, 1.2)
+    words = console(a)[-1].split()
+    assert words[:2] == ["ping", "18"]
+    # DWT: 100 M cycles a virtual second (the WFI loop waits 1000 SysTicks of 1 ms)
+    assert 99_900_000 <= int(words[2]) <= 100_000_000
+    assert a.serial_digest == b.serial_digest and a.firmware == b.firmware
+    assert a.firmware["mcu"]["hclk_hz"] == 100_000_000
+    assert not a.faults
+
+
+def test_without_the_direction_pin_the_servos_never_hear_it(tmp_path):
+    r, _ = run_elf(build(tmp_path, "ping.c", "BAUD_BRR=50", "RAISE_A1=0"), 1.2)
+    assert console(r)[-1].split()[:2] == ["ping", "0"]
+    assert r.faults["tx_while_receiving"] == 18
+
+
+def test_a_wrong_baud_gets_no_replies_and_the_run_says_so(tmp_path):
+    r, _ = run_elf(build(tmp_path, "ping.c", "BAUD_BRR=100", "RAISE_A1=1"), 1.2)   # 500 kbps
+    assert console(r)[-1].split()[:2] == ["ping", "0"]
+    assert r.faults["uart_baud"] == 1
+
+
+def test_timer_switch_and_can_interrupts(tmp_path):
+    pressed_us = (50_000, 80_000, 120_000)        # leg switch 0 pressed three times
+
+    def switches(t_us):
+        return int(any(t <= t_us < t + 10_000 for t in pressed_us))
+
+    r, sim = run_elf(build(tmp_path, "irq.c"), 0.25, switches=switches,
+                     can_in=[(0x120, b"\x01\x02\x03\x04")])
+    tim, falls, can_rx, last_id, pb0 = map(int, console(r)[-1].split())
+    assert 199 <= tim <= 200            # TIM2 at 1 kHz for the 200 SysTicks
+    assert falls == 3 and pb0 == 1      # EXTI0 on each press; released reads 1 (pull-up)
+    assert can_rx == 1 and last_id == 0x120
+    assert r.can_frames == {"0x321": 1, "0x121": 1}
+
+
+def test_semihosting_console_and_exit(tmp_path):
+    with pytest.raises(UserError, match=r"exited with code 3 at t=0\.0"):
+        run_elf(build(tmp_path, "faults.c", "FAULT=4"), 0.1)
+    r, _ = run_elf(build(tmp_path, "faults.c", "FAULT=5"), 0.05)
+    assert console(r) == ["semihosting says hi", "unmodelled reads 0"]
+
+
+def test_a_poll_loop_that_counts_in_ram_is_not_skipped(tmp_path):
+    """The skipper watches a loop's stores: a counter in RAM makes each pass differ."""
+    r, _ = run_elf(build(tmp_path, "faults.c", "FAULT=6"), 0.05)
+    spins = int(console(r)[-1].split()[1])
+    # two waits of one byte at 115200 baud (86.8 us) at 16 MHz, a few instructions a pass
+    assert spins > 100
