@@ -18,12 +18,12 @@ def run() -> list[Row]:
     for python in ("micropython", "cpython"):
         r = Run(_scenario(), seed=1, runtime=python, duration_s=DURATION_S).run()
         results[python] = r
-        rows.append(Row(f"firmware compute/cycle ({python}, mean)", r.firmware["compute_us_mean"],
+        rows.append(Row(f"firmware compute/cycle ({python}, mean)", r.firmware.compute_us_mean,
                         "us", "<= 200 us" if python == "micropython" else "",
-                        f"max {r.firmware['compute_us_max']} us over {r.cycles} cycles, 50 Hz tripod"))
+                        f"max {r.firmware.compute_us_max} us over {r.cycles} cycles, 50 Hz tripod"))
     mp = results["micropython"]
-    rows.append(Row("firmware compute micropython/cpython", mp.firmware["compute_us_mean"]
-                    / results["cpython"].firmware["compute_us_mean"], "ratio", "",
+    rows.append(Row("firmware compute micropython/cpython", mp.firmware.compute_us_mean
+                    / results["cpython"].firmware.compute_us_mean, "ratio", "",
                     "same loop, same process run, host x86"))
     busy = mp.bus_busy_us / mp.loop_cycles
     wire = mp.bus_wire_us / mp.loop_cycles

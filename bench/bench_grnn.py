@@ -21,7 +21,7 @@ BUILD_RUNS = (("tripod", 11, 1), ("wave", 18, 2))
 
 
 def _training_and_inference(tmp: Path) -> list[Row]:
-    from host_tools.grnn import data, model, train
+    from host_tools.papers.tactile_hexapod.grnn import data, model, train
 
     runs, rows = data.synthetic(TRAIN_WALKS, 0, 1)
     path = data.write(tmp / "syn", runs, rows, data.feature_meta())
@@ -51,8 +51,8 @@ def _training_and_inference(tmp: Path) -> list[Row]:
 
 
 def _dataset_build(tmp: Path) -> Row:
-    from host_tools.experiments import tactile_hexapod as th
-    from host_tools.grnn.dataset import build_one
+    from host_tools.papers.tactile_hexapod import experiment as th
+    from host_tools.papers.tactile_hexapod.grnn.dataset import build_one
     from protocol import hexapod
 
     times = []

@@ -77,7 +77,7 @@ def breakdown(record: bool = True, in_process: bool = False) -> dict[str, float]
 
     ``in_process``: the firmware runs in this process, so "waiting" is its compute itself
     (the wall time outside the link's exchange), with no link latency."""
-    sc = scenario_mod.load(SCENARIO)
+    sc = scenario_mod.load_scenario(SCENARIO)
     sw = _Stopwatch()
     world = make_world(sc, 3)
     world.advance_to = sw.wrap("world", world.advance_to)
@@ -118,7 +118,7 @@ def breakdown(record: bool = True, in_process: bool = False) -> dict[str, float]
     parts["total"] = total
     cycles = max(1, r.cycles)
     out = {k: v / cycles * 1e6 for k, v in parts.items()}
-    compute = out[wait] if in_process else r.firmware.get("compute_us_mean", 0.0)
+    compute = out[wait] if in_process else r.firmware.compute_us_mean or 0.0
     if not in_process:
         out["firmware compute (overlaps)"] = compute
     out[OVERHEAD] = 100.0 * (out["total"] - out["world step"] - compute) / out["total"]
@@ -133,9 +133,9 @@ def _obstacle_field(n: int) -> list[dict[str, float]]:
 
 
 def _full_stack_with_obstacles(n: int) -> float:
-    sc = scenario_mod.load(ROOT / "scenarios" / "flat-tripod.toml")
+    sc = scenario_mod.load_scenario(ROOT / "scenarios" / "flat-tripod.toml")
     if n:
-        sc["world"].update(terrain="obstacles", obstacles=_obstacle_field(n))
+        sc = sc.overlay({"world": {"terrain": "obstacles", "obstacles": _obstacle_field(n)}})
     r = Run(sc, seed=1, duration_s=GROWTH_S).run()
     return r.sim_time_s / r.wall_time_s
 

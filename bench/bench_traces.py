@@ -76,7 +76,7 @@ def _overhead(tmp: Path) -> list[Row]:
     """The overhead of each pair of neighbouring runs, median over the pairs: the machine
     is shared and its load drifts, so a pair sees the same conditions and the median
     ignores the disturbed ones (best-of each side compares two outliers)."""
-    from host_tools.run import run
+    from host_tools.run_summary import run
 
     out = tmp / "run.mcap"
     run(SCENARIO, 1.0)  # warm-up: imports, MuJoCo model build, micropython start
@@ -144,7 +144,7 @@ def _rates(tmp: Path) -> list[Row]:
 
 def _replay(tmp: Path) -> list[Row]:
     from host_tools.replay import replay_firmware
-    from host_tools.run import run
+    from host_tools.run_summary import run
 
     out = tmp / "replay.mcap"
     run(SCENARIO, RUN_S, out=str(out))
@@ -239,7 +239,7 @@ def _write_sdk(schemas: list[Any], channels: list[Any],
 def _writers(tmp: Path) -> list[Row]:
     """The same messages of a real run through our writer and the stock one, alternated,
     median of ``WRITER_REPEATS`` each."""
-    from host_tools.run import run
+    from host_tools.run_summary import run
 
     out = tmp / "writers.mcap"
     run(SCENARIO, RUN_S, out=str(out))
@@ -268,7 +268,7 @@ def _writers(tmp: Path) -> list[Row]:
 def _cat(tmp: Path) -> list[Row]:
     """``hexhil trace cat`` (in this process, output discarded) of a 30 s run's trace."""
     from host_tools.cli import main
-    from host_tools.run import run
+    from host_tools.run_summary import run
 
     out = tmp / "cat.mcap"
     run(SCENARIO, CAT_S, out=str(out))

@@ -12,8 +12,8 @@ from pathlib import Path
 
 from bench import Row
 from hil.link.firmware_process import IN_PROCESS
-from hil.world.fidelity import OBSTACLE_BODY
-from hil.world.hexapod import HexapodWorld
+from hil.scenario.world_section import OBSTACLE_BODY
+from hil.world.hexapod_world import HexapodWorld
 from hil import scenario as scenario_mod
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -25,7 +25,7 @@ def world_alone(path: Path = ROOT / "scenarios" / "obstacles-high-large.toml",
                 seed: int = 1) -> float:
     """Physics + AX-12 drives over a scenario's terrain, joints commanded at 50 Hz through
     the seam."""
-    sc = scenario_mod.load(path)
+    sc = scenario_mod.load_scenario(path)
     world = HexapodWorld(sc, seed=seed)
     acts = world.actuators()
     q0 = [a.state()[0] for a in acts]
@@ -44,7 +44,7 @@ def _full_stack() -> tuple[float, float, float, float]:
     alternated, best of ``REPEATS`` each (the machine is shared); (RTF recorded, RTF plain,
     RTF real model, sim s). The host and the firmware process are
     pinned to one core, as the issue's target is stated: nothing overlaps."""
-    from host_tools.experiments import tactile_hexapod as th
+    from host_tools.papers.tactile_hexapod import experiment as th
 
     spec = th.RunSpec("bench", "tripod", 1.0, True, 1, "low", "small", periods=15, model="ideal",
                       python="micropython")
@@ -72,8 +72,8 @@ def _full_stack() -> tuple[float, float, float, float]:
 def _sweep(python: str) -> tuple[float, int]:
     """The whole ``hexhil experiment tactile-hexapod`` sweep (its defaults: 3 seeds, real
     model, one worker process per core) with the firmware under ``python``; (wall s, runs)."""
-    from host_tools.experiments import tactile_hexapod as th
-    from host_tools.experiments.executor import Executor
+    from host_tools.papers.tactile_hexapod import experiment as th
+    from host_tools.executor import Executor
 
     with tempfile.TemporaryDirectory() as tmp:
         res = th.main(Path(tmp), th.SweepOptions(seeds=3, python=python),

@@ -59,7 +59,7 @@ def main(out: Path) -> None:
     (t0, p0), (t1, p1) = poses[0], poses[-1]
     travel_deg = math.degrees(math.atan2(p1["y"] - p0["y"], p1["x"] - p0["x"]))
     print(f"scenario {recorded.name} (seed {seed}) under {result.runtime}: {result.sim_time_s:.1f} s, "
-          f"{result.cycles} cycles, state {result.firmware.get('state')}")
+          f"{result.cycles} cycles, state {result.firmware.state}")
     print(f"body height: {len(heights)} samples, mean {sum(heights) / len(heights) * 1e3:.1f} "
           f"mm, min {min(heights) * 1e3:.1f} mm, max {max(heights) * 1e3:.1f} mm")
     print(f"trace: {len(poses)} body poses, {heading_frames} heading_command frame(s)")

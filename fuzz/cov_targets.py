@@ -261,8 +261,8 @@ def scenario_one_input(data: bytes) -> None:
     path = scratch() / "fuzz.toml"
     path.write_bytes(data)
     try:
-        sc = scenario.load(path)
-        Faults.from_scenario(sc["faults"], sc["scenario"].get("seed", 0), str(path))
+        sc = scenario.load_scenario(path)
+        Faults(sc.faults, sc.scenario.seed)
     except UserError as exc:
         if "\n" in str(exc):
             raise Broken(f"UserError over several lines: {exc!r}") from None

@@ -93,8 +93,8 @@ def run(seed: int, budget_s: float | None, limit: int | None) -> list[Tally]:
             text = document(rng) if rng.random() < 0.6 else mutated(rng, texts)
             path.write_text(text, encoding="utf-8")
             try:
-                sc = scenario.load(path)
-                Faults.from_scenario(sc["faults"], sc["scenario"].get("seed", 0), str(path))
+                sc = scenario.load_scenario(path)
+                Faults(sc.faults, sc.scenario.seed)
                 tally.notes["accepted"] = tally.notes.get("accepted", 0) + 1
             except UserError as exc:
                 if "\n" in str(exc):

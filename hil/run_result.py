@@ -1,35 +1,145 @@
-"""What a lockstep run produced; ``host_tools/run.py`` turns it into the ``--json`` summary."""
+"""What a lockstep run produced. During the run the link's host side and the drivers add into
+a ``RunTally`` (hil/link/server.py, hil/run/lockstep.py); when it ends, ``RunTally.result()``
+freezes it into the public ``RunResult`` (host_tools/run_summary.py turns that into the ``--json``
+summary). Below hil/link/ and hil/run/, so no arrow runs back up."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass, field, fields
+from types import MappingProxyType
+from typing import Any, Mapping
+
+from protocol import link_schema as ls
 
 
-@dataclass
+def _frozen(d: Mapping[str, Any]) -> Mapping[str, Any]:
+    return MappingProxyType(dict(d))
+
+
+@dataclass(frozen=True)
+class BodyDisplacement:
+    """From the start pose to the end pose, in the start heading's frame."""
+
+    dx_m: float = 0.0        # forward
+    dy_m: float = 0.0        # left
+    dyaw_deg: float = 0.0    # turn, counter-clockwise
+
+    @classmethod
+    def between(cls, p0: Any, p1: Any) -> "BodyDisplacement":
+        """From pose ``p0`` to ``p1`` (hil/seams.py ``Pose``)."""
+        c, s = math.cos(p0.yaw_rad), math.sin(p0.yaw_rad)
+        dx, dy = p1.x_m - p0.x_m, p1.y_m - p0.y_m
+        dyaw = math.degrees(math.atan2(math.sin(p1.yaw_rad - p0.yaw_rad),
+                                       math.cos(p1.yaw_rad - p0.yaw_rad)))
+        return cls(c * dx + s * dy, -s * dx + c * dy, dyaw)
+
+    def as_dict(self) -> dict[str, float]:
+        return {"dx_m": self.dx_m, "dy_m": self.dy_m, "dyaw_deg": self.dyaw_deg}
+
+
+@dataclass(frozen=True)
+class FirmwareStats:
+    """The firmware's last stats event (protocol/link_schema.py STATS; defaults: not sent).
+    ``other`` keeps the keys that schema does not name (a user's own firmware's)."""
+
+    state: str | None = None
+    stop_reason: str | None = None
+    gait: str | None = None
+    period_s: float | None = None
+    cycles: int = 0
+    overruns: int = 0
+    found: int | None = None
+    boot_s: float = 0.0
+    echo: bool | None = None
+    transactions: int = 0
+    sync_writes: int = 0
+    timeouts: int = 0
+    corrupt_replies: int = 0
+    error_statuses: int = 0
+    echo_mismatch: int = 0
+    servos: Mapping[str, Any] = field(default_factory=lambda: _frozen({}))
+    ik_clamped: int = 0
+    switch_edges: int = 0
+    trajectory_changes: int = 0
+    steps: int = 0
+    commanded_distance_m: float = 0.0
+    commands: int = 0
+    compute_us_mean: float | None = None
+    compute_us_max: int | None = None
+    other: Mapping[str, Any] = field(default_factory=lambda: _frozen({}))
+
+    @classmethod
+    def from_event(cls, obj: Mapping[str, Any]) -> "FirmwareStats":
+        """From the event's JSON object (its keys as the firmware sent them)."""
+        known = {f.name for f in fields(cls)} - {"other"}
+        kw = {k: v for k, v in obj.items() if k in known}
+        if ls.SERVO_ERRORS in kw:
+            kw[ls.SERVO_ERRORS] = _frozen(kw[ls.SERVO_ERRORS])
+        return cls(**kw, other=_frozen({k: v for k, v in obj.items() if k not in known}))
+
+
+@dataclass(frozen=True)
+class BeamsOutcome:
+    """How seed 000's traversal of the two beams ended (hil/world/beams_node.py)."""
+
+    traversed: bool
+    flipped: bool
+    stuck: bool
+    energy_J: float
+    k0: float
+    t_contact_s: float | None
+    t_end_s: float
+    x_end_m: float
+    max_roll_deg: float
+    max_pitch_deg: float
+
+    def as_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+@dataclass(frozen=True)
+class HexapodOutcome:
+    """A firmware-driven world's state at the run's end: the body's pose in the world
+    frame and the feet that carry load (None where the world does not say)."""
+
+    x_m: float
+    y_m: float
+    z_m: float
+    yaw_deg: float
+    feet_on_ground: int | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+@dataclass(frozen=True)
 class RunResult:
     runtime: str
     sim_time_s: float = 0.0
     wall_time_s: float = 0.0
     cycles: int = 0
     overruns: int = 0
-    exceptions: list[str] = field(default_factory=list)
+    exceptions: tuple[str, ...] = ()
     exit_code: int | None = None
     stderr_tail: str = ""
     serial_digest: str = ""
-    faults: dict[str, int] = field(default_factory=dict)
+    faults: Mapping[str, int] = field(default_factory=lambda: _frozen({}))
     stop_reason: str | None = None
-    firmware: dict[str, Any] = field(default_factory=dict)
-    tactile_events: list[dict[str, Any]] = field(default_factory=list)
+    firmware: FirmwareStats = FirmwareStats()
+    tactile_events: tuple[Mapping[str, Any], ...] = ()
     switch_edges: int = 0
-    can_frames: dict[str, int] = field(default_factory=dict)
+    can_frames: Mapping[str, int] = field(default_factory=lambda: _frozen({}))
     bus_busy_us: int = 0        # bus time of the loop's transactions (after the first cycle)
     bus_wire_us: int = 0        # wire minimum of the same bytes
     loop_cycles: int = 0        # cycles counted for the two figures above
     round_trips: int = 0
-    body: dict[str, float] = field(default_factory=lambda: {"dx_m": 0.0, "dy_m": 0.0,
-                                                            "dyaw_deg": 0.0})
-    world: dict[str, Any] = field(default_factory=dict)   # a self-stepping world's outcome
+    body: BodyDisplacement = BodyDisplacement()
+    # A self-stepping world's outcome (beams), or a firmware-driven one's state at the end
+    # (the hexapod); None without a world.
+    world: BeamsOutcome | HexapodOutcome | None = None
+    # What the run's host nodes report at its end (seed 000's traversal: strategy, estimate,
+    # plan; the papers' packages fill it), as they report it.
+    host_nodes: Mapping[str, Any] = field(default_factory=lambda: _frozen({}))
     no_servo_answered: str | None = None   # why, when the firmware wrote and none answered
     interrupted: bool = False   # Ctrl-C (or SIGTERM) ended it early
 
@@ -38,25 +148,59 @@ class RunResult:
         crashed = self.exit_code not in (0, None) and not self.exceptions
         return len(self.exceptions) + (1 if crashed else 0)
 
+
+@dataclass
+class RunTally:
+    """A run's figures while it runs; ``result()`` freezes them."""
+
+    runtime: str
+    sim_time_s: float = 0.0
+    wall_time_s: float = 0.0
+    exceptions: list[str] = field(default_factory=list)
+    exit_code: int | None = None
+    stderr_tail: str = ""
+    serial_digest: str = ""
+    faults: dict[str, int] = field(default_factory=dict)
+    stop_reason: str | None = None
+    firmware: dict[str, Any] = field(default_factory=dict)   # the last stats event as sent
+    tactile_events: list[dict[str, Any]] = field(default_factory=list)
+    switch_edges: int = 0
+    can_frames: dict[str, int] = field(default_factory=dict)
+    bus_busy_us: int = 0
+    bus_wire_us: int = 0
+    loop_cycles: int = 0
+    round_trips: int = 0
+    body: BodyDisplacement = BodyDisplacement()
+    world: BeamsOutcome | HexapodOutcome | None = None
+    no_servo_answered: str | None = None
+    interrupted: bool = False
+
     def count_can(self, arb_id: int) -> None:
         key = "0x%03X" % arb_id
         self.can_frames[key] = self.can_frames.get(key, 0) + 1
 
+    def count_fault(self, name: str) -> None:
+        self.faults[name] = self.faults.get(name, 0) + 1
+
+    def result(self) -> RunResult:
+        """The frozen result; cycles, overruns and the stop reason from the firmware's stats."""
+        stats = FirmwareStats.from_event(self.firmware)
+        return RunResult(
+            self.runtime, self.sim_time_s, self.wall_time_s, int(stats.cycles),
+            int(stats.overruns), tuple(self.exceptions), self.exit_code, self.stderr_tail,
+            self.serial_digest, _frozen(self.faults),
+            self.stop_reason if self.stop_reason is not None else stats.stop_reason, stats,
+            tuple(_frozen(e) for e in self.tactile_events), self.switch_edges,
+            _frozen(self.can_frames), self.bus_busy_us, self.bus_wire_us, self.loop_cycles,
+            self.round_trips, self.body, self.world,
+            no_servo_answered=self.no_servo_answered, interrupted=self.interrupted)
+
 
 class RunInterrupted(KeyboardInterrupt):
     """Ctrl-C (or SIGTERM) during a run: ``result`` is the run up to then (its trace is
-    closed and kept); ``summary``, set by host_tools/run.py, its ``--json`` object."""
+    closed and kept); ``summary``, set by host_tools/run_summary.py, its ``--json`` object."""
 
     def __init__(self, result: RunResult) -> None:
         super().__init__()
         self.result = result
         self.summary: dict[str, Any] = {}
-
-
-def body_displacement(p0: Any, p1: Any) -> dict[str, float]:
-    """From pose ``p0`` to ``p1`` in ``p0``'s heading frame: forward, left (m), turn (deg)."""
-    c, s = math.cos(p0.yaw_rad), math.sin(p0.yaw_rad)
-    dx, dy = p1.x_m - p0.x_m, p1.y_m - p0.y_m
-    dyaw = math.degrees(math.atan2(math.sin(p1.yaw_rad - p0.yaw_rad),
-                                   math.cos(p1.yaw_rad - p0.yaw_rad)))
-    return {"dx_m": c * dx + s * dy, "dy_m": -s * dx + c * dy, "dyaw_deg": dyaw}

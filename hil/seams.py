@@ -1,11 +1,16 @@
-"""The run's seams, declared: what a world, a host node and a recorder must offer the run core
-(hil/run/lockstep.py). Anything with these methods plugs in; nothing needs to inherit from them."""
+"""The run's seams, declared: what a world, a servo's actuator, a host node, a CAN gateway, a
+recorder and the link's host side must offer (hil/run/core.py, hil/run/lockstep.py,
+hil/link/). Anything with these methods plugs in; nothing needs to inherit from them."""
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence, runtime_checkable
+from typing import (TYPE_CHECKING, Any, Callable, Iterator, Mapping, Protocol, Sequence,
+                    runtime_checkable)
 
 if TYPE_CHECKING:
-    from hil.canbus.bus import CanBus
+    import can
+
+    from hil.clock import VirtualClock
+    from hil.run_result import BeamsOutcome, RunTally
 
 
 @runtime_checkable
@@ -20,6 +25,95 @@ class HostNode(Protocol):
     def tick(self, t_us: int) -> None: ...
 
 
+class Actuator(Protocol):
+    """What a servo drives: kinematic in hil/servobus, a physics joint in the hexapod world."""
+
+    def command(self, goal_rad: float, speed_limit_rad_s: float, torque_limit_frac: float,
+                enabled: bool, compliance: tuple[int, int, int, int, int]) -> None:
+        """New set-point; compliance = (cw_margin, ccw_margin, cw_slope, ccw_slope, punch), raw.
+
+        ``goal_rad`` is +inf (CCW) or -inf (CW) in wheel mode: turn endlessly at the speed.
+        """
+
+    def state(self) -> tuple[float, float, float]:
+        """(position_rad, velocity_rad_s, load_frac); CCW positive, load in [-1, 1]."""
+
+    def advance_to(self, t_us: int) -> None:
+        """Move to virtual time t_us (kinematic model only; physics steps itself)."""
+
+
+class CanPort(Protocol):
+    """A node's port on the run's CAN bus (hil/canbus/bus.py ``Endpoint``)."""
+
+    def send(self, arb_id: int, data: bytes) -> None: ...
+    def frames(self, limit: int = -1) -> Iterator["can.Message"]: ...
+
+
+class CanHub(Protocol):
+    """The run's CAN bus as a node attaches to it (hil/canbus/bus.py ``CanBus``)."""
+
+    def endpoint(self, direction: str) -> CanPort: ...
+
+
+class CanGateway(Protocol):
+    """A way in and out of the run's CAN bus for programs outside it (hil/canbus/socketcand.py
+    ``CanServer``): it hears every frame, and ``poll`` hands over what came in since."""
+
+    def on_message_received(self, msg: "can.Message") -> None: ...
+    def poll(self) -> list[tuple[int, bytes, bool]]: ...      # (arbitration id, data, extended)
+
+
+class LineDevice(Protocol):
+    """A device on a servo line (an emulated servo, the switch node) as the run's checks
+    see it: its ID and the rate its UART listens at."""
+
+    @property
+    def id(self) -> int: ...
+    @property
+    def baud_bps(self) -> int: ...
+
+
+class ServoLine(Protocol):
+    """A simulated servo line (hil/servobus/line.py ``Bus``, ``Bus2``) as its master's side
+    sees it: bytes written and read in virtual time, and the timing hooks a timing-margin
+    run turns."""
+
+    return_delay_override_us: int | None
+    rx_latency_us: int
+    baud: int
+    servos: Sequence[LineDevice]
+    stats: Mapping[str, int]       # tx_bytes, rx_bytes, packets, replies, ...
+    missing_ids: set[int]          # IDs packets went to that no device has
+
+    def set_master_baud(self, baud: int) -> None: ...
+    def master_write(self, data: bytes) -> None: ...
+    def master_read(self, n: int, timeout_us: int) -> bytes: ...
+    def master_discard(self) -> int: ...
+    def next_bytes(self) -> tuple[int | None, int]: ...
+    def idle_until(self, t_us: int) -> None: ...
+    def wire_us(self, nbytes: int) -> int: ...
+
+
+class LinkHost(Protocol):
+    """The host side of one firmware link (hil/link/server.py ``LinkServer``), as the served
+    firmware and the board line use it: the bus's clock, the run's faults and events, the
+    board's sleeps, and ``serve`` for a connection."""
+
+    clock: "VirtualClock"
+    bus: ServoLine
+    byte_us: float                         # one byte's wire time at the master's rate
+    console: Callable[[], None] | None     # takes what the firmware printed, as it sleeps
+
+    def serve(self, conn: Any, end_us: int, result: "RunTally") -> None: ...
+    def answer(self, conn: Any, msgs: list[tuple[int, bytes]], closed: bool, end_us: int,
+               result: "RunTally") -> bool: ...
+    def take_event(self, kind: int, text: str, result: "RunTally") -> None: ...
+    def run_fault(self, name: str, detail: str, result: "RunTally") -> None: ...
+    def idle_to(self, wake_us: int) -> None: ...
+    def on_wake(self, t_us: int) -> None: ...
+    def on_slept(self) -> None: ...
+
+
 class Pose(Protocol):
     x_m: float
     y_m: float
@@ -32,7 +126,7 @@ class FirmwareWorld(Protocol):
     """A world the firmware drives through the servo bus (the MuJoCo hexapod): one actuator
     per servo, in servo-ID order, advanced by the bus's clock."""
 
-    def actuators(self) -> Sequence[Any]: ...
+    def actuators(self) -> Sequence[Actuator]: ...
     def advance_to(self, t_us: int) -> None: ...
     def switch_levels(self) -> Sequence[bool]: ...   # the six limit switches, LF..RH
     def body_pose(self) -> Pose: ...
@@ -47,10 +141,10 @@ class SteppedWorld(Protocol):
 
     @property
     def t_us(self) -> int: ...
-    def attach(self, can: "CanBus") -> None: ...
+    def attach(self, can: CanHub) -> None: ...
     def step(self) -> None: ...
     def done(self) -> bool: ...
-    def outcome(self) -> dict[str, Any]: ...
+    def outcome(self) -> "BeamsOutcome": ...
 
 
 class TraceRecorder(Protocol):
@@ -66,6 +160,7 @@ class TraceRecorder(Protocol):
     def switch_edge(self, t_us: int, leg: int, level: bool) -> None: ...
     def telemetry(self, t_us: int, values: Mapping[str, Any]) -> None: ...
     def fault(self, t_us: int, name: str, detail: str = "") -> None: ...
+    def violation(self, t_us: int, kind: str, detail: str) -> None: ...
     def servo_state(self, t_us: int, servos: Any) -> None: ...
     def body_pose(self, t_us: int, position_m: Sequence[float],
                   quaternion_wxyz: Sequence[float]) -> None: ...

@@ -18,8 +18,8 @@ _WHERE = {
     "HostNode": "hil.seams", "FirmwareWorld": "hil.seams", "SteppedWorld": "hil.seams",
     "TraceRecorder": "hil.seams",
     # a run and its result
-    "Run": "host_tools.runner", "RunResult": "hil.run_result",
-    "scenario_of_trace": "host_tools.runner",
+    "Run": "host_tools.lockstep_run", "RunResult": "hil.run_result",
+    "scenario_of_trace": "host_tools.lockstep_run",
     # a master that is not ours, in real time (hexhil bus)
     "RealTimeRun": "host_tools.realtime_run", "Pty": "host_tools.realtime_run",
     "Tcp": "host_tools.realtime_run", "SerialPort": "host_tools.realtime_run",
@@ -58,7 +58,7 @@ if TYPE_CHECKING:   # for type checkers and editors: the same names, eagerly
     from hil.scenario import parse as parse_scenario
     from hil.seams import FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
     from host_tools.realtime_run import Pty, RealTimeRun, SerialPort, Tcp
-    from host_tools.runner import Run, scenario_of_trace
+    from host_tools.lockstep_run import Run, scenario_of_trace
     from host_tools.trace.reader import Trace, TraceMessage, open_trace
     from protocol import can_frames
     from protocol.errors import UserError

@@ -137,7 +137,8 @@ def build(sources: list[str], output: str | Path, cflags: tuple[str, ...] = (),
     what = ", ".join(map(str, srcs))
     if target is Target.HOST:
         if bare:
-            raise UserError("--bare builds for the board only (--target stm32f411)")
+            raise UserError("bare builds for the board only (target stm32f411)",
+                            params=("bare", "target"))
         _compile([*compiler(), *CFLAGS, *cflags, f"-I{INCLUDE_DIR}", *map(str, srcs),
                   *map(str, SOURCES), "-o", str(out), *LDLIBS], what)
     elif bare:

@@ -3,7 +3,7 @@ scenario's emulated servos, and with ``world`` its robot, paced to the wall cloc
 serial line: a real board behind a USB adapter (``SerialPort``), a client on a pty
 (``Pty``, e.g. the stock dynamixel-sdk) or a TCP socket (``Tcp``).
 
-It is ``Run``'s counterpart (host_tools/runner.py): the same run core (hil/run/realtime_rig.py
+It is ``Run``'s counterpart (host_tools/lockstep_run.py): the same run core (hil/run/realtime_rig.py
 on hil/run/core.py) and a trace with the same metadata, the scenario's data included, so
 ``hexhil test --trace`` and ``scenario_of_trace`` read it like a lockstep run's. The trace's
 ``command`` is ``bus`` (nothing spoke the firmware link).
@@ -16,9 +16,10 @@ from typing import Any, Callable, Sequence, Union
 from hil import scenario as scenario_mod
 from hil.servobus import serial_server
 from hil.run.realtime_rig import RealTimeRig
-from hil.scenario import DEFAULT_BAUD
+from hil.scenario import DEFAULT_BAUD, Scenario
+from hil.seams import CanGateway
 from hil.servobus.switch_node import DEFAULT_ID
-from host_tools.runner import trace_metadata
+from host_tools.lockstep_run import trace_metadata
 from protocol.dynamixel import models
 from protocol.errors import UserError
 
@@ -65,9 +66,9 @@ class RealTimeRun:
     the bus (None: none); ``duration_s`` ends it (None: until interrupted); ``verbose``
     receives a line for each injected fault and master mistake."""
 
-    def __init__(self, scenario: Any, seed: int, *, world: bool = False,
+    def __init__(self, scenario: Scenario | dict[str, Any], seed: int, *, world: bool = False,
                  ids: Sequence[int] | None = None, trace: str | None = None,
-                 can_server: Any = None, sensor_id: int | None = DEFAULT_ID,
+                 can_server: CanGateway | None = None, sensor_id: int | None = DEFAULT_ID,
                  duration_s: float | None = None,
                  verbose: Callable[[str], None] | None = None) -> None:
         sc = scenario_mod.parse(scenario)

@@ -76,7 +76,7 @@ def _ground_truth(path: str) -> tuple[dict[str, str], list[tuple[float, list[flo
 def _world(meta: dict[str, str], path: str) -> Any:
     """The run's world (its obstacles) from the trace's scenario and seed."""
     from hil.run.rig import make_world
-    from host_tools.runner import scenario_of_trace
+    from host_tools.lockstep_run import scenario_of_trace
 
     return make_world(*scenario_of_trace(meta, path))
 
@@ -108,14 +108,15 @@ def render(trace: str, out: str, camera: str = "follow", fps: float = 30.0,
     returns the number of frames. Each frame drawn is reported to ``progress``."""
     suffix = Path(out).suffix.lower()
     if suffix not in (".gif", ".mp4", ".png"):
-        raise UserError(f"--out {out}: the video's name must end in .gif, .mp4 or .png")
+        raise UserError(f"out {out}: the video's name must end in .gif, .mp4 or .png",
+                        params=("out",))
     if not fps > 0 or width < 16 or height < 16:
-        raise UserError("--fps must be positive and the size at least 16 x 16")
+        raise UserError("fps must be positive and the size at least 16 x 16", params=("fps",))
     meta, samples = _ground_truth(trace)
     t0_s, t_end_s = samples[0][0], samples[-1][0]
     if at_s is not None and not t0_s <= at_s <= t_end_s:
-        raise UserError(f"--at {at_s}: {trace} has ground truth from {t0_s:.3f} s to "
-                        f"{t_end_s:.3f} s only")
+        raise UserError(f"at_s {at_s}: {trace} has ground truth from {t0_s:.3f} s to "
+                        f"{t_end_s:.3f} s only", params=("at_s",))
     if suffix == ".png" and at_s is None:
         at_s = (samples[0][0] + samples[-1][0]) / 2
     world = _world(meta, trace)

@@ -18,7 +18,7 @@ import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import TYPE_CHECKING, Any, Callable, Iterable
 
 from hil import scenario as scenario_mod
 from host_tools.dynamixel.decode import DECODERS
@@ -31,6 +31,9 @@ from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_CAN_RAW, T_LINK
 from protocol.errors import UserError
+
+if TYPE_CHECKING:
+    import can
 
 # What each link message is, for reports and --topics.
 OP_TOPICS = {sim_link.OP_HELLO: "hello", sim_link.OP_TRANSACT: "uart", sim_link.OP_WRITE: "uart",
@@ -137,7 +140,7 @@ def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | No
     """(t_us, request, reply) of every logged link exchange, in order."""
     if T_LINK not in trace.topics():
         raise UserError(f"{trace.path}: no {T_LINK} topic: this trace holds no "
-                        "firmware link exchanges to replay (record with 'hexhil run --out')")
+                        "firmware link exchanges to replay (a recorded firmware run's trace has them)")
     cls = LinkExchanges
     schemas = {trace.schemas[c.schema_id].name for c in trace.channels.values()
                if c.topic == T_LINK and c.schema_id in trace.schemas}
@@ -174,9 +177,10 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     executable).
     """
     if python not in ("micropython", "cpython"):
-        raise UserError(f"--python must be micropython or cpython, not {python!r}")
+        raise UserError(f"python must be micropython or cpython, not {python!r}",
+                        params=("python",))
     if rate < 0:
-        raise UserError("--rate must be >= 0 (0 = as fast as possible)")
+        raise UserError("rate must be >= 0 (0 = as fast as possible)", params=("rate",))
     wanted = set(TOPICS)
     if topics:
         wanted = {t for item in topics for t in item.split(",") if t}
@@ -278,8 +282,8 @@ def _compare(expected: list[tuple[int, bytes]], actual: list[tuple[int, bytes]],
 def parse_can_target(spec: str) -> tuple[str, str]:
     interface, sep, channel = spec.partition(":")
     if not sep or not interface or not channel:
-        raise UserError(f"--can wants INTERFACE:CHANNEL (e.g. virtual:0, "
-                        f"socketcand:hexhil0), got {spec!r}")
+        raise UserError(f"spec wants INTERFACE:CHANNEL (e.g. virtual:0, "
+                        f"socketcand:hexhil0), got {spec!r}", params=("spec",))
     return interface, channel
 
 
@@ -288,7 +292,7 @@ def _bus_kwargs(items: Iterable[str]) -> dict[str, Any]:
     for item in items or ():
         key, sep, value = item.partition("=")
         if not sep or not key:
-            raise UserError(f"--can-arg wants KEY=VALUE, got {item!r}")
+            raise UserError(f"bus_args wants KEY=VALUE, got {item!r}", params=("bus_args",))
         try:
             out[key] = int(value)
         except ValueError:
@@ -298,13 +302,13 @@ def _bus_kwargs(items: Iterable[str]) -> dict[str, Any]:
 
 def replay_can(path: str | Path, spec: str, rate: float = 1.0, start_s: float | None = None,
                end_s: float | None = None, bus_args: Iterable[str] = (),
-               bus: Any = None, sleep: Callable[[float], None] = time.sleep) -> dict[str, Any]:
+               bus: can.BusABC | None = None, sleep: Callable[[float], None] = time.sleep) -> dict[str, Any]:
     """Send the logged ``/can/raw`` frames through python-can, keeping their spacing
     (divided by ``rate``; 0 sends back to back)."""
     import can
 
     if rate < 0:
-        raise UserError("--rate must be >= 0 (0 = back to back)")
+        raise UserError("rate must be >= 0 (0 = back to back)", params=("rate",))
     interface, channel = parse_can_target(spec)
     cls = CanFrame
     with Trace(path) as tr:

@@ -3,7 +3,7 @@ layer, robotics libraries), generated from the same parameters as the MuJoCo wor
 
 One source: ``protocol/hexapod.py`` (mounts, link lengths, body box, servo directions) and
 the world's ``RobotParams`` (link radii, masses, switch plates), through the same
-``hil.world.hexapod`` that builds the MJCF. The joints have the MJCF's zero pose and axes,
+``hil.world.hexapod_world`` that builds the MJCF. The joints have the MJCF's zero pose and axes,
 so a URDF joint angle is the servo angle (0 at the AX-12's centre): the coxa along the
 mounting yaw, the femur horizontal, the tibia hanging straight down. Each leg ends in a
 fixed ``<leg>_foot`` link at the foot sphere's centre.
@@ -14,7 +14,7 @@ import math
 from xml.sax.saxutils import quoteattr
 
 from hil.world import actuator as act
-from hil.world.hexapod import RobotParams
+from hil.world.hexapod_world import RobotParams
 from protocol import hexapod as robot_desc
 from protocol.hexapod import LEGS
 

@@ -1,10 +1,12 @@
 """The JSON inside simulator-link messages, defined once: the hello's config (host ->
 client) and the events' objects (client -> host). docs/link.md renders these tables.
 
-Each table is ``(key, type, unit, meaning)``; type is one of ``TYPES``' names, unit ""
+Each table is ``(key, type, unit, meaning)``; type is one of protocol/schema.py ``KINDS``' names, unit ""
 when the value has none. The key constants are what firmware/ and hil/ write and read
 instead of their own string literals. MicroPython-compatible.
 """
+from protocol import schema
+
 # hello config: overrides of firmware/config.py DEFAULTS (any subset; unknown keys refused)
 CYCLE_HZ = "cycle_hz"
 READS_PER_CYCLE = "reads_per_cycle"
@@ -125,31 +127,20 @@ FAULT = (
     (DETAIL, "str", "", "free text"),
 )
 
-TYPES = {"number": (int, float), "int": (int,), "bool": (bool,), "str": (str,),
-         "object": (dict,), "str|null": (str, type(None))}
-
-
 def problems(obj, table, required=False):
     """What is wrong with ``obj`` against ``table``: unknown keys, wrong types, and with
-    ``required`` missing keys; an empty list when nothing is."""
+    ``required`` missing keys; an empty list when nothing is (protocol/schema.py checks)."""
     if not isinstance(obj, dict):
         return ["not a JSON object"]
-    kinds = {}
+    fields = {}
     for key, kind, _, _ in table:
-        kinds[key] = kind
+        fields[key] = (kind, required)
     out = []
-    for key in obj:
-        if key not in kinds:
+    for key, what in schema.problems(obj, fields):
+        if what == schema.UNKNOWN:
             out.append("unknown key %r" % key)
-            continue
-        value = obj[key]
-        ok = isinstance(value, TYPES[kinds[key]])
-        if isinstance(value, bool) and kinds[key] in ("number", "int"):
-            ok = False
-        if not ok:
-            out.append("%s should be %s, not %r" % (key, kinds[key], value))
-    if required:
-        for key in kinds:
-            if key not in obj:
-                out.append("missing key %r" % key)
+        elif what == schema.MISSING:
+            out.append("missing key %r" % key)
+        else:
+            out.append("%s should be %s, not %r" % (key, what, obj[key]))
     return out

@@ -80,7 +80,7 @@ def test_the_example_runs_its_own_host_node_and_reads_the_trace_back(tmp_path):
 
 
 def test_the_grnn_dataset_reads_a_hexhil_run_trace_whose_scenario_file_is_gone(tmp_path):
-    from host_tools.grnn.dataset import rows_from_trace
+    from host_tools.papers.tactile_hexapod.grnn.dataset import rows_from_trace
 
     path = tmp_path / "walk.toml"
     path.write_text('[scenario]\nname = "walk"\nseed = 2\nduration_s = 6.0\n'

@@ -48,7 +48,7 @@ CASES = [
     (["run", f"{B}/unplug.toml"], "'unplug' servo id must be 0-253, got 300"),
     (["run", f"{B}/ber.toml"], "bit_error_rate must be in [0, 1), got 2.0"),
     (["run", f"{B}/gait.toml"], "'gait.name' must be tripod or wave"),
-    (["run", f"{B}/sag.toml"], "'voltage_sag' entry needs"),
+    (["run", f"{B}/sag.toml"], "key 'voltage_sag.at_s' is required in a 'voltage_sag' entry"),
     (["run", f"{B}/inf.toml"], "'firmware.cycle_hz' must be a finite number, got inf"),
     (["run", FT, "--duration", "-1"], "--duration must be positive"),
     (["run", FT, "--duration", "abc"], "--duration: invalid float value"),

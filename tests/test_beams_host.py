@@ -6,9 +6,9 @@ import sys
 import numpy as np
 import pytest
 
-from host_tools.traversal import closed_loop, estimator, landscape, planner
-from host_tools.traversal.push import push_samples
-from host_tools.experiments.force_sensing import sections as fs
+from host_tools.papers.beam_traversal import beams_run, estimator, landscape, planner
+from host_tools.papers.beam_traversal.push import push_samples
+from host_tools.papers.beam_traversal.force_sensing import sections as fs
 
 # Tables 1, 2 and 4: the paper's relative errors (k1, k2, h_b as a fraction of 5 mm) for
 # (unknowns, noise, T_s ms); None where the paper's single trial is below what even the
@@ -127,8 +127,8 @@ def test_closed_loop_over_can_traverses(k, mode):
         def advance(self, t_us):
             pass
 
-    cfg = closed_loop.RunConfig(k, k, fx_n=0.1, grid=landscape.paper_grid(0.004, 5))
-    out = closed_loop.run(cfg, recorder=Rec())
+    cfg = beams_run.RunConfig(k, k, fx_n=0.1, grid=landscape.paper_grid(0.004, 5))
+    out = beams_run.run(cfg, recorder=Rec())
     assert out["traversed"] and not out["flipped"] and out["mode"] == mode
     assert out["force_samples"] == 30 and out["energy_J"] > 0
     from protocol import can_frames
@@ -136,7 +136,7 @@ def test_closed_loop_over_can_traverses(k, mode):
     assert {"force", "body_pose", "body_rate", "actuator_command", "beam_estimate"} <= names
     again = []
     Rec.can = lambda self, t_us, arb_id, data, direction="tx": again.append((t_us, arb_id, bytes(data)))
-    closed_loop.run(cfg, recorder=Rec())
+    beams_run.run(cfg, recorder=Rec())
     assert again == frames
 
 

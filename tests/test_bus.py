@@ -10,7 +10,9 @@ from hypothesis import strategies as st
 from hil.servobus.line import Bus
 from hil.servobus.wire import resample
 from hil.clock import VirtualClock
-from hil.servobus.faults import Faults, parse_flag
+from hil.scenario import FaultEntry, FaultKind
+from hil.servobus.faults import Faults
+from host_tools.cli.bus import parse_flag
 from hil.servobus.ax12_servo import Servo
 from hil.servobus.health import OVERLOAD_TIME_US
 from hil import scenario
@@ -137,8 +139,13 @@ def test_hooks_see_every_burst_and_time_only_moves_forward():
 
 
 # --- faults -------------------------------------------------------------------------
+def faults_of(seed: int = 0, **section) -> Faults:
+    """The faults of a scenario whose ``[faults]`` is ``section``."""
+    return Faults(scenario.parse({"faults": section}).faults, seed)
+
+
 def run_with_faults(seed: int, **kw) -> tuple[list, bytes]:
-    faults = Faults(seed=seed, **kw)
+    faults = faults_of(seed, **kw)
     bus = make_bus(faults=faults)
     heard = bytearray()
     for k in range(200):
@@ -159,7 +166,7 @@ def test_line_faults_are_seeded_and_reported():
 
 
 def test_unplugged_servo_is_silent_then_returns_power_cycled():
-    faults = Faults(unplug=[{"id": 4, "at_s": 0.01, "until_s": 0.02}])
+    faults = faults_of(unplug=[{"id": 4, "at_s": 0.01, "until_s": 0.02}])
     bus = make_bus(faults=faults)
     transact(bus, dxl.write(4, ax12.TORQUE_ENABLE, b"\x01"), 6)
     assert len(transact(bus, dxl.ping(4), 6)) == 1
@@ -172,9 +179,9 @@ def test_unplugged_servo_is_silent_then_returns_power_cycled():
 
 
 def test_stall_overheat_and_sag_show_in_status_packets():
-    faults = Faults(stall=[{"id": 1, "at_s": 0.0}],
-                    overheat=[{"id": 2, "at_s": 0.0, "temperature_c": 95.0}],
-                    voltage_sag=[{"at_s": 0.5, "until_s": 0.6, "volts": 5.0, "ids": [3]}])
+    faults = faults_of(stall=[{"id": 1, "at_s": 0.0}],
+                       overheat=[{"id": 2, "at_s": 0.0, "temperature_c": 95.0}],
+                       voltage_sag=[{"at_s": 0.5, "until_s": 0.6, "volts": 5.0, "ids": [3]}])
     bus = make_bus(faults=faults)
     transact(bus, dxl.write(1, ax12.TORQUE_ENABLE, b"\x01"), 6)
     transact(bus, dxl.write(1, ax12.GOAL_POSITION, (900).to_bytes(2, "little")), 6)
@@ -192,16 +199,16 @@ def test_faults_from_a_scenario_file(tmp_path: Path):
     path.write_text("[scenario]\nseed = 3\n[faults]\nbit_error_rate = 0.0\n"
                     "unplug = [{id = 5, at_s = 2.0}]\n"
                     "voltage_sag = [{at_s = 1, until_s = 1.5, volts = 6}]\n")
-    sc = scenario.load(path)
-    f = Faults.from_scenario(sc["faults"], seed=sc["scenario"]["seed"], where=str(path))
-    assert f.entries["unplug"] == [{"id": 5, "at_s": 2.0}]
-    assert f.entries["voltage_sag"][0]["volts"] == 6.0
-    with pytest.raises(UserError, match="a 'stall' entry needs 'id'"):
-        Faults(stall=[{"at_s": 1.0}])
-    with pytest.raises(UserError, match="unknown key 'when'"):
-        Faults(unplug=[{"id": 1, "at_s": 1.0, "when": 2}])
+    sc = scenario.load_scenario(path)
+    f = Faults(sc.faults, seed=sc.scenario.seed)
+    assert f.config.unplug == (FaultEntry(FaultKind.UNPLUG, 2.0, id=5),)
+    assert f.config.voltage_sag[0].volts == 6.0 and f.active()
+    with pytest.raises(UserError, match="key 'stall.id' is required in a 'stall' entry"):
+        scenario.parse({"faults": {"stall": [{"at_s": 1.0}]}})
+    with pytest.raises(UserError, match="unknown key 'unplug.when' in a 'unplug' entry"):
+        scenario.parse({"faults": {"unplug": [{"id": 1, "at_s": 1.0, "when": 2}]}})
     with pytest.raises(UserError, match="at_s < until_s"):
-        Faults(unplug=[{"id": 1, "at_s": 2.0, "until_s": 1.0}])
+        scenario.parse({"faults": {"unplug": [{"id": 1, "at_s": 2.0, "until_s": 1.0}]}})
     assert parse_flag("overheat", "3:80:1.5:2") == {"id": 3, "temperature_c": 80.0,
                                                    "at_s": 1.5, "until_s": 2.0}
     with pytest.raises(UserError):
@@ -233,7 +240,7 @@ def test_any_byte_stream_never_raises_out_of_the_bus(ops):
 
 
 def test_echo_line_collision_is_counted_once_and_heard_corrupted():
-    faults = Faults()
+    faults = faults_of()
     bus = make_bus(echo=True, faults=faults)
     bus.master_write(dxl.read(1, ax12.PRESENT_POSITION, 2))  # reply due at 580..660
     bus.master_write(dxl.sync_write(ax12.GOAL_POSITION, 2, [(i, b"\x00\x02") for i in range(1, 19)]))

@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from hil import scenario
+from hil.scenario import FaultEntry, FaultKind
 from host_tools.cli.bus import build_bus, parse_ids, register
 from protocol.errors import UserError
 from protocol.dynamixel import ax12
@@ -31,7 +32,7 @@ def test_scenario_sets_bus_and_faults_and_flags_win(tmp_path: Path):
     path.write_text("[scenario]\nseed = 4\n[bus]\nservos = 4\nfirst_id = 10\nbaud = 57142\n"
                     "return_delay_us = 100\nedition = 'original'\n"
                     "[faults]\nunplug = [{id = 11, at_s = 0.001}]\n")
-    sc = scenario.load(path)
+    sc = scenario.load_scenario(path)
     bus, faults = build_bus(args("--pty"), sc)
     assert [s.id for s in bus.servos] == [10, 11, 12, 13] and bus.baud == 57142
     s = bus.servos[0]
@@ -43,8 +44,8 @@ def test_scenario_sets_bus_and_faults_and_flags_win(tmp_path: Path):
     bus2, _ = build_bus(args("--pty", "--ids", "1,2", "--baud", "1000000", "--edition", "emanual",
                              "--stall", "2:0.5"), sc)
     assert [s.id for s in bus2.servos] == [1, 2] and bus2.servos[0].baud_bps == 1_000_000
-    assert bus2.faults.entries["stall"] == [{"id": 2, "at_s": 0.5}]
-    assert bus2.faults.entries["unplug"] == [{"id": 11, "at_s": 0.001}]
+    assert bus2.faults.config.stall == (FaultEntry(FaultKind.STALL, 0.5, id=2),)
+    assert bus2.faults.config.unplug == (FaultEntry(FaultKind.UNPLUG, 0.001, id=11),)
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -55,11 +56,11 @@ def test_scenario_sets_bus_and_faults_and_flags_win(tmp_path: Path):
 ])
 def test_bad_flags_are_user_errors(argv, message):
     with pytest.raises(UserError, match=message):
-        build_bus(args("--pty", *argv), {})
+        build_bus(args("--pty", *argv), None)
 
 
 def test_57600_bps_is_served_by_the_nearest_register_within_3_percent():
-    bus, _ = build_bus(args("--pty", "--baud", "57600", "--servos", "2"), {})
+    bus, _ = build_bus(args("--pty", "--baud", "57600", "--servos", "2"), None)
     assert bus.baud == 57600 and bus.servos[0].baud_bps == 57142  # 0.8 % off: still decodes
     bus.master_write(dxl.read(2, ax12.MODEL_NUMBER_L, 2))
     assert dxl.Parser().feed(bus.master_read(8, 20_000)) == [
@@ -71,7 +72,7 @@ def test_57600_bps_is_served_by_the_nearest_register_within_3_percent():
 
 
 def test_default_is_18_servos_at_1_mbps_emanual():
-    bus, faults = build_bus(args("--pty"), {})
+    bus, faults = build_bus(args("--pty"), None)
     assert [s.id for s in bus.servos] == list(range(1, 19)) and bus.faults is None
     assert all(s.value("temperature_limit") == 70 and s.baud_bps == 1_000_000 for s in bus.servos)
     assert ax12.baud_to_bps(bus.servos[0].table[ax12.BAUD_RATE]) == bus.baud

@@ -15,7 +15,7 @@ from hil.link.firmware_process import firmware_env
 from hil.link.client_conformance import SESSIONS, run_suite
 from host_tools import c_sdk
 from host_tools.replay import replay_firmware
-from host_tools.run import run
+from host_tools.run_summary import run
 from host_tools.trace.reader import info
 from protocol.errors import UserError
 
@@ -85,7 +85,7 @@ def test_hexhil_test_judges_the_c_tripod(built, tmp_path):
 def test_the_hal_keeps_cubes_promises_in_virtual_time(built):
     s, result = run(FLAT, duration_s=0.5, firmware=built["hal_check"])
     assert result.exit_code == 0 and s["sim_time_s"] == 0.5
-    assert result.firmware["timeouts"] == 1          # servo 99 only
+    assert result.firmware.timeouts == 1          # servo 99 only
 
 
 def test_a_firmware_that_never_enables_the_transmitter_times_out_and_is_named(built):
@@ -148,13 +148,13 @@ def test_the_first_firmware_of_the_docs_builds_with_the_documented_command_and_r
     subprocess.run([sys.executable, "-m", "host_tools.cli", "sdk", "build", str(main), "-o",
                     str(fw)], cwd=tmp_path, check=True, capture_output=True)
     s, result = run(FLAT, duration_s=1.0, firmware=str(fw))
-    assert result.exit_code == 0 and s["faults"] == {} and result.firmware["timeouts"] == 0
+    assert result.exit_code == 0 and s["faults"] == {} and result.firmware.timeouts == 0
     # one answered ping a cycle of 20 ms and the ping's bus time
-    assert result.firmware["transactions"] == result.firmware["cycles"] >= 45
+    assert result.firmware.transactions == result.firmware.cycles >= 45
 
 
 def test_firmware_and_python_together_are_refused(built):
-    with pytest.raises(UserError, match="leave out --python"):
+    with pytest.raises(UserError, match="brings its own runtime: leave out python"):
         run(FLAT, python="cpython", firmware=built["c_tripod"])
 
 

@@ -14,7 +14,7 @@ import pytest
 from elftools.elf.elffile import ELFFile
 
 from host_tools import c_sdk
-from host_tools.run import run
+from host_tools.run_summary import run
 from host_tools.trace.reader import Trace, info
 from protocol.errors import UserError
 
@@ -66,7 +66,7 @@ def test_the_c_tripod_elf_walks_flat_tripod_with_the_same_digest_twice(elfs):
     first, result = run(FLAT, firmware=elfs["c_tripod"])
     second, _ = run(FLAT, firmware=elfs["c_tripod"])
     assert first["firmware_runtime"] == "stm32f411-elf" and first["sim_time_s"] == 30.0
-    assert result.firmware["mcu"]["hclk_hz"] == 100_000_000   # the SDK's SystemInit
+    assert result.firmware.other["mcu"]["hclk_hz"] == 100_000_000   # the SDK's SystemInit
     assert first["body"]["dx_m"] >= 0.3, first["body"]
     assert first["faults"] == {}
     assert first["serial_digest"] == second["serial_digest"]
@@ -75,7 +75,7 @@ def test_the_c_tripod_elf_walks_flat_tripod_with_the_same_digest_twice(elfs):
 def test_the_bare_metal_firmware_pings_18_servos_moves_one_and_counts_cycles(elfs, tmp_path):
     summary, result, trace = run_traced(elfs["bare"], tmp_path, 1.2)
     assert summary["faults"] == {} and summary["sim_time_s"] == 1.2   # idle in WFI to the end
-    assert result.firmware["mcu"]["hclk_hz"] == 100_000_000            # its PLL from HSI
+    assert result.firmware.other["mcu"]["hclk_hz"] == 100_000_000            # its PLL from HSI
     lines = console(trace)
     assert lines[0] == "bare-metal: 18 of 18 servos answered, servo 1 moved", lines
     # DWT's CYCCNT over 1000 SysTick periods: 100 M cycles a virtual second (PLL at 100 MHz)
@@ -193,4 +193,4 @@ def test_the_docs_first_elf_builds_for_both_targets_and_answers_every_ping(tmp_p
     assert summary["faults"] == {}
     assert console(trace)[:2] == ["50 of 50 pings answered", "100 of 100 pings answered"]
     host, result = run(FLAT, duration_s=1.0, firmware=str(tmp_path / "fw"))
-    assert host["faults"] == {} and result.firmware["timeouts"] == 0
+    assert host["faults"] == {} and result.firmware.timeouts == 0

@@ -128,7 +128,7 @@ def test_a_bare_build_links_only_the_linker_script(tmp_path):
     other = c_sdk.build([str(ELF_FW / "bare_metal.c")], tmp_path / "nodir.elf",
                         ("-DNO_DIRECTION",), target="stm32f411", bare=True)
     assert other.read_bytes() != fw.read_bytes()
-    with pytest.raises(UserError, match="--bare builds for the board only"):
+    with pytest.raises(UserError, match="bare builds for the board only"):
         c_sdk.build([str(ELF_FW / "bare_metal.c")], tmp_path / "x", bare=True)
     with pytest.raises(UserError, match="unknown target 'stm32f405': one of host, stm32f411"):
         c_sdk.build([str(ELF_FW / "bare_metal.c")], tmp_path / "x", target="stm32f405")

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from lxml import etree
 
-from host_tools.expect import evaluate, spec, steps
+from host_tools.expect import spec, steps, verdicts
 from host_tools.trace.reader import Trace
 from protocol.errors import UserError
 
@@ -159,10 +159,10 @@ def test_case_table_errors_name_the_key(tmp_path: Path, text: str, key: str) -> 
 
 def test_field_values_walk_dotted_paths_indices_and_stars() -> None:
     msg = {"servos": [{"id": 1, "t": 30.0, "on": True}, {"id": 2, "t": 40.0, "on": False}]}
-    assert evaluate.field_values(msg, "servos[*].t") == [30.0, 40.0]
-    assert evaluate.field_values(msg, "servos[1].t") == [40.0]
-    assert evaluate.field_values(msg, "servos[0].on") == [1.0]
-    assert evaluate.field_values(msg, "servos[5].t") == []
+    assert verdicts.field_values(msg, "servos[*].t") == [30.0, 40.0]
+    assert verdicts.field_values(msg, "servos[1].t") == [40.0]
+    assert verdicts.field_values(msg, "servos[0].on") == [1.0]
+    assert verdicts.field_values(msg, "servos[5].t") == []
 
 
 def test_step_extraction_on_a_synthetic_track() -> None:
@@ -183,17 +183,17 @@ def test_step_extraction_on_a_synthetic_track() -> None:
 
 
 def test_repeats_run_successive_seeds() -> None:
-    from host_tools.expect import runner
+    from host_tools.expect import case_runs
 
     case = spec.load(TACTILE)
-    jobs = runner.jobs_for([case], repeat=3, python="cpython-inprocess")
+    jobs = case_runs.jobs_for([case], repeat=3, python="cpython-inprocess")
     assert [(j.label, j.seed) for j in jobs] == [
         (f"{case.name}#{k}", case.seed + k) for k in range(3)]
 
 
 def test_wrong_expectations_fail_with_their_measured_values(tmp_path: Path) -> None:
     """Every kind can fail: the unplug case's run against expectations it does not meet."""
-    from host_tools.expect import runner
+    from host_tools.expect import case_runs
 
     wrong = [
         {"name": "ride", "kind": "fault_response", "fault": "unplug",
@@ -215,7 +215,7 @@ def test_wrong_expectations_fail_with_their_measured_values(tmp_path: Path) -> N
     case = spec.load(ROOT / "tests" / "firmware" / "unplug.toml")
     case = dataclasses.replace(case, expectations=tuple(
         spec.expectation("test", e, i) for i, e in enumerate(wrong)))
-    r = runner.run_case(runner.CaseRun(case, case.seed, "wrong", python="cpython-inprocess",
+    r = case_runs.run_case(case_runs.CaseRun(case, case.seed, "wrong", python="cpython-inprocess",
                                        keep_dir=str(tmp_path)))
     got = {o.name: o for o in r.outcomes}
     assert [o.name for o in r.outcomes if o.passed] == []

@@ -6,10 +6,10 @@ import sys
 import numpy as np
 import pytest
 
-from host_tools.traversal import estimator, landscape
-from host_tools.traversal.push import push_samples
-from host_tools.experiments import force_sensing
-from host_tools.experiments.force_sensing import sections as fs
+from host_tools.papers.beam_traversal import estimator, landscape
+from host_tools.papers.beam_traversal.push import push_samples
+from host_tools.papers.beam_traversal import force_sensing
+from host_tools.papers.beam_traversal.force_sensing import sections as fs
 
 
 def test_sensed_reproduces_the_worlds_sensor_draws():

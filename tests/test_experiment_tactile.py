@@ -1,10 +1,10 @@
 """The tactile-hexapod experiment: scenarios, plan, executor, and (with the Simulator) runs."""
 import pytest
 
-from host_tools.experiments import tactile_hexapod as th
-from host_tools.experiments.executor import Executor
+from host_tools.papers.tactile_hexapod import experiment as th
+from host_tools.executor import Executor
 from protocol.errors import UserError
-from hil.world.hexapod import HexapodWorld
+from hil.world.hexapod_world import HexapodWorld
 
 
 def _square(x):
@@ -54,11 +54,11 @@ def test_plan_covers_the_papers_protocol():
 def test_run_scenarios_are_valid_and_pair_terrain_across_the_method():
     base = th.RunSpec("without", "wave", 1.0, False, 2, "low", "large", periods=3)
     paired = th.RunSpec("with", "wave", 1.0, True, 2, "low", "large", periods=3)
-    a, b = th.scenario_for(base).data, th.scenario_for(paired).data
-    assert a["firmware"]["tactile"] is False and b["firmware"]["tactile"] is True
-    assert a["gait"]["max_obstacle_height_m"] == 0.08
+    a, b = th.scenario_for(base), th.scenario_for(paired)
+    assert a.firmware.tactile is False and b.firmware.tactile is True
+    assert a.gait.max_obstacle_height_m == 0.08
     assert HexapodWorld(a, 2).obstacles == HexapodWorld(b, 2).obstacles
-    flat = th.scenario_for(th.RunSpec("calibration", "tripod", 2.0, True, 0, periods=3)).data
+    flat = th.scenario_for(th.RunSpec("calibration", "tripod", 2.0, True, 0, periods=3))
     assert HexapodWorld(flat, 0).obstacles == []
 
 
@@ -68,10 +68,10 @@ def _one_obstacle(tactile: bool):
 
     spec = th.RunSpec("with" if tactile else "without", "tripod", 1.0, tactile, 0, periods=4,
                       model="ideal")   # the firmware pipeline on the regression world
-    sc = th.scenario_for(spec).data
-    sc["world"].update(terrain="obstacles", obstacles=[
-        {"x_m": 0.36, "y_m": 0.19, "length_m": 0.03, "width_m": 0.08, "height_m": 0.045}])
-    sc["gait"]["max_obstacle_height_m"] = 0.05
+    sc = th.scenario_for(spec).overlay({
+        "world": {"terrain": "obstacles", "obstacles": [
+            {"x_m": 0.36, "y_m": 0.19, "length_m": 0.03, "width_m": 0.08, "height_m": 0.045}]},
+        "gait": {"max_obstacle_height_m": 0.05}})
     world = HexapodWorld(sc, 0)
     result = Simulator(sc, 0, world=world).run(spec.duration_s)
     return world, result

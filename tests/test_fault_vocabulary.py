@@ -11,9 +11,10 @@ import time
 import dynamixel_sdk as sdk
 import pytest
 
+from hil import scenario as scenario_mod
 from hil.run.lockstep import Simulator
 from hil.servobus.faults import Faults
-from host_tools.runner import Run
+from host_tools.lockstep_run import Run
 from protocol.dynamixel import ax12
 from protocol.errors import UserError
 from test_firmware_loop import scenario
@@ -36,7 +37,7 @@ def test_brownout_reboots_the_servo_and_our_firmware_walks_on_unaware():
     assert s5.value("torque_enable") == 0              # rebooted: torque off, RAM defaults
     assert s5.value("return_delay_time") == 0          # EEPROM kept (our firmware wrote 0)
     # our firmware's reaction: none; the leg hangs limp until a restart (docs: a gap)
-    assert r.stop_reason is None and r.firmware["state"] == "walking"
+    assert r.stop_reason is None and r.firmware.state == "walking"
 
 
 def test_overload_sets_the_bit_and_our_firmware_stops_safely():
@@ -44,7 +45,7 @@ def test_overload_sets_the_bit_and_our_firmware_stops_safely():
     assert r.faults["overload"] == 1
     s5 = sim.core.bus.servo(5)
     assert s5.state_errors() & 0x20 and s5.value("torque_limit") == 0   # Alarm Shutdown 0x24
-    assert r.firmware["state"] == "safe_stop" and "overload" in r.stop_reason
+    assert r.firmware.state == "safe_stop" and "overload" in r.stop_reason
 
 
 @pytest.mark.parametrize("kind,entry", [
@@ -55,7 +56,7 @@ def test_position_faults_are_ridden_through(kind, entry):
     r, sim = run_with(**{kind: [entry]})
     assert r.faults[kind] == 1
     # our firmware commands positions open loop and does not read them back to steer
-    assert r.stop_reason is None and r.firmware["state"] == "walking"
+    assert r.stop_reason is None and r.firmware.state == "walking"
 
 
 def test_position_readings_stuck_and_noisy_are_what_a_master_reads():
@@ -64,8 +65,9 @@ def test_position_readings_stuck_and_noisy_are_what_a_master_reads():
     from hil.servobus.line import Bus
 
     servos = [Servo(1), Servo(2)]
-    faults = Faults(seed=7, position_stuck=[{"id": 1, "at_s": 0.0, "until_s": 2.0}],
-                    position_noise=[{"id": 2, "at_s": 0.0, "sigma": 5.0}])
+    section = {"position_stuck": [{"id": 1, "at_s": 0.0, "until_s": 2.0}],
+               "position_noise": [{"id": 2, "at_s": 0.0, "sigma": 5.0}]}
+    faults = Faults(scenario_mod.parse({"faults": section}).faults, seed=7)
     bus = Bus(servos, VirtualClock(), faults=faults)
     bus.idle_until(1)
     for s in servos:
@@ -84,8 +86,8 @@ def test_position_readings_stuck_and_noisy_are_what_a_master_reads():
     servos[0].advance_to(12_500_000)
     assert servos[0].value("present_position") == 768                # true again
     # seeded: the same seed reads the same noise
-    again = Faults(seed=7, position_noise=[{"id": 2, "at_s": 0.0, "sigma": 5.0}])
-    assert again.entries["position_noise"] == faults.entries["position_noise"]
+    again = Faults(scenario_mod.parse({"faults": section}).faults, seed=7)
+    assert again.entries == faults.entries
 
 
 def test_id_conflict_collides_and_our_firmware_rides_through_counting_it():
@@ -93,28 +95,28 @@ def test_id_conflict_collides_and_our_firmware_rides_through_counting_it():
     assert r.faults["id_conflict"] == 1 and r.faults["id_conflict_end"] == 1
     assert r.faults["collision"] > 0                   # two servos answer id 6 at once
     assert r.faults["detected_corrupt_replies"] > 0    # what the firmware saw
-    assert r.stop_reason is None and r.firmware["state"] == "walking"
+    assert r.stop_reason is None and r.firmware.state == "walking"
 
 
 def test_switch_stuck_and_bounce_reach_the_firmware_as_edges():
     r, _ = run_with(switch_stuck=[{"leg": 0, "pressed": True, "at_s": 1.0}])
     assert r.faults["switch_stuck"] == 1 and r.switch_edges == 1
-    assert r.stop_reason is None and r.firmware["state"] == "walking"
+    assert r.stop_reason is None and r.firmware.state == "walking"
     longer = [e for e in r.tactile_events if e.get("overcoming") and e["leg"] == "LF"]
     assert longer and longer[0]["step_length_m"] == pytest.approx(0.10)   # l_k = 2 l_i
     # a 30 ms chatter seen by a 50 Hz reader; 20 ms would alias to no edge at all
     r, _ = run_with(switch_bounce=[{"leg": 2, "period_s": 0.03, "at_s": 1.0, "until_s": 1.6}])
     assert r.faults["switch_bounce"] == 1 and r.switch_edges >= 10
-    assert r.stop_reason is None and r.firmware["state"] == "walking"
+    assert r.stop_reason is None and r.firmware.state == "walking"
 
 
 @pytest.mark.parametrize("faults,message", [
-    ({"brownout": [{"id": 5}]}, "needs 'at_s'"),
+    ({"brownout": [{"id": 5}]}, "key 'brownout.at_s' is required"),
     ({"switch_stuck": [{"leg": 7, "pressed": True, "at_s": 1.0}]}, "leg' must be 0-5"),
-    ({"switch_stuck": [{"leg": 1, "pressed": 1, "at_s": 1.0}]}, "must be bool"),
+    ({"switch_stuck": [{"leg": 1, "pressed": 1, "at_s": 1.0}]}, "must be true or false"),
     ({"position_noise": [{"id": 1, "sigma": -1.0, "at_s": 0.0}]}, "sigma >= 0"),
     ({"id_conflict": [{"id": 1, "as_id": 300, "at_s": 0.0}]}, "0-253"),
-    ({"overload": [{"id": 1, "at_s": 0.0, "volts": 3.0}]}, "unknown key 'volts'"),
+    ({"overload": [{"id": 1, "at_s": 0.0, "volts": 3.0}]}, "unknown key 'overload.volts'"),
 ])
 def test_bad_entries_are_one_line_errors(faults, message):
     with pytest.raises(UserError, match=message):
@@ -124,11 +126,11 @@ def test_bad_entries_are_one_line_errors(faults, message):
 def test_run_inject_before_and_from_a_host_node():
     with Run(scenario(), duration_s=RUN_S, runtime="micropython") as run:
         entry = run.inject("overload", id=3, at_s=1.0)
-        assert entry == {"id": 3, "at_s": 1.0}
+        assert (entry.kind.value, entry.id, entry.at_s) == ("overload", 3, 1.0)
         with pytest.raises(UserError, match="unknown fault kind 'meltdown'"):
             run.inject("meltdown", id=3)
         r = run.run()
-    assert r.faults["overload"] == 1 and r.firmware["state"] == "safe_stop"
+    assert r.faults["overload"] == 1 and r.firmware.state == "safe_stop"
 
     class Brownouts:
         """A host node that browns servo 4 out once, at its first tick after 1 s."""
@@ -222,9 +224,9 @@ def test_force_sensor_dropout_and_bias_on_seed_000():
     stiffness estimate and a wrong plan (pitch instead of roll on stiff beams)."""
     r = _beams({"force_dropout": [{"at_s": 0.0}]})
     assert r.faults == {"force_dropout": 1}
-    assert r.world["force_samples"] == 0 and r.world["mode"] == "none"
-    assert not r.world["traversed"] and not r.world["flipped"]
+    assert r.host_nodes["force_samples"] == 0 and r.host_nodes["mode"] == "none"
+    assert not r.host_nodes["traversed"] and not r.host_nodes["flipped"]
     r = _beams({"force_bias": [{"at_s": 0.0, "fx_n": 0.5}]})
-    assert r.faults == {"force_bias": 1} and r.world["force_samples"] > 0
-    assert r.world["estimate"]["k1"] < 0.1 < 0.25             # truth 0.25 N m/rad
-    assert r.world["mode"] != "roll" and not r.world["traversed"]
+    assert r.faults == {"force_bias": 1} and r.host_nodes["force_samples"] > 0
+    assert r.host_nodes["estimate"]["k1"] < 0.1 < 0.25             # truth 0.25 N m/rad
+    assert r.host_nodes["mode"] != "roll" and not r.host_nodes["traversed"]

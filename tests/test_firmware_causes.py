@@ -118,7 +118,7 @@ def _fault_details(trace) -> list[tuple[str, str]]:
 
 def test_faults_are_plain_text_from_the_board_and_the_c_sdk(tmp_path):
     """/faults holds the fault's detail as text, whichever board saw the mistake."""
-    from host_tools.run import run
+    from host_tools.run_summary import run
 
     main = tmp_path / "main.py"
     main.write_text("IDS = (1,)\nRAISE = False\n" + PING)
@@ -183,7 +183,7 @@ def _console_lines(trace) -> list[tuple[float, str]]:
 
 def test_a_c_firmwares_console_is_in_the_trace_when_printed_and_a_crash_keeps_body(tmp_path):
     from host_tools import c_sdk
-    from host_tools.run import run
+    from host_tools.run_summary import run
     from host_tools.trace.reader import Trace
     from protocol.errors import UserError
 
@@ -203,7 +203,7 @@ def test_a_c_firmwares_console_is_in_the_trace_when_printed_and_a_crash_keeps_bo
 
 
 def test_a_board_firmwares_prints_are_stamped_when_printed(tmp_path):
-    from host_tools.run import run
+    from host_tools.run_summary import run
 
     main = tmp_path / "main.py"
     main.write_text("import time\nprint('one')\ntime.sleep_ms(300)\nprint('two')\n"
@@ -257,18 +257,21 @@ def test_a_run_closed_without_running_leaves_no_warning():
 
 def test_a_hexapod_runs_result_has_its_worlds_final_state():
     import host_tools as hx
+    from hil.run_result import HexapodOutcome
 
     run = hx.Run(hx.load_scenario(SCENARIO), runtime=hx.Runtime.CPYTHON_INPROCESS,
                  duration_s=0.5)
     world = run.run().world
-    assert set(world) == {"x_m", "y_m", "z_m", "yaw_deg", "feet_on_ground"}
-    assert 0.02 < world["z_m"] < 0.3 and 0 <= world["feet_on_ground"] <= 6
+    assert isinstance(world, HexapodOutcome)
+    assert set(world.as_dict()) == {"x_m", "y_m", "z_m", "yaw_deg", "feet_on_ground"}
+    assert 0.02 < world.z_m < 0.3 and world.feet_on_ground is not None
+    assert 0 <= world.feet_on_ground <= 6
 
 
 def test_junit_testcases_have_their_own_times():
     from host_tools.expect import junit
-    from host_tools.expect.evaluate import Outcome
-    from host_tools.expect.runner import CaseResult
+    from host_tools.expect.verdicts import Outcome
+    from host_tools.expect.case_runs import CaseResult
 
     outcomes = (Outcome("c", "quick", "protocol", "0", "0", True, time_s=0.002),
                 Outcome("c", "slow", "tactile_rule", "h", "h_k", True, time_s=0.75))

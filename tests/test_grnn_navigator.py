@@ -13,9 +13,9 @@ import pytest
 
 from hil import scenario as scenario_mod
 from host_tools.cli import main as cli
-from host_tools.experiments import tactile_hexapod as th
-from host_tools.grnn import data, navigator, train
-from host_tools.grnn.dataset import rows_from_trace
+from host_tools.papers.tactile_hexapod import experiment as th
+from host_tools.papers.tactile_hexapod.grnn import data, navigator, train
+from host_tools.papers.tactile_hexapod.grnn.dataset import rows_from_trace
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_BODY
 
@@ -57,7 +57,7 @@ def short_goal(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def planned_run(short_goal: Path, tmp_path_factory) -> tuple[navigator.Navigator, Path]:
     """The tactile-only arm (stop after the planned steps), recorded."""
-    sc = scenario_mod.load(str(short_goal))
+    sc = scenario_mod.load_scenario(str(short_goal))
     trace = tmp_path_factory.mktemp("nav-trace") / "planned.mcap"
     navs: list[navigator.Navigator] = []
 

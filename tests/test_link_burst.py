@@ -9,7 +9,6 @@ import pytest
 from hil.run.lockstep import Simulator
 from hil.scenario import SCHEMA
 from protocol import can_frames as cf
-from protocol import link_schema as ls
 from protocol import sim_link
 from mpy import micropython_binary
 
@@ -66,4 +65,4 @@ def test_the_firmware_takes_every_command_of_a_burst(runtime):
     sim.add_node(Burst(sim, frames))
     r = sim.run(0.5, python=runtime)
     assert r.exit_code == 0 and not r.exceptions, r.stderr_tail
-    assert r.firmware[ls.COMMANDS] == BURST
+    assert r.firmware.commands == BURST

@@ -10,7 +10,7 @@ from firmware.servo_bus.v1 import TIMEOUT_MARGIN_US
 from hil.servobus.line import Bus
 from hil.clock import VirtualClock
 from hil.servobus.ax12_servo import Servo
-from host_tools.expect import margin, spec
+from host_tools.expect import margin_sweep, spec
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
 
@@ -50,14 +50,14 @@ def test_the_sweep_finds_the_firmwares_reply_budget(tmp_path: Path) -> None:
     case = spec.load(ROOT / "tests" / "firmware" / "flat-tripod.toml")
     case = dataclasses.replace(case, duration_s=6.0, expectations=(spec.expectation(
         "test", {"name": "walks", "kind": "displacement", "window_s": [1, 6], "dx_m": [0.1, 1]}),))
-    m = margin.sweep(case, "cpython-inprocess",
+    m = margin_sweep.sweep(case, "cpython-inprocess",
                      axes={"return_delay_us": (0, TIMEOUT_MARGIN_US, TIMEOUT_MARGIN_US + 20),
                            "adapter_latency_us": (TIMEOUT_MARGIN_US, 1000)},
                      grid=((0,), (0,)), workers=2)
     assert m.first_failing() == {"return_delay_us": TIMEOUT_MARGIN_US + 20,
                                  "adapter_latency_us": 1000}
     assert m.grid[0].holds
-    margin.heat_map(m, str(tmp_path / "m.png"), "test")
+    margin_sweep.heat_map(m, str(tmp_path / "m.png"), "test")
     assert (tmp_path / "m.png").stat().st_size > 1000
 
 
@@ -65,22 +65,22 @@ def test_the_heat_map_has_a_colour_bar_and_only_all_holding_is_green(tmp_path):
     """80 % (one expectation of five failing) must not look like a pass (issue 41)."""
     import matplotlib.pyplot as plt
 
-    cmap, norm = margin.share_colouring()
+    cmap, norm = margin_sweep.share_colouring()
     green = cmap(norm(1.0))
     assert all(cmap(norm(s)) != green for s in (0.0, 0.5, 0.8, 0.99))
 
     def point(name, v, passed):
-        return margin.Point(((name, v),), passed, 5, (), ())
+        return margin_sweep.Point(((name, v),), passed, 5, (), ())
 
     grid = [point("g", i, p) for i, p in enumerate((5, 4, 2, 0))]
-    m = margin.Margin({"baud_error_pct": [point("baud_error_pct", v, p) for v, p in
+    m = margin_sweep.Margin({"baud_error_pct": [point("baud_error_pct", v, p) for v, p in
                                           ((-6, 3), (0, 5), (6, 4))]}, grid,
                       ((0, 40), (100, 1000)))
     figures = []
     real_close = plt.close
     plt.close = lambda fig=None: figures.append(fig)
     try:
-        margin.heat_map(m, str(tmp_path / "m.png"), "synthetic")
+        margin_sweep.heat_map(m, str(tmp_path / "m.png"), "synthetic")
     finally:
         plt.close = real_close
     labels = [ax.get_ylabel() for ax in figures[0].axes]

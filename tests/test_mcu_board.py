@@ -15,7 +15,7 @@ def test_bare_metal_pings_18_servos_at_100_mhz_the_same_twice(tmp_path):
     # DWT: 100 M cycles a virtual second (the WFI loop waits 1000 SysTicks of 1 ms)
     assert 99_900_000 <= int(words[2]) <= 100_000_000
     assert a.serial_digest == b.serial_digest and a.firmware == b.firmware
-    assert a.firmware["mcu"]["hclk_hz"] == 100_000_000
+    assert a.firmware.other["mcu"]["hclk_hz"] == 100_000_000
     assert not a.faults
 
 

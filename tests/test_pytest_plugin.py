@@ -53,4 +53,4 @@ def test_the_example_passes_as_shipped() -> None:
 
 def test_the_firmware_option_reaches_every_run() -> None:
     proc = _pytest("-k", "flat_walk and tripod", "--hexhil-firmware", "nowhere.py")
-    assert proc.returncode == 1 and "--firmware nowhere.py: not a file" in proc.stdout
+    assert proc.returncode == 1 and "firmware nowhere.py: not a file" in proc.stdout

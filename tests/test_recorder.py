@@ -265,7 +265,7 @@ def test_idle_work_changes_no_byte(tmp_path_factory, budgets):
 def test_a_recorded_run_is_the_same_bytes_however_it_is_scheduled(tmp_path):
     """How much encoding overlaps the firmware depends on timing (the simulator skips
     idle work when the firmware has already answered); the trace must not."""
-    from host_tools.run import run
+    from host_tools.run_summary import run
 
     run("scenarios/flat-tripod.toml", 2.0, out=str(tmp_path / "free.mcap"))
     cores = os.sched_getaffinity(0)

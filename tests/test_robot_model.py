@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from hil.world.hexapod import RobotParams, mjcf
+from hil.world.hexapod_world import RobotParams, mjcf
 from host_tools.robot_model import urdf
 from protocol.hexapod import JOINTS, LEGS
 

@@ -57,8 +57,8 @@ def test_scene_decodes_and_has_the_worlds_sizes(hexapod_trace):
             topics.T_SCENE_FORCES} <= set(msgs)
     # 10 Hz: the first wake, then every 100 ms on the grid up to the end (3.0 s)
     assert len(msgs[topics.T_SCENE_FRAMES]) == len(msgs[topics.T_BODY]) == 31
-    sc = scenario_mod.load(ROOT / "scenarios/obstacles-high-large.toml")
-    world = make_world(sc, sc["scenario"]["seed"])
+    sc = scenario_mod.load_scenario(ROOT / "scenarios/obstacles-high-large.toml")
+    world = make_world(sc, sc.scenario.seed)
     m = world.model
     entities = {e.id: e for e in msgs[topics.T_SCENE][0].entities}
     for name, (kind, size) in {"body": ("cubes", [2 * v for v in world.params.body_half_m]),
@@ -121,7 +121,7 @@ def test_quaternion_of_beams_body_is_ry_rx():
 
 
 def test_relative_frames_compose_to_mujocos_world_poses():
-    sc = scenario_mod.load(ROOT / "scenarios/obstacles-high-large.toml")
+    sc = scenario_mod.load_scenario(ROOT / "scenarios/obstacles-high-large.toml")
     world = make_world(sc, 0)
     world.drives.goal_rad += np.linspace(-0.4, 0.4, 18)  # bend every joint a little
     world.advance_to(200_000)

@@ -15,12 +15,12 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_soak_has_every_fault_the_issue_names() -> None:
-    sc = scenario.load(ROOT / "scenarios" / "soak.toml")
-    f = sc["faults"]
-    assert sc["scenario"]["duration_s"] == 600
-    assert f["bit_error_rate"] == 1e-4 and f["can_drop_rate"] == 0.01
-    assert f["unplug"][0]["until_s"] > f["unplug"][0]["at_s"]  # unplugged and replugged
-    assert f["voltage_sag"] and f["overheat"]
+    sc = scenario.load_scenario(ROOT / "scenarios" / "soak.toml")
+    f = sc.faults
+    assert sc.scenario.duration_s == 600
+    assert f.bit_error_rate == 1e-4 and f.can_drop_rate == 0.01
+    assert f.unplug[0].until_s > f.unplug[0].at_s  # unplugged and replugged
+    assert f.voltage_sag and f.overheat
 
 
 def _bus(rate: float, seed: int) -> tuple[CanBus, list, list]:
@@ -46,4 +46,4 @@ def test_can_drop_rate_loses_frames_seeded_and_counts_each() -> None:
 @pytest.mark.parametrize("rate", [-0.1, 1.5, float("nan")])
 def test_can_drop_rate_outside_0_1_is_refused(rate: float) -> None:
     with pytest.raises(UserError, match="can_drop_rate"):
-        scenario.check({"faults": {"can_drop_rate": rate}})
+        scenario.parse({"faults": {"can_drop_rate": rate}})

@@ -43,19 +43,22 @@ def test_high_density_has_more_obstacles_and_seeds_are_reproducible():
 
 def test_scenarios_shipped_load_and_generate():
     for d, h in itertools.product(["low", "high"], ["small", "large"]):
-        sc = scenario.load(ROOT / "scenarios" / f"obstacles-{d}-{h}.toml")
-        obs = terrain.from_scenario(sc, sc["scenario"]["seed"])
-        assert obs == terrain.generate(d, h, sc["world"]["length_m"], sc["scenario"]["seed"])
+        sc = scenario.load_scenario(ROOT / "scenarios" / f"obstacles-{d}-{h}.toml")
+        obs = terrain.from_scenario(sc.world, sc.scenario.seed)
+        assert obs == terrain.generate(d, h, sc.world.length_m, sc.scenario.seed)
 
 
 def test_explicit_obstacles_and_flat_ground():
-    sc = {"world": {"terrain": "obstacles", "obstacles": [
-        {"x_m": 0.3, "y_m": 0.1, "length_m": 0.02, "width_m": 0.05, "height_m": 0.04}]}}
-    assert terrain.from_scenario(sc, 0) == [terrain.Obstacle(0.3, 0.1, 0.02, 0.05, 0.04)]
-    assert terrain.from_scenario({"world": {}}, 0) == []
+    world = scenario.parse({"world": {"terrain": "obstacles", "obstacles": [
+        {"x_m": 0.3, "y_m": 0.1, "length_m": 0.02, "width_m": 0.05, "height_m": 0.04}]}}).world
+    assert terrain.from_scenario(world, 0) == [terrain.Obstacle(0.3, 0.1, 0.02, 0.05, 0.04)]
+    assert terrain.from_scenario(scenario.parse({"world": {}}).world, 0) == []
     # terrain_seed pins the field while the run seed varies
-    sc = {"world": {"terrain": "obstacles", "terrain_seed": 5}}
-    assert terrain.from_scenario(sc, 1) == terrain.from_scenario(sc, 2)
+    world = scenario.parse({"world": {"terrain": "obstacles", "terrain_seed": 5}}).world
+    assert terrain.from_scenario(world, 1) == terrain.from_scenario(world, 2)
+    # generated terrain runs 0.3 m past the gait's goal unless the world gives its length
+    assert scenario.parse({"world": {}, "gait": {"distance_m": 2.0}}).world.length_m == 2.3
+    assert scenario.parse({"world": {"length_m": 0.9}}).world.length_m == 0.9
 
 
 @pytest.mark.parametrize("world,msg", [
@@ -69,4 +72,4 @@ def test_explicit_obstacles_and_flat_ground():
 ])
 def test_bad_terrain_keys_are_user_errors(world, msg):
     with pytest.raises(UserError, match=msg.replace("[", r"\[").replace("]", r"\]")):
-        terrain.from_scenario({"world": world, "_path": "x.toml"}, 0)
+        scenario.parse({"world": world}, "x.toml")

@@ -336,7 +336,7 @@ def test_estimate_reproduces_the_estimate_a_beams_run_logged(tmp_path, capsys):
     """`hexhil beams run --out` logs force/pose frames and the estimate it made online;
     re-running the estimator on the logged frames gives that estimate back (to the
     beam_estimate frame's resolution: 2e-5 N m/rad, 0.02 mm)."""
-    from host_tools.traversal.closed_loop import RunConfig, run
+    from host_tools.papers.beam_traversal.beams_run import RunConfig, run
 
     p = tmp_path / "beams.mcap"
     with rec.Recorder(p, {"command": "beams run"}) as r:

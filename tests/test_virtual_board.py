@@ -145,7 +145,7 @@ while True:
         0.2, firmware=board_firmware(main))
     assert result.exit_code == 0, result.stderr_tail
     assert result.switch_edges == 1
-    assert result.firmware == {"before": [1] * 6, "after": [1, 1, 1, 0, 1, 1], "falls": [50]}
+    assert result.firmware.other == {"before": [1] * 6, "after": [1, 1, 1, 0, 1, 1], "falls": [50]}
 
 
 @pytest.mark.parametrize("tail,message", [
@@ -269,6 +269,6 @@ while True:
     sim.add_node(Sender(sim))
     result = sim.run(0.2, firmware=board_firmware(main))
     assert result.exit_code == 0, result.stderr_tail
-    assert result.firmware["id"] == 0x123 and result.firmware["data"] == [50]
-    assert 50_000 <= result.firmware["waited_us"] < 51_100
+    assert result.firmware.other["id"] == 0x123 and result.firmware.other["data"] == [50]
+    assert 50_000 <= result.firmware.other["waited_us"] < 51_100
     assert sum(result.can_frames.values()) == 1

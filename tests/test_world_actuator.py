@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from hil.world import actuator as act
-from hil.world.hexapod import HexapodWorld
+from hil.scenario import parse
+from hil.world.hexapod_world import HexapodWorld
 
 UNIT = act.POSITION_UNIT_RAD
 
@@ -46,7 +47,7 @@ def _stand(world, t_s):
 
 
 def test_standing_loads_come_from_physics_and_torque_off_drops_the_body():
-    world = HexapodWorld({"world": {}}, seed=0)
+    world = HexapodWorld(parse({"world": {}}), seed=0)
     _stand(world, 0.5)
     assert 0.07 < world.body_pose().z_m < 0.10
     femur_loads = [world.actuators()[3 * i + 1].state()[2] for i in range(6)]
@@ -60,7 +61,7 @@ def test_standing_loads_come_from_physics_and_torque_off_drops_the_body():
 
 
 def test_speed_limit_and_no_load_speed_in_physics():
-    world = HexapodWorld({"world": {}}, seed=0)
+    world = HexapodWorld(parse({"world": {}}), seed=0)
     femur = world.actuators()[4]                  # lift LM off the ground: five legs stand
     femur.command(femur.state()[0] + 0.6, 0.0, 1.0, True, act.DEFAULT_COMPLIANCE)
     _stand(world, 0.5)
@@ -84,6 +85,6 @@ def test_speed_limit_and_no_load_speed_in_physics():
 
 
 def test_advance_to_through_an_actuator_steps_the_world():
-    world = HexapodWorld({"world": {}}, seed=0)
+    world = HexapodWorld(parse({"world": {}}), seed=0)
     world.actuators()[0].advance_to(10_001)
     assert world.t_us == 10_000           # whole 2 ms steps, never past the asked time

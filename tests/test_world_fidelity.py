@@ -3,13 +3,13 @@ import math
 
 import pytest
 
-from hil.scenario import check
-from hil.world.hexapod import HexapodWorld
+from hil.scenario import parse
+from hil.world.hexapod_world import HexapodWorld
 from protocol.errors import UserError
 
 
 def _world(model: str, seed: int = 1, **world) -> HexapodWorld:
-    return HexapodWorld(check({"world": {"kind": "hexapod", "model": model, **world}}), seed)
+    return HexapodWorld(parse({"world": {"kind": "hexapod", "model": model, **world}}), seed)
 
 
 def _swing(world: HexapodWorld, steps: int = 150) -> list[float]:

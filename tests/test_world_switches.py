@@ -3,8 +3,9 @@ import mujoco
 import numpy as np
 import pytest
 
+from hil.scenario import parse
 from hil.world import actuator as act
-from hil.world.hexapod import LEGS, HexapodWorld, RobotParams
+from hil.world.hexapod_world import LEGS, HexapodWorld, RobotParams
 from hil.world.switches import SwitchBank
 from protocol import hexapod as kin
 
@@ -21,7 +22,7 @@ def test_hysteresis_between_operating_and_release_force():
 
 
 def test_model_matches_the_paper_robot():
-    world = HexapodWorld({"world": {}}, seed=0)
+    world = HexapodWorld(parse({"world": {}}), seed=0)
     m = world.model
     assert m.nu == 18 and m.njnt == 19                       # 18 servos + the free body
     assert float(np.sum(m.body_mass)) == pytest.approx(1.5, abs=1e-9)
@@ -43,7 +44,7 @@ def test_plate_faces_forward_and_an_obstacle_closes_only_that_legs_switch():
     nx, ny, _ = kin.neutral_foot(3)
     sc = {"world": {"terrain": "obstacles", "obstacles": [
         {"x_m": nx + 0.045, "y_m": ny, "length_m": 0.03, "width_m": 0.06, "height_m": 0.05}]}}
-    world = HexapodWorld(sc, seed=0)
+    world = HexapodWorld(parse(sc), seed=0)
     world.advance_to(200_000)
     leg = kin.Leg(3)
     acts = world.actuators()

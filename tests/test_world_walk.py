@@ -9,7 +9,8 @@ import pytest
 
 from firmware import gait as gait_mod
 from firmware import trajectory as traj
-from hil.world.hexapod import HexapodWorld
+from hil.scenario import parse
+from hil.world.hexapod_world import HexapodWorld
 from protocol import hexapod as kin
 
 CYCLE_US = 20_000  # the firmware's 50 Hz loop
@@ -41,7 +42,7 @@ def walk(world: HexapodWorld, gait: str, duration_s: float, step_height_m: float
 
 @pytest.mark.parametrize("gait", ["tripod", "wave"])
 def test_walks_straight_on_flat_ground(gait):
-    world = HexapodWorld({"world": {}}, seed=0)
+    world = HexapodWorld(parse({"world": {}}), seed=0)
     commanded = walk(world, gait, 12.0)
     pose = world.body_pose()
     assert pose.x_m == pytest.approx(commanded, rel=0.15)        # the 15 % criterion
@@ -55,10 +56,10 @@ def test_walks_straight_on_flat_ground(gait):
 
 
 def test_obstacles_catch_legs_fire_switches_and_cost_distance():
-    flat = HexapodWorld({"world": {}}, seed=0)
+    flat = HexapodWorld(parse({"world": {}}), seed=0)
     commanded = walk(flat, "tripod", 10.0, step_height_m=0.02)
-    rough = HexapodWorld({"world": {"terrain": "obstacles", "obstacles": [
-        {"x_m": 0.33, "y_m": 0.20, "length_m": 0.03, "width_m": 0.08, "height_m": 0.05}]}}, seed=0)
+    rough = HexapodWorld(parse({"world": {"terrain": "obstacles", "obstacles": [
+        {"x_m": 0.33, "y_m": 0.20, "length_m": 0.03, "width_m": 0.08, "height_m": 0.05}]}}), seed=0)
     walk(rough, "tripod", 10.0, step_height_m=0.02)
     hit = [e.leg for e in rough.events if e.closed]
     assert hit and set(hit) <= {0, 1, 2}                 # only left legs meet a left obstacle
@@ -70,7 +71,7 @@ def test_obstacles_catch_legs_fire_switches_and_cost_distance():
 
 def test_runs_are_bit_identical():
     sc = {"world": {"terrain": "obstacles", "density": "high", "height_class": "small", "length_m": 0.8}}
-    a, b = HexapodWorld(sc, seed=3), HexapodWorld(sc, seed=3)
+    a, b = HexapodWorld(parse(sc), seed=3), HexapodWorld(parse(sc), seed=3)
     walk(a, "tripod", 3.0)
     walk(b, "tripod", 3.0)
     assert a.data.qpos.tobytes() == b.data.qpos.tobytes()

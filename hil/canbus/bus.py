@@ -26,6 +26,7 @@ from typing import Any, Callable, Iterator
 import can
 
 from hil.clock import VirtualClock
+from hil.seams import CanGateway, TraceRecorder
 
 _channels = itertools.count()
 
@@ -68,7 +69,7 @@ class Endpoint(can.BufferedReader):
 class RecorderListener(can.Listener):
     """Every frame to the recorder's ``/can`` topics, with its sender's direction."""
 
-    def __init__(self, recorder: Any) -> None:
+    def __init__(self, recorder: TraceRecorder) -> None:
         self.recorder = recorder
 
     def on_message_received(self, msg: can.Message) -> None:
@@ -90,9 +91,9 @@ class CanBus:
         self.bus = can.Bus(interface="virtual", channel=self.channel,
                            receive_own_messages=False, preserve_timestamps=True)
         self.listeners: list[can.Listener] = []
-        self.gateways: list[Any] = []
+        self.gateways: list[CanGateway] = []
 
-    def add_gateway(self, gateway: Any) -> None:
+    def add_gateway(self, gateway: CanGateway) -> None:
         """A listener that also brings frames in from outside (``poll() -> [(id, data,
         extended)]``), e.g. the socketcand server's clients."""
         self.add(gateway)

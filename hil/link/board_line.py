@@ -11,10 +11,11 @@ The firmware itself is started and judged by hil/link/served_firmware.py ``Board
 from __future__ import annotations
 
 import struct
-from typing import Any
+from typing import Mapping
 
 from hil.link.firmware_process import LinkViolation
-from hil.run_result import RunResult
+from hil.run_result import RunTally
+from hil.seams import LinkHost, ServoLine
 from protocol import sim_link
 
 HANG_S = 2.0          # virtual seconds without a UART write, pin turn or sleep: a hang
@@ -24,7 +25,7 @@ MISTAKES = (TX_WHILE_RECEIVING, RX_WHILE_TRANSMITTING)
 WRONG_BAUD = "wrong_baud"
 
 
-def set_master_baud(server: Any, payload: bytes, result: RunResult) -> None:
+def set_master_baud(server: LinkHost, payload: bytes, result: RunTally) -> None:
     """A posted baud message (the C SDK's ``HAL_UART_Init`` of USART2): the master's UART
     runs at that rate from now on. The servos decode it with their own timing
     (hil/servobus/wire.py ``resample``), so at a rate they do not listen at they hear garbage and do
@@ -44,7 +45,7 @@ def set_master_baud(server: Any, payload: bytes, result: RunResult) -> None:
                          f"listen at {', '.join(map(str, listening))} baud", result)
 
 
-def why_no_servo_answered(bus: Any, faults: dict[str, int]) -> str | None:
+def why_no_servo_answered(bus: ServoLine | None, faults: Mapping[str, int]) -> str | None:
     """One line when the master wrote on the line and no servo ever answered: which of
     its mistakes the run saw (direction pin low, a rate the servos do not listen at,
     IDs no servo has); None when some servo answered or nothing was written."""
@@ -59,7 +60,7 @@ def why_no_servo_answered(bus: Any, faults: dict[str, int]) -> str | None:
     if bus.baud not in listening:
         causes.append(f"the master's UART ran at {bus.baud} baud, the servos at "
                       f"{', '.join(map(str, listening))} baud")
-    missing = sorted(getattr(bus, "missing_ids", ()))
+    missing = sorted(bus.missing_ids)
     if missing and not causes:
         ids = sorted({s.id for s in bus.servos})
         have = f"{ids[0]}-{ids[-1]}" if ids == list(range(ids[0], ids[-1] + 1)) else \
@@ -76,7 +77,7 @@ class BoardLine:
     """The board's UART and direction line, served for one link (``server``: the
     hil/link/server.py ``LinkServer`` whose bus, clock, switches and hooks it uses)."""
 
-    def __init__(self, server: Any) -> None:
+    def __init__(self, server: LinkHost) -> None:
         self.server = server
         self.bus, self.clock = server.bus, server.clock
         self.tx_on = False
@@ -87,7 +88,7 @@ class BoardLine:
         """The firmware did something (a write, a pin turn, a sleep): it is not hung."""
         self.quiet_since_us = self.clock.t_us
 
-    def _lose(self, result: RunResult) -> None:
+    def _lose(self, result: RunTally) -> None:
         lost = self.bus.master_discard()
         if lost:
             self.server.run_fault(RX_WHILE_TRANSMITTING, f"{lost} status bytes arrived while "
@@ -98,7 +99,7 @@ class BoardLine:
             self.server.idle_to(t_us)
             self.server.on_slept()
 
-    def _set_direction(self, tx_on: bool, result: RunResult) -> None:
+    def _set_direction(self, tx_on: bool, result: RunTally) -> None:
         """The pin turns now: a turn to receive loses what came in while transmitting;
         a turn to transmit keeps what came in before it."""
         if self.tx_on and not tx_on:
@@ -107,7 +108,7 @@ class BoardLine:
             self._kept += self.bus.master_read(sim_link.MAX_RX_LEN, 0)
         self.tx_on = tx_on
 
-    def turn(self, payload: bytes, end_us: int, result: RunResult) -> None:
+    def turn(self, payload: bytes, end_us: int, result: RunTally) -> None:
         """A posted direction message: the pin took ``level`` at ``turn_us``."""
         if len(payload) != sim_link.DIRECTION_LEN:
             raise LinkViolation(f"malformed direction message ({len(payload)} bytes)")
@@ -116,7 +117,7 @@ class BoardLine:
         self.active()
         self._set_direction(bool(level), result)
 
-    def answer(self, payload: bytes, end_us: int, result: RunResult) -> bytes:
+    def answer(self, payload: bytes, end_us: int, result: RunTally) -> bytes:
         """Carry out one line request; the reply's body (after ``t_us``)."""
         if len(payload) < sim_link.LINE_HEAD_LEN:
             raise LinkViolation(f"malformed line request ({len(payload)} bytes)")

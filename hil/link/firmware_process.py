@@ -46,11 +46,12 @@ def firmware_command(python: str) -> list[str]:
         exe = Path(sys.executable).with_name("micropython")
         if not exe.exists():
             raise UserError("the micropython binary is not in this environment "
-                            "(run `make test` once, or use --python cpython)")
+                            "(run `make test` once, or give python cpython)", params=("python",))
         return [str(exe), *NATIVE, "-m", "firmware.main"]
     if python == "cpython":
         return [sys.executable, "-m", "firmware.main"]
-    raise UserError(f"--python must be one of {', '.join(RUNTIMES)}, not {python!r}")
+    raise UserError(f"python must be one of {', '.join(RUNTIMES)}, not {python!r}",
+                    params=("python",))
 
 
 def firmware_env(port: int) -> dict[str, str]:

@@ -22,12 +22,13 @@ import signal
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Protocol
+from typing import IO, Callable, Protocol
 
 from hil.link.firmware_process import ROOT, FirmwareProcess, firmware_command, firmware_env
 from hil.mcu.elf_image import ELF_MAGIC, ElfImage, is_arm_elf, load_elf
 from hil.mcu.runtime import serve_elf
-from hil.run_result import RunResult
+from hil.run_result import RunTally
+from hil.seams import LinkHost
 from protocol import sim_link
 from protocol.errors import UserError
 
@@ -51,33 +52,35 @@ class ServedFirmware(Protocol):
     def env(self) -> dict[str, str]:
         """What its environment needs beyond the link's."""
 
-    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+    def serve(self, server: LinkHost, end_us: int, result: RunTally) -> None:
         """Start it, answer its link with ``server`` (hil/link/server.py) to the end."""
 
 
-def served_firmware(path: str | Path, what: str = "--firmware", gdb_port: int | None = None,
+def served_firmware(path: str | Path, what: str = "firmware", gdb_port: int | None = None,
                     coverage: str | Path | None = None
                     ) -> BoardFirmware | ExecutableFirmware | ElfFirmware:
     """``path`` checked: a MicroPython main file (``.py``) for the virtual board, an ARM
     ELF for the emulated STM32F411, else an executable file this user may run
     (``UserError`` naming ``what`` if neither). ``gdb_port`` and ``coverage`` (an ELF's
-    only: ``--gdb``, ``--coverage``) go to the ELF runtime."""
+    only) go to the ELF runtime."""
     p = Path(path)
     if (gdb_port is not None or coverage is not None) and not is_arm_elf(p):
-        raise UserError(f"--gdb and --coverage need an STM32F411 ELF as {what}, not {path}")
+        raise UserError(f"gdb_port and coverage need an STM32F411 ELF as {what}, not {path}",
+                        params=("gdb_port", "coverage", what))
     if gdb_port is not None and not 1 <= gdb_port <= 65535:
-        raise UserError(f"--gdb {gdb_port}: port must be 1-65535")
+        raise UserError(f"gdb_port {gdb_port}: a port is 1-65535", params=("gdb_port",))
     if not p.is_file():
         raise UserError(f"{what} {path}: not a file (give a MicroPython main file, an "
-                        "STM32F411 ELF or an executable)")
+                        "STM32F411 ELF or an executable)", params=(what,))
     if p.suffix in MAIN_SUFFIXES:
         try:
             text = _is_text(p.read_bytes())
         except OSError as exc:
-            raise UserError(f"{what} {path}: cannot read it ({exc.strerror})") from None
+            raise UserError(f"{what} {path}: cannot read it ({exc.strerror})",
+                            params=(what,)) from None
         if not text:
             raise UserError(f"{what} {path}: not a MicroPython source file (it holds binary "
-                            "data, not UTF-8 text)")
+                            "data, not UTF-8 text)", params=(what,))
         return BoardFirmware(p.resolve())
     if is_arm_elf(p):
         return ElfFirmware(load_elf(p, what), gdb_port,
@@ -87,7 +90,7 @@ def served_firmware(path: str | Path, what: str = "--firmware", gdb_port: int | 
     if not os.access(p, os.X_OK):
         raise UserError(f"{what} {path}: neither a MicroPython main file (.py) nor "
                         "executable (build a C firmware with `hexhil sdk build main.c -o fw`, "
-                        "or chmod +x)")
+                        "or chmod +x)", params=(what,))
     return ExecutableFirmware(p.resolve())
 
 
@@ -115,7 +118,7 @@ class BoardFirmware:
         return {"MICROPYPATH": f"{BOARD_DIR}:" + firmware_env(0)["MICROPYPATH"],
                 sim_link.ENV_BOARD: sim_link.BOARD_NAME}
 
-    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+    def serve(self, server: LinkHost, end_us: int, result: RunTally) -> None:
         """The console's ``event KIND TEXT`` lines (hal/base.py ``Board.event``) are its
         events."""
         serve_process(self, self.main.name, server, end_us, result, _console_to(server, result))
@@ -134,13 +137,13 @@ class ExecutableFirmware:
     def env(self) -> dict[str, str]:
         return {}
 
-    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+    def serve(self, server: LinkHost, end_us: int, result: RunTally) -> None:
         """What it prints on stdout goes to ``/telemetry`` as log lines (the C SDK makes
         stdout line-buffered, so a line arrives when printed)."""
         serve_process(self, self.path.name, server, end_us, result, _console_to(server, result))
 
 
-def _console_to(server: Any, result: RunResult) -> Callable[[str], None]:
+def _console_to(server: LinkHost, result: RunTally) -> Callable[[str], None]:
     def take_console(printed: str) -> None:
         for kind, text in console_events(printed):
             server.take_event(kind, text, result)
@@ -167,7 +170,7 @@ class ElfFirmware:
     def env(self) -> dict[str, str]:
         return {}
 
-    def serve(self, server: Any, end_us: int, result: RunResult) -> None:
+    def serve(self, server: LinkHost, end_us: int, result: RunTally) -> None:
         serve_elf(self.image, server, end_us, result, console_events, self.gdb_port,
                   self.coverage)
 
@@ -181,8 +184,8 @@ def _how(code: int) -> str:
     return f"exit {code}"
 
 
-def serve_process(firmware: ServedFirmware, name: str, server: Any, end_us: int,
-                  result: RunResult, take_console: Callable[[str], None] | None = None
+def serve_process(firmware: ServedFirmware, name: str, server: LinkHost, end_us: int,
+                  result: RunTally, take_console: Callable[[str], None] | None = None
                   ) -> None:
     """Start ``firmware``, serve its link to ``end_us`` and judge how it ended, in one
     line (``UserError``). Its stdout goes to a file: a firmware that prints a lot never
@@ -225,7 +228,7 @@ class _ConsoleReader:
     """A firmware's console file, read on as it grows (``os.pread``: the file offset the
     firmware writes at is shared, and stays untouched): whole lines to ``take``."""
 
-    def __init__(self, console: Any, take: Callable[[str], None] | None) -> None:
+    def __init__(self, console: IO[bytes], take: Callable[[str], None] | None) -> None:
         self._fd, self._take = console.fileno(), take
         self._done = 0            # bytes handed on
         self._text = b""          # everything read so far

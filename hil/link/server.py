@@ -14,8 +14,9 @@ from typing import Any, Callable
 from hil.link.board_line import MISTAKES, BoardLine, set_master_baud
 from hil.canbus.bus import CanBus
 from hil.link.firmware_process import Connection, DirectConnection, LinkViolation
-from hil.run_result import RunResult
-from protocol import hexapod, sim_link
+from hil.run_result import RunTally
+from hil.seams import TraceRecorder
+from protocol import sim_link
 from protocol import link_schema as ls
 from protocol.dynamixel import models
 from protocol.errors import UserError
@@ -23,37 +24,14 @@ from protocol.errors import UserError
 RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)
 
 
-def firmware_settings(scenario: dict[str, Any], tactile: bool | None = None) -> dict[str, Any]:
-    """The firmware/config.py overrides a checked scenario asks for (the hello's config,
-    keys from protocol/link_schema.py CONFIG)."""
-    fw, gait, bus = scenario["firmware"], scenario["gait"], scenario["bus"]
-    out: dict[str, Any] = {k: fw[k] for k in (ls.CYCLE_HZ, ls.TACTILE_ON, ls.SERVO_LOST_S,
-                                               ls.READS_PER_CYCLE) if k in fw}
-    name = gait.get("name", hexapod.DEFAULT_GAIT)
-    out[ls.GAIT] = name
-    out[ls.PERIOD_S] = gait.get(ls.PERIOD_S, hexapod.GAIT_PERIOD_S[name])
-    for key in (ls.STEP_LENGTH_M, ls.STEP_HEIGHT_M, ls.MAX_OBSTACLE_HEIGHT_M, ls.DIRECTION_DEG):
-        if key in gait:
-            out[key] = gait[key]
-    for key in (ls.FIRST_ID, ls.BAUD):
-        if key in bus:
-            out[key] = bus[key]
-    version = models.protocol(bus.get("model", models.DEFAULT))
-    if version != models.protocol(models.DEFAULT):   # the firmware's default stays unsaid
-        out[ls.PROTOCOL] = version
-    if tactile is not None:
-        out[ls.TACTILE_ON] = tactile
-    return out
-
-
 class SwitchSampler:
     """The six limit-switch levels at each sleep; edges go to the result and the recorder."""
 
-    def __init__(self, levels: Callable[[int], int], recorder: Any) -> None:
+    def __init__(self, levels: Callable[[int], int], recorder: TraceRecorder | None) -> None:
         self.levels, self.recorder = levels, recorder
         self.bits = 0
 
-    def sample(self, t_us: int, result: RunResult) -> int:
+    def sample(self, t_us: int, result: RunTally) -> int:
         bits = self.levels(t_us) & 0x3F
         changed = bits ^ self.bits
         if changed:
@@ -83,7 +61,7 @@ class LinkServer:
         self.line: BoardLine | None = None   # the virtual board's UART, at its first line request
         self.console: Callable[[], None] | None = None  # takes what the firmware printed
 
-    def _event(self, payload: bytes, result: RunResult) -> None:
+    def _event(self, payload: bytes, result: RunTally) -> None:
         if not payload:
             raise LinkViolation("malformed event (no kind byte)")
         kind = payload[0]
@@ -93,7 +71,7 @@ class LinkServer:
         except ValueError as exc:   # JSON that does not parse
             raise LinkViolation(f"malformed event {kind}: {exc}") from None
 
-    def take_event(self, kind: int, text: str, result: RunResult) -> None:
+    def take_event(self, kind: int, text: str, result: RunTally) -> None:
         """An event of the firmware's (``EVENT_*`` kind) into the result and the trace."""
         t = self.clock.t_us
         rec = self.sim.recorder
@@ -106,7 +84,10 @@ class LinkServer:
             if rec is not None:
                 rec.fault(t, "safe_stop", text)
         elif kind == sim_link.EVENT_STATS:
-            result.firmware = json.loads(text)
+            stats = json.loads(text)
+            if not isinstance(stats, dict):
+                raise ValueError("the stats are not a JSON object")
+            result.firmware = stats
         elif kind == sim_link.EVENT_TACTILE:
             ev = json.loads(text)
             ev[ls.T_S] = t * 1e-6
@@ -122,18 +103,18 @@ class LinkServer:
         elif rec is not None:
             rec.telemetry(t, {"event": kind, "text": text})
 
-    def run_fault(self, name: str, detail: str, result: RunResult) -> None:
+    def run_fault(self, name: str, detail: str, result: RunTally) -> None:
         """A fault of the run now: counted, recorded, and a direction mistake (the virtual
         board's, or one a C SDK's board saw) handed to the master check if one watches."""
         t = self.clock.t_us
-        result.faults[name] = result.faults.get(name, 0) + 1
+        result.count_fault(name)
         if self.sim.recorder is not None:
             self.sim.recorder.fault(t, name, detail)
         check = getattr(self.bus, "monitor", None)
         if check is not None and name in MISTAKES:
             check.direction_mistake(t, name, detail)
 
-    def _can_from_firmware(self, payload: bytes, result: RunResult) -> None:
+    def _can_from_firmware(self, payload: bytes, result: RunTally) -> None:
         if len(payload) < 3 or payload[2] > sim_link.CAN_MAX_DLC or len(payload) != 3 + payload[2]:
             raise LinkViolation(f"malformed CAN message ({len(payload)} bytes)")
         arb_id, dlc = struct.unpack_from("<HB", payload, 0)
@@ -171,7 +152,7 @@ class LinkServer:
             bus.idle_until(wake_us)
         self.on_wake(clock.t_us)
 
-    def _sleep_reply(self, wake_us: int, end_us: int, result: RunResult) -> tuple[bytes, bool]:
+    def _sleep_reply(self, wake_us: int, end_us: int, result: RunTally) -> tuple[bytes, bool]:
         flags = 0
         ended = wake_us >= end_us
         if ended:
@@ -186,7 +167,7 @@ class LinkServer:
             flags |= more
         return struct.pack("<BB", flags, bits) + body, ended
 
-    def _hello_reply(self, payload: bytes, result: RunResult) -> bytes:
+    def _hello_reply(self, payload: bytes, result: RunTally) -> bytes:
         if not payload or payload[0] != sim_link.VERSION:
             raise LinkViolation(f"link version mismatch: the firmware speaks version "
                                 f"{payload[0] if payload else 'none'}, this host speaks "
@@ -201,7 +182,7 @@ class LinkServer:
         return struct.pack("<BB", sim_link.VERSION,
                            self.switches.sample(self.clock.t_us, result)) + config
 
-    def serve(self, conn: Connection, end_us: int, result: RunResult) -> None:
+    def serve(self, conn: Connection, end_us: int, result: RunTally) -> None:
         """Answer a socket connection's batches until the firmware closes it."""
         while True:
             msgs, closed = conn.batch()
@@ -209,7 +190,7 @@ class LinkServer:
                 return
 
     def answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
-               closed: bool, end_us: int, result: RunResult) -> bool:
+               closed: bool, end_us: int, result: RunTally) -> bool:
         """Carry out one batch (posted messages, then the request) and reply to it;
         True once the firmware has closed the link. A message the host cannot carry out
         (unknown op, malformed, another link version) gets an error reply and raises
@@ -223,7 +204,7 @@ class LinkServer:
             raise UserError(f"firmware link: {text}") from None
 
     def _answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
-                closed: bool, end_us: int, result: RunResult) -> bool:
+                closed: bool, end_us: int, result: RunTally) -> bool:
         bus, clock, rec = self.bus, self.clock, self.sim.recorder
         reply = None
         slept = False

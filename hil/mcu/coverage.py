@@ -25,7 +25,8 @@ def line_table(path: Path) -> list[tuple[int, str, int]]:
     with open(path, "rb") as f:
         elf = ELFFile(f)
         if not elf.has_dwarf_info():
-            raise UserError(f"--coverage: {path} has no DWARF line table (build it with -g)")
+            raise UserError(f"coverage: {path} has no DWARF line table (build it with -g)",
+                            params=("coverage",))
         dwarf = elf.get_dwarf_info()
         for cu in dwarf.iter_CUs():
             prog = dwarf.line_program_for_CU(cu)
@@ -87,7 +88,7 @@ class LineCounter:
         try:
             path.write_text(lcov(self.hits()))
         except OSError as exc:
-            raise UserError(f"--coverage {path}: {exc.strerror}") from None
+            raise UserError(f"coverage {path}: {exc.strerror}", params=("coverage",)) from None
 
 
 def lcov(hits: dict[str, dict[int, int]]) -> str:

@@ -47,14 +47,15 @@ class GdbServer:
             srv.bind(("127.0.0.1", port))
         except OSError as exc:
             srv.close()
-            raise UserError(f"--gdb {port}: cannot listen on 127.0.0.1:{port} "
-                            f"({exc.strerror})") from None
+            raise UserError(f"gdb_port {port}: cannot listen on 127.0.0.1:{port} "
+                            f"({exc.strerror})", params=("gdb_port",)) from None
         srv.listen(1)
         srv.settimeout(ACCEPT_S)
         try:
             self.conn, _ = srv.accept()
         except TimeoutError:
-            raise UserError(f"--gdb {port}: no GDB client came in {ACCEPT_S:g} s") from None
+            raise UserError(f"gdb_port {port}: no GDB client came in {ACCEPT_S:g} s",
+                            params=("gdb_port",)) from None
         finally:
             srv.close()
         self.conn.settimeout(None)

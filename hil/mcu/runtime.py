@@ -7,14 +7,15 @@ before the run's end, is one ``UserError`` line and the trace recorded up to the
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Callable
+from typing import Callable
 
 from hil.link.firmware_process import DirectConnection
 from hil.mcu.board import Board
 from hil.mcu.core import CoreFault
 from hil.mcu.elf_image import ElfImage
 from hil.mcu.gdb import GdbServer
-from hil.run_result import RunResult
+from hil.run_result import RunTally
+from hil.seams import LinkHost
 from protocol.errors import UserError
 
 
@@ -27,7 +28,7 @@ class FirmwareFault(UserError):
         self.t_s = t_s
 
 
-def serve_elf(image: ElfImage, server: Any, end_us: int, result: RunResult,
+def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
               console_events: Callable[[str], list[tuple[int, str]]],
               gdb_port: int | None = None, coverage: Path | None = None) -> Board:
     """Run ``image`` against ``server`` (hil/link/server.py) until ``end_us``."""

@@ -18,7 +18,7 @@ from hil.run import rig as rig_mod
 from hil.canbus.bus import CanBus, RecorderListener
 from hil.run.ground_truth import GroundTruth
 from hil.scenario import Scenario
-from hil.seams import FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
+from hil.seams import CanGateway, FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
 from hil.servobus.table_servo import TableServo
 
 OnFault = Callable[[int, str, str], None]
@@ -61,7 +61,7 @@ class RunCore:
 
     def __init__(self, scenario: dict[str, Any] | Scenario, seed: int = 0, *,
                  world: FirmwareWorld | SteppedWorld | None = None,
-                 recorder: TraceRecorder | None = None, can_server: Any = None,
+                 recorder: TraceRecorder | None = None, can_server: CanGateway | None = None,
                  scene: bool = False, pacing: Pacing | None = None,
                  ids: Sequence[int] | None = None, on_fault: OnFault | None = None,
                  can_faults: bool = True) -> None:
@@ -71,7 +71,7 @@ class RunCore:
         self._digest = hashlib.sha256()
         self.rig = rig_mod.build(scenario, seed, world=world, ids=ids, on_fault=self._on_fault,
                                  on_bytes=self._on_bytes)
-        self.config, self.scenario, self.seed = self.rig.config, self.rig.scenario, seed
+        self.config, self.seed = self.rig.config, seed
         self.world = world
         self.clock, self.bus, self.faults = self.rig.clock, self.rig.bus, self.rig.faults
         self.can = (CanBus(self.clock, self.config.faults.can_drop_rate, seed, self._on_fault)

@@ -7,15 +7,15 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
-from hil.seams import TraceRecorder
+from hil.seams import FirmwareWorld, SteppedWorld, TraceRecorder
 
 
 class GroundTruth:
     """``world_sample(t_us)``: pose, joints and (with ``scene``) the 3D scene's changed
     shapes, frames and forces; ``servo_sample(t_us)``: the servos' states."""
 
-    def __init__(self, world: Any, servos: Sequence[Any], recorder: TraceRecorder,
-                 scene: bool) -> None:
+    def __init__(self, world: FirmwareWorld | SteppedWorld | None, servos: Sequence[Any],
+                 recorder: TraceRecorder, scene: bool) -> None:
         self.world, self.servos, self.recorder, self.scene = world, servos, recorder, scene
         self._shapes: dict[str, Any] = {}  # the geometry sent, by shape id
         self._last_shapes: list[Any] = []  # the world's last answer (mostly the same objects)

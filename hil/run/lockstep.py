@@ -27,11 +27,12 @@ from typing import Any, Callable
 from hil.link.board_line import why_no_servo_answered
 from hil.link.served_firmware import ServedFirmware
 from hil.link.firmware_process import IN_PROCESS, DirectConnection, FirmwareProcess
-from hil.link.server import LinkServer, SwitchSampler, firmware_settings
+from hil.link.server import LinkServer, SwitchSampler
 from hil.run.core import RunCore, WallClockPacing
-from hil.run_result import RunInterrupted, RunResult, body_displacement
+from hil.run_result import (BodyDisplacement, HexapodOutcome, RunInterrupted, RunResult,
+                             RunTally)
 from hil.scenario import Scenario, check_duration
-from hil.seams import FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
+from hil.seams import CanGateway, FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
 from protocol import link_schema as ls
 
 BODY_SAMPLE_US = 100_000  # ground truth and servo state to the recorder at 10 Hz
@@ -43,16 +44,13 @@ DETECTED_COUNTERS = (ls.TIMEOUTS, ls.CORRUPT_REPLIES, ls.ERROR_STATUSES, ls.ECHO
                      ls.OVERRUNS)
 
 
-def _final_state(world: FirmwareWorld) -> dict[str, Any]:
+def _final_state(world: FirmwareWorld) -> HexapodOutcome:
     """A firmware-driven world's state at the run's end (``RunResult.world``): the body's
     pose in the world frame and the feet that carry load."""
     pose = world.body_pose()
-    out: dict[str, Any] = {"x_m": pose.x_m, "y_m": pose.y_m, "z_m": pose.z_m,
-                           "yaw_deg": math.degrees(pose.yaw_rad)}
     contacts = getattr(world, "foot_contacts", None)
-    if contacts is not None:
-        out["feet_on_ground"] = sum(contacts())
-    return out
+    return HexapodOutcome(pose.x_m, pose.y_m, pose.z_m, math.degrees(pose.yaw_rad),
+                          sum(contacts()) if contacts is not None else None)
 
 
 def _next_on_grid(t_us: int) -> int:
@@ -60,18 +58,12 @@ def _next_on_grid(t_us: int) -> int:
     return (t_us // BODY_SAMPLE_US + 1) * BODY_SAMPLE_US
 
 
-def _firmware_counters(result: RunResult) -> None:
-    """The run's cycle, overrun and stop figures and detected faults from the firmware's
-    last stats event (``result.firmware``)."""
-    stats = result.firmware
-    result.cycles = int(stats.get(ls.CYCLES, 0))
-    result.overruns = int(stats.get(ls.OVERRUNS, 0))
-    if result.stop_reason is None:
-        result.stop_reason = stats.get(ls.STOP_REASON)
+def _detected_faults(tally: RunTally) -> None:
+    """The faults the firmware detected, from its last stats event, as the run's faults."""
     for key in DETECTED_COUNTERS:
-        v = stats.get(key, 0)
+        v = tally.firmware.get(key, 0)
         if v:
-            result.faults["detected_" + key] = v
+            tally.faults["detected_" + key] = v
 
 
 class FirmwareDriver:
@@ -119,10 +111,10 @@ class FirmwareDriver:
         return self.core.faults.switch_bits(t_us, bits) if self.core.faults else bits
 
     def run(self, python: str, command: list[str] | None,
-            in_process: InProcessFirmware | None, end_us: int, result: RunResult,
+            in_process: InProcessFirmware | None, end_us: int, result: RunTally,
             firmware: ServedFirmware | None = None) -> None:
         core = self.core
-        server = LinkServer(self, firmware_settings(core.scenario, self._tactile),
+        server = LinkServer(self, core.config.firmware_settings(self._tactile),
                             SwitchSampler(self._levels, core.recorder), self._wake,
                             self._ground_truth)
         if in_process is not None:
@@ -141,10 +133,10 @@ class FirmwareDriver:
             result.exit_code = code
             result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
         result.serial_digest = core.serial_digest
-        _firmware_counters(result)
+        _detected_faults(result)
         result.no_servo_answered = why_no_servo_answered(core.bus, result.faults)
         if self._pose0 is not None:
-            result.body = body_displacement(self._pose0, core.world.body_pose())
+            result.body = BodyDisplacement.between(self._pose0, core.world.body_pose())
             result.world = _final_state(core.world)
 
     def _ground_truth(self) -> None:
@@ -166,7 +158,7 @@ class SteppedDriver:
             core.world.faults = core.faults
         core.faults.start(core.clock, 0)
 
-    def run(self, end_us: int, result: RunResult) -> None:
+    def run(self, end_us: int, result: RunTally) -> None:
         core = self.core
         world, rec, faults = core.world, core.recorder, core.faults
         while True:
@@ -193,13 +185,13 @@ class Simulator:
                  world: FirmwareWorld | SteppedWorld | None = None,
                  recorder: TraceRecorder | None = None,
                  switches: Callable[[int], int] | None = None,
-                 tactile: bool | None = None, can_server: Any = None, scene: bool = False,
+                 tactile: bool | None = None, can_server: CanGateway | None = None, scene: bool = False,
                  realtime: bool = False) -> None:
         self.core = RunCore(scenario, seed, world=world, recorder=recorder,
                             can_server=can_server, scene=scene,
                             pacing=WallClockPacing() if realtime else None)
         core = self.core
-        self.rig, self.scenario, self.seed, self.world = core.rig, core.scenario, seed, world
+        self.rig, self.seed, self.world = core.rig, seed, world
         self.clock, self.bus, self.faults = core.clock, core.bus, core.faults
         self.can, self.recorder = core.can, core.recorder
         self._stepped = world is not None and self.bus is None
@@ -235,7 +227,7 @@ class Simulator:
         if firmware is not None:
             python = firmware.runtime
         end_us = int(round(duration_s * 1e6))
-        result = RunResult(runtime="none" if self._stepped else python)
+        result = RunTally(runtime="none" if self._stepped else python)
         wall0 = time.perf_counter()
         try:
             if isinstance(self.driver, SteppedDriver):
@@ -253,6 +245,7 @@ class Simulator:
             result.faults.update(self.faults.counts)
         if self.can.dropped:
             result.faults["can_drop"] = self.can.dropped
-        if result.interrupted:
-            raise RunInterrupted(result)
-        return result
+        frozen = result.result()
+        if frozen.interrupted:
+            raise RunInterrupted(frozen)
+        return frozen

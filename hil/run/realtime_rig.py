@@ -10,13 +10,15 @@ hil/servobus/serial_server.py paces it to the wall clock and calls ``tick`` afte
 """
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from hil.run import rig as rig_mod
 from hil import scenario as scenario_mod
 from hil.servobus.master_check import MasterCheck
 from hil.run.core import RunCore
-from hil.run_result import body_displacement
+from hil.scenario import Scenario
+from hil.seams import CanGateway, TraceRecorder
+from hil.run_result import BodyDisplacement
 from hil.servobus.switch_node import DEFAULT_ID, SensorNode
 from protocol import can_frames as cf
 from protocol.dynamixel import ax12
@@ -28,15 +30,16 @@ SAMPLE_US = 100_000        # ground truth, servo states and the CAN switches fra
 class RealTimeRig:
     """Builds the rig with its extras; ``tick(t_us)`` samples, ``summary()`` reports."""
 
-    def __init__(self, scenario: dict[str, Any], seed: int, *, world: bool = False,
-                 ids: Sequence[int] | None = None, recorder: Any = None,
-                 can_server: Any = None, sensor_id: int | None = DEFAULT_ID,
-                 verbose: Any = None, scene: bool = True) -> None:
+    def __init__(self, scenario: Scenario | dict[str, Any], seed: int, *, world: bool = False,
+                 ids: Sequence[int] | None = None, recorder: TraceRecorder | None = None,
+                 can_server: CanGateway | None = None, sensor_id: int | None = DEFAULT_ID,
+                 verbose: Callable[[str], None] | None = None, scene: bool = True) -> None:
         self.recorder, self.verbose = recorder, verbose
         sc = scenario_mod.parse(scenario)
         w = rig_mod.make_world(sc, seed) if world else None
         if world and w is None:
-            raise UserError(f"{sc.path}: --world needs a scenario with a [world] section")
+            raise UserError(f"{sc.path}: world needs a scenario with a [world] section",
+                            params=("world",))
         # the run core: rig, CAN bus, recorder hooks and ground truth, as hexhil run's
         self.core = RunCore(sc, seed, world=w, recorder=recorder, can_server=can_server,
                             scene=scene, ids=ids, on_fault=self._verbose_fault,
@@ -108,7 +111,7 @@ class RealTimeRig:
         """The ``--json`` summary: time served, body, faults, bus, master violations, pacing."""
         st = self.bus.stats
         out: dict[str, Any] = {
-            "scenario": self.rig.scenario["_path"], "seed": self.rig.seed,
+            "scenario": self.rig.config.path, "seed": self.rig.seed,
             "served_s": round(self.clock.t_us * 1e-6, 6),
             "bus": dict(st), "faults": dict(self.rig.faults.counts),
             "switch_edges": self._edges, "violations": self.check.summary(), "pacing": pacing,
@@ -116,7 +119,7 @@ class RealTimeRig:
             {"id": self.node.id, "instructions": self.node.instructions}}
         if self.world is not None:
             out["body"] = {k: round(v, 6) for k, v in
-                           body_displacement(self._pose0, self.world.body_pose()).items()}
+                           BodyDisplacement.between(self._pose0, self.world.body_pose()).as_dict().items()}
             out["world_s"] = self.world.t_us * 1e-6
         return out
 

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 from hil import scenario as scenario_mod
+from hil.seams import FirmwareWorld, SteppedWorld
 from hil.clock import VirtualClock
 from hil.servobus import protocols
 from hil.servobus.faults import Faults, OnFault
@@ -23,26 +24,27 @@ class Rig:
     """What a scenario builds; ``bus`` is None for a world with no servo bus (beams)."""
 
     config: scenario_mod.Scenario
-    scenario: dict[str, Any]       # ``config.data``: what the worlds and the hello read
     seed: int
     clock: VirtualClock
-    world: Any
+    world: FirmwareWorld | SteppedWorld | None
     bus: Bus | None
     faults: Faults | None
 
 
-def make_world(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int) -> Any:
+def make_world(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int
+               ) -> FirmwareWorld | None:
     """The hexapod world of a scenario's ``[world]``, or None (kinematic servos); the hexapod
     world refuses another kind. Seed 000's beams world is built with its host nodes
-    (host_tools/traversal/closed_loop.py)."""
+    (host_tools/papers/beam_traversal/beams_run.py)."""
     cfg = scenario_mod.parse(scenario)
     if cfg.world.kind is None:
         return None
-    from hil.world.hexapod import HexapodWorld
-    return HexapodWorld(cfg.data, seed)
+    from hil.world.hexapod_world import HexapodWorld
+    return HexapodWorld(cfg, seed)
 
 
-def _servos(bus: scenario_mod.BusConfig, ids: Sequence[int], world: Any) -> list[TableServo]:
+def _servos(bus: scenario_mod.BusConfig, ids: Sequence[int], world: FirmwareWorld | None
+            ) -> list[TableServo]:
     """The scenario's model (protocol/dynamixel/models.py), one servo an ID, each on its
     joint's actuator when there is a world."""
     actuators = world.actuators() if world is not None else []
@@ -52,20 +54,19 @@ def _servos(bus: scenario_mod.BusConfig, ids: Sequence[int], world: Any) -> list
             for k, dev_id in enumerate(ids)]
 
 
-def build(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int = 0, *, world: Any = None,
+def build(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int = 0, *,
+          world: FirmwareWorld | SteppedWorld | None = None,
           ids: Sequence[int] | None = None, on_fault: OnFault | None = None,
           on_bytes: OnBytes | None = None) -> Rig:
     """The rig of ``scenario`` (checked here, so a hand-built dict obeys the same rules)."""
     cfg = scenario_mod.parse(scenario)
-    sc = cfg.data
     clock = VirtualClock()
-    faults = Faults.from_scenario(sc["faults"], seed, where=f"{cfg.path} [faults]",
-                                  on_fault=on_fault)
+    faults = Faults(cfg.faults, seed, on_fault=on_fault)
     if world is not None and not hasattr(world, "actuators"):
-        return Rig(cfg, sc, seed, clock, world, None, faults)   # a world without a servo bus
+        return Rig(cfg, seed, clock, world, None, faults)   # a world without a servo bus
     bus_cfg = cfg.bus
     line = protocols.for_model(bus_cfg.model).line
     bus = line(_servos(bus_cfg, list(bus_cfg.ids if ids is None else ids), world), clock,
               baud=bus_cfg.baud, echo=bus_cfg.echo, faults=faults if faults.active() else None,
               on_bytes=on_bytes, advance=world.advance_to if world is not None else None)
-    return Rig(cfg, sc, seed, clock, world, bus, faults)
+    return Rig(cfg, seed, clock, world, bus, faults)

@@ -1,78 +1,36 @@
 """Scenario files (TOML): one loader, one schema, typed sections, one-line errors.
 
-Each section's keys and types are declared in ``SCHEMA``; each section's defaults and rules
-sit beside its frozen type (sections.py; seed 000's in beams.py), applied once by ``parse``,
-so ``hexhil run``, ``hexhil bus``, the experiments and the tests build the same rig from the
-same file. ``float`` keys accept integers; ``list`` keys are checked further by their owner
-(faults, terrain). ``load_scenario`` reads a file into a ``Scenario``; ``parse`` takes a
-dict (tests build them); ``check``/``load`` give the checked dict its consumers still read.
+Each section's keys and types are declared in ``SCHEMA`` (schema.py); each section's
+defaults and rules sit beside its frozen type (sections.py, world.py, faults.py; seed 000's
+in beams.py), applied once by ``parse``, so ``hexhil run``, ``hexhil bus``, the experiments
+and the tests build the same rig from the same file. Everything below the loader takes the
+``Scenario`` or one of its sections; only this package reads the data as written.
 """
 from __future__ import annotations
 
-import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 from hil.scenario.beams import BeamsConfig, TraversalConfig
+from hil.scenario.faults_section import FaultEntry, FaultKind, FaultsConfig
+from hil.scenario.rules import SCHEMA, check_table, optional
 from hil.scenario.sections import (DEFAULT_BAUD, DEFAULT_DURATION_S, GAITS,
-                                   MAX_DURATION_S, RETURN_DELAY_MAX_US, BusConfig, FaultsConfig, FirmwareConfig,
-                                   GaitConfig, Runtime, ScenarioInfo, WorldConfig, WorldKind,
+                                   MAX_DURATION_S, RETURN_DELAY_MAX_US, BusConfig, FirmwareConfig,
+                                   GaitConfig, Runtime, ScenarioInfo,
                                    check_duration)
+from hil.scenario.world_section import Obstacle, WorldConfig, WorldKind
+from protocol import link_schema as ls
+from protocol.dynamixel import models
 from protocol.errors import UserError
-
-SCHEMA: dict[str, dict[str, type]] = {
-    "scenario": {"name": str, "description": str, "seed": int, "duration_s": float},
-    "bus": {"servos": int, "first_id": int, "baud": int, "echo": bool, "return_delay_us": int,
-            "edition": str, "eeprom_busy_us": int, "sensor_node": bool, "sensor_node_id": int,
-            "model": str},
-    "firmware": {"cycle_hz": float, "tactile": bool, "python": str, "servo_lost_s": float,
-                 "reads_per_cycle": int},
-    "gait": {"name": str, "period_s": float, "step_length_m": float, "step_height_m": float,
-             "max_obstacle_height_m": float, "direction_deg": float, "distance_m": float},
-    "faults": {"bit_error_rate": float, "drop_status_rate": float, "can_drop_rate": float,
-               "unplug": list,
-               "stall": list, "overheat": list, "voltage_sag": list,
-               # issue 42's vocabulary (hil/servobus/faults.py checks each entry)
-               "brownout": list, "overload": list, "position_stuck": list,
-               "position_noise": list, "id_conflict": list, "switch_stuck": list,
-               "switch_bounce": list, "can_silent": list, "can_garbage": list,
-               "force_bias": list, "force_dropout": list},
-    "world": {"kind": str, "terrain": str, "density": str, "height_class": str,
-              "obstacles": list, "length_m": float, "friction": float, "terrain_seed": int,
-              # "ideal" (default: regression) or "real" (experiments): hil/world/fidelity.py
-              "model": str, "obstacle_body": str, "units_seed": int},
-    # Seed 000 (world.kind = "beams"): the two beams (Sec. II-B) and the force sensor (Eq. 6).
-    "beams": {"k1_nm_per_rad": float, "k2_nm_per_rad": float, "hb1_m": float, "hb2_m": float,
-              "noise": float, "preload_nm": float, "mass_kg": float},
-    # Seed 000's host side: push, sense, estimate, plan and track (Sec. III).
-    "traversal": {"strategy": str, "fx_n": float, "delay_ms": float, "sensing_ms": float,
-                  "unknowns": int, "method": str, "max_time_s": float},
-}
-
-
-def _type_name(t: type) -> str:
-    return {str: "a string", int: "an integer", float: "a number", bool: "true or false",
-            list: "a list", dict: "a table"}.get(t, t.__name__)
-
-
-def _check_type(where: str, section: str, key: str, value: Any, want: type) -> Any:
-    if want is float and isinstance(value, (int, float)) and not isinstance(value, bool):
-        if not math.isfinite(value):
-            raise UserError(f"{where}: key '{section}.{key}' must be a finite number, got {value}")
-        return float(value)
-    if not isinstance(value, want) or (want is int and isinstance(value, bool)):
-        raise UserError(f"{where}: key '{section}.{key}' must be {_type_name(want)}, "
-                        f"got {type(value).__name__} {value!r}")
-    return value
 
 
 @dataclass(frozen=True)
 class Scenario:
-    """A checked scenario: its typed sections, every default applied (hil/scenario/sections.py),
-    and the data as written (``data``, each section present; what the worlds and the
-    firmware's hello read) with the file's ``text`` when it came from one."""
+    """A checked scenario: its typed sections, every default applied, and (for a trace's
+    metadata and ``overlay``) the data as written, with the file's ``text`` when it came
+    from one."""
 
     path: str
     scenario: ScenarioInfo
@@ -83,7 +41,7 @@ class Scenario:
     world: WorldConfig
     beams: BeamsConfig
     traversal: TraversalConfig
-    data: dict[str, Any] = field(repr=False, compare=False)
+    written: dict[str, Any] = field(repr=False, compare=False)
     text: str | None = field(default=None, repr=False, compare=False)
 
     @property
@@ -92,7 +50,42 @@ class Scenario:
 
     def as_toml_data(self) -> dict[str, Any]:
         """The sections as written, without the loader's ``_path`` (for a trace's metadata)."""
-        return {k: v for k, v in self.data.items() if not k.startswith("_")}
+        return {k: v for k, v in self.written.items() if not k.startswith("_")}
+
+    def overlay(self, changes: Mapping[str, Mapping[str, Any]]) -> "Scenario":
+        """This scenario with ``changes`` (section -> key -> value) written over it, checked
+        again: a value replaces the written one, a list extends it (fault entries)."""
+        data = {k: dict(v) if isinstance(v, dict) else v for k, v in self.written.items()}
+        for section, values in changes.items():
+            body = data.setdefault(section, {})
+            for key, value in values.items():
+                old = body.get(key)
+                body[key] = [*old, *value] if isinstance(old, list) and isinstance(value, list) \
+                    else value
+        return parse(data, self.path)
+
+    def firmware_settings(self, tactile: bool | None = None) -> dict[str, Any]:
+        """The firmware/config.py overrides this scenario asks for (the link's hello config,
+        keys from protocol/link_schema.py CONFIG): the keys the file sets, the gait always;
+        ``tactile`` overrides the file's rule."""
+        fw, bus, gait = self.written["firmware"], self.written["bus"], self.gait
+        out: dict[str, Any] = {k: fw[k] for k in (ls.CYCLE_HZ, ls.TACTILE_ON, ls.SERVO_LOST_S,
+                                                   ls.READS_PER_CYCLE) if k in fw}
+        out[ls.GAIT] = gait.name
+        out[ls.PERIOD_S] = gait.period_s
+        for key in (ls.STEP_LENGTH_M, ls.STEP_HEIGHT_M, ls.MAX_OBSTACLE_HEIGHT_M,
+                    ls.DIRECTION_DEG):
+            if getattr(gait, key) is not None:
+                out[key] = getattr(gait, key)
+        for key in (ls.FIRST_ID, ls.BAUD):
+            if key in bus:
+                out[key] = bus[key]
+        version = models.protocol(self.bus.model)
+        if version != models.protocol(models.DEFAULT):   # the firmware's default stays unsaid
+            out[ls.PROTOCOL] = version
+        if tactile is not None:
+            out[ls.TACTILE_ON] = tactile
+        return out
 
 
 def _sections(data: dict[str, Any], where: str) -> dict[str, Any]:
@@ -105,13 +98,7 @@ def _sections(data: dict[str, Any], where: str) -> dict[str, Any]:
                             f"(known: {', '.join(sorted(SCHEMA))})")
         if not isinstance(body, dict):
             raise UserError(f"{where}: '{section}' must be a table ([{section}])")
-        keys = SCHEMA[section]
-        out[section] = {}
-        for key, value in body.items():
-            if key not in keys:
-                raise UserError(f"{where}: unknown key '{section}.{key}' "
-                                f"(known: {', '.join(sorted(keys))})")
-            out[section][key] = _check_type(where, section, key, value, keys[key])
+        out[section] = check_table(where, body, optional(SCHEMA[section]), f"{section}.")
     for section in SCHEMA:
         out.setdefault(section, {})
     out["_path"] = where
@@ -125,18 +112,14 @@ def parse(data: dict[str, Any], path: str | Path | None = None,
         return data
     where = str(path if path is not None else data.get("_path", "scenario"))
     d = _sections(data, where)
-    world = WorldConfig.parse(where, d["world"])
+    gait = GaitConfig.parse(where, d["gait"])
+    world = WorldConfig.parse(where, d["world"], gait.distance_m)
     return Scenario(
         where, ScenarioInfo.parse(where, d["scenario"]), BusConfig.parse(where, d["bus"]),
-        FirmwareConfig.parse(where, d["firmware"]), GaitConfig.parse(where, d["gait"]),
+        FirmwareConfig.parse(where, d["firmware"]), gait,
         FaultsConfig.parse(where, d["faults"]), world,
         BeamsConfig.parse(where, d["beams"], world.kind is WorldKind.BEAMS),
         TraversalConfig.parse(where, d["traversal"]), d, text)
-
-
-def check(data: dict[str, Any], path: str | Path | None = None) -> dict[str, Any]:
-    """``parse``'s checked data: every section present, as written."""
-    return parse(data, path).data
 
 
 def from_text(text: str, path: str | Path) -> Scenario:
@@ -160,13 +143,8 @@ def load_scenario(path: str | Path) -> Scenario:
     return from_text(text, p)
 
 
-def load(path: str | Path) -> dict[str, Any]:
-    """A scenario file's checked data (``load_scenario(path).data``)."""
-    return load_scenario(path).data
-
-
 __all__ = ["SCHEMA", "Scenario", "ScenarioInfo", "BusConfig", "FirmwareConfig", "GaitConfig",
-           "FaultsConfig", "WorldConfig", "BeamsConfig", "TraversalConfig", "Runtime",
-           "WorldKind", "GAITS", "DEFAULT_BAUD", "DEFAULT_DURATION_S", "MAX_DURATION_S",
-           "RETURN_DELAY_MAX_US", "check_duration", "parse", "check",
-           "from_text", "load_scenario", "load"]
+           "FaultsConfig", "FaultEntry", "FaultKind", "WorldConfig", "Obstacle", "BeamsConfig",
+           "TraversalConfig", "Runtime", "WorldKind", "GAITS", "DEFAULT_BAUD",
+           "DEFAULT_DURATION_S", "MAX_DURATION_S", "RETURN_DELAY_MAX_US",
+           "check_duration", "parse", "from_text", "load_scenario"]

@@ -2,8 +2,9 @@
 its type, applied once when a scenario is loaded (hil/scenario/__init__.py).
 
 Keys a section leaves to the firmware (``firmware/config.py``: cycle rate, tactile rule,
-servo loss time) or to the world (``hil/world``: terrain, model) stay None here when the
-file does not set them: their defaults live with their owner, on the other floor.
+servo loss time) stay None here when the file does not set them: their defaults live with
+their owner, on the other floor. The world's and the faults' sections are world.py and
+faults.py; range rules come from schema.py.
 """
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
+from hil.scenario.rules import at_least, positive
 from protocol import hexapod
 from protocol.dynamixel import ax12, models
 from protocol.errors import UserError
@@ -46,18 +48,13 @@ class Runtime(str, Enum):
                             f"got {value!r}") from None
 
 
-class WorldKind(str, Enum):
-    HEXAPOD = "hexapod"   # the MuJoCo hexapod (hil/world/hexapod.py), driven by the firmware
-    BEAMS = "beams"       # seed 000's two beams (hil/world/beams.py), stepped by the simulator
-
-
-def check_duration(value: float, what: str) -> float:
-    """A run's length in seconds: positive, finite and within ``MAX_DURATION_S``."""
-    if not value > 0:
-        raise UserError(f"{what} must be positive, got {value}")
+def check_duration(value: float, what: str, params: tuple[str, ...] = ()) -> float:
+    """A run's length in seconds: positive, finite and within ``MAX_DURATION_S``; ``params``:
+    the API parameter ``what`` names (protocol/errors.py)."""
+    positive(what, value, params)
     if not value <= MAX_DURATION_S:
         raise UserError(f"{what} must be at most {MAX_DURATION_S:g} s (a trace's clock is "
-                        f"u64 nanoseconds), got {value}")
+                        f"u64 nanoseconds), got {value}", params=params)
     return float(value)
 
 
@@ -98,8 +95,7 @@ class BusConfig:
         if b.servos < 1 or b.first_id < 0 or b.first_id + b.servos - 1 > 253:
             raise UserError(f"{where}: servos {b.servos} from ID {b.first_id} do not fit "
                             "IDs 0-253")
-        if b.baud <= 0:
-            raise UserError(f"{where}: key 'bus.baud' must be positive, got {b.baud}")
+        positive(f"{where}: key 'bus.baud'", b.baud)
         if b.model not in SERVO_MODELS:
             raise UserError(f"{where}: key 'bus.model' must be one of "
                             f"{', '.join(SERVO_MODELS)}, got {b.model!r}")
@@ -124,9 +120,8 @@ class BusConfig:
         if node is not None and (not 0 <= node <= 253 or node in b.ids):
             raise UserError(f"{where}: key 'bus.sensor_node_id' must be 0-253 and no servo's "
                             f"ID, got {node}")
-        if b.eeprom_busy_us is not None and b.eeprom_busy_us < 0:
-            raise UserError(f"{where}: key 'bus.eeprom_busy_us' must be 0 or more, "
-                            f"got {b.eeprom_busy_us}")
+        if b.eeprom_busy_us is not None:
+            at_least(f"{where}: key 'bus.eeprom_busy_us'", b.eeprom_busy_us, 0)
         return b
 
 
@@ -146,8 +141,8 @@ class FirmwareConfig:
         if "python" in d:
             d["python"] = Runtime.parse(d["python"], f"{where}: key 'firmware.python'")
         f = cls(**d)
-        if f.cycle_hz is not None and not f.cycle_hz > 0:
-            raise UserError(f"{where}: 'cycle_hz' must be positive")
+        if f.cycle_hz is not None:
+            positive(f"{where}: 'cycle_hz'", f.cycle_hz)
         return f
 
 
@@ -169,57 +164,5 @@ class GaitConfig:
         if name not in GAITS:
             raise UserError(f"{where}: key 'gait.name' must be tripod or wave, got {name!r}")
         g = cls(**{"period_s": hexapod.GAIT_PERIOD_S[name], **d})
-        if not g.period_s > 0:
-            raise UserError(f"{where}: 'period_s' must be positive")
+        positive(f"{where}: 'period_s'", g.period_s)
         return g
-
-
-@dataclass(frozen=True)
-class FaultsConfig:
-    """Rates, and the scheduled faults' tables (checked by hil/servobus/faults.py, their owner)."""
-
-    bit_error_rate: float = 0.0
-    drop_status_rate: float = 0.0
-    can_drop_rate: float = 0.0
-    unplug: tuple[dict[str, Any], ...] = ()
-    stall: tuple[dict[str, Any], ...] = ()
-    overheat: tuple[dict[str, Any], ...] = ()
-    voltage_sag: tuple[dict[str, Any], ...] = ()
-    brownout: tuple[dict[str, Any], ...] = ()
-    overload: tuple[dict[str, Any], ...] = ()
-    position_stuck: tuple[dict[str, Any], ...] = ()
-    position_noise: tuple[dict[str, Any], ...] = ()
-    id_conflict: tuple[dict[str, Any], ...] = ()
-    switch_stuck: tuple[dict[str, Any], ...] = ()
-    switch_bounce: tuple[dict[str, Any], ...] = ()
-    can_silent: tuple[dict[str, Any], ...] = ()
-    can_garbage: tuple[dict[str, Any], ...] = ()
-    force_bias: tuple[dict[str, Any], ...] = ()
-    force_dropout: tuple[dict[str, Any], ...] = ()
-
-    @classmethod
-    def parse(cls, where: str, d: dict[str, Any]) -> "FaultsConfig":
-        f = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
-        if not 0.0 <= f.can_drop_rate <= 1.0:
-            raise UserError(f"{where}: key 'faults.can_drop_rate' must be in [0, 1], "
-                            f"got {f.can_drop_rate}")
-        return f
-
-
-@dataclass(frozen=True)
-class WorldConfig:
-    """``kind`` None: no world (kinematic servos); a ``[world]`` without ``kind`` is the
-    hexapod. Its other keys (terrain, model, obstacles, ...) are read by hil/world/."""
-
-    kind: WorldKind | None = None
-
-    @classmethod
-    def parse(cls, where: str, d: dict[str, Any]) -> "WorldConfig":
-        if not d:
-            return cls()
-        kind = d.get("kind", WorldKind.HEXAPOD.value)
-        try:
-            return cls(WorldKind(kind))
-        except ValueError:
-            raise UserError(f"{where}: key 'world.kind' must be one of "
-                            f"{', '.join(k.value for k in WorldKind)}, got {kind!r}") from None

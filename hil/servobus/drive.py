@@ -9,8 +9,8 @@ compliance registers) and reads Present Position, Speed and Load back from ``sta
 from __future__ import annotations
 
 import math
-from typing import Protocol
 
+from hil.seams import Actuator
 from protocol.dynamixel import ax12
 
 MOVING_EPS_RAD_S = 0.5 * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0  # half a speed unit
@@ -25,23 +25,6 @@ def is_moving(velocity_rad_s: float) -> bool:
 def wheel_mode(table: bytearray) -> bool:
     """Both angle limits 0: endless turn, Moving Speed 0-2047 (bit 10 = CW), goal ignored."""
     return not (table[6] or table[7] or table[8] or table[9])
-
-
-class Actuator(Protocol):
-    """What a servo drives: kinematic here, a physics joint in the hexapod world."""
-
-    def command(self, goal_rad: float, speed_limit_rad_s: float, torque_limit_frac: float,
-                enabled: bool, compliance: tuple[int, int, int, int, int]) -> None:
-        """New set-point; compliance = (cw_margin, ccw_margin, cw_slope, ccw_slope, punch), raw.
-
-        ``goal_rad`` is +inf (CCW) or -inf (CW) in wheel mode: turn endlessly at the speed.
-        """
-
-    def state(self) -> tuple[float, float, float]:
-        """(position_rad, velocity_rad_s, load_frac); CCW positive, load in [-1, 1]."""
-
-    def advance_to(self, t_us: int) -> None:
-        """Move to virtual time t_us (kinematic model only; physics steps itself)."""
 
 
 # Goal Position and Moving Speed in SI units for every register value, computed once by

@@ -58,7 +58,7 @@ class MasterCheck:
         ``rx_while_transmitting``, hil/link/board_line.py)."""
         self._flag(t_us, kind, detail)
 
-    def master_bytes(self, bus: Any, t0_us: int, data: bytes) -> None:
+    def master_bytes(self, bus: Bus, t0_us: int, data: bytes) -> None:
         """A burst the master starts sending at ``t0_us`` (before the line delivers it)."""
         if bus.reply_arriving_after(t0_us):
             self._flag(t0_us, "talk_over_reply", "master sent before the status had arrived")

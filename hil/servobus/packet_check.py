@@ -2,7 +2,10 @@
 v1.py's ``Packet1Check``, v2.py's ``Packet2Check``): the loop and the kinds they share."""
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
+
+if TYPE_CHECKING:
+    from hil.servobus.line import Bus
 
 # What a master can do wrong on any Dynamixel line (hil/servobus/master_check.py says each);
 # a protocol adds its own (hil/servobus/protocols/).
@@ -23,7 +26,7 @@ class PacketCheck:
         self.flag = flag
         self.parser = parser
 
-    def feed(self, bus: Any, t0_us: int, data: bytes) -> None:
+    def feed(self, bus: "Bus", t0_us: int, data: bytes) -> None:
         p = self.parser
         gaps, bad = p.timeouts, self.bad()
         for i, byte in enumerate(data):
@@ -44,5 +47,5 @@ class PacketCheck:
     def bad_detail(self) -> str:
         raise NotImplementedError
 
-    def packet(self, bus: Any, t_us: int) -> None:
+    def packet(self, bus: "Bus", t_us: int) -> None:
         raise NotImplementedError

@@ -37,7 +37,7 @@ from typing import Callable
 from hil.servobus.line import Bus
 
 MAX_WAIT_S = 0.2  # wake at least this often so timed faults and signals are handled
-LATE_US = 2_000   # one physics step (hil/world/hexapod.py): a step finished later is late
+LATE_US = 2_000   # one physics step (hil/world/hexapod_world.py): a step finished later is late
 # Linux <asm/termbits.h>: struct termios2 is 44 bytes, c_cflag at 8, c_ispeed/c_ospeed at
 # 36/40 in bit/s (any rate, BOTHER); TCGETS2 on a pty's master reads the slave's settings.
 _TCGETS2, _TCSETS2 = 0x802C542A, 0x402C542B

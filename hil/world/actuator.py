@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -59,11 +59,6 @@ def motor(model: str) -> Motor:
 
 
 AX12 = motor(ax12.MODEL_NAME)
-
-
-def motor_of(scenario: dict[str, Any]) -> Motor:
-    """The motor of a scenario's servos (``bus.model``, checked by hil/scenario.py)."""
-    return motor(scenario.get("bus", {}).get("model", models.DEFAULT))
 
 
 # (cw margin, ccw margin, cw slope, ccw slope, punch) in AX-12 raw units: e-manual defaults.
@@ -125,7 +120,7 @@ class DriveBank:
 
 
 class JointWorld(Protocol):
-    """What a joint needs of its world (hil/world/hexapod.py's HexapodWorld): its drives,
+    """What a joint needs of its world (hil/world/hexapod_world.py's HexapodWorld): its drives,
     the joint state and its clock. Declared here so this module never imports the world
     that imports it."""
 

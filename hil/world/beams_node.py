@@ -8,9 +8,9 @@ experiments report: the Eq. 11 energy of the applied actuation and the peak angl
 from __future__ import annotations
 
 import math
-from typing import Any
 
 from hil.canbus.bus import CanBus, Endpoint
+from hil.run_result import BeamsOutcome
 from hil.scenario.beams import MAX_TIME_S
 from hil.world import scene
 from hil.world.beams import DT_US, SENSOR_PERIOD_US, BeamsWorld
@@ -91,13 +91,13 @@ class BeamsNode:
             return w.t_us > NO_CONTACT_LIMIT_US
         return w.t_us - w.first_contact_us > self.max_time_us
 
-    def outcome(self) -> dict[str, Any]:
+    def outcome(self) -> BeamsOutcome:
         w = self.world
-        return {"traversed": w.passed(), "flipped": w.flipped,
-                "stuck": not w.passed() and not w.flipped, "energy_J": self.energy_j,
-                "k0": w.geometry.k0_nm_per_rad(),
-                "t_contact_s": None if w.first_contact_us is None else w.first_contact_us * 1e-6,
-                "t_end_s": w.t_us * 1e-6, "x_end_m": w.state.x_m,
-                "max_roll_deg": math.degrees(self.peak_rad[0]),
-                "max_pitch_deg": math.degrees(self.peak_rad[1])}
+        return BeamsOutcome(
+            traversed=w.passed(), flipped=w.flipped, stuck=not w.passed() and not w.flipped,
+            energy_J=self.energy_j, k0=w.geometry.k0_nm_per_rad(),
+            t_contact_s=None if w.first_contact_us is None else w.first_contact_us * 1e-6,
+            t_end_s=w.t_us * 1e-6, x_end_m=w.state.x_m,
+            max_roll_deg=math.degrees(self.peak_rad[0]),
+            max_pitch_deg=math.degrees(self.peak_rad[1]))
 

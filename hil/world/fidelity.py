@@ -22,16 +22,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
-
 import numpy as np
 
+from hil.scenario.world_section import WorldConfig
 from hil.world import actuator as act
-from protocol.errors import UserError
 
-MODELS = ("ideal", "real")
-OBSTACLE_BODIES = ("fixed", "free")
-OBSTACLE_BODY = "fixed"        # the default with ``real`` (paper Sec. 4, see the docstring)
 RATED_SUPPLY_V = 12.0          # e-manual: stall torque and no-load speed are given at 12 V
 SUPPLY_V = 11.0                # paper Sec. 3.1: servo supply 10-12 V; the middle of it
 BACKLASH_RAD = 0.01            # Webots' Dynamixel backlash; MX-28 datasheet 0.33 deg (docs)
@@ -62,38 +57,20 @@ class RealModel:
     motor: act.Motor = act.AX12
 
 
-def model_name(scenario: dict[str, Any]) -> str:
-    world = scenario.get("world", {})
-    name = world.get("model", "ideal")
-    if name not in MODELS:
-        raise UserError(f"{scenario.get('_path', 'scenario')}: key 'world.model' must be "
-                        f"ideal or real, got {name!r}")
-    return name
-
-
-def from_scenario(scenario: dict[str, Any], seed: int, foot_friction: float,
+def from_scenario(world: WorldConfig, motor: act.Motor, seed: int, foot_friction: float,
                   n_joints: int, n_feet: int) -> RealModel | None:
-    """The real model a scenario asks for, or None for the ideal world."""
-    world = scenario.get("world", {})
-    where = scenario.get("_path", "scenario")
-    ideal = model_name(scenario) == "ideal"
-    body = world.get("obstacle_body", OBSTACLE_BODY)
-    if body not in OBSTACLE_BODIES:
-        raise UserError(f"{where}: key 'world.obstacle_body' must be fixed or free, got {body!r}")
-    if ideal:
-        if body == "free" or "units_seed" in world:
-            raise UserError(f"{where}: world.obstacle_body = \"free\" and world.units_seed "
-                            f"need world.model = \"real\"")
+    """The real model a scenario's ``[world]`` asks for, or None for the ideal world."""
+    if world.ideal:
         return None
-    units = np.random.default_rng([world.get("units_seed", seed), 3])
+    units = np.random.default_rng([seed if world.units_seed is None else world.units_seed, 3])
     trial = np.random.default_rng([seed, 21])
     offsets = units.normal(0.0, OFFSET_SD_UNITS, n_joints) * act.POSITION_UNIT_RAD
-    motor = act.motor_of(scenario)
     stall = motor.stall_torque_nm * SUPPLY_V / motor.rated_supply_v * (
         1.0 + np.clip(units.normal(0.0, STALL_SPREAD_SD, n_joints), -2 * STALL_SPREAD_SD,
                       2 * STALL_SPREAD_SD))
     feet = foot_friction * np.clip(1.0 + trial.normal(0.0, FOOT_FRICTION_SD, n_feet), 0.5, 1.5)
-    return RealModel(offsets, stall, feet, int(trial.integers(2**31)), body == "free", motor)
+    return RealModel(offsets, stall, feet, int(trial.integers(2**31)),
+                     world.obstacle_body == "free", motor)
 
 
 class RealDriveBank(act.DriveBank):

@@ -16,6 +16,8 @@ from typing import Any, NamedTuple
 import mujoco
 import numpy as np
 
+from hil.world.beams import BeamsWorld
+
 ROBOT_RGBA = (0.25, 0.45, 0.75, 1.0)
 FOOT_RGBA = (0.15, 0.15, 0.15, 1.0)
 PLATE_OPEN_RGBA = (0.8, 0.8, 0.8, 1.0)
@@ -188,7 +190,7 @@ def beams_shapes(geometry: Any, beams: list[Any]) -> list[Shape]:
     return out
 
 
-def beams_frames(world: Any) -> list[Frame]:
+def beams_frames(world: BeamsWorld) -> list[Frame]:
     """The body (centre at height H; R = Ry(pitch) Rx(roll)) and each beam's hinge frame,
     turned forward by its deflection theta about +y."""
     g, s = world.geometry, world.state
@@ -204,7 +206,7 @@ def beams_frames(world: Any) -> list[Frame]:
     return out
 
 
-def beams_arrows(world: Any) -> list[Arrow]:
+def beams_arrows(world: BeamsWorld) -> list[Arrow]:
     """The beams' summed contact force (Eq. 5: F1 + F2, what the force sensor reads before
     noise), drawn at the body's nose."""
     g, s = world.geometry, world.state

@@ -17,11 +17,11 @@ with mass and floor friction that can slide, tip or be stepped on.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Callable
 
 import numpy as np
 
+from hil.scenario.world_section import Obstacle, WorldConfig
 from protocol.errors import UserError
 
 DENSITY_SPACING_M = {"low": (0.15, 0.25), "high": (0.10, 0.15)}  # Sec. 2.2, R ranges
@@ -30,17 +30,6 @@ LENGTH_RANGE_M = (0.02, 0.03)                                    # Sec. 3.2, L =
 WIDTH_RANGE_M = (0.04, 0.10)                                     # our choice, see docstring
 CORRIDOR_START_M = 0.20      # first obstacle centre ahead of the start (legs clear at t=0)
 CORRIDOR_HALF_WIDTH_M = 0.25  # lateral extent of the generated field (feet reach ~0.22 m)
-
-
-@dataclass(frozen=True)
-class Obstacle:
-    """A half-ellipsoid on the ground, centre (x_m, y_m), full extents L, W and height H."""
-
-    x_m: float
-    y_m: float
-    length_m: float
-    width_m: float
-    height_m: float
 
 
 def generate(density: str, height_class: str, length_m: float, seed: int,
@@ -82,41 +71,15 @@ def generate(density: str, height_class: str, length_m: float, seed: int,
     return out
 
 
-def _explicit(items: list[Any], where: str) -> list[Obstacle]:
-    keys = {"x_m", "y_m", "length_m", "width_m", "height_m"}
-    out = []
-    for i, item in enumerate(items):
-        if not isinstance(item, dict) or set(item) != keys:
-            raise UserError(f"{where}: world.obstacles[{i}] must be a table with exactly "
-                            f"{', '.join(sorted(keys))}")
-        vals = {}
-        for k in keys:
-            v = item[k]
-            if isinstance(v, bool) or not isinstance(v, (int, float)):
-                raise UserError(f"{where}: world.obstacles[{i}].{k} must be a number")
-            vals[k] = float(v)
-        if min(vals["length_m"], vals["width_m"], vals["height_m"]) <= 0:
-            raise UserError(f"{where}: world.obstacles[{i}] sizes must be positive")
-        out.append(Obstacle(**vals))
-    return out
-
-
-def from_scenario(scenario: dict[str, Any], seed: int) -> list[Obstacle]:
-    """The obstacles a scenario's ``[world]`` section asks for (empty for flat ground)."""
-    world = scenario.get("world", {})
-    where = scenario.get("_path", "scenario")
-    terrain = world.get("terrain", "flat")
-    if terrain == "flat":
-        if "obstacles" in world:
-            raise UserError(f"{where}: world.obstacles needs world.terrain = \"obstacles\"")
+def from_scenario(world: WorldConfig, seed: int) -> list[Obstacle]:
+    """The obstacles a scenario's ``[world]`` asks for: given, generated (from the run's
+    ``seed`` unless the world names its own), or none for flat ground."""
+    if world.terrain == "flat":
         return []
-    if terrain != "obstacles":
-        raise UserError(f"{where}: world.terrain must be \"flat\" or \"obstacles\", got {terrain!r}")
-    if "obstacles" in world:
-        return _explicit(world["obstacles"], where)
-    length = world.get("length_m", scenario.get("gait", {}).get("distance_m", 1.0) + 0.3)
-    return generate(world.get("density", "low"), world.get("height_class", "small"), length,
-                    world.get("terrain_seed", seed))
+    if world.obstacles is not None:
+        return list(world.obstacles)
+    return generate(world.density, world.height_class, world.length_m,
+                    seed if world.terrain_seed is None else world.terrain_seed)
 
 
 MESH_RINGS = 4        # elevation steps of a loose obstacle's mesh, base ring included

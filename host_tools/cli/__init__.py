@@ -10,6 +10,7 @@ import argparse
 import importlib
 import json
 import logging
+import re
 import signal
 import sys
 from typing import Any
@@ -48,6 +49,29 @@ def actions(sub: argparse._SubParsersAction, name: str, help: str, metavar: str 
     p = sub.add_parser(name, help=help, description=description)
     return p.add_subparsers(dest=f"{name}_action", metavar=metavar, parser_class=type(p),
                             required=True)
+
+
+# The library's errors name API parameters (protocol/errors.py ``params``); a user of the
+# CLI typed these flags for them.
+FLAGS = {"python": "--python", "firmware": "--firmware", "duration_s": "--duration",
+         "can_server_port": "--can-server", "can_wait_clients": "--can-wait",
+         "live_port": "--live", "start_s": "--start", "end_s": "--end", "rate": "--rate",
+         "spec": "--can", "bus_args": "--can-arg", "out": "--out", "out_dir": "--out",
+         "fps": "--fps", "at_s": "--at", "workers": "--workers", "trace": "--trace",
+         "terrains": "--terrains", "distance_m": "--distance", "epochs": "--epochs",
+         "world": "--world", "model_path": "--model", "topics": "--topics",
+         "gdb_port": "--gdb", "coverage": "--coverage", "bare": "--bare", "target": "--target"}
+
+
+def flag_message(exc: UserError) -> str:
+    """``exc``'s message with the API parameters it names written as the flags that set them:
+    each one's first mention (a later one is the plain word: "a C firmware")."""
+    msg = str(exc)
+    for param in exc.params:
+        if param in FLAGS:
+            msg = re.sub(rf"(?<![\w\-\[.'])({re.escape(param)})(?![\w\]])",
+                         FLAGS[param], msg, count=1)
+    return msg
 
 
 class _Parser(argparse.ArgumentParser):
@@ -177,7 +201,7 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         return int(args.func(args) or 0)
     except UserError as exc:
-        sys.stderr.write(f"hexhil: {exc}\n")
+        sys.stderr.write(f"hexhil: {flag_message(exc)}\n")
         return exc.code
     except KeyboardInterrupt:
         return 130

@@ -21,7 +21,7 @@ def _stiffness(name: str, v: float) -> float:
     rigid beams (nodes.RIGID_K_NM_PER_RAD, 100 N m/rad). With a 1 N push into both beams,
     T + E - F_x x drifts 0.04 mJ at k = 100, 1.3 mJ at 1e4 and 52 J at 1e5: the 0.2 ms step
     no longer resolves the spring, and a run reports a made-up outcome."""
-    from host_tools.traversal.nodes import RIGID_K_NM_PER_RAD
+    from host_tools.papers.beam_traversal.nodes import RIGID_K_NM_PER_RAD
 
     if not (math.isfinite(v) and 0 <= v <= RIGID_K_NM_PER_RAD):
         raise UserError(f"--{name} must be a stiffness in 0..{RIGID_K_NM_PER_RAD:g} N m/rad "
@@ -30,8 +30,8 @@ def _stiffness(name: str, v: float) -> float:
 
 
 def cmd_estimate(args: argparse.Namespace) -> int:
-    from host_tools.traversal.estimator import estimate
-    from host_tools.traversal.push import push_samples
+    from host_tools.papers.beam_traversal.estimator import estimate
+    from host_tools.papers.beam_traversal.push import push_samples
 
     k1, k2 = _stiffness("k1", args.k1), _stiffness("k2", args.k2)
     hb1 = _nonneg("hb-mm", args.hb_mm) * 1e-3
@@ -54,8 +54,8 @@ def cmd_estimate(args: argparse.Namespace) -> int:
 
 def cmd_plan(args: argparse.Namespace) -> int:
     from hil.world.beam_body import PAPER_BODY
-    from host_tools.traversal import landscape, planner
-    from host_tools.traversal.push import start_after_delay
+    from host_tools.papers.beam_traversal import landscape, planner
+    from host_tools.papers.beam_traversal.push import start_after_delay
 
     k1, k2 = _stiffness("k1", args.k1), _stiffness("k2", args.k2)
     hb = _nonneg("hb-mm", args.hb_mm) * 1e-3
@@ -73,7 +73,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from host_tools.traversal.closed_loop import RunConfig, run
+    from host_tools.papers.beam_traversal.beams_run import RunConfig, run
     from host_tools.trace.recorder import open_recorder
 
     hb = _nonneg("hb-mm", args.hb_mm) * 1e-3

@@ -4,13 +4,13 @@ TCP port."""
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import sys
 from typing import Any
 
 from hil.canbus.socketcand import DEFAULT_PORT
-from hil.scenario import DEFAULT_BAUD
+from hil.scenario import DEFAULT_BAUD, FaultEntry, FaultKind, Scenario
+from hil.scenario import parse as parse_scenario
 from hil.scenario.sections import SENSOR_NODE_PROTOCOL
 from host_tools.cli import JSON_HELP, flush_print
 from protocol import sensor_node
@@ -87,38 +87,66 @@ def parse_ids(spec: str) -> list[int]:
     return sorted(ids)
 
 
-def scenario_from_flags(args: argparse.Namespace, scenario: dict[str, Any]
-                        ) -> tuple[dict[str, Any], int, list[int] | None]:
-    """Flags over scenario over defaults: the scenario to build, its seed and the servo IDs."""
-    from hil.servobus.faults import parse_flag
+def parse_flag(kind: str, spec: str) -> dict[str, Any]:
+    """A ``hexhil bus`` fault flag as a [faults] entry, as a scenario file writes it.
 
-    sc = copy.deepcopy(scenario) or {"_path": "flags"}
-    sb = sc.setdefault("bus", {})
+    ``--unplug ID:AT_S[:UNTIL_S]``, ``--stall ID:AT_S[:UNTIL_S]``,
+    ``--overheat ID:TEMP_C:AT_S[:UNTIL_S]``, ``--voltage-sag VOLTS:AT_S[:UNTIL_S]``.
+    """
+    parts = spec.split(":")
+    head = 2 if kind in ("overheat",) else 1
+    try:
+        nums = [float(p) for p in parts]
+    except ValueError:
+        raise UserError(f"--{kind.replace('_', '-')} {spec!r}: expected numbers separated by ':'") from None
+    if not head + 1 <= len(nums) <= head + 2:
+        raise UserError(f"--{kind.replace('_', '-')} {spec!r}: see 'hexhil bus --help' for the form")
+    out: dict[str, Any] = {"at_s": nums[head]}
+    if len(nums) == head + 2:
+        out["until_s"] = nums[head + 1]
+    if kind == "voltage_sag":
+        out["volts"] = nums[0]
+    else:
+        if nums[0] != int(nums[0]):
+            raise UserError(f"--{kind} {spec!r}: servo id must be an integer")
+        out["id"] = int(nums[0])
+        if kind == "overheat":
+            out["temperature_c"] = nums[1]
+    FaultEntry.parse(FaultKind(kind), out, f"--{kind.replace('_', '-')}")   # its rules
+    return out
+
+
+def scenario_from_flags(args: argparse.Namespace, scenario: Scenario | None
+                        ) -> tuple[Scenario, int, list[int] | None]:
+    """Flags over scenario over defaults: the scenario to build, its seed and the servo IDs."""
     ids = None
+    bus: dict[str, Any] = {}
     if args.ids:
         ids = parse_ids(args.ids)
         if args.servos is not None and args.servos != len(ids):
             raise UserError(f"--servos {args.servos} but --ids lists {len(ids)} IDs")
     elif args.servos is not None:
-        sb["servos"] = args.servos
+        bus["servos"] = args.servos
     for key in ("edition", "baud", "model"):
         if getattr(args, key) is not None:
-            sb[key] = getattr(args, key)
+            bus[key] = getattr(args, key)
     if args.echo:
-        sb["echo"] = True
-    sf = sc.setdefault("faults", {})
+        bus["echo"] = True
+    faults: dict[str, Any] = {}
     if args.bit_error_rate is not None:
-        sf["bit_error_rate"] = args.bit_error_rate
+        faults["bit_error_rate"] = args.bit_error_rate
     if args.drop_status_rate is not None:
-        sf["drop_status_rate"] = args.drop_status_rate
+        faults["drop_status_rate"] = args.drop_status_rate
     for kind in _FAULT_FLAGS:
         for spec in getattr(args, kind) or []:
-            sf.setdefault(kind, []).append(parse_flag(kind, spec))
-    seed = args.seed if args.seed is not None else sc.get("scenario", {}).get("seed", 0)
+            faults.setdefault(kind, []).append(parse_flag(kind, spec))
+    base = scenario if scenario is not None else parse_scenario({}, "flags")
+    sc = base.overlay({"bus": bus, "faults": faults})
+    seed = args.seed if args.seed is not None else sc.scenario.seed
     return sc, seed, ids
 
 
-def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None):
+def build_bus(args: argparse.Namespace, scenario: Scenario | None, on_fault=None):
     """Servos, clock, faults and bus from flags over scenario over defaults (hil/run/rig.py)."""
     from hil.run import rig
 
@@ -127,19 +155,18 @@ def build_bus(args: argparse.Namespace, scenario: dict[str, Any], on_fault=None)
     return built.bus, built.faults
 
 
-def _sensor_id(args: argparse.Namespace, sc: dict[str, Any]) -> int | None:
+def _sensor_id(args: argparse.Namespace, sc: Scenario) -> int | None:
     """The sensor node's ID, or None: on with --world unless --no-sensor-node or
     ``[bus] sensor_node = false``; ``--sensor-id``/``sensor_node_id`` move it."""
-    bus = sc.get("bus", {})
-    protocol = models.protocol(bus.get("model", models.DEFAULT))
-    if args.no_sensor_node or protocol != SENSOR_NODE_PROTOCOL \
-            or not bus.get("sensor_node", args.world is not None):
+    bus = sc.bus
+    on = bus.sensor_node if bus.sensor_node is not None else args.world is not None
+    if args.no_sensor_node or models.protocol(bus.model) != SENSOR_NODE_PROTOCOL or not on:
         return None
     if args.sensor_id is not None:
         if not 0 <= args.sensor_id <= 253:
             raise UserError(f"--sensor-id {args.sensor_id}: must be 0-253")
         return args.sensor_id
-    return bus.get("sensor_node_id", sensor_node.DEFAULT_ID)
+    return bus.sensor_node_id if bus.sensor_node_id is not None else sensor_node.DEFAULT_ID
 
 
 def run(args: argparse.Namespace) -> int:
@@ -160,16 +187,14 @@ def run(args: argparse.Namespace) -> int:
     if args.duration is not None:
         scenario_mod.check_duration(args.duration, f"--duration {args.duration}:")
     path = args.world or args.scenario
-    sc, seed, ids = scenario_from_flags(args, scenario_mod.load(path) if path else {})
+    sc, seed, ids = scenario_from_flags(args, scenario_mod.load_scenario(path) if path else None)
     transport = (SerialPort(args.port, args.baud or DEFAULT_BAUD) if args.port is not None
                  else Tcp(args.tcp, args.host) if args.tcp is not None
                  else Rfc2217(args.rfc2217, args.host, args.rts_direction)
                  if args.rfc2217 is not None else Pty())
     hint = None
     if args.world:   # our firmware's settings for this scenario, as `hexhil run` sends them
-        from hil.link.server import firmware_settings
-        hint = "firmware --config " + json.dumps(firmware_settings(scenario_mod.check(sc)),
-                                                 sort_keys=True)
+        hint = "firmware --config " + json.dumps(sc.firmware_settings(), sort_keys=True)
 
     def announce(line: str) -> None:
         flush_print(line)
@@ -178,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
 
     can_server = None
     if args.can_server is not None:
-        from host_tools.run import start_can_server
+        from host_tools.run_summary import start_can_server
         can_server = start_can_server(args.can_server, 0)
     try:
         rt = RealTimeRun(sc, seed, world=args.world is not None, ids=ids, trace=args.out,

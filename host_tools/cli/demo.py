@@ -18,7 +18,7 @@ SCENARIO = "scenarios/obstacles-low-small.toml"
 
 
 def _walks(out_dir: Path) -> dict:
-    from host_tools.run import run
+    from host_tools.run_summary import run
 
     trace = out_dir / "tactile.mcap"
     with_method, _ = run(SCENARIO, out=str(trace))
@@ -44,7 +44,7 @@ def _trace_summary(path: str) -> dict:
 
 
 def _beams() -> dict:
-    from host_tools.traversal.closed_loop import RunConfig, run
+    from host_tools.papers.beam_traversal.beams_run import RunConfig, run
 
     out = {}
     for label, k in (("flimsy", 0.01), ("stiff", 0.25)):

@@ -22,8 +22,8 @@ CONTACT_N = 0.01         # |F| above this counts as contact (the frame's 1 mN st
 
 
 def run(args: argparse.Namespace) -> int:
-    from host_tools.traversal.estimator import estimate
-    from host_tools.traversal.trace_samples import load_samples
+    from host_tools.papers.beam_traversal.estimator import estimate
+    from host_tools.papers.beam_traversal.trace_samples import load_samples
 
     if args.sensing_s <= 0 or not math.isfinite(args.sensing_s):
         raise UserError("--sensing-s must be a positive number of seconds")

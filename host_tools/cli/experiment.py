@@ -1,6 +1,6 @@
 """``hexhil experiment NAME``: reproduce a paper's experiments.
 
-Each experiment is a library module (under ``host_tools.experiments``) whose ``main`` runs
+Each experiment is a library module (under ``host_tools.papers``) whose ``main`` runs
 it and writes its report; here each gets its options and its handler, and one line in
 ``EXPERIMENTS`` (name -> (help, add_arguments, handler)). Heavy imports (MuJoCo,
 matplotlib) stay inside the handlers.
@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from hil.link.firmware_process import IN_PROCESS, RUNTIMES
-from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
+from hil.scenario.world_section import OBSTACLE_BODIES, OBSTACLE_BODY
 from host_tools.cli import JSON_HELP, actions, emit_json, ProgressBar
 from protocol.errors import UserError
 
@@ -65,8 +65,8 @@ def _tactile_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _tactile(args: argparse.Namespace) -> int:
-    from host_tools.experiments import tactile_hexapod
-    from host_tools.experiments.executor import Executor
+    from host_tools.papers.tactile_hexapod import experiment as tactile_hexapod
+    from host_tools.executor import Executor
 
     seeds = args.seeds if args.seeds is not None else (1 if args.quick else 3)
     if seeds < 1:
@@ -97,7 +97,7 @@ def _force_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _force(args: argparse.Namespace) -> int:
-    from host_tools.experiments import force_sensing
+    from host_tools.papers.beam_traversal import force_sensing
 
     out = _out_folder(args.out)
     if args.seeds is not None and args.seeds < 1:

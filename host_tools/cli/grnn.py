@@ -10,7 +10,7 @@ import os
 from dataclasses import asdict
 from pathlib import Path
 
-from hil.world.fidelity import OBSTACLE_BODIES, OBSTACLE_BODY
+from hil.scenario.world_section import OBSTACLE_BODIES, OBSTACLE_BODY
 from host_tools.cli import JSON_HELP, actions, emit, emit_json, ProgressBar
 from protocol.errors import UserError
 
@@ -18,7 +18,7 @@ WORKERS = max(1, os.cpu_count() or 1)
 
 
 def _dataset(args: argparse.Namespace) -> int:
-    from host_tools.grnn import dataset
+    from host_tools.papers.tactile_hexapod.grnn import dataset
 
     opts = dataset.DatasetOptions(tuple(args.traces), args.terrains, args.seed, args.distance,
                                   args.obstacles, args.workers)
@@ -35,7 +35,7 @@ def _dataset(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from host_tools.grnn import train
+    from host_tools.papers.tactile_hexapod.grnn import train
 
     r = train.main(args.data, args.out, args.epochs, args.seed, ProgressBar("epoch"))
     emit(args, asdict(r), f"wrote {r.model}: {r.epochs} epochs on {r.runs} walks, final loss "
@@ -44,10 +44,10 @@ def _train(args: argparse.Namespace) -> int:
 
 
 def _eval(args: argparse.Namespace) -> int:
-    from host_tools.grnn import evaluate
+    from host_tools.papers.tactile_hexapod.grnn import held_out_report
 
-    res = evaluate.write_report(args.model, args.data, Path(args.out))
-    print(evaluate.markdown(res))
+    res = held_out_report.write_report(args.model, args.data, Path(args.out))
+    print(held_out_report.markdown(res))
     print(f"wrote {res['table']} and {len(res['plots'])} plots")
     if args.json:
         emit_json(res)
@@ -55,14 +55,14 @@ def _eval(args: argparse.Namespace) -> int:
 
 
 def _closed_loop(args: argparse.Namespace) -> int:
-    from host_tools.grnn import closed_loop
+    from host_tools.papers.tactile_hexapod.grnn import navigator_trials
 
     if args.workers < 1:
         raise UserError(f"--workers must be at least 1, got {args.workers}")
-    res = closed_loop.closed_loop(args.model, args.data, args.workers, ProgressBar("run"))
-    print(closed_loop.markdown(res), end="")
+    res = navigator_trials.closed_loop(args.model, args.data, args.workers, ProgressBar("run"))
+    print(navigator_trials.markdown(res), end="")
     if args.out:
-        closed_loop.write(res, Path(args.out))
+        navigator_trials.write(res, Path(args.out))
     a = res["arms"]
     print(f"mean relative goal error: tactile only {100 * a['planned']['mean_rel_error']:.1f} %, "
           f"+ Eq. 8-14 navigator {100 * a['model']['mean_rel_error']:.1f} %, "

@@ -15,21 +15,21 @@ def _run(args: argparse.Namespace) -> int:
 
     from hil import scenario as scenario_mod
     from host_tools.cli import emit_json
-    from host_tools.expect import margin, spec
+    from host_tools.expect import margin_sweep, spec
     from protocol.errors import UserError
 
     if args.jobs < 1:
         raise UserError("--jobs must be at least 1")
     case = spec.load(args.expect)
-    sc = scenario_mod.load(args.scenario)
-    case = dataclasses.replace(case, scenario=sc, name=sc["scenario"].get("name") or case.name,
-                               seed=sc["scenario"].get("seed", case.seed))
+    sc = scenario_mod.load_scenario(args.scenario)
+    case = dataclasses.replace(case, scenario=sc, name=sc.scenario.name or case.name,
+                               seed=sc.scenario.seed)
     if args.duration is not None:
         if not args.duration > 0:
             raise UserError(f"--duration must be positive, got {args.duration}")
         case = dataclasses.replace(case, duration_s=args.duration)
     python = args.python or case.python
-    m = margin.sweep(case, python, workers=args.jobs, scheduler=args.scheduler,
+    m = margin_sweep.sweep(case, python, workers=args.jobs, scheduler=args.scheduler,
                      progress=None if args.quiet else cli.ProgressBar("run"))
     for axis, points in m.axes.items():
         print(f"\n{axis}")
@@ -47,11 +47,11 @@ def _run(args: argparse.Namespace) -> int:
     print("\nfirst failing setting: " + ", ".join(
         f"{k} {'none' if v is None else f'{v:g}'}" for k, v in m.first_failing().items()))
     if args.png:
-        margin.heat_map(m, args.png, f"{case.name}: expectations of {args.expect} "
+        margin_sweep.heat_map(m, args.png, f"{case.name}: expectations of {args.expect} "
                                      f"({case.duration_s:g} s, seed {case.seed})")
         print(f"heat map: {args.png}")
     if args.json:
-        emit_json(json.loads(json.dumps(margin.to_json(m))))
+        emit_json(json.loads(json.dumps(margin_sweep.to_json(m))))
     return 0
 
 

@@ -1,6 +1,6 @@
 """``hexhil model urdf|mjcf``: the hexapod's robot description on stdout, generated from
 ``protocol/hexapod.py`` (the URDF by host_tools/robot_model.py, the MJCF the simulated world
-itself loads, from hil/world/hexapod.py)."""
+itself loads, from hil/world/hexapod_world.py)."""
 from __future__ import annotations
 
 import argparse
@@ -19,11 +19,11 @@ def _urdf(args: argparse.Namespace) -> int:
 def _mjcf(args: argparse.Namespace) -> int:
     from hil import scenario as scenario_mod
     from hil.run.rig import make_world
-    from hil.world.hexapod import RobotParams, mjcf
+    from hil.world.hexapod_world import RobotParams, mjcf
 
     if args.scenario:
-        sc = scenario_mod.load(args.scenario)
-        xml = make_world(sc, sc["scenario"].get("seed", 0) if args.seed is None else args.seed).xml
+        sc = scenario_mod.load_scenario(args.scenario)
+        xml = make_world(sc, sc.scenario.seed if args.seed is None else args.seed).xml
     else:
         xml = mjcf(RobotParams(), [], 1.0)
     sys.stdout.write(xml)

@@ -14,7 +14,8 @@ LIVE_PORT = 8765  # Foxglove's default WebSocket port (host_tools/trace/live.py)
 
 
 def _run(args: argparse.Namespace) -> int:
-    from host_tools import run as run_mod
+    import host_tools.papers  # noqa: F401  (plugs the beams run and the navigators in)
+    from host_tools import run_summary as run_mod
 
     try:
         s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,

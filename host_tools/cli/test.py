@@ -25,7 +25,7 @@ def table(results: Sequence) -> str:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from host_tools.expect import junit, runner, spec
+    from host_tools.expect import case_runs, junit, spec
     from protocol.errors import UserError
 
     if args.jobs < 1 or args.repeat < 1:
@@ -48,14 +48,14 @@ def _run(args: argparse.Namespace) -> int:
         dup = next(n for n in names if names.count(n) > 1)
         raise UserError(f"two files name the case {dup!r}: give one a [case] name")
     if args.trace is not None:
-        results = [runner.evaluate_recorded(cases[0], args.trace, args.keep_traces)]
+        results = [case_runs.evaluate_recorded(cases[0], args.trace, args.keep_traces)]
     else:
-        jobs = runner.jobs_for(cases, args.repeat, tactile=False if args.no_tactile else None,
+        jobs = case_runs.jobs_for(cases, args.repeat, tactile=False if args.no_tactile else None,
                                python=args.python, firmware=args.firmware,
                                keep_dir=args.keep_traces)
         bar = None if args.quiet or len(jobs) < 2 else cli.ProgressBar("run")
         if args.coverage is None:
-            results = runner.run_all(jobs, args.jobs, args.scheduler, progress=bar)
+            results = case_runs.run_all(jobs, args.jobs, args.scheduler, progress=bar)
         else:
             results = _covered(jobs, args, bar)
     print(table(results))
@@ -79,12 +79,12 @@ def _covered(jobs: list, args: argparse.Namespace, bar: object) -> list:
     from pathlib import Path
 
     from hil.mcu.coverage import merge
-    from host_tools.expect import runner
+    from host_tools.expect import case_runs
 
     with tempfile.TemporaryDirectory(prefix="hexhil-cov-") as tmp:
         jobs = [dataclasses.replace(j, coverage=str(Path(tmp) / f"{k}.info"))
                 for k, j in enumerate(jobs)]
-        results = runner.run_all(jobs, args.jobs, args.scheduler, progress=bar)
+        results = case_runs.run_all(jobs, args.jobs, args.scheduler, progress=bar)
         infos = [Path(j.coverage).read_text() for j in jobs if Path(j.coverage).exists()]
     Path(args.coverage).write_text(merge(infos))
     print(f"coverage of {len(infos)} runs: {args.coverage}")

@@ -9,7 +9,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Sequence
 
-from host_tools.expect.runner import CaseResult
+from host_tools.expect.case_runs import CaseResult
 from protocol.errors import UserError
 
 
@@ -48,4 +48,4 @@ def write(results: Sequence[CaseResult], path: str | Path) -> None:
     try:
         to_xml(results).write(path, encoding="utf-8", xml_declaration=True)
     except OSError as exc:
-        raise UserError(f"--junit {path}: cannot write ({exc.strerror})") from None
+        raise UserError(f"the JUnit report {path}: cannot write ({exc.strerror})") from None

@@ -42,16 +42,16 @@ class FinishedRun:
         """One expectation (an ``[[expect]]`` table's keys as arguments, ranges as
         ``(low, high)`` or ``{"min": ..}``); returns its ``Outcome``, or fails the test
         with measured value against limit, the failure written into a copy of the trace."""
-        from host_tools.expect import evaluate, runner, spec
+        from host_tools.expect import case_runs, spec, verdicts
 
         table = {"name": name or kind, "kind": kind, **keys}
         e = spec.expectation(f"{self.scenario} check", table)
-        (outcome,) = evaluate.evaluate(dataclasses.replace(self.case, expectations=(e,)),
+        (outcome,) = verdicts.evaluate(dataclasses.replace(self.case, expectations=(e,)),
                                        self.summary, self.trace)
         if not outcome.passed:
             slug = "".join(c if c.isalnum() else "-" for c in outcome.name)
             failed = self.trace.with_name(f"{self.trace.stem}-failed-{slug}.mcap")
-            runner.annotate(self.trace, failed, [outcome], self.summary["sim_time_s"])
+            case_runs.annotate(self.trace, failed, [outcome], self.summary["sim_time_s"])
             self._record(failed)
             where = f" at t={outcome.t_s:.3f} s" if outcome.t_s is not None else ""
             raise AssertionError(f"{outcome.name}: measured {outcome.measured}; limit "
@@ -88,7 +88,7 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path) -> Callable[..., 
     firmware=None)``: run a scenario file with our firmware (or ``firmware``, else
     ``--hexhil-firmware``), recorded to this test's tmp_path."""
     from hil import scenario as scenario_mod
-    from host_tools.expect import runner, spec
+    from host_tools.expect import case_runs, spec
 
     traces: list[Path] = []
     request.node.stash[_TRACES] = traces
@@ -100,15 +100,14 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path) -> Callable[..., 
     def run(scenario: str | Path, seed: int | None = None, duration_s: float | None = None,
             python: str | None = None, tactile: bool | None = None,
             firmware: str | Path | None = None) -> FinishedRun:
-        sc = scenario_mod.load(scenario)
-        seed = sc["scenario"].get("seed", 0) if seed is None else seed
-        duration = duration_s or sc["scenario"].get("duration_s",
-                                                    scenario_mod.DEFAULT_DURATION_S)
+        sc = scenario_mod.load_scenario(scenario)
+        seed = sc.scenario.seed if seed is None else seed
+        duration = duration_s or sc.scenario.duration_s
         python = (python or request.config.getoption("--hexhil-python")
-                  or sc["firmware"].get("python", "micropython"))
+                  or sc.firmware.python.value)
         trace = tmp_path / f"{Path(scenario).stem}-seed{seed}-{len(traces)}.mcap"
         firmware = firmware or request.config.getoption("--hexhil-firmware")
-        summary = runner.run_scenario(sc, seed, duration, python, tactile, trace,
+        summary = case_runs.run_scenario(sc, seed, duration, python, tactile, trace,
                                       firmware=str(firmware) if firmware else None)
         keep(trace)
         case = spec.Case(name=Path(scenario).stem, path=Path(scenario), scenario=sc, seed=seed,

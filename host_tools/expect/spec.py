@@ -12,11 +12,13 @@ import tomllib
 from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from hil import scenario as scenario_mod
+from hil.scenario import Scenario, WorldKind
+from hil.scenario.rules import check_table, optional, typed
 from hil.link.firmware_process import IN_PROCESS, RUNTIMES
-from hil.servobus.faults import KINDS
+from hil.scenario.faults_section import FaultKind
 from hil.servobus.master_check import KINDS as VIOLATION_KINDS
 from hil.link.served_firmware import served_firmware
 from protocol import can_frames
@@ -50,7 +52,7 @@ class Stat(str, Enum):
     COUNT = "count"    # how many messages
 
 
-FAULTS = (*KINDS, "bit_error", "drop_status")   # hil/servobus/faults.py's timed kinds
+FAULTS = (*(k.value for k in FaultKind), "bit_error", "drop_status")   # the timed kinds
 RESPONSES = ("safe_stop", "ride_through")
 RUNTIME_CHOICES = (*RUNTIMES, IN_PROCESS)
 
@@ -127,7 +129,7 @@ class Case:
 
     name: str
     path: Path
-    scenario: Mapping[str, Any] = field(hash=False)
+    scenario: Scenario = field(hash=False)
     seed: int
     duration_s: float
     tactile: bool | None
@@ -156,17 +158,7 @@ def _range(where: str, value: Any) -> Range:
     return Range(None if lo is None else float(lo), None if hi is None else float(hi))
 
 
-def _typed(where: str, value: Any, want: Any) -> Any:
-    if want == _RANGE:
-        return _range(where, value)
-    if want is float and isinstance(value, (int, float)) and not isinstance(value, bool):
-        if not math.isfinite(value):
-            raise UserError(f"{where} must be a finite number, got {value}")
-        return float(value)
-    if not isinstance(value, want) or (want is int and isinstance(value, bool)):
-        names = {str: "a string", int: "an integer", float: "a number", bool: "true or false",
-                 list: "a list", dict: "a table"}
-        raise UserError(f"{where} must be {names[want]}, got {value!r}")
+def _as_is(what: str, value: Any) -> Any:
     return value
 
 
@@ -226,18 +218,11 @@ def expectation(where: str, raw: Any, index: int = 0) -> Expectation:
     except ValueError:
         raise UserError(f"{label}: key 'kind' must be one of "
                         f"{', '.join(k.value for k in Kind)}, got {raw['kind']!r}") from None
-    keys = KEYS[kind]
-    values: dict[str, Any] = {}
-    for key, value in raw.items():
-        if key in COMMON_KEYS:
-            continue
-        if key not in keys:
-            raise UserError(f"{label}: unknown key '{key}' for kind '{kind.value}' "
-                            f"(known: {', '.join(sorted((*keys, *COMMON_KEYS)))})")
-        values[key] = _typed(f"{label}: key '{key}'", value, keys[key][0])
-    for key, (_, required) in keys.items():
-        if required and key not in values:
-            raise UserError(f"{label}: key '{key}' is required for kind '{kind.value}'")
+    fields = {**{k: (_range if want == _RANGE else want, required)
+                 for k, (want, required) in KEYS[kind].items()},
+              **{k: (_as_is, False) for k in COMMON_KEYS}}
+    values = {k: v for k, v in check_table(label, raw, fields, context=f" for kind '{kind.value}'")
+              .items() if k not in COMMON_KEYS}
     _check_kind(label, kind, values)
     window = _window(f"{label}: key 'window_s'", raw["window_s"]) if "window_s" in raw \
         else (0.0, None)
@@ -255,12 +240,12 @@ def _sends(where: str, raw: list[Any]) -> tuple[tuple[int, int, bytes], ...]:
                 or "at_s" not in e or "message" not in e:
             raise UserError(f"{label} must be a table {{at_s = .., message = .., "
                             f"signals = {{..}}}}, got {e!r}")
-        at_s = _typed(f"{label}.at_s", e["at_s"], float)
+        at_s = typed(f"{label}.at_s", e["at_s"], float)
         if at_s < 0:
             raise UserError(f"{label}.at_s must be 0 or more, got {at_s}")
-        signals = _typed(f"{label}.signals", e.get("signals", {}), dict)
+        signals = typed(f"{label}.signals", e.get("signals", {}), dict)
         try:
-            arb_id, data = can_frames.encode(_typed(f"{label}.message", e["message"], str),
+            arb_id, data = can_frames.encode(typed(f"{label}.message", e["message"], str),
                                               **signals)
         except (ValueError, TypeError, OverflowError) as exc:
             raise UserError(f"{label}: {exc}") from None
@@ -268,7 +253,7 @@ def _sends(where: str, raw: list[Any]) -> tuple[tuple[int, int, bytes], ...]:
     return tuple(sorted(out))
 
 
-def _scenario(where: str, path: Path, data: dict[str, Any]) -> dict[str, Any]:
+def _scenario(where: str, path: Path, data: dict[str, Any]) -> Scenario:
     """The case's scenario: the file ``case.scenario`` names (relative to this file), or
     the scenario sections written in this file itself."""
     inline = {k: v for k, v in data.items() if k not in ("case", "expect")}
@@ -277,17 +262,17 @@ def _scenario(where: str, path: Path, data: dict[str, Any]) -> dict[str, Any]:
         raise UserError(f"{where}: key 'case.scenario' names a scenario, so this file cannot "
                         f"also hold scenario sections ({', '.join(sorted(inline))})")
     if ref is not None:
-        return scenario_mod.load(path.parent / ref)
+        return scenario_mod.load_scenario(path.parent / ref)
     if not inline:
         raise UserError(f"{where}: key 'case.scenario' is required (or write the scenario's "
                         f"sections in this file)")
-    return scenario_mod.check(inline, path)
+    return scenario_mod.parse(inline, path)
 
 
-def _hexapod(where: str, sc: dict[str, Any]) -> dict[str, Any]:
-    if sc["world"].get("kind", "hexapod") != "hexapod":
+def _hexapod(where: str, sc: Scenario) -> Scenario:
+    if sc.world.kind not in (None, WorldKind.HEXAPOD):
         raise UserError(f"{where}: key 'world.kind': hexhil test runs the hexapod firmware, "
-                        f"this scenario's world is {sc['world']['kind']}")
+                        f"this scenario's world is {sc.world.kind.value}")
     return sc
 
 
@@ -306,11 +291,7 @@ def load(path: str | Path) -> Case:
     case = data.get("case", {})
     if not isinstance(case, dict):
         raise UserError(f"{where}: 'case' must be a table ([case])")
-    for key, value in case.items():
-        if key not in CASE_KEYS:
-            raise UserError(f"{where}: unknown key 'case.{key}' "
-                            f"(known: {', '.join(sorted(CASE_KEYS))})")
-        _typed(f"{where}: key 'case.{key}'", value, CASE_KEYS[key])
+    check_table(where, case, optional(CASE_KEYS), "case.")
     raw = data.get("expect")
     if not isinstance(raw, list) or not raw:
         raise UserError(f"{where}: key 'expect' is required: one [[expect]] table or more")
@@ -322,14 +303,13 @@ def load(path: str | Path) -> Case:
     sc = _hexapod(where, _scenario(where, p, data))
     for i, e in enumerate(expectations):
         if e.kind is Kind.TACTILE_RULE and e.get("max_obstacle_height_m") is None \
-                and "max_obstacle_height_m" not in sc["gait"]:
+                and sc.gait.max_obstacle_height_m is None:
             raise UserError(f"{where}: expect[{i}] ({e.name!r}): key 'max_obstacle_height_m' "
                             f"is required (H of Eq. 7: the scenario's gait does not give it)")
-    duration = float(case.get("duration_s", sc["scenario"].get(
-        "duration_s", scenario_mod.DEFAULT_DURATION_S)))
+    duration = float(case.get("duration_s", sc.scenario.duration_s))
     if not duration > 0:
         raise UserError(f"{where}: key 'case.duration_s' must be positive, got {duration}")
-    python = case.get("python", sc["firmware"].get("python", "micropython"))
+    python = case.get("python", sc.firmware.python.value)
     if python not in RUNTIME_CHOICES:
         raise UserError(f"{where}: key 'case.python' must be one of "
                         f"{', '.join(RUNTIME_CHOICES)}, got {python!r}")
@@ -341,6 +321,6 @@ def load(path: str | Path) -> Case:
         firmware = str(p.parent / firmware)
         served_firmware(firmware, f"{where}: key 'case.firmware'")   # checked now
     return Case(name=case.get("name", p.stem), path=p, scenario=sc, firmware=firmware,
-                seed=case.get("seed", sc["scenario"].get("seed", 0)), duration_s=duration,
+                seed=case.get("seed", sc.scenario.seed), duration_s=duration,
                 tactile=case.get("tactile"), python=python, expectations=expectations,
                 sends=_sends(where, case.get("send", [])))

@@ -42,8 +42,8 @@ def export(path: str | Path, out: str | Path, topics: Iterable[str] | None = Non
         chosen = tr.select_topics(topics) or tr.topics()
         if suffix == ".csv" and len(chosen) > 1:
             raise UserError(f"{out}: a .csv file holds one topic and {len(chosen)} match "
-                            f"({', '.join(chosen)}): pick one with --topics, or give a folder "
-                            f"name without .csv for one CSV per topic")
+                            f"({', '.join(chosen)}): pick one with topics, or give a folder "
+                            f"name without .csv for one CSV per topic", params=("topics",))
         rows: dict[str, list[dict[str, Any]]] = {}
         for m, value in tr.decoded(topics, start_s, end_s):
             flat: dict[str, Any] = {"time_s": f"{m.log_time_ns / 1e9:.6f}"}

@@ -46,7 +46,8 @@ class LiveServer:
                                                  context=self._context,
                                                  message_backlog_size=BACKLOG)
         except Exception as exc:  # the SDK raises its own error type for a bind failure
-            raise UserError(f"--live: cannot listen on 127.0.0.1:{port}: {exc}") from None
+            raise UserError(f"live_port: cannot listen on 127.0.0.1:{port}: {exc}",
+                            params=("live_port",)) from None
         self.port = self._server.port
         self._channels: dict[int, foxglove.Channel] = {}
 

@@ -133,7 +133,8 @@ class Trace:
         start_ns = None if start_s is None else max(0, int(round(start_s * 1e9)))
         end_ns = None if end_s is None else max(0, int(round(end_s * 1e9)))
         if start_ns is not None and end_ns is not None and start_ns > end_ns:
-            raise UserError(f"--start ({start_s:g} s) is after --end ({end_s:g} s)")
+            raise UserError(f"start_s ({start_s:g} s) is after end_s ({end_s:g} s)",
+                            params=("start_s", "end_s"))
         if self.file_order_is_time_order or not log_time_order:
             it = self._chunk_messages(sel, start_ns, end_ns)
         else:

@@ -36,7 +36,7 @@ from typing import Any, BinaryIO, Callable, Iterable, Mapping, Sequence
 
 from host_tools.trace import protobuf as pb
 from host_tools.trace.can_signals import CanSignals, json_default, json_schema, to_json
-from host_tools.trace import scene as scene_msgs
+from host_tools.trace import scene_encoding as scene_msgs
 from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, METADATA_NAME, T_BODY, T_CAN_PREFIX,
                                      T_CAN_RAW, T_FAULTS, T_JOINTS, T_LINK, T_SCENE,
                                      T_SCENE_FORCES, T_SCENE_FRAMES, T_SERIAL, T_SERVOS,

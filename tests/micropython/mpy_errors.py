@@ -15,4 +15,6 @@ except UserError as exc:
     check(str(exc) == "scenario.toml: key 'bus.baud' must be positive", "message kept")
     check(exc.code == 2, "default exit status 2")
 check(UserError("x", 3).code == 3, "exit status given")
+check(UserError("x").params == (), "no parameters named")
+check(UserError("rate must be >= 0", params=["rate"]).params == ("rate",), "parameters kept")
 done("errors")

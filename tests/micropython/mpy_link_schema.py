@@ -4,6 +4,7 @@ import json
 
 from firmware import config
 from protocol import link_schema as ls
+from protocol import schema
 from protocol import sim_link
 from tests.micropython.checks import check, done
 
@@ -16,7 +17,7 @@ for name, table in (("CONFIG", ls.CONFIG), ("STATS", ls.STATS), ("TACTILE", ls.T
                     ("FAULT", ls.FAULT)):
     check(len(set(keys(table))) == len(table), name + " keys distinct")
     for key, kind, unit, meaning in table:
-        check(kind in ls.TYPES and isinstance(unit, str) and meaning, name + " row " + key)
+        check(kind in schema.KINDS and isinstance(unit, str) and meaning, name + " row " + key)
 check(sorted(keys(ls.CONFIG)) == sorted(config.DEFAULTS), "CONFIG is the firmware's defaults")
 check(ls.problems(config.DEFAULTS, ls.CONFIG, True) == [], "defaults match their types")
 check(ls.problems({"cycle_hz": "fast"}, ls.CONFIG) == ["cycle_hz should be number, not 'fast'"],

@@ -3,13 +3,16 @@ hil/servobus/line.py's ``Bus``) and the master check's rules (hil/servobus/maste
 from __future__ import annotations
 
 from types import ModuleType
-from typing import Any
+from typing import TYPE_CHECKING
 
 from hil.scenario import BusConfig
 from hil.servobus.ax12_servo import Servo
 from hil.servobus.drive import Actuator
 from hil.servobus.packet_check import OnViolation, PacketCheck
 from protocol.dynamixel import v1 as dxl
+
+if TYPE_CHECKING:
+    from hil.servobus.line import Bus
 
 
 def make_servo(layout: ModuleType, dev_id: int, actuator: Actuator | None,
@@ -37,7 +40,7 @@ class Packet1Check(PacketCheck):
     def bad_detail(self) -> str:
         return f"packet to id {self.parser.last_bad_checksum_id}"
 
-    def packet(self, bus: Any, t_us: int) -> None:
+    def packet(self, bus: Bus, t_us: int) -> None:
         p = self.parser
         dev_id, code = p.id, p.code
         params = bytes(p.buf[dxl.PARAMS_OFFSET:dxl.PARAMS_OFFSET + p.nparams])

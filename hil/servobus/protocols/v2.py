@@ -23,7 +23,7 @@ status packet that never comes and send nothing.
 from __future__ import annotations
 
 from types import ModuleType
-from typing import Any
+from typing import TYPE_CHECKING
 
 from hil.scenario import BusConfig
 from hil.servobus.drive import Actuator
@@ -33,6 +33,9 @@ from hil.servobus.wire import Burst, resample
 from hil.servobus.xseries_servo import XSeriesServo
 from protocol.dynamixel import v2 as dx2
 from protocol.errors import UserError
+
+if TYPE_CHECKING:
+    from hil.servobus.line import Bus
 
 GROUP_READS = (dx2.SYNC_READ, dx2.FAST_SYNC_READ, dx2.BULK_READ, dx2.FAST_BULK_READ)
 
@@ -178,7 +181,7 @@ class Packet2Check(PacketCheck):
     def bad_detail(self) -> str:
         return f"bad CRC in a packet to id {self.parser.last_bad_crc_id}"
 
-    def packet(self, bus: Any, t_us: int) -> None:
+    def packet(self, bus: Bus, t_us: int) -> None:
         p = self.parser
         dev_id, instr = p.id, p.instr
         params = bytes(p.buf[dx2.PARAMS_OFFSET:dx2.PARAMS_OFFSET + p.nparams])

@@ -1,0 +1,144 @@
+"""The ``[faults]`` section as frozen types: the line's fault rates and the timed faults'
+entries (a servo unplugged, stalled, overheating; a supply sag; and issue 42's vocabulary:
+brown-out, overload, a stuck or noisy position, two servos on one ID, a stuck or bouncing
+switch, the CAN sensor node silent or babbling, seed 000's force sensor biased or dropping
+out), every key, default and rule here; hil/servobus/faults.py injects them."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+from hil.scenario.rules import check_table, within
+from protocol.errors import UserError
+
+
+class FaultKind(str, Enum):
+    UNPLUG = "unplug"
+    STALL = "stall"
+    OVERHEAT = "overheat"
+    VOLTAGE_SAG = "voltage_sag"
+    BROWNOUT = "brownout"
+    OVERLOAD = "overload"
+    POSITION_STUCK = "position_stuck"
+    POSITION_NOISE = "position_noise"
+    ID_CONFLICT = "id_conflict"
+    SWITCH_STUCK = "switch_stuck"
+    SWITCH_BOUNCE = "switch_bounce"
+    CAN_SILENT = "can_silent"
+    CAN_GARBAGE = "can_garbage"
+    FORCE_BIAS = "force_bias"
+    FORCE_DROPOUT = "force_dropout"
+
+
+SWITCH_KINDS = (FaultKind.SWITCH_STUCK, FaultKind.SWITCH_BOUNCE)
+CAN_KINDS = (FaultKind.CAN_SILENT, FaultKind.CAN_GARBAGE)
+FORCE_KINDS = (FaultKind.FORCE_BIAS, FaultKind.FORCE_DROPOUT)  # hil/world/beams_node.py
+SERVO_STATE_KINDS = (FaultKind.BROWNOUT, FaultKind.OVERLOAD, FaultKind.POSITION_STUCK,
+                     FaultKind.POSITION_NOISE, FaultKind.ID_CONFLICT)
+
+_AT = {"at_s": (float, True)}
+_TIMED = {**_AT, "until_s": (float, False)}
+_ID = {"id": (int, True)}
+ENTRY_FIELDS: dict[FaultKind, dict[str, tuple[type, bool]]] = {
+    FaultKind.UNPLUG: {**_ID, **_TIMED},
+    FaultKind.STALL: {**_ID, **_TIMED},
+    FaultKind.OVERHEAT: {**_ID, **_TIMED, "temperature_c": (float, True)},
+    FaultKind.VOLTAGE_SAG: {**_TIMED, "volts": (float, True), "ids": (list, False)},
+    FaultKind.BROWNOUT: {**_ID, **_AT},
+    FaultKind.OVERLOAD: {**_ID, **_AT},
+    FaultKind.POSITION_STUCK: {**_ID, **_TIMED},
+    FaultKind.POSITION_NOISE: {**_ID, **_TIMED, "sigma": (float, True)},
+    FaultKind.ID_CONFLICT: {**_ID, "as_id": (int, True), **_TIMED},
+    FaultKind.SWITCH_STUCK: {"leg": (int, True), "pressed": (bool, True), **_TIMED},
+    FaultKind.SWITCH_BOUNCE: {"leg": (int, True), "period_s": (float, True), **_TIMED},
+    FaultKind.CAN_SILENT: dict(_TIMED),
+    FaultKind.CAN_GARBAGE: dict(_TIMED),
+    FaultKind.FORCE_BIAS: {**_TIMED, "fx_n": (float, True), "fz_n": (float, False)},
+    FaultKind.FORCE_DROPOUT: dict(_TIMED),
+}
+
+
+@dataclass(frozen=True)
+class FaultEntry:
+    """One timed fault: from ``at_s`` (to ``until_s``, None: the run's end) on servo ``id``,
+    on ``ids`` (a sag; empty: every servo), on leg ``leg`` (a switch) or on the run's CAN
+    node or force sensor."""
+
+    kind: FaultKind
+    at_s: float
+    until_s: float | None = None
+    id: int | None = None
+    ids: tuple[int, ...] = ()
+    temperature_c: float | None = None
+    volts: float | None = None
+    sigma: float | None = None          # position_noise, in position units
+    as_id: int | None = None            # id_conflict: the ID servo ``id`` answers too
+    leg: int | None = None              # switch faults: 0-5 = LF LM LH RF RM RH
+    pressed: bool | None = None         # switch_stuck
+    period_s: float | None = None       # switch_bounce: the chatter period
+    fx_n: float | None = None           # force_bias
+    fz_n: float | None = None
+
+    @classmethod
+    def parse(cls, kind: FaultKind, raw: Any, where: str) -> "FaultEntry":
+        if not isinstance(raw, dict):
+            raise UserError(f"{where}: each '{kind.value}' entry must be a table like "
+                            f"{{id = 3, at_s = 1.0}}, got {raw!r}")
+        d = check_table(where, raw, ENTRY_FIELDS[kind], f"{kind.value}.",
+                        f" in a '{kind.value}' entry")
+        e = cls(kind, **{**d, "ids": tuple(d.get("ids", ()))})
+        if e.at_s < 0 or (e.until_s is not None and e.until_s <= e.at_s):
+            raise UserError(f"{where}: '{kind.value}' needs 0 <= at_s < until_s, got {raw!r}")
+        ids = [*(e.ids or (e.id if e.id is not None else 1,)),
+               *((e.as_id,) if e.as_id is not None else ())]
+        for i in ids:
+            if not isinstance(i, int) or isinstance(i, bool) or not 0 <= i <= 253:
+                raise UserError(f"{where}: '{kind.value}' servo id must be 0-253, got {i!r}")
+        if e.leg is not None and not 0 <= e.leg <= 5:
+            raise UserError(f"{where}: '{kind.value}.leg' must be 0-5 (LF, LM, LH, RF, RM, RH),"
+                            f" got {e.leg}")
+        if (e.sigma is not None and e.sigma < 0) or (e.period_s is not None and e.period_s <= 0):
+            raise UserError(f"{where}: '{kind.value}' needs sigma >= 0 and period_s > 0, "
+                            f"got {raw!r}")
+        return e
+
+
+@dataclass(frozen=True)
+class FaultsConfig:
+    bit_error_rate: float = 0.0
+    drop_status_rate: float = 0.0
+    can_drop_rate: float = 0.0
+    unplug: tuple[FaultEntry, ...] = ()
+    stall: tuple[FaultEntry, ...] = ()
+    overheat: tuple[FaultEntry, ...] = ()
+    voltage_sag: tuple[FaultEntry, ...] = ()
+    brownout: tuple[FaultEntry, ...] = ()
+    overload: tuple[FaultEntry, ...] = ()
+    position_stuck: tuple[FaultEntry, ...] = ()
+    position_noise: tuple[FaultEntry, ...] = ()
+    id_conflict: tuple[FaultEntry, ...] = ()
+    switch_stuck: tuple[FaultEntry, ...] = ()
+    switch_bounce: tuple[FaultEntry, ...] = ()
+    can_silent: tuple[FaultEntry, ...] = ()
+    can_garbage: tuple[FaultEntry, ...] = ()
+    force_bias: tuple[FaultEntry, ...] = ()
+    force_dropout: tuple[FaultEntry, ...] = ()
+
+    def entries(self) -> list[FaultEntry]:
+        """Every timed fault, kind by kind in FaultKind's order, each kind as written."""
+        return [e for k in FaultKind for e in getattr(self, k.value)]
+
+    def active(self) -> bool:
+        """Whether the servo line has a fault to inject (the CAN drop rate is the CAN bus's)."""
+        return bool(self.bit_error_rate or self.drop_status_rate or self.entries())
+
+    @classmethod
+    def parse(cls, where: str, d: dict[str, Any]) -> "FaultsConfig":
+        entries = {k.value: tuple(FaultEntry.parse(k, e, f"{where} [faults]") for e in d[k.value])
+                   for k in FaultKind if k.value in d}
+        f = cls(**{**d, **entries})
+        within(f"{where}: bit_error_rate", f.bit_error_rate, 0.0, 1.0, high_open=True)
+        within(f"{where}: drop_status_rate", f.drop_status_rate, 0.0, 1.0)
+        within(f"{where}: key 'faults.can_drop_rate'", f.can_drop_rate, 0.0, 1.0)
+        return f

@@ -1,0 +1,80 @@
+"""Where an experiment's runs execute: this process, local worker processes, or a Dask
+distributed cluster. Every run is a pure function of its spec (scenario + seed), so results
+do not depend on where or in what order runs finish; they come back in spec order.
+
+Runs done are reported through a ``Progress`` callback (the CLI draws a bar with the
+estimated time left).
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import multiprocessing
+from typing import Any, Callable, Sequence
+
+from host_tools.extras import require
+from host_tools.progress import Progress, report
+from protocol.errors import UserError
+
+
+class Executor:
+    """Map a run function over specs, reporting each run done to ``progress``.
+
+    ``workers`` = 1 runs in this process; more uses a local process pool; ``scheduler``
+    (``tcp://host:port``) sends runs to an existing Dask distributed cluster instead.
+    """
+
+    def __init__(self, workers: int = 1, scheduler: str | None = None,
+                 progress: Progress | None = None) -> None:
+        if workers < 1:
+            raise UserError(f"workers must be at least 1, got {workers}", params=("workers",))
+        if scheduler:
+            require("distributed")
+        self.workers = workers
+        self.scheduler = scheduler
+        self.progress = progress
+
+    def map(self, fn: Callable[[Any], Any], specs: Sequence[Any], desc: str) -> list[Any]:
+        def done(n: int) -> None:
+            report(self.progress, desc, n, len(specs))
+
+        done(0)
+        if self.scheduler:
+            return self._dask(fn, specs, done)
+        if self.workers == 1 or len(specs) <= 1:
+            out = []
+            for s in specs:
+                out.append(fn(s))
+                done(len(out))
+            return out
+        return self._local(fn, specs, done)
+
+    def _local(self, fn: Callable[[Any], Any], specs: Sequence[Any],
+               done: Callable[[int], None]) -> list[Any]:
+        results: list[Any] = [None] * len(specs)
+        # forkserver: children never inherit MuJoCo or socket state from this process
+        ctx = multiprocessing.get_context("forkserver")
+        with cf.ProcessPoolExecutor(max_workers=min(self.workers, len(specs)), mp_context=ctx) as pool:
+            futures = {pool.submit(fn, s): i for i, s in enumerate(specs)}
+            for n, fut in enumerate(cf.as_completed(futures), 1):
+                results[futures[fut]] = fut.result()
+                done(n)
+        return results
+
+    def _dask(self, fn: Callable[[Any], Any], specs: Sequence[Any],
+              done: Callable[[int], None]) -> list[Any]:
+        from distributed import Client, as_completed
+
+        try:
+            client = Client(self.scheduler, timeout="10s")
+        except (OSError, TimeoutError) as exc:
+            raise UserError(f"cannot reach Dask scheduler {self.scheduler}: {exc}") from None
+        try:
+            futures = client.map(fn, list(specs), pure=False)
+            index = {f.key: i for i, f in enumerate(futures)}
+            results: list[Any] = [None] * len(specs)
+            for n, fut in enumerate(as_completed(futures), 1):
+                results[index[fut.key]] = fut.result()
+                done(n)
+            return results
+        finally:
+            client.close()

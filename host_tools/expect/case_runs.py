@@ -1,0 +1,225 @@
+"""Running expectation cases: one run each (``run_scenario``, the one place a scenario is
+run), its outcomes, the trace of a failing case kept with the failures written into it, and
+many cases in parallel (host_tools/executor.py: a local process pool or Dask).
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Sequence
+
+from mcap.writer import CompressionType, Writer
+
+from hil.scenario import Scenario
+from hil.seams import ServoLine
+from hil.servobus.master_check import MasterCheck
+from host_tools import run_summary as run_mod
+from host_tools.expect.verdicts import Outcome, evaluate
+from host_tools.expect.spec import Case
+from host_tools.executor import Executor
+from host_tools.progress import Progress
+from host_tools.lockstep_run import Run
+from host_tools.trace import protobuf as pb
+from host_tools.trace import topics
+from host_tools.trace.reader import Trace, info
+from hil.mcu.runtime import FirmwareFault
+from protocol.errors import UserError
+
+T_EXPECTATIONS = "/expectations"  # foxglove.Log: each failed expectation at its moment
+
+
+@dataclass(frozen=True)
+class BusTiming:
+    """Timing-margin settings applied to the simulated bus (hil/servobus/line.py's hooks)."""
+
+    return_delay_us: int | None = None   # servos answer after this, whatever register 5 says
+    adapter_latency_us: int = 0          # before the master sees a received byte
+    master_baud: int | None = None       # the master UART's true rate (None: the scenario's)
+
+    def apply(self, bus: ServoLine) -> None:
+        bus.return_delay_override_us = self.return_delay_us
+        bus.rx_latency_us = self.adapter_latency_us
+        if self.master_baud is not None:
+            bus.set_master_baud(self.master_baud)
+
+
+@dataclass(frozen=True)
+class CaseRun:
+    """One run of one case: which, with what seed, and the options the command gave."""
+
+    case: Case
+    seed: int
+    label: str                            # the case's name, "#k" added for a repeat
+    tactile: bool | None = None
+    python: str | None = None
+    firmware: str | None = None           # the command's --firmware, over the case's
+    keep_dir: str | None = None           # keep the trace here when an expectation fails
+    keep_all: bool = False                # ... or always (the pytest plugin's fixtures)
+    timing: BusTiming = BusTiming()
+    scenario: Scenario | None = None      # the case's scenario changed (margin)
+    coverage: str | None = None           # an ELF's LCOV to this file (hexhil test --coverage)
+
+
+@dataclass(frozen=True)
+class CaseResult:
+    label: str
+    seed: int
+    outcomes: tuple[Outcome, ...]
+    summary: dict[str, Any]
+    trace: str | None                     # the kept trace, if one was kept
+
+    @property
+    def passed(self) -> bool:
+        return all(o.passed for o in self.outcomes)
+
+
+class _Sender:
+    """A host node that puts the case's CAN frames on the bus at their times."""
+
+    period_us = 1_000
+
+    def __init__(self, run: Run, sends: Sequence[tuple[int, int, bytes]]) -> None:
+        self.run, self.sends = run, list(sends)
+
+    def tick(self, t_us: int) -> None:
+        while self.sends and self.sends[0][0] <= t_us:
+            _, arb_id, data = self.sends.pop(0)
+            self.run.send_can(arb_id, data)
+
+
+def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
+                 tactile: bool | None, trace: Path, timing: BusTiming = BusTiming(),
+                 sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None,
+                 coverage: str | None = None) -> dict[str, Any]:
+    """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
+    file or an executable: ``hexhil run --firmware``) through the one run path
+    (host_tools/lockstep_run.py ``Run``), recorded to ``trace`` with the master's protocol check
+    on; returns ``hexhil run --json``'s summary plus ``violations``. Every case and margin
+    run goes through here."""
+    run = Run(scenario, seed=seed, runtime=None if firmware else python,
+              duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
+              coverage=coverage)
+    try:
+        check = MasterCheck(run.recorder.violation)
+        sim = run.sim
+        sim.bus.monitor = check
+        timing.apply(sim.bus)
+        if sends:
+            run.add_node(_Sender(run, sends))
+    except BaseException:
+        run.close()
+        raise
+    result = run.run()
+    summary = run_mod.summary(run.scenario, seed, result, str(trace))
+    summary["violations"] = check.summary()
+    return summary
+
+
+def run_case(job: CaseRun) -> CaseResult:
+    """Run one case, evaluate it, keep its trace if asked; picklable for worker processes."""
+    case = job.case
+    tactile = job.tactile if job.tactile is not None else case.tactile
+    fd, tmp = tempfile.mkstemp(suffix=".mcap", prefix="hexhil-test-")
+    os.close(fd)
+    trace = Path(tmp)
+    kept = None
+    try:
+        try:
+            summary = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
+                                   job.python or case.python, tactile, trace, job.timing,
+                                   case.sends, job.firmware or case.firmware, job.coverage)
+            outcomes = tuple(evaluate(case, summary, trace))
+        except FirmwareFault as exc:   # an ELF's fault (hil/mcu/): this case fails
+            summary = {"sim_time_s": exc.t_s, "trace": str(trace)}
+            outcomes = (Outcome(case.name, "firmware", "fault", str(exc), "no fault", False,
+                                exc.t_s),)
+        failed = [o for o in outcomes if not o.passed]
+        if job.keep_dir is not None and (failed or job.keep_all):
+            kept = keep(trace, job.keep_dir, job.label, failed, summary["sim_time_s"])
+    finally:
+        trace.unlink(missing_ok=True)
+    summary = {k: v for k, v in summary.items() if k != "trace"}
+    return CaseResult(job.label, job.seed, outcomes, summary, kept)
+
+
+def evaluate_recorded(case: Case, trace: Path, keep_dir: str | None = None) -> CaseResult:
+    """``case``'s expectations on a run recorded elsewhere, nothing run: a real board in
+    real time (``hexhil bus --world SCENARIO --port DEVICE --out RUN.mcap``), or any trace.
+    The run's length is the trace's; a failing case's copy goes to ``keep_dir``."""
+    try:
+        about = info(trace)
+    except (OSError, ValueError) as exc:
+        raise UserError(f"trace {trace}: not a readable hexhil trace ({exc})",
+                        params=("trace",)) from None
+    end_s = about["end_s"]
+    linked = about["metadata"].get("command") != "bus"   # hexhil bus --world: no link
+    summary = {"sim_time_s": end_s, "firmware_link": linked}
+    outcomes = tuple(evaluate(case, summary, trace))
+    failed = [o for o in outcomes if not o.passed]
+    kept = keep(trace, keep_dir, case.name, failed, end_s) if keep_dir and failed else None
+    return CaseResult(case.name, case.seed, outcomes, summary, kept)
+
+
+def keep(trace: Path, keep_dir: str, label: str, failed: Sequence[Outcome],
+         end_s: float) -> str:
+    """``trace`` copied to ``keep_dir/<label>.mcap`` with ``failed`` written into it."""
+    Path(keep_dir).mkdir(parents=True, exist_ok=True)
+    kept = Path(keep_dir) / (label.replace("/", "_").replace("#", "-") + ".mcap")
+    annotate(trace, kept, failed, end_s)
+    return str(kept)
+
+
+def annotate(src: Path, dst: Path, failed: Sequence[Outcome], end_s: float) -> None:
+    """Copy a trace and add each failed expectation as a ``foxglove.Log`` (ERROR) on
+    ``/expectations`` at the moment it failed (the run's end when it has none), so a viewer
+    opened at that message sees the robot when it went wrong."""
+    with Trace(src) as tr, open(dst, "wb") as f:
+        w = Writer(f, compression=CompressionType.ZSTD)
+        w.start(profile=topics.PROFILE, library=tr.header.library)
+        schema_ids = {sid: w.register_schema(s.name, s.encoding, s.data)
+                      for sid, s in tr.schemas.items()}
+        channel_ids = {cid: w.register_channel(c.topic, c.message_encoding,
+                                               schema_ids.get(c.schema_id, 0), c.metadata)
+                       for cid, c in tr.channels.items()}
+        log_schema = w.register_schema("foxglove.Log", "protobuf",
+                                       pb.descriptor_set("foxglove.Log"))
+        log_channel = w.register_channel(T_EXPECTATIONS, "protobuf", log_schema)
+        notes = []
+        for o in failed:
+            t_ns = int(round((o.t_s if o.t_s is not None else end_s) * 1e9))
+            msg = pb.Log(level=pb.Log.ERROR, name=o.name,
+                         message=f"{o.name} ({o.kind}) FAILED: measured {o.measured}; "
+                                 f"limit {o.limit}")
+            msg.timestamp.FromNanoseconds(t_ns)
+            notes.append((t_ns, msg.SerializeToString()))
+        notes.sort()
+        for m in tr.messages():
+            while notes and notes[0][0] <= m.log_time_ns:
+                t_ns, data = notes.pop(0)
+                w.add_message(log_channel, t_ns, data, t_ns)
+            w.add_message(channel_ids[m.channel_id], m.log_time_ns, m.data, m.log_time_ns)
+        for t_ns, data in notes:
+            w.add_message(log_channel, t_ns, data, t_ns)
+        metadata = tr.metadata()
+        metadata["failed_expectations"] = ", ".join(o.name for o in failed)
+        w.add_metadata(topics.METADATA_NAME, metadata)
+        w.finish()
+
+
+def jobs_for(cases: Sequence[Case], repeat: int = 1, **options: Any) -> list[CaseRun]:
+    """Each case ``repeat`` times: repeat k runs with the case's seed + k."""
+    out = []
+    for case in cases:
+        for k in range(repeat):
+            label = case.name if repeat == 1 else f"{case.name}#{k}"
+            out.append(CaseRun(case, case.seed + k, label, **options))
+    return out
+
+
+def run_all(jobs: Sequence[CaseRun], workers: int = 1, scheduler: str | None = None,
+            progress: Progress | None = None) -> list[CaseResult]:
+    """Every job, in parallel when ``workers`` > 1 or on a Dask ``scheduler``; results in
+    job order, each one done reported to ``progress``."""
+    return Executor(workers, scheduler, progress=progress).map(run_case, list(jobs), "cases")

@@ -1,1 +1,0 @@
-"""Paper experiments: sweeps of simulated runs, tables and plots (``hexhil experiment``)."""

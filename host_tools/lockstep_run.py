@@ -1,0 +1,192 @@
+"""One run of a scenario, built in one place: ``hexhil run``, the tactile-hexapod experiment,
+the GRNN dataset, the bench and the public API (docs/api.md) all run the robot through ``Run``.
+
+A ``Run`` takes a scenario (a ``Scenario``, or a file), picks the firmware runtime, opens
+the trace (with the scenario's own data in its metadata, so a trace can be read back
+without the file), builds the world and the lockstep simulator (hil/run/lockstep.py), and takes
+host nodes (hil/seams.py ``HostNode``) before ``run()`` returns the typed ``RunResult``.
+A beams scenario (seed 000) runs its own host nodes, plugged in by its paper's package
+(host_tools/plugins.py).
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+from hil import scenario as scenario_mod
+from hil.canbus.bus import CanBus, Endpoint
+from hil.run.rig import make_world
+from hil.run_result import RunResult
+from hil.scenario import Runtime, Scenario, WorldKind
+from hil.seams import CanGateway, HostNode, TraceRecorder
+from hil.link.served_firmware import served_firmware
+from hil.run.lockstep import Simulator
+from host_tools import plugins
+from protocol.dynamixel import models
+from protocol.errors import UserError
+
+NO_RUNTIME = "none"   # a beams run has no firmware
+
+
+def trace_metadata(sc: Scenario, seed: int, runtime: str) -> dict[str, Any]:
+    """What a trace says about its run: the scenario's name and its data, seed, runtime."""
+    return {"scenario": sc.path, "seed": seed, "firmware_runtime": runtime,
+            "scenario_data": sc.as_toml_data()}
+
+
+def scenario_of_trace(metadata: dict[str, str], where: str) -> tuple[Scenario, int]:
+    """The scenario and seed a trace ran, from its metadata (``trace_metadata``); a trace
+    recorded before the scenario rode along names a file, read if this machine has it."""
+    try:
+        seed = int(metadata.get("seed", "0"))
+        data = json.loads(metadata["scenario_data"]) if "scenario_data" in metadata else None
+    except ValueError:
+        raise UserError(f"{where}: unreadable run metadata") from None
+    path = metadata.get("scenario", "")
+    if data is not None:
+        return scenario_mod.parse(data, path or where), seed
+    if not path or not Path(path).is_file():
+        raise UserError(f"{where}: the trace names no scenario file this machine has "
+                        f"({path or 'none'})")
+    return scenario_mod.load_scenario(path), seed
+
+
+class Run:
+    """One run of ``scenario`` (a ``Scenario``, a file, or a dict as TOML reads it); ``seed``, ``runtime`` and ``duration_s`` default to the
+    scenario's. ``trace`` records it to MCAP; with ``live_port`` its channels are also served
+    over the Foxglove WebSocket protocol on 127.0.0.1 (``live``, host_tools/trace/live.py;
+    0 picks a free port; started once the world is built, so a viewer misses nothing); ``can_server`` bridges the CAN bus to socketcand
+    clients; ``realtime`` paces virtual time to the wall clock; ``tactile`` overrides the
+    scenario's ``firmware.tactile``; ``firmware``, a MicroPython main file run on the virtual
+    board (docs/your-firmware.md) or an executable that speaks the link (a C firmware,
+    docs/c-firmware.md) or an STM32F411 ELF (docs/elf-firmware.md: ``gdb_port``, ``coverage``),
+    runs instead of ours. Close it (or use ``with``) if ``run`` is never called."""
+
+    def __init__(self, scenario: Scenario | dict[str, Any] | str | Path, *,
+                 seed: int | None = None,
+                 runtime: Runtime | str | None = None, duration_s: float | None = None,
+                 tactile: bool | None = None, trace: str | Path | None = None,
+                 live_port: int | None = None, can_server: CanGateway | None = None,
+                 realtime: bool = False, firmware: str | Path | None = None,
+                 gdb_port: int | None = None, coverage: str | Path | None = None) -> None:
+        # a firmware of the user's (hil/link/served_firmware.py) is checked before anything opens
+        self.firmware = (served_firmware(firmware, gdb_port=gdb_port, coverage=coverage)
+                         if firmware is not None else None)
+        if firmware is None and (gdb_port is not None or coverage is not None):
+            raise UserError("gdb_port and coverage need an STM32F411 ELF given as firmware",
+                            params=("gdb_port", "coverage", "firmware"))
+        self.scenario = (scenario_mod.load_scenario(scenario)
+                         if isinstance(scenario, (str, Path)) else scenario_mod.parse(scenario))
+        sc = self.scenario
+        self.seed = sc.scenario.seed if seed is None else seed
+        self.runtime = (sc.firmware.python if runtime is None
+                        else Runtime.parse(runtime, "runtime") if isinstance(runtime, str)
+                        else runtime)
+        self.duration_s = (sc.scenario.duration_s if duration_s is None
+                           else scenario_mod.check_duration(duration_s, "duration_s"))
+        self.beams = sc.world.kind is WorldKind.BEAMS
+        if self.beams and self.firmware is not None:
+            raise UserError(f"{sc.path}: a beams scenario has no firmware to run")
+        # a world that steps itself is run by its paper's package (host_tools/plugins.py)
+        self._stepped = plugins.stepped_run(sc.world.kind) if self.beams else None
+        self.trace = str(trace) if trace else None
+        self._can_server, self._realtime = can_server, realtime
+        self.world = None if self.beams else make_world(sc, self.seed)
+        self.recorder: TraceRecorder | None = None
+        self.live: Any = None
+        if live_port is not None:
+            from host_tools.trace.live import LiveServer
+
+            self.live = LiveServer(live_port)
+        if self.trace or live_port is not None:
+            from host_tools.trace.recorder import Recorder
+
+            meta = trace_metadata(sc, self.seed, NO_RUNTIME if self.beams else
+                                  self.firmware.runtime if self.firmware else self.runtime.value)
+            extra = ({"flush_interval_us": self.live.flush_interval_us}
+                     if self.live is not None else {})
+            try:
+                self.recorder = Recorder(self.trace or os.devnull, meta, live=self.live,
+                                         protocol=models.protocol(sc.bus.model), **extra)
+            except BaseException:
+                self.close()
+                raise
+        self.sim: Simulator | None = None
+        if not self.beams:
+            try:
+                self.sim = Simulator(sc, self.seed, world=self.world, recorder=self.recorder,
+                                     tactile=tactile, can_server=can_server,
+                                     scene=self.recorder is not None, realtime=realtime)
+            except BaseException:
+                self.close()
+                raise
+
+    # --- host nodes ---------------------------------------------------------------------
+    def _firmware_sim(self) -> Simulator:
+        if self.sim is None:
+            raise UserError(f"{self.scenario.path}: a beams run has its own host nodes "
+                            "(its paper's package); it takes no others")
+        return self.sim
+
+    def can_endpoint(self) -> Endpoint:
+        """A host node's port on the run's CAN bus: it reads the frames the firmware sends
+        (not the host's own, nor another node's) and sends frames the firmware receives."""
+        return self._firmware_sim().can.endpoint("rx", hears="tx")
+
+    @property
+    def can(self) -> CanBus:
+        """The run's CAN bus (hil/canbus/bus.py)."""
+        return self._firmware_sim().can
+
+    def add_node(self, node: HostNode) -> None:
+        """Tick ``node`` on the run's clock, after the nodes added before it."""
+        self._firmware_sim().add_node(node)
+
+    def inject(self, kind: str, **params: Any) -> dict[str, Any]:
+        """A named fault, now or at ``at_s`` (run time), as a ``[faults]`` entry: before
+        ``run()`` or from a host node's tick (docs/servo-bus.md "Fault vocabulary")."""
+        return self._firmware_sim().core.inject(kind, **params)
+
+    def send_can(self, arb_id: int, data: bytes) -> None:
+        """One frame from the host to the firmware, now (virtual time)."""
+        self._firmware_sim().send_can(arb_id, data)
+
+    # --- running ------------------------------------------------------------------------
+    def run(self) -> RunResult:
+        """Run to the end (``duration_s`` of virtual time, or the firmware's stop); the
+        trace is complete when this returns."""
+        try:
+            if self.beams:
+                return self._traverse()
+            if self.firmware is not None:
+                return self._firmware_sim().run(self.duration_s, firmware=self.firmware)
+            from host_tools import in_process
+
+            return in_process.run(self._firmware_sim(), self.duration_s, self.runtime.value)
+        finally:
+            self.close()
+
+    def _traverse(self) -> RunResult:
+        assert self._stepped is not None
+        return self._stepped(self.scenario, self.seed, self.recorder, self._can_server,
+                             self.recorder is not None, self._realtime)
+
+    def close(self) -> None:
+        """Close the trace (complete as far as the run went), then the live server; a
+        simulator never run lets its CAN bus go too."""
+        sim = getattr(self, "sim", None)   # None until made (close() runs on a failed start)
+        if sim is not None:
+            sim.core.shutdown()
+        if self.recorder is not None:
+            self.recorder.close()
+        if self.live is not None:
+            self.live.close()
+            self.live = None
+
+    def __enter__(self) -> "Run":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()

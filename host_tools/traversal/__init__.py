@@ -1,1 +1,0 @@
-"""Seed 000 on the host: beam estimator, energy landscape, Dijkstra planner, control, closed loop."""
