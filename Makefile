@@ -6,10 +6,19 @@ STAMP := $(VENV)/.installed
 
 .PHONY: demo test test-slow bench fuzz clean toolchain
 
-$(STAMP): pyproject.toml
+DRIVE_CORE := hil/world/_drive_core.so
+
+$(STAMP): pyproject.toml hil/world/drive_core.c
 	test -d $(VENV) || $(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --disable-pip-version-check -e '.[test,grnn,dask]'
+	$(MAKE) $(DRIVE_CORE)
 	touch $(STAMP)
+
+# the drive bank's compiled step (hil/world/drive_core.py), by the pinned ziglang's cc for
+# the baseline CPU (the tree may be copied to another machine); no fused multiply-add, so
+# its duties are numpy's bits
+$(DRIVE_CORE): hil/world/drive_core.c
+	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ $<
 
 # The ARM toolchain for STM32F411 ELFs (hexhil sdk build --target stm32f411, the ELF tests):
 # Debian's packages, installed here when missing and we are root, else the line to run.
@@ -42,4 +51,4 @@ fuzz: $(STAMP)
 	$(BIN)/python -m fuzz $(FUZZ)
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache
+	rm -rf $(VENV) build *.egg-info .pytest_cache $(DRIVE_CORE)

@@ -9,11 +9,12 @@ import os
 import tempfile
 import time
 from pathlib import Path
+from typing import Any, Callable
 
 from bench import Row
 from hil.link.firmware_process import IN_PROCESS
 from hil.scenario.world_section import OBSTACLE_BODY
-from hil.world.hexapod_world import HexapodWorld
+from hil.world.hexapod_world import PHYSICS_DT_US, HexapodWorld
 from hil import scenario as scenario_mod
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -22,20 +23,48 @@ REPEATS = 3
 
 
 def world_alone(path: Path = ROOT / "scenarios" / "obstacles-high-large.toml",
-                seed: int = 1) -> float:
+                seed: int = 1, controls: list | None = None,
+                clock: Callable[[], float] = time.perf_counter) -> float:
     """Physics + AX-12 drives over a scenario's terrain, joints commanded at 50 Hz through
-    the seam."""
+    the seam, timed on ``clock`` (wall, or CPU time). ``controls``, if given, gets each
+    physics step's actuator controls."""
     sc = scenario_mod.load_scenario(path)
     world = HexapodWorld(sc, seed=seed)
     acts = world.actuators()
     q0 = [a.state()[0] for a in acts]
-    t0 = time.perf_counter()
+    if controls is not None:
+        control_into = world.drives.control_into
+
+        def recorded(q: Any, dt: float, ctrl: Any) -> None:
+            control_into(q, dt, ctrl)
+            controls.append(ctrl.copy())
+        world.drives.control_into = recorded
+    t0 = clock()
     for k in range(int(SIM_S * 50)):
         phase = 2 * math.pi * k / 50 / 1.4
         for i, a in enumerate(acts):
             a.command(q0[i] + 0.2 * math.sin(phase + i), 0.0, 1.0, True, (1, 1, 32, 32, 32))
         world.advance_to((k + 1) * 20_000)
-    return SIM_S / (time.perf_counter() - t0)
+    return SIM_S / (clock() - t0)
+
+
+def bare_mj_step(path: Path = ROOT / "scenarios" / "obstacles-high-large.toml",
+                 seed: int = 1, clock: Callable[[], float] = time.perf_counter) -> float:
+    """Real-time factor of ``mujoco.mj_step`` alone on ``world_alone``'s model, terrain and
+    trajectory: its controls are recorded in an untimed run, then a fresh world of the same
+    seed is stepped with them (the same states, so the same contacts), one array copy and
+    one ``mj_step`` a step. The floor of the world's cost."""
+    import mujoco
+
+    controls: list = []
+    world_alone(path, seed, controls)
+    world = HexapodWorld(scenario_mod.load_scenario(path), seed=seed)
+    m, d = world.model, world.data
+    t0 = clock()
+    for ctrl in controls:
+        d.ctrl[:] = ctrl
+        mujoco.mj_step(m, d)
+    return SIM_S / (clock() - t0)
 
 
 def _full_stack() -> tuple[float, float, float, float]:

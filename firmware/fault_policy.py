@@ -29,23 +29,41 @@ class FaultPolicy:
         master.read_cycle(self, board)
 
     def read_rotating(self, master, board):
-        """Poll servos whose last read failed first, then the rotating subset."""
+        """Poll servos whose last read failed first, then the rotating subset: the plan's
+        reads, which a link of version 2 carries in one exchange (master.read_present_many)."""
+        reads, first, rest = self.plan()
+        ids = self.ids
+        ok = master.read_present_many([(ids[k], skip) for k, skip in reads], board)
+        suspect = [reads[j][0] for j in range(first) if not ok[j]]
+        suspect.extend(rest)
+        for j in range(first, len(reads)):
+            if ok[j] is False:
+                suspect.append(reads[j][0])
+        self.suspect = suspect
+
+    def plan(self):
+        """The cycle's reads as (servo index, index of the earlier read whose failure skips
+        this one, or -1), the count of those that retry a suspect, and the suspects left
+        unread. A rotating read is skipped while its servo is suspect: carried over unread,
+        or failed (or skipped) at its last read this cycle."""
         budget = self.reads_per_cycle
         retry = self.suspect
-        self.suspect = []
-        for k in retry[:budget]:
-            if not master.read_present(self.ids[k], board):
-                self.suspect.append(k)
-        self.suspect.extend(retry[budget:])
-        budget -= min(len(retry), budget)
+        reads = [(k, -1) for k in retry[:budget]]
+        first = len(reads)
+        rest = retry[budget:]
+        budget -= first
         while budget > 0:
             k = self.cursor
             self.cursor = (k + 1) % 18
             budget -= 1
-            if k in self.suspect:
+            if k in rest:
                 continue
-            if not master.read_present(self.ids[k], board):
-                self.suspect.append(k)
+            skip = -1
+            for j in range(len(reads)):
+                if reads[j][0] == k:
+                    skip = j
+            reads.append((k, skip))
+        return reads, first, rest
 
     def check(self, master, now_us, armed):
         """Heartbeat fault flags of the 18 servos and the bus at ``now_us``.

@@ -39,7 +39,7 @@ if TYPE_CHECKING:
 OP_TOPICS = {sim_link.OP_HELLO: "hello", sim_link.OP_TRANSACT: "uart", sim_link.OP_WRITE: "uart",
              sim_link.OP_SLEEP: "sleep", sim_link.OP_MORE: "sleep", sim_link.OP_CAN: "can",
              sim_link.OP_EVENT: "event", sim_link.OP_LINE: "uart",
-             sim_link.OP_DIRECTION: "uart"}
+             sim_link.OP_DIRECTION: "uart", sim_link.OP_READS: "uart"}
 TOPICS = ("uart", "can", "sleep", "event", "hello")
 # Events whose text is not a firmware output: wall-clock profiling counters.
 UNCOMPARED_EVENTS = (sim_link.EVENT_STATS,)
@@ -109,7 +109,17 @@ def _describe(op: int, payload: bytes) -> str:
 
 def uart_bytes(op: int, payload: bytes) -> bytes | None:
     """The servo-line bytes a link message carries (protocol/sim_link.py: a transact's, a
-    line request's, a posted write's)."""
+    line request's, a posted write's, the packets of a version 2 reads request, in order)."""
+    if op == sim_link.OP_READS:
+        out, at = bytearray(), 1
+        for _ in range(payload[0] if payload else 0):
+            at += sim_link.READ_HEAD_LEN
+            if at >= len(payload):
+                break
+            n = payload[at]
+            out += payload[at + 1:at + 1 + n]
+            at += 1 + n
+        return bytes(out)
     skip = {sim_link.OP_TRANSACT: 6, sim_link.OP_LINE: 11, sim_link.OP_WRITE: 0}.get(op)
     return None if skip is None else payload[skip:]
 

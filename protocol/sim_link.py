@@ -1,10 +1,11 @@
-"""Simulator-link wire format, version 1, shared by firmware/hal/sim.py and hil/link/firmware_process.py.
+"""Simulator-link wire format, versions 1 and 2, shared by firmware/hal/sim.py and hil/link/firmware_process.py.
 
 docs/link.md is the specification (byte tables, limits, the conformance suite); the JSON
 inside the hello and the events is protocol/link_schema.py. Every client message is
 ``op (1 byte) | length (u16 LE) | payload``. Posted messages (W, C, E) get no answer: the
-client batches them in front of its next request, so a cycle costs one round trip per bus
-read plus one for the end-of-cycle sleep. Replies are ``length (u16 LE) | payload`` and
+client batches them in front of its next request. On version 1 a cycle costs one round
+trip per bus read plus one for the end-of-cycle sleep; version 2 (negotiated in the hello)
+adds R, a cycle's status reads in one round trip. Replies are ``length (u16 LE) | payload`` and
 start with the virtual time ``t_us`` (u64 LE) after the request; an error reply has
 ``t_us = ERROR_T_US`` and utf-8 text, and the host closes the link after it.
 
@@ -18,6 +19,9 @@ Requests (client -> host):
   L line        u64 at_us, u8 flags, u16 nrx, tx bytes   reply: t_us, u8 flags, u8 switches,
                 (the virtual board's UART and direction        u64 next_rx_us, u16 pending,
                 pin: docs/link.md "L line")                    rx bytes (<= nrx)
+  R reads       (version 2) u8 n, n x read: the cycle's     reply: t_us, u8 n, n x attempt
+                status reads in one exchange, retried and      (u64 t_us, u16 got, rx bytes)
+                skipped by the rule of docs/link.md "R reads"
 Posted:
   W write       tx bytes (UART write, no reply expected)
   C can         u16 id, u8 dlc, data (dlc bytes)
@@ -25,7 +29,9 @@ Posted:
   D direction   u64 turn_us, u8 level (the virtual board's direction pin turned; L)
   B baud        u32 bit/s (the client's servo UART rate, the C SDK's HAL_UART_Init)
 """
-VERSION = 1          # the hello's first byte; the host refuses any other with an error reply
+VERSION = 1          # the base version: every client and host speaks it
+VERSION_READS = 2    # version 1 plus R (a cycle's status reads in one exchange)
+VERSIONS = (VERSION, VERSION_READS)   # a host refuses a hello of any other with an error reply
 
 OP_HELLO = 0x48   # 'H'
 OP_TRANSACT = 0x58  # 'X'
@@ -37,7 +43,8 @@ OP_CAN = 0x43     # 'C'
 OP_EVENT = 0x45   # 'E'
 OP_DIRECTION = 0x44  # 'D': the virtual board's direction pin turned (docs/link.md)
 OP_BAUD = 0x42    # 'B': the client's servo UART runs at this rate (docs/link.md)
-REQUEST_OPS = (OP_HELLO, OP_TRANSACT, OP_SLEEP, OP_MORE, OP_LINE)
+OP_READS = 0x52   # 'R': version 2, a cycle's status reads in one exchange (docs/link.md)
+REQUEST_OPS = (OP_HELLO, OP_TRANSACT, OP_SLEEP, OP_MORE, OP_LINE, OP_READS)
 POSTED_OPS = (OP_WRITE, OP_CAN, OP_EVENT, OP_DIRECTION, OP_BAUD)
 
 FLAG_END = 0x01   # sleep reply: the run is over, exit the loop
@@ -70,6 +77,11 @@ DIRECTION_LEN = 9    # direction message: u64 turn_us, u8 level
 BAUD_LEN = 4         # baud message: u32 bit/s
 LINE_REPLY_HEAD_LEN = 20  # line reply: t_us, u8 flags, u8 switches, u64 next_rx_us, u16 pending
 NO_RX = 0            # line reply's next_rx_us when no byte is on its way
+READ_HEAD_LEN = 11   # a read of R: u8 id, u8 nparams, u8 retries, u8 flags, u8 skip, u16 nrx,
+                     # u32 timeout_us (then u8 ntx and the tx bytes)
+READ_ECHO = 0x01     # read flag: the line echoes the master's bytes (the reply follows them)
+NO_SKIP = 0xFF       # read's skip field: read whatever the earlier reads gave
+ATTEMPT_HEAD_LEN = 10  # an attempt of R's reply: u64 t_us, u16 got (then the rx bytes)
 
 
 class LinkError(OSError):

@@ -27,7 +27,7 @@ def _bare():
 def test_the_host_refuses_a_firmware_of_another_version(runtime):
     cmd = [RUNTIMES[runtime](), "tests/link_clients/firmware_other_version.py"]
     with pytest.raises(UserError, match="^firmware link: link version mismatch: the firmware "
-                       "speaks version 2, this host speaks 1$"):
+                       "speaks version 3, this host speaks 1 and 2$"):
         Simulator(_bare(), seed=1).run(0.2, command=cmd)
 
 
@@ -39,9 +39,15 @@ def test_the_host_refuses_a_firmware_of_another_version(runtime):
     ("45", "", "malformed event (no kind byte)"),
     ("45", "03" + b"{bad".hex(), "malformed event 3: "),
     ("58", "0008", "malformed message: "),
+    ("52", "01", "malformed message: "),
+    ("52", "010106010000" + "0e00" + "00000000" + "00", "read 0 skips on read 0, not an "
+                                                        "earlier one"),
+    ("52", "0101060100ff" + "0e00" + "00000000" + "05", "malformed reads (13 bytes, 18 "
+                                                        "announced)"),
+    ("52", "00 v1", "unknown message op 0x52"),   # R is version 2's
 ])
 def test_the_host_refuses_an_unknown_or_malformed_message(runtime, op, payload, said):
-    cmd = [RUNTIMES[runtime](), "tests/link_clients/raw_message.py", op, payload]
+    cmd = [RUNTIMES[runtime](), "tests/link_clients/raw_message.py", op, *payload.split()]
     with pytest.raises(UserError, match="^firmware link: " + re.escape(said)):
         Simulator(_bare(), seed=1).run(0.2, command=cmd)
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 
-from host_tools import replay, runner
+from host_tools import lockstep_run, replay
 from host_tools.dynamixel.decode import DECODERS
 from host_tools.cli import main
 from host_tools.trace import reader as trace_reader
@@ -49,7 +49,7 @@ def test_an_xl430_run_trace_names_its_sync_writes_and_sync_reads(tmp_path, capsy
     out = tmp_path / "xl430.mcap"
     scenario = {"scenario": {"name": "xl430-kinematic", "duration_s": 0.4},
                 "bus": {"model": "xl430-w250"}, "gait": {"name": "tripod"}}
-    runner.Run(scenario, runtime="cpython-inprocess", trace=out).run()
+    lockstep_run.Run(scenario, runtime="cpython-inprocess", trace=out).run()
     names = {(p["direction"], p["instruction"]) for p in _packets(out)}
     assert {("tx", "PING"), ("tx", "SYNC_WRITE"), ("tx", "SYNC_READ"), ("rx", "")} <= names
     assert main(["trace", "cat", str(out), "--topics", "/serial"]) == 0

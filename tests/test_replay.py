@@ -77,9 +77,10 @@ def test_changed_parameter_reports_first_divergence(trace, tmp_path):
     assert d.expected != d.actual and d.expected.startswith("W ")
     assert 0 <= d.t_s < DURATION_S
     # the exchange's servo-line bytes decoded in the trace's protocol (its scenario's model;
-    # Protocol 1.0 here): the cycle's SYNC_WRITE, then a status READ
+    # Protocol 1.0 here): the cycle's SYNC_WRITE, then its three status READs (one R
+    # exchange on link version 2, docs/link.md)
     assert d.packets is not None and d.packets["expected"][0] == "SYNC_WRITE to 254"
-    assert [p.split()[0] for p in d.packets["actual"]] == ["SYNC_WRITE", "READ"]
+    assert [p.split()[0] for p in d.packets["actual"]] == ["SYNC_WRITE", "READ", "READ", "READ"]
     # the same firmware with the original value is identical again
     same = replay.replay_firmware(trace, command=_changed_firmware(tmp_path, "step_height_m",
                                                                    0.03))

@@ -154,6 +154,70 @@ class HalfDuplexUART:
         return got
 
 
+class ReadsUART(HalfDuplexUART):
+    """Link version 2: a cycle's status reads go to the host in one exchange (R), which
+    carries them out, retries and skips them by the master's own rule; ``transact`` then
+    hands the master each attempt's bytes and time in turn, as if it had just asked."""
+
+    def __init__(self, link):
+        HalfDuplexUART.__init__(self, link)
+        self._at = -1        # offset of the next attempt in ``link.rx``; -1: no reads pending
+        self._left = 0
+        self._t_end = 0
+
+    def reads(self, plan, retries, echo):
+        """Send ``plan``'s reads, (id, nparams, skip, nrx, timeout_us, tx) each, in one R."""
+        link = self.link
+        n = 1
+        for item in plan:
+            n += sim_link.READ_HEAD_LEN + 1 + len(item[5])
+        k = link.begin(sim_link.OP_READS, n)
+        out = link.out
+        out[k] = len(plan)
+        k += 1
+        flags = sim_link.READ_ECHO if echo else 0
+        for dev_id, nparams, skip, nrx, timeout_us, tx in plan:
+            struct.pack_into("<BBBBBHIB", out, k, dev_id, nparams, retries, flags,
+                             skip if skip >= 0 else sim_link.NO_SKIP, nrx, timeout_us, len(tx))
+            k += sim_link.READ_HEAD_LEN + 1
+            out[k:k + len(tx)] = tx
+            k += len(tx)
+        self._end = link.call()
+        self._left = link.rx[8]
+        self._at = 9
+        self._t_end = link.t_us
+
+    def transact(self, buf, n, rx, nrx, timeout_us):
+        if self._at < 0:
+            return HalfDuplexUART.transact(self, buf, n, rx, nrx, timeout_us)
+        link = self.link
+        p = self._at
+        if not self._left or p + sim_link.ATTEMPT_HEAD_LEN > self._end:
+            raise self._mismatch()
+        t_us, got = struct.unpack_from("<QH", link.rx, p)
+        p += sim_link.ATTEMPT_HEAD_LEN
+        if got > nrx or p + got > self._end:
+            raise self._mismatch()
+        rx[0:got] = link.rxmv[p:p + got]
+        self._at = p + got
+        self._left -= 1
+        link.t_us = t_us
+        return got
+
+    def reads_done(self):
+        """Every attempt of the reply taken: the clock is the reply's again."""
+        left, at = self._left, self._at
+        self._at = -1
+        self.link.t_us = self._t_end
+        if left or at != self._end:
+            raise self._mismatch()
+
+    def _mismatch(self):
+        self.link.dead = True
+        self._at = -1
+        return sim_link.LinkError("the host's reads reply does not match the firmware's reads")
+
+
 class CAN(base.CAN):
     """Classic CAN port: sends are posted, receives arrive with each sleep's reply."""
 
@@ -176,20 +240,24 @@ class Board(base.Board):
         if port is None and io is None:
             port = int(os.getenv(sim_link.ENV_PORT) or sys.argv[-1])
         self.link = Link(port, io=io)
-        self.uart = HalfDuplexUART(self.link)
         self.can = CAN(self.link)
         self.switch_bits = 0
         self.switches = [base.Switch(self, i) for i in range(6)]
         self.ended = False
-        hello = bytes((sim_link.VERSION,)) + RUNTIME.encode()
+        # offers its newest version and speaks what the host answers (docs/link.md)
+        hello = bytes((sim_link.VERSIONS[-1],)) + RUNTIME.encode()
         self.link.post(sim_link.OP_HELLO, hello, len(hello))
         length = self.link.call()
         rx = self.link.rx
-        if length < 10 or rx[8] != sim_link.VERSION:
+        if length < 10 or rx[8] not in sim_link.VERSIONS:
             self.link.dead = True
             raise sim_link.LinkError("link version mismatch: the host speaks version %d, "
-                                     "this firmware speaks %d" % (rx[8] if length > 8 else 0,
-                                                                 sim_link.VERSION))
+                                     "this firmware speaks %s" % (
+                                         rx[8] if length > 8 else 0,
+                                         " and ".join(str(v) for v in sim_link.VERSIONS)))
+        self.version = rx[8]
+        self.uart = (ReadsUART if self.version == sim_link.VERSION_READS
+                     else HalfDuplexUART)(self.link)
         self.switch_bits = rx[9]
         self._config = json.loads(bytes(rx[10:length]).decode()) if length > 10 else {}
 

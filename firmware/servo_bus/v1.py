@@ -12,7 +12,7 @@ from protocol.dynamixel import v1 as dxl
 
 TIMEOUT_MARGIN_US = 100
 EEPROM_SETTLE_US = 10_000       # a real AX-12 is deaf for a few ms after an EEPROM write
-STATUS_LEN = 6                  # FF FF ID LEN ERR CHK, without parameters
+STATUS_LEN = dxl.STATUS_LEN     # FF FF ID LEN ERR CHK, without parameters
 PRESENT_ADDR = ax12.PRESENT_POSITION
 PRESENT_LEN = 6                 # present position, speed and load
 CRITICAL_BITS = dxl.ERR_OVERHEATING | dxl.ERR_OVERLOAD  # the AX-12's default shutdown set
@@ -72,12 +72,8 @@ class Master:
         ``now`` is the board (for the time of a good reply). Returns OK, TIMEOUT or CORRUPT; on OK the
         parameters are in ``parser.buf`` from PARAMS_OFFSET.
         """
-        echo_n = n if self.echo else 0
-        if self.echo is None:
-            echo_n = n  # ask for enough to see an echo if there is one
         want = STATUS_LEN + nparams
-        nrx = echo_n + want
-        timeout = nrx * self.byte_us + self.return_delay_us + TIMEOUT_MARGIN_US
+        nrx, timeout = self._shape(n, nparams)
         got = self.uart.transact(self.tx, n, self.rx, nrx, timeout)
         self.transactions += 1
         start = 0
@@ -101,16 +97,7 @@ class Master:
                     s.timeouts += 1
             return TIMEOUT if got <= start else CORRUPT
         p = self.parser
-        p.reset()
-        ok = False
-        if p.take_whole(self.rx, start, got):
-            ok = p.id == dev_id and p.nparams == nparams
-        else:
-            for i in range(start, got):
-                if p.push(self.rx[i]) and p.id == dev_id and p.nparams == nparams:
-                    ok = True
-                    break
-        if not ok:
+        if not dxl.status_ok(p, self.rx, start, got, dev_id, nparams):
             if s is not None:
                 s.corrupt += 1
             return CORRUPT
@@ -127,6 +114,13 @@ class Master:
             else:
                 s.critical_run = 0
         return OK
+
+    def _shape(self, n, nparams):
+        """(nrx, timeout_us) of a transaction of ``n`` bytes answered with ``nparams``: the
+        reply after our echo (or room to see one while the echo is unknown), its wire time,
+        the return delay and a margin."""
+        nrx = (n if self.echo or self.echo is None else 0) + STATUS_LEN + nparams
+        return nrx, nrx * self.byte_us + self.return_delay_us + TIMEOUT_MARGIN_US
 
     def _retry(self, dev_id, n, nparams, now):
         r = self._transact(dev_id, n, nparams, now)
@@ -167,6 +161,35 @@ class Master:
             return False
         self._take_present(self.servos[dev_id])
         return True
+
+    def read_present_many(self, reads, now):
+        """A cycle's status reads: ``reads`` lists (servo ID, index of an earlier read that,
+        unless it succeeded, skips this one; -1 for none); returns True, False or None
+        (skipped) for each. A UART that carries them all in one exchange (hal/sim.py on
+        link version 2: ``reads``) gets them up front; its replies are then taken here one
+        by one, by the same code as single reads, so every counter and retry is the same."""
+        batch = getattr(self.uart, "reads", None)
+        if batch is not None and self.echo is not None:
+            plan = []
+            for dev_id, skip in reads:
+                n = dxl.build_into(self.tx, dev_id, dxl.READ, self._present_req(), 2)
+                nrx, timeout = self._shape(n, self.present_len)
+                plan.append((dev_id, self.present_len, skip, nrx, timeout, bytes(self.tx[:n])))
+            batch(plan, self.retries, self.echo)
+        out = []
+        for dev_id, skip in reads:
+            if skip >= 0 and out[skip] is not True:
+                out.append(None)
+            else:
+                out.append(self.read_present(dev_id, now))
+        if batch is not None and self.echo is not None:
+            self.uart.reads_done()
+        return out
+
+    def _present_req(self):
+        self.small[0] = self.present_addr
+        self.small[1] = self.present_len
+        return self.small
 
     def _take_present(self, s):
         """The present values in the reply just parsed into ``s``."""

@@ -1,10 +1,10 @@
 """The link conformance suite: a host that serves any link client and checks it message by
-message against docs/link.md (version 1).
+message against docs/link.md (versions 1 and 2: the script uses what both have).
 
 The client under test is a command (the Python client: tests/link_clients/python_client.py;
 a C client brings its own) that connects to the 127.0.0.1 port in ``HEXHIL_LINK_PORT`` and
 follows the conformance script of docs/link.md. ``run_suite`` starts it once per session
-(the script, a version refused by the host, a host of another version, an unknown op, a
+(the script, the script with the hello answered in version 1, a version refused by the host, a host of another version, an unknown op, a
 closed link) and returns one ``CaseResult`` per check; a check the session never reached
 fails too. Clients run with this process's environment plus ``env``.
 """
@@ -136,13 +136,15 @@ def _one_line_failure(session: Session) -> None:
             f"expected one line on stderr, got {len(lines)}: {err.strip()[:300]!r}")
 
 
-def _hello(s: Session, config: dict, version: int = sim_link.VERSION,
-           switches: int = 0) -> None:
+def _hello(s: Session, config: dict, version: int | None = None, switches: int = 0) -> int:
+    """Answer the hello in ``version`` (default: the one the client offers); the offer."""
     _, payload = s.request(sim_link.OP_HELLO)
-    _expect(len(payload) >= 2 and payload[0] == sim_link.VERSION,
-            f"hello must start with version {sim_link.VERSION}: {payload[:8]!r}")
+    _expect(len(payload) >= 2 and payload[0] in sim_link.VERSIONS,
+            f"hello must start with a version of {sim_link.VERSIONS}: {payload[:8]!r}")
     _expect(all(0x20 < b < 0x7F for b in payload[1:]), "runtime name is not printable ascii")
-    s.reply(bytes((version, switches)) + json.dumps(config).encode())
+    s.reply(bytes((payload[0] if version is None else version, switches))
+            + json.dumps(config).encode())
+    return payload[0]
 
 
 def _log_events(msgs: list[tuple[int, bytes]]) -> list[str]:
@@ -185,9 +187,10 @@ def _sleep_reply(s: Session, flags: int, switches: int, frames: list[tuple[int, 
     return posted
 
 
-def _script(s: Session, step: Callable[[], None]) -> None:
-    """The conformance script, step by step (docs/link.md); ``step`` after each check."""
-    _hello(s, {"token": TOKEN})
+def _script(s: Session, step: Callable[[], None], version: int | None = None) -> None:
+    """The conformance script, step by step (docs/link.md); ``step`` after each check. The
+    hello is answered in ``version``, by default the client's offer."""
+    _hello(s, {"token": TOKEN}, version)
     step()
     posted, payload = s.request(sim_link.OP_TRANSACT)
     _expect(_log_events(posted) == [TOKEN], f"config token not echoed: {_log_events(posted)}")
@@ -224,15 +227,21 @@ def _script(s: Session, step: Callable[[], None]) -> None:
     step()
 
 
+def _version_1(s: Session, step: Callable[[], None]) -> None:
+    """A client that offers version 2 speaks version 1 to a host that answers 1."""
+    _script(s, step, sim_link.VERSION)
+
+
 def _refused_version(s: Session, step: Callable[[], None]) -> None:
     s.request(sim_link.OP_HELLO)
-    s.conn.reply_error(f"link version mismatch: this host speaks version {sim_link.VERSION + 1}")
+    s.conn.reply_error("link version mismatch: this host speaks version "
+                       f"{max(sim_link.VERSIONS) + 1}")
     _one_line_failure(s)
     step()
 
 
 def _other_version(s: Session, step: Callable[[], None]) -> None:
-    _hello(s, {}, version=sim_link.VERSION + 1)
+    _hello(s, {}, version=max(sim_link.VERSIONS) + 1)
     _one_line_failure(s)
     step()
 
@@ -261,6 +270,10 @@ SESSIONS: dict[str, tuple[Callable[[Session, Callable[[], None]], None], tuple[s
                          "uart transact", "uart write", "sleep: switches and CAN in, CAN out",
                          f"split sleep reply: {BURST} CAN frames, in order",
                          "end flag: link closed, exit 0")),
+    "version_1": (_version_1, ("hello answered in version 1", "version 1: config read",
+                               "version 1: uart transact", "version 1: uart write",
+                               "version 1: sleep", "version 1: split sleep reply",
+                               "version 1: end flag")),
     "refused_version": (_refused_version, (f"host refuses the version: {ONE_LINE}",)),
     "other_version": (_other_version, (f"host of another version: {ONE_LINE}",)),
     "unknown_op": (_unknown_op, (f"error reply to an unknown op: {ONE_LINE}",)),

@@ -17,11 +17,12 @@ from hil.link.firmware_process import Connection, DirectConnection, LinkViolatio
 from hil.run_result import RunTally
 from hil.seams import TraceRecorder
 from protocol import sim_link
+from protocol.dynamixel import v1 as dxl
 from protocol import link_schema as ls
 from protocol.dynamixel import models
 from protocol.errors import UserError
 
-RECORDER_SLICE = 8  # held messages the recorder encodes per wait (~20 us; a wait is ~100 us)
+RECORDER_SLICE = 4  # held messages the recorder encodes between looks at the link (~10 us)
 
 
 class SwitchSampler:
@@ -60,6 +61,8 @@ class LinkServer:
         self._held: list = []    # frames taken from the inbox that the last reply had no room for
         self.line: BoardLine | None = None   # the virtual board's UART, at its first line request
         self.console: Callable[[], None] | None = None  # takes what the firmware printed
+        self.version = sim_link.VERSION      # the link version the hello agreed
+        self._parser = dxl.Parser()          # R's retry rule: the master's test of a reply
 
     def _event(self, payload: bytes, result: RunTally) -> None:
         if not payload:
@@ -168,10 +171,12 @@ class LinkServer:
         return struct.pack("<BB", flags, bits) + body, ended
 
     def _hello_reply(self, payload: bytes, result: RunTally) -> bytes:
-        if not payload or payload[0] != sim_link.VERSION:
+        """The hello's reply in the version the client offers: the host speaks both."""
+        if not payload or payload[0] not in sim_link.VERSIONS:
             raise LinkViolation(f"link version mismatch: the firmware speaks version "
                                 f"{payload[0] if payload else 'none'}, this host speaks "
-                                f"{sim_link.VERSION}")
+                                f"{' and '.join(str(v) for v in sim_link.VERSIONS)}")
+        self.version = payload[0]
         bad = ls.problems(self.settings, ls.CONFIG)
         if bad:
             raise LinkViolation(f"the config does not fit protocol/link_schema.py: {bad[0]}")
@@ -179,8 +184,59 @@ class LinkServer:
         if len(config) + 10 > sim_link.MAX_REPLY_LEN:
             raise LinkViolation(f"the config is {len(config)} bytes of JSON: the hello reply "
                                 f"holds {sim_link.MAX_REPLY_LEN - 10}")
-        return struct.pack("<BB", sim_link.VERSION,
+        return struct.pack("<BB", self.version,
                            self.switches.sample(self.clock.t_us, result)) + config
+
+    def _transact(self, tx: bytes, nrx: int, timeout_us: int, result: RunTally) -> bytes:
+        """Write ``tx`` on the servo line, then read up to ``nrx`` bytes within the timeout."""
+        bus, clock = self.bus, self.clock
+        t0 = clock.t_us
+        bus.master_write(tx)
+        rx = bus.master_read(nrx, timeout_us)
+        if self._counting:
+            result.bus_busy_us += clock.t_us - t0
+            heard = len(rx) - (min(len(tx), len(rx)) if bus.echo else 0)
+            result.bus_wire_us += round((len(tx) + heard) * self.byte_us)
+        return rx
+
+    def _reads(self, payload: bytes, result: RunTally) -> bytes:
+        """Link version 2's R (docs/link.md): each read in order, tried again while its
+        reply is not its servo's status (protocol/dynamixel/v1.py ``status_ok``, the
+        master's own test) and retries are left, skipped when the read it names did not
+        succeed; the reply holds every attempt's time and bytes."""
+        reads, at, room = [], 1, sim_link.MAX_REPLY_LEN - 9
+        for _ in range(payload[0]):
+            dev_id, nparams, retries, flags, skip, nrx, timeout_us, ntx = struct.unpack_from(
+                "<BBBBBHIB", payload, at)
+            at += sim_link.READ_HEAD_LEN + 1
+            if skip != sim_link.NO_SKIP and skip >= len(reads):
+                raise LinkViolation(f"read {len(reads)} skips on read {skip}, not an earlier one")
+            room -= (1 + retries) * (sim_link.ATTEMPT_HEAD_LEN + nrx)
+            reads.append((dev_id, nparams, retries, flags, skip, nrx, timeout_us,
+                          payload[at:at + ntx]))
+            at += ntx
+        if at != len(payload):
+            raise LinkViolation(f"malformed reads ({len(payload)} bytes, {at} announced)")
+        if room < 0:
+            raise LinkViolation("the reads' replies could be longer than a reply holds "
+                                f"({sim_link.MAX_REPLY_LEN})")
+        done: list[bool | None] = []
+        body = bytearray(1)
+        for dev_id, nparams, retries, flags, skip, nrx, timeout_us, tx in reads:
+            if skip != sim_link.NO_SKIP and done[skip] is not True:
+                done.append(None)
+                continue
+            start = len(tx) if flags & sim_link.READ_ECHO else 0
+            ok = False
+            for _ in range(1 + retries):
+                rx = self._transact(tx, nrx, timeout_us, result)
+                body += struct.pack("<QH", self.clock.t_us, len(rx)) + rx
+                body[0] += 1
+                ok = dxl.status_ok(self._parser, rx, start, len(rx), dev_id, nparams)
+                if ok:
+                    break
+            done.append(ok)
+        return bytes(body)
 
     def serve(self, conn: Connection, end_us: int, result: RunTally) -> None:
         """Answer a socket connection's batches until the firmware closes it."""
@@ -220,15 +276,9 @@ class LinkServer:
                 if nrx > sim_link.MAX_RX_LEN:
                     raise LinkViolation(f"a transact asks for {nrx} bytes, more than a reply "
                                         f"holds ({sim_link.MAX_RX_LEN})")
-                tx = payload[6:]
-                t0 = clock.t_us
-                bus.master_write(tx)
-                rx = bus.master_read(nrx, timeout_us)
-                if self._counting:
-                    result.bus_busy_us += clock.t_us - t0
-                    heard = len(rx) - (min(len(tx), len(rx)) if bus.echo else 0)
-                    result.bus_wire_us += round((len(tx) + heard) * self.byte_us)
-                reply = rx
+                reply = self._transact(payload[6:], nrx, timeout_us, result)
+            elif op == sim_link.OP_READS and self.version == sim_link.VERSION_READS:
+                reply = self._reads(payload, result)
             elif op == sim_link.OP_CAN:
                 self._can_from_firmware(payload, result)
             elif op == sim_link.OP_EVENT:
@@ -267,7 +317,8 @@ class LinkServer:
             self.on_slept()
         if rec is not None and raw is not None:
             rec.link(clock.t_us, bytes(conn.raw), raw)
-            rec.idle(0 if conn.answered() else RECORDER_SLICE)
+            while not conn.answered() and rec.idle(RECORDER_SLICE):
+                pass   # write a closed window, encode until the firmware's next batch is in
         if closed:
             result.round_trips = conn.round_trips
         return closed

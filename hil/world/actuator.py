@@ -29,6 +29,7 @@ from typing import Protocol
 
 import numpy as np
 
+from hil.world import drive_core
 from protocol.dynamixel import ax12, models
 
 ROTOR_ARMATURE_KG_M2 = 0.0015   # reflected rotor inertia through the 254:1 gear train
@@ -83,6 +84,11 @@ class DriveBank:
         self.read_offset_rad = [0.0] * n    # potentiometer zero offsets (real model)
         for i in range(n):
             self.set_compliance(i, DEFAULT_COMPLIANCE)
+        self._compiled = drive_core.CompiledDuty(
+            {"goal": self.goal_rad, "setpoint": self.setpoint_rad,
+             "speed": self.speed_limit_rad_s, "torque_limit": self.torque_limit,
+             "margin": self.margin_rad, "slope": self.slope_rad, "punch": self.punch,
+             "duty": self.duty, "enabled": self.enabled}) if drive_core.available() else None
 
     def set_compliance(self, i: int, compliance: tuple[int, int, int, int, int]) -> None:
         cw_m, ccw_m, cw_s, ccw_s, punch = compliance
@@ -91,15 +97,27 @@ class DriveBank:
         self.slope_rad[:, i] = (max(cw_s, 1) * POSITION_UNIT_RAD, max(ccw_s, 1) * POSITION_UNIT_RAD)
         self.punch[i] = punch * PUNCH_FRACTION_PER_UNIT
 
+    def control_into(self, q_rad: np.ndarray, dt_s: float, ctrl: np.ndarray) -> None:
+        """Advance set-points by one step and write the motor torques (N m) into ``ctrl``
+        (the world's MjData.ctrl): one compiled call a physics step where it is built."""
+        if self._compiled is not None:
+            self._compiled(q_rad, dt_s, ctrl, self.motor.stall_torque_nm)
+        else:
+            ctrl[:] = self.control(q_rad, dt_s)
+
     def control(self, q_rad: np.ndarray, dt_s: float) -> np.ndarray:
         """Advance set-points by one step and return the motor torques (N m) to apply."""
         return self.motor.stall_torque_nm * self.duty_for(q_rad, dt_s)
 
     def duty_for(self, q_rad: np.ndarray, dt_s: float) -> np.ndarray:
-        """Advance set-points by one step; the signed duty on the measured angles ``q_rad``.
+        """Advance set-points by one step; the signed duty on the measured angles ``q_rad``
+        (``self.duty``, updated in place).
 
-        Runs every physics step: written as in-place ufuncs (np.clip's Python wrapper
-        alone cost as much as the rest)."""
+        Runs every physics step: hil/world/drive_core.c where it is built, else in-place
+        ufuncs (np.clip's Python wrapper alone cost as much as the rest); the same bits."""
+        if self._compiled is not None:
+            self._compiled(q_rad, dt_s)
+            return self.duty
         sp = self.setpoint_rad
         step = self.speed_limit_rad_s * dt_s
         d = self.goal_rad - sp
@@ -115,8 +133,8 @@ class DriveBank:
         u += self.punch
         np.minimum(u, self.torque_limit, out=u)
         u *= np.sign(e) * ((excess > 0) & self.enabled)
-        self.duty = u
-        return u
+        self.duty[:] = u
+        return self.duty
 
 
 class JointWorld(Protocol):

@@ -93,6 +93,9 @@ class RealDriveBank(act.DriveBank):
         self._rng = np.random.default_rng(real.noise_seed)
         self._omega = real.stall_nm / real.motor.back_emf_damping_nm_s   # no-load speed per unit
 
+    def control_into(self, q_rad: np.ndarray, dt_s: float, ctrl: np.ndarray) -> None:
+        ctrl[:] = self.control(q_rad, dt_s)
+
     def control(self, q_rad: np.ndarray, dt_s: float) -> np.ndarray:
         unit = act.POSITION_UNIT_RAD
         seen = q_rad + self.real.offsets_rad + self._rng.normal(0.0, READ_NOISE_SD_UNITS * unit,

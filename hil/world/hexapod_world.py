@@ -229,6 +229,7 @@ class HexapodWorld:
         # Views into MjData's fixed buffers: the free joint comes first (7 coordinates,
         # 6 velocities), then the legs in servo-ID order; touch sensors: plates, then feet.
         self._q = self.data.qpos[7:25]
+        self._ctrl = self.data.ctrl      # the 18 joints' motor torques
         self._qd = self.data.qvel[6:24]
         self._plate_n = self.data.sensordata[0:6]
         self._foot_n = self.data.sensordata[6:12]
@@ -255,7 +256,7 @@ class HexapodWorld:
         """Step the physics up to ``t_us`` (whole 2 ms steps; never past it)."""
         m, d = self.model, self.data
         while self.t_us + PHYSICS_DT_US <= t_us:
-            d.ctrl[:] = self.drives.control(self._q, self.dt_s)
+            self.drives.control_into(self._q, self.dt_s, self._ctrl)
             mujoco.mj_step(m, d)
             self.t_us += PHYSICS_DT_US
             if self.switches.update(self._plate_n):

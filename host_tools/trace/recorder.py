@@ -112,21 +112,23 @@ class Recorder:
         step = self._flush_interval_us
         self._window_end_us = (now_us // step + 1) * step
 
-    def idle(self, budget: int) -> None:
+    def idle(self, budget: int) -> bool:
         """Do a little of the held work: write a closed window, or encode up to ``budget``
-        held messages. The simulator calls this while it waits for the firmware, so the
-        encoding overlaps the firmware's computing instead of adding to it; the bytes
-        written do not depend on when (or whether) it is called."""
+        held messages; True while some is left. The simulator calls this while it waits
+        for the firmware, slice after slice until the firmware answers, so the encoding
+        overlaps the firmware's computing instead of adding to it; the bytes written do not
+        depend on when (or whether) it is called."""
         self._idle_seen = True
         if self._ready is not None:
             self._write_ready()
-            return
+            return self._done < len(self._pending)
         if not budget:
-            return
+            return self._done < len(self._pending)
         pending, out, i = self._pending, self._out, self._done
         for t, encode, args in pending[i:i + budget]:
             encode(out, t, *args)
         self._done = min(i + budget, len(pending))
+        return self._done < len(pending)
 
     def flush(self) -> None:
         """Write the held messages in log-time order as one chunk and hand it to the OS."""

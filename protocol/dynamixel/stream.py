@@ -1,4 +1,4 @@
-"""What both Dynamixel protocol modules share (protocol/dynamixel/v1.py, dynamixel2.py).
+"""What both Dynamixel protocol modules share (protocol/dynamixel/v1.py, v2.py).
 
 The byte path, MicroPython-compatible and allocation-free: a fixed buffer, bytes pushed
 one at a time, a packet consumed only at the next push. A subclass supplies ``_scan``

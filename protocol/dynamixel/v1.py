@@ -17,6 +17,7 @@ BROADCAST_ID = 0xFE
 MAX_ID = 0xFD
 MAX_PACKET = 259  # 4 header bytes + LEN up to 255
 PARAMS_OFFSET = 5
+STATUS_LEN = 6  # a status packet without parameters: FF FF ID LEN ERR CHK
 INTER_BYTE_TIMEOUT_US = 100000  # a servo drops a partial packet after a 100 ms gap
 
 # Instructions: the AX-12 supports exactly the seven Protocol 2.0 kept (protocol/dynamixel/stream.py).
@@ -159,6 +160,22 @@ def sync_write(address, data_len, entries):
 
 def status(dev_id, error=0, params=b""):
     return packet(dev_id, error, params)
+
+
+def status_ok(parser, data, start, end, dev_id, nparams):
+    """Whether ``data[start:end]`` holds a status packet of ``dev_id`` with ``nparams``
+    parameters, parsed into ``parser`` (its fields stay valid): the bus master's test of a
+    reply (firmware/servo_bus/v1.py), which the host of link version 2 applies to retry a
+    read exactly when the master would (docs/link.md "R reads")."""
+    if end - start < STATUS_LEN + nparams:
+        return False
+    parser.reset()
+    if parser.take_whole(data, start, end):
+        return parser.id == dev_id and parser.nparams == nparams
+    for i in range(start, end):
+        if parser.push(data[i]) and parser.id == dev_id and parser.nparams == nparams:
+            return True
+    return False
 
 
 class Parser(StreamParser):

@@ -5,5 +5,5 @@ import sys
 from firmware import main
 from protocol import sim_link
 
-sim_link.VERSION += 1
+sim_link.VERSIONS = (max(sim_link.VERSIONS) + 1,)
 sys.exit(main.start())

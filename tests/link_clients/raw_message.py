@@ -1,10 +1,15 @@
-# A client that posts one raw message, `raw_message.py OP HEXPAYLOAD` (op in hex), then
+# A client that posts one raw message, `raw_message.py OP HEXPAYLOAD [v1]` (op in hex), then
 # sleeps (tests/test_link_errors.py): the host must answer an unknown or malformed message
-# with an error reply.
+# with an error reply. With `v1` it offers link version 1 only.
 import sys
 
 from firmware import main
 from firmware.hal import sim
+from protocol import sim_link
+
+if sys.argv[-1] == "v1":
+    sys.argv.pop()
+    sim_link.VERSIONS = (sim_link.VERSION,)
 
 
 def run():

@@ -161,14 +161,21 @@ def plots(result: dict[str, Any], out: Path) -> list[Path]:
         ax.margins(0.2)                             # room for the heading arrows
         ax.grid(alpha=0.3)
 
+    def panels(n):
+        """One panel a row: the ends lie along x (up to 2 m) within a few cm of y = 0, so
+        side-by-side equal-aspect panels left wide blank bands above and below."""
+        fig, axes = plt.subplots(max(1, n), 1, figsize=(9, 0.8 + 1.85 * max(1, n)),
+                                 squeeze=False, sharex=True, sharey=True)
+        return fig, axes[:, 0]
+
     def save(fig, name):
         fig.legend(handles=key, fontsize=8, loc="lower center", ncol=3)
-        fig.tight_layout(rect=(0, 0.08, 1, 1))
+        fig.tight_layout(rect=(0, 0.06, 1, 1))
         paths.append(out / name)
         fig.savefig(paths[-1], dpi=110)
         plt.close(fig)
 
-    fig, axes = plt.subplots(1, 2, figsize=(9, 4.5), sharex=True, sharey=True)
+    fig, axes = panels(len(GAITS))
     for ax, g in zip(axes, GAITS):
         ends(ax, [r for r in runs if r["stage"] == "without" and r["gait"] == g],
              f"{g}, without the method, low density, 1 m")
@@ -176,9 +183,8 @@ def plots(result: dict[str, Any], out: Path) -> list[Path]:
 
     for fig_no, g in (("fig17", "wave"), ("fig18", "tripod")):
         cases = sorted({(r["density"], r["distance_m"]) for r in runs if r["stage"] == "with" and r["gait"] == g})
-        fig, axes = plt.subplots(1, max(1, len(cases)), figsize=(4.5 * max(1, len(cases)), 4.5),
-                                 squeeze=False, sharex=True, sharey=True)
-        for ax, (dens, d) in zip(axes[0], cases):
+        fig, axes = panels(len(cases))
+        for ax, (dens, d) in zip(axes, cases):
             ends(ax, [r for r in runs if r["stage"] == "with" and r["gait"] == g and r["density"] == dens
                       and r["distance_m"] == d], f"{g} with the method: {dens} density, {d:g} m")
         save(fig, f"{fig_no}_{g}_with_method.png")

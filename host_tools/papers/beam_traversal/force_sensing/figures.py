@@ -100,8 +100,15 @@ def fig_gap_readings(c2c: dict[str, Any], clear: dict[str, Any], path: Path) -> 
             im = ax.pcolormesh(np.degrees(g.roll_rad), np.degrees(g.pitch_rad), e.T * 1e3, shading="auto",
                                cmap="viridis", vmin=0.0, vmax=VMAX_MJ)   # one range for all four
             p = res["plans"][k]
-            _path(ax, np.degrees(p.path[:, 1]), np.degrees(p.path[:, 2]),
-                  "planned path, projected (starts and ends level)", ends=False)
+            roll_deg, pitch_deg = np.degrees(p.path[:, 1]), np.degrees(p.path[:, 2])
+            _path(ax, roll_deg, pitch_deg, "planned path, projected (starts and ends level)",
+                  ends=False)
+            span_deg = max(np.ptp(roll_deg), np.ptp(pitch_deg))
+            if span_deg < 0.1 * np.ptp(np.degrees(g.pitch_rad)):   # a tick: point it out
+                ax.annotate(f"the whole path: within {span_deg:.1f} deg",
+                            (roll_deg.max(), pitch_deg.max()), xytext=(0.05, 0.88), ha="left",
+                            textcoords="axes fraction", color="white", fontsize=9,
+                            arrowprops={"arrowstyle": "->", "color": "white", "lw": 1.5})
             ax.set_title(f"{name}, k = {k}: plans {p.mode}", fontsize=10)
             ax.set_xlabel("roll (deg)")
             ax.set_ylabel("pitch (deg)")
@@ -116,7 +123,7 @@ def fig_gap_readings(c2c: dict[str, Any], clear: dict[str, Any], path: Path) -> 
 def fig_delay(runs: dict[str, Any], path: Path) -> Path:
     """Fig. 7: (A) pitch at the start of control, (B) Eq. 11 energy, against the sensory delay."""
     plt = _plt()
-    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.8))
+    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.8), layout="constrained")
     for key, lab in DELAY_SERIES:
         rs = [runs[f"{key}/{d}"] for d in DELAYS_MS]
         a.plot(DELAYS_MS, [r.get("control_start", {}).get("pitch_deg", float("nan")) for r in rs], "o-", label=lab)
@@ -130,8 +137,11 @@ def fig_delay(runs: dict[str, Any], path: Path) -> Path:
         b.axhline(flimsy_mj, ls=":", color="k", label=f"flimsy avoidance ({flimsy_mj:.1f} mJ)")
     a.set_xlabel("sensory delay (ms)")
     a.set_ylabel("pitch at control start (deg)")
-    a.legend()
     b.set_xlabel("sensory delay (ms)")
     b.set_ylabel("energy cost E_cost (mJ)")
-    b.legend(fontsize=8, loc="center right")
-    return _save(fig, path)
+    for ax in (a, b):   # below the axes: inside, a legend covered a delay's points
+        ax.set_xticks(DELAYS_MS)
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2)
+    fig.savefig(path, dpi=90, bbox_inches="tight")
+    plt.close(fig)
+    return path
