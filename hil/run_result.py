@@ -134,6 +134,21 @@ class BeamsOutcome:
 
 
 @dataclass(frozen=True)
+class HexapodOutcome:
+    """A firmware-driven world's state at the run's end: the body's pose in the world
+    frame and the feet that carry load (None where the world does not say)."""
+
+    x_m: float
+    y_m: float
+    z_m: float
+    yaw_deg: float
+    feet_on_ground: int | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+@dataclass(frozen=True)
 class RunResult:
     runtime: str
     sim_time_s: float = 0.0
@@ -155,11 +170,15 @@ class RunResult:
     loop_cycles: int = 0        # cycles counted for the two figures above
     round_trips: int = 0
     body: BodyDisplacement = BodyDisplacement()
-    world: BeamsOutcome | None = None   # a self-stepping world's outcome
+    # A self-stepping world's outcome (beams), or a firmware-driven one's state at the end
+    # (the hexapod); None without a world.
+    world: BeamsOutcome | HexapodOutcome | None = None
     # What the run's host nodes report at its end (seed 000's traversal: strategy, estimate,
     # plan; the papers' packages fill it), as they report it.
     host_nodes: Mapping[str, Any] = field(default_factory=lambda: _frozen({}))
     ending: FirmwareEnding = FirmwareEnding()   # how the firmware ended (COMPLETED: served on)
+    no_servo_answered: str | None = None   # why, when the firmware wrote and none answered
+    interrupted: bool = False   # Ctrl-C (or SIGTERM) ended it early
 
     @property
     def unhandled_exceptions(self) -> int:
@@ -189,8 +208,10 @@ class RunTally:
     loop_cycles: int = 0
     round_trips: int = 0
     body: BodyDisplacement = BodyDisplacement()
-    world: BeamsOutcome | None = None
+    world: BeamsOutcome | HexapodOutcome | None = None
     ending: FirmwareEnding = FirmwareEnding()
+    no_servo_answered: str | None = None
+    interrupted: bool = False
 
     def count_can(self, arb_id: int) -> None:
         key = "0x%03X" % arb_id
@@ -209,4 +230,15 @@ class RunTally:
             self.stop_reason if self.stop_reason is not None else stats.stop_reason, stats,
             tuple(_frozen(e) for e in self.tactile_events), self.switch_edges,
             _frozen(self.can_frames), self.bus_busy_us, self.bus_wire_us, self.loop_cycles,
-            self.round_trips, self.body, self.world, ending=self.ending)
+            self.round_trips, self.body, self.world, ending=self.ending,
+            no_servo_answered=self.no_servo_answered, interrupted=self.interrupted)
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """Ctrl-C (or SIGTERM) during a run: ``result`` is the run up to then (its trace is
+    closed and kept); ``summary``, set by host_tools/run_summary.py, its ``--json`` object."""
+
+    def __init__(self, result: RunResult) -> None:
+        super().__init__()
+        self.result = result
+        self.summary: dict[str, Any] = {}

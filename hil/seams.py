@@ -3,7 +3,8 @@ recorder and the link's host side must offer (hil/run/core.py, hil/run/lockstep.
 hil/link/). Anything with these methods plugs in; nothing needs to inherit from them."""
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Iterator, Mapping, Protocol, Sequence, runtime_checkable
+from typing import (TYPE_CHECKING, Any, Callable, Iterator, Mapping, Protocol, Sequence,
+                    runtime_checkable)
 
 if TYPE_CHECKING:
     import can
@@ -62,6 +63,16 @@ class CanGateway(Protocol):
     def poll(self) -> list[tuple[int, bytes, bool]]: ...      # (arbitration id, data, extended)
 
 
+class LineDevice(Protocol):
+    """A device on a servo line (an emulated servo, the switch node) as the run's checks
+    see it: its ID and the rate its UART listens at."""
+
+    @property
+    def id(self) -> int: ...
+    @property
+    def baud_bps(self) -> int: ...
+
+
 class ServoLine(Protocol):
     """A simulated servo line (hil/servobus/line.py ``Bus``, ``Bus2``) as its master's side
     sees it: bytes written and read in virtual time, and the timing hooks a timing-margin
@@ -70,6 +81,9 @@ class ServoLine(Protocol):
     return_delay_override_us: int | None
     rx_latency_us: int
     baud: int
+    servos: Sequence[LineDevice]
+    stats: Mapping[str, int]       # tx_bytes, rx_bytes, packets, replies, ...
+    missing_ids: set[int]          # IDs packets went to that no device has
 
     def set_master_baud(self, baud: int) -> None: ...
     def master_write(self, data: bytes) -> None: ...
@@ -87,12 +101,15 @@ class LinkHost(Protocol):
 
     clock: "VirtualClock"
     bus: ServoLine
+    byte_us: float                         # one byte's wire time at the master's rate
+    console: Callable[[], None] | None     # takes what the firmware printed, as it sleeps
 
     def serve(self, conn: Any, end_us: int, result: "RunTally") -> None: ...
     def answer(self, conn: Any, msgs: list[tuple[int, bytes]], closed: bool, end_us: int,
                result: "RunTally") -> bool: ...
     def take_event(self, kind: int, text: str, result: "RunTally") -> None: ...
     def run_fault(self, name: str, detail: str, result: "RunTally") -> None: ...
+    def idle_to(self, wake_us: int) -> None: ...
     def on_wake(self, t_us: int) -> None: ...
     def on_slept(self) -> None: ...
 

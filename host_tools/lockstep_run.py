@@ -175,8 +175,8 @@ class Run:
 
     def can_endpoint(self) -> Endpoint:
         """A host node's port on the run's CAN bus: it reads the frames the firmware sends
-        and sends frames the firmware receives."""
-        return self._firmware_sim().can.endpoint("rx")
+        (not the host's own, nor another node's) and sends frames the firmware receives."""
+        return self._firmware_sim().can.endpoint("rx", hears="tx")
 
     @property
     def can(self) -> CanBus:
@@ -217,7 +217,11 @@ class Run:
                              self.recorder is not None, self._realtime)
 
     def close(self) -> None:
-        """Close the trace (complete as far as the run went), then the live server."""
+        """Close the trace (complete as far as the run went), then the live server; a
+        simulator never run lets its CAN bus go too."""
+        sim = getattr(self, "sim", None)   # None until made (close() runs on a failed start)
+        if sim is not None:
+            sim.core.shutdown()
         if self.recorder is not None:
             self.recorder.close()
         if self.live is not None:

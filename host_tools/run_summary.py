@@ -7,7 +7,7 @@ from typing import Any
 
 from hil import scenario as scenario_mod
 from hil.canbus.socketcand import CanServer
-from hil.run_result import RunResult
+from hil.run_result import RunInterrupted, RunResult
 from hil.scenario import Scenario, WorldKind
 from host_tools import plugins
 from host_tools.lockstep_run import Run
@@ -38,6 +38,8 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
         "ending": result.ending.as_dict(),
         "serial_digest": result.serial_digest,
         "faults": dict(sorted(result.faults.items())),
+        "no_servo_answered": result.no_servo_answered,
+        "interrupted": result.interrupted,
         "stopped_safely": stopped and result.stop_reason is not None,
         "stop_reason": result.stop_reason,
         "body": {k: round(v, 4) for k, v in result.body.as_dict().items()},
@@ -139,7 +141,13 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
                 log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", r.live.port)
             if attach_navigator is not None:
                 nav = attach_navigator(r)
-            result = r.run()
+            try:
+                result = r.run()
+            except RunInterrupted as exc:
+                beams = sc.world.kind is WorldKind.BEAMS
+                exc.summary = (_beams_summary if beams else summary)(sc, seed, exc.result, out)
+                exc.summary["interrupted"] = True
+                raise
             what_ran = r.what_ran()
     finally:
         if server is not None:

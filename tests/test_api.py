@@ -73,8 +73,8 @@ def test_the_example_runs_its_own_host_node_and_reads_the_trace_back(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "scenario flat-tripod (seed 1) under cpython-inprocess: 6.0 s" in r.stdout
     heights = re.search(r"body height: (\d+) samples, mean ([\d.]+) mm", r.stdout)
-    assert int(heights[1]) == 59 and 60 < float(heights[2]) < 120
-    assert "60 body poses, 1 heading_command frame(s)" in r.stdout
+    assert int(heights[1]) == 60 and 60 < float(heights[2]) < 120
+    assert "61 body poses, 1 heading_command frame(s)" in r.stdout
     # the frame the node injected turned the walk off the x axis (flat-tripod walks along it)
     angle = float(re.search(r"at ([-+\d.]+) deg from x", r.stdout)[1])
     assert angle > 10.0

@@ -175,8 +175,11 @@ def test_run_result_is_frozen_and_its_parts_typed() -> None:
     hints = typing.get_type_hints(run_result.RunResult)
     assert hints["firmware"] is run_result.FirmwareStats
     assert hints["body"] is run_result.BodyDisplacement
-    assert typing.get_args(hints["world"]) == (run_result.BeamsOutcome, type(None))
-    for part in (run_result.FirmwareStats, run_result.BodyDisplacement, run_result.BeamsOutcome):
+    assert typing.get_args(hints["world"]) == (run_result.BeamsOutcome, run_result.HexapodOutcome,
+                                               type(None))
+    assert hints["no_servo_answered"] == str | None and hints["interrupted"] is bool
+    for part in (run_result.FirmwareStats, run_result.BodyDisplacement, run_result.BeamsOutcome,
+                 run_result.HexapodOutcome):
         assert part.__dataclass_params__.frozen
     with pytest.raises(dataclasses.FrozenInstanceError):
         run_result.RunResult("none").cycles = 1  # type: ignore[misc]

@@ -82,3 +82,34 @@ def test_live_channels_reach_a_websocket_client():
         proc.kill()
     assert proc.returncode == 0, err
     assert "10.0 s simulated" in out
+
+
+async def _advertised_at_connect(url: str) -> set[str]:
+    """The topics of the advertisements that come with a connection, before any message."""
+    topics: set[str] = set()
+    async with websockets.connect(url, subprotocols=[SUBPROTOCOL]) as ws:
+        while True:
+            try:
+                msg = await asyncio.wait_for(ws.recv(), 1.0)
+            except asyncio.TimeoutError:
+                return topics
+            op = json.loads(msg)
+            if op.get("op") == "advertise":
+                topics |= {c["topic"] for c in op["channels"]}
+
+
+def test_every_channel_is_advertised_before_a_client_can_subscribe():
+    """foxglove-sdk enters a channel made while a client is connected in that client's
+    table only after advertising it, so a prompt subscribe can be refused ("Unknown
+    channel ID") and the panel stays empty: the live server makes every channel the
+    recorder may open before it listens, and a client gets them all as it connects."""
+    from host_tools.trace.live import LiveServer
+    from host_tools.trace.topics import CHANNELS, T_CAN_PREFIX
+
+    live = LiveServer(0)
+    try:
+        topics = asyncio.run(_advertised_at_connect(f"ws://127.0.0.1:{live.port}"))
+    finally:
+        live.close()
+    assert set(CHANNELS) <= topics, set(CHANNELS) - topics
+    assert T_CAN_PREFIX + "heartbeat" in topics

@@ -59,3 +59,30 @@ def test_the_sweep_finds_the_firmwares_reply_budget(tmp_path: Path) -> None:
     assert m.grid[0].holds
     margin_sweep.heat_map(m, str(tmp_path / "m.png"), "test")
     assert (tmp_path / "m.png").stat().st_size > 1000
+
+
+def test_the_heat_map_has_a_colour_bar_and_only_all_holding_is_green(tmp_path):
+    """80 % (one expectation of five failing) must not look like a pass (issue 41)."""
+    import matplotlib.pyplot as plt
+
+    cmap, norm = margin_sweep.share_colouring()
+    green = cmap(norm(1.0))
+    assert all(cmap(norm(s)) != green for s in (0.0, 0.5, 0.8, 0.99))
+
+    def point(name, v, passed):
+        return margin_sweep.Point(((name, v),), passed, 5, (), ())
+
+    grid = [point("g", i, p) for i, p in enumerate((5, 4, 2, 0))]
+    m = margin_sweep.Margin({"baud_error_pct": [point("baud_error_pct", v, p) for v, p in
+                                          ((-6, 3), (0, 5), (6, 4))]}, grid,
+                      ((0, 40), (100, 1000)))
+    figures = []
+    real_close = plt.close
+    plt.close = lambda fig=None: figures.append(fig)
+    try:
+        margin_sweep.heat_map(m, str(tmp_path / "m.png"), "synthetic")
+    finally:
+        plt.close = real_close
+    labels = [ax.get_ylabel() for ax in figures[0].axes]
+    assert "expectations holding" in labels   # the colour bar's axis
+    real_close(figures[0])

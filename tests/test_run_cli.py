@@ -87,7 +87,8 @@ def test_run_trace_holds_ground_truth_servo_state_and_joints(tmp_path):
         servos = [pb.ServoStates.FromString(m.data) for m in tr.messages([topics.T_SERVOS])]
         joints = [JointStates.FromString(m.data) for m in tr.messages([topics.T_JOINTS])]
         bodies = list(tr.messages([topics.T_BODY]))
-    assert len(servos) == len(joints) == len(bodies) == 10  # 10 Hz over 1 s
+    # the first wake (after the boot), then every 100 ms on the grid up to the end, 1.0 s
+    assert len(servos) == len(joints) == len(bodies) == 11
     last = servos[-1].servos
     assert [sv.id for sv in last] == list(range(1, 19)) and all(sv.torque_enabled for sv in last)
     names = [j.name for j in joints[-1].joints]

@@ -55,7 +55,8 @@ def test_scene_decodes_and_has_the_worlds_sizes(hexapod_trace):
     msgs = hexapod_trace
     assert {topics.T_BODY, topics.T_JOINTS, topics.T_SCENE, topics.T_SCENE_FRAMES,
             topics.T_SCENE_FORCES} <= set(msgs)
-    assert len(msgs[topics.T_SCENE_FRAMES]) == len(msgs[topics.T_BODY]) == 30  # 10 Hz
+    # 10 Hz: the first wake, then every 100 ms on the grid up to the end (3.0 s)
+    assert len(msgs[topics.T_SCENE_FRAMES]) == len(msgs[topics.T_BODY]) == 31
     sc = scenario_mod.load_scenario(ROOT / "scenarios/obstacles-high-large.toml")
     world = make_world(sc, sc.scenario.seed)
     m = world.model

@@ -43,9 +43,15 @@ class Endpoint(can.BufferedReader):
     controller (``tx``: the controller's side sent it; ``rx``: it is for the controller).
     """
 
-    def __init__(self, bus: "CanBus", direction: str) -> None:
+    def __init__(self, bus: "CanBus", direction: str, hears: str | None = None) -> None:
+        """``hears``: only frames sent in that direction (``tx``: the controller's), else
+        every frame but its own."""
         super().__init__()
-        self._bus, self.direction = bus, direction
+        self._bus, self.direction, self.hears = bus, direction, hears
+
+    def on_message_received(self, msg: can.Message) -> None:
+        if self.hears is None or (msg.is_rx == (self.hears == "rx")):
+            super().on_message_received(msg)
 
     def send(self, arb_id: int, data: bytes) -> None:
         self._bus.send(arb_id, data, sender=self, direction=self.direction)
@@ -97,8 +103,8 @@ class CanBus:
         self.listeners.append(listener)
         return listener
 
-    def endpoint(self, direction: str) -> Endpoint:
-        return self.add(Endpoint(self, direction))
+    def endpoint(self, direction: str, hears: str | None = None) -> Endpoint:
+        return self.add(Endpoint(self, direction, hears))
 
     def send(self, arb_id: int, data: bytes, sender: Any = None, direction: str = "rx") -> None:
         """One standard (11-bit) frame, the only kind our DBC defines."""

@@ -11,16 +11,66 @@ The firmware itself is started and judged by hil/link/served_firmware.py ``Board
 from __future__ import annotations
 
 import struct
+from typing import Mapping
 
 from hil.link.firmware_process import LinkViolation
 from hil.run_result import RunTally
-from hil.seams import LinkHost
+from hil.seams import LinkHost, ServoLine
 from protocol import sim_link
 
 HANG_S = 2.0          # virtual seconds without a UART write, pin turn or sleep: a hang
 TX_WHILE_RECEIVING = "tx_while_receiving"
 RX_WHILE_TRANSMITTING = "rx_while_transmitting"
 MISTAKES = (TX_WHILE_RECEIVING, RX_WHILE_TRANSMITTING)
+WRONG_BAUD = "wrong_baud"
+
+
+def set_master_baud(server: LinkHost, payload: bytes, result: RunTally) -> None:
+    """A posted baud message (the C SDK's ``HAL_UART_Init`` of USART2): the master's UART
+    runs at that rate from now on. The servos decode it with their own timing
+    (hil/servobus/wire.py ``resample``), so at a rate they do not listen at they hear garbage and do
+    not answer, as on the robot (the virtual board's ``machine.UART`` refuses such a rate
+    outright); the run counts a ``wrong_baud`` fault that says so."""
+    if len(payload) != sim_link.BAUD_LEN:
+        raise LinkViolation(f"malformed baud message ({len(payload)} bytes, not 4)")
+    (bps,) = struct.unpack_from("<I", payload, 0)
+    if bps == 0:
+        raise LinkViolation("a baud message of 0 bit/s")
+    bus = server.bus
+    listening = sorted({s.baud_bps for s in bus.servos})
+    bus.set_master_baud(bps)
+    server.byte_us = 10_000_000 / bps
+    if bps not in listening:
+        server.run_fault(WRONG_BAUD, f"the servo UART (USART2) runs at {bps} baud; the servos "
+                         f"listen at {', '.join(map(str, listening))} baud", result)
+
+
+def why_no_servo_answered(bus: ServoLine | None, faults: Mapping[str, int]) -> str | None:
+    """One line when the master wrote on the line and no servo ever answered: which of
+    its mistakes the run saw (direction pin low, a rate the servos do not listen at,
+    IDs no servo has); None when some servo answered or nothing was written."""
+    if bus is None or bus.stats["replies"] or not (bus.stats["tx_bytes"]
+                                                   or faults.get(TX_WHILE_RECEIVING)):
+        return None
+    causes = []
+    if faults.get(TX_WHILE_RECEIVING):
+        causes.append(f"{faults[TX_WHILE_RECEIVING]} writes went out while the direction "
+                      f"pin (A1) was low ({TX_WHILE_RECEIVING})")
+    listening = sorted({s.baud_bps for s in bus.servos})
+    if bus.baud not in listening:
+        causes.append(f"the master's UART ran at {bus.baud} baud, the servos at "
+                      f"{', '.join(map(str, listening))} baud")
+    missing = sorted(bus.missing_ids)
+    if missing and not causes:
+        ids = sorted({s.id for s in bus.servos})
+        have = f"{ids[0]}-{ids[-1]}" if ids == list(range(ids[0], ids[-1] + 1)) else \
+            ", ".join(map(str, ids))
+        causes.append(f"the packets went to IDs {', '.join(map(str, missing[:8]))}"
+                      f"{' ...' if len(missing) > 8 else ''}, and no servo on the line has "
+                      f"them (IDs {have})")
+    if not causes:
+        causes.append("no valid packet reached them")
+    return "no servo answered: " + "; ".join(causes)
 
 
 class BoardLine:
@@ -46,8 +96,7 @@ class BoardLine:
 
     def _idle_to(self, t_us: int) -> None:
         if t_us > self.clock.t_us:
-            self.bus.idle_until(t_us)
-            self.server.on_wake(self.clock.t_us)
+            self.server.idle_to(t_us)
             self.server.on_slept()
 
     def _set_direction(self, tx_on: bool, result: RunTally) -> None:

@@ -9,6 +9,7 @@ since the last reply (posted ones first, the request last); the caller answers w
 from __future__ import annotations
 
 import os
+import re
 import select
 import socket
 import struct
@@ -71,6 +72,37 @@ def firmware_env(port: int) -> dict[str, str]:
     env["MICROPYPATH"] = f"{ROOT}:.frozen:{ROOT}/firmware/lib"
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     return env
+
+
+def last_words(err: str, out: str = "") -> str:
+    """Why a firmware stopped, in one line: the last traceback's exception with where the
+    firmware raised it (micropython prints tracebacks on stdout, CPython on stderr), else
+    the last line it wrote; stderr first."""
+    for text in (err, out):
+        lines = text.strip().splitlines()
+        if not lines:
+            continue
+        starts = [i for i, line in enumerate(lines) if line.startswith("Traceback (most recent")]
+        if not starts:
+            return lines[-1]
+        body = lines[starts[-1] + 1:]
+        raised = next((line for line in reversed(body) if not line.startswith(" ")), body[-1])
+        frames = [m for m in (_FRAME.match(line) for line in body) if m]
+        own = [m for m in frames if not _hexhil_source(m.group(1))]
+        if not own:
+            return raised.strip()
+        return f"{raised.strip()} ({Path(own[-1].group(1)).name}, line {own[-1].group(2)})"
+    return "no output"
+
+
+_FRAME = re.compile(r'\s+File "([^"]+)", line (\d+)')
+
+
+def _hexhil_source(path: str) -> bool:
+    """Whether a traceback frame is in hexhil's own board or library code, not the user's."""
+    full = (ROOT / path).resolve()
+    return any(full.is_relative_to(ROOT / d) for d in ("firmware/virtual_board", "firmware/hal",
+                                                         "protocol"))
 
 
 def split_messages(data: bytes) -> list[tuple[int, bytes]]:
@@ -200,6 +232,7 @@ class FirmwareProcess:
         """``extra_env`` is set over ``firmware_env``'s; ``console``, a file, takes the
         firmware's stdout instead of a pipe (a chatty firmware never blocks on it)."""
         self.python = python
+        self._console = console
         cmd = command or firmware_command(python)
         srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         srv.bind(("127.0.0.1", 0))
@@ -234,12 +267,16 @@ class FirmwareProcess:
                     continue
             if code is None:
                 self.proc.kill()
-            _, err = self.proc.communicate()
-            lines = err.decode(errors="replace").strip().splitlines()
-            tail = lines[-1:] or ["no output"]
+            out, err = self.proc.communicate()
+            if self._console is not None:
+                self._console.seek(0)
+                out = self._console.read()
+            printed = (out or b"").decode(errors="replace")
+            lines = (err.decode(errors="replace").strip() + "\n" + printed.strip()).strip().splitlines()
+            tail = last_words(err.decode(errors="replace"), printed)
             what = (f"did not connect within {timeout_s:g} s" if code is None
                     else f"exited with code {code} before it connected to the link")
-            raise FirmwareError(f"the firmware ({' '.join(cmd)}) {what}: {tail[0]}",
+            raise FirmwareError(f"the firmware ({' '.join(cmd)}) {what}: {tail}",
                                 tuple(lines[-5:]), started=False,
                                 exit_code=self.proc.returncode) from None
 

@@ -23,7 +23,7 @@ import signal
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Protocol
+from typing import IO, Callable, Protocol
 
 from hil.link.firmware_process import (ROOT, FirmwareError, FirmwareProcess, firmware_command,
                                       firmware_env)
@@ -76,6 +76,14 @@ def served_firmware(path: str | Path, what: str = "firmware", gdb_port: int | No
         raise UserError(f"{what} {path}: not a file (give a MicroPython main file, an "
                         "STM32F411 ELF or an executable)", params=(what,))
     if p.suffix in MAIN_SUFFIXES:
+        try:
+            text = _is_text(p.read_bytes())
+        except OSError as exc:
+            raise UserError(f"{what} {path}: cannot read it ({exc.strerror})",
+                            params=(what,)) from None
+        if not text:
+            raise UserError(f"{what} {path}: not a MicroPython source file (it holds binary "
+                            "data, not UTF-8 text)", params=(what,))
         return BoardFirmware(p.resolve())
     if is_arm_elf(p):
         return ElfFirmware(load_elf(p, what), gdb_port,
@@ -87,6 +95,16 @@ def served_firmware(path: str | Path, what: str = "firmware", gdb_port: int | No
                         "executable (build a C firmware with `hexhil sdk build main.c -o fw`, "
                         "or chmod +x)", params=(what,))
     return ExecutableFirmware(p.resolve())
+
+
+def _is_text(data: bytes) -> bool:
+    """A source micropython can parse: UTF-8 without NUL bytes (micropython itself only
+    says ``SyntaxError: invalid syntax`` of a binary file)."""
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError:
+        return False
+    return b"\0" not in data
 
 
 @dataclass(frozen=True)
@@ -106,11 +124,7 @@ class BoardFirmware:
     def serve(self, server: LinkHost, end_us: int, result: RunTally) -> None:
         """The console's ``event KIND TEXT`` lines (hal/base.py ``Board.event``) are its
         events."""
-        def take_console(printed: str) -> None:
-            for kind, text in console_events(printed):
-                server.take_event(kind, text, result)
-
-        serve_process(self, self.main.name, server, end_us, result, take_console)
+        serve_process(self, self.main.name, server, end_us, result, _console_to(server, result))
 
 
 @dataclass(frozen=True)
@@ -127,7 +141,16 @@ class ExecutableFirmware:
         return {}
 
     def serve(self, server: LinkHost, end_us: int, result: RunTally) -> None:
-        serve_process(self, self.path.name, server, end_us, result)
+        """What it prints on stdout goes to ``/telemetry`` as log lines (the C SDK makes
+        stdout line-buffered, so a line arrives when printed)."""
+        serve_process(self, self.path.name, server, end_us, result, _console_to(server, result))
+
+
+def _console_to(server: LinkHost, result: RunTally) -> Callable[[str], None]:
+    def take_console(printed: str) -> None:
+        for kind, text in console_events(printed):
+            server.take_event(kind, text, result)
+    return take_console
 
 
 @dataclass(frozen=True)
@@ -170,7 +193,9 @@ def serve_process(firmware: ServedFirmware, name: str, server: LinkHost, end_us:
     """Start ``firmware``, serve its link to ``end_us`` and judge how it ended
     (``result.ending``: a crash, a hang, an early exit or a failed start is the run's
     verdict, not an error). Its stdout goes to a file: a firmware that prints a lot never
-    blocks on a full pipe; ``take_console`` reads what it printed."""
+    blocks on a full pipe; ``take_console`` reads what it printed, whole lines as the line
+    idles (so each is stamped with the virtual time it was printed at), the rest at the
+    end."""
     hang_wall_s = HANG_WALL_S
     with tempfile.TemporaryFile() as console:
         try:
@@ -186,6 +211,8 @@ def serve_process(firmware: ServedFirmware, name: str, server: LinkHost, end_us:
             return
         fw.conn.sock.settimeout(hang_wall_s)
         hung, broke = False, None
+        reader = _ConsoleReader(console, take_console)
+        server.console = reader.lines if take_console is not None else None
         try:
             server.serve(fw.conn, end_us, result)
         except TimeoutError:
@@ -193,11 +220,9 @@ def serve_process(firmware: ServedFirmware, name: str, server: LinkHost, end_us:
         except FirmwareError as exc:   # it broke the link's rules (hil/link/server.py)
             broke = exc
         finally:
+            server.console = None
             code, _, err = fw.finish(timeout_s=0.0 if hung or broke else 10.0)
-            console.seek(0)
-            printed = console.read().decode(errors="replace")
-            if take_console is not None:
-                take_console(printed)
+            printed = reader.rest()
     result.exit_code = code
     result.stderr_tail = "\n".join(err.strip().splitlines()[-LAST_LINES:])
     result.ending = judge(name, code, err, printed, server.clock.t_us, end_us,
@@ -237,6 +262,35 @@ def judge(name: str, code: int, err: str, printed: str, t_us: int, end_us: int,
                               f"t={t_s:.6f} s, before the run's end ({end_us * 1e-6:g} s)",
                               last, t_s, code)
     return FirmwareEnding(Ending.COMPLETED, "", (), t_s, code)
+
+
+class _ConsoleReader:
+    """A firmware's console file, read on as it grows (``os.pread``: the file offset the
+    firmware writes at is shared, and stays untouched): whole lines to ``take``."""
+
+    def __init__(self, console: IO[bytes], take: Callable[[str], None] | None) -> None:
+        self._fd, self._take = console.fileno(), take
+        self._done = 0            # bytes handed on
+        self._text = b""          # everything read so far
+
+    def _read(self) -> None:
+        while chunk := os.pread(self._fd, 65536, len(self._text)):
+            self._text += chunk
+
+    def lines(self) -> None:
+        self._read()
+        cut = self._text.rfind(b"\n") + 1
+        if cut > self._done and self._take is not None:
+            self._take(self._text[self._done:cut].decode(errors="replace"))
+            self._done = cut
+
+    def rest(self) -> str:
+        """Everything printed (for the verdict); what was not handed on yet, handed on."""
+        self._read()
+        if self._done < len(self._text) and self._take is not None:
+            self._take(self._text[self._done:].decode(errors="replace"))
+            self._done = len(self._text)
+        return self._text.decode(errors="replace")
 
 
 def console_events(text: str) -> list[tuple[int, str]]:

@@ -11,7 +11,7 @@ import json
 import struct
 from typing import Any, Callable
 
-from hil.link.board_line import MISTAKES, BoardLine
+from hil.link.board_line import MISTAKES, BoardLine, set_master_baud
 from hil.canbus.bus import CanBus
 from hil.link.firmware_process import Connection, DirectConnection, FirmwareError, LinkViolation
 from hil.run_result import RunTally
@@ -58,6 +58,7 @@ class LinkServer:
         self._counting = False   # bus time counts from the first sleep on (boot excluded)
         self._held: list = []    # frames taken from the inbox that the last reply had no room for
         self.line: BoardLine | None = None   # the virtual board's UART, at its first line request
+        self.console: Callable[[], None] | None = None  # takes what the firmware printed
         self.version = sim_link.VERSION      # the link version the hello agreed
         self._parser = dxl.Parser()          # R's retry rule: the master's test of a reply
 
@@ -95,7 +96,11 @@ class LinkServer:
             if rec is not None:
                 rec.telemetry(t, ev)
         elif kind == sim_link.EVENT_FAULT:   # a mistake the client's board saw: a run fault
-            self.run_fault(str(json.loads(text).get(ls.NAME, "firmware_fault")), text, result)
+            fault = json.loads(text)
+            if not isinstance(fault, dict):
+                raise ValueError("a fault event is not a JSON object")
+            self.run_fault(str(fault.get(ls.NAME, "firmware_fault")),
+                           str(fault.get(ls.DETAIL, "")), result)
         elif rec is not None:
             rec.telemetry(t, {"event": kind, "text": text})
 
@@ -130,15 +135,31 @@ class LinkServer:
                 bytes(msg.data).ljust(8, b"\0")
         return (sim_link.FLAG_MORE if self._held else 0), bytes(body)
 
+    def idle_to(self, wake_us: int) -> None:
+        """The line idles to ``wake_us``, stopping at each host node's tick on the way
+        (docs/api.md ``HostNode``); then ``on_wake`` at the wake. What the firmware printed
+        before it slept is taken first, stamped now."""
+        if self.console is not None:
+            self.console()
+        clock, bus, next_tick = self.clock, self.bus, self.sim.next_tick_us
+        while True:
+            due = next_tick()
+            if due is None or due >= wake_us:
+                break
+            if due > clock.t_us:
+                bus.idle_until(due)
+            self.on_wake(clock.t_us)
+        if wake_us > clock.t_us:
+            bus.idle_until(wake_us)
+        self.on_wake(clock.t_us)
+
     def _sleep_reply(self, wake_us: int, end_us: int, result: RunTally) -> tuple[bytes, bool]:
         flags = 0
         ended = wake_us >= end_us
         if ended:
             wake_us = end_us
             flags |= sim_link.FLAG_END
-        if wake_us > self.clock.t_us:
-            self.bus.idle_until(wake_us)
-        self.on_wake(self.clock.t_us)
+        self.idle_to(wake_us)
         bits = self.switches.sample(self.clock.t_us, result)
         body = b"\0"
         if not ended:
@@ -281,6 +302,8 @@ class LinkServer:
                     reply = self.line.answer(payload, end_us, result)
                 else:
                     self.line.turn(payload, end_us, result)
+            elif op == sim_link.OP_BAUD:
+                set_master_baud(self, payload, result)
             elif op == sim_link.OP_HELLO:
                 reply = self._hello_reply(payload, result)
             else:

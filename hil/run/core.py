@@ -111,13 +111,21 @@ class RunCore:
         self._nodes.append(node)
         self._next_tick_us.append(getattr(node, "first_tick_us", node.period_us))
 
+    def next_tick_us(self) -> int | None:
+        """When the next host node is due (None without nodes): the firmware driver stops
+        a sleep there, so a node ticks at its period, not at the firmware's next wake."""
+        return min(self._next_tick_us) if self._next_tick_us else None
+
     def tick_nodes(self, t_us: int) -> None:
-        """Host nodes whose period has come round, in the order they were given. A period
-        counts from the node's last tick, as the ground-truth samples' does, so a node at
-        100 ms from 0 ticks at the instants the trace has ground truth for."""
+        """Host nodes whose period has come round, in the order they were given. Ticks
+        stay on the node's grid (first tick + n periods): a node at 100 ms from 0 ticks at
+        the instants the trace has ground truth for; one a step skipped past is due a
+        period after this tick."""
         for i, node in enumerate(self._nodes):
-            if t_us >= self._next_tick_us[i]:
-                self._next_tick_us[i] = t_us + node.period_us
+            due = self._next_tick_us[i]
+            if t_us >= due:
+                due += node.period_us
+                self._next_tick_us[i] = due if due > t_us else t_us + node.period_us
                 node.tick(t_us)
 
     def inject(self, kind: str, **params: Any) -> dict[str, Any]:

@@ -20,14 +20,17 @@ every ground-truth sample. ``realtime=True`` paces the samples to the wall clock
 """
 from __future__ import annotations
 
+import math
 import time
 from typing import Any, Callable
 
+from hil.link.board_line import why_no_servo_answered
 from hil.link.served_firmware import ServedFirmware, judge
 from hil.link.firmware_process import IN_PROCESS, DirectConnection, FirmwareProcess
 from hil.link.server import LinkServer, SwitchSampler
 from hil.run.core import RunCore, WallClockPacing
-from hil.run_result import BodyDisplacement, RunResult, RunTally
+from hil.run_result import (BodyDisplacement, HexapodOutcome, RunInterrupted, RunResult,
+                             RunTally)
 from hil.scenario import Scenario, check_duration
 from hil.seams import CanGateway, FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
 from protocol import link_schema as ls
@@ -39,6 +42,20 @@ InProcessFirmware = Callable[[Callable[[bytes, bool], bytes]], None]
 # define the stats schema (issue 28 part 3); until then its names are read here only.
 DETECTED_COUNTERS = (ls.TIMEOUTS, ls.CORRUPT_REPLIES, ls.ERROR_STATUSES, ls.ECHO_MISMATCH,
                      ls.OVERRUNS)
+
+
+def _final_state(world: FirmwareWorld) -> HexapodOutcome:
+    """A firmware-driven world's state at the run's end (``RunResult.world``): the body's
+    pose in the world frame and the feet that carry load."""
+    pose = world.body_pose()
+    contacts = getattr(world, "foot_contacts", None)
+    return HexapodOutcome(pose.x_m, pose.y_m, pose.z_m, math.degrees(pose.yaw_rad),
+                          sum(contacts()) if contacts is not None else None)
+
+
+def _next_on_grid(t_us: int) -> int:
+    """The first ground-truth instant after ``t_us`` (multiples of ``BODY_SAMPLE_US``)."""
+    return (t_us // BODY_SAMPLE_US + 1) * BODY_SAMPLE_US
 
 
 def _detected_faults(tally: RunTally) -> None:
@@ -63,6 +80,30 @@ class FirmwareDriver:
         self._next_body_us = 0
         self._next_servo_us = 0
 
+    def next_tick_us(self) -> int | None:
+        """The next host node tick or ground-truth sample: a sleep stops there, so both
+        come on their grids (a node at its period, the samples every 100 ms)."""
+        due = self.core.next_tick_us()
+        if self.core.recorder is not None:
+            truth = (min(self._next_body_us, self._next_servo_us) if self.core.world is not None
+                     else self._next_servo_us)
+            due = truth if due is None else min(due, truth)
+        return due
+
+    def _wake(self, t_us: int) -> None:
+        """The line idled to ``t_us``: host nodes due tick, then the ground truth due is
+        taken (body pose, joints, scene and servo states, at 10 Hz on the 100 ms grid)."""
+        core = self.core
+        core.tick_nodes(t_us)
+        if core.recorder is None:
+            return
+        if core.world is not None and t_us >= self._next_body_us:
+            self._next_body_us = _next_on_grid(t_us)
+            core.truth.world_sample(t_us)
+        if t_us >= self._next_servo_us:
+            self._next_servo_us = _next_on_grid(t_us)
+            core.truth.servo_sample(t_us)
+
     def _levels(self, t_us: int) -> int:
         if self.core.world is not None:
             return self.core.switch_bits()
@@ -74,7 +115,7 @@ class FirmwareDriver:
             firmware: ServedFirmware | None = None) -> None:
         core = self.core
         server = LinkServer(self, core.config.firmware_settings(self._tactile),
-                            SwitchSampler(self._levels, core.recorder), core.tick_nodes,
+                            SwitchSampler(self._levels, core.recorder), self._wake,
                             self._ground_truth)
         if in_process is not None:
             in_process(DirectConnection(
@@ -95,23 +136,18 @@ class FirmwareDriver:
             result.ending = judge(python, code, err, out, core.clock.t_us, core.clock.t_us)
         result.serial_digest = core.serial_digest
         _detected_faults(result)
+        result.no_servo_answered = why_no_servo_answered(core.bus, result.faults)
         if self._pose0 is not None:
             result.body = BodyDisplacement.between(self._pose0, core.world.body_pose())
+            result.world = _final_state(core.world)
 
     def _ground_truth(self) -> None:
-        """Body pose, joints, scene and servo states to the recorder at 10 Hz of virtual time."""
+        """After a sleep's reply: the wall-clock pacing and the recorder's window."""
         core = self.core
         t = core.clock.t_us
         core.pacing.pace(t)
-        if core.recorder is None:
-            return
-        core.recorder.advance(t)
-        if core.world is not None and t >= self._next_body_us:
-            self._next_body_us = t + BODY_SAMPLE_US
-            core.truth.world_sample(t)
-        if t >= self._next_servo_us:
-            self._next_servo_us = t + BODY_SAMPLE_US
-            core.truth.servo_sample(t)
+        if core.recorder is not None:
+            core.recorder.advance(t)
 
 
 class SteppedDriver:
@@ -200,6 +236,9 @@ class Simulator:
                 self.driver.run(end_us, result)
             else:
                 self.driver.run(python, command, in_process, end_us, result, firmware)
+        except KeyboardInterrupt:
+            result.interrupted = True
+            result.serial_digest = self.core.serial_digest
         finally:
             self.core.shutdown()
         result.wall_time_s = time.perf_counter() - wall0
@@ -208,4 +247,7 @@ class Simulator:
             result.faults.update(self.faults.counts)
         if self.can.dropped:
             result.faults["can_drop"] = self.can.dropped
-        return result.result()
+        frozen = result.result()
+        if frozen.interrupted:
+            raise RunInterrupted(frozen)
+        return frozen

@@ -54,6 +54,7 @@ class Bus:
         self._rx: list[Burst] = []     # heard by the master, oldest first, never overlapping
         self._parser = self.parser_class()
         self._off: set[int] = set()      # id(servo) of unplugged servos
+        self.missing_ids: set[int] = set()   # IDs packets went to that no servo has
         self.stats = {"tx_bytes": 0, "rx_bytes": 0, "packets": 0, "replies": 0,
                       "collisions": 0, "bad_checksum": 0}
         self._reindex()
@@ -322,6 +323,7 @@ class Bus:
         else:
             targets = self._by_id.get(dev_id)
             if not targets:
+                self.missing_ids.add(dev_id)
                 return
         off = self._off
         changed = False

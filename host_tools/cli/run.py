@@ -7,6 +7,7 @@ import sys
 
 from hil.canbus.socketcand import DEFAULT_PORT
 from hil.link.firmware_process import IN_PROCESS, RUNTIMES
+from hil.run_result import RunInterrupted
 from host_tools import cli
 
 LIVE_PORT = 8765  # Foxglove's default WebSocket port (host_tools/trace/live.py)
@@ -16,11 +17,19 @@ def _run(args: argparse.Namespace) -> int:
     import host_tools.papers  # noqa: F401  (plugs the beams run and the navigators in)
     from host_tools import run_summary as run_mod
 
-    s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
-                            False if args.no_tactile else None, args.out,
-                            args.can_server, args.can_wait, args.live, args.realtime,
-                            args.navigator, args.model, args.firmware, args.gdb,
-                            args.coverage, args.overwrite)
+    try:
+        s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
+                                False if args.no_tactile else None, args.out,
+                                args.can_server, args.can_wait, args.live, args.realtime,
+                                args.navigator, args.model, args.firmware, args.gdb,
+                                args.coverage, args.overwrite)
+    except RunInterrupted as exc:
+        kept = (f"the trace {args.out} is kept and replays" if args.out
+                else "nothing was recorded (no --out)")
+        sys.stderr.write(f"hexhil: interrupted at t={exc.result.sim_time_s:.3f} s: {kept}\n")
+        if args.json and exc.summary:
+            cli.emit_json(exc.summary)
+        return 130
     if s.get("world") == "beams":
         what = "traversed" if s["traversed"] else ("flipped" if s["flipped"] else "stuck")
         print(f"{s['scenario']}: {s['strategy']}: {what} (mode {s['mode']}), energy "
@@ -39,6 +48,8 @@ def _run(args: argparse.Namespace) -> int:
           + (f", stopped: {s['stop_reason']}" if s["stop_reason"] else ""))
     if s["faults"]:
         print("faults: " + ", ".join(f"{k} {v}" for k, v in s["faults"].items()))
+    if s["no_servo_answered"]:
+        print(s["no_servo_answered"])
     print(f"body: dx {s['body']['dx_m']:+.3f} m, dy {s['body']['dy_m']:+.3f} m, "
           f"dyaw {s['body']['dyaw_deg']:+.1f} deg; serial sha256 {s['serial_digest'][:16]}...")
     if "navigator" in s:

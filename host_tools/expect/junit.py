@@ -2,7 +2,8 @@
 GitHub test reporters): ``testsuites`` > one ``testsuite`` a case run > one ``testcase`` an
 expectation, with a ``failure`` (message: measured against limit) when it failed, and an
 ``error`` testcase (the reason, the firmware's last lines) when the firmware crashed, hung,
-exited early or never started."""
+exited early or never started. A suite's time is its run's wall time; a testcase's, the
+time its own evaluation took (the run is shared, so it is not split among them)."""
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
@@ -42,7 +43,7 @@ def to_xml(results: Sequence[CaseResult], name: str = "hexhil test") -> ET.Eleme
             ET.SubElement(props, "property", name="trace", value=r.trace)
         for o in r.outcomes:
             tc = ET.SubElement(suite, "testcase", classname=r.label, name=o.name,
-                               time=f"{run_s / max(1, len(r.outcomes)):.3f}")
+                               time=f"{o.time_s:.3f}")
             text = f"{o.kind}: measured {o.measured}; limit {o.limit}"
             if o.t_s is not None:
                 text += f"; at t={o.t_s:.3f} s"

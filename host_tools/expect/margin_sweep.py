@@ -111,6 +111,19 @@ def sweep(case: Case, python: str, axes: dict[str, Sequence[float]] | None = Non
     return Margin(by_axis, points[n_axes:], (tuple(rd), tuple(lat)))
 
 
+# The share of expectations that held, in bands: only 100 % is green, so a setting where
+# one expectation of five fails (80 %) does not read as a pass.
+SHARE_BANDS = (0.0, 0.5, 0.8, 0.9999, 1.0001)
+SHARE_COLOURS = ("#d73027", "#fc8d59", "#fee08b", "#1a9850")   # <50 %, <80 %, <100 %, 100 %
+
+
+def share_colouring() -> tuple[Any, Any]:
+    """(colour map, norm) of the heat map: ``SHARE_COLOURS`` over ``SHARE_BANDS``."""
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+
+    return ListedColormap(SHARE_COLOURS), BoundaryNorm(SHARE_BANDS, len(SHARE_COLOURS))
+
+
 def heat_map(m: Margin, path: str, title: str) -> None:
     """The PNG: Return Delay x latency (share of expectations that held), and each axis."""
     import matplotlib
@@ -125,7 +138,8 @@ def heat_map(m: Margin, path: str, title: str) -> None:
     fig, axes = plt.subplots(1, 1 + len(m.axes), figsize=(4.2 + 2.0 * len(m.axes), 4.2),
                              gridspec_kw={"width_ratios": [3] + [1] * len(m.axes)})
     ax = axes[0]
-    ax.imshow(share, cmap="RdYlGn", vmin=0, vmax=1, origin="lower", aspect="auto")
+    cmap, norm = share_colouring()
+    im = ax.imshow(share, cmap=cmap, norm=norm, origin="lower", aspect="auto")
     ax.set_xticks(range(len(lat)), [f"{v:g}" for v in lat], rotation=45)
     ax.set_yticks(range(len(rd)), [f"{v:g}" for v in rd])
     ax.set_xlabel("adapter latency (us)")
@@ -137,12 +151,16 @@ def heat_map(m: Margin, path: str, title: str) -> None:
     for ax, (axis, points) in zip(axes[1:], m.axes.items()):
         points = sorted(points, key=lambda p: p.settings[0][1])
         col = np.array([[p.passed / max(1, p.total)] for p in points])
-        ax.imshow(col, cmap="RdYlGn", vmin=0, vmax=1, origin="lower", aspect="auto")
+        ax.imshow(col, cmap=cmap, norm=norm, origin="lower", aspect="auto")
         ax.set_yticks(range(len(points)), [f"{p.settings[0][1]:g}" for p in points])
         ax.set_xticks([])
         ax.set_title(axis.replace("_", " "), fontsize=8)
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
+    bar = fig.colorbar(im, ax=list(axes), shrink=0.8, pad=0.02,
+                       ticks=[0.25, 0.65, 0.9, 1.0])
+    bar.ax.set_yticklabels(["< 50 %", "50-80 %", "80-99 %", "all"], fontsize=7)
+    bar.set_label("expectations holding", fontsize=8)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 

@@ -89,8 +89,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 @pytest.fixture
-def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
-               record_property: Callable[[str, Any], None]) -> Callable[..., FinishedRun]:
+def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path) -> Callable[..., FinishedRun]:
     """``hexhil_run(scenario, seed=None, duration_s=None, python=None, tactile=None,
     firmware=None, allow_failure=False)``: run a scenario file with our firmware (or
     ``firmware``, else ``--hexhil-firmware``), recorded to this test's tmp_path. A firmware
@@ -105,7 +104,7 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path,
 
     def keep(path: Path) -> None:
         traces.append(path)
-        record_property("trace", str(path))
+        _record_trace(request, path)
 
     def run(scenario: str | Path, seed: int | None = None, duration_s: float | None = None,
             python: str | None = None, tactile: bool | None = None,
@@ -148,6 +147,15 @@ def _copy(src: Path, dst: Path) -> Path:
     with open(src, "rb") as f, TraceTarget(dst, overwrite=True) as out:
         shutil.copyfileobj(f, out)
     return dst
+def _record_trace(request: pytest.FixtureRequest, path: Path) -> None:
+    """The trace's path in ``--junitxml``: a testcase property where the JUnit family has
+    them (legacy, xunit1), else (pytest's default xunit2, whose testcase has none, and
+    where ``record_property`` warns) a testsuite property ``trace <test id>``."""
+    if request.config.getini("junit_family") == "xunit2":
+        request.getfixturevalue("record_testsuite_property")(
+            f"trace {request.node.nodeid}", str(path))
+    else:
+        request.node.user_properties.append(("trace", str(path)))
 
 
 @pytest.hookimpl(wrapper=True)

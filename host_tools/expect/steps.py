@@ -9,6 +9,14 @@ samples with the foot more than ``SWING_THRESHOLD_M`` above the leg's stance lev
 median height); its height is the highest sample above that level, its length the foot's
 travel along the walking direction from the rearmost sample just before the swing to the
 foremost just after it (the stance moves the foot back, the swing forward).
+
+Its lift-off is when the foot left the ground, not when it passed the threshold: the rise
+into the swing is followed back to the last sample on the ground (the foot rose less than
+``RISE_M`` from the one before), and the moment between that sample and the first one up
+is where the line through the first two samples up meets the ground sample's height. A
+switch that closes during the first centimetre of a swing (issue 41: LM at 60.9 s of
+obstacles-low-small) is after this lift-off, so the rule is judged on the next step, as
+the firmware (switched only at the start of a step) applies it.
 """
 from __future__ import annotations
 
@@ -23,12 +31,13 @@ STEP_FACTOR = 2.0            # Eq. 6: l_k = 2 l_i
 OBSTACLE_CLEARANCE_M = 0.02  # Eq. 7: h_k = H + 2 cm
 SWING_THRESHOLD_M = 0.01     # above the stance level: the foot is in the air
 EDGE_SAMPLES = 4             # samples either side of a swing searched for its ends
+RISE_M = 0.002               # a sample this much above the one before: the foot is rising
 
 
 @dataclass(frozen=True)
 class Step:
     leg: int
-    lift_off_s: float      # the last sample on the ground before the swing
+    lift_off_s: float      # when the foot left the ground (module docstring)
     touch_down_s: float
     height_m: float
     length_m: float
@@ -77,8 +86,24 @@ def steps(times_s: Sequence[float], track: Sequence[tuple[float, float, float]],
         rear = min(along[max(0, a - EDGE_SAMPLES):a + 1])
         front = max(along[b:min(n, b + 1 + EDGE_SAMPLES)])
         height = max(p[2] for p in track[a:b + 1]) - ground
-        out.append(Step(leg, times_s[a - 1], times_s[k], height, front - rear))
+        out.append(Step(leg, _lift_off_s(times_s, track, a), times_s[k], height, front - rear))
     return out
+
+
+def _lift_off_s(times_s: Sequence[float], track: Sequence[tuple[float, float, float]],
+                a: int) -> float:
+    """When the foot left the ground in the rise to sample ``a`` (the first above the
+    threshold; sample ``a - 1`` exists)."""
+    g = a - 1
+    while g > 0 and track[g][2] - track[g - 1][2] > RISE_M:
+        g -= 1
+    up = g + 1               # the first sample off the ground (a at the latest)
+    t0, t1 = times_s[g], times_s[up]
+    z0, z1 = track[g][2], track[up][2]
+    if up + 1 >= len(track) or track[up + 1][2] <= z1:
+        return t0
+    slope = (track[up + 1][2] - z1) / (times_s[up + 1] - t1)
+    return min(t1, max(t0, t1 - (z1 - z0) / slope))
 
 
 def presses(edges: Sequence[tuple[float, int, bool]], end_s: float) -> list[Press]:

@@ -5,6 +5,7 @@ pass or fail, and the moment it failed (written into a kept trace, host_tools/ex
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, NamedTuple
@@ -32,6 +33,7 @@ class Outcome:
     passed: bool
     t_s: float | None = None      # when it failed (or the value was taken), virtual time
     value: float | None = None    # the measured number, where there is one
+    time_s: float = 0.0           # wall time its own evaluation took (JUnit testcase time)
 
 
 class Pose(NamedTuple):
@@ -325,6 +327,8 @@ def evaluate(case: Case, summary: dict[str, Any], trace: Path) -> list[Outcome]:
     ended = ending_outcome(case.name, summary)
     out = [ended] if ended is not None else []
     for e in case.expectations:
+        t0 = time.perf_counter()
         measured, limit, ok, t_s, value = kinds[e.kind](e, rec)
-        out.append(Outcome(case.name, e.name, e.kind.value, measured, limit, ok, t_s, value))
+        out.append(Outcome(case.name, e.name, e.kind.value, measured, limit, ok, t_s, value,
+                           time.perf_counter() - t0))
     return out

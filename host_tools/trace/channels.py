@@ -6,7 +6,8 @@ import json
 from typing import Any, Callable
 
 from host_tools.trace import protobuf as pb
-from host_tools.trace.topics import CHANNELS, schema_encoding
+from host_tools.trace.can_signals import dbc, json_schema
+from host_tools.trace.topics import CAN_SCHEMA_PREFIX, CHANNELS, T_CAN_PREFIX, schema_encoding
 from host_tools.trace.writer import TraceWriter
 
 
@@ -49,7 +50,25 @@ class Channels:
         if cid is not None:
             return cid
         schema_name, encoding = CHANNELS[topic]
-        if encoding == "protobuf":
-            return self.add(topic, schema_name, encoding, lambda: pb.descriptor_set(schema_name))
-        return self.add(topic, schema_name, encoding, lambda: json.dumps(
-            {"title": schema_name, "type": "object"}, sort_keys=True).encode())
+        return self.add(topic, schema_name, encoding, lambda: topic_schema(topic))
+
+
+def topic_schema(topic: str) -> bytes:
+    """The schema data of one of the fixed topics (``topics.CHANNELS``)."""
+    schema_name, encoding = CHANNELS[topic]
+    if encoding == "protobuf":
+        return pb.descriptor_set(schema_name)
+    return json.dumps({"title": schema_name, "type": "object"}, sort_keys=True).encode()
+
+
+def every_channel() -> list[tuple[str, str, str, bytes, str]]:
+    """(topic, schema name, schema encoding, schema data, message encoding) of every
+    channel a recorder may open: the fixed topics and one per DBC frame (the live server
+    makes them all before a viewer connects, host_tools/trace/live.py)."""
+    out = [(topic, name, schema_encoding(enc), topic_schema(topic), enc)
+           for topic, (name, enc) in CHANNELS.items()]
+    db = dbc()
+    for msg in db.messages if db is not None else ():
+        out.append((T_CAN_PREFIX + msg.name, CAN_SCHEMA_PREFIX + msg.name, "jsonschema",
+                    json_schema(msg).encode(), "json"))
+    return out

@@ -5,13 +5,21 @@ which republishes them through ``foxglove-sdk``'s server (Rust core, the protoco
 itself speaks) on 127.0.0.1: a viewer sees the channels of the MCAP file, message for
 message, each window (0.1 s of virtual time with ``--live``) as it is written. The SDK keeps
 its own context, so nothing else in the process logs to this server.
+
+Every channel a recorder may open is made before the server listens. The SDK sends a new
+channel's advertisement to the connected clients before it enters the channel in each
+client's table (foxglove-sdk 0.30 ``ConnectedClient::advertise_channels``): a client that
+subscribes at once to a channel made mid-run, while the thread making it is preempted, is
+told "Unknown channel ID" and never gets its messages (a Foxglove panel stays empty). The
+channels that exist when a client connects are entered before its first message is read.
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Iterable
 
 import foxglove
 
+from host_tools.trace.channels import every_channel
 from protocol.errors import UserError
 
 # Messages held per client (the SDK's default, set here so the bound is ours): a client
@@ -25,8 +33,14 @@ class LiveServer:
 
     flush_interval_us = 100_000  # the recorder's window: a viewer sees 0.1 s steps
 
-    def __init__(self, port: int) -> None:
+    def __init__(self, port: int,
+                 channels: Iterable[tuple[str, str, str, bytes, str]] | None = None) -> None:
+        """``channels``: (topic, schema name, schema encoding, schema data, message
+        encoding) made before the server listens; by default every channel a recorder may
+        open (host_tools/trace/channels.py ``every_channel``)."""
         self._context = foxglove.Context()
+        self._by_topic = {spec[0]: self._new_channel(*spec)
+                          for spec in (every_channel() if channels is None else channels)}
         try:
             self._server = foxglove.start_server(name="hexhil", host="127.0.0.1", port=port,
                                                  context=self._context,
@@ -37,13 +51,21 @@ class LiveServer:
         self.port = self._server.port
         self._channels: dict[int, foxglove.Channel] = {}
 
+    def _new_channel(self, topic: str, schema_name: str, schema_encoding: str,
+                     schema_data: bytes, message_encoding: str) -> foxglove.Channel:
+        schema = foxglove.Schema(name=schema_name, encoding=schema_encoding, data=schema_data)
+        return foxglove.Channel(topic, schema=schema, message_encoding=message_encoding,
+                                context=self._context)
+
     def channel(self, cid: int, topic: str, schema_name: str, schema_encoding: str,
                 schema_data: bytes, message_encoding: str) -> None:
-        """Advertise the recorder's channel ``cid``."""
-        schema = foxglove.Schema(name=schema_name, encoding=schema_encoding, data=schema_data)
-        self._channels[cid] = foxglove.Channel(topic, schema=schema,
-                                               message_encoding=message_encoding,
-                                               context=self._context)
+        """The recorder's channel ``cid``: the one made for ``topic`` before the server
+        listened, else a new one (advertised now)."""
+        made = self._by_topic.get(topic)
+        if made is None:
+            made = self._by_topic[topic] = self._new_channel(
+                topic, schema_name, schema_encoding, schema_data, message_encoding)
+        self._channels[cid] = made
 
     def log(self, messages: list[tuple[int, int, Any]]) -> None:
         """Publish (log_time_ns, channel id, data) messages, in the order given."""

@@ -15,6 +15,7 @@
 #define HX_OP_WRITE 0x57
 #define HX_OP_CAN 0x43
 #define HX_OP_EVENT 0x45
+#define HX_OP_BAUD 0x42
 #define HX_FLAG_END 0x01
 #define HX_FLAG_MORE 0x02
 #define HX_EVENT_LOG 0
@@ -37,6 +38,7 @@ uint8_t hx_link_switches(void);        /* bit i: leg i's switch pressed, at the 
 void hx_link_post(uint8_t op, const void *payload, uint16_t n);
 void hx_link_event(uint8_t kind, const char *text);
 void hx_link_can_send(uint16_t id, const uint8_t *data, uint8_t dlc);
+void hx_link_baud(uint32_t bps);     /* the servo UART's rate: the host's line runs at it */
 
 /* Requests: one round trip each. */
 uint16_t hx_link_transact(const uint8_t *tx, uint16_t ntx, uint8_t *rx, uint16_t nrx,

@@ -20,6 +20,7 @@
 uint64_t hx_now_us;
 struct hx_counters hx_count;
 static uint64_t quiet_since_us;   /* the board's time of its last activity */
+static uint64_t slept_us;         /* the board's time of its last sleep */
 static int direction_tx;          /* PA1 high */
 static uint8_t held[HX_LINE_HOLD];
 static uint16_t held_len;
@@ -27,6 +28,7 @@ static uint16_t held_len;
 void hx_board_start(void)
 {
     if (!hx_link_is_open()) {
+        setvbuf(stdout, NULL, _IOLBF, 0);   /* a printed line reaches the host's trace then */
         hx_link_open("c-stm32cube");
         hx_now_us = hx_link_t_us();
     }
@@ -65,8 +67,22 @@ void hx_board_sleep(uint64_t wake_us)
     flush_line();
     uint8_t flags = hx_link_sleep(wake_us);
     hx_board_synced();
+    slept_us = hx_now_us;
     if (flags & HX_FLAG_END)
         finish();
+}
+
+void hx_board_baud(uint32_t bps)
+{
+    hx_link_baud(bps);
+}
+
+/* Only a sleep reply carries the run's end: a firmware that never sleeps (a cycle that
+ * always overruns, as at a baud no servo answers) asks with a sleep to now now and then. */
+void hx_board_check_end(void)
+{
+    if (hx_now_us - slept_us >= HX_END_CHECK_US)
+        hx_board_sleep(hx_now_us);
 }
 
 void hx_board_active(void)

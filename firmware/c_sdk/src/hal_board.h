@@ -9,6 +9,7 @@
 #define HX_QUANTUM_US 5        /* virtual time one busy-wait poll costs (the virtual board's) */
 #define HX_SYNC_US 1000        /* a busy-wait this far ahead of the host sleeps to catch up */
 #define HX_HANG_US 2000000u    /* only polls this long: hung (the virtual board's HANG_S) */
+#define HX_END_CHECK_US 100000u  /* no sleep this long (every cycle overran): ask for the end */
 #define HX_DIR_PORT 'A'        /* the direction line: GPIOA pin 1, high = transmit */
 #define HX_DIR_PIN 0x0002u
 #define HX_SWITCH_PORT 'B'     /* the leg switches: GPIOB pins 0-5, pressed = low */
@@ -24,6 +25,8 @@ extern struct hx_counters hx_count;
 void hx_board_start(void);     /* HAL_Init: the link opened once */
 void hx_board_synced(void);    /* the host answered: hx_now_us catches up with it */
 void hx_board_sleep(uint64_t wake_us);  /* to wake_us through the host; exits at the end */
+void hx_board_check_end(void); /* a sleep to now if none came for HX_END_CHECK_US */
+void hx_board_baud(uint32_t bps);  /* USART2's rate, to the host's line */
 void hx_board_poll(void);      /* one busy-wait poll (the quantum, a sleep when far ahead) */
 void hx_board_active(void);    /* a UART write or read, a direction turn, a delay: not hung */
 void hx_board_fault(const char *name, const char *detail);

@@ -4,7 +4,9 @@
  * transact) or the next sleep (a posted write). A status reaches the firmware when the pin is low and the receiver is enabled.
  * Bytes written with the pin low, or a status awaited with it high, are lost as on the
  * board: HAL_UART_Receive times out, and the mistake goes to the host as a fault event
- * (tx_while_receiving, rx_while_transmitting) that the run's summary counts. */
+ * (tx_while_receiving, rx_while_transmitting) that the run's summary counts. USART2's
+ * Init.BaudRate goes to the host (a posted baud message): the servos hear the line at
+ * their own rate, so at another rate none of them answers, as on the robot. */
 #include "stm32f4xx_hal.h"
 #include "hal_board.h"
 #include "hexhil_link.h"
@@ -21,6 +23,8 @@ static HAL_StatusTypeDef init(UART_HandleTypeDef *h, uint32_t halfduplex)
     if (h == NULL || h->Instance == NULL || h->Init.BaudRate == 0)
         return HAL_ERROR;
     hx_board_start();
+    if (on_line(h))
+        hx_board_baud(h->Init.BaudRate);   /* the line runs at it; the servos judge it */
     h->halfduplex = halfduplex;
     h->te = (h->Init.Mode & UART_MODE_TX) != 0;
     h->re = (h->Init.Mode & UART_MODE_RX) != 0;
@@ -92,6 +96,7 @@ HAL_StatusTypeDef HAL_UART_Receive(UART_HandleTypeDef *huart, uint8_t *pData,
     uint16_t want = Size > HX_MAX_RX_LEN ? HX_MAX_RX_LEN : Size;
     uint16_t got = hx_line_transact(rx, want, timeout_us);
     hx_board_active();
+    hx_board_check_end();
     if (hx_direction_tx() || !huart->re) {
         if (got) {
             char detail[96];

@@ -174,6 +174,14 @@ void hx_link_can_send(uint16_t id, const uint8_t *data, uint8_t dlc)
     queue(HX_OP_CAN, buf, (uint16_t)(3 + dlc));
 }
 
+void hx_link_baud(uint32_t bps)
+{
+    uint8_t buf[4];
+    for (int i = 0; i < 4; i++)
+        buf[i] = (bps >> (8 * i)) & 0xFF;
+    queue(HX_OP_BAUD, buf, sizeof buf);
+}
+
 uint16_t hx_link_transact(const uint8_t *tx, uint16_t ntx, uint8_t *rx, uint16_t nrx,
                           uint32_t timeout_us)
 {
