@@ -229,8 +229,11 @@ def test_ctrl_c_keeps_the_trace_says_so_and_prints_the_summary(tmp_path):
                              "--duration", "600", "--python", "cpython-inprocess", "--out",
                              str(trace), "--json"], cwd=ROOT, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
+    from host_tools.trace.target import partial_of
+
+    partial = partial_of(trace)        # a run writes beside its target until it ends
     deadline = time.monotonic() + 60
-    while (not trace.exists() or trace.stat().st_size < 200_000) and time.monotonic() < deadline:
+    while (not partial.exists() or partial.stat().st_size < 200_000) and time.monotonic() < deadline:
         time.sleep(0.2)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=60)
