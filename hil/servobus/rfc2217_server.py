@@ -64,23 +64,9 @@ def serve_rfc2217(server: RealTimeServer, port: int, host: str,
     import serial.rfc2217
 
     emulated = EmulatedPort(server, rts_direction)
-    srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    srv = server.listen(port, host, announce, "rfc2217: rfc2217://")
     try:
-        srv.bind((host, port))
-    except OSError as exc:
-        srv.close()
-        raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
-    srv.listen(1)
-    server.idle_ready()
-    announce(f"rfc2217: rfc2217://{host}:{srv.getsockname()[1]}")
-    try:
-        while True:
-            if not server.idle(srv.fileno()):
-                continue
-            conn, _ = srv.accept()
-            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            conn.setblocking(False)
+        for conn in server.clients(srv):
             _serve_client(server, emulated, conn, serial.rfc2217.PortManager)
     finally:
         srv.close()

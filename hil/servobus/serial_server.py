@@ -32,7 +32,7 @@ import struct
 import time
 import tty
 from array import array
-from typing import Callable
+from typing import Callable, Iterator
 
 from hil.servobus.line import Bus
 
@@ -260,8 +260,10 @@ class RealTimeServer:
             os.close(master)
             os.close(slave)
 
-    def serve_tcp(self, port: int, host: str, announce: Callable[[str], None]) -> None:
-        """Listen on host:port; serve one client at a time until SIGTERM/Ctrl-C."""
+    def listen(self, port: int, host: str, announce: Callable[[str], None],
+               prefix: str) -> socket.socket:
+        """A socket listening on host:port, announced as ``prefix`` + host:port once the rig
+        is ready (the TCP and RFC 2217 transports)."""
         srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
@@ -271,14 +273,24 @@ class RealTimeServer:
             raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
         srv.listen(1)
         self.idle_ready()
-        announce(f"tcp: {host}:{srv.getsockname()[1]}")
+        announce(f"{prefix}{host}:{srv.getsockname()[1]}")
+        return srv
+
+    def clients(self, srv: socket.socket) -> Iterator[socket.socket]:
+        """Each client of ``srv`` in turn, non-blocking, Nagle off; idling the rig between."""
+        while True:
+            if not self.idle(srv.fileno()):
+                continue
+            conn, _ = srv.accept()
+            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            conn.setblocking(False)
+            yield conn
+
+    def serve_tcp(self, port: int, host: str, announce: Callable[[str], None]) -> None:
+        """Listen on host:port; serve one client at a time until SIGTERM/Ctrl-C."""
+        srv = self.listen(port, host, announce, "tcp: ")
         try:
-            while True:
-                if not self.idle(srv.fileno()):
-                    continue
-                conn, _ = srv.accept()
-                conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-                conn.setblocking(False)
+            for conn in self.clients(srv):
 
                 def read() -> bytes | None:
                     try:
