@@ -19,6 +19,7 @@ from typing import Callable, Iterable
 
 from hil.clock import VirtualClock
 from hil.servobus.ax12_servo import Servo
+from hil.servobus.servo_core import SyncBank
 from hil.servobus.wire import US_BITS, Burst, resample
 from protocol.dynamixel import v1 as dxl
 
@@ -73,6 +74,7 @@ class Bus:
                 self._by_id.setdefault(s.id, []).append(s)
             else:
                 self._foreign.append((s, self.parser_class()))
+        self._sync_bank = SyncBank.build(self._same, Servo)
 
     def add_device(self, device) -> None:
         """Another Protocol 1.0 device on the line (hil/servobus/switch_node.py), served like a servo."""
@@ -319,6 +321,9 @@ class Bus:
 
     def _dispatch(self, dev_id: int, code: int, params: bytes, t_us: int) -> None:
         if dev_id == dxl.BROADCAST_ID:
+            if code == dxl.SYNC_WRITE and self._sync_bank is not None and not self._off:
+                self._sync_write(self._sync_bank, params, t_us)
+                return
             targets = self._same
         else:
             targets = self._by_id.get(dev_id)
@@ -336,6 +341,21 @@ class Bus:
             changed = changed or s.address_changed
         if changed:
             self._reindex()
+
+    def _sync_write(self, bank: SyncBank, params: bytes, t_us: int) -> None:
+        """A SYNC_WRITE to every servo at the line's baud, in C where it can
+        (hil/servobus/servo_core.py); each servo it leaves takes the packet in Python, in
+        the line's order (the same as ``_dispatch``'s loop)."""
+        bank.advance(t_us)
+        servos, n = bank.servos, bank.n
+        i = bank.serve(0, params, t_us)
+        while i < n:
+            servos[i].handle(dxl.SYNC_WRITE, params, True, t_us)   # broadcast: no reply
+            i = bank.serve(i + 1, params, t_us)
+        for s in servos:
+            if s.address_changed:
+                self._reindex()
+                return
 
     def _deliver_foreign(self, s: Servo, parser: dxl.Parser, tx: bytearray, t_us: int) -> None:
         """A servo at another baud decodes the line with its own UART timing."""
