@@ -1,5 +1,5 @@
-"""The compiled SYNC_WRITE (hil/servobus/servo_core.c) leaves every servo as the Python
-servos do: runs of the shipped firmware on the hexapod world (with the fault vocabulary
+"""The compiled SYNC_WRITE and READ (hil/servobus/servo_core.c) leave every servo as the
+Python servos do, and the READ's status packet is theirs: runs of the shipped firmware on the hexapod world (with the fault vocabulary
 that reaches a servo's state: overheating, a supply sag, a stall, an overload, a brown-out,
 an unplugged servo) and a scripted master's SYNC_WRITEs (torque limits, compliance, Lock,
 EEPROM writes, wheel mode, refused values) give the same serial bytes, control tables,
@@ -45,13 +45,12 @@ def _state(sim: Simulator) -> bytes:
 
 
 def _sim(overlay: dict | None, compiled: bool, monkeypatch) -> Simulator:
-    monkeypatch.setattr(servo_core, "_HX_SYNC_WRITE",
-                        servo_core._load() if compiled else None)
+    monkeypatch.setattr(servo_core, "_LIB", servo_core._load() if compiled else None)
     sc = scenario_mod.load_scenario(ROOT / "scenarios" / "flat-tripod.toml")
     if overlay:
         sc = sc.overlay(overlay)
     sim = Simulator(sc, 1, world=make_world(sc, 1))
-    assert (sim.bus._sync_bank is not None) == compiled
+    assert (sim.bus._servo_bank is not None) == compiled
     return sim
 
 
@@ -102,8 +101,9 @@ def _traffic(rng: random.Random, k: int) -> bytes:
 
 
 def test_scripted_sync_writes_leave_the_same_state(monkeypatch):
-    """Each packet's effect compared: the line's replies to a READ of every field after it,
-    and the whole state."""
+    """Each packet's effect compared: the line's replies to a READ after it (the whole
+    table, the Present registers, refused ranges; at each Status Return Level), and the
+    whole state."""
     sims = [_sim(None, compiled, monkeypatch) for compiled in (True, False)]
     rngs = [random.Random(5), random.Random(5)]
     for k in range(400):
@@ -112,7 +112,11 @@ def test_scripted_sync_writes_leave_the_same_state(monkeypatch):
             bus = sim.bus
             bus.master_write(_traffic(rng, k))
             dev = 1 + k % 18
-            bus.master_write(dxl.read(dev, 0, ax12.TABLE_SIZE))
+            if k % 50 == 10:   # Status Return Level 0, 1 or 2: a READ answered or not
+                bus.master_write(dxl.write(dev, ax12.STATUS_RETURN_LEVEL, bytes([k % 3])))
+                bus.master_read(6, 5000)
+            a, n = ((0, ax12.TABLE_SIZE), (36, 6), (45, 8), (10, 0))[k % 4]   # two refused
+            bus.master_write(dxl.read(dev, a, n))
             rx = bus.master_read(ax12.TABLE_SIZE + 6, 5000)
             bus.idle_until(bus.clock.t_us + 3000 + 1000 * (k % 7))
             states.append((rx, _state(sim)))

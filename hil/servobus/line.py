@@ -19,7 +19,7 @@ from typing import Callable, Iterable
 
 from hil.clock import VirtualClock
 from hil.servobus.ax12_servo import Servo
-from hil.servobus.servo_core import SyncBank
+from hil.servobus.servo_core import ServoBank
 from hil.servobus.wire import US_BITS, Burst, resample
 from protocol.dynamixel import v1 as dxl
 
@@ -74,7 +74,7 @@ class Bus:
                 self._by_id.setdefault(s.id, []).append(s)
             else:
                 self._foreign.append((s, self.parser_class()))
-        self._sync_bank = SyncBank.build(self._same, Servo)
+        self._servo_bank = ServoBank.build(self._same, Servo)
 
     def add_device(self, device) -> None:
         """Another Protocol 1.0 device on the line (hil/servobus/switch_node.py), served like a servo."""
@@ -321,8 +321,8 @@ class Bus:
 
     def _dispatch(self, dev_id: int, code: int, params: bytes, t_us: int) -> None:
         if dev_id == dxl.BROADCAST_ID:
-            if code == dxl.SYNC_WRITE and self._sync_bank is not None and not self._off:
-                self._sync_write(self._sync_bank, params, t_us)
+            if code == dxl.SYNC_WRITE and self._servo_bank is not None and not self._off:
+                self._sync_write(self._servo_bank, params, t_us)
                 return
             targets = self._same
         else:
@@ -332,17 +332,25 @@ class Bus:
                 return
         off = self._off
         changed = False
+        bank = self._servo_bank
         for s in targets:
             if off and id(s) in off:
                 continue
-            reply = s.handle(code, params, dev_id == dxl.BROADCAST_ID, t_us)
+            reply = False
+            if code == dxl.READ and bank is not None and len(params) == 2 \
+                    and dev_id != dxl.BROADCAST_ID:
+                k = bank.index.get(id(s))
+                if k is not None and s.reading is None:   # a reading fault: Python's
+                    reply = bank.read(k, params, t_us)    # False: the servo's own handle
+            if reply is False:
+                reply = s.handle(code, params, dev_id == dxl.BROADCAST_ID, t_us)
             if reply is not None:
                 self._schedule(s, reply, t_us)
             changed = changed or s.address_changed
         if changed:
             self._reindex()
 
-    def _sync_write(self, bank: SyncBank, params: bytes, t_us: int) -> None:
+    def _sync_write(self, bank: ServoBank, params: bytes, t_us: int) -> None:
         """A SYNC_WRITE to every servo at the line's baud, in C where it can
         (hil/servobus/servo_core.py); each servo it leaves takes the packet in Python, in
         the line's order (the same as ``_dispatch``'s loop)."""

@@ -1,7 +1,8 @@
-/* A SYNC_WRITE carried out by every AX-12 on the line in one call: what
- * hil/servobus/ax12_servo.py's Servo.handle does for each of them (catch up its health to the
- * packet's time, look its ID up in the packet, check the write against its control table,
- * apply it and hand the set-point to its MuJoCo joint, hil/world/actuator.py), the same
+/* The AX-12s' two instructions of every cycle: a SYNC_WRITE carried out by every servo on
+ * the line in one call, what hil/servobus/ax12_servo.py's Servo.handle does for each of them
+ * (catch up its health to the packet's time, look its ID up in the packet, check the write
+ * against its control table, apply it and hand the set-point to its MuJoCo joint,
+ * hil/world/actuator.py), and a READ answered with its status packet. The same
  * IEEE operations in the same order, so the tables, the drives and the trace are the same
  * bits (built with -ffp-contract=off: no fused multiply-add; exp and rint are the C
  * library's, which CPython's math.exp and round call too). The servos' state lives in
@@ -46,17 +47,20 @@ struct bank {
     double *goal, *setpoint, *speed, *torque_limit, *margin, *slope, *punch, *compliance;
     unsigned char *enabled;
     int joints;                    /* the drive bank's size: margin and slope rows */
-    double motor_no_load, ax12_no_load, speed_unit, load_unit, position_unit, punch_unit;
+    double motor_no_load, ax12_no_load, speed_unit, load_unit, position_unit, punch_unit,
+        moving_eps;
     /* health.py constants */
     double ambient_c, heat_c, thermal_tau_s, overheat_tau_s;
     int64_t overload_us;
 };
 
-enum { ERR_INPUT_VOLTAGE = 0x01, ERR_OVERHEATING = 0x04, ERR_RANGE = 0x08, ERR_OVERLOAD = 0x20 };
+enum { ERR_INPUT_VOLTAGE = 0x01, ERR_OVERHEATING = 0x04, ERR_RANGE = 0x08, ERR_OVERLOAD = 0x20,
+       ERR_INSTRUCTION = 0x40 };
 enum { ID = 3, BAUD = 4, CW = 6, CCW = 8, TEMP_LIMIT = 11, MIN_V = 12, MAX_V = 13,
        ALARM_LED = 17, SHUTDOWN = 18, EEPROM_END = 24, TORQUE_ENABLE = 24, GOAL = 30,
-       MOVING_SPEED = 32, TORQUE_LIMIT = 34, PRESENT_POSITION = 36, LOCK = 47, PUNCH = 48,
-       TABLE_SIZE = 50 };
+       MOVING_SPEED = 32, TORQUE_LIMIT = 34, PRESENT_POSITION = 36, PRESENT_VOLTAGE = 42,
+       PRESENT_TEMPERATURE = 43, MOVING = 46, LOCK = 47, PUNCH = 48, TABLE_SIZE = 50,
+       STATUS_RETURN_LEVEL = 16, DIRECTION = 0x400 };
 
 /* Python's min(a, b) and max(a, b): the first unless the second is strictly beyond it */
 static double py_min(double a, double b) { return b < a ? b : a; }
@@ -266,4 +270,87 @@ int hx_sync_write(const struct bank *b, int from, int64_t t_us, const unsigned c
         apply(b, i, a, p + at, stride - 1);
     }
     return b->n;
+}
+
+/* Python's int(round(x)) for the finite values below: half to even */
+static int64_t py_round(double x) { return (int64_t)rint(x); }
+
+/* Servo._refresh_present through protocol/dynamixel/ax12.py's conversions (no reading fault:
+ * the Python code serves a servo with one) */
+static void refresh_present(const struct bank *b, int i)
+{
+    unsigned char *t = b->table[i];
+    const struct health *h = b->health[i];
+    int j = b->joint[i];
+    double pos = present_rad(b, j), vel = b->qd[j], load = load_frac(b, j);
+    /* rad_to_position: math.degrees is x * (180 / pi) */
+    int64_t p = py_round((pos * (180.0 / M_PI) + 150.0) * 1023.0 / 300.0);
+    p = p < 0 ? 0 : (p > 1023 ? 1023 : p);
+    t[36] = (unsigned char)(p & 0xFF);
+    t[37] = (unsigned char)(p >> 8);
+    int64_t v = py_round(fabs(vel) * 60.0 / (2.0 * M_PI) / b->speed_unit);   /* rad_s_to_signed */
+    v = v > 1023 ? 1023 : v;
+    if (vel < 0 && v)
+        v |= DIRECTION;
+    t[38] = (unsigned char)(v & 0xFF);
+    t[39] = (unsigned char)(v >> 8);
+    int64_t ld = py_round(fabs(load) / b->load_unit);                       /* fraction_to_load */
+    ld = ld > 1023 ? 1023 : ld;
+    if (load < 0 && ld)
+        ld |= DIRECTION;
+    t[40] = (unsigned char)(ld & 0xFF);
+    t[41] = (unsigned char)(ld >> 8);
+    t[PRESENT_VOLTAGE] = (unsigned char)h->voltage_units;
+    t[PRESENT_TEMPERATURE] = (unsigned char)h->temperature_units;
+    t[MOVING] = fabs(vel) >= b->moving_eps;
+    b->servo[i]->present_stale = 0;
+}
+
+/* Servo.handle of a READ (its two parameters a, n) to servo i at t_us: the status packet
+ * into out (room for 56 bytes), its length, 0 when the servo answers nothing, -1 when the
+ * Python code must serve it (not a MuJoCo joint, deaf, finishing an EEPROM write). */
+int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned char *out)
+{
+    struct servo *s = b->servo[i];
+    if (b->joint[i] < 0 || s->busy_until_us > t_us || s->deaf_until_us > t_us)
+        return -1;
+    advance(b, i, t_us);
+    s->held_us = 0;
+    s->instructions += 1;
+    unsigned char *t = b->table[i];
+    int error = 0, len = 0;
+    unsigned char data[TABLE_SIZE];
+    if (a + n > TABLE_SIZE || n == 0) {
+        error = ERR_RANGE;
+    } else {
+        if (s->present_stale)
+            refresh_present(b, i);
+        memcpy(data, t + a, (size_t)n);
+        len = n;
+    }
+    int alarms = error | health_errors(b->health[i], t);
+    if (alarms) {   /* Servo._alarm */
+        if (alarms & t[ALARM_LED])
+            s->alarm_led = 1;
+        if ((alarms & t[SHUTDOWN]) && (t[TORQUE_LIMIT] || t[TORQUE_LIMIT + 1])) {
+            t[TORQUE_LIMIT] = 0;
+            t[TORQUE_LIMIT + 1] = 0;
+            command(b, t, b->health[i]->supply_frac, b->joint[i]);
+            s->present_stale = 1;
+        }
+    }
+    if (t[STATUS_RETURN_LEVEL] < 1)   /* Servo._answer: a READ is answered from level 1 */
+        return 0;
+    int code = error | health_errors(b->health[i], t);
+    int sum = t[ID] + len + 2 + code;
+    out[0] = out[1] = 0xFF;
+    out[2] = t[ID];
+    out[3] = (unsigned char)(len + 2);
+    out[4] = (unsigned char)code;
+    for (int k = 0; k < len; k++) {
+        out[5 + k] = data[k];
+        sum += data[k];
+    }
+    out[5 + len] = (unsigned char)(~sum & 0xFF);
+    return len + 6;
 }

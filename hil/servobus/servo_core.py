@@ -1,9 +1,10 @@
-"""The AX-12s' SYNC_WRITE compiled (hil/servobus/servo_core.c), through ctypes.
+"""The AX-12s' SYNC_WRITE and READ compiled (hil/servobus/servo_core.c), through ctypes.
 
 Every cycle the firmware's SYNC_WRITE reaches all 18 servos; each catches up its health,
 finds its entry, checks the write against its control table and drives its joint. In
 Python that was about a third of the host's cycle; ``hx_sync_write`` does it for the whole
-line in one call, reading and writing the same state: the servos' and their health's
+line in one call, and ``hx_read`` answers a status read (catch-up, the Present registers,
+the status packet and its checksum), reading and writing the same state: the servos' and their health's
 ctypes fields (hil/servobus/ax12_servo.py ``Servo``, health.py ``ServoHealth``), their
 control tables and the world's drive bank (hil/world/actuator.py). The same operations in
 the same order, so tables, drives and traces are the same bits
@@ -39,29 +40,31 @@ class _Bank(ctypes.Structure):
                 ("motor_no_load", ctypes.c_double), ("ax12_no_load", ctypes.c_double),
                 ("speed_unit", ctypes.c_double), ("load_unit", ctypes.c_double),
                 ("position_unit", ctypes.c_double), ("punch_unit", ctypes.c_double),
-                ("ambient_c", ctypes.c_double), ("heat_c", ctypes.c_double),
+                ("moving_eps", ctypes.c_double), ("ambient_c", ctypes.c_double), ("heat_c", ctypes.c_double),
                 ("thermal_tau_s", ctypes.c_double), ("overheat_tau_s", ctypes.c_double),
                 ("overload_us", ctypes.c_int64)]
 
 
 def _load() -> Any:
+    """The library's two functions, (hx_sync_write, hx_read), or None."""
     if not LIBRARY.exists():
         return None
     try:
         lib = ctypes.CDLL(str(LIBRARY))
     except OSError:
         return None
-    fn = lib.hx_sync_write
-    fn.argtypes = [_P, ctypes.c_int, ctypes.c_int64, ctypes.c_char_p, ctypes.c_int]
-    fn.restype = ctypes.c_int
-    return fn
+    sync, read = lib.hx_sync_write, lib.hx_read
+    sync.argtypes = [_P, ctypes.c_int, ctypes.c_int64, ctypes.c_char_p, ctypes.c_int]
+    read.argtypes = [_P, ctypes.c_int, ctypes.c_int64, ctypes.c_int, ctypes.c_int, _P]
+    sync.restype = read.restype = ctypes.c_int
+    return sync, read
 
 
-_HX_SYNC_WRITE = _load()
+_LIB = _load()
 
 
 def available() -> bool:
-    return _HX_SYNC_WRITE is not None
+    return _LIB is not None
 
 
 def _cells() -> np.ndarray:
@@ -83,7 +86,7 @@ def _address(a: np.ndarray) -> int:
     return a.ctypes.data
 
 
-class SyncBank:
+class ServoBank:
     """``hx_sync_write`` bound to one line's servos at its baud (``Bus._same``): built when
     the line is re-indexed; ``None`` from ``build`` when none of them drives a MuJoCo joint
     (then the Python path serves them all)."""
@@ -113,15 +116,19 @@ class SyncBank:
                 "compliance", "enabled")),
             len(arrays["goal"]), arrays["motor_no_load"], drive.NO_LOAD_RAD_S, ax12.SPEED_RPM_PER_UNIT,
             ax12.LOAD_FRACTION_PER_UNIT, arrays["position_unit"], arrays["punch_unit"],
+            drive.MOVING_EPS_RAD_S,
             health.AMBIENT_C, health.HEAT_AT_FULL_LOAD_C, health.THERMAL_TAU_S,
             health.OVERHEAT_TAU_S, health.OVERLOAD_TIME_US)
         self._ref = ctypes.addressof(self._bank)
-        self._fn = _HX_SYNC_WRITE
+        self._sync, self._read = _LIB
+        self._out = ctypes.create_string_buffer(ax12.TABLE_SIZE + 6)
+        self._out_at = ctypes.addressof(self._out)
+        self.index = {id(s): i for i, s in enumerate(servos)}   # a READ's servo in the bank
         self.n = n
         self.advance = arrays["advance"]   # the world's: what the first servo's catch-up did
 
     @classmethod
-    def build(cls, servos: Sequence[Any], servo_class: type) -> SyncBank | None:
+    def build(cls, servos: Sequence[Any], servo_class: type) -> ServoBank | None:
         """The bank of ``servos``, those of exactly ``servo_class`` (ax12_servo.Servo, not a
         test's subclass with other rules) on one world's joints served in C."""
         if not available() or not servos:
@@ -137,4 +144,13 @@ class SyncBank:
     def serve(self, start: int, params: bytes, t_us: int) -> int:
         """Servos from ``start`` on take the SYNC_WRITE ``params`` at ``t_us``; the index of
         the first one the C code left to Python, or ``n``."""
-        return self._fn(self._ref, start, t_us, params, len(params))
+        return self._sync(self._ref, start, t_us, params, len(params))
+
+    def read(self, i: int, params: bytes, t_us: int) -> bytes | None | bool:
+        """Servo ``i`` takes a READ of two parameters at ``t_us`` (it has no reading fault):
+        its status packet, None when it answers nothing, False when the Python code must
+        serve it."""
+        n = self._read(self._ref, i, t_us, params[0], params[1], self._out_at)
+        if n > 0:
+            return self._out.raw[:n]
+        return None if n == 0 else False
