@@ -1,9 +1,10 @@
 """The compiled SYNC_WRITE and READ (hil/servobus/servo_core.c) leave every servo as the
-Python servos do, and the READ's status packet is theirs: runs of the shipped firmware on the hexapod world (with the fault vocabulary
-that reaches a servo's state: overheating, a supply sag, a stall, an overload, a brown-out,
-an unplugged servo) and a scripted master's SYNC_WRITEs (torque limits, compliance, Lock,
-EEPROM writes, wheel mode, refused values) give the same serial bytes, control tables,
-servo and health fields and drive-bank arrays, to the bit. Built by `make` (the pinned
+Python servos do, and the READ's status packet is theirs: runs of the shipped firmware on
+the hexapod world (with the fault vocabulary that reaches a servo's state: overheating, a
+supply sag, a stall, an overload, a brown-out, an unplugged servo) and a scripted master's
+SYNC_WRITEs and READs (torque limits, compliance, Lock, EEPROM writes, wheel mode, refused
+values, Status Return Levels) give the same serial bytes, control tables, servo and health
+fields and drive-bank arrays, to the bit. Built by `make` (the pinned
 ziglang's cc); these tests fail if it is missing, so the build is checked."""
 from __future__ import annotations
 

@@ -322,7 +322,8 @@ class Bus:
     def _dispatch(self, dev_id: int, code: int, params: bytes, t_us: int) -> None:
         if dev_id == dxl.BROADCAST_ID:
             if code == dxl.SYNC_WRITE and self._servo_bank is not None and not self._off:
-                self._sync_write(self._servo_bank, params, t_us)
+                if self._servo_bank.sync_write(params, t_us):   # an ID or baud changed
+                    self._reindex()
                 return
             targets = self._same
         else:
@@ -336,12 +337,8 @@ class Bus:
         for s in targets:
             if off and id(s) in off:
                 continue
-            reply = False
-            if code == dxl.READ and bank is not None and len(params) == 2 \
-                    and dev_id != dxl.BROADCAST_ID:
-                k = bank.index.get(id(s))
-                if k is not None and s.reading is None:   # a reading fault: Python's
-                    reply = bank.read(k, params, t_us)    # False: the servo's own handle
+            reply = False if bank is None or code != dxl.READ or dev_id == dxl.BROADCAST_ID \
+                else bank.read(s, params, t_us)   # False: the servo's own handle answers
             if reply is False:
                 reply = s.handle(code, params, dev_id == dxl.BROADCAST_ID, t_us)
             if reply is not None:
@@ -349,21 +346,6 @@ class Bus:
             changed = changed or s.address_changed
         if changed:
             self._reindex()
-
-    def _sync_write(self, bank: ServoBank, params: bytes, t_us: int) -> None:
-        """A SYNC_WRITE to every servo at the line's baud, in C where it can
-        (hil/servobus/servo_core.py); each servo it leaves takes the packet in Python, in
-        the line's order (the same as ``_dispatch``'s loop)."""
-        bank.advance(t_us)
-        servos, n = bank.servos, bank.n
-        i = bank.serve(0, params, t_us)
-        while i < n:
-            servos[i].handle(dxl.SYNC_WRITE, params, True, t_us)   # broadcast: no reply
-            i = bank.serve(i + 1, params, t_us)
-        for s in servos:
-            if s.address_changed:
-                self._reindex()
-                return
 
     def _deliver_foreign(self, s: Servo, parser: dxl.Parser, tx: bytearray, t_us: int) -> None:
         """A servo at another baud decodes the line with its own UART timing."""

@@ -4,13 +4,13 @@ Every cycle the firmware's SYNC_WRITE reaches all 18 servos; each catches up its
 finds its entry, checks the write against its control table and drives its joint. In
 Python that was about a third of the host's cycle; ``hx_sync_write`` does it for the whole
 line in one call, and ``hx_read`` answers a status read (catch-up, the Present registers,
-the status packet and its checksum), reading and writing the same state: the servos' and their health's
-ctypes fields (hil/servobus/ax12_servo.py ``Servo``, health.py ``ServoHealth``), their
-control tables and the world's drive bank (hil/world/actuator.py). The same operations in
-the same order, so tables, drives and traces are the same bits
-(tests/test_servo_core.py runs both on real traffic). A servo the C code does not serve
-(an actuator other than a MuJoCo joint, deaf, finishing an EEPROM write) is handed back
-to its Python ``handle``, in the line's order.
+the status packet and its checksum). Both read and write the same state as the Python
+servos: their and their health's ctypes fields (hil/servobus/ax12_servo.py ``Servo``,
+health.py ``ServoHealth``), their control tables and the world's drive bank
+(hil/world/actuator.py). The same operations in the same order, so tables, drives and
+traces are the same bits (tests/test_servo_core.py runs both on real traffic). A servo the
+C code does not serve (an actuator other than a MuJoCo joint, deaf, finishing an EEPROM
+write, a Present Position fault) is handed to its own ``handle``, in the line's order.
 
 ``make`` builds ``_servo_core.so`` beside this file with the pinned ziglang's C compiler;
 without it the bus serves every servo in Python.
@@ -25,6 +25,7 @@ import numpy as np
 
 from hil.servobus import drive, health
 from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
 
 LIBRARY = Path(__file__).with_name("_servo_core.so")
 _P = ctypes.c_void_p
@@ -40,7 +41,8 @@ class _Bank(ctypes.Structure):
                 ("motor_no_load", ctypes.c_double), ("ax12_no_load", ctypes.c_double),
                 ("speed_unit", ctypes.c_double), ("load_unit", ctypes.c_double),
                 ("position_unit", ctypes.c_double), ("punch_unit", ctypes.c_double),
-                ("moving_eps", ctypes.c_double), ("ambient_c", ctypes.c_double), ("heat_c", ctypes.c_double),
+                ("moving_eps", ctypes.c_double), ("ambient_c", ctypes.c_double),
+                ("heat_c", ctypes.c_double),
                 ("thermal_tau_s", ctypes.c_double), ("overheat_tau_s", ctypes.c_double),
                 ("overload_us", ctypes.c_int64)]
 
@@ -87,9 +89,9 @@ def _address(a: np.ndarray) -> int:
 
 
 class ServoBank:
-    """``hx_sync_write`` bound to one line's servos at its baud (``Bus._same``): built when
-    the line is re-indexed; ``None`` from ``build`` when none of them drives a MuJoCo joint
-    (then the Python path serves them all)."""
+    """``hx_sync_write`` and ``hx_read`` bound to one line's servos at its baud
+    (``Bus._same``): built when the line is re-indexed; ``None`` from ``build`` when none of
+    them drives a MuJoCo joint (then their own ``handle`` serves them all)."""
 
     def __init__(self, servos: Sequence[Any], joints: list[tuple[dict[str, np.ndarray], int]
                                                            | None]) -> None:
@@ -114,11 +116,11 @@ class ServoBank:
             _address(offset), *(_address(arrays[k]) for k in (
                 "goal", "setpoint", "speed", "torque_limit", "margin", "slope", "punch",
                 "compliance", "enabled")),
-            len(arrays["goal"]), arrays["motor_no_load"], drive.NO_LOAD_RAD_S, ax12.SPEED_RPM_PER_UNIT,
-            ax12.LOAD_FRACTION_PER_UNIT, arrays["position_unit"], arrays["punch_unit"],
-            drive.MOVING_EPS_RAD_S,
-            health.AMBIENT_C, health.HEAT_AT_FULL_LOAD_C, health.THERMAL_TAU_S,
-            health.OVERHEAT_TAU_S, health.OVERLOAD_TIME_US)
+            len(arrays["goal"]), arrays["motor_no_load"], drive.NO_LOAD_RAD_S,
+            ax12.SPEED_RPM_PER_UNIT, ax12.LOAD_FRACTION_PER_UNIT, arrays["position_unit"],
+            arrays["punch_unit"], drive.MOVING_EPS_RAD_S, health.AMBIENT_C,
+            health.HEAT_AT_FULL_LOAD_C, health.THERMAL_TAU_S, health.OVERHEAT_TAU_S,
+            health.OVERLOAD_TIME_US)
         self._ref = ctypes.addressof(self._bank)
         self._sync, self._read = _LIB
         self._out = ctypes.create_string_buffer(ax12.TABLE_SIZE + 6)
@@ -141,15 +143,25 @@ class ServoBank:
             return None
         return cls(servos, joints)
 
-    def serve(self, start: int, params: bytes, t_us: int) -> int:
-        """Servos from ``start`` on take the SYNC_WRITE ``params`` at ``t_us``; the index of
-        the first one the C code left to Python, or ``n``."""
-        return self._sync(self._ref, start, t_us, params, len(params))
+    def sync_write(self, params: bytes, t_us: int) -> bool:
+        """Every servo of the bank takes the broadcast SYNC_WRITE ``params`` at ``t_us``, in
+        order (``Bus._dispatch``'s): in C where it can, each one it leaves by its own
+        ``handle``. True when one's ID or Baud Rate changed (the line re-indexes)."""
+        self.advance(t_us)
+        servos, n, sync, ref, size = self.servos, self.n, self._sync, self._ref, len(params)
+        i = sync(ref, 0, t_us, params, size)
+        while i < n:
+            servos[i].handle(dxl.SYNC_WRITE, params, True, t_us)   # broadcast: no reply
+            i = sync(ref, i + 1, t_us, params, size)
+        return any(s.address_changed for s in servos)
 
-    def read(self, i: int, params: bytes, t_us: int) -> bytes | None | bool:
-        """Servo ``i`` takes a READ of two parameters at ``t_us`` (it has no reading fault):
-        its status packet, None when it answers nothing, False when the Python code must
-        serve it."""
+    def read(self, servo: Any, params: bytes, t_us: int) -> bytes | None | bool:
+        """``servo`` takes a READ at ``t_us``: its status packet, None when it answers
+        nothing, False when its own ``handle`` must answer (not in the bank, a Present
+        Position fault, not two parameters, or the C code left it: deaf, busy)."""
+        i = self.index.get(id(servo))
+        if i is None or servo.reading is not None or len(params) != 2:
+            return False
         n = self._read(self._ref, i, t_us, params[0], params[1], self._out_at)
         if n > 0:
             return self._out.raw[:n]
