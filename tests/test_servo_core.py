@@ -19,11 +19,13 @@ from hil import scenario as scenario_mod
 from hil.run.lockstep import Simulator
 from hil.run.rig import make_world
 from hil.servobus import servo_core
+from hil.servobus.switch_node import SensorNode
 from host_tools.in_process import run_firmware
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
 
 ROOT = Path(__file__).resolve().parent.parent
+NODE_ID = 100   # the limit-switch node's (hil/servobus/switch_node.py)
 FAULTS = {"overheat": [{"id": 2, "at_s": 0.5, "until_s": 2.5, "temperature_c": 90.0}],
           "voltage_sag": [{"at_s": 1.0, "until_s": 1.6, "volts": 6.5}],
           "stall": [{"id": 8, "at_s": 0.8, "until_s": 2.0}],
@@ -37,20 +39,25 @@ def _state(sim: Simulator) -> bytes:
     the world's drive bank."""
     out = bytearray()
     for s in sim.bus.servos:
-        out += bytes(s.table) + bytes(ctypes.string_at(ctypes.addressof(s), ctypes.sizeof(s)))
-        out += bytes(ctypes.string_at(ctypes.addressof(s.health), ctypes.sizeof(s.health)))
+        out += bytes(s.table)
+        if not isinstance(s, ctypes.Structure):   # the switch node
+            continue
+        out += ctypes.string_at(ctypes.addressof(s), ctypes.sizeof(s))
+        out += ctypes.string_at(ctypes.addressof(s.health), ctypes.sizeof(s.health))
     for a in sim.world.joint_buffers().values():
         if isinstance(a, np.ndarray):
             out += a.tobytes()
     return bytes(out)
 
 
-def _sim(overlay: dict | None, compiled: bool, monkeypatch) -> Simulator:
+def _sim(overlay: dict | None, compiled: bool, monkeypatch, node: bool = False) -> Simulator:
     monkeypatch.setattr(servo_core, "_LIB", servo_core._load() if compiled else None)
     sc = scenario_mod.load_scenario(ROOT / "scenarios" / "flat-tripod.toml")
     if overlay:
         sc = sc.overlay(overlay)
     sim = Simulator(sc, 1, world=make_world(sc, 1))
+    if node:
+        sim.bus.add_device(SensorNode(lambda: 0b101001, NODE_ID))
     assert (sim.bus._servo_bank is not None) == compiled
     return sim
 
@@ -104,15 +111,16 @@ def _traffic(rng: random.Random, k: int) -> bytes:
 def test_scripted_sync_writes_leave_the_same_state(monkeypatch):
     """Each packet's effect compared: the line's replies to a READ after it (the whole
     table, the Present registers, refused ranges; at each Status Return Level), and the
-    whole state."""
-    sims = [_sim(None, compiled, monkeypatch) for compiled in (True, False)]
+    whole state. The limit-switch node shares the line (hexhil bus --world): a device the
+    C code leaves to its own ``handle``, in the line's order."""
+    sims = [_sim(None, compiled, monkeypatch, node=True) for compiled in (True, False)]
     rngs = [random.Random(5), random.Random(5)]
     for k in range(400):
         states = []
         for sim, rng in zip(sims, rngs):
             bus = sim.bus
             bus.master_write(_traffic(rng, k))
-            dev = 1 + k % 18
+            dev = (1 + k % 18) if k % 5 else NODE_ID
             if k % 50 == 10:   # Status Return Level 0, 1 or 2: a READ answered or not
                 bus.master_write(dxl.write(dev, ax12.STATUS_RETURN_LEVEL, bytes([k % 3])))
                 bus.master_read(6, 5000)

@@ -52,7 +52,7 @@ def _load() -> Any:
     if not LIBRARY.exists():
         return None
     try:
-        lib = ctypes.CDLL(str(LIBRARY))
+        lib = ctypes.PyDLL(str(LIBRARY))   # calls keep the GIL: the state is Python's too
     except OSError:
         return None
     sync, read = lib.hx_sync_write, lib.hx_read
@@ -98,15 +98,21 @@ class ServoBank:
         n = len(servos)
         self.servos = list(servos)
         arrays = next(j[0] for j in joints if j is not None)
-        self._tables = [(ctypes.c_uint8 * len(s.table)).from_buffer(s.table) for s in servos]
+        # the C code serves the servos on this world's joints; the others (another device
+        # on the line, another actuator) have no state there: NULL, joint -1
+        served = [j is not None and j[0] is arrays for j in joints]
+        self._tables = [(ctypes.c_uint8 * len(s.table)).from_buffer(s.table) if ok else None
+                        for s, ok in zip(servos, served)]
         self._keep: list[Any] = [arrays, self._tables]
-        servo_p = (_P * n)(*(ctypes.addressof(s) for s in servos))
-        health_p = (_P * n)(*(ctypes.addressof(s.health) for s in servos))
-        table_p = (_P * n)(*(ctypes.addressof(t) for t in self._tables))
-        joint = np.array([-1 if j is None or j[0] is not arrays else j[1] for j in joints],
-                         dtype=np.int32)
-        original = np.array([s.edition == ax12.EDITION_ORIGINAL for s in servos],
-                            dtype=np.int32)
+        servo_p = (_P * n)(*(ctypes.addressof(s) if ok else None
+                             for s, ok in zip(servos, served)))
+        health_p = (_P * n)(*(ctypes.addressof(s.health) if ok else None
+                              for s, ok in zip(servos, served)))
+        table_p = (_P * n)(*(ctypes.addressof(t) if t is not None else None
+                             for t in self._tables))
+        joint = np.array([j[1] if ok else -1 for j, ok in zip(joints, served)], dtype=np.int32)
+        original = np.array([ok and s.edition == ax12.EDITION_ORIGINAL
+                             for s, ok in zip(servos, served)], dtype=np.int32)
         offset = np.array(arrays["offset"], dtype=np.float64)
         self._keep += [servo_p, health_p, table_p, joint, original, offset]
         self._bank = _Bank(
@@ -125,7 +131,7 @@ class ServoBank:
         self._sync, self._read = _LIB
         self._out = ctypes.create_string_buffer(ax12.TABLE_SIZE + 6)
         self._out_at = ctypes.addressof(self._out)
-        self.index = {id(s): i for i, s in enumerate(servos)}   # a READ's servo in the bank
+        self.index = {id(s): i for i, (s, ok) in enumerate(zip(servos, served)) if ok}
         self.n = n
         self.advance = arrays["advance"]   # the world's: what the first servo's catch-up did
 
