@@ -1,10 +1,10 @@
 """The emulated STM32F411 (hil/mcu/, issue 40) on bare-metal ELFs of its own
 (tests/mcu/*.c, registers from RM0383): clocks, SysTick, DWT, the servo line through the
 PA1 buffer at the baud the firmware sets, the console, timers, EXTI, bxCAN."""
-import pytest
+import re
 
+from hil.run_result import Ending
 from mcu_elf import build, console, run_elf
-from protocol.errors import UserError
 
 
 def test_bare_metal_pings_18_servos_at_100_mhz_the_same_twice(tmp_path):
@@ -47,8 +47,12 @@ def test_timer_switch_and_can_interrupts(tmp_path):
 
 
 def test_semihosting_console_and_exit(tmp_path):
-    with pytest.raises(UserError, match=r"exited with code 3 at t=0\.0"):
-        run_elf(build(tmp_path, "faults.c", "FAULT=4"), 0.1)
+    r, _ = run_elf(build(tmp_path, "faults.c", "FAULT=4"), 0.1)   # SYS_EXIT 3: a crash
+    assert r.ending.kind is Ending.CRASHED and r.exit_code == 3
+    assert re.search(r"crashed at t=0\.0\d+ s \(exit 3\)", r.ending.reason), r.ending
+    r, _ = run_elf(build(tmp_path, "faults.c", "FAULT=7"), 0.1)   # SYS_EXIT 0: too early
+    assert r.ending.kind is Ending.EXITED_EARLY and "before the run's end (0.1 s)" in \
+        r.ending.reason, r.ending
     r, _ = run_elf(build(tmp_path, "faults.c", "FAULT=5"), 0.05)
     assert console(r) == ["semihosting says hi", "unmodelled reads 0"]
 
