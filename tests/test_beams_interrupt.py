@@ -50,8 +50,8 @@ def test_ctrl_c_during_a_beams_run_prints_the_line_and_the_summary_and_keeps_the
 
 def test_ctrl_c_before_the_traversal_loop_is_a_run_interrupted_with_the_trace_kept(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The plug-in's set-up (its imports, the simulator's construction) runs inside
-    ``Run.run`` with the trace already open: Ctrl-C there is the same ``RunInterrupted``."""
+    """The plug-in's set-up (the simulator's construction) runs inside ``Run.run`` with the
+    trace already open: Ctrl-C there is the same ``RunInterrupted``."""
     def pressed(*_args: object) -> None:
         raise KeyboardInterrupt
     monkeypatch.setattr(beams_run, "run_scenario", pressed)
@@ -64,3 +64,24 @@ def test_ctrl_c_before_the_traversal_loop_is_a_run_interrupted_with_the_trace_ke
     with pytest.raises(RunInterrupted) as exc:
         run_summary.run(FLIMSY, out=str(tmp_path / "again.mcap"))
     assert exc.value.summary["interrupted"] is True and exc.value.summary["world"] == "beams"
+
+
+def test_ctrl_c_in_a_c_extensions_import_is_exit_130_without_a_traceback(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """Ctrl-C while MuJoCo's extension initialises surfaces as ``ImportError:
+    initialization failed`` (seen once in a beams run's first second); the plug-in's imports
+    now run before the trace opens, and the CLI reads the Ctrl-C under the ImportError."""
+    def importing(*_args: object) -> None:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise ImportError("initialization failed")
+    monkeypatch.setattr(beams_run, "run_scenario", importing)
+    from host_tools import cli
+
+    assert cli.main(["run", str(FLIMSY)]) == 130
+    assert "Traceback" not in capsys.readouterr().err
+    broken = ImportError("no module named nothing")
+    monkeypatch.setattr(beams_run, "run_scenario", lambda *_a: (_ for _ in ()).throw(broken))
+    with pytest.raises(ImportError):    # an ImportError of its own stays one
+        cli.main(["run", str(FLIMSY)])
