@@ -13,6 +13,7 @@ from typing import Any, Callable
 
 from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
+from unicorn.unicorn_py3.unicorn import MMIO_READ_CFUNC, MMIO_WRITE_CFUNC, uclib
 
 from hil.mcu.console import Console, semihost
 from hil.mcu.core import (EXC_SVCALL, EXC_SYSTICK, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT,
@@ -91,7 +92,12 @@ class Board:
         self.tick = ev.timer(self._tick)
         self.tick.set(TICK_US * FS_PER_US)
         uc = core.uc
-        uc.mmio_map(PERIPH_BASE, PERIPH_SIZE, self._read, None, self._write, None)
+        self._live: dict[int, object] = {}
+        self._relive()
+        self._mmio = (MMIO_READ_CFUNC(self._read), MMIO_WRITE_CFUNC(self._write))
+        if uclib.uc_mmio_map(uc._uch, PERIPH_BASE, PERIPH_SIZE, self._mmio[0], None,
+                             self._mmio[1], None):
+            raise RuntimeError("Unicorn refused to map the peripherals")
         uc.mmio_map(PPB_BASE, PPB_SIZE, self._ppb_read, None, self._ppb_write, None)
         uc.hook_add(UC_HOOK_INTR, self._intr)
         self.poll = PollSkipper(self)
@@ -192,15 +198,23 @@ class Board:
             log.warning("firmware %s an unmodelled peripheral at 0x%08x (reads 0, writes are "
                         "dropped)", kind, addr)
 
-    def _periph(self, offset: int) -> object | None:
-        """The peripheral at ``offset``; None (logged) where its RCC clock is off."""
+    def _relive(self) -> None:
+        """The pages whose peripheral answers now (its RCC clock on, or not gated): looked
+        up once per access instead of the clock gate each time; rebuilt at each RCC write."""
+        regs = self.rcc.regs
+        self._live = {page: p for page, p in self._pages.items()
+                      if page not in self._gates
+                      or regs.get(self._gates[page][0], 0) >> self._gates[page][1] & 1}
+
+    def _dead(self, offset: int, kind: str) -> None:
+        """An access to a page without a live peripheral: its clock is off, or nothing
+        is modelled there (logged once a page)."""
         page = offset >> 10
-        gate = self._gates.get(page)
-        if gate is not None and not self.rcc.regs.get(gate[0], 0) >> gate[1] & 1:
+        if page in self._pages:
             self._unmodelled(PERIPH_BASE + offset, f"used {self._pages[page].name} with "
                              "its RCC clock off:")
-            return None
-        return self._pages.get(page)
+        else:
+            self._unmodelled(PERIPH_BASE + offset, kind)
 
     def due(self) -> None:
         """Fire what fell due by the instruction running now (a register access)."""
@@ -210,46 +224,63 @@ class Board:
             if heap[0][0] <= now:
                 self.events.fire_due(now)
 
-    def _read(self, uc, offset: int, size: int, _) -> int:
-        heap = self.events.heap
-        if heap:
-            now = self.core.now_fs()
-            if heap[0][0] <= now:
-                self.events.fire_due(now)
-        p = self._periph(offset)
-        if p is None:
-            self.poll.other_access()
-            if offset >> 10 not in self._pages:
-                self._unmodelled(PERIPH_BASE + offset, "read")
-            return 0
-        off = offset & 0x3FC
-        value = p.read(off)
-        if offset & 3 or size < 4:
-            value = (value >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
-        if off not in p.pollable:
-            self.poll.other_access()
-        elif self.poll.polled(PERIPH_BASE + offset, value):
-            value = (p.read(off) >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
-        return value
+    def _failed(self, exc: BaseException) -> None:
+        """An exception inside a callback: the chunk stops and ``emu_start`` raises it
+        (what Unicorn's own callback wrapper does, which these callbacks bypass)."""
+        uc = self.core.uc
+        if uc._hook_exception is None:
+            uc._hook_exception = exc
+        uc.emu_stop()
 
-    def _write(self, uc, offset: int, size: int, value: int, _) -> None:
-        heap = self.events.heap
-        if heap:
-            now = self.core.now_fs()
-            if heap[0][0] <= now:
-                self.events.fire_due(now)
-        self.poll._poll_key = None           # poll.other_access()
-        p = self._periph(offset)
-        if p is None:
-            if offset >> 10 not in self._pages:
-                self._unmodelled(PERIPH_BASE + offset, "wrote")
-            return
-        shift = 8 * (offset & 3)
-        if size < 4:
-            mask = ((1 << 8 * size) - 1) << shift
-            value = (p.read(offset & 0x3FC) & ~mask) | ((value << shift) & mask) \
-                if p.pollable and (offset & 0x3FC) in p.pollable else value << shift
-        p.write(offset & 0x3FC, value & 0xFFFFFFFF)
+    def _read(self, handle: int, offset: int, size: int, _ud: int) -> int:
+        """Unicorn's MMIO read callback for the peripheral space, called through ctypes
+        directly (Unicorn's Python wrapper costs two more Python frames a register)."""
+        try:
+            heap = self.events.heap
+            if heap:
+                now = self.core.now_fs()
+                if heap[0][0] <= now:
+                    self.events.fire_due(now)
+            p = self._live.get(offset >> 10)
+            if p is None:
+                self.poll._poll_key = None           # poll.other_access()
+                self._dead(offset, "read")
+                return 0
+            off = offset & 0x3FC
+            value = p.read(off)
+            if size != 4 or offset & 3:
+                value = (value >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
+            if off not in p.pollable:
+                self.poll._poll_key = None           # poll.other_access()
+            elif self.poll.polled(PERIPH_BASE + offset, value):
+                value = (p.read(off) >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
+            return value
+        except BaseException as exc:      # noqa: B036 -- handed to emu_start, as Unicorn does
+            self._failed(exc)
+            return 0
+
+    def _write(self, handle: int, offset: int, size: int, value: int, _ud: int) -> None:
+        try:
+            heap = self.events.heap
+            if heap:
+                now = self.core.now_fs()
+                if heap[0][0] <= now:
+                    self.events.fire_due(now)
+            self.poll._poll_key = None           # poll.other_access()
+            p = self._live.get(offset >> 10)
+            if p is None:
+                self._dead(offset, "wrote")
+                return
+            if size < 4:
+                shift = 8 * (offset & 3)
+                mask = ((1 << 8 * size) - 1) << shift
+                value = (p.read(offset & 0x3FC) & ~mask) | ((value << shift) & mask) \
+                    if p.pollable and (offset & 0x3FC) in p.pollable else value << shift
+            p.write(offset & 0x3FC, value & 0xFFFFFFFF)
+            if p is self.rcc:
+                self._relive()
+        except BaseException as exc:      # noqa: B036
+            self._failed(exc)
 
     def _ppb_read(self, uc, offset: int, size: int, _) -> int:
         self.due()
