@@ -181,6 +181,8 @@ class Board:
     # --- clocks and reset -------------------------------------------------------------
     def _clock_changed(self) -> None:
         self.core.set_hz(self.rcc.hclk_hz)
+        for usart in (self.usart1, self.usart2, self.usart6):
+            usart.clock_changed()
         self.systick.rebase()
         for _, p in self.extra:
             rebase = getattr(p, "rebase", None)
@@ -307,7 +309,7 @@ class Board:
     # --- exceptions ---------------------------------------------------------------
     def _intr(self, uc, intno: int, _) -> None:
         core = self.core
-        pc = core.reg(A.UC_ARM_REG_PC)
+        pc = core.pc_now()
         try:
             if intno == INTR_EXC_EXIT:
                 exc = core.leave(pc | 1)

@@ -20,7 +20,7 @@ from typing import Callable
 from unicorn import (UC_ARCH_ARM, UC_HOOK_INTR, UC_MODE_MCLASS, UC_MODE_THUMB, UC_PROT_ALL,
                      UC_PROT_EXEC, UC_PROT_READ, Uc, UcError)
 from unicorn import arm_const as A
-from unicorn.unicorn_py3.unicorn import uclib
+from unicorn.unicorn_py3.unicorn import MMIO_READ_CFUNC, uclib
 
 from hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
 
@@ -47,15 +47,15 @@ class Regs:
     """A fixed list of registers read or written in one call into libunicorn: its Python
     binding costs ~10 us a register, a batch of 30 here ~4 us (the values go in and out
     of the ctypes array with one struct call, not item by item). Every register here is
-    32 bits wide, so the upper half of each 8-byte slot stays zero and a read needs no
-    clearing first (each ctypes call costs microseconds)."""
+    32 bits wide: each value fills the low half of its 8-byte slot, the upper half stays
+    zero, so a read needs no clearing first; values written are 0 .. 2**32 - 1."""
 
     def __init__(self, uc: Uc, ids: tuple[int, ...]) -> None:
         n = self._n = len(ids)
         self._h = uc._uch
         self._ids = (ctypes.c_int * n)(*ids)
         self._vals = (ctypes.c_uint64 * n)()
-        self._fmt = struct.Struct(f"<{n}Q")
+        self._fmt = struct.Struct("<" + "I4x" * n)
         base = ctypes.addressof(self._vals)
         self._ptrs = (ctypes.c_void_p * n)(*[base + 8 * i for i in range(n)])
 
@@ -64,7 +64,7 @@ class Regs:
         return list(self._fmt.unpack_from(self._vals))
 
     def write(self, values: list[int]) -> None:
-        self._fmt.pack_into(self._vals, 0, *[v & 0xFFFFFFFF for v in values])
+        self._fmt.pack_into(self._vals, 0, *values)
         uclib.uc_reg_write_batch(self._h, self._ids, self._ptrs, self._n)
 
 
@@ -94,6 +94,65 @@ def _counter_offset() -> int:
         raise RuntimeError("this Unicorn build keeps no instruction counter where 2.1.4 does")
     _COUNTER.append(found.pop() * 8)
     return _COUNTER[0]
+
+
+_REGS_PLACE: list[tuple[int, int] | None] = []
+
+
+def _readable() -> list[tuple[int, int]]:
+    spans = []
+    with open("/proc/self/maps") as maps:
+        for line in maps:
+            span, perms = line.split()[:2]
+            if perms[0] == "r":
+                lo, hi = span.split("-")
+                spans.append((int(lo, 16), int(hi, 16)))
+    return spans
+
+
+def _regs_place() -> tuple[int, int] | None:
+    """Where the CPU's R0-R15 live: (the engine's word that points at the CPU state, the
+    offset of R0 in it), found by calibration once per process like the counter; None
+    where this Unicorn build keeps them elsewhere (then the PC is read through
+    ``uc_reg_read``). With a count limit Unicorn stores the PC before every instruction
+    (its count hook needs it), so an MMIO callback reads the PC of its own load here for
+    ~0.1 us instead of a ctypes call's microseconds; the calibration checks just that."""
+    if _REGS_PLACE:
+        return _REGS_PLACE[0]
+    uc = Uc(UC_ARCH_ARM, UC_MODE_THUMB | UC_MODE_MCLASS)
+    uc.mem_map(0x1000, 0x1000)
+    marks = [0x5A000000 + 0x1111 * i for i in range(13)]
+    for i, v in enumerate(marks):
+        uc.reg_write(A.UC_ARM_REG_R0 + i, v)
+    pattern = struct.pack("<13I", *marks)
+    spans = _readable()
+    words = (ctypes.c_uint64 * 4096).from_address(ctypes.cast(uc._uch, ctypes.c_void_p).value)
+    found = None
+    for i in range(4096):
+        w = words[i]
+        if w and any(lo <= w and w + 0x10000 <= hi for lo, hi in spans):
+            at = ctypes.string_at(w, 0x10000).find(pattern)
+            if at >= 0 and at % 4 == 0:
+                found = (i, at)
+                break
+    if found is not None:      # the PC there is the running load's own, as uc_reg_read says
+        seen: list[tuple[int, int]] = []
+        pc = ctypes.c_uint32.from_address(words[found[0]] + found[1] + 60)
+
+        def read(handle: int, offset: int, size: int, _ud: int) -> int:
+            one = ctypes.c_uint64(0)
+            uclib.uc_reg_read(uc._uch, A.UC_ARM_REG_PC, ctypes.byref(one))
+            seen.append((pc.value, one.value))
+            return 0
+        callback = MMIO_READ_CFUNC(read)
+        uclib.uc_mmio_map(uc._uch, 0x40000000, 0x1000, callback, None, None, None)
+        # movs r1, #0x40 ; lsls r1, r1, #24 ; ldr r0, [r1] ; nop ; ldr r0, [r1, #4] ; b .
+        uc.mem_write(0x1000, bytes.fromhex("4021 0906 0868 00bf 4868 fee7"))
+        uc.emu_start(0x1001, 0, 0, 8)
+        if [s[0] for s in seen] != [0x1004, 0x1008] or any(a != b for a, b in seen):
+            found = None
+    _REGS_PLACE.append(found)
+    return found
 
 
 class TimeBase:
@@ -150,6 +209,22 @@ class Core:
         self.fpu_on = False          # CPACR grants CP10/CP11: frames carry the FPU registers
         self.on_intr: Callable[[int], None] = lambda intno: None
         self.reset()
+        self._pc_word = self._find_pc()
+
+    def _find_pc(self) -> ctypes.c_uint32 | None:
+        """The PC's word in this engine's CPU state (``_regs_place``), checked here too."""
+        place = _regs_place()
+        if place is None:
+            return None
+        cpu = (ctypes.c_uint64 * (place[0] + 1)).from_address(
+            ctypes.cast(self.uc._uch, ctypes.c_void_p).value)[place[0]]
+        if not cpu:
+            return None
+        r12 = self.uc.reg_read(A.UC_ARM_REG_R12)
+        self.uc.reg_write(A.UC_ARM_REG_R12, 0x5A5A1234)
+        same = ctypes.c_uint32.from_address(cpu + place[1] + 48).value == 0x5A5A1234
+        self.uc.reg_write(A.UC_ARM_REG_R12, r12)
+        return ctypes.c_uint32.from_address(cpu + place[1] + 60) if same else None
 
     def reset(self) -> None:
         uc = self.uc
@@ -223,7 +298,7 @@ class Core:
         finally:
             self.running = False
         ran = self._ctr.value - 1
-        self.pc = self.reg(A.UC_ARM_REG_PC)
+        self.pc = self.pc_now()
         if error is None and ran < n and not self.stopped:
             if self.pc == 0:
                 raise CoreFault("a jump to address 0 (a null function pointer)")
@@ -239,6 +314,14 @@ class Core:
         return ran
 
     # --- exceptions ---------------------------------------------------------------
+    def pc_now(self) -> int:
+        """The PC of the instruction running now (inside a callback of a chunk), or the
+        next one's (between chunks)."""
+        word = self._pc_word
+        if word is None:
+            return self.reg(A.UC_ARM_REG_PC)
+        return word.value
+
     def reg(self, reg_id: int) -> int:
         one = self._one
         one.value = 0
@@ -306,7 +389,7 @@ class Core:
             words = self.uc.mem_read(sp, 4 * n)
             values = [int.from_bytes(words[4 * i:4 * i + 4], "little") for i in range(n)]
         xpsr = values[7]
-        sp += 4 * n + (4 if xpsr & (1 << 9) else 0)
+        sp = (sp + 4 * n + (4 if xpsr & (1 << 9) else 0)) & 0xFFFFFFFF
         ipsr = self.active[-1] if self.active else 0
         regs = values[:6] + [(xpsr & ~0x3FF), control, msp, psp_value]
         if fpu:
@@ -321,12 +404,11 @@ class Core:
         return exc
 
     def _store(self, sp: int, values: list[int]) -> None:
-        """An exception frame at ``sp``: straight into SRAM's buffer, else through Unicorn
-        (which faults where nothing is mapped)."""
+        """An exception frame (32-bit values) at ``sp``: straight into SRAM's buffer, else
+        through Unicorn (which faults where nothing is mapped)."""
         n = len(values)
         if SRAM_BASE <= sp <= SRAM_BASE + SRAM_SIZE - 4 * n:
-            struct.pack_into(f"<{n}I", self._sram, sp - SRAM_BASE,
-                             *[v & 0xFFFFFFFF for v in values])
+            struct.pack_into(f"<{n}I", self._sram, sp - SRAM_BASE, *values)
         else:
             self.uc.mem_write(sp, b"".join((v & 0xFFFFFFFF).to_bytes(4, "little")
                                            for v in values))
