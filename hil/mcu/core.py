@@ -45,27 +45,42 @@ CONTEXT_REGS = tuple(A.UC_ARM_REG_R0 + i for i in range(13)) + (A.UC_ARM_REG_SP,
 
 class Regs:
     """A fixed list of registers read or written in one call into libunicorn: its Python
-    binding costs ~10 us a register, a batch of 30 here ~4 us (the values go in and out
-    of the ctypes array with one struct call, not item by item). Every register here is
-    32 bits wide: each value fills the low half of its 8-byte slot, the upper half stays
-    zero, so a read needs no clearing first; values written are 0 .. 2**32 - 1."""
+    binding costs ~10 us a register, a batch of 30 here ~2 us: the values go in and out
+    of the ctypes array with one struct call through a memoryview, and the call passes
+    ready-made pointers (``uc_reg_*_batch`` without argument types: ctypes' checks of
+    typed pointer arguments cost more than the call). Every register here is 32 bits
+    wide: each value fills the low half of its 8-byte slot, the upper half stays zero, so
+    a read needs no clearing first; values written are 0 .. 2**32 - 1."""
 
     def __init__(self, uc: Uc, ids: tuple[int, ...]) -> None:
-        n = self._n = len(ids)
-        self._h = uc._uch
+        n = len(ids)
         self._ids = (ctypes.c_int * n)(*ids)
         self._vals = (ctypes.c_uint64 * n)()
+        self._mem = memoryview(self._vals).cast("B")
         self._fmt = struct.Struct("<" + "I4x" * n)
         base = ctypes.addressof(self._vals)
         self._ptrs = (ctypes.c_void_p * n)(*[base + 8 * i for i in range(n)])
+        self._args = (ctypes.c_void_p(ctypes.cast(uc._uch, ctypes.c_void_p).value),
+                      ctypes.c_void_p(ctypes.addressof(self._ids)),
+                      ctypes.c_void_p(ctypes.addressof(self._ptrs)), ctypes.c_int(n))
 
     def read(self) -> list[int]:
-        uclib.uc_reg_read_batch(self._h, self._ids, self._ptrs, self._n)
-        return list(self._fmt.unpack_from(self._vals))
+        _READ_BATCH(*self._args)
+        return list(self._fmt.unpack_from(self._mem))
 
     def write(self, values: list[int]) -> None:
-        self._fmt.pack_into(self._vals, 0, *values)
-        uclib.uc_reg_write_batch(self._h, self._ids, self._ptrs, self._n)
+        self._fmt.pack_into(self._mem, 0, *values)
+        _WRITE_BATCH(*self._args)
+
+
+def _untyped(name: str):
+    """A libunicorn function called with ctypes objects only (no argument conversion)."""
+    fn = uclib[name]                     # a fresh function object: the binding's keeps its types
+    fn.restype, fn.argtypes = ctypes.c_int, None
+    return fn
+
+
+_READ_BATCH, _WRITE_BATCH = _untyped("uc_reg_read_batch"), _untyped("uc_reg_write_batch")
 
 
 class CoreFault(Exception):
@@ -184,6 +199,10 @@ class Core:
         uc.mem_map_ptr(0, FLASH_SIZE, UC_PROT_READ | UC_PROT_EXEC, self._flash)
         uc.mem_map_ptr(FLASH_BASE, FLASH_SIZE, UC_PROT_READ | UC_PROT_EXEC, self._flash)
         self._sram = ctypes.create_string_buffer(SRAM_SIZE)   # frames go in and out here
+        # struct reads and writes go through memoryviews: a ctypes buffer works out its
+        # buffer format at each access, several microseconds
+        self._flash_mem = memoryview(self._flash).cast("B")
+        self._sram_mem = memoryview(self._sram).cast("B")
         uc.mem_map_ptr(SRAM_BASE, SRAM_SIZE, UC_PROT_ALL, self._sram)
         for seg in image.segments:
             uc.mem_write(seg.addr, seg.data)
@@ -261,14 +280,14 @@ class Core:
     # --- memory -------------------------------------------------------------------
     def read32(self, addr: int) -> int:
         if FLASH_BASE <= addr <= FLASH_BASE + FLASH_SIZE - 4:
-            return struct.unpack_from("<I", self._flash, addr - FLASH_BASE)[0]
+            return struct.unpack_from("<I", self._flash_mem, addr - FLASH_BASE)[0]
         if SRAM_BASE <= addr <= SRAM_BASE + SRAM_SIZE - 4:
-            return struct.unpack_from("<I", self._sram, addr - SRAM_BASE)[0]
+            return struct.unpack_from("<I", self._sram_mem, addr - SRAM_BASE)[0]
         return int.from_bytes(self.uc.mem_read(addr, 4), "little")
 
     def read16(self, addr: int) -> int:
         if FLASH_BASE <= addr <= FLASH_BASE + FLASH_SIZE - 2:
-            return struct.unpack_from("<H", self._flash, addr - FLASH_BASE)[0]
+            return struct.unpack_from("<H", self._flash_mem, addr - FLASH_BASE)[0]
         return int.from_bytes(self.uc.mem_read(addr, 2), "little")
 
     def write32(self, addr: int, value: int) -> None:
@@ -384,7 +403,7 @@ class Core:
         fpu = not exc_return & 0x10
         n = 26 if fpu else 8
         if SRAM_BASE <= sp <= SRAM_BASE + SRAM_SIZE - 4 * n:
-            values = list(struct.unpack_from(f"<{n}I", self._sram, sp - SRAM_BASE))
+            values = list(struct.unpack_from(f"<{n}I", self._sram_mem, sp - SRAM_BASE))
         else:
             words = self.uc.mem_read(sp, 4 * n)
             values = [int.from_bytes(words[4 * i:4 * i + 4], "little") for i in range(n)]
@@ -408,7 +427,7 @@ class Core:
         through Unicorn (which faults where nothing is mapped)."""
         n = len(values)
         if SRAM_BASE <= sp <= SRAM_BASE + SRAM_SIZE - 4 * n:
-            struct.pack_into(f"<{n}I", self._sram, sp - SRAM_BASE, *values)
+            struct.pack_into(f"<{n}I", self._sram_mem, sp - SRAM_BASE, *values)
         else:
             self.uc.mem_write(sp, b"".join((v & 0xFFFFFFFF).to_bytes(4, "little")
                                            for v in values))
