@@ -100,6 +100,12 @@ class PollSkipper:
             core.stop()
         return True
 
+    def forget(self) -> None:
+        """A system reset: no poll is under way (the loops learnt stay: the same code)."""
+        self._end_watch()
+        self._poll_key = None
+        self._skip = self._reread = False
+
     def _end_watch(self) -> None:
         self._watch = None
         if self._watch_hook is not None:

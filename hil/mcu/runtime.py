@@ -60,7 +60,8 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
                                            "cycles": board.core.cyc,
                                            "instructions": board.core.executed,
                                            "skipped_cycles": board.skipped_cycles,
-                                           "link_requests": board.link.requests})
+                                           "link_requests": board.link.requests,
+                                           "resets": board.resets})
     result.exit_code = board.exit_code if board.exit_code is not None else 0
     t_s = board.link.t_us * 1e-6
     if board.exit_code is not None and not board.ended:
