@@ -75,3 +75,11 @@ def test_a_system_reset_reboots_the_core_and_its_peripherals_and_the_world_goes_
     assert not r.faults and r.sim_time_s == pytest.approx(0.05)
     again, _ = run_elf(elf, 0.05)
     assert again.serial_digest == r.serial_digest and again.firmware == r.firmware
+
+
+def test_an_interrupt_a_write_pends_is_taken_after_that_store(tmp_path):
+    """NVIC ISPR pends an enabled IRQ: the handler runs before the next instruction (a
+    few cycles: the handler's own, reading DWT), not thousands later at a chunk's end."""
+    r, _ = run_elf(build(tmp_path, "pend.c"), 0.02)
+    cycles = int(console(r)[-1].split()[2])
+    assert cycles < 20, console(r)

@@ -31,7 +31,7 @@ from hil.mcu.system import Nvic, SysTick, SystemBlock
 from hil.mcu.usart import Usart
 
 log = logging.getLogger(__name__)
-MAX_CHUNK = 20_000           # instructions: the most an interrupt a write pends waits
+MAX_CHUNK = 20_000           # instructions: the most an interrupt unmasked by CPSIE/MSR waits
 TICK_US = 1000               # a quiet millisecond: a sleep to now (world, switches, CAN)
 PA1 = 1
 BRANCH_TO_SELF = (0xE7FE,)    # Thumb `b .` (GCC's `for (;;) {}`)

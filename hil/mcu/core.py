@@ -101,13 +101,15 @@ class Core:
         self._h = uc._uch
         self._batches: dict[tuple[int, ...], Regs] = {}
         self.executed = 0
-        self._ctr = ctypes.c_uint64.from_address(
-            ctypes.cast(uc._uch, ctypes.c_void_p).value + counter_offset())
+        engine = ctypes.cast(uc._uch, ctypes.c_void_p).value + counter_offset()
+        self._ctr = ctypes.c_uint64.from_address(engine)
+        self._limit = ctypes.c_uint64.from_address(engine + 8)   # the count emu_start was given
         self.time = TimeBase(hz)
         self.cyc = 0                 # instructions run before the current chunk
         self._chunk0 = 0
         self.running = False
         self.stopped = False         # a read asked for the chunk to end
+        self.cut = False             # the chunk ends after the instruction running now
         self.sleeping = False        # WFI/WFE: asleep until an event or interrupt
         self.active: list[int] = []  # active exceptions, innermost last
         self.vtor = 0
@@ -198,11 +200,21 @@ class Core:
             self.stopped = True
             self.uc.emu_stop()
 
+    def cut_after(self) -> None:
+        """End the chunk after the instruction running now (a register write that made
+        an exception ready: it is taken before the next instruction, as on the chip).
+        Unicorn stops a chunk when its counter passes the count it was given; lowering
+        that count to this instruction's stops it before the next one, with the store
+        done once (``emu_stop`` in a write callback would run the store again)."""
+        if self.running:
+            self._limit.value = self._ctr.value
+            self.cut = True
+
     def run(self, n: int) -> int:
         """Run up to ``n`` instructions from ``self.pc``; how many ran."""
         uc = self.uc
         self._chunk0 = self.cyc
-        self.stopped = False
+        self.stopped = self.cut = False
         self.running = True
         try:
             uc.emu_start(self.pc | 1, 0, 0, n)
@@ -213,7 +225,7 @@ class Core:
             self.running = False
         ran = self._ctr.value - 1
         self.pc = self.pc_now()
-        if error is None and ran < n and not self.stopped:
+        if error is None and ran < n and not self.stopped and not self.cut:
             if self.pc == 0:
                 raise CoreFault("a jump to address 0 (a null function pointer)")
             op = self.read16(self.pc - 2)

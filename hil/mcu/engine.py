@@ -11,7 +11,7 @@ import struct
 
 from unicorn import UC_ARCH_ARM, UC_MODE_MCLASS, UC_MODE_THUMB, Uc
 from unicorn import arm_const as A
-from unicorn.unicorn_py3.unicorn import MMIO_READ_CFUNC, uclib
+from unicorn.unicorn_py3.unicorn import MMIO_READ_CFUNC, MMIO_WRITE_CFUNC, uclib
 
 
 class Regs:
@@ -59,7 +59,9 @@ _COUNTER: list[int] = []
 
 def counter_offset() -> int:
     """Where Unicorn keeps the instructions run by the current ``emu_start``: the one
-    8-byte word of its engine that equals what two runs of known length counted."""
+    8-byte word of its engine that equals what two runs of known length counted; the
+    next word holds the count it was given, which its count hook compares before each
+    instruction (hil/mcu/core.py ``cut_after`` lowers it: checked here too)."""
     if _COUNTER:
         return _COUNTER[0]
     uc = Uc(UC_ARCH_ARM, UC_MODE_THUMB | UC_MODE_MCLASS)
@@ -74,7 +76,19 @@ def counter_offset() -> int:
         found = here if found is None else found & here
     if not found or len(found) != 1:
         raise RuntimeError("this Unicorn build keeps no instruction counter where 2.1.4 does")
-    _COUNTER.append(found.pop() * 8)
+    at = found.pop()
+
+    def store(handle: int, offset: int, size: int, value: int, _ud: int) -> None:
+        words[at + 1] = words[at]                           # stop after this store
+    callback = MMIO_WRITE_CFUNC(store)
+    uclib.uc_mmio_map(uc._uch, 0x40000000, 0x1000, None, None, callback, None)
+    # movs r1, #0x40 ; lsls r1, r1, #24 ; str r0, [r1] ; nop ; nop ; b .
+    uc.mem_map(0x2000, 0x1000)
+    uc.mem_write(0x2000, bytes.fromhex("4021 0906 0860 00bf 00bf fee7"))
+    uc.emu_start(0x2001, 0, 0, 50)
+    if words[at] - 1 != 3 or uc.reg_read(A.UC_ARM_REG_PC) != 0x2006:
+        raise RuntimeError("this Unicorn build does not stop where its count is lowered")
+    _COUNTER.append(at * 8)
     return _COUNTER[0]
 
 

@@ -78,6 +78,14 @@ class PeripheralSpace:
         else:
             self._unmodelled(PERIPH_BASE + offset, kind)
 
+    @staticmethod
+    def _taken_next(board: Any) -> None:
+        """A write that made an exception ready (an interrupt enable, a pending bit, a
+        flag's interrupt): it is taken after this instruction, not at the chunk's end."""
+        nvic = board.nvic
+        if nvic.pending and nvic.next_exception() is not None:
+            board.core.cut_after()
+
     def _due(self) -> None:
         """Fire what fell due by the instruction running now."""
         events = self.board.events
@@ -143,6 +151,7 @@ class PeripheralSpace:
             p.write(offset & 0x3FC, value & 0xFFFFFFFF)
             if p is board.rcc:
                 self.relive()
+            self._taken_next(board)
         except BaseException as exc:      # noqa: B036
             self._failed(exc)
 
@@ -168,3 +177,4 @@ class PeripheralSpace:
             mask = ((1 << 8 * size) - 1) << shift
             value = (word & ~mask) | ((value << shift) & mask)
         board.ppb.write(addr & ~3, value)
+        self._taken_next(board)
