@@ -11,6 +11,9 @@ DRIVE_CORE := hil/world/_drive_core.so
 $(STAMP): pyproject.toml hil/world/drive_core.c
 	test -d $(VENV) || $(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --disable-pip-version-check -e '.[test,grnn,dask]'
+	# pypot's serial layer for the stock-client tests (issue 42); its declared dependencies
+	# pull OpenCV, which pypot.dynamixel never imports
+	$(BIN)/pip install -q --disable-pip-version-check --no-deps pypot==5.0.2
 	$(MAKE) $(DRIVE_CORE)
 	touch $(STAMP)
 

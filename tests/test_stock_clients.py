@@ -104,6 +104,34 @@ def test_scans_beside_a_cpu_hog_invent_no_collision(monkeypatch):
         assert summary["pacing"]["max_reply_lag_ms"] > 0
 
 
+def test_pypot_scans_beside_a_cpu_hog_see_every_servo():
+    """The issue's own client: pypot 5.0.2's `DxlIO.scan` of ids 1-18 at 57600, 20 scans in a
+    row beside two busy loops (`make` installs pypot without its OpenCV dependencies:
+    `pypot.dynamixel` needs only numpy and pyserial). Its failure was a parse error of two
+    replies merged on the line; a scan raises on any reply it cannot parse, and a reply it
+    missed by its 50 ms time-out is a missing id, which only the host's lag can cause."""
+    import pypot.dynamixel as dxl_io   # installed by make; a missing one is an error here
+    hogs = _hog(2)
+    missing = []
+    try:
+        with served("--baud", "57600") as (path, summary):
+            io = dxl_io.DxlIO(path, baudrate=57600)
+            try:
+                for _ in range(20):
+                    missing += sorted(set(range(1, 19)) - set(io.scan(list(range(1, 19)))))
+            finally:
+                io.close()
+    finally:
+        for h in hogs:
+            h.kill()
+            h.wait()
+    assert summary["bus"]["collisions"] == 0, summary
+    assert summary["bus"]["bad_checksum"] == 0, summary
+    assert summary["bus"]["replies"] == summary["bus"]["packets"], summary
+    if missing:   # late past pypot's 50 ms: the host, and the summary says so
+        assert summary["pacing"]["max_reply_lag_ms"] > 40, (missing, summary["pacing"])
+
+
 def test_packets_read_together_wait_for_the_status_they_would_talk_over():
     """The issue's pypot failure: the host read servo 1's ping late, the client timed out and
     pinged servo 2; both pings came in one read. They must not become the wired AND of two
