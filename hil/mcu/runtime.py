@@ -48,7 +48,8 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
                                            "cycles": board.core.cyc,
                                            "instructions": board.core.executed,
                                            "skipped_cycles": board.skipped_cycles,
-                                           "link_requests": board.link.requests})
+                                           "link_requests": board.link.requests,
+                                           "resets": board.resets})
     if fault is not None:
         result.exit_code = 1
         result.exceptions.append(f"{image.path.name}: {fault}")
