@@ -3,6 +3,8 @@
 PA1 buffer at the baud the firmware sets, the console, timers, EXTI, bxCAN."""
 import re
 
+import pytest
+
 from hil.run_result import Ending
 from mcu_elf import build, console, run_elf
 
