@@ -18,7 +18,7 @@ from typing import Any
 from hil import scenario as scenario_mod
 from hil.canbus.bus import CanBus, Endpoint
 from hil.run.rig import make_world
-from hil.run_result import RunResult
+from hil.run_result import RunInterrupted, RunResult
 from hil.scenario import Runtime, Scenario, WorldKind
 from hil.seams import CanGateway, HostNode, TraceRecorder
 from hil.link.served_firmware import served_firmware
@@ -139,9 +139,7 @@ class Run:
         if self.trace or live_port is not None:
             from host_tools.trace.recorder import Recorder
 
-            meta = trace_metadata(sc, self.seed, NO_RUNTIME if self.beams else
-                                  self.firmware.runtime if self.firmware else self.runtime.value,
-                                  self.overrides)
+            meta = trace_metadata(sc, self.seed, self._runtime_name(), self.overrides)
             extra = ({"flush_interval_us": self.live.flush_interval_us}
                      if self.live is not None else {})
             try:
@@ -160,6 +158,11 @@ class Run:
             except BaseException:
                 self.close()
                 raise
+
+    def _runtime_name(self) -> str:
+        """What ran the firmware: its runtime, an ELF's or an executable's, none (beams)."""
+        return (NO_RUNTIME if self.beams else self.firmware.runtime if self.firmware
+                else self.runtime.value)
 
     def what_ran(self) -> dict[str, Any]:
         """The summary's account of the run's settings: the tactile rule as run (None: a
@@ -199,7 +202,8 @@ class Run:
     # --- running ------------------------------------------------------------------------
     def run(self) -> RunResult:
         """Run to the end (``duration_s`` of virtual time, or the firmware's stop); the
-        trace is complete when this returns."""
+        trace is complete when this returns. Ctrl-C (or SIGTERM) at any moment of it raises
+        ``RunInterrupted`` with the run up to then, its trace closed and kept."""
         try:
             if self.beams:
                 return self._traverse()
@@ -208,6 +212,10 @@ class Run:
             from host_tools import in_process
 
             return in_process.run(self._firmware_sim(), self.duration_s, self.runtime.value)
+        except RunInterrupted:
+            raise
+        except KeyboardInterrupt:    # before the lockstep loop began (a beams run's set-up)
+            raise RunInterrupted(RunResult(self._runtime_name(), interrupted=True)) from None
         finally:
             self.close()
 

@@ -42,21 +42,24 @@ class RunWithNodes(Protocol):
 # checked (and a model file loaded) when it is called, before any run opens.
 NavigatorPlan = Callable[[Scenario, "str | None"], Callable[[RunWithNodes], Navigator]]
 
-_STEPPED_RUNS: dict[WorldKind, SteppedRun] = {}
+_STEPPED_LOADERS: dict[WorldKind, Callable[[], SteppedRun]] = {}
 _NAVIGATORS: dict[str, NavigatorPlan] = {}
 
 
-def register_stepped_run(kind: WorldKind, run: SteppedRun) -> None:
-    _STEPPED_RUNS[kind] = run
+def register_stepped_run(kind: WorldKind, load: Callable[[], SteppedRun]) -> None:
+    """``load`` imports the run's machinery and returns it: called when a run of ``kind`` is
+    made, before its trace opens, so a Ctrl-C in a slow import never meets an open trace."""
+    _STEPPED_LOADERS[kind] = load
 
 
 def stepped_run(kind: WorldKind) -> SteppedRun:
-    """The run registered for a world of ``kind``."""
+    """The run registered for a world of ``kind``, loaded."""
     try:
-        return _STEPPED_RUNS[kind]
+        load = _STEPPED_LOADERS[kind]
     except KeyError:
         raise UserError(f"a {kind.value} world is run by its paper's package: import "
                         "host_tools.papers (hexhil does) to plug it in") from None
+    return load()
 
 
 def register_navigator(name: str, plan: NavigatorPlan) -> None:

@@ -129,24 +129,25 @@ def uart_bytes(op: int, payload: bytes) -> bytes | None:
 
 
 def _decoded(div: Divergence, expected: list[tuple[int, bytes]],
-             actual: list[tuple[int, bytes]], protocol: int) -> None:
-    """Name the packets of a divergence on the servo line (``Divergence.packets``)."""
+             actual: list[tuple[int, bytes]], model: str) -> None:
+    """Name the packets of a divergence on the servo line (``Divergence.packets``): each
+    with its parameters read against the model's control table."""
     if div.topic != "uart":
         return
-    names = DECODERS[protocol].names
-    div.packets = {side: [n for op, p in msgs if (b := uart_bytes(op, p)) for n in names(b)]
+    names, table = DECODERS[models.protocol(model)].names, models.table(model)
+    div.packets = {side: [n for op, p in msgs if (b := uart_bytes(op, p))
+                          for n in names(b, table)]
                    for side, msgs in (("expected", expected), ("actual", actual))}
 
 
-def trace_protocol(trace: Trace) -> int:
-    """The Dynamixel protocol of the trace's servo model (its scenario, in the metadata);
-    Protocol 1.0 for a trace that does not carry its scenario."""
+def trace_model(trace: Trace) -> str:
+    """The servo model of the trace's scenario (in the metadata); the default model
+    (AX-12, Protocol 1.0) for a trace that does not carry its scenario."""
     data = trace.metadata().get("scenario_data")
     try:
-        model = scenario_mod.parse(json.loads(data)).bus.model if data else models.DEFAULT
+        return scenario_mod.parse(json.loads(data)).bus.model if data else models.DEFAULT
     except (ValueError, UserError):
-        model = models.DEFAULT
-    return models.protocol(model)
+        return models.DEFAULT
 
 
 def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | None = None
@@ -207,7 +208,7 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
         if firmware is None and recorded_with in (BOARD_RUNTIME, EXECUTABLE):
             _needs_firmware(path, recorded_with, tr.metadata())
         exchanges = load_exchanges(tr, start_s, end_s)
-        protocol = trace_protocol(tr)
+        model = trace_model(tr)
     if not exchanges:
         raise UserError(f"{path}: the {T_LINK} topic is empty in the chosen time range")
     start_us = int(round((start_s or 0.0) * 1e6))
@@ -233,7 +234,7 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
             div = _compare(expected, actual, wanted, prev_t_us, i,
                            compare=prev_t_us >= start_us)
             if div is not None:
-                _decoded(div, expected, actual, protocol)
+                _decoded(div, expected, actual, model)
                 result.divergence = div
                 result.identical = False
                 break

@@ -5,12 +5,14 @@ The signal goes out from the bus's next master write at or after KILL_AT_US, so 
 lands at a known simulated moment; a FSIZE limit > 0 makes writes past it fail (full disk).
 With KILL_IN_RECORDING=N in the environment the signal waits for the N-th trace opened (an
 experiment's N-th run, each on a bus whose clock starts at 0), and each trace's path goes
-to stderr as ``recording PATH`` when it opens.
+to stderr as ``recording PATH`` when it opens. With KILL_ON=clock the signal goes out when
+the run's virtual clock first reaches KILL_AT_US instead: a world with no servo bus (beams).
 """
 import os
 import resource
 import sys
 
+from hil.clock import VirtualClock
 from hil.servobus import line as bus
 from host_tools import cli
 from host_tools.trace import recorder
@@ -38,7 +40,19 @@ def _opening(self, path, *args, **kwargs):
     _open(self, path, *args, **kwargs)
 
 
-if signum:
+_advance = VirtualClock.advance_to
+
+
+def _ticking(self, t_us):
+    _advance(self, t_us)
+    if t_us >= kill_at_us:
+        VirtualClock.advance_to = _advance
+        os.kill(os.getpid(), signum)
+
+
+if signum and os.environ.get("KILL_ON") == "clock":
+    VirtualClock.advance_to = _ticking
+elif signum:
     bus.Bus.master_write = _hooked
 if in_recording:
     recorder.Recorder.__init__ = _opening

@@ -13,10 +13,10 @@ from pathlib import Path
 import pytest
 from elftools.elf.elffile import ELFFile
 
+from hil.run_result import Ending
 from host_tools import c_sdk
 from host_tools.run_summary import run
 from host_tools.trace.reader import Trace, info
-from protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
 FW = ROOT / "tests" / "elf_firmware"
@@ -167,18 +167,20 @@ def test_a_hardfault_is_one_line_with_the_pc_and_the_function_and_the_trace_is_k
                    if s.name == "fault_here")
     start, size = sym["st_value"] & ~1, sym["st_size"]
     trace = tmp_path / "run.mcap"
-    with pytest.raises(UserError) as err:
-        run(FLAT, duration_s=0.5, firmware=elfs["hardfault"], out=str(trace))
-    line = str(err.value)
+    summary, result = run(FLAT, duration_s=0.5, firmware=elfs["hardfault"], out=str(trace))
+    ending = result.ending           # a verdict on the firmware, as any firmware's crash
+    assert ending.kind is Ending.CRASHED and summary["ending"]["kind"] == "crashed"
+    line = ending.reason
     assert "\n" not in line and "fault_here" in line and "fault" in line.lower()
     pc = int(re.search(r"PC (0x[0-9a-fA-F]+)", line)[1], 16)
     assert start <= pc < start + size, (hex(pc), hex(start))
+    assert 0 < ending.t_s < 0.5 and ending.last_lines == ("hardfault: about to fault",)
     assert console(trace) == ["hardfault: about to fault"]          # the trace is kept
     assert "/body" in [t["topic"] for t in info(trace)["topics"]]
     proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", FLAT, "--duration",
                            "0.5", "--firmware", elfs["hardfault"]], cwd=ROOT,
                           capture_output=True, text=True)
-    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert proc.returncode == 1 and proc.stderr == f"hexhil: {line}\n", proc.stderr
 
 
 def test_an_interrupt_without_a_handler_is_a_lockup_in_one_line_and_a_failing_case(
@@ -187,9 +189,9 @@ def test_an_interrupt_without_a_handler_is_a_lockup_in_one_line_and_a_failing_ca
         loop = next(s for s in ELFFile(f).get_section_by_name(".symtab").iter_symbols()
                     if s.name == "Default_Handler")["st_value"] & ~1
     trace = tmp_path / "run.mcap"
-    with pytest.raises(UserError) as err:
-        run(FLAT, duration_s=0.5, firmware=elfs["unhandled_irq"], out=str(trace))
-    line = str(err.value)
+    _, result = run(FLAT, duration_s=0.5, firmware=elfs["unhandled_irq"], out=str(trace))
+    assert result.ending.kind is Ending.CRASHED
+    line = result.ending.reason
     assert "\n" not in line and "a lockup" in line and "interrupt 29" in line, line
     assert f"PC 0x{loop:08x} in Default_Handler" in line, line
     assert console(trace) == ["unhandled: enabling TIM3_IRQn"]     # the trace is kept

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from ctrl_c import sigint_default
 from host_tools import cli
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -228,7 +229,7 @@ def test_ctrl_c_keeps_the_trace_says_so_and_prints_the_summary(tmp_path):
     proc = subprocess.Popen([str(Path(sys.executable).with_name("hexhil")), "run", SCENARIO,
                              "--duration", "600", "--python", "cpython-inprocess", "--out",
                              str(trace), "--json"], cwd=ROOT, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=sigint_default)
     from host_tools.trace.target import partial_of
 
     partial = partial_of(trace)        # a run writes beside its target until it ends

@@ -1,10 +1,12 @@
 """The emulated STM32F411 (hil/mcu/, issue 40) on bare-metal ELFs of its own
 (tests/mcu/*.c, registers from RM0383): clocks, SysTick, DWT, the servo line through the
 PA1 buffer at the baud the firmware sets, the console, timers, EXTI, bxCAN."""
+import re
+
 import pytest
 
+from hil.run_result import Ending
 from mcu_elf import build, console, run_elf
-from protocol.errors import UserError
 
 
 def test_bare_metal_pings_18_servos_at_100_mhz_the_same_twice(tmp_path):
@@ -47,8 +49,12 @@ def test_timer_switch_and_can_interrupts(tmp_path):
 
 
 def test_semihosting_console_and_exit(tmp_path):
-    with pytest.raises(UserError, match=r"exited with code 3 at t=0\.0"):
-        run_elf(build(tmp_path, "faults.c", "FAULT=4"), 0.1)
+    r, _ = run_elf(build(tmp_path, "faults.c", "FAULT=4"), 0.1)   # SYS_EXIT 3: a crash
+    assert r.ending.kind is Ending.CRASHED and r.exit_code == 3
+    assert re.search(r"crashed at t=0\.0\d+ s \(exit 3\)", r.ending.reason), r.ending
+    r, _ = run_elf(build(tmp_path, "faults.c", "FAULT=7"), 0.1)   # SYS_EXIT 0: too early
+    assert r.ending.kind is Ending.EXITED_EARLY and "before the run's end (0.1 s)" in \
+        r.ending.reason, r.ending
     r, _ = run_elf(build(tmp_path, "faults.c", "FAULT=5"), 0.05)
     assert console(r) == ["semihosting says hi", "unmodelled reads 0"]
 
@@ -59,3 +65,27 @@ def test_a_poll_loop_that_counts_in_ram_is_not_skipped(tmp_path):
     spins = int(console(r)[-1].split()[1])
     # two waits of one byte at 115200 baud (86.8 us) at 16 MHz, a few instructions a pass
     assert spins > 100
+
+
+def test_a_system_reset_reboots_the_core_and_its_peripherals_and_the_world_goes_on(tmp_path):
+    """SCB AIRCR SYSRESETREQ: the firmware starts again from its reset vector with every
+    peripheral in its reset state (RCC at HSI, SysTick off, VTOR 0, DWT stopped); SRAM
+    keeps what the first boot left there, and the run goes on to its end."""
+    elf = build(tmp_path, "reset.c")
+    r, _ = run_elf(elf, 0.05)
+    lines = console(r)
+    assert lines[0] == "boot 1: resetting"
+    assert lines[1] == ("boot 00000002 cfgr 00000000 apb2enr 00000000 systick 00000000 "
+                        "vtor 00000000 cyccnt 00000000"), lines
+    assert r.firmware.other["mcu"]["resets"] == 1
+    assert not r.faults and r.sim_time_s == pytest.approx(0.05)
+    again, _ = run_elf(elf, 0.05)
+    assert again.serial_digest == r.serial_digest and again.firmware == r.firmware
+
+
+def test_an_interrupt_a_write_pends_is_taken_after_that_store(tmp_path):
+    """NVIC ISPR pends an enabled IRQ: the handler runs before the next instruction (a
+    few cycles: the handler's own, reading DWT), not thousands later at a chunk's end."""
+    r, _ = run_elf(build(tmp_path, "pend.c"), 0.02)
+    cycles = int(console(r)[-1].split()[2])
+    assert cycles < 20, console(r)

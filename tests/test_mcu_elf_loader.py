@@ -1,5 +1,6 @@
 """Hostile ELFs given to --firmware: one line and exit 2 each, before anything runs; a
-HardFault ends the run in one line naming the PC and the function, the trace kept."""
+HardFault ends the run (exit 1, the firmware's verdict) in one line naming the PC and the
+function, the trace kept."""
 import subprocess
 import sys
 from pathlib import Path
@@ -21,8 +22,10 @@ def hexhil_run(elf, *extra):
                           text=True, timeout=120)
 
 
-def one_line(r):
-    assert r.returncode == 2, r.stderr
+def one_line(r, status=2):
+    """The one line on stderr of a run that exits ``status``: 2, bad input to hexhil (a
+    hostile ELF); 1, a verdict on the firmware (a fault: the run's ending)."""
+    assert r.returncode == status, r.stderr
     assert "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
     return r.stderr.strip()
 
@@ -62,7 +65,7 @@ def test_hostile_elfs_are_one_line_each(tmp_path):
 
 def test_a_hardfault_is_one_line_with_pc_and_function_and_the_trace_is_kept(tmp_path):
     trace = tmp_path / "t.mcap"
-    line = one_line(hexhil_run(build(tmp_path, "faults.c", "FAULT=1"), "--out", str(trace)))
+    line = one_line(hexhil_run(build(tmp_path, "faults.c", "FAULT=1"), "--out", str(trace)), 1)
     assert "an undefined instruction (UsageFault) at PC 0x080" in line
     assert "in explode (t=0.0" in line
     with Trace(trace) as t:
@@ -72,7 +75,7 @@ def test_a_hardfault_is_one_line_with_pc_and_function_and_the_trace_is_kept(tmp_
 @pytest.mark.parametrize("fault, words", [
     (2, "a read of nothing at PC 0x080"), (3, "a stack overflow")])
 def test_access_to_nothing_and_stack_overflow(tmp_path, fault, words):
-    line = one_line(hexhil_run(build(tmp_path, "faults.c", f"FAULT={fault}")))
+    line = one_line(hexhil_run(build(tmp_path, "faults.c", f"FAULT={fault}")), 1)
     assert words in line and " in " in line, line
 
 

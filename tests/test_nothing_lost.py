@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from ctrl_c import sigint_default
 from host_tools.trace.reader import Trace
 from host_tools.trace.recover import recover
 
@@ -26,7 +27,8 @@ def _hexhil(out: Path, kill_at_s: float = 0.0, signum: int = 0, fsize: int = 0
     return subprocess.run([sys.executable, str(ROOT / "tests" / "kill_child.py"),
                            str(int(kill_at_s * 1e6)), str(int(signum)), str(fsize), "run",
                            SCENARIO, "--duration", str(DURATION_S), "--out", str(out)],
-                          cwd=ROOT, capture_output=True, text=True, timeout=300)
+                          cwd=ROOT, capture_output=True, text=True, timeout=300,
+                          preexec_fn=sigint_default)
 
 
 def _messages(path: Path, before_s: float = 1e9) -> list[tuple[str, int, bytes]]:

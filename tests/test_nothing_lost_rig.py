@@ -23,6 +23,7 @@ from pathlib import Path
 
 import pytest
 
+from ctrl_c import sigint_default
 from host_tools.trace.reader import Trace
 from host_tools.trace.recover import recover
 from host_tools.trace.topics import T_BODY, T_SERIAL
@@ -52,7 +53,7 @@ def _rig(out: Path, kill_at_s: float, signum: int) -> subprocess.CompletedProces
                              str(int(signum)), "0", "bus", "--world",
                              "scenarios/flat-tripod.toml", "--out", str(out), "--duration",
                              "10"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+                            text=True, preexec_fn=sigint_default)
     line = proc.stdout.readline().strip()
     assert line.startswith("pty: "), (line, proc.stderr.read() if proc.poll() else "")
     env = dict(os.environ, MICROPYPATH=f"{ROOT}:.frozen")

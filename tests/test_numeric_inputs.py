@@ -68,6 +68,13 @@ CLI = [
     (["bus", "--seed", "-5", "--duration", "0.1"], "--seed must be an integer from 0"),
     (["beams", "run", "--k1", "0.1", "--k2", "0.1", "--strategy", "none", "--seed", "-1"],
      "--seed must be an integer"),
+    (["model", "mjcf", "--scenario", FT, "--seed", "-1"], "--seed must be an integer from 0"),
+    (["model", "mjcf", "--scenario", FT, "--seed", str(2**32)], "--seed must be an integer"),
+    (["grnn", "dataset", "--out", "T.d", "--seed", "-1"], "--seed must be an integer from 0"),
+    (["grnn", "dataset", "--out", "T.d", "--seed", str(2**32 - 4), "--terrains", "8"],
+     "--seed + --terrains - 1 (the last terrain seed) must be an integer from 0 to 4294967295"),
+    (["grnn", "train", "T", "--out", "T.pt", "--seed", str(2**40)],
+     "--seed must be an integer from 0 to 4294967295"),
 ]
 
 
@@ -75,7 +82,8 @@ CLI = [
                          else None)
 def test_the_cli_checks_every_number(argv: list[str], want: str, trace: Path,
                                      capsys: pytest.CaptureFixture[str]) -> None:
-    assert cli.main([str(trace) if a == "T" else a for a in argv]) == 2
+    assert cli.main([a.replace("T", str(trace), 1) if a.startswith("T") else a
+                     for a in argv]) == 2
     err = capsys.readouterr().err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in err, err

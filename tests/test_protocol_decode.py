@@ -154,3 +154,34 @@ def test_protocol_2_bytes_are_recognised_and_unstuffed(capsys: pytest.CaptureFix
     assert recs[1]["register"] == "present_position"
     assert recs[2]["params"] == [0xFF, 0xFF, 0xFD, 0] and recs[2]["error"] == ["access", "alert"]
     assert recs[3]["protocol"] == 2 and recs[3]["packets"] == 2
+
+
+def test_packets_in_words_read_against_the_models_control_table() -> None:
+    """What a replay divergence prints (host_tools/dynamixel/decode/words.py), built on the
+    decoder ``hexhil protocol decode`` uses: Protocol 1.0 against the AX-12's table, 2.0
+    against the XL430's, a status packet's error bits and data."""
+    from host_tools.dynamixel.decode import DECODERS
+    from protocol.dynamixel import v2 as dx2
+
+    v1, v2 = DECODERS[1].names, DECODERS[2].names
+    le = int.to_bytes
+    assert v1(dxl.write(3, 30, le(512, 2, "little"))) == ["WRITE id 3 Goal Position (30) = 512"]
+    assert v1(dxl.sync_write(30, 4, [(i, le(500 + i, 2, "little") + le(100, 2, "little"))
+                                     for i in (1, 2, 3, 7)])) == [
+        "SYNC_WRITE Goal Position+Moving Speed ids 1-3,7 "
+        "[1: 501,100; 2: 502,100; 3: 503,100; 7: 507,100]"]
+    assert v1(dxl.read(5, 36, 2) + dxl.status(5, 0, le(512, 2, "little"))) == [
+        "READ id 5 Present Position (36) 2 bytes", "status id 5 ok: Present Position (36) = 512"]
+    assert v1(dxl.status(5, dxl.ERR_OVERLOAD | dxl.ERR_ANGLE_LIMIT, b"\x01")) == [
+        "status id 5 angle_limit,overload: data 01"]
+    assert v1(dxl.write(4, 31, b"\x01")) == ["WRITE id 4 address 31 = 01"]   # mid-field
+    assert v2(dx2.write(3, 116, le(2048, 4, "little"))) == [
+        "WRITE id 3 Goal Position (116) = 2048"]
+    assert v2(dx2.sync_write(116, 4, [(1, le(-5, 4, "little", signed=True))])) == [
+        "SYNC_WRITE Goal Position ids 1 [1: -5]"]
+    assert v2(dx2.read(5, 132, 4) + dx2.status(5, dx2.ALERT | dx2.ERR_DATA_LIMIT,
+                                                  le(2048, 4, "little"))) == [
+        "READ id 5 Present Position (132) 4 bytes", "status id 5 data_limit,alert: data 00 08 00 00"]
+    assert v2(dx2.bulk_read([(1, 132, 4), (2, 126, 2)])) == [
+        "BULK_READ id 1 Present Position (132) 4 bytes; id 2 Present Load (126) 2 bytes"]
+    assert v2(dx2.ping(7)) == ["PING id 7"]

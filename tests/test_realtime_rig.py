@@ -11,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+from ctrl_c import sigint_default
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_BODY, T_SERIAL
 from protocol.dynamixel import v1 as dxl
@@ -23,7 +24,7 @@ MICROPYTHON = Path(sys.executable).with_name("micropython")
 def _rig(*flags: str) -> tuple[subprocess.Popen, str]:
     proc = subprocess.Popen([*HEXHIL, "bus", "--world", "scenarios/flat-tripod.toml", "--json",
                              *flags], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+                            text=True, preexec_fn=sigint_default)
     line = proc.stdout.readline().strip()
     assert line.startswith(("pty: ", "tcp: ")), (line, proc.stderr.read() if proc.poll() else "")
     return proc, line.split(": ", 1)[1]

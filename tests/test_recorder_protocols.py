@@ -4,6 +4,9 @@ errors) in the same schema; `trace cat`, export and replay's divergences read th
 from __future__ import annotations
 
 import json
+import re
+import sys
+from pathlib import Path
 
 from host_tools import lockstep_run, replay
 from host_tools.dynamixel.decode import DECODERS
@@ -13,6 +16,8 @@ from host_tools.trace import recorder as rec
 from host_tools.trace import topics
 from protocol.dynamixel import v1 as dx1
 from protocol.dynamixel import v2 as dx2
+
+MICROPYTHON = str(Path(sys.executable).with_name("micropython"))
 
 
 def _packets(path) -> list[dict]:
@@ -55,9 +60,28 @@ def test_an_xl430_run_trace_names_its_sync_writes_and_sync_reads(tmp_path, capsy
     assert main(["trace", "cat", str(out), "--topics", "/serial"]) == 0
     assert '"instruction": "SYNC_READ"' in capsys.readouterr().out
     with trace_reader.open_trace(out) as tr:      # replay decodes its divergences so
-        assert replay.trace_protocol(tr) == 2
+        assert replay.trace_model(tr) == "xl430-w250"
     assert DECODERS[2].names(dx2.sync_read(132, 4, [1, 2]) + dx2.status(1, 0, bytes(4))) == [
-        "SYNC_READ to 254", "status from 1: ok"]
+        "SYNC_READ Present Position (132) 4 bytes ids 1-2", "status id 1 ok: data 00 00 00 00"]
     csv = tmp_path / "serial.csv"
     assert main(["trace", "export", str(out), str(csv), "--topics", "/serial"]) == 0
     assert "SYNC_WRITE" in csv.read_text() and "SYNC_READ" in csv.read_text()
+
+
+def test_a_protocol_2_replay_divergence_names_the_parameters(tmp_path) -> None:
+    """An XL430 run replayed into our firmware with one default changed: the diverging
+    SYNC_WRITE is read against the XL430's control table (Protocol 2.0)."""
+    out = tmp_path / "xl430.mcap"
+    scenario = {"scenario": {"name": "xl430-kinematic", "duration_s": 1.0},
+                "bus": {"model": "xl430-w250"}, "gait": {"name": "tripod"}}
+    lockstep_run.Run(scenario, runtime="micropython", trace=out).run()
+    script = tmp_path / "changed_firmware.py"
+    script.write_text("from firmware import config\nconfig.DEFAULTS['step_height_m'] = 0.031\n"
+                      "from firmware import main\nmain.main()\n")
+    r = replay.replay_firmware(out, command=[MICROPYTHON, str(script)])
+    d = r.divergence
+    assert d is not None and d.topic == "uart" and d.packets is not None, r
+    want, got = d.packets["expected"][0], d.packets["actual"][0]
+    head = "SYNC_WRITE Profile Velocity+Goal Position ids 1-18 ["    # addresses 112, 116
+    assert re.fullmatch(re.escape(head) + r"1: \d+,-?\d+(; \d+: \d+,-?\d+){17}\]", want), want
+    assert got.startswith(head) and got != want

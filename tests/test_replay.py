@@ -4,6 +4,7 @@ as the first divergence; --can sends the logged frames through python-can."""
 from __future__ import annotations
 
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -77,10 +78,17 @@ def test_changed_parameter_reports_first_divergence(trace, tmp_path):
     assert d.expected != d.actual and d.expected.startswith("W ")
     assert 0 <= d.t_s < DURATION_S
     # the exchange's servo-line bytes decoded in the trace's protocol (its scenario's model;
-    # Protocol 1.0 here): the cycle's SYNC_WRITE, then its three status READs (one R
-    # exchange on link version 2, docs/link.md)
-    assert d.packets is not None and d.packets["expected"][0] == "SYNC_WRITE to 254"
+    # Protocol 1.0 here), the parameters against the AX-12's control table: the cycle's
+    # SYNC_WRITE of 18 goals, then its three status READs (one R exchange on link
+    # version 2, docs/link.md)
+    assert d.packets is not None
+    want, got = d.packets["expected"][0], d.packets["actual"][0]
+    assert re.fullmatch(r"SYNC_WRITE Goal Position\+Moving Speed ids 1-18 "
+                        r"\[1: \d+,\d+(; \d+: \d+,\d+){17}\]", want), want
+    assert got.startswith("SYNC_WRITE Goal Position+Moving Speed ids 1-18 [") and got != want
     assert [p.split()[0] for p in d.packets["actual"]] == ["SYNC_WRITE", "READ", "READ", "READ"]
+    assert re.fullmatch(r"READ id \d+ Present Position\+Present Speed\+Present Load \(36\) "
+                        r"6 bytes", d.packets["actual"][1]), d.packets
     # the same firmware with the original value is identical again
     same = replay.replay_firmware(trace, command=_changed_firmware(tmp_path, "step_height_m",
                                                                    0.03))
@@ -94,7 +102,7 @@ def test_cli_exit_1_on_divergence(trace, tmp_path, capsys, monkeypatch):
                         lambda python, **kw: real(python, **{**kw, "command": cmd}))
     rc, out, _ = _cli(capsys, "replay", str(trace))
     assert rc == 1 and "DIVERGED at t=" in out and "expected W " in out
-    assert "expected packets: SYNC_WRITE to 254" in out
+    assert "expected packets: SYNC_WRITE Goal Position+Moving Speed ids 1-18 [1: " in out
     # a step-height change moves the servos but not the CAN or event outputs of 1.5 s:
     # --topics leaves the servo line out, so this replay passes
     rc, r, _ = _cli(capsys, "replay", str(trace), "--topics", "can,event", "--json")

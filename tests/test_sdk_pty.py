@@ -14,6 +14,7 @@ import pytest
 import dynamixel_sdk as sdk
 import dynamixel_sdk.port_handler
 
+from ctrl_c import sigint_default
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
 
@@ -159,7 +160,8 @@ def test_tcp_transport_serves_pyserial_socket_url_and_ctrl_c_ends_it():
     import serial
 
     proc = subprocess.Popen([*HEXHIL, "bus", "--tcp", "0", "--servos", "3"], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=sigint_default)
     try:
         line = proc.stdout.readline().strip()
         assert line.startswith("tcp: 127.0.0.1:"), line

@@ -67,32 +67,33 @@ def test_dynamixel_controllers_wheel_mode_sequence_works():
     assert summary["violations"]["counts"]["eeprom_busy"] >= 2   # taken late, not lost
 
 
-def _hog(n: int) -> list[subprocess.Popen]:
-    return [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(n)]
-
-
-def test_scans_beside_a_cpu_hog_invent_no_collision(monkeypatch):
-    """20 scans of 18 ids with the stock SDK at 57600 beside two busy loops (pypot's DxlIO is
-    not installed by `make`: it pulls OpenCV; docs/servo-bus.md has the same run with pypot
-    5.0.2). The SDK waits 2 x LATENCY_TIMER + 2 ms: 102 ms here, as a shared machine may not
-    schedule the server for a while; what it could not hand over in time is host lag."""
-    monkeypatch.setattr(dynamixel_sdk.port_handler, "LATENCY_TIMER", 50)
-    hogs = _hog(2)
-    failures = []
+@contextmanager
+def busy_loops(n: int) -> Iterator[None]:
+    """``n`` processes spinning beside the block: a CPU hog."""
+    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(n)]
     try:
-        with served("--baud", "57600") as (path, summary):
-            port = sdk.PortHandler(path)
-            assert port.openPort() and port.setBaudRate(57600)
-            for _ in range(20):
-                for dev_id in range(1, 19):
-                    got = _sdk_outcome(lambda: PH.ping(port, dev_id))
-                    if got != (ax12.MODEL_NUMBER, sdk.COMM_SUCCESS, 0):
-                        failures.append(got)
-            port.closePort()
+        yield
     finally:
         for h in hogs:
             h.kill()
             h.wait()
+
+
+def test_scans_beside_a_cpu_hog_invent_no_collision(monkeypatch):
+    """20 scans of 18 ids with the stock SDK at 57600 beside two busy loops (pypot's below).
+    The SDK waits 2 x LATENCY_TIMER + 2 ms: 102 ms here, as a shared machine may not
+    schedule the server for a while; what it could not hand over in time is host lag."""
+    monkeypatch.setattr(dynamixel_sdk.port_handler, "LATENCY_TIMER", 50)
+    failures = []
+    with busy_loops(2), served("--baud", "57600") as (path, summary):
+        port = sdk.PortHandler(path)
+        assert port.openPort() and port.setBaudRate(57600)
+        for _ in range(20):
+            for dev_id in range(1, 19):
+                got = _sdk_outcome(lambda: PH.ping(port, dev_id))
+                if got != (ax12.MODEL_NUMBER, sdk.COMM_SUCCESS, 0):
+                    failures.append(got)
+        port.closePort()
     # what the bus controls: no collision, every packet answered, nothing garbled; a
     # time-out (the SDK's IndexError is a READ that timed out) is the host's lag on a
     # machine this loaded, and counted apart (docs/servo-bus.md has the figures)
@@ -111,20 +112,14 @@ def test_pypot_scans_beside_a_cpu_hog_see_every_servo():
     replies merged on the line; a scan raises on any reply it cannot parse, and a reply it
     missed by its 50 ms time-out is a missing id, which only the host's lag can cause."""
     import pypot.dynamixel as dxl_io   # installed by make; a missing one is an error here
-    hogs = _hog(2)
     missing = []
-    try:
-        with served("--baud", "57600") as (path, summary):
-            io = dxl_io.DxlIO(path, baudrate=57600)
-            try:
-                for _ in range(20):
-                    missing += sorted(set(range(1, 19)) - set(io.scan(list(range(1, 19)))))
-            finally:
-                io.close()
-    finally:
-        for h in hogs:
-            h.kill()
-            h.wait()
+    with busy_loops(2), served("--baud", "57600") as (path, summary):
+        io = dxl_io.DxlIO(path, baudrate=57600)
+        try:
+            for _ in range(20):
+                missing += sorted(set(range(1, 19)) - set(io.scan(list(range(1, 19)))))
+        finally:
+            io.close()
     assert summary["bus"]["collisions"] == 0, summary
     assert summary["bus"]["bad_checksum"] == 0, summary
     assert summary["bus"]["replies"] == summary["bus"]["packets"], summary

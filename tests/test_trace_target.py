@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from ctrl_c import sigint_default
 from host_tools.trace.reader import Trace, info
 from host_tools.trace.recorder import Recorder
 from host_tools.trace.target import partial_of
@@ -61,7 +62,8 @@ def test_a_second_run_onto_one_target_is_refused_while_the_first_writes(tmp_path
     out = tmp_path / "shared.mcap"
     first = subprocess.Popen([sys.executable, "-m", "host_tools.cli", "run", FLAT,
                               "--duration", "600", *FAST, "--out", str(out)], cwd=ROOT,
-                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                             preexec_fn=sigint_default)
     try:
         deadline = time.monotonic() + 120
         while not partial_of(out).exists() or partial_of(out).stat().st_size < 10_000:

@@ -174,8 +174,13 @@ class ElfFirmware:
         return {}
 
     def serve(self, server: LinkHost, end_us: int, result: RunTally) -> None:
-        serve_elf(self.image, server, end_us, result, console_events, self.gdb_port,
-                  self.coverage)
+        """A fault is its ending (hil/mcu/runtime.py); a semihosting SYS_EXIT before the
+        run's end is judged as a process's exit."""
+        board = serve_elf(self.image, server, end_us, result, console_events, self.gdb_port,
+                          self.coverage)
+        if result.ending.completed and board.exit_code is not None and not board.ended:
+            result.ending = judge(self.path.name, board.exit_code, "",
+                                  "\n".join(board.console_tail), board.link.t_us, end_us)
 
 
 def _how(code: int) -> str:

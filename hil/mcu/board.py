@@ -3,8 +3,9 @@ wiring to the servo line, the switches, the console and CAN, and the run loop.
 
 The loop runs the core in chunks that end at the next scheduled event, so every flag
 changes at its exact cycle. Waiting costs no host time: WFI/WFE sleep to the next event,
-and a poll loop is skipped to it (hil/mcu/poll.py). Every register access first fires
-what fell due by its cycle, so a read sees the state of its own instant.
+and a poll loop is skipped to it (hil/mcu/poll.py). The registers are Unicorn MMIO
+callbacks (hil/mcu/mmio.py). SCB AIRCR SYSRESETREQ resets the MCU and the firmware starts
+again from its reset vector while the world goes on (``_system_reset``).
 """
 from __future__ import annotations
 
@@ -18,20 +19,19 @@ from hil.mcu.console import Console, semihost
 from hil.mcu.core import (EXC_SVCALL, EXC_SYSTICK, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT,
                           INTR_INVSTATE, INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
 from hil.mcu.elf_image import ElfImage
-from hil.mcu.events import Events
+from hil.mcu.events import Events, Timer
 from hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
+from hil.mcu.mmio import PeripheralSpace
 from hil.mcu.link_client import LinkClient, Reply
 from hil.mcu.poll import PollSkipper
 from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import extra_peripherals
-from hil.mcu.rcc import CLOCK_BITS, HSI_HZ, Rcc, flash_interface, power
+from hil.mcu.rcc import HSI_HZ, Rcc, flash_interface, power
 from hil.mcu.system import Nvic, SysTick, SystemBlock
 from hil.mcu.usart import Usart
 
 log = logging.getLogger(__name__)
-PERIPH_BASE, PERIPH_SIZE = 0x40000000, 0x80000      # APB1, APB2, AHB1
-PPB_BASE, PPB_SIZE = 0xE0000000, 0x100000
-MAX_CHUNK = 20_000           # instructions: the most an interrupt a write pends waits
+MAX_CHUNK = 20_000           # instructions: the most an interrupt unmasked by CPSIE/MSR waits
 TICK_US = 1000               # a quiet millisecond: a sleep to now (world, switches, CAN)
 PA1 = 1
 BRANCH_TO_SELF = (0xE7FE,)    # Thumb `b .` (GCC's `for (;;) {}`)
@@ -50,58 +50,57 @@ class Board:
         self.console_events = console_events
         self.link = LinkClient(exchange)
         self.core = core = Core(image, HSI_HZ)
-        self.events = ev = Events()
-        self.nvic = Nvic(core)
-        self.rcc = Rcc(ev, core.now_fs, self._clock_changed)
-        self.systick = SysTick(core, self.nvic, ev, lambda: self.rcc.hclk_hz)
-        self.ppb = SystemBlock(core, self.nvic, self.systick, self._reset_request)
+        self.events = Events()
         self.console = Console(self._console_line)
         self.console_tail: list[str] = []
-        self.exti = Exti(self.nvic.line)
         self.switches = 0
         self.exit_code: int | None = None
         self.ended = False
         self.fault: str | None = None
+        self.resets = 0                # SYSRESETREQs taken
+        self._reset_pending = False
         self.skipped_cycles = 0
-        self.unmodelled: set[int] = set()
         self._last_request_us = -TICK_US
-        self._pages: dict[int, object] = {}
-        self._gates: dict[int, tuple[int, int]] = {}
+        self.debugger: Any = None      # hil/mcu/gdb.py, with --gdb
+        self.line = ServoLine(self)
+        self.space = PeripheralSpace(self)
+        self._peripherals()
+        self.tick = self.events.timer(self._tick)
+        self.tick.set(TICK_US * FS_PER_US)
+        self.space.attach(core.uc)
+        core.uc.hook_add(UC_HOOK_INTR, self._intr)
+        self.poll = PollSkipper(self)
+
+    def _peripherals(self) -> None:
+        """The MCU's peripherals in their reset state (power-on, and a system reset)."""
+        core, ev = self.core, self.events
+        self.nvic = Nvic(core)
+        self.rcc = Rcc(ev, core.now_fs, self._clock_changed)
+        self.systick = SysTick(core, self.nvic, ev, lambda: self.rcc.hclk_hz)
+        self.ppb = SystemBlock(core, self.nvic, self.systick, self._reset_request)
+        self.exti = Exti(self.nvic.line)
+        space = self.space
+        space.clear()
         gpio = [GpioPort(n, i, self._gpio_out, self._external(i))
                 for i, n in enumerate(("GPIOA", "GPIOB", "GPIOC"))]
         gpio[1].before_input = self.fresh_switches
         for i, port in enumerate(gpio):
-            self._map(0x40020000 + 0x400 * i, port)
+            space.map(0x40020000 + 0x400 * i, port)
         self.gpio = gpio
         line = self.nvic.line
         self.usart1 = Usart("USART1", 37, core, ev, lambda: self.rcc.pclk2_hz, line, self)
-        self.line = ServoLine(self)
         self.usart2 = Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self.line)
         self.usart6 = Usart("USART6", 71, core, ev, lambda: self.rcc.pclk2_hz, line, self)
         for base, p in ((0x40023800, self.rcc), (0x40023C00, flash_interface()),
                         (0x40007000, power()), (0x40013C00, self.exti),
                         (0x40013800, Syscfg(self.exti)), (0x40011000, self.usart1),
                         (0x40004400, self.usart2), (0x40011400, self.usart6)):
-            self._map(base, p)
-        self.debugger: Any = None      # hil/mcu/gdb.py, with --gdb
+            space.map(base, p)
         self.can_listening = False     # bxCAN1 in normal mode: CAN input each millisecond
         self.extra = extra_peripherals(self)
         for base, p in self.extra:
-            self._map(base, p)
-        self.tick = ev.timer(self._tick)
-        self.tick.set(TICK_US * FS_PER_US)
-        uc = core.uc
-        uc.mmio_map(PERIPH_BASE, PERIPH_SIZE, self._read, None, self._write, None)
-        uc.mmio_map(PPB_BASE, PPB_SIZE, self._ppb_read, None, self._ppb_write, None)
-        uc.hook_add(UC_HOOK_INTR, self._intr)
-        self.poll = PollSkipper(self)
-
-    def _map(self, base: int, periph: object) -> None:
-        page = (base - PERIPH_BASE) >> 10
-        self._pages[page] = periph
-        name = getattr(periph, "name", None)
-        if name in CLOCK_BITS:
-            self._gates[page] = CLOCK_BITS[name]
+            space.map(base, p)
+        space.relive()
 
     # --- the world ----------------------------------------------------------------
     def _external(self, port: int) -> Callable[[int], int | None]:
@@ -175,6 +174,8 @@ class Board:
     # --- clocks and reset -------------------------------------------------------------
     def _clock_changed(self) -> None:
         self.core.set_hz(self.rcc.hclk_hz)
+        for usart in (self.usart1, self.usart2, self.usart6):
+            usart.clock_changed()
         self.systick.rebase()
         for _, p in self.extra:
             rebase = getattr(p, "rebase", None)
@@ -182,101 +183,43 @@ class Board:
                 rebase()
 
     def _reset_request(self) -> None:
-        self.fault = "a system reset (SCB AIRCR SYSRESETREQ): the board restarts, which a run does not model"
+        """SCB AIRCR SYSRESETREQ: the chunk ends at this store (a write callback may stop
+        the core: the store would run again on resume, but the core resumes at the reset
+        vector instead), and ``run`` resets the MCU there (``_system_reset``)."""
+        self._reset_pending = True
+        self.core.stop()
+
+    def _system_reset(self) -> None:
+        """A system reset, as the chip's: the core and every peripheral back to their reset
+        state (HSI 16 MHz, no clocks enabled, GPIO inputs, USARTs off, NVIC and SysTick
+        cleared, VTOR 0, the FPU off), what they had scheduled dropped, the firmware again
+        from its reset vector. SRAM keeps its contents (the startup code sets .data and
+        .bss); virtual time, the link and the world go on. The bytes already on the servo
+        line go out as sent, and PA1 falls (its pin is an input after reset)."""
+        self._reset_pending = False
+        self.resets += 1
+        self.line.flush()
+        old = [self.nvic, self.rcc, self.systick, self.ppb, self.exti, *self.gpio,
+               self.usart1, self.usart2, self.usart6, *(p for _, p in self.extra)]
+        for periph in old:
+            for value in vars(periph).values():
+                if isinstance(value, Timer):
+                    value.clear()
+        self.poll.forget()
+        self._peripherals()
+        self.core.vtor = 0
+        self.core.fpu_on = False
+        self.core.set_hz(self.rcc.hclk_hz)
+        self.core.reset()
+        self.line.pin(0)
+        log.info("firmware %s: system reset (SYSRESETREQ) at t=%.6f s, restarting from the "
+                 "reset vector", self.image.path.name, self.now_us() * 1e-6)
 
     # --- registers ----------------------------------------------------------------
-    def _unmodelled(self, addr: int, kind: str) -> None:
-        page = addr & ~0x3FF
-        if page not in self.unmodelled:
-            self.unmodelled.add(page)
-            log.warning("firmware %s an unmodelled peripheral at 0x%08x (reads 0, writes are "
-                        "dropped)", kind, addr)
-
-    def _periph(self, offset: int) -> object | None:
-        """The peripheral at ``offset``; None (logged) where its RCC clock is off."""
-        page = offset >> 10
-        gate = self._gates.get(page)
-        if gate is not None and not self.rcc.regs.get(gate[0], 0) >> gate[1] & 1:
-            self._unmodelled(PERIPH_BASE + offset, f"used {self._pages[page].name} with "
-                             "its RCC clock off:")
-            return None
-        return self._pages.get(page)
-
-    def due(self) -> None:
-        """Fire what fell due by the instruction running now (a register access)."""
-        heap = self.events.heap
-        if heap:
-            now = self.core.now_fs()
-            if heap[0][0] <= now:
-                self.events.fire_due(now)
-
-    def _read(self, uc, offset: int, size: int, _) -> int:
-        heap = self.events.heap
-        if heap:
-            now = self.core.now_fs()
-            if heap[0][0] <= now:
-                self.events.fire_due(now)
-        p = self._periph(offset)
-        if p is None:
-            self.poll.other_access()
-            if offset >> 10 not in self._pages:
-                self._unmodelled(PERIPH_BASE + offset, "read")
-            return 0
-        off = offset & 0x3FC
-        value = p.read(off)
-        if offset & 3 or size < 4:
-            value = (value >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
-        if off not in p.pollable:
-            self.poll.other_access()
-        elif self.poll.polled(PERIPH_BASE + offset, value):
-            value = (p.read(off) >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
-        return value
-
-    def _write(self, uc, offset: int, size: int, value: int, _) -> None:
-        heap = self.events.heap
-        if heap:
-            now = self.core.now_fs()
-            if heap[0][0] <= now:
-                self.events.fire_due(now)
-        self.poll._poll_key = None           # poll.other_access()
-        p = self._periph(offset)
-        if p is None:
-            if offset >> 10 not in self._pages:
-                self._unmodelled(PERIPH_BASE + offset, "wrote")
-            return
-        shift = 8 * (offset & 3)
-        if size < 4:
-            mask = ((1 << 8 * size) - 1) << shift
-            value = (p.read(offset & 0x3FC) & ~mask) | ((value << shift) & mask) \
-                if p.pollable and (offset & 0x3FC) in p.pollable else value << shift
-        p.write(offset & 0x3FC, value & 0xFFFFFFFF)
-
-    def _ppb_read(self, uc, offset: int, size: int, _) -> int:
-        self.due()
-        addr = PPB_BASE + offset
-        value = (self.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
-        if addr & ~3 not in self.ppb.pollable:
-            self.poll.other_access()
-        elif self.poll.polled(addr, value):
-            value = (self.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
-        return value
-
-    def _ppb_write(self, uc, offset: int, size: int, value: int, _) -> None:
-        self.due()
-        self.poll.other_access()
-        addr = PPB_BASE + offset
-        if size < 4 and (0xE000E400 <= addr < 0xE000E500 or 0xE000ED18 <= addr < 0xE000ED24):
-            word = self.ppb.read(addr & ~3)
-            shift = 8 * (addr & 3)
-            mask = ((1 << 8 * size) - 1) << shift
-            value = (word & ~mask) | ((value << shift) & mask)
-        self.ppb.write(addr & ~3, value)
-
-    # --- poll skipping ------------------------------------------------------------
     # --- exceptions ---------------------------------------------------------------
     def _intr(self, uc, intno: int, _) -> None:
         core = self.core
-        pc = core.reg(A.UC_ARM_REG_PC)
+        pc = core.pc_now()
         try:
             if intno == INTR_EXC_EXIT:
                 exc = core.leave(pc | 1)
@@ -365,6 +308,9 @@ class Board:
                 raise CoreFault(self._fault_line(str(exc))) from None
             if self.fault is not None:
                 raise CoreFault(self._fault_line(self.fault))
+            if self._reset_pending:
+                self._system_reset()
+                continue
             if core.active and self.debugger is None and \
                     core.read16(core.pc) in BRANCH_TO_SELF:
                 self._lockup()

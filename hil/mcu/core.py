@@ -23,6 +23,7 @@ from unicorn import arm_const as A
 from unicorn.unicorn_py3.unicorn import uclib
 
 from hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
+from hil.mcu.engine import Regs, counter_offset, regs_place
 
 FS_PER_S = 10 ** 15            # virtual time inside the MCU is in femtoseconds (exact)
 FS_PER_US = 10 ** 9
@@ -43,76 +44,35 @@ CONTEXT_REGS = tuple(A.UC_ARM_REG_R0 + i for i in range(13)) + (A.UC_ARM_REG_SP,
                                                                    A.UC_ARM_REG_LR)
 
 
-class Regs:
-    """A fixed list of registers read or written in one call into libunicorn: its Python
-    binding costs ~10 us a register, a batch of 30 here ~4 us (the values go in and out
-    of the ctypes array with one struct call, not item by item)."""
-
-    def __init__(self, uc: Uc, ids: tuple[int, ...]) -> None:
-        n = self._n = len(ids)
-        self._h = uc._uch
-        self._ids = (ctypes.c_int * n)(*ids)
-        self._vals = (ctypes.c_uint64 * n)()
-        self._fmt = struct.Struct(f"<{n}Q")
-        base = ctypes.addressof(self._vals)
-        self._ptrs = (ctypes.c_void_p * n)(*[base + 8 * i for i in range(n)])
-        self._zero = bytes(8 * n)
-
-    def read(self) -> list[int]:
-        ctypes.memmove(self._vals, self._zero, 8 * self._n)
-        uclib.uc_reg_read_batch(self._h, self._ids, self._ptrs, self._n)
-        return list(self._fmt.unpack_from(self._vals))
-
-    def write(self, values: list[int]) -> None:
-        self._fmt.pack_into(self._vals, 0, *[v & 0xFFFFFFFF for v in values])
-        uclib.uc_reg_write_batch(self._h, self._ids, self._ptrs, self._n)
-
-
 class CoreFault(Exception):
     """The firmware did what ends a run (a fault, a lockup, an access to nothing)."""
 
 
-_COUNTER: list[int] = []
-
-
-def _counter_offset() -> int:
-    """Where Unicorn keeps the instructions run by the current ``emu_start``: the one
-    8-byte word of its engine that equals what two runs of known length counted."""
-    if _COUNTER:
-        return _COUNTER[0]
-    uc = Uc(UC_ARCH_ARM, UC_MODE_THUMB | UC_MODE_MCLASS)
-    uc.mem_map(0x1000, 0x1000)
-    uc.mem_write(0x1000, bytes.fromhex("0130fde7"))        # adds r0, #1; b .-2
-    base = ctypes.cast(uc._uch, ctypes.c_void_p).value
-    words = (ctypes.c_uint64 * 4096).from_address(base)
-    found = None
-    for n in (12345, 777, 4321):
-        uc.emu_start(0x1001, 0, 0, n)
-        here = {i for i in range(4095) if words[i] == n + 1 and words[i + 1] == n}
-        found = here if found is None else found & here
-    if not found or len(found) != 1:
-        raise RuntimeError("this Unicorn build keeps no instruction counter where 2.1.4 does")
-    _COUNTER.append(found.pop() * 8)
-    return _COUNTER[0]
-
-
 class TimeBase:
-    """Cycles and femtoseconds at a clock that the firmware may change: exact integers."""
+    """Cycles and femtoseconds at a clock that the firmware may change: exact integers.
+    Where a cycle is a whole number of femtoseconds (``_fs_per_cyc``: 10 ns at 100 MHz,
+    62.5 ns at 16 MHz) the conversions multiply or divide once, with the same results."""
 
     def __init__(self, hz: int) -> None:
         self.hz = hz
         self._cyc0 = 0
         self._fs0 = 0
+        self._fs_per_cyc = FS_PER_S // hz if FS_PER_S % hz == 0 else 0
 
     def fs_at(self, cyc: int) -> int:
+        if self._fs_per_cyc:
+            return self._fs0 + (cyc - self._cyc0) * self._fs_per_cyc
         return self._fs0 + (cyc - self._cyc0) * FS_PER_S // self.hz
 
     def cycle_of(self, fs: int) -> int:
         """The first cycle at or after time ``fs``."""
+        if self._fs_per_cyc:
+            return self._cyc0 - (self._fs0 - fs) // self._fs_per_cyc
         return self._cyc0 + -(-(fs - self._fs0) * self.hz // FS_PER_S)
 
     def set_hz(self, cyc: int, hz: int) -> None:
         self._fs0, self._cyc0, self.hz = self.fs_at(cyc), cyc, hz
+        self._fs_per_cyc = FS_PER_S // hz if FS_PER_S % hz == 0 else 0
 
 
 class Core:
@@ -125,6 +85,10 @@ class Core:
         uc.mem_map_ptr(0, FLASH_SIZE, UC_PROT_READ | UC_PROT_EXEC, self._flash)
         uc.mem_map_ptr(FLASH_BASE, FLASH_SIZE, UC_PROT_READ | UC_PROT_EXEC, self._flash)
         self._sram = ctypes.create_string_buffer(SRAM_SIZE)   # frames go in and out here
+        # struct reads and writes go through memoryviews: a ctypes buffer works out its
+        # buffer format at each access, several microseconds
+        self._flash_mem = memoryview(self._flash).cast("B")
+        self._sram_mem = memoryview(self._sram).cast("B")
         uc.mem_map_ptr(SRAM_BASE, SRAM_SIZE, UC_PROT_ALL, self._sram)
         for seg in image.segments:
             uc.mem_write(seg.addr, seg.data)
@@ -137,27 +101,52 @@ class Core:
         self._h = uc._uch
         self._batches: dict[tuple[int, ...], Regs] = {}
         self.executed = 0
-        self._ctr = ctypes.c_uint64.from_address(
-            ctypes.cast(uc._uch, ctypes.c_void_p).value + _counter_offset())
+        engine = ctypes.cast(uc._uch, ctypes.c_void_p).value + counter_offset()
+        self._ctr = ctypes.c_uint64.from_address(engine)
+        self._limit = ctypes.c_uint64.from_address(engine + 8)   # the count emu_start was given
         self.time = TimeBase(hz)
         self.cyc = 0                 # instructions run before the current chunk
         self._chunk0 = 0
         self.running = False
         self.stopped = False         # a read asked for the chunk to end
+        self.cut = False             # the chunk ends after the instruction running now
         self.sleeping = False        # WFI/WFE: asleep until an event or interrupt
         self.active: list[int] = []  # active exceptions, innermost last
         self.vtor = 0
         self.fpu_on = False          # CPACR grants CP10/CP11: frames carry the FPU registers
         self.on_intr: Callable[[int], None] = lambda intno: None
+        self._fpscr0 = uc.reg_read(A.UC_ARM_REG_FPSCR)
         self.reset()
+        self._pc_word = self._find_pc()
+
+    def _find_pc(self) -> ctypes.c_uint32 | None:
+        """The PC's word in this engine's CPU state (``regs_place``), checked here too."""
+        place = regs_place()
+        if place is None:
+            return None
+        cpu = (ctypes.c_uint64 * (place[0] + 1)).from_address(
+            ctypes.cast(self.uc._uch, ctypes.c_void_p).value)[place[0]]
+        if not cpu:
+            return None
+        r12 = self.uc.reg_read(A.UC_ARM_REG_R12)
+        self.uc.reg_write(A.UC_ARM_REG_R12, 0x5A5A1234)
+        same = ctypes.c_uint32.from_address(cpu + place[1] + 48).value == 0x5A5A1234
+        self.uc.reg_write(A.UC_ARM_REG_R12, r12)
+        return ctypes.c_uint32.from_address(cpu + place[1] + 60) if same else None
 
     def reset(self) -> None:
+        """The core's reset: thread mode on MSP from the vector table, the masks clear,
+        FPSCR as at power-on, the PC at the reset vector (R0-R12 keep their values:
+        UNKNOWN after a reset, the same ones every run)."""
         uc = self.uc
         self.active.clear()
         uc.reg_write(A.UC_ARM_REG_CONTROL, 0)
         uc.reg_write(A.UC_ARM_REG_MSP, self.read32(self.vtor_base()))
         uc.reg_write(A.UC_ARM_REG_PRIMASK, 0)
+        uc.reg_write(A.UC_ARM_REG_FAULTMASK, 0)
+        uc.reg_write(A.UC_ARM_REG_BASEPRI, 0)
         uc.reg_write(A.UC_ARM_REG_IPSR, 0)
+        uc.reg_write(A.UC_ARM_REG_FPSCR, self._fpscr0)
         self.pc = self.read32(self.vtor_base() + 4)
         self.sleeping = False
 
@@ -171,6 +160,8 @@ class Core:
     def now_fs(self) -> int:
         t = self.time
         cyc = self._chunk0 + self._ctr.value - 1 if self.running else self.cyc
+        if t._fs_per_cyc:
+            return t._fs0 + (cyc - t._cyc0) * t._fs_per_cyc
         return t._fs0 + (cyc - t._cyc0) * FS_PER_S // t.hz
 
     def jump(self, cycles: int) -> None:
@@ -186,14 +177,14 @@ class Core:
     # --- memory -------------------------------------------------------------------
     def read32(self, addr: int) -> int:
         if FLASH_BASE <= addr <= FLASH_BASE + FLASH_SIZE - 4:
-            return struct.unpack_from("<I", self._flash, addr - FLASH_BASE)[0]
+            return struct.unpack_from("<I", self._flash_mem, addr - FLASH_BASE)[0]
         if SRAM_BASE <= addr <= SRAM_BASE + SRAM_SIZE - 4:
-            return struct.unpack_from("<I", self._sram, addr - SRAM_BASE)[0]
+            return struct.unpack_from("<I", self._sram_mem, addr - SRAM_BASE)[0]
         return int.from_bytes(self.uc.mem_read(addr, 4), "little")
 
     def read16(self, addr: int) -> int:
         if FLASH_BASE <= addr <= FLASH_BASE + FLASH_SIZE - 2:
-            return struct.unpack_from("<H", self._flash, addr - FLASH_BASE)[0]
+            return struct.unpack_from("<H", self._flash_mem, addr - FLASH_BASE)[0]
         return int.from_bytes(self.uc.mem_read(addr, 2), "little")
 
     def write32(self, addr: int, value: int) -> None:
@@ -209,11 +200,21 @@ class Core:
             self.stopped = True
             self.uc.emu_stop()
 
+    def cut_after(self) -> None:
+        """End the chunk after the instruction running now (a register write that made
+        an exception ready: it is taken before the next instruction, as on the chip).
+        Unicorn stops a chunk when its counter passes the count it was given; lowering
+        that count to this instruction's stops it before the next one, with the store
+        done once (``emu_stop`` in a write callback would run the store again)."""
+        if self.running:
+            self._limit.value = self._ctr.value
+            self.cut = True
+
     def run(self, n: int) -> int:
         """Run up to ``n`` instructions from ``self.pc``; how many ran."""
         uc = self.uc
         self._chunk0 = self.cyc
-        self.stopped = False
+        self.stopped = self.cut = False
         self.running = True
         try:
             uc.emu_start(self.pc | 1, 0, 0, n)
@@ -223,8 +224,8 @@ class Core:
         finally:
             self.running = False
         ran = self._ctr.value - 1
-        self.pc = self.reg(A.UC_ARM_REG_PC)
-        if error is None and ran < n and not self.stopped:
+        self.pc = self.pc_now()
+        if error is None and ran < n and not self.stopped and not self.cut:
             if self.pc == 0:
                 raise CoreFault("a jump to address 0 (a null function pointer)")
             op = self.read16(self.pc - 2)
@@ -239,6 +240,14 @@ class Core:
         return ran
 
     # --- exceptions ---------------------------------------------------------------
+    def pc_now(self) -> int:
+        """The PC of the instruction running now (inside a callback of a chunk), or the
+        next one's (between chunks)."""
+        word = self._pc_word
+        if word is None:
+            return self.reg(A.UC_ARM_REG_PC)
+        return word.value
+
     def reg(self, reg_id: int) -> int:
         one = self._one
         one.value = 0
@@ -301,12 +310,12 @@ class Core:
         fpu = not exc_return & 0x10
         n = 26 if fpu else 8
         if SRAM_BASE <= sp <= SRAM_BASE + SRAM_SIZE - 4 * n:
-            values = list(struct.unpack_from(f"<{n}I", self._sram, sp - SRAM_BASE))
+            values = list(struct.unpack_from(f"<{n}I", self._sram_mem, sp - SRAM_BASE))
         else:
             words = self.uc.mem_read(sp, 4 * n)
             values = [int.from_bytes(words[4 * i:4 * i + 4], "little") for i in range(n)]
         xpsr = values[7]
-        sp += 4 * n + (4 if xpsr & (1 << 9) else 0)
+        sp = (sp + 4 * n + (4 if xpsr & (1 << 9) else 0)) & 0xFFFFFFFF
         ipsr = self.active[-1] if self.active else 0
         regs = values[:6] + [(xpsr & ~0x3FF), control, msp, psp_value]
         if fpu:
@@ -321,12 +330,11 @@ class Core:
         return exc
 
     def _store(self, sp: int, values: list[int]) -> None:
-        """An exception frame at ``sp``: straight into SRAM's buffer, else through Unicorn
-        (which faults where nothing is mapped)."""
+        """An exception frame (32-bit values) at ``sp``: straight into SRAM's buffer, else
+        through Unicorn (which faults where nothing is mapped)."""
         n = len(values)
         if SRAM_BASE <= sp <= SRAM_BASE + SRAM_SIZE - 4 * n:
-            struct.pack_into(f"<{n}I", self._sram, sp - SRAM_BASE,
-                             *[v & 0xFFFFFFFF for v in values])
+            struct.pack_into(f"<{n}I", self._sram_mem, sp - SRAM_BASE, *values)
         else:
             self.uc.mem_write(sp, b"".join((v & 0xFFFFFFFF).to_bytes(4, "little")
                                            for v in values))

@@ -7,23 +7,27 @@ a poll of a flag whose change is scheduled can jump straight to it (hil/mcu/boar
 from __future__ import annotations
 
 import heapq
+import itertools
 from typing import Callable
+
+_push = heapq.heappush
 
 
 class Timer:
     """One scheduled thing of a peripheral: ``set`` moves it, ``clear`` cancels it."""
 
-    __slots__ = ("events", "fn", "at_fs", "_gen")
+    __slots__ = ("events", "fn", "at_fs", "_gen", "_heap", "_seq")
 
     def __init__(self, events: "Events", fn: Callable[[int], None]) -> None:
         self.events, self.fn = events, fn
         self.at_fs: int | None = None
         self._gen = 0
+        self._heap, self._seq = events.heap, events.next_seq
 
     def set(self, at_fs: int) -> None:
-        self._gen += 1
+        gen = self._gen = self._gen + 1
         self.at_fs = at_fs
-        heapq.heappush(self.events.heap, (at_fs, self.events.next_seq(), self, self._gen))
+        _push(self._heap, (at_fs, self._seq(), self, gen))
 
     def clear(self) -> None:
         self._gen += 1
@@ -33,11 +37,7 @@ class Timer:
 class Events:
     def __init__(self) -> None:
         self.heap: list[tuple[int, int, Timer, int]] = []
-        self._seq = 0
-
-    def next_seq(self) -> int:
-        self._seq += 1
-        return self._seq
+        self.next_seq = itertools.count(1).__next__     # ties fire in the order set
 
     def timer(self, fn: Callable[[int], None]) -> Timer:
         """A timer that calls ``fn(at_fs)`` when it falls due."""

@@ -48,6 +48,22 @@ class GpioPort:
             return driven
         return 1 if self.pull_up(pin) else 0
 
+    def idr(self) -> int:
+        """All 16 pins' ``input_level`` at once: outputs read ODR, analog pins 0, inputs
+        and alternate functions what drives them, else their pull-up."""
+        moder, odr, pupdr = self.regs[MODER], self.regs[ODR], self.regs[PUPDR]
+        level = 0
+        for pin in range(16):
+            mode = (moder >> 2 * pin) & 3
+            if mode == 1:
+                level |= odr & (1 << pin)
+            elif mode != 3:
+                driven = self.external(pin)
+                if driven is None:
+                    driven = (pupdr >> 2 * pin) & 3 == 1
+                level |= driven << pin
+        return level
+
     def output(self, pin: int) -> int:
         """The level the port drives on ``pin`` (0 unless it is an output)."""
         return (self.regs[ODR] >> pin) & 1 if self.mode(pin) == 1 else 0
@@ -56,7 +72,7 @@ class GpioPort:
         if off == IDR:
             if self.before_input is not None:
                 self.before_input()
-            return sum(self.input_level(p) << p for p in range(16))
+            return self.idr()
         return self.regs.get(off, 0) if off != BSRR else 0
 
     def write(self, off: int, value: int) -> None:

@@ -14,7 +14,6 @@ from __future__ import annotations
 from typing import Any
 
 from unicorn import UC_HOOK_MEM_WRITE
-from unicorn import arm_const as A
 
 from hil.mcu.elf_image import SRAM_BASE, SRAM_SIZE
 
@@ -49,12 +48,12 @@ class PollSkipper:
         if key != self._poll_key:
             self._poll_key, self._poll_at = key, now
             if key in self._wait_values and self._watch is None and \
-                    (core.reg(A.UC_ARM_REG_PC), addr, value) in self._waits:
+                    (core.pc_now(), addr, value) in self._waits:
                 return self._jump_here()   # a known loop waiting on this very value
             return False
         delta = now - self._poll_at
         self._poll_at = now
-        loop = (core.reg(A.UC_ARM_REG_PC), addr, delta)
+        loop = (core.pc_now(), addr, delta)
         watch = self._watch
         if watch is None:
             known = self._loops_ok.get(loop)
@@ -86,20 +85,26 @@ class PollSkipper:
         """Skip a known poll loop inside the chunk: time jumps to the next event, which
         fires now; an exception it makes ready ends the chunk (the read runs again)."""
         board = self.board
-        core = board.core
-        cyc = core.time.cycle_of(board.events.next_fs())
+        core, events = board.core, board.events
         now = core.now()
+        cyc = core.time.cycle_of(events.next_fs())
         if cyc <= now:
             return False
         core.jump(cyc - now)
         board.skipped_cycles += cyc - now
         self._poll_key = None
-        board.due()
+        events.fire_due(core.now_fs())
         nvic = board.nvic
-        if nvic.pending and nvic.ready() and nvic.next_exception() is not None:
+        if nvic.pending and nvic.next_exception() is not None:
             self._reread = True
             core.stop()
         return True
+
+    def forget(self) -> None:
+        """A system reset: no poll is under way (the loops learnt stay: the same code)."""
+        self._end_watch()
+        self._poll_key = None
+        self._skip = self._reread = False
 
     def _end_watch(self) -> None:
         self._watch = None

@@ -1,8 +1,9 @@
 """An ELF served in this process: the board's link goes straight to the run's link server
 (hil/link/firmware_process.py ``DirectConnection``), no socket, no child process.
 
-Ends as the other served firmwares do (hil/link/served_firmware.py): a fault, or an exit
-before the run's end, is one ``UserError`` line and the trace recorded up to then is kept.
+Ends as the other served firmwares do (hil/link/served_firmware.py): a fault is the run's
+``FirmwareEnding`` (CRASHED, its one line naming the fault, the PC and the function), and
+the trace recorded up to then is kept; an exit is judged by the caller.
 """
 from __future__ import annotations
 
@@ -14,18 +15,8 @@ from hil.mcu.board import Board
 from hil.mcu.core import CoreFault
 from hil.mcu.elf_image import ElfImage
 from hil.mcu.gdb import GdbServer
-from hil.run_result import RunTally
+from hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
 from hil.seams import LinkHost
-from protocol.errors import UserError
-
-
-class FirmwareFault(UserError):
-    """The firmware faulted (one line): a failing case in ``hexhil test``, exit 2 in
-    ``hexhil run``; ``t_s`` is when."""
-
-    def __init__(self, text: str, t_s: float) -> None:
-        super().__init__(text)
-        self.t_s = t_s
 
 
 def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
@@ -41,15 +32,12 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
         tracer = LineCounter(image, board.core.uc)
     if gdb_port is not None:
         board.debugger = GdbServer(board, gdb_port)
-    name = image.path.name
+    fault = None
     try:
         board.run()
-    except CoreFault as exc:
-        result.exit_code = 1
-        result.exceptions.append(f"{name}: {exc}")
-        board.close()           # what the board had posted (a console line) is recorded
-        raise FirmwareFault(f"the firmware {name} faulted: {exc}",
-                            board.now_us() * 1e-6) from None
+    except CoreFault as exc:      # a verdict on the firmware, as a crashed process's
+        fault = exc
+        board.close()             # what the board had posted (a console line) is recorded
     finally:
         result.stderr_tail = "\n".join(board.console_tail)
         if tracer is not None:
@@ -60,15 +48,15 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
                                            "cycles": board.core.cyc,
                                            "instructions": board.core.executed,
                                            "skipped_cycles": board.skipped_cycles,
-                                           "link_requests": board.link.requests})
+                                           "link_requests": board.link.requests,
+                                           "resets": board.resets})
+    if fault is not None:
+        result.exit_code = 1
+        result.exceptions.append(f"{image.path.name}: {fault}")
+        result.ending = FirmwareEnding(
+            Ending.CRASHED, f"the firmware {image.path.name} faulted: {fault}",
+            tuple(board.console_tail[-LAST_LINES:]), board.now_us() * 1e-6, 1)
+        return board
     result.exit_code = board.exit_code if board.exit_code is not None else 0
-    t_s = board.link.t_us * 1e-6
-    if board.exit_code is not None and not board.ended:
-        board.close()
-        if board.exit_code != 0:
-            raise UserError(f"the firmware {name} exited with code {board.exit_code} at "
-                            f"t={t_s:.6f} s (semihosting SYS_EXIT)")
-        raise UserError(f"the firmware {name} exited at t={t_s:.6f} s, before the run's end "
-                        f"({end_us * 1e-6:g} s)")
     board.close()
     return board

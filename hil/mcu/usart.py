@@ -47,8 +47,7 @@ class Usart:
         self.tdr: int | None = None
         self.rdr = 0
         self._echo: int | None = None        # HDSEL: the byte on the wire comes back
-        self._frame_key: tuple[int, ...] = ()
-        self._frame_fs = 0
+        self._frame_fs = 0                   # 0: to be worked out (CR1, CR2, BRR, PCLK)
         self.shift_end = events.timer(self._shifted)
         self.dma_tx: Callable[[], int | None] | None = None     # set by the DMA controller
         self.dma_rx: Callable[[int], bool] | None = None
@@ -65,23 +64,25 @@ class Usart:
         return self.pclk_hz() / div if div else 0.0
 
     def frame_fs(self) -> int:
-        regs = self.regs
-        key = (regs[CR1], regs[CR2], regs[BRR], self.pclk_hz())
-        if key != self._frame_key:       # the frame's length changes only with these
-            cr1 = regs[CR1]
-            half_bits = 2 + 2 * (9 if cr1 & M_9BIT else 8) + STOP_HALF_BITS[(regs[CR2] >> 12) & 3]
-            div = max(1, self.divider())
-            self._frame_key = key
-            self._frame_fs = half_bits * FS_PER_S * div // (2 * key[3])
+        """A frame's length; kept until CR1, CR2, BRR or the bus clock change."""
+        if not self._frame_fs:
+            regs = self.regs
+            half_bits = 2 + 2 * (9 if regs[CR1] & M_9BIT else 8) \
+                + STOP_HALF_BITS[(regs[CR2] >> 12) & 3]
+            self._frame_fs = half_bits * FS_PER_S * max(1, self.divider()) // (2 * self.pclk_hz())
         return self._frame_fs
+
+    def clock_changed(self) -> None:
+        self._frame_fs = 0
 
     # --- transmit -----------------------------------------------------------------
     def _transmit(self, byte: int, at_fs: int) -> None:
-        end = at_fs + self.frame_fs()
+        regs = self.regs
+        end = at_fs + (self._frame_fs or self.frame_fs())
         self.shift_end.set(end)
-        self.regs[SR] &= ~TC
+        regs[SR] &= ~TC
         self.wiring.sent(self, byte, at_fs, end)
-        if self.regs[CR3] & HDSEL and self.regs[CR1] & RE:
+        if regs[CR3] & HDSEL and regs[CR1] & RE:
             self._echo = byte
 
     def _shifted(self, at_fs: int) -> None:
@@ -93,7 +94,8 @@ class Usart:
             byte, self.tdr = self.tdr, None
             self.regs[SR] |= TXE
             self._transmit(byte, at_fs)
-            self.dma_request()
+            if self.regs[CR3] & DMAT:
+                self.dma_request()
         else:
             self.regs[SR] |= TC
             self.wiring.idle(self, at_fs)
@@ -158,6 +160,8 @@ class Usart:
             self.regs[SR] &= value | ~(TC | RXNE | 0x300)
         elif off in self.regs:
             self.regs[off] = value & 0xFFFF
+            if off in (CR1, CR2, BRR):
+                self._frame_fs = 0
             if off == CR1 and not value & UE:
                 self.regs[SR] = TXE | TC
                 self.tdr = None

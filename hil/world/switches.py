@@ -39,4 +39,4 @@ class SwitchBank:
         return True
 
     def levels(self) -> list[bool]:
-        return [bool(c) for c in self.closed]
+        return self.closed.tolist()      # Python bools, one C call (asked at every link request)

@@ -191,6 +191,15 @@ def _terminated(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt
 
 
+def _interrupted(exc: BaseException | None) -> bool:
+    """Whether a Ctrl-C is what ``exc`` came from (an import turns it into ImportError)."""
+    while exc is not None:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
 def main(argv: list[str] | None = None) -> int:
     if argv is None:  # the console script, not a test calling main() in-process
         signal.signal(signal.SIGTERM, _terminated)
@@ -208,6 +217,10 @@ def main(argv: list[str] | None = None) -> int:
         return exc.code
     except KeyboardInterrupt:
         return 130
+    except ImportError as exc:   # Ctrl-C inside a C extension's initialisation (MuJoCo's)
+        if _interrupted(exc):
+            return 130
+        raise
     except BrokenPipeError:
         return 0
 

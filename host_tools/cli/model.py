@@ -23,7 +23,9 @@ def _mjcf(args: argparse.Namespace) -> int:
 
     if args.scenario:
         sc = scenario_mod.load_scenario(args.scenario)
-        xml = make_world(sc, sc.scenario.seed if args.seed is None else args.seed).xml
+        seed = (sc.scenario.seed if args.seed is None
+                else scenario_mod.check_seed(args.seed, "--seed"))
+        xml = make_world(sc, seed).xml
     else:
         xml = mjcf(RobotParams(), [], 1.0)
     sys.stdout.write(xml)

@@ -23,8 +23,9 @@ def _run(args: argparse.Namespace) -> int:
                                 args.can_server, args.can_wait, args.live, args.realtime,
                                 args.navigator, args.model, args.firmware, args.gdb,
                                 args.coverage, args.overwrite)
-    except RunInterrupted as exc:
-        kept = (f"the trace {args.out} is kept and replays" if args.out
+    except RunInterrupted as exc:   # a beams run's trace holds no firmware link to replay
+        replays = "" if exc.summary.get("world") == "beams" else " and replays"
+        kept = (f"the trace {args.out} is kept{replays}" if args.out
                 else "nothing was recorded (no --out)")
         sys.stderr.write(f"hexhil: interrupted at t={exc.result.sim_time_s:.3f} s: {kept}\n")
         if args.json and exc.summary:

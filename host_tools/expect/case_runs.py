@@ -24,7 +24,6 @@ from host_tools.lockstep_run import Run
 from host_tools.trace import protobuf as pb
 from host_tools.trace import topics
 from host_tools.trace.reader import Trace, info
-from hil.mcu.runtime import FirmwareFault
 from host_tools.trace.target import TraceTarget
 from protocol.errors import UserError
 
@@ -134,16 +133,11 @@ def run_case(job: CaseRun) -> CaseResult:
     kept = None
     with tempfile.TemporaryDirectory(prefix="hexhil-test-") as tmp:
         trace = Path(tmp) / "run.mcap"
-        try:
-            summary = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
-                                   job.python or case.python, tactile, trace, job.timing,
-                                   case.sends, job.firmware or case.firmware,
-                                   dict(job.changed), job.coverage)
-            outcomes = tuple(evaluate(case, summary, trace))
-        except FirmwareFault as exc:   # an ELF's fault (hil/mcu/): this case fails
-            summary = {"sim_time_s": exc.t_s, "trace": str(trace)}
-            outcomes = (Outcome(case.name, "firmware", "fault", str(exc), "no fault", False,
-                                exc.t_s),)
+        summary = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
+                               job.python or case.python, tactile, trace, job.timing,
+                               case.sends, job.firmware or case.firmware,
+                               dict(job.changed), job.coverage)
+        outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
             kept = keep(trace, job.keep_dir, job.label, failed, summary["sim_time_s"],

@@ -8,6 +8,8 @@ from dataclasses import asdict, dataclass
 from enum import Enum
 from typing import Any, Iterable
 
+from host_tools.dynamixel.decode import words
+
 
 class Cause(str, Enum):
     """What a failed check may be. A reply that breaks the spec is the servo's (it cannot come
@@ -48,15 +50,7 @@ def summarise(port: str, baud: int, echo: bool, servos: list[int],
 def format_ids(ids: Iterable[int | None]) -> str:
     """``[1, 2, 3, 5]`` -> ``1-3,5``; ``None`` (a bus-wide row) -> ``-``."""
     nums = sorted({i for i in ids if i is not None})
-    if not nums:
-        return "-"
-    runs: list[list[int]] = []
-    for i in nums:
-        if runs and i == runs[-1][1] + 1:
-            runs[-1][1] = i
-        else:
-            runs.append([i, i])
-    return ",".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
+    return words.ids(nums) if nums else "-"
 
 
 def collapse(checks: list[dict[str, Any]]) -> list[tuple[list[int | None], dict[str, Any]]]:

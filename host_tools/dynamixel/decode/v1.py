@@ -11,8 +11,10 @@ by this rule (``--status``/``--instruction`` force it):
 """
 from __future__ import annotations
 
+from types import ModuleType
 from typing import Any
 
+from host_tools.dynamixel.decode.words import phrase
 from host_tools.trace import protobuf as pb
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
@@ -158,21 +160,15 @@ def decode(data: bytes, lenient: bool = False, force: str | None = None
     return out
 
 
-def names(data: bytes) -> list[str]:
-    """Each packet in ``data`` in a few words ("SYNC_WRITE to 254", "status from 3: ok");
-    malformed packets and garbage are left out (replay's divergences)."""
+def names(data: bytes, table: ModuleType = ax12) -> list[str]:
+    """Each packet in ``data`` in words, its parameters against the control table ``table``
+    (words.py: "WRITE id 3 Goal Position (30) = 512"); malformed packets and garbage are
+    left out (replay's divergences)."""
     try:
         records = decode(data, lenient=True)
     except UserError:        # not one packet in it
         return []
-    return [summary(r) for r in records if r["kind"] != "garbage"]
-
-
-def summary(rec: dict[str, Any]) -> str:
-    """A decoded packet record (``describe``'s) in a few words."""
-    if rec["kind"] == "status":
-        return f"status from {rec['id']}: {','.join(rec['error']) or 'ok'}"
-    return f"{rec['instruction']} to {rec['id']}"
+    return [phrase(r, table) for r in records if r["kind"] != "garbage"]
 
 
 class TracePackets:

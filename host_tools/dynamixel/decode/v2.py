@@ -4,8 +4,10 @@ humans (``hexhil protocol decode``); and the packets each serial burst completes
 trace, in the same ``DynamixelPacket`` schema as Protocol 1.0's (v1.py)."""
 from __future__ import annotations
 
+from types import ModuleType
 from typing import Any
 
+from host_tools.dynamixel.decode.words import phrase
 from host_tools.trace import protobuf as pb
 from protocol.dynamixel import v2 as dx2
 from protocol.dynamixel import xl430 as xl
@@ -75,11 +77,11 @@ def decode(data: bytes) -> list[dict[str, Any]]:
     return out
 
 
-def names(data: bytes) -> list[str]:
-    """Each packet in ``data`` in a few words ("SYNC_READ to 254", "status from 3: ok");
-    garbage is left out (replay's divergences)."""
-    return [f"status from {r['id']}: {','.join(r['error']) or 'ok'}" if r["kind"] == "status"
-            else f"{r['instruction']} to {r['id']}" for r in decode(data) if r["kind"] != "garbage"]
+def names(data: bytes, table: ModuleType = xl) -> list[str]:
+    """Each packet in ``data`` in words, its parameters against the control table ``table``
+    (words.py: "SYNC_READ Present Position (132) 4 bytes ids 1-18"); garbage is left out
+    (replay's divergences)."""
+    return [phrase(r, table) for r in decode(data) if r["kind"] != "garbage"]
 
 
 class TracePackets:

@@ -5,17 +5,14 @@ registers the beams world's run, so ``hexhil run`` of a beams scenario and
 ``host_tools.Run`` traverse (host_tools/plugins.py)."""
 from __future__ import annotations
 
-from hil.run_result import RunResult
-from hil.scenario import Scenario, WorldKind
-from hil.seams import CanGateway, TraceRecorder
+from hil.scenario import WorldKind
 from host_tools import plugins
 
 
-def _run(scenario: Scenario, seed: int, recorder: TraceRecorder | None,
-         can_server: CanGateway | None, scene: bool, realtime: bool) -> RunResult:
-    from host_tools.papers.beam_traversal import beams_run
+def _load() -> plugins.SteppedRun:
+    from host_tools.papers.beam_traversal import beams_run   # scipy, MuJoCo: when a run is made
 
-    return beams_run.run_scenario(scenario, seed, recorder, can_server, scene, realtime)
+    return beams_run.run_scenario
 
 
-plugins.register_stepped_run(WorldKind.BEAMS, _run)
+plugins.register_stepped_run(WorldKind.BEAMS, _load)

@@ -20,7 +20,7 @@ from typing import Any
 from hil.scenario.world_section import OBSTACLE_BODY
 from hil.world.hexapod_world import yaw_rad
 from host_tools.papers.tactile_hexapod.grnn import data as data_mod
-from hil.scenario import WorldKind
+from hil.scenario import WorldKind, check_seed
 from host_tools.papers.tactile_hexapod.grnn.features import StepRow, StepSampler
 from host_tools.progress import Progress
 from host_tools.lockstep_run import scenario_of_trace
@@ -177,6 +177,9 @@ def build(out_dir: Path, opts: DatasetOptions, progress: Progress | None = None
         if opts.terrains < 1:
             raise UserError(f"terrains must be at least 1, got {opts.terrains}",
                             params=("terrains",))
+        check_seed(opts.seed, "seed", params=("seed",))
+        check_seed(opts.seed + opts.terrains - 1, "seed + terrains - 1 (the last terrain seed)",
+                   params=("seed", "terrains"))
         if not opts.distance_m > 0:
             raise UserError(f"distance_m must be positive, got {opts.distance_m}",
                             params=("distance_m",))

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from hil.scenario import check_seed
 from host_tools.extras import require
 
 require("torch")   # before torch itself: a missing extra is one line, not a traceback
@@ -130,6 +131,7 @@ class TrainResult:
 def main(data: str, out: str, epochs: int = 50, seed: int = 0,
          progress: Progress | None = None) -> TrainResult:
     """Train on ``data`` (dataset.npz or its folder) and write the model file ``out``."""
+    check_seed(seed, "seed", params=("seed",))
     if not Path(out).parent.is_dir():
         raise UserError(f"out {out}: no folder {Path(out).parent}", params=("out",))
     ds = data_mod.read(data)

@@ -1,0 +1,180 @@
+"""The MCU's address space of registers as Unicorn MMIO callbacks: the peripherals at
+0x4000_0000 (APB1, APB2, AHB1, a page of 1 KB each) and the core's private peripheral bus
+at 0xE000_0000 (hil/mcu/system.py).
+
+Every access first fires what fell due by its cycle, so a read sees the state of its own
+instant. The peripheral callbacks go straight through ctypes (Unicorn's Python wrapper
+costs two more Python frames an access) and find their peripheral in one dict of the
+pages that answer now: a peripheral whose RCC clock is off is not there (the access is
+logged once and reads 0), and the dict is rebuilt at each RCC write. A side-effect-free
+read of a pollable register goes to the poll skipper (hil/mcu/poll.py).
+"""
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from unicorn import Uc
+from unicorn.unicorn_py3.unicorn import MMIO_READ_CFUNC, MMIO_WRITE_CFUNC, uclib
+
+from hil.mcu.rcc import CLOCK_BITS
+
+log = logging.getLogger(__name__)
+PERIPH_BASE, PERIPH_SIZE = 0x40000000, 0x80000      # APB1, APB2, AHB1
+PPB_BASE, PPB_SIZE = 0xE0000000, 0x100000
+
+
+class PeripheralSpace:
+    """The register pages of ``board`` (hil/mcu/board.py) and Unicorn's view of them."""
+
+    def __init__(self, board: Any) -> None:
+        self.board = board
+        self.unmodelled: set[int] = set()      # pages logged once
+        self._pages: dict[int, Any] = {}
+        self._gates: dict[int, tuple[int, int]] = {}
+        self._live: dict[int, Any] = {}
+        self._callbacks: tuple = ()
+
+    def attach(self, uc: Uc) -> None:
+        self._callbacks = (MMIO_READ_CFUNC(self.read), MMIO_WRITE_CFUNC(self.write))
+        if uclib.uc_mmio_map(uc._uch, PERIPH_BASE, PERIPH_SIZE, self._callbacks[0], None,
+                             self._callbacks[1], None):
+            raise RuntimeError("Unicorn refused to map the peripherals")
+        uc.mmio_map(PPB_BASE, PPB_SIZE, self.ppb_read, None, self.ppb_write, None)
+
+    def clear(self) -> None:
+        """No peripheral mapped (a reset maps new ones)."""
+        self._pages, self._gates, self._live = {}, {}, {}
+
+    def map(self, base: int, periph: Any) -> None:
+        page = (base - PERIPH_BASE) >> 10
+        self._pages[page] = periph
+        name = getattr(periph, "name", None)
+        if name in CLOCK_BITS:
+            self._gates[page] = CLOCK_BITS[name]
+
+    def relive(self) -> None:
+        """The pages whose peripheral answers now (its RCC clock on, or not gated): looked
+        up once per access instead of the clock gate each time; rebuilt at each RCC write."""
+        regs = self.board.rcc.regs
+        self._live = {page: p for page, p in self._pages.items()
+                      if page not in self._gates
+                      or regs.get(self._gates[page][0], 0) >> self._gates[page][1] & 1}
+
+    def _unmodelled(self, addr: int, kind: str) -> None:
+        page = addr & ~0x3FF
+        if page not in self.unmodelled:
+            self.unmodelled.add(page)
+            log.warning("firmware %s an unmodelled peripheral at 0x%08x (reads 0, writes are "
+                        "dropped)", kind, addr)
+
+    def _dead(self, offset: int, kind: str) -> None:
+        """An access to a page without a live peripheral: its clock is off, or nothing
+        is modelled there (logged once a page)."""
+        page = offset >> 10
+        if page in self._pages:
+            self._unmodelled(PERIPH_BASE + offset, f"used {self._pages[page].name} with "
+                             "its RCC clock off:")
+        else:
+            self._unmodelled(PERIPH_BASE + offset, kind)
+
+    @staticmethod
+    def _taken_next(board: Any) -> None:
+        """A write that made an exception ready (an interrupt enable, a pending bit, a
+        flag's interrupt): it is taken after this instruction, not at the chunk's end."""
+        nvic = board.nvic
+        if nvic.pending and nvic.next_exception() is not None:
+            board.core.cut_after()
+
+    def _due(self) -> None:
+        """Fire what fell due by the instruction running now."""
+        events = self.board.events
+        if events.heap:
+            now = self.board.core.now_fs()
+            if events.heap[0][0] <= now:
+                events.fire_due(now)
+
+    def _failed(self, exc: BaseException) -> None:
+        """An exception inside a callback: the chunk stops and ``emu_start`` raises it
+        (what Unicorn's own callback wrapper does, which these callbacks bypass)."""
+        uc = self.board.core.uc
+        if uc._hook_exception is None:
+            uc._hook_exception = exc
+        uc.emu_stop()
+
+    def read(self, handle: int, offset: int, size: int, _ud: int) -> int:
+        """Unicorn's MMIO read callback for the peripheral space, called through ctypes
+        directly (Unicorn's Python wrapper costs two more Python frames a register)."""
+        try:
+            board = self.board
+            heap = board.events.heap
+            if heap:
+                now = board.core.now_fs()
+                if heap[0][0] <= now:
+                    board.events.fire_due(now)
+            p = self._live.get(offset >> 10)
+            if p is None:
+                board.poll._poll_key = None           # poll.other_access()
+                self._dead(offset, "read")
+                return 0
+            off = offset & 0x3FC
+            value = p.read(off)
+            if size != 4 or offset & 3:
+                value = (value >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
+            if off not in p.pollable:
+                board.poll._poll_key = None           # poll.other_access()
+            elif board.poll.polled(PERIPH_BASE + offset, value):
+                value = (p.read(off) >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
+            return value
+        except BaseException as exc:      # noqa: B036 -- handed to emu_start, as Unicorn does
+            self._failed(exc)
+            return 0
+
+    def write(self, handle: int, offset: int, size: int, value: int, _ud: int) -> None:
+        try:
+            board = self.board
+            heap = board.events.heap
+            if heap:
+                now = board.core.now_fs()
+                if heap[0][0] <= now:
+                    board.events.fire_due(now)
+            board.poll._poll_key = None           # poll.other_access()
+            p = self._live.get(offset >> 10)
+            if p is None:
+                self._dead(offset, "wrote")
+                return
+            if size < 4:
+                shift = 8 * (offset & 3)
+                mask = ((1 << 8 * size) - 1) << shift
+                value = (p.read(offset & 0x3FC) & ~mask) | ((value << shift) & mask) \
+                    if p.pollable and (offset & 0x3FC) in p.pollable else value << shift
+            p.write(offset & 0x3FC, value & 0xFFFFFFFF)
+            if p is board.rcc:
+                self.relive()
+            self._taken_next(board)
+        except BaseException as exc:      # noqa: B036
+            self._failed(exc)
+
+    def ppb_read(self, uc, offset: int, size: int, _) -> int:
+        board = self.board
+        self._due()
+        addr = PPB_BASE + offset
+        value = (board.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
+        if addr & ~3 not in board.ppb.pollable:
+            board.poll.other_access()
+        elif board.poll.polled(addr, value):
+            value = (board.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
+        return value
+
+    def ppb_write(self, uc, offset: int, size: int, value: int, _) -> None:
+        board = self.board
+        self._due()
+        board.poll.other_access()
+        addr = PPB_BASE + offset
+        if size < 4 and (0xE000E400 <= addr < 0xE000E500 or 0xE000ED18 <= addr < 0xE000ED24):
+            word = board.ppb.read(addr & ~3)
+            shift = 8 * (addr & 3)
+            mask = ((1 << 8 * size) - 1) << shift
+            value = (word & ~mask) | ((value << shift) & mask)
+        board.ppb.write(addr & ~3, value)
+        self._taken_next(board)
