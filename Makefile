@@ -24,8 +24,8 @@ $(STAMP): pyproject.toml hil/world/drive_core.c hil/servobus/servo_core.c
 $(DRIVE_CORE): hil/world/drive_core.c
 	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ $<
 
-# the AX-12s' SYNC_WRITE compiled (hil/servobus/servo_core.py), built the same way: the same
-# bits as the Python servos (exp and rint from the C library, as CPython's)
+# the AX-12s' SYNC_WRITE and READ compiled (hil/servobus/servo_core.py), built the same way:
+# the same bits as the Python servos (exp and rint from the C library, as CPython's)
 $(SERVO_CORE): hil/servobus/servo_core.c
 	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ $<
 
