@@ -7,20 +7,26 @@ STAMP := $(VENV)/.installed
 .PHONY: demo test test-slow bench fuzz clean toolchain
 
 DRIVE_CORE := hil/world/_drive_core.so
+SERVO_CORE := hil/servobus/_servo_core.so
 
-$(STAMP): pyproject.toml hil/world/drive_core.c
+$(STAMP): pyproject.toml hil/world/drive_core.c hil/servobus/servo_core.c
 	test -d $(VENV) || $(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --disable-pip-version-check -e '.[test,grnn,dask]'
 	# pypot's serial layer for the stock-client tests (issue 42); its declared dependencies
 	# pull OpenCV, which pypot.dynamixel never imports
 	$(BIN)/pip install -q --disable-pip-version-check --no-deps pypot==5.0.2
-	$(MAKE) $(DRIVE_CORE)
+	$(MAKE) $(DRIVE_CORE) $(SERVO_CORE)
 	touch $(STAMP)
 
 # the drive bank's compiled step (hil/world/drive_core.py), by the pinned ziglang's cc for
 # the baseline CPU (the tree may be copied to another machine); no fused multiply-add, so
 # its duties are numpy's bits
 $(DRIVE_CORE): hil/world/drive_core.c
+	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ $<
+
+# the AX-12s' SYNC_WRITE and READ compiled (hil/servobus/servo_core.py), built the same way:
+# the same bits as the Python servos (exp and rint from the C library, as CPython's)
+$(SERVO_CORE): hil/servobus/servo_core.c
 	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ $<
 
 # The ARM toolchain for STM32F411 ELFs (hexhil sdk build --target stm32f411, the ELF tests):
@@ -54,4 +60,4 @@ fuzz: $(STAMP)
 	$(BIN)/python -m fuzz $(FUZZ)
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache $(DRIVE_CORE)
+	rm -rf $(VENV) build *.egg-info .pytest_cache $(DRIVE_CORE) $(SERVO_CORE)

@@ -47,7 +47,7 @@ def _hexhil_rtf(*extra: str) -> float:
 
 def _median_rtf(record: bool, *extra: str) -> float:
     with tempfile.TemporaryDirectory() as tmp:
-        out = ("--out", str(Path(tmp) / "run.mcap")) if record else ()
+        out = ("--out", str(Path(tmp) / "run.mcap"), "--overwrite") if record else ()
         return statistics.median(_hexhil_rtf(*out, *extra) for _ in range(RUNS))
 
 

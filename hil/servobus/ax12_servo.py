@@ -16,6 +16,8 @@ marked "our choice" and listed in docs/servo-bus.md.
 """
 from __future__ import annotations
 
+import ctypes
+
 from hil.servobus.drive import Actuator, KinematicActuator, drive, is_moving, wheel_mode
 from hil.servobus.table_servo import TableServo
 from hil.servobus.health import ServoHealth
@@ -65,13 +67,23 @@ def sync_entries(params: bytes) -> tuple[int, dict[int, bytes]] | None:
     return out
 
 
-class Servo(TableServo):
+class Servo(TableServo, ctypes.Structure):
     """One AX-12A on the bus; ``handle`` takes a parsed instruction and returns the reply.
 
     ``handle``/``checksum_error`` return the status packet to send (bytes) or None; the
     bus adds the return delay and wire time. ``instructions`` counts packets executed.
+
+    Its clock, counters and flags are ctypes fields (and its table keeps its buffer: a
+    reset rewrites it in place), so the compiled SYNC_WRITE (hil/servobus/servo_core.c,
+    ``struct servo``) steps the same state this class does.
     """
 
+    _fields_ = [("t_us", ctypes.c_int64), ("busy_until_us", ctypes.c_int64),
+                ("deaf_until_us", ctypes.c_int64), ("held_us", ctypes.c_int64),
+                ("held", ctypes.c_int64), ("instructions", ctypes.c_int64),
+                ("ignored", ctypes.c_int64), ("eeprom_busy_us", ctypes.c_int64),
+                ("alarm_led", ctypes.c_bool), ("address_changed", ctypes.c_bool),
+                ("_present_stale", ctypes.c_bool)]
     layout = ax12
 
     def __init__(self, dev_id: int = 1, edition: str = ax12.EDITION_EMANUAL,
@@ -189,7 +201,7 @@ class Servo(TableServo):
         eeprom = bytes(self.table[:ax12.EEPROM_END])
         t = self._present()
         pos = t[36] | (t[37] << 8)
-        self.table = ax12.defaults(self.edition, pos)
+        self.table[:] = ax12.defaults(self.edition, pos)
         self.table[:ax12.EEPROM_END] = eeprom
         self.table[ax12.TORQUE_LIMIT] = eeprom[ax12.MAX_TORQUE]
         self.table[ax12.TORQUE_LIMIT + 1] = eeprom[ax12.MAX_TORQUE + 1]
@@ -331,7 +343,7 @@ class Servo(TableServo):
     def _factory_reset(self) -> None:
         t = self._present()
         pos = t[36] | (t[37] << 8)
-        self.table = ax12.defaults(self.edition, pos)
+        self.table[:] = ax12.defaults(self.edition, pos)
         self.deaf_until_us = self.t_us + self.eeprom_busy_us
         self._registered = None
         self.health.overload = False

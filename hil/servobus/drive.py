@@ -31,8 +31,8 @@ def wheel_mode(table: bytearray) -> bool:
 # protocol/dynamixel/ax12.py's own conversions (the same floats): ``drive`` runs for every servo on
 # every SYNC_WRITE. Moving Speed keeps 11 bits (a wheel-mode value stays after a return to
 # joint mode).
-_POSITION_RAD = [ax12.position_to_rad(v) for v in range(ax12.POSITION_MAX + 1)]
-_SPEED_RAD_S = [ax12.speed_to_rad_s(v) for v in range(2048)]
+POSITION_RAD = [ax12.position_to_rad(v) for v in range(ax12.POSITION_MAX + 1)]
+SPEED_RAD_S = [ax12.speed_to_rad_s(v) for v in range(2048)]
 
 
 def drive(actuator: Actuator, table: bytearray, supply_frac: float) -> None:
@@ -55,8 +55,8 @@ def drive(actuator: Actuator, table: bytearray, supply_frac: float) -> None:
         cw = t[6] | (t[7] << 8)
         ccw = t[8] | (t[9] << 8)
         goal = t[30] | (t[31] << 8)
-        goal_rad = _POSITION_RAD[cw if goal < cw else (ccw if goal > ccw else goal)]
-        speed_rad_s = _SPEED_RAD_S[speed]
+        goal_rad = POSITION_RAD[cw if goal < cw else (ccw if goal > ccw else goal)]
+        speed_rad_s = SPEED_RAD_S[speed]
     actuator.command(
         goal_rad,
         min(speed_rad_s, NO_LOAD_RAD_S * supply_frac),

@@ -7,6 +7,7 @@ docs/servo-bus.md. The servo (hil/servobus/ax12_servo.py) acts on the bits: Alar
 """
 from __future__ import annotations
 
+import ctypes
 import math
 
 from protocol.dynamixel import ax12
@@ -28,22 +29,35 @@ def _unit_byte(n: int) -> int:
     return 0 if n < 0 else (255 if n > 255 else n)
 
 
-class ServoHealth:
+class ServoHealth(ctypes.Structure):
     """Supply, temperature and the overload latch, with their control-table units.
 
     Present Voltage and Present Temperature units are kept beside the SI values: the alarm
-    check reads them twice per instruction.
+    check reads them twice per instruction. A ctypes structure: the compiled SYNC_WRITE
+    (hil/servobus/servo_core.c, its ``struct health``) steps it in place.
     """
 
-    __slots__ = ("supply_v", "supply_frac", "voltage_units", "temperature_c",
-                 "temperature_units", "hot_spot_c", "overload", "saturated_us")
+    _fields_ = [("supply_v", ctypes.c_double), ("supply_frac", ctypes.c_double),
+                ("temperature_c", ctypes.c_double), ("_hot_spot_c", ctypes.c_double),
+                ("saturated_us", ctypes.c_int64), ("voltage_units", ctypes.c_int32),
+                ("temperature_units", ctypes.c_int32),
+                ("overload", ctypes.c_bool),   # latched until Torque Limit is written again
+                ("_hot", ctypes.c_bool)]
 
     def __init__(self) -> None:
+        super().__init__()
         self.set_supply_v(SUPPLY_V)
         self._set_temperature_c(AMBIENT_C)
-        self.hot_spot_c: float | None = None   # injected overheating target
-        self.overload = False                  # latched until Torque Limit is written again
-        self.saturated_us = 0
+
+    @property
+    def hot_spot_c(self) -> float | None:
+        """The injected overheating target, or None."""
+        return self._hot_spot_c if self._hot else None
+
+    @hot_spot_c.setter
+    def hot_spot_c(self, celsius: float | None) -> None:
+        self._hot = celsius is not None
+        self._hot_spot_c = 0.0 if celsius is None else celsius
 
     def set_supply_v(self, volts: float) -> None:
         """The supply, and ``supply_frac``: its fraction of the rated 12 V, in [0, 1], what
@@ -69,8 +83,8 @@ class ServoHealth:
                 self.overload = True
         else:
             self.saturated_us = 0
-        if self.hot_spot_c is not None:
-            target, tau = self.hot_spot_c, OVERHEAT_TAU_S
+        if self._hot:
+            target, tau = self._hot_spot_c, OVERHEAT_TAU_S
         else:
             target, tau = AMBIENT_C + HEAT_AT_FULL_LOAD_C * load_frac * load_frac, THERMAL_TAU_S
         if target != self.temperature_c:

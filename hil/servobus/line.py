@@ -19,6 +19,7 @@ from typing import Callable, Iterable
 
 from hil.clock import VirtualClock
 from hil.servobus.ax12_servo import Servo
+from hil.servobus.servo_core import ServoBank
 from hil.servobus.wire import US_BITS, Burst, resample
 from protocol.dynamixel import v1 as dxl
 
@@ -73,6 +74,7 @@ class Bus:
                 self._by_id.setdefault(s.id, []).append(s)
             else:
                 self._foreign.append((s, self.parser_class()))
+        self._servo_bank = ServoBank.build(self._same, Servo)
 
     def add_device(self, device) -> None:
         """Another Protocol 1.0 device on the line (hil/servobus/switch_node.py), served like a servo."""
@@ -319,6 +321,10 @@ class Bus:
 
     def _dispatch(self, dev_id: int, code: int, params: bytes, t_us: int) -> None:
         if dev_id == dxl.BROADCAST_ID:
+            if code == dxl.SYNC_WRITE and self._servo_bank is not None and not self._off:
+                if self._servo_bank.sync_write(params, t_us):   # an ID or baud changed
+                    self._reindex()
+                return
             targets = self._same
         else:
             targets = self._by_id.get(dev_id)
@@ -327,10 +333,14 @@ class Bus:
                 return
         off = self._off
         changed = False
+        bank = self._servo_bank
         for s in targets:
             if off and id(s) in off:
                 continue
-            reply = s.handle(code, params, dev_id == dxl.BROADCAST_ID, t_us)
+            reply = False if bank is None or code != dxl.READ or dev_id == dxl.BROADCAST_ID \
+                else bank.read(s, params, t_us)   # False: the servo's own handle answers
+            if reply is False:
+                reply = s.handle(code, params, dev_id == dxl.BROADCAST_ID, t_us)
             if reply is not None:
                 self._schedule(s, reply, t_us)
             changed = changed or s.address_changed

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -82,6 +82,9 @@ class DriveBank:
         self.punch = np.zeros(n)
         self.duty = np.zeros(n)
         self.read_offset_rad = [0.0] * n    # potentiometer zero offsets (real model)
+        # the compliance registers each joint's margin, slope and punch were last set from
+        # (NaN: never), shared with the compiled servo bank (hil/servobus/servo_core.c)
+        self.compliance_seen = np.full((n, 5), np.nan)
         for i in range(n):
             self.set_compliance(i, DEFAULT_COMPLIANCE)
         self._compiled = drive_core.CompiledDuty(
@@ -90,12 +93,24 @@ class DriveBank:
              "margin": self.margin_rad, "slope": self.slope_rad, "punch": self.punch,
              "duty": self.duty, "enabled": self.enabled}) if drive_core.available() else None
 
+    def buffers(self) -> dict[str, Any]:
+        """Its arrays by name, which a compiled servo bank (hil/servobus/servo_core.py)
+        writes the servos' set-points into, and the constants it needs."""
+        return {"goal": self.goal_rad, "setpoint": self.setpoint_rad,
+                "speed": self.speed_limit_rad_s, "torque_limit": self.torque_limit,
+                "margin": self.margin_rad, "slope": self.slope_rad, "punch": self.punch,
+                "compliance": self.compliance_seen, "enabled": self.enabled,
+                "duty": self.duty, "offset": self.read_offset_rad,
+                "motor_no_load": self.motor.no_load_speed_rad_s,
+                "position_unit": POSITION_UNIT_RAD, "punch_unit": PUNCH_FRACTION_PER_UNIT}
+
     def set_compliance(self, i: int, compliance: tuple[int, int, int, int, int]) -> None:
         cw_m, ccw_m, cw_s, ccw_s, punch = compliance
         self.margin_rad[:, i] = (cw_m * POSITION_UNIT_RAD, ccw_m * POSITION_UNIT_RAD)
         # a slope of 0 would be a step; the smallest real slope is 1 unit
         self.slope_rad[:, i] = (max(cw_s, 1) * POSITION_UNIT_RAD, max(ccw_s, 1) * POSITION_UNIT_RAD)
         self.punch[i] = punch * PUNCH_FRACTION_PER_UNIT
+        self.compliance_seen[i] = compliance
 
     def control_into(self, q_rad: np.ndarray, dt_s: float, ctrl: np.ndarray) -> None:
         """Advance set-points by one step and write the motor torques (N m) into ``ctrl``
@@ -144,6 +159,8 @@ class JointWorld(Protocol):
 
     drives: DriveBank
 
+    def joint_buffers(self) -> dict[str, Any]: ...
+
     def joint_state_lists(self) -> tuple[list[float], list[float], list[float]]: ...
 
     def advance_to(self, t_us: int) -> None: ...
@@ -155,7 +172,6 @@ class MujocoActuator:
     def __init__(self, world: JointWorld, index: int) -> None:
         self.world = world
         self.index = index
-        self._compliance: tuple[int, int, int, int, int] | None = None
 
     def command(self, goal_rad: float, speed_limit_rad_s: float, torque_limit_frac: float,
                 enabled: bool, compliance: tuple[int, int, int, int, int] | None = None) -> None:
@@ -168,9 +184,13 @@ class MujocoActuator:
             else bank.motor.no_load_speed_rad_s
         bank.torque_limit[i] = min(max(torque_limit_frac, 0.0), 1.0)
         bank.enabled[i] = bool(enabled)
-        if compliance is not None and compliance != self._compliance:
+        if compliance is not None and compliance != tuple(bank.compliance_seen[i].tolist()):
             bank.set_compliance(i, compliance)
-            self._compliance = compliance
+
+    def joint_buffers(self) -> tuple[dict[str, Any], int]:
+        """The world's joint and drive arrays (hil/servobus/servo_core.py) and this joint's
+        index in them."""
+        return self.world.joint_buffers(), self.index
 
     def state(self) -> tuple[float, float, float]:
         """Present position (rad), speed (rad/s) and load (signed fraction of stall torque)."""

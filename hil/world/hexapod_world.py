@@ -20,6 +20,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -245,6 +246,7 @@ class HexapodWorld:
         self._lists_t_us = -1
         self._lists: tuple[list[float], list[float], list[float]] = ([], [], [])
         self._actuators = [act.MujocoActuator(self, i) for i in range(18)]
+        self._buffers: dict[str, Any] | None = None
         self._sample()
 
     # --- the simulator's hooks ----------------------------------------------------------
@@ -263,6 +265,14 @@ class HexapodWorld:
                 self._log_switches()
             if self.t_us % 100_000 == 0:
                 self._sample()
+
+    def joint_buffers(self) -> dict[str, Any]:
+        """The joint state and drive bank arrays, by name, and this world's ``advance_to``:
+        what a compiled servo bank reads and writes (hil/servobus/servo_core.py)."""
+        if self._buffers is None:
+            self._buffers = {**self.drives.buffers(), "q": self._q, "qd": self._qd,
+                             "advance": self.advance_to}
+        return self._buffers
 
     def joint_state_lists(self) -> tuple[list[float], list[float], list[float]]:
         """Joint positions (rad), velocities (rad/s) and drive duties as Python lists, made

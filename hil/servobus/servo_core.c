@@ -1,0 +1,356 @@
+/* The AX-12s' two instructions of every cycle: a SYNC_WRITE carried out by every servo on
+ * the line in one call, what hil/servobus/ax12_servo.py's Servo.handle does for each of them
+ * (catch up its health to the packet's time, look its ID up in the packet, check the write
+ * against its control table, apply it and hand the set-point to its MuJoCo joint,
+ * hil/world/actuator.py), and a READ answered with its status packet. The same
+ * IEEE operations in the same order, so the tables, the drives and the trace are the same
+ * bits (built with -ffp-contract=off: no fused multiply-add; exp and rint are the C
+ * library's, which CPython's math.exp and round call too). The servos' state lives in
+ * ctypes structures the Python code reads and writes as attributes (servo_core.py).
+ * Loaded by hil/servobus/servo_core.py; built by the Makefile. */
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+/* hil/servobus/health.py ServoHealth's fields, in its _fields_ order */
+struct health {
+    double supply_v, supply_frac, temperature_c, hot_spot_c;
+    int64_t saturated_us;
+    int32_t voltage_units, temperature_units;
+    uint8_t overload, hot;
+};
+
+/* hil/servobus/ax12_servo.py Servo's fields, in its _fields_ order */
+struct servo {
+    int64_t t_us, busy_until_us, deaf_until_us, held_us, held, instructions, ignored,
+        eeprom_busy_us;
+    uint8_t alarm_led, address_changed, present_stale;
+};
+
+/* one control-table cell's field, from protocol/dynamixel/ax12.py (start < 0: reserved) */
+struct cell {
+    int32_t start, size, lo, hi, writable;
+};
+
+struct bank {
+    int n;
+    struct servo **servo;
+    struct health **health;
+    unsigned char **table;
+    const int32_t *joint;          /* the servo's joint in the world; -1: not a MuJoCo joint */
+    const int32_t *original;       /* the 2006 manual's Lock rule */
+    const struct cell *cells;      /* 50 */
+    const double *position_rad;    /* 1024: drive.py _POSITION_RAD */
+    const double *speed_rad_s;     /* 2048: drive.py _SPEED_RAD_S */
+    /* the world: joint state (read) and the drive bank (written) */
+    const double *q, *qd, *duty, *offset;
+    double *goal, *setpoint, *speed, *torque_limit, *margin, *slope, *punch, *compliance;
+    unsigned char *enabled;
+    int joints;                    /* the drive bank's size: margin and slope rows */
+    double motor_no_load, ax12_no_load, speed_unit, load_unit, position_unit, punch_unit,
+        moving_eps;
+    /* health.py constants */
+    double ambient_c, heat_c, thermal_tau_s, overheat_tau_s;
+    int64_t overload_us;
+};
+
+enum { ERR_INPUT_VOLTAGE = 0x01, ERR_OVERHEATING = 0x04, ERR_RANGE = 0x08, ERR_OVERLOAD = 0x20,
+       ERR_INSTRUCTION = 0x40 };
+enum { ID = 3, BAUD = 4, CW = 6, CCW = 8, TEMP_LIMIT = 11, MIN_V = 12, MAX_V = 13,
+       ALARM_LED = 17, SHUTDOWN = 18, EEPROM_END = 24, TORQUE_ENABLE = 24, GOAL = 30,
+       MOVING_SPEED = 32, TORQUE_LIMIT = 34, PRESENT_POSITION = 36, PRESENT_VOLTAGE = 42,
+       PRESENT_TEMPERATURE = 43, MOVING = 46, LOCK = 47, PUNCH = 48, TABLE_SIZE = 50,
+       STATUS_RETURN_LEVEL = 16, DIRECTION = 0x400 };
+
+/* Python's min(a, b) and max(a, b): the first unless the second is strictly beyond it */
+static double py_min(double a, double b) { return b < a ? b : a; }
+static double py_max(double a, double b) { return b > a ? b : a; }
+
+static int u16(const unsigned char *t, int a) { return t[a] | (t[a + 1] << 8); }
+static int wheel(const unsigned char *t) { return !(t[6] || t[7] || t[8] || t[9]); }
+
+/* MujocoActuator.state()[0] and [2] */
+static double present_rad(const struct bank *b, int j) { return b->q[j] + b->offset[j]; }
+static double load_frac(const struct bank *b, int j)
+{
+    double load = b->duty[j] - b->qd[j] / b->motor_no_load;
+    return py_max(-1.0, py_min(1.0, load));
+}
+
+/* drive.py drive() into MujocoActuator.command() */
+static void command(const struct bank *b, const unsigned char *t, double supply_frac, int j)
+{
+    int speed = u16(t, MOVING_SPEED);
+    double goal_rad, speed_rad_s;
+    if (wheel(t)) {
+        int mag = speed & 0x3FF;
+        if (mag)
+            goal_rad = (speed & 0x400) ? -INFINITY : INFINITY;
+        else
+            goal_rad = present_rad(b, j);
+        speed_rad_s = (double)mag * b->speed_unit * 2.0 * M_PI / 60.0;
+    } else {
+        int cw = u16(t, CW), ccw = u16(t, CCW), goal = u16(t, GOAL);
+        goal_rad = b->position_rad[goal < cw ? cw : (goal > ccw ? ccw : goal)];
+        speed_rad_s = b->speed_rad_s[speed];
+    }
+    double limit = py_min(speed_rad_s, b->ax12_no_load * supply_frac);
+    double torque = (double)u16(t, TORQUE_LIMIT) * b->load_unit * supply_frac;
+    int enabled = t[TORQUE_ENABLE] != 0;
+    if (enabled && !b->enabled[j])
+        b->setpoint[j] = present_rad(b, j);   /* resume from where it reads */
+    b->goal[j] = goal_rad;
+    b->speed[j] = limit > 0 ? limit : b->motor_no_load;
+    b->torque_limit[j] = py_min(py_max(torque, 0.0), 1.0);
+    b->enabled[j] = (unsigned char)enabled;
+    double c[5] = {t[26], t[27], t[28], t[29], u16(t, PUNCH)};
+    double *seen = b->compliance + 5 * j;
+    if (memcmp(c, seen, sizeof c) != 0 || seen[0] != seen[0]) {   /* DriveBank.set_compliance */
+        int n = b->joints;
+        b->margin[j] = c[0] * b->position_unit;
+        b->margin[n + j] = c[1] * b->position_unit;
+        b->slope[j] = py_max(c[2], 1.0) * b->position_unit;
+        b->slope[n + j] = py_max(c[3], 1.0) * b->position_unit;
+        b->punch[j] = c[4] * b->punch_unit;
+        memcpy(seen, c, sizeof c);
+    }
+}
+
+/* health.py ServoHealth.advance */
+static void health_advance(const struct bank *b, struct health *h, int64_t dt_us, double load,
+                           int torque_limit)
+{
+    if (torque_limit && fabs(load) * 1023.0 >= (double)torque_limit * h->supply_frac - 0.5) {
+        h->saturated_us += dt_us;
+        if (h->saturated_us >= b->overload_us)
+            h->overload = 1;
+    } else {
+        h->saturated_us = 0;
+    }
+    double target, tau;
+    if (h->hot) {
+        target = h->hot_spot_c;
+        tau = b->overheat_tau_s;
+    } else {
+        target = b->ambient_c + b->heat_c * load * load;
+        tau = b->thermal_tau_s;
+    }
+    if (target != h->temperature_c) {
+        double k = exp((double)(-dt_us) * 1e-6 / tau);
+        double c = target + (h->temperature_c - target) * k;
+        int64_t units = (int64_t)rint(c);   /* Python's round: half to even */
+        h->temperature_c = c;
+        h->temperature_units = units < 0 ? 0 : (units > 255 ? 255 : (int32_t)units);
+    }
+}
+
+static int health_errors(const struct health *h, const unsigned char *t)
+{
+    int e = 0;
+    if (h->voltage_units < t[MIN_V] || h->voltage_units > t[MAX_V])
+        e |= ERR_INPUT_VOLTAGE;
+    if (h->temperature_units > t[TEMP_LIMIT])
+        e |= ERR_OVERHEATING;
+    if (h->overload)
+        e |= ERR_OVERLOAD;
+    return e;
+}
+
+/* Servo.advance_to for a servo behind t_us (the world is already there) */
+static void advance(const struct bank *b, int i, int64_t t_us)
+{
+    struct servo *s = b->servo[i];
+    int64_t dt = t_us - s->t_us;
+    if (dt <= 0)
+        return;
+    s->t_us = t_us;
+    unsigned char *t = b->table[i];
+    struct health *h = b->health[i];
+    int tl = t[TORQUE_ENABLE] ? u16(t, TORQUE_LIMIT) : 0;
+    health_advance(b, h, dt, load_frac(b, b->joint[i]), tl);
+    s->present_stale = 1;
+    int errors = health_errors(h, t);
+    if (errors) {   /* Servo._alarm */
+        if (errors & t[ALARM_LED])
+            s->alarm_led = 1;
+        if ((errors & t[SHUTDOWN]) && (t[TORQUE_LIMIT] || t[TORQUE_LIMIT + 1])) {
+            t[TORQUE_LIMIT] = 0;
+            t[TORQUE_LIMIT + 1] = 0;
+            command(b, t, h->supply_frac, b->joint[i]);
+            s->present_stale = 1;
+        }
+    }
+}
+
+/* Servo.check_write's Range bit (the only one a SYNC_WRITE acts on) */
+static int refused(const struct bank *b, int i, int a, const unsigned char *d, int n)
+{
+    const unsigned char *t = b->table[i];
+    int end = a + n;
+    if (end > TABLE_SIZE)
+        return 1;
+    if (t[LOCK]) {
+        if (b->original[i]) {
+            if (a < TORQUE_ENABLE || end > PRESENT_POSITION)
+                return 1;
+        } else if (a < EEPROM_END || (a <= LOCK && LOCK < end && d[LOCK - a] == 0)) {
+            return 1;
+        }
+    }
+    int w = wheel(t);
+    for (int c = a; c < end;) {
+        const struct cell *f = &b->cells[c];
+        if (f->start < 0 || !f->writable)
+            return 1;
+        int start = f->start;
+        int lo = start >= a ? d[start - a] : t[start];
+        int v = lo;
+        if (f->size == 2) {
+            int hi_i = start + 1;
+            v = lo | ((hi_i < end ? d[hi_i - a] : t[hi_i]) << 8);
+        }
+        if (v < f->lo || v > ((start == MOVING_SPEED && w) ? 2047 : f->hi))
+            return 1;
+        c = start + f->size;
+    }
+    return 0;
+}
+
+/* Servo._apply_write; returns whether the ID or Baud Rate changed */
+static void apply(const struct bank *b, int i, int a, const unsigned char *d, int n)
+{
+    struct servo *s = b->servo[i];
+    unsigned char *t = b->table[i];
+    int end = a + n;
+    memcpy(t + a, d, (size_t)n);
+    if (a < EEPROM_END)
+        s->busy_until_us = s->t_us + s->eeprom_busy_us;
+    if (a <= BAUD && end > ID)
+        s->address_changed = 1;
+    if (a <= TORQUE_LIMIT + 1 && end > TORQUE_LIMIT) {   /* ServoHealth.rearm */
+        b->health[i]->overload = 0;
+        b->health[i]->saturated_us = 0;
+    }
+    if ((end > TORQUE_ENABLE && a < PRESENT_POSITION) || end > PUNCH
+        || (a <= CCW + 1 && end > CW)) {
+        command(b, t, b->health[i]->supply_frac, b->joint[i]);
+        s->present_stale = 1;
+    }
+}
+
+/* Servos from..n-1 take the SYNC_WRITE ``params`` at t_us, in order; returns the index of
+ * the first one this cannot serve (not a MuJoCo joint, deaf, or finishing an EEPROM write:
+ * the Python code serves it, then calls again from the next), or n when all are done. */
+int hx_sync_write(const struct bank *b, int from, int64_t t_us, const unsigned char *p, int len)
+{
+    int first[256];
+    int a = -1, stride = 0;
+    if (len >= 2 && p[1] && (len - 2) % (p[1] + 1) == 0) {   /* ax12_servo.sync_entries */
+        a = p[0];
+        stride = p[1] + 1;
+        for (int k = 0; k < 256; k++)
+            first[k] = -1;
+        for (int k = 2; k < len; k += stride)
+            if (first[p[k]] < 0)
+                first[p[k]] = k + 1;
+    }
+    for (int i = from; i < b->n; i++) {
+        struct servo *s = b->servo[i];
+        if (b->joint[i] < 0 || s->busy_until_us > t_us || s->deaf_until_us > t_us
+            || u16(b->table[i], MOVING_SPEED) > 2047)
+            return i;
+        advance(b, i, t_us);                /* TableServo._take, nothing to wait for */
+        s->held_us = 0;
+        s->instructions += 1;
+        if (a < 0)
+            continue;
+        int at = first[b->table[i][ID]];
+        if (at < 0 || refused(b, i, a, p + at, stride - 1))
+            continue;
+        apply(b, i, a, p + at, stride - 1);
+    }
+    return b->n;
+}
+
+/* Python's int(round(x)) for the finite values below: half to even */
+static int64_t py_round(double x) { return (int64_t)rint(x); }
+
+/* Servo._refresh_present through protocol/dynamixel/ax12.py's conversions (no reading fault:
+ * the Python code serves a servo with one) */
+static void refresh_present(const struct bank *b, int i)
+{
+    unsigned char *t = b->table[i];
+    const struct health *h = b->health[i];
+    int j = b->joint[i];
+    double pos = present_rad(b, j), vel = b->qd[j], load = load_frac(b, j);
+    /* rad_to_position: math.degrees is x * (180 / pi) */
+    int64_t p = py_round((pos * (180.0 / M_PI) + 150.0) * 1023.0 / 300.0);
+    p = p < 0 ? 0 : (p > 1023 ? 1023 : p);
+    t[36] = (unsigned char)(p & 0xFF);
+    t[37] = (unsigned char)(p >> 8);
+    int64_t v = py_round(fabs(vel) * 60.0 / (2.0 * M_PI) / b->speed_unit);   /* rad_s_to_signed */
+    v = v > 1023 ? 1023 : v;
+    if (vel < 0 && v)
+        v |= DIRECTION;
+    t[38] = (unsigned char)(v & 0xFF);
+    t[39] = (unsigned char)(v >> 8);
+    int64_t ld = py_round(fabs(load) / b->load_unit);                       /* fraction_to_load */
+    ld = ld > 1023 ? 1023 : ld;
+    if (load < 0 && ld)
+        ld |= DIRECTION;
+    t[40] = (unsigned char)(ld & 0xFF);
+    t[41] = (unsigned char)(ld >> 8);
+    t[PRESENT_VOLTAGE] = (unsigned char)h->voltage_units;
+    t[PRESENT_TEMPERATURE] = (unsigned char)h->temperature_units;
+    t[MOVING] = fabs(vel) >= b->moving_eps;
+    b->servo[i]->present_stale = 0;
+}
+
+/* Servo.handle of a READ (its two parameters a, n) to servo i at t_us: the status packet
+ * into out (room for 56 bytes), its length, 0 when the servo answers nothing, -1 when the
+ * Python code must serve it (not a MuJoCo joint, deaf, finishing an EEPROM write). */
+int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned char *out)
+{
+    struct servo *s = b->servo[i];
+    if (b->joint[i] < 0 || s->busy_until_us > t_us || s->deaf_until_us > t_us)
+        return -1;
+    advance(b, i, t_us);
+    s->held_us = 0;
+    s->instructions += 1;
+    unsigned char *t = b->table[i];
+    int error = 0, len = 0;
+    unsigned char data[TABLE_SIZE];
+    if (a + n > TABLE_SIZE || n == 0) {
+        error = ERR_RANGE;
+    } else {
+        if (s->present_stale)
+            refresh_present(b, i);
+        memcpy(data, t + a, (size_t)n);
+        len = n;
+    }
+    int alarms = error | health_errors(b->health[i], t);
+    if (alarms) {   /* Servo._alarm */
+        if (alarms & t[ALARM_LED])
+            s->alarm_led = 1;
+        if ((alarms & t[SHUTDOWN]) && (t[TORQUE_LIMIT] || t[TORQUE_LIMIT + 1])) {
+            t[TORQUE_LIMIT] = 0;
+            t[TORQUE_LIMIT + 1] = 0;
+            command(b, t, b->health[i]->supply_frac, b->joint[i]);
+            s->present_stale = 1;
+        }
+    }
+    if (t[STATUS_RETURN_LEVEL] < 1)   /* Servo._answer: a READ is answered from level 1 */
+        return 0;
+    int code = error | health_errors(b->health[i], t);
+    int sum = t[ID] + len + 2 + code;
+    out[0] = out[1] = 0xFF;
+    out[2] = t[ID];
+    out[3] = (unsigned char)(len + 2);
+    out[4] = (unsigned char)code;
+    for (int k = 0; k < len; k++) {
+        out[5 + k] = data[k];
+        sum += data[k];
+    }
+    out[5 + len] = (unsigned char)(~sum & 0xFF);
+    return len + 6;
+}

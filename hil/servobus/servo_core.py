@@ -1,0 +1,174 @@
+"""The AX-12s' SYNC_WRITE and READ compiled (hil/servobus/servo_core.c), through ctypes.
+
+Every cycle the firmware's SYNC_WRITE reaches all 18 servos; each catches up its health,
+finds its entry, checks the write against its control table and drives its joint. In
+Python that was about a third of the host's cycle; ``hx_sync_write`` does it for the whole
+line in one call, and ``hx_read`` answers a status read (catch-up, the Present registers,
+the status packet and its checksum). Both read and write the same state as the Python
+servos: their and their health's ctypes fields (hil/servobus/ax12_servo.py ``Servo``,
+health.py ``ServoHealth``), their control tables and the world's drive bank
+(hil/world/actuator.py). The same operations in the same order, so tables, drives and
+traces are the same bits (tests/test_servo_core.py runs both on real traffic). A servo the
+C code does not serve (an actuator other than a MuJoCo joint, deaf, finishing an EEPROM
+write, a Present Position fault) is handed to its own ``handle``, in the line's order.
+
+``make`` builds ``_servo_core.so`` beside this file with the pinned ziglang's C compiler;
+without it the bus serves every servo in Python.
+"""
+from __future__ import annotations
+
+import ctypes
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from hil.servobus import drive, health
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
+
+LIBRARY = Path(__file__).with_name("_servo_core.so")
+_P = ctypes.c_void_p
+
+
+class _Bank(ctypes.Structure):
+    _fields_ = [("n", ctypes.c_int), ("servo", _P), ("health", _P), ("table", _P),
+                ("joint", _P), ("original", _P), ("cells", _P), ("position_rad", _P),
+                ("speed_rad_s", _P), ("q", _P), ("qd", _P), ("duty", _P), ("offset", _P),
+                ("goal", _P), ("setpoint", _P), ("speed", _P), ("torque_limit", _P),
+                ("margin", _P), ("slope", _P), ("punch", _P), ("compliance", _P),
+                ("enabled", _P), ("joints", ctypes.c_int),
+                ("motor_no_load", ctypes.c_double), ("ax12_no_load", ctypes.c_double),
+                ("speed_unit", ctypes.c_double), ("load_unit", ctypes.c_double),
+                ("position_unit", ctypes.c_double), ("punch_unit", ctypes.c_double),
+                ("moving_eps", ctypes.c_double), ("ambient_c", ctypes.c_double),
+                ("heat_c", ctypes.c_double),
+                ("thermal_tau_s", ctypes.c_double), ("overheat_tau_s", ctypes.c_double),
+                ("overload_us", ctypes.c_int64)]
+
+
+def _load() -> Any:
+    """The library's two functions, (hx_sync_write, hx_read), or None."""
+    if not LIBRARY.exists():
+        return None
+    try:
+        lib = ctypes.PyDLL(str(LIBRARY))   # calls keep the GIL: the state is Python's too
+    except OSError:
+        return None
+    sync, read = lib.hx_sync_write, lib.hx_read
+    sync.argtypes = [_P, ctypes.c_int, ctypes.c_int64, ctypes.c_char_p, ctypes.c_int]
+    read.argtypes = [_P, ctypes.c_int, ctypes.c_int64, ctypes.c_int, ctypes.c_int, _P]
+    sync.restype = read.restype = ctypes.c_int
+    return sync, read
+
+
+_LIB = _load()
+
+
+def available() -> bool:
+    return _LIB is not None
+
+
+def _cells() -> np.ndarray:
+    """(start, size, min, max, writable) of each control-table address; start -1: reserved."""
+    out = np.full((ax12.TABLE_SIZE, 5), -1, dtype=np.int32)
+    for a in range(ax12.TABLE_SIZE):
+        f = ax12.owner(a)
+        if f is not None:
+            out[a] = (f[0], f[2], f[6], f[7], f[3] != ax12.R)
+    return out
+
+
+_CELLS = _cells()
+_POSITION_RAD = np.array(drive.POSITION_RAD, dtype=np.float64)
+_SPEED_RAD_S = np.array(drive.SPEED_RAD_S, dtype=np.float64)
+
+
+def _address(a: np.ndarray) -> int:
+    return a.ctypes.data
+
+
+class ServoBank:
+    """``hx_sync_write`` and ``hx_read`` bound to one line's servos at its baud
+    (``Bus._same``): built when the line is re-indexed; ``None`` from ``build`` when none of
+    them drives a MuJoCo joint (then their own ``handle`` serves them all)."""
+
+    def __init__(self, servos: Sequence[Any], joints: list[tuple[dict[str, np.ndarray], int]
+                                                           | None]) -> None:
+        n = len(servos)
+        self.servos = list(servos)
+        arrays = next(j[0] for j in joints if j is not None)
+        # the C code serves the servos on this world's joints; the others (another device
+        # on the line, another actuator) have no state there: NULL, joint -1
+        served = [j is not None and j[0] is arrays for j in joints]
+        self._tables = [(ctypes.c_uint8 * len(s.table)).from_buffer(s.table) if ok else None
+                        for s, ok in zip(servos, served)]
+        self._keep: list[Any] = [arrays, self._tables]
+        servo_p = (_P * n)(*(ctypes.addressof(s) if ok else None
+                             for s, ok in zip(servos, served)))
+        health_p = (_P * n)(*(ctypes.addressof(s.health) if ok else None
+                              for s, ok in zip(servos, served)))
+        table_p = (_P * n)(*(ctypes.addressof(t) if t is not None else None
+                             for t in self._tables))
+        joint = np.array([j[1] if ok else -1 for j, ok in zip(joints, served)], dtype=np.int32)
+        original = np.array([ok and s.edition == ax12.EDITION_ORIGINAL
+                             for s, ok in zip(servos, served)], dtype=np.int32)
+        offset = np.array(arrays["offset"], dtype=np.float64)
+        self._keep += [servo_p, health_p, table_p, joint, original, offset]
+        self._bank = _Bank(
+            n, ctypes.addressof(servo_p), ctypes.addressof(health_p), ctypes.addressof(table_p),
+            _address(joint), _address(original), _address(_CELLS), _address(_POSITION_RAD),
+            _address(_SPEED_RAD_S), *(_address(arrays[k]) for k in ("q", "qd", "duty")),
+            _address(offset), *(_address(arrays[k]) for k in (
+                "goal", "setpoint", "speed", "torque_limit", "margin", "slope", "punch",
+                "compliance", "enabled")),
+            len(arrays["goal"]), arrays["motor_no_load"], drive.NO_LOAD_RAD_S,
+            ax12.SPEED_RPM_PER_UNIT, ax12.LOAD_FRACTION_PER_UNIT, arrays["position_unit"],
+            arrays["punch_unit"], drive.MOVING_EPS_RAD_S, health.AMBIENT_C,
+            health.HEAT_AT_FULL_LOAD_C, health.THERMAL_TAU_S, health.OVERHEAT_TAU_S,
+            health.OVERLOAD_TIME_US)
+        self._ref = ctypes.addressof(self._bank)
+        self._sync, self._read = _LIB
+        self._out = ctypes.create_string_buffer(ax12.TABLE_SIZE + 6)
+        self._out_at = ctypes.addressof(self._out)
+        self.index = {id(s): i for i, (s, ok) in enumerate(zip(servos, served)) if ok}
+        self.n = n
+        self.advance = arrays["advance"]   # the world's: what the first servo's catch-up did
+
+    @classmethod
+    def build(cls, servos: Sequence[Any], servo_class: type) -> ServoBank | None:
+        """The bank of ``servos``, those of exactly ``servo_class`` (ax12_servo.Servo, not a
+        test's subclass with other rules) on one world's joints served in C."""
+        if not available() or not servos:
+            return None
+        joints = []
+        for s in servos:
+            fn = getattr(s.actuator, "joint_buffers", None) if type(s) is servo_class else None
+            joints.append(None if fn is None else fn())
+        if all(j is None for j in joints):
+            return None
+        return cls(servos, joints)
+
+    def sync_write(self, params: bytes, t_us: int) -> bool:
+        """Every servo of the bank takes the broadcast SYNC_WRITE ``params`` at ``t_us``, in
+        order (``Bus._dispatch``'s): in C where it can, each one it leaves by its own
+        ``handle``. True when one's ID or Baud Rate changed (the line re-indexes)."""
+        self.advance(t_us)
+        servos, n, sync, ref, size = self.servos, self.n, self._sync, self._ref, len(params)
+        i = sync(ref, 0, t_us, params, size)
+        while i < n:
+            servos[i].handle(dxl.SYNC_WRITE, params, True, t_us)   # broadcast: no reply
+            i = sync(ref, i + 1, t_us, params, size)
+        return any(s.address_changed for s in servos)
+
+    def read(self, servo: Any, params: bytes, t_us: int) -> bytes | None | bool:
+        """``servo`` takes a READ at ``t_us``: its status packet, None when it answers
+        nothing, False when its own ``handle`` must answer (not in the bank, a Present
+        Position fault, not two parameters, or the C code left it: deaf, busy)."""
+        i = self.index.get(id(servo))
+        if i is None or servo.reading is not None or len(params) != 2:
+            return False
+        n = self._read(self._ref, i, t_us, params[0], params[1], self._out_at)
+        if n > 0:
+            return self._out.raw[:n]
+        return None if n == 0 else False

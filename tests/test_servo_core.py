@@ -1,0 +1,132 @@
+"""The compiled SYNC_WRITE and READ (hil/servobus/servo_core.c) leave every servo as the
+Python servos do, and the READ's status packet is theirs: runs of the shipped firmware on
+the hexapod world (with the fault vocabulary that reaches a servo's state: overheating, a
+supply sag, a stall, an overload, a brown-out, an unplugged servo) and a scripted master's
+SYNC_WRITEs and READs (torque limits, compliance, Lock, EEPROM writes, wheel mode, refused
+values, Status Return Levels) give the same serial bytes, control tables, servo and health
+fields and drive-bank arrays, to the bit. Built by `make` (the pinned
+ziglang's cc); these tests fail if it is missing, so the build is checked."""
+from __future__ import annotations
+
+import ctypes
+import random
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hil import scenario as scenario_mod
+from hil.run.lockstep import Simulator
+from hil.run.rig import make_world
+from hil.servobus import servo_core
+from hil.servobus.switch_node import SensorNode
+from host_tools.in_process import run_firmware
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
+
+ROOT = Path(__file__).resolve().parent.parent
+NODE_ID = 100   # the limit-switch node's (hil/servobus/switch_node.py)
+FAULTS = {"overheat": [{"id": 2, "at_s": 0.5, "until_s": 2.5, "temperature_c": 90.0}],
+          "voltage_sag": [{"at_s": 1.0, "until_s": 1.6, "volts": 6.5}],
+          "stall": [{"id": 8, "at_s": 0.8, "until_s": 2.0}],
+          "overload": [{"id": 11, "at_s": 1.2}],
+          "brownout": [{"id": 4, "at_s": 1.5}],
+          "unplug": [{"id": 16, "at_s": 2.0, "until_s": 2.4}]}
+
+
+def _state(sim: Simulator) -> bytes:
+    """Everything a SYNC_WRITE can change: tables, the servos' and their health's fields,
+    the world's drive bank."""
+    out = bytearray()
+    for s in sim.bus.servos:
+        out += bytes(s.table)
+        if not isinstance(s, ctypes.Structure):   # the switch node
+            continue
+        out += ctypes.string_at(ctypes.addressof(s), ctypes.sizeof(s))
+        out += ctypes.string_at(ctypes.addressof(s.health), ctypes.sizeof(s.health))
+    for a in sim.world.joint_buffers().values():
+        if isinstance(a, np.ndarray):
+            out += a.tobytes()
+    return bytes(out)
+
+
+def _sim(overlay: dict | None, compiled: bool, monkeypatch, node: bool = False) -> Simulator:
+    monkeypatch.setattr(servo_core, "_LIB", servo_core._load() if compiled else None)
+    sc = scenario_mod.load_scenario(ROOT / "scenarios" / "flat-tripod.toml")
+    if overlay:
+        sc = sc.overlay(overlay)
+    sim = Simulator(sc, 1, world=make_world(sc, 1))
+    if node:
+        sim.bus.add_device(SensorNode(lambda: 0b101001, NODE_ID))
+    assert (sim.bus._servo_bank is not None) == compiled
+    return sim
+
+
+def test_the_library_is_built():
+    assert servo_core.available(), f"{servo_core.LIBRARY} missing: run make"
+
+
+@pytest.mark.parametrize("overlay", [None, {"faults": FAULTS}], ids=["plain", "faults"])
+def test_a_run_is_the_same_with_and_without_the_compiled_servos(overlay, monkeypatch):
+    runs = []
+    for compiled in (True, False):
+        sim = _sim(overlay, compiled, monkeypatch)
+        r = sim.run(3.0, in_process=run_firmware)
+        runs.append((r.serial_digest, r.cycles, _state(sim)))
+    assert runs[0][1] > 100
+    assert runs[0] == runs[1]
+
+
+def _traffic(rng: random.Random, k: int) -> bytes:
+    """A scripted SYNC_WRITE: mostly goals and speeds, sometimes other fields; an EEPROM
+    write is followed by goals at once."""
+    ids = list(range(1, 19))
+    choice = k % 9
+    if choice == 3:    # torque limit, sometimes 0 or out of range
+        addr, n = ax12.TORQUE_LIMIT, 2
+        vals = [rng.choice([0, 300, 1023, 1100]) for _ in ids]
+    elif choice == 5:  # compliance margins and slopes, then punch
+        addr, n = ax12.CW_COMPLIANCE_MARGIN, 4
+        vals = [rng.randrange(1 << 32) & 0x40207F03 for _ in ids]
+    elif choice == 6:  # torque off/on, punch, or Lock (late: it ends the EEPROM writes)
+        addr, n = rng.choice([(ax12.TORQUE_ENABLE, 1), (ax12.PUNCH, 2)]
+                             + [(ax12.LOCK, 1)] * (k > 300))
+        vals = [rng.choice([0, 1, 40]) for _ in ids]
+    elif choice == 7:  # angle limits: wheel mode or EEPROM busy; a malformed packet
+        addr, n = ax12.CW_ANGLE_LIMIT, 4
+        vals = [rng.choice([0, 1023 << 16, (200 | (800 << 16))]) for _ in ids]
+        if k % 2:
+            return dxl.packet(dxl.BROADCAST_ID, dxl.SYNC_WRITE, bytes([addr, n, 1, 2]))
+    else:              # goal and speed, wheel speeds over 1023 included
+        addr, n = ax12.GOAL_POSITION, 4
+        vals = [rng.randrange(1024) | (rng.choice([0, 100, 1023, 1500]) << 16) for _ in ids]
+    rng.shuffle(ids)
+    entries = [(i, v.to_bytes(4, "little")[:n]) for i, v in zip(ids, vals)][:rng.randrange(19)]
+    packet = dxl.sync_write(addr, n, entries)
+    if choice == 7:   # goals in the same burst: the servos that took it are still busy
+        return packet + _traffic(rng, k + 1)
+    return packet
+
+
+def test_scripted_sync_writes_leave_the_same_state(monkeypatch):
+    """Each packet's effect compared: the line's replies to a READ after it (the whole
+    table, the Present registers, refused ranges; at each Status Return Level), and the
+    whole state. The limit-switch node shares the line (hexhil bus --world): a device the
+    C code leaves to its own ``handle``, in the line's order."""
+    sims = [_sim(None, compiled, monkeypatch, node=True) for compiled in (True, False)]
+    rngs = [random.Random(5), random.Random(5)]
+    for k in range(400):
+        states = []
+        for sim, rng in zip(sims, rngs):
+            bus = sim.bus
+            bus.master_write(_traffic(rng, k))
+            dev = (1 + k % 18) if k % 5 else NODE_ID
+            if k % 50 == 10:   # Status Return Level 0, 1 or 2: a READ answered or not
+                bus.master_write(dxl.write(dev, ax12.STATUS_RETURN_LEVEL, bytes([k % 3])))
+                bus.master_read(6, 5000)
+            a, n = ((0, ax12.TABLE_SIZE), (36, 6), (45, 8), (10, 0))[k % 4]   # two refused
+            bus.master_write(dxl.read(dev, a, n))
+            rx = bus.master_read(ax12.TABLE_SIZE + 6, 5000)
+            bus.idle_until(bus.clock.t_us + 3000 + 1000 * (k % 7))
+            states.append((rx, _state(sim)))
+        assert states[0] == states[1], k
