@@ -15,6 +15,7 @@ from hil import scenario as scenario_mod
 from hil.run.lockstep import Simulator
 from hil.servobus.faults import Faults
 from host_tools.lockstep_run import Run
+from host_tools.papers import beam_traversal  # noqa: F401  registers the beams run (docs/api.md)
 from protocol.dynamixel import ax12
 from protocol.errors import UserError
 from test_firmware_loop import scenario
