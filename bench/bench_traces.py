@@ -52,7 +52,7 @@ def _time_inside_recorder(run, out: Path) -> float:
                 spent[0] += time.perf_counter() - t0
         setattr(rec_mod.Recorder, name, timed)
     try:
-        run(SCENARIO, RUN_S, out=str(out))
+        run(SCENARIO, RUN_S, out=str(out), overwrite=True)
     finally:
         for name, f in saved.items():
             setattr(rec_mod.Recorder, name, f)
@@ -67,7 +67,7 @@ def _pairs(run, out: Path) -> tuple[list[float], list[float]]:
         run(SCENARIO, RUN_S)
         plain.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
-        run(SCENARIO, RUN_S, out=str(out))
+        run(SCENARIO, RUN_S, out=str(out), overwrite=True)
         recorded.append(time.perf_counter() - t0)
     return plain, recorded
 
@@ -80,7 +80,7 @@ def _overhead(tmp: Path) -> list[Row]:
 
     out = tmp / "run.mcap"
     run(SCENARIO, 1.0)  # warm-up: imports, MuJoCo model build, micropython start
-    run(SCENARIO, 1.0, out=str(out))
+    run(SCENARIO, 1.0, out=str(out), overwrite=True)
     rows = []
     cores = os.sched_getaffinity(0)
     for pinned in (False, True):
@@ -147,7 +147,7 @@ def _replay(tmp: Path) -> list[Row]:
     from host_tools.run_summary import run
 
     out = tmp / "replay.mcap"
-    run(SCENARIO, RUN_S, out=str(out))
+    run(SCENARIO, RUN_S, out=str(out), overwrite=True)
     t0 = time.perf_counter()
     r = replay_firmware(out)
     dt = time.perf_counter() - t0
@@ -242,7 +242,7 @@ def _writers(tmp: Path) -> list[Row]:
     from host_tools.run_summary import run
 
     out = tmp / "writers.mcap"
-    run(SCENARIO, RUN_S, out=str(out))
+    run(SCENARIO, RUN_S, out=str(out), overwrite=True)
     schemas, channels, chunks = _run_chunks(out)
     n = sum(len(c) for c in chunks)
     times: dict[str, list[float]] = {"ours": [], "stock": [], "sdk": []}
@@ -271,7 +271,7 @@ def _cat(tmp: Path) -> list[Row]:
     from host_tools.run_summary import run
 
     out = tmp / "cat.mcap"
-    run(SCENARIO, CAT_S, out=str(out))
+    run(SCENARIO, CAT_S, out=str(out), overwrite=True)
     rows = []
     for label, extra in (("every topic", []), ("/can/raw", ["--topics", "/can/raw"])):
         spent = []
