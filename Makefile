@@ -8,6 +8,7 @@ STAMP := $(VENV)/.installed
 
 DRIVE_CORE := hil/world/_drive_core.so
 SERVO_CORE := hil/servobus/_servo_core.so
+BOARD_CORE := hil/mcu/_board_core.so
 
 $(STAMP): pyproject.toml hil/world/drive_core.c hil/servobus/servo_core.c
 	test -d $(VENV) || $(PY) -m venv $(VENV)
@@ -15,7 +16,7 @@ $(STAMP): pyproject.toml hil/world/drive_core.c hil/servobus/servo_core.c
 	# pypot's serial layer for the stock-client tests (issue 42); its declared dependencies
 	# pull OpenCV, which pypot.dynamixel never imports
 	$(BIN)/pip install -q --disable-pip-version-check --no-deps pypot==5.0.2
-	$(MAKE) $(DRIVE_CORE) $(SERVO_CORE)
+	$(MAKE) $(DRIVE_CORE) $(SERVO_CORE) $(BOARD_CORE)
 	touch $(STAMP)
 
 # the drive bank's compiled step (hil/world/drive_core.py), by the pinned ziglang's cc for
@@ -28,6 +29,11 @@ $(DRIVE_CORE): hil/world/drive_core.c
 # the same bits as the Python servos (exp and rint from the C library, as CPython's)
 $(SERVO_CORE): hil/servobus/servo_core.c
 	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ $<
+
+# the ELF board's event heap, USART2 and poll waits compiled (hil/mcu/board_core.py),
+# built the same way: integers only, the Python model's in the same order
+$(BOARD_CORE): hil/mcu/board_core.c
+	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -o $@ $<
 
 # The ARM toolchain for STM32F411 ELFs (hexhil sdk build --target stm32f411, the ELF tests):
 # Debian's packages, installed here when missing and we are root, else the line to run.
@@ -60,4 +66,4 @@ fuzz: $(STAMP)
 	$(BIN)/python -m fuzz $(FUZZ)
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache $(DRIVE_CORE) $(SERVO_CORE)
+	rm -rf $(VENV) build *.egg-info .pytest_cache $(DRIVE_CORE) $(SERVO_CORE) $(BOARD_CORE)
