@@ -46,13 +46,14 @@ class Board:
     """One run of an ELF; ``run`` serves it until the host ends the run."""
 
     def __init__(self, image: ElfImage, exchange: Callable[[bytes, bool], bytes],
-                 console_events: Callable[[str], list[tuple[int, str]]]) -> None:
+                 console_events: Callable[[str], list[tuple[int, str]]],
+                 compiled: bool = True) -> None:
         self.image = image
         self.console_events = console_events
         self.link = LinkClient(exchange)
         self.core = core = Core(image, HSI_HZ)
         # the compiled hot path (hil/mcu/board_core.py) where it is built, else Python
-        self.native = NativeBoard(self) if native() else None
+        self.native = NativeBoard(self) if compiled and native() else None
         self.events = NativeEvents(core.shared) if self.native else Events()
         self.console = Console(self._console_line)
         self.console_tail: list[str] = []

@@ -26,6 +26,8 @@ import weakref
 from pathlib import Path
 from typing import Any, Callable
 
+from protocol.errors import UserError
+
 LIBRARY = Path(__file__).with_name("_board_core.so")
 USART2_IRQ = 38
 _P, _I32, _I64 = ctypes.c_void_p, ctypes.c_int32, ctypes.c_int64
@@ -35,6 +37,8 @@ PY_TIMER = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int64)
  PY_FAILED) = range(1, 10)
 FAILED = -2                  # a Python callback raised: C unwinds, the error is handed on
 WAITS = 256
+# virtual time in C is int64 femtoseconds: 9,223 s; a longer run is served in Python
+MAX_US = 9_000_000_000
 
 
 class Shared(ctypes.Structure):
@@ -87,6 +91,11 @@ def native() -> bool:
     return _LIB is not None
 
 
+def too_long(at_fs: int) -> UserError:
+    return UserError(f"the compiled ELF board counts virtual time to {MAX_US // 10**6} s; "
+                     f"t={at_fs // 10**15} s is beyond it: run with HEXHIL_BOARD_CORE=python")
+
+
 class NativeTimer:
     """events.py's ``Timer`` on the C heap: ``set`` moves it, ``clear`` cancels it."""
 
@@ -101,6 +110,8 @@ class NativeTimer:
         return None if at < 0 else at
 
     def set(self, at_fs: int) -> None:
+        if at_fs > MAX_US * 10**9:
+            raise too_long(at_fs)
         _LIB.bc_timer_set(self._events.ref, self.tid, at_fs)
 
     def clear(self) -> None:

@@ -20,7 +20,7 @@ from typing import Any
 from unicorn import Uc
 from unicorn.unicorn_py3.unicorn import MMIO_READ_CFUNC, MMIO_WRITE_CFUNC, uclib
 
-from hil.mcu.board_core import front, native
+from hil.mcu.board_core import front
 from hil.mcu.rcc import CLOCK_BITS
 
 log = logging.getLogger(__name__)
@@ -43,7 +43,7 @@ class PeripheralSpace:
     def attach(self, uc: Uc) -> None:
         self._callbacks = (MMIO_READ_CFUNC(self.read), MMIO_WRITE_CFUNC(self.write))
         read, write, data = self._callbacks + (None,)
-        if native():
+        if self.board.native is not None:
             shared = self.board.core.shared
             read, write = front(shared, *self._callbacks)
             data = ctypes.addressof(shared)

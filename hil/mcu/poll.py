@@ -15,7 +15,7 @@ from typing import Any
 
 from unicorn import UC_HOOK_MEM_WRITE
 
-from hil.mcu.board_core import add_wait, native
+from hil.mcu.board_core import add_wait
 from hil.mcu.elf_image import SRAM_BASE, SRAM_SIZE
 
 
@@ -85,7 +85,7 @@ class PollSkipper:
         was confirmed pure, so until the next event it could only read the same again."""
         self._waits.add((pc, addr, value))
         self._wait_values.add((addr, value))
-        if native():
+        if self.board.native is not None:
             add_wait(self._st, pc, addr, value)
 
     def _jump_here(self) -> bool:
