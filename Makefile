@@ -10,29 +10,34 @@ DRIVE_CORE := hil/world/_drive_core.so
 SERVO_CORE := hil/servobus/_servo_core.so
 BOARD_CORE := hil/mcu/_board_core.so
 
-$(STAMP): pyproject.toml hil/world/drive_core.c hil/servobus/servo_core.c
-	test -d $(VENV) || $(PY) -m venv $(VENV)
+CORES := $(DRIVE_CORE) $(SERVO_CORE) $(BOARD_CORE)
+
+$(BIN)/python:
+	$(PY) -m venv $(VENV)
+
+# installed again when the pins change: pyproject.toml, or the pins in this file
+$(STAMP): pyproject.toml Makefile | $(BIN)/python
 	$(BIN)/pip install -q --disable-pip-version-check -e '.[test,grnn,dask]'
 	# pypot's serial layer for the stock-client tests (issue 42); its declared dependencies
 	# pull OpenCV, which pypot.dynamixel never imports
 	$(BIN)/pip install -q --disable-pip-version-check --no-deps pypot==5.0.2
-	$(MAKE) $(DRIVE_CORE) $(SERVO_CORE) $(BOARD_CORE)
+	$(MAKE) $(CORES)
 	touch $(STAMP)
 
 # the drive bank's compiled step (hil/world/drive_core.py), by the pinned ziglang's cc for
 # the baseline CPU (the tree may be copied to another machine); no fused multiply-add, so
 # its duties are numpy's bits
-$(DRIVE_CORE): hil/world/drive_core.c
+$(DRIVE_CORE): hil/world/drive_core.c | $(BIN)/python
 	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ $<
 
 # the AX-12s' SYNC_WRITE and READ compiled (hil/servobus/servo_core.py), built the same way:
 # the same bits as the Python servos (exp and rint from the C library, as CPython's)
-$(SERVO_CORE): hil/servobus/servo_core.c
+$(SERVO_CORE): hil/servobus/servo_core.c | $(BIN)/python
 	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ $<
 
 # the ELF board's event heap, USART2 and poll waits compiled (hil/mcu/board_core.py),
 # built the same way: integers only, the Python model's in the same order
-$(BOARD_CORE): hil/mcu/board_core.c
+$(BOARD_CORE): hil/mcu/board_core.c | $(BIN)/python
 	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -o $@ $<
 
 # The ARM toolchain for STM32F411 ELFs (hexhil sdk build --target stm32f411, the ELF tests):
@@ -49,20 +54,20 @@ toolchain:
 	    echo "  sudo apt-get install -y $(ARM_PACKAGES)"; exit 1; \
 	fi
 
-demo: $(STAMP)
+demo: $(STAMP) $(CORES)
 	$(BIN)/hexhil demo
 
-test: $(STAMP) toolchain
+test: $(STAMP) $(CORES) toolchain
 	$(BIN)/python -m pytest -q
 
-test-slow: $(STAMP) toolchain
+test-slow: $(STAMP) $(CORES) toolchain
 	$(BIN)/python -m pytest -q -m slow
 
-bench: $(STAMP) toolchain
+bench: $(STAMP) $(CORES) toolchain
 	$(BIN)/python -m bench
 
 # hostile inputs for every parser and loader (issue 20); FUZZ="--scale 0.1" for a short run
-fuzz: $(STAMP)
+fuzz: $(STAMP) $(CORES)
 	$(BIN)/python -m fuzz $(FUZZ)
 
 clean:

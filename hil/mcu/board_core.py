@@ -26,6 +26,7 @@ import weakref
 from pathlib import Path
 from typing import Any, Callable
 
+from hil.native import load_library
 from protocol.errors import UserError
 
 LIBRARY = Path(__file__).with_name("_board_core.so")
@@ -62,11 +63,10 @@ class Shared(ctypes.Structure):
 
 
 def _load() -> Any:
-    if os.environ.get("HEXHIL_BOARD_CORE") == "python" or not LIBRARY.exists():
+    if os.environ.get("HEXHIL_BOARD_CORE") == "python":
         return None
-    try:
-        lib = ctypes.PyDLL(str(LIBRARY))   # calls keep the GIL: they call back into Python
-    except OSError:
+    lib = load_library(LIBRARY, keep_gil=True)    # its calls call back into Python
+    if lib is None:
         return None
     sig = {"bc_timer_new": (_I32, [_P]), "bc_timer_set": (None, [_P, _I32, _I64]),
            "bc_timer_clear": (None, [_P, _I32]), "bc_timer_at": (_I64, [_P, _I32]),

@@ -23,6 +23,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from hil.native import load_library
 from hil.servobus import drive, health
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
@@ -49,11 +50,8 @@ class _Bank(ctypes.Structure):
 
 def _load() -> Any:
     """The library's two functions, (hx_sync_write, hx_read), or None."""
-    if not LIBRARY.exists():
-        return None
-    try:
-        lib = ctypes.PyDLL(str(LIBRARY))   # calls keep the GIL: the state is Python's too
-    except OSError:
+    lib = load_library(LIBRARY, keep_gil=True)   # the state is Python's too
+    if lib is None:
         return None
     sync, read = lib.hx_sync_write, lib.hx_read
     sync.argtypes = [_P, ctypes.c_int, ctypes.c_int64, ctypes.c_char_p, ctypes.c_int]

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from hil.native import load_library
+
 LIBRARY = Path(__file__).with_name("_drive_core.so")
 _P = ctypes.c_void_p
 
@@ -25,11 +27,8 @@ class _Bank(ctypes.Structure):
 
 
 def _load() -> Any:
-    if not LIBRARY.exists():
-        return None
-    try:
-        lib = ctypes.CDLL(str(LIBRARY))
-    except OSError:
+    lib = load_library(LIBRARY)
+    if lib is None:
         return None
     fn = lib.hx_duty
     fn.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_double, ctypes.c_void_p,
