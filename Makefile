@@ -8,8 +8,9 @@ STAMP := $(VENV)/.installed
 
 DRIVE_CORE := hil/world/_drive_core.so
 SERVO_CORE := hil/servobus/_servo_core.so
+BOARD_CORE := hil/mcu/_board_core.so
 
-CORES := $(DRIVE_CORE) $(SERVO_CORE)
+CORES := $(DRIVE_CORE) $(SERVO_CORE) $(BOARD_CORE)
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
@@ -33,6 +34,11 @@ $(DRIVE_CORE): hil/world/drive_core.c | $(BIN)/python
 # the same bits as the Python servos (exp and rint from the C library, as CPython's)
 $(SERVO_CORE): hil/servobus/servo_core.c | $(BIN)/python
 	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ $<
+
+# the ELF board's event heap, USART2 and poll waits compiled (hil/mcu/board_core.py),
+# built the same way: integers only, the Python model's in the same order
+$(BOARD_CORE): hil/mcu/board_core.c | $(BIN)/python
+	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -o $@ $<
 
 # The ARM toolchain for STM32F411 ELFs (hexhil sdk build --target stm32f411, the ELF tests):
 # Debian's packages, installed here when missing and we are root, else the line to run.
@@ -65,4 +71,4 @@ fuzz: $(STAMP) $(CORES)
 	$(BIN)/python -m fuzz $(FUZZ)
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache $(DRIVE_CORE) $(SERVO_CORE)
+	rm -rf $(VENV) build *.egg-info .pytest_cache $(DRIVE_CORE) $(SERVO_CORE) $(BOARD_CORE)

@@ -15,6 +15,7 @@ from typing import Any, Callable
 from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
 
+from hil.mcu.board_core import NativeBoard, NativeEvents, NativeTimer, NativeUsart, native
 from hil.mcu.console import Console, semihost
 from hil.mcu.core import (EXC_SVCALL, EXC_SYSTICK, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT,
                           INTR_INVSTATE, INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
@@ -45,12 +46,15 @@ class Board:
     """One run of an ELF; ``run`` serves it until the host ends the run."""
 
     def __init__(self, image: ElfImage, exchange: Callable[[bytes, bool], bytes],
-                 console_events: Callable[[str], list[tuple[int, str]]]) -> None:
+                 console_events: Callable[[str], list[tuple[int, str]]],
+                 compiled: bool = True) -> None:
         self.image = image
         self.console_events = console_events
         self.link = LinkClient(exchange)
         self.core = core = Core(image, HSI_HZ)
-        self.events = Events()
+        # the compiled hot path (hil/mcu/board_core.py) where it is built, else Python
+        self.native = NativeBoard(self) if compiled and native() else None
+        self.events = NativeEvents(core.shared) if self.native else Events()
         self.console = Console(self._console_line)
         self.console_tail: list[str] = []
         self.switches = 0
@@ -59,7 +63,6 @@ class Board:
         self.fault: str | None = None
         self.resets = 0                # SYSRESETREQs taken
         self._reset_pending = False
-        self.skipped_cycles = 0
         self._last_request_us = -TICK_US
         self.debugger: Any = None      # hil/mcu/gdb.py, with --gdb
         self.line = ServoLine(self)
@@ -70,6 +73,11 @@ class Board:
         self.space.attach(core.uc)
         core.uc.hook_add(UC_HOOK_INTR, self._intr)
         self.poll = PollSkipper(self)
+
+    @property
+    def skipped_cycles(self) -> int:
+        """Cycles that waits skipped (poll loops jumped over, hil/mcu/poll.py)."""
+        return self.core.shared.skipped
 
     def _peripherals(self) -> None:
         """The MCU's peripherals in their reset state (power-on, and a system reset)."""
@@ -89,7 +97,9 @@ class Board:
         self.gpio = gpio
         line = self.nvic.line
         self.usart1 = Usart("USART1", 37, core, ev, lambda: self.rcc.pclk2_hz, line, self)
-        self.usart2 = Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self.line)
+        self.usart2: Usart | NativeUsart = (
+            NativeUsart("USART2", 38, ev, lambda: self.rcc.pclk1_hz) if self.native else
+            Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self.line))
         self.usart6 = Usart("USART6", 71, core, ev, lambda: self.rcc.pclk2_hz, line, self)
         for base, p in ((0x40023800, self.rcc), (0x40023C00, flash_interface()),
                         (0x40007000, power()), (0x40013C00, self.exti),
@@ -203,7 +213,7 @@ class Board:
                self.usart1, self.usart2, self.usart6, *(p for _, p in self.extra)]
         for periph in old:
             for value in vars(periph).values():
-                if isinstance(value, Timer):
+                if isinstance(value, (Timer, NativeTimer)):
                     value.clear()
         self.poll.forget()
         self._peripherals()

@@ -22,6 +22,7 @@ from unicorn import (UC_ARCH_ARM, UC_HOOK_INTR, UC_MODE_MCLASS, UC_MODE_THUMB, U
 from unicorn import arm_const as A
 from unicorn.unicorn_py3.unicorn import uclib
 
+from hil.mcu.board_core import Shared
 from hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
 from hil.mcu.engine import Regs, counter_offset, regs_place
 
@@ -51,13 +52,20 @@ class CoreFault(Exception):
 class TimeBase:
     """Cycles and femtoseconds at a clock that the firmware may change: exact integers.
     Where a cycle is a whole number of femtoseconds (``_fs_per_cyc``: 10 ns at 100 MHz,
-    62.5 ns at 16 MHz) the conversions multiply or divide once, with the same results."""
+    62.5 ns at 16 MHz) the conversions multiply or divide once, with the same results.
+    ``shared`` gets a copy for the compiled board (hil/mcu/board_core.c)."""
 
-    def __init__(self, hz: int) -> None:
+    def __init__(self, hz: int, shared: Shared) -> None:
+        self.shared = shared
         self.hz = hz
         self._cyc0 = 0
         self._fs0 = 0
         self._fs_per_cyc = FS_PER_S // hz if FS_PER_S % hz == 0 else 0
+        self._share()
+
+    def _share(self) -> None:
+        st = self.shared
+        st.hz, st.cyc0, st.fs0, st.fs_per_cyc = self.hz, self._cyc0, self._fs0, self._fs_per_cyc
 
     def fs_at(self, cyc: int) -> int:
         if self._fs_per_cyc:
@@ -73,6 +81,7 @@ class TimeBase:
     def set_hz(self, cyc: int, hz: int) -> None:
         self._fs0, self._cyc0, self.hz = self.fs_at(cyc), cyc, hz
         self._fs_per_cyc = FS_PER_S // hz if FS_PER_S % hz == 0 else 0
+        self._share()
 
 
 class Core:
@@ -104,9 +113,10 @@ class Core:
         engine = ctypes.cast(uc._uch, ctypes.c_void_p).value + counter_offset()
         self._ctr = ctypes.c_uint64.from_address(engine)
         self._limit = ctypes.c_uint64.from_address(engine + 8)   # the count emu_start was given
-        self.time = TimeBase(hz)
+        # the time and the chunk's origin live where the compiled board sees them
+        self.shared = st = Shared(ctr=engine, u2_tid=-1, next_at=-1)
+        self.time = TimeBase(hz, st)
         self.cyc = 0                 # instructions run before the current chunk
-        self._chunk0 = 0
         self.running = False
         self.stopped = False         # a read asked for the chunk to end
         self.cut = False             # the chunk ends after the instruction running now
@@ -118,6 +128,16 @@ class Core:
         self._fpscr0 = uc.reg_read(A.UC_ARM_REG_FPSCR)
         self.reset()
         self._pc_word = self._find_pc()
+        if self._pc_word is not None:
+            st.pc = ctypes.addressof(self._pc_word)
+
+    @property
+    def cyc(self) -> int:
+        return self.shared.cyc
+
+    @cyc.setter
+    def cyc(self, value: int) -> None:
+        self.shared.cyc = value
 
     def _find_pc(self) -> ctypes.c_uint32 | None:
         """The PC's word in this engine's CPU state (``regs_place``), checked here too."""
@@ -154,12 +174,12 @@ class Core:
     def now(self) -> int:
         """The cycle of the instruction running now (inside a chunk) or next."""
         if self.running:
-            return self._chunk0 + self._ctr.value - 1
-        return self.cyc
+            return self.shared.chunk0 + self._ctr.value - 1
+        return self.shared.cyc
 
     def now_fs(self) -> int:
         t = self.time
-        cyc = self._chunk0 + self._ctr.value - 1 if self.running else self.cyc
+        cyc = self.shared.chunk0 + self._ctr.value - 1 if self.running else self.shared.cyc
         if t._fs_per_cyc:
             return t._fs0 + (cyc - t._cyc0) * t._fs_per_cyc
         return t._fs0 + (cyc - t._cyc0) * FS_PER_S // t.hz
@@ -167,9 +187,9 @@ class Core:
     def jump(self, cycles: int) -> None:
         """Let ``cycles`` pass without running them (a skipped wait)."""
         if self.running:
-            self._chunk0 += cycles
+            self.shared.chunk0 += cycles
         else:
-            self.cyc += cycles
+            self.shared.cyc += cycles
 
     def set_hz(self, hz: int) -> None:
         self.time.set_hz(self.now(), hz)
@@ -212,10 +232,11 @@ class Core:
 
     def run(self, n: int) -> int:
         """Run up to ``n`` instructions from ``self.pc``; how many ran."""
-        uc = self.uc
-        self._chunk0 = self.cyc
+        uc, st = self.uc, self.shared
+        st.chunk0 = st.cyc
         self.stopped = self.cut = False
         self.running = True
+        st.running = 1
         try:
             uc.emu_start(self.pc | 1, 0, 0, n)
             error = None
@@ -223,6 +244,7 @@ class Core:
             error = exc
         finally:
             self.running = False
+            st.running = 0
         ran = self._ctr.value - 1
         self.pc = self.pc_now()
         if error is None and ran < n and not self.stopped and not self.cut:
@@ -233,7 +255,7 @@ class Core:
                 ran += 1
                 self.sleeping = True
         ran = max(0, min(ran, n))
-        self.cyc = self._chunk0 + ran     # _chunk0 has moved by any jump inside the chunk
+        st.cyc = st.chunk0 + ran          # chunk0 has moved by any jump inside the chunk
         self.executed += ran
         if error is not None:
             raise CoreFault(_error_text(error, self))

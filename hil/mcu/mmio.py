@@ -7,21 +7,26 @@ instant. The peripheral callbacks go straight through ctypes (Unicorn's Python w
 costs two more Python frames an access) and find their peripheral in one dict of the
 pages that answer now: a peripheral whose RCC clock is off is not there (the access is
 logged once and reads 0), and the dict is rebuilt at each RCC write. A side-effect-free
-read of a pollable register goes to the poll skipper (hil/mcu/poll.py).
+read of a pollable register goes to the poll skipper (hil/mcu/poll.py). With the compiled
+board (hil/mcu/board_core.c) its callbacks front the region: USART2's page is served in C,
+every other page here.
 """
 from __future__ import annotations
 
+import ctypes
 import logging
 from typing import Any
 
 from unicorn import Uc
 from unicorn.unicorn_py3.unicorn import MMIO_READ_CFUNC, MMIO_WRITE_CFUNC, uclib
 
+from hil.mcu.board_core import front
 from hil.mcu.rcc import CLOCK_BITS
 
 log = logging.getLogger(__name__)
 PERIPH_BASE, PERIPH_SIZE = 0x40000000, 0x80000      # APB1, APB2, AHB1
 PPB_BASE, PPB_SIZE = 0xE0000000, 0x100000
+USART2 = 0x40004400
 
 
 class PeripheralSpace:
@@ -37,8 +42,12 @@ class PeripheralSpace:
 
     def attach(self, uc: Uc) -> None:
         self._callbacks = (MMIO_READ_CFUNC(self.read), MMIO_WRITE_CFUNC(self.write))
-        if uclib.uc_mmio_map(uc._uch, PERIPH_BASE, PERIPH_SIZE, self._callbacks[0], None,
-                             self._callbacks[1], None):
+        read, write, data = self._callbacks + (None,)
+        if self.board.native is not None:
+            shared = self.board.core.shared
+            read, write = front(shared, *self._callbacks)
+            data = ctypes.addressof(shared)
+        if uclib.uc_mmio_map(uc._uch, PERIPH_BASE, PERIPH_SIZE, read, data, write, data):
             raise RuntimeError("Unicorn refused to map the peripherals")
         uc.mmio_map(PPB_BASE, PPB_SIZE, self.ppb_read, None, self.ppb_write, None)
 
@@ -60,6 +69,7 @@ class PeripheralSpace:
         self._live = {page: p for page, p in self._pages.items()
                       if page not in self._gates
                       or regs.get(self._gates[page][0], 0) >> self._gates[page][1] & 1}
+        self.board.core.shared.u2_live = (USART2 - PERIPH_BASE) >> 10 in self._live
 
     def _unmodelled(self, addr: int, kind: str) -> None:
         page = addr & ~0x3FF
@@ -79,7 +89,7 @@ class PeripheralSpace:
             self._unmodelled(PERIPH_BASE + offset, kind)
 
     @staticmethod
-    def _taken_next(board: Any) -> None:
+    def taken_next(board: Any) -> None:
         """A write that made an exception ready (an interrupt enable, a pending bit, a
         flag's interrupt): it is taken after this instruction, not at the chunk's end."""
         nvic = board.nvic
@@ -88,13 +98,9 @@ class PeripheralSpace:
 
     def _due(self) -> None:
         """Fire what fell due by the instruction running now."""
-        events = self.board.events
-        if events.heap:
-            now = self.board.core.now_fs()
-            if events.heap[0][0] <= now:
-                events.fire_due(now)
+        self.board.events.fire_due(self.board.core.now_fs())
 
-    def _failed(self, exc: BaseException) -> None:
+    def failed(self, exc: BaseException) -> None:
         """An exception inside a callback: the chunk stops and ``emu_start`` raises it
         (what Unicorn's own callback wrapper does, which these callbacks bypass)."""
         uc = self.board.core.uc
@@ -107,14 +113,10 @@ class PeripheralSpace:
         directly (Unicorn's Python wrapper costs two more Python frames a register)."""
         try:
             board = self.board
-            heap = board.events.heap
-            if heap:
-                now = board.core.now_fs()
-                if heap[0][0] <= now:
-                    board.events.fire_due(now)
+            board.events.fire_due(board.core.now_fs())
             p = self._live.get(offset >> 10)
             if p is None:
-                board.poll._poll_key = None           # poll.other_access()
+                board.poll.other_access()
                 self._dead(offset, "read")
                 return 0
             off = offset & 0x3FC
@@ -122,23 +124,19 @@ class PeripheralSpace:
             if size != 4 or offset & 3:
                 value = (value >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
             if off not in p.pollable:
-                board.poll._poll_key = None           # poll.other_access()
+                board.poll.other_access()
             elif board.poll.polled(PERIPH_BASE + offset, value):
                 value = (p.read(off) >> 8 * (offset & 3)) & ((1 << 8 * size) - 1)
             return value
         except BaseException as exc:      # noqa: B036 -- handed to emu_start, as Unicorn does
-            self._failed(exc)
+            self.failed(exc)
             return 0
 
     def write(self, handle: int, offset: int, size: int, value: int, _ud: int) -> None:
         try:
             board = self.board
-            heap = board.events.heap
-            if heap:
-                now = board.core.now_fs()
-                if heap[0][0] <= now:
-                    board.events.fire_due(now)
-            board.poll._poll_key = None           # poll.other_access()
+            board.events.fire_due(board.core.now_fs())
+            board.poll.other_access()
             p = self._live.get(offset >> 10)
             if p is None:
                 self._dead(offset, "wrote")
@@ -151,9 +149,9 @@ class PeripheralSpace:
             p.write(offset & 0x3FC, value & 0xFFFFFFFF)
             if p is board.rcc:
                 self.relive()
-            self._taken_next(board)
+            self.taken_next(board)
         except BaseException as exc:      # noqa: B036
-            self._failed(exc)
+            self.failed(exc)
 
     def ppb_read(self, uc, offset: int, size: int, _) -> int:
         board = self.board
@@ -177,4 +175,4 @@ class PeripheralSpace:
             mask = ((1 << 8 * size) - 1) << shift
             value = (word & ~mask) | ((value << shift) & mask)
         board.ppb.write(addr & ~3, value)
-        self._taken_next(board)
+        self.taken_next(board)

@@ -15,44 +15,48 @@ from typing import Any
 
 from unicorn import UC_HOOK_MEM_WRITE
 
+from hil.mcu.board_core import add_wait
 from hil.mcu.elf_image import SRAM_BASE, SRAM_SIZE
+
+
+def _signed(word: int) -> int:
+    """A 32-bit register word as the shared int32 field holds it."""
+    return word - (1 << 32) if word & 0x80000000 else word
 
 
 class PollSkipper:
     def __init__(self, board: Any) -> None:
         self.board = board
-        self._poll_key: tuple[int, int] | None = None
-        self._poll_at = 0
+        self._st = board.core.shared     # the poll's state, shared with hil/mcu/board_core.c
         self._watch: tuple | None = None
         self._watch_hook = None
         self._ram_written = False
         self._skip = False
-        self._reread = False
         self._loops_ok: dict[tuple[int, int, int], bool] = {}
         self._waits: set[tuple[int, int, int]] = set()        # (pc, register, value)
         self._wait_values: set[tuple[int, int]] = set()
 
     def other_access(self) -> None:
         """A register access that is not a side-effect-free read: no poll goes on."""
-        self._poll_key = None
+        self._st.poll_valid = 0
 
     def polled(self, addr: int, value: int) -> bool:
         """A side-effect-free register read: the poll detector's view. True when it
         skipped the wait here, so the read is to be done again at the new time."""
-        core = self.board.core
-        if self._reread:           # the read a stop made run again: already counted
-            self._reread = False
+        core, st = self.board.core, self._st
+        if st.reread:              # the read a stop made run again: already counted
+            st.reread = 0
             return False
         now = core.now()
-        key = (addr, value)
-        if key != self._poll_key:
-            self._poll_key, self._poll_at = key, now
-            if key in self._wait_values and self._watch is None and \
+        if not st.poll_valid or st.poll_addr != _signed(addr) or st.poll_value != _signed(value):
+            st.poll_valid, st.poll_addr, st.poll_value = 1, _signed(addr), _signed(value)
+            st.poll_at = now
+            if (addr, value) in self._wait_values and self._watch is None and \
                     (core.pc_now(), addr, value) in self._waits:
                 return self._jump_here()   # a known loop waiting on this very value
             return False
-        delta = now - self._poll_at
-        self._poll_at = now
+        delta = now - st.poll_at
+        st.poll_at = now
         loop = (core.pc_now(), addr, delta)
         watch = self._watch
         if watch is None:
@@ -62,7 +66,8 @@ class PollSkipper:
                 return self._jump_here()
             if known is None:
                 self._watch = (loop, value, core.context())
-                self._reread = True
+                st.watching = 1
+                st.reread = 1
                 core.stop()
         elif watch[0] == loop and watch[1] == value and not self._ram_written \
                 and core.context() == watch[2]:
@@ -80,6 +85,8 @@ class PollSkipper:
         was confirmed pure, so until the next event it could only read the same again."""
         self._waits.add((pc, addr, value))
         self._wait_values.add((addr, value))
+        if self.board.native is not None:
+            add_wait(self._st, pc, addr, value)
 
     def _jump_here(self) -> bool:
         """Skip a known poll loop inside the chunk: time jumps to the next event, which
@@ -91,23 +98,25 @@ class PollSkipper:
         if cyc <= now:
             return False
         core.jump(cyc - now)
-        board.skipped_cycles += cyc - now
-        self._poll_key = None
+        self._st.skipped += cyc - now
+        self._st.poll_valid = 0
         events.fire_due(core.now_fs())
         nvic = board.nvic
         if nvic.pending and nvic.next_exception() is not None:
-            self._reread = True
+            self._st.reread = 1
             core.stop()
         return True
 
     def forget(self) -> None:
         """A system reset: no poll is under way (the loops learnt stay: the same code)."""
         self._end_watch()
-        self._poll_key = None
-        self._skip = self._reread = False
+        self._st.poll_valid = 0
+        self._skip = False
+        self._st.reread = 0
 
     def _end_watch(self) -> None:
         self._watch = None
+        self._st.watching = 0
         if self._watch_hook is not None:
             self.board.core.uc.hook_del(self._watch_hook)
             self._watch_hook = None
@@ -118,11 +127,11 @@ class PollSkipper:
         if self._skip:
             self._skip = False
             self._end_watch()
-            self._poll_key = None
-            self._reread = False
+            self._st.poll_valid = 0
+            self._st.reread = 0
             cyc = core.time.cycle_of(self.board.events.next_fs())
             if cyc > core.cyc:
-                self.board.skipped_cycles += cyc - core.cyc
+                self._st.skipped += cyc - core.cyc
                 core.cyc = cyc
         elif self._watch is not None and self._watch_hook is None and core.stopped:
             self._ram_written = False      # a loop seen for the first time: watch its stores

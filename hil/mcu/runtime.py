@@ -12,6 +12,7 @@ from typing import Callable
 
 from hil.link.firmware_process import DirectConnection
 from hil.mcu.board import Board
+from hil.mcu.board_core import MAX_US
 from hil.mcu.core import CoreFault
 from hil.mcu.elf_image import ElfImage
 from hil.mcu.gdb import GdbServer
@@ -25,7 +26,7 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
     """Run ``image`` against ``server`` (hil/link/server.py) until ``end_us``."""
     conn = DirectConnection(lambda c, msgs, closed: server.answer(c, msgs, closed, end_us,
                                                                   result))
-    board = Board(image, conn.exchange, console_events)
+    board = Board(image, conn.exchange, console_events, compiled=end_us <= MAX_US)
     tracer = None
     if coverage is not None:
         from hil.mcu.coverage import LineCounter

@@ -24,7 +24,7 @@ BAUD_TOLERANCE = 0.03        # a UART frame survives about this much clock error
 class ServoLine:
     def __init__(self, board: Any) -> None:
         self.board = board
-        self.direction = 0
+        self.direction = board.core.shared.direction = 0
         self._burst = bytearray()
         self._burst_fs = 0
         self._burst_dir = 0
@@ -55,7 +55,15 @@ class ServoLine:
         if level != self.direction:
             self.direction_turned(level)
 
+    def _gather(self) -> None:
+        """The compiled USART2 (hil/mcu/board_core.c) keeps the burst it sends: take it."""
+        got = self.board.native.burst() if self.board.native else None
+        if got is not None:
+            self._burst = bytearray(got[0])
+            self._burst_fs, self._burst_dir = got[1], got[2]
+
     def flush(self) -> None:
+        self._gather()
         if not self._burst:
             return
         tx, self._burst = bytes(self._burst), bytearray()
@@ -75,6 +83,7 @@ class ServoLine:
 
     def direction_turned(self, level: int) -> None:
         usart = self.board.usart2
+        self._gather()
         if self._burst and usart.shift_end.at_fs is not None and not level:
             self._burst.pop()     # the byte on the wire now is cut by the turn
             self.board.link.fault("tx_while_receiving", "1 byte cut: the direction pin (A1) turned "
@@ -85,7 +94,7 @@ class ServoLine:
             self._rx_queue.clear()
             self.deliver_timer.clear()
         self.flush()
-        self.direction = level
+        self.direction = self.board.core.shared.direction = level
         self.board.link.direction(self.board.now_us(), bool(level))
 
     def rx_arrives(self, at_fs: int) -> None:

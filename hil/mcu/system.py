@@ -23,6 +23,24 @@ CPACR, DEMCR, STIR, FPCCR = 0xE000ED88, 0xE000EDFC, 0xE000EF00, 0xE000EF34
 SCR_SLEEPONEXIT = 0x2
 
 
+class PendingSet(set):
+    """The pending exceptions, their count copied where the compiled board sees it
+    (hil/mcu/board_core.c asks Python whether one is ready only while one is pending)."""
+
+    def __init__(self, shared: Any) -> None:
+        super().__init__()
+        self._shared = shared
+        shared.pending_n = 0
+
+    def add(self, exc: int) -> None:
+        set.add(self, exc)
+        self._shared.pending_n = len(self)
+
+    def discard(self, exc: int) -> None:
+        set.discard(self, exc)
+        self._shared.pending_n = len(self)
+
+
 class Nvic:
     """Which exception is pending, enabled, active, and which one runs next."""
 
@@ -31,7 +49,7 @@ class Nvic:
         self._masks = Regs(core.uc, (A.UC_ARM_REG_FAULTMASK, A.UC_ARM_REG_PRIMASK,
                                      A.UC_ARM_REG_BASEPRI))
         self.enabled: set[int] = set()           # IRQ numbers
-        self.pending: set[int] = set()           # exception numbers
+        self.pending: set[int] = PendingSet(core.shared)     # exception numbers
         self.lines: set[int] = set()             # IRQ lines a peripheral holds high
         self.prio = bytearray(16 + NUM_IRQS)
         self.prigroup = 0

@@ -1,0 +1,488 @@
+/* The ELF board's hot path compiled (hil/mcu/board_core.py loads it with ctypes): the event
+ * heap, USART2 at register level with its byte timing, the servo line's outgoing burst, and
+ * the poll skipper's known waits on USART2's registers.
+ *
+ * It fronts the peripherals' MMIO region for Unicorn: USART2's page is served here, every
+ * other page goes to the Python callbacks (hil/mcu/mmio.py) through a function pointer.
+ * Python is called only where the board's Python state is needed: a Python timer falling
+ * due, USART2's interrupt line high, the transmitter going idle (the servo line's burst is
+ * sent), a DMA request, a poll loop seen for the first time, an exception that may be
+ * ready. Each function is the Python model's (hil/mcu/usart.py, events.py, poll.py) in the
+ * same order with the same integers, so traces are the same bytes. */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define FS_PER_S 1000000000000000LL
+#define NONE (-1LL)
+#define PERIPH_BASE 0x40000000ULL
+#define USART2_PAGE 17          /* (0x40004400 - PERIPH_BASE) >> 10 */
+#define WAITS 256               /* open-addressed set of (pc, register, value) */
+
+/* the Python side's answers (one callback, these kinds) */
+enum { PY_LINE = 1, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_READY_STOP, PY_TAKEN_NEXT, PY_POLLED,
+       PY_PCLK, PY_FAILED };
+
+typedef int64_t (*py_call_t)(int kind, int64_t a, int64_t b);
+typedef int (*py_timer_t)(int tid, int64_t at_fs);
+typedef uint64_t (*mmio_read_t)(void *uc, uint64_t offset, unsigned size, void *ud);
+typedef void (*mmio_write_t)(void *uc, uint64_t offset, unsigned size, uint64_t value, void *ud);
+
+typedef struct { int64_t at; uint64_t seq; int32_t tid; uint32_t gen; } entry_t;
+
+/* Shared with Python (hil/mcu/board_core.py ``Shared``): keep the two in step. */
+typedef struct {
+    /* time: the core's (hil/mcu/core.py) */
+    uint64_t *ctr;               /* Unicorn's instructions run by this emu_start, + 1 */
+    uint32_t *pc;                /* the running instruction's PC in Unicorn's CPU state */
+    int64_t chunk0, cyc, fs0, cyc0, fs_per_cyc, hz;
+    int32_t running, _pad;
+    int64_t skipped;             /* cycles skipped by poll jumps */
+    /* the poll skipper's state (hil/mcu/poll.py) */
+    int32_t poll_valid, poll_addr, poll_value, reread, watching, pending_n;
+    int64_t poll_at;
+    /* USART2 */
+    int32_t u2_live, u2_line, u2_dma_tx, u2_dma_rx;
+    int32_t sr, brr, cr1, cr2, cr3, gtpr, tdr, rdr, echo;
+    int64_t frame_fs;
+    /* the servo line's burst */
+    int32_t direction, burst_dir, burst_n, burst_cap;
+    int64_t burst_fs;
+    uint8_t *burst;
+    /* the event heap */
+    int64_t next_at;             /* the earliest live timer's time, NONE when none */
+    uint64_t seq;
+    int32_t n, cap, ntimers, u2_tid, err;
+    entry_t *heap;
+    uint32_t *gen;
+    int64_t *tat;
+    /* Python */
+    py_call_t py_call;
+    py_timer_t py_timer;
+    mmio_read_t py_read;
+    mmio_write_t py_write;
+    uint32_t waits[WAITS][3];
+    int32_t nwaits;
+} bc_t;
+
+enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
+#define ORE (1 << 3)
+#define RXNE (1 << 5)
+#define TC (1 << 6)
+#define TXE (1 << 7)
+#define UE (1 << 13)
+#define M_9BIT (1 << 12)
+#define OVER8 (1 << 15)
+#define TE (1 << 3)
+#define RE (1 << 2)
+#define RXNEIE (1 << 5)
+#define TCIE (1 << 6)
+#define TXEIE (1 << 7)
+#define EIE 1
+#define HDSEL (1 << 3)
+#define DMAR (1 << 6)
+#define DMAT (1 << 7)
+
+static int64_t floordiv(__int128 a, __int128 b) {
+    __int128 q = a / b;
+    if ((a % b != 0) && ((a < 0) != (b < 0))) q -= 1;
+    return (int64_t)q;
+}
+
+/* --- time -------------------------------------------------------------------------- */
+static int64_t now_cyc(bc_t *s) { return s->running ? s->chunk0 + (int64_t)*s->ctr - 1 : s->cyc; }
+
+static int64_t fs_at(bc_t *s, int64_t cyc) {
+    if (s->fs_per_cyc) return s->fs0 + (cyc - s->cyc0) * s->fs_per_cyc;
+    return s->fs0 + floordiv((__int128)(cyc - s->cyc0) * FS_PER_S, s->hz);
+}
+
+static int64_t cycle_of(bc_t *s, int64_t fs) {
+    if (s->fs_per_cyc) return s->cyc0 - floordiv(s->fs0 - fs, s->fs_per_cyc);
+    return s->cyc0 - floordiv(-(__int128)(fs - s->fs0) * s->hz, FS_PER_S);
+}
+
+int64_t bc_now_fs(bc_t *s) { return fs_at(s, now_cyc(s)); }
+
+/* --- the event heap (events.py: ties in the order set) ------------------------------- */
+static int before(entry_t *a, entry_t *b) {
+    return a->at < b->at || (a->at == b->at && a->seq < b->seq);
+}
+
+static void heap_pop(bc_t *s) {
+    entry_t *h = s->heap;
+    h[0] = h[--s->n];
+    int i = 0;
+    for (;;) {
+        int l = 2 * i + 1, r = l + 1, m = i;
+        if (l < s->n && before(&h[l], &h[m])) m = l;
+        if (r < s->n && before(&h[r], &h[m])) m = r;
+        if (m == i) break;
+        entry_t t = h[i]; h[i] = h[m]; h[m] = t;
+        i = m;
+    }
+}
+
+/* drop cancelled entries off the top; the earliest live time */
+static void settle(bc_t *s) {
+    while (s->n && s->gen[s->heap[0].tid] != s->heap[0].gen) heap_pop(s);
+    s->next_at = s->n ? s->heap[0].at : NONE;
+}
+
+int bc_timer_new(bc_t *s) {
+    if (s->ntimers % 64 == 0) {
+        s->gen = realloc(s->gen, (s->ntimers + 64) * sizeof *s->gen);
+        s->tat = realloc(s->tat, (s->ntimers + 64) * sizeof *s->tat);
+    }
+    s->gen[s->ntimers] = 0;
+    s->tat[s->ntimers] = NONE;
+    return s->ntimers++;
+}
+
+void bc_timer_set(bc_t *s, int tid, int64_t at) {
+    if (s->n == s->cap) {
+        s->cap = s->cap ? 2 * s->cap : 256;
+        s->heap = realloc(s->heap, s->cap * sizeof *s->heap);
+    }
+    entry_t e = {at, ++s->seq, tid, ++s->gen[tid]};
+    s->tat[tid] = at;
+    int i = s->n++;
+    entry_t *h = s->heap;
+    while (i > 0 && before(&e, &h[(i - 1) / 2])) {
+        h[i] = h[(i - 1) / 2];
+        i = (i - 1) / 2;
+    }
+    h[i] = e;
+    settle(s);
+}
+
+void bc_timer_clear(bc_t *s, int tid) {
+    s->gen[tid]++;
+    s->tat[tid] = NONE;
+    settle(s);
+}
+
+int64_t bc_timer_at(bc_t *s, int tid) { return s->tat[tid]; }
+
+static void usart_shifted(bc_t *s, int64_t at);
+
+/* Fire every timer due by ``now_fs`` in time order: 1 when any fired, -1 on a Python error */
+int bc_fire_due(bc_t *s, int64_t now_fs) {
+    int fired = 0;
+    settle(s);
+    while (s->n && s->heap[0].at <= now_fs && !s->err) {
+        entry_t e = s->heap[0];
+        heap_pop(s);
+        s->gen[e.tid]++;
+        s->tat[e.tid] = NONE;
+        if (e.tid == s->u2_tid) {
+            usart_shifted(s, e.at);
+        } else if (s->py_timer(e.tid, e.at)) {
+            s->err = 1;
+        }
+        fired = 1;
+        settle(s);
+    }
+    return s->err ? -1 : fired;
+}
+
+/* --- USART2 (usart.py) ---------------------------------------------------------------- */
+static const int STOP_HALF_BITS[4] = {2, 1, 4, 3};
+
+static int64_t py(bc_t *s, int kind, int64_t a, int64_t b) {
+    if (s->err) return -1;
+    int64_t r = s->py_call(kind, a, b);
+    if (r == -2) s->err = 1;
+    return r;
+}
+
+int64_t bc_divider(bc_t *s) {
+    int64_t brr = s->brr & 0xFFFF;
+    if (s->cr1 & OVER8) return (brr >> 4) * 8 + (brr & 7);
+    return brr;
+}
+
+static int64_t frame_fs(bc_t *s) {
+    if (!s->frame_fs) {
+        int64_t half = 2 + 2 * ((s->cr1 & M_9BIT) ? 9 : 8) + STOP_HALF_BITS[(s->cr2 >> 12) & 3];
+        int64_t div = bc_divider(s);
+        int64_t pclk = py(s, PY_PCLK, 0, 0);
+        if (pclk <= 0) return 1;
+        s->frame_fs = floordiv((__int128)half * FS_PER_S * (div > 1 ? div : 1), 2 * pclk);
+    }
+    return s->frame_fs;
+}
+
+static void line(bc_t *s, int level) {
+    if (level) {
+        s->u2_line = 1;
+        py(s, PY_LINE, 1, 0);
+    } else if (s->u2_line) {
+        s->u2_line = 0;
+        py(s, PY_LINE, 0, 0);
+    }
+}
+
+static void irq(bc_t *s) {
+    int sr = s->sr, cr1 = s->cr1;
+    if (!(cr1 & (TXEIE | TCIE | RXNEIE)) && !(s->cr3 & EIE)) {
+        line(s, 0);
+        return;
+    }
+    int level = (cr1 & UE) && (((cr1 & TXEIE) && (sr & TXE)) || ((cr1 & TCIE) && (sr & TC))
+                               || ((cr1 & RXNEIE) && (sr & (RXNE | ORE)))
+                               || ((s->cr3 & EIE) && (sr & ORE)));
+    line(s, level);
+}
+
+static void sent(bc_t *s, int byte, int64_t start_fs) {
+    if (!s->burst_n) {
+        s->burst_fs = start_fs;
+        s->burst_dir = s->direction;
+    }
+    if (s->burst_n == s->burst_cap) {
+        s->burst_cap = s->burst_cap ? 2 * s->burst_cap : 1024;
+        s->burst = realloc(s->burst, s->burst_cap);
+    }
+    s->burst[s->burst_n++] = (uint8_t)byte;
+}
+
+static void transmit(bc_t *s, int byte, int64_t at) {
+    int64_t end = at + frame_fs(s);
+    bc_timer_set(s, s->u2_tid, end);
+    s->sr &= ~TC;
+    sent(s, byte, at);
+    if ((s->cr3 & HDSEL) && (s->cr1 & RE)) s->echo = byte;
+}
+
+void bc_usart_received(bc_t *s, int byte);
+void bc_usart_dma_request(bc_t *s);
+
+static void usart_shifted(bc_t *s, int64_t at) {
+    int echo = s->echo;
+    if (echo >= 0) {
+        s->echo = -1;
+        bc_usart_received(s, echo);
+    }
+    if (s->tdr >= 0) {
+        int byte = s->tdr;
+        s->tdr = -1;
+        s->sr |= TXE;
+        transmit(s, byte, at);
+        if (s->cr3 & DMAT) bc_usart_dma_request(s);
+    } else {
+        s->sr |= TC;
+        py(s, PY_IDLE, at, 0);
+    }
+    irq(s);
+}
+
+static void write_dr(bc_t *s, int byte) {
+    if (!((s->cr1 & UE) && (s->cr1 & TE))) return;
+    if (s->tat[s->u2_tid] == NONE) {
+        transmit(s, byte, bc_now_fs(s));
+    } else {
+        s->tdr = byte;
+        s->sr &= ~TXE;
+    }
+}
+
+void bc_usart_dma_request(bc_t *s) {
+    while ((s->cr3 & DMAT) && s->u2_dma_tx && (s->sr & TXE) && (s->cr1 & UE) && (s->cr1 & TE)) {
+        int64_t byte = py(s, PY_DMA_TX, 0, 0);
+        if (byte < 0) return;
+        write_dr(s, (int)byte);
+    }
+}
+
+void bc_usart_received(bc_t *s, int byte) {
+    if (!((s->cr1 & UE) && (s->cr1 & RE))) return;
+    if (s->sr & RXNE) {
+        s->sr |= ORE;
+    } else {
+        s->rdr = byte;
+        s->sr |= RXNE;
+        if ((s->cr3 & DMAR) && s->u2_dma_rx && py(s, PY_DMA_RX, byte, 0) > 0) s->sr &= ~RXNE;
+    }
+    irq(s);
+}
+
+uint32_t bc_usart_read(bc_t *s, int off) {
+    switch (off) {
+    case DR:
+        s->sr &= ~(RXNE | ORE);
+        irq(s);
+        return (uint32_t)s->rdr;
+    case SR: return (uint32_t)s->sr;
+    case BRR: return (uint32_t)s->brr;
+    case CR1: return (uint32_t)s->cr1;
+    case CR2: return (uint32_t)s->cr2;
+    case CR3: return (uint32_t)s->cr3;
+    case GTPR: return (uint32_t)s->gtpr;
+    default: return 0;
+    }
+}
+
+void bc_usart_write(bc_t *s, int off, uint32_t value) {
+    if (off == DR) {
+        write_dr(s, value & 0x1FF);
+    } else if (off == SR) {
+        s->sr &= (int32_t)(value | ~(uint32_t)(TC | RXNE | 0x300));
+    } else if (off >= BRR && off <= GTPR) {
+        int32_t v = value & 0xFFFF;
+        switch (off) {
+        case BRR: s->brr = v; break;
+        case CR1: s->cr1 = v; break;
+        case CR2: s->cr2 = v; break;
+        case CR3: s->cr3 = v; break;
+        default: s->gtpr = v;
+        }
+        if (off == CR1 || off == CR2 || off == BRR) s->frame_fs = 0;
+        if (off == CR1 && !(value & UE)) {
+            s->sr = TXE | TC;
+            s->tdr = -1;
+            bc_timer_clear(s, s->u2_tid);
+        }
+        if (off == CR3) bc_usart_dma_request(s);
+    }
+    irq(s);
+}
+
+void bc_usart_reset(bc_t *s) {
+    s->sr = TXE | TC;
+    s->brr = s->cr1 = s->cr2 = s->cr3 = s->gtpr = 0;
+    s->tdr = s->echo = -1;
+    s->rdr = 0;
+    s->frame_fs = 0;
+    s->u2_line = s->u2_dma_tx = s->u2_dma_rx = 0;
+    bc_timer_clear(s, s->u2_tid);
+}
+
+/* --- the poll skipper's known waits (poll.py) ---------------------------------------- */
+static unsigned wait_slot(uint32_t pc, uint32_t addr, uint32_t value) {
+    return (pc * 2654435761u ^ addr * 40503u ^ value * 97u) % WAITS;
+}
+
+/* 0 added (or already there), -1 full (the Python set keeps it: C then asks Python) */
+int bc_add_wait(bc_t *s, uint32_t pc, uint32_t addr, uint32_t value) {
+    unsigned i = wait_slot(pc, addr, value);
+    for (int k = 0; k < WAITS; k++, i = (i + 1) % WAITS) {
+        uint32_t *w = s->waits[i];
+        if (w[0] == pc && w[1] == addr && w[2] == value) return 0;
+        if (w[0] == 0) {
+            w[0] = pc; w[1] = addr; w[2] = value;
+            s->nwaits++;
+            return 0;
+        }
+    }
+    return -1;
+}
+
+static int known_wait(bc_t *s, uint32_t pc, uint32_t addr, uint32_t value) {
+    unsigned i = wait_slot(pc, addr, value);
+    for (int k = 0; k < WAITS; k++, i = (i + 1) % WAITS) {
+        uint32_t *w = s->waits[i];
+        if (w[0] == 0) return 0;
+        if (w[0] == pc && w[1] == addr && w[2] == value) return 1;
+    }
+    return 0;
+}
+
+/* _jump_here: time jumps to the next event, which fires now */
+static int jump_here(bc_t *s) {
+    int64_t now = now_cyc(s);
+    settle(s);
+    if (s->next_at == NONE) return 0;
+    int64_t cyc = cycle_of(s, s->next_at);
+    if (cyc <= now) return 0;
+    s->chunk0 += cyc - now;
+    s->skipped += cyc - now;
+    s->poll_valid = 0;
+    bc_fire_due(s, bc_now_fs(s));
+    if (s->pending_n) py(s, PY_READY_STOP, 0, 0);
+    return 1;
+}
+
+static int polled(bc_t *s, uint32_t addr, uint32_t value) {
+    if (s->nwaits < 0) return py(s, PY_POLLED, addr, value) > 0;   /* the table is full */
+    if (s->reread) {
+        s->reread = 0;
+        return 0;
+    }
+    if (!s->poll_valid || (uint32_t)s->poll_addr != addr || (uint32_t)s->poll_value != value) {
+        s->poll_valid = 1;
+        s->poll_addr = (int32_t)addr;
+        s->poll_value = (int32_t)value;
+        s->poll_at = now_cyc(s);
+        if (!s->watching && known_wait(s, *s->pc, addr, value)) return jump_here(s);
+        return 0;
+    }
+    return py(s, PY_POLLED, addr, value) > 0;
+}
+
+/* --- Unicorn's MMIO callbacks for the peripheral region -------------------------------- */
+static void due(bc_t *s) {
+    if (s->next_at != NONE && s->next_at <= bc_now_fs(s)) bc_fire_due(s, bc_now_fs(s));
+}
+
+static void failed(bc_t *s) {
+    if (s->err) {
+        s->py_call(PY_FAILED, 0, 0);
+        s->err = 0;
+    }
+}
+
+static uint32_t sized(uint32_t word, uint64_t offset, unsigned size) {
+    if (size == 4 && !(offset & 3)) return word;
+    return (uint32_t)((word >> (8 * (offset & 3))) & ((1ULL << (8 * size)) - 1));
+}
+
+uint64_t bc_mmio_read(void *uc, uint64_t offset, unsigned size, void *ud) {
+    bc_t *s = ud;
+    if ((offset >> 10) != USART2_PAGE || !s->u2_live) return s->py_read(uc, offset, size, 0);
+    due(s);
+    int off = (int)(offset & 0x3FC);
+    uint32_t value = sized(bc_usart_read(s, off), offset, size);
+    if (off == DR || off == GTPR || off > GTPR) {
+        s->poll_valid = 0;
+    } else if (polled(s, (uint32_t)(PERIPH_BASE + offset), value)) {
+        value = sized(bc_usart_read(s, off), offset, size);
+    }
+    failed(s);
+    return value;
+}
+
+void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, void *ud) {
+    bc_t *s = ud;
+    if ((offset >> 10) != USART2_PAGE || !s->u2_live) {
+        s->py_write(uc, offset, size, value, 0);
+        return;
+    }
+    due(s);
+    s->poll_valid = 0;
+    int off = (int)(offset & 0x3FC);
+    if (size < 4) {
+        int shift = 8 * (int)(offset & 3);
+        uint64_t mask = ((1ULL << (8 * size)) - 1) << shift;
+        if (off == SR || off == BRR || off == CR1 || off == CR2 || off == CR3)
+            value = (bc_usart_read(s, off) & ~mask) | ((value << shift) & mask);
+        else
+            value = value << shift;
+    }
+    bc_usart_write(s, off, (uint32_t)(value & 0xFFFFFFFF));
+    if (s->pending_n) py(s, PY_TAKEN_NEXT, 0, 0);
+    failed(s);
+}
+
+/* what the heap, the burst and the timers took (the board's end) */
+void bc_free(bc_t *s) {
+    free(s->heap);
+    free(s->gen);
+    free(s->tat);
+    free(s->burst);
+    s->heap = NULL;
+    s->gen = NULL;
+    s->tat = NULL;
+    s->burst = NULL;
+    s->n = s->cap = s->ntimers = s->burst_n = s->burst_cap = 0;
+}

@@ -1,0 +1,286 @@
+"""The ELF board's hot path compiled (hil/mcu/board_core.c), through ctypes: the event heap,
+USART2 with its byte timing, the servo line's outgoing burst and the known poll waits on
+USART2's registers.
+
+A firmware sending servo packets spends its time on USART2: a byte written to DR, a poll of
+TXE skipped to the byte's end, the next byte. In Python each of those is a register
+callback, a poll check, a jump, an event and a byte handed to the servo line; the C code
+fronts the peripherals' MMIO region and does them without Python, which it calls only where
+the board's Python state takes part (a Python timer due, USART2's interrupt line high, the
+transmitter idle: the burst goes to the link, a DMA request, a poll loop seen for the first
+time, an exception that may be ready). ``Shared`` is the state both sides read: the core's
+time (hil/mcu/core.py keeps its chunk origin there, so a jump in C moves it), the poll
+skipper's (hil/mcu/poll.py) and USART2's registers.
+
+The Python models stay the reference (events.py, usart.py, servo_line.py): the same
+operations in the same order, the same integers, so the traces are the same bytes
+(tests/test_board_core.py runs both). ``make`` builds ``_board_core.so`` beside this file
+with the pinned ziglang's C compiler; without it, or with ``HEXHIL_BOARD_CORE=python``, the
+board runs in Python.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import weakref
+from pathlib import Path
+from typing import Any, Callable
+
+from hil.native import load_library
+from protocol.errors import UserError
+
+LIBRARY = Path(__file__).with_name("_board_core.so")
+USART2_IRQ = 38
+_P, _I32, _I64 = ctypes.c_void_p, ctypes.c_int32, ctypes.c_int64
+PY_CALL = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_int, ctypes.c_int64, ctypes.c_int64)
+PY_TIMER = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int64)
+(PY_LINE, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_READY_STOP, PY_TAKEN_NEXT, PY_POLLED, PY_PCLK,
+ PY_FAILED) = range(1, 10)
+FAILED = -2                  # a Python callback raised: C unwinds, the error is handed on
+WAITS = 256
+# virtual time in C is int64 femtoseconds: 9,223 s; a longer run is served in Python
+MAX_US = 9_000_000_000
+
+
+class Shared(ctypes.Structure):
+    """bc_t in board_core.c, field for field."""
+    _fields_ = [("ctr", _P), ("pc", _P), ("chunk0", _I64), ("cyc", _I64), ("fs0", _I64),
+                ("cyc0", _I64), ("fs_per_cyc", _I64), ("hz", _I64), ("running", _I32),
+                ("_pad", _I32), ("skipped", _I64),
+                ("poll_valid", _I32), ("poll_addr", _I32), ("poll_value", _I32),
+                ("reread", _I32), ("watching", _I32), ("pending_n", _I32), ("poll_at", _I64),
+                ("u2_live", _I32), ("u2_line", _I32), ("u2_dma_tx", _I32), ("u2_dma_rx", _I32),
+                ("sr", _I32), ("brr", _I32), ("cr1", _I32), ("cr2", _I32), ("cr3", _I32),
+                ("gtpr", _I32), ("tdr", _I32), ("rdr", _I32), ("echo", _I32),
+                ("frame_fs", _I64),
+                ("direction", _I32), ("burst_dir", _I32), ("burst_n", _I32),
+                ("burst_cap", _I32), ("burst_fs", _I64), ("burst", _P),
+                ("next_at", _I64), ("seq", ctypes.c_uint64), ("n", _I32), ("cap", _I32),
+                ("ntimers", _I32), ("u2_tid", _I32), ("err", _I32),
+                ("heap", _P), ("gen", _P), ("tat", _P),
+                ("py_call", PY_CALL), ("py_timer", PY_TIMER), ("py_read", _P), ("py_write", _P),
+                ("waits", (ctypes.c_uint32 * 3) * WAITS), ("nwaits", _I32)]
+
+
+def _load() -> Any:
+    if os.environ.get("HEXHIL_BOARD_CORE") == "python":
+        return None
+    lib = load_library(LIBRARY, keep_gil=True)    # its calls call back into Python
+    if lib is None:
+        return None
+    sig = {"bc_timer_new": (_I32, [_P]), "bc_timer_set": (None, [_P, _I32, _I64]),
+           "bc_timer_clear": (None, [_P, _I32]), "bc_timer_at": (_I64, [_P, _I32]),
+           "bc_fire_due": (_I32, [_P, _I64]), "bc_now_fs": (_I64, [_P]),
+           "bc_divider": (_I64, [_P]), "bc_usart_received": (None, [_P, _I32]),
+           "bc_usart_dma_request": (None, [_P]), "bc_usart_read": (ctypes.c_uint32, [_P, _I32]),
+           "bc_usart_write": (None, [_P, _I32, ctypes.c_uint32]),
+           "bc_usart_reset": (None, [_P]),
+           "bc_add_wait": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
+           "bc_free": (None, [_P])}
+    for name, (res, args) in sig.items():
+        fn = getattr(lib, name)
+        fn.restype, fn.argtypes = res, args
+    return lib
+
+
+_LIB = _load()
+
+
+def native() -> bool:
+    """Whether boards made now run their hot path in C."""
+    return _LIB is not None
+
+
+def too_long(at_fs: int) -> UserError:
+    return UserError(f"the compiled ELF board counts virtual time to {MAX_US // 10**6} s; "
+                     f"t={at_fs // 10**15} s is beyond it: run with HEXHIL_BOARD_CORE=python")
+
+
+class NativeTimer:
+    """events.py's ``Timer`` on the C heap: ``set`` moves it, ``clear`` cancels it."""
+
+    __slots__ = ("fn", "tid", "_events")
+
+    def __init__(self, events: "NativeEvents", fn: Callable[[int], None], tid: int) -> None:
+        self.fn, self.tid, self._events = fn, tid, events
+
+    @property
+    def at_fs(self) -> int | None:
+        at = _LIB.bc_timer_at(self._events.ref, self.tid)
+        return None if at < 0 else at
+
+    def set(self, at_fs: int) -> None:
+        if at_fs > MAX_US * 10**9:
+            raise too_long(at_fs)
+        _LIB.bc_timer_set(self._events.ref, self.tid, at_fs)
+
+    def clear(self) -> None:
+        _LIB.bc_timer_clear(self._events.ref, self.tid)
+
+
+class NativeEvents:
+    """events.py's ``Events`` on the C heap: one heap for the Python timers and USART2's
+    byte end, ties fired in the order set."""
+
+    def __init__(self, shared: Shared) -> None:
+        self.shared = shared
+        self.ref = ctypes.byref(shared)
+        self._timers: dict[int, NativeTimer] = {}
+        self._error: BaseException | None = None
+        self._fire = PY_TIMER(self._fired)
+        shared.py_timer = self._fire
+        shared.next_at = -1
+        weakref.finalize(self, _LIB.bc_free, self.ref)
+
+    def timer(self, fn: Callable[[int], None]) -> NativeTimer:
+        t = NativeTimer(self, fn, _LIB.bc_timer_new(self.ref))
+        self._timers[t.tid] = t
+        return t
+
+    def _fired(self, tid: int, at_fs: int) -> int:
+        try:
+            self._timers[tid].fn(at_fs)
+            return 0
+        except BaseException as exc:      # noqa: B036 -- raised again by fire_due's caller
+            self._error = exc
+            return 1
+
+    def raise_error(self) -> None:
+        """A Python callback under C raised: raise it here, once."""
+        exc, self._error = self._error, None
+        self.shared.err = 0
+        if exc is not None:
+            raise exc
+
+    def next_fs(self) -> int | None:
+        at = self.shared.next_at
+        return None if at < 0 else at
+
+    def fire_due(self, now_fs: int) -> bool:
+        fired = _LIB.bc_fire_due(self.ref, now_fs)
+        if fired < 0:
+            self.raise_error()
+        return fired > 0
+
+
+class NativeUsart:
+    """USART2 in C (usart.py's ``Usart``, the servo line's wiring built in): what the rest
+    of the board asks of a USART."""
+
+    pollable = frozenset({0x00, 0x0C, 0x10, 0x14, 0x08})
+
+    def __init__(self, name: str, irq: int, events: NativeEvents,
+                 pclk_hz: Callable[[], int]) -> None:
+        self.name, self.irq, self.pclk_hz = name, irq, pclk_hz
+        self.events = events
+        st = events.shared
+        if st.u2_tid < 0:
+            st.u2_tid = _LIB.bc_timer_new(events.ref)
+        self.shift_end = NativeTimer(events, lambda at: None, st.u2_tid)
+        _LIB.bc_usart_reset(events.ref)
+        self.dma_tx: Callable[[], int | None] | None = None
+        self.dma_rx: Callable[[int], bool] | None = None
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        object.__setattr__(self, name, value)
+        if name in ("dma_tx", "dma_rx"):
+            setattr(self.events.shared, "u2_" + name, value is not None)
+
+    @property
+    def regs(self) -> dict[int, int]:
+        st = self.events.shared
+        return {0x00: st.sr, 0x08: st.brr, 0x0C: st.cr1, 0x10: st.cr2, 0x14: st.cr3,
+                0x18: st.gtpr}
+
+    def baud(self) -> float:
+        div = _LIB.bc_divider(self.events.ref)
+        return self.pclk_hz() / div if div else 0.0
+
+    def clock_changed(self) -> None:
+        self.events.shared.frame_fs = 0
+
+    def dma_request(self) -> None:
+        _LIB.bc_usart_dma_request(self.events.ref)
+        self._raise()
+
+    def received(self, byte: int) -> None:
+        _LIB.bc_usart_received(self.events.ref, byte)
+        self._raise()
+
+    def read(self, off: int) -> int:
+        value = _LIB.bc_usart_read(self.events.ref, off)
+        self._raise()
+        return value
+
+    def write(self, off: int, value: int) -> None:
+        _LIB.bc_usart_write(self.events.ref, off, value)
+        self._raise()
+
+    def _raise(self) -> None:
+        if self.events.shared.err:
+            self.events.raise_error()
+
+
+class NativeBoard:
+    """The C side's calls into the board (hil/mcu/board.py): one dispatcher."""
+
+    def __init__(self, board: Any) -> None:
+        self.board = board
+        self._call = PY_CALL(self._dispatch)
+        board.core.shared.py_call = self._call
+
+    def _dispatch(self, kind: int, a: int, b: int) -> int:
+        board = self.board
+        try:
+            if kind == PY_LINE:
+                board.nvic.line(USART2_IRQ, bool(a))
+            elif kind == PY_IDLE:
+                board.line.idle(board.usart2, a)
+            elif kind == PY_DMA_TX:
+                byte = board.usart2.dma_tx()
+                return -1 if byte is None else byte
+            elif kind == PY_DMA_RX:
+                return int(bool(board.usart2.dma_rx(a)))
+            elif kind == PY_READY_STOP:
+                nvic = board.nvic
+                if nvic.pending and nvic.next_exception() is not None:
+                    board.core.shared.reread = 1
+                    board.core.stop()
+            elif kind == PY_TAKEN_NEXT:
+                board.space.taken_next(board)
+            elif kind == PY_POLLED:
+                return int(board.poll.polled(a & 0xFFFFFFFF, b & 0xFFFFFFFF))
+            elif kind == PY_PCLK:
+                return board.usart2.pclk_hz()
+            elif kind == PY_FAILED:
+                exc, board.events._error = board.events._error, None
+                if exc is not None:
+                    board.space.failed(exc)
+            return 0
+        except BaseException as exc:      # noqa: B036 -- handed on by the C side
+            board.events._error = exc
+            return FAILED
+
+    def burst(self) -> tuple[bytes, int, int] | None:
+        """The bytes USART2 sent since the last take: (bytes, first byte's start, PA1)."""
+        st = self.board.core.shared
+        if not st.burst_n:
+            return None
+        data = ctypes.string_at(st.burst, st.burst_n)
+        st.burst_n = 0
+        return data, st.burst_fs, st.burst_dir
+
+
+def front(shared: Shared, py_read: Any, py_write: Any) -> tuple[Any, Any]:
+    """The C MMIO callbacks for the peripheral region (cast for ``uc_mmio_map``), the
+    Python ones behind them for every page but USART2's."""
+    shared.py_read = ctypes.cast(py_read, _P).value
+    shared.py_write = ctypes.cast(py_write, _P).value
+    return (ctypes.cast(_LIB.bc_mmio_read, type(py_read)),
+            ctypes.cast(_LIB.bc_mmio_write, type(py_write)))
+
+
+def add_wait(shared: Shared, pc: int, addr: int, value: int) -> None:
+    """A known poll wait, for the C side too (a full table: C asks Python every time)."""
+    if shared.nwaits >= 0 and _LIB.bc_add_wait(ctypes.byref(shared), pc, addr, value) < 0:
+        shared.nwaits = -1

@@ -1,0 +1,65 @@
+"""The ELF board's compiled hot path (hil/mcu/board_core.c) against its Python model: each
+test firmware gives the same serial digest, the same console, the same cycle counts and the
+same trace bytes either way: polled USART2 (the C tripod, the bare-metal pings at two bauds
+and without PA1), interrupt- and DMA-driven USART2, half-duplex echo, SysTick and PendSV,
+EXTI switch interrupts and a system reset."""
+from pathlib import Path
+
+import pytest
+
+from hil.mcu import board_core
+from host_tools import c_sdk
+from host_tools.run_summary import run
+from tests.mcu_elf import MCU, build
+
+ROOT = Path(__file__).resolve().parent.parent
+FW = ROOT / "tests" / "elf_firmware"
+FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
+FIRMWARES = {  # name: (sources, flags, bare, seconds)
+    "c_tripod": ([ROOT / "examples" / "c_tripod" / "main.c"], (), False, 1.5),
+    "bare": ([FW / "bare_metal.c"], (), True, 0.6),
+    "bare_no_direction": ([FW / "bare_metal.c"], ("-DNO_DIRECTION",), True, 0.1),
+    "two_tasks": ([FW / "two_tasks.c"], (), False, 0.3),
+    "uart_it": ([FW / "servo_async.c"], (), False, 0.2),
+    "uart_dma": ([FW / "servo_async.c"], ("-DUSE_DMA",), False, 0.2),
+    "switches_timer": ([FW / "switches_timer.c"], (), False, 0.5),
+}
+
+
+def test_the_library_is_built():
+    assert board_core.native(), f"{board_core.LIBRARY} missing: run make"
+
+
+def _both(elf: Path, seconds: float, tmp_path: Path, monkeypatch) -> list[tuple]:
+    runs = []
+    for compiled in (True, False):
+        monkeypatch.setattr(board_core, "_LIB", board_core._LIB if compiled else None)
+        trace = tmp_path / "run.mcap"     # one path: the trace names its firmware and file
+        trace.unlink(missing_ok=True)
+        summary, result = run(FLAT, duration_s=seconds, firmware=str(elf), out=str(trace))
+        mcu = result.firmware.other["mcu"]
+        runs.append((summary["serial_digest"], result.stderr_tail, mcu["cycles"],
+                     mcu["instructions"], mcu["skipped_cycles"], trace.read_bytes()))
+        monkeypatch.undo()
+    return runs
+
+
+@pytest.mark.parametrize("name", FIRMWARES)
+def test_a_firmware_runs_the_same_with_and_without_the_compiled_board(name, tmp_path,
+                                                                      monkeypatch):
+    sources, flags, bare, seconds = FIRMWARES[name]
+    elf = c_sdk.build([str(s) for s in sources], tmp_path / f"{name}.elf", flags,
+                      "stm32f411", bare)
+    compiled, python = _both(elf, seconds, tmp_path, monkeypatch)
+    assert compiled[:5] == python[:5]
+    assert compiled[5] == python[5], "the traces differ"
+    assert compiled[2] > 0
+
+
+@pytest.mark.parametrize("source,defines", [("ping.c", ("BAUD_BRR=100", "RAISE_A1=1")),
+                                            ("irq.c", ()), ("reset.c", ())])
+def test_the_board_tests_firmwares_run_the_same_both_ways(source, defines, tmp_path,
+                                                         monkeypatch):
+    assert (MCU / source).exists()
+    compiled, python = _both(build(tmp_path, source, *defines), 0.3, tmp_path, monkeypatch)
+    assert compiled == python
