@@ -1,8 +1,9 @@
 """The ELF board's compiled hot path (hil/mcu/board_core.c) against its Python model: each
 test firmware gives the same serial digest, the same console, the same cycle counts and the
 same trace bytes either way: polled USART2 (the C tripod, the bare-metal pings at two bauds
-and without PA1), interrupt- and DMA-driven USART2, half-duplex echo, SysTick and PendSV,
-EXTI switch interrupts and a system reset."""
+and without PA1), interrupt- and DMA-driven USART2, half-duplex echo, SysTick and PendSV
+(their exception returns done in C, on MSP and PSP, with and without the FPU's frame),
+EXTI switch interrupts, pended exceptions and a system reset."""
 from pathlib import Path
 
 import pytest
@@ -57,7 +58,8 @@ def test_a_firmware_runs_the_same_with_and_without_the_compiled_board(name, tmp_
 
 
 @pytest.mark.parametrize("source,defines", [("ping.c", ("BAUD_BRR=100", "RAISE_A1=1")),
-                                            ("irq.c", ()), ("reset.c", ())])
+                                            ("irq.c", ()), ("reset.c", ()),
+                                            ("pend.c", ())])
 def test_the_board_tests_firmwares_run_the_same_both_ways(source, defines, tmp_path,
                                                          monkeypatch):
     assert (MCU / source).exists()

@@ -15,7 +15,8 @@ from typing import Any, Callable
 from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
 
-from hil.mcu.board_core import NativeBoard, NativeEvents, NativeTimer, NativeUsart, native
+from hil.mcu.board_core import (NativeBoard, NativeEvents, NativeTimer, NativeUsart,
+                                hook_interrupts, native)
 from hil.mcu.console import Console, semihost
 from hil.mcu.core import (EXC_SVCALL, EXC_SYSTICK, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT,
                           INTR_INVSTATE, INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
@@ -71,7 +72,10 @@ class Board:
         self.tick = self.events.timer(self._tick)
         self.tick.set(TICK_US * FS_PER_US)
         self.space.attach(core.uc)
-        core.uc.hook_add(UC_HOOK_INTR, self._intr)
+        if self.native:
+            hook_interrupts(core.shared, core.uc)    # exception returns in C
+        else:
+            core.uc.hook_add(UC_HOOK_INTR, lambda uc, intno, _: self.intr(intno))
         self.poll = PollSkipper(self)
 
     @property
@@ -227,8 +231,10 @@ class Board:
 
     # --- registers ----------------------------------------------------------------
     # --- exceptions ---------------------------------------------------------------
-    def _intr(self, uc, intno: int, _) -> None:
+    def intr(self, intno: int) -> None:
+        """Unicorn's interrupt hook: an exception return, SVC, a breakpoint, a fault."""
         core = self.core
+        uc = core.uc
         pc = core.pc_now()
         try:
             if intno == INTR_EXC_EXIT:

@@ -18,15 +18,22 @@
 #define PERIPH_BASE 0x40000000ULL
 #define USART2_PAGE 17          /* (0x40004400 - PERIPH_BASE) >> 10 */
 #define WAITS 256               /* open-addressed set of (pc, register, value) */
+#define ACTIVE_MAX 128          /* each of the 102 exceptions is active at most once */
+#define SRAM_BASE 0x20000000u
+#define SRAM_SIZE (128u * 1024u)
+#define INTR_EXC_EXIT 8
+enum { REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR, REG_XPSR, REG_CONTROL, REG_MSP,
+       REG_PSP, REG_S0, REG_FPSCR, REG_IPSR, REG_PC, N_REGID };
 
 /* the Python side's answers (one callback, these kinds) */
 enum { PY_LINE = 1, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_READY_STOP, PY_TAKEN_NEXT, PY_POLLED,
-       PY_PCLK, PY_FAILED };
+       PY_PCLK, PY_FAILED, PY_INTR };
 
 typedef int64_t (*py_call_t)(int kind, int64_t a, int64_t b);
 typedef int (*py_timer_t)(int tid, int64_t at_fs);
 typedef uint64_t (*mmio_read_t)(void *uc, uint64_t offset, unsigned size, void *ud);
 typedef void (*mmio_write_t)(void *uc, uint64_t offset, unsigned size, uint64_t value, void *ud);
+typedef int (*reg_batch_t)(void *uc, int *ids, void *const *vals, int count);
 
 typedef struct { int64_t at; uint64_t seq; int32_t tid; uint32_t gen; } entry_t;
 
@@ -63,6 +70,14 @@ typedef struct {
     mmio_write_t py_write;
     uint32_t waits[WAITS][3];
     int32_t nwaits;
+    /* the exception model (core.py): the active exceptions, innermost last */
+    int32_t active[ACTIVE_MAX];
+    int32_t nactive, sleeping, sleep_on_exit, _pad2;
+    void *uc;                    /* the engine, SRAM's buffer, libunicorn's batch calls */
+    uint8_t *sram;
+    reg_batch_t reg_read_batch, reg_write_batch;
+    int32_t regid[N_REGID];      /* Unicorn's ids of the registers below (REG_*) */
+    int64_t fast_returns;        /* exception returns done here */
 } bc_t;
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
@@ -471,6 +486,68 @@ void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, voi
     }
     bc_usart_write(s, off, (uint32_t)(value & 0xFFFFFFFF));
     if (s->pending_n) py(s, PY_TAKEN_NEXT, 0, 0);
+    failed(s);
+}
+
+/* --- the exception return (core.py ``leave``, board.py ``_intr``) ----------------------
+ * Done here when nothing follows it in Python: no exception pending (no tail-chaining), a
+ * system exception (an IRQ's line may pend it again), not asleep, no sleep-on-exit, the
+ * frame in SRAM, no lockup or fault to name. Everything else goes to board.py's _intr. */
+static int leave(bc_t *s) {
+    if (!s->pc || !s->uc || s->nactive < 1 || s->pending_n || s->sleeping) return 0;
+    uint32_t exc_return = *s->pc | 1;
+    int exc = s->active[s->nactive - 1];
+    int to_thread = (exc_return & 0xF) == 0x9 || (exc_return & 0xF) == 0xD;
+    if (exc >= 16 || (to_thread && s->nactive > 1) || (s->nactive == 1 && s->sleep_on_exit))
+        return 0;
+    int *id = s->regid;
+    int rid[3] = {id[REG_CONTROL], id[REG_MSP], id[REG_PSP]};
+    uint64_t st[3] = {0, 0, 0};
+    void *sp3[3] = {&st[0], &st[1], &st[2]};
+    if (s->reg_read_batch(s->uc, rid, sp3, 3)) return 0;
+    uint32_t control = (uint32_t)st[0], msp = (uint32_t)st[1], psp_value = (uint32_t)st[2];
+    int psp = (exc_return & 0xF) == 0xD;
+    uint32_t sp = psp ? psp_value : msp;
+    int fpu = !(exc_return & 0x10);
+    uint32_t n = fpu ? 26 : 8;
+    if (sp < SRAM_BASE || sp > SRAM_BASE + SRAM_SIZE - 4 * n) return 0;
+    uint32_t v[26];
+    memcpy(v, s->sram + (sp - SRAM_BASE), 4 * n);      /* little-endian, as the core */
+    uint32_t xpsr = v[7];
+    sp = sp + 4 * n + ((xpsr & (1u << 9)) ? 4 : 0);
+    s->nactive--;
+    uint32_t ipsr = s->nactive ? (uint32_t)s->active[s->nactive - 1] : 0;
+    /* the registers in core.py's _LEAVE order, with its values */
+    int ids[40];
+    uint64_t vals[40];
+    void *ptrs[40];
+    int k = 0;
+    static const int frame[6] = {REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR};
+    for (int i = 0; i < 6; i++) { ids[k] = id[frame[i]]; vals[k++] = v[i]; }
+    ids[k] = id[REG_XPSR]; vals[k++] = xpsr & ~0x3FFu;
+    ids[k] = id[REG_CONTROL]; vals[k++] = control;
+    ids[k] = id[REG_MSP]; vals[k++] = msp;
+    ids[k] = id[REG_PSP]; vals[k++] = psp_value;
+    if (fpu) {
+        for (int i = 0; i < 16; i++) { ids[k] = id[REG_S0] + i; vals[k++] = v[8 + i]; }
+        ids[k] = id[REG_FPSCR]; vals[k++] = v[24];
+    }
+    ids[k] = id[REG_IPSR]; vals[k++] = ipsr;
+    if (psp) { ids[k] = id[REG_CONTROL]; vals[k++] = control | 2; ids[k] = id[REG_PSP]; }
+    else ids[k] = id[REG_MSP];
+    vals[k++] = sp;
+    ids[k] = id[REG_PC]; vals[k++] = v[6] | 1;
+    for (int i = 0; i < k; i++) ptrs[i] = &vals[i];
+    s->reg_write_batch(s->uc, ids, ptrs, k);
+    s->fast_returns++;
+    return 1;
+}
+
+/* Unicorn's interrupt hook (UC_HOOK_INTR) */
+void bc_intr(void *uc, uint32_t intno, void *ud) {
+    bc_t *s = ud;
+    if (intno == INTR_EXC_EXIT && leave(s)) return;
+    py(s, PY_INTR, intno, 0);
     failed(s);
 }
 

@@ -35,9 +35,11 @@ _P, _I32, _I64 = ctypes.c_void_p, ctypes.c_int32, ctypes.c_int64
 PY_CALL = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_int, ctypes.c_int64, ctypes.c_int64)
 PY_TIMER = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int64)
 (PY_LINE, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_READY_STOP, PY_TAKEN_NEXT, PY_POLLED, PY_PCLK,
- PY_FAILED) = range(1, 10)
+ PY_FAILED, PY_INTR) = range(1, 11)
 FAILED = -2                  # a Python callback raised: C unwinds, the error is handed on
 WAITS = 256
+ACTIVE_MAX = 128             # each of the F411's 102 exceptions is active at most once
+N_REGID = 14                 # the registers an exception return writes (board_core.c REG_*)
 # virtual time in C is int64 femtoseconds: 9,223 s; a longer run is served in Python
 MAX_US = 9_000_000_000
 
@@ -59,7 +61,11 @@ class Shared(ctypes.Structure):
                 ("ntimers", _I32), ("u2_tid", _I32), ("err", _I32),
                 ("heap", _P), ("gen", _P), ("tat", _P),
                 ("py_call", PY_CALL), ("py_timer", PY_TIMER), ("py_read", _P), ("py_write", _P),
-                ("waits", (ctypes.c_uint32 * 3) * WAITS), ("nwaits", _I32)]
+                ("waits", (ctypes.c_uint32 * 3) * WAITS), ("nwaits", _I32),
+                ("active", _I32 * ACTIVE_MAX), ("nactive", _I32), ("sleeping", _I32),
+                ("sleep_on_exit", _I32), ("_pad2", _I32), ("uc", _P), ("sram", _P),
+                ("reg_read_batch", _P), ("reg_write_batch", _P), ("regid", _I32 * N_REGID),
+                ("fast_returns", _I64)]
 
 
 def _load() -> Any:
@@ -77,6 +83,7 @@ def _load() -> Any:
            "bc_usart_reset": (None, [_P]),
            "bc_add_wait": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
            "bc_free": (None, [_P])}
+    lib.bc_intr.restype, lib.bc_intr.argtypes = None, [_P, ctypes.c_uint32, _P]
     for name, (res, args) in sig.items():
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = res, args
@@ -252,6 +259,8 @@ class NativeBoard:
                 return int(board.poll.polled(a & 0xFFFFFFFF, b & 0xFFFFFFFF))
             elif kind == PY_PCLK:
                 return board.usart2.pclk_hz()
+            elif kind == PY_INTR:
+                board.intr(a)
             elif kind == PY_FAILED:
                 exc, board.events._error = board.events._error, None
                 if exc is not None:
@@ -278,6 +287,17 @@ def front(shared: Shared, py_read: Any, py_write: Any) -> tuple[Any, Any]:
     shared.py_write = ctypes.cast(py_write, _P).value
     return (ctypes.cast(_LIB.bc_mmio_read, type(py_read)),
             ctypes.cast(_LIB.bc_mmio_write, type(py_write)))
+
+
+def hook_interrupts(shared: Shared, uc: Any) -> None:
+    """Unicorn's interrupt hook in C (``bc_intr``): an exception return that nothing
+    follows in Python is done there, everything else calls the board's ``intr``."""
+    from unicorn import UC_HOOK_INTR
+    from unicorn.unicorn_py3.unicorn import uclib
+    handle = ctypes.c_size_t(0)
+    if uclib.uc_hook_add(uc._uch, ctypes.byref(handle), UC_HOOK_INTR,
+                         ctypes.cast(_LIB.bc_intr, _P), ctypes.addressof(shared), 1, 0):
+        raise RuntimeError("libunicorn refused the compiled interrupt hook")
 
 
 def add_wait(shared: Shared, pc: int, addr: int, value: int) -> None:

@@ -120,8 +120,7 @@ class Core:
         self.running = False
         self.stopped = False         # a read asked for the chunk to end
         self.cut = False             # the chunk ends after the instruction running now
-        self.sleeping = False        # WFI/WFE: asleep until an event or interrupt
-        self.active: list[int] = []  # active exceptions, innermost last
+        self._share_exceptions(st)
         self.vtor = 0
         self.fpu_on = False          # CPACR grants CP10/CP11: frames carry the FPU registers
         self.on_intr: Callable[[int], None] = lambda intno: None
@@ -130,6 +129,41 @@ class Core:
         self._pc_word = self._find_pc()
         if self._pc_word is not None:
             st.pc = ctypes.addressof(self._pc_word)
+
+    def _share_exceptions(self, st: Shared) -> None:
+        """What the compiled board's exception return (board_core.c) reads and writes: the
+        active exceptions, the sleep flag, the engine, SRAM and libunicorn's batch calls."""
+        st.uc = ctypes.cast(self.uc._uch, ctypes.c_void_p).value
+        st.sram = ctypes.addressof(self._sram)
+        st.reg_read_batch = ctypes.cast(uclib.uc_reg_read_batch, ctypes.c_void_p).value
+        st.reg_write_batch = ctypes.cast(uclib.uc_reg_write_batch, ctypes.c_void_p).value
+        st.regid[:] = list(FRAME_REGS + STATE_REGS) + [A.UC_ARM_REG_S0, A.UC_ARM_REG_FPSCR,
+                                                       A.UC_ARM_REG_IPSR, A.UC_ARM_REG_PC]
+
+    @property
+    def active(self) -> list[int]:
+        """The active exceptions, innermost last (a copy: ``_push``/``_pop`` change them)."""
+        st = self.shared
+        return st.active[:st.nactive]
+
+    def _push(self, exc: int) -> None:
+        st = self.shared
+        st.active[st.nactive] = exc
+        st.nactive += 1
+
+    def _pop(self) -> int:
+        st = self.shared
+        st.nactive -= 1
+        return st.active[st.nactive]
+
+    @property
+    def sleeping(self) -> bool:
+        """WFI/WFE: asleep until an event or interrupt."""
+        return bool(self.shared.sleeping)
+
+    @sleeping.setter
+    def sleeping(self, value: bool) -> None:
+        self.shared.sleeping = int(value)
 
     @property
     def cyc(self) -> int:
@@ -159,7 +193,7 @@ class Core:
         FPSCR as at power-on, the PC at the reset vector (R0-R12 keep their values:
         UNKNOWN after a reset, the same ones every run)."""
         uc = self.uc
-        self.active.clear()
+        self.shared.nactive = 0
         uc.reg_write(A.UC_ARM_REG_CONTROL, 0)
         uc.reg_write(A.UC_ARM_REG_MSP, self.read32(self.vtor_base()))
         uc.reg_write(A.UC_ARM_REG_PRIMASK, 0)
@@ -313,7 +347,7 @@ class Core:
         if self.running:
             ids, values = ids + (A.UC_ARM_REG_PC,), values + [vector | 1]
         self._set(ids, values)
-        self.active.append(exc)
+        self._push(exc)
         self.pc = vector & ~1
         self.sleeping = False
 
@@ -321,7 +355,7 @@ class Core:
         """Return from the innermost exception through ``exc_return``; its number."""
         if not self.active:
             raise CoreFault(f"an exception return (0x{exc_return:08x}) in thread mode")
-        exc = self.active.pop()
+        exc = self._pop()
         to_thread = exc_return & 0xF in (0x9, 0xD)
         if to_thread and self.active:
             raise CoreFault(f"an exception return to thread mode with {len(self.active)} "

@@ -55,6 +55,15 @@ class Nvic:
         self.prigroup = 0
         self.sleep_on_exit = False
 
+    @property
+    def sleep_on_exit(self) -> bool:
+        """SCR SLEEPONEXIT, where the compiled exception return sees it too."""
+        return bool(self.core.shared.sleep_on_exit)
+
+    @sleep_on_exit.setter
+    def sleep_on_exit(self, value: bool) -> None:
+        self.core.shared.sleep_on_exit = int(value)
+
     def line(self, irq: int, level: bool) -> None:
         """A peripheral's interrupt line ``irq`` is now ``level``."""
         if not level and irq not in self.lines:
