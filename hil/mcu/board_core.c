@@ -21,6 +21,8 @@
 #define ACTIVE_MAX 128          /* each of the 102 exceptions is active at most once */
 #define SRAM_BASE 0x20000000u
 #define SRAM_SIZE (128u * 1024u)
+#define FLASH_BASE 0x08000000u
+#define FLASH_SIZE (512u * 1024u)
 #define INTR_EXC_EXIT 8
 enum { REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR, REG_XPSR, REG_CONTROL, REG_MSP,
        REG_PSP, REG_S0, REG_FPSCR, REG_IPSR, REG_PC, N_REGID };
@@ -74,7 +76,7 @@ typedef struct {
     int32_t active[ACTIVE_MAX];
     int32_t nactive, sleeping, sleep_on_exit, _pad2;
     void *uc;                    /* the engine, SRAM's buffer, libunicorn's batch calls */
-    uint8_t *sram;
+    uint8_t *sram, *flash;
     reg_batch_t reg_read_batch, reg_write_batch;
     int32_t regid[N_REGID];      /* Unicorn's ids of the registers below (REG_*) */
     int64_t fast_returns;        /* exception returns done here */
@@ -541,6 +543,66 @@ static int leave(bc_t *s) {
     s->reg_write_batch(s->uc, ids, ptrs, k);
     s->fast_returns++;
     return 1;
+}
+
+/* core.py ``enter``: take exception ``exc`` at ``pc``, the frame stacked in SRAM; the
+ * handler's vector, or -1 where anything is not plain (a stack overflow, a frame or a vector
+ * table outside SRAM and flash, no handler): then nothing has changed and Python does it. */
+int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
+    if (!s->uc || s->nactive >= ACTIVE_MAX) return -1;
+    int *id = s->regid;
+    int ids[40];
+    uint64_t r[40];
+    void *ptrs[40];
+    int k = 0;
+    static const int state[10] = {REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR, REG_XPSR,
+                                  REG_CONTROL, REG_MSP, REG_PSP};
+    for (int i = 0; i < 10; i++) ids[k++] = id[state[i]];
+    if (fpu) {
+        for (int i = 0; i < 16; i++) ids[k++] = id[REG_S0] + i;
+        ids[k++] = id[REG_FPSCR];
+    }
+    for (int i = 0; i < k; i++) { r[i] = 0; ptrs[i] = &r[i]; }
+    if (s->reg_read_batch(s->uc, ids, ptrs, k)) return -1;
+    uint32_t xpsr = (uint32_t)r[6], control = (uint32_t)r[7];
+    int psp = !s->nactive && (control & 2);
+    int64_t sp = psp ? (uint32_t)r[9] : (uint32_t)r[8];
+    uint32_t v[26];
+    int n = 0;
+    for (int i = 0; i < 6; i++) v[n++] = (uint32_t)r[i];
+    v[n++] = pc & ~1u;
+    v[n++] = xpsr | (1u << 24);
+    if (fpu) {
+        for (int i = 10; i < 27; i++) v[n++] = (uint32_t)r[i];
+        v[n++] = 0;
+    }
+    if (sp & 4) { sp -= 4; v[7] |= 1u << 9; }
+    sp -= 4 * n;
+    if (sp < SRAM_BASE || sp > SRAM_BASE + SRAM_SIZE - 4 * n) return -1;
+    uint64_t at = (uint64_t)vtor_base + 4 * (uint64_t)exc;
+    uint32_t vector;
+    if (at >= FLASH_BASE && at <= FLASH_BASE + FLASH_SIZE - 4) memcpy(&vector, s->flash + (at - FLASH_BASE), 4);
+    else if (at >= SRAM_BASE && at <= SRAM_BASE + SRAM_SIZE - 4) memcpy(&vector, s->sram + (at - SRAM_BASE), 4);
+    else return -1;
+    if (vector == 0 || !(vector & 1)) return -1;
+    memcpy(s->sram + (sp - SRAM_BASE), v, 4 * n);
+    uint32_t exc_return = s->nactive ? 0xFFFFFFF1u : (psp ? 0xFFFFFFFDu : 0xFFFFFFF9u);
+    if (fpu) exc_return &= ~0x10u;
+    k = 0;
+    if (psp) {
+        ids[k] = id[REG_PSP]; r[k++] = (uint64_t)sp;
+        ids[k] = id[REG_CONTROL]; r[k++] = control & ~2u;
+    } else {
+        ids[k] = id[REG_MSP]; r[k++] = (uint64_t)sp;
+    }
+    ids[k] = id[REG_IPSR]; r[k++] = (uint32_t)exc;
+    ids[k] = id[REG_LR]; r[k++] = exc_return;
+    if (s->running) { ids[k] = id[REG_PC]; r[k++] = vector | 1; }
+    for (int i = 0; i < k; i++) ptrs[i] = &r[i];
+    s->reg_write_batch(s->uc, ids, ptrs, k);
+    s->active[s->nactive++] = exc;
+    s->sleeping = 0;
+    return vector;
 }
 
 /* Unicorn's interrupt hook (UC_HOOK_INTR) */

@@ -63,7 +63,7 @@ class Shared(ctypes.Structure):
                 ("py_call", PY_CALL), ("py_timer", PY_TIMER), ("py_read", _P), ("py_write", _P),
                 ("waits", (ctypes.c_uint32 * 3) * WAITS), ("nwaits", _I32),
                 ("active", _I32 * ACTIVE_MAX), ("nactive", _I32), ("sleeping", _I32),
-                ("sleep_on_exit", _I32), ("_pad2", _I32), ("uc", _P), ("sram", _P),
+                ("sleep_on_exit", _I32), ("_pad2", _I32), ("uc", _P), ("sram", _P), ("flash", _P),
                 ("reg_read_batch", _P), ("reg_write_batch", _P), ("regid", _I32 * N_REGID),
                 ("fast_returns", _I64)]
 
@@ -84,6 +84,8 @@ def _load() -> Any:
            "bc_add_wait": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
            "bc_free": (None, [_P])}
     lib.bc_intr.restype, lib.bc_intr.argtypes = None, [_P, ctypes.c_uint32, _P]
+    lib.bc_enter.restype = _I64
+    lib.bc_enter.argtypes = [_P, _I32, ctypes.c_uint32, _I32, ctypes.c_uint32]
     for name, (res, args) in sig.items():
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = res, args
@@ -298,6 +300,13 @@ def hook_interrupts(shared: Shared, uc: Any) -> None:
     if uclib.uc_hook_add(uc._uch, ctypes.byref(handle), UC_HOOK_INTR,
                          ctypes.cast(_LIB.bc_intr, _P), ctypes.addressof(shared), 1, 0):
         raise RuntimeError("libunicorn refused the compiled interrupt hook")
+
+
+def exception_entry(shared: Shared) -> Callable[[int, int, int, int], int]:
+    """core.py ``enter`` in C: (exception, PC, FPU frame, vector table) -> the handler's
+    vector, or -1 where Python takes it (nothing changed)."""
+    ref, enter = ctypes.byref(shared), _LIB.bc_enter
+    return lambda exc, pc, fpu, vtor: enter(ref, exc, pc, fpu, vtor)
 
 
 def add_wait(shared: Shared, pc: int, addr: int, value: int) -> None:

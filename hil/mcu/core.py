@@ -123,7 +123,8 @@ class Core:
         self._share_exceptions(st)
         self.vtor = 0
         self.fpu_on = False          # CPACR grants CP10/CP11: frames carry the FPU registers
-        self.on_intr: Callable[[int], None] = lambda intno: None
+        # the compiled board's exception entry (board_core.py ``exception_entry``)
+        self.enter_c: Callable[[int, int, int, int], int] | None = None
         self._fpscr0 = uc.reg_read(A.UC_ARM_REG_FPSCR)
         self.reset()
         self._pc_word = self._find_pc()
@@ -135,6 +136,7 @@ class Core:
         active exceptions, the sleep flag, the engine, SRAM and libunicorn's batch calls."""
         st.uc = ctypes.cast(self.uc._uch, ctypes.c_void_p).value
         st.sram = ctypes.addressof(self._sram)
+        st.flash = ctypes.addressof(self._flash)
         st.reg_read_batch = ctypes.cast(uclib.uc_reg_read_batch, ctypes.c_void_p).value
         st.reg_write_batch = ctypes.cast(uclib.uc_reg_write_batch, ctypes.c_void_p).value
         st.regid[:] = list(FRAME_REGS + STATE_REGS) + [A.UC_ARM_REG_S0, A.UC_ARM_REG_FPSCR,
@@ -318,6 +320,11 @@ class Core:
 
     def enter(self, exc: int) -> None:
         """Take exception ``exc`` at ``self.pc``: stack the frame, jump to its vector."""
+        if self.enter_c is not None:
+            vector = self.enter_c(exc, self.pc, self.fpu_on, self.vtor or FLASH_BASE)
+            if vector >= 0:
+                self.pc = vector & ~1
+                return
         fpu = self.fpu_on
         r = self._state_fp.read() if fpu else self._state.read()
         xpsr, control, msp, psp_value = r[6:10]
