@@ -80,6 +80,9 @@ typedef struct {
     reg_batch_t reg_read_batch, reg_write_batch;
     int32_t regid[N_REGID];      /* Unicorn's ids of the registers below (REG_*) */
     int64_t fast_returns;        /* exception returns done here */
+    /* the NVIC's pending exceptions (a bit each; pending_n counts them) and SysTick */
+    uint32_t pend[4];
+    int32_t st_tid, st_csr, st_rvr, st_countflag;
 } bc_t;
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
@@ -183,6 +186,25 @@ int64_t bc_timer_at(bc_t *s, int tid) { return s->tat[tid]; }
 
 static void usart_shifted(bc_t *s, int64_t at);
 
+static void pend(bc_t *s, int exc) {
+    uint32_t bit = 1u << (exc & 31);
+    if (!(s->pend[exc >> 5] & bit)) {
+        s->pend[exc >> 5] |= bit;
+        s->pending_n++;
+    }
+}
+
+/* SysTick's wrap (system.py SysTick ``_wrapped``): COUNTFLAG, the exception pended with
+ * TICKINT, the next wrap a reload later at HCLK or HCLK/8 */
+static void systick_wrapped(bc_t *s, int64_t at) {
+    s->st_countflag = 1;
+    if (s->st_csr & 2) pend(s, 15);
+    if (s->st_rvr == 0) return;
+    int64_t hz = (s->st_csr & 4) ? s->hz : s->hz / 8;
+    __int128 span = (__int128)(s->st_rvr + 1) * FS_PER_S;
+    bc_timer_set(s, s->st_tid, at + (int64_t)((span + hz - 1) / hz));
+}
+
 /* Fire every timer due by ``now_fs`` in time order: 1 when any fired, -1 on a Python error */
 int bc_fire_due(bc_t *s, int64_t now_fs) {
     int fired = 0;
@@ -194,6 +216,8 @@ int bc_fire_due(bc_t *s, int64_t now_fs) {
         s->tat[e.tid] = NONE;
         if (e.tid == s->u2_tid) {
             usart_shifted(s, e.at);
+        } else if (e.tid == s->st_tid) {
+            systick_wrapped(s, e.at);
         } else if (s->py_timer(e.tid, e.at)) {
             s->err = 1;
         }

@@ -65,7 +65,8 @@ class Shared(ctypes.Structure):
                 ("active", _I32 * ACTIVE_MAX), ("nactive", _I32), ("sleeping", _I32),
                 ("sleep_on_exit", _I32), ("_pad2", _I32), ("uc", _P), ("sram", _P), ("flash", _P),
                 ("reg_read_batch", _P), ("reg_write_batch", _P), ("regid", _I32 * N_REGID),
-                ("fast_returns", _I64)]
+                ("fast_returns", _I64), ("pend", ctypes.c_uint32 * 4), ("st_tid", _I32),
+                ("st_csr", _I32), ("st_rvr", _I32), ("st_countflag", _I32)]
 
 
 def _load() -> Any:

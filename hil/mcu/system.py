@@ -9,10 +9,11 @@ line is a level: an IRQ whose flag is still set when its handler returns is pend
 """
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 from unicorn import arm_const as A
 
+from hil.mcu.board_core import NativeTimer
 from hil.mcu.core import EXC_PENDSV, EXC_SYSTICK, FS_PER_S, Core, Regs
 from hil.mcu.events import Events
 
@@ -23,22 +24,40 @@ CPACR, DEMCR, STIR, FPCCR = 0xE000ED88, 0xE000EDFC, 0xE000EF00, 0xE000EF34
 SCR_SLEEPONEXIT = 0x2
 
 
-class PendingSet(set):
-    """The pending exceptions, their count copied where the compiled board sees it
-    (hil/mcu/board_core.c asks Python whether one is ready only while one is pending)."""
+class PendingSet:
+    """The pending exceptions, a bit each in ``Shared.pend`` with their count, where the
+    compiled board (hil/mcu/board_core.c) pends SysTick and asks Python whether one is
+    ready only while one is pending."""
 
     def __init__(self, shared: Any) -> None:
-        super().__init__()
-        self._shared = shared
+        self._st = shared
+        shared.pend[:] = [0, 0, 0, 0]
         shared.pending_n = 0
 
     def add(self, exc: int) -> None:
-        set.add(self, exc)
-        self._shared.pending_n = len(self)
+        st, w, bit = self._st, exc >> 5, 1 << (exc & 31)
+        if not st.pend[w] & bit:
+            st.pend[w] |= bit
+            st.pending_n += 1
 
     def discard(self, exc: int) -> None:
-        set.discard(self, exc)
-        self._shared.pending_n = len(self)
+        st, w, bit = self._st, exc >> 5, 1 << (exc & 31)
+        if st.pend[w] & bit:
+            st.pend[w] &= ~bit
+            st.pending_n -= 1
+
+    def __contains__(self, exc: int) -> bool:
+        return bool(self._st.pend[exc >> 5] >> (exc & 31) & 1)
+
+    def __len__(self) -> int:
+        return self._st.pending_n
+
+    def __iter__(self) -> Iterator[int]:
+        st = self._st
+        if not st.pending_n:
+            return iter(())
+        return iter([32 * w + i for w, word in enumerate(st.pend) if word
+                     for i in range(32) if word >> i & 1])
 
 
 class Nvic:
@@ -49,7 +68,7 @@ class Nvic:
         self._masks = Regs(core.uc, (A.UC_ARM_REG_FAULTMASK, A.UC_ARM_REG_PRIMASK,
                                      A.UC_ARM_REG_BASEPRI))
         self.enabled: set[int] = set()           # IRQ numbers
-        self.pending: set[int] = PendingSet(core.shared)     # exception numbers
+        self.pending = PendingSet(core.shared)   # exception numbers
         self.lines: set[int] = set()             # IRQ lines a peripheral holds high
         self.prio = bytearray(16 + NUM_IRQS)
         self.prigroup = 0
@@ -139,12 +158,39 @@ class SysTick:
 
     def __init__(self, core: Core, nvic: Nvic, events: Events, hclk: Callable[[], int]) -> None:
         self.core, self.nvic, self.hclk = core, nvic, hclk
+        self._st = st = core.shared      # CSR, RVR and COUNTFLAG where board_core.c wraps too
         self.csr = 0
         self.rvr = 0
         self.countflag = False
         self._c0 = 0              # the counter's value at _t0
         self._t0 = 0
         self.wrap = events.timer(self._wrapped)
+        # the compiled board's heap fires this timer in C (board_core.c systick_wrapped)
+        st.st_tid = self.wrap.tid if isinstance(self.wrap, NativeTimer) else -1
+
+    @property
+    def csr(self) -> int:
+        return self._st.st_csr
+
+    @csr.setter
+    def csr(self, value: int) -> None:
+        self._st.st_csr = value
+
+    @property
+    def rvr(self) -> int:
+        return self._st.st_rvr
+
+    @rvr.setter
+    def rvr(self, value: int) -> None:
+        self._st.st_rvr = value
+
+    @property
+    def countflag(self) -> bool:
+        return bool(self._st.st_countflag)
+
+    @countflag.setter
+    def countflag(self, value: bool) -> None:
+        self._st.st_countflag = int(value)
 
     def _hz(self) -> int:
         return self.hclk() if self.csr & 4 else self.hclk() // 8
