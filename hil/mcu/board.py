@@ -16,7 +16,7 @@ from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
 
 from hil.mcu.board_core import (NativeBoard, NativeEvents, NativeTimer, NativeUsart,
-                                exception_entry, hook_interrupts, native)
+                                exception_choice, exception_entry, hook_interrupts, native)
 from hil.mcu.console import Console, semihost
 from hil.mcu.core import (EXC_SVCALL, EXC_SYSTICK, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT,
                           INTR_INVSTATE, INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
@@ -55,6 +55,9 @@ class Board:
         self.core = core = Core(image, HSI_HZ)
         # the compiled hot path (hil/mcu/board_core.py) where it is built, else Python
         self.native = NativeBoard(self) if compiled and native() else None
+        if self.native:           # the exception model's entry and the NVIC's choice in C
+            core.enter_c = exception_entry(core.shared)
+            core.choose_c = exception_choice(core.shared)
         self.events = NativeEvents(core.shared) if self.native else Events()
         self.console = Console(self._console_line)
         self.console_tail: list[str] = []
@@ -74,7 +77,6 @@ class Board:
         self.space.attach(core.uc)
         if self.native:
             hook_interrupts(core.shared, core.uc)    # exception returns in C
-            core.enter_c = exception_entry(core.shared)   # and entries
         else:
             core.uc.hook_add(UC_HOOK_INTR, lambda uc, intno, _: self.intr(intno))
         self.poll = PollSkipper(self)

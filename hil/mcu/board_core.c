@@ -25,7 +25,9 @@
 #define FLASH_SIZE (512u * 1024u)
 #define INTR_EXC_EXIT 8
 enum { REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR, REG_XPSR, REG_CONTROL, REG_MSP,
-       REG_PSP, REG_S0, REG_FPSCR, REG_IPSR, REG_PC, N_REGID };
+       REG_PSP, REG_S0, REG_FPSCR, REG_IPSR, REG_PC, REG_FAULTMASK, REG_PRIMASK, REG_BASEPRI,
+       N_REGID };
+#define N_EXC 102               /* the F411's exceptions: 16 + 86 IRQs */
 
 /* the Python side's answers (one callback, these kinds) */
 enum { PY_LINE = 1, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_READY_STOP, PY_TAKEN_NEXT, PY_POLLED,
@@ -83,6 +85,10 @@ typedef struct {
     /* the NVIC's pending exceptions (a bit each; pending_n counts them) and SysTick */
     uint32_t pend[4];
     int32_t st_tid, st_csr, st_rvr, st_countflag;
+    /* the NVIC's enabled IRQs (a bit each), priorities and PRIGROUP */
+    uint32_t ena[4];
+    int32_t ena_n, prigroup;
+    uint8_t prio[104];
 } bc_t;
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
@@ -627,6 +633,44 @@ int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
     s->active[s->nactive++] = exc;
     s->sleeping = 0;
     return vector;
+}
+
+/* --- the NVIC's choice (system.py Nvic ``next_exception``) ----------------------------- */
+static int priority(bc_t *s, int exc) { return exc <= 3 ? exc - 4 : s->prio[exc] & 0xF0; }
+
+static int group(bc_t *s, int prio) {
+    return prio < 0 ? prio : prio & ~((2 << s->prigroup) - 1) & 0xFF;
+}
+
+static int execution_priority(bc_t *s) {
+    int level = 256;
+    for (int i = 0; i < s->nactive; i++) {
+        int g = group(s, priority(s, s->active[i]));
+        if (g < level) level = g;
+    }
+    int ids[3] = {s->regid[REG_FAULTMASK], s->regid[REG_PRIMASK], s->regid[REG_BASEPRI]};
+    uint64_t m[3] = {0, 0, 0};
+    void *ptrs[3] = {&m[0], &m[1], &m[2]};
+    s->reg_read_batch(s->uc, ids, ptrs, 3);
+    if (m[0] & 1) return -1;
+    if ((m[1] & 1) && level > 0) level = 0;
+    int basepri = (int)(m[2] & 0xF0);
+    if (basepri && group(s, basepri) < level) level = group(s, basepri);
+    return level;
+}
+
+/* the pending exception that preempts what runs now, -1 when none */
+int bc_next_exception(bc_t *s) {
+    if (!s->pending_n) return -1;
+    int best = -1, best_p = 0;
+    for (int e = 0; e < N_EXC; e++) {
+        if (!(s->pend[e >> 5] >> (e & 31) & 1)) continue;
+        if (e >= 16 && !(s->ena[(e - 16) >> 5] >> ((e - 16) & 31) & 1)) continue;
+        int p = priority(s, e);
+        if (best < 0 || p < best_p) { best = e; best_p = p; }
+    }
+    if (best < 0) return -1;
+    return group(s, best_p) < execution_priority(s) ? best : -1;
 }
 
 /* Unicorn's interrupt hook (UC_HOOK_INTR) */

@@ -39,7 +39,7 @@ PY_TIMER = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int64)
 FAILED = -2                  # a Python callback raised: C unwinds, the error is handed on
 WAITS = 256
 ACTIVE_MAX = 128             # each of the F411's 102 exceptions is active at most once
-N_REGID = 14                 # the registers an exception return writes (board_core.c REG_*)
+N_REGID = 17                 # the registers an exception return writes (board_core.c REG_*)
 # virtual time in C is int64 femtoseconds: 9,223 s; a longer run is served in Python
 MAX_US = 9_000_000_000
 
@@ -66,7 +66,9 @@ class Shared(ctypes.Structure):
                 ("sleep_on_exit", _I32), ("_pad2", _I32), ("uc", _P), ("sram", _P), ("flash", _P),
                 ("reg_read_batch", _P), ("reg_write_batch", _P), ("regid", _I32 * N_REGID),
                 ("fast_returns", _I64), ("pend", ctypes.c_uint32 * 4), ("st_tid", _I32),
-                ("st_csr", _I32), ("st_rvr", _I32), ("st_countflag", _I32)]
+                ("st_csr", _I32), ("st_rvr", _I32), ("st_countflag", _I32),
+                ("ena", ctypes.c_uint32 * 4), ("ena_n", _I32), ("prigroup", _I32),
+                ("prio", ctypes.c_uint8 * 104)]
 
 
 def _load() -> Any:
@@ -85,6 +87,7 @@ def _load() -> Any:
            "bc_add_wait": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
            "bc_free": (None, [_P])}
     lib.bc_intr.restype, lib.bc_intr.argtypes = None, [_P, ctypes.c_uint32, _P]
+    lib.bc_next_exception.restype, lib.bc_next_exception.argtypes = _I32, [_P]
     lib.bc_enter.restype = _I64
     lib.bc_enter.argtypes = [_P, _I32, ctypes.c_uint32, _I32, ctypes.c_uint32]
     for name, (res, args) in sig.items():
@@ -301,6 +304,12 @@ def hook_interrupts(shared: Shared, uc: Any) -> None:
     if uclib.uc_hook_add(uc._uch, ctypes.byref(handle), UC_HOOK_INTR,
                          ctypes.cast(_LIB.bc_intr, _P), ctypes.addressof(shared), 1, 0):
         raise RuntimeError("libunicorn refused the compiled interrupt hook")
+
+
+def exception_choice(shared: Shared) -> Callable[[], int]:
+    """system.py Nvic ``next_exception`` in C: the exception to take, -1 when none."""
+    ref, choose = ctypes.byref(shared), _LIB.bc_next_exception
+    return lambda: choose(ref)
 
 
 def exception_entry(shared: Shared) -> Callable[[int, int, int, int], int]:

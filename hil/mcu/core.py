@@ -123,8 +123,9 @@ class Core:
         self._share_exceptions(st)
         self.vtor = 0
         self.fpu_on = False          # CPACR grants CP10/CP11: frames carry the FPU registers
-        # the compiled board's exception entry (board_core.py ``exception_entry``)
+        # the compiled board's exception entry and the NVIC's choice (board_core.py)
         self.enter_c: Callable[[int, int, int, int], int] | None = None
+        self.choose_c: Callable[[], int] | None = None
         self._fpscr0 = uc.reg_read(A.UC_ARM_REG_FPSCR)
         self.reset()
         self._pc_word = self._find_pc()
@@ -139,8 +140,9 @@ class Core:
         st.flash = ctypes.addressof(self._flash)
         st.reg_read_batch = ctypes.cast(uclib.uc_reg_read_batch, ctypes.c_void_p).value
         st.reg_write_batch = ctypes.cast(uclib.uc_reg_write_batch, ctypes.c_void_p).value
-        st.regid[:] = list(FRAME_REGS + STATE_REGS) + [A.UC_ARM_REG_S0, A.UC_ARM_REG_FPSCR,
-                                                       A.UC_ARM_REG_IPSR, A.UC_ARM_REG_PC]
+        st.regid[:] = list(FRAME_REGS + STATE_REGS) + [
+            A.UC_ARM_REG_S0, A.UC_ARM_REG_FPSCR, A.UC_ARM_REG_IPSR, A.UC_ARM_REG_PC,
+            A.UC_ARM_REG_FAULTMASK, A.UC_ARM_REG_PRIMASK, A.UC_ARM_REG_BASEPRI]
 
     @property
     def active(self) -> list[int]:

@@ -9,6 +9,8 @@ line is a level: an IRQ whose flag is still set when its handler returns is pend
 """
 from __future__ import annotations
 
+import ctypes
+
 from typing import Any, Callable, Iterator
 
 from unicorn import arm_const as A
@@ -24,39 +26,39 @@ CPACR, DEMCR, STIR, FPCCR = 0xE000ED88, 0xE000EDFC, 0xE000EF00, 0xE000EF34
 SCR_SLEEPONEXIT = 0x2
 
 
-class PendingSet:
-    """The pending exceptions, a bit each in ``Shared.pend`` with their count, where the
-    compiled board (hil/mcu/board_core.c) pends SysTick and asks Python whether one is
-    ready only while one is pending."""
+class SharedBits:
+    """A set of small numbers, a bit each in a ``Shared`` array with their count beside it,
+    where the compiled board (hil/mcu/board_core.c) reads them: the pending exceptions
+    (C pends SysTick there, and asks Python whether one is ready only while one is
+    pending) and the enabled IRQs (C chooses the next exception)."""
 
-    def __init__(self, shared: Any) -> None:
-        self._st = shared
-        shared.pend[:] = [0, 0, 0, 0]
-        shared.pending_n = 0
+    def __init__(self, shared: Any, words: str, count: str) -> None:
+        self._st, self._words, self._count = shared, getattr(shared, words), count
+        self._words[:] = [0, 0, 0, 0]
+        setattr(shared, count, 0)
 
-    def add(self, exc: int) -> None:
-        st, w, bit = self._st, exc >> 5, 1 << (exc & 31)
-        if not st.pend[w] & bit:
-            st.pend[w] |= bit
-            st.pending_n += 1
+    def add(self, n: int) -> None:
+        words, w, bit = self._words, n >> 5, 1 << (n & 31)
+        if not words[w] & bit:
+            words[w] |= bit
+            setattr(self._st, self._count, getattr(self._st, self._count) + 1)
 
-    def discard(self, exc: int) -> None:
-        st, w, bit = self._st, exc >> 5, 1 << (exc & 31)
-        if st.pend[w] & bit:
-            st.pend[w] &= ~bit
-            st.pending_n -= 1
+    def discard(self, n: int) -> None:
+        words, w, bit = self._words, n >> 5, 1 << (n & 31)
+        if words[w] & bit:
+            words[w] &= ~bit
+            setattr(self._st, self._count, getattr(self._st, self._count) - 1)
 
-    def __contains__(self, exc: int) -> bool:
-        return bool(self._st.pend[exc >> 5] >> (exc & 31) & 1)
+    def __contains__(self, n: int) -> bool:
+        return bool(self._words[n >> 5] >> (n & 31) & 1)
 
     def __len__(self) -> int:
-        return self._st.pending_n
+        return getattr(self._st, self._count)
 
     def __iter__(self) -> Iterator[int]:
-        st = self._st
-        if not st.pending_n:
+        if not len(self):
             return iter(())
-        return iter([32 * w + i for w, word in enumerate(st.pend) if word
+        return iter([32 * w + i for w, word in enumerate(self._words) if word
                      for i in range(32) if word >> i & 1])
 
 
@@ -67,12 +69,27 @@ class Nvic:
         self.core = core
         self._masks = Regs(core.uc, (A.UC_ARM_REG_FAULTMASK, A.UC_ARM_REG_PRIMASK,
                                      A.UC_ARM_REG_BASEPRI))
-        self.enabled: set[int] = set()           # IRQ numbers
-        self.pending = PendingSet(core.shared)   # exception numbers
+        self.enabled = SharedBits(core.shared, "ena", "ena_n")        # IRQ numbers
+        self.pending = SharedBits(core.shared, "pend", "pending_n")   # exception numbers
         self.lines: set[int] = set()             # IRQ lines a peripheral holds high
         self.prio = bytearray(16 + NUM_IRQS)
+        self.set_priorities(0, bytes(16 + NUM_IRQS))
         self.prigroup = 0
         self.sleep_on_exit = False
+
+    def set_priorities(self, exc: int, data: bytes) -> None:
+        """Priority bytes from exception ``exc`` on, copied where C reads them."""
+        self.prio[exc:exc + len(data)] = data
+        ctypes.memmove(self.core.shared.prio, bytes(self.prio), len(self.prio))
+
+    @property
+    def prigroup(self) -> int:
+        """AIRCR PRIGROUP, where C reads it too."""
+        return self.core.shared.prigroup
+
+    @prigroup.setter
+    def prigroup(self, value: int) -> None:
+        self.core.shared.prigroup = value
 
     @property
     def sleep_on_exit(self) -> bool:
@@ -130,6 +147,9 @@ class Nvic:
         """The pending exception that preempts what runs now, if any."""
         if not self.pending:
             return None
+        if self.core.choose_c is not None:
+            exc = self.core.choose_c()
+            return None if exc < 0 else exc
         ready = self.ready()
         if not ready:
             return None
@@ -363,7 +383,7 @@ class SystemBlock:
                     nvic.pending.discard(i + 16)
         elif 0xE000E400 <= addr < 0xE000E400 + NUM_IRQS:
             e = addr - 0xE000E400 + 16
-            nvic.prio[e:e + 4] = (value & 0xF0F0F0F0).to_bytes(4, "little")[:len(nvic.prio) - e]
+            nvic.set_priorities(e, (value & 0xF0F0F0F0).to_bytes(4, "little")[:len(nvic.prio) - e])
         elif addr == STIR:
             if (value & 0x1FF) < NUM_IRQS:
                 nvic.pending.add((value & 0x1FF) + 16)
@@ -387,7 +407,7 @@ class SystemBlock:
             nvic.sleep_on_exit = bool(value & SCR_SLEEPONEXIT)
         elif SCB + 0x18 <= addr < SCB + 0x24:
             e = addr - (SCB + 0x18) + 4
-            nvic.prio[e:e + 4] = (value & 0xF0F0F0F0).to_bytes(4, "little")
+            nvic.set_priorities(e, (value & 0xF0F0F0F0).to_bytes(4, "little"))
         elif addr == CPACR:
             self.regs[addr] = value
             self.core.fpu_on = (value >> 20) & 0xF == 0xF
