@@ -29,7 +29,8 @@ from hil.mcu.poll import PollSkipper
 from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import extra_peripherals
 from hil.mcu.rcc import HSI_HZ, Rcc, flash_interface, power
-from hil.mcu.system import Nvic, SysTick, SystemBlock
+from hil.mcu.system import Nvic, SystemBlock
+from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
 
 log = logging.getLogger(__name__)

@@ -25,9 +25,8 @@ from unicorn.unicorn_py3.unicorn import uclib
 from hil.mcu.board_core import Shared
 from hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
 from hil.mcu.engine import Regs, counter_offset, regs_place
+from hil.mcu.timebase import FS_PER_S, FS_PER_US, TimeBase
 
-FS_PER_S = 10 ** 15            # virtual time inside the MCU is in femtoseconds (exact)
-FS_PER_US = 10 ** 9
 EXC_HARDFAULT, EXC_SVCALL, EXC_PENDSV, EXC_SYSTICK = 3, 11, 14, 15
 INTR_UDEF, INTR_SWI, INTR_PREFETCH, INTR_DATA_ABORT, INTR_BKPT, INTR_EXC_EXIT = 1, 2, 3, 4, 7, 8
 INTR_NOCP, INTR_INVSTATE = 17, 18
@@ -47,41 +46,6 @@ CONTEXT_REGS = tuple(A.UC_ARM_REG_R0 + i for i in range(13)) + (A.UC_ARM_REG_SP,
 
 class CoreFault(Exception):
     """The firmware did what ends a run (a fault, a lockup, an access to nothing)."""
-
-
-class TimeBase:
-    """Cycles and femtoseconds at a clock that the firmware may change: exact integers.
-    Where a cycle is a whole number of femtoseconds (``_fs_per_cyc``: 10 ns at 100 MHz,
-    62.5 ns at 16 MHz) the conversions multiply or divide once, with the same results.
-    ``shared`` gets a copy for the compiled board (hil/mcu/board_core.c)."""
-
-    def __init__(self, hz: int, shared: Shared) -> None:
-        self.shared = shared
-        self.hz = hz
-        self._cyc0 = 0
-        self._fs0 = 0
-        self._fs_per_cyc = FS_PER_S // hz if FS_PER_S % hz == 0 else 0
-        self._share()
-
-    def _share(self) -> None:
-        st = self.shared
-        st.hz, st.cyc0, st.fs0, st.fs_per_cyc = self.hz, self._cyc0, self._fs0, self._fs_per_cyc
-
-    def fs_at(self, cyc: int) -> int:
-        if self._fs_per_cyc:
-            return self._fs0 + (cyc - self._cyc0) * self._fs_per_cyc
-        return self._fs0 + (cyc - self._cyc0) * FS_PER_S // self.hz
-
-    def cycle_of(self, fs: int) -> int:
-        """The first cycle at or after time ``fs``."""
-        if self._fs_per_cyc:
-            return self._cyc0 - (self._fs0 - fs) // self._fs_per_cyc
-        return self._cyc0 + -(-(fs - self._fs0) * self.hz // FS_PER_S)
-
-    def set_hz(self, cyc: int, hz: int) -> None:
-        self._fs0, self._cyc0, self.hz = self.fs_at(cyc), cyc, hz
-        self._fs_per_cyc = FS_PER_S // hz if FS_PER_S % hz == 0 else 0
-        self._share()
 
 
 class Core:
