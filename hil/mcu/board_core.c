@@ -89,6 +89,10 @@ typedef struct {
     uint32_t ena[4];
     int32_t ena_n, prigroup;
     uint8_t prio[104];
+    /* the servo line's reply bytes on their way to USART2 (servo_line.py ``deliver``) */
+    int32_t rx_tid, rx_n, rx_head, rx_cap;
+    int64_t *rx_at;
+    uint8_t *rx_byte;
 } bc_t;
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
@@ -211,6 +215,8 @@ static void systick_wrapped(bc_t *s, int64_t at) {
     bc_timer_set(s, s->st_tid, at + (int64_t)((span + hz - 1) / hz));
 }
 
+static void rx_deliver(bc_t *s, int64_t at);
+
 /* Fire every timer due by ``now_fs`` in time order: 1 when any fired, -1 on a Python error */
 int bc_fire_due(bc_t *s, int64_t now_fs) {
     int fired = 0;
@@ -224,6 +230,8 @@ int bc_fire_due(bc_t *s, int64_t now_fs) {
             usart_shifted(s, e.at);
         } else if (e.tid == s->st_tid) {
             systick_wrapped(s, e.at);
+        } else if (e.tid == s->rx_tid) {
+            rx_deliver(s, e.at);
         } else if (s->py_timer(e.tid, e.at)) {
             s->err = 1;
         }
@@ -681,12 +689,43 @@ void bc_intr(void *uc, uint32_t intno, void *ud) {
     failed(s);
 }
 
+/* --- the servo line's reply bytes (servo_line.py ``rx_arrives``/``deliver``) ------------- */
+/* the burst just fetched: each byte with its arrival time */
+void bc_rx_queue(bc_t *s, const int64_t *at, const uint8_t *bytes, int n) {
+    if (n > s->rx_cap) {
+        s->rx_cap = n;
+        s->rx_at = realloc(s->rx_at, n * sizeof *s->rx_at);
+        s->rx_byte = realloc(s->rx_byte, n);
+    }
+    memcpy(s->rx_at, at, n * sizeof *at);
+    memcpy(s->rx_byte, bytes, n);
+    s->rx_n = n;
+    s->rx_head = 0;
+}
+
+/* the bytes arrived by ``at`` to USART2, the deliver timer at the next one */
+static void rx_deliver(bc_t *s, int64_t at) {
+    while (s->rx_head < s->rx_n && s->rx_at[s->rx_head] <= at && !s->err)
+        bc_usart_received(s, s->rx_byte[s->rx_head++]);
+    if (s->rx_head < s->rx_n && !s->err) bc_timer_set(s, s->rx_tid, s->rx_at[s->rx_head]);
+}
+
+int bc_rx_deliver(bc_t *s, int64_t at) {
+    rx_deliver(s, at);
+    return s->err ? -1 : 0;
+}
+
 /* what the heap, the burst and the timers took (the board's end) */
 void bc_free(bc_t *s) {
     free(s->heap);
     free(s->gen);
     free(s->tat);
     free(s->burst);
+    free(s->rx_at);
+    free(s->rx_byte);
+    s->rx_at = NULL;
+    s->rx_byte = NULL;
+    s->rx_n = s->rx_head = s->rx_cap = 0;
     s->heap = NULL;
     s->gen = NULL;
     s->tat = NULL;

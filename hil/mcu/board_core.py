@@ -68,7 +68,8 @@ class Shared(ctypes.Structure):
                 ("fast_returns", _I64), ("pend", ctypes.c_uint32 * 4), ("st_tid", _I32),
                 ("st_csr", _I32), ("st_rvr", _I32), ("st_countflag", _I32),
                 ("ena", ctypes.c_uint32 * 4), ("ena_n", _I32), ("prigroup", _I32),
-                ("prio", ctypes.c_uint8 * 104)]
+                ("prio", ctypes.c_uint8 * 104), ("rx_tid", _I32), ("rx_n", _I32),
+                ("rx_head", _I32), ("rx_cap", _I32), ("rx_at", _P), ("rx_byte", _P)]
 
 
 def _load() -> Any:
@@ -87,6 +88,8 @@ def _load() -> Any:
            "bc_add_wait": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
            "bc_free": (None, [_P])}
     lib.bc_intr.restype, lib.bc_intr.argtypes = None, [_P, ctypes.c_uint32, _P]
+    lib.bc_rx_queue.restype, lib.bc_rx_queue.argtypes = None, [_P, _P, _P, _I32]
+    lib.bc_rx_deliver.restype, lib.bc_rx_deliver.argtypes = _I32, [_P, _I64]
     lib.bc_next_exception.restype, lib.bc_next_exception.argtypes = _I32, [_P]
     lib.bc_enter.restype = _I64
     lib.bc_enter.argtypes = [_P, _I32, ctypes.c_uint32, _I32, ctypes.c_uint32]
@@ -275,6 +278,25 @@ class NativeBoard:
         except BaseException as exc:      # noqa: B036 -- handed on by the C side
             board.events._error = exc
             return FAILED
+
+    def queue_rx(self, queue: list[tuple[int, int]]) -> None:
+        """A reply burst's bytes with their arrival times, delivered to USART2 in C."""
+        n = len(queue)
+        at = (ctypes.c_int64 * n)(*(t for t, _ in queue))
+        data = bytes(b for _, b in queue)
+        _LIB.bc_rx_queue(ctypes.byref(self.board.core.shared), at, data, n)
+
+    def deliver(self, at_fs: int) -> None:
+        if _LIB.bc_rx_deliver(ctypes.byref(self.board.core.shared), at_fs) < 0:
+            self.board.events.raise_error()
+
+    def rx_waiting(self) -> int:
+        st = self.board.core.shared
+        return st.rx_n - st.rx_head
+
+    def clear_rx(self) -> None:
+        st = self.board.core.shared
+        st.rx_n = st.rx_head = 0
 
     def burst(self) -> tuple[bytes, int, int] | None:
         """The bytes USART2 sent since the last take: (bytes, first byte's start, PA1)."""

@@ -78,7 +78,7 @@ class Core:
         self._ctr = ctypes.c_uint64.from_address(engine)
         self._limit = ctypes.c_uint64.from_address(engine + 8)   # the count emu_start was given
         # the time and the chunk's origin live where the compiled board sees them
-        self.shared = st = Shared(ctr=engine, u2_tid=-1, st_tid=-1, next_at=-1)
+        self.shared = st = Shared(ctr=engine, u2_tid=-1, st_tid=-1, rx_tid=-1, next_at=-1)
         self.time = TimeBase(hz, st)
         self.cyc = 0                 # instructions run before the current chunk
         self.running = False
