@@ -200,6 +200,63 @@ def _ceiling_row(label: str, in_process: bool, alone_us: float, parts: dict[str,
                f"{world:.0f} us + firmware compute {compute:.0f} us a cycle")
 
 
+_ECHO_FIRMWARE = """
+import socket, sys, time
+s = socket.socket()
+s.connect(socket.getaddrinfo("127.0.0.1", int(sys.argv[1]))[0][-1])
+s.setsockopt(6, 1, 1)
+while True:
+    msg = s.recv(64)
+    if not msg:
+        break
+    t = time.ticks_us()
+    while time.ticks_diff(time.ticks_us(), t) < msg[0] * 100:
+        pass
+    s.write(b"y" * 16)
+"""
+
+
+def _round_trip_us(micropython: Path, host_work_us: int, fw_work_us: int, n: int = 1000) -> float:
+    """A link round trip between this process and a micropython child over TCP on
+    127.0.0.1, beyond the child's own work: the host busy ``host_work_us`` before each
+    request (the child blocked meanwhile, as during a world step), the child
+    ``fw_work_us`` before each reply (the host blocked, as during the firmware's compute).
+    What the machine charges for waking a process that waited, apart from our code."""
+    import socket
+    with tempfile.TemporaryDirectory() as tmp, socket.socket() as srv:
+        prog = Path(tmp) / "echo.py"
+        prog.write_text(_ECHO_FIRMWARE)
+        srv.bind(("127.0.0.1", 0))
+        srv.listen(1)
+        child = subprocess.Popen([str(micropython), str(prog), str(srv.getsockname()[1])])
+        conn, _ = srv.accept()
+        with conn:
+            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            request, buf, spent = bytes((fw_work_us // 100,)) * 16, bytearray(64), 0.0
+            for _ in range(n):
+                until = time.perf_counter() + host_work_us * 1e-6
+                while time.perf_counter() < until:
+                    pass
+                t0 = time.perf_counter()
+                conn.sendall(request)
+                conn.recv_into(buf)
+                spent += time.perf_counter() - t0
+        child.wait()
+    return spent / n * 1e6 - fw_work_us
+
+
+def _wake_rows() -> list[Row]:
+    mp = Path(sys.executable).with_name("micropython")
+    rows = []
+    for host_us, fw_us, what in ((0, 0, "neither side waits"),
+                                 (1000, 0, "the firmware blocked 1 ms (a world step)"),
+                                 (0, 500, "the host blocked 0.5 ms (the firmware's compute)")):
+        rows.append(Row(f"stack link: a round trip, {what}", _round_trip_us(mp, host_us, fw_us),
+                        "us", "", "TCP to a micropython child, beyond its work, mean of "
+                        "1,000; a micropython run makes two a cycle"))
+    return rows
+
+
 def _cpu_rows(alone_us: float, bare_us: float) -> list[Row]:
     """The cycle in CPU time (host thread + firmware process): what this shared machine's
     load does not inflate; the ratios are those of a machine where nothing else runs and
@@ -260,6 +317,7 @@ def run() -> list[Row]:
                 continue
             target = "<= 150" if name == "firmware compute (overlaps)" else ""
             rows.append(Row(f"stack cycle ({label}): {name}", us, "us / cycle", target, note))
+    rows += _wake_rows()
     growth = {n: _full_stack_with_obstacles(n) for n in (0, 10, 40)}
     for n, rtf in growth.items():
         rows.append(Row(f"stack growth: {n} obstacles", rtf, "x real time", "",
