@@ -1,8 +1,10 @@
 """The ELF board's compiled hot path (hil/mcu/board_core.c) against its Python model: each
 test firmware gives the same serial digest, the same console, the same cycle counts and the
 same trace bytes either way: polled USART2 (the C tripod, the bare-metal pings at two bauds
-and without PA1), interrupt- and DMA-driven USART2, half-duplex echo, SysTick and PendSV,
-EXTI switch interrupts and a system reset."""
+and without PA1), interrupt- and DMA-driven USART2, half-duplex echo, SysTick and PendSV
+(their exception returns done in C, on MSP and PSP, with and without the FPU's frame),
+EXTI switch interrupts, pended exceptions, a reply cut by PA1 (``rx_while_transmitting``)
+and a system reset."""
 from pathlib import Path
 
 import pytest
@@ -39,7 +41,8 @@ def _both(elf: Path, seconds: float, tmp_path: Path, monkeypatch) -> list[tuple]
         summary, result = run(FLAT, duration_s=seconds, firmware=str(elf), out=str(trace))
         mcu = result.firmware.other["mcu"]
         runs.append((summary["serial_digest"], result.stderr_tail, mcu["cycles"],
-                     mcu["instructions"], mcu["skipped_cycles"], trace.read_bytes()))
+                     mcu["instructions"], mcu["skipped_cycles"], trace.read_bytes(),
+                     summary["faults"]))
         monkeypatch.undo()
     return runs
 
@@ -53,13 +56,17 @@ def test_a_firmware_runs_the_same_with_and_without_the_compiled_board(name, tmp_
     compiled, python = _both(elf, seconds, tmp_path, monkeypatch)
     assert compiled[:5] == python[:5]
     assert compiled[5] == python[5], "the traces differ"
+    assert compiled[6] == python[6]
     assert compiled[2] > 0
 
 
 @pytest.mark.parametrize("source,defines", [("ping.c", ("BAUD_BRR=100", "RAISE_A1=1")),
-                                            ("irq.c", ()), ("reset.c", ())])
+                                            ("irq.c", ()), ("reset.c", ()),
+                                            ("pend.c", ()), ("cut_reply.c", ())])
 def test_the_board_tests_firmwares_run_the_same_both_ways(source, defines, tmp_path,
                                                          monkeypatch):
     assert (MCU / source).exists()
     compiled, python = _both(build(tmp_path, source, *defines), 0.3, tmp_path, monkeypatch)
     assert compiled == python
+    if source == "cut_reply.c":     # the reply bytes queued in C are dropped as in Python
+        assert compiled[6] == {"rx_while_transmitting": 1}

@@ -2,12 +2,13 @@
 
 ``elf_image`` reads and checks the ELF; ``core`` runs it on Unicorn in chunks of exact
 instruction counts (one instruction is one cycle of HCLK) and does the exception model
-Unicorn leaves out; ``events`` schedules what the peripherals will do; ``system`` (NVIC,
-SCB, SysTick, DWT), ``rcc``, ``gpio``, ``usart`` and ``peripherals`` (TIM2-5, DMA, bxCAN1)
+Unicorn leaves out, at the virtual time of ``timebase``; ``events`` schedules what the peripherals will do; ``system`` (NVIC,
+SCB, DWT), ``systick``, ``rcc``, ``gpio``, ``usart`` and ``peripherals`` (TIM2-5, DMA, bxCAN1)
 are the board's peripherals at register level (facts from RM0383); ``board`` joins them,
 ``servo_line`` wires USART2 to the servo bus through the PA1 direction buffer, ``console``
 takes USART1/6 and semihosting, ``poll`` skips waiting, and ``link_client`` speaks the
 simulator link as a client, so the line, switches, CAN and console reach hil/link/ as any
 runtime's do. ``runtime`` serves an ELF in a run, ``replayed`` under ``hexhil replay``;
-``gdb`` is ``--gdb``, ``coverage`` is ``--coverage``. docs/elf-firmware.md is the page.
+``gdb`` is ``--gdb``, ``coverage`` is ``--coverage``. ``board_core`` is the hot path
+compiled (USART2, the event heap, the exception model's entry, return and choice). docs/elf-firmware.md is the page.
 """

@@ -15,7 +15,8 @@ from typing import Any, Callable
 from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
 
-from hil.mcu.board_core import NativeBoard, NativeEvents, NativeTimer, NativeUsart, native
+from hil.mcu.board_core import (NativeBoard, NativeEvents, NativeTimer, NativeUsart,
+                                exception_choice, exception_entry, hook_interrupts, native)
 from hil.mcu.console import Console, semihost
 from hil.mcu.core import (EXC_SVCALL, EXC_SYSTICK, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT,
                           INTR_INVSTATE, INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
@@ -28,7 +29,8 @@ from hil.mcu.poll import PollSkipper
 from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import extra_peripherals
 from hil.mcu.rcc import HSI_HZ, Rcc, flash_interface, power
-from hil.mcu.system import Nvic, SysTick, SystemBlock
+from hil.mcu.system import Nvic, SystemBlock
+from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
 
 log = logging.getLogger(__name__)
@@ -54,6 +56,9 @@ class Board:
         self.core = core = Core(image, HSI_HZ)
         # the compiled hot path (hil/mcu/board_core.py) where it is built, else Python
         self.native = NativeBoard(self) if compiled and native() else None
+        if self.native:           # the exception model's entry and the NVIC's choice in C
+            core.enter_c = exception_entry(core.shared)
+            core.choose_c = exception_choice(core.shared)
         self.events = NativeEvents(core.shared) if self.native else Events()
         self.console = Console(self._console_line)
         self.console_tail: list[str] = []
@@ -71,7 +76,10 @@ class Board:
         self.tick = self.events.timer(self._tick)
         self.tick.set(TICK_US * FS_PER_US)
         self.space.attach(core.uc)
-        core.uc.hook_add(UC_HOOK_INTR, self._intr)
+        if self.native:
+            hook_interrupts(core.shared, core.uc)    # exception returns in C
+        else:
+            core.uc.hook_add(UC_HOOK_INTR, lambda uc, intno, _: self.intr(intno))
         self.poll = PollSkipper(self)
 
     @property
@@ -227,8 +235,10 @@ class Board:
 
     # --- registers ----------------------------------------------------------------
     # --- exceptions ---------------------------------------------------------------
-    def _intr(self, uc, intno: int, _) -> None:
+    def intr(self, intno: int) -> None:
+        """Unicorn's interrupt hook: an exception return, SVC, a breakpoint, a fault."""
         core = self.core
+        uc = core.uc
         pc = core.pc_now()
         try:
             if intno == INTR_EXC_EXIT:

@@ -18,15 +18,26 @@
 #define PERIPH_BASE 0x40000000ULL
 #define USART2_PAGE 17          /* (0x40004400 - PERIPH_BASE) >> 10 */
 #define WAITS 256               /* open-addressed set of (pc, register, value) */
+#define ACTIVE_MAX 128          /* each of the 102 exceptions is active at most once */
+#define SRAM_BASE 0x20000000u
+#define SRAM_SIZE (128u * 1024u)
+#define FLASH_BASE 0x08000000u
+#define FLASH_SIZE (512u * 1024u)
+#define INTR_EXC_EXIT 8
+enum { REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR, REG_XPSR, REG_CONTROL, REG_MSP,
+       REG_PSP, REG_S0, REG_FPSCR, REG_IPSR, REG_PC, REG_FAULTMASK, REG_PRIMASK, REG_BASEPRI,
+       N_REGID };
+#define N_EXC 102               /* the F411's exceptions: 16 + 86 IRQs */
 
 /* the Python side's answers (one callback, these kinds) */
 enum { PY_LINE = 1, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_READY_STOP, PY_TAKEN_NEXT, PY_POLLED,
-       PY_PCLK, PY_FAILED };
+       PY_PCLK, PY_FAILED, PY_INTR };
 
 typedef int64_t (*py_call_t)(int kind, int64_t a, int64_t b);
 typedef int (*py_timer_t)(int tid, int64_t at_fs);
 typedef uint64_t (*mmio_read_t)(void *uc, uint64_t offset, unsigned size, void *ud);
 typedef void (*mmio_write_t)(void *uc, uint64_t offset, unsigned size, uint64_t value, void *ud);
+typedef int (*reg_batch_t)(void *uc, int *ids, void *const *vals, int count);
 
 typedef struct { int64_t at; uint64_t seq; int32_t tid; uint32_t gen; } entry_t;
 
@@ -63,6 +74,25 @@ typedef struct {
     mmio_write_t py_write;
     uint32_t waits[WAITS][3];
     int32_t nwaits;
+    /* the exception model (core.py): the active exceptions, innermost last */
+    int32_t active[ACTIVE_MAX];
+    int32_t nactive, sleeping, sleep_on_exit, _pad2;
+    void *uc;                    /* the engine, SRAM's buffer, libunicorn's batch calls */
+    uint8_t *sram, *flash;
+    reg_batch_t reg_read_batch, reg_write_batch;
+    int32_t regid[N_REGID];      /* Unicorn's ids of the registers below (REG_*) */
+    int64_t fast_returns;        /* exception returns done here */
+    /* the NVIC's pending exceptions (a bit each; pending_n counts them) and SysTick */
+    uint32_t pend[4];
+    int32_t st_tid, st_csr, st_rvr, st_countflag;
+    /* the NVIC's enabled IRQs (a bit each), priorities and PRIGROUP */
+    uint32_t ena[4];
+    int32_t ena_n, prigroup;
+    uint8_t prio[104];
+    /* the servo line's reply bytes on their way to USART2 (servo_line.py ``deliver``) */
+    int32_t rx_tid, rx_n, rx_head, rx_cap;
+    int64_t *rx_at;
+    uint8_t *rx_byte;
 } bc_t;
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
@@ -166,6 +196,27 @@ int64_t bc_timer_at(bc_t *s, int tid) { return s->tat[tid]; }
 
 static void usart_shifted(bc_t *s, int64_t at);
 
+static void pend(bc_t *s, int exc) {
+    uint32_t bit = 1u << (exc & 31);
+    if (!(s->pend[exc >> 5] & bit)) {
+        s->pend[exc >> 5] |= bit;
+        s->pending_n++;
+    }
+}
+
+/* SysTick's wrap (system.py SysTick ``_wrapped``): COUNTFLAG, the exception pended with
+ * TICKINT, the next wrap a reload later at HCLK or HCLK/8 */
+static void systick_wrapped(bc_t *s, int64_t at) {
+    s->st_countflag = 1;
+    if (s->st_csr & 2) pend(s, 15);
+    if (s->st_rvr == 0) return;
+    int64_t hz = (s->st_csr & 4) ? s->hz : s->hz / 8;
+    __int128 span = (__int128)(s->st_rvr + 1) * FS_PER_S;
+    bc_timer_set(s, s->st_tid, at + (int64_t)((span + hz - 1) / hz));
+}
+
+static void rx_deliver(bc_t *s, int64_t at);
+
 /* Fire every timer due by ``now_fs`` in time order: 1 when any fired, -1 on a Python error */
 int bc_fire_due(bc_t *s, int64_t now_fs) {
     int fired = 0;
@@ -177,6 +228,10 @@ int bc_fire_due(bc_t *s, int64_t now_fs) {
         s->tat[e.tid] = NONE;
         if (e.tid == s->u2_tid) {
             usart_shifted(s, e.at);
+        } else if (e.tid == s->st_tid) {
+            systick_wrapped(s, e.at);
+        } else if (e.tid == s->rx_tid) {
+            rx_deliver(s, e.at);
         } else if (s->py_timer(e.tid, e.at)) {
             s->err = 1;
         }
@@ -474,12 +529,203 @@ void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, voi
     failed(s);
 }
 
+/* --- the exception return (core.py ``leave``, board.py ``_intr``) ----------------------
+ * Done here when nothing follows it in Python: no exception pending (no tail-chaining), a
+ * system exception (an IRQ's line may pend it again), not asleep, no sleep-on-exit, the
+ * frame in SRAM, no lockup or fault to name. Everything else goes to board.py's _intr. */
+static int leave(bc_t *s) {
+    if (!s->pc || !s->uc || s->nactive < 1 || s->pending_n || s->sleeping) return 0;
+    uint32_t exc_return = *s->pc | 1;
+    int exc = s->active[s->nactive - 1];
+    int to_thread = (exc_return & 0xF) == 0x9 || (exc_return & 0xF) == 0xD;
+    if (exc >= 16 || (to_thread && s->nactive > 1) || (s->nactive == 1 && s->sleep_on_exit))
+        return 0;
+    int *id = s->regid;
+    int rid[3] = {id[REG_CONTROL], id[REG_MSP], id[REG_PSP]};
+    uint64_t st[3] = {0, 0, 0};
+    void *sp3[3] = {&st[0], &st[1], &st[2]};
+    if (s->reg_read_batch(s->uc, rid, sp3, 3)) return 0;
+    uint32_t control = (uint32_t)st[0], msp = (uint32_t)st[1], psp_value = (uint32_t)st[2];
+    int psp = (exc_return & 0xF) == 0xD;
+    uint32_t sp = psp ? psp_value : msp;
+    int fpu = !(exc_return & 0x10);
+    uint32_t n = fpu ? 26 : 8;
+    if (sp < SRAM_BASE || sp > SRAM_BASE + SRAM_SIZE - 4 * n) return 0;
+    uint32_t v[26];
+    memcpy(v, s->sram + (sp - SRAM_BASE), 4 * n);      /* little-endian, as the core */
+    uint32_t xpsr = v[7];
+    sp = sp + 4 * n + ((xpsr & (1u << 9)) ? 4 : 0);
+    s->nactive--;
+    uint32_t ipsr = s->nactive ? (uint32_t)s->active[s->nactive - 1] : 0;
+    /* the registers in core.py's _LEAVE order, with its values */
+    int ids[40];
+    uint64_t vals[40];
+    void *ptrs[40];
+    int k = 0;
+    static const int frame[6] = {REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR};
+    for (int i = 0; i < 6; i++) { ids[k] = id[frame[i]]; vals[k++] = v[i]; }
+    ids[k] = id[REG_XPSR]; vals[k++] = xpsr & ~0x3FFu;
+    ids[k] = id[REG_CONTROL]; vals[k++] = control;
+    ids[k] = id[REG_MSP]; vals[k++] = msp;
+    ids[k] = id[REG_PSP]; vals[k++] = psp_value;
+    if (fpu) {
+        for (int i = 0; i < 16; i++) { ids[k] = id[REG_S0] + i; vals[k++] = v[8 + i]; }
+        ids[k] = id[REG_FPSCR]; vals[k++] = v[24];
+    }
+    ids[k] = id[REG_IPSR]; vals[k++] = ipsr;
+    if (psp) { ids[k] = id[REG_CONTROL]; vals[k++] = control | 2; ids[k] = id[REG_PSP]; }
+    else ids[k] = id[REG_MSP];
+    vals[k++] = sp;
+    ids[k] = id[REG_PC]; vals[k++] = v[6] | 1;
+    for (int i = 0; i < k; i++) ptrs[i] = &vals[i];
+    s->reg_write_batch(s->uc, ids, ptrs, k);
+    s->fast_returns++;
+    return 1;
+}
+
+/* core.py ``enter``: take exception ``exc`` at ``pc``, the frame stacked in SRAM; the
+ * handler's vector, or -1 where anything is not plain (a stack overflow, a frame or a vector
+ * table outside SRAM and flash, no handler): then nothing has changed and Python does it. */
+int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
+    if (!s->uc || s->nactive >= ACTIVE_MAX) return -1;
+    int *id = s->regid;
+    int ids[40];
+    uint64_t r[40];
+    void *ptrs[40];
+    int k = 0;
+    static const int state[10] = {REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR, REG_XPSR,
+                                  REG_CONTROL, REG_MSP, REG_PSP};
+    for (int i = 0; i < 10; i++) ids[k++] = id[state[i]];
+    if (fpu) {
+        for (int i = 0; i < 16; i++) ids[k++] = id[REG_S0] + i;
+        ids[k++] = id[REG_FPSCR];
+    }
+    for (int i = 0; i < k; i++) { r[i] = 0; ptrs[i] = &r[i]; }
+    if (s->reg_read_batch(s->uc, ids, ptrs, k)) return -1;
+    uint32_t xpsr = (uint32_t)r[6], control = (uint32_t)r[7];
+    int psp = !s->nactive && (control & 2);
+    int64_t sp = psp ? (uint32_t)r[9] : (uint32_t)r[8];
+    uint32_t v[26];
+    int n = 0;
+    for (int i = 0; i < 6; i++) v[n++] = (uint32_t)r[i];
+    v[n++] = pc & ~1u;
+    v[n++] = xpsr | (1u << 24);
+    if (fpu) {
+        for (int i = 10; i < 27; i++) v[n++] = (uint32_t)r[i];
+        v[n++] = 0;
+    }
+    if (sp & 4) { sp -= 4; v[7] |= 1u << 9; }
+    sp -= 4 * n;
+    if (sp < SRAM_BASE || sp > SRAM_BASE + SRAM_SIZE - 4 * n) return -1;
+    uint64_t at = (uint64_t)vtor_base + 4 * (uint64_t)exc;
+    uint32_t vector;
+    if (at >= FLASH_BASE && at <= FLASH_BASE + FLASH_SIZE - 4) memcpy(&vector, s->flash + (at - FLASH_BASE), 4);
+    else if (at >= SRAM_BASE && at <= SRAM_BASE + SRAM_SIZE - 4) memcpy(&vector, s->sram + (at - SRAM_BASE), 4);
+    else return -1;
+    if (vector == 0 || !(vector & 1)) return -1;
+    memcpy(s->sram + (sp - SRAM_BASE), v, 4 * n);
+    uint32_t exc_return = s->nactive ? 0xFFFFFFF1u : (psp ? 0xFFFFFFFDu : 0xFFFFFFF9u);
+    if (fpu) exc_return &= ~0x10u;
+    k = 0;
+    if (psp) {
+        ids[k] = id[REG_PSP]; r[k++] = (uint64_t)sp;
+        ids[k] = id[REG_CONTROL]; r[k++] = control & ~2u;
+    } else {
+        ids[k] = id[REG_MSP]; r[k++] = (uint64_t)sp;
+    }
+    ids[k] = id[REG_IPSR]; r[k++] = (uint32_t)exc;
+    ids[k] = id[REG_LR]; r[k++] = exc_return;
+    if (s->running) { ids[k] = id[REG_PC]; r[k++] = vector | 1; }
+    for (int i = 0; i < k; i++) ptrs[i] = &r[i];
+    s->reg_write_batch(s->uc, ids, ptrs, k);
+    s->active[s->nactive++] = exc;
+    s->sleeping = 0;
+    return vector;
+}
+
+/* --- the NVIC's choice (system.py Nvic ``next_exception``) ----------------------------- */
+static int priority(bc_t *s, int exc) { return exc <= 3 ? exc - 4 : s->prio[exc] & 0xF0; }
+
+static int group(bc_t *s, int prio) {
+    return prio < 0 ? prio : prio & ~((2 << s->prigroup) - 1) & 0xFF;
+}
+
+static int execution_priority(bc_t *s) {
+    int level = 256;
+    for (int i = 0; i < s->nactive; i++) {
+        int g = group(s, priority(s, s->active[i]));
+        if (g < level) level = g;
+    }
+    int ids[3] = {s->regid[REG_FAULTMASK], s->regid[REG_PRIMASK], s->regid[REG_BASEPRI]};
+    uint64_t m[3] = {0, 0, 0};
+    void *ptrs[3] = {&m[0], &m[1], &m[2]};
+    s->reg_read_batch(s->uc, ids, ptrs, 3);
+    if (m[0] & 1) return -1;
+    if ((m[1] & 1) && level > 0) level = 0;
+    int basepri = (int)(m[2] & 0xF0);
+    if (basepri && group(s, basepri) < level) level = group(s, basepri);
+    return level;
+}
+
+/* the pending exception that preempts what runs now, -1 when none */
+int bc_next_exception(bc_t *s) {
+    if (!s->pending_n) return -1;
+    int best = -1, best_p = 0;
+    for (int e = 0; e < N_EXC; e++) {
+        if (!(s->pend[e >> 5] >> (e & 31) & 1)) continue;
+        if (e >= 16 && !(s->ena[(e - 16) >> 5] >> ((e - 16) & 31) & 1)) continue;
+        int p = priority(s, e);
+        if (best < 0 || p < best_p) { best = e; best_p = p; }
+    }
+    if (best < 0) return -1;
+    return group(s, best_p) < execution_priority(s) ? best : -1;
+}
+
+/* Unicorn's interrupt hook (UC_HOOK_INTR) */
+void bc_intr(void *uc, uint32_t intno, void *ud) {
+    bc_t *s = ud;
+    if (intno == INTR_EXC_EXIT && leave(s)) return;
+    py(s, PY_INTR, intno, 0);
+    failed(s);
+}
+
+/* --- the servo line's reply bytes (servo_line.py ``rx_arrives``/``deliver``) ------------- */
+/* the burst just fetched: each byte with its arrival time */
+void bc_rx_queue(bc_t *s, const int64_t *at, const uint8_t *bytes, int n) {
+    if (n > s->rx_cap) {
+        s->rx_cap = n;
+        s->rx_at = realloc(s->rx_at, n * sizeof *s->rx_at);
+        s->rx_byte = realloc(s->rx_byte, n);
+    }
+    memcpy(s->rx_at, at, n * sizeof *at);
+    memcpy(s->rx_byte, bytes, n);
+    s->rx_n = n;
+    s->rx_head = 0;
+}
+
+/* the bytes arrived by ``at`` to USART2, the deliver timer at the next one */
+static void rx_deliver(bc_t *s, int64_t at) {
+    while (s->rx_head < s->rx_n && s->rx_at[s->rx_head] <= at && !s->err)
+        bc_usart_received(s, s->rx_byte[s->rx_head++]);
+    if (s->rx_head < s->rx_n && !s->err) bc_timer_set(s, s->rx_tid, s->rx_at[s->rx_head]);
+}
+
+int bc_rx_deliver(bc_t *s, int64_t at) {
+    rx_deliver(s, at);
+    return s->err ? -1 : 0;
+}
+
 /* what the heap, the burst and the timers took (the board's end) */
 void bc_free(bc_t *s) {
     free(s->heap);
     free(s->gen);
     free(s->tat);
     free(s->burst);
+    free(s->rx_at);
+    free(s->rx_byte);
+    s->rx_at = NULL;
+    s->rx_byte = NULL;
+    s->rx_n = s->rx_head = s->rx_cap = 0;
     s->heap = NULL;
     s->gen = NULL;
     s->tat = NULL;

@@ -35,9 +35,11 @@ _P, _I32, _I64 = ctypes.c_void_p, ctypes.c_int32, ctypes.c_int64
 PY_CALL = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_int, ctypes.c_int64, ctypes.c_int64)
 PY_TIMER = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int64)
 (PY_LINE, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_READY_STOP, PY_TAKEN_NEXT, PY_POLLED, PY_PCLK,
- PY_FAILED) = range(1, 10)
+ PY_FAILED, PY_INTR) = range(1, 11)
 FAILED = -2                  # a Python callback raised: C unwinds, the error is handed on
 WAITS = 256
+ACTIVE_MAX = 128             # each of the F411's 102 exceptions is active at most once
+N_REGID = 17                 # the registers an exception return writes (board_core.c REG_*)
 # virtual time in C is int64 femtoseconds: 9,223 s; a longer run is served in Python
 MAX_US = 9_000_000_000
 
@@ -59,7 +61,15 @@ class Shared(ctypes.Structure):
                 ("ntimers", _I32), ("u2_tid", _I32), ("err", _I32),
                 ("heap", _P), ("gen", _P), ("tat", _P),
                 ("py_call", PY_CALL), ("py_timer", PY_TIMER), ("py_read", _P), ("py_write", _P),
-                ("waits", (ctypes.c_uint32 * 3) * WAITS), ("nwaits", _I32)]
+                ("waits", (ctypes.c_uint32 * 3) * WAITS), ("nwaits", _I32),
+                ("active", _I32 * ACTIVE_MAX), ("nactive", _I32), ("sleeping", _I32),
+                ("sleep_on_exit", _I32), ("_pad2", _I32), ("uc", _P), ("sram", _P), ("flash", _P),
+                ("reg_read_batch", _P), ("reg_write_batch", _P), ("regid", _I32 * N_REGID),
+                ("fast_returns", _I64), ("pend", ctypes.c_uint32 * 4), ("st_tid", _I32),
+                ("st_csr", _I32), ("st_rvr", _I32), ("st_countflag", _I32),
+                ("ena", ctypes.c_uint32 * 4), ("ena_n", _I32), ("prigroup", _I32),
+                ("prio", ctypes.c_uint8 * 104), ("rx_tid", _I32), ("rx_n", _I32),
+                ("rx_head", _I32), ("rx_cap", _I32), ("rx_at", _P), ("rx_byte", _P)]
 
 
 def _load() -> Any:
@@ -77,6 +87,12 @@ def _load() -> Any:
            "bc_usart_reset": (None, [_P]),
            "bc_add_wait": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
            "bc_free": (None, [_P])}
+    lib.bc_intr.restype, lib.bc_intr.argtypes = None, [_P, ctypes.c_uint32, _P]
+    lib.bc_rx_queue.restype, lib.bc_rx_queue.argtypes = None, [_P, _P, _P, _I32]
+    lib.bc_rx_deliver.restype, lib.bc_rx_deliver.argtypes = _I32, [_P, _I64]
+    lib.bc_next_exception.restype, lib.bc_next_exception.argtypes = _I32, [_P]
+    lib.bc_enter.restype = _I64
+    lib.bc_enter.argtypes = [_P, _I32, ctypes.c_uint32, _I32, ctypes.c_uint32]
     for name, (res, args) in sig.items():
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = res, args
@@ -252,6 +268,8 @@ class NativeBoard:
                 return int(board.poll.polled(a & 0xFFFFFFFF, b & 0xFFFFFFFF))
             elif kind == PY_PCLK:
                 return board.usart2.pclk_hz()
+            elif kind == PY_INTR:
+                board.intr(a)
             elif kind == PY_FAILED:
                 exc, board.events._error = board.events._error, None
                 if exc is not None:
@@ -260,6 +278,25 @@ class NativeBoard:
         except BaseException as exc:      # noqa: B036 -- handed on by the C side
             board.events._error = exc
             return FAILED
+
+    def queue_rx(self, queue: list[tuple[int, int]]) -> None:
+        """A reply burst's bytes with their arrival times, delivered to USART2 in C."""
+        n = len(queue)
+        at = (ctypes.c_int64 * n)(*(t for t, _ in queue))
+        data = bytes(b for _, b in queue)
+        _LIB.bc_rx_queue(ctypes.byref(self.board.core.shared), at, data, n)
+
+    def deliver(self, at_fs: int) -> None:
+        if _LIB.bc_rx_deliver(ctypes.byref(self.board.core.shared), at_fs) < 0:
+            self.board.events.raise_error()
+
+    def rx_waiting(self) -> int:
+        st = self.board.core.shared
+        return st.rx_n - st.rx_head
+
+    def clear_rx(self) -> None:
+        st = self.board.core.shared
+        st.rx_n = st.rx_head = 0
 
     def burst(self) -> tuple[bytes, int, int] | None:
         """The bytes USART2 sent since the last take: (bytes, first byte's start, PA1)."""
@@ -278,6 +315,30 @@ def front(shared: Shared, py_read: Any, py_write: Any) -> tuple[Any, Any]:
     shared.py_write = ctypes.cast(py_write, _P).value
     return (ctypes.cast(_LIB.bc_mmio_read, type(py_read)),
             ctypes.cast(_LIB.bc_mmio_write, type(py_write)))
+
+
+def hook_interrupts(shared: Shared, uc: Any) -> None:
+    """Unicorn's interrupt hook in C (``bc_intr``): an exception return that nothing
+    follows in Python is done there, everything else calls the board's ``intr``."""
+    from unicorn import UC_HOOK_INTR
+    from unicorn.unicorn_py3.unicorn import uclib
+    handle = ctypes.c_size_t(0)
+    if uclib.uc_hook_add(uc._uch, ctypes.byref(handle), UC_HOOK_INTR,
+                         ctypes.cast(_LIB.bc_intr, _P), ctypes.addressof(shared), 1, 0):
+        raise RuntimeError("libunicorn refused the compiled interrupt hook")
+
+
+def exception_choice(shared: Shared) -> Callable[[], int]:
+    """system.py Nvic ``next_exception`` in C: the exception to take, -1 when none."""
+    ref, choose = ctypes.byref(shared), _LIB.bc_next_exception
+    return lambda: choose(ref)
+
+
+def exception_entry(shared: Shared) -> Callable[[int, int, int, int], int]:
+    """core.py ``enter`` in C: (exception, PC, FPU frame, vector table) -> the handler's
+    vector, or -1 where Python takes it (nothing changed)."""
+    ref, enter = ctypes.byref(shared), _LIB.bc_enter
+    return lambda exc, pc, fpu, vtor: enter(ref, exc, pc, fpu, vtor)
 
 
 def add_wait(shared: Shared, pc: int, addr: int, value: int) -> None:

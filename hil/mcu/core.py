@@ -25,9 +25,8 @@ from unicorn.unicorn_py3.unicorn import uclib
 from hil.mcu.board_core import Shared
 from hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
 from hil.mcu.engine import Regs, counter_offset, regs_place
+from hil.mcu.timebase import FS_PER_S, FS_PER_US, TimeBase
 
-FS_PER_S = 10 ** 15            # virtual time inside the MCU is in femtoseconds (exact)
-FS_PER_US = 10 ** 9
 EXC_HARDFAULT, EXC_SVCALL, EXC_PENDSV, EXC_SYSTICK = 3, 11, 14, 15
 INTR_UDEF, INTR_SWI, INTR_PREFETCH, INTR_DATA_ABORT, INTR_BKPT, INTR_EXC_EXIT = 1, 2, 3, 4, 7, 8
 INTR_NOCP, INTR_INVSTATE = 17, 18
@@ -47,41 +46,6 @@ CONTEXT_REGS = tuple(A.UC_ARM_REG_R0 + i for i in range(13)) + (A.UC_ARM_REG_SP,
 
 class CoreFault(Exception):
     """The firmware did what ends a run (a fault, a lockup, an access to nothing)."""
-
-
-class TimeBase:
-    """Cycles and femtoseconds at a clock that the firmware may change: exact integers.
-    Where a cycle is a whole number of femtoseconds (``_fs_per_cyc``: 10 ns at 100 MHz,
-    62.5 ns at 16 MHz) the conversions multiply or divide once, with the same results.
-    ``shared`` gets a copy for the compiled board (hil/mcu/board_core.c)."""
-
-    def __init__(self, hz: int, shared: Shared) -> None:
-        self.shared = shared
-        self.hz = hz
-        self._cyc0 = 0
-        self._fs0 = 0
-        self._fs_per_cyc = FS_PER_S // hz if FS_PER_S % hz == 0 else 0
-        self._share()
-
-    def _share(self) -> None:
-        st = self.shared
-        st.hz, st.cyc0, st.fs0, st.fs_per_cyc = self.hz, self._cyc0, self._fs0, self._fs_per_cyc
-
-    def fs_at(self, cyc: int) -> int:
-        if self._fs_per_cyc:
-            return self._fs0 + (cyc - self._cyc0) * self._fs_per_cyc
-        return self._fs0 + (cyc - self._cyc0) * FS_PER_S // self.hz
-
-    def cycle_of(self, fs: int) -> int:
-        """The first cycle at or after time ``fs``."""
-        if self._fs_per_cyc:
-            return self._cyc0 - (self._fs0 - fs) // self._fs_per_cyc
-        return self._cyc0 + -(-(fs - self._fs0) * self.hz // FS_PER_S)
-
-    def set_hz(self, cyc: int, hz: int) -> None:
-        self._fs0, self._cyc0, self.hz = self.fs_at(cyc), cyc, hz
-        self._fs_per_cyc = FS_PER_S // hz if FS_PER_S % hz == 0 else 0
-        self._share()
 
 
 class Core:
@@ -114,22 +78,60 @@ class Core:
         self._ctr = ctypes.c_uint64.from_address(engine)
         self._limit = ctypes.c_uint64.from_address(engine + 8)   # the count emu_start was given
         # the time and the chunk's origin live where the compiled board sees them
-        self.shared = st = Shared(ctr=engine, u2_tid=-1, next_at=-1)
+        self.shared = st = Shared(ctr=engine, u2_tid=-1, st_tid=-1, rx_tid=-1, next_at=-1)
         self.time = TimeBase(hz, st)
         self.cyc = 0                 # instructions run before the current chunk
         self.running = False
         self.stopped = False         # a read asked for the chunk to end
         self.cut = False             # the chunk ends after the instruction running now
-        self.sleeping = False        # WFI/WFE: asleep until an event or interrupt
-        self.active: list[int] = []  # active exceptions, innermost last
+        self._share_exceptions(st)
         self.vtor = 0
         self.fpu_on = False          # CPACR grants CP10/CP11: frames carry the FPU registers
-        self.on_intr: Callable[[int], None] = lambda intno: None
+        # the compiled board's exception entry and the NVIC's choice (board_core.py)
+        self.enter_c: Callable[[int, int, int, int], int] | None = None
+        self.choose_c: Callable[[], int] | None = None
         self._fpscr0 = uc.reg_read(A.UC_ARM_REG_FPSCR)
         self.reset()
         self._pc_word = self._find_pc()
         if self._pc_word is not None:
             st.pc = ctypes.addressof(self._pc_word)
+
+    def _share_exceptions(self, st: Shared) -> None:
+        """What the compiled board's exception return (board_core.c) reads and writes: the
+        active exceptions, the sleep flag, the engine, SRAM and libunicorn's batch calls."""
+        st.uc = ctypes.cast(self.uc._uch, ctypes.c_void_p).value
+        st.sram = ctypes.addressof(self._sram)
+        st.flash = ctypes.addressof(self._flash)
+        st.reg_read_batch = ctypes.cast(uclib.uc_reg_read_batch, ctypes.c_void_p).value
+        st.reg_write_batch = ctypes.cast(uclib.uc_reg_write_batch, ctypes.c_void_p).value
+        st.regid[:] = list(FRAME_REGS + STATE_REGS) + [
+            A.UC_ARM_REG_S0, A.UC_ARM_REG_FPSCR, A.UC_ARM_REG_IPSR, A.UC_ARM_REG_PC,
+            A.UC_ARM_REG_FAULTMASK, A.UC_ARM_REG_PRIMASK, A.UC_ARM_REG_BASEPRI]
+
+    @property
+    def active(self) -> list[int]:
+        """The active exceptions, innermost last (a copy: ``_push``/``_pop`` change them)."""
+        st = self.shared
+        return st.active[:st.nactive]
+
+    def _push(self, exc: int) -> None:
+        st = self.shared
+        st.active[st.nactive] = exc
+        st.nactive += 1
+
+    def _pop(self) -> int:
+        st = self.shared
+        st.nactive -= 1
+        return st.active[st.nactive]
+
+    @property
+    def sleeping(self) -> bool:
+        """WFI/WFE: asleep until an event or interrupt."""
+        return bool(self.shared.sleeping)
+
+    @sleeping.setter
+    def sleeping(self, value: bool) -> None:
+        self.shared.sleeping = int(value)
 
     @property
     def cyc(self) -> int:
@@ -159,7 +161,7 @@ class Core:
         FPSCR as at power-on, the PC at the reset vector (R0-R12 keep their values:
         UNKNOWN after a reset, the same ones every run)."""
         uc = self.uc
-        self.active.clear()
+        self.shared.nactive = 0
         uc.reg_write(A.UC_ARM_REG_CONTROL, 0)
         uc.reg_write(A.UC_ARM_REG_MSP, self.read32(self.vtor_base()))
         uc.reg_write(A.UC_ARM_REG_PRIMASK, 0)
@@ -284,6 +286,11 @@ class Core:
 
     def enter(self, exc: int) -> None:
         """Take exception ``exc`` at ``self.pc``: stack the frame, jump to its vector."""
+        if self.enter_c is not None:
+            vector = self.enter_c(exc, self.pc, self.fpu_on, self.vtor or FLASH_BASE)
+            if vector >= 0:
+                self.pc = vector & ~1
+                return
         fpu = self.fpu_on
         r = self._state_fp.read() if fpu else self._state.read()
         xpsr, control, msp, psp_value = r[6:10]
@@ -313,7 +320,7 @@ class Core:
         if self.running:
             ids, values = ids + (A.UC_ARM_REG_PC,), values + [vector | 1]
         self._set(ids, values)
-        self.active.append(exc)
+        self._push(exc)
         self.pc = vector & ~1
         self.sleeping = False
 
@@ -321,7 +328,7 @@ class Core:
         """Return from the innermost exception through ``exc_return``; its number."""
         if not self.active:
             raise CoreFault(f"an exception return (0x{exc_return:08x}) in thread mode")
-        exc = self.active.pop()
+        exc = self._pop()
         to_thread = exc_return & 0xF in (0x9, 0xD)
         if to_thread and self.active:
             raise CoreFault(f"an exception return to thread mode with {len(self.active)} "

@@ -31,6 +31,8 @@ class ServoLine:
         self._bad_baud: set[int] = set()
         self.rx_timer = board.events.timer(self.rx_arrives)
         self.deliver_timer = board.events.timer(self.deliver)
+        if board.native:          # the compiled heap delivers the bytes (board_core.c)
+            board.core.shared.rx_tid = self.deliver_timer.tid
         self._rx_queue: list[tuple[int, int]] = []
         self._rx_burst = (0, 0)        # (first byte's arrival, bytes back to back)
 
@@ -88,9 +90,13 @@ class ServoLine:
             self._burst.pop()     # the byte on the wire now is cut by the turn
             self.board.link.fault("tx_while_receiving", "1 byte cut: the direction pin (A1) turned "
                             "low while it was on the wire (turn after TC, not TXE)")
-        if level and self._rx_queue:
-            self.board.link.fault("rx_while_transmitting", f"{len(self._rx_queue)} status bytes "
+        native = self.board.native
+        waiting = native.rx_waiting() if native else len(self._rx_queue)
+        if level and waiting:
+            self.board.link.fault("rx_while_transmitting", f"{waiting} status bytes "
                             "arrived while the direction pin (A1) was high: the receiver was off")
+            if native:
+                native.clear_rx()
             self._rx_queue.clear()
             self.deliver_timer.clear()
         self.flush()
@@ -104,12 +110,18 @@ class ServoLine:
         byte_us = 10_000_000 / int(self.board.link.config.get("baud", LINE_BAUD))
         last_us = first_us + int((pending - 1) * byte_us) + 1
         reply = self.board.link.line(last_us, b"", bool(self.direction), True, pending)
-        self._rx_queue = [(at_fs + round(k * byte_us * FS_PER_US), b)
-                          for k, b in enumerate(reply.rx)]
+        queue = [(at_fs + round(k * byte_us * FS_PER_US), b) for k, b in enumerate(reply.rx)]
+        if self.board.native:
+            self.board.native.queue_rx(queue)
+        else:
+            self._rx_queue = queue
         self.board.take(reply)
         self.deliver(at_fs)
 
     def deliver(self, at_fs: int) -> None:
+        if self.board.native:
+            self.board.native.deliver(at_fs)
+            return
         queue = self._rx_queue
         while queue and queue[0][0] <= at_fs:
             self.board.usart2.received(queue.pop(0)[1])

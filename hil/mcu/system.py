@@ -9,12 +9,13 @@ line is a level: an IRQ whose flag is still set when its handler returns is pend
 """
 from __future__ import annotations
 
-from typing import Any, Callable
+import ctypes
+
+from typing import Any, Callable, Iterator
 
 from unicorn import arm_const as A
 
-from hil.mcu.core import EXC_PENDSV, EXC_SYSTICK, FS_PER_S, Core, Regs
-from hil.mcu.events import Events
+from hil.mcu.core import EXC_PENDSV, EXC_SYSTICK, Core, Regs
 
 NUM_IRQS = 86                 # RM0383 table 37: positions 0..85
 CPUID = 0x410FC241            # Cortex-M4 r0p1
@@ -23,22 +24,40 @@ CPACR, DEMCR, STIR, FPCCR = 0xE000ED88, 0xE000EDFC, 0xE000EF00, 0xE000EF34
 SCR_SLEEPONEXIT = 0x2
 
 
-class PendingSet(set):
-    """The pending exceptions, their count copied where the compiled board sees it
-    (hil/mcu/board_core.c asks Python whether one is ready only while one is pending)."""
+class SharedBits:
+    """A set of small numbers, a bit each in a ``Shared`` array with their count beside it,
+    where the compiled board (hil/mcu/board_core.c) reads them: the pending exceptions
+    (C pends SysTick there, and asks Python whether one is ready only while one is
+    pending) and the enabled IRQs (C chooses the next exception)."""
 
-    def __init__(self, shared: Any) -> None:
-        super().__init__()
-        self._shared = shared
-        shared.pending_n = 0
+    def __init__(self, shared: Any, words: str, count: str) -> None:
+        self._st, self._words, self._count = shared, getattr(shared, words), count
+        self._words[:] = [0, 0, 0, 0]
+        setattr(shared, count, 0)
 
-    def add(self, exc: int) -> None:
-        set.add(self, exc)
-        self._shared.pending_n = len(self)
+    def add(self, n: int) -> None:
+        words, w, bit = self._words, n >> 5, 1 << (n & 31)
+        if not words[w] & bit:
+            words[w] |= bit
+            setattr(self._st, self._count, getattr(self._st, self._count) + 1)
 
-    def discard(self, exc: int) -> None:
-        set.discard(self, exc)
-        self._shared.pending_n = len(self)
+    def discard(self, n: int) -> None:
+        words, w, bit = self._words, n >> 5, 1 << (n & 31)
+        if words[w] & bit:
+            words[w] &= ~bit
+            setattr(self._st, self._count, getattr(self._st, self._count) - 1)
+
+    def __contains__(self, n: int) -> bool:
+        return bool(self._words[n >> 5] >> (n & 31) & 1)
+
+    def __len__(self) -> int:
+        return getattr(self._st, self._count)
+
+    def __iter__(self) -> Iterator[int]:
+        if not len(self):
+            return iter(())
+        return iter([32 * w + i for w, word in enumerate(self._words) if word
+                     for i in range(32) if word >> i & 1])
 
 
 class Nvic:
@@ -48,12 +67,36 @@ class Nvic:
         self.core = core
         self._masks = Regs(core.uc, (A.UC_ARM_REG_FAULTMASK, A.UC_ARM_REG_PRIMASK,
                                      A.UC_ARM_REG_BASEPRI))
-        self.enabled: set[int] = set()           # IRQ numbers
-        self.pending: set[int] = PendingSet(core.shared)     # exception numbers
+        self.enabled = SharedBits(core.shared, "ena", "ena_n")        # IRQ numbers
+        self.pending = SharedBits(core.shared, "pend", "pending_n")   # exception numbers
         self.lines: set[int] = set()             # IRQ lines a peripheral holds high
         self.prio = bytearray(16 + NUM_IRQS)
+        self.set_priorities(0, bytes(16 + NUM_IRQS))
         self.prigroup = 0
         self.sleep_on_exit = False
+
+    def set_priorities(self, exc: int, data: bytes) -> None:
+        """Priority bytes from exception ``exc`` on, copied where C reads them."""
+        self.prio[exc:exc + len(data)] = data
+        ctypes.memmove(self.core.shared.prio, bytes(self.prio), len(self.prio))
+
+    @property
+    def prigroup(self) -> int:
+        """AIRCR PRIGROUP, where C reads it too."""
+        return self.core.shared.prigroup
+
+    @prigroup.setter
+    def prigroup(self, value: int) -> None:
+        self.core.shared.prigroup = value
+
+    @property
+    def sleep_on_exit(self) -> bool:
+        """SCR SLEEPONEXIT, where the compiled exception return sees it too."""
+        return bool(self.core.shared.sleep_on_exit)
+
+    @sleep_on_exit.setter
+    def sleep_on_exit(self, value: bool) -> None:
+        self.core.shared.sleep_on_exit = int(value)
 
     def line(self, irq: int, level: bool) -> None:
         """A peripheral's interrupt line ``irq`` is now ``level``."""
@@ -102,6 +145,9 @@ class Nvic:
         """The pending exception that preempts what runs now, if any."""
         if not self.pending:
             return None
+        if self.core.choose_c is not None:
+            exc = self.core.choose_c()
+            return None if exc < 0 else exc
         ready = self.ready()
         if not ready:
             return None
@@ -125,100 +171,10 @@ class Nvic:
         return bool(self.ready())
 
 
-class SysTick:
-    """The 24-bit down counter: COUNTFLAG, reload, the SysTick exception at each wrap."""
-
-    def __init__(self, core: Core, nvic: Nvic, events: Events, hclk: Callable[[], int]) -> None:
-        self.core, self.nvic, self.hclk = core, nvic, hclk
-        self.csr = 0
-        self.rvr = 0
-        self.countflag = False
-        self._c0 = 0              # the counter's value at _t0
-        self._t0 = 0
-        self.wrap = events.timer(self._wrapped)
-
-    def _hz(self) -> int:
-        return self.hclk() if self.csr & 4 else self.hclk() // 8
-
-    def _ticks(self, fs: int) -> int:
-        return (fs - self._t0) * self._hz() // FS_PER_S
-
-    def value(self) -> int:
-        if not self.csr & 1:
-            return self._c0
-        k = self._ticks(self.core.now_fs())
-        if k < self._c0:
-            return self._c0 - k
-        m = (k - self._c0) % (self.rvr + 1)
-        return 0 if m == 0 else self.rvr + 1 - m
-
-    def _anchor(self, value: int) -> None:
-        self._c0, self._t0 = value, self.core.now_fs()
-        self._schedule()
-
-    def _schedule(self) -> None:
-        if not self.csr & 1 or (self.rvr == 0 and self._c0 == 0):
-            self.wrap.clear()
-            return
-        k = self._ticks(self.core.now_fs())
-        first = self._c0 if self._c0 > 0 else self.rvr + 1
-        if k >= first:
-            first += ((k - first) // (self.rvr + 1) + 1) * (self.rvr + 1)
-        hz = self._hz()
-        self.wrap.set(self._t0 + -(-first * FS_PER_S // hz))
-
-    def _wrapped(self, at_fs: int) -> None:
-        self.countflag = True
-        if self.csr & 2:
-            self.nvic.pending.add(EXC_SYSTICK)
-        self._schedule_after(at_fs)
-
-    def _schedule_after(self, at_fs: int) -> None:
-        if self.rvr == 0:
-            return
-        self.wrap.set(at_fs + -(-(self.rvr + 1) * FS_PER_S // self._hz()))
-
-    def rebase(self) -> None:
-        """HCLK changed: the counter goes on from its value now at the new rate."""
-        if self.csr & 1:
-            self._anchor(self.value())
-
-    def read(self, off: int) -> int:
-        if off == 0:
-            v = (self.csr & 7) | (0x10000 if self.countflag else 0)
-            self.countflag = False
-            return v
-        if off == 4:
-            return self.rvr
-        if off == 8:
-            return self.value()
-        return 0x40000000 if off == 0xC else 0   # CALIB: no reference clock
-
-    def write(self, off: int, value: int) -> None:
-        if off == 0:
-            was = self.csr & 1
-            value_now = self.value()
-            self.csr = value & 7
-            if self.csr & 1 and not was:
-                self._anchor(value_now)
-            elif was and not self.csr & 1:
-                self._c0 = value_now
-                self.wrap.clear()
-            else:
-                self._anchor(value_now)
-        elif off == 4:
-            value_now = self.value()
-            self.rvr = value & 0xFFFFFF
-            self._anchor(value_now)
-        elif off == 8:
-            self.countflag = False
-            self._anchor(0)
-
-
 class SystemBlock:
     """The private peripheral bus: SCB, NVIC, SysTick, DWT, CPACR, FPU context registers."""
 
-    def __init__(self, core: Core, nvic: Nvic, systick: SysTick,
+    def __init__(self, core: Core, nvic: Nvic, systick: Any,
                  on_reset: Callable[[], None]) -> None:
         self.core, self.nvic, self.systick = core, nvic, systick
         self.on_reset = on_reset
@@ -308,7 +264,7 @@ class SystemBlock:
                     nvic.pending.discard(i + 16)
         elif 0xE000E400 <= addr < 0xE000E400 + NUM_IRQS:
             e = addr - 0xE000E400 + 16
-            nvic.prio[e:e + 4] = (value & 0xF0F0F0F0).to_bytes(4, "little")[:len(nvic.prio) - e]
+            nvic.set_priorities(e, (value & 0xF0F0F0F0).to_bytes(4, "little")[:len(nvic.prio) - e])
         elif addr == STIR:
             if (value & 0x1FF) < NUM_IRQS:
                 nvic.pending.add((value & 0x1FF) + 16)
@@ -332,7 +288,7 @@ class SystemBlock:
             nvic.sleep_on_exit = bool(value & SCR_SLEEPONEXIT)
         elif SCB + 0x18 <= addr < SCB + 0x24:
             e = addr - (SCB + 0x18) + 4
-            nvic.prio[e:e + 4] = (value & 0xF0F0F0F0).to_bytes(4, "little")
+            nvic.set_priorities(e, (value & 0xF0F0F0F0).to_bytes(4, "little"))
         elif addr == CPACR:
             self.regs[addr] = value
             self.core.fpu_on = (value >> 20) & 0xF == 0xF

@@ -1,0 +1,128 @@
+"""SysTick, the Cortex-M4's 24-bit down counter (the private peripheral bus at 0xE000_E010):
+COUNTFLAG, reload, the SysTick exception at each wrap. Its registers live in ``Shared``,
+where the compiled board (hil/mcu/board_core.c) fires the wrap without Python."""
+from __future__ import annotations
+
+from typing import Callable
+
+from hil.mcu.board_core import NativeTimer
+from hil.mcu.core import EXC_SYSTICK, FS_PER_S, Core
+from hil.mcu.events import Events
+from hil.mcu.system import Nvic
+
+
+class SysTick:
+    """The 24-bit down counter: COUNTFLAG, reload, the SysTick exception at each wrap."""
+
+    def __init__(self, core: Core, nvic: Nvic, events: Events, hclk: Callable[[], int]) -> None:
+        self.core, self.nvic, self.hclk = core, nvic, hclk
+        self._st = st = core.shared      # CSR, RVR and COUNTFLAG where board_core.c wraps too
+        self.csr = 0
+        self.rvr = 0
+        self.countflag = False
+        self._c0 = 0              # the counter's value at _t0
+        self._t0 = 0
+        self.wrap = events.timer(self._wrapped)
+        # the compiled board's heap fires this timer in C (board_core.c systick_wrapped)
+        st.st_tid = self.wrap.tid if isinstance(self.wrap, NativeTimer) else -1
+
+    @property
+    def csr(self) -> int:
+        return self._st.st_csr
+
+    @csr.setter
+    def csr(self, value: int) -> None:
+        self._st.st_csr = value
+
+    @property
+    def rvr(self) -> int:
+        return self._st.st_rvr
+
+    @rvr.setter
+    def rvr(self, value: int) -> None:
+        self._st.st_rvr = value
+
+    @property
+    def countflag(self) -> bool:
+        return bool(self._st.st_countflag)
+
+    @countflag.setter
+    def countflag(self, value: bool) -> None:
+        self._st.st_countflag = int(value)
+
+    def _hz(self) -> int:
+        return self.hclk() if self.csr & 4 else self.hclk() // 8
+
+    def _ticks(self, fs: int) -> int:
+        return (fs - self._t0) * self._hz() // FS_PER_S
+
+    def value(self) -> int:
+        if not self.csr & 1:
+            return self._c0
+        k = self._ticks(self.core.now_fs())
+        if k < self._c0:
+            return self._c0 - k
+        m = (k - self._c0) % (self.rvr + 1)
+        return 0 if m == 0 else self.rvr + 1 - m
+
+    def _anchor(self, value: int) -> None:
+        self._c0, self._t0 = value, self.core.now_fs()
+        self._schedule()
+
+    def _schedule(self) -> None:
+        if not self.csr & 1 or (self.rvr == 0 and self._c0 == 0):
+            self.wrap.clear()
+            return
+        k = self._ticks(self.core.now_fs())
+        first = self._c0 if self._c0 > 0 else self.rvr + 1
+        if k >= first:
+            first += ((k - first) // (self.rvr + 1) + 1) * (self.rvr + 1)
+        hz = self._hz()
+        self.wrap.set(self._t0 + -(-first * FS_PER_S // hz))
+
+    def _wrapped(self, at_fs: int) -> None:
+        self.countflag = True
+        if self.csr & 2:
+            self.nvic.pending.add(EXC_SYSTICK)
+        self._schedule_after(at_fs)
+
+    def _schedule_after(self, at_fs: int) -> None:
+        if self.rvr == 0:
+            return
+        self.wrap.set(at_fs + -(-(self.rvr + 1) * FS_PER_S // self._hz()))
+
+    def rebase(self) -> None:
+        """HCLK changed: the counter goes on from its value now at the new rate."""
+        if self.csr & 1:
+            self._anchor(self.value())
+
+    def read(self, off: int) -> int:
+        if off == 0:
+            v = (self.csr & 7) | (0x10000 if self.countflag else 0)
+            self.countflag = False
+            return v
+        if off == 4:
+            return self.rvr
+        if off == 8:
+            return self.value()
+        return 0x40000000 if off == 0xC else 0   # CALIB: no reference clock
+
+    def write(self, off: int, value: int) -> None:
+        if off == 0:
+            was = self.csr & 1
+            value_now = self.value()
+            self.csr = value & 7
+            if self.csr & 1 and not was:
+                self._anchor(value_now)
+            elif was and not self.csr & 1:
+                self._c0 = value_now
+                self.wrap.clear()
+            else:
+                self._anchor(value_now)
+        elif off == 4:
+            value_now = self.value()
+            self.rvr = value & 0xFFFFFF
+            self._anchor(value_now)
+        elif off == 8:
+            self.countflag = False
+            self._anchor(0)
