@@ -4,13 +4,16 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-slow bench fuzz clean toolchain
+.PHONY: setup demo test test-slow bench fuzz clean toolchain
 
 DRIVE_CORE := hil/world/_drive_core.so
 SERVO_CORE := hil/servobus/_servo_core.so
 BOARD_CORE := hil/mcu/_board_core.so
 
 CORES := $(DRIVE_CORE) $(SERVO_CORE) $(BOARD_CORE)
+
+# `make` alone: the venv and the compiled cores, nothing run
+setup: $(STAMP) $(CORES)
 
 $(BIN)/python:
 	$(PY) -m venv $(VENV)
