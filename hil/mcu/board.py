@@ -299,13 +299,21 @@ class Board:
         return (f"{text} at PC 0x{pc:08x} in {self.image.function_at(pc)} "
                 f"(t={self.now_us() * 1e-6:.6f} s)")
 
+    def _head(self, max_chunk: int) -> int:
+        """The loop's head (``NativeEvents.head`` in C): the timers due at the core's cycle
+        fired, then the next chunk's length, to the next event."""
+        core, events = self.core, self.events
+        events.fire_due(core.time.fs_at(core.cyc))
+        return max(1, min(core.time.cycle_of(events.next_fs()) - core.cyc, max_chunk))
+
     def run(self) -> None:
         """Boot and run until the host ends the run, the firmware exits or faults
         (``CoreFault`` carrying the one line)."""
         core, events, nvic = self.core, self.events, self.nvic
+        head = events.head if isinstance(events, NativeEvents) else self._head
         self.link.hello()
         while not self.ended and self.exit_code is None:
-            events.fire_due(core.time.fs_at(core.cyc))
+            n = head(MAX_CHUNK)
             if self.ended:
                 break
             if self.fault is not None:
@@ -319,7 +327,6 @@ class Board:
                 else:
                     core.cyc = max(core.cyc, core.time.cycle_of(events.next_fs()))
                     continue
-            n = max(1, min(core.time.cycle_of(events.next_fs()) - core.cyc, MAX_CHUNK))
             if self.debugger is not None:
                 n = self.debugger.chunk_limit(n)
             try:
@@ -331,7 +338,7 @@ class Board:
             if self._reset_pending:
                 self._system_reset()
                 continue
-            if core.active and self.debugger is None and \
+            if core.shared.nactive and self.debugger is None and \
                     core.read16(core.pc) in BRANCH_TO_SELF:
                 self._lockup()
             self.poll.after_chunk()

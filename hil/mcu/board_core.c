@@ -241,6 +241,16 @@ int bc_fire_due(bc_t *s, int64_t now_fs) {
     return s->err ? -1 : fired;
 }
 
+/* The run loop's head (board.py ``run``): the timers due at the chunk's start fired, then
+   the next chunk's length, to the next event (1 to ``max_chunk`` instructions); -1 when a
+   Python timer raised */
+int64_t bc_head(bc_t *s, int64_t max_chunk) {
+    if (bc_fire_due(s, fs_at(s, s->cyc)) < 0) return -1;
+    if (s->next_at < 0) return max_chunk;
+    int64_t n = cycle_of(s, s->next_at) - s->cyc;
+    return n < 1 ? 1 : n > max_chunk ? max_chunk : n;
+}
+
 /* --- USART2 (usart.py) ---------------------------------------------------------------- */
 static const int STOP_HALF_BITS[4] = {2, 1, 4, 3};
 

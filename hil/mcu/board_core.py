@@ -91,6 +91,7 @@ def _load() -> Any:
     lib.bc_rx_queue.restype, lib.bc_rx_queue.argtypes = None, [_P, _P, _P, _I32]
     lib.bc_rx_deliver.restype, lib.bc_rx_deliver.argtypes = _I32, [_P, _I64]
     lib.bc_next_exception.restype, lib.bc_next_exception.argtypes = _I32, [_P]
+    lib.bc_head.restype, lib.bc_head.argtypes = _I64, [_P, _I64]
     lib.bc_enter.restype = _I64
     lib.bc_enter.argtypes = [_P, _I32, ctypes.c_uint32, _I32, ctypes.c_uint32]
     for name, (res, args) in sig.items():
@@ -171,6 +172,14 @@ class NativeEvents:
     def next_fs(self) -> int | None:
         at = self.shared.next_at
         return None if at < 0 else at
+
+    def head(self, max_chunk: int) -> int:
+        """The board's loop head in C (board.py ``run``): the timers due at the core's
+        cycle fired, then the next chunk's length."""
+        n = _LIB.bc_head(self.ref, max_chunk)
+        if n < 0:
+            self.raise_error()
+        return n
 
     def fire_due(self, now_fs: int) -> bool:
         fired = _LIB.bc_fire_due(self.ref, now_fs)
