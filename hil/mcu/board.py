@@ -16,7 +16,8 @@ from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
 
 from hil.mcu.board_core import (NativeBoard, NativeEvents, NativeTimer, NativeUsart,
-                                exception_choice, exception_entry, hook_interrupts, native)
+                                exception_choice, exception_entry, exception_taking,
+                                hook_interrupts, native)
 from hil.mcu.console import Console, semihost
 from hil.mcu.core import (EXC_SVCALL, EXC_SYSTICK, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT,
                           INTR_INVSTATE, INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
@@ -306,11 +307,21 @@ class Board:
         events.fire_due(core.time.fs_at(core.cyc))
         return max(1, min(core.time.cycle_of(events.next_fs()) - core.cyc, max_chunk))
 
+    def _take_next(self) -> bool:
+        """The pending exception that preempts what runs now taken (``exception_taking``
+        in C): whether there was one."""
+        exc = self.nvic.next_exception()
+        if exc is not None:
+            self.nvic.take(exc)
+        return exc is not None
+
     def run(self) -> None:
         """Boot and run until the host ends the run, the firmware exits or faults
         (``CoreFault`` carrying the one line)."""
         core, events, nvic = self.core, self.events, self.nvic
-        head = events.head if isinstance(events, NativeEvents) else self._head
+        native = isinstance(events, NativeEvents)
+        head = events.head if native else self._head
+        take_next = exception_taking(core) if native else self._take_next
         self.link.hello()
         while not self.ended and self.exit_code is None:
             n = head(MAX_CHUNK)
@@ -318,10 +329,7 @@ class Board:
                 break
             if self.fault is not None:
                 raise CoreFault(self._fault_line(self.fault))
-            exc = nvic.next_exception()
-            if exc is not None:
-                nvic.take(exc)
-            elif core.sleeping:
+            if not take_next() and core.sleeping:
                 if nvic.wakes():
                     core.sleeping = False
                 else:

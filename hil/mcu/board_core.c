@@ -691,6 +691,22 @@ int bc_next_exception(bc_t *s) {
     return group(s, best_p) < execution_priority(s) ? best : -1;
 }
 
+/* The run loop's exception (board.py ``run``): the pending exception that preempts what
+   runs now, taken at ``pc`` (no longer pending, its frame stacked): its number above bit 32
+   and its vector below; -1 when none is ready; -2 - exc where Python enters it (only its
+   pending bit cleared) */
+int64_t bc_take_next(bc_t *s, uint32_t pc, int fpu, uint32_t vtor_base) {
+    int exc = bc_next_exception(s);
+    if (exc < 0) return -1;
+    uint32_t bit = 1u << (exc & 31);
+    if (s->pend[exc >> 5] & bit) {
+        s->pend[exc >> 5] &= ~bit;
+        s->pending_n--;
+    }
+    int64_t vector = bc_enter(s, exc, pc, fpu, vtor_base);
+    return vector < 0 ? -2 - exc : (int64_t)exc << 32 | vector;
+}
+
 /* Unicorn's interrupt hook (UC_HOOK_INTR) */
 void bc_intr(void *uc, uint32_t intno, void *ud) {
     bc_t *s = ud;
