@@ -16,7 +16,8 @@ from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
 
 from hil.mcu.board_core import (NativeBoard, NativeEvents, NativeTimer, NativeUsart,
-                                exception_choice, exception_entry, hook_interrupts, native)
+                                exception_choice, exception_entry, exception_taking,
+                                hook_interrupts, native)
 from hil.mcu.console import Console, semihost
 from hil.mcu.core import (EXC_SVCALL, EXC_SYSTICK, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT,
                           INTR_INVSTATE, INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
@@ -299,27 +300,41 @@ class Board:
         return (f"{text} at PC 0x{pc:08x} in {self.image.function_at(pc)} "
                 f"(t={self.now_us() * 1e-6:.6f} s)")
 
+    def _head(self, max_chunk: int) -> int:
+        """The loop's head (``NativeEvents.head`` in C): the timers due at the core's cycle
+        fired, then the next chunk's length, to the next event."""
+        core, events = self.core, self.events
+        events.fire_due(core.time.fs_at(core.cyc))
+        return max(1, min(core.time.cycle_of(events.next_fs()) - core.cyc, max_chunk))
+
+    def _take_next(self) -> bool:
+        """The pending exception that preempts what runs now taken (``exception_taking``
+        in C): whether there was one."""
+        exc = self.nvic.next_exception()
+        if exc is not None:
+            self.nvic.take(exc)
+        return exc is not None
+
     def run(self) -> None:
         """Boot and run until the host ends the run, the firmware exits or faults
         (``CoreFault`` carrying the one line)."""
         core, events, nvic = self.core, self.events, self.nvic
+        native = isinstance(events, NativeEvents)
+        head = events.head if native else self._head
+        take_next = exception_taking(core) if native else self._take_next
         self.link.hello()
         while not self.ended and self.exit_code is None:
-            events.fire_due(core.time.fs_at(core.cyc))
+            n = head(MAX_CHUNK)
             if self.ended:
                 break
             if self.fault is not None:
                 raise CoreFault(self._fault_line(self.fault))
-            exc = nvic.next_exception()
-            if exc is not None:
-                nvic.take(exc)
-            elif core.sleeping:
+            if not take_next() and core.sleeping:
                 if nvic.wakes():
                     core.sleeping = False
                 else:
                     core.cyc = max(core.cyc, core.time.cycle_of(events.next_fs()))
                     continue
-            n = max(1, min(core.time.cycle_of(events.next_fs()) - core.cyc, MAX_CHUNK))
             if self.debugger is not None:
                 n = self.debugger.chunk_limit(n)
             try:
@@ -331,7 +346,7 @@ class Board:
             if self._reset_pending:
                 self._system_reset()
                 continue
-            if core.active and self.debugger is None and \
+            if core.shared.nactive and self.debugger is None and \
                     core.read16(core.pc) in BRANCH_TO_SELF:
                 self._lockup()
             self.poll.after_chunk()

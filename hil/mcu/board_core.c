@@ -241,6 +241,16 @@ int bc_fire_due(bc_t *s, int64_t now_fs) {
     return s->err ? -1 : fired;
 }
 
+/* The run loop's head (board.py ``run``): the timers due at the chunk's start fired, then
+   the next chunk's length, to the next event (1 to ``max_chunk`` instructions); -1 when a
+   Python timer raised */
+int64_t bc_head(bc_t *s, int64_t max_chunk) {
+    if (bc_fire_due(s, fs_at(s, s->cyc)) < 0) return -1;
+    if (s->next_at < 0) return max_chunk;
+    int64_t n = cycle_of(s, s->next_at) - s->cyc;
+    return n < 1 ? 1 : n > max_chunk ? max_chunk : n;
+}
+
 /* --- USART2 (usart.py) ---------------------------------------------------------------- */
 static const int STOP_HALF_BITS[4] = {2, 1, 4, 3};
 
@@ -679,6 +689,22 @@ int bc_next_exception(bc_t *s) {
     }
     if (best < 0) return -1;
     return group(s, best_p) < execution_priority(s) ? best : -1;
+}
+
+/* The run loop's exception (board.py ``run``): the pending exception that preempts what
+   runs now, taken at ``pc`` (no longer pending, its frame stacked): its number above bit 32
+   and its vector below; -1 when none is ready; -2 - exc where Python enters it (only its
+   pending bit cleared) */
+int64_t bc_take_next(bc_t *s, uint32_t pc, int fpu, uint32_t vtor_base) {
+    int exc = bc_next_exception(s);
+    if (exc < 0) return -1;
+    uint32_t bit = 1u << (exc & 31);
+    if (s->pend[exc >> 5] & bit) {
+        s->pend[exc >> 5] &= ~bit;
+        s->pending_n--;
+    }
+    int64_t vector = bc_enter(s, exc, pc, fpu, vtor_base);
+    return vector < 0 ? -2 - exc : (int64_t)exc << 32 | vector;
 }
 
 /* Unicorn's interrupt hook (UC_HOOK_INTR) */

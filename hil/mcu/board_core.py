@@ -91,6 +91,9 @@ def _load() -> Any:
     lib.bc_rx_queue.restype, lib.bc_rx_queue.argtypes = None, [_P, _P, _P, _I32]
     lib.bc_rx_deliver.restype, lib.bc_rx_deliver.argtypes = _I32, [_P, _I64]
     lib.bc_next_exception.restype, lib.bc_next_exception.argtypes = _I32, [_P]
+    lib.bc_head.restype, lib.bc_head.argtypes = _I64, [_P, _I64]
+    lib.bc_take_next.restype = _I64
+    lib.bc_take_next.argtypes = [_P, ctypes.c_uint32, _I32, ctypes.c_uint32]
     lib.bc_enter.restype = _I64
     lib.bc_enter.argtypes = [_P, _I32, ctypes.c_uint32, _I32, ctypes.c_uint32]
     for name, (res, args) in sig.items():
@@ -171,6 +174,14 @@ class NativeEvents:
     def next_fs(self) -> int | None:
         at = self.shared.next_at
         return None if at < 0 else at
+
+    def head(self, max_chunk: int) -> int:
+        """The board's loop head in C (board.py ``run``): the timers due at the core's
+        cycle fired, then the next chunk's length."""
+        n = _LIB.bc_head(self.ref, max_chunk)
+        if n < 0:
+            self.raise_error()
+        return n
 
     def fire_due(self, now_fs: int) -> bool:
         fired = _LIB.bc_fire_due(self.ref, now_fs)
@@ -339,6 +350,21 @@ def exception_entry(shared: Shared) -> Callable[[int, int, int, int], int]:
     vector, or -1 where Python takes it (nothing changed)."""
     ref, enter = ctypes.byref(shared), _LIB.bc_enter
     return lambda exc, pc, fpu, vtor: enter(ref, exc, pc, fpu, vtor)
+
+
+def exception_taking(core: Any) -> Callable[[], bool]:
+    """board.py ``_take_next`` in C (the NVIC's choice and the entry in one call): whether
+    an exception was taken."""
+    ref, take = ctypes.byref(core.shared), _LIB.bc_take_next
+
+    def taken() -> bool:
+        r = take(ref, core.pc, core.fpu_on, core.vtor_base())
+        if r >= 0:
+            core.pc = r & 0xFFFFFFFE
+        elif r < -1:
+            core.enter(-2 - r)     # the entry Python makes (a fault's line, a frame off SRAM)
+        return r != -1
+    return taken
 
 
 def add_wait(shared: Shared, pc: int, addr: int, value: int) -> None:
