@@ -72,6 +72,23 @@ class Shared(ctypes.Structure):
                 ("rx_head", _I32), ("rx_cap", _I32), ("rx_at", _P), ("rx_byte", _P)]
 
 
+
+class SharedField:
+    """An attribute of an object whose ``shared`` (a ``Shared``) holds it, so that the C
+    code reads and writes the same value; ``kind`` converts what the struct returns."""
+
+    def __init__(self, field: str, kind: Callable[[int], Any] | None = None) -> None:
+        self.field, self.kind = field, kind
+
+    def __get__(self, obj: Any, owner: type | None = None) -> Any:
+        if obj is None:
+            return self
+        value = getattr(obj.shared, self.field)
+        return value if self.kind is None else self.kind(value)
+
+    def __set__(self, obj: Any, value: int) -> None:
+        setattr(obj.shared, self.field, int(value))
+
 def _load() -> Any:
     if os.environ.get("HEXHIL_BOARD_CORE") == "python":
         return None

@@ -22,7 +22,7 @@ from unicorn import (UC_ARCH_ARM, UC_HOOK_INTR, UC_MODE_MCLASS, UC_MODE_THUMB, U
 from unicorn import arm_const as A
 from unicorn.unicorn_py3.unicorn import uclib
 
-from hil.mcu.board_core import Shared
+from hil.mcu.board_core import Shared, SharedField
 from hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
 from hil.mcu.engine import Regs, counter_offset, regs_place
 from hil.mcu.timebase import FS_PER_S, FS_PER_US, TimeBase
@@ -50,6 +50,9 @@ class CoreFault(Exception):
 
 class Core:
     """The CPU, its memory (flash aliased at 0 as with BOOT0 low, SRAM) and its time."""
+
+    cyc = SharedField("cyc")
+    sleeping = SharedField("sleeping", bool)   # WFI/WFE: asleep until an event or interrupt
 
     def __init__(self, image: ElfImage, hz: int) -> None:
         self.image = image
@@ -123,23 +126,6 @@ class Core:
         st = self.shared
         st.nactive -= 1
         return st.active[st.nactive]
-
-    @property
-    def sleeping(self) -> bool:
-        """WFI/WFE: asleep until an event or interrupt."""
-        return bool(self.shared.sleeping)
-
-    @sleeping.setter
-    def sleeping(self, value: bool) -> None:
-        self.shared.sleeping = int(value)
-
-    @property
-    def cyc(self) -> int:
-        return self.shared.cyc
-
-    @cyc.setter
-    def cyc(self, value: int) -> None:
-        self.shared.cyc = value
 
     def _find_pc(self) -> ctypes.c_uint32 | None:
         """The PC's word in this engine's CPU state (``regs_place``), checked here too."""

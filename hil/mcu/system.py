@@ -15,6 +15,7 @@ from typing import Any, Callable, Iterator
 
 from unicorn import arm_const as A
 
+from hil.mcu.board_core import SharedField
 from hil.mcu.core import EXC_PENDSV, EXC_SYSTICK, Core, Regs
 
 NUM_IRQS = 86                 # RM0383 table 37: positions 0..85
@@ -63,8 +64,11 @@ class SharedBits:
 class Nvic:
     """Which exception is pending, enabled, active, and which one runs next."""
 
+    prigroup = SharedField("prigroup")                    # AIRCR PRIGROUP
+    sleep_on_exit = SharedField("sleep_on_exit", bool)    # SCR SLEEPONEXIT
+
     def __init__(self, core: Core) -> None:
-        self.core = core
+        self.core, self.shared = core, core.shared
         self._masks = Regs(core.uc, (A.UC_ARM_REG_FAULTMASK, A.UC_ARM_REG_PRIMASK,
                                      A.UC_ARM_REG_BASEPRI))
         self.enabled = SharedBits(core.shared, "ena", "ena_n")        # IRQ numbers
@@ -78,25 +82,7 @@ class Nvic:
     def set_priorities(self, exc: int, data: bytes) -> None:
         """Priority bytes from exception ``exc`` on, copied where C reads them."""
         self.prio[exc:exc + len(data)] = data
-        ctypes.memmove(self.core.shared.prio, bytes(self.prio), len(self.prio))
-
-    @property
-    def prigroup(self) -> int:
-        """AIRCR PRIGROUP, where C reads it too."""
-        return self.core.shared.prigroup
-
-    @prigroup.setter
-    def prigroup(self, value: int) -> None:
-        self.core.shared.prigroup = value
-
-    @property
-    def sleep_on_exit(self) -> bool:
-        """SCR SLEEPONEXIT, where the compiled exception return sees it too."""
-        return bool(self.core.shared.sleep_on_exit)
-
-    @sleep_on_exit.setter
-    def sleep_on_exit(self, value: bool) -> None:
-        self.core.shared.sleep_on_exit = int(value)
+        ctypes.memmove(self.shared.prio, bytes(self.prio), len(self.prio))
 
     def line(self, irq: int, level: bool) -> None:
         """A peripheral's interrupt line ``irq`` is now ``level``."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Callable
 
-from hil.mcu.board_core import NativeTimer
+from hil.mcu.board_core import NativeTimer, SharedField
 from hil.mcu.core import EXC_SYSTICK, FS_PER_S, Core
 from hil.mcu.events import Events
 from hil.mcu.system import Nvic
@@ -14,9 +14,13 @@ from hil.mcu.system import Nvic
 class SysTick:
     """The 24-bit down counter: COUNTFLAG, reload, the SysTick exception at each wrap."""
 
+    csr = SharedField("st_csr")
+    rvr = SharedField("st_rvr")
+    countflag = SharedField("st_countflag", bool)
+
     def __init__(self, core: Core, nvic: Nvic, events: Events, hclk: Callable[[], int]) -> None:
         self.core, self.nvic, self.hclk = core, nvic, hclk
-        self._st = st = core.shared      # CSR, RVR and COUNTFLAG where board_core.c wraps too
+        self.shared = st = core.shared
         self.csr = 0
         self.rvr = 0
         self.countflag = False
@@ -25,30 +29,6 @@ class SysTick:
         self.wrap = events.timer(self._wrapped)
         # the compiled board's heap fires this timer in C (board_core.c systick_wrapped)
         st.st_tid = self.wrap.tid if isinstance(self.wrap, NativeTimer) else -1
-
-    @property
-    def csr(self) -> int:
-        return self._st.st_csr
-
-    @csr.setter
-    def csr(self, value: int) -> None:
-        self._st.st_csr = value
-
-    @property
-    def rvr(self) -> int:
-        return self._st.st_rvr
-
-    @rvr.setter
-    def rvr(self, value: int) -> None:
-        self._st.st_rvr = value
-
-    @property
-    def countflag(self) -> bool:
-        return bool(self._st.st_countflag)
-
-    @countflag.setter
-    def countflag(self, value: bool) -> None:
-        self._st.st_countflag = int(value)
 
     def _hz(self) -> int:
         return self.hclk() if self.csr & 4 else self.hclk() // 8
