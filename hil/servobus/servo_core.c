@@ -156,6 +156,23 @@ static int health_errors(const struct health *h, const unsigned char *t)
     return e;
 }
 
+/* Servo._alarm: the error bits' LED and shutdown (the torque limit to 0) */
+static void alarm(const struct bank *b, int i, int errors)
+{
+    if (!errors)
+        return;
+    struct servo *s = b->servo[i];
+    unsigned char *t = b->table[i];
+    if (errors & t[ALARM_LED])
+        s->alarm_led = 1;
+    if ((errors & t[SHUTDOWN]) && (t[TORQUE_LIMIT] || t[TORQUE_LIMIT + 1])) {
+        t[TORQUE_LIMIT] = 0;
+        t[TORQUE_LIMIT + 1] = 0;
+        command(b, t, b->health[i]->supply_frac, b->joint[i]);
+        s->present_stale = 1;
+    }
+}
+
 /* Servo.advance_to for a servo behind t_us (the world is already there) */
 static void advance(const struct bank *b, int i, int64_t t_us)
 {
@@ -169,17 +186,7 @@ static void advance(const struct bank *b, int i, int64_t t_us)
     int tl = t[TORQUE_ENABLE] ? u16(t, TORQUE_LIMIT) : 0;
     health_advance(b, h, dt, load_frac(b, b->joint[i]), tl);
     s->present_stale = 1;
-    int errors = health_errors(h, t);
-    if (errors) {   /* Servo._alarm */
-        if (errors & t[ALARM_LED])
-            s->alarm_led = 1;
-        if ((errors & t[SHUTDOWN]) && (t[TORQUE_LIMIT] || t[TORQUE_LIMIT + 1])) {
-            t[TORQUE_LIMIT] = 0;
-            t[TORQUE_LIMIT + 1] = 0;
-            command(b, t, h->supply_frac, b->joint[i]);
-            s->present_stale = 1;
-        }
-    }
+    alarm(b, i, health_errors(h, t));
 }
 
 /* Servo.check_write's Range bit (the only one a SYNC_WRITE acts on) */
@@ -328,17 +335,7 @@ int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned ch
         memcpy(data, t + a, (size_t)n);
         len = n;
     }
-    int alarms = error | health_errors(b->health[i], t);
-    if (alarms) {   /* Servo._alarm */
-        if (alarms & t[ALARM_LED])
-            s->alarm_led = 1;
-        if ((alarms & t[SHUTDOWN]) && (t[TORQUE_LIMIT] || t[TORQUE_LIMIT + 1])) {
-            t[TORQUE_LIMIT] = 0;
-            t[TORQUE_LIMIT + 1] = 0;
-            command(b, t, b->health[i]->supply_frac, b->joint[i]);
-            s->present_stale = 1;
-        }
-    }
+    alarm(b, i, error | health_errors(b->health[i], t));
     if (t[STATUS_RETURN_LEVEL] < 1)   /* Servo._answer: a READ is answered from level 1 */
         return 0;
     int code = error | health_errors(b->health[i], t);
