@@ -318,7 +318,7 @@ class Board:
     def run(self) -> None:
         """Boot and run until the host ends the run, the firmware exits or faults
         (``CoreFault`` carrying the one line)."""
-        core, events, nvic = self.core, self.events, self.nvic
+        core, events = self.core, self.events     # the NVIC is new after a system reset
         native = isinstance(events, NativeEvents)
         head = events.head if native else self._head
         take_next = exception_taking(core) if native else self._take_next
@@ -330,7 +330,7 @@ class Board:
             if self.fault is not None:
                 raise CoreFault(self._fault_line(self.fault))
             if not take_next() and core.sleeping:
-                if nvic.wakes():
+                if self.nvic.wakes():
                     core.sleeping = False
                 else:
                     core.cyc = max(core.cyc, core.time.cycle_of(events.next_fs()))
