@@ -15,9 +15,9 @@ from typing import Any, Callable
 from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
 
-from hil.mcu.board_core import (NativeBoard, NativeEvents, NativeTimer, NativeUsart,
-                                exception_choice, exception_entry, exception_taking,
-                                hook_interrupts, native)
+from hil.mcu.board_core import NativeBoard, NativeEvents, NativeTimer, NativeUsart, native
+from hil.mcu.board_loop import (exception_choice, exception_entry, exception_taking,
+                                handed_over, hook_interrupts, trips)
 from hil.mcu.console import Console, semihost
 from hil.mcu.core import (EXC_SVCALL, EXC_SYSTICK, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT,
                           INTR_INVSTATE, INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
@@ -290,12 +290,12 @@ class Board:
             return
         exc = core.active[-1]
         name = SYSTEM_EXCEPTIONS.get(exc, f"interrupt {exc - 16} (exception {exc})")
-        raise CoreFault(self._fault_line(
+        raise CoreFault(self.fault_line(
             f"a lockup: {name} runs a loop that branches to itself and nothing can preempt "
             "it (an interrupt enabled without a handler of its own?)"))
 
     # --- the run --------------------------------------------------------------------
-    def _fault_line(self, text: str) -> str:
+    def fault_line(self, text: str) -> str:
         pc = self.core.pc
         return (f"{text} at PC 0x{pc:08x} in {self.image.function_at(pc)} "
                 f"(t={self.now_us() * 1e-6:.6f} s)")
@@ -317,43 +317,59 @@ class Board:
 
     def run(self) -> None:
         """Boot and run until the host ends the run, the firmware exits or faults
-        (``CoreFault`` carrying the one line)."""
+        (``CoreFault`` carrying the one line). With the compiled board the trips run in C
+        (hil/mcu/board_loop.py) and come here where Python takes part."""
         core, events = self.core, self.events     # the NVIC is new after a system reset
         native = isinstance(events, NativeEvents)
         head = events.head if native else self._head
         take_next = exception_taking(core) if native else self._take_next
+        loop = trips(core) if native and self.debugger is None else None
         self.link.hello()
+        n = -1
         while not self.ended and self.exit_code is None:
+            if loop is not None:
+                n = handed_over(self, loop(MAX_CHUNK, n))
+                continue
             n = head(MAX_CHUNK)
             if self.ended:
                 break
             if self.fault is not None:
-                raise CoreFault(self._fault_line(self.fault))
-            if not take_next() and core.sleeping:
-                if self.nvic.wakes():
-                    core.sleeping = False
-                else:
-                    core.cyc = max(core.cyc, core.time.cycle_of(events.next_fs()))
-                    continue
-            if self.debugger is not None:
-                n = self.debugger.chunk_limit(n)
-            try:
-                core.run(n)
-            except CoreFault as exc:
-                raise CoreFault(self._fault_line(str(exc))) from None
-            if self.fault is not None:
-                raise CoreFault(self._fault_line(self.fault))
-            if self._reset_pending:
-                self._system_reset()
-                continue
-            if core.shared.nactive and self.debugger is None and \
-                    core.read16(core.pc) in BRANCH_TO_SELF:
-                self._lockup()
-            self.poll.after_chunk()
-            if self.debugger is not None:
-                self.debugger.after_chunk()
+                raise CoreFault(self.fault_line(self.fault))
+            self.trip(n, take_next())
         self.console.flush()
         self.line.flush()
+
+    def trip(self, n: int, taken: bool) -> None:
+        """A trip of the loop after its head and its exception: the sleep or the chunk."""
+        core = self.core
+        if not taken and core.sleeping:
+            if self.nvic.wakes():
+                core.sleeping = False
+            else:
+                core.cyc = max(core.cyc, core.time.cycle_of(self.events.next_fs()))
+                return
+        if self.debugger is not None:
+            n = self.debugger.chunk_limit(n)
+        try:
+            core.run(n)
+        except CoreFault as exc:
+            raise CoreFault(self.fault_line(str(exc))) from None
+        self.after_chunk()
+
+    def after_chunk(self) -> None:
+        """A chunk ran: its fault, a system reset, a lockup, the poll skipper's next step."""
+        core = self.core
+        if self.fault is not None:
+            raise CoreFault(self.fault_line(self.fault))
+        if self._reset_pending:
+            self._system_reset()
+            return
+        if core.shared.nactive and self.debugger is None and \
+                core.read16(core.pc) in BRANCH_TO_SELF:
+            self._lockup()
+        self.poll.after_chunk()
+        if self.debugger is not None:
+            self.debugger.after_chunk()
 
     def close(self) -> None:
         self.link.close()

@@ -38,6 +38,9 @@ typedef int (*py_timer_t)(int tid, int64_t at_fs);
 typedef uint64_t (*mmio_read_t)(void *uc, uint64_t offset, unsigned size, void *ud);
 typedef void (*mmio_write_t)(void *uc, uint64_t offset, unsigned size, uint64_t value, void *ud);
 typedef int (*reg_batch_t)(void *uc, int *ids, void *const *vals, int count);
+typedef int (*emu_start_t)(void *uc, uint64_t begin, uint64_t until, uint64_t timeout,
+                           size_t count);
+typedef int (*mem_read_t)(void *uc, uint64_t address, void *bytes, size_t size);
 
 typedef struct { int64_t at; uint64_t seq; int32_t tid; uint32_t gen; } entry_t;
 
@@ -93,6 +96,13 @@ typedef struct {
     int32_t rx_tid, rx_n, rx_head, rx_cap;
     int64_t *rx_at;
     uint8_t *rx_byte;
+    /* the run loop (board.py ``run``, core.py ``run``): the core's state between chunks */
+    int64_t pc_next, vtor, executed;
+    int64_t touched;             /* calls into Python: a chunk that made one ends the loop */
+    int64_t loop_n;              /* the chunk length an iteration handed to Python had */
+    int32_t fpu_on, stopped, cut, hook_failed, uc_err, loop_exc;
+    emu_start_t emu_start;       /* libunicorn's */
+    mem_read_t mem_read;
 } bc_t;
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
@@ -232,7 +242,7 @@ int bc_fire_due(bc_t *s, int64_t now_fs) {
             systick_wrapped(s, e.at);
         } else if (e.tid == s->rx_tid) {
             rx_deliver(s, e.at);
-        } else if (s->py_timer(e.tid, e.at)) {
+        } else if (s->touched++, s->py_timer(e.tid, e.at)) {
             s->err = 1;
         }
         fired = 1;
@@ -256,6 +266,7 @@ static const int STOP_HALF_BITS[4] = {2, 1, 4, 3};
 
 static int64_t py(bc_t *s, int kind, int64_t a, int64_t b) {
     if (s->err) return -1;
+    s->touched++;
     int64_t r = s->py_call(kind, a, b);
     if (r == -2) s->err = 1;
     return r;
@@ -504,7 +515,10 @@ static uint32_t sized(uint32_t word, uint64_t offset, unsigned size) {
 
 uint64_t bc_mmio_read(void *uc, uint64_t offset, unsigned size, void *ud) {
     bc_t *s = ud;
-    if ((offset >> 10) != USART2_PAGE || !s->u2_live) return s->py_read(uc, offset, size, 0);
+    if ((offset >> 10) != USART2_PAGE || !s->u2_live) {
+        s->touched++;
+        return s->py_read(uc, offset, size, 0);
+    }
     due(s);
     int off = (int)(offset & 0x3FC);
     uint32_t value = sized(bc_usart_read(s, off), offset, size);
@@ -520,6 +534,7 @@ uint64_t bc_mmio_read(void *uc, uint64_t offset, unsigned size, void *ud) {
 void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, void *ud) {
     bc_t *s = ud;
     if ((offset >> 10) != USART2_PAGE || !s->u2_live) {
+        s->touched++;
         s->py_write(uc, offset, size, value, 0);
         return;
     }
@@ -739,6 +754,112 @@ static void rx_deliver(bc_t *s, int64_t at) {
 int bc_rx_deliver(bc_t *s, int64_t at) {
     rx_deliver(s, at);
     return s->err ? -1 : 0;
+}
+
+/* --- the run loop (board.py ``run`` and core.py ``run``) ------------------------------ */
+enum { LOOP_AFTER_HEAD = 0, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_NO_EVENT, LOOP_RAISED,
+       LOOP_HOOK_FAILED, LOOP_NULL_JUMP, LOOP_UC_ERROR };
+#define WFI 0xBF30
+#define WFE 0xBF20
+#define BRANCH_TO_SELF 0xE7FE
+
+static int read16(bc_t *s, uint32_t addr, uint16_t *op) {
+    if (addr >= FLASH_BASE && addr <= FLASH_BASE + FLASH_SIZE - 2) {
+        memcpy(op, s->flash + (addr - FLASH_BASE), 2);
+        return 0;
+    }
+    return s->mem_read(s->uc, addr, op, 2);
+}
+
+/* system.py Nvic ``wakes``: an enabled exception is pending, whatever its priority */
+static int wakes(bc_t *s) {
+    for (int e = 0; e < N_EXC; e++) {
+        if (!(s->pend[e >> 5] >> (e & 31) & 1)) continue;
+        if (e < 16 || s->ena[(e - 16) >> 5] >> ((e - 16) & 31) & 1) return 1;
+    }
+    return 0;
+}
+
+/* core.py ``run``: up to ``n`` instructions from ``pc_next``; how many ran, or -1 when the
+   chunk ended in something Python names (a callback's exception, a jump to 0, an error of
+   Unicorn's: the LOOP_* code in ``loop_exc``) */
+static int64_t run_chunk(bc_t *s, int64_t n) {
+    s->chunk0 = s->cyc;
+    s->stopped = s->cut = 0;
+    s->running = 1;
+    s->hook_failed = 0;
+    int err = s->emu_start(s->uc, (uint32_t)s->pc_next | 1, 0, 0, (size_t)n);
+    s->running = 0;
+    if (s->hook_failed) {         /* raised as Unicorn's wrapper would: nothing updated */
+        s->loop_exc = LOOP_HOOK_FAILED;
+        return -1;
+    }
+    int64_t ran = (int64_t)*s->ctr - 1;
+    s->pc_next = *s->pc;
+    if (!err && ran < n && !s->stopped && !s->cut) {
+        if (s->pc_next == 0) {
+            s->loop_exc = LOOP_NULL_JUMP;
+            return -1;
+        }
+        uint16_t op = 0;
+        if (!read16(s, (uint32_t)s->pc_next - 2, &op) && (op == WFI || op == WFE)) {
+            ran++;
+            s->sleeping = 1;
+        }
+    }
+    ran = ran < 0 ? 0 : ran > n ? n : ran;
+    s->cyc = s->chunk0 + ran;     /* chunk0 has moved by any jump inside the chunk */
+    s->executed += ran;
+    if (err) {
+        s->uc_err = err;
+        s->loop_exc = LOOP_UC_ERROR;
+        return -1;
+    }
+    return ran;
+}
+
+/* board.py ``run``'s loop for as long as no Python takes part: the head, the exception
+   taken, the sleep, the chunk, the lockup's first test. It returns where Python goes on
+   (LOOP_*): after the head (a Python timer fired; ``loop_n`` is the chunk's length), after
+   a chunk that called Python, or with what only Python does. ``n`` >= 0 goes on with an
+   iteration whose head Python saw. */
+int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
+    for (;;) {
+        int64_t seen = s->touched;
+        if (n < 0) {
+            n = bc_head(s, max_chunk);
+            if (n < 0) return LOOP_RAISED;
+            if (s->touched != seen) {
+                s->loop_n = n;
+                return LOOP_AFTER_HEAD;
+            }
+        }
+        s->loop_n = n;
+        int64_t taken = bc_take_next(s, (uint32_t)s->pc_next, s->fpu_on,
+                                     s->vtor ? (uint32_t)s->vtor : FLASH_BASE);
+        if (taken >= 0) {
+            s->pc_next = taken & 0xFFFFFFFE;
+        } else if (taken < -1) {
+            s->loop_exc = (int32_t)(-2 - taken);
+            return LOOP_ENTER;
+        } else if (s->sleeping) {
+            if (wakes(s)) {
+                s->sleeping = 0;
+            } else {
+                if (s->next_at < 0) return LOOP_NO_EVENT;
+                int64_t wake = cycle_of(s, s->next_at);
+                if (wake > s->cyc) s->cyc = wake;
+                n = -1;
+                continue;
+            }
+        }
+        if (run_chunk(s, n) < 0) return s->loop_exc;
+        if (s->touched != seen || s->watching) return LOOP_AFTER_CHUNK;
+        uint16_t op = 0;           /* a lockup's first test: Python's, as it reads */
+        if (s->nactive && (read16(s, (uint32_t)s->pc_next, &op) || op == BRANCH_TO_SELF))
+            return LOOP_AFTER_CHUNK;
+        n = -1;
+    }
 }
 
 /* what the heap, the burst and the timers took (the board's end) */

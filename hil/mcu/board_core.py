@@ -69,7 +69,11 @@ class Shared(ctypes.Structure):
                 ("st_csr", _I32), ("st_rvr", _I32), ("st_countflag", _I32),
                 ("ena", ctypes.c_uint32 * 4), ("ena_n", _I32), ("prigroup", _I32),
                 ("prio", ctypes.c_uint8 * 104), ("rx_tid", _I32), ("rx_n", _I32),
-                ("rx_head", _I32), ("rx_cap", _I32), ("rx_at", _P), ("rx_byte", _P)]
+                ("rx_head", _I32), ("rx_cap", _I32), ("rx_at", _P), ("rx_byte", _P),
+                ("pc_next", _I64), ("vtor", _I64), ("executed", _I64), ("touched", _I64),
+                ("loop_n", _I64), ("fpu_on", _I32), ("stopped", _I32), ("cut", _I32),
+                ("hook_failed", _I32), ("uc_err", _I32), ("loop_exc", _I32),
+                ("emu_start", _P), ("mem_read", _P)]
 
 
 
@@ -113,6 +117,7 @@ def _load() -> Any:
     lib.bc_take_next.argtypes = [_P, ctypes.c_uint32, _I32, ctypes.c_uint32]
     lib.bc_enter.restype = _I64
     lib.bc_enter.argtypes = [_P, _I32, ctypes.c_uint32, _I32, ctypes.c_uint32]
+    lib.bc_loop.restype, lib.bc_loop.argtypes = _I32, [_P, _I64, _I64]
     for name, (res, args) in sig.items():
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = res, args
@@ -125,6 +130,11 @@ _LIB = _load()
 def native() -> bool:
     """Whether boards made now run their hot path in C."""
     return _LIB is not None
+
+
+def library() -> Any:
+    """The loaded ``_board_core.so`` (None where the board runs in Python)."""
+    return _LIB
 
 
 def too_long(at_fs: int) -> UserError:
@@ -343,45 +353,6 @@ def front(shared: Shared, py_read: Any, py_write: Any) -> tuple[Any, Any]:
     shared.py_write = ctypes.cast(py_write, _P).value
     return (ctypes.cast(_LIB.bc_mmio_read, type(py_read)),
             ctypes.cast(_LIB.bc_mmio_write, type(py_write)))
-
-
-def hook_interrupts(shared: Shared, uc: Any) -> None:
-    """Unicorn's interrupt hook in C (``bc_intr``): an exception return that nothing
-    follows in Python is done there, everything else calls the board's ``intr``."""
-    from unicorn import UC_HOOK_INTR
-    from unicorn.unicorn_py3.unicorn import uclib
-    handle = ctypes.c_size_t(0)
-    if uclib.uc_hook_add(uc._uch, ctypes.byref(handle), UC_HOOK_INTR,
-                         ctypes.cast(_LIB.bc_intr, _P), ctypes.addressof(shared), 1, 0):
-        raise RuntimeError("libunicorn refused the compiled interrupt hook")
-
-
-def exception_choice(shared: Shared) -> Callable[[], int]:
-    """system.py Nvic ``next_exception`` in C: the exception to take, -1 when none."""
-    ref, choose = ctypes.byref(shared), _LIB.bc_next_exception
-    return lambda: choose(ref)
-
-
-def exception_entry(shared: Shared) -> Callable[[int, int, int, int], int]:
-    """core.py ``enter`` in C: (exception, PC, FPU frame, vector table) -> the handler's
-    vector, or -1 where Python takes it (nothing changed)."""
-    ref, enter = ctypes.byref(shared), _LIB.bc_enter
-    return lambda exc, pc, fpu, vtor: enter(ref, exc, pc, fpu, vtor)
-
-
-def exception_taking(core: Any) -> Callable[[], bool]:
-    """board.py ``_take_next`` in C (the NVIC's choice and the entry in one call): whether
-    an exception was taken."""
-    ref, take = ctypes.byref(core.shared), _LIB.bc_take_next
-
-    def taken() -> bool:
-        r = take(ref, core.pc, core.fpu_on, core.vtor_base())
-        if r >= 0:
-            core.pc = r & 0xFFFFFFFE
-        elif r < -1:
-            core.enter(-2 - r)     # the entry Python makes (a fault's line, a frame off SRAM)
-        return r != -1
-    return taken
 
 
 def add_wait(shared: Shared, pc: int, addr: int, value: int) -> None:

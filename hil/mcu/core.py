@@ -53,6 +53,14 @@ class Core:
 
     cyc = SharedField("cyc")
     sleeping = SharedField("sleeping", bool)   # WFI/WFE: asleep until an event or interrupt
+    # the rest of the state between chunks, where board_core.c ``bc_loop`` runs them too
+    pc = SharedField("pc_next")
+    executed = SharedField("executed")
+    running = SharedField("running", bool)
+    stopped = SharedField("stopped", bool)     # a read asked for the chunk to end
+    cut = SharedField("cut", bool)             # the chunk ends after the instruction running now
+    vtor = SharedField("vtor")
+    fpu_on = SharedField("fpu_on", bool)       # CPACR grants CP10/CP11: FPU frames
 
     def __init__(self, image: ElfImage, hz: int) -> None:
         self.image = image
@@ -76,7 +84,6 @@ class Core:
         self._one_ref = ctypes.byref(self._one)
         self._h = uc._uch
         self._batches: dict[tuple[int, ...], Regs] = {}
-        self.executed = 0
         engine = ctypes.cast(uc._uch, ctypes.c_void_p).value + counter_offset()
         self._ctr = ctypes.c_uint64.from_address(engine)
         self._limit = ctypes.c_uint64.from_address(engine + 8)   # the count emu_start was given
@@ -84,12 +91,7 @@ class Core:
         self.shared = st = Shared(ctr=engine, u2_tid=-1, st_tid=-1, rx_tid=-1, next_at=-1)
         self.time = TimeBase(hz, st)
         self.cyc = 0                 # instructions run before the current chunk
-        self.running = False
-        self.stopped = False         # a read asked for the chunk to end
-        self.cut = False             # the chunk ends after the instruction running now
         self._share_exceptions(st)
-        self.vtor = 0
-        self.fpu_on = False          # CPACR grants CP10/CP11: frames carry the FPU registers
         # the compiled board's exception entry and the NVIC's choice (board_core.py)
         self.enter_c: Callable[[int, int, int, int], int] | None = None
         self.choose_c: Callable[[], int] | None = None
@@ -107,6 +109,8 @@ class Core:
         st.flash = ctypes.addressof(self._flash)
         st.reg_read_batch = ctypes.cast(uclib.uc_reg_read_batch, ctypes.c_void_p).value
         st.reg_write_batch = ctypes.cast(uclib.uc_reg_write_batch, ctypes.c_void_p).value
+        st.emu_start = ctypes.cast(uclib.uc_emu_start, ctypes.c_void_p).value
+        st.mem_read = ctypes.cast(uclib.uc_mem_read, ctypes.c_void_p).value
         st.regid[:] = list(FRAME_REGS + STATE_REGS) + [
             A.UC_ARM_REG_S0, A.UC_ARM_REG_FPSCR, A.UC_ARM_REG_IPSR, A.UC_ARM_REG_PC,
             A.UC_ARM_REG_FAULTMASK, A.UC_ARM_REG_PRIMASK, A.UC_ARM_REG_BASEPRI]
@@ -222,8 +226,7 @@ class Core:
         """Run up to ``n`` instructions from ``self.pc``; how many ran."""
         uc, st = self.uc, self.shared
         st.chunk0 = st.cyc
-        self.stopped = self.cut = False
-        self.running = True
+        st.stopped = st.cut = 0
         st.running = 1
         try:
             uc.emu_start(self.pc | 1, 0, 0, n)
@@ -231,7 +234,6 @@ class Core:
         except UcError as exc:
             error = exc
         finally:
-            self.running = False
             st.running = 0
         ran = self._ctr.value - 1
         self.pc = self.pc_now()
@@ -246,7 +248,7 @@ class Core:
         st.cyc = st.chunk0 + ran          # chunk0 has moved by any jump inside the chunk
         self.executed += ran
         if error is not None:
-            raise CoreFault(_error_text(error, self))
+            raise CoreFault(error_text(error, self))
         return ran
 
     # --- exceptions ---------------------------------------------------------------
@@ -359,7 +361,7 @@ class Core:
         return tuple(self._context.read())
 
 
-def _error_text(error: UcError, core: Core) -> str:
+def error_text(error: UcError, core: Core) -> str:
     from unicorn import unicorn_const as U
     kinds = {U.UC_ERR_READ_UNMAPPED: "a read of nothing", U.UC_ERR_WRITE_UNMAPPED:
              "a write to nothing", U.UC_ERR_FETCH_UNMAPPED: "an instruction fetch from nothing",

@@ -41,15 +41,18 @@ class PeripheralSpace:
         self._callbacks: tuple = ()
 
     def attach(self, uc: Uc) -> None:
-        self._callbacks = (MMIO_READ_CFUNC(self.read), MMIO_WRITE_CFUNC(self.write))
-        read, write, data = self._callbacks + (None,)
+        self._callbacks = (MMIO_READ_CFUNC(self.read), MMIO_WRITE_CFUNC(self.write),
+                           MMIO_READ_CFUNC(self.ppb_read), MMIO_WRITE_CFUNC(self.ppb_write))
+        read, write, data = self._callbacks[:2] + (None,)
         if self.board.native is not None:
             shared = self.board.core.shared
-            read, write = front(shared, *self._callbacks)
+            read, write = front(shared, *self._callbacks[:2])
             data = ctypes.addressof(shared)
         if uclib.uc_mmio_map(uc._uch, PERIPH_BASE, PERIPH_SIZE, read, data, write, data):
             raise RuntimeError("Unicorn refused to map the peripherals")
-        uc.mmio_map(PPB_BASE, PPB_SIZE, self.ppb_read, None, self.ppb_write, None)
+        if uclib.uc_mmio_map(uc._uch, PPB_BASE, PPB_SIZE, self._callbacks[2], None,
+                             self._callbacks[3], None):
+            raise RuntimeError("Unicorn refused to map the private peripheral bus")
 
     def clear(self) -> None:
         """No peripheral mapped (a reset maps new ones)."""
@@ -103,10 +106,11 @@ class PeripheralSpace:
     def failed(self, exc: BaseException) -> None:
         """An exception inside a callback: the chunk stops and ``emu_start`` raises it
         (what Unicorn's own callback wrapper does, which these callbacks bypass)."""
-        uc = self.board.core.uc
-        if uc._hook_exception is None:
-            uc._hook_exception = exc
-        uc.emu_stop()
+        core = self.board.core
+        if core.uc._hook_exception is None:
+            core.uc._hook_exception = exc
+        core.shared.hook_failed = 1
+        core.uc.emu_stop()
 
     def read(self, handle: int, offset: int, size: int, _ud: int) -> int:
         """Unicorn's MMIO read callback for the peripheral space, called through ctypes
@@ -153,26 +157,36 @@ class PeripheralSpace:
         except BaseException as exc:      # noqa: B036
             self.failed(exc)
 
-    def ppb_read(self, uc, offset: int, size: int, _) -> int:
-        board = self.board
-        self._due()
-        addr = PPB_BASE + offset
-        value = (board.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
-        if addr & ~3 not in board.ppb.pollable:
-            board.poll.other_access()
-        elif board.poll.polled(addr, value):
+    def ppb_read(self, handle: int, offset: int, size: int, _ud: int) -> int:
+        try:
+            board = self.board
+            board.core.shared.touched += 1      # Python took part (board_loop.py)
+            self._due()
+            addr = PPB_BASE + offset
             value = (board.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
-        return value
+            if addr & ~3 not in board.ppb.pollable:
+                board.poll.other_access()
+            elif board.poll.polled(addr, value):
+                value = (board.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
+            return value
+        except BaseException as exc:      # noqa: B036
+            self.failed(exc)
+            return 0
 
-    def ppb_write(self, uc, offset: int, size: int, value: int, _) -> None:
-        board = self.board
-        self._due()
-        board.poll.other_access()
-        addr = PPB_BASE + offset
-        if size < 4 and (0xE000E400 <= addr < 0xE000E500 or 0xE000ED18 <= addr < 0xE000ED24):
-            word = board.ppb.read(addr & ~3)
-            shift = 8 * (addr & 3)
-            mask = ((1 << 8 * size) - 1) << shift
-            value = (word & ~mask) | ((value << shift) & mask)
-        board.ppb.write(addr & ~3, value)
-        self.taken_next(board)
+    def ppb_write(self, handle: int, offset: int, size: int, value: int, _ud: int) -> None:
+        try:
+            board = self.board
+            board.core.shared.touched += 1
+            self._due()
+            board.poll.other_access()
+            addr = PPB_BASE + offset
+            if size < 4 and (0xE000E400 <= addr < 0xE000E500 or
+                             0xE000ED18 <= addr < 0xE000ED24):
+                word = board.ppb.read(addr & ~3)
+                shift = 8 * (addr & 3)
+                mask = ((1 << 8 * size) - 1) << shift
+                value = (word & ~mask) | ((value << shift) & mask)
+            board.ppb.write(addr & ~3, value)
+            self.taken_next(board)
+        except BaseException as exc:      # noqa: B036
+            self.failed(exc)

@@ -1,0 +1,102 @@
+"""The board's run loop and its exceptions in C (hil/mcu/board_core.c), through ctypes.
+
+board.py ``run`` is the reference: each trip fires the timers due, takes the exception that
+preempts, sleeps through WFI or runs a chunk, then looks for a lockup and the poll skipper's
+next step. ``bc_loop`` does those trips in C, calling ``uc_emu_start`` itself, for as long
+as no Python callback took part; it hands the trip to Python where one did (a Python timer
+in the head, a Python register or link call in the chunk, a poll loop watched), where a
+lockup may be starting, and for everything Python names (a fault, an entry off SRAM). A run
+has about 20,000 trips, most of them a wake-up, a short handler and WFI again.
+"""
+from __future__ import annotations
+
+import ctypes
+from typing import Any, Callable
+
+from unicorn import UcError
+
+from hil.mcu.board_core import Shared, library
+from hil.mcu.core import CoreFault, error_text
+
+(LOOP_AFTER_HEAD, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
+ LOOP_NULL_JUMP, LOOP_UC_ERROR) = range(7)
+_P = ctypes.c_void_p
+
+
+def hook_interrupts(shared: Shared, uc: Any) -> None:
+    """Unicorn's interrupt hook in C (``bc_intr``): an exception return that nothing
+    follows in Python is done there, everything else calls the board's ``intr``."""
+    from unicorn import UC_HOOK_INTR
+    from unicorn.unicorn_py3.unicorn import uclib
+    handle = ctypes.c_size_t(0)
+    if uclib.uc_hook_add(uc._uch, ctypes.byref(handle), UC_HOOK_INTR,
+                         ctypes.cast(library().bc_intr, _P), ctypes.addressof(shared), 1, 0):
+        raise RuntimeError("libunicorn refused the compiled interrupt hook")
+
+
+def exception_choice(shared: Shared) -> Callable[[], int]:
+    """system.py Nvic ``next_exception`` in C: the exception to take, -1 when none."""
+    ref, choose = ctypes.byref(shared), library().bc_next_exception
+    return lambda: choose(ref)
+
+
+def exception_entry(shared: Shared) -> Callable[[int, int, int, int], int]:
+    """core.py ``enter`` in C: (exception, PC, FPU frame, vector table) -> the handler's
+    vector, or -1 where Python takes it (nothing changed)."""
+    ref, enter = ctypes.byref(shared), library().bc_enter
+    return lambda exc, pc, fpu, vtor: enter(ref, exc, pc, fpu, vtor)
+
+
+def exception_taking(core: Any) -> Callable[[], bool]:
+    """board.py ``_take_next`` in C (the NVIC's choice and the entry in one call): whether
+    an exception was taken."""
+    ref, take = ctypes.byref(core.shared), library().bc_take_next
+
+    def taken() -> bool:
+        r = take(ref, core.pc, core.fpu_on, core.vtor_base())
+        if r >= 0:
+            core.pc = r & 0xFFFFFFFE
+        elif r < -1:
+            core.enter(-2 - r)     # the entry Python makes (a fault's line, a frame off SRAM)
+        return r != -1
+    return taken
+
+
+def trips(core: Any) -> Callable[[int, int], int] | None:
+    """``bc_loop`` for ``core``: (the longest chunk, the length of a trip whose head Python
+    saw or -1) -> the LOOP_* code of where Python goes on. None where the engine's PC word
+    was not found (core.py ``_find_pc``): the loop then runs in Python."""
+    if not core.shared.pc:
+        return None
+    ref, loop = ctypes.byref(core.shared), library().bc_loop
+    return lambda max_chunk, n: loop(ref, max_chunk, n)
+
+
+def handed_over(board: Any, where: int) -> int:
+    """Python's part of a trip ``bc_loop`` handed over at ``where`` (board.py ``run``): the
+    length of the chunk to go on with, its head done, or -1 for a new trip."""
+    core = board.core
+    st = core.shared
+    if where == LOOP_AFTER_CHUNK:
+        board.after_chunk()
+    elif where == LOOP_AFTER_HEAD:
+        if board.ended:
+            return -1
+        if board.fault is not None:
+            raise CoreFault(board.fault_line(board.fault))
+        return st.loop_n
+    elif where == LOOP_ENTER:
+        core.enter(st.loop_exc)
+        board.trip(st.loop_n, True)
+    elif where == LOOP_RAISED:
+        board.events.raise_error()
+    elif where == LOOP_HOOK_FAILED:      # what Unicorn's emu_start raises
+        exc, core.uc._hook_exception = core.uc._hook_exception, None
+        if isinstance(exc, CoreFault):
+            raise CoreFault(board.fault_line(str(exc))) from None
+        raise exc
+    elif where == LOOP_NULL_JUMP:
+        raise CoreFault(board.fault_line("a jump to address 0 (a null function pointer)"))
+    else:
+        raise CoreFault(board.fault_line(error_text(UcError(st.uc_err), core)))
+    return -1
