@@ -6,9 +6,10 @@
  * other page goes to the Python callbacks (hil/mcu/mmio.py) through a function pointer.
  * Python is called only where the board's Python state is needed: a Python timer falling
  * due, USART2's interrupt line high, the transmitter going idle (the servo line's burst is
- * sent), a DMA request, a poll loop seen for the first time, an exception that may be
- * ready. Each function is the Python model's (hil/mcu/usart.py, events.py, poll.py) in the
- * same order with the same integers, so traces are the same bytes. */
+ * sent), a DMA request, a poll loop seen for the first time, USART2's bus clock once a
+ * clock change. It also runs the board's loop (``bc_loop``) while no Python takes part.
+ * Each function is the Python model's (hil/mcu/usart.py, events.py, poll.py, board.py,
+ * core.py) in the same order with the same integers, so traces are the same bytes. */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -30,8 +31,7 @@ enum { REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR, REG_XPSR, REG_CONTROL, R
 #define N_EXC 102               /* the F411's exceptions: 16 + 86 IRQs */
 
 /* the Python side's answers (one callback, these kinds) */
-enum { PY_LINE = 1, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_READY_STOP, PY_TAKEN_NEXT, PY_POLLED,
-       PY_PCLK, PY_FAILED, PY_INTR };
+enum { PY_LINE = 1, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_POLLED, PY_PCLK, PY_FAILED, PY_INTR };
 
 typedef int64_t (*py_call_t)(int kind, int64_t a, int64_t b);
 typedef int (*py_timer_t)(int tid, int64_t at_fs);
@@ -41,6 +41,7 @@ typedef int (*reg_batch_t)(void *uc, int *ids, void *const *vals, int count);
 typedef int (*emu_start_t)(void *uc, uint64_t begin, uint64_t until, uint64_t timeout,
                            size_t count);
 typedef int (*mem_read_t)(void *uc, uint64_t address, void *bytes, size_t size);
+typedef int (*emu_stop_t)(void *uc);
 
 typedef struct { int64_t at; uint64_t seq; int32_t tid; uint32_t gen; } entry_t;
 
@@ -103,6 +104,10 @@ typedef struct {
     int32_t fpu_on, stopped, cut, hook_failed, uc_err, loop_exc;
     emu_start_t emu_start;       /* libunicorn's */
     mem_read_t mem_read;
+    uint32_t lines[4];           /* the IRQ lines a peripheral holds high (system.py) */
+    int32_t lines_n;
+    int64_t u2_pclk;             /* USART2's bus clock, asked once a clock change (0) */
+    emu_stop_t emu_stop;
 } bc_t;
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
@@ -282,8 +287,12 @@ static int64_t frame_fs(bc_t *s) {
     if (!s->frame_fs) {
         int64_t half = 2 + 2 * ((s->cr1 & M_9BIT) ? 9 : 8) + STOP_HALF_BITS[(s->cr2 >> 12) & 3];
         int64_t div = bc_divider(s);
-        int64_t pclk = py(s, PY_PCLK, 0, 0);
-        if (pclk <= 0) return 1;
+        if (!s->u2_pclk) s->u2_pclk = py(s, PY_PCLK, 0, 0);
+        int64_t pclk = s->u2_pclk;
+        if (pclk <= 0) {
+            s->u2_pclk = 0;
+            return 1;
+        }
         s->frame_fs = floordiv((__int128)half * FS_PER_S * (div > 1 ? div : 1), 2 * pclk);
     }
     return s->frame_fs;
@@ -429,12 +438,31 @@ void bc_usart_reset(bc_t *s) {
     s->brr = s->cr1 = s->cr2 = s->cr3 = s->gtpr = 0;
     s->tdr = s->echo = -1;
     s->rdr = 0;
-    s->frame_fs = 0;
+    s->frame_fs = s->u2_pclk = 0;
     s->u2_line = s->u2_dma_tx = s->u2_dma_rx = 0;
     bc_timer_clear(s, s->u2_tid);
 }
 
 /* --- the poll skipper's known waits (poll.py) ---------------------------------------- */
+int bc_next_exception(bc_t *s);
+
+/* core.py ``stop``: the chunk ends at the instruction running now (a read: it runs again) */
+static void stop(bc_t *s) {
+    if (s->running && !s->stopped) {
+        s->stopped = 1;
+        s->emu_stop(s->uc);
+    }
+}
+
+/* core.py ``cut_after``: the chunk ends after the instruction running now (a write that
+   made an exception ready), Unicorn's count lowered to it */
+static void cut_after(bc_t *s) {
+    if (s->running) {
+        s->ctr[1] = s->ctr[0];
+        s->cut = 1;
+    }
+}
+
 static unsigned wait_slot(uint32_t pc, uint32_t addr, uint32_t value) {
     return (pc * 2654435761u ^ addr * 40503u ^ value * 97u) % WAITS;
 }
@@ -475,7 +503,10 @@ static int jump_here(bc_t *s) {
     s->skipped += cyc - now;
     s->poll_valid = 0;
     bc_fire_due(s, bc_now_fs(s));
-    if (s->pending_n) py(s, PY_READY_STOP, 0, 0);
+    if (s->pending_n && bc_next_exception(s) >= 0) {   /* ready: the read runs again */
+        s->reread = 1;
+        stop(s);
+    }
     return 1;
 }
 
@@ -550,20 +581,22 @@ void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, voi
             value = value << shift;
     }
     bc_usart_write(s, off, (uint32_t)(value & 0xFFFFFFFF));
-    if (s->pending_n) py(s, PY_TAKEN_NEXT, 0, 0);
+    if (s->pending_n && bc_next_exception(s) >= 0) cut_after(s);
     failed(s);
 }
 
 /* --- the exception return (core.py ``leave``, board.py ``_intr``) ----------------------
  * Done here when nothing follows it in Python: no exception pending (no tail-chaining), a
- * system exception (an IRQ's line may pend it again), not asleep, no sleep-on-exit, the
- * frame in SRAM, no lockup or fault to name. Everything else goes to board.py's _intr. */
+ * system exception or an IRQ whose line is low (a line held high pends it again), not
+ * asleep, no sleep-on-exit, the frame in SRAM, no lockup or fault to name. Everything else
+ * goes to board.py's _intr. */
 static int leave(bc_t *s) {
     if (!s->pc || !s->uc || s->nactive < 1 || s->pending_n || s->sleeping) return 0;
     uint32_t exc_return = *s->pc | 1;
     int exc = s->active[s->nactive - 1];
     int to_thread = (exc_return & 0xF) == 0x9 || (exc_return & 0xF) == 0xD;
-    if (exc >= 16 || (to_thread && s->nactive > 1) || (s->nactive == 1 && s->sleep_on_exit))
+    if ((exc >= 16 && s->lines[(exc - 16) >> 5] >> ((exc - 16) & 31) & 1) ||
+        (to_thread && s->nactive > 1) || (s->nactive == 1 && s->sleep_on_exit))
         return 0;
     int *id = s->regid;
     int rid[3] = {id[REG_CONTROL], id[REG_MSP], id[REG_PSP]};

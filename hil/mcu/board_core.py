@@ -8,9 +8,10 @@ callback, a poll check, a jump, an event and a byte handed to the servo line; th
 fronts the peripherals' MMIO region and does them without Python, which it calls only where
 the board's Python state takes part (a Python timer due, USART2's interrupt line high, the
 transmitter idle: the burst goes to the link, a DMA request, a poll loop seen for the first
-time, an exception that may be ready). ``Shared`` is the state both sides read: the core's
-time (hil/mcu/core.py keeps its chunk origin there, so a jump in C moves it), the poll
-skipper's (hil/mcu/poll.py) and USART2's registers.
+time, USART2's bus clock after a clock change). ``Shared`` is the state both sides read: the
+core's time and its state between chunks (hil/mcu/core.py; a jump in C moves the chunk's
+origin), the poll skipper's (hil/mcu/poll.py), the NVIC's bits and USART2's registers. The
+board's loop runs in C too (hil/mcu/board_loop.py).
 
 The Python models stay the reference (events.py, usart.py, servo_line.py): the same
 operations in the same order, the same integers, so the traces are the same bytes
@@ -34,8 +35,7 @@ USART2_IRQ = 38
 _P, _I32, _I64 = ctypes.c_void_p, ctypes.c_int32, ctypes.c_int64
 PY_CALL = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_int, ctypes.c_int64, ctypes.c_int64)
 PY_TIMER = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int64)
-(PY_LINE, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_READY_STOP, PY_TAKEN_NEXT, PY_POLLED, PY_PCLK,
- PY_FAILED, PY_INTR) = range(1, 11)
+PY_LINE, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_POLLED, PY_PCLK, PY_FAILED, PY_INTR = range(1, 9)
 FAILED = -2                  # a Python callback raised: C unwinds, the error is handed on
 WAITS = 256
 ACTIVE_MAX = 128             # each of the F411's 102 exceptions is active at most once
@@ -73,7 +73,8 @@ class Shared(ctypes.Structure):
                 ("pc_next", _I64), ("vtor", _I64), ("executed", _I64), ("touched", _I64),
                 ("loop_n", _I64), ("fpu_on", _I32), ("stopped", _I32), ("cut", _I32),
                 ("hook_failed", _I32), ("uc_err", _I32), ("loop_exc", _I32),
-                ("emu_start", _P), ("mem_read", _P)]
+                ("emu_start", _P), ("mem_read", _P), ("lines", ctypes.c_uint32 * 4),
+                ("lines_n", _I32), ("u2_pclk", _I64), ("emu_stop", _P)]
 
 
 
@@ -251,7 +252,7 @@ class NativeUsart:
         return self.pclk_hz() / div if div else 0.0
 
     def clock_changed(self) -> None:
-        self.events.shared.frame_fs = 0
+        self.events.shared.frame_fs = self.events.shared.u2_pclk = 0
 
     def dma_request(self) -> None:
         _LIB.bc_usart_dma_request(self.events.ref)
@@ -295,13 +296,6 @@ class NativeBoard:
                 return -1 if byte is None else byte
             elif kind == PY_DMA_RX:
                 return int(bool(board.usart2.dma_rx(a)))
-            elif kind == PY_READY_STOP:
-                nvic = board.nvic
-                if nvic.pending and nvic.next_exception() is not None:
-                    board.core.shared.reread = 1
-                    board.core.stop()
-            elif kind == PY_TAKEN_NEXT:
-                board.space.taken_next(board)
             elif kind == PY_POLLED:
                 return int(board.poll.polled(a & 0xFFFFFFFF, b & 0xFFFFFFFF))
             elif kind == PY_PCLK:

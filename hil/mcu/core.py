@@ -111,6 +111,7 @@ class Core:
         st.reg_write_batch = ctypes.cast(uclib.uc_reg_write_batch, ctypes.c_void_p).value
         st.emu_start = ctypes.cast(uclib.uc_emu_start, ctypes.c_void_p).value
         st.mem_read = ctypes.cast(uclib.uc_mem_read, ctypes.c_void_p).value
+        st.emu_stop = ctypes.cast(uclib.uc_emu_stop, ctypes.c_void_p).value
         st.regid[:] = list(FRAME_REGS + STATE_REGS) + [
             A.UC_ARM_REG_S0, A.UC_ARM_REG_FPSCR, A.UC_ARM_REG_IPSR, A.UC_ARM_REG_PC,
             A.UC_ARM_REG_FAULTMASK, A.UC_ARM_REG_PRIMASK, A.UC_ARM_REG_BASEPRI]

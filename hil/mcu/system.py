@@ -29,7 +29,8 @@ class SharedBits:
     """A set of small numbers, a bit each in a ``Shared`` array with their count beside it,
     where the compiled board (hil/mcu/board_core.c) reads them: the pending exceptions
     (C pends SysTick there, and asks Python whether one is ready only while one is
-    pending) and the enabled IRQs (C chooses the next exception)."""
+    pending), the enabled IRQs (C chooses the next exception) and the IRQ lines held high
+    (C returns from an IRQ whose line is low)."""
 
     def __init__(self, shared: Any, words: str, count: str) -> None:
         self._st, self._words, self._count = shared, getattr(shared, words), count
@@ -73,7 +74,7 @@ class Nvic:
                                      A.UC_ARM_REG_BASEPRI))
         self.enabled = SharedBits(core.shared, "ena", "ena_n")        # IRQ numbers
         self.pending = SharedBits(core.shared, "pend", "pending_n")   # exception numbers
-        self.lines: set[int] = set()             # IRQ lines a peripheral holds high
+        self.lines = SharedBits(core.shared, "lines", "lines_n")   # IRQ lines held high
         self.prio = bytearray(16 + NUM_IRQS)
         self.set_priorities(0, bytes(16 + NUM_IRQS))
         self.prigroup = 0
