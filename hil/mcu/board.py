@@ -98,7 +98,7 @@ class Board:
         self.exti = Exti(self.nvic.line)
         space = self.space
         space.clear()
-        gpio = [GpioPort(n, i, self._gpio_out, self._external(i))
+        gpio = [GpioPort(n, i, self._gpio_out, self._grounded(i))
                 for i, n in enumerate(("GPIOA", "GPIOB", "GPIOC"))]
         gpio[1].before_input = self.fresh_switches
         for i, port in enumerate(gpio):
@@ -122,12 +122,11 @@ class Board:
         space.relive()
 
     # --- the world ----------------------------------------------------------------
-    def _external(self, port: int) -> Callable[[int], int | None]:
-        def level(pin: int) -> int | None:
-            if port == 1 and pin < SWITCH_PINS and self.switches >> pin & 1:
-                return 0          # pressed: the switch shorts the pin to ground
-            return None
-        return level
+    def _grounded(self, port: int) -> Callable[[], int]:
+        """The pins of ``port`` a pressed switch shorts to ground (PB0-PB5)."""
+        if port != 1:
+            return lambda: 0
+        return lambda: self.switches & ((1 << SWITCH_PINS) - 1)
 
     def take(self, reply: Reply) -> Reply:
         if reply.switches != self.switches:

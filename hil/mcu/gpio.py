@@ -18,15 +18,28 @@ SWITCH_PINS = 6
 EXTI_IRQS = (6, 7, 8, 9, 10) + (23,) * 5 + (40,) * 6
 
 
+def _pin_masks(moder: int, pupdr: int) -> tuple[int, int, int]:
+    """(outputs, analog pins, pull-ups) as 16-bit pin masks."""
+    out = analog = pull = 0
+    for pin in range(16):
+        mode = (moder >> 2 * pin) & 3
+        out |= (mode == 1) << pin
+        analog |= (mode == 3) << pin
+        pull |= ((pupdr >> 2 * pin) & 3 == 1) << pin
+    return out, analog, pull
+
+
 class GpioPort:
-    """One port; ``external(pin)`` says what drives an input pin (None: nothing)."""
+    """One port; ``grounded()`` is the mask of its pins that something outside pulls to
+    ground (the board's pressed switches)."""
 
     pollable = frozenset({IDR, ODR})
 
     def __init__(self, name: str, index: int, on_output: Callable[["GpioPort", int], None],
-                 external: Callable[[int], int | None]) -> None:
+                 grounded: Callable[[], int]) -> None:
         self.name, self.index = name, index
-        self.on_output, self.external = on_output, external
+        self.on_output, self.grounded = on_output, grounded
+        self._masks: tuple[int, int, tuple[int, int, int]] = (-1, -1, (0, 0, 0))
         self.before_input: Callable[[], None] | None = None    # IDR is about to be read
         self.regs = {MODER: 0, OTYPER: 0, OSPEEDR: 0, PUPDR: 0, ODR: 0, LCKR: 0, AFRL: 0,
                      AFRH: 0, **RESET.get(name, {})}
@@ -41,28 +54,18 @@ class GpioPort:
         mode = self.mode(pin)
         if mode == 1:
             return (self.regs[ODR] >> pin) & 1
-        if mode == 3:
+        if mode == 3 or self.grounded() >> pin & 1:
             return 0
-        driven = self.external(pin)
-        if driven is not None:
-            return driven
         return 1 if self.pull_up(pin) else 0
 
     def idr(self) -> int:
         """All 16 pins' ``input_level`` at once: outputs read ODR, analog pins 0, inputs
-        and alternate functions what drives them, else their pull-up."""
-        moder, odr, pupdr = self.regs[MODER], self.regs[ODR], self.regs[PUPDR]
-        level = 0
-        for pin in range(16):
-            mode = (moder >> 2 * pin) & 3
-            if mode == 1:
-                level |= odr & (1 << pin)
-            elif mode != 3:
-                driven = self.external(pin)
-                if driven is None:
-                    driven = (pupdr >> 2 * pin) & 3 == 1
-                level |= driven << pin
-        return level
+        and alternate functions 0 where grounded, else their pull-up."""
+        moder, pupdr = self.regs[MODER], self.regs[PUPDR]
+        if self._masks[:2] != (moder, pupdr):
+            self._masks = (moder, pupdr, _pin_masks(moder, pupdr))
+        out, analog, pull = self._masks[2]
+        return (self.regs[ODR] & out) | (pull & ~(out | analog | self.grounded()))
 
     def output(self, pin: int) -> int:
         """The level the port drives on ``pin`` (0 unless it is an output)."""
