@@ -61,6 +61,8 @@ class Board:
             core.enter_c = exception_entry(core.shared)
             core.choose_c = exception_choice(core.shared)
         self.events = NativeEvents(core.shared) if self.native else Events()
+        if self.native:           # the same clock in one C call (a callback asks it often)
+            core.now_fs = self.events.now_fs
         self.console = Console(self._console_line)
         self.console_tail: list[str] = []
         self.switches = 0

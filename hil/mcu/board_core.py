@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import ctypes
 import os
+from array import array
 import weakref
 from pathlib import Path
 from typing import Any, Callable
@@ -199,6 +200,10 @@ class NativeEvents:
         if exc is not None:
             raise exc
 
+    def now_fs(self) -> int:
+        """core.py ``now_fs`` in one C call (``bc_now_fs``): the same integer."""
+        return _LIB.bc_now_fs(self.ref)
+
     def next_fs(self) -> int | None:
         at = self.shared.next_at
         return None if at < 0 else at
@@ -313,10 +318,10 @@ class NativeBoard:
 
     def queue_rx(self, queue: list[tuple[int, int]]) -> None:
         """A reply burst's bytes with their arrival times, delivered to USART2 in C."""
-        n = len(queue)
-        at = (ctypes.c_int64 * n)(*(t for t, _ in queue))
-        data = bytes(b for _, b in queue)
-        _LIB.bc_rx_queue(ctypes.byref(self.board.core.shared), at, data, n)
+        at = array("q", [t for t, _ in queue])
+        data = bytes([b for _, b in queue])
+        _LIB.bc_rx_queue(ctypes.byref(self.board.core.shared),
+                         (ctypes.c_int64 * len(at)).from_buffer(at), data, len(at))
 
     def deliver(self, at_fs: int) -> None:
         if _LIB.bc_rx_deliver(ctypes.byref(self.board.core.shared), at_fs) < 0:
