@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from hil.servobus.line import Bus
@@ -237,6 +237,26 @@ def test_any_byte_stream_never_raises_out_of_the_bus(ops):
         for s in bus.servos:
             for f in ax12.FIELDS:
                 assert f[6] <= ax12.get(s.table, f[0], f[2]) <= f[7], f[1]
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.one_of(_chunk, st.builds(lambda c: bytes(c[:-1]) + bytes(((c[-1] + 1) % 256,)),
+                                            _chunk.filter(len))), max_size=6))
+@example([bytes((0xFF, 0xFF, 1, 1, 0xFD)), dxl.ping(1)])    # LEN 1: the parser rejects it
+def test_a_burst_of_packets_is_taken_as_the_parser_takes_it_byte_by_byte(chunks):
+    """``Bus._deliver`` takes whole packets at the start of a burst at once (a C SDK
+    master's SYNC_WRITE and READ back to back): the same servos' state, replies and counts
+    as the parser's byte-by-byte path, which a burst of one byte always takes."""
+    burst = bytearray(b"".join(chunks))
+    whole, by_byte = make_bus(4), make_bus(4)
+    whole._deliver(burst, 1000)
+    for byte in burst:
+        by_byte._deliver(bytearray((byte,)), 1000)
+    assert whole.stats == by_byte.stats
+    assert [(b.start_us, bytes(b.data)) for b in whole._rx] == \
+        [(b.start_us, bytes(b.data)) for b in by_byte._rx]
+    assert [bytes(s.table) for s in whole.servos] == [bytes(s.table) for s in by_byte.servos]
+    assert whole._parser.pending() == by_byte._parser.pending()
 
 
 def test_echo_line_collision_is_counted_once_and_heard_corrupted():

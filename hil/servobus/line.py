@@ -296,15 +296,25 @@ class Bus:
         self._rx.sort(key=lambda x: x.start_us)
 
     def _deliver(self, tx: bytearray, t_us: int) -> None:
-        """Servos at the line's baud parse the bytes that ended at t_us."""
+        """Servos at the line's baud parse the bytes that ended at t_us. Whole valid
+        packets at the start (a SYNC_WRITE and a READ sent back to back) are taken at once,
+        as the parser would take them byte by byte; the rest goes through the parser."""
         parser = self._parser
         n = len(tx)
-        if (parser.pending() == 0 and n >= 6 and tx[0] == 0xFF and tx[1] == 0xFF
-                and tx[2] != 0xFF and tx[3] + 4 == n
-                and (~sum(tx[2:n - 1])) & 0xFF == tx[n - 1]):
+        at = 0
+        while (parser.pending() == 0 and n - at >= 6 and tx[at] == 0xFF
+               and tx[at + 1] == 0xFF and tx[at + 2] != 0xFF and tx[at + 3] >= 2
+               and at + tx[at + 3] + 4 <= n):
+            end = at + tx[at + 3] + 4
+            if (~sum(tx[at + 2:end - 1])) & 0xFF != tx[end - 1]:
+                break
             self.stats["packets"] += 1
-            self._dispatch(tx[2], tx[4], bytes(tx[5:n - 1]), t_us)
+            self._dispatch(tx[at + 2], tx[at + 4], bytes(tx[at + 5:end - 1]), t_us)
+            at = end
+        if at == n:
             return
+        if at:
+            tx = tx[at:]
         bad = parser.bad_checksum
         for byte in tx:
             if parser.push(byte, t_us):
