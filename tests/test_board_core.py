@@ -42,7 +42,7 @@ def _both(elf: Path, seconds: float, tmp_path: Path, monkeypatch) -> list[tuple]
         mcu = result.firmware.other["mcu"]
         runs.append((summary["serial_digest"], result.stderr_tail, mcu["cycles"],
                      mcu["instructions"], mcu["skipped_cycles"], trace.read_bytes(),
-                     summary["faults"]))
+                     summary["faults"], result.ending))
         monkeypatch.undo()
     return runs
 
@@ -62,7 +62,11 @@ def test_a_firmware_runs_the_same_with_and_without_the_compiled_board(name, tmp_
 
 @pytest.mark.parametrize("source,defines", [("ping.c", ("BAUD_BRR=100", "RAISE_A1=1")),
                                             ("irq.c", ()), ("reset.c", ()),
-                                            ("pend.c", ()), ("cut_reply.c", ())])
+                                            ("pend.c", ()), ("cut_reply.c", ()),
+                                            ("faults.c", ("FAULT=1",)),
+                                            ("faults.c", ("FAULT=2",)),
+                                            ("faults.c", ("FAULT=3",)),
+                                            ("faults.c", ("FAULT=8",))])
 def test_the_board_tests_firmwares_run_the_same_both_ways(source, defines, tmp_path,
                                                          monkeypatch):
     assert (MCU / source).exists()

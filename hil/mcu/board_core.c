@@ -790,8 +790,9 @@ int bc_rx_deliver(bc_t *s, int64_t at) {
 }
 
 /* --- the run loop (board.py ``run`` and core.py ``run``) ------------------------------ */
-enum { LOOP_AFTER_HEAD = 0, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_NO_EVENT, LOOP_RAISED,
-       LOOP_HOOK_FAILED, LOOP_NULL_JUMP, LOOP_UC_ERROR };
+/* where Python goes on: hil/mcu/board_loop.py LOOP_*, the same numbers */
+enum { LOOP_AFTER_HEAD = 0, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
+       LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT };
 #define WFI 0xBF30
 #define WFE 0xBF20
 #define BRANCH_TO_SELF 0xE7FE

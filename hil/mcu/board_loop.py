@@ -18,8 +18,9 @@ from unicorn import UcError
 from hil.mcu.board_core import Shared, library
 from hil.mcu.core import CoreFault, error_text
 
+# board_core.c's enum of where Python goes on, the same numbers
 (LOOP_AFTER_HEAD, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
- LOOP_NULL_JUMP, LOOP_UC_ERROR) = range(7)
+ LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT) = range(8)
 _P = ctypes.c_void_p
 
 
@@ -97,6 +98,8 @@ def handed_over(board: Any, where: int) -> int:
         raise exc
     elif where == LOOP_NULL_JUMP:
         raise CoreFault(board.fault_line("a jump to address 0 (a null function pointer)"))
-    else:
+    elif where == LOOP_UC_ERROR:
         raise CoreFault(board.fault_line(error_text(UcError(st.uc_err), core)))
+    else:                                # asleep with nothing scheduled: Python's own step
+        board.trip(st.loop_n, False)
     return -1

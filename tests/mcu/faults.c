@@ -25,6 +25,9 @@ int main(void) {
 #elif FAULT == 7
     static const uint32_t done[2] = {0x20026, 0};    /* SYS_EXIT 0 long before the end */
     semihost(0x20, done);
+#elif FAULT == 8
+    void (*volatile nowhere)(void) = 0;              /* a null function pointer called */
+    nowhere();
 #elif FAULT == 5
     uint32_t v = REG(0x40015000) + REG(0x40015004);   /* SPI5? not modelled: reads 0 */
     semihost(0x04, v == 0 ? "unmodelled reads 0\n" : "unmodelled reads junk\n");
