@@ -15,7 +15,8 @@ from typing import Any, Callable
 from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
 
-from hil.mcu.board_core import NativeBoard, NativeEvents, NativeTimer, NativeUsart, native
+from hil.mcu.board_core import (NativeBoard, NativeEvents, NativeTimer, NativeUsart,
+                                SharedField, native)
 from hil.mcu.board_loop import (exception_choice, exception_entry, exception_taking,
                                 handed_over, hook_interrupts, trips)
 from hil.mcu.console import Console, semihost
@@ -48,6 +49,9 @@ CONSOLE_TAIL = 5             # console lines a run result keeps (its stderr_tail
 class Board:
     """One run of an ELF; ``run`` serves it until the host ends the run."""
 
+    switches = SharedField("switches")                # pressed, a bit each (PB0-PB5)
+    _last_request_us = SharedField("last_request_us")  # the switches are as old as it
+
     def __init__(self, image: ElfImage, exchange: Callable[[bytes, bool], bytes],
                  console_events: Callable[[str], list[tuple[int, str]]],
                  compiled: bool = True) -> None:
@@ -55,12 +59,15 @@ class Board:
         self.console_events = console_events
         self.link = LinkClient(exchange)
         self.core = core = Core(image, HSI_HZ)
+        self.shared = core.shared
         # the compiled hot path (hil/mcu/board_core.py) where it is built, else Python
         self.native = NativeBoard(self) if compiled and native() else None
         if self.native:           # the exception model's entry and the NVIC's choice in C
             core.enter_c = exception_entry(core.shared)
             core.choose_c = exception_choice(core.shared)
         self.events = NativeEvents(core.shared) if self.native else Events()
+        if self.native:           # PA1's turns made in C go out before the next message
+            self.link.turns = self.native.turns
         if self.native:           # the same clock in one C call (a callback asks it often)
             core.now_fs = self.events.now_fs
         self.console = Console(self._console_line)
@@ -100,7 +107,8 @@ class Board:
         self.exti = Exti(self.nvic.line)
         space = self.space
         space.clear()
-        gpio = [GpioPort(n, i, self._gpio_out, self._grounded(i))
+        gpio = [GpioPort(n, i, self._gpio_out, self._grounded(i),
+                         core.shared if self.native else None)
                 for i, n in enumerate(("GPIOA", "GPIOB", "GPIOC"))]
         gpio[1].before_input = self.fresh_switches
         for i, port in enumerate(gpio):

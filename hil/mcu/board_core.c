@@ -1,9 +1,10 @@
 /* The ELF board's hot path compiled (hil/mcu/board_core.py loads it with ctypes): the event
- * heap, USART2 at register level with its byte timing, the servo line's outgoing burst, and
- * the poll skipper's known waits on USART2's registers.
+ * heap, USART2 at register level with its byte timing, the servo line's outgoing burst,
+ * PA1's turns and PB's switch reads, and the poll skipper's known waits.
  *
- * It fronts the peripherals' MMIO region for Unicorn: USART2's page is served here, every
- * other page goes to the Python callbacks (hil/mcu/mmio.py) through a function pointer.
+ * It fronts the peripherals' MMIO region for Unicorn: USART2's page, 32-bit stores to
+ * GPIOA's ODR and BSRR and reads of GPIOB's IDR are served here, every other access goes
+ * to the Python callbacks (hil/mcu/mmio.py) through a function pointer.
  * Python is called only where the board's Python state is needed: a Python timer falling
  * due, USART2's interrupt line high, the transmitter going idle (the servo line's burst is
  * sent), a DMA request, a poll loop seen for the first time, USART2's bus clock once a
@@ -25,13 +26,18 @@
 #define FLASH_BASE 0x08000000u
 #define FLASH_SIZE (512u * 1024u)
 #define INTR_EXC_EXIT 8
+#define GPIOA_PAGE 128          /* (0x40020000 - PERIPH_BASE) >> 10; GPIOB is the next page */
+#define TURNS 64                /* PA1's turns made here before the link takes them */
+#define FS_PER_US 1000000000LL
+#define TICK_US 1000            /* board.py: a read of the switches older than this asks */
 enum { REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR, REG_XPSR, REG_CONTROL, REG_MSP,
        REG_PSP, REG_S0, REG_FPSCR, REG_IPSR, REG_PC, REG_FAULTMASK, REG_PRIMASK, REG_BASEPRI,
        N_REGID };
 #define N_EXC 102               /* the F411's exceptions: 16 + 86 IRQs */
 
 /* the Python side's answers (one callback, these kinds) */
-enum { PY_LINE = 1, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_POLLED, PY_PCLK, PY_FAILED, PY_INTR };
+enum { PY_LINE = 1, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_POLLED, PY_PCLK, PY_FAILED, PY_INTR,
+       PY_SWITCHES };
 
 typedef int64_t (*py_call_t)(int kind, int64_t a, int64_t b);
 typedef int (*py_timer_t)(int tid, int64_t at_fs);
@@ -108,9 +114,20 @@ typedef struct {
     int32_t lines_n;
     int64_t u2_pclk;             /* USART2's bus clock, asked once a clock change (0) */
     emu_stop_t emu_stop;
+    /* GPIOA-C (gpio.py): what PA1's turns and a read of PB's switches need, served here */
+    uint32_t gpio_moder[3], gpio_pupdr[3], gpio_odr[3];
+    int32_t gpio_live;           /* bit i: port i's clock is on */
+    int32_t switches;            /* the pressed switches, a bit each (board.py) */
+    int64_t last_request_us;     /* the link's last request: the switches' age (board.py) */
+    int32_t turns_n, _pad3;      /* PA1's turns made here, for the link (link_client.py) */
+    int64_t turn_us[TURNS];
+    int32_t turn_level[TURNS];
 } bc_t;
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
+enum { GPIO_MODER = 0x00, GPIO_PUPDR = 0x0C, GPIO_IDR = 0x10, GPIO_ODR = 0x14, GPIO_BSRR = 0x18 };
+#define PA1 1
+#define SWITCH_MASK 0x3F        /* PB0-PB5 */
 #define ORE (1 << 3)
 #define RXNE (1 << 5)
 #define TC (1 << 6)
@@ -544,8 +561,69 @@ static uint32_t sized(uint32_t word, uint64_t offset, unsigned size) {
     return (uint32_t)((word >> (8 * (offset & 3))) & ((1ULL << (8 * size)) - 1));
 }
 
+/* --- GPIOA and GPIOB (gpio.py, board.py, servo_line.py) ------------------------------
+ * PA1's turns and PB's IDR, the two accesses a servo-driving firmware makes every cycle.
+ * A turn is done here when nothing but the link's direction message follows it in Python
+ * (servo_line.py ``direction_turned``): no burst unsent, no reply bytes waiting on a turn
+ * to transmit. */
+
+/* gpio.py ``idr``: outputs read ODR, analog pins 0, inputs 0 where grounded, else pull-up */
+static uint32_t port_idr(bc_t *s, int port) {
+    uint32_t out = 0, analog = 0, pull = 0, moder = s->gpio_moder[port];
+    uint32_t pupdr = s->gpio_pupdr[port];
+    for (int pin = 0; pin < 16; pin++) {
+        uint32_t mode = (moder >> 2 * pin) & 3;
+        out |= (uint32_t)(mode == 1) << pin;
+        analog |= (uint32_t)(mode == 3) << pin;
+        pull |= (uint32_t)(((pupdr >> 2 * pin) & 3) == 1) << pin;
+    }
+    uint32_t grounded = port == 1 ? (uint32_t)s->switches & SWITCH_MASK : 0;
+    return (s->gpio_odr[port] & out) | (pull & ~(out | analog | grounded));
+}
+
+/* gpio.py ``read`` of PB's IDR with board.py ``fresh_switches`` before it */
+static uint32_t switches_idr(bc_t *s) {
+    if (bc_now_fs(s) / FS_PER_US - s->last_request_us >= TICK_US) py(s, PY_SWITCHES, 0, 0);
+    return port_idr(s, 1);
+}
+
+static uint64_t read_switches(bc_t *s, uint64_t offset, unsigned size) {
+    due(s);
+    uint32_t value = sized(switches_idr(s), offset, size);
+    if (!s->err && polled(s, (uint32_t)(PERIPH_BASE + offset), value))
+        value = sized(switches_idr(s), offset, size);
+    failed(s);
+    return value;
+}
+
+/* A 32-bit store to GPIOA's ODR or BSRR; 0 when Python is to do it */
+static int write_porta(bc_t *s, int off, uint32_t value) {
+    due(s);
+    s->poll_valid = 0;
+    if (s->err) {                 /* a timer raised: the chunk ends with it, the store undone */
+        failed(s);
+        return 1;
+    }
+    uint32_t old = s->gpio_odr[0];
+    uint32_t odr = off == GPIO_BSRR ? (old & ~(value >> 16)) | (value & 0xFFFF) : value & 0xFFFF;
+    int level = ((s->gpio_moder[0] >> 2 * PA1) & 3) == 1 ? (int)(odr >> PA1 & 1) : 0;
+    if (level != s->direction) {
+        if (s->burst_n || (level && s->rx_n > s->rx_head) || s->turns_n >= TURNS)
+            return 0;
+        s->turn_us[s->turns_n] = bc_now_fs(s) / FS_PER_US;
+        s->turn_level[s->turns_n++] = level;
+        s->direction = level;
+    }
+    s->gpio_odr[0] = odr;
+    if (s->pending_n && bc_next_exception(s) >= 0) cut_after(s);
+    failed(s);
+    return 1;
+}
+
 uint64_t bc_mmio_read(void *uc, uint64_t offset, unsigned size, void *ud) {
     bc_t *s = ud;
+    if ((offset >> 10) == GPIOA_PAGE + 1 && (offset & 0x3FC) == GPIO_IDR && s->gpio_live & 2)
+        return read_switches(s, offset, size);
     if ((offset >> 10) != USART2_PAGE || !s->u2_live) {
         s->touched++;
         return s->py_read(uc, offset, size, 0);
@@ -564,6 +642,10 @@ uint64_t bc_mmio_read(void *uc, uint64_t offset, unsigned size, void *ud) {
 
 void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, void *ud) {
     bc_t *s = ud;
+    if ((offset >> 10) == GPIOA_PAGE && size == 4 && s->gpio_live & 1 &&
+        ((offset & 0x3FF) == GPIO_ODR || (offset & 0x3FF) == GPIO_BSRR) &&
+        write_porta(s, (int)(offset & 0x3FF), (uint32_t)value))
+        return;
     if ((offset >> 10) != USART2_PAGE || !s->u2_live) {
         s->touched++;
         s->py_write(uc, offset, size, value, 0);

@@ -36,9 +36,11 @@ USART2_IRQ = 38
 _P, _I32, _I64 = ctypes.c_void_p, ctypes.c_int32, ctypes.c_int64
 PY_CALL = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_int, ctypes.c_int64, ctypes.c_int64)
 PY_TIMER = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int64)
-PY_LINE, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_POLLED, PY_PCLK, PY_FAILED, PY_INTR = range(1, 9)
+(PY_LINE, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_POLLED, PY_PCLK, PY_FAILED, PY_INTR,
+ PY_SWITCHES) = range(1, 10)
 FAILED = -2                  # a Python callback raised: C unwinds, the error is handed on
 WAITS = 256
+TURNS = 64                   # PA1's turns made in C before the link takes them
 ACTIVE_MAX = 128             # each of the F411's 102 exceptions is active at most once
 N_REGID = 17                 # the registers an exception return writes (board_core.c REG_*)
 # virtual time in C is int64 femtoseconds: 9,223 s; a longer run is served in Python
@@ -75,7 +77,11 @@ class Shared(ctypes.Structure):
                 ("loop_n", _I64), ("fpu_on", _I32), ("stopped", _I32), ("cut", _I32),
                 ("hook_failed", _I32), ("uc_err", _I32), ("loop_exc", _I32),
                 ("emu_start", _P), ("mem_read", _P), ("lines", ctypes.c_uint32 * 4),
-                ("lines_n", _I32), ("u2_pclk", _I64), ("emu_stop", _P)]
+                ("lines_n", _I32), ("u2_pclk", _I64), ("emu_stop", _P),
+                ("gpio_moder", ctypes.c_uint32 * 3), ("gpio_pupdr", ctypes.c_uint32 * 3),
+                ("gpio_odr", ctypes.c_uint32 * 3), ("gpio_live", _I32), ("switches", _I32),
+                ("last_request_us", _I64), ("turns_n", _I32), ("_pad3", _I32),
+                ("turn_us", _I64 * TURNS), ("turn_level", _I32 * TURNS)]
 
 
 
@@ -307,6 +313,8 @@ class NativeBoard:
                 return board.usart2.pclk_hz()
             elif kind == PY_INTR:
                 board.intr(a)
+            elif kind == PY_SWITCHES:
+                board.fresh_switches()
             elif kind == PY_FAILED:
                 exc, board.events._error = board.events._error, None
                 if exc is not None:
@@ -315,6 +323,13 @@ class NativeBoard:
         except BaseException as exc:      # noqa: B036 -- handed on by the C side
             board.events._error = exc
             return FAILED
+
+    def turns(self) -> list[tuple[int, int]]:
+        """PA1's turns C made since the last call, (time in µs, level): the link's
+        direction messages, posted before anything Python posts after them."""
+        st = self.board.core.shared
+        n, st.turns_n = st.turns_n, 0
+        return list(zip(st.turn_us[:n], st.turn_level[:n]))
 
     def queue_rx(self, queue: list[tuple[int, int]]) -> None:
         """A reply burst's bytes with their arrival times, delivered to USART2 in C."""

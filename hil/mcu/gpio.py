@@ -9,7 +9,7 @@ to port B and the edge is enabled in RTSR/FTSR; IMR passes it to the NVIC.
 """
 from __future__ import annotations
 
-from typing import Callable
+from typing import Any, Callable
 
 MODER, OTYPER, OSPEEDR, PUPDR, IDR, ODR, BSRR, LCKR, AFRL, AFRH = range(0, 0x28, 4)
 RESET = {"GPIOA": {MODER: 0xA8000000, OSPEEDR: 0x0C000000, PUPDR: 0x64000000},
@@ -29,20 +29,49 @@ def _pin_masks(moder: int, pupdr: int) -> tuple[int, int, int]:
     return out, analog, pull
 
 
+class SharedRegisters(dict):
+    """A port's registers where MODER, PUPDR and ODR live in the compiled board's shared
+    state (hil/mcu/board_core.py ``Shared``): board_core.c turns PA1 and reads the
+    switches on PB itself."""
+
+    def __init__(self, values: dict[int, int], shared: Any, port: int) -> None:
+        super().__init__(values)
+        self._port = port
+        self._arrays = {MODER: shared.gpio_moder, PUPDR: shared.gpio_pupdr, ODR: shared.gpio_odr}
+        for off, array in self._arrays.items():
+            array[port] = dict.pop(self, off)
+
+    def __getitem__(self, off: int) -> int:
+        array = self._arrays.get(off)
+        return dict.__getitem__(self, off) if array is None else array[self._port]
+
+    def __setitem__(self, off: int, value: int) -> None:
+        array = self._arrays.get(off)
+        if array is None:
+            dict.__setitem__(self, off, value)
+        else:
+            array[self._port] = value
+
+    def get(self, off: int, default: Any = None) -> Any:
+        array = self._arrays.get(off)
+        return dict.get(self, off, default) if array is None else array[self._port]
+
+
 class GpioPort:
     """One port; ``grounded()`` is the mask of its pins that something outside pulls to
-    ground (the board's pressed switches)."""
+    ground (the board's pressed switches); ``shared``, the compiled board's state."""
 
     pollable = frozenset({IDR, ODR})
 
     def __init__(self, name: str, index: int, on_output: Callable[["GpioPort", int], None],
-                 grounded: Callable[[], int]) -> None:
+                 grounded: Callable[[], int], shared: Any = None) -> None:
         self.name, self.index = name, index
         self.on_output, self.grounded = on_output, grounded
         self._masks: tuple[int, int, tuple[int, int, int]] = (-1, -1, (0, 0, 0))
         self.before_input: Callable[[], None] | None = None    # IDR is about to be read
-        self.regs = {MODER: 0, OTYPER: 0, OSPEEDR: 0, PUPDR: 0, ODR: 0, LCKR: 0, AFRL: 0,
-                     AFRH: 0, **RESET.get(name, {})}
+        regs = {MODER: 0, OTYPER: 0, OSPEEDR: 0, PUPDR: 0, ODR: 0, LCKR: 0, AFRL: 0, AFRH: 0,
+                **RESET.get(name, {})}
+        self.regs = regs if shared is None else SharedRegisters(regs, shared, index)
 
     def mode(self, pin: int) -> int:
         return (self.regs[MODER] >> 2 * pin) & 3

@@ -40,9 +40,19 @@ class LinkClient:
         self.t_us = 0
         self.config: dict[str, Any] = {}
         self.requests = 0
+        # PA1's turns the compiled board made (hil/mcu/board_core.py ``NativeBoard.turns``)
+        self.turns: Callable[[], list[tuple[int, int]]] | None = None
 
     def _post(self, op: int, payload: bytes) -> None:
+        self._drain()
         self._out += struct.pack("<BH", op, len(payload)) + payload
+
+    def _drain(self) -> None:
+        """The compiled board's turns of PA1, in order, before what comes after them."""
+        if self.turns is not None:
+            for turn_us, level in self.turns():
+                self._out += struct.pack("<BHQB", sim_link.OP_DIRECTION, sim_link.DIRECTION_LEN,
+                                         max(turn_us, self.t_us), level)
 
     def _request(self, op: int, payload: bytes) -> bytes:
         self._post(op, payload)
@@ -59,6 +69,7 @@ class LinkClient:
         return body[8:]
 
     def close(self) -> None:
+        self._drain()
         data, self._out = bytes(self._out), bytearray()
         self._exchange(data, True)
 

@@ -27,6 +27,7 @@ log = logging.getLogger(__name__)
 PERIPH_BASE, PERIPH_SIZE = 0x40000000, 0x80000      # APB1, APB2, AHB1
 PPB_BASE, PPB_SIZE = 0xE0000000, 0x100000
 USART2 = 0x40004400
+GPIOA = 0x40020000           # GPIOB and C in the next pages
 
 
 class PeripheralSpace:
@@ -72,7 +73,10 @@ class PeripheralSpace:
         self._live = {page: p for page, p in self._pages.items()
                       if page not in self._gates
                       or regs.get(self._gates[page][0], 0) >> self._gates[page][1] & 1}
-        self.board.core.shared.u2_live = (USART2 - PERIPH_BASE) >> 10 in self._live
+        shared = self.board.core.shared
+        shared.u2_live = (USART2 - PERIPH_BASE) >> 10 in self._live
+        shared.gpio_live = sum(1 << i for i, port in enumerate(self.board.gpio)
+                               if self._live.get(((GPIOA - PERIPH_BASE) >> 10) + i) is port)
 
     def _unmodelled(self, addr: int, kind: str) -> None:
         page = addr & ~0x3FF

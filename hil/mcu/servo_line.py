@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from hil.mcu.board_core import SharedField
 from hil.mcu.core import FS_PER_US
 from hil.mcu.usart import Usart
 from hil.servobus.line import resample
@@ -22,9 +23,12 @@ BAUD_TOLERANCE = 0.03        # a UART frame survives about this much clock error
 
 
 class ServoLine:
+    direction = SharedField("direction")     # PA1's level: board_core.c turns it too
+
     def __init__(self, board: Any) -> None:
         self.board = board
-        self.direction = board.core.shared.direction = 0
+        self.shared = board.core.shared
+        self.direction = 0
         self._burst = bytearray()
         self._burst_fs = 0
         self._burst_dir = 0
@@ -100,7 +104,7 @@ class ServoLine:
             self._rx_queue.clear()
             self.deliver_timer.clear()
         self.flush()
-        self.direction = self.board.core.shared.direction = level
+        self.direction = level
         self.board.link.direction(self.board.now_us(), bool(level))
 
     def rx_arrives(self, at_fs: int) -> None:
