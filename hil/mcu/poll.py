@@ -30,6 +30,7 @@ class PollSkipper:
         self._st = board.core.shared     # the poll's state, shared with hil/mcu/board_core.c
         self._watch: tuple | None = None
         self._watch_hook = None
+        self._stale_code = False     # code translated while a deleted watch hook was listed
         self._ram_written = False
         self._skip = False
         self._loops_ok: dict[tuple[int, int, int], bool] = {}
@@ -120,10 +121,16 @@ class PollSkipper:
         if self._watch_hook is not None:
             self.board.core.uc.hook_del(self._watch_hook)
             self._watch_hook = None
-            self.board.core.uc.ctl_flush_tb()
+            self._stale_code = True
 
     def after_chunk(self) -> None:
         core = self.board.core
+        if self._stale_code:
+            # Unicorn drops a deleted hook only when emu_start returns: the code translated
+            # before that still takes the slow path at every load and store, so it is
+            # translated again once a chunk has run (a flush at the deletion would keep it)
+            self._stale_code = False
+            core.uc.ctl_flush_tb()
         if self._skip:
             self._skip = False
             self._end_watch()
