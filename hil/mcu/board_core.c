@@ -50,6 +50,8 @@ typedef int (*mem_read_t)(void *uc, uint64_t address, void *bytes, size_t size);
 typedef int (*emu_stop_t)(void *uc);
 
 typedef struct { int64_t at; uint64_t seq; int32_t tid; uint32_t gen; } entry_t;
+/* an open-addressed set of triples; n is -1 once full (the Python set keeps the rest) */
+typedef struct { uint32_t slot[WAITS][3]; int32_t n; } set3_t;
 
 /* Shared with Python (hil/mcu/board_core.py ``Shared``): keep the two in step. */
 typedef struct {
@@ -82,8 +84,7 @@ typedef struct {
     py_timer_t py_timer;
     mmio_read_t py_read;
     mmio_write_t py_write;
-    uint32_t waits[WAITS][3];
-    int32_t nwaits;
+    set3_t waits;                /* known waits: (pc, register, value) */
     /* the exception model (core.py): the active exceptions, innermost last */
     int32_t active[ACTIVE_MAX];
     int32_t nactive, sleeping, sleep_on_exit, _pad2;
@@ -122,6 +123,7 @@ typedef struct {
     int32_t turns_n, _pad3;      /* PA1's turns made here, for the link (link_client.py) */
     int64_t turn_us[TURNS];
     int32_t turn_level[TURNS];
+    set3_t nots;                 /* repeated reads that are no wait: (pc, register, cycles) */
 } bc_t;
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
@@ -480,33 +482,42 @@ static void cut_after(bc_t *s) {
     }
 }
 
-static unsigned wait_slot(uint32_t pc, uint32_t addr, uint32_t value) {
-    return (pc * 2654435761u ^ addr * 40503u ^ value * 97u) % WAITS;
+static unsigned slot_of(uint32_t a, uint32_t b, uint32_t c) {
+    return (a * 2654435761u ^ b * 40503u ^ c * 97u) % WAITS;
 }
 
-/* 0 added (or already there), -1 full (the Python set keeps it: C then asks Python) */
-int bc_add_wait(bc_t *s, uint32_t pc, uint32_t addr, uint32_t value) {
-    unsigned i = wait_slot(pc, addr, value);
+static int set_add(set3_t *t, uint32_t a, uint32_t b, uint32_t c) {
+    unsigned i = slot_of(a, b, c);
     for (int k = 0; k < WAITS; k++, i = (i + 1) % WAITS) {
-        uint32_t *w = s->waits[i];
-        if (w[0] == pc && w[1] == addr && w[2] == value) return 0;
+        uint32_t *w = t->slot[i];
+        if (w[0] == a && w[1] == b && w[2] == c) return 0;
         if (w[0] == 0) {
-            w[0] = pc; w[1] = addr; w[2] = value;
-            s->nwaits++;
+            w[0] = a; w[1] = b; w[2] = c;
+            t->n++;
             return 0;
         }
     }
     return -1;
 }
 
-static int known_wait(bc_t *s, uint32_t pc, uint32_t addr, uint32_t value) {
-    unsigned i = wait_slot(pc, addr, value);
+static int set_has(set3_t *t, uint32_t a, uint32_t b, uint32_t c) {
+    unsigned i = slot_of(a, b, c);
     for (int k = 0; k < WAITS; k++, i = (i + 1) % WAITS) {
-        uint32_t *w = s->waits[i];
+        uint32_t *w = t->slot[i];
         if (w[0] == 0) return 0;
-        if (w[0] == pc && w[1] == addr && w[2] == value) return 1;
+        if (w[0] == a && w[1] == b && w[2] == c) return 1;
     }
     return 0;
+}
+
+/* poll.py ``_known_wait``: 0 added (or already there), -1 full (C then asks Python) */
+int bc_add_wait(bc_t *s, uint32_t pc, uint32_t addr, uint32_t value) {
+    return set_add(&s->waits, pc, addr, value);
+}
+
+/* poll.py ``_loops_ok`` False: a read repeated ``cycles`` apart at ``pc`` waits on nothing */
+int bc_add_not_loop(bc_t *s, uint32_t pc, uint32_t addr, uint32_t cycles) {
+    return set_add(&s->nots, pc, addr, cycles);
 }
 
 /* _jump_here: time jumps to the next event, which fires now */
@@ -528,7 +539,7 @@ static int jump_here(bc_t *s) {
 }
 
 static int polled(bc_t *s, uint32_t addr, uint32_t value) {
-    if (s->nwaits < 0) return py(s, PY_POLLED, addr, value) > 0;   /* the table is full */
+    if (s->waits.n < 0) return py(s, PY_POLLED, addr, value) > 0;  /* the table is full */
     if (s->reread) {
         s->reread = 0;
         return 0;
@@ -538,7 +549,13 @@ static int polled(bc_t *s, uint32_t addr, uint32_t value) {
         s->poll_addr = (int32_t)addr;
         s->poll_value = (int32_t)value;
         s->poll_at = now_cyc(s);
-        if (!s->watching && known_wait(s, *s->pc, addr, value)) return jump_here(s);
+        if (!s->watching && set_has(&s->waits, *s->pc, addr, value)) return jump_here(s);
+        return 0;
+    }
+    int64_t now = now_cyc(s), cycles = now - s->poll_at;
+    if (!s->watching && s->nots.n >= 0 && cycles >= 0 && cycles < 0x80000000LL &&
+        set_has(&s->nots, *s->pc, addr, (uint32_t)cycles)) {
+        s->poll_at = now;         /* the same read again, known to wait on nothing */
         return 0;
     }
     return py(s, PY_POLLED, addr, value) > 0;

@@ -81,7 +81,8 @@ class Shared(ctypes.Structure):
                 ("gpio_moder", ctypes.c_uint32 * 3), ("gpio_pupdr", ctypes.c_uint32 * 3),
                 ("gpio_odr", ctypes.c_uint32 * 3), ("gpio_live", _I32), ("switches", _I32),
                 ("last_request_us", _I64), ("turns_n", _I32), ("_pad3", _I32),
-                ("turn_us", _I64 * TURNS), ("turn_level", _I32 * TURNS)]
+                ("turn_us", _I64 * TURNS), ("turn_level", _I32 * TURNS),
+                ("nots", (ctypes.c_uint32 * 3) * WAITS), ("nnots", _I32)]
 
 
 
@@ -115,6 +116,7 @@ def _load() -> Any:
            "bc_usart_write": (None, [_P, _I32, ctypes.c_uint32]),
            "bc_usart_reset": (None, [_P]),
            "bc_add_wait": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
+           "bc_add_not_loop": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
            "bc_free": (None, [_P])}
     lib.bc_intr.restype, lib.bc_intr.argtypes = None, [_P, ctypes.c_uint32, _P]
     lib.bc_rx_queue.restype, lib.bc_rx_queue.argtypes = None, [_P, _P, _P, _I32]
@@ -328,7 +330,10 @@ class NativeBoard:
         """PA1's turns C made since the last call, (time in µs, level): the link's
         direction messages, posted before anything Python posts after them."""
         st = self.board.core.shared
-        n, st.turns_n = st.turns_n, 0
+        n = st.turns_n
+        if not n:
+            return []
+        st.turns_n = 0
         return list(zip(st.turn_us[:n], st.turn_level[:n]))
 
     def queue_rx(self, queue: list[tuple[int, int]]) -> None:
@@ -373,3 +378,11 @@ def add_wait(shared: Shared, pc: int, addr: int, value: int) -> None:
     """A known poll wait, for the C side too (a full table: C asks Python every time)."""
     if shared.nwaits >= 0 and _LIB.bc_add_wait(ctypes.byref(shared), pc, addr, value) < 0:
         shared.nwaits = -1
+
+
+def add_not_loop(shared: Shared, pc: int, addr: int, cycles: int) -> None:
+    """A read repeated ``cycles`` apart that waits on nothing (poll.py ``_loops_ok``
+    False): C answers it without Python."""
+    if shared.nnots >= 0 and 0 <= cycles < 1 << 31 and \
+            _LIB.bc_add_not_loop(ctypes.byref(shared), pc, addr, cycles) < 0:
+        shared.nnots = -1

@@ -15,7 +15,7 @@ from typing import Any
 
 from unicorn import UC_HOOK_MEM_WRITE
 
-from hil.mcu.board_core import add_wait
+from hil.mcu.board_core import add_not_loop, add_wait
 from hil.mcu.elf_image import SRAM_BASE, SRAM_SIZE
 
 
@@ -78,6 +78,8 @@ class PollSkipper:
             core.stop()
         else:
             self._loops_ok[watch[0]] = False
+            if self.board.native is not None:
+                add_not_loop(self._st, *watch[0])
             self._end_watch()
         return False
 
