@@ -828,11 +828,14 @@ static int execution_priority(bc_t *s) {
 int bc_next_exception(bc_t *s) {
     if (!s->pending_n) return -1;
     int best = -1, best_p = 0;
-    for (int e = 0; e < N_EXC; e++) {
-        if (!(s->pend[e >> 5] >> (e & 31) & 1)) continue;
-        if (e >= 16 && !(s->ena[(e - 16) >> 5] >> ((e - 16) & 31) & 1)) continue;
-        int p = priority(s, e);
-        if (best < 0 || p < best_p) { best = e; best_p = p; }
+    for (int w = 0; w < 4; w++) {        /* the pending bits in ascending order */
+        for (uint32_t bits = s->pend[w]; bits; bits &= bits - 1) {
+            int e = 32 * w + __builtin_ctz(bits);
+            if (e >= N_EXC) break;
+            if (e >= 16 && !(s->ena[(e - 16) >> 5] >> ((e - 16) & 31) & 1)) continue;
+            int p = priority(s, e);
+            if (best < 0 || p < best_p) { best = e; best_p = p; }
+        }
     }
     if (best < 0) return -1;
     return group(s, best_p) < execution_priority(s) ? best : -1;
@@ -906,9 +909,13 @@ static int read16(bc_t *s, uint32_t addr, uint16_t *op) {
 
 /* system.py Nvic ``wakes``: an enabled exception is pending, whatever its priority */
 static int wakes(bc_t *s) {
-    for (int e = 0; e < N_EXC; e++) {
-        if (!(s->pend[e >> 5] >> (e & 31) & 1)) continue;
-        if (e < 16 || s->ena[(e - 16) >> 5] >> ((e - 16) & 31) & 1) return 1;
+    if (!s->pending_n) return 0;
+    for (int w = 0; w < 4; w++) {
+        for (uint32_t bits = s->pend[w]; bits; bits &= bits - 1) {
+            int e = 32 * w + __builtin_ctz(bits);
+            if (e >= N_EXC) break;
+            if (e < 16 || s->ena[(e - 16) >> 5] >> ((e - 16) & 31) & 1) return 1;
+        }
     }
     return 0;
 }
