@@ -61,6 +61,8 @@ def test_a_firmware_runs_the_same_with_and_without_the_compiled_board(name, tmp_
 
 
 @pytest.mark.parametrize("source,defines", [("ping.c", ("BAUD_BRR=100", "RAISE_A1=1")),
+                                            ("ping.c", ("BAUD_BRR=50", "RAISE_A1=1",
+                                                        "TURN_AT_TXE=1")),
                                             ("irq.c", ()), ("reset.c", ()),
                                             ("pend.c", ()), ("cut_reply.c", ()),
                                             ("faults.c", ("FAULT=1",)),
@@ -74,3 +76,5 @@ def test_the_board_tests_firmwares_run_the_same_both_ways(source, defines, tmp_p
     assert compiled == python
     if source == "cut_reply.c":     # the reply bytes queued in C are dropped as in Python
         assert compiled[6] == {"rx_while_transmitting": 1}
+    if "TURN_AT_TXE=1" in defines:  # a turn with a byte on the wire: C hands it to Python
+        assert compiled[6]["tx_while_receiving"] == 18

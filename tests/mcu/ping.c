@@ -1,6 +1,10 @@
 /* tests/mcu: bare metal from RM0383: PLL 100 MHz, SysTick 1 ms, DWT, USART2 at 1 Mbps
-   through the PA1 buffer pinging 18 servos, a console line on USART1, then WFI. */
+   through the PA1 buffer pinging 18 servos, a console line on USART1, then WFI.
+   TURN_AT_TXE=1 turns PA1 low at the last byte's TXE instead of TC: the byte is cut. */
 #include "board.h"
+#ifndef TURN_AT_TXE
+#define TURN_AT_TXE 0
+#endif
 static volatile uint32_t ticks;
 void SysTick_Handler(void) { ticks++; }
 
@@ -21,7 +25,7 @@ static int ping(int id) {
         while (!(USART2(SR) & (1 << 7))) {}
         USART2(DR) = pkt[i];
     }
-    while (!(USART2(SR) & (1 << 6))) {}
+    while (!(USART2(SR) & (1 << (TURN_AT_TXE ? 7 : 6)))) {}
     GPIOA(0x18) = 1 << (1 + 16);
     (void)USART2(DR);
     uint32_t t0 = ticks;
