@@ -1,6 +1,6 @@
 """The ELF board's hot path compiled (hil/mcu/board_core.c), through ctypes: the event heap,
-USART2 with its byte timing, the servo line's outgoing burst and the known poll waits on
-USART2's registers.
+USART2 with its byte timing, the servo line's outgoing burst, PA1's turns and PB's switch
+reads, and the poll skipper's known waits and known non-waits.
 
 A firmware sending servo packets spends its time on USART2: a byte written to DR, a poll of
 TXE skipped to the byte's end, the next byte. In Python each of those is a register
@@ -10,7 +10,8 @@ the board's Python state takes part (a Python timer due, USART2's interrupt line
 transmitter idle: the burst goes to the link, a DMA request, a poll loop seen for the first
 time, USART2's bus clock after a clock change). ``Shared`` is the state both sides read: the
 core's time and its state between chunks (hil/mcu/core.py; a jump in C moves the chunk's
-origin), the poll skipper's (hil/mcu/poll.py), the NVIC's bits and USART2's registers. The
+origin), the poll skipper's (hil/mcu/poll.py), the NVIC's bits, USART2's registers and
+GPIO's (MODER, PUPDR, ODR), the switches and PA1's turns not yet posted to the link. The
 board's loop runs in C too (hil/mcu/board_loop.py).
 
 The Python models stay the reference (events.py, usart.py, servo_line.py): the same
