@@ -825,17 +825,26 @@ static int execution_priority(bc_t *s) {
 }
 
 /* the pending exception that preempts what runs now, -1 when none */
+/* the lowest exception from ``from`` on that is pending and enabled (a system exception
+   always is), -1 when none: the pending bits walked a word at a time */
+static int pending_from(bc_t *s, int from) {
+    for (int w = from >> 5; w < 4; w++) {
+        uint32_t bits = s->pend[w] & (w == from >> 5 ? ~0u << (from & 31) : ~0u);
+        for (; bits; bits &= bits - 1) {
+            int e = 32 * w + __builtin_ctz(bits);
+            if (e >= N_EXC) return -1;
+            if (e < 16 || s->ena[(e - 16) >> 5] >> ((e - 16) & 31) & 1) return e;
+        }
+    }
+    return -1;
+}
+
 int bc_next_exception(bc_t *s) {
     if (!s->pending_n) return -1;
     int best = -1, best_p = 0;
-    for (int w = 0; w < 4; w++) {        /* the pending bits in ascending order */
-        for (uint32_t bits = s->pend[w]; bits; bits &= bits - 1) {
-            int e = 32 * w + __builtin_ctz(bits);
-            if (e >= N_EXC) break;
-            if (e >= 16 && !(s->ena[(e - 16) >> 5] >> ((e - 16) & 31) & 1)) continue;
-            int p = priority(s, e);
-            if (best < 0 || p < best_p) { best = e; best_p = p; }
-        }
+    for (int e = pending_from(s, 0); e >= 0; e = pending_from(s, e + 1)) {
+        int p = priority(s, e);
+        if (best < 0 || p < best_p) { best = e; best_p = p; }
     }
     if (best < 0) return -1;
     return group(s, best_p) < execution_priority(s) ? best : -1;
@@ -909,15 +918,7 @@ static int read16(bc_t *s, uint32_t addr, uint16_t *op) {
 
 /* system.py Nvic ``wakes``: an enabled exception is pending, whatever its priority */
 static int wakes(bc_t *s) {
-    if (!s->pending_n) return 0;
-    for (int w = 0; w < 4; w++) {
-        for (uint32_t bits = s->pend[w]; bits; bits &= bits - 1) {
-            int e = 32 * w + __builtin_ctz(bits);
-            if (e >= N_EXC) break;
-            if (e < 16 || s->ena[(e - 16) >> 5] >> ((e - 16) & 31) & 1) return 1;
-        }
-    }
-    return 0;
+    return s->pending_n && pending_from(s, 0) >= 0;
 }
 
 /* core.py ``run``: up to ``n`` instructions from ``pc_next``; how many ran, or -1 when the
