@@ -45,14 +45,19 @@ class LinkClient:
 
     def _post(self, op: int, payload: bytes) -> None:
         self._drain()
+        self._append(op, payload)
+
+    def _append(self, op: int, payload: bytes) -> None:
         self._out += struct.pack("<BH", op, len(payload)) + payload
 
     def _drain(self) -> None:
         """The compiled board's turns of PA1, in order, before what comes after them."""
         if self.turns is not None:
             for turn_us, level in self.turns():
-                self._out += struct.pack("<BHQB", sim_link.OP_DIRECTION, sim_link.DIRECTION_LEN,
-                                         max(turn_us, self.t_us), level)
+                self._append(sim_link.OP_DIRECTION, self._turned(turn_us, level))
+
+    def _turned(self, turn_us: int, level: bool) -> bytes:
+        return struct.pack("<QB", max(turn_us, self.t_us), level)
 
     def _request(self, op: int, payload: bytes) -> bytes:
         self._post(op, payload)
@@ -88,7 +93,7 @@ class LinkClient:
                      bytes(body[sim_link.LINE_REPLY_HEAD_LEN - 8:]))
 
     def direction(self, turn_us: int, level: bool) -> None:
-        self._post(sim_link.OP_DIRECTION, struct.pack("<QB", max(turn_us, self.t_us), level))
+        self._post(sim_link.OP_DIRECTION, self._turned(turn_us, level))
 
     def sleep(self, wake_us: int) -> Reply:
         body = self._request(sim_link.OP_SLEEP, struct.pack("<Q", max(wake_us, self.t_us)))
