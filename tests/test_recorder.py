@@ -26,6 +26,7 @@ from host_tools.trace import reader as trace_reader
 from host_tools.trace import recorder as rec
 from host_tools.trace import recover as trace_recover
 from host_tools.trace.target import partial_of
+from host_tools.trace.writer import software_version
 from host_tools.trace import topics
 from protocol import can_frames
 from protocol.dynamixel import v1 as dynamixel
@@ -33,11 +34,13 @@ from protocol.dynamixel import v1 as dynamixel
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def _record(path: Path, cycles: int = 400, idle_budgets: list[int] | None = None) -> dict:
+def _record(path: Path, cycles: int = 400, idle_budgets: list[int] | None = None,
+            encode_in: rec.EncodeIn = rec.EncodeIn.CHILD_PROCESS) -> dict:
     """A synthetic run touching every recorder method; returns what was sent. With
     ``idle_budgets``, each cycle ends with ``idle()`` given the next budget in turn."""
     sent = {"tx": [], "rx": [], "can": [], "link": []}
-    r = rec.Recorder(path, {"scenario": "scenarios/x.toml", "seed": 7, "cmd": ["run"]})
+    r = rec.Recorder(path, {"scenario": "scenarios/x.toml", "seed": 7, "cmd": ["run"]},
+                     encode_in=encode_in)
     for i in range(cycles):
         t = i * 10_000
         pkt = dynamixel.read(1 + i % 18, 36, 2)
@@ -85,7 +88,7 @@ def test_stock_reader_schemas_and_foxglove_names(tmp_path):
         assert summary.statistics.chunk_count >= 8
         meta = {m.name: m.metadata for m in reader.iter_metadata()}["hexhil"]
         assert meta["seed"] == "7" and meta["scenario"] == "scenarios/x.toml"
-        assert meta["software_version"] == rec.software_version()
+        assert meta["software_version"] == software_version()
         # every protobuf message decodes with the schema stored in the file
         packets = {"tx": [], "rx": []}
         bursts = {"tx": b"", "rx": b""}
@@ -256,10 +259,12 @@ def test_same_run_same_bytes(tmp_path):
 @settings(max_examples=15, deadline=None)
 @given(budgets=st.lists(st.integers(0, 40), min_size=1, max_size=8))
 def test_idle_work_changes_no_byte(tmp_path_factory, budgets):
-    """Whatever the simulator hands to idle(), and when, the file is the same."""
+    """Whatever the simulator hands to idle(), and when, the file is the same, and the
+    same as a child process encoding it writes."""
     tmp = tmp_path_factory.mktemp("idle")
     _record(tmp / "plain.mcap", cycles=120)
-    _record(tmp / "idle.mcap", cycles=120, idle_budgets=budgets)
+    _record(tmp / "idle.mcap", cycles=120, idle_budgets=budgets,
+            encode_in=rec.EncodeIn.THIS_PROCESS)
     assert (tmp / "idle.mcap").read_bytes() == (tmp / "plain.mcap").read_bytes()
 
 
@@ -276,21 +281,6 @@ def test_a_recorded_run_is_the_same_bytes_however_it_is_scheduled(tmp_path):
     finally:
         os.sched_setaffinity(0, cores)
     assert (tmp_path / "one.mcap").read_bytes() == (tmp_path / "free.mcap").read_bytes()
-
-
-def test_an_idle_owner_gets_a_closed_window_written_at_its_next_idle(tmp_path):
-    """idle() moves the chunk write off the call that closes the window, not later than
-    the next idle() (same virtual time), so crash safety is unchanged."""
-    path = partial_of(tmp_path / "w.mcap")   # the file being written, renamed at close
-    r = rec.Recorder(tmp_path / "w.mcap", flush_interval_us=100_000)
-    r.serial(0, "tx", dynamixel.ping(1))
-    r.idle(0)
-    size = path.stat().st_size
-    r.serial(100_000, "tx", dynamixel.ping(2))  # closes the first window
-    assert path.stat().st_size == size
-    r.idle(0)
-    assert path.stat().st_size > size
-    r.close()
 
 
 def test_unwritable_path_is_a_user_error(tmp_path):

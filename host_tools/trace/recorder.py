@@ -31,28 +31,25 @@ Why it is built this way:
 from __future__ import annotations
 
 import json
-from operator import itemgetter
 from pathlib import Path
-from typing import Any, BinaryIO, Callable, Iterable, Mapping, Sequence
+from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from host_tools.trace import protobuf as pb
 from host_tools.trace.can_signals import CanSignals, json_default, json_schema, to_json
 from host_tools.trace import scene_encoding as scene_msgs
-from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, METADATA_NAME, T_BODY, T_CAN_PREFIX,
+from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, T_BODY, T_CAN_PREFIX,
                                      T_CAN_RAW, T_FAULTS, T_JOINTS, T_LINK, T_SCENE,
                                      T_SCENE_FORCES, T_SCENE_FRAMES, T_SERIAL, T_SERVOS,
                                      T_SWITCHES, T_TELEMETRY, T_VIOLATIONS)
 from host_tools.trace.channels import Channels
-from host_tools.trace.target import TraceTarget
-from host_tools.trace.writer import TraceWriter, software_version
+from host_tools.trace.windows import EncodeIn, Encoded, HeldWindows
 from host_tools.dynamixel.decode import DECODERS
 from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
-from protocol.errors import UserError
 
 DEFAULT_FLUSH_INTERVAL_US = 500_000  # well inside the issue's "once per simulated second"
 
 
-class Recorder:
+class Recorder(HeldWindows):
     """Writes one run to one MCAP file, on the topics ``host_tools.trace.topics`` lists.
 
     ``metadata`` (scenario, seed, command...) is stored as the ``hexhil`` metadata record
@@ -63,28 +60,9 @@ class Recorder:
     def __init__(self, path: str | Path, metadata: Mapping[str, Any] | None = None, *,
                  flush_interval_us: int = DEFAULT_FLUSH_INTERVAL_US,
                  decode_serial: bool = True, decode_can: bool = True, live: Any = None,
-                 protocol: int = 1, overwrite: bool = False) -> None:
-        self.path = Path(path)
-        self._live = live  # a LiveServer (host_tools/trace/live.py) that sees what is written
-        self.messages, self.closed = 0, False
-        self._target = TraceTarget(self.path, overwrite)   # TARGET.partial, renamed at close
-        self._file: BinaryIO = self._target.file
-        meta = {"software_version": software_version()}
-        for k, v in (metadata or {}).items():
-            meta[str(k)] = v if isinstance(v, str) else json.dumps(v, sort_keys=True,
-                                                                   default=json_default)
-        try:
-            self._writer = TraceWriter(self._file, f"hexhil {software_version()}")
-            self._writer.metadata(METADATA_NAME, meta)
-        except OSError as exc:
-            self._write_failed(exc)
-        self._flush_interval_us = int(flush_interval_us)
-        self._window_end_us = self._flush_interval_us
-        self._pending: list[tuple] = []  # (log_time_ns, encode, args) in call order
-        self._out: list[tuple[int, int, bytes]] = []  # the first _done of them, encoded
-        self._done = 0
-        self._ready: list[tuple[int, int, bytes]] | None = None  # a closed window, unwritten
-        self._idle_seen = False
+                 protocol: int = 1, overwrite: bool = False,
+                 encode_in: EncodeIn = EncodeIn.CHILD_PROCESS) -> None:
+        super().__init__(path, metadata, flush_interval_us, live, overwrite)
         self._channels = Channels(self._writer, live, self._write_failed)
         # /serial's bytes cut into the packets of the line's Dynamixel protocol
         self._parsers = {d: DECODERS[protocol].TracePackets(d) for d in ("tx", "rx")} \
@@ -92,124 +70,21 @@ class Recorder:
         self._can = CanSignals(decode_can)
         self._links: bytearray | None = None  # this window's exchanges, encoded
         self._switches = 0
+        self._begin(encode_in)
 
-    # -- plumbing -------------------------------------------------------------------------
-    def _defer(self, t_us: int, encode: Callable[..., None], args: tuple) -> None:
-        """Hold the raw values; ``encode(out, t_ns, *args)`` appends the encoded messages
-        in ``idle()`` or when the window is written, so a call costs about 1 us."""
-        t_us = int(t_us)
-        if t_us >= self._window_end_us:
-            self._flush_window(t_us)
-        self._pending.append((t_us * 1000, encode, args))
-
-    def _flush_window(self, now_us: int) -> None:
-        if self.closed:  # close() sets the window end to -1, so every later call lands here
-            raise RuntimeError("recorder is closed")
-        self._write_ready()
-        msgs = self._encode_pending()
-        if self._idle_seen:  # the owner calls idle() soon, off its critical path
-            self._ready = msgs
-        else:
-            self._write_chunk(msgs)
-        step = self._flush_interval_us
-        self._window_end_us = (now_us // step + 1) * step
-
-    def idle(self, budget: int) -> bool:
-        """Do a little of the held work: write a closed window, or encode up to ``budget``
-        held messages; True while some is left. The simulator calls this while it waits
-        for the firmware, slice after slice until the firmware answers, so the encoding
-        overlaps the firmware's computing instead of adding to it; the bytes written do not
-        depend on when (or whether) it is called."""
-        self._idle_seen = True
-        if self._ready is not None:
-            self._write_ready()
-            return self._done < len(self._pending)
-        if not budget:
-            return self._done < len(self._pending)
-        pending, out, i = self._pending, self._out, self._done
-        for t, encode, args in pending[i:i + budget]:
-            encode(out, t, *args)
-        self._done = min(i + budget, len(pending))
-        return self._done < len(pending)
-
-    def flush(self) -> None:
-        """Write the held messages in log-time order as one chunk and hand it to the OS."""
-        self._write_ready()
-        self._write_chunk(self._encode_pending())
-
-    def _write_ready(self) -> None:
-        if self._ready is not None:
-            msgs, self._ready = self._ready, None
-            self._write_chunk(msgs)
-
-    def _encode_pending(self) -> list[tuple[int, int, bytes]]:
-        """The held messages encoded, as (log_time_ns, channel, data) in log-time order."""
-        pending, out = self._pending, self._out
-        for t, encode, args in pending[self._done:]:  # call order: parsers see bytes in order
-            encode(out, t, *args)
-        self._pending, self._out, self._done = [], [], 0
+    def _new_window(self) -> None:
         self._links = None
-        out.sort(key=itemgetter(0))  # stable: equal times keep call order
-        return out
 
-    def _write_chunk(self, msgs: list[tuple[int, int, bytes]]) -> None:
-        if msgs:
-            try:
-                self._writer.chunk(msgs)
-            except OSError as exc:
-                self._write_failed(exc)
-            self.messages = self._writer.messages
-            if self._live is not None:
-                self._live.log(msgs)
-
-    def _write_failed(self, exc: OSError) -> None:
-        """A full disk or a file-size limit: stop recording, keep what is on disk, one line."""
-        where = self._target.abandon()
-        self.closed = True
-        self._window_end_us = -1
-        raise UserError(f"{self.path}: cannot write trace ({exc.strerror or exc}); the "
-                        f"{self.messages} messages written before stay in {where}") from None
-
-    def advance(self, t_us: int) -> None:
-        """Tell the recorder virtual time has reached ``t_us`` (flushes a finished window)."""
-        if int(t_us) >= self._window_end_us and not self.closed:
-            self._flush_window(int(t_us))
-
-    def close(self) -> None:
-        """Write everything and the MCAP summary; the file is complete after this."""
-        if self.closed:
-            return
-        self._write_ready()
-        msgs = self._encode_pending()
+    def _last(self, msgs: Encoded) -> None:
         if self._parsers is not None:  # packets hidden behind a bad header, found at the end
             for direction, parser in self._parsers.items():
                 late = parser.flush()
                 if late:  # on a burst of no new bytes at the last serial time
                     msgs.append((self._last_serial_ns, self._channels.ids[T_SERIAL],
                                  pb.encode_serial_bytes(direction, b"", late)))
-            msgs.sort(key=itemgetter(0))
-        self._write_chunk(msgs)
-        try:
-            self._writer.finish()
-            self._file.flush()
-        except OSError as exc:
-            self._write_failed(exc)
-        self.closed = True
-        self._window_end_us = -1
-        self._target.commit()
-
-    def discard(self) -> None:
-        """Stop and remove what was written; the target stays as it was (a failed import)."""
-        if not self.closed:
-            self.closed = True
-            self._window_end_us = -1
-            self._target.discard()
 
     def __enter__(self) -> "Recorder":
         return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self.close()
 
     # -- what the parts record ------------------------------------------------------------
     _last_serial_ns = 0

@@ -1,0 +1,119 @@
+"""Where the recorder encodes (host_tools/trace/windows.py): its child process
+(encoder_process.py) writes the same bytes as the run's own process, flushes and discards
+through it, says a full disk in the same one line and holds no descriptor of the run; in
+the run's process, a closed window is written at the next idle()."""
+from __future__ import annotations
+
+import os
+import select
+from pathlib import Path
+
+from host_tools.trace import recorder as rec
+from host_tools.trace.target import partial_of
+from protocol.dynamixel import v1 as dynamixel
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_a_run_encoded_in_a_child_process_is_the_same_file(tmp_path):
+    """The default child process writes the bytes the run's own process would."""
+    from hil import scenario
+    from hil.run.lockstep import Simulator
+    from hil.run.rig import make_world
+    from host_tools.in_process import run_firmware
+
+    sc = scenario.load_scenario(ROOT / "scenarios" / "obstacles-low-small.toml")
+    for where in rec.EncodeIn:
+        with rec.Recorder(tmp_path / f"{where.value}.mcap", {"seed": 3},
+                          encode_in=where) as r:
+            Simulator(sc, 3, world=make_world(sc, 3), recorder=r).run(
+                1.2, in_process=run_firmware)
+    assert ((tmp_path / "child-process.mcap").read_bytes()
+            == (tmp_path / "this-process.mcap").read_bytes())
+
+
+def test_an_idle_owner_gets_a_closed_window_written_at_its_next_idle(tmp_path):
+    """idle() moves the chunk write off the call that closes the window, not later than
+    the next idle() (same virtual time), so crash safety is unchanged."""
+    path = partial_of(tmp_path / "w.mcap")   # the file being written, renamed at close
+    r = rec.Recorder(tmp_path / "w.mcap", flush_interval_us=100_000,
+                     encode_in=rec.EncodeIn.THIS_PROCESS)
+    r.serial(0, "tx", dynamixel.ping(1))
+    r.idle(0)
+    size = path.stat().st_size
+    r.serial(100_000, "tx", dynamixel.ping(2))  # closes the first window
+    assert path.stat().st_size == size
+    r.idle(0)
+    assert path.stat().st_size > size
+    r.close()
+
+
+def test_flush_puts_the_held_messages_in_the_file_from_a_child_too(tmp_path):
+    path = partial_of(tmp_path / "f.mcap")
+    r = rec.Recorder(tmp_path / "f.mcap")
+    size = path.stat().st_size
+    r.serial(0, "tx", dynamixel.ping(1))
+    r.flush()
+    assert path.stat().st_size > size and r.messages == 1
+    r.close()
+    assert r.messages == 1 and (tmp_path / "f.mcap").exists()
+
+
+def test_the_encoding_child_holds_no_descriptor_of_the_run_but_the_trace(tmp_path):
+    """A firmware's socket or a pty the run closes must reach its peer's end of file, not
+    stay open in the recorder's child."""
+    read_end, write_end = os.pipe()
+    r = rec.Recorder(tmp_path / "d.mcap")
+    try:
+        os.close(write_end)
+        assert select.select([read_end], [], [], 10.0)[0] and os.read(read_end, 1) == b""
+    finally:
+        os.close(read_end)
+        r.close()
+
+
+def test_discard_stops_the_child_and_leaves_no_file(tmp_path):
+    r = rec.Recorder(tmp_path / "x.mcap")
+    r.serial(0, "tx", dynamixel.ping(1))
+    r.advance(600_000)   # a window handed over
+    r.discard()
+    assert list(tmp_path.iterdir()) == []
+
+
+FULL_DISK = """
+import resource, sys
+from host_tools.trace.recorder import EncodeIn, Recorder
+from protocol.errors import UserError
+resource.setrlimit(resource.RLIMIT_FSIZE, (6000, 6000))
+r = Recorder(sys.argv[1], encode_in=EncodeIn(sys.argv[2]))
+try:
+    for i in range(20000):
+        r.telemetry(i * 1000, {"i": i, "pad": "x" * 40})
+    r.close()
+except UserError as exc:
+    print(exc)
+    sys.exit(2)
+"""
+
+
+def test_a_full_disk_in_the_child_is_the_runs_one_line(tmp_path):
+    """The child cannot write: the run learns it at its next window and says the line the
+    run's own process would, keeping what was written."""
+    import subprocess
+    import sys
+
+    from host_tools.trace import recover
+
+    lines = []
+    for where in rec.EncodeIn:
+        path = tmp_path / where.value / "full.mcap"
+        path.parent.mkdir()
+        proc = subprocess.run([sys.executable, "-c", FULL_DISK, str(path), where.value],
+                              cwd=ROOT, capture_output=True, text=True, timeout=120,
+                              env=dict(os.environ, PYTHONPATH=str(ROOT)))
+        assert proc.returncode == 2, proc.stderr
+        assert "Traceback" not in proc.stderr and proc.stdout.count("\n") == 1
+        assert "cannot write trace" in proc.stdout
+        assert recover.recover(path, path.with_name("rec.mcap"))["messages"] > 0
+        lines.append(proc.stdout.replace(where.value, "WHERE"))
+    assert lines[0] == lines[1]
