@@ -101,7 +101,8 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
     with tempfile.TemporaryDirectory() as tmp:
         if record:
             from host_tools.trace.recorder import open_recorder
-            rec = open_recorder(Path(tmp) / "b.mcap", {})
+            from host_tools.trace.windows import encode_in_for
+            rec = open_recorder(Path(tmp) / "b.mcap", {}, encode_in=encode_in_for(not in_process))
             rec.serial = sw.wrap("recorder in bus", rec.serial)   # called from inside the bus
             for name in ("can", "switch_edge", "telemetry", "servo_state", "body_pose",
                          "joints", "fault", "link", "advance", "idle"):

@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from hil import scenario as scenario_mod
 from hil.canbus.bus import CanBus, Endpoint
@@ -27,6 +27,9 @@ from host_tools import plugins
 from protocol import link_schema as ls
 from protocol.dynamixel import models
 from protocol.errors import UserError
+
+if TYPE_CHECKING:
+    from host_tools.trace.windows import EncodeIn
 
 NO_RUNTIME = "none"   # a beams run has no firmware
 
@@ -144,7 +147,7 @@ class Run:
                      if self.live is not None else {})
             try:
                 self.recorder = Recorder(self.trace or os.devnull, meta, live=self.live,
-                                         overwrite=overwrite,
+                                         overwrite=overwrite, encode_in=self._encode_in(),
                                          protocol=models.protocol(sc.bus.model), **extra)
             except BaseException:
                 self.close()
@@ -158,6 +161,13 @@ class Run:
             except BaseException:
                 self.close()
                 raise
+
+    def _encode_in(self) -> "EncodeIn":
+        from host_tools.trace.windows import encode_in_for
+
+        return encode_in_for(not self.beams and (
+            self.firmware.own_process if self.firmware is not None
+            else self.runtime is not Runtime.CPYTHON_INPROCESS))
 
     def _runtime_name(self) -> str:
         """What ran the firmware: its runtime, an ELF's or an executable's, none (beams)."""

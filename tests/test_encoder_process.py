@@ -8,6 +8,8 @@ import os
 import select
 from pathlib import Path
 
+import pytest
+
 from host_tools.trace import recorder as rec
 from host_tools.trace.target import partial_of
 from protocol.dynamixel import v1 as dynamixel
@@ -117,3 +119,16 @@ def test_a_full_disk_in_the_child_is_the_runs_one_line(tmp_path):
         assert recover.recover(path, path.with_name("rec.mcap"))["messages"] > 0
         lines.append(proc.stdout.replace(where.value, "WHERE"))
     assert lines[0] == lines[1]
+
+
+@pytest.mark.parametrize("runtime,where", [("micropython", "this-process"),
+                                          ("cpython", "this-process"),
+                                          ("cpython-inprocess", "child-process")])
+def test_a_run_encodes_beside_its_firmware_or_in_a_child(tmp_path, runtime, where):
+    """A firmware in a process of its own leaves the run waiting while it computes, so the
+    run encodes then; a firmware in the run's process leaves it nothing to wait on."""
+    from host_tools import Run
+
+    with Run(ROOT / "scenarios" / "flat-tripod.toml", runtime=runtime, duration_s=0.1,
+             trace=tmp_path / "r.mcap") as run:
+        assert run.recorder.encode_in.value == where

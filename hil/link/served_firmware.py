@@ -48,6 +48,7 @@ class ServedFirmware(Protocol):
     """A firmware the simulator starts and serves itself (hil/run/lockstep.py ``Simulator.run``)."""
 
     runtime: str
+    own_process: bool   # it computes in a process of its own, while the host waits
 
     def command(self) -> list[str]:
         """The command line that starts it."""
@@ -113,6 +114,7 @@ class BoardFirmware:
 
     main: Path
     runtime: str = BOARD_RUNTIME
+    own_process: bool = True
 
     def command(self) -> list[str]:
         return [firmware_command("micropython")[0], str(self.main)]
@@ -133,6 +135,7 @@ class ExecutableFirmware:
 
     path: Path
     runtime: str = EXECUTABLE
+    own_process: bool = True
 
     def command(self) -> list[str]:
         return [str(self.path)]
@@ -162,6 +165,7 @@ class ElfFirmware:
     gdb_port: int | None = None
     coverage: Path | None = None
     runtime: str = ELF_RUNTIME
+    own_process: bool = False   # Unicorn, in the host's process
 
     @property
     def path(self) -> Path:
