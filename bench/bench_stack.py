@@ -89,9 +89,10 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
     ``in_process``: the firmware runs in this process, so "waiting" is its compute itself
     (the wall time outside the link's exchange), with no link latency.
 
-    ``cpu``: every part in this thread's CPU time instead of wall time, and the firmware
-    process's CPU time (getrusage) beside them: figures a shared, loaded machine does not
-    inflate (waiting is then the host's own CPU in the link's calls)."""
+    ``cpu``: every part in this thread's CPU time instead of wall time, and the child
+    processes' CPU time (getrusage: the firmware's under micropython, the recorder's
+    encoding child's in process) beside them and in the total: figures a shared, loaded
+    machine does not inflate (waiting is then the host's own CPU in the link's calls)."""
     sc = scenario_mod.load_scenario(SCENARIO)
     clock = time.thread_time if cpu else time.perf_counter
     sw = _Stopwatch(clock)
@@ -119,12 +120,12 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
             t0 = clock()
             r = sim.run(BREAKDOWN_S, in_process=run_firmware if in_process else None)
             total = clock() - t0
-            child = _children_cpu_s() - child0
         finally:
             Connection.batch, Connection.reply = batch, reply
             DirectConnection.exchange = exchange
             if rec is not None:
-                rec.close()
+                rec.close()   # waits for the recorder's child, if it has one
+        child = _children_cpu_s() - child0
     s = sw.s
     if in_process:
         s["wait"] = total - s["host"]
@@ -140,11 +141,14 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
     compute = out[wait] if in_process else r.firmware.compute_us_mean or 0.0
     if not in_process:
         out["firmware compute (overlaps)"] = compute
-    if cpu and not in_process:   # a cycle's CPU: the host's and the firmware process's
-        fw = child / cycles * 1e6
-        out["firmware process CPU"] = fw
-        compute = min(compute, fw)
-        out["total"] += fw
+    if cpu:   # a cycle's CPU: the host's, the firmware process's, the recorder's child's
+        child_us = child / cycles * 1e6
+        if in_process:
+            out["recorder process CPU"] = child_us
+        else:
+            out["firmware process CPU"] = child_us
+            compute = min(compute, child_us)
+        out["total"] += child_us
     out[OVERHEAD] = 100.0 * (out["total"] - out["world step"] - compute) / out["total"]
     return out
 
