@@ -132,7 +132,7 @@ def run_one(spec: RunSpec, speed_m_s: float | None = None,
     if nav:
         out["navigation"] = nav[0].summary()
     out.update(x_m=pose.x_m, dx_m=spec.distance_m - pose.x_m, dy_m=pose.y_m,
-               dyaw_deg=math.degrees(pose.yaw_rad), presses=[int(p) for p in world.switches.presses],
+               dyaw_deg=math.degrees(pose.yaw_rad), presses=list(world.switches.presses),
                obstacles=len(world.obstacles), wall_s=time.perf_counter() - t0,
                sim_s=world.t_us * 1e-6)
     out["trace"] = trace
