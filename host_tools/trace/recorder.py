@@ -14,11 +14,12 @@ Why it is built this way:
   ``TARGET.partial``, locked, until ``close()`` renames it (host_tools/trace/target.py).
 * Determinism: nothing here reads the wall clock; the same run gives the same bytes.
 * Cost: the parts hand over raw values (about 1 us a call) and the encoding (hand-rolled
-  protobuf for the ~360 serial bursts a simulated second) is done in ``idle()``, which the
-  simulator calls while the firmware computes, so on two or more cores it overlaps the
-  firmware instead of adding to the run. What ``idle()`` has not done is done when the
-  window is written. ``make bench`` measures what recording adds to a run. Each message
-  costs its framing and index entry, so a serial burst carries its decoded Dynamixel
+  protobuf for the ~360 serial bursts a simulated second) is done off the run's critical
+  path (host_tools/trace/windows.py ``EncodeIn``): by default in a forked child that gets
+  each closed window, or in ``idle()``, which the simulator calls while a firmware in its
+  own process computes; what ``idle()`` has not done is done when the window is written.
+  ``make bench`` measures what recording adds to a run. Each message costs its framing
+  and index entry, so a serial burst carries its decoded Dynamixel
   packets (``SerialBytes.packets``) instead of a second topic repeating the bytes, decoded
   in the line's protocol (``protocol``: host_tools/dynamixel/decode/, the same schema for
   Protocol 1.0 and 2.0).
