@@ -74,6 +74,20 @@ def test_the_encoding_child_holds_no_descriptor_of_the_run_but_the_trace(tmp_pat
         r.close()
 
 
+def test_a_child_that_died_is_an_error_at_the_next_window_not_a_hang(tmp_path):
+    import signal
+
+    r = rec.Recorder(tmp_path / "k.mcap")
+    os.kill(r._encoder.pid, signal.SIGKILL)
+    r.serial(0, "tx", dynamixel.ping(1))
+    with pytest.raises(RuntimeError, match="ended unexpectedly"):
+        for t_us in (600_000, 1_200_000):   # the second waits for the first's report
+            r.advance(t_us)
+    assert r.closed
+    r.close()   # nothing left to do
+    assert partial_of(tmp_path / "k.mcap").exists()
+
+
 def test_discard_stops_the_child_and_leaves_no_file(tmp_path):
     r = rec.Recorder(tmp_path / "x.mcap")
     r.serial(0, "tx", dynamixel.ping(1))

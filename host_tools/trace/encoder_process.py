@@ -94,7 +94,7 @@ class EncoderProcess:
         try:
             _write_all(self._down, _LEN.pack(len(frame)) + frame)
         except BrokenPipeError:
-            self._unacknowledged = True   # the child ended: its report says why
+            pass   # the child ended: its report, read next, says why
         finally:
             signal.pthread_sigmask(signal.SIG_SETMASK, old)
         self._unacknowledged = True

@@ -123,6 +123,9 @@ class HeldWindows:
             self.messages = exc.messages
             self._stop_writing()
             raise UserError(str(exc)) from None
+        except RuntimeError:   # the child died: what it wrote stays in the partial file
+            self._stop_writing()
+            raise
 
     def _write_window(self, pending: list[tuple]) -> None:
         """The child's part: a window handed over, encoded and written."""
