@@ -824,11 +824,10 @@ static int execution_priority(bc_t *s) {
     return level;
 }
 
-/* the pending exception that preempts what runs now, -1 when none */
 /* the lowest exception from ``from`` on that is pending and enabled (a system exception
    always is), -1 when none: the pending bits walked a word at a time */
 static int pending_from(bc_t *s, int from) {
-    for (int w = from >> 5; w < 4; w++) {
+    for (int w = from >> 5; w < (N_EXC + 31) >> 5; w++) {
         uint32_t bits = s->pend[w] & (w == from >> 5 ? ~0u << (from & 31) : ~0u);
         for (; bits; bits &= bits - 1) {
             int e = 32 * w + __builtin_ctz(bits);
@@ -839,6 +838,7 @@ static int pending_from(bc_t *s, int from) {
     return -1;
 }
 
+/* the pending exception that preempts what runs now, -1 when none */
 int bc_next_exception(bc_t *s) {
     if (!s->pending_n) return -1;
     int best = -1, best_p = 0;
