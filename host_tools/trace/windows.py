@@ -71,16 +71,18 @@ class HeldWindows:
 
     def _begin(self, encode_in: EncodeIn) -> None:
         """Start the child, if encoding goes there (a live server reads the encoded
-        messages in this process, so with one it stays here): ``encode_in`` says where."""
-        if self._live is not None:
-            encode_in = EncodeIn.THIS_PROCESS
-        self.encode_in = encode_in
-        if encode_in is EncodeIn.CHILD_PROCESS:
+        messages in this process, so with one it stays here)."""
+        if encode_in is EncodeIn.CHILD_PROCESS and self._live is None:
             try:
                 self._file.flush()   # the child writes on from here
             except OSError as exc:
                 self._write_failed(exc)
             self._encoder = EncoderProcess(self, self._file.fileno())
+
+    @property
+    def encode_in(self) -> EncodeIn:
+        """Where this file's messages are encoded."""
+        return EncodeIn.THIS_PROCESS if self._encoder is None else EncodeIn.CHILD_PROCESS
 
     def _defer(self, t_us: int, encode: Callable[..., None], args: tuple) -> None:
         """Hold the raw values; ``encode(out, t_ns, *args)`` appends the encoded messages
