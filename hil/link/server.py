@@ -189,8 +189,7 @@ class LinkServer:
         """Write ``tx`` on the servo line, then read up to ``nrx`` bytes within the timeout."""
         bus, clock = self.bus, self.clock
         t0 = clock.t_us
-        bus.master_write(tx)
-        rx = bus.master_read(nrx, timeout_us)
+        rx = bus.transact(tx, nrx, timeout_us)
         if self._counting:
             result.bus_busy_us += clock.t_us - t0
             heard = len(rx) - (min(len(tx), len(rx)) if bus.echo else 0)

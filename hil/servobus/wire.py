@@ -1,5 +1,6 @@
 """The UART under the servo bus: bytes as 8N1 bits in time, what a receiver at another baud
-makes of them, and a burst of bytes on the line (hil/servobus/line.py moves them)."""
+makes of them, and bursts of bytes on the line, which overlap as a wired AND (the idle-high
+level losing to any driven low bit; hil/servobus/line.py moves them)."""
 from __future__ import annotations
 
 import functools
@@ -65,3 +66,51 @@ class Burst:
         self.read = 0
         self.reply = reply
         self.emitted = False
+
+
+def and_overlap(bursts: list[Burst], tx: bytearray, t0_us: int, t1_us: int, baud: int) -> bool:
+    """Master bytes sent from ``t0_us`` to ``t1_us`` over the replies in ``bursts``: each
+    reply byte whose middle falls inside becomes the wired AND with the master's byte then,
+    in both. True when any did."""
+    per = US_BITS / baud
+    hit = False
+    for b in bursts:
+        if not b.reply:
+            continue
+        end = b.start_us + per * len(b.data)
+        if end <= t0_us or b.start_us >= t1_us:
+            continue
+        for i in range(b.read, len(b.data)):
+            mid = b.start_us + (i + 0.5) * per
+            if t0_us <= mid < t1_us:
+                j = int((mid - t0_us) / per)
+                c = b.data[i] & tx[j]
+                b.data[i] = c
+                tx[j] = c
+                hit = True
+    return hit
+
+
+def merge_burst(bursts: list[Burst], burst: Burst, baud: int) -> bool:
+    """Add ``burst`` to ``bursts`` (kept in start order, never overlapping): into the one it
+    overlaps as the wired AND, byte by byte, else on its own. True when two replies met."""
+    per = US_BITS / baud
+    for b in bursts:
+        end = b.start_us + per * len(b.data)
+        if burst.start_us < end and b.start_us < burst.start_us + per * len(burst.data):
+            k = int(round((burst.start_us - b.start_us) / per))
+            if k < 0:  # keep the earlier start
+                b.data[0:0] = b"\xff" * -k
+                b.start_us = burst.start_us
+                k = 0
+            for i, v in enumerate(burst.data):
+                if k + i < len(b.data):
+                    b.data[k + i] &= v
+                else:
+                    b.data.append(v)
+            both = b.reply and burst.reply
+            b.reply = b.reply or burst.reply
+            return both
+    bursts.append(burst)
+    bursts.sort(key=lambda x: x.start_us)
+    return False
