@@ -200,8 +200,10 @@ class HeldWindows:
     def _write_failed(self, exc: OSError) -> None:
         """A full disk or a file-size limit: stop recording, keep what is on disk, one line."""
         where = self._stop_writing()
-        raise UserError(f"{self.path}: cannot write trace ({exc.strerror or exc}); the "
-                        f"{self.messages} messages written before stay in {where}") from None
+        # a count of whole chunks: one whose index the disk refused is on disk too
+        raise UserError(f"{self.path}: cannot write trace ({exc.strerror or exc}); what was "
+                        f"written before (at least {self.messages} messages) stays in {where}"
+                        ) from None
 
     def _stop_writing(self) -> str:
         """Close the file as it is; where what was written stays (one line's words)."""
