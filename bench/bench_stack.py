@@ -52,21 +52,27 @@ def _median_rtf(record: bool, *extra: str) -> float:
 
 
 class _Stopwatch:
-    """Seconds spent inside wrapped callables, by label (nested labels are not subtracted),
-    on ``clock`` (wall time, or this thread's CPU time)."""
+    """Seconds spent inside wrapped callables, by label, on ``clock`` (wall time, or this
+    thread's CPU time). A call inside another of its own label counts once (``transact``
+    falling back to ``master_write``); one of another label is not subtracted."""
 
     def __init__(self, clock: Callable[[], float] = time.perf_counter) -> None:
         self.s: dict[str, float] = {}
         self.clock = clock
+        self._inside: set[str] = set()
 
     def wrap(self, label: str, fn: Callable[..., Any]) -> Callable[..., Any]:
-        clock = self.clock
+        clock, inside = self.clock, self._inside
 
         def timed(*args: Any, **kw: Any) -> Any:
+            if label in inside:
+                return fn(*args, **kw)
+            inside.add(label)
             t0 = clock()
             try:
                 return fn(*args, **kw)
             finally:
+                inside.discard(label)
                 self.s[label] = self.s.get(label, 0.0) + clock() - t0
         return timed
 
@@ -109,7 +115,7 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
                          "joints", "fault", "link", "advance", "idle"):
                 setattr(rec, name, sw.wrap("recorder", getattr(rec, name)))
         sim = Simulator(sc, 3, world=world, recorder=rec)
-        for name in ("master_write", "master_read", "idle_until"):
+        for name in ("master_write", "master_read", "transact", "idle_until"):
             setattr(sim.bus, name, sw.wrap("bus", getattr(sim.bus, name)))
         batch, reply, exchange = Connection.batch, Connection.reply, DirectConnection.exchange
         Connection.batch = sw.wrap("wait", batch)
