@@ -33,10 +33,13 @@ $(STAMP): pyproject.toml Makefile | $(BIN)/python
 $(DRIVE_CORE): hil/world/drive_core.c | $(BIN)/python
 	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ $<
 
-# the AX-12s' SYNC_WRITE and READ compiled (hil/servobus/servo_core.py), built the same way:
+# the AX-12s' SYNC_WRITE and READ, and a cycle's status reads on the line, compiled
+# (hil/servobus/servo_core.py, reads_core.py), built the same way:
 # the same bits as the Python servos (exp and rint from the C library, as CPython's)
-$(SERVO_CORE): hil/servobus/servo_core.c | $(BIN)/python
-	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ $<
+$(SERVO_CORE): hil/servobus/servo_core.c hil/servobus/reads_core.c hil/servobus/servo_core.h \
+		| $(BIN)/python
+	$(BIN)/python -m ziglang cc -mcpu=baseline -O2 -shared -fPIC -ffp-contract=off -o $@ \
+		$(filter %.c,$^)
 
 # the ELF board's event heap, USART2 and poll waits compiled (hil/mcu/board_core.py),
 # built the same way: integers only, the Python model's in the same order

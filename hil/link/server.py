@@ -13,6 +13,8 @@ from typing import Any, Callable
 
 from hil.link.board_line import MISTAKES, BoardLine, set_master_baud
 from hil.canbus.bus import CanBus
+from hil.servobus import reads_core
+from hil.servobus.reads_core import ReadsCore
 from hil.link.firmware_process import Connection, DirectConnection, FirmwareError, LinkViolation
 from hil.run_result import RunTally
 from hil.seams import TraceRecorder
@@ -61,6 +63,7 @@ class LinkServer:
         self.console: Callable[[], None] | None = None  # takes what the firmware printed
         self.version = sim_link.VERSION      # the link version the hello agreed
         self._parser = dxl.Parser()          # R's retry rule: the master's test of a reply
+        self._reads_core = ReadsCore()
 
     def _event(self, payload: bytes, result: RunTally) -> None:
         if not payload:
@@ -187,20 +190,51 @@ class LinkServer:
 
     def _transact(self, tx: bytes, nrx: int, timeout_us: int, result: RunTally) -> bytes:
         """Write ``tx`` on the servo line, then read up to ``nrx`` bytes within the timeout."""
-        bus, clock = self.bus, self.clock
-        t0 = clock.t_us
-        rx = bus.transact(tx, nrx, timeout_us)
-        if self._counting:
-            result.bus_busy_us += clock.t_us - t0
-            heard = len(rx) - (min(len(tx), len(rx)) if bus.echo else 0)
-            result.bus_wire_us += round((len(tx) + heard) * self.byte_us)
+        t0 = self.clock.t_us
+        rx = self.bus.transact(tx, nrx, timeout_us)
+        self._count(tx, rx, t0, result)
         return rx
+
+    def _count(self, tx: bytes, rx: bytes, t0_us: int, result: RunTally) -> None:
+        """A transaction's bus time (from ``t0_us`` to now) and wire time, once counting."""
+        if self._counting:
+            result.bus_busy_us += self.clock.t_us - t0_us
+            heard = len(rx) - (min(len(tx), len(rx)) if self.bus.echo else 0)
+            result.bus_wire_us += round((len(tx) + heard) * self.byte_us)
 
     def _reads(self, payload: bytes, result: RunTally) -> bytes:
         """Link version 2's R (docs/link.md): each read in order, tried again while its
         reply is not its servo's status (protocol/dynamixel/v1.py ``status_ok``, the
         master's own test) and retries are left, skipped when the read it names did not
-        succeed; the reply holds every attempt's time and bytes."""
+        succeed; the reply holds every attempt's time and bytes. Compiled on a plain line
+        (hil/servobus/reads_core.py), which hands back what it does not serve."""
+        out = self._reads_core.carry_out(self.bus, payload)
+        if out is None:
+            return self._attempts(self._parse_reads(payload), 0, 0, [], bytearray(1), result)
+        if self._counting:
+            result.bus_busy_us += out.busy_us
+            result.bus_wire_us += out.wire_us
+        h = out.handover
+        if h is None:
+            return out.body
+        reads, r, k = self._parse_reads(payload), h.r, h.k
+        if h.code == reads_core.PYTHON_REPLY:   # attempt k's reply: read it, then the rule
+            dev_id, nparams, retries, _, _, nrx, timeout_us, tx = reads[r]
+            t0 = self.clock.t_us - self.bus.wire_us(len(tx))
+            rx = self.bus.hear_reply(h.reply, h.start_us, nrx, timeout_us)
+            self._count(tx, rx, t0, result)
+            h.body += struct.pack("<QH", self.clock.t_us, len(rx)) + rx
+            h.body[0] += 1
+            ok = dxl.status_ok(self._parser, rx, 0, len(rx), dev_id, nparams)
+            if ok or k >= retries:
+                h.done.append(ok)
+                r, k = r + 1, 0
+            else:
+                k += 1
+        return self._attempts(reads, r, k, h.done, h.body, result)
+
+    def _parse_reads(self, payload: bytes) -> list[tuple]:
+        """R's reads, checked: (dev_id, nparams, retries, flags, skip, nrx, timeout_us, tx)."""
         reads, at, room = [], 1, sim_link.MAX_REPLY_LEN - 9
         for _ in range(payload[0]):
             dev_id, nparams, retries, flags, skip, nrx, timeout_us, ntx = struct.unpack_from(
@@ -217,22 +251,28 @@ class LinkServer:
         if room < 0:
             raise LinkViolation("the reads' replies could be longer than a reply holds "
                                 f"({sim_link.MAX_REPLY_LEN})")
-        done: list[bool | None] = []
-        body = bytearray(1)
-        for dev_id, nparams, retries, flags, skip, nrx, timeout_us, tx in reads:
+        return reads
+
+    def _attempts(self, reads: list[tuple], r: int, k: int, done: list[bool | None],
+                  body: bytearray, result: RunTally) -> bytes:
+        """``reads[r:]`` from attempt ``k`` of read ``r`` (its earlier ones failed), the
+        outcomes of the earlier reads in ``done``, their attempts in ``body``."""
+        for dev_id, nparams, retries, flags, skip, nrx, timeout_us, tx in reads[r:]:
             if skip != sim_link.NO_SKIP and done[skip] is not True:
                 done.append(None)
                 continue
             start = len(tx) if flags & sim_link.READ_ECHO else 0
             ok = False
-            for _ in range(1 + retries):
+            while k <= retries:
                 rx = self._transact(tx, nrx, timeout_us, result)
                 body += struct.pack("<QH", self.clock.t_us, len(rx)) + rx
                 body[0] += 1
                 ok = dxl.status_ok(self._parser, rx, start, len(rx), dev_id, nparams)
+                k += 1
                 if ok:
                     break
             done.append(ok)
+            k = 0
         return bytes(body)
 
     def serve(self, conn: Connection, end_us: int, result: RunTally) -> None:

@@ -46,15 +46,13 @@ class Bus:
         self.on_bytes = on_bytes
         self.advance = advance
         self.monitor = None              # hil/servobus/master_check.py: sees what the master sends
-        # Timing-margin hooks (hexhil margin; both off by default). The master sees a received
-        # byte this long after it arrived (a USB-serial adapter's latency timer), and every
-        # servo answers after this delay whatever its register 5 holds (a Return Delay the
-        # master's configure write did not change).
+        # Timing-margin hooks (hexhil margin; off by default): the master sees a byte this
+        # long after it arrived (a USB adapter's latency timer); every servo answers after
+        # this delay whatever its register 5 holds (a configure write that did not take).
         self.rx_latency_us = 0
         self.return_delay_override_us: int | None = None
         self._rx: list[Burst] = []     # heard by the master, oldest first, never overlapping
-        # ``transact`` carries a READ out itself only with this class's rules (not Bus2's)
-        self._own_rules = all(getattr(type(self), f) is getattr(Bus, f) for f in (
+        self._own_rules = all(getattr(type(self), f) is getattr(Bus, f) for f in (  # not Bus2's
             "master_write", "master_read", "_deliver", "_dispatch", "_schedule", "_move_to"))
         self._parser = self.parser_class()
         self._off: set[int] = set()      # id(servo) of unplugged servos
@@ -202,14 +200,16 @@ class Bus:
         return bytes(out)
 
     def transact(self, tx: bytes, nrx: int, timeout_us: int) -> bytes:
-        """``master_write(tx)`` then ``master_read(nrx, timeout_us)``: the same bytes, times
-        and calls out. A READ to one servo on a plain line whose whole reply arrives in
-        time skips the parser and the bursts, where the two calls cost about 20 us a read
-        (tests/test_line_transact.py compares both ways)."""
-        s = self._plain_read(tx)
-        if s is None:
+        """``master_write(tx)`` then ``master_read(nrx, timeout_us)``, the same bytes, times and
+        calls out; a READ to one servo on a plain line skips the parser and the bursts (the
+        two calls cost about 20 us a read; tests/test_line_transact.py compares both ways)."""
+        targets = self._by_id.get(tx[2]) if (
+            len(tx) == 8 and self.plain() and tx[0] == 0xFF and tx[1] == 0xFF and tx[3] == 4
+            and tx[4] == dxl.READ and (~sum(tx[2:7])) & 0xFF == tx[7]) else None
+        if targets is None or len(targets) != 1:   # not one servo's READ on a plain line
             self.master_write(tx)
             return self.master_read(nrx, timeout_us)
+        s = targets[0]
         t0, stats, on_bytes = self.clock.t_us, self.stats, self.on_bytes
         t1 = t0 + self.wire_us(8)
         stats["tx_bytes"] += 8
@@ -221,35 +221,34 @@ class Bus:
         reply = self._servo_bank.read(s, params, t1)
         if reply is False:
             reply = s.handle(dxl.READ, params, False, t1)
-        deadline = t1 + int(timeout_us)
         if not reply:
-            self._move_to(deadline)
+            self._move_to(t1 + int(timeout_us))
             return b""
-        delay = self.return_delay_override_us
-        start = t1 + (s.return_delay_us if delay is None else delay)
-        m = len(reply)
-        t_last = start + self.wire_us(m)
         stats["replies"] += 1
-        if m > nrx or t_last > deadline:   # bytes left on the line, or a reply cut off
-            self._put(Burst(start, bytearray(reply), True))
-            return self.master_read(nrx, timeout_us)
-        stats["rx_bytes"] += m
-        if on_bytes is not None:
-            on_bytes(start, "rx", bytes(reply))
-        self._move_to(t_last if m == nrx else deadline)
-        return bytes(reply)
+        delay = self.return_delay_override_us
+        return self.hear_reply(bytes(reply), t1 + (s.return_delay_us if delay is None else delay),
+                               nrx, timeout_us)
 
-    def _plain_read(self, tx: bytes) -> Servo | None:
-        """The one servo a clean 8-byte READ goes to, with nothing else on the line and no
-        fault, hook or other class's rule in play; else None."""
-        if (len(tx) != 8 or self._rx or not self._own_rules or self.faults is not None
-                or self.echo or self.monitor is not None or self._foreign or self._off
-                or self.rx_latency_us or self._servo_bank is None or self._parser.pending()
-                or tx[0] != 0xFF or tx[1] != 0xFF or tx[3] != 4 or tx[4] != dxl.READ
-                or (~sum(tx[2:7])) & 0xFF != tx[7]):
-            return None
-        targets = self._by_id.get(tx[2])
-        return targets[0] if targets is not None and len(targets) == 1 else None
+    def hear_reply(self, reply: bytes, start_us: int, nrx: int, timeout_us: int) -> bytes:
+        """``master_read(nrx, timeout_us)`` of a servo's status sent from ``start_us`` onto a
+        plain line, the clock at the end of its READ: whole and in time, here."""
+        m, deadline = len(reply), self.clock.t_us + int(timeout_us)
+        t_last = start_us + self.wire_us(m)
+        if m > nrx or t_last > deadline:   # bytes left on the line, or a reply cut off
+            self._put(Burst(start_us, bytearray(reply), True))
+            return self.master_read(nrx, timeout_us)
+        self.stats["rx_bytes"] += m
+        if self.on_bytes is not None:
+            self.on_bytes(start_us, "rx", reply)
+        self._move_to(t_last if m == nrx else deadline)
+        return reply
+
+    def plain(self) -> bool:
+        """Nothing on the line and no fault, hook or other class's rule in play: a READ's
+        reply is worked out without the parser and the bursts (hil/servobus/reads_core.py)."""
+        return not (self._rx or not self._own_rules or self.faults is not None or self.echo
+                    or self.monitor is not None or self._foreign or self._off
+                    or self.rx_latency_us or self._servo_bank is None or self._parser.pending())
 
     def next_rx_us(self) -> int | None:
         """When the burst now arriving has fully arrived (real-time server), or None. (A

@@ -8,51 +8,7 @@
  * library's, which CPython's math.exp and round call too). The servos' state lives in
  * ctypes structures the Python code reads and writes as attributes (servo_core.py).
  * Loaded by hil/servobus/servo_core.py; built by the Makefile. */
-#include <math.h>
-#include <stdint.h>
-#include <string.h>
-
-/* hil/servobus/health.py ServoHealth's fields, in its _fields_ order */
-struct health {
-    double supply_v, supply_frac, temperature_c, hot_spot_c;
-    int64_t saturated_us;
-    int32_t voltage_units, temperature_units;
-    uint8_t overload, hot;
-};
-
-/* hil/servobus/ax12_servo.py Servo's fields, in its _fields_ order */
-struct servo {
-    int64_t t_us, busy_until_us, deaf_until_us, held_us, held, instructions, ignored,
-        eeprom_busy_us;
-    uint8_t alarm_led, address_changed, present_stale;
-};
-
-/* one control-table cell's field, from protocol/dynamixel/ax12.py (start < 0: reserved) */
-struct cell {
-    int32_t start, size, lo, hi, writable;
-};
-
-struct bank {
-    int n;
-    struct servo **servo;
-    struct health **health;
-    unsigned char **table;
-    const int32_t *joint;          /* the servo's joint in the world; -1: not a MuJoCo joint */
-    const int32_t *original;       /* the 2006 manual's Lock rule */
-    const struct cell *cells;      /* 50 */
-    const double *position_rad;    /* 1024: drive.py _POSITION_RAD */
-    const double *speed_rad_s;     /* 2048: drive.py _SPEED_RAD_S */
-    /* the world: joint state (read) and the drive bank (written) */
-    const double *q, *qd, *duty, *offset;
-    double *goal, *setpoint, *speed, *torque_limit, *margin, *slope, *punch, *compliance;
-    unsigned char *enabled;
-    int joints;                    /* the drive bank's size: margin and slope rows */
-    double motor_no_load, ax12_no_load, speed_unit, load_unit, position_unit, punch_unit,
-        moving_eps;
-    /* health.py constants */
-    double ambient_c, heat_c, thermal_tau_s, overheat_tau_s;
-    int64_t overload_us;
-};
+#include "servo_core.h"
 
 enum { ERR_INPUT_VOLTAGE = 0x01, ERR_OVERHEATING = 0x04, ERR_RANGE = 0x08, ERR_OVERLOAD = 0x20,
        ERR_INSTRUCTION = 0x40 };

@@ -130,8 +130,19 @@ class ServoBank:
         self._out = ctypes.create_string_buffer(ax12.TABLE_SIZE + 6)
         self._out_at = ctypes.addressof(self._out)
         self.index = {id(s): i for i, (s, ok) in enumerate(zip(servos, served)) if ok}
+        # ID -> the bank index of the one servo it reaches, -1 (none, two, or not served)
+        ids = [s.id for s in servos]
+        by_id = np.full(256, -1, dtype=np.int16)
+        for i in self.index.values():
+            dev_id = servos[i].id
+            if ids.count(dev_id) == 1:
+                by_id[dev_id] = i
+        self._keep.append(by_id)
+        self.by_id_address = _address(by_id)
+        self.ref = self._ref
         self.n = n
         self.advance = arrays["advance"]   # the world's: what the first servo's catch-up did
+        self.next_step_us = arrays.get("next_step_us")   # when its advance next steps
 
     @classmethod
     def build(cls, servos: Sequence[Any], servo_class: type) -> ServoBank | None:

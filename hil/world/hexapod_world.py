@@ -266,12 +266,17 @@ class HexapodWorld:
             if self.t_us % 100_000 == 0:
                 self._sample()
 
+    def next_step_us(self) -> int:
+        """When the next physics step is due: ``advance_to`` an earlier time does nothing."""
+        return self.t_us + PHYSICS_DT_US
+
     def joint_buffers(self) -> dict[str, Any]:
-        """The joint state and drive bank arrays, by name, and this world's ``advance_to``:
-        what a compiled servo bank reads and writes (hil/servobus/servo_core.py)."""
+        """The joint state and drive bank arrays, by name, and this world's ``advance_to``
+        and ``next_step_us``: what the compiled servo bank and status reads read and write
+        (hil/servobus/servo_core.py, reads_core.py)."""
         if self._buffers is None:
             self._buffers = {**self.drives.buffers(), "q": self._q, "qd": self._qd,
-                             "advance": self.advance_to}
+                             "advance": self.advance_to, "next_step_us": self.next_step_us}
         return self._buffers
 
     def joint_state_lists(self) -> tuple[list[float], list[float], list[float]]:

@@ -1,0 +1,171 @@
+/* A cycle's status reads on a plain line: link version 2's R (hil/link/server.py _reads,
+ * docs/link.md "R reads") carried out in one call, where the Python code makes about thirty
+ * calls an attempt (Bus.transact, the master's status test, the reply's packing). Each
+ * attempt is what Bus.transact does for a READ to one servo: 8 bytes out, the servo's
+ * status (hx_read) after its Return Delay, read back whole; the same integer times, the
+ * same reply bytes, the same retry and skip rules.
+ *
+ * The Python side (reads_core.py) hands over the payload and the line's clock, and gets
+ * control back whenever something here cannot be done: the clock reaching the world's next
+ * physics step (ADVANCE: the bytes heard so far go out, in order, before the world steps);
+ * an attempt this does not serve (PYTHON: the general path takes over before it; after its
+ * servo answered, with a reply the master does not read whole, PYTHON_REPLY); a payload
+ * this does not check
+ * (FALLBACK, before doing anything: the general path carries the R out and raises what it
+ * finds wrong). */
+#include "servo_core.h"
+
+enum { DONE = 0, ADVANCE = 1, PYTHON = 2, PYTHON_REPLY = 3, FALLBACK = 4 };
+enum { START = 0, SERVO = 1, HEARD = 2 };
+enum { HEAD = 12, NO_SKIP = 0xFF, MAX_REPLY = 2048, ATTEMPT_HEAD = 10, US_BITS = 10000000,
+       READ = 0x02, RETURN_DELAY = 5 };
+
+struct reads {
+    const struct bank *bank;
+    const unsigned char *payload;
+    int32_t len;
+    const int16_t *index;         /* 256: the bank index of the one servo an ID reaches; -1 */
+    int64_t baud;
+    int64_t delay_override_us;    /* -1: each servo's own Return Delay Time */
+    int64_t t_us;                 /* the line's clock */
+    int64_t next_step_us;         /* the clock reaching this steps the world */
+    int32_t r, k, at, phase;      /* read r, whose head is at payload[at]; its attempt k */
+    int32_t i, m;                 /* the attempt's servo (bank index) and reply length */
+    int64_t t0_us, t1_us, start_us;
+    int8_t done[256];             /* per read: 1 it succeeded, 0 it failed, -1 skipped */
+    unsigned char reply[64];
+    unsigned char body[MAX_REPLY];   /* the reply after its time: u8 attempts, then each */
+    int32_t body_len;
+    unsigned char log[32768];     /* heard since the last return: u64 t, u8 'T'/'R', u8 n, n bytes */
+    int32_t log_len;
+    int64_t tx_bytes, rx_bytes, packets, replies, busy_us, wire_us;
+};
+
+static int64_t wire_us(const struct reads *s, int64_t n) { return n * US_BITS / s->baud; }
+
+static void heard(struct reads *s, int64_t t_us, char dir, const unsigned char *d, int n)
+{
+    unsigned char *p = s->log + s->log_len;
+    memcpy(p, &t_us, 8);
+    p[8] = (unsigned char)dir;
+    p[9] = (unsigned char)n;
+    memcpy(p + 10, d, (size_t)n);
+    s->log_len += 10 + n;
+}
+
+/* server.py _reads's checks, and this path's own: every read a clean 8-byte READ, no echo */
+static int checked(struct reads *s)
+{
+    const unsigned char *p = s->payload;
+    if (s->len < 1)
+        return 0;
+    int n = p[0], at = 1, room = MAX_REPLY - 9;
+    for (int r = 0; r < n; r++) {
+        if (at + HEAD > s->len)
+            return 0;
+        const unsigned char *h = p + at;
+        int retries = h[2], flags = h[3], skip = h[4], nrx = h[5] | (h[6] << 8), ntx = h[11];
+        if ((skip != NO_SKIP && skip >= r) || flags || ntx != 8 || at + HEAD + 8 > s->len)
+            return 0;
+        const unsigned char *tx = h + HEAD;
+        int sum = tx[2] + tx[3] + tx[4] + tx[5] + tx[6];
+        if (tx[0] != 0xFF || tx[1] != 0xFF || tx[3] != 4 || tx[4] != READ
+            || (~sum & 0xFF) != tx[7])
+            return 0;
+        room -= (1 + retries) * (ATTEMPT_HEAD + nrx);
+        at += HEAD + 8;
+    }
+    return at == s->len && room >= 0;
+}
+
+int hx_reads(struct reads *s)
+{
+    const unsigned char *p = s->payload;
+    s->log_len = 0;
+    if (s->at == 0) {                 /* a new R */
+        if (!checked(s))
+            return FALLBACK;
+        s->at = 1;
+        s->body[0] = 0;
+        s->body_len = 1;
+    }
+    while (s->r < p[0]) {
+        const unsigned char *h = p + s->at, *tx = h + HEAD;
+        int dev_id = h[0], nparams = h[1], retries = h[2], skip = h[4];
+        int nrx = h[5] | (h[6] << 8);
+        int64_t timeout_us;
+        uint32_t to;
+        memcpy(&to, h + 7, 4);
+        timeout_us = to;
+        if (s->phase == START) {
+            if (skip != NO_SKIP && s->done[skip] != 1) {
+                s->done[s->r++] = -1;
+                s->at += HEAD + 8;
+                continue;
+            }
+            int i = s->index[tx[2]];
+            int64_t t1 = s->t_us + wire_us(s, 8);
+            if (i < 0)
+                return PYTHON;
+            const struct servo *sv = s->bank->servo[i];
+            if (s->bank->joint[i] < 0 || sv->busy_until_us > t1 || sv->deaf_until_us > t1)
+                return PYTHON;        /* hx_read would leave it to Python */
+            s->i = i;
+            s->t0_us = s->t_us;
+            s->t1_us = t1;
+            heard(s, s->t_us, 'T', tx, 8);
+            s->tx_bytes += 8;
+            s->packets += 1;
+            s->t_us = t1;
+            s->phase = SERVO;
+            if (t1 >= s->next_step_us)
+                return ADVANCE;
+        }
+        if (s->phase == SERVO) {
+            int i = s->i;
+            int m = hx_read(s->bank, i, s->t1_us, tx[5], tx[6], s->reply);
+            int64_t deadline = s->t1_us + timeout_us, t_end = deadline;
+            s->m = 0;
+            if (m > 0) {
+                int64_t delay = s->delay_override_us >= 0 ? s->delay_override_us
+                    : 2 * (int64_t)s->bank->table[i][RETURN_DELAY] + s->bank->servo[i]->held_us;
+                int64_t start = s->t1_us + delay, t_last = start + wire_us(s, m);
+                s->replies += 1;
+                s->start_us = start;
+                s->m = m;
+                if (m > nrx || t_last > deadline)
+                    return PYTHON_REPLY;   /* bytes left on the line, or cut off */
+                s->rx_bytes += m;
+                heard(s, start, 'R', s->reply, m);
+                t_end = m == nrx ? t_last : deadline;
+            }
+            s->t_us = t_end;
+            s->phase = HEARD;
+            if (t_end >= s->next_step_us)
+                return ADVANCE;
+        }
+        /* HEARD: the attempt into the reply, then the retry rule */
+        int m = s->m;
+        unsigned char *b = s->body + s->body_len;
+        memcpy(b, &s->t_us, 8);
+        b[8] = (unsigned char)(m & 0xFF);
+        b[9] = (unsigned char)(m >> 8);
+        memcpy(b + ATTEMPT_HEAD, s->reply, (size_t)m);
+        s->body_len += ATTEMPT_HEAD + m;
+        s->body[0] += 1;
+        s->busy_us += s->t_us - s->t0_us;
+        s->wire_us += (int64_t)rint((double)(8 + m) * (10000000.0 / (double)s->baud));
+        s->phase = START;
+        /* protocol/dynamixel/v1.py status_ok: a servo's status is one whole packet (hx_read
+         * builds it), so the master's test comes down to its ID and its length */
+        int ok = m == 6 + nparams && s->reply[2] == dev_id;
+        if (ok || s->k >= retries) {
+            s->done[s->r++] = (int8_t)ok;
+            s->k = 0;
+            s->at += HEAD + 8;
+        } else {
+            s->k += 1;
+        }
+    }
+    return DONE;
+}

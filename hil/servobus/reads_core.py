@@ -1,0 +1,143 @@
+"""A cycle's status reads compiled (hil/servobus/reads_core.c ``hx_reads``), through ctypes.
+
+Link version 2 hands the host a cycle's status reads in one message, R; the general path
+(hil/link/server.py ``_reads``) carries each attempt out through ``Bus.transact``, tests its
+reply with the master's own rule and packs it: about a tenth of an in-process cycle in
+Python. On a plain line (``Bus.plain``) whose world steps by its own ``advance_to``, the C
+code does the same from the payload to the reply, stopping for the world's physics steps
+(the bytes heard so far reach ``on_bytes`` first, in order, as the bus hands them over) and
+handing back to the general path wherever it does not serve an attempt. The same bytes
+and times (tests/test_reads_core.py, and every shipped scenario's serial digest and trace).
+"""
+from __future__ import annotations
+
+import ctypes
+import struct
+from dataclasses import dataclass
+from typing import Any
+
+from hil.servobus.servo_core import LIBRARY, ServoBank
+from hil.native import load_library
+
+_P = ctypes.c_void_p
+DONE, ADVANCE, PYTHON, PYTHON_REPLY, FALLBACK = range(5)
+_RECORD = struct.Struct("<QBB")   # a heard record's head: t_us, 'T' or 'R', length
+
+
+class _Reads(ctypes.Structure):
+    _fields_ = [("bank", _P), ("payload", ctypes.c_char_p), ("len", ctypes.c_int32),
+                ("index", _P), ("baud", ctypes.c_int64), ("delay_override_us", ctypes.c_int64),
+                ("t_us", ctypes.c_int64), ("next_step_us", ctypes.c_int64),
+                ("r", ctypes.c_int32), ("k", ctypes.c_int32), ("at", ctypes.c_int32),
+                ("phase", ctypes.c_int32), ("i", ctypes.c_int32), ("m", ctypes.c_int32),
+                ("t0_us", ctypes.c_int64), ("t1_us", ctypes.c_int64),
+                ("start_us", ctypes.c_int64), ("done", ctypes.c_int8 * 256),
+                ("reply", ctypes.c_uint8 * 64), ("body", ctypes.c_uint8 * 2048),
+                ("body_len", ctypes.c_int32), ("log", ctypes.c_uint8 * 32768),
+                ("log_len", ctypes.c_int32), ("tx_bytes", ctypes.c_int64),
+                ("rx_bytes", ctypes.c_int64), ("packets", ctypes.c_int64),
+                ("replies", ctypes.c_int64), ("busy_us", ctypes.c_int64),
+                ("wire_us", ctypes.c_int64)]
+
+
+def _load() -> Any:
+    lib = load_library(LIBRARY, keep_gil=True)
+    fn = getattr(lib, "hx_reads", None) if lib is not None else None
+    if fn is not None:
+        fn.argtypes, fn.restype = [_P], ctypes.c_int
+    return fn
+
+
+_HX_READS = _load()
+
+
+@dataclass
+class Handover:
+    """Where the general path takes over: read ``r``, attempt ``k`` (``code`` PYTHON: not
+    begun; PYTHON_REPLY: its servo answered ``reply`` from ``start_us``, the clock at the
+    end of its READ), the reads' outcomes so far (True, False, None: skipped) and the
+    reply's body so far."""
+
+    code: int
+    r: int
+    k: int
+    done: list[bool | None]
+    body: bytearray
+    start_us: int = 0
+    reply: bytes = b""
+
+
+@dataclass
+class Outcome:
+    """What the C code did: the bus time and wire time its attempts took, and either the
+    whole reply body or where the general path takes over."""
+
+    busy_us: int
+    wire_us: int
+    body: bytes | None
+    handover: Handover | None
+
+
+class ReadsCore:
+    """``hx_reads`` for one line; ``carry_out`` is None where the C code does not serve it
+    (no library, not a plain line, a world it cannot see step)."""
+
+    def __init__(self) -> None:
+        self._s = _Reads()
+        self._ref = ctypes.addressof(self._s)
+        self._body, self._log, self._reply = (ctypes.addressof(self._s) + getattr(_Reads, f).offset
+                                              for f in ("body", "log", "reply"))
+
+    @staticmethod
+    def available() -> bool:
+        return _HX_READS is not None
+
+    def carry_out(self, bus: Any, payload: bytes) -> Outcome | None:
+        bank: ServoBank | None = bus._servo_bank
+        if (_HX_READS is None or bank is None or not bus.plain() or bank.next_step_us is None
+                or bus.advance != bank.advance):
+            return None
+        s = self._s
+        s.bank, s.index = bank.ref, bank.by_id_address
+        s.payload, s.len = payload, len(payload)
+        s.baud = bus.baud
+        delay = bus.return_delay_override_us
+        s.delay_override_us = -1 if delay is None else delay
+        s.t_us = bus.clock.t_us
+        s.r = s.k = s.at = s.phase = 0
+        s.tx_bytes = s.rx_bytes = s.packets = s.replies = s.busy_us = s.wire_us = 0
+        next_step = bank.next_step_us
+        while True:
+            s.next_step_us = next_step()
+            code = _HX_READS(self._ref)
+            if code == FALLBACK:
+                return None
+            self._heard(bus)
+            bus._move_to(s.t_us)
+            if code != ADVANCE:
+                break
+        stats = bus.stats
+        stats["tx_bytes"] += s.tx_bytes
+        stats["rx_bytes"] += s.rx_bytes
+        stats["packets"] += s.packets
+        stats["replies"] += s.replies
+        body = ctypes.string_at(self._body, s.body_len)
+        if code == DONE:
+            return Outcome(s.busy_us, s.wire_us, body, None)
+        done = [None if d < 0 else bool(d) for d in s.done[:s.r]]
+        return Outcome(s.busy_us, s.wire_us, None, Handover(
+            code, s.r, s.k, done, bytearray(body), s.start_us,
+            ctypes.string_at(self._reply, s.m)))
+
+    def _heard(self, bus: Any) -> None:
+        """The bytes on the wire since the last return, to the bus's ``on_bytes`` in order."""
+        s, on_bytes = self._s, bus.on_bytes
+        n = s.log_len
+        if on_bytes is None or not n:
+            return
+        log = ctypes.string_at(self._log, n)
+        at = 0
+        while at < n:
+            t_us, d, m = _RECORD.unpack_from(log, at)
+            on_bytes(t_us, "tx" if d == 0x54 else "rx", log[at + 10:at + 10 + m])
+            at += 10 + m
