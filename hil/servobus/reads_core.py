@@ -16,8 +16,9 @@ import struct
 from dataclasses import dataclass
 from typing import Any
 
-from hil.servobus.servo_core import LIBRARY, ServoBank
 from hil.native import load_library
+from hil.servobus.line import Bus
+from hil.servobus.servo_core import LIBRARY, ServoBank
 
 _P = ctypes.c_void_p
 DONE, ADVANCE, PYTHON, PYTHON_REPLY, FALLBACK = range(5)
@@ -92,7 +93,7 @@ class ReadsCore:
     def available() -> bool:
         return _HX_READS is not None
 
-    def carry_out(self, bus: Any, payload: bytes) -> Outcome | None:
+    def carry_out(self, bus: Bus, payload: bytes) -> Outcome | None:
         bank: ServoBank | None = bus._servo_bank
         if (_HX_READS is None or bank is None or not bus.plain() or bank.next_step_us is None
                 or bus.advance != bank.advance):
@@ -129,7 +130,7 @@ class ReadsCore:
             code, s.r, s.k, done, bytearray(body), s.start_us,
             ctypes.string_at(self._reply, s.m)))
 
-    def _heard(self, bus: Any) -> None:
+    def _heard(self, bus: Bus) -> None:
         """The bytes on the wire since the last return, to the bus's ``on_bytes`` in order."""
         s, on_bytes = self._s, bus.on_bytes
         n = s.log_len
