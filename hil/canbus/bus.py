@@ -58,7 +58,7 @@ class Endpoint(can.BufferedReader):
 
     def frames(self, limit: int = -1) -> Iterator[can.Message]:
         """The queued frames, oldest first (at most ``limit``; all if negative)."""
-        while limit:
+        while limit and not self.buffer.empty():   # BufferedReader's queue: no Empty raised
             msg = self.get_message(0)
             if msg is None:
                 return
@@ -130,7 +130,11 @@ class CanBus:
             for arb_id, data, extended in gateway.poll():
                 if not extended:
                     self.send(arb_id, data, sender=gateway)
-        while (msg := self.bus.recv(timeout=0)) is not None:
+        queue = self.bus.queue   # python-can 4.6.1's VirtualBus: what others sent it
+        while not queue.empty():   # an empty recv(timeout=0) costs 10 us a cycle
+            msg = self.bus.recv(timeout=0)
+            if msg is None:
+                return
             msg.timestamp, msg.is_rx = self.clock.t_us * 1e-6, True
             self._deliver(msg, None)
 
