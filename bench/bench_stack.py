@@ -20,6 +20,7 @@ from bench import Row
 from bench.bench_world import ROOT, bare_mj_step, world_alone
 from hil import scenario as scenario_mod
 from hil.servobus.line import Bus
+from hil.servobus.reads_core import ReadsCore
 from hil.clock import VirtualClock
 from hil.link.firmware_process import IN_PROCESS, Connection, DirectConnection
 from hil.run.rig import make_world
@@ -117,6 +118,8 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
         sim = Simulator(sc, 3, world=world, recorder=rec)
         for name in ("master_write", "master_read", "transact", "idle_until"):
             setattr(sim.bus, name, sw.wrap("bus", getattr(sim.bus, name)))
+        carry_out = ReadsCore.carry_out   # the cycle's status reads, compiled
+        ReadsCore.carry_out = sw.wrap("bus", carry_out)
         batch, reply, exchange = Connection.batch, Connection.reply, DirectConnection.exchange
         Connection.batch = sw.wrap("wait", batch)
         Connection.reply = sw.wrap("wait", reply)
@@ -128,6 +131,7 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
             total = clock() - t0
         finally:
             Connection.batch, Connection.reply = batch, reply
+            ReadsCore.carry_out = carry_out
             DirectConnection.exchange = exchange
             if rec is not None:
                 rec.close()   # waits for the recorder's child, if it has one

@@ -1,9 +1,9 @@
 """A cycle's status reads compiled (hil/servobus/reads_core.c ``hx_reads``), through ctypes.
 
 Link version 2 hands the host a cycle's status reads in one message, R; the general path
-(hil/link/server.py ``_reads``) carries each attempt out through ``Bus.transact``, tests its
-reply with the master's own rule and packs it: about a tenth of an in-process cycle in
-Python. On a plain line (``Bus.plain``) whose world steps by its own ``advance_to``, the C
+(hil/link/server.py ``_attempts``) carries each attempt out through ``Bus.transact``, tests
+its reply with the master's own rule and packs it: about 60 us of a 930 us in-process
+cycle, half of it left compiled (docs/performance.md, wave 10). On a plain line (``Bus.plain``) whose world steps by its own ``advance_to``, the C
 code does the same from the payload to the reply, stopping for the world's physics steps
 (the bytes heard so far reach ``on_bytes`` first, in order, as the bus hands them over) and
 handing back to the general path wherever it does not serve an attempt. The same bytes
@@ -114,7 +114,7 @@ class ReadsCore:
             if code == FALLBACK:
                 return None
             self._heard(bus)
-            bus._move_to(s.t_us)
+            bus.idle_until(s.t_us)   # the clock to where the C code is; the world steps
             if code != ADVANCE:
                 break
         stats = bus.stats
