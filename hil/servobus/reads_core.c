@@ -10,9 +10,8 @@
  * physics step (ADVANCE: the bytes heard so far go out, in order, before the world steps);
  * an attempt this does not serve (PYTHON: the general path takes over before it; after its
  * servo answered, with a reply the master does not read whole, PYTHON_REPLY); a payload
- * this does not check
- * (FALLBACK, before doing anything: the general path carries the R out and raises what it
- * finds wrong). */
+ * this does not check (FALLBACK, before doing anything: the general path carries the R out
+ * and raises what it finds wrong). */
 #include "servo_core.h"
 
 enum { DONE = 0, ADVANCE = 1, PYTHON = 2, PYTHON_REPLY = 3, FALLBACK = 4 };
@@ -105,11 +104,8 @@ int hx_reads(struct reads *s)
             }
             int i = s->index[tx[2]];
             int64_t t1 = s->t_us + wire_us(s, 8);
-            if (i < 0)
-                return PYTHON;
-            const struct servo *sv = s->bank->servo[i];
-            if (s->bank->joint[i] < 0 || sv->busy_until_us > t1 || sv->deaf_until_us > t1)
-                return PYTHON;        /* hx_read would leave it to Python */
+            if (i < 0 || !hx_serves(s->bank, i, t1))
+                return PYTHON;        /* no servo in the bank, or hx_read would leave it */
             s->i = i;
             s->t0_us = s->t_us;
             s->t1_us = t1;
@@ -127,6 +123,8 @@ int hx_reads(struct reads *s)
             int64_t deadline = s->t1_us + timeout_us, t_end = deadline;
             s->m = 0;
             if (m > 0) {
+                /* the margin's override, else TableServo.return_delay_us: register 5 in
+                 * 2 us units (ax12.return_delay_us), plus how long the READ waited */
                 int64_t delay = s->delay_override_us >= 0 ? s->delay_override_us
                     : 2 * (int64_t)s->bank->table[i][RETURN_DELAY] + s->bank->servo[i]->held_us;
                 int64_t start = s->t1_us + delay, t_last = start + wire_us(s, m);
@@ -154,7 +152,7 @@ int hx_reads(struct reads *s)
         s->body_len += ATTEMPT_HEAD + m;
         s->body[0] += 1;
         s->busy_us += s->t_us - s->t0_us;
-        s->wire_us += (int64_t)rint((double)(8 + m) * (10000000.0 / (double)s->baud));
+        s->wire_us += (int64_t)rint((double)(8 + m) * ((double)US_BITS / (double)s->baud));
         s->phase = START;
         /* protocol/dynamixel/v1.py status_ok: a servo's status is one whole packet (hx_read
          * builds it), so the master's test comes down to its ID and its length */

@@ -219,8 +219,7 @@ int hx_sync_write(const struct bank *b, int from, int64_t t_us, const unsigned c
     }
     for (int i = from; i < b->n; i++) {
         struct servo *s = b->servo[i];
-        if (b->joint[i] < 0 || s->busy_until_us > t_us || s->deaf_until_us > t_us
-            || u16(b->table[i], MOVING_SPEED) > 2047)
+        if (!hx_serves(b, i, t_us) || u16(b->table[i], MOVING_SPEED) > 2047)
             return i;
         advance(b, i, t_us);                /* TableServo._take, nothing to wait for */
         s->held_us = 0;
@@ -275,7 +274,7 @@ static void refresh_present(const struct bank *b, int i)
 int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned char *out)
 {
     struct servo *s = b->servo[i];
-    if (b->joint[i] < 0 || s->busy_until_us > t_us || s->deaf_until_us > t_us)
+    if (!hx_serves(b, i, t_us))
         return -1;
     advance(b, i, t_us);
     s->held_us = 0;

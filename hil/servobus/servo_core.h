@@ -49,6 +49,14 @@ struct bank {
     int64_t overload_us;
 };
 
+/* Whether the C code serves servo i at t_us: a MuJoCo joint, neither deaf nor finishing
+ * an EEPROM write (any other is left to its Python handle) */
+static inline int hx_serves(const struct bank *b, int i, int64_t t_us)
+{
+    const struct servo *s = b->servo[i];
+    return b->joint[i] >= 0 && s->busy_until_us <= t_us && s->deaf_until_us <= t_us;
+}
+
 /* servo_core.c: a READ (parameters a, n) to servo i at t_us, answered into out */
 int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned char *out);
 
