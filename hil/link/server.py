@@ -14,7 +14,7 @@ from typing import Any, Callable
 from hil.link.board_line import MISTAKES, BoardLine, set_master_baud
 from hil.canbus.bus import CanBus
 from hil.servobus import reads_core
-from hil.servobus.reads_core import ReadsCore
+from hil.servobus.reads_core import Handover, ReadsCore
 from hil.link.firmware_process import Connection, DirectConnection, FirmwareError, LinkViolation
 from hil.run_result import RunTally
 from hil.seams import TraceRecorder
@@ -217,21 +217,19 @@ class LinkServer:
         h = out.handover
         if h is None:
             return out.body
-        reads, r, k = self._parse_reads(payload), h.r, h.k
-        if h.code == reads_core.PYTHON_REPLY:   # attempt k's reply: read it, then the rule
-            dev_id, nparams, retries, _, _, nrx, timeout_us, tx = reads[r]
-            t0 = self.clock.t_us - self.bus.wire_us(len(tx))
-            rx = self.bus.hear_reply(h.reply, h.start_us, nrx, timeout_us)
-            self._count(tx, rx, t0, result)
-            h.body += struct.pack("<QH", self.clock.t_us, len(rx)) + rx
-            h.body[0] += 1
-            ok = dxl.status_ok(self._parser, rx, 0, len(rx), dev_id, nparams)
-            if ok or k >= retries:
-                h.done.append(ok)
-                r, k = r + 1, 0
-            else:
-                k += 1
-        return self._attempts(reads, r, k, h.done, h.body, result)
+        reads = self._parse_reads(payload)
+        heard = ((lambda: self._hear_reply(reads[h.r], h, result))
+                 if h.code == reads_core.PYTHON_REPLY else None)   # its servo has answered
+        return self._attempts(reads, h.r, h.k, h.done, h.body, result, heard)
+
+    def _hear_reply(self, read: tuple, h: Handover, result: RunTally) -> bytes:
+        """What the master reads of the reply the compiled reads left on its way
+        (PYTHON_REPLY), the clock at the end of its READ."""
+        nrx, timeout_us, tx = read[5:]
+        t0 = self.clock.t_us - self.bus.wire_us(len(tx))   # the READ's start
+        rx = self.bus.hear_reply(h.reply, h.start_us, nrx, timeout_us)
+        self._count(tx, rx, t0, result)
+        return rx
 
     def _parse_reads(self, payload: bytes) -> list[tuple]:
         """R's reads, checked: (dev_id, nparams, retries, flags, skip, nrx, timeout_us, tx)."""
@@ -254,9 +252,11 @@ class LinkServer:
         return reads
 
     def _attempts(self, reads: list[tuple], r: int, k: int, done: list[bool | None],
-                  body: bytearray, result: RunTally) -> bytes:
+                  body: bytearray, result: RunTally,
+                  heard: Callable[[], bytes] | None = None) -> bytes:
         """``reads[r:]`` from attempt ``k`` of read ``r`` (its earlier ones failed), the
-        outcomes of the earlier reads in ``done``, their attempts in ``body``."""
+        outcomes of the earlier reads in ``done``, their attempts in ``body``; ``heard``:
+        attempt ``k`` was begun, and this gives what the master reads of it."""
         for dev_id, nparams, retries, flags, skip, nrx, timeout_us, tx in reads[r:]:
             if skip != sim_link.NO_SKIP and done[skip] is not True:
                 done.append(None)
@@ -264,7 +264,8 @@ class LinkServer:
             start = len(tx) if flags & sim_link.READ_ECHO else 0
             ok = False
             while k <= retries:
-                rx = self._transact(tx, nrx, timeout_us, result)
+                rx = self._transact(tx, nrx, timeout_us, result) if heard is None else heard()
+                heard = None
                 body += struct.pack("<QH", self.clock.t_us, len(rx)) + rx
                 body[0] += 1
                 ok = dxl.status_ok(self._parser, rx, start, len(rx), dev_id, nparams)

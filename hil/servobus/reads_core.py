@@ -3,10 +3,11 @@
 Link version 2 hands the host a cycle's status reads in one message, R; the general path
 (hil/link/server.py ``_attempts``) carries each attempt out through ``Bus.transact``, tests
 its reply with the master's own rule and packs it: about 60 us of a 930 us in-process
-cycle, half of it left compiled (docs/performance.md, wave 10). On a plain line (``Bus.plain``) whose world steps by its own ``advance_to``, the C
-code does the same from the payload to the reply, stopping for the world's physics steps
-(the bytes heard so far reach ``on_bytes`` first, in order, as the bus hands them over) and
-handing back to the general path wherever it does not serve an attempt. The same bytes
+cycle, half of it left compiled (docs/performance.md, wave 10). On a plain line
+(``Bus.plain``) whose world steps by its own ``advance_to``, the C code does the same from
+the payload to the reply, stopping for the world's physics steps (the bytes heard so far
+reach ``on_bytes`` first, in order, as the bus hands them over) and handing back to the
+general path wherever it does not serve an attempt. The same bytes
 and times (tests/test_reads_core.py, and every shipped scenario's serial digest and trace).
 """
 from __future__ import annotations
@@ -86,7 +87,7 @@ class ReadsCore:
     def __init__(self) -> None:
         self._s = _Reads()
         self._ref = ctypes.addressof(self._s)
-        self._body, self._log, self._reply = (ctypes.addressof(self._s) + getattr(_Reads, f).offset
+        self._body, self._log, self._reply = (self._ref + getattr(_Reads, f).offset
                                               for f in ("body", "log", "reply"))
 
     @staticmethod

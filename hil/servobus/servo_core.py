@@ -125,7 +125,7 @@ class ServoBank:
             arrays["punch_unit"], drive.MOVING_EPS_RAD_S, health.AMBIENT_C,
             health.HEAT_AT_FULL_LOAD_C, health.THERMAL_TAU_S, health.OVERHEAT_TAU_S,
             health.OVERLOAD_TIME_US)
-        self._ref = ctypes.addressof(self._bank)
+        self.ref = ctypes.addressof(self._bank)   # the bank's address (reads_core.py too)
         self._sync, self._read = _LIB
         self._out = ctypes.create_string_buffer(ax12.TABLE_SIZE + 6)
         self._out_at = ctypes.addressof(self._out)
@@ -139,7 +139,6 @@ class ServoBank:
                 by_id[dev_id] = i
         self._keep.append(by_id)
         self.by_id_address = _address(by_id)
-        self.ref = self._ref
         self.n = n
         self.advance = arrays["advance"]   # the world's: what the first servo's catch-up did
         self.next_step_us = arrays.get("next_step_us")   # when its advance next steps
@@ -163,7 +162,7 @@ class ServoBank:
         order (``Bus._dispatch``'s): in C where it can, each one it leaves by its own
         ``handle``. True when one's ID or Baud Rate changed (the line re-indexes)."""
         self.advance(t_us)
-        servos, n, sync, ref, size = self.servos, self.n, self._sync, self._ref, len(params)
+        servos, n, sync, ref, size = self.servos, self.n, self._sync, self.ref, len(params)
         i = sync(ref, 0, t_us, params, size)
         while i < n:
             servos[i].handle(dxl.SYNC_WRITE, params, True, t_us)   # broadcast: no reply
@@ -177,7 +176,7 @@ class ServoBank:
         i = self.index.get(id(servo))
         if i is None or servo.reading is not None or len(params) != 2:
             return False
-        n = self._read(self._ref, i, t_us, params[0], params[1], self._out_at)
+        n = self._read(self.ref, i, t_us, params[0], params[1], self._out_at)
         if n > 0:
             return self._out.raw[:n]
         return None if n == 0 else False
