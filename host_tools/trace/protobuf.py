@@ -248,24 +248,35 @@ def encode_joint_states(t_ns: int, names: Sequence[str], positions: Sequence[flo
 _PACK_SERVO = struct.Struct("<BBBdBdBdBdBd").pack  # id < 128 and five non-zero doubles
 
 
+def servo_row(s: Mapping[str, Any]) -> tuple:
+    """A ``ServoState``'s fields in order (id, position_rad, velocity_rad_s, load_frac,
+    temperature_c, voltage_v, torque_enabled, moving, error); a missing key takes the proto3
+    default. Rows, not mappings, are what the recorder holds: they pickle at a third of
+    the cost on the way to the encoding child."""
+    g = s.get
+    return (g("id", 0), g("position_rad", 0.0), g("velocity_rad_s", 0.0), g("load_frac", 0.0),
+            g("temperature_c", 0.0), g("voltage_v", 0.0), bool(g("torque_enabled")),
+            bool(g("moving")), g("error", 0))
+
+
 def encode_servo_states(servos: Iterable[Mapping[str, Any]]) -> bytes:
     """``hexhil.ServoStates``; a missing key takes the proto3 default."""
+    return encode_servo_rows([servo_row(s) for s in servos])
+
+
+def encode_servo_rows(rows: Iterable[tuple]) -> bytes:
+    """``hexhil.ServoStates`` of ``servo_row``s."""
     out = []
-    for s in servos:
-        g = s.get
-        sid, err = g("id", 0), g("error", 0)
-        values = (g("position_rad", 0.0), g("velocity_rad_s", 0.0), g("load_frac", 0.0),
-                  g("temperature_c", 0.0), g("voltage_v", 0.0))
-        tail = ((b"\x38\x01" if g("torque_enabled") else b"")
-                + (b"\x40\x01" if g("moving") else b"") + _field_uint(0x48, err))
-        if 0 < sid < 0x80 and 0.0 not in values:  # -0.0 == 0.0 too: it takes the long way
-            p, v, load, temp, volt = values
+    for sid, p, v, load, temp, volt, torque, moving, err in rows:
+        tail = ((b"\x38\x01" if torque else b"") + (b"\x40\x01" if moving else b"")
+                + _field_uint(0x48, err))
+        if 0 < sid < 0x80 and 0.0 not in (p, v, load, temp, volt):  # -0.0 == 0.0 too
             body = _PACK_SERVO(0x08, sid, 0x11, p, 0x19, v, 0x21, load, 0x29, temp,
                                0x31, volt) + tail
-        else:
-            body = (_field_uint(0x08, sid) + _field_double(0x11, values[0])
-                    + _field_double(0x19, values[1]) + _field_double(0x21, values[2])
-                    + _field_double(0x29, values[3]) + _field_double(0x31, values[4]) + tail)
+        else:   # the long way
+            body = (_field_uint(0x08, sid) + _field_double(0x11, p) + _field_double(0x19, v)
+                    + _field_double(0x21, load) + _field_double(0x29, temp)
+                    + _field_double(0x31, volt) + tail)
         out.append(_field_message(0x0A, body))
     return b"".join(out)
 

@@ -157,10 +157,10 @@ class Recorder(HeldWindows):
         """Emulated servo state, one message for all servos. Each mapping may hold ``id``,
         ``position_rad``, ``velocity_rad_s``, ``load_frac``, ``temperature_c``,
         ``voltage_v``, ``torque_enabled``, ``moving``, ``error``."""
-        self._defer(t_us, self._encode_servo_state, ([dict(s) for s in servos],))
+        self._defer(t_us, self._encode_servo_state, ([pb.servo_row(s) for s in servos],))
 
-    def _encode_servo_state(self, out: list, t: int, servos: list[dict[str, Any]]) -> None:
-        out.append((t, self._channels.of(T_SERVOS), pb.encode_servo_states(servos)))
+    def _encode_servo_state(self, out: list, t: int, rows: list[tuple]) -> None:
+        out.append((t, self._channels.of(T_SERVOS), pb.encode_servo_rows(rows)))
 
     def body_pose(self, t_us: int, position_m: Sequence[float],
                   quaternion_wxyz: Sequence[float], parent: str = "world",
@@ -214,12 +214,12 @@ class Recorder(HeldWindows):
         """The moving frames' poses (``hil.world.scene.Frame``: id, parent, position,
         quaternion)."""
         self._defer(t_us, self._encode_scene,
-                    (T_SCENE_FRAMES, pb.encode_frame_transforms, list(frames)))
+                    (T_SCENE_FRAMES, pb.encode_frame_transforms, _plain(frames)))
 
     def scene_forces(self, t_us: int, arrows: Sequence[Any]) -> None:
         """Contact forces as arrows (``hil.world.scene.Arrow``)."""
         self._defer(t_us, self._encode_scene,
-                    (T_SCENE_FORCES, scene_msgs.encode_arrows, list(arrows)))
+                    (T_SCENE_FORCES, scene_msgs.encode_arrows, _plain(arrows)))
 
     def _encode_scene(self, out: list, t: int, topic: str,
                       encode: Callable[[int, list], bytes], values: list) -> None:
@@ -247,6 +247,12 @@ class Recorder(HeldWindows):
         encoded, all before the window is written."""
         cid = self._channels.of(T_LINK)
         out.append((t, cid, links))
+
+
+def _plain(items: Iterable[Sequence[Any]]) -> list[tuple]:
+    """NamedTuples as plain tuples: the held values may go to the encoding child pickled,
+    where a NamedTuple costs a Python call each (the scene made 45 % of a window's pickle)."""
+    return [tuple(v) for v in items]
 
 
 def open_recorder(path: str | Path | None, metadata: Mapping[str, Any] | None = None,

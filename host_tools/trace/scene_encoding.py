@@ -68,19 +68,19 @@ def _direction_quat(fx: float, fy: float, fz: float, norm: float
 
 def encode_arrows(t_ns: int, arrows: Sequence[Any]) -> bytes:
     """One SceneUpdate whose entity ``forces`` (in ``world``) holds an arrow per force above
-    ``ARROW_MIN_N``, ``ARROW_M_PER_N`` long a newton (``hil.world.scene.Arrow``)."""
+    ``ARROW_MIN_N``, ``ARROW_M_PER_N`` long a newton (``hil.world.scene.Arrow``s, or the
+    same fields as plain tuples)."""
     update = SceneUpdate()
     e = update.entities.add(id="forces", frame_id="world")
     e.timestamp.FromNanoseconds(t_ns)
-    for a in arrows:
-        fx, fy, fz = a.force_n
+    for _, origin_m, (fx, fy, fz) in arrows:
         norm = math.sqrt(fx * fx + fy * fy + fz * fz)
         if norm < ARROW_MIN_N:
             continue
         shaft, head = _f32(0.8 * norm * ARROW_M_PER_N, 0.2 * norm * ARROW_M_PER_N)
         prim = e.arrows.add(shaft_length=shaft, head_length=head,
                             shaft_diameter=ARROW_SHAFT_M, head_diameter=2.5 * ARROW_SHAFT_M)
-        _pose(prim.pose, a.origin_m, _f32(*_direction_quat(fx, fy, fz, norm)))
+        _pose(prim.pose, origin_m, _f32(*_direction_quat(fx, fy, fz, norm)))
         _colour(prim.color, ARROW_RGBA)
     return update.SerializeToString()
 
