@@ -111,7 +111,8 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
             from host_tools.trace.recorder import open_recorder
             from host_tools.trace.windows import encode_in_for
             rec = open_recorder(Path(tmp) / "b.mcap", {}, encode_in=encode_in_for(not in_process))
-            rec.serial = sw.wrap("recorder in bus", rec.serial)   # called from inside the bus
+            for name in ("serial", "serial_stream"):   # called from inside the bus
+                setattr(rec, name, sw.wrap("recorder in bus", getattr(rec, name)))
             for name in ("can", "switch_edge", "telemetry", "servo_state", "body_pose",
                          "joints", "fault", "link", "advance", "idle"):
                 setattr(rec, name, sw.wrap("recorder", getattr(rec, name)))

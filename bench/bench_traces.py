@@ -39,17 +39,22 @@ def _time_inside_recorder(run, out: Path) -> float:
     from host_tools.trace import recorder as rec_mod
 
     spent = [0.0]
+    depth = [0]   # serial_stream may call serial: counted once
     saved = {}
-    for name in ("__init__", "serial", "can", "link", "telemetry", "switch_edge", "fault",
-                 "servo_state", "body_pose", "joints", "advance", "idle", "close"):
+    for name in ("__init__", "serial", "serial_stream", "can", "link", "telemetry",
+                 "switch_edge", "fault", "servo_state", "body_pose", "joints", "advance",
+                 "idle", "close"):
         f = saved[name] = getattr(rec_mod.Recorder, name)
 
         def timed(self, *a, _f=f, **k):
             t0 = time.perf_counter()
+            depth[0] += 1
             try:
                 return _f(self, *a, **k)
             finally:
-                spent[0] += time.perf_counter() - t0
+                depth[0] -= 1
+                if not depth[0]:
+                    spent[0] += time.perf_counter() - t0
         setattr(rec_mod.Recorder, name, timed)
     try:
         run(SCENARIO, RUN_S, out=str(out), overwrite=True)

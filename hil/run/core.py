@@ -10,7 +10,6 @@ wall clock is a policy given to the run (``WallClockPacing``), not part of the c
 from __future__ import annotations
 
 import hashlib
-import struct
 import time
 from typing import Any, Callable, Protocol, Sequence
 
@@ -19,6 +18,7 @@ from hil.canbus.bus import CanBus, RecorderListener
 from hil.run.ground_truth import GroundTruth
 from hil.scenario import Scenario
 from hil.seams import CanGateway, FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
+from hil.servobus import serial_stream
 from hil.servobus.table_servo import TableServo
 
 OnFault = Callable[[int, str, str], None]
@@ -53,6 +53,27 @@ class WallClockPacing:
             time.sleep(ahead_s)
 
 
+class SerialTap:
+    """The servo line's bytes into the run's serial digest and the recorder: a bus's
+    ``on_bytes``, which takes the compiled reads' records as one stream too
+    (hil/servobus/serial_stream.py)."""
+
+    def __init__(self, recorder: TraceRecorder | None) -> None:
+        self.digest = hashlib.sha256()
+        self.recorder = recorder
+
+    def __call__(self, t_us: int, direction: str, data: bytes) -> None:
+        self.digest.update(serial_stream.head(t_us, direction))
+        self.digest.update(data)
+        if self.recorder is not None:
+            self.recorder.serial(t_us, direction, data)
+
+    def stream(self, stream: bytes, lens: Sequence[int]) -> None:
+        self.digest.update(stream)
+        if self.recorder is not None:
+            self.recorder.serial_stream(stream, lens)
+
+
 class RunCore:
     """The rig, CAN bus, host nodes, recorder hooks and ground truth of one run.
 
@@ -68,9 +89,9 @@ class RunCore:
         self.recorder = recorder
         self.pacing: Pacing = pacing if pacing is not None else Unpaced()
         self._also_on_fault = on_fault
-        self._digest = hashlib.sha256()
+        self._serial = SerialTap(recorder)
         self.rig = rig_mod.build(scenario, seed, world=world, ids=ids, on_fault=self._on_fault,
-                                 on_bytes=self._on_bytes)
+                                 on_bytes=self._serial)
         self.config, self.seed = self.rig.config, seed
         self.world = world
         self.clock, self.bus, self.faults = self.rig.clock, self.rig.bus, self.rig.faults
@@ -90,13 +111,7 @@ class RunCore:
     @property
     def serial_digest(self) -> str:
         """sha256 over every byte on the servo bus with its time and direction."""
-        return self._digest.hexdigest()
-
-    def _on_bytes(self, t_us: int, direction: str, data: bytes) -> None:
-        self._digest.update(struct.pack("<QB", t_us, 0x54 if direction == "tx" else 0x52))
-        self._digest.update(data)
-        if self.recorder is not None:
-            self.recorder.serial(t_us, direction, data)
+        return self._serial.digest.hexdigest()
 
     def _on_fault(self, t_us: int, name: str, detail: str) -> None:
         if self.recorder is not None:

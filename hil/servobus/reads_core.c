@@ -35,8 +35,11 @@ struct reads {
     unsigned char reply[64];
     unsigned char body[MAX_REPLY];   /* the reply after its time: u8 attempts, then each */
     int32_t body_len;
-    unsigned char log[32768];     /* heard since the last return: u64 t, u8 'T'/'R', u8 n, n bytes */
+    unsigned char log[32768];     /* heard since the last return (serial_stream.py): u64 t,
+                                     u8 'T'/'R', the bytes; at most ~200 attempts an R */
     int32_t log_len;
+    unsigned char lens[1024];     /* each record's length */
+    int32_t nrec;
     int64_t tx_bytes, rx_bytes, packets, replies, busy_us, wire_us;
 };
 
@@ -47,9 +50,9 @@ static void heard(struct reads *s, int64_t t_us, char dir, const unsigned char *
     unsigned char *p = s->log + s->log_len;
     memcpy(p, &t_us, 8);
     p[8] = (unsigned char)dir;
-    p[9] = (unsigned char)n;
-    memcpy(p + 10, d, (size_t)n);
-    s->log_len += 10 + n;
+    memcpy(p + 9, d, (size_t)n);
+    s->log_len += 9 + n;
+    s->lens[s->nrec++] = (unsigned char)n;
 }
 
 /* server.py _reads's checks, and this path's own: every read a clean 8-byte READ, no echo */
@@ -80,7 +83,7 @@ static int checked(struct reads *s)
 int hx_reads(struct reads *s)
 {
     const unsigned char *p = s->payload;
-    s->log_len = 0;
+    s->log_len = s->nrec = 0;
     if (s->at == 0) {                 /* a new R */
         if (!checked(s))
             return FALLBACK;

@@ -13,17 +13,16 @@ and times (tests/test_reads_core.py, and every shipped scenario's serial digest 
 from __future__ import annotations
 
 import ctypes
-import struct
 from dataclasses import dataclass
 from typing import Any
 
 from hil.native import load_library
+from hil.servobus import serial_stream
 from hil.servobus.line import Bus
 from hil.servobus.servo_core import LIBRARY, ServoBank
 
 _P = ctypes.c_void_p
 DONE, ADVANCE, PYTHON, PYTHON_REPLY, FALLBACK = range(5)
-_RECORD = struct.Struct("<QBB")   # a heard record's head: t_us, 'T' or 'R', length
 
 
 class _Reads(ctypes.Structure):
@@ -36,7 +35,8 @@ class _Reads(ctypes.Structure):
                 ("start_us", ctypes.c_int64), ("done", ctypes.c_int8 * 256),
                 ("reply", ctypes.c_uint8 * 64), ("body", ctypes.c_uint8 * 2048),
                 ("body_len", ctypes.c_int32), ("log", ctypes.c_uint8 * 32768),
-                ("log_len", ctypes.c_int32), ("tx_bytes", ctypes.c_int64),
+                ("log_len", ctypes.c_int32), ("lens", ctypes.c_uint8 * 1024),
+                ("nrec", ctypes.c_int32), ("tx_bytes", ctypes.c_int64),
                 ("rx_bytes", ctypes.c_int64), ("packets", ctypes.c_int64),
                 ("replies", ctypes.c_int64), ("busy_us", ctypes.c_int64),
                 ("wire_us", ctypes.c_int64)]
@@ -132,14 +132,16 @@ class ReadsCore:
             ctypes.string_at(self._reply, s.m)))
 
     def _heard(self, bus: Bus) -> None:
-        """The bytes on the wire since the last return, to the bus's ``on_bytes`` in order."""
+        """The bytes on the wire since the last return, to the bus's ``on_bytes`` in order:
+        in one call where it takes a stream."""
         s, on_bytes = self._s, bus.on_bytes
         n = s.log_len
         if on_bytes is None or not n:
             return
-        log = ctypes.string_at(self._log, n)
-        at = 0
-        while at < n:
-            t_us, d, m = _RECORD.unpack_from(log, at)
-            on_bytes(t_us, "tx" if d == 0x54 else "rx", log[at + 10:at + 10 + m])
-            at += 10 + m
+        stream, lens = ctypes.string_at(self._log, n), s.lens[:s.nrec]
+        many = getattr(on_bytes, "stream", None)
+        if many is not None:
+            many(stream, lens)
+            return
+        for t_us, direction, data in serial_stream.records(stream, lens):
+            on_bytes(t_us, direction, data)

@@ -45,6 +45,7 @@ from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, T_BODY, T_CAN_PREFIX,
 from host_tools.trace.channels import Channels
 from host_tools.trace.windows import EncodeIn, Encoded, HeldWindows
 from host_tools.dynamixel.decode import DECODERS
+from hil.servobus import serial_stream
 from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
 
 DEFAULT_FLUSH_INTERVAL_US = 500_000  # well inside the issue's "once per simulated second"
@@ -94,6 +95,20 @@ class Recorder(HeldWindows):
         """Raw bytes on the servo line (``"tx"`` master->servos, ``"rx"`` servos->master),
         with the Dynamixel packets they complete decoded beside them."""
         self._defer(t_us, self._encode_serial, (direction, bytes(data)))
+
+    def serial_stream(self, stream: bytes, lens: Sequence[int]) -> None:
+        """``serial`` for each record of a serial stream (hil/servobus/serial_stream.py), held
+        as one value while the records are in one window."""
+        if serial_stream.last_t_us(stream, lens) >= self._window_end_us:
+            for t_us, direction, data in serial_stream.records(stream, lens):
+                self.serial(t_us, direction, data)
+            return
+        t_us = serial_stream.HEAD.unpack_from(stream, 0)[0]
+        self._defer(t_us, self._encode_serial_stream, (stream, list(lens)))
+
+    def _encode_serial_stream(self, out: list, _t: int, stream: bytes, lens: list[int]) -> None:
+        for t_us, direction, data in serial_stream.records(stream, lens):
+            self._encode_serial(out, t_us * 1000, direction, data)
 
     def _encode_serial(self, out: list, t: int, direction: str, data: bytes) -> None:
         cid = self._channels.of(T_SERIAL)
