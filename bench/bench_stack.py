@@ -217,10 +217,9 @@ def _ceiling_row(label: str, in_process: bool, alone_us: float, parts: dict[str,
 
 
 _ECHO_FIRMWARE = """
-import socket, sys, time
-s = socket.socket()
-s.connect(socket.getaddrinfo("127.0.0.1", int(sys.argv[1]))[0][-1])
-s.setsockopt(6, 1, 1)
+import socket, struct, sys, time
+s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+s.connect(struct.pack("<H", socket.AF_UNIX) + sys.argv[1].encode() + b"\\0")
 while True:
     msg = s.recv(64)
     if not msg:
@@ -233,21 +232,20 @@ while True:
 
 
 def _round_trip_us(micropython: Path, host_work_us: int, fw_work_us: int, n: int = 1000) -> float:
-    """A link round trip between this process and a micropython child over TCP on
-    127.0.0.1, beyond the child's own work: the host busy ``host_work_us`` before each
+    """A link round trip between this process and a micropython child over a Unix socket
+    (as a run's link), beyond the child's own work: the host busy ``host_work_us`` before each
     request (the child blocked meanwhile, as during a world step), the child
     ``fw_work_us`` before each reply (the host blocked, as during the firmware's compute).
     What the machine charges for waking a process that waited, apart from our code."""
     import socket
-    with tempfile.TemporaryDirectory() as tmp, socket.socket() as srv:
+    with tempfile.TemporaryDirectory() as tmp, socket.socket(socket.AF_UNIX) as srv:
         prog = Path(tmp) / "echo.py"
         prog.write_text(_ECHO_FIRMWARE)
-        srv.bind(("127.0.0.1", 0))
+        srv.bind(str(Path(tmp) / "link"))
         srv.listen(1)
-        child = subprocess.Popen([str(micropython), str(prog), str(srv.getsockname()[1])])
+        child = subprocess.Popen([str(micropython), str(prog), srv.getsockname()])
         conn, _ = srv.accept()
         with conn:
-            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             request, buf, spent = bytes((fw_work_us // 100,)) * 16, bytearray(64), 0.0
             for _ in range(n):
                 until = time.perf_counter() + host_work_us * 1e-6
@@ -268,7 +266,7 @@ def _wake_rows() -> list[Row]:
                                  (1000, 0, "the firmware blocked 1 ms (a world step)"),
                                  (0, 500, "the host blocked 0.5 ms (the firmware's compute)")):
         rows.append(Row(f"stack link: a round trip, {what}", _round_trip_us(mp, host_us, fw_us),
-                        "us", "", "TCP to a micropython child, beyond its work, mean of "
+                        "us", "", "a Unix socket to a micropython child, beyond its work, mean of "
                         "1,000; a micropython run makes two a cycle"))
     return rows
 

@@ -67,6 +67,7 @@ MAX_RX_LEN = MAX_REPLY_LEN - 8   # the most a transact may ask for (nrx)
 ERROR_T_US = 0xFFFFFFFFFFFFFFFF  # t_us of an error reply (virtual time never gets there)
 ERROR_MARK = b"\xff\xff\xff\xff\xff\xff\xff\xff"  # ERROR_T_US as it is on the wire
 ENV_PORT = "HEXHIL_LINK_PORT"
+ENV_PATH = "HEXHIL_LINK_PATH"   # a Unix socket instead of the port: our HAL, firmware/hal/sim.py
 ENV_BOARD = "HEXHIL_BOARD"   # set (to BOARD_NAME) when the firmware runs on the virtual board
 BOARD_NAME = "stm32f411"
 

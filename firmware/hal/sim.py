@@ -26,14 +26,20 @@ RUNTIME = "micropython" if sys.implementation.name == "micropython" else "cpytho
 
 
 class Link:
-    """One TCP connection to hil/link/firmware_process.py. Posted messages queue in ``out`` and go out in
-    the same write as the next request, so they cost no round trip.
+    """One connection to hil/link/firmware_process.py: the Unix socket at ``path`` where
+    the host gives one, else TCP to ``port``. Posted messages queue in ``out`` and go out
+    in the same write as the next request, so they cost no round trip.
 
     ``io`` replaces the socket with any object that has ``write``, ``readinto`` and
     ``close``: the host's in-process runtime passes one that answers without a socket."""
 
-    def __init__(self, port, host="127.0.0.1", io=None):
-        if io is None:
+    def __init__(self, port, host="127.0.0.1", io=None, path=None):
+        if io is None and path:
+            io = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+            # MicroPython's connect takes the raw sockaddr_un: u16 family, the path, NUL
+            io.connect(path if RUNTIME == "cpython" else
+                       struct.pack("<H", socket.AF_UNIX) + path.encode() + b"\0")
+        elif io is None:
             io = socket.socket()
             try:
                 io.setsockopt(6, 1, 1)  # IPPROTO_TCP, TCP_NODELAY (MicroPython lacks the names)
@@ -237,9 +243,12 @@ class Board(base.Board):
     """Everything the firmware touches, wired to the simulator link (virtual time)."""
 
     def __init__(self, port=None, io=None):
+        path = None
         if port is None and io is None:
-            port = int(os.getenv(sim_link.ENV_PORT) or sys.argv[-1])
-        self.link = Link(port, io=io)
+            path = os.getenv(sim_link.ENV_PATH)
+            if not path:
+                port = int(os.getenv(sim_link.ENV_PORT) or sys.argv[-1])
+        self.link = Link(port, io=io, path=path)
         self.can = CAN(self.link)
         self.switch_bits = 0
         self.switches = [base.Switch(self, i) for i in range(6)]

@@ -1,7 +1,8 @@
 """Host side of the simulator link: start the firmware process and serve its requests.
 
 The firmware (``firmware/main.py`` under ``micropython`` or CPython) connects to a
-127.0.0.1 TCP port given in ``HEXHIL_LINK_PORT`` and speaks ``protocol/sim_link.py``'s
+Unix socket given in ``HEXHIL_LINK_PATH`` (a firmware not ours: the 127.0.0.1 TCP port in
+``HEXHIL_LINK_PORT``) and speaks ``protocol/sim_link.py``'s
 framing. ``Connection.exchanges`` yields, per round trip, the messages the firmware sent
 since the last reply (posted ones first, the request last); the caller answers with
 ``reply``. The raw bytes of both sides are kept for the recorder (``hexhil replay``).
@@ -15,6 +16,7 @@ import socket
 import struct
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any, Callable
@@ -66,9 +68,14 @@ def firmware_command(python: str) -> list[str]:
                     params=("python",))
 
 
-def firmware_env(port: int) -> dict[str, str]:
+def firmware_env(port: int, path: str | None = None) -> dict[str, str]:
+    """The firmware's environment: where the link is (``path``, a Unix socket, instead of
+    the port), and where its modules are."""
     env = dict(os.environ)
-    env[sim_link.ENV_PORT] = str(port)
+    if path is None:
+        env[sim_link.ENV_PORT] = str(port)
+    else:
+        env[sim_link.ENV_PATH] = path
     env["MICROPYPATH"] = f"{ROOT}:.frozen:{ROOT}/firmware/lib"
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     return env
@@ -126,7 +133,8 @@ class Connection:
     """One firmware connection: batches of messages in, replies out."""
 
     def __init__(self, sock: socket.socket) -> None:
-        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        if sock.family == socket.AF_INET:
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.sock = sock
         self.reader = sock.makefile("rb", buffering=65536)
         self.raw = bytearray()        # bytes of the batch being read (for the recorder)
@@ -223,8 +231,36 @@ class DirectConnection:
         return True
 
 
+def _listen(ours: bool) -> tuple[socket.socket, dict[str, str]]:
+    """The socket the firmware connects to, and its environment. Our firmware (its HAL,
+    firmware/hal/sim.py) gets a Unix socket in a directory of its own: a round trip about
+    10 us cheaper than TCP's loopback, whose send also runs the receiving side's stack
+    (docs/performance.md, wave 11). A firmware not ours gets the documented 127.0.0.1 port."""
+    if not ours:
+        srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        srv.bind(("127.0.0.1", 0))
+        srv.listen(1)
+        return srv, firmware_env(srv.getsockname()[1])
+    path = os.path.join(tempfile.mkdtemp(prefix="hexhil-link-"), "link")
+    srv = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    srv.bind(path)
+    srv.listen(1)
+    return srv, firmware_env(0, path)
+
+
+def _close_listener(srv: socket.socket) -> None:
+    """Close the listening socket; a Unix one's file and directory go with it (the
+    accepted connection lives on)."""
+    path = srv.getsockname() if srv.family == socket.AF_UNIX else None
+    srv.close()
+    if path:
+        os.unlink(path)
+        os.rmdir(os.path.dirname(path))
+
+
 class FirmwareProcess:
-    """The firmware as a child process connected on an ephemeral 127.0.0.1 port."""
+    """The firmware as a child process connected to this one: our firmware on a Unix
+    socket, a command of the caller's on an ephemeral 127.0.0.1 port (``_listen``)."""
 
     def __init__(self, python: str = "micropython", connect_timeout_s: float = 30.0,
                  command: list[str] | None = None, extra_env: dict[str, str] | None = None,
@@ -234,24 +270,21 @@ class FirmwareProcess:
         self.python = python
         self._console = console
         cmd = command or firmware_command(python)
-        srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        srv.bind(("127.0.0.1", 0))
-        srv.listen(1)
+        srv, env = _listen(ours=command is None)
         srv.settimeout(ACCEPT_POLL_S)
-        self.port = srv.getsockname()[1]
+        env.update(extra_env or {})
         try:
-            self.proc = subprocess.Popen(cmd, cwd=ROOT,
-                                         env={**firmware_env(self.port), **(extra_env or {})},
+            self.proc = subprocess.Popen(cmd, cwd=ROOT, env=env,
                                          stdout=console or subprocess.PIPE,
                                          stderr=subprocess.PIPE)
         except OSError as exc:
-            srv.close()
+            _close_listener(srv)
             raise FirmwareError(f"cannot start the firmware ({' '.join(cmd)}): {exc.strerror}",
                                 started=False) from None
         try:
             sock = self._accept(srv, cmd, connect_timeout_s)
         finally:
-            srv.close()
+            _close_listener(srv)
         sock.settimeout(None)
         self.conn = Connection(sock)
 

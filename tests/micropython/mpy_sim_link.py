@@ -17,6 +17,7 @@ events = [sim_link.EVENT_LOG, sim_link.EVENT_EXCEPTION, sim_link.EVENT_STOP,
 check(events == list(range(6)), "event kinds 0-5")
 check(sim_link.FLAG_END == 1, "end flag is bit 0")
 check(sim_link.ENV_PORT == "HEXHIL_LINK_PORT", "port variable")
+check(sim_link.ENV_PATH == "HEXHIL_LINK_PATH", "Unix socket variable")
 check(sim_link.VERSION == 1, "link version 1")
 check(sim_link.OP_MORE == ord("M") and sim_link.OP_MORE not in ops.values(), "op M is new")
 check(sim_link.FLAG_MORE == 2, "more flag is bit 1")
