@@ -49,3 +49,18 @@ def test_both_carry_the_same_run() -> None:
                                     command=firmware_command("micropython"))
     assert unix.cycles == tcp.cycles > 90
     assert unix.serial_digest == tcp.serial_digest
+
+
+def test_no_unix_socket_where_the_temporary_path_is_too_long(tmp_path, monkeypatch) -> None:
+    """A socket's path holds at most 107 bytes: past that our firmware takes the port."""
+    deep = tmp_path / ("d" * 120)
+    deep.mkdir()
+    monkeypatch.setenv("TMPDIR", str(deep))
+    monkeypatch.setattr("tempfile.tempdir", None)   # read TMPDIR again
+    fw = FirmwareProcess("micropython")
+    try:
+        assert fw.conn.sock.family == socket.AF_INET
+        _hello(fw)
+    finally:
+        fw.kill()
+    assert list(deep.iterdir()) == []   # the directory made for the socket is gone
