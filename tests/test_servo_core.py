@@ -130,3 +130,29 @@ def test_scripted_sync_writes_leave_the_same_state(monkeypatch):
             bus.idle_until(bus.clock.t_us + 3000 + 1000 * (k % 7))
             states.append((rx, _state(sim)))
         assert states[0] == states[1], k
+
+
+@pytest.mark.parametrize("address", [ax12.ID, ax12.BAUD_RATE])
+def test_a_sync_write_to_an_id_or_baud_rate_reindexes_the_line(address, monkeypatch):
+    """Servo 1 given ID 30 (or another baud) by a broadcast SYNC_WRITE: in C as in Python
+    the line re-indexes at once, so a READ to 30 is answered and one to 1 is not."""
+    heard = []
+    for compiled in (True, False):
+        sim = _sim(None, compiled, monkeypatch)
+        bus = sim.bus
+        value = 30 if address == ax12.ID else 3   # 3: 500 kbps
+        bus.master_write(dxl.sync_write(address, 1, [(1, bytes([value]))]))
+        bus.idle_until(bus.clock.t_us + 20_000)   # the EEPROM write done
+        replies = []
+        for dev in (30, 1, 2):
+            bus.master_write(dxl.read(dev, ax12.PRESENT_POSITION, 2))
+            replies.append(bus.master_read(8, 5000))
+            bus.idle_until(bus.clock.t_us + 2000)
+        heard.append(replies)
+    assert heard[0] == heard[1]
+    to_30, to_1, to_2 = heard[0]
+    assert len(to_2) == 8
+    if address == ax12.ID:
+        assert len(to_30) == 8 and to_30[2] == 30 and to_1 == b""
+    else:
+        assert to_30 == b"" and to_1 == b""   # servo 1 listens at 500 kbps now

@@ -180,7 +180,7 @@ static int refused(const struct bank *b, int i, int a, const unsigned char *d, i
 }
 
 /* Servo._apply_write; returns whether the ID or Baud Rate changed */
-static void apply(const struct bank *b, int i, int a, const unsigned char *d, int n)
+static int apply(const struct bank *b, int i, int a, const unsigned char *d, int n)
 {
     struct servo *s = b->servo[i];
     unsigned char *t = b->table[i];
@@ -188,7 +188,8 @@ static void apply(const struct bank *b, int i, int a, const unsigned char *d, in
     memcpy(t + a, d, (size_t)n);
     if (a < EEPROM_END)
         s->busy_until_us = s->t_us + s->eeprom_busy_us;
-    if (a <= BAUD && end > ID)
+    int changed = a <= BAUD && end > ID;
+    if (changed)
         s->address_changed = 1;
     if (a <= TORQUE_LIMIT + 1 && end > TORQUE_LIMIT) {   /* ServoHealth.rearm */
         b->health[i]->overload = 0;
@@ -199,12 +200,15 @@ static void apply(const struct bank *b, int i, int a, const unsigned char *d, in
         command(b, t, b->health[i]->supply_frac, b->joint[i]);
         s->present_stale = 1;
     }
+    return changed;
 }
 
 /* Servos from..n-1 take the SYNC_WRITE ``params`` at t_us, in order; returns the index of
  * the first one this cannot serve (not a MuJoCo joint, deaf, or finishing an EEPROM write:
- * the Python code serves it, then calls again from the next), or n when all are done. */
-int hx_sync_write(const struct bank *b, int from, int64_t t_us, const unsigned char *p, int len)
+ * the Python code serves it, then calls again from the next), or n when all are done;
+ * ``*changed`` set when one's ID or Baud Rate changed (the line re-indexes). */
+int hx_sync_write(const struct bank *b, int from, int64_t t_us, const unsigned char *p, int len,
+                  int32_t *changed)
 {
     int first[256];
     int a = -1, stride = 0;
@@ -229,7 +233,8 @@ int hx_sync_write(const struct bank *b, int from, int64_t t_us, const unsigned c
         int at = first[b->table[i][ID]];
         if (at < 0 || refused(b, i, a, p + at, stride - 1))
             continue;
-        apply(b, i, a, p + at, stride - 1);
+        if (apply(b, i, a, p + at, stride - 1))
+            *changed = 1;
     }
     return b->n;
 }

@@ -54,7 +54,7 @@ def _load() -> Any:
     if lib is None:
         return None
     sync, read = lib.hx_sync_write, lib.hx_read
-    sync.argtypes = [_P, ctypes.c_int, ctypes.c_int64, ctypes.c_char_p, ctypes.c_int]
+    sync.argtypes = [_P, ctypes.c_int, ctypes.c_int64, ctypes.c_char_p, ctypes.c_int, _P]
     read.argtypes = [_P, ctypes.c_int, ctypes.c_int64, ctypes.c_int, ctypes.c_int, _P]
     sync.restype = read.restype = ctypes.c_int
     return sync, read
@@ -129,6 +129,8 @@ class ServoBank:
         self._sync, self._read = _LIB
         self._out = ctypes.create_string_buffer(ax12.TABLE_SIZE + 6)
         self._out_at = ctypes.addressof(self._out)
+        self._changed = ctypes.c_int32()   # hx_sync_write's: an ID or Baud Rate changed
+        self._changed_at = ctypes.addressof(self._changed)
         self.index = {id(s): i for i, (s, ok) in enumerate(zip(servos, served)) if ok}
         # ID -> the bank index of the one servo it reaches, -1 (none, two, or not served)
         ids = [s.id for s in servos]
@@ -163,11 +165,16 @@ class ServoBank:
         ``handle``. True when one's ID or Baud Rate changed (the line re-indexes)."""
         self.advance(t_us)
         servos, n, sync, ref, size = self.servos, self.n, self._sync, self.ref, len(params)
-        i = sync(ref, 0, t_us, params, size)
+        changed, at = self._changed, self._changed_at
+        changed.value = 0
+        i = sync(ref, 0, t_us, params, size, at)
         while i < n:
-            servos[i].handle(dxl.SYNC_WRITE, params, True, t_us)   # broadcast: no reply
-            i = sync(ref, i + 1, t_us, params, size)
-        return any(s.address_changed for s in servos)
+            s = servos[i]
+            s.handle(dxl.SYNC_WRITE, params, True, t_us)   # broadcast: no reply
+            if s.address_changed:
+                changed.value = 1
+            i = sync(ref, i + 1, t_us, params, size, at)
+        return bool(changed.value)
 
     def read(self, servo: Any, params: bytes, t_us: int) -> bytes | None | bool:
         """``servo`` takes a READ at ``t_us``: its status packet, None when it answers
