@@ -58,7 +58,7 @@ def _sim(overlay: dict | None, compiled: bool, monkeypatch, node: bool = False) 
     sim = Simulator(sc, 1, world=make_world(sc, 1))
     if node:
         sim.bus.add_device(SensorNode(lambda: 0b101001, NODE_ID))
-    assert (sim.bus._servo_bank is not None) == compiled
+    assert (sim.bus.servo_bank is not None) == compiled
     return sim
 
 

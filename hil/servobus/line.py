@@ -75,7 +75,7 @@ class Bus:
                 self._by_id.setdefault(s.id, []).append(s)
             else:
                 self._foreign.append((s, self.parser_class()))
-        self._servo_bank = ServoBank.build(self._same, Servo)
+        self.servo_bank = ServoBank.build(self._same, Servo)
 
     def add_device(self, device) -> None:
         """Another Protocol 1.0 device on the line (hil/servobus/switch_node.py), served like a servo."""
@@ -218,7 +218,7 @@ class Bus:
             on_bytes(t0, "tx", bytes(tx))
         self._move_to(t1)
         params = bytes(tx[5:7])
-        reply = self._servo_bank.read(s, params, t1)
+        reply = self.servo_bank.read(s, params, t1)
         if reply is False:
             reply = s.handle(dxl.READ, params, False, t1)
         if not reply:
@@ -248,7 +248,7 @@ class Bus:
         reply is worked out without the parser and the bursts (hil/servobus/reads_core.py)."""
         return not (self._rx or not self._own_rules or self.faults is not None or self.echo
                     or self.monitor is not None or self._foreign or self._off
-                    or self.rx_latency_us or self._servo_bank is None or self._parser.pending())
+                    or self.rx_latency_us or self.servo_bank is None or self._parser.pending())
 
     def next_rx_us(self) -> int | None:
         """When the burst now arriving has fully arrived (real-time server), or None. (A
@@ -337,8 +337,8 @@ class Bus:
 
     def _dispatch(self, dev_id: int, code: int, params: bytes, t_us: int) -> None:
         if dev_id == dxl.BROADCAST_ID:
-            if code == dxl.SYNC_WRITE and self._servo_bank is not None and not self._off:
-                if self._servo_bank.sync_write(params, t_us):   # an ID or baud changed
+            if code == dxl.SYNC_WRITE and self.servo_bank is not None and not self._off:
+                if self.servo_bank.sync_write(params, t_us):   # an ID or baud changed
                     self._reindex()
                 return
             targets = self._same
@@ -349,7 +349,7 @@ class Bus:
                 return
         off = self._off
         changed = False
-        bank = self._servo_bank
+        bank = self.servo_bank
         for s in targets:
             if off and id(s) in off:
                 continue

@@ -95,7 +95,7 @@ class ReadsCore:
         return _HX_READS is not None
 
     def carry_out(self, bus: Bus, payload: bytes) -> Outcome | None:
-        bank: ServoBank | None = bus._servo_bank
+        bank: ServoBank | None = bus.servo_bank
         if (_HX_READS is None or bank is None or not bus.plain() or bank.next_step_us is None
                 or bus.advance != bank.advance):
             return None
