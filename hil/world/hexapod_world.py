@@ -36,6 +36,7 @@ from protocol.errors import UserError
 from protocol.hexapod import JOINTS, LEGS
 
 PHYSICS_DT_US = 2000   # 2 ms steps: contact-stable with implicit joint damping (see docs)
+JOINT_NAMES = tuple(f"{leg}_{part}" for leg in LEGS for part in JOINTS)   # servo-ID order
 
 
 @dataclass(frozen=True)
@@ -336,7 +337,7 @@ class HexapodWorld:
     @staticmethod
     def joint_names() -> list[str]:
         """MJCF joint names in servo-ID order, as they appear in JointStates."""
-        return [f"{leg}_{part}" for leg in LEGS for part in JOINTS]
+        return list(JOINT_NAMES)
 
     # --- logging ------------------------------------------------------------------------
     def _sample(self) -> None:

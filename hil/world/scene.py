@@ -116,6 +116,8 @@ class ModelScene:
         self._shapes = model_shapes(model, {p: False for p in plates})
         index = {sh.id: i for i, sh in enumerate(self._shapes)}
         self._plates = [index[p] for p in plates]
+        self._levels: tuple | None = None   # the last shapes() call's levels, and its answer
+        self._coloured: list[Shape] = []
         self._forces = {mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, g): g for g in forces}
         self._bodies = []
         for b in range(1, model.nbody):
@@ -127,12 +129,16 @@ class ModelScene:
                                  tuple(model.jnt_axis[j].tolist())))
 
     def shapes(self, levels: list[bool]) -> list[Shape]:
-        """Every shape, the plates coloured by ``levels`` (True = pressed)."""
-        out = list(self._shapes)
-        for i, pressed in zip(self._plates, levels):
-            if pressed:
-                out[i] = out[i]._replace(rgba=PLATE_PRESSED_RGBA)
-        return out
+        """Every shape, the plates coloured by ``levels`` (True = pressed): the same list
+        while the levels stay, so a caller sees at once that nothing changed."""
+        key = tuple(levels)
+        if key != self._levels:
+            out = list(self._shapes)
+            for i, pressed in zip(self._plates, levels):
+                if pressed:
+                    out[i] = out[i]._replace(rgba=PLATE_PRESSED_RGBA)
+            self._levels, self._coloured = key, out
+        return self._coloured
 
     def frames(self, data: Any) -> list[Frame]:
         """Every body's pose from the joint coordinates (as ``/body`` and ``/joints`` have
