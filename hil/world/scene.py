@@ -62,9 +62,8 @@ class Arrow(NamedTuple):
 def _t(v: Any) -> tuple[float, ...]:
     """Floats rounded to float32: the scene is for looking at (0.1 um at 1 m), and the
     zeroed low bits let zstd pack the 10 Hz poses and forces to about half."""
-    v = [float(x) for x in v]
     fmt = _F32[len(v)]
-    return fmt.unpack(fmt.pack(*v))
+    return fmt.unpack(fmt.pack(*v))   # numpy's floats and ints pack as their float()
 
 
 def model_shapes(model: Any, pressed: dict[str, bool]) -> list[Shape]:
@@ -147,7 +146,6 @@ class ModelScene:
         exact zeros or constants, which protobuf leaves out or zstd packs."""
         out = []
         qpos = data.qpos.tolist()
-        f32 = _F32[4]
         for name, parent, adr, free, pos, (w1, x1, y1, z1), (ax, ay, az) in self._bodies:
             if free:  # a free joint: position, then the quaternion
                 out.append(Frame(name, parent, _t(qpos[adr:adr + 3]), _t(qpos[adr + 3:adr + 7])))
@@ -155,11 +153,11 @@ class ModelScene:
             half = qpos[adr] / 2
             s = math.sin(half)
             w2, x2, y2, z2 = math.cos(half), s * ax, s * ay, s * az
-            quat = f32.pack(w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2 + 0.0,   # no -0.0
-                            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2 + 0.0,
-                            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2 + 0.0,
-                            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2 + 0.0)
-            out.append(Frame(name, parent, pos, f32.unpack(quat)))   # _t's rounding, inline
+            quat = (w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2 + 0.0,   # no -0.0
+                    w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2 + 0.0,
+                    w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2 + 0.0,
+                    w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2 + 0.0)
+            out.append(Frame(name, parent, pos, _t(quat)))
         return out
 
     def arrows(self, data: Any) -> list[Arrow]:
@@ -192,9 +190,8 @@ def contact_forces(model: Any, data: Any, geoms: dict[int, str]) -> list[Arrow]:
                 acc[0] += sign * f[0]
                 acc[1] += sign * f[1]
                 acc[2] += sign * f[2]
-    xpos, f32 = data.geom_xpos, _F32[3]   # _t's rounding, inline
-    return [Arrow(name, f32.unpack(f32.pack(*xpos[g].tolist())), f32.unpack(f32.pack(*total[g])))
-            for g, name in geoms.items()]
+    xpos = data.geom_xpos
+    return [Arrow(name, _t(xpos[g].tolist()), _t(total[g])) for g, name in geoms.items()]
 
 
 def _quat_y(angle_rad: float) -> tuple[float, float, float, float]:
