@@ -236,28 +236,32 @@ def _listen(ours: bool) -> tuple[socket.socket, dict[str, str]]:
     firmware/hal/sim.py) gets a Unix socket in a directory of its own: a round trip about
     10 us cheaper than TCP's loopback, whose send also runs the receiving side's stack
     (docs/performance.md, wave 11). A firmware not ours gets the documented 127.0.0.1 port,
-    and so does ours where no Unix socket can be made (a temporary directory whose path is
-    too long for one, or not writable)."""
-    if ours:
-        try:
-            where = tempfile.mkdtemp(prefix="hexhil-link-")
-        except OSError:
-            where = None
-        if where is not None:
-            path = os.path.join(where, "link")
-            srv = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-            try:
-                srv.bind(path)
-            except OSError:
-                srv.close()
-                os.rmdir(where)
-            else:
-                srv.listen(1)
-                return srv, firmware_env(0, path)
+    and so does ours where no Unix socket can be made."""
+    srv = _unix_listener() if ours else None
+    if srv is not None:
+        return srv, firmware_env(0, srv.getsockname())
     srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     srv.bind(("127.0.0.1", 0))
     srv.listen(1)
     return srv, firmware_env(srv.getsockname()[1])
+
+
+def _unix_listener() -> socket.socket | None:
+    """A Unix socket listening in a new temporary directory, or None where none can be
+    made there (a path too long for a socket's, a directory not writable)."""
+    try:
+        where = tempfile.mkdtemp(prefix="hexhil-link-")
+    except OSError:
+        return None
+    srv = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    try:
+        srv.bind(os.path.join(where, "link"))
+    except OSError:
+        srv.close()
+        os.rmdir(where)
+        return None
+    srv.listen(1)
+    return srv
 
 
 def _close_listener(srv: socket.socket) -> None:
