@@ -141,6 +141,27 @@ def test_relative_frames_compose_to_mujocos_world_poses():
         np.testing.assert_allclose(pose[name][1], world.data.xquat[b], atol=1e-6)
 
 
+def test_a_samples_frames_and_forces_are_what_the_world_was_when_taken():
+    """The hexapod hands the recorder its frames and forces as raw values (joint
+    coordinates, MuJoCo's contacts), made into poses and sums only where they are encoded,
+    later or in another process: they must be the sample's, not the world's of then."""
+    import pickle
+
+    sc = scenario_mod.load_scenario(ROOT / "scenarios/obstacles-high-large.toml")
+    world = make_world(sc, 0)
+    world.drives.goal_rad += np.linspace(-0.4, 0.4, 18)
+    world.advance_to(300_000)
+    frames, forces = world.scene_frames(), world.scene_arrows()
+    read_now = list(world.scene_frames()), list(world.scene_arrows())
+    assert any(a.force_n != (0.0, 0.0, 0.0) for a in read_now[1])   # feet on the ground
+    world.advance_to(400_000)
+    later = list(world.scene_frames()), list(world.scene_arrows())
+    assert later != read_now
+    for held, now in ((frames, read_now[0]), (forces, read_now[1])):
+        assert list(pickle.loads(pickle.dumps(held))) == now   # the encoding child's copy
+        assert list(held) == now and len(held) == len(now) and held[-1] == now[-1]
+
+
 def test_frame_transforms_encoder_matches_the_generated_class():
     from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 

@@ -327,11 +327,12 @@ class HexapodWorld:
         """The model's geoms; the switch plates red while pressed."""
         return self._scene.shapes(self.switches.levels())
 
-    def scene_frames(self) -> list[scene_mod.Frame]:
+    def scene_frames(self) -> scene_mod.JointFrames:
+        """The links' poses, made where the recorder encodes them (``JointFrames``)."""
         return self._scene.frames(self.data)
 
-    def scene_arrows(self) -> list[scene_mod.Arrow]:
-        """Each foot's contact force (N)."""
+    def scene_arrows(self) -> scene_mod.ContactForces:
+        """Each foot's contact force (N), summed where the recorder encodes it."""
         return self._scene.arrows(self.data)
 
     @staticmethod

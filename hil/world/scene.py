@@ -5,18 +5,20 @@ moving frame; re-sent only when it changes, e.g. a switch plate's colour), ``sce
 (every moving frame's pose, each ground-truth sample) and ``scene_arrows()``
 (forces, each sample). The hexapod's shapes are read from its compiled MuJoCo model, so
 the scene has the sizes the physics has; seed 000's body and beams from their geometry.
-No host_tools here: the simulator hands these values to the recorder as they are.
+The values are in hil/world/scene_values.py. No host_tools here: the simulator hands them
+to the recorder as they are.
 """
 from __future__ import annotations
 
 import math
-import struct
-from typing import Any, NamedTuple
+from typing import Any
 
 import mujoco
 import numpy as np
 
 from hil.world.beams import BeamsWorld
+from hil.world.scene_values import (Arrow, ContactForces, Frame, JointFrames, Shape,
+                                     f32_tuple)
 
 ROBOT_RGBA = (0.25, 0.45, 0.75, 1.0)
 FOOT_RGBA = (0.15, 0.15, 0.15, 1.0)
@@ -26,44 +28,6 @@ OBSTACLE_RGBA = (0.6, 0.45, 0.3, 1.0)
 BEAM_RGBA = (0.55, 0.55, 0.5, 0.9)
 BEAM_THICKNESS_M = 0.004  # drawn only: seed 000's beams are massless plates (Sec. II-A)
 IDENTITY = (1.0, 0.0, 0.0, 0.0)
-_F32 = [struct.Struct(f"<{n}f") for n in range(8)]
-
-
-class Shape(NamedTuple):
-    """One primitive: ``kind`` cube | cylinder (along z) | sphere (an ellipsoid when the
-    sizes differ); ``size_m`` its full extents; pose in ``frame``."""
-
-    id: str
-    frame: str
-    kind: str
-    position_m: tuple[float, float, float]
-    quat_wxyz: tuple[float, float, float, float]
-    size_m: tuple[float, float, float]
-    rgba: tuple[float, float, float, float]
-
-
-class Frame(NamedTuple):
-    """A moving frame's pose in its ``parent`` frame."""
-
-    id: str
-    parent: str
-    position_m: tuple[float, float, float]
-    quat_wxyz: tuple[float, float, float, float]
-
-
-class Arrow(NamedTuple):
-    """A force (N) acting at a point (m), both in ``world``."""
-
-    id: str
-    origin_m: tuple[float, float, float]
-    force_n: tuple[float, float, float]
-
-
-def _t(v: Any) -> tuple[float, ...]:
-    """Floats rounded to float32: the scene is for looking at (0.1 um at 1 m), and the
-    zeroed low bits let zstd pack the 10 Hz poses and forces to about half."""
-    fmt = _F32[len(v)]
-    return fmt.unpack(fmt.pack(*v))   # numpy's floats and ints pack as their float()
 
 
 def model_shapes(model: Any, pressed: dict[str, bool]) -> list[Shape]:
@@ -95,8 +59,8 @@ def model_shapes(model: Any, pressed: dict[str, bool]) -> list[Shape]:
             rgba = FOOT_RGBA
         else:
             rgba = ROBOT_RGBA
-        out.append(Shape(name, frame, kind, _t(model.geom_pos[g]), _t(model.geom_quat[g]),
-                         _t(extents), rgba))
+        out.append(Shape(name, frame, kind, f32_tuple(model.geom_pos[g]), f32_tuple(model.geom_quat[g]),
+                         f32_tuple(extents), rgba))
     return out
 
 
@@ -118,14 +82,16 @@ class ModelScene:
         self._levels: tuple | None = None   # the last shapes() call's levels, and its answer
         self._coloured: list[Shape] = []
         self._forces = {mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, g): g for g in forces}
-        self._bodies = []
+        self._force_ids = list(self._forces)
+        bodies = []
         for b in range(1, model.nbody):
             parent = int(model.body_parentid[b])
             j = int(model.body_jntadr[b])
-            self._bodies.append((body(b), body(parent) if parent else "world",
-                                 int(model.jnt_qposadr[j]), parent == 0,
-                                 _t(model.body_pos[b]), tuple(model.body_quat[b].tolist()),
-                                 tuple(model.jnt_axis[j].tolist())))
+            bodies.append((body(b), body(parent) if parent else "world",
+                           int(model.jnt_qposadr[j]), parent == 0,
+                           f32_tuple(model.body_pos[b]), tuple(model.body_quat[b].tolist()),
+                           tuple(model.jnt_axis[j].tolist())))
+        self._bodies = tuple(bodies)   # one object: a window's pickle holds it once
 
     def shapes(self, levels: list[bool]) -> list[Shape]:
         """Every shape, the plates coloured by ``levels`` (True = pressed): the same list
@@ -139,59 +105,28 @@ class ModelScene:
             self._levels, self._coloured = key, out
         return self._coloured
 
-    def frames(self, data: Any) -> list[Frame]:
-        """Every body's pose from the joint coordinates (as ``/body`` and ``/joints`` have
-        them): a free body's in ``world``, a body on one hinge in its parent's (the model's
-        fixed offset turned by the joint angle). Relative poses keep the constant parts
-        exact zeros or constants, which protobuf leaves out or zstd packs."""
-        out = []
-        qpos = data.qpos.tolist()
-        for name, parent, adr, free, pos, (w1, x1, y1, z1), (ax, ay, az) in self._bodies:
-            if free:  # a free joint: position, then the quaternion
-                out.append(Frame(name, parent, _t(qpos[adr:adr + 3]), _t(qpos[adr + 3:adr + 7])))
-                continue
-            half = qpos[adr] / 2
-            s = math.sin(half)
-            w2, x2, y2, z2 = math.cos(half), s * ax, s * ay, s * az
-            quat = (w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2 + 0.0,   # no -0.0
-                    w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2 + 0.0,
-                    w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2 + 0.0,
-                    w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2 + 0.0)
-            out.append(Frame(name, parent, pos, _t(quat)))
-        return out
+    def frames(self, data: Any) -> JointFrames:
+        """Every body's pose, as the joint coordinates it follows from (``JointFrames``)."""
+        return JointFrames(self._bodies, data.qpos.tolist())
 
-    def arrows(self, data: Any) -> list[Arrow]:
-        return contact_forces(self.model, data, self._forces)
+    def arrows(self, data: Any) -> ContactForces:
+        return contact_forces(self.model, data, self._forces, self._force_ids)
 
 
-def contact_forces(model: Any, data: Any, geoms: dict[int, str]) -> list[Arrow]:
-    """The summed contact force on each geom in ``geoms`` (id -> arrow id), in ``world``,
-    at the geom's centre; geoms without contact get a zero force.
-
-    Python floats, not a numpy product: the same bits on every machine (numpy's product
-    goes to OpenBLAS, whose kernel, with or without fused multiply-adds, depends on the
-    CPU), and a third of the time for the handful of contacts a sample has."""
-    total = {g: [0.0, 0.0, 0.0] for g in geoms}
+def contact_forces(model: Any, data: Any, geoms: dict[int, str], ids: list[int]
+                   ) -> ContactForces:
+    """The contacts on the geoms in ``geoms`` (id -> arrow id; ``ids`` its keys as a list),
+    as ``ContactForces``: MuJoCo's force in each contact's frame, the frame, and the geoms'
+    centres, read now; the sums are made where the recorder encodes them."""
     f6 = np.zeros(6)
     contacts = data.contact   # its columns: a contact object each costs more
-    frames = contacts.frame
+    frames = contacts.frame.tolist()
+    held = []
     for i, pair in enumerate(zip(contacts.geom1.tolist(), contacts.geom2.tolist())):
-        if pair[0] not in total and pair[1] not in total:
-            continue
-        mujoco.mj_contactForce(model, data, i, f6)
-        n, t1, t2 = f6[:3].tolist()   # along the contact frame's normal and tangents
-        # the frame's rows are its axes in world; the force acts on geom2
-        a = frames[i].tolist()
-        f = (a[0] * n + a[3] * t1 + a[6] * t2, a[1] * n + a[4] * t1 + a[7] * t2,
-             a[2] * n + a[5] * t1 + a[8] * t2)
-        for g, sign in zip(pair, (-1.0, 1.0)):
-            acc = total.get(g)
-            if acc is not None:
-                acc[0] += sign * f[0]
-                acc[1] += sign * f[1]
-                acc[2] += sign * f[2]
-    xpos = data.geom_xpos
-    return [Arrow(name, _t(xpos[g].tolist()), _t(total[g])) for g, name in geoms.items()]
+        if pair[0] in geoms or pair[1] in geoms:
+            mujoco.mj_contactForce(model, data, i, f6)
+            held.append((pair, f6[:3].tolist(), frames[i]))
+    return ContactForces(geoms, held, data.geom_xpos[ids].tolist())
 
 
 def _quat_y(angle_rad: float) -> tuple[float, float, float, float]:
@@ -217,13 +152,13 @@ def beams_frames(world: BeamsWorld) -> list[Frame]:
     g, s = world.geometry, world.state
     cr, sr = math.cos(s.roll_rad / 2), math.sin(s.roll_rad / 2)
     cp, sp = math.cos(s.pitch_rad / 2), math.sin(s.pitch_rad / 2)
-    body = Frame("body", "world", _t((s.x_m, 0.0, g.height_m)),
-                 _t((cp * cr, cp * sr, sp * cr, -sp * sr)))
+    body = Frame("body", "world", f32_tuple((s.x_m, 0.0, g.height_m)),
+                 f32_tuple((cp * cr, cp * sr, sp * cr, -sp * sr)))
     out = [body]
     for i, bp in enumerate(world.beams):
         lo, hi = g.beam_y_range(i)
-        out.append(Frame(f"beam{i}", "world", _t((0.0, (lo + hi) / 2, bp.hb_m)),
-                         _t(_quat_y(world.last.theta_rad[i]))))
+        out.append(Frame(f"beam{i}", "world", f32_tuple((0.0, (lo + hi) / 2, bp.hb_m)),
+                         f32_tuple(_quat_y(world.last.theta_rad[i]))))
     return out
 
 
@@ -231,4 +166,4 @@ def beams_arrows(world: BeamsWorld) -> list[Arrow]:
     """The beams' summed contact force (Eq. 5: F1 + F2, what the force sensor reads before
     noise), drawn at the body's nose."""
     g, s = world.geometry, world.state
-    return [Arrow("contact", _t((s.x_m + g.a_m, 0.0, g.height_m)), _t(world.last.contact_n))]
+    return [Arrow("contact", f32_tuple((s.x_m + g.a_m, 0.0, g.height_m)), f32_tuple(world.last.contact_n))]

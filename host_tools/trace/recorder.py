@@ -46,6 +46,7 @@ from host_tools.trace.channels import Channels
 from host_tools.trace.windows import EncodeIn, Encoded, HeldWindows
 from host_tools.dynamixel.decode import DECODERS
 from hil.servobus import serial_stream
+from hil.world.scene_values import ContactForces, JointFrames
 from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
 
 DEFAULT_FLUSH_INTERVAL_US = 500_000  # well inside the issue's "once per simulated second"
@@ -227,14 +228,17 @@ class Recorder(HeldWindows):
 
     def scene_frames(self, t_us: int, frames: Sequence[Any]) -> None:
         """The moving frames' poses (``hil.world.scene.Frame``: id, parent, position,
-        quaternion)."""
-        self._defer(t_us, self._encode_scene,
-                    (T_SCENE_FRAMES, pb.encode_frame_transforms, _plain(frames)))
+        quaternion). A ``hil.world.scene_values.JointFrames`` is held as it is, so its frames are
+        made where they are encoded."""
+        held = frames if isinstance(frames, JointFrames) else _plain(frames)
+        self._defer(t_us, self._encode_scene, (T_SCENE_FRAMES, pb.encode_frame_transforms, held))
 
     def scene_forces(self, t_us: int, arrows: Sequence[Any]) -> None:
-        """Contact forces as arrows (``hil.world.scene.Arrow``)."""
-        self._defer(t_us, self._encode_scene,
-                    (T_SCENE_FORCES, scene_msgs.encode_arrows, _plain(arrows)))
+        """Contact forces as arrows (``hil.world.scene.Arrow``). A
+        ``hil.world.scene_values.ContactForces`` is held as it is, so its sums are made
+        where they are encoded."""
+        held = arrows if isinstance(arrows, ContactForces) else _plain(arrows)
+        self._defer(t_us, self._encode_scene, (T_SCENE_FORCES, scene_msgs.encode_arrows, held))
 
     def _encode_scene(self, out: list, t: int, topic: str,
                       encode: Callable[[int, list], bytes], values: list) -> None:
