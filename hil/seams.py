@@ -147,6 +147,12 @@ class SteppedWorld(Protocol):
     def outcome(self) -> "BeamsOutcome": ...
 
 
+# A servo's state as the recorder takes it (``TraceRecorder.servo_state``): a mapping of
+# these keys, or a tuple of them in this order (hil/servobus/table_servo.py ``state_row``).
+SERVO_STATE_FIELDS = ("id", "position_rad", "velocity_rad_s", "load_frac", "temperature_c",
+                      "voltage_v", "torque_enabled", "moving", "error")
+
+
 class TraceRecorder(Protocol):
     """Where a run writes what happened (host_tools/trace/recorder.py ``Recorder``), in
     virtual microseconds; ``advance`` says no earlier message will come."""

@@ -44,4 +44,4 @@ class GroundTruth:
         rec.scene_forces(t, w.scene_arrows())
 
     def servo_sample(self, t: int) -> None:
-        self.recorder.servo_state(t, [s.snapshot() for s in self.servos])
+        self.recorder.servo_state(t, [s.state_row() for s in self.servos])

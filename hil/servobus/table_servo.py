@@ -5,7 +5,7 @@ protocol/dynamixel/ax12.py or xl430.py, which name the same registers alike), tu
 an ``Actuator``, finish an EEPROM write before they take the next packet and go deaf while
 they reboot. From those this base reads the identity, takes an instruction (late while an
 EEPROM write finishes; not at all while deaf), keeps a REG_WRITE for ACTION and gives the
-recorder its snapshot; each servo executes its own instruction set.
+recorder its state; each servo executes its own instruction set.
 
 An EEPROM write is not a deaf time (issue 42, sources in docs/servo-bus.md): ROBOTIS's own
 advice for wheel mode is two WRITEs back to back, each waiting for its status, and users
@@ -73,13 +73,14 @@ class TableServo:
         """The Moving flag without refreshing the rest of the table."""
         return is_moving(self.actuator.state()[1])
 
-    def snapshot(self) -> dict[str, Any]:
-        """The servo's state in SI units, as the recorder logs it on ``/servos``."""
+    def state_row(self) -> tuple:
+        """The servo's state in SI units, as the recorder logs it on ``/servos``: the
+        fields of ``hil.seams.SERVO_STATE_FIELDS`` in order, a plain tuple (what the
+        recorder holds and pickles at the least cost)."""
         pos, vel, load = self.actuator.state()
-        return {"id": self.id, "position_rad": pos, "velocity_rad_s": vel, "load_frac": load,
-                "temperature_c": self.health.temperature_c, "voltage_v": self.health.supply_v,
-                "torque_enabled": self.torque_on, "moving": is_moving(vel),
-                "error": self.state_errors()}
+        health, table, layout = self.health, self.table, self.layout
+        return (table[layout.ID], pos, vel, load, health.temperature_c, health.supply_v,
+                table[layout.TORQUE_ENABLE] != 0, is_moving(vel), self.state_errors())
 
     def set_hot_spot(self, temperature_c: float | None, t_us: int) -> None:
         self.advance_to(t_us)

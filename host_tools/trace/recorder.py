@@ -169,11 +169,13 @@ class Recorder(HeldWindows):
         cid = self._channels.of(topic)
         out.append((t, cid, json.dumps(values, sort_keys=True, default=json_default).encode()))
 
-    def servo_state(self, t_us: int, servos: Iterable[Mapping[str, Any]]) -> None:
+    def servo_state(self, t_us: int, servos: Iterable[Mapping[str, Any] | tuple]) -> None:
         """Emulated servo state, one message for all servos. Each mapping may hold ``id``,
         ``position_rad``, ``velocity_rad_s``, ``load_frac``, ``temperature_c``,
-        ``voltage_v``, ``torque_enabled``, ``moving``, ``error``."""
-        self._defer(t_us, self._encode_servo_state, ([pb.servo_row(s) for s in servos],))
+        ``voltage_v``, ``torque_enabled``, ``moving``, ``error``; a tuple holds all of
+        them in that order (``hil.seams.SERVO_STATE_FIELDS``)."""
+        self._defer(t_us, self._encode_servo_state,
+                    ([s if type(s) is tuple else pb.servo_row(s) for s in servos],))
 
     def _encode_servo_state(self, out: list, t: int, rows: list[tuple]) -> None:
         out.append((t, self._channels.of(T_SERVOS), pb.encode_servo_rows(rows)))
