@@ -56,7 +56,9 @@ def _median_rtf(record: bool, *extra: str) -> float:
 class _Stopwatch:
     """Seconds spent inside wrapped callables, by label, on ``clock`` (wall time, or this
     thread's CPU time). A call inside another of its own label counts once (``transact``
-    falling back to ``master_write``); one of another label is not subtracted."""
+    falling back to ``master_write``); one of another label is not subtracted, and is also
+    counted as "LABEL inside OUTER" (the world stepped from inside the bus, or from the
+    lookahead)."""
 
     def __init__(self, clock: Callable[[], float] = time.perf_counter) -> None:
         self.s: dict[str, float] = {}
@@ -69,13 +71,18 @@ class _Stopwatch:
         def timed(*args: Any, **kw: Any) -> Any:
             if label in inside:
                 return fn(*args, **kw)
+            outers = tuple(inside)
             inside.add(label)
             t0 = clock()
             try:
                 return fn(*args, **kw)
             finally:
                 inside.discard(label)
-                self.s[label] = self.s.get(label, 0.0) + clock() - t0
+                dt = clock() - t0
+                self.s[label] = self.s.get(label, 0.0) + dt
+                for outer in outers:
+                    key = f"{label} inside {outer}"
+                    self.s[key] = self.s.get(key, 0.0) + dt
         return timed
 
 
@@ -144,7 +151,8 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
     in_bus = s.get("recorder in bus", 0.0)
     wait = "firmware compute, in this process" if in_process else "waiting on the firmware"
     parts = {wait: s.get("wait", 0.0),
-             "bus + servo emulation": s.get("bus", 0.0) - s.get("world", 0.0) - in_bus,
+             "bus + servo emulation": (s.get("bus", 0.0) - s.get("world inside bus", 0.0)
+                                       - in_bus),
              "world step": s.get("world", 0.0), "recorder": s.get("recorder", 0.0) + in_bus}
     parts["link server and the rest"] = total - sum(parts.values())
     parts["total"] = total

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 import struct
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from hil.link.board_line import MISTAKES, BoardLine, set_master_baud
 from hil.canbus.bus import CanBus
@@ -21,6 +21,9 @@ from hil.seams import TraceRecorder
 from protocol import sim_link
 from protocol.dynamixel import v1 as dxl
 from protocol import link_schema as ls
+
+if TYPE_CHECKING:   # hil/run builds the server; the server only calls it
+    from hil.run.lookahead import Lookahead
 
 RECORDER_SLICE = 4  # held messages the recorder encodes between looks at the link (~10 us)
 
@@ -49,9 +52,11 @@ class LinkServer:
     """Answers one firmware's requests until it closes the link."""
 
     def __init__(self, sim: Any, settings: dict[str, Any], switches: SwitchSampler,
-                 on_wake: Callable[[int], None], on_slept: Callable[[], None]) -> None:
+                 on_wake: Callable[[int], None], on_slept: Callable[[], None],
+                 lookahead: Lookahead | None = None) -> None:
         self.sim, self.settings, self.switches = sim, settings, switches
         self.on_wake, self.on_slept = on_wake, on_slept
+        self.lookahead = lookahead   # the world stepping on after R's reply (a process's)
         self.bus = sim.rig.bus
         self.clock = sim.rig.clock
         self.can: CanBus = sim.can
@@ -301,7 +306,9 @@ class LinkServer:
                 closed: bool, end_us: int, result: RunTally) -> bool:
         bus, clock, rec = self.bus, self.clock, self.sim.recorder
         reply = None
-        slept = False
+        slept = reads = False
+        if self.lookahead is not None:
+            self.lookahead.settle(msgs)
         for op, payload in msgs:
             if op == sim_link.OP_WRITE:
                 t0 = clock.t_us
@@ -317,6 +324,7 @@ class LinkServer:
                 reply = self._transact(payload[6:], nrx, timeout_us, result)
             elif op == sim_link.OP_READS and self.version == sim_link.VERSION_READS:
                 reply = self._reads(payload, result)
+                reads = True
             elif op == sim_link.OP_CAN:
                 self._can_from_firmware(payload, result)
             elif op == sim_link.OP_EVENT:
@@ -348,11 +356,15 @@ class LinkServer:
                 reply = self._hello_reply(payload, result)
             else:
                 raise LinkViolation(f"unknown message op 0x{op:02x}")
-        # Recording comes after the reply: nothing here moves until the firmware's next
-        # batch, so the recorder's work overlaps the firmware's instead of delaying it.
+        # Recording comes after the reply: the clock stays until the firmware's next
+        # batch, so the recorder's work overlaps the firmware's instead of delaying it; so
+        # does the world's stepping ahead after R (hil/run/lookahead.py), which records
+        # nothing and leaves the clock where it is.
         raw = conn.reply(clock.t_us, reply) if reply is not None and not closed else None
         if slept:
             self.on_slept()
+        if reads and raw is not None and self.lookahead is not None:
+            self.lookahead.step(end_us)
         if rec is not None and raw is not None:
             rec.link(clock.t_us, bytes(conn.raw), raw)
             while not conn.answered() and rec.idle(RECORDER_SLICE):

@@ -29,6 +29,7 @@ from hil.link.served_firmware import ServedFirmware, judge
 from hil.link.firmware_process import IN_PROCESS, DirectConnection, FirmwareProcess
 from hil.link.server import LinkServer, SwitchSampler
 from hil.run.core import RunCore, WallClockPacing
+from hil.run.lookahead import Lookahead
 from hil.run_result import (BodyDisplacement, HexapodOutcome, RunInterrupted, RunResult,
                              RunTally)
 from hil.scenario import Scenario, check_duration
@@ -90,6 +91,15 @@ class FirmwareDriver:
             due = truth if due is None else min(due, truth)
         return due
 
+    def _next_due(self) -> int | None:
+        """The next instant something reads or changes the world besides the firmware: a
+        host node tick, a ground-truth sample, an injected fault (the lookahead's limit)."""
+        due = self.next_tick_us()
+        faults = self.core.bus.faults if self.core.bus is not None else None
+        if faults is not None:
+            due = faults.next_us if due is None else min(due, faults.next_us)
+        return due
+
     def _wake(self, t_us: int) -> None:
         """The line idled to ``t_us``: host nodes due tick, then the ground truth due is
         taken (body pose, joints, scene and servo states, at 10 Hz on the 100 ms grid)."""
@@ -114,9 +124,12 @@ class FirmwareDriver:
             in_process: InProcessFirmware | None, end_us: int, result: RunTally,
             firmware: ServedFirmware | None = None) -> None:
         core = self.core
+        ahead = None
+        if in_process is None and firmware is None and hasattr(core.world, "checkpoint"):
+            ahead = Lookahead(core.world, lambda: core.clock.t_us, self._next_due)
         server = LinkServer(self, core.config.firmware_settings(self._tactile),
                             SwitchSampler(self._levels, core.recorder), self._wake,
-                            self._ground_truth)
+                            self._ground_truth, ahead)
         if in_process is not None:
             in_process(DirectConnection(
                 lambda conn, msgs, closed: server.answer(conn, msgs, closed, end_us, result)

@@ -248,6 +248,7 @@ class HexapodWorld:
         self._lists: tuple[list[float], list[float], list[float]] = ([], [], [])
         self._actuators = [act.MujocoActuator(self, i) for i in range(18)]
         self._buffers: dict[str, Any] | None = None
+        self._backup: Any = None   # checkpoint()'s copy of the MjData
         self._sample()
 
     # --- the simulator's hooks ----------------------------------------------------------
@@ -266,6 +267,31 @@ class HexapodWorld:
                 self._log_switches()
             if self.t_us % 100_000 == 0:
                 self._sample()
+
+    def checkpoint(self) -> tuple | None:
+        """All that ``advance_to`` changes, for ``restore``: the run's lookahead
+        (hil/run/lookahead.py) steps the world ahead of the run's clock and takes the steps
+        back when the firmware's next batch does not lead there. None with the real
+        robot's drives (hil/world/fidelity.py), whose state is more than these arrays."""
+        if type(self.drives) is not act.DriveBank:
+            return None
+        if self._backup is None:
+            self._backup = mujoco.MjData(self.model)
+        mujoco.mj_copyData(self._backup, self.model, self.data)
+        d = self.drives
+        return (self.t_us, d.setpoint_rad.copy(), d.duty.copy(), self.switches.state(),
+                len(self.events), len(self.trajectory))
+
+    def restore(self, saved: tuple) -> None:
+        """Back to a ``checkpoint``: the same bits as if the steps since had not been taken."""
+        mujoco.mj_copyData(self.data, self.model, self._backup)
+        self.t_us, setpoint, duty, switches, events, samples = saved
+        self.drives.setpoint_rad[:] = setpoint
+        self.drives.duty[:] = duty
+        self.switches.set_state(switches)
+        del self.events[events:]
+        del self.trajectory[samples:]
+        self._lists_t_us = -1
 
     def next_step_us(self) -> int:
         """When the next physics step is due: ``advance_to`` an earlier time does nothing."""

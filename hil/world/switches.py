@@ -48,3 +48,12 @@ class SwitchBank:
 
     def levels(self) -> list[bool]:
         return list(self.closed)   # asked at every link request; the caller's own copy
+
+    def state(self) -> tuple:
+        """All ``update`` changes, for ``set_state`` (the world's checkpoint)."""
+        return list(self.closed), list(self.presses), self._any_closed
+
+    def set_state(self, state: tuple) -> None:
+        closed, presses, self._any_closed = state
+        self.closed[:] = closed
+        self.presses[:] = presses
