@@ -136,6 +136,18 @@ class FirmwareWorld(Protocol):
     def joint_efforts_nm(self) -> Any: ...
 
 
+class CheckpointWorld(Protocol):
+    """A FirmwareWorld that can run ahead of the run's clock and be put back (the lookahead,
+    hil/run/lookahead.py): ``checkpoint()`` is None where it cannot."""
+
+    t_us: int
+
+    def advance_to(self, t_us: int) -> None: ...
+    def next_step_us(self) -> int: ...
+    def checkpoint(self) -> Any: ...
+    def restore(self, saved: Any) -> None: ...
+
+
 class SteppedWorld(Protocol):
     """A world that steps itself and speaks CAN (seed 000's beams, hil/world/beams_node.py)."""
 

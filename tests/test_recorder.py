@@ -21,7 +21,6 @@ from mcap.records import Chunk, MessageIndex
 from mcap.stream_reader import StreamReader
 from mcap_protobuf.decoder import DecoderFactory
 
-from hil import scenario as scenario_mod
 from host_tools.trace import protobuf as pb
 from host_tools.trace import reader as trace_reader
 from host_tools.trace import recorder as rec
@@ -206,26 +205,6 @@ def test_hand_encoded_ground_truth_and_can_are_what_the_generated_classes_write(
     assert pb.encode_can_frame(direction, arb, ext, data, name) == pb.CanFrame(
         direction=direction, arbitration_id=arb, is_extended_id=ext, dlc=len(data), data=data,
         name=name).SerializeToString()
-
-
-def test_a_servos_state_as_a_row_is_its_mapping(tmp_path):
-    """The run hands the recorder each servo's state as a tuple (``state_row``), a user a
-    mapping: the same message either way, and the servo's row in SERVO_STATE_FIELDS order."""
-    from hil.run import rig
-    from hil.seams import SERVO_STATE_FIELDS
-
-    sc = scenario_mod.load_scenario(ROOT / "scenarios" / "flat-tripod.toml")
-    servos = rig.build(sc, world=rig.make_world(sc, 0)).bus.servos
-    rows = [s.state_row() for s in servos]
-    assert [r[0] for r in rows] == list(range(1, 19))
-    maps = [dict(zip(SERVO_STATE_FIELDS, r)) for r in rows]
-    assert [pb.servo_row(m) for m in maps] == rows
-    files = []
-    for states in (rows, maps):
-        files.append(tmp_path / f"{len(files)}.mcap")
-        with rec.Recorder(files[-1], {"seed": 1}, encode_in=rec.EncodeIn.THIS_PROCESS) as r:
-            r.servo_state(100, states)
-    assert files[0].read_bytes() == files[1].read_bytes()
 
 
 def test_can_signals_in_the_trace_are_the_dbc_decoding(tmp_path):

@@ -21,6 +21,7 @@ from __future__ import annotations
 import struct
 from typing import Any, Callable
 
+from hil.seams import CheckpointWorld
 from protocol import sim_link
 
 _CLOCK_ONLY = (sim_link.OP_CAN, sim_link.OP_EVENT)   # take effect on the run's clock alone
@@ -28,11 +29,11 @@ _CLOCK_ONLY = (sim_link.OP_CAN, sim_link.OP_EVENT)   # take effect on the run's 
 
 class Lookahead:
     """``step(end_us)`` after R's reply; ``settle(msgs)`` with the firmware's next batch,
-    before it is carried out. ``world`` offers ``checkpoint`` (None where it cannot),
-    ``restore``, ``advance_to`` and ``t_us``; ``next_due`` the next instant something reads
-    the world (host node tick, ground-truth sample, injected fault), or None."""
+    before it is carried out. ``now_us`` is the run's clock; ``next_due`` the next instant
+    something else reads or changes the world (host node tick, ground-truth sample,
+    injected fault), or None."""
 
-    def __init__(self, world: Any, now_us: Callable[[], int],
+    def __init__(self, world: CheckpointWorld, now_us: Callable[[], int],
                  next_due: Callable[[], int | None]) -> None:
         self.world, self.now_us, self.next_due = world, now_us, next_due
         self._saved: Any = None
