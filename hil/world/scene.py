@@ -59,8 +59,8 @@ def model_shapes(model: Any, pressed: dict[str, bool]) -> list[Shape]:
             rgba = FOOT_RGBA
         else:
             rgba = ROBOT_RGBA
-        out.append(Shape(name, frame, kind, f32_tuple(model.geom_pos[g]), f32_tuple(model.geom_quat[g]),
-                         f32_tuple(extents), rgba))
+        out.append(Shape(name, frame, kind, f32_tuple(model.geom_pos[g]),
+                         f32_tuple(model.geom_quat[g]), f32_tuple(extents), rgba))
     return out
 
 
@@ -82,7 +82,6 @@ class ModelScene:
         self._levels: tuple | None = None   # the last shapes() call's levels, and its answer
         self._coloured: list[Shape] = []
         self._forces = {mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, g): g for g in forces}
-        self._force_ids = list(self._forces)
         bodies = []
         for b in range(1, model.nbody):
             parent = int(model.body_parentid[b])
@@ -110,14 +109,13 @@ class ModelScene:
         return JointFrames(self._bodies, data.qpos.tolist())
 
     def arrows(self, data: Any) -> ContactForces:
-        return contact_forces(self.model, data, self._forces, self._force_ids)
+        return contact_forces(self.model, data, self._forces)
 
 
-def contact_forces(model: Any, data: Any, geoms: dict[int, str], ids: list[int]
-                   ) -> ContactForces:
-    """The contacts on the geoms in ``geoms`` (id -> arrow id; ``ids`` its keys as a list),
-    as ``ContactForces``: MuJoCo's force in each contact's frame, the frame, and the geoms'
-    centres, read now; the sums are made where the recorder encodes them."""
+def contact_forces(model: Any, data: Any, geoms: dict[int, str]) -> ContactForces:
+    """The contacts on the geoms in ``geoms`` (id -> arrow id), as ``ContactForces``:
+    MuJoCo's force in each contact's frame, the frame, and the geoms' centres, read now;
+    the sums are made where the recorder encodes them."""
     f6 = np.zeros(6)
     contacts = data.contact   # its columns: a contact object each costs more
     frames = contacts.frame.tolist()
@@ -126,7 +124,7 @@ def contact_forces(model: Any, data: Any, geoms: dict[int, str], ids: list[int]
         if pair[0] in geoms or pair[1] in geoms:
             mujoco.mj_contactForce(model, data, i, f6)
             held.append((pair, f6[:3].tolist(), frames[i]))
-    return ContactForces(geoms, held, data.geom_xpos[ids].tolist())
+    return ContactForces(geoms, held, data.geom_xpos[list(geoms)].tolist())
 
 
 def _quat_y(angle_rad: float) -> tuple[float, float, float, float]:
@@ -166,4 +164,5 @@ def beams_arrows(world: BeamsWorld) -> list[Arrow]:
     """The beams' summed contact force (Eq. 5: F1 + F2, what the force sensor reads before
     noise), drawn at the body's nose."""
     g, s = world.geometry, world.state
-    return [Arrow("contact", f32_tuple((s.x_m + g.a_m, 0.0, g.height_m)), f32_tuple(world.last.contact_n))]
+    return [Arrow("contact", f32_tuple((s.x_m + g.a_m, 0.0, g.height_m)),
+                  f32_tuple(world.last.contact_n))]

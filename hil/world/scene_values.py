@@ -58,9 +58,10 @@ def f32_tuple(v: Any) -> tuple[float, ...]:
 T = TypeVar("T")
 
 
-class _Held(Sequence[T]):
+class HeldSample(Sequence[T]):
     """A sample held as the raw values it follows from (``args``): its items are made by
-    ``_make(*args)`` when first read, and it pickles as ``args`` alone."""
+    ``_make(*args)`` when first read, and it pickles as ``args`` alone. The recorder holds
+    one as it is (``JointFrames``, ``ContactForces``)."""
 
     def __init__(self, *args: Any) -> None:
         self.args = args
@@ -88,7 +89,7 @@ class _Held(Sequence[T]):
         raise NotImplementedError
 
 
-class JointFrames(_Held[Frame]):
+class JointFrames(HeldSample[Frame]):
     """A sample's moving frames, held as the joint coordinates they follow from:
     ``JointFrames(bodies, qpos)``, ``bodies`` the model's constant table
     (hil/world/scene.py ``ModelScene``). The recorder holds it as it is and reads it where
@@ -119,7 +120,7 @@ class JointFrames(_Held[Frame]):
         return out
 
 
-class ContactForces(_Held[Arrow]):
+class ContactForces(HeldSample[Arrow]):
     """The summed contact force on each geom of ``geoms`` (id -> arrow id), in ``world``,
     at the geom's centre: ``ContactForces(geoms, contacts, centres)``, ``centres`` in the
     order of ``geoms``, ``contacts`` ((geom1, geom2), MuJoCo's force along the contact

@@ -251,8 +251,9 @@ _PACK_SERVO = struct.Struct("<BBBdBdBdBdBd").pack  # id < 128 and five non-zero 
 def servo_row(s: Mapping[str, Any]) -> tuple:
     """A ``ServoState``'s fields in order (``hil.seams.SERVO_STATE_FIELDS``: id,
     position_rad, velocity_rad_s, load_frac, temperature_c, voltage_v, torque_enabled,
-    moving, error); a missing key takes the proto3 default. Rows, not mappings, are what the recorder holds: they pickle at a third of
-    the cost on the way to the encoding child."""
+    moving, error); a missing key takes the proto3 default. Rows, not mappings, are what
+    the recorder holds: they pickle at a third of the cost on the way to the encoding
+    child."""
     g = s.get
     return (g("id", 0), g("position_rad", 0.0), g("velocity_rad_s", 0.0), g("load_frac", 0.0),
             g("temperature_c", 0.0), g("voltage_v", 0.0), bool(g("torque_enabled")),

@@ -46,7 +46,7 @@ from host_tools.trace.channels import Channels
 from host_tools.trace.windows import EncodeIn, Encoded, HeldWindows
 from host_tools.dynamixel.decode import DECODERS
 from hil.servobus import serial_stream
-from hil.world.scene_values import ContactForces, JointFrames
+from hil.world.scene_values import HeldSample
 from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
 
 DEFAULT_FLUSH_INTERVAL_US = 500_000  # well inside the issue's "once per simulated second"
@@ -230,17 +230,15 @@ class Recorder(HeldWindows):
 
     def scene_frames(self, t_us: int, frames: Sequence[Any]) -> None:
         """The moving frames' poses (``hil.world.scene.Frame``: id, parent, position,
-        quaternion). A ``hil.world.scene_values.JointFrames`` is held as it is, so its frames are
-        made where they are encoded."""
-        held = frames if isinstance(frames, JointFrames) else _plain(frames)
-        self._defer(t_us, self._encode_scene, (T_SCENE_FRAMES, pb.encode_frame_transforms, held))
+        quaternion), or a ``hil.world.scene_values.JointFrames``."""
+        self._defer(t_us, self._encode_scene,
+                    (T_SCENE_FRAMES, pb.encode_frame_transforms, _plain(frames)))
 
     def scene_forces(self, t_us: int, arrows: Sequence[Any]) -> None:
-        """Contact forces as arrows (``hil.world.scene.Arrow``). A
-        ``hil.world.scene_values.ContactForces`` is held as it is, so its sums are made
-        where they are encoded."""
-        held = arrows if isinstance(arrows, ContactForces) else _plain(arrows)
-        self._defer(t_us, self._encode_scene, (T_SCENE_FORCES, scene_msgs.encode_arrows, held))
+        """Contact forces as arrows (``hil.world.scene.Arrow``), or a
+        ``hil.world.scene_values.ContactForces``."""
+        self._defer(t_us, self._encode_scene,
+                    (T_SCENE_FORCES, scene_msgs.encode_arrows, _plain(arrows)))
 
     def _encode_scene(self, out: list, t: int, topic: str,
                       encode: Callable[[int, list], bytes], values: list) -> None:
@@ -270,9 +268,13 @@ class Recorder(HeldWindows):
         out.append((t, cid, links))
 
 
-def _plain(items: Iterable[Sequence[Any]]) -> list[tuple]:
+def _plain(items: Sequence[Sequence[Any]]) -> Sequence[tuple]:
     """NamedTuples as plain tuples: the held values may go to the encoding child pickled,
-    where a NamedTuple costs a Python call each (the scene made 45 % of a window's pickle)."""
+    where a NamedTuple costs a Python call each (the scene made 45 % of a window's pickle).
+    A ``HeldSample`` stays as it is: it pickles as the raw values it is made from, and its
+    items are made where it is encoded."""
+    if isinstance(items, HeldSample):
+        return items
     return [tuple(v) for v in items]
 
 
