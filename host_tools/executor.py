@@ -9,10 +9,12 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import multiprocessing
+import os
 from typing import Any, Callable, Sequence
 
 from host_tools.extras import require
 from host_tools.progress import Progress, report
+from protocol import sim_link
 from protocol.errors import UserError
 
 
@@ -53,7 +55,9 @@ class Executor:
         results: list[Any] = [None] * len(specs)
         # forkserver: children never inherit MuJoCo or socket state from this process
         ctx = multiprocessing.get_context("forkserver")
-        with cf.ProcessPoolExecutor(max_workers=min(self.workers, len(specs)), mp_context=ctx) as pool:
+        n = min(self.workers, len(specs))
+        with cf.ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_beside_others,
+                                    initargs=(n,)) as pool:
             futures = {pool.submit(fn, s): i for i, s in enumerate(specs)}
             for n, fut in enumerate(cf.as_completed(futures), 1):
                 results[futures[fut]] = fut.result()
@@ -78,3 +82,11 @@ class Executor:
             return results
         finally:
             client.close()
+
+
+def _beside_others(workers: int) -> None:
+    """A worker's runs poll their links (hil/link/firmware_process.py ``spin_us``) only
+    where each run's host and firmware have a core: a poll on a shared core takes it from
+    the side it waits for. The user's own setting stands."""
+    if 2 * workers > (os.cpu_count() or 1):
+        os.environ.setdefault(sim_link.ENV_SPIN_US, "0")

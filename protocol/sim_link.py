@@ -68,6 +68,7 @@ ERROR_T_US = 0xFFFFFFFFFFFFFFFF  # t_us of an error reply (virtual time never ge
 ERROR_MARK = b"\xff\xff\xff\xff\xff\xff\xff\xff"  # ERROR_T_US as it is on the wire
 ENV_PORT = "HEXHIL_LINK_PORT"
 ENV_PATH = "HEXHIL_LINK_PATH"   # a Unix socket instead of the port: our HAL, firmware/hal/sim.py
+ENV_SPIN_US = "HEXHIL_LINK_SPIN_US"   # poll this long for a reply before blocking (0: never)
 ENV_BOARD = "HEXHIL_BOARD"   # set (to BOARD_NAME) when the firmware runs on the virtual board
 BOARD_NAME = "stm32f411"
 

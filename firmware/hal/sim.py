@@ -7,6 +7,7 @@ Runs under MicroPython (unix port) and CPython.
 """
 import json
 import os
+import select
 import socket
 import struct
 import sys
@@ -34,6 +35,7 @@ class Link:
     ``close``: the host's in-process runtime passes one that answers without a socket."""
 
     def __init__(self, port, host="127.0.0.1", io=None, path=None):
+        spin_us = 0 if io else int(os.getenv(sim_link.ENV_SPIN_US) or 0)
         if io is None and path:
             io = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
             # MicroPython's connect takes the raw sockaddr_un: u16 family, the path, NUL
@@ -57,6 +59,12 @@ class Link:
         self.io_us = 0       # wall time spent waiting on the host (profiling only)
         self.round_trips = 0
         self.dead = False    # the host closed the link or refused a message: send no more
+        # the host's hint (hil/link/firmware_process.py SPIN_US): poll for each reply
+        # this long before blocking, sparing the wake-up where each side has a core
+        self.spin_us = spin_us
+        if spin_us:
+            self.poll = select.poll()
+            self.poll.register(io, select.POLLIN)
 
     def begin(self, op, n):
         """Reserve a message of ``n`` payload bytes; return the payload's offset in ``out``."""
@@ -108,6 +116,9 @@ class Link:
         t0 = _perf_us()
         try:
             self._write_all(self.nout)
+            if self.spin_us:
+                while not self.poll.poll(0) and _perf_us() - t0 < self.spin_us:
+                    pass
             self._read_exact(2)
         except sim_link.LinkError as exc:   # (a bare raise: not under the native emitter)
             raise exc

@@ -1,0 +1,102 @@
+"""How long each side of the link polls for the other's message before it blocks
+(hil/link/firmware_process.py ``spin_us``, the hint ``HEXHIL_LINK_SPIN_US`` for the
+firmware's HAL): a matter of wall time only, so the run is the same with or without it;
+off where the two sides would share one core; a bad setting is one line."""
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from firmware.hal.sim import Link
+from hil.link.firmware_process import SPIN_US, firmware_env, spin_us
+from hil.run.lockstep import Simulator
+from hil.scenario import load_scenario
+from host_tools.executor import _beside_others
+from protocol import sim_link
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _reply(t_us: int, body: bytes) -> bytes:
+    """A host's reply as on the wire (docs/link.md): u16 length, u64 t_us, the body."""
+    payload = t_us.to_bytes(8, "little") + body
+    return len(payload).to_bytes(2, "little") + payload
+
+
+def test_polling_or_not_carries_the_same_run(monkeypatch) -> None:
+    sc = load_scenario(ROOT / "scenarios" / "flat-tripod.toml")
+    got = []
+    for us in ("0", "5000"):
+        monkeypatch.setenv(sim_link.ENV_SPIN_US, us)
+        got.append(Simulator(sc, seed=2).run(2.0, python="micropython"))
+    assert got[0].cycles == got[1].cycles > 90
+    assert got[0].serial_digest == got[1].serial_digest
+
+
+def test_polling_only_with_a_core_for_each_side(monkeypatch) -> None:
+    monkeypatch.delenv(sim_link.ENV_SPIN_US, raising=False)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})
+    assert spin_us() == 0
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
+    assert spin_us() == SPIN_US > 0
+    assert firmware_env(0)[sim_link.ENV_SPIN_US] == str(SPIN_US)   # the firmware's hint
+    monkeypatch.setenv(sim_link.ENV_SPIN_US, "0")   # the user's setting stands
+    assert spin_us() == 0 and firmware_env(0)[sim_link.ENV_SPIN_US] == "0"
+
+
+def test_workers_sharing_the_cores_do_not_poll(monkeypatch) -> None:
+    monkeypatch.delenv(sim_link.ENV_SPIN_US, raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: 4)
+    _beside_others(2)   # a core for each side of two runs
+    assert sim_link.ENV_SPIN_US not in os.environ
+    _beside_others(3)
+    assert os.environ[sim_link.ENV_SPIN_US] == "0"
+    monkeypatch.setenv(sim_link.ENV_SPIN_US, "50")
+    _beside_others(3)
+    assert os.environ[sim_link.ENV_SPIN_US] == "50"
+
+
+@pytest.mark.parametrize("delay_s", [0.0, 0.02])
+def test_the_hal_polls_then_blocks_for_a_reply(tmp_path, monkeypatch, delay_s: float) -> None:
+    """The reference client (firmware/hal/sim.py) with the hint: a reply that comes while it
+    polls, and one that comes long after (it blocks), are read alike."""
+    monkeypatch.setenv(sim_link.ENV_SPIN_US, "1000")
+    path = str(tmp_path / "link")
+    reply = _reply(1234, b"ok")
+    with socket.socket(socket.AF_UNIX) as srv:
+        srv.bind(path)
+        srv.listen(1)
+
+        def host() -> None:
+            conn, _ = srv.accept()
+            with conn:
+                conn.recv(64)
+                time.sleep(delay_s)
+                conn.sendall(reply)
+                conn.recv(64)   # until the client closes
+        t = threading.Thread(target=host)
+        t.start()
+        link = Link(None, path=path)
+        assert link.spin_us == 1000
+        link.post(sim_link.OP_SLEEP, b"\0" * 8, 8)
+        n = link.call()
+        link.close()
+        t.join(5)
+    assert link.t_us == 1234 and bytes(link.rx[8:n]) == b"ok"
+
+
+def test_a_bad_setting_is_one_line() -> None:
+    env = dict(os.environ, **{sim_link.ENV_SPIN_US: "lots"})
+    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run",
+                           str(ROOT / "scenarios" / "flat-tripod.toml"), "--duration", "0.1"],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and sim_link.ENV_SPIN_US in lines[0] and "Traceback" not in proc.stderr
