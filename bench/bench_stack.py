@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import resource
 import statistics
 import subprocess
@@ -15,6 +16,7 @@ import tempfile
 import time
 from pathlib import Path
 from typing import Any, Callable
+from unittest import mock
 
 from bench import Row
 from bench.bench_world import ROOT, bare_mj_step, world_alone
@@ -40,6 +42,8 @@ GROWTH_RUNS = 3
 CEILING_RUNS = 3   # a slow minute moved one breakdown's ceiling by 0.3 (wave 12)
 OVERHEAD = "overhead share"   # of a cycle: all but the world step and the firmware's compute
 TO_READS = "waiting for the reads after the wake"   # the firmware's part no host work overlaps
+ONCE = "once a run: the firmware's start and end"   # ms, not a cycle's part
+BOOT, LAST = "first message", "last reply"   # when they came and went
 
 
 def _hexhil_rtf(*extra: str) -> float:
@@ -93,22 +97,51 @@ def _after_sleeps(sw: _Stopwatch, batch: Callable[..., Any], reply: Callable[...
                   ) -> tuple[Callable[..., Any], Callable[..., Any]]:
     """``Connection.batch`` and ``reply``, timing into ``TO_READS`` each sleep's reply to
     the batch after it (the recorder's work between overlaps it): the firmware's compute up
-    to its status reads, and its wake-up and the host's."""
+    to its status reads, and its wake-up and the host's. Also what ``_once`` takes out: the
+    wait for the first message and for the firmware's exit, and when the last reply went."""
     request = [0]   # the op the next reply answers
     sent = [0.0]    # when the last sleep's reply went, or 0.0
 
     def timed_batch(conn: Connection) -> tuple[list[tuple[int, bytes]], bool]:
+        t0 = sw.clock()
         msgs, closed = batch(conn)
-        if sent[0]:
+        if BOOT not in sw.s:
+            sw.s[BOOT] = sw.s["wait once"] = sw.clock()
+            sw.s["wait once"] -= t0
+        if closed:
+            sw.s["wait once"] += sw.clock() - t0
+        elif sent[0]:
             sw.s[TO_READS] = sw.s.get(TO_READS, 0.0) + sw.clock() - sent[0]
         request[0] = msgs[-1][0] if msgs else 0
         return msgs, closed
 
     def timed_reply(conn: Connection, *args: Any) -> bytes:
         raw = reply(conn, *args)
-        sent[0] = sw.clock() if request[0] == sim_link.OP_SLEEP else 0.0
+        sw.s[LAST] = sent[0] = sw.clock()
+        if request[0] != sim_link.OP_SLEEP:
+            sent[0] = 0.0
         return raw
     return timed_batch, timed_reply
+
+
+def _first_and_last(sw: _Stopwatch, exchange: Callable[..., Any]) -> Callable[..., Any]:
+    """``DirectConnection.exchange``, noting when the firmware in this process first calls
+    it and when the last call returns."""
+    def exchange_noted(*args: Any) -> Any:
+        sw.s.setdefault(BOOT, sw.clock())
+        try:
+            return exchange(*args)
+        finally:
+            sw.s[LAST] = sw.clock()
+    return exchange_noted
+
+
+def _once(s: dict[str, float], t0: float, t1: float) -> float:
+    """Seconds of a run that are not its cycles' (the firmware's start up to its first
+    message, and after the last reply: its exit, the processes' end): once a run, however
+    long, so they are given apart instead of spread over a breakdown's few cycles (35 ms
+    of a micropython start read as 70 us a cycle of a 10 s run, wave 13)."""
+    return s.pop(BOOT) - t0 + t1 - s.pop(LAST)
 
 
 def _children_cpu_s() -> float:
@@ -132,7 +165,9 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
     ``cpu``: every part in this thread's CPU time instead of wall time, and the child
     processes' CPU time (getrusage: the firmware's under micropython, the recorder's
     encoding child's in process) beside them and in the total: figures a shared, loaded
-    machine does not inflate (waiting is then the host's own CPU in the link's calls)."""
+    machine does not inflate (waiting is then the host's own CPU in the link's calls), with
+    the link's polling off (hil/link/firmware_process.py ``spin_us``): a poll is CPU time
+    that does no work."""
     sc = scenario_mod.load_scenario(SCENARIO)
     clock = time.thread_time if cpu else time.perf_counter
     sw = _Stopwatch(clock)
@@ -158,11 +193,13 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
         timed_batch, timed_reply = _after_sleeps(sw, batch, reply)
         Connection.batch = sw.wrap("wait", timed_batch)
         Connection.reply = sw.wrap("wait", timed_reply)
-        DirectConnection.exchange = sw.wrap("host", exchange)
+        DirectConnection.exchange = _first_and_last(sw, sw.wrap("host", exchange))
+        no_poll = {sim_link.ENV_SPIN_US: "0"} if cpu else {}   # a poll: CPU time, no work
         try:
             child0 = _children_cpu_s()
             t0 = clock()
-            r = sim.run(BREAKDOWN_S, in_process=run_firmware if in_process else None)
+            with mock.patch.dict(os.environ, no_poll):
+                r = sim.run(BREAKDOWN_S, in_process=run_firmware if in_process else None)
             total = clock() - t0
         finally:
             Connection.batch, Connection.reply = batch, reply
@@ -172,8 +209,12 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
                 rec.close()   # waits for the recorder's child, if it has one
         child = _children_cpu_s() - child0
     s = sw.s
+    once = _once(s, t0, t0 + total)
+    total -= once
     if in_process:
         s["wait"] = total - s["host"]
+    else:
+        s["wait"] -= s.pop("wait once")
     in_bus = s.get("recorder in bus", 0.0)
     wait = "firmware compute, in this process" if in_process else "waiting on the firmware"
     parts = {wait: s.get("wait", 0.0),
@@ -185,6 +226,7 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
     cycles = max(1, r.cycles)
     out = {k: v / cycles * 1e6 for k, v in parts.items()}
     compute = out[wait] if in_process else r.firmware.compute_us_mean or 0.0
+    out[ONCE] = once * 1e3
     if not in_process:
         out["firmware compute (overlaps)"] = compute
         out[TO_READS] = s.get(TO_READS, 0.0) / cycles * 1e6
@@ -269,61 +311,6 @@ def _ceiling_row(label: str, in_process: bool, alone_us: float, parts: dict[str,
                f"medians of {CEILING_RUNS}")
 
 
-_ECHO_FIRMWARE = """
-import socket, struct, sys, time
-s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-s.connect(struct.pack("<H", socket.AF_UNIX) + sys.argv[1].encode() + b"\\0")
-while True:
-    msg = s.recv(64)
-    if not msg:
-        break
-    t = time.ticks_us()
-    while time.ticks_diff(time.ticks_us(), t) < msg[0] * 100:
-        pass
-    s.write(b"y" * 16)
-"""
-
-
-def _round_trip_us(micropython: Path, host_work_us: int, fw_work_us: int, n: int = 1000) -> float:
-    """A link round trip between this process and a micropython child over a Unix socket
-    (as a run's link), beyond the child's own work: the host busy ``host_work_us`` before each
-    request (the child blocked meanwhile, as during a world step), the child
-    ``fw_work_us`` before each reply (the host blocked, as during the firmware's compute).
-    What the machine charges for waking a process that waited, apart from our code."""
-    import socket
-    with tempfile.TemporaryDirectory() as tmp, socket.socket(socket.AF_UNIX) as srv:
-        prog = Path(tmp) / "echo.py"
-        prog.write_text(_ECHO_FIRMWARE)
-        srv.bind(str(Path(tmp) / "link"))
-        srv.listen(1)
-        child = subprocess.Popen([str(micropython), str(prog), srv.getsockname()])
-        conn, _ = srv.accept()
-        with conn:
-            request, buf, spent = bytes((fw_work_us // 100,)) * 16, bytearray(64), 0.0
-            for _ in range(n):
-                until = time.perf_counter() + host_work_us * 1e-6
-                while time.perf_counter() < until:
-                    pass
-                t0 = time.perf_counter()
-                conn.sendall(request)
-                conn.recv_into(buf)
-                spent += time.perf_counter() - t0
-        child.wait()
-    return spent / n * 1e6 - fw_work_us
-
-
-def _wake_rows() -> list[Row]:
-    mp = Path(sys.executable).with_name("micropython")
-    rows = []
-    for host_us, fw_us, what in ((0, 0, "neither side waits"),
-                                 (1000, 0, "the firmware blocked 1 ms (a world step)"),
-                                 (0, 500, "the host blocked 0.5 ms (the firmware's compute)")):
-        rows.append(Row(f"stack link: a round trip, {what}", _round_trip_us(mp, host_us, fw_us),
-                        "us", "", "a Unix socket to a micropython child, beyond its work, mean of "
-                        "1,000; a micropython run makes two a cycle"))
-    return rows
-
-
 def _cpu_rows(alone_us: float, bare_us: float) -> list[Row]:
     """The cycle in CPU time (host thread + firmware process): what this shared machine's
     load does not inflate; the ratios are those of a machine where nothing else runs and
@@ -332,6 +319,7 @@ def _cpu_rows(alone_us: float, bare_us: float) -> list[Row]:
                 f"CPU a cycle: world alone {alone_us:.0f} us, bare mj_step {bare_us:.0f} us")]
     for label, ip in (("micropython", False), (IN_PROCESS, True)):
         parts = breakdown(in_process=ip, cpu=True)
+        del parts[ONCE]   # given in wall time below
         for name, us in parts.items():
             if name == OVERHEAD:
                 rows.append(Row(f"stack CPU ({label}): {name}", us, "% of total",
@@ -384,9 +372,13 @@ def run() -> list[Row]:
                                 "<= 10 %" if ip else "<= 25 %",
                                 "total - world step - firmware compute; issue 43 goal"))
                 continue
+            if name == ONCE:
+                rows.append(Row(f"stack cycle ({label}): {name}", us, "ms / run", "",
+                                "from the run's start to the firmware's first message, and "
+                                "after the last reply; not in the cycle's parts or total"))
+                continue
             target = "<= 150" if name == "firmware compute (overlaps)" else ""
             rows.append(Row(f"stack cycle ({label}): {name}", us, "us / cycle", target, note))
-    rows += _wake_rows()
     growth = _growth((0, 10, 40))
     for n, rtf in growth.items():
         rows.append(Row(f"stack growth: {n} obstacles", rtf, "x real time", "",
