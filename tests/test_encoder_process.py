@@ -34,9 +34,11 @@ def test_a_run_encoded_in_a_child_process_is_the_same_file(tmp_path):
             == (tmp_path / "this-process.mcap").read_bytes())
 
 
-def test_an_idle_owner_gets_a_closed_window_written_at_its_next_idle(tmp_path):
-    """idle() moves the chunk write off the call that closes the window, not later than
-    the next idle() (same virtual time), so crash safety is unchanged."""
+def test_an_idle_owner_gets_a_closed_window_written_in_its_idle_slices(tmp_path):
+    """idle() takes a closed window's work (encoding, packing its chunk, writing it) off
+    the call that closes the window, a slice at a time; one window waits at most, so the
+    next window's close writes it if idle() has not (crash safety: the last two windows
+    at most, as before)."""
     path = partial_of(tmp_path / "w.mcap")   # the file being written, renamed at close
     r = rec.Recorder(tmp_path / "w.mcap", flush_interval_us=100_000,
                      encode_in=rec.EncodeIn.THIS_PROCESS)
@@ -45,7 +47,15 @@ def test_an_idle_owner_gets_a_closed_window_written_at_its_next_idle(tmp_path):
     size = path.stat().st_size
     r.serial(100_000, "tx", dynamixel.ping(2))  # closes the first window
     assert path.stat().st_size == size
+    slices = 1
+    while r.idle(1):
+        slices += 1
+    assert path.stat().st_size > size and slices > 2
+    size = path.stat().st_size
+    r.serial(200_000, "tx", dynamixel.ping(3))  # closes the second: it waits
     r.idle(0)
+    assert path.stat().st_size == size
+    r.serial(300_000, "tx", dynamixel.ping(4))  # closes the third: the second is written
     assert path.stat().st_size > size
     r.close()
 

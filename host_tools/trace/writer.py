@@ -98,21 +98,14 @@ class TraceWriter:
     def chunk(self, msgs: list[tuple[int, int, bytes]]) -> None:
         """One zstd chunk of (log_time_ns, channel_id, data) already in log-time order,
         then its message indexes; flushed to the OS."""
-        pack = _MESSAGE_HEADER.pack
-        parts: list[bytes] = []
-        index: dict[int, list[int]] = {}  # channel -> [log_time, offset, log_time, ...]
-        off = 0
-        seq = self.messages
-        for t, cid, data in msgs:
-            n = len(data)
-            parts.append(pack(Opcode.MESSAGE, 22 + n, cid, seq & 0xFFFFFFFF, t, t))
-            parts.append(data)
-            idx = index.get(cid)
-            if idx is None:
-                idx = index[cid] = []
-            idx += (t, off)
-            off += 31 + n
-            seq += 1
+        packing = ChunkPacking(msgs, self.messages)
+        packing.pack(len(msgs))
+        self.end_chunk(packing)
+
+    def end_chunk(self, packing: "ChunkPacking") -> None:
+        """Write a chunk whose messages are all packed (``ChunkPacking.pack``), compressed,
+        then its message indexes; flushed to the OS."""
+        msgs, parts, index, seq = packing.msgs, packing.parts, packing.index, packing.seq
         raw = b"".join(parts)
         comp = self.zstd.compress(raw)
         t0, t1 = msgs[0][0], msgs[-1][0]
@@ -188,3 +181,34 @@ class TraceWriter:
         self._write(MCAP0_MAGIC)
         self.f.flush()
 
+
+class ChunkPacking:
+    """A chunk's message records and index entries, packed ``pack(n)`` messages at a time,
+    so an owner that waits (the recorder in a run's waits for its firmware) can do it in
+    slices; ``TraceWriter.end_chunk`` writes it. ``seq``: the first message's sequence
+    number (the writer's message count: one chunk is packed at a time)."""
+
+    def __init__(self, msgs: list[tuple[int, int, bytes]], seq: int) -> None:
+        self.msgs, self.seq = msgs, seq
+        self.parts: list[bytes] = []
+        self.index: dict[int, list[int]] = {}  # channel -> [log_time, offset, log_time, ...]
+        self._off = 0
+        self._i = 0
+
+    def pack(self, n: int) -> bool:
+        """Pack up to ``n`` more messages; True once all are packed."""
+        pack, parts, index = _MESSAGE_HEADER.pack, self.parts, self.index
+        off, seq, i = self._off, self.seq, self._i
+        for t, cid, data in self.msgs[i:i + n]:
+            size = len(data)
+            parts.append(pack(Opcode.MESSAGE, 22 + size, cid, seq & 0xFFFFFFFF, t, t))
+            parts.append(data)
+            idx = index.get(cid)
+            if idx is None:
+                idx = index[cid] = []
+            idx += (t, off)
+            off += 31 + size
+            seq += 1
+        self._off, self.seq = off, seq
+        self._i = min(i + n, len(self.msgs))
+        return self._i == len(self.msgs)
