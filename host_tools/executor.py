@@ -9,12 +9,11 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import multiprocessing
-import os
 from typing import Any, Callable, Sequence
 
+from hil.link.firmware_process import runs_share_cores
 from host_tools.extras import require
 from host_tools.progress import Progress, report
-from protocol import sim_link
 from protocol.errors import UserError
 
 
@@ -56,7 +55,7 @@ class Executor:
         # forkserver: children never inherit MuJoCo or socket state from this process
         ctx = multiprocessing.get_context("forkserver")
         n = min(self.workers, len(specs))
-        with cf.ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_beside_others,
+        with cf.ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=runs_share_cores,
                                     initargs=(n,)) as pool:
             futures = {pool.submit(fn, s): i for i, s in enumerate(specs)}
             for n, fut in enumerate(cf.as_completed(futures), 1):
@@ -83,10 +82,3 @@ class Executor:
         finally:
             client.close()
 
-
-def _beside_others(workers: int) -> None:
-    """A worker's runs poll their links (hil/link/firmware_process.py ``spin_us``) only
-    where each run's host and firmware have a core: a poll on a shared core takes it from
-    the side it waits for. The user's own setting stands."""
-    if 2 * workers > (os.cpu_count() or 1):
-        os.environ.setdefault(sim_link.ENV_SPIN_US, "0")

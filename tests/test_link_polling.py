@@ -15,10 +15,9 @@ from pathlib import Path
 import pytest
 
 from firmware.hal.sim import Link
-from hil.link.firmware_process import SPIN_US, firmware_env, spin_us
+from hil.link.firmware_process import SPIN_US, firmware_env, runs_share_cores, spin_us
 from hil.run.lockstep import Simulator
 from hil.scenario import load_scenario
-from host_tools.executor import _beside_others
 from protocol import sim_link
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -51,16 +50,18 @@ def test_polling_only_with_a_core_for_each_side(monkeypatch) -> None:
     assert spin_us() == 0 and firmware_env(0)[sim_link.ENV_SPIN_US] == "0"
 
 
-def test_workers_sharing_the_cores_do_not_poll(monkeypatch) -> None:
+def test_runs_sharing_the_cores_do_not_poll(monkeypatch) -> None:
+    """An executor's workers (host_tools/executor.py) and pytest-xdist's (the plugin) say
+    how many runs go side by side."""
     monkeypatch.delenv(sim_link.ENV_SPIN_US, raising=False)
-    monkeypatch.setattr(os, "cpu_count", lambda: 4)
-    _beside_others(2)   # a core for each side of two runs
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1, 2, 3})
+    runs_share_cores(2)   # a core for each side of two runs
     assert sim_link.ENV_SPIN_US not in os.environ
-    _beside_others(3)
-    assert os.environ[sim_link.ENV_SPIN_US] == "0"
+    runs_share_cores(3)
+    assert os.environ[sim_link.ENV_SPIN_US] == "0" and spin_us() == 0
     monkeypatch.setenv(sim_link.ENV_SPIN_US, "50")
-    _beside_others(3)
-    assert os.environ[sim_link.ENV_SPIN_US] == "50"
+    runs_share_cores(3)
+    assert spin_us() == 50
 
 
 @pytest.mark.parametrize("delay_s", [0.0, 0.02])
@@ -100,3 +101,16 @@ def test_a_bad_setting_is_one_line() -> None:
     assert proc.returncode == 2, proc.stdout + proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and sim_link.ENV_SPIN_US in lines[0] and "Traceback" not in proc.stderr
+
+
+def test_pytest_xdist_workers_share_the_cores(tmp_path) -> None:
+    """The plugin's ``pytest_configure`` in a worker of more than the cores allow."""
+    probe = tmp_path / "test_probe.py"
+    probe.write_text("import os\n\ndef test_probe():\n"
+                     f"    assert os.environ.get({sim_link.ENV_SPIN_US!r}) == '0'\n")
+    env = {k: v for k, v in os.environ.items() if k != sim_link.ENV_SPIN_US}
+    env["PYTEST_XDIST_WORKER_COUNT"] = str(os.cpu_count() or 1)   # twice the runs' cores
+    proc = subprocess.run([sys.executable, "-m", "pytest", str(probe), "-q", "-p",
+                           "no:cacheprovider"], cwd=tmp_path, env=env, capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stdout + proc.stderr

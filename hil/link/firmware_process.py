@@ -135,6 +135,21 @@ def split_messages(data: bytes) -> list[tuple[int, bytes]]:
     return out
 
 
+def runs_share_cores(runs: int) -> None:
+    """This process is one of ``runs`` side by side (an executor's workers, pytest-xdist's):
+    no polling (``spin_us``) unless each run's host and firmware have a core, as a poll on
+    a shared core takes it from the side it waits for. A user's own setting stands."""
+    if 2 * runs > _cores():
+        os.environ.setdefault(sim_link.ENV_SPIN_US, "0")
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))   # taskset narrows them
+    except AttributeError:   # no affinity on this OS
+        return os.cpu_count() or 1
+
+
 def spin_us() -> int:
     """How long this run's link polls before it blocks: ``HEXHIL_LINK_SPIN_US`` where set
     (0 turns it off), else ``SPIN_US`` where this process may use more than one core."""
@@ -144,11 +159,7 @@ def spin_us() -> int:
             raise UserError(f"{sim_link.ENV_SPIN_US} must be a whole number of microseconds "
                             f"(0 turns polling off), not {given!r}")
         return int(given)
-    try:
-        cores = len(os.sched_getaffinity(0))   # taskset narrows them
-    except AttributeError:   # no affinity on this OS
-        cores = os.cpu_count() or 1
-    return SPIN_US if cores > 1 else 0
+    return SPIN_US if _cores() > 1 else 0
 
 
 class Connection:

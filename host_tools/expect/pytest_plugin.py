@@ -14,6 +14,7 @@ of every failing test there).
 from __future__ import annotations
 
 import dataclasses
+import os
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -74,6 +75,14 @@ def assert_within(name: str, value: float, low: float | None = None,
     if not r.holds(value):
         raise AssertionError(f"{name}: measured {value:.6g}{' ' + unit if unit else ''}; "
                              f"limit {r}{' ' + unit if unit else ''}")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Under pytest-xdist each worker's runs share the machine with the others'."""
+    workers = os.environ.get("PYTEST_XDIST_WORKER_COUNT", "")
+    if workers.isdigit():
+        from hil.link.firmware_process import runs_share_cores
+        runs_share_cores(int(workers))
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
