@@ -1,7 +1,9 @@
 """How long each side of the link polls for the other's message before it blocks
 (hil/link/firmware_process.py ``spin_us``, the hint ``HEXHIL_LINK_SPIN_US`` for the
-firmware's HAL): a matter of wall time only, so the run is the same with or without it;
-off where the two sides would share one core; a bad setting is one line."""
+firmware's HAL, each side's ``sim_link.PollGate``; the gate itself is checked under
+micropython in tests/micropython/mpy_sim_link.py): a matter of wall time only, so the run
+is the same with or without it; off where the two sides would share one core; a bad
+setting is one line."""
 from __future__ import annotations
 
 import os
@@ -45,7 +47,9 @@ def test_polling_only_with_a_core_for_each_side(monkeypatch) -> None:
     assert spin_us() == 0
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
     assert spin_us() == SPIN_US > 0
-    assert firmware_env(0)[sim_link.ENV_SPIN_US] == str(SPIN_US)   # the firmware's hint
+    env = firmware_env(0)   # the firmware's hint, and whose CPU waits its gate reads
+    assert env[sim_link.ENV_SPIN_US] == str(SPIN_US)
+    assert env[sim_link.ENV_HOST_PID] == str(os.getpid())
     monkeypatch.setenv(sim_link.ENV_SPIN_US, "0")   # the user's setting stands
     assert spin_us() == 0 and firmware_env(0)[sim_link.ENV_SPIN_US] == "0"
 
@@ -69,6 +73,7 @@ def test_the_hal_polls_then_blocks_for_a_reply(tmp_path, monkeypatch, delay_s: f
     """The reference client (firmware/hal/sim.py) with the hint: a reply that comes while it
     polls, and one that comes long after (it blocks), are read alike."""
     monkeypatch.setenv(sim_link.ENV_SPIN_US, "1000")
+    monkeypatch.setenv(sim_link.ENV_HOST_PID, str(os.getpid()))   # this test is the host
     path = str(tmp_path / "link")
     reply = _reply(1234, b"ok")
     with socket.socket(socket.AF_UNIX) as srv:
@@ -86,6 +91,7 @@ def test_the_hal_polls_then_blocks_for_a_reply(tmp_path, monkeypatch, delay_s: f
         t.start()
         link = Link(None, path=path)
         assert link.spin_us == 1000
+        link.gate.on = True   # as after a look that found the cores free
         link.post(sim_link.OP_SLEEP, b"\0" * 8, 8)
         n = link.call()
         link.close()

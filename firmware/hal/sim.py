@@ -36,6 +36,7 @@ class Link:
 
     def __init__(self, port, host="127.0.0.1", io=None, path=None):
         spin_us = 0 if io else int(os.getenv(sim_link.ENV_SPIN_US) or 0)
+        host_pid = os.getenv(sim_link.ENV_HOST_PID)
         if io is None and path:
             io = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
             # MicroPython's connect takes the raw sockaddr_un: u16 family, the path, NUL
@@ -60,11 +61,13 @@ class Link:
         self.round_trips = 0
         self.dead = False    # the host closed the link or refused a message: send no more
         # the host's hint (hil/link/firmware_process.py SPIN_US): poll for each reply
-        # this long before blocking, sparing the wake-up where each side has a core
-        self.spin_us = spin_us
-        if spin_us:
+        # this long before blocking, sparing the wake-up, while the gate sees free cores
+        self.spin_us = spin_us if host_pid else 0
+        if self.spin_us:
             self.poll = select.poll()
             self.poll.register(io, select.POLLIN)
+            self.gate = sim_link.PollGate(("/proc/self/schedstat",
+                                           "/proc/%s/schedstat" % host_pid), _perf_us)
 
     def begin(self, op, n):
         """Reserve a message of ``n`` payload bytes; return the payload's offset in ``out``."""
@@ -116,8 +119,9 @@ class Link:
         t0 = _perf_us()
         try:
             self._write_all(self.nout)
-            if self.spin_us:
-                while not self.poll.poll(0) and _perf_us() - t0 < self.spin_us:
+            if self.spin_us and self.gate.due():
+                poll = self.poll.poll
+                while not poll(0) and _perf_us() - t0 < self.spin_us:
                     pass
             self._read_exact(2)
         except sim_link.LinkError as exc:   # (a bare raise: not under the native emitter)

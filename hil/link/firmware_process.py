@@ -37,8 +37,9 @@ IN_PROCESS = "cpython-inprocess"   # the firmware under this CPython, in this pr
 NATIVE = ("-X", "emit=native")
 # How long each side polls for the other's next message before it blocks (the host sets
 # sim_link.ENV_SPIN_US for its firmware): most come sooner, and a process that blocks pays
-# the scheduler's wake-up on top. A micropython cycle 330 -> 290 us with the host's poll,
-# -> 260 us with both (docs/performance.md, wave 13); only where each side has a core.
+# the scheduler's wake-up on top. A micropython cycle 330 -> 260 us with both sides
+# polling (docs/performance.md, wave 13); each side's sim_link.PollGate keeps it to where
+# each side has a core.
 SPIN_US = 200
 
 
@@ -78,6 +79,7 @@ def firmware_env(port: int, path: str | None = None) -> dict[str, str]:
     the port), how long to poll for a reply, and where its modules are."""
     env = dict(os.environ)
     env[sim_link.ENV_SPIN_US] = str(spin_us())
+    env[sim_link.ENV_HOST_PID] = str(os.getpid())
     if path is None:
         env[sim_link.ENV_PORT] = str(port)
     else:
@@ -163,9 +165,10 @@ def spin_us() -> int:
 
 
 class Connection:
-    """One firmware connection: batches of messages in, replies out."""
+    """One firmware connection: batches of messages in, replies out. ``peer_pid``: the
+    firmware's process, whose waits for a CPU tell whether polling pays (none: no polling)."""
 
-    def __init__(self, sock: socket.socket) -> None:
+    def __init__(self, sock: socket.socket, peer_pid: int | None = None) -> None:
         if sock.family == socket.AF_INET:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self.sock = sock
@@ -174,7 +177,11 @@ class Connection:
         self.round_trips = 0
         self._poll = select.poll()
         self._poll.register(sock, select.POLLIN)
-        self._spin_s = spin_us() * 1e-6
+        self._spin_s = spin_us() * 1e-6 if peer_pid is not None else 0.0
+        if self._spin_s:
+            self._gate = sim_link.PollGate(("/proc/self/schedstat",
+                                            f"/proc/{peer_pid}/schedstat"),
+                                           lambda: time.perf_counter_ns() // 1000)
 
     def _message(self) -> tuple[int, bytes] | None:
         try:
@@ -196,9 +203,10 @@ class Connection:
 
     def batch(self) -> tuple[list[tuple[int, bytes]], bool]:
         """Messages up to and including the next request: (messages, closed). Polls for
-        them for up to ``spin_us()`` before it blocks."""
+        them for up to ``spin_us()`` before it blocks, while ``sim_link.PollGate`` sees a
+        core for each side."""
         self.raw = bytearray()
-        if self._spin_s:
+        if self._spin_s and self._gate.due():
             until = time.perf_counter() + self._spin_s
             poll = self._poll.poll
             while not poll(0) and time.perf_counter() < until:
@@ -342,7 +350,7 @@ class FirmwareProcess:
         finally:
             _close_listener(srv)
         sock.settimeout(None)
-        self.conn = Connection(sock)
+        self.conn = Connection(sock, self.proc.pid)
 
     def _accept(self, srv: socket.socket, cmd: list[str], timeout_s: float) -> socket.socket:
         """The firmware's connection; one line if it exits first or takes too long."""
