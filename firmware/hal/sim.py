@@ -119,8 +119,8 @@ class Link:
         t0 = _perf_us()
         try:
             self._write_all(self.nout)
-            if self.spin_us and self.gate.due():
-                poll = self.poll.poll
+            poll = self.poll.poll if self.spin_us else None
+            if poll is not None and not poll(0) and self.gate.due():
                 while not poll(0) and _perf_us() - t0 < self.spin_us:
                     pass
             self._read_exact(2)
@@ -149,6 +149,8 @@ class Link:
                 self.flush()
         finally:
             self.sock.close()
+            if self.spin_us:
+                self.gate.close()
 
 
 class HalfDuplexUART:

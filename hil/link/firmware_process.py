@@ -206,9 +206,9 @@ class Connection:
         them for up to ``spin_us()`` before it blocks, while ``sim_link.PollGate`` sees a
         core for each side."""
         self.raw = bytearray()
-        if self._spin_s and self._gate.due():
+        poll = self._poll.poll
+        if self._spin_s and not poll(0) and self._gate.due():
             until = time.perf_counter() + self._spin_s
-            poll = self._poll.poll
             while not poll(0) and time.perf_counter() < until:
                 pass
         msgs = []
@@ -245,6 +245,8 @@ class Connection:
             self.reader.close()
         finally:
             self.sock.close()
+            if self._spin_s:
+                self._gate.close()
 
 
 class DirectConnection:

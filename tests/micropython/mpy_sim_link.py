@@ -29,7 +29,7 @@ check(struct.unpack("<Q", sim_link.ERROR_MARK)[0] == sim_link.ERROR_T_US, "error
 check(isinstance(sim_link.LinkError("x"), OSError), "a link error is an OSError")
 
 # PollGate: off at first; on after a look with the two processes' CPU waits under 2 % of the
-# wall time; off at a contended look for 1, then 2 looks; off for good if a file goes.
+# wall time; off at a contended look for 1, then 2 looks; off for good if a file fails.
 stat = "/tmp/hexhil_mpy_gate_%d" % sim_link.POLL_CHECK_WAITS
 now = [0]
 
@@ -59,9 +59,10 @@ check(not look(gate, 40000, 1000), "for two looks now")
 check(look(gate, 40000, 1000), "then on")
 check(gate.off_next == 4 and look(gate, 40000, 1000) and gate.off_next == 2,
       "a clean look halves the next spell off")
-os.remove(stat)
+gate.close()   # as if the other side were gone: its file reads no more
 for _ in range(sim_link.POLL_CHECK_WAITS):
     gate.due()
-check(not gate.on and gate.delay_ns is None, "a file gone: off for good")
+check(not gate.on and gate.delay_ns is None, "a file that reads no more: off for good")
+os.remove(stat)
 check(not sim_link.PollGate(("/nonexistent/schedstat",), lambda: 0).due(), "no file: off")
 done("sim_link")
