@@ -81,4 +81,3 @@ class Executor:
             return results
         finally:
             client.close()
-

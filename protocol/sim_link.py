@@ -102,8 +102,6 @@ def error_reply(text):
     return bytes((n & 0xFF, n >> 8)) + body
 
 
-
-
 class PollGate:
     """Whether a side polls for the other's message before it blocks (``ENV_SPIN_US``,
     docs/link.md). A poll holds a core, which pays only where each side has one: beside
@@ -119,11 +117,11 @@ class PollGate:
     def __init__(self, stat_paths, now_us):
         self.now_us = now_us
         self.files = []   # kept open: a look reads them again from the start
-        for path in stat_paths:
-            try:
+        try:
+            for path in stat_paths:
                 self.files.append(open(path))
-            except OSError:
-                break
+        except OSError:
+            self.close()
         self.on = False
         self.waits = 0
         self.off_looks = 0   # looks left before polling may go on again
@@ -132,7 +130,7 @@ class PollGate:
         self.delay_ns = self._delay_ns()
 
     def _delay_ns(self):
-        if len(self.files) < 2:
+        if not self.files:
             return None
         total = 0
         for f in self.files:
