@@ -17,18 +17,13 @@ from pathlib import Path
 import pytest
 
 from firmware.hal.sim import Link
-from hil.link.firmware_process import SPIN_US, firmware_env, runs_share_cores, spin_us
+from hil.link.firmware_process import (SPIN_US, Connection, firmware_env, runs_share_cores,
+                                       spin_us)
 from hil.run.lockstep import Simulator
 from hil.scenario import load_scenario
 from protocol import sim_link
 
 ROOT = Path(__file__).resolve().parent.parent
-
-
-def _reply(t_us: int, body: bytes) -> bytes:
-    """A host's reply as on the wire (docs/link.md): u16 length, u64 t_us, the body."""
-    payload = t_us.to_bytes(8, "little") + body
-    return len(payload).to_bytes(2, "little") + payload
 
 
 def test_polling_or_not_carries_the_same_run(monkeypatch) -> None:
@@ -75,18 +70,17 @@ def test_the_hal_polls_then_blocks_for_a_reply(tmp_path, monkeypatch, delay_s: f
     monkeypatch.setenv(sim_link.ENV_SPIN_US, "1000")
     monkeypatch.setenv(sim_link.ENV_HOST_PID, str(os.getpid()))   # this test is the host
     path = str(tmp_path / "link")
-    reply = _reply(1234, b"ok")
     with socket.socket(socket.AF_UNIX) as srv:
         srv.bind(path)
         srv.listen(1)
 
-        def host() -> None:
-            conn, _ = srv.accept()
-            with conn:
-                conn.recv(64)
-                time.sleep(delay_s)
-                conn.sendall(reply)
-                conn.recv(64)   # until the client closes
+        def host() -> None:   # the host's own end of the link, not polling (no peer pid)
+            conn = Connection(srv.accept()[0])
+            conn.batch()
+            time.sleep(delay_s)
+            conn.reply(1234, b"ok")
+            conn.batch()   # until the client closes
+            conn.close()
         t = threading.Thread(target=host)
         t.start()
         link = Link(None, path=path)

@@ -42,6 +42,14 @@ def encode_in_for(firmware_own_process: bool) -> EncodeIn:
 PACK_PER_MESSAGE = 8   # chunk records packed in the time one message is encoded (~0.3 us)
 
 
+def _encode_some(pending: list[tuple], out: Encoded, done: int, budget: int) -> int:
+    """Encode up to ``budget`` held values after the first ``done`` (call order: parsers see
+    bytes in order) into ``out``; how many are done now."""
+    for t, encode, args in pending[done:done + budget]:
+        encode(out, t, *args)
+    return min(done + budget, len(pending))
+
+
 class _ClosedWindow:
     """A window virtual time has left, finished a step at a time (``step``): its held
     values encoded in call order (``pending``, the first ``done`` of them in ``out``
@@ -54,10 +62,7 @@ class _ClosedWindow:
 
     def step(self, owner: "HeldWindows", budget: int) -> None:
         if self.done < len(self.pending):
-            pending, out, i = self.pending, self.out, self.done
-            for t, encode, args in pending[i:i + budget]:
-                encode(out, t, *args)
-            self.done = min(i + budget, len(pending))
+            self.done = _encode_some(self.pending, self.out, self.done, budget)
         elif self.packing is None:
             self.out.sort(key=itemgetter(0))  # stable: equal times keep call order
             self.packing = ChunkPacking(self.out, owner._writer.messages)
@@ -192,11 +197,8 @@ class HeldWindows:
             return True
         if not budget:
             return self._done < len(self._pending)
-        pending, out, i = self._pending, self._out, self._done
-        for t, encode, args in pending[i:i + budget]:
-            encode(out, t, *args)
-        self._done = min(i + budget, len(pending))
-        return self._done < len(pending)
+        self._done = _encode_some(self._pending, self._out, self._done, budget)
+        return self._done < len(self._pending)
 
     def flush(self) -> None:
         """Write the held messages in log-time order as one chunk and hand it to the OS."""
@@ -214,9 +216,8 @@ class HeldWindows:
 
     def _encode_pending(self) -> Encoded:
         """The held messages encoded, as (log_time_ns, channel, data) in log-time order."""
-        pending, out = self._pending, self._out
-        for t, encode, args in pending[self._done:]:  # call order: parsers see bytes in order
-            encode(out, t, *args)
+        out = self._out
+        _encode_some(self._pending, out, self._done, len(self._pending))
         self._pending, self._out, self._done = [], [], 0
         self._new_window()
         out.sort(key=itemgetter(0))  # stable: equal times keep call order

@@ -185,8 +185,9 @@ class TraceWriter:
 class ChunkPacking:
     """A chunk's message records and index entries, packed ``pack(n)`` messages at a time,
     so an owner that waits (the recorder in a run's waits for its firmware) can do it in
-    slices; ``TraceWriter.end_chunk`` writes it. ``seq``: the first message's sequence
-    number (the writer's message count: one chunk is packed at a time)."""
+    slices; ``TraceWriter.end_chunk`` writes it. ``seq``: the next message's sequence
+    number, from the writer's message count (one chunk is packed at a time) to the count
+    after this chunk."""
 
     def __init__(self, msgs: list[tuple[int, int, bytes]], seq: int) -> None:
         self.msgs, self.seq = msgs, seq
