@@ -152,6 +152,11 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
+def reply_bytes(t_us: int, body: bytes) -> bytes:
+    """A reply as it goes on the link: u16 length, then u64 t_us and ``body`` (docs/link.md)."""
+    return struct.pack("<HQ", 8 + len(body), t_us) + body
+
+
 def spin_us() -> int:
     """How long this run's link polls before it blocks: ``HEXHIL_LINK_SPIN_US`` where set
     (0 turns it off), else ``SPIN_US`` where this process may use more than one core."""
@@ -222,8 +227,7 @@ class Connection:
 
     def reply(self, t_us: int, body: bytes = b"") -> bytes:
         """Answer the pending request; returns the raw reply bytes (length prefix included)."""
-        payload = struct.pack("<Q", t_us) + body
-        raw = struct.pack("<H", len(payload)) + payload
+        raw = reply_bytes(t_us, body)
         self.sock.sendall(raw)
         self.round_trips += 1
         return raw
@@ -268,8 +272,7 @@ class DirectConnection:
         return self._reply
 
     def reply(self, t_us: int, body: bytes = b"") -> bytes:
-        payload = struct.pack("<Q", t_us) + body
-        self._reply = struct.pack("<H", len(payload)) + payload
+        self._reply = reply_bytes(t_us, body)
         self.round_trips += 1
         return self._reply
 
