@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from firmware.hal.sim import Link
+from hil.link import cores
 from hil.link.firmware_process import (SPIN_US, Connection, firmware_env, runs_share_cores,
                                        spin_us)
 from hil.run.lockstep import Simulator
@@ -36,7 +37,54 @@ def test_polling_or_not_carries_the_same_run(monkeypatch) -> None:
     assert got[0].serial_digest == got[1].serial_digest
 
 
-def test_polling_only_with_a_core_for_each_side(monkeypatch) -> None:
+@pytest.fixture
+def no_quota(monkeypatch, tmp_path):
+    """Cores from the affinity alone, whatever cgroup runs these tests."""
+    monkeypatch.setattr(cores, "PROC_CGROUP", tmp_path / "none")
+
+
+def _cgroup(tmp_path: Path, line: str, files: dict[str, str]) -> tuple[Path, Path]:
+    """A /proc/self/cgroup holding ``line`` and a cgroup tree of ``files`` (path: text)."""
+    tmp_path.mkdir(parents=True, exist_ok=True)
+    proc = tmp_path / "proc_cgroup"
+    proc.write_text(line + "\n")
+    root = tmp_path / "cgroup"
+    for name, text in files.items():
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_text(text)
+    return proc, root
+
+
+def test_a_cgroup_quota_counts_as_cpus(tmp_path) -> None:
+    """cgroup v2: the smallest quota along the path; v1 under a container, whose own
+    cgroup it sees as the root while /proc names the host's path; no quota set: None."""
+    v2 = _cgroup(tmp_path / "v2", "0::/ci.slice/job", {
+        "cpu.max": "max 100000\n", "ci.slice/cpu.max": "150000 100000\n",
+        "ci.slice/job/cpu.max": "max 100000\n"})
+    assert cores.quota_cpus(*v2) == 1.5
+    v1 = _cgroup(tmp_path / "v1", "12:memory:/docker/abc\n4:cpu,cpuacct:/docker/abc", {
+        "cpu,cpuacct/cpu.cfs_quota_us": "100000\n", "cpu,cpuacct/cpu.cfs_period_us": "100000\n"})
+    assert cores.quota_cpus(*v1) == 1.0
+    unset = _cgroup(tmp_path / "unset", "1:cpu:/", {
+        "cpu/cpu.cfs_quota_us": "-1\n", "cpu/cpu.cfs_period_us": "100000\n"})
+    assert cores.quota_cpus(*unset) is None
+    assert cores.quota_cpus(tmp_path / "no such file", tmp_path) is None
+
+
+def test_no_polling_under_a_quota_of_less_than_two_cpus(monkeypatch, tmp_path) -> None:
+    """``docker run --cpus=1.5`` on a big host: the affinity says 16, the quota 1.5, and
+    two polling processes would spend it and be throttled (docs/link.md)."""
+    monkeypatch.delenv(sim_link.ENV_SPIN_US, raising=False)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: set(range(16)))
+    proc, root = _cgroup(tmp_path, "0::/", {"cpu.max": "150000 100000\n"})
+    monkeypatch.setattr(cores, "PROC_CGROUP", proc)
+    monkeypatch.setattr(cores, "CGROUP_ROOT", root)
+    assert cores.usable() == 1.5 and spin_us() == 0
+    (root / "cpu.max").write_text("200000 100000\n")
+    assert cores.usable() == 2.0 and spin_us() == SPIN_US
+
+
+def test_polling_only_with_a_core_for_each_side(monkeypatch, no_quota) -> None:
     monkeypatch.delenv(sim_link.ENV_SPIN_US, raising=False)
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})
     assert spin_us() == 0
@@ -49,7 +97,7 @@ def test_polling_only_with_a_core_for_each_side(monkeypatch) -> None:
     assert spin_us() == 0 and firmware_env(0)[sim_link.ENV_SPIN_US] == "0"
 
 
-def test_runs_sharing_the_cores_do_not_poll(monkeypatch) -> None:
+def test_runs_sharing_the_cores_do_not_poll(monkeypatch, no_quota) -> None:
     """An executor's workers (host_tools/executor.py) and pytest-xdist's (the plugin) say
     how many runs go side by side."""
     monkeypatch.delenv(sim_link.ENV_SPIN_US, raising=False)

@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable
 
+from hil.link import cores
 from protocol import sim_link
 from protocol.errors import UserError
 
@@ -141,15 +142,8 @@ def runs_share_cores(runs: int) -> None:
     """This process is one of ``runs`` side by side (an executor's workers, pytest-xdist's):
     no polling (``spin_us``) unless each run's host and firmware have a core, as a poll on
     a shared core takes it from the side it waits for. A user's own setting stands."""
-    if 2 * runs > _cores():
+    if 2 * runs > cores.usable():
         os.environ.setdefault(sim_link.ENV_SPIN_US, "0")
-
-
-def _cores() -> int:
-    try:
-        return len(os.sched_getaffinity(0))   # taskset narrows them
-    except AttributeError:   # no affinity on this OS
-        return os.cpu_count() or 1
 
 
 def reply_bytes(t_us: int, body: bytes) -> bytes:
@@ -159,14 +153,15 @@ def reply_bytes(t_us: int, body: bytes) -> bytes:
 
 def spin_us() -> int:
     """How long this run's link polls before it blocks: ``HEXHIL_LINK_SPIN_US`` where set
-    (0 turns it off), else ``SPIN_US`` where this process may use more than one core."""
+    (0 turns it off), else ``SPIN_US`` where this process may use two CPUs or more
+    (hil/link/cores.py: its affinity and its cgroup's CPU quota)."""
     given = os.environ.get(sim_link.ENV_SPIN_US)
     if given is not None:
         if not given.isdigit():
             raise UserError(f"{sim_link.ENV_SPIN_US} must be a whole number of microseconds "
                             f"(0 turns polling off), not {given!r}")
         return int(given)
-    return SPIN_US if _cores() > 1 else 0
+    return SPIN_US if cores.usable() >= 2 else 0
 
 
 class Connection:
