@@ -148,11 +148,26 @@ def test_a_full_disk_in_the_child_is_the_runs_one_line(tmp_path):
 @pytest.mark.parametrize("runtime,where", [("micropython", "this-process"),
                                           ("cpython", "this-process"),
                                           ("cpython-inprocess", "child-process")])
-def test_a_run_encodes_beside_its_firmware_or_in_a_child(tmp_path, runtime, where):
+def test_a_run_encodes_beside_its_firmware_or_in_a_child(tmp_path, monkeypatch, runtime,
+                                                        where):
     """A firmware in a process of its own leaves the run waiting while it computes, so the
     run encodes then; a firmware in the run's process leaves it nothing to wait on."""
+    from hil.link import cores
     from host_tools import Run
+
+    monkeypatch.setattr(cores, "usable", lambda: 2.0)
 
     with Run(ROOT / "scenarios" / "flat-tripod.toml", runtime=runtime, duration_s=0.1,
              trace=tmp_path / "r.mcap") as run:
         assert run.recorder.encode_in.value == where
+
+
+def test_with_one_cpu_the_encoding_stays_in_the_run(tmp_path, monkeypatch):
+    """A child would take the run's only CPU (``taskset -c 0``, a cgroup quota of one)."""
+    from hil.link import cores
+    from host_tools import Run
+
+    monkeypatch.setattr(cores, "usable", lambda: 1.0)
+    with Run(ROOT / "scenarios" / "flat-tripod.toml", runtime="cpython-inprocess",
+             duration_s=0.1, trace=tmp_path / "r.mcap") as run:
+        assert run.recorder.encode_in is rec.EncodeIn.THIS_PROCESS
