@@ -365,15 +365,15 @@ def _cpu_rows(alone_us: float, bare_us: float) -> list[Row]:
         del parts[ONCE]   # given in wall time below
         for name, us in parts.items():
             if name == OVERHEAD:
-                rows.append(Row(f"stack CPU ({label}): {name}", us, "% of total",
-                                "<= 10 %" if ip else "<= 25 %",
-                                "total - world step - firmware compute, in CPU time"))
+                rows.append(Row(f"stack CPU ({label}): {name}", us, "% of total", "",
+                                "total - world step - firmware compute, in CPU time (the "
+                                "goal is on the wall clock: the child's CPU holds its start)"))
             else:
                 rows.append(Row(f"stack CPU ({label}): {name}", us, "us / cycle", "",
                                 f"{BREAKDOWN_S:.0f} s run with recording, CPU time"))
         rows.append(Row(f"stack CPU ({label}): world alone / cycle", alone_us / parts["total"],
-                        "ratio", ">= 0.9" if ip else ">= 0.65",
-                        "the run / world alone ratio on CPU time (recording included)"))
+                        "ratio", "", "the run / world alone ratio on CPU time (recording "
+                        "included; the goal is on the wall clock)"))
     return rows
 
 
