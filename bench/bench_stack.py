@@ -247,8 +247,8 @@ def light_cycle(in_process: bool = False) -> dict[str, float]:
     """``breakdown``'s run, recording, with one stopwatch only, on the world step (and, in
     process, the link's exchange, outside which the firmware computes): the cycle's total,
     world step and firmware compute in us, and the overhead share of them. The breakdown
-    wraps about 22 calls a cycle, which made its run 25-30 us a cycle slower than one with
-    none (wave 14); a user's run has none, so the goal row takes its share from here. The
+    wraps about 22 calls a cycle, which made its run 12-17 us a cycle slower than this one
+    (wave 14); a user's run has none, so the goal row takes its share from here. The
     total runs from the firmware's hello to its last reply (to where the host turns to the
     firmware's exit)."""
     from host_tools.trace.recorder import open_recorder

@@ -140,8 +140,9 @@ def split_messages(data: bytes) -> list[tuple[int, bytes]]:
 
 def runs_share_cores(runs: int) -> None:
     """This process is one of ``runs`` side by side (an executor's workers, pytest-xdist's):
-    no polling (``spin_us``) unless each run's host and firmware have a core, as a poll on
-    a shared core takes it from the side it waits for. A user's own setting stands."""
+    no polling (``spin_us``) unless each run's host and firmware have a CPU
+    (hil/link/cores.py), as a poll on a shared one takes it from the side it waits for. A
+    user's own setting stands."""
     if 2 * runs > cores.usable():
         os.environ.setdefault(sim_link.ENV_SPIN_US, "0")
 
