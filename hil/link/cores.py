@@ -1,5 +1,6 @@
 """How many CPUs this process may keep busy: the link polls only where each side of a run
-has one (hil/link/firmware_process.py ``spin_us``).
+has one (hil/link/firmware_process.py ``spin_us``), and the recorder forks its encoding
+child only beside a spare one (host_tools/trace/windows.py ``encode_in_for``).
 
 Two things narrow the machine's cores: the affinity (``taskset``) and the cgroup's CPU
 quota (``docker run --cpus=1``, a CI runner's limit). A quota is not a core count: under
