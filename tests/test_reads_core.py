@@ -47,14 +47,14 @@ def _run(case: str, compiled: bool, monkeypatch) -> tuple:
     sim.bus.return_delay_override_us = delay
     replies, outcomes = [], collections.Counter()
 
-    def traced_carry_out(self, bus, payload):
-        out = CARRY_OUT(self, bus, payload) if compiled else None
+    def traced_carry_out(self, bus, payload, write=None):
+        out = CARRY_OUT(self, bus, payload, write) if compiled else None
         outcomes["general" if out is None else
                  "done" if out.handover is None else out.handover.code] += 1
         return out
 
-    def traced_reads(self, payload, result):
-        replies.append(READS(self, payload, result))
+    def traced_reads(self, payload, result, write=None):
+        replies.append(READS(self, payload, result, write))
         return replies[-1]
     monkeypatch.setattr(reads_core.ReadsCore, "carry_out", traced_carry_out)
     monkeypatch.setattr(LinkServer, "_reads", traced_reads)
@@ -102,11 +102,32 @@ def _payload(rng: random.Random) -> bytes:
     return bytes([len(reads)]) + b"".join(reads)
 
 
+def _write(k: int) -> bytes | None:
+    """The W sent with step ``k``'s R, or None: the legs moved (most), every ID written
+    with its own value (the line re-indexes: the reads go to the general path), Return
+    Delay written (EEPROM: the servos busy a while; the Status Return Level writes between
+    the steps leave one busy for the next W, which leaves it to Python), and a W whose
+    checksum is wrong (the line's parser takes it, in Python)."""
+    goal = (512 + 40 * (k % 5)).to_bytes(2, "little")
+    if k % 50 == 11:
+        return dxl.sync_write(ax12.ID, 1, [(i, bytes([i])) for i in range(1, 19)])
+    if k % 50 == 31:
+        return dxl.sync_write(ax12.RETURN_DELAY_TIME, 1, [(i, bytes([250])) for i in range(1, 19)])
+    if k % 50 == 21:
+        w = bytearray(dxl.sync_write(ax12.GOAL_POSITION, 2, [(i, goal) for i in range(1, 19)]))
+        w[-1] ^= 0xFF
+        return bytes(w)
+    if k % 3 == 1:
+        return dxl.sync_write(ax12.GOAL_POSITION, 2, [(i, goal) for i in range(1, 19)])
+    return None
+
+
 def test_scripted_reads_are_answered_the_same(monkeypatch):
-    """R payloads straight to the link server, with and without the C code: the same
-    replies, clock, counters, accounting and servo state after each. Between them a servo
-    sometimes stops answering READs (Status Return Level 0) and SYNC_WRITEs move the legs.
-    The C code carries whole Rs with retries and skips in them, and hands over both ways."""
+    """R payloads straight to the link server, with and without the C code, most after a
+    W (a SYNC_WRITE in the same batch): the same replies, clock, counters, accounting and
+    servo state after each. Between them a servo sometimes stops answering READs (Status
+    Return Level 0). The C code carries whole Ws and Rs with retries and skips in them,
+    and hands over every way."""
     twins = []
     for compiled in (True, False):
         sc = scenario_mod.load_scenario(ROOT / "scenarios" / "flat-tripod.toml")
@@ -116,9 +137,10 @@ def test_scripted_reads_are_answered_the_same(monkeypatch):
         server._counting = True
         twins.append((compiled, sim, server, RunTally("test"), random.Random(9)))
     seen: collections.Counter = collections.Counter()
+    hx_reads = reads_core._HX_READS
 
-    def counted(self, bus, payload):
-        out = CARRY_OUT(self, bus, payload)
+    def counted(self, bus, payload, write=None):
+        out = CARRY_OUT(self, bus, payload, write)
         if out is None:
             seen["general"] += 1
         elif out.handover is not None:
@@ -127,7 +149,16 @@ def test_scripted_reads_are_answered_the_same(monkeypatch):
             seen["done"] += 1
             seen["done, retried"] += out.body[0] > payload[0]
             seen["done, skipped"] += out.body[0] < payload[0]
+        seen["with a W, compiled"] += out is not None and write is not None
         return out
+
+    def codes(ref):
+        code = hx_reads(ref)
+        if code == reads_core.WRITE_LEFT:   # a servo left to its handle, or an ID changed
+            left = reads_core._Reads.from_address(ref).i < 18
+            seen["W: a servo left to Python" if left else "W: an ID changed"] += 1
+        return code
+    monkeypatch.setattr(reads_core, "_HX_READS", codes)
     try:
         for k in range(250):
             states = []
@@ -138,10 +169,7 @@ def test_scripted_reads_are_answered_the_same(monkeypatch):
                 if k % 40 == 20:
                     bus.master_write(dxl.write(1 + k % 18, ax12.STATUS_RETURN_LEVEL,
                                                bytes([0 if k % 80 == 20 else 2])))
-                if k % 7 == 3:
-                    bus.master_write(dxl.sync_write(ax12.GOAL_POSITION, 2, [
-                        (i, (512 + 40 * (k % 5)).to_bytes(2, "little")) for i in range(1, 19)]))
-                reply = server._reads(_payload(rng), tally)
+                reply = server._reads(_payload(rng), tally, _write(k))
                 bus.idle_until(bus.clock.t_us + rng.choice([0, 2500, 10_000]))
                 if k % 2:
                     bus.master_discard()   # a cut-off reply's bytes dropped: plain again
@@ -152,5 +180,6 @@ def test_scripted_reads_are_answered_the_same(monkeypatch):
         for _, sim, *_ in twins:
             sim.core.shutdown()
     for outcome in ("done", "done, retried", "done, skipped", reads_core.PYTHON,
-                    reads_core.PYTHON_REPLY):
+                    reads_core.PYTHON_REPLY, "general", "with a W, compiled"):
         assert seen[outcome] >= 5, seen
+    assert seen["W: a servo left to Python"] >= 1 and seen["W: an ID changed"] >= 2, seen

@@ -207,14 +207,25 @@ class LinkServer:
             heard = len(rx) - (min(len(tx), len(rx)) if self.bus.echo else 0)
             result.bus_wire_us += round((len(tx) + heard) * self.byte_us)
 
-    def _reads(self, payload: bytes, result: RunTally) -> bytes:
-        """Link version 2's R (docs/link.md): each read in order, tried again while its
+    def _write(self, data: bytes, result: RunTally) -> None:
+        """A W: the bytes on the servo line, and their bus time and wire time, once counting."""
+        t0 = self.clock.t_us
+        self.bus.master_write(data)
+        if self._counting:
+            result.bus_busy_us += self.clock.t_us - t0
+            result.bus_wire_us += round(len(data) * self.byte_us)
+
+    def _reads(self, payload: bytes, result: RunTally, write: bytes | None = None) -> bytes:
+        """Link version 2's R (docs/link.md), after ``write`` (the W just before it, if
+        one was): each read in order, tried again while its
         reply is not its servo's status (protocol/dynamixel/v1.py ``status_ok``, the
         master's own test) and retries are left, skipped when the read it names did not
         succeed; the reply holds every attempt's time and bytes. Compiled on a plain line
         (hil/servobus/reads_core.py), which hands back what it does not serve."""
-        out = self._reads_core.carry_out(self.bus, payload)
+        out = self._reads_core.carry_out(self.bus, payload, write)
         if out is None:
+            if write is not None:
+                self._write(write, result)
             return self._attempts(self._parse_reads(payload), 0, 0, [], bytearray(1), result)
         if self._counting:
             result.bus_busy_us += out.busy_us
@@ -309,13 +320,15 @@ class LinkServer:
         slept = reads = False
         if self.lookahead is not None:
             self.lookahead.settle(msgs)
-        for op, payload in msgs:
+        write = None   # a W carried out with the R right after it (``_reads``)
+        last = len(msgs) - 1
+        for i, (op, payload) in enumerate(msgs):
             if op == sim_link.OP_WRITE:
-                t0 = clock.t_us
-                bus.master_write(payload)
-                if self._counting:
-                    result.bus_busy_us += clock.t_us - t0
-                    result.bus_wire_us += round(len(payload) * self.byte_us)
+                if (i < last and msgs[i + 1][0] == sim_link.OP_READS
+                        and self.version == sim_link.VERSION_READS):
+                    write = payload
+                else:
+                    self._write(payload, result)
             elif op == sim_link.OP_TRANSACT:
                 nrx, timeout_us = struct.unpack_from("<HI", payload, 0)
                 if nrx > sim_link.MAX_RX_LEN:
@@ -323,7 +336,8 @@ class LinkServer:
                                         f"holds ({sim_link.MAX_RX_LEN})")
                 reply = self._transact(payload[6:], nrx, timeout_us, result)
             elif op == sim_link.OP_READS and self.version == sim_link.VERSION_READS:
-                reply = self._reads(payload, result)
+                reply = self._reads(payload, result, write)
+                write = None
                 reads = True
             elif op == sim_link.OP_CAN:
                 self._can_from_firmware(payload, result)

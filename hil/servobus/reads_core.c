@@ -1,6 +1,8 @@
 /* A cycle's status reads on a plain line: link version 2's R (hil/link/server.py _reads,
  * docs/link.md "R reads") carried out in one call, where the Python code makes about thirty
- * calls an attempt (Bus.transact, the master's status test, the reply's packing). Each
+ * calls an attempt (Bus.transact, the master's status test, the reply's packing), with the
+ * SYNC_WRITE the firmware sends before them in the same batch (its W: Bus.master_write of
+ * one whole broadcast SYNC_WRITE, then the servo bank's hx_sync_write). Each
  * attempt is what Bus.transact does for a READ to one servo: 8 bytes out, the servo's
  * status (hx_read) after its Return Delay, read back whole; the same integer times, the
  * same reply bytes, the same retry and skip rules.
@@ -10,14 +12,17 @@
  * physics step (ADVANCE: the bytes heard so far go out, in order, before the world steps);
  * an attempt this does not serve (PYTHON: the general path takes over before it; after its
  * servo answered, with a reply the master does not read whole, PYTHON_REPLY); a payload
- * this does not check (FALLBACK, before doing anything: the general path carries the R out
- * and raises what it finds wrong). */
+ * this does not check (FALLBACK, before doing anything: the general path carries the W and
+ * the R out and raises what it finds wrong); a servo hx_sync_write leaves to its own Python
+ * handle, or an ID or Baud Rate the W changed (WRITE_LEFT: the Python code finishes the
+ * write, then the reads go on here, or from the first in the general path after the line
+ * re-indexed). */
 #include "servo_core.h"
 
-enum { DONE = 0, ADVANCE = 1, PYTHON = 2, PYTHON_REPLY = 3, FALLBACK = 4 };
-enum { START = 0, SERVO = 1, HEARD = 2 };
+enum { DONE = 0, ADVANCE = 1, PYTHON = 2, PYTHON_REPLY = 3, FALLBACK = 4, WRITE_LEFT = 5 };
+enum { START = 0, SERVO = 1, HEARD = 2, WRITTEN = 3 };
 enum { HEAD = 12, NO_SKIP = 0xFF, MAX_REPLY = 2048, ATTEMPT_HEAD = 10, US_BITS = 10000000,
-       READ = 0x02, RETURN_DELAY = 5 };
+       READ = 0x02, RETURN_DELAY = 5, BROADCAST = 0xFE, SYNC_WRITE = 0x83 };
 
 struct reads {
     const struct bank *bank;
@@ -41,6 +46,9 @@ struct reads {
     unsigned char lens[1024];     /* each record's length */
     int32_t nrec;
     int64_t tx_bytes, rx_bytes, packets, replies, busy_us, wire_us;
+    const unsigned char *write;   /* the W before the reads, or NULL (write_len 0) */
+    int32_t write_len;
+    int32_t *changed;             /* the bank's flag: the W changed an ID or Baud Rate */
 };
 
 static int64_t wire_us(const struct reads *s, int64_t n) { return n * US_BITS / s->baud; }
@@ -80,16 +88,56 @@ static int checked(struct reads *s)
     return at == s->len && room >= 0;
 }
 
+/* The W: one whole broadcast SYNC_WRITE with its checksum right, as Bus._deliver takes it
+ * whole (anything else goes through the line's parser, in Python) */
+static int write_checked(const struct reads *s)
+{
+    const unsigned char *w = s->write;
+    int n = s->write_len, sum = 0;
+    if (n < 6 || w[0] != 0xFF || w[1] != 0xFF || w[2] != BROADCAST || w[3] + 4 != n
+        || w[4] != SYNC_WRITE)
+        return 0;
+    for (int j = 2; j < n - 1; j++)
+        sum += w[j];
+    return (~sum & 0xFF) == w[n - 1];
+}
+
+static int64_t wire_time_us(const struct reads *s, int64_t n)
+{   /* server.py's round(n * byte_us): half to even, as rint */
+    return (int64_t)rint((double)n * ((double)US_BITS / (double)s->baud));
+}
+
 int hx_reads(struct reads *s)
 {
     const unsigned char *p = s->payload;
     s->log_len = s->nrec = 0;
-    if (s->at == 0) {                 /* a new R */
-        if (!checked(s))
+    if (s->at == 0) {                 /* a new R, and the W before it */
+        if (!checked(s) || (s->write_len && !write_checked(s)))
             return FALLBACK;
         s->at = 1;
+        s->r = s->k = s->phase = 0;
+        s->tx_bytes = s->rx_bytes = s->packets = s->replies = s->busy_us = s->wire_us = 0;
         s->body[0] = 0;
         s->body_len = 1;
+        if (s->write_len) {           /* Bus.master_write: on the wire, then to the servos */
+            s->t0_us = s->t_us;
+            heard(s, s->t_us, 'T', s->write, s->write_len);
+            s->tx_bytes += s->write_len;
+            s->t_us += wire_us(s, s->write_len);
+            s->phase = WRITTEN;
+            if (s->t_us >= s->next_step_us)
+                return ADVANCE;
+        }
+    }
+    if (s->phase == WRITTEN) {
+        s->packets += 1;
+        s->busy_us += s->t_us - s->t0_us;
+        s->wire_us += wire_time_us(s, s->write_len);
+        s->phase = START;
+        *s->changed = 0;
+        s->i = hx_sync_write(s->bank, 0, s->t_us, s->write + 5, s->write_len - 6, s->changed);
+        if (s->i < s->bank->n || *s->changed)
+            return WRITE_LEFT;
     }
     while (s->r < p[0]) {
         const unsigned char *h = p + s->at, *tx = h + HEAD;
@@ -155,7 +203,7 @@ int hx_reads(struct reads *s)
         s->body_len += ATTEMPT_HEAD + m;
         s->body[0] += 1;
         s->busy_us += s->t_us - s->t0_us;
-        s->wire_us += (int64_t)rint((double)(8 + m) * ((double)US_BITS / (double)s->baud));
+        s->wire_us += wire_time_us(s, 8 + m);
         s->phase = START;
         /* protocol/dynamixel/v1.py status_ok: a servo's status is one whole packet (hx_read
          * builds it), so the master's test comes down to its ID and its length */

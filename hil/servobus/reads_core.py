@@ -3,7 +3,9 @@
 Link version 2 hands the host a cycle's status reads in one message, R; the general path
 (hil/link/server.py ``_attempts``) carries each attempt out through ``Bus.transact``, tests
 its reply with the master's own rule and packs it: about 60 us of a 930 us in-process
-cycle, half of it left compiled (docs/performance.md, wave 10). On a plain line
+cycle, half of it left compiled (docs/performance.md, wave 10). The SYNC_WRITE the
+firmware sends just before, in the same batch (its W), goes with them: ``Bus.master_write``
+and the servos' taking it cost about 5 us more a cycle in Python (wave 15). On a plain line
 (``Bus.plain``) whose world steps by its own ``advance_to``, the C code does the same from
 the payload to the reply, stopping for the world's physics steps (the bytes heard so far
 reach ``on_bytes`` first, in order, as the bus hands them over) and handing back to the
@@ -22,7 +24,7 @@ from hil.servobus.line import Bus
 from hil.servobus.servo_core import LIBRARY, ServoBank
 
 _P = ctypes.c_void_p
-DONE, ADVANCE, PYTHON, PYTHON_REPLY, FALLBACK = range(5)
+DONE, ADVANCE, PYTHON, PYTHON_REPLY, FALLBACK, WRITE_LEFT = range(6)
 
 
 class _Reads(ctypes.Structure):
@@ -39,7 +41,8 @@ class _Reads(ctypes.Structure):
                 ("nrec", ctypes.c_int32), ("tx_bytes", ctypes.c_int64),
                 ("rx_bytes", ctypes.c_int64), ("packets", ctypes.c_int64),
                 ("replies", ctypes.c_int64), ("busy_us", ctypes.c_int64),
-                ("wire_us", ctypes.c_int64)]
+                ("wire_us", ctypes.c_int64), ("write", ctypes.c_char_p),
+                ("write_len", ctypes.c_int32), ("changed", _P)]
 
 
 def _load() -> Any:
@@ -94,20 +97,23 @@ class ReadsCore:
     def available() -> bool:
         return _HX_READS is not None
 
-    def carry_out(self, bus: Bus, payload: bytes) -> Outcome | None:
+    def carry_out(self, bus: Bus, payload: bytes, write: bytes | None = None
+                  ) -> Outcome | None:
+        """The R ``payload``, after the W ``write`` where one came just before it; None
+        where nothing was done (the general path carries out both)."""
         bank: ServoBank | None = bus.servo_bank
         if (_HX_READS is None or bank is None or not bus.plain() or bank.next_step_us is None
                 or bus.advance != bank.advance):
             return None
         s = self._s
-        s.bank, s.index = bank.ref, bank.by_id_address
+        s.bank, s.index, s.changed = bank.ref, bank.by_id_address, bank.changed_address
         s.payload, s.len = payload, len(payload)
+        s.write, s.write_len = write, len(write) if write is not None else 0
         s.baud = bus.baud
         delay = bus.return_delay_override_us
         s.delay_override_us = -1 if delay is None else delay
         s.t_us = bus.clock.t_us
-        s.r = s.k = s.at = s.phase = 0
-        s.tx_bytes = s.rx_bytes = s.packets = s.replies = s.busy_us = s.wire_us = 0
+        s.at = 0   # the C code starts over: its counters, the W, the first read
         next_step = bank.next_step_us
         while True:
             s.next_step_us = next_step()
@@ -116,7 +122,12 @@ class ReadsCore:
                 return None
             self._heard(bus)
             bus.idle_until(s.t_us)   # the clock to where the C code is; the world steps
-            if code != ADVANCE:
+            if code == WRITE_LEFT:
+                if bank.finish_sync_write(s.i, write[5:-1], s.t_us):
+                    bus._reindex()   # an ID or baud changed: every read in the general path
+                    code = PYTHON
+                    break
+            elif code != ADVANCE:
                 break
         stats = bus.stats
         stats["tx_bytes"] += s.tx_bytes

@@ -60,4 +60,9 @@ static inline int hx_serves(const struct bank *b, int i, int64_t t_us)
 /* servo_core.c: a READ (parameters a, n) to servo i at t_us, answered into out */
 int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned char *out);
 
+/* servo_core.c: a broadcast SYNC_WRITE's parameters p to the servos from ``from`` on; the
+ * index of the first left to its Python handle, or n */
+int hx_sync_write(const struct bank *b, int from, int64_t t_us, const unsigned char *p, int len,
+                  int32_t *changed);
+
 #endif

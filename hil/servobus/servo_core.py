@@ -130,7 +130,7 @@ class ServoBank:
         self._out = ctypes.create_string_buffer(ax12.TABLE_SIZE + 6)
         self._out_at = ctypes.addressof(self._out)
         self._changed = ctypes.c_int32()   # hx_sync_write's: an ID or Baud Rate changed
-        self._changed_at = ctypes.addressof(self._changed)
+        self.changed_address = ctypes.addressof(self._changed)
         self.index = {id(s): i for i, (s, ok) in enumerate(zip(servos, served)) if ok}
         # ID -> the bank index of the one servo it reaches, -1 (none, two, or not served)
         ids = [s.id for s in servos]
@@ -164,10 +164,16 @@ class ServoBank:
         order (``Bus._dispatch``'s): in C where it can, each one it leaves by its own
         ``handle``. True when one's ID or Baud Rate changed (the line re-indexes)."""
         self.advance(t_us)
+        self._changed.value = 0
+        return self.finish_sync_write(
+            self._sync(self.ref, 0, t_us, params, len(params), self.changed_address), params, t_us)
+
+    def finish_sync_write(self, i: int, params: bytes, t_us: int) -> bool:
+        """A SYNC_WRITE the C code carried out up to servo ``i``, which it left to its own
+        ``handle`` (reads_core.c too): the rest, in order. True when one's ID or Baud Rate
+        changed, here or in C (``changed_address``)."""
         servos, n, sync, ref, size = self.servos, self.n, self._sync, self.ref, len(params)
-        changed, at = self._changed, self._changed_at
-        changed.value = 0
-        i = sync(ref, 0, t_us, params, size, at)
+        changed, at = self._changed, self.changed_address
         while i < n:
             s = servos[i]
             s.handle(dxl.SYNC_WRITE, params, True, t_us)   # broadcast: no reply
