@@ -133,8 +133,10 @@ class LinkServer:
     def _can_records(self) -> tuple[int, bytes]:
         """(flags, u8 n + records) of the frames queued for the client, as many as one
         reply holds; FLAG_MORE when some are left (the client asks with OP_MORE)."""
-        limit = sim_link.MAX_CAN_PER_REPLY
         frames = self._held
+        if not frames and self.inbox.buffer.empty():   # most sleeps: none (~1.5 us less)
+            return 0, b"\0"
+        limit = sim_link.MAX_CAN_PER_REPLY
         frames += self.inbox.frames(limit + 1 - len(frames))
         self._held = frames[limit:]
         body = bytearray((min(len(frames), limit),))
