@@ -162,9 +162,11 @@ class RunCore:
         as the firmware reads them: stuck or bouncing legs applied (``[faults]``)."""
         bits = 0
         if self.world is not None:
-            for i, pressed in enumerate(self.world.switch_levels()):
-                if pressed:
-                    bits |= 1 << i
+            levels = self.world.switch_levels()
+            if True in levels:   # most link requests: none pressed
+                for i, pressed in enumerate(levels):
+                    if pressed:
+                        bits |= 1 << i
         return self.faults.switch_bits(self.clock.t_us, bits) if self.faults else bits
 
     def shutdown(self) -> None:

@@ -89,9 +89,10 @@ class ReadsCore:
 
     def __init__(self) -> None:
         self._s = _Reads()
+        self._bank: ServoBank | None = None   # the one the C code was last given
         self._ref = ctypes.addressof(self._s)
-        self._body, self._log, self._reply = (self._ref + getattr(_Reads, f).offset
-                                              for f in ("body", "log", "reply"))
+        self._body, self._log, self._lens, self._reply = (
+            self._ref + getattr(_Reads, f).offset for f in ("body", "log", "lens", "reply"))
 
     @staticmethod
     def available() -> bool:
@@ -106,7 +107,9 @@ class ReadsCore:
                 or bus.advance != bank.advance):
             return None
         s = self._s
-        s.bank, s.index, s.changed = bank.ref, bank.by_id_address, bank.changed_address
+        if bank is not self._bank:   # the first R, or the line re-indexed
+            self._bank = bank
+            s.bank, s.index, s.changed = bank.ref, bank.by_id_address, bank.changed_address
         s.payload, s.len = payload, len(payload)
         s.write, s.write_len = write, len(write) if write is not None else 0
         s.baud = bus.baud
@@ -149,7 +152,7 @@ class ReadsCore:
         n = s.log_len
         if on_bytes is None or not n:
             return
-        stream, lens = ctypes.string_at(self._log, n), s.lens[:s.nrec]
+        stream, lens = ctypes.string_at(self._log, n), ctypes.string_at(self._lens, s.nrec)
         many = getattr(on_bytes, "stream", None)
         if many is not None:
             many(stream, lens)

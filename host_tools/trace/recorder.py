@@ -105,9 +105,9 @@ class Recorder(HeldWindows):
                 self.serial(t_us, direction, data)
             return
         t_us = serial_stream.HEAD.unpack_from(stream, 0)[0]
-        self._defer(t_us, self._encode_serial_stream, (stream, list(lens)))
+        self._defer(t_us, self._encode_serial_stream, (stream, bytes(lens)))
 
-    def _encode_serial_stream(self, out: list, _t: int, stream: bytes, lens: list[int]) -> None:
+    def _encode_serial_stream(self, out: list, _t: int, stream: bytes, lens: bytes) -> None:
         for t_us, direction, data in serial_stream.records(stream, lens):
             self._encode_serial(out, t_us * 1000, direction, data)
 
