@@ -212,14 +212,14 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
     return out
 
 
-def light_cycle(in_process: bool = False) -> dict[str, float]:
-    """``breakdown``'s run, recording, with one stopwatch only, on the world step (and, in
-    process, the link's exchange, outside which the firmware computes): the cycle's total,
-    world step and firmware compute in us, and the overhead share of them. The breakdown
-    wraps about 22 calls a cycle, which made its run 12-17 us a cycle slower than this one
-    (wave 14); a user's run has none, so the goal row takes its share from here. The
-    total runs from the firmware's hello to its last reply (to where the host turns to the
-    firmware's exit)."""
+def light_cycle(in_process: bool = False, record: bool = True) -> dict[str, float]:
+    """``breakdown``'s run, recording unless told not to, with one stopwatch only, on the
+    world step (and, in process, the link's exchange, outside which the firmware computes):
+    the cycle's total, world step and firmware compute in us, and the overhead share of
+    them. The breakdown wraps about 22 calls a cycle, which made its run 12-17 us a cycle
+    slower than this one (wave 14); a user's run has none, so the goal rows take their
+    share from here. The total runs from the firmware's hello to its last reply (to where
+    the host turns to the firmware's exit)."""
     from host_tools.trace.recorder import open_recorder
     from host_tools.trace.windows import encode_in_for
 
@@ -235,7 +235,8 @@ def light_cycle(in_process: bool = False) -> dict[str, float]:
         return noted
 
     with tempfile.TemporaryDirectory() as tmp:
-        rec = open_recorder(Path(tmp) / "b.mcap", {}, encode_in=encode_in_for(not in_process))
+        rec = open_recorder(Path(tmp) / "b.mcap" if record else None, {},
+                            encode_in=encode_in_for(not in_process))
         sim = Simulator(sc, 3, world=world, recorder=rec)
         exchange = _first_and_last(sw, sw.wrap("host", DirectConnection.exchange))
         with mock.patch.object(LinkServer, "_hello_reply",
@@ -244,7 +245,8 @@ def light_cycle(in_process: bool = False) -> dict[str, float]:
                                   noting(LAST, FirmwareProcess.finish)), \
                 mock.patch.object(DirectConnection, "exchange", exchange):
             r = sim.run(BREAKDOWN_S, in_process=run_firmware if in_process else None)
-        rec.close()
+        if rec is not None:
+            rec.close()
     cycles = max(1, r.cycles)
     total_us = (sw.s[LAST] - sw.s[BOOT]) / cycles * 1e6
     world_us = sw.s["world"] / cycles * 1e6
