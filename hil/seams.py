@@ -4,7 +4,7 @@ hil/link/). Anything with these methods plugs in; nothing needs to inherit from 
 from __future__ import annotations
 
 from typing import (TYPE_CHECKING, Any, Callable, Iterator, Mapping, Protocol, Sequence,
-                    runtime_checkable)
+                    TypeVar, runtime_checkable)
 
 if TYPE_CHECKING:
     import can
@@ -157,6 +157,41 @@ class SteppedWorld(Protocol):
     def step(self) -> None: ...
     def done(self) -> bool: ...
     def outcome(self) -> "BeamsOutcome": ...
+
+
+T = TypeVar("T")
+
+
+class HeldSample(Sequence[T]):
+    """A sample held as the raw values it follows from (``args``): its items are made by
+    ``_make(*args)`` when first read, and it pickles as ``args`` alone. The recorder holds
+    one as it is, and reads it where it encodes (hil/world/scene_values.py
+    ``JointFrames``, ``ContactForces``; hil/servobus/servo_core.py ``StateRows``)."""
+
+    def __init__(self, *args: Any) -> None:
+        self.args = args
+        self._items: list[T] | None = None
+
+    def __reduce__(self) -> tuple:
+        return type(self), self.args
+
+    def __len__(self) -> int:
+        return len(self.items())
+
+    def __getitem__(self, i: Any) -> Any:
+        return self.items()[i]
+
+    def __iter__(self) -> Iterator[T]:
+        return iter(self.items())
+
+    def items(self) -> list[T]:
+        if self._items is None:
+            self._items = self._make(*self.args)
+        return self._items
+
+    @staticmethod
+    def _make(*args: Any) -> list[T]:
+        raise NotImplementedError
 
 
 # A servo's state as the recorder takes it (``TraceRecorder.servo_state``): a mapping of

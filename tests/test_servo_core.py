@@ -156,3 +156,32 @@ def test_a_sync_write_to_an_id_or_baud_rate_reindexes_the_line(address, monkeypa
         assert len(to_30) == 8 and to_30[2] == 30 and to_1 == b""
     else:
         assert to_30 == b"" and to_1 == b""   # servo 1 listens at 500 kbps now
+
+
+def test_the_ground_truth_rows_are_the_servos_own(monkeypatch, tmp_path):
+    """``hx_state_rows`` (a 10 Hz ground-truth sample in one call) gives what each servo's
+    ``state_row`` gives, to the bit and the type (their reprs), through the fault
+    vocabulary: error bits of each kind, torque off, moving and still."""
+    from host_tools.trace.recorder import Recorder
+
+    seen = []
+    rows_of = servo_core.ServoBank.state_rows
+
+    def both(self, servos):
+        rows = rows_of(self, servos)
+        seen.append((repr(list(rows)), repr([s.state_row() for s in servos]), list(rows)))
+        return rows
+    monkeypatch.setattr(servo_core.ServoBank, "state_rows", both)
+    sag = [{"at_s": 1.0, "until_s": 1.6, "volts": 5.5}]   # under the 6 V limit: an error bit
+    sc = scenario_mod.load_scenario(ROOT / "scenarios" / "flat-tripod.toml").overlay(
+        {"faults": {**FAULTS, "voltage_sag": sag}})
+    with Recorder(tmp_path / "t.mcap") as rec:
+        sim = Simulator(sc, 1, world=make_world(sc, 1), recorder=rec)
+        sim.run(3.0, in_process=run_firmware)
+        rec.close()
+    assert len(seen) >= 29
+    assert all(compiled == python for compiled, python, _ in seen)
+    rows = [r for *_, sample in seen for r in sample]
+    for bit in (dxl.ERR_INPUT_VOLTAGE, dxl.ERR_OVERHEATING, dxl.ERR_OVERLOAD):
+        assert any(r[8] & bit for r in rows), bit
+    assert {r[6] for r in rows} == {r[7] for r in rows} == {True, False}

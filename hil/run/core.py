@@ -105,8 +105,8 @@ class RunCore:
         self._next_tick_us: list[int] = []
         servos = ([s for s in self.bus.servos if isinstance(s, TableServo)]
                   if self.bus else [])
-        self.truth = (GroundTruth(world, servos, recorder, scene) if recorder is not None
-                      else None)
+        self.truth = (GroundTruth(world, servos, recorder, scene, self.bus)
+                      if recorder is not None else None)
 
     @property
     def serial_digest(self) -> str:

@@ -15,8 +15,9 @@ class GroundTruth:
     shapes, frames and forces; ``servo_sample(t_us)``: the servos' states."""
 
     def __init__(self, world: FirmwareWorld | SteppedWorld | None, servos: Sequence[Any],
-                 recorder: TraceRecorder, scene: bool) -> None:
+                 recorder: TraceRecorder, scene: bool, bus: Any = None) -> None:
         self.world, self.servos, self.recorder, self.scene = world, servos, recorder, scene
+        self.bus = bus   # the servos' line: its compiled bank samples them in one call
         self._shapes: dict[str, Any] = {}  # the geometry sent, by shape id
         self._last_shapes: list[Any] = []  # the world's last answer (mostly the same objects)
 
@@ -44,4 +45,7 @@ class GroundTruth:
         rec.scene_forces(t, w.scene_arrows())
 
     def servo_sample(self, t: int) -> None:
-        self.recorder.servo_state(t, [s.state_row() for s in self.servos])
+        bank = self.bus.servo_bank if self.bus is not None else None
+        rows = bank.state_rows(self.servos) if bank is not None else None
+        self.recorder.servo_state(t, rows if rows is not None else
+                                  [s.state_row() for s in self.servos])

@@ -311,3 +311,35 @@ int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned ch
     out[5 + len] = (unsigned char)(~sum & 0xFF);
     return len + 6;
 }
+
+/* TableServo.state_row of every servo of the bank (each on a MuJoCo joint: the Python code
+ * checks), as the recorder logs it on /servos: id, Present Position's true angle, speed,
+ * load (MujocoActuator.state), temperature, voltage, torque enabled, moving (drive.py
+ * is_moving), the error bits (ServoHealth.errors); packed little-endian "<Bddddd??B",
+ * STATE_ROW bytes a servo (servo_core.py unpacks them where the recorder encodes). */
+enum { STATE_ROW = 44 };
+
+void hx_state_rows(const struct bank *b, unsigned char *out)
+{
+    for (int i = 0; i < b->n; i++, out += STATE_ROW) {
+        const unsigned char *t = b->table[i];
+        const struct health *h = b->health[i];
+        int j = b->joint[i], e = 0;
+        double pos = present_rad(b, j), vel = b->qd[j], load = load_frac(b, j);
+        if (h->voltage_units < t[MIN_V] || h->voltage_units > t[MAX_V])
+            e |= ERR_INPUT_VOLTAGE;
+        if (h->temperature_units > t[TEMP_LIMIT])
+            e |= ERR_OVERHEATING;
+        if (h->overload)
+            e |= ERR_OVERLOAD;
+        out[0] = t[ID];
+        memcpy(out + 1, &pos, 8);
+        memcpy(out + 9, &vel, 8);
+        memcpy(out + 17, &load, 8);
+        memcpy(out + 25, &h->temperature_c, 8);
+        memcpy(out + 33, &h->supply_v, 8);
+        out[41] = t[TORQUE_ENABLE] != 0;
+        out[42] = fabs(vel) >= b->moving_eps;
+        out[43] = (unsigned char)e;
+    }
+}

@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import math
 import struct
-from typing import Any, Iterator, NamedTuple, Sequence, TypeVar
+from typing import Any, NamedTuple
+
+from hil.seams import HeldSample
 
 _F32 = [struct.Struct(f"<{n}f") for n in range(8)]
 
@@ -53,40 +55,6 @@ def f32_tuple(v: Any) -> tuple[float, ...]:
     zeroed low bits let zstd pack the 10 Hz poses and forces to about half."""
     fmt = _F32[len(v)]
     return fmt.unpack(fmt.pack(*v))   # numpy's floats and ints pack as their float()
-
-
-T = TypeVar("T")
-
-
-class HeldSample(Sequence[T]):
-    """A sample held as the raw values it follows from (``args``): its items are made by
-    ``_make(*args)`` when first read, and it pickles as ``args`` alone. The recorder holds
-    one as it is (``JointFrames``, ``ContactForces``)."""
-
-    def __init__(self, *args: Any) -> None:
-        self.args = args
-        self._items: list[T] | None = None
-
-    def __reduce__(self) -> tuple:
-        return type(self), self.args
-
-    def __len__(self) -> int:
-        return len(self.items())
-
-    def __getitem__(self, i: Any) -> Any:
-        return self.items()[i]
-
-    def __iter__(self) -> Iterator[T]:
-        return iter(self.items())
-
-    def items(self) -> list[T]:
-        if self._items is None:
-            self._items = self._make(*self.args)
-        return self._items
-
-    @staticmethod
-    def _make(*args: Any) -> list[T]:
-        raise NotImplementedError
 
 
 class JointFrames(HeldSample[Frame]):

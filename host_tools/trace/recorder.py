@@ -46,7 +46,7 @@ from host_tools.trace.channels import Channels
 from host_tools.trace.windows import EncodeIn, Encoded, HeldWindows
 from host_tools.dynamixel.decode import DECODERS
 from hil.servobus import serial_stream
-from hil.world.scene_values import HeldSample
+from hil.seams import HeldSample
 from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
 
 DEFAULT_FLUSH_INTERVAL_US = 500_000  # well inside the issue's "once per simulated second"
@@ -173,11 +173,13 @@ class Recorder(HeldWindows):
         """Emulated servo state, one message for all servos. Each mapping may hold ``id``,
         ``position_rad``, ``velocity_rad_s``, ``load_frac``, ``temperature_c``,
         ``voltage_v``, ``torque_enabled``, ``moving``, ``error``; a tuple holds all of
-        them in that order (``hil.seams.SERVO_STATE_FIELDS``)."""
+        them in that order (``hil.seams.SERVO_STATE_FIELDS``); a ``HeldSample`` of such
+        tuples is held as it is."""
         self._defer(t_us, self._encode_servo_state,
-                    ([s if type(s) is tuple else pb.servo_row(s) for s in servos],))
+                    (servos if isinstance(servos, HeldSample) else
+                     [s if type(s) is tuple else pb.servo_row(s) for s in servos],))
 
-    def _encode_servo_state(self, out: list, t: int, rows: list[tuple]) -> None:
+    def _encode_servo_state(self, out: list, t: int, rows: Sequence[tuple]) -> None:
         out.append((t, self._channels.of(T_SERVOS), pb.encode_servo_rows(rows)))
 
     def body_pose(self, t_us: int, position_m: Sequence[float],
