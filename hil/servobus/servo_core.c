@@ -324,14 +324,8 @@ void hx_state_rows(const struct bank *b, unsigned char *out)
     for (int i = 0; i < b->n; i++, out += STATE_ROW) {
         const unsigned char *t = b->table[i];
         const struct health *h = b->health[i];
-        int j = b->joint[i], e = 0;
+        int j = b->joint[i];
         double pos = present_rad(b, j), vel = b->qd[j], load = load_frac(b, j);
-        if (h->voltage_units < t[MIN_V] || h->voltage_units > t[MAX_V])
-            e |= ERR_INPUT_VOLTAGE;
-        if (h->temperature_units > t[TEMP_LIMIT])
-            e |= ERR_OVERHEATING;
-        if (h->overload)
-            e |= ERR_OVERLOAD;
         out[0] = t[ID];
         memcpy(out + 1, &pos, 8);
         memcpy(out + 9, &vel, 8);
@@ -340,6 +334,6 @@ void hx_state_rows(const struct bank *b, unsigned char *out)
         memcpy(out + 33, &h->supply_v, 8);
         out[41] = t[TORQUE_ENABLE] != 0;
         out[42] = fabs(vel) >= b->moving_eps;
-        out[43] = (unsigned char)e;
+        out[43] = (unsigned char)health_errors(h, t);
     }
 }
