@@ -9,7 +9,8 @@
  *
  * The Python side (reads_core.py) hands over the payload and the line's clock, and gets
  * control back whenever something here cannot be done: the clock reaching the world's next
- * physics step (ADVANCE: the bytes heard so far go out, in order, before the world steps);
+ * physics step (ADVANCE: the world steps; the bytes heard stay in the log, which the Python
+ * side hands on, in order, where it takes over or the R is done, and then empties);
  * an attempt this does not serve (PYTHON: the general path takes over before it; after its
  * servo answered, with a reply the master does not read whole, PYTHON_REPLY); a payload
  * this does not check (FALLBACK, before doing anything: the general path carries the W and
@@ -40,8 +41,8 @@ struct reads {
     unsigned char reply[64];
     unsigned char body[MAX_REPLY];   /* the reply after its time: u8 attempts, then each */
     int32_t body_len;
-    unsigned char log[32768];     /* heard since the last return (serial_stream.py): u64 t,
-                                     u8 'T'/'R', the bytes; at most ~200 attempts an R */
+    unsigned char log[32768];     /* heard since the Python side last took it (serial_stream.py):
+                                     u64 t, u8 'T'/'R', the bytes; at most ~200 attempts an R */
     int32_t log_len;
     unsigned char lens[1024];     /* each record's length */
     int32_t nrec;
@@ -110,10 +111,10 @@ static int64_t wire_time_us(const struct reads *s, int64_t n)
 int hx_reads(struct reads *s)
 {
     const unsigned char *p = s->payload;
-    s->log_len = s->nrec = 0;
     if (s->at == 0) {                 /* a new R, and the W before it */
         if (!checked(s) || (s->write_len && !write_checked(s)))
             return FALLBACK;
+        s->log_len = s->nrec = 0;
         s->at = 1;
         s->r = s->k = s->phase = 0;
         s->tx_bytes = s->rx_bytes = s->packets = s->replies = s->busy_us = s->wire_us = 0;

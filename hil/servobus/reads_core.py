@@ -7,9 +7,11 @@ cycle, half of it left compiled (docs/performance.md, wave 10). The SYNC_WRITE t
 firmware sends just before, in the same batch (its W), goes with them: ``Bus.master_write``
 and the servos' taking it cost about 5 us more a cycle in Python (wave 15). On a plain line
 (``Bus.plain``) whose world steps by its own ``advance_to``, the C code does the same from
-the payload to the reply, stopping for the world's physics steps (the bytes heard so far
-reach ``on_bytes`` first, in order, as the bus hands them over) and handing back to the
-general path wherever it does not serve an attempt. The same bytes
+the payload to the reply, stopping for the world's physics steps and handing back to the
+general path wherever it does not serve an attempt. The bytes heard reach ``on_bytes``, in
+order, as the bus hands them over, in one call where the C code hands back: on a plain
+line nothing else records while the world steps (no fault, no monitor), so the calls'
+order is the same as byte by byte, for one call a cycle instead of one a step. The same bytes
 and times (tests/test_reads_core.py, and every shipped scenario's serial digest and trace).
 """
 from __future__ import annotations
@@ -123,7 +125,8 @@ class ReadsCore:
             code = _HX_READS(self._ref)
             if code == FALLBACK:
                 return None
-            self._heard(bus)
+            if code != ADVANCE:
+                self._heard(bus)
             bus.idle_until(s.t_us)   # the clock to where the C code is; the world steps
             if code == WRITE_LEFT:
                 if bank.finish_sync_write(s.i, write[5:-1], s.t_us):
@@ -146,13 +149,14 @@ class ReadsCore:
             ctypes.string_at(self._reply, s.m)))
 
     def _heard(self, bus: Bus) -> None:
-        """The bytes on the wire since the last return, to the bus's ``on_bytes`` in order:
+        """The bytes on the wire since the last call, to the bus's ``on_bytes`` in order:
         in one call where it takes a stream."""
         s, on_bytes = self._s, bus.on_bytes
         n = s.log_len
         if on_bytes is None or not n:
             return
         stream, lens = ctypes.string_at(self._log, n), ctypes.string_at(self._lens, s.nrec)
+        s.log_len = s.nrec = 0
         many = getattr(on_bytes, "stream", None)
         if many is not None:
             many(stream, lens)
