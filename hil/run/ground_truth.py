@@ -5,9 +5,12 @@ their own clocks and call this for what to write, so a trace of either has the s
 """
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 from hil.seams import FirmwareWorld, SteppedWorld, TraceRecorder
+
+if TYPE_CHECKING:
+    from hil.servobus.line import Bus
 
 
 class GroundTruth:
@@ -15,7 +18,7 @@ class GroundTruth:
     shapes, frames and forces; ``servo_sample(t_us)``: the servos' states."""
 
     def __init__(self, world: FirmwareWorld | SteppedWorld | None, servos: Sequence[Any],
-                 recorder: TraceRecorder, scene: bool, bus: Any = None) -> None:
+                 recorder: TraceRecorder, scene: bool, bus: Bus | None = None) -> None:
         self.world, self.servos, self.recorder, self.scene = world, servos, recorder, scene
         self.bus = bus   # the servos' line: its compiled bank samples them in one call
         self._shapes: dict[str, Any] = {}  # the geometry sent, by shape id
