@@ -4,7 +4,8 @@ Every cycle the firmware's SYNC_WRITE reaches all 18 servos; each catches up its
 finds its entry, checks the write against its control table and drives its joint. In
 Python that was about a third of the host's cycle; ``hx_sync_write`` does it for the whole
 line in one call, and ``hx_read`` answers a status read (catch-up, the Present registers,
-the status packet and its checksum). Both read and write the same state as the Python
+the status packet and its checksum); ``hx_state_rows`` packs every servo's ``state_row``
+for the recorder's 10 Hz ground truth. They read and write the same state as the Python
 servos: their and their health's ctypes fields (hil/servobus/ax12_servo.py ``Servo``,
 health.py ``ServoHealth``), their control tables and the world's drive bank
 (hil/world/actuator.py). The same operations in the same order, so tables, drives and
@@ -105,9 +106,9 @@ class StateRows(HeldSample[tuple]):
 
 
 class ServoBank:
-    """``hx_sync_write`` and ``hx_read`` bound to one line's servos at its baud
-    (``Bus._same``): built when the line is re-indexed; ``None`` from ``build`` when none of
-    them drives a MuJoCo joint (then their own ``handle`` serves them all)."""
+    """``hx_sync_write``, ``hx_read`` and ``hx_state_rows`` bound to one line's servos at
+    its baud (``Bus._same``): built when the line is re-indexed; ``None`` from ``build`` when
+    none of them drives a MuJoCo joint (then their own ``handle`` serves them all)."""
 
     def __init__(self, servos: Sequence[Any], joints: list[tuple[dict[str, np.ndarray], int]
                                                            | None]) -> None:
