@@ -149,7 +149,6 @@ class ServoBank:
         self._rows_out = ctypes.create_string_buffer(n * STATE_ROW.size)
         self._rows_at = ctypes.addressof(self._rows_out)
         self._all_served = all(served)
-        self._rows_for: Sequence[Any] | None = None   # the list state_rows last matched
         self._out = ctypes.create_string_buffer(ax12.TABLE_SIZE + 6)
         self._out_at = ctypes.addressof(self._out)
         self._changed = ctypes.c_int32()   # hx_sync_write's: an ID or Baud Rate changed
@@ -208,10 +207,8 @@ class ServoBank:
     def state_rows(self, servos: Sequence[Any]) -> StateRows | None:
         """``[s.state_row() for s in servos]`` in one call, where ``servos`` are this bank's,
         in its order, each on a MuJoCo joint; else None."""
-        if servos is not self._rows_for:
-            if not self._all_served or list(servos) != self.servos:
-                return None
-            self._rows_for = servos   # the same list again: no need to compare
+        if not self._all_served or list(servos) != self.servos:
+            return None
         self._rows(self.ref, self._rows_at)
         return StateRows(self._rows_out.raw)
 
