@@ -89,3 +89,13 @@ def test_an_interrupt_a_write_pends_is_taken_after_that_store(tmp_path):
     r, _ = run_elf(build(tmp_path, "pend.c"), 0.02)
     cycles = int(console(r)[-1].split()[2])
     assert cycles < 20, console(r)
+
+
+def test_bit_band_aliases_reach_sram_bits_and_peripheral_registers(tmp_path):
+    """PM0214's bit-band: an SRAM bit set or cleared alone, the alias reading 0 or 1; a
+    peripheral register's bit set through its alias as ST's HAL sets PLLON and LSION (the
+    oscillators start, their ready bits read through the alias); unwritten flash erased."""
+    r, _ = run_elf(build(tmp_path, "bitband.c"), 0.02)
+    assert console(r)[-1].split() == ["00800011", "00000001", "03000000", "00000023",
+                                      "00000003", "ffffffff"], console(r)
+    assert r.ending.kind is Ending.COMPLETED and not r.faults

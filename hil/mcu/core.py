@@ -31,6 +31,7 @@ EXC_HARDFAULT, EXC_SVCALL, EXC_PENDSV, EXC_SYSTICK = 3, 11, 14, 15
 INTR_UDEF, INTR_SWI, INTR_PREFETCH, INTR_DATA_ABORT, INTR_BKPT, INTR_EXC_EXIT = 1, 2, 3, 4, 7, 8
 INTR_NOCP, INTR_INVSTATE = 17, 18
 WFI, WFE = 0xBF30, 0xBF20
+ERASED = 0xFF                # an erased flash byte (RM0383 3.5)
 FRAME_REGS = (A.UC_ARM_REG_R0, A.UC_ARM_REG_R1, A.UC_ARM_REG_R2, A.UC_ARM_REG_R3,
               A.UC_ARM_REG_R12, A.UC_ARM_REG_LR)
 FP_REGS = tuple(A.UC_ARM_REG_S0 + i for i in range(16)) + (A.UC_ARM_REG_FPSCR,)
@@ -66,6 +67,7 @@ class Core:
         self.image = image
         uc = self.uc = Uc(UC_ARCH_ARM, UC_MODE_THUMB | UC_MODE_MCLASS)
         self._flash = ctypes.create_string_buffer(FLASH_SIZE)
+        ctypes.memset(self._flash, ERASED, FLASH_SIZE)     # what the ELF leaves is erased
         uc.mem_map_ptr(0, FLASH_SIZE, UC_PROT_READ | UC_PROT_EXEC, self._flash)
         uc.mem_map_ptr(FLASH_BASE, FLASH_SIZE, UC_PROT_READ | UC_PROT_EXEC, self._flash)
         self._sram = ctypes.create_string_buffer(SRAM_SIZE)   # frames go in and out here
@@ -199,6 +201,10 @@ class Core:
         if FLASH_BASE <= addr <= FLASH_BASE + FLASH_SIZE - 2:
             return struct.unpack_from("<H", self._flash_mem, addr - FLASH_BASE)[0]
         return int.from_bytes(self.uc.mem_read(addr, 2), "little")
+
+    def store32(self, addr: int, value: int) -> None:
+        """A word into SRAM's buffer inside a callback (the bit-band alias)."""
+        struct.pack_into("<I", self._sram_mem, addr - SRAM_BASE, value & 0xFFFFFFFF)
 
     def write32(self, addr: int, value: int) -> None:
         self.uc.mem_write(addr, (value & 0xFFFFFFFF).to_bytes(4, "little"))

@@ -20,12 +20,15 @@ from typing import Any
 from unicorn import Uc
 from unicorn.unicorn_py3.unicorn import MMIO_READ_CFUNC, MMIO_WRITE_CFUNC, uclib
 
+from hil.mcu.bitband import BitBandAlias
 from hil.mcu.board_core import front
+from hil.mcu.elf_image import SRAM_BASE, SRAM_SIZE
 from hil.mcu.rcc import CLOCK_BITS
 
 log = logging.getLogger(__name__)
 PERIPH_BASE, PERIPH_SIZE = 0x40000000, 0x80000      # APB1, APB2, AHB1
 PPB_BASE, PPB_SIZE = 0xE0000000, 0x100000
+SRAM_ALIAS, PERIPH_ALIAS = 0x22000000, 0x42000000    # PM0214 2.2.5: the bit-band aliases
 USART2 = 0x40004400
 GPIOA = 0x40020000           # GPIOB and C in the next pages
 
@@ -54,6 +57,20 @@ class PeripheralSpace:
         if uclib.uc_mmio_map(uc._uch, PPB_BASE, PPB_SIZE, self._callbacks[2], None,
                              self._callbacks[3], None):
             raise RuntimeError("Unicorn refused to map the private peripheral bus")
+        for alias in self.aliases():
+            alias.attach(uc, self.failed)
+
+    def aliases(self) -> tuple[BitBandAlias, BitBandAlias]:
+        """The bit-band aliases of SRAM and of the peripherals: an SRAM bit changes in
+        place, a peripheral's register is read and written back whole, through the same
+        callbacks as a plain access (its clock gate, its events due, the poll skipper)."""
+        core = self.board.core
+        return (BitBandAlias("SRAM", SRAM_BASE, SRAM_SIZE, SRAM_ALIAS,
+                             core.read32, core.store32),
+                BitBandAlias("peripherals", PERIPH_BASE, PERIPH_SIZE, PERIPH_ALIAS,
+                             lambda addr: self.read(0, addr - PERIPH_BASE, 4, 0),
+                             lambda addr, value: self.write(0, addr - PERIPH_BASE, 4,
+                                                            value, 0)))
 
     def clear(self) -> None:
         """No peripheral mapped (a reset maps new ones)."""

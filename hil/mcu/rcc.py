@@ -20,6 +20,7 @@ HSE_HZ = 25_000_000
 READY_FS = 100 * 10 ** 9          # 100 us from ON to ready
 MAX_SYSCLK_HZ = 100_000_000
 CR, PLLCFGR, CFGR = 0x00, 0x04, 0x08
+BDCR, CSR = 0x70, 0x74              # the backup domain (LSE) and LSI control
 AHB1ENR, AHB2ENR, APB1ENR, APB2ENR = 0x30, 0x34, 0x40, 0x44
 HPRE = {8: 2, 9: 4, 10: 8, 11: 16, 12: 64, 13: 128, 14: 256, 15: 512}
 PPRE = {4: 2, 5: 4, 6: 8, 7: 16}
@@ -43,6 +44,8 @@ class Rcc:
         self.regs = {CR: 0x00000083, PLLCFGR: 0x24003010, CFGR: 0, 0x74: 0x0E000000}
         self.hse_ready = events.timer(lambda at: self._ready(17))
         self.pll_ready = events.timer(lambda at: self._ready(25))
+        self.lse_ready = events.timer(lambda at: self._low_ready(BDCR))
+        self.lsi_ready = events.timer(lambda at: self._low_ready(CSR))
         self.sysclk_hz = HSI_HZ
         self.hclk_hz = self.pclk1_hz = self.pclk2_hz = HSI_HZ
 
@@ -59,6 +62,22 @@ class Rcc:
     def _ready(self, bit: int) -> None:
         self.regs[CR] |= 1 << bit
         self._update()
+
+    def _low_ready(self, off: int) -> None:
+        """LSERDY (BDCR bit 1) or LSIRDY (CSR bit 1) after its ON bit (bit 0)."""
+        self.regs[off] = self.regs.get(off, 0) | 2
+
+    def _low_oscillator(self, off: int, old: int, value: int) -> int:
+        """BDCR's LSEON or CSR's LSION: its ready bit (read-only) comes READY_FS later,
+        and goes with the ON bit."""
+        timer = self.lse_ready if off == BDCR else self.lsi_ready
+        value = (value & ~2) | (old & 2)
+        if value & 1 and not old & 1:
+            timer.set(self.now_fs() + READY_FS)
+        if not value & 1:
+            value &= ~2
+            timer.clear()
+        return value
 
     def read(self, off: int) -> int:
         return self.regs.get(off, 0)
@@ -80,6 +99,8 @@ class Rcc:
                 self.pll_ready.clear()
         elif off == CFGR:
             value = (value & ~0xC) | (old & 0xC)
+        elif off in (BDCR, CSR):
+            value = self._low_oscillator(off, old, value)
         self.regs[off] = value
         self._update()
 
@@ -127,5 +148,15 @@ def flash_interface() -> Plain:
     return Plain("FLASH")
 
 
-def power() -> Plain:
-    return Plain("PWR", {0x00: 0x4000}, {0x04: 1 << 14})    # CR VOS, CSR VOSRDY
+class Power(Plain):
+    """PWR (RM0383 5.4): CR and CSR kept as written, VOSRDY always set, and the backup
+    regulator ready (CSR BRR, bit 3) as soon as it is enabled (CSR BRE, bit 9)."""
+
+    def write(self, off: int, value: int) -> None:
+        if off == 0x04:
+            value = (value & ~0x0F) | (1 << 3 if value & 1 << 9 else 0)
+        self.regs[off] = value
+
+
+def power() -> Power:
+    return Power("PWR", {0x00: 0x4000}, {0x04: 1 << 14})    # CR VOS, CSR VOSRDY
