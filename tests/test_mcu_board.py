@@ -120,3 +120,18 @@ def test_a_wait_on_ram_is_skipped_to_the_interrupt_and_a_counting_loop_is_not(
     assert passes > 1_000_000            # every pass ran
     skipped = counting.firmware.other["mcu"]["skipped_cycles"]
     assert skipped < 0.4 * 300 * 100_000  # only the flag wait after it was skipped
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_conditional_stores_in_it_blocks_survive_a_watched_interrupt_read(
+        tmp_path, monkeypatch, compiled):
+    """MicroPython's gc.collect() crash: its SysTick handler reads SysTick->CTRL, the poll
+    skipper watches the pass after such a read, and the watch must not change how the code
+    around it runs. gc_mark_subtree's `itte ls; strhls; addls; strhi` push went astray
+    while a Unicorn store hook watched SRAM; here every push of every round lands."""
+    if not compiled:
+        monkeypatch.setenv("HEXHIL_BOARD_CORE", "python")
+    r, _ = run_elf(build(tmp_path, "it_store.c"), 0.06)
+    assert r.ending.kind is Ending.COMPLETED, r.ending
+    rounds, bad = map(int, console(r)[-1].split())
+    assert rounds > 1000 and bad == 0
