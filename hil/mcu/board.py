@@ -32,7 +32,7 @@ from hil.mcu.quiet import QuietLoops
 from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import extra_peripherals
 from hil.mcu.rcc import HSI_HZ, Rcc, flash_interface, power
-from hil.mcu.system import MASKED_STEPS, Nvic, SystemBlock
+from hil.mcu.system import Nvic, SystemBlock
 from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
 
@@ -252,7 +252,7 @@ class Board:
         """Unicorn's interrupt hook: an exception return, SVC, a breakpoint, a fault."""
         core = self.core
         uc = core.uc
-        pc = core.pc_now()
+        pc = core.reg(A.UC_ARM_REG_PC)    # an exception return's EXC_RETURN, SVC's next
         try:
             if intno == INTR_EXC_EXIT:
                 exc = core.leave(pc | 1)
@@ -350,14 +350,7 @@ class Board:
             if self.fault is not None:
                 raise CoreFault(self.fault_line(self.fault))
             taken = take_next()
-            st = core.shared
-            if st.pending_n and self.nvic.masked_ready():   # taken right after its unmasking
-                if st.masked_steps < MASKED_STEPS:
-                    n = 1
-                    st.masked_steps += 1
-            else:
-                st.masked_steps = 0
-            self.trip(n, taken)
+            self.trip(self.nvic.masked_chunk(n), taken)
         self.console.flush()
         self.line.flush()
 
