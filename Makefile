@@ -21,7 +21,7 @@ $(BIN)/python:
 # installed again when the pins change: pyproject.toml, or the pins in this file
 $(STAMP): pyproject.toml Makefile | $(BIN)/python
 	$(BIN)/pip install -q --disable-pip-version-check -e '.[test,grnn,dask]'
-	# pypot's serial layer for the stock-client tests (issue 42); its declared dependencies
+	# pypot's serial layer for the stock-client tests; its declared dependencies
 	# pull OpenCV, which pypot.dynamixel never imports
 	$(BIN)/pip install -q --disable-pip-version-check --no-deps pypot==5.0.2
 	$(MAKE) $(CORES)
@@ -72,7 +72,7 @@ test-slow: $(STAMP) $(CORES) toolchain
 bench: $(STAMP) $(CORES) toolchain
 	$(BIN)/python -m bench
 
-# hostile inputs for every parser and loader (issue 20); FUZZ="--scale 0.1" for a short run
+# hostile inputs for every parser and loader; FUZZ="--scale 0.1" for a short run
 fuzz: $(STAMP) $(CORES)
 	$(BIN)/python -m fuzz $(FUZZ)
 

@@ -1,4 +1,4 @@
-"""Ctrl-C during a beams run (seed 000) ends it as it ends a hexapod run (issue 41 item 11):
+"""Ctrl-C during a beams run (seed 000) ends it as it ends a hexapod run:
 exit 130, one line naming the virtual time and the trace kept, the ``--json`` summary with
 ``"interrupted": true``, and a finished trace; at any moment of ``Run.run``, set-up included."""
 from __future__ import annotations

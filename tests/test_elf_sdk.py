@@ -1,4 +1,4 @@
-"""Building for the board (issue 40): ``hexhil sdk build --target stm32f411`` makes an F411
+"""Building for the board: ``hexhil sdk build --target stm32f411`` makes an F411
 ELF (Thumb-2, hard float, newlib-nano) from the same main.c that builds for the host, with
 the SDK's own startup file, linker script and register-level HAL; compiler flags pass
 through; ``hexhil sdk flags --target stm32f411`` serves a user's Makefile; a missing

@@ -116,7 +116,7 @@ def test_quick_sweep_from_the_command_line(tmp_path):
     """The paper's headline, the method beats no method, on the default world: the real model
     with obstacles the legs get stuck behind, as the paper's were. Its loose wooden obstacles
     (``--obstacles free``) are shoved aside, and there the method's longer steps cost more
-    than they save (docs/hexapod-world.md, issue 21)."""
+    than they save (docs/hexapod-world.md)."""
     import json
     import subprocess
     import sys

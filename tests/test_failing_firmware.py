@@ -1,5 +1,5 @@
 """A firmware that crashes, hangs, exits early or never starts is a failing case, not an
-error of hexhil (issue 41, item 1): ``hexhil test`` runs the other cases, prints its table
+error of hexhil: ``hexhil test`` runs the other cases, prints its table
 with the reason and the firmware's last lines, writes JUnit with the case as an error,
 keeps the trace with the reason on ``/expectations`` and exits 1; ``hexhil run`` exits 1
 with the ending in its ``--json`` summary; the API's ``RunResult.ending`` says how the

@@ -1,4 +1,4 @@
-"""The emulated STM32F411 (hil/mcu/, issue 40) on bare-metal ELFs of its own
+"""The emulated STM32F411 (hil/mcu/) on bare-metal ELFs of its own
 (tests/mcu/*.c, registers from RM0383): clocks, SysTick, DWT, the servo line through the
 PA1 buffer at the baud the firmware sets, the console, timers, EXTI, bxCAN."""
 import re

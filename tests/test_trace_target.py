@@ -1,4 +1,4 @@
-"""A recorded trace is never lost (issue 41, item 2): every trace is written to
+"""A recorded trace is never lost: every trace is written to
 ``TARGET.partial`` and renamed at the end (host_tools/trace/target.py); an existing file is
 refused unless ``--overwrite``; a second run onto the same target is refused while the
 first holds it; a killed run's partial file is found by ``trace recover``; a full or

@@ -1,4 +1,4 @@
-"""The virtual STM32F411 board (issue 29): a MicroPython firmware on ``machine``/``time``
+"""The virtual STM32F411 board: a MicroPython firmware on ``machine``/``time``
 stand-ins in lockstep, ``hexhil run --firmware``, and how a bad firmware is reported."""
 import json
 import re

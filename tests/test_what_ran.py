@@ -1,7 +1,7 @@
-"""What the run was is in the trace (issue 41, item 6): every override (tactile, seed,
+"""What the run was is in the trace: every override (tactile, seed,
 duration, firmware and its runtime, bus timing added) in the trace's metadata, the
 ``--json`` summary and the JUnit properties; ``scenario_of_trace`` gives what was run;
-replay re-runs it; a flag that cannot apply is refused. And replay (item 7): a trace of a
+replay re-runs it; a flag that cannot apply is refused. And replay: a trace of a
 firmware of the user's asks for it, and a divergence shows the servo packets decoded."""
 from __future__ import annotations
 

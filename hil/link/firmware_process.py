@@ -39,7 +39,7 @@ NATIVE = ("-X", "emit=native")
 # How long each side polls for the other's next message before it blocks (the host sets
 # sim_link.ENV_SPIN_US for its firmware): most come sooner, and a process that blocks pays
 # the scheduler's wake-up on top. A micropython cycle 330 -> 260 us with both sides
-# polling (docs/performance.md, wave 13); each side's sim_link.PollGate keeps it to where
+# polling (docs/performance.md); each side's sim_link.PollGate keeps it to where
 # each side has a core.
 SPIN_US = 200
 
@@ -284,7 +284,7 @@ def _listen(ours: bool) -> tuple[socket.socket, dict[str, str]]:
     """The socket the firmware connects to, and its environment. Our firmware (its HAL,
     firmware/hal/sim.py) gets a Unix socket in a directory of its own: a round trip about
     10 us cheaper than TCP's loopback, whose send also runs the receiving side's stack
-    (docs/performance.md, wave 11). A firmware not ours gets the documented 127.0.0.1 port,
+    (docs/performance.md). A firmware not ours gets the documented 127.0.0.1 port,
     and so does ours where no Unix socket can be made."""
     srv = _unix_listener() if ours else None
     if srv is not None:

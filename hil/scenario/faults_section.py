@@ -1,5 +1,5 @@
 """The ``[faults]`` section as frozen types: the line's fault rates and the timed faults'
-entries (a servo unplugged, stalled, overheating; a supply sag; and issue 42's vocabulary:
+entries (a servo unplugged, stalled, overheating; a supply sag; and the named failures:
 brown-out, overload, a stuck or noisy position, two servos on one ID, a stuck or bouncing
 switch, the CAN sensor node silent or babbling, seed 000's force sensor biased or dropping
 out), every key, default and rule here; hil/servobus/faults.py injects them."""

@@ -21,7 +21,7 @@ SCHEMA: dict[str, dict[str, type]] = {
              "max_obstacle_height_m": float, "direction_deg": float, "distance_m": float},
     "faults": {"bit_error_rate": float, "drop_status_rate": float, "can_drop_rate": float,
                "unplug": list, "stall": list, "overheat": list, "voltage_sag": list,
-               # issue 42's vocabulary (hil/scenario/faults_section.py types each entry)
+               # the named failures (hil/scenario/faults_section.py types each entry)
                "brownout": list, "overload": list, "position_stuck": list,
                "position_noise": list, "id_conflict": list, "switch_stuck": list,
                "switch_bounce": list, "can_silent": list, "can_garbage": list,

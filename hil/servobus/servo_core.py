@@ -97,7 +97,7 @@ STATE_ROW = struct.Struct("<Bddddd??B")   # hx_state_rows: a servo's TableServo.
 class StateRows(HeldSample[tuple]):
     """The bank's ``state_row``s as ``hx_state_rows`` packed them, unpacked where the
     recorder encodes them: a 10 Hz ground-truth sample costs the run one call instead of
-    18 (about 19 us, wave 15), and a window's pickle 800 bytes a sample instead of 162
+    18 (about 19 us), and a window's pickle 800 bytes a sample instead of 162
     objects."""
 
     @staticmethod

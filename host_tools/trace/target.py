@@ -1,4 +1,4 @@
-"""Where a trace is written, so that no trace is ever lost (issue 41): every trace hexhil
+"""Where a trace is written, so that no trace is ever lost: every trace hexhil
 writes (``--out`` of run, bus, beams, an experiment's folder, ``test --keep-traces``,
 ``trace import-csv``) is opened here.
 

@@ -1,4 +1,4 @@
-"""Closing the loop (issue 16, beyond the paper): a host node on the run's CAN bus that walks
+"""Closing the loop (beyond the paper): a host node on the run's CAN bus that walks
 the robot to its goal by predicting how far short it will end.
 
 Seed 003 walks a fixed number of steps (Sec. 3.3) and measures the shortfall afterwards;
