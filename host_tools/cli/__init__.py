@@ -84,8 +84,27 @@ class _Parser(argparse.ArgumentParser):
         raise UserError(f"{message} (see '{self.prog} --help')")
 
 
+class _Version(argparse.Action):
+    """``hexhil --version``: the package's version and which compiled cores this install has."""
+
+    def __init__(self, option_strings: list[str], dest: str, **kwargs: Any) -> None:
+        super().__init__(option_strings, dest, nargs=0, help="print the version and which "
+                         "compiled cores are built, then exit")
+
+    def __call__(self, parser: argparse.ArgumentParser, *_: Any) -> None:
+        from importlib.metadata import version
+
+        from hil.native import compiled
+
+        lines = [f"hexhil {version('hexhil')}"]
+        lines += [f"  {name}: {state}" for name, state in compiled().items()]
+        sys.stdout.write("\n".join(lines) + "\n")
+        parser.exit(0)
+
+
 def build_parser(argv: list[str]) -> argparse.ArgumentParser:
     parser = _Parser(prog="hexhil", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action=_Version)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     wanted = argv[0] if argv and argv[0] in COMMANDS else None
     for name, (module, help_text) in COMMANDS.items():
