@@ -38,6 +38,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+# Exit statuses are the command line's alone; the library raises, the shell maps: a
+# UserError of any kind (protocol/errors.py: BadValue, BadFile) is bad input, status 2.
+EXIT_BAD_INPUT = 2
+
 # every --json says this, whatever the command: scripts may rely on the last line
 JSON_HELP = "end with the result as one JSON object, the last line of stdout (for scripts)"
 OVERWRITE_HELP = "replace a trace file that already exists (without it, an existing file is refused)"
@@ -233,7 +237,7 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.func(args) or 0)
     except UserError as exc:
         sys.stderr.write(f"hexhil: {flag_message(exc)}\n")
-        return exc.code
+        return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         return 130
     except ImportError as exc:   # Ctrl-C inside a C extension's initialisation (MuJoCo's)

@@ -104,6 +104,8 @@ def _force(args: argparse.Namespace) -> int:
         raise UserError(f"--seeds must be at least 1, got {args.seeds}")
     try:
         summary = force_sensing.main(args.quick, out, args.seeds)
+    except UserError:   # a BadFile is an OSError too: already one line
+        raise
     except OSError as exc:
         raise UserError(f"cannot write into {out}: {exc.strerror}") from None
     modes = ", ".join(f"k = {k} {m}" for k, m in summary["modes"].items())
