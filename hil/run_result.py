@@ -164,7 +164,7 @@ class RunResult:
     firmware: FirmwareStats = FirmwareStats()
     tactile_events: tuple[Mapping[str, Any], ...] = ()
     switch_edges: int = 0
-    can_frames: Mapping[str, int] = field(default_factory=lambda: _frozen({}))
+    can_frames: Mapping[int, int] = field(default_factory=lambda: _frozen({}))  # by arbitration id
     bus_busy_us: int = 0        # bus time of the loop's transactions (after the first cycle)
     bus_wire_us: int = 0        # wire minimum of the same bytes
     loop_cycles: int = 0        # cycles counted for the two figures above
@@ -202,7 +202,7 @@ class RunTally:
     firmware: dict[str, Any] = field(default_factory=dict)   # the last stats event as sent
     tactile_events: list[dict[str, Any]] = field(default_factory=list)
     switch_edges: int = 0
-    can_frames: dict[str, int] = field(default_factory=dict)
+    can_frames: dict[int, int] = field(default_factory=dict)   # by arbitration id
     bus_busy_us: int = 0
     bus_wire_us: int = 0
     loop_cycles: int = 0
@@ -214,8 +214,7 @@ class RunTally:
     interrupted: bool = False
 
     def count_can(self, arb_id: int) -> None:
-        key = "0x%03X" % arb_id
-        self.can_frames[key] = self.can_frames.get(key, 0) + 1
+        self.can_frames[arb_id] = self.can_frames.get(arb_id, 0) + 1
 
     def count_fault(self, name: str) -> None:
         self.faults[name] = self.faults.get(name, 0) + 1

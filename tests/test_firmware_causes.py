@@ -4,6 +4,7 @@ real cause: micropython prints its traceback on stdout, a binary
 says which of the master's mistakes it saw."""
 from pathlib import Path
 
+import can
 import pytest
 
 from ctrl_c import sigint_default
@@ -149,7 +150,7 @@ def test_can_endpoint_frames_are_the_firmwares_only():
         period_us = 100_000
 
         def tick(self, t_us):
-            other.send(0x7F0, b"\x01")
+            other.send(can.Message(arbitration_id=0x7F0, data=b"\x01", is_extended_id=False))
 
     run.add_node(Talker())
     run.run()

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
+import can
 from mcap.writer import CompressionType, Writer
 
 from hil.scenario import Scenario, check_seed
@@ -93,7 +94,8 @@ class _Sender:
     def tick(self, t_us: int) -> None:
         while self.sends and self.sends[0][0] <= t_us:
             _, arb_id, data = self.sends.pop(0)
-            self.run.send_can(arb_id, data)
+            self.run.send_can(can.Message(arbitration_id=arb_id, data=data,
+                                          is_extended_id=False))
 
 
 def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
