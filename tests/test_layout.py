@@ -217,7 +217,7 @@ def test_the_cli_writes_the_parameters_as_flags(tmp_path: Path) -> None:
     assert flags_in_errors(src) == ["line 1: '--rate must be >= 0, got '"]
     err = UserError("firmware fw.py brings its own runtime: leave out python (micropython)",
                     params=("firmware", "python"))
-    assert flag_message(err) == ("--firmware fw.py brings its own runtime: leave out --python "
+    assert flag_message(err) == ("--firmware fw.py brings its own runtime: leave out --runtime "
                                  "(micropython)")
     assert flag_message(UserError("x.toml: world needs a [world] section", params=("world",))) \
         == "x.toml: --world needs a [world] section"

@@ -58,7 +58,7 @@ def actions(sub: argparse._SubParsersAction, name: str, help: str, metavar: str 
 
 # The library's errors name API parameters (protocol/errors.py ``params``); a user of the
 # CLI typed these flags for them.
-FLAGS = {"python": "--python", "firmware": "--firmware", "duration_s": "--duration",
+FLAGS = {"python": "--runtime", "runtime": "--runtime", "firmware": "--firmware", "duration_s": "--duration",
          "can_server_port": "--can-server", "can_wait_clients": "--can-wait",
          "live_port": "--live", "start_s": "--start", "end_s": "--end", "rate": "--rate",
          "spec": "--can", "bus_args": "--can-arg", "out": "--out", "out_dir": "--out",

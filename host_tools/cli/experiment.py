@@ -57,8 +57,8 @@ def _tactile_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--obstacles", choices=OBSTACLE_BODIES, default=OBSTACLE_BODY,
                    help="with the real model: obstacles fixed to the ground (default, as the "
                         "paper's held) or loose wooden ones")
-    p.add_argument("--python", choices=(IN_PROCESS, *RUNTIMES), default=IN_PROCESS,
-                   help="firmware runtime: in this process (default; the same serial digest "
+    p.add_argument("--runtime", "--python", dest="python", choices=(IN_PROCESS, *RUNTIMES),
+                   default=IN_PROCESS, help="firmware runtime: in this process (default; the same serial digest "
                         "as micropython, without two process wake-ups a link round trip), or a "
                         "child process under micropython (the reference) or cpython")
     p.add_argument("--json", action="store_true", help=JSON_HELP)
