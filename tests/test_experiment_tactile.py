@@ -26,7 +26,7 @@ def test_executor_reports_each_run_done_to_its_progress_callback():
 
 
 def test_executor_on_a_dask_cluster():
-    distributed = pytest.importorskip("distributed")
+    import distributed
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
         ex = Executor(scheduler=cluster.scheduler_address)

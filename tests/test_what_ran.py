@@ -6,22 +6,16 @@ firmware of the user's asks for it, and a divergence shows the servo packets dec
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from host_tools import scenario_of_trace
 from host_tools.trace.reader import Trace
+from conftest import hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
 EXAMPLE = ROOT / "examples" / "board_tripod.py"
-
-
-def hexhil(*argv: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "host_tools.cli", *argv], cwd=ROOT,
-                          capture_output=True, text=True, timeout=300)
 
 
 def test_overrides_are_in_the_trace_the_summary_and_scenario_of_trace(tmp_path: Path) -> None:
