@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup demo test test-slow bench fuzz clean toolchain
+.PHONY: setup demo test test-slow bench fuzz clean toolchain gl
 
 # the compiled cores' sources: pip builds them (setup.py's build_ext), so an edit reinstalls
 CORE_SOURCES := setup.py hil/world/drive_core.c hil/servobus/servo_core.c \
@@ -39,13 +39,25 @@ toolchain:
 	    echo "  sudo apt-get install -y $(ARM_PACKAGES)"; exit 1; \
 	fi
 
+# Offscreen OpenGL for hexhil render and its tests (EGL through libglvnd; MuJoCo's renderer
+# loads it): Debian's package, installed the same way.
+GL_PACKAGES := libegl1
+gl:
+	@if ldconfig -p 2>/dev/null | grep -q 'libEGL\.so\.1 '; then :; \
+	elif [ "$$(id -u)" = 0 ]; then \
+	    apt-get update && apt-get install -y $(GL_PACKAGES); \
+	else \
+	    echo "offscreen OpenGL (libEGL) is missing; install it with:"; \
+	    echo "  sudo apt-get install -y $(GL_PACKAGES)"; exit 1; \
+	fi
+
 demo: $(STAMP)
 	$(BIN)/hexhil demo
 
-test: $(STAMP) toolchain
+test: $(STAMP) toolchain gl
 	$(BIN)/python -m pytest -q
 
-test-slow: $(STAMP) toolchain
+test-slow: $(STAMP) toolchain gl
 	$(BIN)/python -m pytest -q -m slow
 
 bench: $(STAMP) toolchain
