@@ -161,3 +161,21 @@ def test_the_docs_examples_run_and_print_what_they_say(n: int, tmp_path: Path) -
     said = [line.split("#", 1)[1].rsplit(": ", 1)[-1].strip()
             for line in code.splitlines() if line.startswith("print(") and "#" in line]
     assert out.stdout.split("\n")[:len(said)] == said
+
+
+def test_one_result_form_the_tally_holds_the_results_fields():
+    """A run's tally is RunResult's fields, mutable (declared once, in RunResult), bar the
+    ones the firmware's stats or the host nodes give when it ends."""
+    from hil.run_result import RunTally
+
+    tally = RunTally("micropython")
+    after = {"cycles", "overruns", "host_nodes"}
+    assert set(vars(tally)) == {f.name for f in dataclasses.fields(hx.RunResult)} - after
+    tally.exceptions.append("ValueError: boom")
+    tally.count_can(0x700)
+    tally.firmware = {"cycles": 3, "overruns": 1, "state": "walking"}
+    result = tally.result()
+    assert (result.cycles, result.overruns, result.exceptions) == (3, 1, ("ValueError: boom",))
+    assert result.can_frames == {0x700: 1} and result.firmware.state == "walking"
+    with pytest.raises(TypeError):
+        result.can_frames[0x700] = 2   # frozen, as the result is
