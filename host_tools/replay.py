@@ -55,7 +55,7 @@ JSON_EVENTS = (sim_link.EVENT_TACTILE, sim_link.EVENT_FAULT)
 
 def _compared(op: int, payload: bytes) -> bool:
     if op == sim_link.OP_HELLO:
-        return False  # names the runtime, which --python may change on purpose
+        return False  # names the runtime, which --runtime may change on purpose
     if op == sim_link.OP_EVENT and payload and payload[0] in UNCOMPARED_EVENTS:
         return False
     return True

@@ -1,4 +1,4 @@
-"""Bad input, everywhere (issue 20): every command, option and file type refused with one
+"""Bad input, everywhere: every command, option and file type refused with one
 line on stderr that names what is wrong and where, exit status 2, never a traceback.
 
 The table runs in-process through ``host_tools.cli.main``; the cases that would serve

@@ -1,4 +1,4 @@
-"""The emulated STM32F411 (hil/mcu/, issue 40) on bare-metal ELFs of its own
+"""The emulated STM32F411 (hil/mcu/) on bare-metal ELFs of its own
 (tests/mcu/*.c, registers from RM0383): clocks, SysTick, DWT, the servo line through the
 PA1 buffer at the baud the firmware sets, the console, timers, EXTI, bxCAN."""
 import re
@@ -45,7 +45,7 @@ def test_timer_switch_and_can_interrupts(tmp_path):
     assert 199 <= tim <= 200            # TIM2 at 1 kHz for the 200 SysTicks
     assert falls == 3 and pb0 == 1      # EXTI0 on each press; released reads 1 (pull-up)
     assert can_rx == 1 and last_id == 0x120
-    assert r.can_frames == {"0x321": 1, "0x121": 1}
+    assert r.can_frames == {0x321: 1, 0x121: 1}   # by arbitration id, as python-can keys them
 
 
 def test_semihosting_console_and_exit(tmp_path):

@@ -43,8 +43,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("file", help="an MCAP trace recorded with --out")
     p.add_argument("--firmware", metavar="PATH", help="the firmware the trace was recorded "
                    "with (hexhil run --firmware: a MicroPython main file or an executable)")
-    p.add_argument("--python", choices=("micropython", "cpython"), default="micropython",
-                   help="runtime for the firmware (default micropython)")
+    p.add_argument("--runtime", "--python", dest="python", choices=("micropython", "cpython"),
+                   default="micropython", help="runtime for the firmware (default micropython)")
     p.add_argument("--rate", type=float, default=None,
                    help="wall-clock pacing, 1 = real time (default: as fast as possible "
                         "into the firmware, real time onto CAN); 0 = no pacing")
