@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup demo test test-slow bench fuzz clean toolchain
+.PHONY: setup demo test test-slow bench fuzz clean toolchain sigrok
 
 DRIVE_CORE := hil/world/_drive_core.so
 SERVO_CORE := hil/servobus/_servo_core.so
@@ -60,13 +60,24 @@ toolchain:
 	    echo "  sudo apt-get install -y $(ARM_PACKAGES)"; exit 1; \
 	fi
 
+# sigrok-cli, which writes the logic-analyser captures (.sr) the capture import tests read
+# (hexhil trace import reads .sr itself): Debian's package, installed the same way
+sigrok:
+	@if command -v sigrok-cli >/dev/null; then :; \
+	elif [ "$$(id -u)" = 0 ]; then \
+	    apt-get update && apt-get install -y sigrok-cli; \
+	else \
+	    echo "sigrok-cli is missing; install it with:"; \
+	    echo "  sudo apt-get install -y sigrok-cli"; exit 1; \
+	fi
+
 demo: $(STAMP) $(CORES)
 	$(BIN)/hexhil demo
 
-test: $(STAMP) $(CORES) toolchain
+test: $(STAMP) $(CORES) toolchain sigrok
 	$(BIN)/python -m pytest -q
 
-test-slow: $(STAMP) $(CORES) toolchain
+test-slow: $(STAMP) $(CORES) toolchain sigrok
 	$(BIN)/python -m pytest -q -m slow
 
 bench: $(STAMP) $(CORES) toolchain

@@ -38,6 +38,7 @@ from protocol.errors import UserError
 if TYPE_CHECKING:
     import can
 
+IMPORTED = "trace import"   # host_tools/trace/import_logs.py SOURCE: a robot's own log
 # What each link message is, for reports and --topics.
 OP_TOPICS = {sim_link.OP_HELLO: "hello", sim_link.OP_TRANSACT: "uart", sim_link.OP_WRITE: "uart",
              sim_link.OP_SLEEP: "sleep", sim_link.OP_MORE: "sleep", sim_link.OP_CAN: "can",
@@ -204,11 +205,23 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
             raise UserError(f"unknown replay topic(s) {', '.join(bad)} "
                             f"(known: {', '.join(TOPICS)})")
     with Trace(path) as tr:
+        imported = tr.metadata().get("source") == IMPORTED
         recorded_with = tr.metadata().get("firmware_runtime")
         if firmware is None and recorded_with in (BOARD_RUNTIME, EXECUTABLE):
             _needs_firmware(path, recorded_with, tr.metadata())
-        exchanges = load_exchanges(tr, start_s, end_s)
+        if imported:
+            exchanges = []
+        else:
+            exchanges = load_exchanges(tr, start_s, end_s)
         model = trace_model(tr)
+    if imported:   # a robot's log: the firmware becomes the logged line's master
+        from host_tools import log_replay
+
+        if start_s is not None or end_s is not None or topics or rate:
+            raise UserError(f"{path} is a robot's log (hexhil trace import): it replays whole, "
+                            "without start_s, end_s, topics or rate",
+                            params=("start_s", "end_s", "topics", "rate"))
+        return log_replay.replay_log(path, python, firmware=firmware, timeout_s=timeout_s)
     if not exchanges:
         raise UserError(f"{path}: the {T_LINK} topic is empty in the chosen time range")
     start_us = int(round((start_s or 0.0) * 1e6))

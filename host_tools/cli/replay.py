@@ -22,11 +22,16 @@ def run(args: argparse.Namespace) -> int:
     d = r.divergence
     if args.json:
         emit_json(r.as_dict())
+    elif d is None and r.extra.get("log"):
+        print(f"identical: {r.extra['master_packets']} logged master packets and "
+              f"{r.extra['controller_frames']} controller CAN frames, as the firmware sent them")
     elif d is None:
         print(f"identical: {r.exchanges} link exchanges, {r.compared_messages} firmware "
               f"messages compared")
     else:
-        print(f"DIVERGED at t={d.t_s:.6f} s (exchange {d.exchange}) on {d.topic}:\n"
+        where = (f"{'packet' if d.topic == 'uart' else 'frame'} {d.exchange}"
+                 if r.extra.get("log") else f"exchange {d.exchange}")
+        print(f"DIVERGED at t={d.t_s:.6f} s ({where}) on {d.topic}:\n"
               f"  expected {d.expected}\n  actual   {d.actual}")
         if d.packets is not None:
             print(f"  expected packets: {'; '.join(d.packets['expected']) or '(none)'}\n"
