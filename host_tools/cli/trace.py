@@ -84,11 +84,12 @@ def _import_csv(args: argparse.Namespace) -> int:
 
 def _import(args: argparse.Namespace) -> int:
     r = import_logs.import_log(args.file, args.out, args.kind, args.map, args.overwrite)
-    what = {"can": f"{r.get('frames')} CAN frames ({r.get('firmware_frames')} the firmware's)",
-            "serial": f"{r.get('bursts')} serial bursts ({r.get('master_bursts')} the master's) "
-                      f"at {r.get('baud')} bit/s, Protocol {r.get('protocol')}.0",
-            "rosbag2": f"{r.get('messages')} messages of {len(r.get('topics', {}))} topics"}
-    emit(args, r, f"imported {what[r['kind']]} into {r['output']}")
+    what = {"can": lambda s: f"{s['frames']} CAN frames ({s['firmware_frames']} the firmware's)",
+            "serial": lambda s: f"{s['bursts']} serial bursts ({s['master_bursts']} the "
+                                f"master's) at {s['baud']} bit/s, Protocol {s['protocol']}.0",
+            "rosbag2": lambda s: f"{s['messages']} messages of {len(s['topics'])} topics"}
+    said = "; ".join(what[s["kind"]](s) for s in r["logs"])
+    emit(args, r, f"imported {said} into {r['output']}")
     return 0
 
 
@@ -131,7 +132,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                                     "a sigrok capture of the servo line (.sr, decoded as "
                                     "Dynamixel traffic) or a rosbag2 folder (topics mapped by "
                                     "--map). docs/traces.md, \"Your robot's logs\".")
-    q.add_argument("file", help="the log: FILE.asc/.blf/.log..., CAPTURE.sr, or a rosbag2 folder")
+    q.add_argument("file", nargs="+", help="the log: FILE.asc/.blf/.log..., CAPTURE.sr, or a "
+                                           "rosbag2 folder; one of each kind of one session")
     q.add_argument("--as", dest="kind", choices=[k.value for k in import_logs.LogKind],
                    default=None, help="what the file is (default: from its name)")
     q.add_argument("--map", default=None, metavar="MAP.toml",

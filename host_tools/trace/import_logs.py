@@ -43,7 +43,7 @@ class LogKind(str, Enum):
 
 CAN_SUFFIXES = (".asc", ".blf", ".log", ".csv", ".trc", ".mf4", ".db")
 SERIAL_SUFFIXES = (".sr",)
-MAP_SECTIONS = ("serial", "can", "topics")
+MAP_SECTIONS = ("serial", "can", "rosbag2", "topics")
 
 
 def guess_kind(src: Path) -> LogKind:
@@ -108,31 +108,66 @@ def _model_of(protocol: int) -> str:
         name for name, (_, v) in models.MODELS.items() if v == protocol)
 
 
-def _import_serial(src: Path, maps: dict[str, Any], where: str,
-                   dst: str | Path, overwrite: bool) -> tuple[Recorder, dict[str, Any]]:
-    line = read_servo_line(src, maps.get("serial"), where)
+class Held:
+    """One log's records, held until every log is read (then written in time order, so
+    logs of one session made by several recorders share one trace): the ``Recorder``
+    calls an importer makes, each log's times shifted by its ``offset_s``."""
+
+    def __init__(self, offset_us: int = 0) -> None:
+        self.offset_us = offset_us
+        self.items: list[tuple[int, str, tuple[Any, ...]]] = []
+
+    def _add(self, t_us: int, method: str, args: tuple[Any, ...]) -> None:
+        self.items.append((int(t_us) + self.offset_us, method, args))
+
+    def serial(self, t_us: int, direction: str, data: bytes) -> None:
+        self._add(t_us, "serial", (direction, data))
+
+    def can(self, t_us: int, arb_id: int, data: bytes, direction: str = "tx",
+            is_extended_id: bool = False) -> None:
+        self._add(t_us, "can", (arb_id, data, direction, is_extended_id))
+
+    def joints(self, t_us: int, names: list[str], positions_rad: list[float],
+               velocities_rad_s: list[float] | None = None,
+               efforts_nm: list[float] | None = None) -> None:
+        self._add(t_us, "joints", (names, positions_rad, velocities_rad_s, efforts_nm))
+
+    def switch_edge(self, t_us: int, leg: int, level: bool) -> None:
+        self._add(t_us, "switch_edge", (leg, level))
+
+
+def _offset_us(table: dict[str, Any], section: str, where: str) -> int:
+    value = table.get("offset_s", 0.0)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0:
+        raise UserError(f"{where}: [{section}] offset_s must be a number >= 0 (s)")
+    return int(round(value * 1e6))
+
+
+def _import_serial(src: Path, maps: dict[str, Any], where: str, held: Held
+                   ) -> tuple[dict[str, Any], dict[str, Any]]:
+    line = read_servo_line(src, {k: v for k, v in maps.get("serial", {}).items()
+                                 if k != "offset_s"}, where)
     t0 = line.bursts[0].t_us
-    rec = Recorder(dst, _meta(src, LogKind.SERIAL, {
-        "baud": line.baud, "protocol": line.protocol,
-        "scenario_data": json.dumps({"bus": {"model": _model_of(line.protocol),
-                                             "baud": line.baud}})}),
-        protocol=line.protocol, overwrite=overwrite)
     for b in line.bursts:
-        rec.serial(b.t_us - t0, b.direction, b.data)
+        held.serial(b.t_us - t0, b.direction, b.data)
     tx = sum(1 for b in line.bursts if b.direction == "tx")
-    return rec, {"bursts": len(line.bursts), "master_bursts": tx, "baud": line.baud,
-                 "protocol": line.protocol, "framing_errors": len(line.framing_errors_us),
-                 "direction_channel": line.direction_channel}
+    meta = {"baud": line.baud, "protocol": line.protocol,
+            "scenario_data": json.dumps({"bus": {"model": _model_of(line.protocol),
+                                                 "baud": line.baud}})}
+    return meta, {"bursts": len(line.bursts), "master_bursts": tx, "baud": line.baud,
+                  "protocol": line.protocol, "framing_errors": len(line.framing_errors_us),
+                  "direction_channel": line.direction_channel}
 
 
-def _import_can(src: Path, maps: dict[str, Any], where: str, dst: str | Path,
-                overwrite: bool) -> tuple[Recorder, dict[str, Any]]:
+def _import_can(src: Path, maps: dict[str, Any], where: str, held: Held
+                ) -> tuple[dict[str, Any], dict[str, Any]]:
     import can
 
     table = maps.get("can", {})
-    bad = sorted(set(table) - {"tx_ids"})
+    bad = sorted(set(table) - {"tx_ids", "offset_s"})
     if bad:
-        raise UserError(f"{where}: unknown [can] key(s) {', '.join(bad)} (known: tx_ids)")
+        raise UserError(f"{where}: unknown [can] key(s) {', '.join(bad)} "
+                        "(known: tx_ids, offset_s)")
     tx_ids = table.get("tx_ids")
     if tx_ids is not None and not (isinstance(tx_ids, list)
                                    and all(isinstance(i, int) for i in tx_ids)):
@@ -157,28 +192,37 @@ def _import_can(src: Path, maps: dict[str, Any], where: str, dst: str | Path,
     if not frames:
         raise UserError(f"{src}: the CAN log holds no data frames")
     t0 = frames[0].timestamp
-    rec = Recorder(dst, _meta(src, LogKind.CAN, {}), overwrite=overwrite)
     last = 0
     tx = 0
     for msg in frames:
         t_us = int(round((msg.timestamp - t0) * 1e6))
         if t_us < last:
-            rec.discard()
             raise UserError(f"{src}: frame times go backwards at {msg.timestamp:.6f} s")
         last = t_us
         sent = (msg.arbitration_id in tx_ids) if tx_ids is not None else not msg.is_rx
         tx += sent
-        rec.can(t_us, msg.arbitration_id, bytes(msg.data), "tx" if sent else "rx",
-                msg.is_extended_id)
-    return rec, {"frames": len(frames), "firmware_frames": tx}
+        held.can(t_us, msg.arbitration_id, bytes(msg.data), "tx" if sent else "rx",
+                 msg.is_extended_id)
+    return {}, {"frames": len(frames), "firmware_frames": tx}
 
 
 def _check_truncated(src: Path, frames: list) -> None:
-    """A binary log cut short: python-can's BLF reader stops quietly at a partial object,
-    so its header's file size is compared with the file's."""
-    if src.suffix.lower() != ".blf":
-        return
+    """A log cut short where python-can's reader stops quietly: a BLF's last object is
+    partial (its header's file size is compared with the file's); an ASC lacks the
+    ``End TriggerBlock`` line every writer ends it with, its last line dropped."""
     import struct
+
+    suffix = src.suffix.lower()
+    if suffix == ".asc":
+        with open(src, "rb") as f:
+            f.seek(max(0, src.stat().st_size - 256))
+            tail = f.read().decode("ascii", errors="replace").strip().splitlines()
+        if not tail or not tail[-1].strip().lower().startswith("end triggerblock"):
+            raise UserError(f"{src}: truncated ASC log: it does not end with 'End "
+                            f"TriggerBlock' ({len(frames)} frames read before the end)")
+        return
+    if suffix != ".blf":
+        return
 
     with open(src, "rb") as f:
         head = f.read(32)
@@ -190,31 +234,59 @@ def _check_truncated(src: Path, frames: list) -> None:
                         f"({len(frames)} frames read before the end)")
 
 
-def _meta(src: Path, kind: LogKind, extra: dict[str, Any]) -> dict[str, Any]:
-    return {"source": SOURCE, "imported": kind.value, "log": src.name, **extra}
-
-
-def import_log(src: str | Path, dst: str | Path, kind: str | LogKind | None = None,
-               map_path: str | Path | None = None, overwrite: bool = False) -> dict[str, Any]:
-    """Import one log (the module docstring says which); returns what was written."""
-    src = Path(src)
-    if not src.exists():
-        raise UserError(f"{src}: no such log file or folder")
-    try:
-        k = LogKind(kind) if kind is not None else guess_kind(src)
-    except ValueError:
-        raise UserError(f"unknown log kind {kind!r} (one of "
-                        f"{', '.join(k.value for k in LogKind)})") from None
+def import_log(src: str | Path | list[str | Path], dst: str | Path,
+               kind: str | LogKind | None = None, map_path: str | Path | None = None,
+               overwrite: bool = False) -> dict[str, Any]:
+    """Import one log, or several of one session (a CAN log and a capture of the servo
+    line, say) into one trace, each from t = 0 plus its map section's ``offset_s``; the
+    module docstring says which logs. Returns what was written, a summary a log."""
+    srcs = [Path(p) for p in (src if isinstance(src, list) else [src])]
+    if not srcs:
+        raise UserError("no log to import")
     maps = load_map(map_path)
     where = str(map_path) if map_path is not None else "map"
-    if k is LogKind.SERIAL:
-        rec, summary = _import_serial(src, maps, where, dst, overwrite)
-    elif k is LogKind.CAN:
-        rec, summary = _import_can(src, maps, where, dst, overwrite)
-    else:
-        from host_tools.trace import rosbag_import
+    meta: dict[str, Any] = {"source": SOURCE}
+    summaries = []
+    held: list[Held] = []
+    for path in srcs:
+        if not path.exists():
+            raise UserError(f"{path}: no such log file or folder")
+        try:
+            k = LogKind(kind) if kind is not None else guess_kind(path)
+        except ValueError:
+            raise UserError(f"unknown log kind {kind!r} (one of "
+                            f"{', '.join(k.value for k in LogKind)})") from None
+        if any(k.value == s["kind"] for s in summaries):
+            raise UserError(f"{path}: a second {k.value} log: give one log of each kind")
+        table = maps.get(k.value, {})
+        if k is LogKind.ROSBAG2 and set(table) - {"offset_s"}:
+            raise UserError(f"{where}: unknown [rosbag2] key(s) "
+                            f"{', '.join(sorted(set(table) - {'offset_s'}))} (known: offset_s)")
+        h = Held(_offset_us(table, k.value, where))
+        if k is LogKind.SERIAL:
+            extra, summary = _import_serial(path, maps, where, h)
+        elif k is LogKind.CAN:
+            extra, summary = _import_can(path, maps, where, h)
+        else:
+            from host_tools.trace import rosbag_import
 
-        rec, summary = rosbag_import.import_bag(src, maps, where, dst, overwrite,
-                                                _meta(src, k, {}))
+            extra, summary = {}, rosbag_import.import_bag(path, maps, where, h)
+        meta.update(extra)
+        summaries.append({"input": str(path), "kind": k.value, **summary})
+        held.append(h)
+    meta.update(imported=",".join(s["kind"] for s in summaries),
+                logs=",".join(p.name for p in srcs))
+    protocol = int(meta.get("protocol", models.protocol(models.DEFAULT)))
+    rec = Recorder(dst, meta, protocol=protocol, overwrite=overwrite)
+    try:
+        items = sorted((item for h in held for item in h.items), key=lambda item: item[0])
+        for t_us, method, args in items:
+            getattr(rec, method)(t_us, *args)
+    except BaseException:
+        rec.discard()
+        raise
     rec.close()
-    return {"input": str(src), "output": str(dst), "kind": k.value, **summary}
+    out = {"output": str(dst), "logs": summaries}
+    if len(summaries) == 1:
+        out.update(summaries[0])
+    return out

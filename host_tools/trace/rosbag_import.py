@@ -23,7 +23,6 @@ from pathlib import Path
 from typing import Any, Callable
 
 from host_tools.trace.reader import why
-from host_tools.trace.recorder import Recorder
 from protocol.errors import UserError
 
 
@@ -114,8 +113,9 @@ def _typestore(reader: Any) -> Any:
     return store
 
 
-def import_bag(src: Path, maps: dict[str, Any], where: str, dst: str | Path, overwrite: bool,
-               meta: dict[str, Any]) -> tuple[Recorder, dict[str, Any]]:
+def import_bag(src: Path, maps: dict[str, Any], where: str, rec: Any) -> dict[str, Any]:
+    """The mapped topics' messages into ``rec`` (host_tools/trace/import_logs.py ``Held``);
+    returns what was read."""
     specs = _topic_specs(maps, where)
     reader = _bag_reader(src)
     try:
@@ -130,19 +130,14 @@ def import_bag(src: Path, maps: dict[str, Any], where: str, dst: str | Path, ove
                 raise UserError(f"{src}: topic {topic}'s type {have[topic].msgtype} is "
                                 "neither a standard ROS 2 type nor defined in the bag")
         conns = [c for c in reader.connections if c.topic in specs]
-        rec = Recorder(dst, {**meta, "topics": ",".join(sorted(specs))}, overwrite=overwrite)
-        try:
-            counts = _write(reader, conns, specs, store, rec, src)
-        except BaseException:
-            rec.discard()
-            raise
+        counts = _write(reader, conns, specs, store, rec, src)
     finally:
         reader.close()
-    return rec, {"messages": sum(counts.values()), "topics": counts}
+    return {"messages": sum(counts.values()), "topics": counts}
 
 
 def _write(reader: Any, conns: list, specs: dict[str, dict[str, Any]], store: Any,
-           rec: Recorder, src: Path) -> dict[str, int]:
+           rec: Any, src: Path) -> dict[str, int]:
     counts = {t: 0 for t in specs}
     switches = {t: 0 for t in specs}
     t0 = None
