@@ -42,6 +42,7 @@ class LogKind(str, Enum):
 
 
 CAN_SUFFIXES = (".asc", ".blf", ".log", ".csv", ".trc", ".mf4", ".db")
+TEXT_SUFFIXES = (".asc", ".log", ".csv", ".trc")
 SERIAL_SUFFIXES = (".sr",)
 MAP_SECTIONS = ("serial", "can", "rosbag2", "topics")
 
@@ -209,10 +210,17 @@ def _import_can(src: Path, maps: dict[str, Any], where: str, held: Held
 def _check_truncated(src: Path, frames: list) -> None:
     """A log cut short where python-can's reader stops quietly: a BLF's last object is
     partial (its header's file size is compared with the file's); an ASC lacks the
-    ``End TriggerBlock`` line every writer ends it with, its last line dropped."""
+    ``End TriggerBlock`` line every writer ends it with, its last line dropped; a text log
+    cut inside its last line (``120#2727`` of ``120#27272727``) has no newline at its end."""
     import struct
 
     suffix = src.suffix.lower()
+    if suffix in TEXT_SUFFIXES:
+        with open(src, "rb") as f:
+            f.seek(max(0, src.stat().st_size - 1))
+            if f.read(1) not in (b"\n", b""):
+                raise UserError(f"{src}: truncated log: its last line is cut short (no newline "
+                                f"at the end; {len(frames)} frames read)")
     if suffix == ".asc":
         with open(src, "rb") as f:
             f.seek(max(0, src.stat().st_size - 256))

@@ -57,8 +57,9 @@ def _field(msg: Any, path: str, topic: str) -> Any:
 def _topic_specs(maps: dict[str, Any], where: str) -> dict[str, dict[str, Any]]:
     topics = maps.get("topics")
     if not isinstance(topics, dict) or not topics:
-        raise UserError(f"{where}: a rosbag2 import needs a map with [topics.\"/name\"] tables "
-                        f"saying what each topic is (as = {', '.join(t.value for t in TopicAs)})")
+        raise UserError(f"{where}: a rosbag2 import needs map_path, a TOML file whose "
+                        "[topics.\"/name\"] tables say what each topic is (as = "
+                        f"{', '.join(t.value for t in TopicAs)})", params=("map_path",))
     specs = {}
     for name, spec in topics.items():
         if not isinstance(spec, dict) or "as" not in spec:
