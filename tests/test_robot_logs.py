@@ -362,3 +362,24 @@ def test_an_unknown_topic_or_bad_map_is_one_line(run, tmp_path, capsys):
     assert "--map" in _refused(capsys, "trace", "import", bag, "--out", tmp_path / "x.mcap")
     assert not (tmp_path / "x.mcap").exists()
     shutil.rmtree(bag)
+
+
+def test_a_protocol_2_line_imports_replays_and_passes(tmp_path, capsys):
+    """X-series servos (Protocol 2.0, CRC and stuffing) on one wire: the capture is told
+    apart by its headers, its status packets by their instruction 0x55."""
+    path = tmp_path / "x.mcap"
+    s = {section: {} for section in scenario.SCHEMA}
+    s["bus"] = {"model": "xl430-w250"}
+    with rec.Recorder(path, {"scenario": "x"}, protocol=2) as r:
+        assert Simulator(s, seed=0, recorder=r).run(duration_s=0.3,
+                                                     python="micropython").exit_code == 0
+    sr = uart_wave.write_sr(tmp_path / "x.sr", uart_wave.samples(_serial(path), BAUD, RATE_HZ),
+                            RATE_HZ, channels=1)
+    out = tmp_path / "imported.mcap"
+    rc, said, err = _cli(capsys, "trace", "import", sr, "--out", out)
+    assert rc == 0 and "Protocol 2.0" in said, said + err
+    assert _streams(_serial(out)) == _streams(_serial(path))
+    rc, said, err = _cli(capsys, "conformance", "--capture", sr)
+    assert rc == 0 and "(xl430-w250)" in said and "master violations: none" in said, said + err
+    rc, said, err = _cli(capsys, "replay", out)
+    assert rc == 0 and said.startswith("identical"), said + err
