@@ -26,12 +26,12 @@ from hil import scenario as scenario_mod
 from hil.canbus.bus import CanBus
 from hil.clock import VirtualClock
 from hil.link.firmware_process import FirmwareProcess
-from hil.link.served_firmware import ElfFirmware, served_firmware
+from hil.link.served_firmware import served_firmware
 from hil.link.server import LinkServer, SwitchSampler
 from hil.run_result import RunTally
 from hil.servobus.line import Bus
-from hil.servobus.wire import Burst
-from host_tools.dynamixel.decode import DECODERS
+from hil.servobus.wire import US_BITS, Burst
+from host_tools.dynamixel.decode import DECODERS, packet_spans
 from host_tools.replay import Divergence, ReplayResult
 from host_tools.trace.protobuf import CanFrame, SerialBytes, SwitchEdge
 from host_tools.trace.reader import Trace
@@ -80,23 +80,6 @@ class RobotLog:
         return self.switch_bits[i - 1] if i else 0
 
 
-def _split(data: bytes, protocol: int) -> list[tuple[int, bytes]]:
-    """(offset, packet bytes) of each whole packet in ``data``."""
-    out = []
-    if protocol == 2:
-        p = dx2.Parser()
-        for i, b in enumerate(data):
-            if p.push(b):
-                out.append((i + 1 - p.raw_len, bytes(p.current().raw)))
-    else:
-        p1 = dxl.Parser()
-        for i, b in enumerate(data):
-            if p1.push(b):
-                raw = bytes(p1.current().raw)
-                out.append((i + 1 - len(raw), raw))
-    return out
-
-
 def load_robot_log(path: str | Path) -> RobotLog:
     """An imported trace's line traffic, CAN and switches, for ``replay_log``."""
     with Trace(path) as tr:
@@ -109,7 +92,10 @@ def load_robot_log(path: str | Path) -> RobotLog:
         model = bus.get("model", models.DEFAULT)
         baud = int(bus.get("baud", meta.get("baud", 1_000_000)))
         protocol = models.protocol(model)
-        wire = lambda n: (n * 10_000_000) // baud   # noqa: E731  (the bus's wire time)
+
+        def wire(nbytes: int) -> int:   # the bus's wire time (hil/servobus/line.py)
+            return (nbytes * US_BITS) // baud
+
         packets: list[list[Any]] = []
         end = 0
         for m in (tr.messages([T_SERIAL]) if T_SERIAL in topics else ()):
@@ -117,8 +103,9 @@ def load_robot_log(path: str | Path) -> RobotLog:
             t = m.log_time_ns // 1000
             end = max(end, t + wire(len(s.data)))
             if s.direction == "tx":
-                for off, raw in _split(bytes(s.data), protocol):
-                    packets.append([t + wire(off), raw, []])
+                data = bytes(s.data)
+                for off, n, _ in packet_spans(data, protocol):
+                    packets.append([t + wire(off), data[off:off + n], []])
             elif packets and s.data:
                 last = packets[-1]
                 last[2].append((t - (last[0] + wire(len(last[1]))), bytes(s.data)))
@@ -156,7 +143,6 @@ class LoggedLine(Bus):
         self._names = DECODERS[models.protocol(log.model)].names
         self._table = models.table(log.model)
         self._own = self.parser_class()
-        self._codec = dx2 if models.protocol(log.model) == 2 else dxl
 
     def _deliver(self, tx: bytearray, t_us: int) -> None:
         """The burst that ended at ``t_us``: each packet it completes, at its last byte."""
@@ -234,29 +220,10 @@ class _LogWorld:
         self._next_in = k
 
 
-def replay_log(path: str | Path, python: str = "micropython",
-               scenario: str | Path | None = None, firmware: str | None = None,
-               timeout_s: float = 60.0) -> ReplayResult:
-    """Run a firmware against an imported robot log (the module docstring says how)."""
-    if python not in ("micropython", "cpython"):
-        raise UserError(f"python must be micropython or cpython, not {python!r}",
-                        params=("python",))
-    log = load_robot_log(path)
-    sc = scenario_mod.load_scenario(scenario) if scenario is not None else \
-        scenario_mod.parse({"_path": str(path), "bus": {"model": log.model, "baud": log.baud}})
-    world = _LogWorld(log)
-    server = LinkServer(world, sc.firmware_settings(),
-                        SwitchSampler(log.switches, None), world.wake, lambda: None)
-    result = ReplayResult()
-    tally = RunTally(python)
-    wall0 = time.perf_counter()
-    theirs = served_firmware(firmware) if firmware is not None else None
-    if isinstance(theirs, ElfFirmware):
-        raise UserError("an ELF firmware replays a robot log through hexhil run's board only: "
-                        "not yet through hexhil replay", params=("firmware",))
-    fw = FirmwareProcess(python, connect_timeout_s=timeout_s,
-                         command=theirs.command() if theirs else None,
-                         extra_env=theirs.env() if theirs else None)
+def _serve_ours(server: LinkServer, python: str, log: RobotLog, world: _LogWorld,
+                tally: RunTally, result: ReplayResult, timeout_s: float) -> None:
+    """Our firmware in its own process, killed where it diverged (it waits for a reply)."""
+    fw = FirmwareProcess(python, connect_timeout_s=timeout_s)
     stopped = False
     try:
         try:
@@ -273,6 +240,34 @@ def replay_log(path: str | Path, python: str = "micropython",
             code, _, err = fw.finish(timeout_s=10.0)
             result.firmware_exit = code
             result.stderr_tail = err[-2000:]
+
+
+def replay_log(path: str | Path, python: str = "micropython",
+               scenario: str | Path | None = None, firmware: str | None = None,
+               timeout_s: float = 60.0) -> ReplayResult:
+    """Run a firmware against an imported robot log (the module docstring says how)."""
+    if python not in ("micropython", "cpython"):
+        raise UserError(f"python must be micropython or cpython, not {python!r}",
+                        params=("python",))
+    log = load_robot_log(path)
+    sc = scenario_mod.load_scenario(scenario) if scenario is not None else \
+        scenario_mod.parse({"_path": str(path), "bus": {"model": log.model, "baud": log.baud}})
+    world = _LogWorld(log)
+    server = LinkServer(world, sc.firmware_settings(),
+                        SwitchSampler(log.switches, None), world.wake, lambda: None)
+    result = ReplayResult()
+    tally = RunTally(python)
+    wall0 = time.perf_counter()
+    if firmware is not None:   # the user's (a board main file, an executable, an ELF)
+        try:
+            served_firmware(firmware).serve(server, log.end_us, tally)
+        except Diverged as d:
+            result.divergence = d.divergence
+        finally:
+            world.can.shutdown()
+        result.firmware_exit = tally.exit_code
+    else:
+        _serve_ours(server, python, log, world, tally, result, timeout_s)
     line, cans = world.bus, world.logged_can
     if result.divergence is None and line.matched < len(log.packets):
         want = log.packets[line.matched]

@@ -181,8 +181,8 @@ def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | No
 def replay_firmware(path: str | Path, python: str = "micropython", rate: float = 0.0,
                     start_s: float | None = None, end_s: float | None = None,
                     topics: Iterable[str] | None = None, timeout_s: float = 60.0,
-                    command: list[str] | None = None, firmware: str | None = None
-                    ) -> ReplayResult:
+                    command: list[str] | None = None, firmware: str | None = None,
+                    scenario: str | Path | None = None) -> ReplayResult:
     """Serve the logged replies to a fresh firmware process and compare its messages.
 
     ``start_s``/``end_s`` bound the compared stretch (the firmware always boots from t=0,
@@ -190,7 +190,8 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     comparison to some of ``TOPICS``; ``rate`` > 0 paces replies in wall time (1.0 =
     real time), 0 runs as fast as the firmware goes. ``firmware`` is the one the trace was
     recorded with (``hexhil run --firmware``'s: a main file for the virtual board or an
-    executable).
+    executable). A robot's imported log (``hexhil trace import``) replays through
+    host_tools/log_replay.py, its firmware settings those of ``scenario`` if given.
     """
     if python not in ("micropython", "cpython"):
         raise UserError(f"python must be micropython or cpython, not {python!r}",
@@ -209,19 +210,19 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
         recorded_with = tr.metadata().get("firmware_runtime")
         if firmware is None and recorded_with in (BOARD_RUNTIME, EXECUTABLE):
             _needs_firmware(path, recorded_with, tr.metadata())
-        if imported:
-            exchanges = []
-        else:
-            exchanges = load_exchanges(tr, start_s, end_s)
+        exchanges = [] if imported else load_exchanges(tr, start_s, end_s)
         model = trace_model(tr)
-    if imported:   # a robot's log: the firmware becomes the logged line's master
+    if imported:   # a robot's own log: the firmware becomes the logged line's master
         from host_tools import log_replay
 
         if start_s is not None or end_s is not None or topics or rate:
             raise UserError(f"{path} is a robot's log (hexhil trace import): it replays whole, "
                             "without start_s, end_s, topics or rate",
                             params=("start_s", "end_s", "topics", "rate"))
-        return log_replay.replay_log(path, python, firmware=firmware, timeout_s=timeout_s)
+        return log_replay.replay_log(path, python, scenario, firmware, timeout_s)
+    if scenario is not None:
+        raise UserError(f"{path}: scenario is for a robot's imported log; a recorded run "
+                        "replays with its own settings", params=("scenario",))
     if not exchanges:
         raise UserError(f"{path}: the {T_LINK} topic is empty in the chosen time range")
     start_us = int(round((start_s or 0.0) * 1e6))

@@ -18,7 +18,7 @@ def run(args: argparse.Namespace) -> int:
     r = replay.replay_firmware(args.file, python=args.python,
                                rate=0.0 if args.rate is None else args.rate,
                                start_s=args.start, end_s=args.end, topics=args.topics,
-                               firmware=args.firmware)
+                               firmware=args.firmware, scenario=args.scenario)
     d = r.divergence
     if args.json:
         emit_json(r.as_dict())
@@ -48,6 +48,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("file", help="an MCAP trace recorded with --out")
     p.add_argument("--firmware", metavar="PATH", help="the firmware the trace was recorded "
                    "with (hexhil run --firmware: a MicroPython main file or an executable)")
+    p.add_argument("--scenario", metavar="SCENARIO", default=None,
+                   help="for a robot's imported log: the scenario whose firmware settings the "
+                        "firmware gets (default: the log's servo line, the rest defaults)")
     p.add_argument("--python", choices=("micropython", "cpython"), default="micropython",
                    help="runtime for the firmware (default micropython)")
     p.add_argument("--rate", type=float, default=None,

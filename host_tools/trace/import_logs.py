@@ -103,12 +103,6 @@ def read_servo_line(src: str | Path, table: dict[str, Any] | None = None,
     return decode_line(read_sr(src), line_map(table or {}, where))
 
 
-def _model_of(protocol: int) -> str:
-    """The trace's servo model: the default one of the line's protocol."""
-    return models.DEFAULT if protocol == models.protocol(models.DEFAULT) else next(
-        name for name, (_, v) in models.MODELS.items() if v == protocol)
-
-
 class Held:
     """One log's records, held until every log is read (then written in time order, so
     logs of one session made by several recorders share one trace): the ``Recorder``
@@ -153,7 +147,7 @@ def _import_serial(src: Path, maps: dict[str, Any], where: str, held: Held
         held.serial(b.t_us - t0, b.direction, b.data)
     tx = sum(1 for b in line.bursts if b.direction == "tx")
     meta = {"baud": line.baud, "protocol": line.protocol,
-            "scenario_data": json.dumps({"bus": {"model": _model_of(line.protocol),
+            "scenario_data": json.dumps({"bus": {"model": models.default_model(line.protocol),
                                                  "baud": line.baud}})}
     return meta, {"bursts": len(line.bursts), "master_bursts": tx, "baud": line.baud,
                   "protocol": line.protocol, "framing_errors": len(line.framing_errors_us),

@@ -17,11 +17,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from host_tools.dynamixel.decode import guess_protocol
+from host_tools.dynamixel.decode import guess_protocol, packet_spans
 from host_tools.dynamixel.decode import v1 as decode_v1
 from host_tools.trace.logic_capture import (BITS_PER_BYTE, LogicCapture, UartByte,
                                             decode_uart, find_baud)
-from protocol.dynamixel import v2 as dx2
 from protocol.errors import UserError
 
 DIRECTION_NAMES = ("dir", "direction", "de", "txen", "tx_en", "rts")
@@ -87,12 +86,8 @@ def _senders_by_packets(values: bytes, protocol: int) -> list[str]:
     """Each byte's sender ("tx"/"rx") read from the packets the bytes form."""
     who = [""] * len(values)
     if protocol == 2:
-        parser = dx2.Parser()
-        for i, b in enumerate(values):
-            if parser.push(b):
-                begin = i + 1 - parser.raw_len
-                kind = "rx" if parser.current().instr == dx2.STATUS else "tx"
-                who[begin:i + 1] = [kind] * (i + 1 - begin)
+        for off, n, status in packet_spans(values, 2):
+            who[off:off + n] = ["rx" if status else "tx"] * n
     else:
         try:
             parts = decode_v1.split_stream(values, lenient=True)

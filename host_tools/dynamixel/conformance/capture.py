@@ -11,14 +11,14 @@ each servo's return delays as measured, and instructions that got no reply.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from hil.run import rig
 from hil.servobus.master_check import MasterCheck
 from hil.servobus.wire import US_BITS
-from host_tools.dynamixel.decode import DECODERS
+from host_tools.dynamixel.decode import DECODERS, packet_spans
 from host_tools.trace.servo_capture import LineBurst, ServoLine
 from protocol.dynamixel import models
 from protocol.dynamixel import v1 as dxl
@@ -31,14 +31,15 @@ EVENTS_SHOWN = 20
 @dataclass
 class _Line:
     """What the check asks of a bus, answered from the capture: the servos (emulated),
-    each byte's time and whether a captured status is still arriving."""
+    each byte's time and whether a captured status is still arriving at ``now_us``."""
 
     bus: Any
     replies: list[tuple[int, int]]          # (start_us, end_us) of each captured status burst
-    servos: list = field(default_factory=list)
+    now_us: int = 0
 
-    def __post_init__(self) -> None:
-        self.servos = self.bus.servos
+    @property
+    def servos(self) -> list:
+        return self.bus.servos
 
     def byte_end_us(self, start_us: int, i: int) -> int:
         return start_us + ((i + 1) * US_BITS) // self.bus.baud
@@ -47,8 +48,6 @@ class _Line:
         t = self.now_us
         ends = [e for s, e in self.replies if s < t < e]
         return max(ends) if ends else None
-
-    now_us = 0
 
 
 def load_line(path: str | Path, map_path: str | Path | None = None) -> ServoLine:
@@ -90,22 +89,10 @@ def _trace_line(path: Path) -> ServoLine:
     return ServoLine(baud, models.protocol(model), tuple(bursts), (), "trace", "trace")
 
 
-def _packets(data: bytes, protocol: int) -> list[tuple[int, int, bool]]:
+def _runs(data: bytes, protocol: int) -> list[tuple[int, int, bool]]:
     """(offset, length, is_packet) runs covering ``data``: its packets and the bytes between."""
-    found: list[tuple[int, int]] = []
-    if protocol == 2:
-        p = dx2.Parser()
-        for i, b in enumerate(data):
-            if p.push(b):
-                found.append((i + 1 - p.raw_len, p.raw_len))
-    else:
-        p1 = dxl.Parser()
-        for i, b in enumerate(data):
-            if p1.push(b):
-                n = dxl.PARAMS_OFFSET + p1.nparams + 1
-                found.append((i + 1 - n, n))
     out, at = [], 0
-    for off, n in found:
+    for off, n, _ in packet_spans(data, protocol):
         if off > at:
             out.append((at, off - at, False))
         out.append((off, n, True))
@@ -141,9 +128,7 @@ def check_capture(path: str | Path, model: str | None = None, ids: list[int] | N
     ``ok`` when the master broke no rule and no byte was garbled."""
     line = load_line(path, map_path)
     if model is None:
-        model = next((name for name, (_, v) in models.MODELS.items() if v == line.protocol),
-                     models.DEFAULT) if line.protocol != models.protocol(models.DEFAULT) \
-            else models.DEFAULT
+        model = models.default_model(line.protocol)
     elif models.protocol(model) != line.protocol:
         raise UserError(f"{path}: the capture is Protocol {line.protocol}.0, model {model} "
                         f"speaks {models.protocol(model)}.0", params=("model",))
@@ -182,7 +167,7 @@ def check_capture(path: str | Path, model: str | None = None, ids: list[int] | N
         if awaiting is not None:
             unanswered += 1
             awaiting = None
-        for off, n, is_packet in _packets(b.data, line.protocol):
+        for off, n, is_packet in _runs(b.data, line.protocol):
             chunk = b.data[off:off + n]
             at = t + (off * US_BITS) // bus.baud
             if at > bus.clock.t_us:
