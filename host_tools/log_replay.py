@@ -32,7 +32,7 @@ from hil.run_result import RunTally
 from hil.servobus.line import Bus
 from hil.servobus.wire import US_BITS, Burst
 from host_tools.dynamixel.decode import DECODERS, packet_spans
-from host_tools.replay import Divergence, ReplayResult
+from host_tools.replay_result import Divergence, ReplayResult
 from host_tools.trace.protobuf import CanFrame, SerialBytes, SwitchEdge
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_CAN_RAW, T_SERIAL, T_SWITCHES

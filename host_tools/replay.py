@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterable
 
@@ -24,11 +23,13 @@ from hil import scenario as scenario_mod
 from hil.scenario import check_span
 from hil.scenario.rules import within
 from host_tools.dynamixel.decode import DECODERS
+from host_tools.replay_result import Divergence, ReplayResult
 from protocol import sim_link
 from protocol.dynamixel import models
 from hil.link.served_firmware import (BOARD_RUNTIME, EXECUTABLE, ElfFirmware, console_events,
                                       served_firmware)
 from hil.mcu.replayed import ReplayedElf
+from host_tools import log_replay
 from hil.link.firmware_process import REQUEST_OPS, FirmwareProcess, split_messages
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
@@ -73,39 +74,6 @@ def _same(e: tuple[int, bytes] | None, a: tuple[int, bytes] | None) -> bool:
         return json.loads(e[1][1:]) == json.loads(a[1][1:])
     except ValueError:
         return False
-
-
-@dataclass
-class Divergence:
-    t_s: float
-    topic: str
-    expected: str
-    actual: str
-    exchange: int
-    # on the servo line: each side's bytes in the diverging exchange as Dynamixel packets,
-    # decoded in the protocol of the trace's servo model ("SYNC_WRITE to 254")
-    packets: dict[str, list[str]] | None = None
-
-    def as_dict(self) -> dict[str, Any]:
-        return {"t_s": self.t_s, "topic": self.topic, "expected": self.expected,
-                "actual": self.actual, "exchange": self.exchange, "packets": self.packets}
-
-
-@dataclass
-class ReplayResult:
-    exchanges: int = 0
-    compared_messages: int = 0
-    identical: bool = True
-    divergence: Divergence | None = None
-    firmware_exit: int | None = None
-    stderr_tail: str = ""
-    extra: dict[str, Any] = field(default_factory=dict)
-
-    def as_dict(self) -> dict[str, Any]:
-        return {"identical": self.identical, "exchanges": self.exchanges,
-                "compared_messages": self.compared_messages,
-                "first_divergence": self.divergence.as_dict() if self.divergence else None,
-                "firmware_exit": self.firmware_exit, **self.extra}
 
 
 def _describe(op: int, payload: bytes) -> str:
@@ -213,8 +181,6 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
         exchanges = [] if imported else load_exchanges(tr, start_s, end_s)
         model = trace_model(tr)
     if imported:   # a robot's own log: the firmware becomes the logged line's master
-        from host_tools import log_replay
-
         if start_s is not None or end_s is not None or topics or rate:
             raise UserError(f"{path} is a robot's log (hexhil trace import): it replays whole, "
                             "without start_s, end_s, topics or rate",
