@@ -23,7 +23,9 @@ def _capture(args: argparse.Namespace) -> int:
           f"{r['protocol']}.0 ({r['model']}), servos {','.join(map(str, r['servos']))}")
     for e in v["events"]:
         print(f"  {e['t_s']:.6f} s {e['kind']}: {e['packet']} ({e['detail']})")
-    delays = "; ".join(f"id {i} {d['min']}-{d['max']} us" for i, d in ln["return_delay_us"].items())
+    delays = "; ".join(f"id {i} " + (f"{d['min']}-{d['max']}" if d["min"] != d["max"]
+                                     else str(d["min"])) + " us"
+                       for i, d in ln["return_delay_us"].items())
     print(f"line: {ln['framing_errors']} framing errors, {ln['unanswered']} instructions "
           f"unanswered; return delays: {delays or 'none measured'}")
     print(f"master violations: {wrong}", flush=True)
