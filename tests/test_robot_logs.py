@@ -383,3 +383,14 @@ def test_a_protocol_2_line_imports_replays_and_passes(tmp_path, capsys):
     assert rc == 0 and "(xl430-w250)" in said and "master violations: none" in said, said + err
     rc, said, err = _cli(capsys, "replay", out)
     assert rc == 0 and said.startswith("identical"), said + err
+
+
+def test_the_api_example_imports_checks_and_replays(run, run_sr, tmp_path, capsys):
+    log = tmp_path / "can.blf"
+    assert _cli(capsys, "trace", "export", run, log)[0] == 0
+    r = subprocess.run([sys.executable, "examples/robot_log.py", str(run_sr), str(log),
+                        str(tmp_path / "robot.mcap")], cwd=ROOT, capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert r.stdout.splitlines() == [f"serial: {run_sr}", f"can: {log}",
+                                     "master violations: 0, framing errors: 0", "identical"]
