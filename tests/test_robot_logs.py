@@ -394,3 +394,22 @@ def test_the_api_example_imports_checks_and_replays(run, run_sr, tmp_path, capsy
     assert r.returncode == 0, r.stdout + r.stderr
     assert r.stdout.splitlines() == [f"serial: {run_sr}", f"can: {log}",
                                      "master violations: 0, framing errors: 0", "identical"]
+
+
+def test_a_wide_capture_in_several_chunks_reads_whole(run, tmp_path, capsys):
+    """Nine channels (two bytes a sample) and more samples than one chunk of sigrok's holds:
+    the chunks are read in their order, the direction found on the third channel."""
+    wave = uart_wave.samples(_serial(run), BAUD, RATE_HZ, direction=True).astype(np.uint16)
+    wave |= 1 << 8    # a ninth channel, held high
+    raw = tmp_path / "wide.bin"
+    raw.write_bytes(wave.astype("<u2").tobytes())
+    sr = tmp_path / "wide.sr"
+    subprocess.run(["sigrok-cli", "-I", f"binary:numchannels=9:samplerate={RATE_HZ}", "-i",
+                    str(raw), "-o", str(sr)], check=True, capture_output=True)
+    with zipfile.ZipFile(sr) as z:
+        assert len([n for n in z.namelist() if n.startswith("logic-1-")]) > 1
+    out = tmp_path / "wide.mcap"
+    rc, said, err = _cli(capsys, "trace", "import", sr, "--out", out, "--json")
+    assert rc == 0, err
+    assert json.loads(said.splitlines()[-1])["direction_channel"] == "2"
+    assert _streams(_serial(out)) == _streams(_serial(run))

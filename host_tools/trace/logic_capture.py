@@ -123,14 +123,14 @@ def edges(levels: np.ndarray) -> np.ndarray:
 
 
 def measure_bps(capture: LogicCapture, bit: int) -> float:
-    """The line's bit rate from its pulse widths: the shortest pulses are one bit, and
-    every pulse inside a byte is a whole number of bits."""
+    """The line's bit rate from its pulse widths: the shortest pulses (but the shortest
+    1 %: glitches) are one bit, and every pulse inside a byte is a whole number of bits."""
     e = edges(capture.levels(bit))
     if len(e) < 4:
         raise UserError(f"{capture.path}: channel {capture.channels[bit]} hardly changes "
                         f"({len(e)} edges): no serial traffic to find the baud from")
     widths = np.diff(e).astype(np.float64)
-    shortest = float(np.min(widths))
+    shortest = float(np.sort(widths)[len(widths) // 100])   # a glitch or two left out
     one = widths[widths < 1.5 * shortest]
     spb = float(np.mean(one))
     inside = widths[widths <= (BITS_PER_BYTE - 1) * spb + spb / 2]

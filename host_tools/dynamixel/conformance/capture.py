@@ -11,6 +11,7 @@ each servo's return delays as measured, and instructions that got no reply.
 """
 from __future__ import annotations
 
+import bisect
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,8 +35,11 @@ class _Line:
     each byte's time and whether a captured status is still arriving at ``now_us``."""
 
     bus: Any
-    replies: list[tuple[int, int]]          # (start_us, end_us) of each captured status burst
+    replies: list[tuple[int, int]]   # (start_us, end_us) of each captured status, in order
     now_us: int = 0
+
+    def __post_init__(self) -> None:
+        self._starts = [s for s, _ in self.replies]
 
     @property
     def servos(self) -> list:
@@ -45,9 +49,12 @@ class _Line:
         return start_us + ((i + 1) * US_BITS) // self.bus.baud
 
     def reply_end_us(self) -> int | None:
-        t = self.now_us
-        ends = [e for s, e in self.replies if s < t < e]
-        return max(ends) if ends else None
+        """The end of the captured status on the line at ``now_us`` (the one begun last
+        before it: statuses on one line follow each other), or None."""
+        k = bisect.bisect_left(self._starts, self.now_us) - 1
+        if k < 0 or self.replies[k][1] <= self.now_us:
+            return None
+        return self.replies[k][1]
 
 
 def load_line(path: str | Path, map_path: str | Path | None = None) -> ServoLine:
