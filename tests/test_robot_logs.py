@@ -16,6 +16,8 @@ from pathlib import Path
 import can
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import uart_wave
 from hil import scenario
@@ -413,3 +415,28 @@ def test_a_wide_capture_in_several_chunks_reads_whole(run, tmp_path, capsys):
     assert rc == 0, err
     assert json.loads(said.splitlines()[-1])["direction_channel"] == "2"
     assert _streams(_serial(out)) == _streams(_serial(run))
+
+
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(rate=st.sampled_from(["8 MHz", "250 kHz", "1 Hz", "0 Hz", "fast", "", "3.5 GHz"]),
+       unit=st.sampled_from(["1", "2", "3", "0", "x"]), probes=st.integers(-1, 20),
+       samples=st.binary(max_size=4096), names=st.booleans())
+def test_a_hostile_sr_file_is_read_or_refused_in_one_line(tmp_path, rate, unit, probes,
+                                                          samples, names):
+    from host_tools.trace.import_logs import read_servo_line
+    from protocol.errors import UserError
+
+    path = tmp_path / "hostile.sr"
+    meta = f"[device 1]\ncapturefile=logic-1\ntotal probes={probes}\nsamplerate={rate}\n" \
+           f"unitsize={unit}\n" + ("probe1=dir\nprobe2=data\n" if names else "")
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("version", "2")
+        z.writestr("metadata", meta)
+        z.writestr("logic-1-1", samples)
+    try:
+        line = read_servo_line(path)
+    except UserError as exc:
+        assert "\n" not in str(exc)
+    else:
+        assert line.bursts and line.baud > 0
