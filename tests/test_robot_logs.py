@@ -440,3 +440,21 @@ def test_a_hostile_sr_file_is_read_or_refused_in_one_line(tmp_path, rate, unit, 
         assert "\n" not in str(exc)
     else:
         assert line.bursts and line.baud > 0
+
+
+def test_a_virtual_board_firmware_replays_a_captured_line(tmp_path, capsys):
+    """Another runtime: a MicroPython main file on the virtual board (its UART and direction
+    pin on the link) masters the logged line as it mastered the run's."""
+    board = ROOT / "examples" / "board_tripod.py"
+    flat = ROOT / "scenarios" / "flat-tripod.toml"
+    run = tmp_path / "board.mcap"
+    rc, said, err = _cli(capsys, "run", flat, "--firmware", board, "--duration", "0.5",
+                         "--out", run)
+    assert rc == 0, said + err
+    sr = uart_wave.write_sr(tmp_path / "board.sr",
+                            uart_wave.samples(_serial(run), BAUD, RATE_HZ, direction=True),
+                            RATE_HZ)
+    out = tmp_path / "imported.mcap"
+    assert _cli(capsys, "trace", "import", sr, "--out", out)[0] == 0
+    rc, said, err = _cli(capsys, "replay", out, "--firmware", board, "--scenario", flat)
+    assert rc == 0 and said.startswith("identical"), said + err
