@@ -94,7 +94,7 @@ CASES = [
     (["trace", "import-csv", f"{B}/bin.csv", f"{B}/o.mcap"], "not a readable CSV"),
     (["trace", "import", f"{B}/missing.sr", "--out", f"{B}/o.mcap"], "no such log file"),
     (["trace", "import", f"{B}/notzip.sr", "--out", f"{B}/o.mcap"], "not a sigrok session"),
-    (["trace", "import", f"{B}/robot.xyz", "--out", f"{B}/o.mcap"], "pass --as can"),
+    (["trace", "import", f"{B}/robot.xyz", "--out", f"{B}/o.mcap"], "give --as can"),
     (["trace", "import", f"{B}/notzip.sr", "--map", f"{B}/badmap.toml", "--out",
       f"{B}/o.mcap"], "unknown map section(s) serail"),
     (["trace", "import", f"{B}/notmcap.mcap", "--as", "can", "--out", f"{B}/o.mcap"],

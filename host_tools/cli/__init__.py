@@ -63,7 +63,8 @@ FLAGS = {"python": "--python", "firmware": "--firmware", "duration_s": "--durati
          "world": "--world", "model_path": "--model", "topics": "--topics",
          "gdb_port": "--gdb", "coverage": "--coverage", "bare": "--bare", "target": "--target",
          "seed": "--seed", "tactile": "--no-tactile", "overwrite": "--overwrite",
-         "keep_dir": "--keep-traces", "map_path": "--map", "scenario": "--scenario"}
+         "keep_dir": "--keep-traces", "map_path": "--map", "scenario": "--scenario",
+         "kind": "--as"}
 
 
 def flag_message(exc: UserError) -> str:

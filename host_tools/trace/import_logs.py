@@ -1,5 +1,7 @@
 """A real robot's logs -> a trace in our schemas (``hexhil trace import``), its times on the
-virtual clock (t = 0 at the log's first record).
+virtual clock: each log's first record at t = 0, plus its map section's ``offset_s``. One
+log of each kind of one session (a capture of the servo line and the CAN log of the same
+run, say) make one trace, their records written in time order.
 
 Three kinds (``LogKind``), told apart by the file's name unless ``kind`` says:
 
@@ -58,9 +60,11 @@ def guess_kind(src: Path) -> LogKind:
         return LogKind.CAN
     if suffix in (".mcap", ".db3"):
         raise UserError(f"{src}: a rosbag2 is read from its folder (with metadata.yaml), not "
-                        "its storage file; or pass --as to say what the file is")
-    raise UserError(f"{src}: cannot tell what log this is from its name: pass --as can, "
-                    f"serial or rosbag2 (CAN logs: {' '.join(CAN_SUFFIXES)}; captures: .sr)")
+                        "its storage file; or give kind to say what the file is",
+                        params=("kind",))
+    raise UserError(f"{src}: cannot tell what log this is from its name: give kind can, "
+                    f"serial or rosbag2 (CAN logs: {' '.join(CAN_SUFFIXES)}; captures: .sr)",
+                    params=("kind",))
 
 
 def load_map(path: str | Path | None) -> dict[str, Any]:
@@ -82,8 +86,9 @@ def load_map(path: str | Path | None) -> dict[str, Any]:
 
 
 def line_map(table: dict[str, Any], where: str) -> LineMap:
-    """``[serial]``: data, direction (channel names or numbers), baud, protocol."""
-    known = ("data", "direction", "baud", "protocol")
+    """``[serial]``: data, direction (channel names or numbers), baud, protocol (and
+    ``offset_s``, which places the log on the trace's clock: not the line's business)."""
+    known = ("data", "direction", "baud", "protocol", "offset_s")
     bad = sorted(set(table) - set(known))
     if bad:
         raise UserError(f"{where}: unknown [serial] key(s) {', '.join(bad)} "
@@ -140,8 +145,7 @@ def _offset_us(table: dict[str, Any], section: str, where: str) -> int:
 
 def _import_serial(src: Path, maps: dict[str, Any], where: str, held: Held
                    ) -> tuple[dict[str, Any], dict[str, Any]]:
-    line = read_servo_line(src, {k: v for k, v in maps.get("serial", {}).items()
-                                 if k != "offset_s"}, where)
+    line = read_servo_line(src, maps.get("serial"), where)
     t0 = line.bursts[0].t_us
     for b in line.bursts:
         held.serial(b.t_us - t0, b.direction, b.data)
