@@ -15,6 +15,7 @@ framing error (a collision on a half-duplex line, or the wrong baud).
 """
 from __future__ import annotations
 
+import bisect
 import configparser
 import re
 import zipfile
@@ -175,19 +176,27 @@ def decode_uart(capture: LogicCapture, bit: int, bps: int) -> list[UartByte]:
         falls = np.concatenate(([0], falls))
     mids = np.round((np.arange(BITS_PER_BYTE) + 0.5) * spb).astype(np.int64)
     weights = 1 << np.arange(8)
-    out: list[UartByte] = []
-    free_at = 0   # the first sample a new start bit may begin on
-    ns_per_sample = 1e9 / capture.samplerate_hz
-    for f in falls:
-        if f < free_at:
-            continue
-        at = f + mids
-        if at[-1] >= n:
+    last = n - 1 - int(mids[-1])   # the last sample a whole byte can start on
+    skip = int(round((BITS_PER_BYTE - 0.5) * spb))   # a byte's start to the next's earliest
+    # where bytes start, in order: each falling edge not inside the byte before, whose
+    # start bit is still low at its middle (else a glitch); then every byte read at once
+    edges_at, levels, mid0 = falls.tolist(), lv.tobytes(), int(mids[0])
+    starts: list[int] = []
+    i, count = 0, len(edges_at)
+    while i < count:
+        f = edges_at[i]
+        if f > last:
             break    # the capture ends inside this byte
-        bits = lv[at]
-        if bits[0] != 0:
-            continue   # a glitch, not a start bit
-        value = int(np.dot(bits[1:9], weights))
-        out.append(UartByte(int(round(f * ns_per_sample)), value, bool(bits[9])))
-        free_at = f + int(round((BITS_PER_BYTE - 0.5) * spb))
-    return out
+        if levels[f + mid0]:
+            i += 1
+            continue
+        starts.append(f)
+        i = bisect.bisect_left(edges_at, f + skip, i)
+    if not starts:
+        return []
+    at = np.asarray(starts, dtype=np.int64)
+    bits = lv[at[:, None] + mids[None, :]]
+    values = bits[:, 1:9].astype(np.int64) @ weights
+    ns = np.round(at * (1e9 / capture.samplerate_hz)).astype(np.int64)
+    return [UartByte(t, v, ok) for t, v, ok in
+            zip(ns.tolist(), values.tolist(), (bits[:, 9] == 1).tolist())]
