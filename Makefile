@@ -80,7 +80,7 @@ test: $(STAMP) $(CORES) toolchain sigrok
 test-slow: $(STAMP) $(CORES) toolchain sigrok
 	$(BIN)/python -m pytest -q -m slow
 
-bench: $(STAMP) $(CORES) toolchain
+bench: $(STAMP) $(CORES) toolchain sigrok
 	$(BIN)/python -m bench
 
 # hostile inputs for every parser and loader (issue 20); FUZZ="--scale 0.1" for a short run
