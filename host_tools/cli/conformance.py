@@ -19,14 +19,14 @@ def _capture(args: argparse.Namespace) -> int:
                       args.map)
     v, ln = r["violations"], r["line"]
     wrong = ", ".join(f"{k} {n}" for k, n in v["counts"].items() if n) or "none"
-    print(f"{r['capture']}: {r['packets']} master bursts at {r['baud']} bit/s, Protocol "
+    print(f"{r['capture']}: {r['master_bursts']} master bursts at {r['baud']} bit/s, Protocol "
           f"{r['protocol']}.0 ({r['model']}), servos {','.join(map(str, r['servos']))}")
     for e in v["events"]:
         print(f"  {e['t_s']:.6f} s {e['kind']}: {e['packet']} ({e['detail']})")
     delays = "; ".join(f"id {i} " + (f"{d['min']}-{d['max']}" if d["min"] != d["max"]
                                      else str(d["min"])) + " us"
                        for i, d in ln["return_delay_us"].items())
-    print(f"line: {ln['framing_errors']} framing errors, {ln['unanswered']} instructions "
+    print(f"line: {ln['framing_errors']} framing errors, {ln['unanswered']} pings and reads "
           f"unanswered; return delays: {delays or 'none measured'}")
     print(f"master violations: {wrong}", flush=True)
     if args.json:

@@ -7,7 +7,7 @@ them too, so an EEPROM write makes its servo deaf for the model's time and a wri
 refuses is a ``bad_write``, as in a run. Whether a status was still arriving when the
 master spoke is judged from the captured replies themselves, not the model's. Beside the
 violations, what only a capture shows: bytes with a low stop bit (collisions, or noise),
-each servo's return delays as measured, and instructions that got no reply.
+each servo's return delays as measured, and pings and reads that got no reply.
 """
 from __future__ import annotations
 
@@ -27,6 +27,9 @@ from protocol.dynamixel import v2 as dx2
 from protocol.errors import UserError
 
 EVENTS_SHOWN = 20
+# instructions no servo answers; of the rest, a PING or READ (the same codes in both
+# protocols) is answered at every Status Return Level but 0, so one without a reply counts
+NO_STATUS = (dxl.SYNC_WRITE, dx2.BULK_WRITE)
 
 
 @dataclass
@@ -136,6 +139,9 @@ def check_capture(path: str | Path, model: str | None = None, ids: list[int] | N
     line = load_line(path, map_path)
     if model is None:
         model = models.default_model(line.protocol)
+    elif model not in models.MODELS:
+        raise UserError(f"unknown servo model {model!r} (one of {', '.join(models.MODELS)})",
+                        params=("model",))
     elif models.protocol(model) != line.protocol:
         raise UserError(f"{path}: the capture is Protocol {line.protocol}.0, model {model} "
                         f"speaks {models.protocol(model)}.0", params=("model",))
@@ -159,7 +165,7 @@ def check_capture(path: str | Path, model: str | None = None, ids: list[int] | N
     check = MasterCheck(named, protocol=line.protocol)
     delays: dict[int, list[int]] = {}
     unanswered = 0
-    awaiting: tuple[int, int] | None = None     # (id, end_us) of the last instruction
+    awaiting: tuple[int, int, bool] | None = None   # the last instruction: id, end, a read
     codec = dx2 if line.protocol == 2 else dxl
     for b in line.bursts:
         t = b.t_us - t0
@@ -172,7 +178,7 @@ def check_capture(path: str | Path, model: str | None = None, ids: list[int] | N
                     awaiting = None
             continue
         if awaiting is not None:
-            unanswered += 1
+            unanswered += awaiting[2]
             awaiting = None
         for off, n, is_packet in _runs(b.data, line.protocol):
             chunk = b.data[off:off + n]
@@ -186,15 +192,16 @@ def check_capture(path: str | Path, model: str | None = None, ids: list[int] | N
             bus.master_write(chunk)
             if is_packet:
                 dev = chunk[2] if line.protocol == 1 else chunk[4]
-                if dev != codec.BROADCAST_ID and _expects_reply(chunk, line.protocol):
-                    awaiting = (dev, at + bus.wire_us(n))
+                code = chunk[4] if line.protocol == 1 else chunk[7]
+                if dev != codec.BROADCAST_ID and code not in NO_STATUS:
+                    awaiting = (dev, at + bus.wire_us(n), code in (dxl.PING, dxl.READ))
     summary = check.summary()
     summary["events"] = events
     framing = len(line.framing_errors_us)
     return {"capture": str(path), "baud": line.baud, "protocol": line.protocol, "model": model,
             "servos": servo_ids, "data_channel": line.data_channel,
             "direction_channel": line.direction_channel,
-            "packets": sum(1 for b in line.bursts if b.direction == "tx"),
+            "master_bursts": sum(1 for b in line.bursts if b.direction == "tx"),
             "violations": summary,
             "line": {"framing_errors": framing,
                      "first_framing_error_s": round((line.framing_errors_us[0] - t0) * 1e-6, 6)
@@ -204,9 +211,3 @@ def check_capture(path: str | Path, model: str | None = None, ids: list[int] | N
                                          for i, d in sorted(delays.items())}},
             "ok": summary["total"] == 0 and framing == 0}
 
-
-def _expects_reply(packet: bytes, protocol: int) -> bool:
-    """Whether a servo at Status Return Level 2 answers this instruction (all but a
-    broadcast; here: any instruction that is not a SYNC or BULK write)."""
-    code = packet[4] if protocol == 1 else packet[7]
-    return code not in (dxl.SYNC_WRITE, dx2.BULK_WRITE)
