@@ -19,19 +19,22 @@ from robot_logs import (BAUD, RATE_HZ, ROOT, can_frames, cli, refused, run, run_
                         serial_bursts)
 
 
-@pytest.mark.parametrize("suffix", [".asc", ".blf", ".log"])
+@pytest.mark.parametrize("suffix,python", [(".asc", "micropython"), (".blf", "cpython"),
+                                           (".log", "micropython")])
 def test_capture_and_can_log_replay_into_the_firmware_identically(run, run_sr, tmp_path,
-                                                                  capsys, suffix):
+                                                                  capsys, suffix, python):
     """The run's CAN through python-can's own writer (trace export uses ASCWriter,
-    BLFWriter, CanutilsLogWriter), its line through sigrok-cli: replayed, identical."""
+    BLFWriter, CanutilsLogWriter), its line through sigrok-cli: replayed, identical, under
+    either runtime (the run was micropython's)."""
     log = tmp_path / f"can{suffix}"
     assert cli(capsys, "trace", "export", run, log)[0] == 0
     out = tmp_path / "robot.mcap"
     rc, said, err = cli(capsys, "trace", "import", run_sr, log, "--out", out)
     assert rc == 0, err
     assert [f[1:] for f in can_frames(out)] == [f[1:] for f in can_frames(run)]
-    assert [f[0] for f in can_frames(out)] == [f[0] - can_frames(run)[0][0] for f in can_frames(run)]
-    rc, said, err = cli(capsys, "replay", out)
+    assert [f[0] for f in can_frames(out)] == [f[0] - can_frames(run)[0][0]
+                                               for f in can_frames(run)]
+    rc, said, err = cli(capsys, "replay", out, "--python", python)
     assert rc == 0, said + err
     assert said.startswith("identical: ") and "11 controller CAN frames" in said
 
