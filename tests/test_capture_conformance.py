@@ -229,3 +229,16 @@ def test_a_hostile_sr_file_is_read_or_refused_in_one_line(tmp_path, rate, unit, 
         assert line.bursts and line.baud > 0
 
 
+
+
+def test_a_damaged_member_of_the_zip_is_one_line(run_sr, tmp_path, capsys):
+    """Found by fuzz_logs: a flipped byte inside the metadata (its CRC no longer holds)
+    escaped as BadZipFile, a broken deflate stream as zlib.error."""
+    data = bytearray(run_sr.read_bytes())
+    with zipfile.ZipFile(run_sr) as z:
+        info = z.getinfo("metadata")
+    data[info.header_offset + 30 + len(info.filename) + 2] ^= 0x55   # inside its data
+    bad = tmp_path / "bad.sr"
+    bad.write_bytes(bytes(data))
+    err = refused(capsys, "trace", "import", bad, "--out", tmp_path / "x.mcap")
+    assert "truncated or damaged capture (metadata:" in err

@@ -214,3 +214,13 @@ def test_a_virtual_board_firmware_replays_a_captured_line(tmp_path, capsys):
     rc, said, err = cli(capsys, "replay", out, "--firmware", board, "--scenario", flat)
     assert rc == 0 and said.startswith("identical"), said + err
 
+
+
+def test_a_log_whose_clock_jumps_past_a_traces_range_is_one_line(tmp_path, capsys):
+    """Found by fuzz_logs: a candump line whose time jumped 1e11 s on made a log time
+    past MCAP's 64-bit nanoseconds, and the writer's struct.error escaped."""
+    log = tmp_path / "jump.log"
+    log.write_text("(1000000000.000000) vcan0 100#01 R\n(100000000000.000000) vcan0 100#02 R\n")
+    err = refused(capsys, "trace", "import", log, "--out", tmp_path / "x.mcap")
+    assert "a log spans 0 to 1e+09 s" in err and "a time jumped" in err
+    assert not (tmp_path / "x.mcap").exists() and not (tmp_path / "x.mcap.partial").exists()

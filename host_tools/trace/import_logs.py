@@ -28,8 +28,10 @@ from enum import Enum
 from pathlib import Path
 from typing import Any
 
+from hil.scenario.sections import MAX_DURATION_S
 from host_tools.trace.reader import why
 from host_tools.trace.recorder import Recorder
+from host_tools.trace.windows import EncodeIn
 from host_tools.trace.servo_capture import LineMap, ServoLine, decode_line
 from protocol.dynamixel import models
 from protocol.errors import UserError
@@ -113,12 +115,16 @@ class Held:
     logs of one session made by several recorders share one trace): the ``Recorder``
     calls an importer makes, each log's times shifted by its ``offset_s``."""
 
-    def __init__(self, offset_us: int = 0) -> None:
-        self.offset_us = offset_us
+    def __init__(self, src: Path, offset_us: int = 0) -> None:
+        self.src, self.offset_us = src, offset_us
         self.items: list[tuple[int, str, tuple[Any, ...]]] = []
 
     def _add(self, t_us: int, method: str, args: tuple[Any, ...]) -> None:
-        self.items.append((int(t_us) + self.offset_us, method, args))
+        t = int(t_us) + self.offset_us
+        if not 0 <= t <= MAX_DURATION_S * 1e6:   # a trace's times (hil/scenario)
+            raise UserError(f"{self.src}: a record at {t / 1e6:.6f} s: a log spans 0 to "
+                            f"{MAX_DURATION_S:g} s from its first record (a time jumped?)")
+        self.items.append((t, method, args))
 
     def serial(self, t_us: int, direction: str, data: bytes) -> None:
         self._add(t_us, "serial", (direction, data))
@@ -138,8 +144,10 @@ class Held:
 
 def _offset_us(table: dict[str, Any], section: str, where: str) -> int:
     value = table.get("offset_s", 0.0)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0:
-        raise UserError(f"{where}: [{section}] offset_s must be a number >= 0 (s)")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not 0 <= value <= MAX_DURATION_S:
+        raise UserError(f"{where}: [{section}] offset_s must be a number of seconds, 0 to "
+                        f"{MAX_DURATION_S:g}")
     return int(round(value * 1e6))
 
 
@@ -268,7 +276,7 @@ def import_log(src: str | Path | list[str | Path], dst: str | Path,
         if k is LogKind.ROSBAG2 and set(table) - {"offset_s"}:
             raise UserError(f"{where}: unknown [rosbag2] key(s) "
                             f"{', '.join(sorted(set(table) - {'offset_s'}))} (known: offset_s)")
-        h = Held(_offset_us(table, k.value, where))
+        h = Held(path, _offset_us(table, k.value, where))
         if k is LogKind.SERIAL:
             extra, summary = _import_serial(path, maps, where, h)
         elif k is LogKind.CAN:
@@ -283,7 +291,9 @@ def import_log(src: str | Path | list[str | Path], dst: str | Path,
     meta.update(imported=",".join(s["kind"] for s in summaries),
                 logs=",".join(p.name for p in srcs))
     protocol = int(meta.get("protocol", models.protocol(models.DEFAULT)))
-    rec = Recorder(dst, meta, protocol=protocol, overwrite=overwrite)
+    # everything is read before the first record is written: nothing to overlap a child with
+    rec = Recorder(dst, meta, protocol=protocol, overwrite=overwrite,
+                   encode_in=EncodeIn.THIS_PROCESS)
     try:
         items = sorted((item for h in held for item in h.items), key=lambda item: item[0])
         for t_us, method, args in items:

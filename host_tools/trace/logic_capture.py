@@ -86,16 +86,17 @@ def read_sr(path: str | Path) -> LogicCapture:
         names = set(zf.namelist())
         if "metadata" not in names:
             raise UserError(f"{path}: not a sigrok session file (no metadata in the zip)")
+        text = _member(zf, "metadata", path).decode("ascii", errors="replace")
         try:
             meta = configparser.ConfigParser(interpolation=None, strict=False)
-            meta.read_string(zf.read("metadata").decode("ascii", errors="replace"))
+            meta.read_string(text)
             dev = meta["device 1"]
             rate = parse_samplerate(dev.get("samplerate", ""))
             unit = int(dev.get("unitsize", "1"))
             total = int(dev.get("total probes", "0"))
             base = dev.get("capturefile", "logic-1")
         except (configparser.Error, KeyError, ValueError) as exc:
-            raise UserError(f"{path}: unreadable sigrok metadata ({exc})") from None
+            raise UserError(f"{path}: unreadable sigrok metadata ({_line(exc)})") from None
         if rate <= 0 or unit not in (1, 2, 4, 8) or not 0 < total <= 8 * unit:
             raise UserError(f"{path}: sigrok metadata says samplerate {rate} Hz, unitsize "
                             f"{unit}, {total} probes: not a logic capture this reads")
@@ -105,10 +106,7 @@ def read_sr(path: str | Path) -> LogicCapture:
         files = [n for _, n in chunks] or ([base] if base in names else [])
         if not files:
             raise UserError(f"{path}: no logic samples ({base}) in the capture")
-        try:
-            raw = b"".join(zf.read(n) for n in files)
-        except (zipfile.BadZipFile, EOFError, OSError, zlib.error) as exc:
-            raise UserError(f"{path}: truncated or damaged capture ({exc})") from None
+        raw = b"".join(_member(zf, n, path) for n in files)
     if len(raw) % unit:
         raise UserError(f"{path}: truncated capture: {len(raw)} bytes of samples is no whole "
                         f"number of {unit}-byte samples")
@@ -116,6 +114,21 @@ def read_sr(path: str | Path) -> LogicCapture:
         raise UserError(f"{path}: the capture holds no samples")
     dtype = {1: "<u1", 2: "<u2", 4: "<u4", 8: "<u8"}[unit]
     return LogicCapture(str(path), rate, channels, np.frombuffer(raw, dtype=dtype))
+
+
+def _line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return text[0] if text else exc.__class__.__name__
+
+
+def _member(zf: zipfile.ZipFile, name: str, path: Path) -> bytes:
+    """One file of the zip; a damaged one (a CRC, a deflate stream, a header cut short)
+    is the capture's one-line error."""
+    try:
+        return zf.read(name)
+    except (zipfile.BadZipFile, EOFError, OSError, zlib.error, NotImplementedError,
+            ValueError) as exc:
+        raise UserError(f"{path}: truncated or damaged capture ({name}: {_line(exc)})") from None
 
 
 def edges(levels: np.ndarray) -> np.ndarray:
