@@ -224,3 +224,19 @@ def test_a_log_whose_clock_jumps_past_a_traces_range_is_one_line(tmp_path, capsy
     err = refused(capsys, "trace", "import", log, "--out", tmp_path / "x.mcap")
     assert "a log spans 0 to 1e+09 s" in err and "a time jumped" in err
     assert not (tmp_path / "x.mcap").exists() and not (tmp_path / "x.mcap.partial").exists()
+
+
+def test_python_can_csv_trc_and_sqlite_logs_import_too(tmp_path, capsys):
+    msgs = [can.Message(timestamp=1e9 + 0.02 * i, arbitration_id=0x120, data=bytes([i] * 8),
+                        is_extended_id=False) for i in range(5)]
+    for suffix in (".csv", ".trc", ".db"):
+        path = tmp_path / f"robot{suffix}"
+        w = can.Logger(str(path))   # python-can's CSVWriter, TRCWriter, SqliteWriter
+        for m in msgs:
+            w.on_message_received(m)
+        w.stop()
+        out = tmp_path / f"robot{suffix}.mcap"
+        rc, _, err = cli(capsys, "trace", "import", path, "--out", out)
+        assert rc == 0, (suffix, err)
+        assert [(t, a, d) for t, _, a, d in can_frames(out)] == \
+            [(20_000 * i, 0x120, bytes([i] * 8)) for i in range(5)], suffix

@@ -6,8 +6,8 @@ run, say) make one trace, their records written in time order.
 Three kinds (``LogKind``), told apart by the file's name unless ``kind`` says:
 
 * ``can``: a CAN log python-can's ``LogReader`` reads (``.asc``, ``.blf``, ``.log``
-  candump -L, ``.csv``, ``.trc``, ``.mf4``, ``.db``) -> ``/can/raw`` and the DBC's decoded
-  frames. A frame is the firmware's (``tx``) when the map's ``[can] tx_ids`` lists its ID,
+  candump -L, ``.csv``, ``.trc``, ``.db``; ``.mf4`` with its asammdf) -> ``/can/raw`` and
+  the DBC's decoded frames. A frame is the firmware's (``tx``) when the map's ``[can] tx_ids`` lists its ID,
   else as the log marks it (python-can's ``is_rx``).
 * ``serial``: a logic analyser's capture of the servo line (sigrok ``.sr``) -> ``/serial``,
   decoded as half-duplex Dynamixel traffic (host_tools/trace/servo_capture.py); the map's
