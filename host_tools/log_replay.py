@@ -26,7 +26,7 @@ from hil import scenario as scenario_mod
 from hil.canbus.bus import CanBus
 from hil.clock import VirtualClock
 from hil.link.firmware_process import FirmwareProcess
-from hil.link.served_firmware import served_firmware
+from hil.link.served_firmware import ElfFirmware, served_firmware
 from hil.link.server import LinkServer, SwitchSampler
 from hil.run_result import RunTally
 from hil.servobus.line import Bus
@@ -144,6 +144,10 @@ class LoggedLine(Bus):
         self._table = models.table(log.model)
         self._own = self.parser_class()
 
+    def words(self, raw: bytes) -> list[str]:
+        """A packet in words, read against the log's servo model's table."""
+        return self._names(raw, self._table)
+
     def _deliver(self, tx: bytearray, t_us: int) -> None:
         """The burst that ended at ``t_us``: each packet it completes, at its last byte."""
         p, t0 = self._own, t_us - self.wire_us(len(tx))
@@ -162,8 +166,7 @@ class LoggedLine(Bus):
         if want.raw != raw:
             raise Diverged(Divergence(
                 t_us / 1e6, "uart", want.raw.hex(), raw.hex(), k,
-                {"expected": self._names(want.raw, self._table),
-                 "actual": self._names(raw, self._table)}))
+                {"expected": self.words(want.raw), "actual": self.words(raw)}))
         self.matched = k + 1
         for delay_us, data in want.replies:
             self._put(Burst(t_us + delay_us, bytearray(data), True))
@@ -220,10 +223,14 @@ class _LogWorld:
         self._next_in = k
 
 
-def _serve_ours(server: LinkServer, python: str, log: RobotLog, world: _LogWorld,
-                tally: RunTally, result: ReplayResult, timeout_s: float) -> None:
-    """Our firmware in its own process, killed where it diverged (it waits for a reply)."""
-    fw = FirmwareProcess(python, connect_timeout_s=timeout_s)
+def _serve_process(server: LinkServer, python: str, log: RobotLog, world: _LogWorld,
+                   tally: RunTally, result: ReplayResult, timeout_s: float,
+                   theirs: Any = None) -> None:
+    """A firmware in its own process (ours, or ``theirs``: a board main file, an
+    executable), killed where it diverged (it waits for a reply), as hexhil replay runs it."""
+    fw = FirmwareProcess(python, connect_timeout_s=timeout_s,
+                         command=theirs.command() if theirs else None,
+                         extra_env=theirs.env() if theirs else None)
     stopped = False
     try:
         try:
@@ -258,22 +265,23 @@ def replay_log(path: str | Path, python: str = "micropython",
     result = ReplayResult()
     tally = RunTally(python)
     wall0 = time.perf_counter()
-    if firmware is not None:   # the user's (a board main file, an executable, an ELF)
+    theirs = served_firmware(firmware) if firmware is not None else None
+    if isinstance(theirs, ElfFirmware):   # the emulated board, in this process
         try:
-            served_firmware(firmware).serve(server, log.end_us, tally)
+            theirs.serve(server, log.end_us, tally)
         except Diverged as d:
             result.divergence = d.divergence
         finally:
             world.can.shutdown()
         result.firmware_exit = tally.exit_code
     else:
-        _serve_ours(server, python, log, world, tally, result, timeout_s)
+        _serve_process(server, python, log, world, tally, result, timeout_s, theirs)
     line, cans = world.bus, world.logged_can
     if result.divergence is None and line.matched < len(log.packets):
         want = log.packets[line.matched]
         result.divergence = Divergence(
             world.clock.t_us / 1e6, "uart", want.raw.hex(), "(nothing: firmware stopped)",
-            line.matched, {"expected": line._names(want.raw, line._table), "actual": []})
+            line.matched, {"expected": line.words(want.raw), "actual": []})
     if result.divergence is None and cans.matched < len(log.can_out):
         t, arb, data = log.can_out[cans.matched]
         result.divergence = Divergence(world.clock.t_us / 1e6, "can", f"C {arb:03X}#{data.hex()}",

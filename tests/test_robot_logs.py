@@ -4,6 +4,7 @@ replayed into the firmware; bad logs are one line, exit 2. (The servo line's cap
 its master check: tests/test_capture_conformance.py.)"""
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
 import sys
@@ -240,3 +241,18 @@ def test_python_can_csv_trc_and_sqlite_logs_import_too(tmp_path, capsys):
         assert rc == 0, (suffix, err)
         assert [(t, a, d) for t, _, a, d in can_frames(out)] == \
             [(20_000 * i, 0x120, bytes([i] * 8)) for i in range(5)], suffix
+
+
+def test_another_firmware_diverges_at_its_first_other_packet_in_words(run_sr, tmp_path,
+                                                                      capsys):
+    """Our firmware's captured line replayed into another master (the board example): the
+    first packet that differs, both sides in words; the other firmware is stopped there."""
+    out = tmp_path / "ours.mcap"
+    assert cli(capsys, "trace", "import", run_sr, "--out", out)[0] == 0
+    rc, said, err = cli(capsys, "replay", out, "--firmware",
+                        ROOT / "examples" / "board_tripod.py", "--json")
+    assert rc == 1, said + err
+    d = json.loads(said.strip().splitlines()[-1])["first_divergence"]
+    assert d["topic"] == "uart" and d["exchange"] > 0
+    assert d["packets"]["expected"][0].startswith("WRITE id 1 Return Delay Time (5) = 0")
+    assert d["packets"]["actual"] == ["WRITE id 254 Torque Enable (24) = 1"]
