@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: setup demo test test-slow bench fuzz clean toolchain gl
+.PHONY: setup demo test test-slow bench fuzz clean toolchain gl sigrok
 
 # the compiled cores' sources: pip builds them (setup.py's build_ext), so an edit reinstalls
 CORE_SOURCES := setup.py hil/world/drive_core.c hil/servobus/servo_core.c \
@@ -51,16 +51,27 @@ gl:
 	    echo "  sudo apt-get install -y $(GL_PACKAGES)"; exit 1; \
 	fi
 
+# sigrok-cli, which writes the logic-analyser captures (.sr) the capture import tests read
+# (hexhil trace import reads .sr itself): Debian's package, installed the same way
+sigrok:
+	@if command -v sigrok-cli >/dev/null; then :; \
+	elif [ "$$(id -u)" = 0 ]; then \
+	    apt-get update && apt-get install -y sigrok-cli; \
+	else \
+	    echo "sigrok-cli is missing; install it with:"; \
+	    echo "  sudo apt-get install -y sigrok-cli"; exit 1; \
+	fi
+
 demo: $(STAMP)
 	$(BIN)/hexhil demo
 
-test: $(STAMP) toolchain gl
+test: $(STAMP) toolchain gl sigrok
 	$(BIN)/python -m pytest -q
 
-test-slow: $(STAMP) toolchain gl
+test-slow: $(STAMP) toolchain gl sigrok
 	$(BIN)/python -m pytest -q -m slow
 
-bench: $(STAMP) toolchain
+bench: $(STAMP) toolchain sigrok
 	$(BIN)/python -m bench
 
 # hostile inputs for every parser and loader; FUZZ="--scale 0.1" for a short run

@@ -67,7 +67,8 @@ FLAGS = {"python": "--runtime", "runtime": "--runtime", "firmware": "--firmware"
          "world": "--world", "model_path": "--model", "topics": "--topics",
          "gdb_port": "--gdb", "coverage": "--coverage", "bare": "--bare", "target": "--target",
          "seed": "--seed", "tactile": "--no-tactile", "overwrite": "--overwrite",
-         "keep_dir": "--keep-traces"}
+         "keep_dir": "--keep-traces", "map_path": "--map", "scenario": "--scenario",
+         "kind": "--as"}
 
 
 def flag_message(exc: UserError) -> str:
