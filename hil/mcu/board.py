@@ -29,8 +29,9 @@ from hil.mcu.mmio import PeripheralSpace
 from hil.mcu.link_client import LinkClient, Reply
 from hil.mcu.poll import PollSkipper
 from hil.mcu.servo_line import ServoLine
-from hil.mcu.peripherals import extra_peripherals
-from hil.mcu.rcc import HSI_HZ, Rcc, flash_interface, power
+from hil.mcu.peripherals import IrqLines, extra_peripherals
+from hil.mcu import platform
+from hil.mcu.rcc import CSR, HSI_HZ, Rcc, flash_interface, power
 from hil.mcu.system import Nvic, SystemBlock
 from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
@@ -76,8 +77,10 @@ class Board:
         self.exit_code: int | None = None
         self.ended = False
         self.fault: str | None = None
-        self.resets = 0                # SYSRESETREQs taken
-        self._reset_pending = False
+        self.resets = 0                # system resets taken (SYSRESETREQ, a watchdog)
+        self.reset_causes: dict[str, int] = {}
+        self._reset_pending: str | None = None     # what asked for the reset
+        self.noted: set[str] = set()   # registers without behaviour the log named
         self._last_request_us = -TICK_US
         self.debugger: Any = None      # hil/mcu/gdb.py, with --gdb
         self.line = ServoLine(self)
@@ -105,6 +108,7 @@ class Board:
         self.systick = SysTick(core, self.nvic, ev, lambda: self.rcc.hclk_hz)
         self.ppb = SystemBlock(core, self.nvic, self.systick, self._reset_request)
         self.exti = Exti(self.nvic.line)
+        self.irq_lines = IrqLines(self.nvic.line)
         space = self.space
         space.clear()
         gpio = [GpioPort(n, i, self._gpio_out, self._grounded(i),
@@ -126,7 +130,7 @@ class Board:
                         (0x40004400, self.usart2), (0x40011400, self.usart6)):
             space.map(base, p)
         self.can_listening = False     # bxCAN1 in normal mode: CAN input each millisecond
-        self.extra = extra_peripherals(self)
+        self.extra = extra_peripherals(self) + platform.build(self)
         for base, p in self.extra:
             space.map(base, p)
         space.relive()
@@ -214,8 +218,22 @@ class Board:
         """SCB AIRCR SYSRESETREQ: the chunk ends at this store (a write callback may stop
         the core: the store would run again on resume, but the core resumes at the reset
         vector instead), and ``run`` resets the MCU there (``_system_reset``)."""
-        self._reset_pending = True
+        self._reset_pending = "SYSRESETREQ"
         self.core.stop()
+
+    def watchdog_reset(self, name: str) -> None:
+        """IWDG's or WWDG's timeout: the same system reset as SYSRESETREQ's, at the end of
+        the instruction running now (or before the next one), named and counted."""
+        self._reset_pending = name
+        self.core.stop()
+
+    def reset_asked(self) -> bool:
+        """A watchdog's timer fired at the loop's head (the core was not running): the
+        reset is made there, before another instruction runs."""
+        if self._reset_pending:
+            self._system_reset()
+            return True
+        return False
 
     def _system_reset(self) -> None:
         """A system reset, as the chip's: the core and every peripheral back to their reset
@@ -224,8 +242,10 @@ class Board:
         from its reset vector. SRAM keeps its contents (the startup code sets .data and
         .bss); virtual time, the link and the world go on. The bytes already on the servo
         line go out as sent, and PA1 falls (its pin is an input after reset)."""
-        self._reset_pending = False
+        cause, self._reset_pending = self._reset_pending or "SYSRESETREQ", None
         self.resets += 1
+        self.reset_causes[cause] = self.reset_causes.get(cause, 0) + 1
+        flags = self.rcc.regs.get(CSR, 0)
         self.line.flush()
         old = [self.nvic, self.rcc, self.systick, self.ppb, self.exti, *self.gpio,
                self.usart1, self.usart2, self.usart6, *(p for _, p in self.extra)]
@@ -235,13 +255,16 @@ class Board:
                     value.clear()
         self.poll.forget()
         self._peripherals()
+        self.rcc.reset_by(cause, flags)
         self.core.vtor = 0
         self.core.fpu_on = False
         self.core.set_hz(self.rcc.hclk_hz)
         self.core.reset()
         self.line.pin(0)
-        log.info("firmware %s: system reset (SYSRESETREQ) at t=%.6f s, restarting from the "
-                 "reset vector", self.image.path.name, self.now_us() * 1e-6)
+        what = "SYSRESETREQ" if cause == "SYSRESETREQ" else f"{cause} timeout"
+        log_at = log.info if cause == "SYSRESETREQ" else log.warning
+        log_at("firmware %s: system reset (%s) at t=%.6f s, restarting from the reset vector",
+               self.image.path.name, what, self.now_us() * 1e-6)
 
     # --- registers ----------------------------------------------------------------
     # --- exceptions ---------------------------------------------------------------
@@ -342,6 +365,8 @@ class Board:
             n = head(MAX_CHUNK)
             if self.ended:
                 break
+            if self.reset_asked():
+                continue
             if self.fault is not None:
                 raise CoreFault(self.fault_line(self.fault))
             self.trip(n, take_next())
@@ -377,6 +402,9 @@ class Board:
                 core.read16(core.pc) in BRANCH_TO_SELF:
             self._lockup()
         self.poll.after_chunk()
+        if self._reset_pending:               # a watchdog timed out in the skipped wait
+            self._system_reset()
+            return
         if self.debugger is not None:
             self.debugger.after_chunk()
 

@@ -81,7 +81,7 @@ def handed_over(board: Any, where: int) -> int:
     if where == LOOP_AFTER_CHUNK:
         board.after_chunk()
     elif where == LOOP_AFTER_HEAD:
-        if board.ended:
+        if board.ended or board.reset_asked():
             return -1
         if board.fault is not None:
             raise CoreFault(board.fault_line(board.fault))
