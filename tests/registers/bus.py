@@ -47,6 +47,7 @@ class Bus:
         uc.reg_write(A.UC_ARM_REG_R0, addr)
         uc.reg_write(A.UC_ARM_REG_R1, value)
         core.pc = CODE + 2 * list(OPS).index((kind, size))
+        self.board.poll.other_access()     # one access is not a poll loop: no skipping
         core.run(1)
         self.board.after_chunk()
         return uc.reg_read(A.UC_ARM_REG_R1)
