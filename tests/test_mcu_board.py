@@ -99,3 +99,23 @@ def test_bit_band_aliases_reach_sram_bits_and_peripheral_registers(tmp_path):
     assert console(r)[-1].split() == ["00800011", "00000001", "03000000", "00000023",
                                       "00000003", "ffffffff"], console(r)
     assert r.ending.kind is Ending.COMPLETED and not r.faults
+
+
+def test_the_independent_watchdog_resets_a_firmware_that_stops_refreshing_it(tmp_path):
+    """IWDG at 10 ms, never refreshed: the MCU resets as by SYSRESETREQ, the run names the
+    cause and counts it, and the second boot finds RCC CSR's IWDGRSTF (cleared by RMVF)."""
+    r, _ = run_elf(build(tmp_path, "iwdg.c"), 0.05)
+    assert console(r) == ["iwdg started", "iwdg reset seen"], console(r)
+    assert r.firmware.other["mcu"]["resets"] == 1
+    assert r.firmware.other["mcu"]["reset_causes"] == {"IWDG": 1}
+    r, _ = run_elf(build(tmp_path, "iwdg.c", "REFRESH=1"), 0.05)
+    assert console(r) == ["iwdg started"] and r.firmware.other["mcu"]["resets"] == 0
+
+
+def test_tim1_as_the_hal_timebase_with_a_compare_at_ccr_0(tmp_path):
+    """TIM1's update interrupt at 1 kHz from APB2's timer clock (IRQ 25), its channel 1
+    compare at CCR1 = 0 each period on TIM1_CC (IRQ 27): 100 ticks in 100 ms of DWT."""
+    r, _ = run_elf(build(tmp_path, "tim1.c"), 0.15)
+    words = console(r)[-1].split()
+    assert words[:4] == ["tim1", "100", "cc", "100"], console(r)
+    assert 9_990_000 <= int(words[5]) <= 10_010_000
