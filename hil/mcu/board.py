@@ -115,8 +115,8 @@ class Board:
                          core.shared if self.native else None)
                 for i, n in enumerate(("GPIOA", "GPIOB", "GPIOC"))]
         gpio[1].before_input = self.fresh_switches
-        for i, port in enumerate(gpio):
-            space.map(0x40020000 + 0x400 * i, port)
+        for port in gpio:
+            space.map(platform.row(port.name).base, port)
         self.gpio = gpio
         line = self.nvic.line
         self.usart1 = Usart("USART1", 37, core, ev, lambda: self.rcc.pclk2_hz, line, self)
@@ -124,11 +124,9 @@ class Board:
             NativeUsart("USART2", 38, ev, lambda: self.rcc.pclk1_hz) if self.native else
             Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self.line))
         self.usart6 = Usart("USART6", 71, core, ev, lambda: self.rcc.pclk2_hz, line, self)
-        for base, p in ((0x40023800, self.rcc), (0x40023C00, flash_interface()),
-                        (0x40007000, power()), (0x40013C00, self.exti),
-                        (0x40013800, Syscfg(self.exti)), (0x40011000, self.usart1),
-                        (0x40004400, self.usart2), (0x40011400, self.usart6)):
-            space.map(base, p)
+        for p in (self.rcc, flash_interface(), power(), self.exti, Syscfg(self.exti),
+                  self.usart1, self.usart2, self.usart6):
+            space.map(platform.row(p.name).base, p)
         self.can_listening = False     # bxCAN1 in normal mode: CAN input each millisecond
         self.extra = extra_peripherals(self) + platform.build(self)
         for base, p in self.extra:

@@ -24,6 +24,7 @@ import logging
 from typing import Any
 
 from hil.mcu.core import FS_PER_S
+from hil.mcu.platform import row
 from hil.mcu.system import IRQS
 
 log = logging.getLogger(__name__)
@@ -369,12 +370,10 @@ def apb2_timer(board: Any, row: Any) -> BasicTimer:
 def extra_peripherals(board: Any) -> list[tuple[int, object]]:
     """(base address, peripheral) of the timers, DMA controllers and bxCAN1 of ``board``;
     also wires the USARTs' DMA requests and the board's CAN input."""
-    timers = [(0x40000000, BasicTimer(board, "TIM2", IRQS["TIM2"], 32)),
-              (0x40000400, BasicTimer(board, "TIM3", IRQS["TIM3"], 16)),
-              (0x40000800, BasicTimer(board, "TIM4", IRQS["TIM4"], 16)),
-              (0x40000C00, BasicTimer(board, "TIM5", IRQS["TIM5"], 32))]
+    timers = [BasicTimer(board, name, IRQS[name], bits)
+              for name, bits in (("TIM2", 32), ("TIM3", 16), ("TIM4", 16), ("TIM5", 32))]
     dmas = {1: Dma(board, 1), 2: Dma(board, 2)}
     for usart in (board.usart1, board.usart2, board.usart6):
         wire_usart_dma(usart, dmas)
     board.can = BxCan(board)
-    return timers + [(0x40026000, dmas[1]), (0x40026400, dmas[2]), (0x40006400, board.can)]
+    return [(row(p.name).base, p) for p in (*timers, dmas[1], dmas[2], board.can)]
