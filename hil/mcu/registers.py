@@ -152,7 +152,7 @@ class RegisterFile:
             self.regs[off] = value & ~clear
         return value & ~r.mask(Access.W)
 
-    def written(self, r: Register, old: int, value: int) -> int:
+    def after_write(self, r: Register, old: int, value: int) -> int:
         """The register's value after ``value`` is written over ``old``, by its fields'
         access rules (bits no field covers keep their value)."""
         keep = old & ~r.mask(Access.RW, Access.W, Access.RC_W1, Access.RC_W0, Access.T,
@@ -170,7 +170,7 @@ class RegisterFile:
             self._note(off)
             return
         old = self.regs[off]
-        new = self.written(r, old, value)
+        new = self.after_write(r, old, value)
         self.regs[off] = new & ~r.mask(Access.W)
         behaviour = self.on_write.get(off)
         if behaviour is None:
