@@ -119,3 +119,24 @@ def test_tim1_as_the_hal_timebase_with_a_compare_at_ccr_0(tmp_path):
     words = console(r)[-1].split()
     assert words[:4] == ["tim1", "100", "cc", "100"], console(r)
     assert 9_990_000 <= int(words[5]) <= 10_010_000
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_a_wait_on_ram_is_skipped_to_the_interrupt_and_a_counting_loop_is_not(
+        tmp_path, monkeypatch, compiled):
+    """HAL_Delay's kind of wait (a loop reading a tick only SysTick's handler changes) and
+    `while (!flag) {}` cost no host time: virtual time jumps to each SysTick, and the wait
+    lasts what it lasts on the chip. A loop that counts its passes in RAM runs pass by pass."""
+    if not compiled:
+        monkeypatch.setenv("HEXHIL_BOARD_CORE", "python")
+    quiet, _ = run_elf(build(tmp_path, "ram_wait.c", "WAIT=1"), 0.35)
+    ticks, cycles, passes = map(int, console(quiet)[-1].split())
+    assert ticks == 300 and passes == 0
+    assert 199 * 100_000 <= cycles <= 201 * 100_000          # 200 ms at 100 MHz
+    assert quiet.firmware.other["mcu"]["skipped_cycles"] > 0.9 * 300 * 100_000
+    counting, _ = run_elf(build(tmp_path, "ram_wait.c", "WAIT=2"), 0.35)
+    ticks, cycles, passes = map(int, console(counting)[-1].split())
+    assert ticks == 300 and 199 * 100_000 <= cycles <= 201 * 100_000
+    assert passes > 1_000_000            # every pass ran
+    skipped = counting.firmware.other["mcu"]["skipped_cycles"]
+    assert skipped < 0.4 * 300 * 100_000  # only the flag wait after it was skipped

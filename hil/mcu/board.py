@@ -5,11 +5,12 @@ The loop runs the core in chunks that end at the next scheduled event, so every 
 changes at its exact cycle. Waiting costs no host time: WFI/WFE sleep to the next event,
 and a poll loop is skipped to it (hil/mcu/poll.py). The registers are Unicorn MMIO
 callbacks (hil/mcu/mmio.py). SCB AIRCR SYSRESETREQ resets the MCU and the firmware starts
-again from its reset vector while the world goes on (``_system_reset``).
+again from its reset vector while the world goes on (``reset_if_asked``).
 """
 from __future__ import annotations
 
 import logging
+from collections import Counter
 from typing import Any, Callable
 
 from unicorn import UC_HOOK_INTR
@@ -28,6 +29,7 @@ from hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
 from hil.mcu.mmio import PeripheralSpace
 from hil.mcu.link_client import LinkClient, Reply
 from hil.mcu.poll import PollSkipper
+from hil.mcu.quiet import QuietLoops
 from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import IrqLines, extra_peripherals
 from hil.mcu import platform
@@ -63,14 +65,12 @@ class Board:
         self.shared = core.shared
         # the compiled hot path (hil/mcu/board_core.py) where it is built, else Python
         self.native = NativeBoard(self) if compiled and native() else None
-        if self.native:           # the exception model's entry and the NVIC's choice in C
+        self.events = NativeEvents(core.shared) if self.native else Events()
+        if self.native:   # in C: exception entry, the NVIC's choice, PA1's turns, the clock
             core.enter_c = exception_entry(core.shared)
             core.choose_c = exception_choice(core.shared)
-        self.events = NativeEvents(core.shared) if self.native else Events()
-        if self.native:           # PA1's turns made in C go out before the next message
-            self.link.turns = self.native.turns
-        if self.native:           # the same clock in one C call (a callback asks it often)
-            core.now_fs = self.events.now_fs
+            self.link.turns = self.native.turns     # out before the next message
+            core.now_fs = self.events.now_fs        # one C call (a callback asks it often)
         self.console = Console(self._console_line)
         self.console_tail: list[str] = []
         self.switches = 0
@@ -78,7 +78,7 @@ class Board:
         self.ended = False
         self.fault: str | None = None
         self.resets = 0                # system resets taken (SYSRESETREQ, a watchdog)
-        self.reset_causes: dict[str, int] = {}
+        self.reset_causes: Counter[str] = Counter()
         self._reset_pending: str | None = None     # what asked for the reset
         self.noted: set[str] = set()   # registers without behaviour the log named
         self._last_request_us = -TICK_US
@@ -94,6 +94,7 @@ class Board:
         else:
             core.uc.hook_add(UC_HOOK_INTR, lambda uc, intno, _: self.intr(intno))
         self.poll = PollSkipper(self)
+        self.quiet = QuietLoops(self)
 
     @property
     def skipped_cycles(self) -> int:
@@ -106,7 +107,7 @@ class Board:
         self.nvic = Nvic(core)
         self.rcc = Rcc(ev, core.now_fs, self._clock_changed)
         self.systick = SysTick(core, self.nvic, ev, lambda: self.rcc.hclk_hz)
-        self.ppb = SystemBlock(core, self.nvic, self.systick, self._reset_request)
+        self.ppb = SystemBlock(core, self.nvic, self.systick, self.request_reset)
         self.exti = Exti(self.nvic.line)
         self.irq_lines = IrqLines(self.nvic.line)
         space = self.space
@@ -115,8 +116,6 @@ class Board:
                          core.shared if self.native else None)
                 for i, n in enumerate(("GPIOA", "GPIOB", "GPIOC"))]
         gpio[1].before_input = self.fresh_switches
-        for port in gpio:
-            space.map(platform.row(port.name).base, port)
         self.gpio = gpio
         line = self.nvic.line
         self.usart1 = Usart("USART1", 37, core, ev, lambda: self.rcc.pclk2_hz, line, self)
@@ -124,13 +123,11 @@ class Board:
             NativeUsart("USART2", 38, ev, lambda: self.rcc.pclk1_hz) if self.native else
             Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self.line))
         self.usart6 = Usart("USART6", 71, core, ev, lambda: self.rcc.pclk2_hz, line, self)
-        for p in (self.rcc, flash_interface(), power(), self.exti, Syscfg(self.exti),
-                  self.usart1, self.usart2, self.usart6):
-            space.map(platform.row(p.name).base, p)
         self.can_listening = False     # bxCAN1 in normal mode: CAN input each millisecond
-        self.extra = extra_peripherals(self) + platform.build(self)
-        for base, p in self.extra:
-            space.map(base, p)
+        self.extra = [*extra_peripherals(self), *platform.build(self)]
+        for p in (*gpio, self.rcc, flash_interface(), power(), self.exti, Syscfg(self.exti),
+                  self.usart1, self.usart2, self.usart6, *self.extra):
+            space.map(platform.row(p.name).base, p)      # at its row's address
         space.relive()
 
     # --- the world ----------------------------------------------------------------
@@ -207,51 +204,40 @@ class Board:
         for usart in (self.usart1, self.usart2, self.usart6):
             usart.clock_changed()
         self.systick.rebase()
-        for _, p in self.extra:
-            rebase = getattr(p, "rebase", None)
-            if rebase is not None:
-                rebase()
+        for p in self.extra:
+            if hasattr(p, "rebase"):
+                p.rebase()
 
-    def _reset_request(self) -> None:
-        """SCB AIRCR SYSRESETREQ: the chunk ends at this store (a write callback may stop
-        the core: the store would run again on resume, but the core resumes at the reset
-        vector instead), and ``run`` resets the MCU there (``_system_reset``)."""
-        self._reset_pending = "SYSRESETREQ"
+    def request_reset(self, cause: str = "SYSRESETREQ") -> None:
+        """SCB AIRCR SYSRESETREQ or a watchdog's timeout (``cause``: IWDG, WWDG): the chunk
+        ends at this access (a write callback may stop the core: the store would run again
+        on resume, but the core resumes at the reset vector instead), and the loop resets
+        the MCU there, or at its head when a timer asked (``reset_if_asked``)."""
+        self._reset_pending = cause
         self.core.stop()
 
-    def watchdog_reset(self, name: str) -> None:
-        """IWDG's or WWDG's timeout: the same system reset as SYSRESETREQ's, at the end of
-        the instruction running now (or before the next one), named and counted."""
-        self._reset_pending = name
-        self.core.stop()
-
-    def reset_asked(self) -> bool:
-        """A watchdog's timer fired at the loop's head (the core was not running): the
-        reset is made there, before another instruction runs."""
-        if self._reset_pending:
-            self._system_reset()
-            return True
-        return False
-
-    def _system_reset(self) -> None:
-        """A system reset, as the chip's: the core and every peripheral back to their reset
-        state (HSI 16 MHz, no clocks enabled, GPIO inputs, USARTs off, NVIC and SysTick
-        cleared, VTOR 0, the FPU off), what they had scheduled dropped, the firmware again
-        from its reset vector. SRAM keeps its contents (the startup code sets .data and
-        .bss); virtual time, the link and the world go on. The bytes already on the servo
-        line go out as sent, and PA1 falls (its pin is an input after reset)."""
-        cause, self._reset_pending = self._reset_pending or "SYSRESETREQ", None
+    def reset_if_asked(self) -> bool:
+        """The system reset asked for, if one was, as the chip's: the core and every
+        peripheral back to their reset state (HSI 16 MHz, no clocks enabled, GPIO inputs,
+        USARTs off, NVIC and SysTick cleared, VTOR 0, the FPU off), what they had scheduled
+        dropped, the firmware again from its reset vector. SRAM keeps its contents (the
+        startup code sets .data and .bss); virtual time, the link and the world go on. The
+        bytes already on the servo line go out as sent, and PA1 falls (an input now)."""
+        if not self._reset_pending:
+            return False
+        cause, self._reset_pending = self._reset_pending, None
         self.resets += 1
-        self.reset_causes[cause] = self.reset_causes.get(cause, 0) + 1
+        self.reset_causes[cause] += 1
         flags = self.rcc.regs.get(CSR, 0)
         self.line.flush()
         old = [self.nvic, self.rcc, self.systick, self.ppb, self.exti, *self.gpio,
-               self.usart1, self.usart2, self.usart6, *(p for _, p in self.extra)]
+               self.usart1, self.usart2, self.usart6, *self.extra]
         for periph in old:
             for value in vars(periph).values():
                 if isinstance(value, (Timer, NativeTimer)):
                     value.clear()
         self.poll.forget()
+        self.quiet.forget()
         self._peripherals()
         self.rcc.reset_by(cause, flags)
         self.core.vtor = 0
@@ -259,12 +245,12 @@ class Board:
         self.core.set_hz(self.rcc.hclk_hz)
         self.core.reset()
         self.line.pin(0)
-        what = "SYSRESETREQ" if cause == "SYSRESETREQ" else f"{cause} timeout"
-        log_at = log.info if cause == "SYSRESETREQ" else log.warning
-        log_at("firmware %s: system reset (%s) at t=%.6f s, restarting from the reset vector",
-               self.image.path.name, what, self.now_us() * 1e-6)
+        (log.info if cause == "SYSRESETREQ" else log.warning)(
+            "firmware %s: system reset (%s) at t=%.6f s, restarting from the reset vector",
+            self.image.path.name, cause if cause == "SYSRESETREQ" else f"{cause} timeout",
+            self.now_us() * 1e-6)
+        return True
 
-    # --- registers ----------------------------------------------------------------
     # --- exceptions ---------------------------------------------------------------
     def intr(self, intno: int) -> None:
         """Unicorn's interrupt hook: an exception return, SVC, a breakpoint, a fault."""
@@ -361,9 +347,11 @@ class Board:
                 n = handed_over(self, loop(MAX_CHUNK, n))
                 continue
             n = head(MAX_CHUNK)
+            if core.shared.quiet_n > 0:
+                n = min(n, core.shared.quiet_n)
             if self.ended:
                 break
-            if self.reset_asked():
+            if self.reset_if_asked():
                 continue
             if self.fault is not None:
                 raise CoreFault(self.fault_line(self.fault))
@@ -383,26 +371,27 @@ class Board:
         if self.debugger is not None:
             n = self.debugger.chunk_limit(n)
         try:
-            core.run(n)
+            ran = core.run(n)
         except CoreFault as exc:
             raise CoreFault(self.fault_line(str(exc))) from None
         self.after_chunk()
+        st = core.shared
+        if st.mmio_n != st.chunk_mmio or core.sleeping or core.stopped or core.cut:
+            self.quiet.loud_chunk()
+        elif ran == n and self.debugger is None and not self._reset_pending:
+            self.quiet.quiet_chunk(ran)
 
     def after_chunk(self) -> None:
         """A chunk ran: its fault, a system reset, a lockup, the poll skipper's next step."""
         core = self.core
         if self.fault is not None:
             raise CoreFault(self.fault_line(self.fault))
-        if self._reset_pending:
-            self._system_reset()
+        if self.reset_if_asked():
             return
         if core.shared.nactive and self.debugger is None and \
                 core.read16(core.pc) in BRANCH_TO_SELF:
             self._lockup()
         self.poll.after_chunk()
-        if self._reset_pending:               # a watchdog timed out in the skipped wait
-            self._system_reset()
-            return
         if self.debugger is not None:
             self.debugger.after_chunk()
 

@@ -123,7 +123,13 @@ typedef struct {
     int32_t turns_n, _pad3;      /* PA1's turns made here, for the link (link_client.py) */
     int64_t turn_us[TURNS];
     int32_t turn_level[TURNS];
-    set3_t nots;                 /* repeated reads that are no wait: (pc, register, cycles) */
+    set3_t nots;                 /* repeated reads that are no wait: (pc, register, 0) */
+    /* quiet loops (poll.py ``QuietLoops``): a chunk without a register access */
+    int64_t mmio_n;              /* register accesses so far */
+    int64_t chunk_mmio;          /* mmio_n when the chunk began */
+    int64_t quiet_n;             /* > 0: chunks no longer than this (a pass being checked) */
+    int64_t quiet_wait;          /* quiet chunks to let by before Python looks again */
+    int64_t quiet_loud;          /* chunks with register accesses since the last quiet one */
 } bc_t;
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
@@ -515,7 +521,7 @@ int bc_add_wait(bc_t *s, uint32_t pc, uint32_t addr, uint32_t value) {
     return set_add(&s->waits, pc, addr, value);
 }
 
-/* poll.py ``_loops_ok`` False: a read repeated ``cycles`` apart at ``pc`` waits on nothing */
+/* poll.py ``_loops_ok`` False: a read at ``pc`` waits on nothing (``cycles`` is 0) */
 int bc_add_not_loop(bc_t *s, uint32_t pc, uint32_t addr, uint32_t cycles) {
     return set_add(&s->nots, pc, addr, cycles);
 }
@@ -554,7 +560,7 @@ static int polled(bc_t *s, uint32_t addr, uint32_t value) {
     }
     int64_t now = now_cyc(s), cycles = now - s->poll_at;
     if (!s->watching && s->nots.n >= 0 && cycles >= 0 && cycles < 0x80000000LL &&
-        set_has(&s->nots, *s->pc, addr, (uint32_t)cycles)) {
+        set_has(&s->nots, *s->pc, addr, 0)) {
         s->poll_at = now;         /* the same read again, known to wait on nothing */
         return 0;
     }
@@ -639,6 +645,7 @@ static int write_porta(bc_t *s, int off, uint32_t value) {
 
 uint64_t bc_mmio_read(void *uc, uint64_t offset, unsigned size, void *ud) {
     bc_t *s = ud;
+    s->mmio_n++;
     if ((offset >> 10) == GPIOA_PAGE + 1 && (offset & 0x3FC) == GPIO_IDR && s->gpio_live & 2)
         return read_switches(s, offset, size);
     if ((offset >> 10) != USART2_PAGE || !s->u2_live) {
@@ -659,6 +666,7 @@ uint64_t bc_mmio_read(void *uc, uint64_t offset, unsigned size, void *ud) {
 
 void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, void *ud) {
     bc_t *s = ud;
+    s->mmio_n++;
     if ((offset >> 10) == GPIOA_PAGE && size == 4 && s->gpio_live & 1 &&
         ((offset & 0x3FF) == GPIO_ODR || (offset & 0x3FF) == GPIO_BSRR) &&
         write_porta(s, (int)(offset & 0x3FF), (uint32_t)value))
@@ -903,10 +911,11 @@ int bc_rx_deliver(bc_t *s, int64_t at) {
 /* --- the run loop (board.py ``run`` and core.py ``run``) ------------------------------ */
 /* where Python goes on: hil/mcu/board_loop.py LOOP_*, the same numbers */
 enum { LOOP_AFTER_HEAD = 0, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
-       LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT };
+       LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT, LOOP_QUIET };
 #define WFI 0xBF30
 #define WFE 0xBF20
 #define BRANCH_TO_SELF 0xE7FE
+#define QUIET_LOUD 8             /* chunks with register accesses that end a quiet wait */
 
 static int read16(bc_t *s, uint32_t addr, uint16_t *op) {
     if (addr >= FLASH_BASE && addr <= FLASH_BASE + FLASH_SIZE - 2) {
@@ -926,6 +935,7 @@ static int wakes(bc_t *s) {
    Unicorn's: the LOOP_* code in ``loop_exc``) */
 static int64_t run_chunk(bc_t *s, int64_t n) {
     s->chunk0 = s->cyc;
+    s->chunk_mmio = s->mmio_n;
     s->stopped = s->cut = 0;
     s->running = 1;
     s->hook_failed = 0;
@@ -975,6 +985,7 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
                 return LOOP_AFTER_HEAD;
             }
         }
+        if (s->quiet_n > 0 && n > s->quiet_n) n = s->quiet_n;
         s->loop_n = n;
         int64_t taken = bc_take_next(s, (uint32_t)s->pc_next, s->fpu_on,
                                      s->vtor ? (uint32_t)s->vtor : FLASH_BASE);
@@ -994,11 +1005,19 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
                 continue;
             }
         }
-        if (run_chunk(s, n) < 0) return s->loop_exc;
+        int64_t ran = run_chunk(s, n);
+        if (ran < 0) return s->loop_exc;
         if (s->touched != seen || s->watching) return LOOP_AFTER_CHUNK;
         uint16_t op = 0;           /* a lockup's first test: Python's, as it reads */
         if (s->nactive && (read16(s, (uint32_t)s->pc_next, &op) || op == BRANCH_TO_SELF))
             return LOOP_AFTER_CHUNK;
+        if (s->mmio_n != s->chunk_mmio) {
+            if (++s->quiet_loud > QUIET_LOUD) s->quiet_n = 0;   /* no wait goes on */
+        } else if (ran == n && !s->sleeping && !s->stopped && !s->cut) {
+            s->quiet_loud = 0;
+            if (s->quiet_wait > 0) s->quiet_wait--;       /* a quiet chunk: quiet.py looks */
+            else return LOOP_QUIET;
+        }
         n = -1;
     }
 }

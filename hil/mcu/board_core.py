@@ -83,7 +83,9 @@ class Shared(ctypes.Structure):
                 ("gpio_odr", ctypes.c_uint32 * 3), ("gpio_live", _I32), ("switches", _I32),
                 ("last_request_us", _I64), ("turns_n", _I32), ("_pad3", _I32),
                 ("turn_us", _I64 * TURNS), ("turn_level", _I32 * TURNS),
-                ("nots", (ctypes.c_uint32 * 3) * WAITS), ("nnots", _I32)]
+                ("nots", (ctypes.c_uint32 * 3) * WAITS), ("nnots", _I32),
+                ("mmio_n", _I64), ("chunk_mmio", _I64), ("quiet_n", _I64),
+                ("quiet_wait", _I64), ("quiet_loud", _I64)]
 
 
 
@@ -381,9 +383,8 @@ def add_wait(shared: Shared, pc: int, addr: int, value: int) -> None:
         shared.nwaits = -1
 
 
-def add_not_loop(shared: Shared, pc: int, addr: int, cycles: int) -> None:
-    """A read repeated ``cycles`` apart that waits on nothing (poll.py ``_loops_ok``
-    False): C answers it without Python."""
-    if shared.nnots >= 0 and 0 <= cycles < 1 << 31 and \
-            _LIB.bc_add_not_loop(ctypes.byref(shared), pc, addr, cycles) < 0:
+def add_not_loop(shared: Shared, pc: int, addr: int) -> None:
+    """A read at ``pc`` that waits on nothing (poll.py ``_loops_ok`` False): C answers it
+    without Python, however far apart its repeats come."""
+    if shared.nnots >= 0 and _LIB.bc_add_not_loop(ctypes.byref(shared), pc, addr, 0) < 0:
         shared.nnots = -1

@@ -202,6 +202,10 @@ class Core:
             return struct.unpack_from("<H", self._flash_mem, addr - FLASH_BASE)[0]
         return int.from_bytes(self.uc.mem_read(addr, 2), "little")
 
+    def sram_view(self) -> memoryview:
+        """SRAM's bytes as they are now (no copy)."""
+        return self._sram_mem
+
     def store32(self, addr: int, value: int) -> None:
         """A word into SRAM's buffer inside a callback (the bit-band alias)."""
         struct.pack_into("<I", self._sram_mem, addr - SRAM_BASE, value & 0xFFFFFFFF)
@@ -233,6 +237,7 @@ class Core:
         """Run up to ``n`` instructions from ``self.pc``; how many ran."""
         uc, st = self.uc, self.shared
         st.chunk0 = st.cyc
+        st.chunk_mmio = st.mmio_n
         st.stopped = st.cut = 0
         st.running = 1
         try:

@@ -138,6 +138,7 @@ class PeripheralSpace:
         directly (Unicorn's Python wrapper costs two more Python frames a register)."""
         try:
             board = self.board
+            board.core.shared.mmio_n += 1
             board.events.fire_due(board.core.now_fs())
             p = self._live.get(offset >> 10)
             if p is None:
@@ -160,6 +161,7 @@ class PeripheralSpace:
     def write(self, handle: int, offset: int, size: int, value: int, _ud: int) -> None:
         try:
             board = self.board
+            board.core.shared.mmio_n += 1
             board.events.fire_due(board.core.now_fs())
             board.poll.other_access()
             p = self._live.get(offset >> 10)
@@ -182,6 +184,7 @@ class PeripheralSpace:
         try:
             board = self.board
             board.core.shared.touched += 1      # Python took part (board_loop.py)
+            board.core.shared.mmio_n += 1
             self._due()
             addr = PPB_BASE + offset
             value = (board.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
@@ -198,6 +201,7 @@ class PeripheralSpace:
         try:
             board = self.board
             board.core.shared.touched += 1
+            board.core.shared.mmio_n += 1
             self._due()
             board.poll.other_access()
             addr = PPB_BASE + offset

@@ -24,7 +24,6 @@ import logging
 from typing import Any
 
 from hil.mcu.core import FS_PER_S
-from hil.mcu.platform import row
 from hil.mcu.system import IRQS
 
 log = logging.getLogger(__name__)
@@ -367,13 +366,13 @@ def apb2_timer(board: Any, row: Any) -> BasicTimer:
                       channels=TIMER_CHANNELS[row.name])
 
 
-def extra_peripherals(board: Any) -> list[tuple[int, object]]:
-    """(base address, peripheral) of the timers, DMA controllers and bxCAN1 of ``board``;
-    also wires the USARTs' DMA requests and the board's CAN input."""
+def extra_peripherals(board: Any) -> list[Any]:
+    """TIM2-5, the DMA controllers and bxCAN1 of ``board`` (mapped at their platform rows'
+    bases, hil/mcu/platform.py); also wires the USARTs' DMA requests and the board's CAN input."""
     timers = [BasicTimer(board, name, IRQS[name], bits)
               for name, bits in (("TIM2", 32), ("TIM3", 16), ("TIM4", 16), ("TIM5", 32))]
     dmas = {1: Dma(board, 1), 2: Dma(board, 2)}
     for usart in (board.usart1, board.usart2, board.usart6):
         wire_usart_dma(usart, dmas)
     board.can = BxCan(board)
-    return [(row(p.name).base, p) for p in (*timers, dmas[1], dmas[2], board.can)]
+    return [*timers, dmas[1], dmas[2], board.can]

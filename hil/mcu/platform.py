@@ -246,9 +246,10 @@ def make(board: Any, r: Row) -> Any:
     return model(board, r)
 
 
-def build(board: Any) -> list[tuple[int, Any]]:
-    """(base, peripheral) of every ``Built.TABLE`` row, in the table's order."""
-    return [(r.base, make(board, r)) for r in rows(Built.TABLE)]
+def build(board: Any) -> list[Any]:
+    """The peripheral of every ``Built.TABLE`` row, in the table's order (the board maps
+    each at its row's base)."""
+    return [make(board, r) for r in rows(Built.TABLE)]
 
 
 def markdown() -> str:

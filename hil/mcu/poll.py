@@ -33,7 +33,9 @@ class PollSkipper:
         self._stale_code = False     # code translated while a deleted watch hook was listed
         self._ram_written = False
         self._skip = False
-        self._loops_ok: dict[tuple[int, int, int], bool] = {}
+        # a read site's verdict, keyed on what it reads (PC, register), not on how far
+        # apart its repeats come: a site that is no wait is never watched again
+        self._loops_ok: dict[tuple[int, int], bool] = {}
         self._waits: set[tuple[int, int, int]] = set()        # (pc, register, value)
         self._wait_values: set[tuple[int, int]] = set()
 
@@ -61,7 +63,7 @@ class PollSkipper:
         loop = (core.pc_now(), addr, delta)
         watch = self._watch
         if watch is None:
-            known = self._loops_ok.get(loop)
+            known = self._loops_ok.get(loop[:2])
             if known:                  # watched once: the same code, the same pass
                 self._known_wait(loop[0], addr, value)
                 return self._jump_here()
@@ -72,14 +74,14 @@ class PollSkipper:
                 core.stop()
         elif watch[0] == loop and watch[1] == value and not self._ram_written \
                 and core.context() == watch[2]:
-            self._loops_ok[loop] = True
+            self._loops_ok[loop[:2]] = True
             self._known_wait(loop[0], addr, value)
             self._skip = True
             core.stop()
         else:
-            self._loops_ok[watch[0]] = False
+            self._loops_ok[watch[0][:2]] = False
             if self.board.native is not None:
-                add_not_loop(self._st, *watch[0])
+                add_not_loop(self._st, *watch[0][:2])
             self._end_watch()
         return False
 

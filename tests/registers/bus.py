@@ -80,7 +80,7 @@ class Bus:
             if cycles > 0:
                 core.jump(cycles)
             events.fire_due(core.now_fs())
-            board.reset_asked()
+            board.reset_if_asked()
             if at >= end:
                 return
 

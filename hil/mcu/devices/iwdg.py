@@ -1,7 +1,7 @@
 """IWDG, the independent watchdog (RM0383 17): a 12-bit down-counter on LSI (32 kHz)
 divided by 4 * 2**PR; the key 0xCCCC starts it (from 0xFFF), 0xAAAA reloads it from RLR,
 0x5555 unlocks PR and RLR. Reaching 0 resets the MCU as the chip does (the board's
-``watchdog_reset``). PVU and RVU stay set for 5 LSI periods after a write of PR or RLR.
+``request_reset``). PVU and RVU stay set for 5 LSI periods after a write of PR or RLR.
 Once started it runs until a reset; a write to PR or RLR while locked is ignored.
 """
 from __future__ import annotations
@@ -74,4 +74,4 @@ class Iwdg(RegisterFile):
         self.updated.set(self.board.core.now_fs() + UPDATE_LSI_PERIODS * FS_PER_S // LSI_HZ)
 
     def _expired(self, at_fs: int) -> None:
-        self.board.watchdog_reset(self.name)
+        self.board.request_reset(self.name)

@@ -1,7 +1,7 @@
 """WWDG, the window watchdog (RM0383 18): a 7-bit down-counter (CR T) on PCLK1 / 4096 /
 2**WDGTB. Once WDGA is set (it cannot be cleared but by a reset) the MCU resets when T6
 falls (the counter passes 0x40 to 0x3F) or when CR is written while the counter is still
-above the window (CFR W), as the chip does (the board's ``watchdog_reset``). The early
+above the window (CFR W), as the chip does (the board's ``request_reset``). The early
 wakeup flag EWIF (and its interrupt, with EWI) comes as the counter reaches 0x40.
 """
 from __future__ import annotations
@@ -24,7 +24,7 @@ class Wwdg(RegisterFile):
         super().__init__(WWDG.renamed(row.name), board.noted)
         self.board, self.irq = board, row.irq_numbers[0]
         self._count0, self._t0 = 0x7F, 0
-        self.expiry = board.events.timer(lambda at: board.watchdog_reset(self.name))
+        self.expiry = board.events.timer(lambda at: board.request_reset(self.name))
         self.early = board.events.timer(self._early)
         self.behave("CR", read=lambda: WDGA & self.value("CR") | self.counter(),
                     write=self._cr)
@@ -48,7 +48,7 @@ class Wwdg(RegisterFile):
     def _cr(self, old: int, new: int) -> None:
         was_running = bool(old & WDGA)
         if was_running and self.counter() > self.field_value("CFR", "W"):
-            self.board.watchdog_reset(self.name)      # refreshed outside the window
+            self.board.request_reset(self.name)      # refreshed outside the window
             return
         self._anchor(new & 0x7F)
 
@@ -58,7 +58,7 @@ class Wwdg(RegisterFile):
             return
         tick = self._tick_fs()
         if count < 0x40:
-            self.board.watchdog_reset(self.name)
+            self.board.request_reset(self.name)
             return
         self.expiry.set(self._t0 + (count - 0x3F) * tick)
         self.early.set(self._t0 + (count - 0x40) * tick)
