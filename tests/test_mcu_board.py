@@ -140,3 +140,11 @@ def test_a_wait_on_ram_is_skipped_to_the_interrupt_and_a_counting_loop_is_not(
     assert passes > 1_000_000            # every pass ran
     skipped = counting.firmware.other["mcu"]["skipped_cycles"]
     assert skipped < 0.4 * 300 * 100_000  # only the flag wait after it was skipped
+
+
+def test_the_window_watchdog_refreshed_in_its_window_then_left_to_reset(tmp_path):
+    """WWDG's counter polled down into the window (a poll of it is not skipped: it moves
+    between events) and refreshed five times, then not: its reset is named and counted."""
+    r, _ = run_elf(build(tmp_path, "wwdg.c"), 0.03)
+    assert console(r) == ["5f 5f 5f 5f 5f refreshed", "wwdg reset seen"], console(r)
+    assert r.firmware.other["mcu"]["reset_causes"] == {"WWDG": 1}

@@ -30,6 +30,8 @@ class Wwdg(RegisterFile):
                     write=self._cr)
         self.behave("CFR", write=lambda old, new: self.rebase())
         self.behave("SR", write=lambda old, new: self._line())
+        # CR's counter moves between events: a poll of it runs, it is not skipped
+        self.pollable = frozenset({self.offset("CFR"), self.offset("SR")})
 
     @property
     def running(self) -> bool:
