@@ -148,3 +148,18 @@ def test_the_window_watchdog_refreshed_in_its_window_then_left_to_reset(tmp_path
     r, _ = run_elf(build(tmp_path, "wwdg.c"), 0.03)
     assert console(r) == ["5f 5f 5f 5f 5f refreshed", "wwdg reset seen"], console(r)
     assert r.firmware.other["mcu"]["reset_causes"] == {"WWDG": 1}
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_conditional_stores_in_it_blocks_survive_a_watched_interrupt_read(
+        tmp_path, monkeypatch, compiled):
+    """MicroPython's gc.collect() crash: its SysTick handler reads SysTick->CTRL, the poll
+    skipper watches the pass after such a read, and the watch must not change how the code
+    around it runs. gc_mark_subtree's `itte ls; strhls; addls; strhi` push went astray
+    while a Unicorn store hook watched SRAM; here every push of every round lands."""
+    if not compiled:
+        monkeypatch.setenv("HEXHIL_BOARD_CORE", "python")
+    r, _ = run_elf(build(tmp_path, "it_store.c"), 0.06)
+    assert r.ending.kind is Ending.COMPLETED, r.ending
+    rounds, bad = map(int, console(r)[-1].split())
+    assert rounds > 1000 and bad == 0

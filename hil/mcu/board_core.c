@@ -11,6 +11,7 @@
  * clock change. It also runs the board's loop (``bc_loop``) while no Python takes part.
  * Each function is the Python model's (hil/mcu/usart.py, events.py, poll.py, board.py,
  * core.py) in the same order with the same integers, so traces are the same bytes. */
+#include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -131,6 +132,56 @@ typedef struct {
     int64_t quiet_wait;          /* quiet chunks to let by before Python looks again */
     int64_t quiet_loud;          /* chunks with register accesses since the last quiet one */
 } bc_t;
+
+/* bc_t's layout as this compiler laid it out: board_core.py checks its ``Shared`` against
+ * it field by field when it loads this library, and refuses a build that differs. */
+typedef struct { const char *name; int64_t offset, size; } field_t;
+#define F(py, c) {#py, (int64_t)offsetof(bc_t, c), (int64_t)sizeof(((bc_t *)0)->c)},
+static const field_t layout[] = {
+F(ctr, ctr) F(pc, pc) F(chunk0, chunk0) F(cyc, cyc) F(fs0, fs0) F(cyc0, cyc0)
+    F(fs_per_cyc, fs_per_cyc) F(hz, hz) F(running, running) F(_pad, _pad)
+    F(skipped, skipped) F(poll_valid, poll_valid) F(poll_addr, poll_addr)
+    F(poll_value, poll_value) F(reread, reread) F(watching, watching)
+    F(pending_n, pending_n) F(poll_at, poll_at) F(u2_live, u2_live) F(u2_line, u2_line)
+    F(u2_dma_tx, u2_dma_tx) F(u2_dma_rx, u2_dma_rx) F(sr, sr) F(brr, brr) F(cr1, cr1)
+    F(cr2, cr2) F(cr3, cr3) F(gtpr, gtpr) F(tdr, tdr) F(rdr, rdr) F(echo, echo)
+    F(frame_fs, frame_fs) F(direction, direction) F(burst_dir, burst_dir)
+    F(burst_n, burst_n) F(burst_cap, burst_cap) F(burst_fs, burst_fs) F(burst, burst)
+    F(next_at, next_at) F(seq, seq) F(n, n) F(cap, cap) F(ntimers, ntimers)
+    F(u2_tid, u2_tid) F(err, err) F(heap, heap) F(gen, gen) F(tat, tat) F(py_call, py_call)
+    F(py_timer, py_timer) F(py_read, py_read) F(py_write, py_write) F(waits, waits.slot)
+    F(nwaits, waits.n) F(active, active) F(nactive, nactive) F(sleeping, sleeping)
+    F(sleep_on_exit, sleep_on_exit) F(_pad2, _pad2) F(uc, uc) F(sram, sram) F(flash, flash)
+    F(reg_read_batch, reg_read_batch) F(reg_write_batch, reg_write_batch) F(regid, regid)
+    F(fast_returns, fast_returns) F(pend, pend) F(st_tid, st_tid) F(st_csr, st_csr)
+    F(st_rvr, st_rvr) F(st_countflag, st_countflag) F(ena, ena) F(ena_n, ena_n)
+    F(prigroup, prigroup) F(prio, prio) F(rx_tid, rx_tid) F(rx_n, rx_n) F(rx_head, rx_head)
+    F(rx_cap, rx_cap) F(rx_at, rx_at) F(rx_byte, rx_byte) F(pc_next, pc_next) F(vtor, vtor)
+    F(executed, executed) F(touched, touched) F(loop_n, loop_n) F(fpu_on, fpu_on)
+    F(stopped, stopped) F(cut, cut) F(hook_failed, hook_failed) F(uc_err, uc_err)
+    F(loop_exc, loop_exc) F(emu_start, emu_start) F(mem_read, mem_read) F(lines, lines)
+    F(lines_n, lines_n) F(u2_pclk, u2_pclk) F(emu_stop, emu_stop) F(gpio_moder, gpio_moder)
+    F(gpio_pupdr, gpio_pupdr) F(gpio_odr, gpio_odr) F(gpio_live, gpio_live)
+    F(switches, switches) F(last_request_us, last_request_us) F(turns_n, turns_n)
+    F(_pad3, _pad3) F(turn_us, turn_us) F(turn_level, turn_level) F(nots, nots.slot)
+    F(nnots, nots.n) F(mmio_n, mmio_n) F(chunk_mmio, chunk_mmio) F(quiet_n, quiet_n)
+    F(quiet_wait, quiet_wait) F(quiet_loud, quiet_loud)
+};
+#undef F
+
+/* field ``i`` of bc_t (its Python name, offset and size), 0 past the last; the struct's size
+   for i = -1 */
+int bc_layout(int i, const char **name, int64_t *offset, int64_t *size) {
+    if (i < 0) {
+        *size = (int64_t)sizeof(bc_t);
+        return 1;
+    }
+    if (i >= (int)(sizeof layout / sizeof layout[0])) return 0;
+    *name = layout[i].name;
+    *offset = layout[i].offset;
+    *size = layout[i].size;
+    return 1;
+}
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
 enum { GPIO_MODER = 0x00, GPIO_PUPDR = 0x0C, GPIO_IDR = 0x10, GPIO_ODR = 0x14, GPIO_BSRR = 0x18 };
