@@ -34,7 +34,7 @@ from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import IrqLines, extra_peripherals
 from hil.mcu import platform
 from hil.mcu.rcc import CSR, HSI_HZ, Rcc, flash_interface, power
-from hil.mcu.system import Nvic, SystemBlock
+from hil.mcu.system import MASKED_STEPS, Nvic, SystemBlock
 from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
 
@@ -355,7 +355,15 @@ class Board:
                 continue
             if self.fault is not None:
                 raise CoreFault(self.fault_line(self.fault))
-            self.trip(n, take_next())
+            taken = take_next()
+            st = core.shared
+            if st.pending_n and self.nvic.masked_ready():   # taken right after its unmasking
+                if st.masked_steps < MASKED_STEPS:
+                    n = 1
+                    st.masked_steps += 1
+            else:
+                st.masked_steps = 0
+            self.trip(n, taken)
         self.console.flush()
         self.line.flush()
 

@@ -131,6 +131,7 @@ typedef struct {
     int64_t quiet_n;             /* > 0: chunks no longer than this (a pass being checked) */
     int64_t quiet_wait;          /* quiet chunks to let by before Python looks again */
     int64_t quiet_loud;          /* chunks with register accesses since the last quiet one */
+    int64_t masked_steps;        /* one-instruction chunks while a masked exception waits */
 } bc_t;
 
 /* bc_t's layout as this compiler laid it out: board_core.py checks its ``Shared`` against
@@ -166,6 +167,7 @@ F(ctr, ctr) F(pc, pc) F(chunk0, chunk0) F(cyc, cyc) F(fs0, fs0) F(cyc0, cyc0)
     F(_pad3, _pad3) F(turn_us, turn_us) F(turn_level, turn_level) F(nots, nots.slot)
     F(nnots, nots.n) F(mmio_n, mmio_n) F(chunk_mmio, chunk_mmio) F(quiet_n, quiet_n)
     F(quiet_wait, quiet_wait) F(quiet_loud, quiet_loud)
+    F(masked_steps, masked_steps)
 };
 #undef F
 
@@ -184,6 +186,7 @@ int bc_layout(int i, const char **name, int64_t *offset, int64_t *size) {
 }
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
+#define CONTROL_FPCA (1u << 2)  /* an FP context is active (core.py) */
 enum { GPIO_MODER = 0x00, GPIO_PUPDR = 0x0C, GPIO_IDR = 0x10, GPIO_ODR = 0x14, GPIO_BSRR = 0x18 };
 #define PA1 1
 #define SWITCH_MASK 0x3F        /* PB0-PB5 */
@@ -618,6 +621,8 @@ static int polled(bc_t *s, uint32_t addr, uint32_t value) {
     return py(s, PY_POLLED, addr, value) > 0;
 }
 
+static int masked_ready(bc_t *s);
+
 /* --- Unicorn's MMIO callbacks for the peripheral region -------------------------------- */
 static void due(bc_t *s) {
     if (s->next_at != NONE && s->next_at <= bc_now_fs(s)) bc_fire_due(s, bc_now_fs(s));
@@ -689,7 +694,7 @@ static int write_porta(bc_t *s, int off, uint32_t value) {
         s->direction = level;
     }
     s->gpio_odr[0] = odr;
-    if (s->pending_n && bc_next_exception(s) >= 0) cut_after(s);
+    if (s->pending_n && (bc_next_exception(s) >= 0 || masked_ready(s))) cut_after(s);
     failed(s);
     return 1;
 }
@@ -739,7 +744,7 @@ void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, voi
             value = value << shift;
     }
     bc_usart_write(s, off, (uint32_t)(value & 0xFFFFFFFF));
-    if (s->pending_n && bc_next_exception(s) >= 0) cut_after(s);
+    if (s->pending_n && (bc_next_exception(s) >= 0 || masked_ready(s))) cut_after(s);
     failed(s);
 }
 
@@ -765,6 +770,7 @@ static int leave(bc_t *s) {
     int psp = (exc_return & 0xF) == 0xD;
     uint32_t sp = psp ? psp_value : msp;
     int fpu = !(exc_return & 0x10);
+    control = (control & ~CONTROL_FPCA) | (fpu ? CONTROL_FPCA : 0);   /* as EXC_RETURN says */
     uint32_t n = fpu ? 26 : 8;
     if (sp < SRAM_BASE || sp > SRAM_BASE + SRAM_SIZE - 4 * n) return 0;
     uint32_t v[26];
@@ -820,6 +826,7 @@ int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
     if (s->reg_read_batch(s->uc, ids, ptrs, k)) return -1;
     uint32_t xpsr = (uint32_t)r[6], control = (uint32_t)r[7];
     int psp = !s->nactive && (control & 2);
+    fpu = fpu && (control & CONTROL_FPCA);   /* an FP context is active: the extended frame */
     int64_t sp = psp ? (uint32_t)r[9] : (uint32_t)r[8];
     uint32_t v[26];
     int n = 0;
@@ -843,11 +850,13 @@ int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
     uint32_t exc_return = s->nactive ? 0xFFFFFFF1u : (psp ? 0xFFFFFFFDu : 0xFFFFFFF9u);
     if (fpu) exc_return &= ~0x10u;
     k = 0;
+    control &= ~CONTROL_FPCA;               /* the handler starts with no FP context */
     if (psp) {
         ids[k] = id[REG_PSP]; r[k++] = (uint64_t)sp;
         ids[k] = id[REG_CONTROL]; r[k++] = control & ~2u;
     } else {
         ids[k] = id[REG_MSP]; r[k++] = (uint64_t)sp;
+        ids[k] = id[REG_CONTROL]; r[k++] = control;
     }
     ids[k] = id[REG_IPSR]; r[k++] = (uint32_t)exc;
     ids[k] = id[REG_LR]; r[k++] = exc_return;
@@ -895,6 +904,23 @@ static int pending_from(bc_t *s, int from) {
         }
     }
     return -1;
+}
+
+/* system.py Nvic ``masked_ready``: a pending exception would preempt the active ones but
+   for PRIMASK, BASEPRI or FAULTMASK */
+static int masked_ready(bc_t *s) {
+    int best = -1, best_p = 0;
+    for (int e = pending_from(s, 0); e >= 0; e = pending_from(s, e + 1)) {
+        int p = priority(s, e);
+        if (best < 0 || p < best_p) { best = e; best_p = p; }
+    }
+    if (best < 0) return 0;
+    int level = 256;
+    for (int i = 0; i < s->nactive; i++) {
+        int g = group(s, priority(s, s->active[i]));
+        if (g < level) level = g;
+    }
+    return group(s, best_p) < level;
 }
 
 /* the pending exception that preempts what runs now, -1 when none */
@@ -967,6 +993,7 @@ enum { LOOP_AFTER_HEAD = 0, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK
 #define WFE 0xBF20
 #define BRANCH_TO_SELF 0xE7FE
 #define QUIET_LOUD 8             /* chunks with register accesses that end a quiet wait */
+#define MASKED_STEPS 256         /* system.py MASKED_STEPS */
 
 static int read16(bc_t *s, uint32_t addr, uint16_t *op) {
     if (addr >= FLASH_BASE && addr <= FLASH_BASE + FLASH_SIZE - 2) {
@@ -1056,6 +1083,15 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
                 continue;
             }
         }
+        if (s->pending_n && masked_ready(s)) {   /* taken right after its unmasking */
+            if (s->masked_steps < MASKED_STEPS) {
+                n = 1;
+                s->masked_steps++;
+            }
+        } else {
+            s->masked_steps = 0;
+        }
+        s->loop_n = n;
         int64_t ran = run_chunk(s, n);
         if (ran < 0) return s->loop_exc;
         if (s->touched != seen || s->watching) return LOOP_AFTER_CHUNK;

@@ -85,7 +85,7 @@ class Shared(ctypes.Structure):
                 ("turn_us", _I64 * TURNS), ("turn_level", _I32 * TURNS),
                 ("nots", (ctypes.c_uint32 * 3) * WAITS), ("nnots", _I32),
                 ("mmio_n", _I64), ("chunk_mmio", _I64), ("quiet_n", _I64),
-                ("quiet_wait", _I64), ("quiet_loud", _I64)]
+                ("quiet_wait", _I64), ("quiet_loud", _I64), ("masked_steps", _I64)]
 
 
 

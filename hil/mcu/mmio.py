@@ -115,9 +115,11 @@ class PeripheralSpace:
     @staticmethod
     def taken_next(board: Any) -> None:
         """A write that made an exception ready (an interrupt enable, a pending bit, a
-        flag's interrupt): it is taken after this instruction, not at the chunk's end."""
+        flag's interrupt): it is taken after this instruction, not at the chunk's end. One
+        that only a mask holds back ends the chunk too: from here the core goes an
+        instruction at a time until the unmasking (board.py ``run``)."""
         nvic = board.nvic
-        if nvic.pending and nvic.next_exception() is not None:
+        if nvic.pending and (nvic.next_exception() is not None or nvic.masked_ready()):
             board.core.cut_after()
 
     def _due(self) -> None:
