@@ -3,8 +3,8 @@ test firmware gives the same serial digest, the same console, the same cycle cou
 same trace bytes either way: polled USART2 (the C tripod, the bare-metal pings at two bauds
 and without PA1), interrupt- and DMA-driven USART2, half-duplex echo, SysTick and PendSV
 (their exception returns done in C, on MSP and PSP, with and without the FPU's frame),
-EXTI switch interrupts, pended exceptions, a reply cut by PA1 (``rx_while_transmitting``)
-and a system reset."""
+EXTI switch interrupts, pended exceptions, a reply cut by PA1 (``rx_while_transmitting``),
+a system reset, a watchdog's reset and TIM1's interrupts."""
 import subprocess
 import sys
 from pathlib import Path
@@ -71,7 +71,8 @@ def test_a_firmware_runs_the_same_with_and_without_the_compiled_board(name, tmp_
                                             ("faults.c", ("FAULT=1",)),
                                             ("faults.c", ("FAULT=2",)),
                                             ("faults.c", ("FAULT=3",)),
-                                            ("faults.c", ("FAULT=8",))])
+                                            ("faults.c", ("FAULT=8",)),
+                                            ("iwdg.c", ()), ("tim1.c", ())])
 def test_the_board_tests_firmwares_run_the_same_both_ways(source, defines, tmp_path,
                                                          monkeypatch):
     assert (MCU / source).exists()
