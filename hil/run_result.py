@@ -24,6 +24,7 @@ class Ending(str, Enum):
     HUNG = "hung"                        # no link message for a while, or only polls
     EXITED_EARLY = "exited_early"        # exited cleanly before the run's end
     FAILED_TO_START = "failed_to_start"  # never connected to the link
+    LIMIT = "limit"                      # ended by the run's wall-clock or memory cap
 
 
 @dataclass(frozen=True)
@@ -179,6 +180,7 @@ class RunResult:
     ending: FirmwareEnding = FirmwareEnding()   # how the firmware ended (COMPLETED: served on)
     no_servo_answered: str | None = None   # why, when the firmware wrote and none answered
     interrupted: bool = False   # Ctrl-C (or SIGTERM) ended it early
+    limit_hit: str | None = None   # "wall" or "memory": the cap that ended it (hil/run/limits.py)
 
     @property
     def unhandled_exceptions(self) -> int:
@@ -212,6 +214,7 @@ class RunTally:
     ending: FirmwareEnding = FirmwareEnding()
     no_servo_answered: str | None = None
     interrupted: bool = False
+    limit_hit: str | None = None
 
     def count_can(self, arb_id: int) -> None:
         key = "0x%03X" % arb_id
@@ -231,7 +234,8 @@ class RunTally:
             tuple(_frozen(e) for e in self.tactile_events), self.switch_edges,
             _frozen(self.can_frames), self.bus_busy_us, self.bus_wire_us, self.loop_cycles,
             self.round_trips, self.body, self.world, ending=self.ending,
-            no_servo_answered=self.no_servo_answered, interrupted=self.interrupted)
+            no_servo_answered=self.no_servo_answered, interrupted=self.interrupted,
+            limit_hit=self.limit_hit)
 
 
 class RunInterrupted(KeyboardInterrupt):

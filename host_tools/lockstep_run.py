@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 from hil import scenario as scenario_mod
 from hil.canbus.bus import CanBus, Endpoint
+from hil.run.limits import RunLimits
 from hil.run.rig import make_world
 from hil.run_result import RunInterrupted, RunResult
 from hil.scenario import Runtime, Scenario, WorldKind
@@ -84,8 +85,10 @@ class Run:
     runs instead of ours. An existing ``trace`` file is refused unless ``overwrite``
     (host_tools/trace/target.py). Every argument given is an override, recorded in the
     trace's metadata with the scenario as run (``overrides`` adds what else the caller
-    changed, e.g. margin's bus timing); ``what_ran()`` says the same for the summary. Close it
-    (or use ``with``) if ``run`` is never called."""
+    changed, e.g. margin's bus timing); ``what_ran()`` says the same for the summary.
+    ``limits`` (hil/run/limits.py ``RunLimits``: a wall-clock and a memory cap, sane by
+    default) end a run that hits one with ``Ending.LIMIT``. Close it (or use ``with``) if
+    ``run`` is never called."""
 
     def __init__(self, scenario: Scenario | dict[str, Any] | str | Path, *,
                  seed: int | None = None,
@@ -94,7 +97,8 @@ class Run:
                  live_port: int | None = None, can_server: CanGateway | None = None,
                  realtime: bool = False, firmware: str | Path | None = None,
                  gdb_port: int | None = None, coverage: str | Path | None = None,
-                 overwrite: bool = False, overrides: dict[str, Any] | None = None) -> None:
+                 overwrite: bool = False, overrides: dict[str, Any] | None = None,
+                 limits: RunLimits | None = None) -> None:
         # a firmware of the user's (hil/link/served_firmware.py) is checked before anything opens
         self.firmware = (served_firmware(firmware, gdb_port=gdb_port, coverage=coverage)
                          if firmware is not None else None)
@@ -130,6 +134,7 @@ class Run:
                         else tactile if tactile is not None
                         else sc.firmware.tactile if sc.firmware.tactile is not None
                         else ls.TACTILE_DEFAULT)
+        self.limits = limits if limits is not None else RunLimits()
         self.trace = str(trace) if trace else None
         self._can_server, self._realtime = can_server, realtime
         self.world = None if self.beams else make_world(sc, self.seed)
@@ -218,10 +223,12 @@ class Run:
             if self.beams:
                 return self._traverse()
             if self.firmware is not None:
-                return self._firmware_sim().run(self.duration_s, firmware=self.firmware)
+                return self._firmware_sim().run(self.duration_s, firmware=self.firmware,
+                                                limits=self.limits)
             from host_tools import in_process
 
-            return in_process.run(self._firmware_sim(), self.duration_s, self.runtime.value)
+            return in_process.run(self._firmware_sim(), self.duration_s, self.runtime.value,
+                                  self.limits)
         except RunInterrupted:
             raise
         except KeyboardInterrupt:    # before the lockstep loop began (a beams run's set-up)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import re
 import select
+import signal
 import socket
 import struct
 import subprocess
@@ -42,6 +43,9 @@ NATIVE = ("-X", "emit=native")
 # polling (docs/performance.md, wave 13); each side's sim_link.PollGate keeps it to where
 # each side has a core.
 SPIN_US = 200
+# Posted messages (writes, events, CAN frames) the host holds before the request they come
+# with: about 10 s of a 1 Mbaud line. More is a firmware that never waits for the host.
+MAX_BATCH_BYTES = 1 << 20
 
 
 class LinkViolation(Exception):
@@ -220,6 +224,12 @@ class Connection:
             msgs.append(m)
             if m[0] in REQUEST_OPS:
                 return msgs, False
+            if len(self.raw) > MAX_BATCH_BYTES:
+                raise LinkViolation(f"the firmware posted {len(self.raw):,} bytes of link "
+                                    "messages without a request (a sleep, transact or line "
+                                    f"read) that waits for the host; a batch holds "
+                                    f"{MAX_BATCH_BYTES:,}: a loop that writes and never "
+                                    "waits?")
 
     def reply(self, t_us: int, body: bytes = b"") -> bytes:
         """Answer the pending request; returns the raw reply bytes (length prefix included)."""
@@ -325,29 +335,48 @@ def _close_listener(srv: socket.socket) -> None:
 
 class FirmwareProcess:
     """The firmware as a child process connected to this one: our firmware on a Unix
-    socket, a command of the caller's on an ephemeral 127.0.0.1 port (``_listen``)."""
+    socket, a command of the caller's on an ephemeral 127.0.0.1 port (``_listen``).
+
+    It runs in a process group of its own, ended whole at every stop (``finish``, ``kill``,
+    a timeout): a wrapper script's children go with it. Its stdout and stderr go to
+    temporary files, never pipes, so a chatty firmware never blocks on a full pipe and a
+    child holding one open never keeps this side waiting; only their last ``TAIL_BYTES``
+    are read back."""
 
     def __init__(self, python: str = "micropython", connect_timeout_s: float = 30.0,
                  command: list[str] | None = None, extra_env: dict[str, str] | None = None,
-                 console: Any = None) -> None:
+                 console: Any = None, watch: Any = None) -> None:
         """``extra_env`` is set over ``firmware_env``'s; ``console``, a file, takes the
-        firmware's stdout instead of a pipe (a chatty firmware never blocks on it)."""
+        firmware's stdout (the caller reads it as it grows); ``watch``, the run's
+        hil/run/limits.py ``RunWatch``, counts its memory and ends it at a limit."""
         self.python = python
         self._console = console
+        self._stdout = console if console is not None else tempfile.TemporaryFile()
+        self.ended_by_host = False   # still running when ``finish`` stopped waiting
+        self._stderr = tempfile.TemporaryFile()
+        self._watch = None
         cmd = command or firmware_command(python)
         srv, env = _listen(ours=command is None)
         srv.settimeout(ACCEPT_POLL_S)
         env.update(extra_env or {})
         try:
-            self.proc = subprocess.Popen(cmd, cwd=ROOT, env=env,
-                                         stdout=console or subprocess.PIPE,
-                                         stderr=subprocess.PIPE)
+            self.proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdin=subprocess.DEVNULL,
+                                         stdout=self._stdout, stderr=self._stderr,
+                                         start_new_session=True)
         except OSError as exc:
             _close_listener(srv)
+            self._close_files()
             raise FirmwareError(f"cannot start the firmware ({' '.join(cmd)}): {exc.strerror}",
                                 started=False) from None
+        self._watch = watch
+        if watch is not None:
+            watch.watch(self.proc.pid)
         try:
             sock = self._accept(srv, cmd, connect_timeout_s)
+        except BaseException:
+            self._end_group()
+            self._close_files()
+            raise
         finally:
             _close_listener(srv)
         sock.settimeout(None)
@@ -363,34 +392,60 @@ class FirmwareProcess:
                 code = self.proc.poll()
                 if code is None and time.monotonic() < deadline:
                     continue
-            if code is None:
-                self.proc.kill()
-            out, err = self.proc.communicate()
-            if self._console is not None:
-                self._console.seek(0)
-                out = self._console.read()
-            printed = (out or b"").decode(errors="replace")
-            lines = (err.decode(errors="replace").strip() + "\n" + printed.strip()).strip().splitlines()
-            tail = last_words(err.decode(errors="replace"), printed)
+            self._end_group()
+            out, err = self._outputs()
+            lines = (err.strip() + "\n" + out.strip()).strip().splitlines()
+            tail = last_words(err, out)
             what = (f"did not connect within {timeout_s:g} s" if code is None
                     else f"exited with code {code} before it connected to the link")
             raise FirmwareError(f"the firmware ({' '.join(cmd)}) {what}: {tail}",
                                 tuple(lines[-5:]), started=False,
                                 exit_code=self.proc.returncode) from None
 
-    def finish(self, timeout_s: float = 10.0) -> tuple[int, str, str]:
-        """Wait for the process to exit; (return code, stdout, stderr)."""
+    def _end_group(self) -> None:
+        """SIGKILL to the firmware's whole process group (what is left of it), then reap
+        the process itself."""
         try:
-            out, err = self.proc.communicate(timeout=timeout_s)
+            os.killpg(self.proc.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass   # every process of the group has exited
+        self.proc.wait()
+        if self._watch is not None:
+            self._watch.forget(self.proc.pid)
+
+    def _outputs(self) -> tuple[str, str]:
+        """The last ``TAIL_BYTES`` of what it wrote on stdout and on stderr."""
+        return _tail(self._stdout), _tail(self._stderr)
+
+    def _close_files(self) -> None:
+        if self._console is None:
+            self._stdout.close()
+        self._stderr.close()
+
+    def finish(self, timeout_s: float = 10.0) -> tuple[int, str, str]:
+        """Wait up to ``timeout_s`` for the process to exit, then end its process group;
+        (return code, the tails of stdout and stderr)."""
+        try:
+            self.proc.wait(timeout=timeout_s)
         except subprocess.TimeoutExpired:
-            self.proc.kill()
-            out, err = self.proc.communicate()
+            self.ended_by_host = True
+        self._end_group()
+        out, err = self._outputs()
         self.conn.close()
-        return (self.proc.returncode, (out or b"").decode(errors="replace"),
-                err.decode(errors="replace"))
+        self._close_files()
+        return self.proc.returncode, out, err
 
     def kill(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.kill()
-            self.proc.communicate()
+        """End it now, its process group with it."""
+        self._end_group()
         self.conn.close()
+        self._close_files()
+
+
+TAIL_BYTES = 65536   # of a firmware's stdout and stderr, read back for its verdict
+
+
+def _tail(f: Any) -> str:
+    """The last ``TAIL_BYTES`` of file ``f`` (written by the firmware), as text."""
+    size = os.fstat(f.fileno()).st_size
+    return os.pread(f.fileno(), TAIL_BYTES, max(0, size - TAIL_BYTES)).decode(errors="replace")

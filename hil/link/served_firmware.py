@@ -39,6 +39,9 @@ BOARD_RUNTIME = "micropython-board"   # a run's firmware_runtime
 EXECUTABLE = "executable"
 ELF_RUNTIME = "stm32f411-elf"
 HANG_WALL_S = 20.0          # wall seconds without a link message: the firmware hung
+# wall seconds a firmware has to exit once it closed the link (the board's SystemExit at
+# the run's end); one still running then is ended by the host
+EXIT_GRACE_S = 2.0
 BOARD_SAYS = "hexhil board: "   # the C SDK's one-line verdict on its firmware (hal_board.c)
 HUNG_SAYS = "the firmware hung"   # the board's verdict (hil/link/board_line.py)
 MAIN_SUFFIXES = (".py",)    # a MicroPython main file; anything else is an executable
@@ -209,7 +212,8 @@ def serve_process(firmware: ServedFirmware, name: str, server: LinkHost, end_us:
     with tempfile.TemporaryFile() as console:
         try:
             fw = FirmwareProcess(firmware.runtime, command=firmware.command(),
-                                 extra_env=firmware.env(), console=console)
+                                 extra_env=firmware.env(), console=console,
+                                 watch=server.watch)
         except FirmwareError as exc:
             console.seek(0)
             printed = console.read().decode(errors="replace")
@@ -219,23 +223,24 @@ def serve_process(firmware: ServedFirmware, name: str, server: LinkHost, end_us:
                 exc.last_lines or _last_lines("", printed), 0.0, exc.exit_code)
             return
         fw.conn.sock.settimeout(hang_wall_s)
-        hung, broke = False, None
+        hung, broke, closed = False, None, False
         reader = _ConsoleReader(console, take_console)
         server.console = reader.lines if take_console is not None else None
         try:
             server.serve(fw.conn, end_us, result)
+            closed = True
         except TimeoutError:
             hung = True
         except FirmwareError as exc:   # it broke the link's rules (hil/link/server.py)
             broke = exc
-        finally:
+        finally:   # an interrupt or a limit ends it at once
             server.console = None
-            code, _, err = fw.finish(timeout_s=0.0 if hung or broke else 10.0)
+            code, _, err = fw.finish(timeout_s=EXIT_GRACE_S if closed else 0.0)
             printed = reader.rest()
     result.exit_code = code
     result.stderr_tail = "\n".join(err.strip().splitlines()[-LAST_LINES:])
     result.ending = judge(name, code, err, printed, server.clock.t_us, end_us,
-                          hang_wall_s if hung else None, broke)
+                          hang_wall_s if hung else None, broke, fw.ended_by_host)
 
 
 def _last_lines(err: str, printed: str) -> tuple[str, ...]:
@@ -243,11 +248,21 @@ def _last_lines(err: str, printed: str) -> tuple[str, ...]:
 
 
 def judge(name: str, code: int, err: str, printed: str, t_us: int, end_us: int,
-          hung_after_s: float | None = None, broke: Exception | None = None
-          ) -> FirmwareEnding:
-    """How a served firmware ended, in one line and its last lines."""
+          hung_after_s: float | None = None, broke: Exception | None = None,
+          ended_by_host: bool = False) -> FirmwareEnding:
+    """How a served firmware ended, in one line and its last lines. ``ended_by_host``:
+    it closed the link but was still running ``EXIT_GRACE_S`` later, and the host ended
+    it: at the run's end that is a completed run (a bare ``except:`` that catches the
+    board's SystemExit carries on where a real board would), before it an early exit."""
     t_s = t_us * 1e-6
     last = _last_lines(err, printed)
+    if ended_by_host and hung_after_s is None and broke is None:
+        if t_us >= end_us:
+            return FirmwareEnding(Ending.COMPLETED, "", (), t_s, code)
+        return FirmwareEnding(Ending.EXITED_EARLY, f"the firmware {name} closed the link at "
+                              f"t={t_s:.6f} s, before the run's end ({end_us * 1e-6:g} s), "
+                              f"and did not exit (ended by hexhil {EXIT_GRACE_S:g} s later)",
+                              last, t_s, code)
     if hung_after_s is not None:
         return FirmwareEnding(Ending.HUNG, f"the firmware {name} hung: no link message for "
                               f"{hung_after_s:g} s of wall time (at t={t_s:.6f} s)", last, t_s,

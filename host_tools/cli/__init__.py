@@ -63,7 +63,8 @@ FLAGS = {"python": "--python", "firmware": "--firmware", "duration_s": "--durati
          "world": "--world", "model_path": "--model", "topics": "--topics",
          "gdb_port": "--gdb", "coverage": "--coverage", "bare": "--bare", "target": "--target",
          "seed": "--seed", "tactile": "--no-tactile", "overwrite": "--overwrite",
-         "keep_dir": "--keep-traces"}
+         "keep_dir": "--keep-traces", "max_wall_s": "--max-wall",
+         "max_memory_mb": "--max-memory"}
 
 
 def flag_message(exc: UserError) -> str:
@@ -75,6 +76,25 @@ def flag_message(exc: UserError) -> str:
             msg = re.sub(rf"(?<![\w\-\[.'])({re.escape(param)})(?![\w\]])",
                          FLAGS[param], msg, count=1)
     return msg
+
+
+def add_limits(p: argparse.ArgumentParser) -> None:
+    """``--max-wall`` and ``--max-memory``: a run's caps (hil/run/limits.py)."""
+    from hil.run.limits import DEFAULT_MEMORY_MB, WALL_BASE_S, WALL_PER_SIM_S
+
+    p.add_argument("--max-wall", type=float, metavar="S", help="end a run that takes more "
+                   f"than S wall seconds (default {WALL_BASE_S:g} + {WALL_PER_SIM_S:g} per "
+                   "simulated second): a verdict, ending 'limit'")
+    p.add_argument("--max-memory", type=float, metavar="MB", default=DEFAULT_MEMORY_MB,
+                   help="end a run once hexhil and its firmware hold more than MB MiB "
+                        f"(default {DEFAULT_MEMORY_MB:g}): a verdict, ending 'limit'")
+
+
+def limits(args: argparse.Namespace) -> Any:
+    """The ``RunLimits`` of ``--max-wall`` and ``--max-memory``."""
+    from hil.run.limits import RunLimits
+
+    return RunLimits(args.max_wall, args.max_memory)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -186,9 +206,19 @@ class ProgressBar:
             self._bar = None
 
 
+_signalled = [signal.SIGINT]   # the signal that interrupted this command (SIGTERM's handler)
+
+
 def _terminated(signum: int, frame: Any) -> None:
     """SIGTERM ends a command as Ctrl-C does: ``finally`` blocks finish the trace files."""
+    _signalled[0] = signal.Signals(signum)
     raise KeyboardInterrupt
+
+
+def interrupted_status() -> int:
+    """The exit status of a command a signal ended: 128 + its number, 130 for Ctrl-C
+    (SIGINT), 143 for SIGTERM (systemd's, a CI runner's, ``docker stop``'s)."""
+    return 128 + int(_signalled[0])
 
 
 def _interrupted(exc: BaseException | None) -> bool:
@@ -216,10 +246,10 @@ def main(argv: list[str] | None = None) -> int:
         sys.stderr.write(f"hexhil: {flag_message(exc)}\n")
         return exc.code
     except KeyboardInterrupt:
-        return 130
+        return interrupted_status()
     except ImportError as exc:   # Ctrl-C inside a C extension's initialisation (MuJoCo's)
         if _interrupted(exc):
-            return 130
+            return interrupted_status()
         raise
     except BrokenPipeError:
         return 0

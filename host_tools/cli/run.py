@@ -22,7 +22,7 @@ def _run(args: argparse.Namespace) -> int:
                                 False if args.no_tactile else None, args.out,
                                 args.can_server, args.can_wait, args.live, args.realtime,
                                 args.navigator, args.model, args.firmware, args.gdb,
-                                args.coverage, args.overwrite)
+                                args.coverage, args.overwrite, cli.limits(args))
     except RunInterrupted as exc:   # a beams run's trace holds no firmware link to replay
         replays = "" if exc.summary.get("world") == "beams" else " and replays"
         kept = (f"the trace {args.out} is kept{replays}" if args.out
@@ -30,7 +30,7 @@ def _run(args: argparse.Namespace) -> int:
         sys.stderr.write(f"hexhil: interrupted at t={exc.result.sim_time_s:.3f} s: {kept}\n")
         if args.json and exc.summary:
             cli.emit_json(exc.summary)
-        return 130
+        return cli.interrupted_status()
     if s.get("world") == "beams":
         what = "traversed" if s["traversed"] else ("flipped" if s["flipped"] else "stuck")
         print(f"{s['scenario']}: {s['strategy']}: {what} (mode {s['mode']}), energy "
@@ -109,5 +109,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "still while it is halted (docs/elf-firmware.md)")
     p.add_argument("--coverage", metavar="FILE.info", help="an ELF firmware's line coverage "
                    "from its DWARF line table, as LCOV (genhtml, CI coverage reports)")
+    cli.add_limits(p)
     p.add_argument("--json", action="store_true", help=cli.JSON_HELP)
     p.set_defaults(func=_run)

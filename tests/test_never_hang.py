@@ -1,0 +1,136 @@
+"""Never hang, never eat the machine: a firmware that floods the link, a wrapper script
+whose child holds on, a signal to hexhil's PID alone, a run past its wall-clock or memory
+cap; each ends as a verdict or a clean exit within seconds (docs/hardening.md)."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from hil.link.firmware_process import FirmwareError, FirmwareProcess
+from hil.run.limits import RunLimits
+from hil.run_result import Ending
+from host_tools import Run, c_sdk
+from host_tools.trace.reader import Trace
+from host_tools.trace.target import partial_of
+
+ROOT = Path(__file__).resolve().parent.parent
+FLAT = ROOT / "scenarios" / "flat-tripod.toml"
+BOARD_TRIPOD = ROOT / "examples" / "board_tripod.py"
+HEXHIL = str(Path(sys.executable).with_name("hexhil"))
+
+
+def _gone(pgid: int) -> bool:
+    """No process of group ``pgid`` runs (a zombie waiting for its reaper has ended)."""
+    deadline = time.monotonic() + 2.0
+    while time.monotonic() < deadline:
+        running = []
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[2]) == pgid and fields[0] != "Z":
+                running.append(stat)
+        if not running:
+            return True
+        time.sleep(0.05)
+    return False
+
+
+def test_a_c_firmware_that_floods_the_link_is_a_verdict_not_the_kernels_kill(
+        tmp_path: Path) -> None:
+    fw = c_sdk.build([str(ROOT / "tests" / "c_firmware" / "flood.c")], tmp_path / "flood")
+    t0 = time.monotonic()
+    with Run(FLAT, firmware=fw, duration_s=3.0) as r:
+        result = r.run()
+    assert time.monotonic() - t0 < 60
+    assert result.ending.kind is Ending.CRASHED, result.ending
+    assert "without a request" in result.ending.reason
+
+
+def test_a_wrapper_that_never_connects_is_ended_with_its_children(tmp_path: Path) -> None:
+    pid_file = tmp_path / "pid"
+    wrapper = tmp_path / "w.sh"
+    wrapper.write_text(f"#!/bin/sh\necho $$ > {pid_file}\nsleep 1000\n")   # no exec
+    wrapper.chmod(0o755)
+    t0 = time.monotonic()
+    with pytest.raises(FirmwareError, match="did not connect within 1 s"):
+        FirmwareProcess("executable", connect_timeout_s=1.0, command=[str(wrapper)])
+    assert time.monotonic() - t0 < 10
+    assert _gone(int(pid_file.read_text()))   # the sleep went with its shell
+
+
+def _start_run(tmp_path: Path, *extra: str) -> tuple[subprocess.Popen, Path]:
+    """``hexhil run`` with a long board firmware run, once its trace is being written."""
+    out = tmp_path / "run.mcap"
+    proc = subprocess.Popen([HEXHIL, "run", str(FLAT), "--firmware", str(BOARD_TRIPOD),
+                             "--duration", "600", "--out", str(out), "--json", *extra],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)   # no group signal reaches it
+    partial = partial_of(out)
+    deadline = time.monotonic() + 60
+    while (not partial.exists() or partial.stat().st_size < 100_000) \
+            and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert proc.poll() is None, proc.communicate()
+    return proc, out
+
+
+@pytest.mark.parametrize("signum,status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_a_signal_to_the_pid_alone_ends_a_run_at_once_with_the_trace_finished(
+        tmp_path: Path, signum: int, status: int) -> None:
+    proc, out = _start_run(tmp_path)
+    t0 = time.monotonic()
+    os.kill(proc.pid, signum)
+    stdout, stderr = proc.communicate(timeout=60)
+    took_s = time.monotonic() - t0
+    assert proc.returncode == status, stderr
+    assert took_s < 5.0, took_s       # the firmware is ended, not waited for
+    assert "Traceback" not in stderr
+    assert json.loads(stdout.strip().splitlines()[-1])["interrupted"] is True
+    with Trace(out) as t:             # opens only with a summary: the file was finished
+        assert sum(1 for _ in t.messages()) > 0
+
+
+def test_a_run_past_its_wall_clock_cap_ends_as_a_limit_verdict(tmp_path: Path) -> None:
+    out = tmp_path / "capped.mcap"
+    t0 = time.monotonic()
+    proc = subprocess.run([HEXHIL, "run", str(FLAT), "--firmware", str(BOARD_TRIPOD),
+                           "--duration", "600", "--max-wall", "2", "--out", str(out),
+                           "--json"], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert time.monotonic() - t0 < 60
+    assert proc.returncode == 1, proc.stderr
+    s = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert s["limit_hit"] == "wall" and s["ending"]["kind"] == "limit", s
+    assert "wall-clock cap of 2 s" in s["ending"]["reason"]
+    assert s["interrupted"] is False and 0 < s["sim_time_s"] < 600
+    assert "Traceback" not in proc.stderr
+    assert proc.stderr.strip().splitlines()[-1].startswith("hexhil: the run took more than")
+    with Trace(out) as t:
+        assert sum(1 for _ in t.messages()) > 0
+
+
+def test_a_run_past_its_memory_cap_ends_as_a_limit_verdict() -> None:
+    with Run(FLAT, firmware=BOARD_TRIPOD, duration_s=600.0,
+             limits=RunLimits(max_memory_mb=1.0)) as r:   # below any process's
+        result = r.run()
+    assert result.limit_hit == "memory"
+    assert result.ending.kind is Ending.LIMIT
+    assert "memory cap of 1 MiB" in result.ending.reason
+    assert result.sim_time_s < 600
+
+
+@pytest.mark.parametrize("argv", [["--max-wall", "nan"], ["--max-wall", "-1"],
+                                  ["--max-memory", "0"], ["--max-memory", "inf"]])
+def test_bad_limits_are_one_line_and_exit_2(argv: list[str]) -> None:
+    proc = subprocess.run([HEXHIL, "run", str(FLAT), *argv], cwd=ROOT, capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1 and argv[0] in proc.stderr, proc.stderr
