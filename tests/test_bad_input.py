@@ -6,6 +6,7 @@ forever if a refusal regressed (a busy port) run as a child with a timeout.
 """
 from __future__ import annotations
 
+import os
 import socket
 import subprocess
 import sys
@@ -28,7 +29,12 @@ FILES = {
     "inf.toml": "[firmware]\ncycle_hz=inf\n", "pyfoo.toml": '[firmware]\npython="foo"\n',
     "longrun.toml": "[scenario]\nduration_s=1e308\n",
     "notmcap.mcap": "hello\n", "bad.csv": "a,b\n1,2\n", "afile": "",
+    "deep.toml": "a = " + "[" * 5000 + "]" * 5000 + "\n", "empty.toml": "",
+    "exists.png": "", "unplug99.toml": "[faults]\nunplug=[{id=99, at_s=1.0}]\n",
+    "leg.toml": '[faults]\nswitch_stuck=[{leg="XX", pressed=true, at_s=1.0}]\n',
 }
+WALK = str(ROOT / "examples" / "margin-walk.toml")
+CASE = str(ROOT / "tests" / "firmware" / "flat-tripod.toml")
 B = "{B}"  # the case's folder, filled in by the fixture
 
 # (argv, a phrase the one line must hold)
@@ -102,6 +108,33 @@ CASES = [
     (["experiment", "tactile-hexapod", "--seeds", "-1"], "--seeds must be at least 1"),
     (["experiment", "force-sensing", "--seeds", "0"], "--seeds must be at least 1"),
     (["experiment", "tactile-hexapod", "--out", f"{B}/afile"], "exists and is not a folder"),
+    (["run", f"{B}/fifo.toml"], "fifo.toml: not a regular file"),
+    (["run", "/dev/null"], "/dev/null: not a regular file"),
+    (["run", f"{B}/empty.toml"], "empty.toml: an empty scenario"),
+    (["run", f"{B}/deep.toml"], "deep.toml: not valid TOML: arrays or tables nested too deeply"),
+    (["test", f"{B}/deep.toml"], "deep.toml: not valid TOML: arrays or tables nested too deeply"),
+    (["bus", "--scenario", f"{B}/deep.toml"], "nested too deeply"),
+    (["run", f"{B}/unplug99.toml"], "'unplug' names servo 99, and the bus has IDs 1-18"),
+    (["bus", "--ids", "1-18", "--unplug", "99:1"], "'unplug' names servo 99"),
+    (["run", f"{B}/leg.toml"], "'switch_stuck.leg' must be 0-5 or one of LF, LM, LH, RF, RM, "
+     "RH, got 'XX'"),
+    (["conformance", "--port", "x", "--ids", "1", "--timeout-ms", "nan"],
+     "--timeout-ms and --scan-timeout-ms must be positive and finite"),
+    (["conformance", "--port", "x", "--ids", "1", "--scan-timeout-ms", "inf"],
+     "must be positive and finite"),
+    (["render", f"{B}/good.mcap", "--out", f"{B}/r.gif", "--fps", "100000"],
+     "--fps 100000: a video has more than 0 and at most 100 frames a second"),
+    (["render", f"{B}/good.mcap", "--out", f"{B}/r.gif", "--fps", "nan"], "--fps nan"),
+    (["render", f"{B}/good.mcap", "--out", f"{B}/r.mp4", "--width", "100000"],
+     "each side is 16-4096 pixels"),
+    (["render", f"{B}/good.mcap", "--out", f"{B}/missing/r.png"], "no such directory"),
+    (["render", f"{B}/good.mcap", "--out", f"{B}/adir.png"], "adir.png: is a directory"),
+    (["render", f"{B}/good.mcap", "--out", f"{B}/exists.png"],
+     "exists.png exists: pass --overwrite to replace it"),
+    (["margin", FT, "--expect", WALK, "--png", f"{B}/missing/m.png"], "no such directory"),
+    (["margin", "scenarios/beams-flimsy.toml", "--expect", WALK], "runs the hexapod firmware"),
+    (["test", CASE, "--junit", f"{B}/missing/r.xml"], "--junit", ),
+    (["test", CASE, "--junit", B], "is a directory"),
 ]
 
 
@@ -111,6 +144,8 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     for name, text in FILES.items():
         (d / name).write_text(text)
     (d / "bin.csv").write_bytes(bytes(range(128, 256)) * 3)
+    os.mkfifo(d / "fifo.toml")        # would block a read for ever
+    (d / "adir.png").mkdir()
     good = sample_trace(d / "good.mcap")
     (d / "trunc.mcap").write_bytes(good[:len(good) // 2])
     return d

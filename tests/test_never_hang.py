@@ -134,3 +134,33 @@ def test_bad_limits_are_one_line_and_exit_2(argv: list[str]) -> None:
                           text=True, timeout=60)
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1 and argv[0] in proc.stderr, proc.stderr
+
+
+JUNIT_CASE = '''[case]
+name = "{name}"
+scenario = "{flat}"
+duration_s = 1
+python = "cpython-inprocess"
+
+[[expect]]
+name = "no firmware exception"
+kind = "no_exception"
+
+[[expect]]
+name = "speed"
+kind = "speed"
+window_s = [0, 1]
+min_m_s = {min_m_s}
+'''
+
+
+@pytest.mark.parametrize("min_m_s,status", [(0, 2), (10, 1)])
+def test_a_junit_report_that_cannot_be_written_keeps_the_verdict(
+        tmp_path: Path, min_m_s: float, status: int) -> None:
+    case = tmp_path / "case.toml"
+    case.write_text(JUNIT_CASE.format(name="short", flat=FLAT, min_m_s=min_m_s))
+    proc = subprocess.run([HEXHIL, "test", str(case), "--junit", "/dev/full"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == status, proc.stdout + proc.stderr
+    assert proc.stderr.strip().splitlines()[-1].startswith(
+        "hexhil: the JUnit report /dev/full: cannot write")

@@ -64,7 +64,8 @@ FLAGS = {"python": "--python", "firmware": "--firmware", "duration_s": "--durati
          "gdb_port": "--gdb", "coverage": "--coverage", "bare": "--bare", "target": "--target",
          "seed": "--seed", "tactile": "--no-tactile", "overwrite": "--overwrite",
          "keep_dir": "--keep-traces", "max_wall_s": "--max-wall",
-         "max_memory_mb": "--max-memory"}
+         "max_memory_mb": "--max-memory",
+         "width": "--width", "height": "--height", "png": "--png", "junit": "--junit"}
 
 
 def flag_message(exc: UserError) -> str:

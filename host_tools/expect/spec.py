@@ -8,14 +8,13 @@ naming the file and the key (exit 2), before anything runs.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import Path
 from typing import Any
 
 from hil import scenario as scenario_mod
-from hil.scenario import Scenario, WorldKind
+from hil.scenario import Scenario, WorldKind, read_toml_file, toml_data
 from hil.scenario.rules import check_table, optional, typed
 from hil.link.firmware_process import IN_PROCESS, RUNTIMES
 from hil.scenario.faults_section import FaultKind
@@ -269,7 +268,8 @@ def _scenario(where: str, path: Path, data: dict[str, Any]) -> Scenario:
     return scenario_mod.parse(inline, path)
 
 
-def _hexapod(where: str, sc: Scenario) -> Scenario:
+def hexapod(where: str, sc: Scenario) -> Scenario:
+    """``sc``, if its world is the hexapod's (the firmware's): else one line."""
     if sc.world.kind not in (None, WorldKind.HEXAPOD):
         raise UserError(f"{where}: key 'world.kind': hexhil test runs the hexapod firmware, "
                         f"this scenario's world is {sc.world.kind.value}")
@@ -279,14 +279,7 @@ def _hexapod(where: str, sc: Scenario) -> Scenario:
 def load(path: str | Path) -> Case:
     """Read and check one expectation file."""
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise UserError(f"{p}: expectation file not found") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
-        raise UserError(f"{p}: cannot read expectation file ({exc.__class__.__name__})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise UserError(f"{p}: not valid TOML ({exc})") from None
+    data = toml_data(read_toml_file(p, "expectation"), p)
     where = str(p)
     case = data.get("case", {})
     if not isinstance(case, dict):
@@ -300,7 +293,7 @@ def load(path: str | Path) -> Case:
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise UserError(f"{where}: key 'expect.name': {dup[0]!r} is used twice")
-    sc = _hexapod(where, _scenario(where, p, data))
+    sc = hexapod(where, _scenario(where, p, data))
     for i, e in enumerate(expectations):
         if e.kind is Kind.TACTILE_RULE and e.get("max_obstacle_height_m") is None \
                 and sc.gait.max_obstacle_height_m is None:
