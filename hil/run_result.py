@@ -181,6 +181,10 @@ class RunResult:
     no_servo_answered: str | None = None   # why, when the firmware wrote and none answered
     interrupted: bool = False   # Ctrl-C (or SIGTERM) ended it early
     limit_hit: str | None = None   # "wall" or "memory": the cap that ended it (hil/run/limits.py)
+    console_dropped_bytes: int = 0   # of the firmware's prints, past what the trace keeps
+    # the bus master's protocol mistakes (hil/servobus/master_check.py ``summary``), where
+    # the run checked them (a firmware of yours, every hexhil test case); else None
+    violations: Mapping[str, Any] | None = None
 
     @property
     def unhandled_exceptions(self) -> int:
@@ -215,6 +219,7 @@ class RunTally:
     no_servo_answered: str | None = None
     interrupted: bool = False
     limit_hit: str | None = None
+    console_dropped_bytes: int = 0
 
     def count_can(self, arb_id: int) -> None:
         key = "0x%03X" % arb_id
@@ -235,7 +240,7 @@ class RunTally:
             _frozen(self.can_frames), self.bus_busy_us, self.bus_wire_us, self.loop_cycles,
             self.round_trips, self.body, self.world, ending=self.ending,
             no_servo_answered=self.no_servo_answered, interrupted=self.interrupted,
-            limit_hit=self.limit_hit)
+            limit_hit=self.limit_hit, console_dropped_bytes=self.console_dropped_bytes)
 
 
 class RunInterrupted(KeyboardInterrupt):

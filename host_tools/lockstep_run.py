@@ -10,6 +10,7 @@ A beams scenario (seed 000) runs its own host nodes, plugged in by its paper's p
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from pathlib import Path
@@ -22,6 +23,7 @@ from hil.run.rig import make_world
 from hil.run_result import RunInterrupted, RunResult
 from hil.scenario import Runtime, Scenario, WorldKind
 from hil.seams import CanGateway, HostNode, TraceRecorder
+from hil.servobus.master_check import MasterCheck
 from hil.link.served_firmware import served_firmware
 from hil.run.lockstep import Simulator
 from host_tools import plugins
@@ -158,14 +160,28 @@ class Run:
                 self.close()
                 raise
         self.sim: Simulator | None = None
+        # a firmware of yours has the bus master's protocol check on (docs/firmware.md)
+        self.check: MasterCheck | None = None
         if not self.beams:
             try:
                 self.sim = Simulator(sc, self.seed, world=self.world, recorder=self.recorder,
                                      tactile=tactile, can_server=can_server,
                                      scene=self.recorder is not None, realtime=realtime)
+                if self.firmware is not None and self.sim.bus is not None:
+                    self.watch_master()
             except BaseException:
                 self.close()
                 raise
+
+    def watch_master(self) -> MasterCheck:
+        """The bus master's protocol check (hil/servobus/master_check.py) on this run: its
+        violations go to the trace's ``/bus/violations`` and ``RunResult.violations``."""
+        sim = self._firmware_sim()
+        if self.check is None:
+            self.check = MasterCheck(self.recorder.violation if self.recorder else None,
+                                     models.protocol(self.scenario.bus.model))
+            sim.bus.monitor = self.check
+        return self.check
 
     def _encode_in(self) -> "EncodeIn":
         from host_tools.trace.windows import encode_in_for
@@ -223,12 +239,16 @@ class Run:
             if self.beams:
                 return self._traverse()
             if self.firmware is not None:
-                return self._firmware_sim().run(self.duration_s, firmware=self.firmware,
-                                                limits=self.limits)
-            from host_tools import in_process
+                result = self._firmware_sim().run(self.duration_s, firmware=self.firmware,
+                                                  limits=self.limits)
+            else:
+                from host_tools import in_process
 
-            return in_process.run(self._firmware_sim(), self.duration_s, self.runtime.value,
-                                  self.limits)
+                result = in_process.run(self._firmware_sim(), self.duration_s,
+                                        self.runtime.value, self.limits)
+            if self.check is not None:
+                result = dataclasses.replace(result, violations=self.check.summary())
+            return result
         except RunInterrupted:
             raise
         except KeyboardInterrupt:    # before the lockstep loop began (a beams run's set-up)

@@ -24,7 +24,8 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
     ``Run.what_ran()``: the tactile rule as run and every override, issue 41)."""
     wall = result.wall_time_s
     fw = result.firmware
-    stopped = fw.state in ("safe_stop", "fault")
+    # ours reports its state; a firmware of yours that sends a stop event stopped itself
+    stopped = fw.state in ("safe_stop", "fault") or fw.state is None
     return {
         "scenario": scenario.name,
         "seed": seed,
@@ -42,6 +43,8 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
         "no_servo_answered": result.no_servo_answered,
         "interrupted": result.interrupted,
         "limit_hit": result.limit_hit,
+        "console_dropped_bytes": result.console_dropped_bytes,
+        "violations": None if result.violations is None else dict(result.violations),
         "stopped_safely": stopped and result.stop_reason is not None,
         "stop_reason": result.stop_reason,
         "body": {k: round(v, 4) for k, v in result.body.as_dict().items()},

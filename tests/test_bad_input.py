@@ -33,6 +33,16 @@ FILES = {
     "exists.png": "", "unplug99.toml": "[faults]\nunplug=[{id=99, at_s=1.0}]\n",
     "leg.toml": '[faults]\nswitch_stuck=[{leg="XX", pressed=true, at_s=1.0}]\n',
 }
+SIGNAL = ('[case]\nscenario = "' + FT + '"\nduration_s = 2\n[[expect]]\nname = "x"\n'
+          'kind = "signal"\nstat = "max"\nlimit = [0, 70]\n')
+FILES.update({
+    "typo.toml": SIGNAL + 'topic = "/servos"\nfield = "servos[0].temprature_c"\n',
+    "notopic.toml": SIGNAL + 'topic = "/servo"\nfield = "servos[0].temperature_c"\n',
+    "index.toml": SIGNAL + 'topic = "/servos"\nfield = "servos[18].temperature_c"\n',
+    "late.toml": SIGNAL + 'topic = "/servos"\nfield = "servos[0].temperature_c"\n'
+                          'window_s = [5, 6]\n',
+    "canfield.toml": SIGNAL + 'topic = "/can/heartbeat"\nfield = "stat"\n',
+})
 WALK = str(ROOT / "examples" / "margin-walk.toml")
 CASE = str(ROOT / "tests" / "firmware" / "flat-tripod.toml")
 B = "{B}"  # the case's folder, filled in by the fixture
@@ -135,6 +145,13 @@ CASES = [
     (["margin", "scenarios/beams-flimsy.toml", "--expect", WALK], "runs the hexapod firmware"),
     (["test", CASE, "--junit", f"{B}/missing/r.xml"], "--junit", ),
     (["test", CASE, "--junit", B], "is a directory"),
+    (["replay", f"{B}/good.mcap", "--can", "virtual:x", "--start", "1000"],
+     "no CAN frames in the chosen time range"),
+    (["test", f"{B}/typo.toml"], "no field 'temprature_c' in /servos's messages"),
+    (["test", f"{B}/notopic.toml"], "key 'topic': no topic '/servo' in a trace"),
+    (["test", f"{B}/index.toml"], "servos[18] is out of range (the bus has 18 servos: 0-17)"),
+    (["test", f"{B}/late.toml"], "key 'window_s' [5, 6] reaches past the run's end (2 s)"),
+    (["test", f"{B}/canfield.toml"], "frame heartbeat has no signal 'stat'"),
 ]
 
 

@@ -164,3 +164,100 @@ def test_a_junit_report_that_cannot_be_written_keeps_the_verdict(
     assert proc.returncode == status, proc.stdout + proc.stderr
     assert proc.stderr.strip().splitlines()[-1].startswith(
         "hexhil: the JUnit report /dev/full: cannot write")
+
+
+CHATTY = '''import time
+line = "x" * 99
+while True:
+    for _ in range(100):
+        print(line)
+    time.sleep_ms(1)
+'''
+
+
+def test_a_chatty_firmwares_prints_are_bounded_and_the_rest_is_reported(tmp_path: Path) -> None:
+    from hil.link.served_firmware import CONSOLE_TRACE_BYTES
+
+    fw = tmp_path / "chatty.py"
+    fw.write_text(CHATTY)                   # 10 kB a virtual millisecond
+    out = tmp_path / "chatty.mcap"
+    with Run(FLAT, firmware=fw, duration_s=1.0, trace=out) as r:
+        result = r.run()
+    assert result.ending.completed, result.ending
+    assert result.console_dropped_bytes > 5_000_000
+    with Trace(out) as t:
+        kept = sum(len(msg["text"]) + 1 for _, msg in t.decoded(["/telemetry"])
+                   if "text" in msg)
+    assert 0.9 * CONSOLE_TRACE_BYTES < kept <= CONSOLE_TRACE_BYTES
+
+
+BAD_MASTER = '''import time
+from machine import Pin, UART
+
+uart = UART(2, baudrate=1000000, timeout=2, timeout_char=1)
+direction = Pin("A1", Pin.OUT, value=0)
+body = bytes((1, 2, 0x55))                    # instruction 0x55: no AX-12 has it
+while True:
+    direction.value(1)
+    uart.write(b"\\xff\\xff" + body + bytes(((~sum(body)) & 0xFF,)))
+    uart.flush()
+    direction.value(0)
+    time.sleep_ms(20)
+'''
+
+
+def test_a_run_of_your_firmware_counts_the_masters_protocol_mistakes(tmp_path: Path) -> None:
+    fw = tmp_path / "bad_master.py"
+    fw.write_text(BAD_MASTER)
+    out = tmp_path / "bad.mcap"
+    proc = subprocess.run([HEXHIL, "run", str(FLAT), "--firmware", str(fw), "--duration", "1",
+                           "--out", str(out), "--json"], cwd=ROOT, capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    s = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert s["violations"]["counts"]["unsupported_instruction"] >= 10, s["violations"]
+    assert "master protocol violations: unsupported_instruction" in proc.stdout
+    with Trace(out) as t:
+        kinds = {msg["kind"] for _, msg in t.decoded(["/bus/violations"])}
+    assert "unsupported_instruction" in kinds
+
+
+SWALLOWS_EXIT = '''import time
+while True:
+    try:
+        time.sleep_ms(20)
+    except:                 # catches the board's SystemExit at the run's end too
+        pass
+'''
+
+
+def test_a_firmware_that_swallows_the_end_completes_its_run(tmp_path: Path) -> None:
+    fw = tmp_path / "swallows.py"
+    fw.write_text(SWALLOWS_EXIT)
+    with Run(FLAT, firmware=fw, duration_s=1.0) as r:
+        result = r.run()
+    assert result.ending.kind is Ending.COMPLETED, result.ending   # hexhil ended it, 2 s on
+    assert result.ending.exit_code == -signal.SIGKILL
+    assert result.sim_time_s == 1.0
+
+
+STOPS = '''import time
+time.sleep_ms(100)
+print("event 2 switch pressed: RF")
+while True:
+    time.sleep_ms(20)
+'''
+
+
+def test_your_firmwares_own_stop_is_a_safe_stop_and_no_stats_are_made_up(
+        tmp_path: Path) -> None:
+    fw = tmp_path / "stops.py"
+    fw.write_text(STOPS)
+    proc = subprocess.run([HEXHIL, "run", str(FLAT), "--firmware", str(fw), "--duration", "1",
+                           "--json"], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    s = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert s["stop_reason"] == "switch pressed: RF" and s["stopped_safely"] is True
+    first = proc.stdout.splitlines()[0]
+    assert "cycles" not in first and "state None" not in first, first
+    assert first.endswith("stopped: switch pressed: RF")

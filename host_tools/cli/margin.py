@@ -37,6 +37,8 @@ def _run(args: argparse.Namespace) -> int:
                                seed=sc.scenario.seed)
     if args.duration is not None:
         scenario_mod.check_duration(args.duration, "--duration")
+        spec.check_windows(args.expect, case.expectations, args.duration,
+                           case.scenario.bus.servos)
         case = dataclasses.replace(case, duration_s=args.duration)
     python = args.python or case.python
     m = margin_sweep.sweep(case, python, workers=args.jobs, scheduler=args.scheduler,

@@ -14,7 +14,6 @@ from mcap.writer import CompressionType, Writer
 
 from hil.scenario import Scenario, check_seed
 from hil.seams import ServoLine
-from hil.servobus.master_check import MasterCheck
 from host_tools import run_summary as run_mod
 from host_tools.expect.verdicts import Outcome, evaluate
 from host_tools.expect.spec import Case
@@ -111,9 +110,8 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
               overrides={**timing.overrides(), **(changed or {})}, coverage=coverage)
     try:
-        check = MasterCheck(run.recorder.violation)
+        run.watch_master()
         sim = run.sim
-        sim.bus.monitor = check
         timing.apply(sim.bus)
         if sends:
             run.add_node(_Sender(run, sends))
@@ -121,9 +119,7 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
         run.close()
         raise
     result = run.run()
-    summary = run_mod.summary(run.scenario, seed, result, str(trace), run.what_ran())
-    summary["violations"] = check.summary()
-    return summary
+    return run_mod.summary(run.scenario, seed, result, str(trace), run.what_ran())
 
 
 def run_case(job: CaseRun) -> CaseResult:
