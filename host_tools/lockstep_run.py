@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -64,7 +65,7 @@ def scenario_of_trace(metadata: dict[str, str], where: str) -> tuple[Scenario, i
     try:
         seed = int(metadata.get("seed", "0"))
         data = json.loads(metadata["scenario_data"]) if "scenario_data" in metadata else None
-    except ValueError:
+    except (ValueError, RecursionError):
         raise UserError(f"{where}: unreadable run metadata") from None
     path = metadata.get("scenario", "")
     if data is not None:
@@ -136,7 +137,10 @@ class Run:
                         else tactile if tactile is not None
                         else sc.firmware.tactile if sc.firmware.tactile is not None
                         else ls.TACTILE_DEFAULT)
-        self.limits = limits if limits is not None else RunLimits()
+        # a GDB session halts the firmware for as long as its user likes: no wall-clock cap
+        self.limits = (limits if limits is not None
+                       else RunLimits(max_wall_s=math.inf) if gdb_port is not None
+                       else RunLimits())
         self.trace = str(trace) if trace else None
         self._can_server, self._realtime = can_server, realtime
         self.world = None if self.beams else make_world(sc, self.seed)

@@ -29,7 +29,8 @@ from protocol.dynamixel import models
 from hil.link.served_firmware import (BOARD_RUNTIME, EXECUTABLE, ElfFirmware, console_events,
                                       served_firmware)
 from hil.mcu.replayed import ReplayedElf
-from hil.link.firmware_process import REQUEST_OPS, FirmwareProcess, split_messages
+from hil.link.firmware_child import FirmwareProcess
+from hil.link.firmware_process import REQUEST_OPS, split_messages
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_CAN_RAW, T_LINK

@@ -13,7 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from hil.link.firmware_process import FirmwareError, FirmwareProcess
+from hil.link.firmware_child import FirmwareProcess
+from hil.link.firmware_process import FirmwareError
 from hil.run.limits import RunLimits
 from hil.run_result import Ending
 from host_tools import Run, c_sdk
@@ -128,7 +129,7 @@ def test_a_run_past_its_memory_cap_ends_as_a_limit_verdict() -> None:
 
 
 @pytest.mark.parametrize("argv", [["--max-wall", "nan"], ["--max-wall", "-1"],
-                                  ["--max-memory", "0"], ["--max-memory", "inf"]])
+                                  ["--max-memory", "0"], ["--max-memory", "nan"]])
 def test_bad_limits_are_one_line_and_exit_2(argv: list[str]) -> None:
     proc = subprocess.run([HEXHIL, "run", str(FLAT), *argv], cwd=ROOT, capture_output=True,
                           text=True, timeout=60)

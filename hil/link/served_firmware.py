@@ -6,7 +6,7 @@
   docs/your-firmware.md);
 * ``ExecutableFirmware``: any executable that speaks docs/link.md, such as a C firmware
   built against firmware/c_sdk/ (docs/c-firmware.md). It finds the link through
-  ``HEXHIL_LINK_PORT`` in its environment (hil/link/firmware_process.py ``FirmwareProcess``);
+  ``HEXHIL_LINK_PORT`` in its environment (hil/link/firmware_child.py ``FirmwareProcess``);
 * ``ElfFirmware``: an STM32F411 ELF (its header says ARM, 32-bit), run unchanged on the
   emulated board in this process (hil/mcu/, docs/elf-firmware.md).
 
@@ -25,8 +25,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Callable, Protocol
 
-from hil.link.firmware_process import (ROOT, TAIL_BYTES, FirmwareError, FirmwareProcess,
-                                      firmware_command, firmware_env)
+from hil.link.firmware_child import TAIL_BYTES, FirmwareProcess
+from hil.link.firmware_process import ROOT, FirmwareError, firmware_command, firmware_env
 from hil.mcu.elf_image import ELF_MAGIC, ElfImage, is_arm_elf, load_elf
 from hil.mcu.runtime import serve_elf
 from hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally

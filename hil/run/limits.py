@@ -12,14 +12,13 @@ person's by ``hit``), so the trace is finished as after Ctrl-C.
 from __future__ import annotations
 
 import _thread
-import math
 import os
-import signal
 import threading
 import time
 from dataclasses import dataclass
 from typing import Any
 
+from hil.link.firmware_child import end_group
 from protocol.errors import UserError
 
 DEFAULT_MEMORY_MB = 4096.0   # this process and its firmware's, resident
@@ -32,7 +31,7 @@ CHECK_S = 0.05
 class RunLimits:
     """``max_wall_s``: wall seconds a run may take (None: ``WALL_BASE_S`` plus
     ``WALL_PER_SIM_S`` a simulated second of it); ``max_memory_mb``: the resident memory,
-    in MiB, of hexhil's process and its firmware's together."""
+    in MiB, of hexhil's process and its firmware's together. Infinity turns a cap off."""
 
     max_wall_s: float | None = None
     max_memory_mb: float = DEFAULT_MEMORY_MB
@@ -42,9 +41,8 @@ class RunLimits:
             v = getattr(self, name)
             if v is None and name == "max_wall_s":
                 continue
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
-                    or v <= 0:
-                raise UserError(f"{name} must be a positive number, not {v!r}",
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+                raise UserError(f"{name} must be a positive number (inf: no cap), not {v!r}",
                                 params=(name,))
 
     def wall_s(self, duration_s: float) -> float:
@@ -127,9 +125,6 @@ class RunWatch:
                 return
             self.hit, self.reason = hit, reason
             for pid in list(self._pids):
-                try:
-                    os.killpg(pid, signal.SIGKILL)
-                except (ProcessLookupError, PermissionError):
-                    pass
+                end_group(pid)
             if self._main:
                 _thread.interrupt_main()

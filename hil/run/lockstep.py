@@ -26,7 +26,8 @@ from typing import Any, Callable
 
 from hil.link.board_line import why_no_servo_answered
 from hil.link.served_firmware import EXIT_GRACE_S, ServedFirmware, judge
-from hil.link.firmware_process import IN_PROCESS, DirectConnection, FirmwareProcess
+from hil.link.firmware_child import FirmwareProcess
+from hil.link.firmware_process import IN_PROCESS, DirectConnection
 from hil.link.server import LinkServer, SwitchSampler
 from hil.run.core import RunCore, WallClockPacing
 from hil.run.limits import RunLimits, RunWatch

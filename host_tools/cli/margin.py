@@ -63,8 +63,9 @@ def _run(args: argparse.Namespace) -> int:
         try:
             margin_sweep.heat_map(m, args.png, f"{case.name}: expectations of {args.expect} "
                                   f"({case.duration_s:g} s, seed {case.seed})")
-        except OSError as exc:   # a full disk: the sweep above is printed already
-            raise write_failed(args.png, "png", exc) from None
+        except OSError as exc:   # a full disk: the sweep above is printed, its verdict stands
+            sys.stderr.write(f"hexhil: {cli.flag_message(write_failed(args.png, 'png', exc))}\n")
+            return 1 if not m.nominal_holds() else 2
         print(f"heat map: {args.png}")
     if args.json:
         emit_json(json.loads(json.dumps(margin_sweep.to_json(m))))
