@@ -134,6 +134,9 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     if can_wait_clients < 0:
         raise UserError(f"can_wait_clients must be 0 or more, got {can_wait_clients}",
                         params=("can_wait_clients",))
+    if can_wait_clients and can_server_port is None:
+        raise UserError("can_wait_clients waits for clients of can_server_port: give both",
+                        params=("can_wait_clients", "can_server_port"))
     attach_navigator = (plugins.navigator_plan(navigator)(sc, model_path)
                         if navigator != "none" else None)
     server = nav = None

@@ -115,8 +115,8 @@ CASES = [
       "--unknowns", "4"], "k1"),
     (["beams", "run", "--k1", "0.1", "--k2", "0.1", "--strategy", "fly"], "--strategy"),
     (["experiment", "tactile-hexapod", "--workers", "0"], "--workers must be at least 1"),
-    (["experiment", "tactile-hexapod", "--seeds", "-1"], "--seeds must be at least 1"),
-    (["experiment", "force-sensing", "--seeds", "0"], "--seeds must be at least 1"),
+    (["experiment", "tactile-hexapod", "--seeds", "-1"], "--seeds must be 1-1000, got -1"),
+    (["experiment", "force-sensing", "--seeds", "0"], "--seeds must be 1-1000, got 0"),
     (["experiment", "tactile-hexapod", "--out", f"{B}/afile"], "exists and is not a folder"),
     (["run", f"{B}/fifo.toml"], "fifo.toml: not a regular file"),
     (["run", "/dev/null"], "/dev/null: not a regular file"),
@@ -147,6 +147,11 @@ CASES = [
     (["test", CASE, "--junit", B], "is a directory"),
     (["replay", f"{B}/good.mcap", "--can", "virtual:x", "--start", "1000"],
      "no CAN frames in the chosen time range"),
+    (["trace", "info", f"{B}/fifo.mcap"], "fifo.mcap: not a regular file"),
+    (["replay", f"{B}/fifo.mcap"], "fifo.mcap: not a regular file"),
+    (["trace", "import-csv", f"{B}/fifo.mcap", f"{B}/o2.mcap"], "not a regular file"),
+    (["experiment", "tactile-hexapod", "--seeds", "100000000"], "--seeds must be 1-1000"),
+    (["run", FT, "--can-wait", "3"], "--can-wait waits for clients of --can-server"),
     (["test", f"{B}/typo.toml"], "no field 'temprature_c' in /servos's messages"),
     (["test", f"{B}/notopic.toml"], "key 'topic': no topic '/servo' in a trace"),
     (["test", f"{B}/index.toml"], "servos[18] is out of range (the bus has 18 servos: 0-17)"),
@@ -162,6 +167,7 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
         (d / name).write_text(text)
     (d / "bin.csv").write_bytes(bytes(range(128, 256)) * 3)
     os.mkfifo(d / "fifo.toml")        # would block a read for ever
+    os.mkfifo(d / "fifo.mcap")
     (d / "adir.png").mkdir()
     good = sample_trace(d / "good.mcap")
     (d / "trunc.mcap").write_bytes(good[:len(good) // 2])
