@@ -262,3 +262,14 @@ def test_your_firmwares_own_stop_is_a_safe_stop_and_no_stats_are_made_up(
     first = proc.stdout.splitlines()[0]
     assert "cycles" not in first and "state None" not in first, first
     assert first.endswith("stopped: switch pressed: RF")
+
+
+def test_hexhil_test_takes_the_caps_and_a_capped_case_fails(tmp_path: Path) -> None:
+    case = tmp_path / "long.toml"
+    case.write_text(JUNIT_CASE.format(name="long", flat=FLAT, min_m_s=0)
+                    .replace("duration_s = 1", "duration_s = 600"))
+    proc = subprocess.run([HEXHIL, "test", str(case), "--max-wall", "2"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    assert "firmware ending" in proc.stdout and "limit" in proc.stdout
+    assert "wall-clock cap of 2 s" in proc.stdout

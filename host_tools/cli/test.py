@@ -62,7 +62,8 @@ def _run(args: argparse.Namespace) -> int:
         jobs = case_runs.jobs_for(cases, args.repeat,
                                   tactile=False if args.no_tactile else None,
                                   python=args.python, firmware=args.firmware,
-                                  keep_dir=args.keep_traces, overwrite=args.overwrite)
+                                  keep_dir=args.keep_traces, overwrite=args.overwrite,
+                                  limits=cli.limits(args))
         if args.keep_traces and not args.overwrite:   # refused before anything runs
             for job in jobs:
                 kept = case_runs.kept_path(args.keep_traces, job.label)
@@ -152,4 +153,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="run every case with the Eq. 5-7 obstacle rule off, as "
                         "'hexhil run --no-tactile' (the tactile expectations should fail)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    cli.add_limits(p)
     p.set_defaults(func=_run)
