@@ -93,7 +93,7 @@ def test_a_signal_to_the_pid_alone_ends_a_run_at_once_with_the_trace_finished(
     stdout, stderr = proc.communicate(timeout=60)
     took_s = time.monotonic() - t0
     assert proc.returncode == status, stderr
-    assert took_s < 5.0, took_s       # the firmware is ended, not waited for
+    assert took_s < 2.0, took_s       # the firmware is ended, not waited for (about 0.1 s)
     assert "Traceback" not in stderr
     assert json.loads(stdout.strip().splitlines()[-1])["interrupted"] is True
     with Trace(out) as t:             # opens only with a summary: the file was finished
