@@ -75,7 +75,7 @@ class Session:
         try:
             self.proc = subprocess.Popen(list(command), cwd=ROOT, env=full_env,
                                          stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                         start_new_session=True)
+                                         process_group=0)
         except OSError as exc:
             srv.close()
             raise Mismatch(f"cannot start the client {' '.join(command)}: {exc}") from None

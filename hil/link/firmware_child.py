@@ -89,7 +89,7 @@ class FirmwareProcess:
         try:
             self.proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdin=subprocess.DEVNULL,
                                          stdout=self._stdout, stderr=self._stderr,
-                                         start_new_session=True)
+                                         process_group=0)
         except OSError as exc:
             _close_listener(srv)
             self._close_files()
@@ -167,7 +167,7 @@ class FirmwareProcess:
 
 def end_group(pgid: int) -> None:
     """SIGKILL to what is left of process group ``pgid`` (a child started with
-    ``start_new_session``: a wrapper script's children go with it)."""
+    ``process_group=0``: a wrapper script's children go with it)."""
     try:
         os.killpg(pgid, signal.SIGKILL)
     except (ProcessLookupError, PermissionError):
