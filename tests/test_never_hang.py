@@ -273,3 +273,10 @@ def test_hexhil_test_takes_the_caps_and_a_capped_case_fails(tmp_path: Path) -> N
     assert proc.returncode == 1, proc.stdout + proc.stderr
     assert "firmware ending" in proc.stdout and "limit" in proc.stdout
     assert "wall-clock cap of 2 s" in proc.stdout
+
+
+def test_bus_duration_with_no_master_ends_after_its_seconds_of_waiting() -> None:
+    proc = subprocess.run([HEXHIL, "bus", "--duration", "1"], cwd=ROOT, capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert "served 0 packets" in proc.stdout
