@@ -358,8 +358,7 @@ class _ConsoleReader:
             self._line = b""
             if text and self._take is not None:
                 self._hand(text)
-        else:
-            self._skip()
+        self._skip()   # what is left past the cap: counted, its tail kept
         return self._tail.replace(b"\0", b"").decode(errors="replace")
 
 
