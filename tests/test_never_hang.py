@@ -280,3 +280,21 @@ def test_bus_duration_with_no_master_ends_after_its_seconds_of_waiting() -> None
                           text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     assert "served 0 packets" in proc.stdout
+
+
+def test_a_firmware_in_this_process_is_capped_too_from_any_thread() -> None:
+    import threading
+
+    got = []
+
+    def run() -> None:
+        with Run(FLAT, runtime="cpython-inprocess", duration_s=600.0,
+                 limits=RunLimits(max_wall_s=1.0)) as r:
+            got.append(r.run())
+
+    worker = threading.Thread(target=run)   # no signal handler reaches this thread
+    worker.start()
+    worker.join(timeout=60)
+    assert not worker.is_alive() and got
+    assert got[0].limit_hit == "wall" and got[0].ending.kind is Ending.LIMIT
+    assert 0 < got[0].sim_time_s < 600

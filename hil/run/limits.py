@@ -5,13 +5,14 @@ leaving it to the kernel's out-of-memory kill.
 ``RunWatch`` checks them from a thread of its own every ``CHECK_S``: the wall time since
 the run began, and the resident memory of this process and of the firmware's processes
 it was given (``watch``). When one is over, it ends those processes' groups (the host's
-read of the link then sees it closed) and interrupts the main thread, where the run is
-(``_thread.interrupt_main``: a ``KeyboardInterrupt`` that ``Simulator.run`` tells from a
-person's by ``hit``), so the trace is finished as after Ctrl-C.
+read of the link then sees it closed) and raises ``LimitHit`` in the thread the run is in
+(an asynchronous exception, whatever the signal handlers are: a ``KeyboardInterrupt``
+that ``Simulator.run`` tells from a person's by ``hit``), so the trace is finished as
+after Ctrl-C.
 """
 from __future__ import annotations
 
-import _thread
+import ctypes
 import os
 import threading
 import time
@@ -25,6 +26,10 @@ DEFAULT_MEMORY_MB = 4096.0   # this process and its firmware's, resident
 WALL_BASE_S = 120.0          # the wall-clock cap, unless given: this, plus
 WALL_PER_SIM_S = 20.0        # this many wall seconds a simulated second (a 0.05x run)
 CHECK_S = 0.05
+
+
+class LimitHit(KeyboardInterrupt):
+    """Raised in a run's thread when one of its caps is hit (``RunWatch``)."""
 
 
 @dataclass(frozen=True)
@@ -78,7 +83,7 @@ class RunWatch:
         self._lock = threading.Lock()
         self._armed = False
         self._stop = threading.Event()
-        self._main = threading.current_thread() is threading.main_thread()
+        self._run_thread = threading.get_ident()   # where the run is: LimitHit goes there
         self._thread: threading.Thread | None = None
 
     def watch(self, pid: int) -> None:
@@ -126,5 +131,5 @@ class RunWatch:
             self.hit, self.reason = hit, reason
             for pid in list(self._pids):
                 end_group(pid)
-            if self._main:
-                _thread.interrupt_main()
+            ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(self._run_thread),
+                                                       ctypes.py_object(LimitHit))

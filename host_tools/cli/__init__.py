@@ -236,7 +236,8 @@ def _interrupted(exc: BaseException | None) -> bool:
 def main(argv: list[str] | None = None) -> int:
     if argv is None:  # the console script, not a test calling main() in-process
         signal.signal(signal.SIGTERM, _terminated)
-        signal.signal(signal.SIGINT, _terminated)
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:   # not ignored
+            signal.signal(signal.SIGINT, _terminated)
         status = _main(sys.argv[1:])
         if _signalled[0] is not None and status == interrupted_status():
             # Interrupted: every file is finished, and the interpreter's own teardown
