@@ -25,7 +25,7 @@ import time
 from typing import Any, Callable
 
 from hil.link.board_line import why_no_servo_answered
-from hil.link.served_firmware import EXIT_GRACE_S, ServedFirmware, judge
+from hil.link.served_firmware import ServedFirmware, judge
 from hil.link.firmware_child import FirmwareProcess
 from hil.link.firmware_process import IN_PROCESS, DirectConnection
 from hil.link.server import LinkServer, SwitchSampler
@@ -39,6 +39,7 @@ from hil.seams import CanGateway, FirmwareWorld, HostNode, SteppedWorld, TraceRe
 from protocol import link_schema as ls
 
 BODY_SAMPLE_US = 100_000  # ground truth and servo state to the recorder at 10 Hz
+OWN_EXIT_WAIT_S = 10.0    # how long our firmware may take to exit once it closed the link
 # runs a firmware in this process on the link's exchange(bytes written, closed) -> reply
 InProcessFirmware = Callable[[Callable[[bytes, bool], bytes]], None]
 # The firmware's stats event counters a run reports as detected faults. protocol/ will
@@ -146,8 +147,8 @@ class FirmwareDriver:
             try:
                 server.serve(fw.conn, end_us, result)
                 closed = True
-            finally:   # an interrupt or a limit ends it at once
-                code, out, err = fw.finish(EXIT_GRACE_S if closed else 0.0)
+            finally:   # ours exits as soon as it closed the link; an interrupt ends it at once
+                code, out, err = fw.finish(OWN_EXIT_WAIT_S if closed else 0.0)
             result.exit_code = code
             result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
             # ours may stop before the end on its own (a safe stop): only a crash counts
