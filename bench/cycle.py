@@ -14,7 +14,8 @@ from unittest import mock
 
 from bench.bench_world import ROOT
 from hil import scenario as scenario_mod
-from hil.link.firmware_process import Connection, DirectConnection, FirmwareProcess
+from hil.link.firmware_child import FirmwareProcess
+from hil.link.firmware_process import Connection, DirectConnection
 from hil.link.server import LinkServer
 from hil.run.lockstep import Simulator
 from hil.run.rig import make_world

@@ -24,6 +24,7 @@ class Ending(str, Enum):
     HUNG = "hung"                        # no link message for a while, or only polls
     EXITED_EARLY = "exited_early"        # exited cleanly before the run's end
     FAILED_TO_START = "failed_to_start"  # never connected to the link
+    LIMIT = "limit"                      # ended by the run's wall-clock or memory cap
 
 
 @dataclass(frozen=True)
@@ -179,6 +180,11 @@ class RunResult:
     ending: FirmwareEnding = FirmwareEnding()   # how the firmware ended (COMPLETED: served on)
     no_servo_answered: str | None = None   # why, when the firmware wrote and none answered
     interrupted: bool = False   # Ctrl-C (or SIGTERM) ended it early
+    limit_hit: str | None = None   # "wall" or "memory": the cap that ended it (hil/run/limits.py)
+    console_dropped_bytes: int = 0   # of the firmware's prints, past what the trace keeps
+    # the bus master's protocol mistakes (hil/servobus/master_check.py ``summary``), where
+    # the run checked them (a firmware of yours, every hexhil test case); else None
+    violations: Mapping[str, Any] | None = None
 
     @property
     def unhandled_exceptions(self) -> int:

@@ -15,6 +15,7 @@ from typing import Callable
 from firmware import main as firmware_main
 from firmware.hal.sim import Board
 from hil.link.firmware_process import IN_PROCESS
+from hil.run.limits import RunLimits
 from hil.run_result import RunResult
 from hil.run.lockstep import Simulator
 
@@ -75,10 +76,11 @@ def run_firmware(exchange: Callable[[bytes, bool], bytes]) -> None:
         raise wire.error
 
 
-def run(sim: Simulator, duration_s: float | None, python: str | None) -> RunResult:
+def run(sim: Simulator, duration_s: float | None, python: str | None,
+        limits: RunLimits | None = None) -> RunResult:
     """``sim.run`` under the runtime named ``python``: this module's ``run_firmware`` for
     ``cpython-inprocess``, else a child process (hil/ cannot import the firmware, so the
-    choice is made here, on the top floor)."""
+    choice is made here, on the top floor); ``limits``, the run's caps."""
     if python == IN_PROCESS:
-        return sim.run(duration_s, in_process=run_firmware)
-    return sim.run(duration_s, python=python)
+        return sim.run(duration_s, in_process=run_firmware, limits=limits)
+    return sim.run(duration_s, python=python, limits=limits)

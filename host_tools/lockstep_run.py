@@ -10,17 +10,21 @@ A beams scenario (seed 000) runs its own host nodes, plugged in by its paper's p
 """
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
 import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from hil import scenario as scenario_mod
 from hil.canbus.bus import CanBus, Endpoint, standard_frame
+from hil.run.limits import RunLimits
 from hil.run.rig import make_world
 from hil.run_result import RunInterrupted, RunResult
 from hil.scenario import Runtime, Scenario, WorldKind
 from hil.seams import CanGateway, HostNode, TraceRecorder
+from hil.servobus.master_check import MasterCheck
 from hil.link.served_firmware import served_firmware
 from hil.run.lockstep import Simulator
 from host_tools import plugins
@@ -62,7 +66,7 @@ def scenario_of_trace(metadata: dict[str, str], where: str) -> tuple[Scenario, i
     try:
         seed = int(metadata.get("seed", "0"))
         data = json.loads(metadata["scenario_data"]) if "scenario_data" in metadata else None
-    except ValueError:
+    except (ValueError, RecursionError):
         raise UserError(f"{where}: unreadable run metadata") from None
     path = metadata.get("scenario", "")
     if data is not None:
@@ -85,8 +89,10 @@ class Run(Closing):
     runs instead of ours. An existing ``trace`` file is refused unless ``overwrite``
     (host_tools/trace/target.py). Every argument given is an override, recorded in the
     trace's metadata with the scenario as run (``overrides`` adds what else the caller
-    changed, e.g. margin's bus timing); ``what_ran()`` says the same for the summary. Close it
-    (or use ``with``) if ``run`` is never called."""
+    changed, e.g. margin's bus timing); ``what_ran()`` says the same for the summary.
+    ``limits`` (hil/run/limits.py ``RunLimits``: a wall-clock and a memory cap, sane by
+    default) end a run that hits one with ``Ending.LIMIT``. Close it (or use ``with``) if
+    ``run`` is never called."""
 
     def __init__(self, scenario: Scenario | dict[str, Any] | str | Path, *,
                  seed: int | None = None,
@@ -95,7 +101,8 @@ class Run(Closing):
                  live_port: int | None = None, can_server: CanGateway | None = None,
                  realtime: bool = False, firmware: str | Path | None = None,
                  gdb_port: int | None = None, coverage: str | Path | None = None,
-                 overwrite: bool = False, overrides: dict[str, Any] | None = None) -> None:
+                 overwrite: bool = False, overrides: dict[str, Any] | None = None,
+                 limits: RunLimits | None = None) -> None:
         # a firmware of the user's (hil/link/served_firmware.py) is checked before anything opens
         self.firmware = (served_firmware(firmware, gdb_port=gdb_port, coverage=coverage)
                          if firmware is not None else None)
@@ -131,6 +138,10 @@ class Run(Closing):
                         else tactile if tactile is not None
                         else sc.firmware.tactile if sc.firmware.tactile is not None
                         else ls.TACTILE_DEFAULT)
+        # a GDB session halts the firmware for as long as its user likes: no wall-clock cap
+        self.limits = (limits if limits is not None
+                       else RunLimits(max_wall_s=math.inf) if gdb_port is not None
+                       else RunLimits())
         self.trace = str(trace) if trace else None
         self._can_server, self._realtime = can_server, realtime
         self.world = None if self.beams else make_world(sc, self.seed)
@@ -154,14 +165,28 @@ class Run(Closing):
                 self.close()
                 raise
         self.sim: Simulator | None = None
+        # a firmware of yours has the bus master's protocol check on (docs/firmware.md)
+        self.check: MasterCheck | None = None
         if not self.beams:
             try:
                 self.sim = Simulator(sc, self.seed, world=self.world, recorder=self.recorder,
                                      tactile=tactile, can_server=can_server,
                                      scene=self.recorder is not None, realtime=realtime)
+                if self.firmware is not None and self.sim.bus is not None:
+                    self.watch_master()
             except BaseException:
                 self.close()
                 raise
+
+    def watch_master(self) -> MasterCheck:
+        """The bus master's protocol check (hil/servobus/master_check.py) on this run: its
+        violations go to the trace's ``/bus/violations`` and ``RunResult.violations``."""
+        sim = self._firmware_sim()
+        if self.check is None:
+            self.check = MasterCheck(self.recorder.violation if self.recorder else None,
+                                     models.protocol(self.scenario.bus.model))
+            sim.bus.monitor = self.check
+        return self.check
 
     def _encode_in(self) -> "EncodeIn":
         from host_tools.trace.windows import encode_in_for
@@ -220,10 +245,16 @@ class Run(Closing):
             if self.beams:
                 return self._traverse()
             if self.firmware is not None:
-                return self._firmware_sim().run(self.duration_s, firmware=self.firmware)
-            from host_tools import in_process
+                result = self._firmware_sim().run(self.duration_s, firmware=self.firmware,
+                                                  limits=self.limits)
+            else:
+                from host_tools import in_process
 
-            return in_process.run(self._firmware_sim(), self.duration_s, self.runtime.value)
+                result = in_process.run(self._firmware_sim(), self.duration_s,
+                                        self.runtime.value, self.limits)
+            if self.check is not None:
+                result = dataclasses.replace(result, violations=self.check.summary())
+            return result
         except RunInterrupted:
             raise
         except KeyboardInterrupt:    # before the lockstep loop began (a beams run's set-up)

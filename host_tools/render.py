@@ -14,11 +14,15 @@ import os
 from pathlib import Path
 from typing import Any, Iterator
 
+from host_tools.output import check_output, write_failed
 from host_tools.progress import Progress, report
 from protocol.errors import UserError
 
 GL_LIBRARIES = {"egl": ("EGL", "libegl1"), "osmesa": ("OSMesa", "libosmesa6")}
 CAMERAS = ("follow", "side")
+MAX_FPS = 100          # a GIF's frame delay is in hundredths of a second
+MAX_SIDE = 4096        # pixels
+MAX_GIF_FRAMES = 3000  # frames a GIF holds in memory before it is written (100 s at 30 fps)
 FLOOR_XML = """<asset>
     <texture name="grid" type="2d" builtin="checker" rgb1="0.82 0.84 0.86" rgb2="0.72 0.74 0.76"
              width="512" height="512"/>
@@ -103,15 +107,21 @@ def _frames_at(samples: list[tuple[float, list[float]]], fps: float,
 
 def render(trace: str, out: str, camera: str = "follow", fps: float = 30.0,
            width: int = 480, height: int = 360, at_s: float | None = None,
-           progress: Progress | None = None) -> int:
+           progress: Progress | None = None, overwrite: bool = False) -> int:
     """Write ``out`` (.gif, .mp4, or .png: the frame at ``at_s``, default the middle);
-    returns the number of frames. Each frame drawn is reported to ``progress``."""
+    returns the number of frames. Each frame drawn is reported to ``progress``. An
+    existing ``out`` is refused unless ``overwrite``, as a trace is."""
     suffix = Path(out).suffix.lower()
     if suffix not in (".gif", ".mp4", ".png"):
         raise UserError(f"out {out}: the video's name must end in .gif, .mp4 or .png",
                         params=("out",))
-    if not fps > 0 or width < 16 or height < 16:
-        raise UserError("fps must be positive and the size at least 16 x 16", params=("fps",))
+    check_output(out, "out", overwrite)
+    if not 0 < fps <= MAX_FPS:
+        raise UserError(f"fps {fps:g}: a video has more than 0 and at most {MAX_FPS} frames a "
+                        "second (the ground truth is sampled at 10 Hz)", params=("fps",))
+    if not (16 <= width <= MAX_SIDE and 16 <= height <= MAX_SIDE):
+        raise UserError(f"size {width} x {height}: each side is 16-{MAX_SIDE} pixels",
+                        params=("width", "height"))
     meta, samples = _ground_truth(trace)
     t0_s, t_end_s = samples[0][0], samples[-1][0]
     if at_s is not None and not t0_s <= at_s <= t_end_s:
@@ -119,6 +129,11 @@ def render(trace: str, out: str, camera: str = "follow", fps: float = 30.0,
                         f"{t_end_s:.3f} s only", params=("at_s",))
     if suffix == ".png" and at_s is None:
         at_s = (samples[0][0] + samples[-1][0]) / 2
+    n = 1 if at_s is not None else int((t_end_s - t0_s) * fps) + 1
+    if suffix == ".gif" and n > MAX_GIF_FRAMES:
+        raise UserError(f"fps {fps:g}: {n:,} frames, and a GIF is held whole until it is "
+                        f"written (at most {MAX_GIF_FRAMES:,}); lower fps, or write an .mp4",
+                        params=("fps",))
     world = _world(meta, trace)
     import mujoco
 
@@ -140,34 +155,43 @@ def render(trace: str, out: str, camera: str = "follow", fps: float = 30.0,
     cam.type = mujoco.mjtCamera.mjCAMERA_FREE
     cam.distance, cam.elevation, cam.azimuth = (0.8, -28.0, 35.0) if camera == "follow" \
         else (0.75, -18.0, -90.0)
-    n = 1 if at_s is not None else int((samples[-1][0] - samples[0][0]) * fps) + 1
-    images = []
     desc = f"render {Path(out).name}"
     report(progress, desc, 0, n)
-    for q in _frames_at(samples, fps, at_s):
-        data.qpos[:25] = q
-        mujoco.mj_kinematics(model, data)
-        cam.lookat[:] = (q[0], q[1], 0.06) if camera == "follow" else (q[0], 0.0, 0.08)
-        renderer.update_scene(data, camera=cam)
-        images.append(renderer.render().copy())
-        report(progress, desc, len(images), n)
-    renderer.close()
-    _write(out, suffix, images, fps)
-    return len(images)
+
+    def images() -> Iterator[Any]:
+        for i, q in enumerate(_frames_at(samples, fps, at_s)):
+            data.qpos[:25] = q
+            mujoco.mj_kinematics(model, data)
+            cam.lookat[:] = (q[0], q[1], 0.06) if camera == "follow" else (q[0], 0.0, 0.08)
+            renderer.update_scene(data, camera=cam)
+            yield renderer.render().copy()
+            report(progress, desc, i + 1, n)
+
+    try:
+        return _write(out, suffix, images(), fps, (width, height))
+    except OSError as exc:   # a full disk, /dev/full, ffmpeg gone
+        raise write_failed(out, "out", exc) from None
+    finally:
+        renderer.close()
 
 
-def _write(out: str, suffix: str, images: list[Any], fps: float) -> None:
+def _write(out: str, suffix: str, images: Iterator[Any], fps: float,
+           size: tuple[int, int]) -> int:
+    """The frames into ``out`` as they are drawn (an MP4 holds none in memory); their number."""
     if suffix == ".mp4":
         import imageio_ffmpeg
 
-        h, w = images[0].shape[:2]
-        writer = imageio_ffmpeg.write_frames(out, (w, h), fps=fps, macro_block_size=8,
+        writer = imageio_ffmpeg.write_frames(out, size, fps=fps, macro_block_size=8,
                                              ffmpeg_log_level="error")
         writer.send(None)
-        for im in images:
-            writer.send(im)
-        writer.close()
-        return
+        count = 0
+        try:
+            for im in images:
+                writer.send(im)
+                count += 1
+        finally:
+            writer.close()
+        return count
     from PIL import Image
 
     frames = [Image.fromarray(im) for im in images]
@@ -176,3 +200,4 @@ def _write(out: str, suffix: str, images: list[Any], fps: float) -> None:
     else:
         frames[0].save(out, save_all=True, append_images=frames[1:], loop=0,
                        duration=round(1000 / fps))
+    return len(frames)

@@ -30,7 +30,8 @@ from hil.link.served_firmware import (BOARD_RUNTIME, EXECUTABLE, ElfFirmware, co
                                       served_firmware)
 from hil.mcu.replayed import ReplayedElf
 from host_tools import log_replay
-from hil.link.firmware_process import REQUEST_OPS, FirmwareProcess, split_messages
+from hil.link.firmware_child import FirmwareProcess
+from hil.link.firmware_process import REQUEST_OPS, split_messages
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_CAN_RAW, T_LINK
@@ -192,6 +193,10 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     if not exchanges:
         raise UserError(f"{path}: the {T_LINK} topic is empty in the chosen time range")
     start_us = int(round((start_s or 0.0) * 1e6))
+    if exchanges[-1][0] < start_us:   # nothing would be compared: not "identical"
+        raise UserError(f"start_s {start_s:g}: {path}'s link exchanges end at "
+                        f"{exchanges[-1][0] * 1e-6:.3f} s: nothing to compare from there",
+                        params=("start_s",))
 
     result = ReplayResult()
     wall0 = time.perf_counter()
@@ -325,6 +330,9 @@ def replay_can(path: str | Path, spec: str, rate: float = 1.0, start_s: float | 
             raise UserError(f"{tr.path}: no CAN frames to replay (no {T_CAN_RAW} topic)")
         frames = [(m.log_time_ns, cls.FromString(m.data))
                   for m in tr.messages([T_CAN_RAW], start_s, end_s)]
+    if not frames:
+        raise UserError(f"{path}: no CAN frames in the chosen time range",
+                        params=("start_s", "end_s"))
     own = bus is None
     if own:
         try:

@@ -7,6 +7,7 @@ from typing import Any
 
 from hil import scenario as scenario_mod
 from hil.canbus.socketcand import CanServer
+from hil.run.limits import RunLimits
 from hil.run_result import RunInterrupted, RunResult
 from hil.scenario import Scenario, WorldKind
 from host_tools import plugins
@@ -23,7 +24,8 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
     ``what_ran``, ``Run.what_ran()``: the tactile rule as run and every override)."""
     wall = result.wall_time_s
     fw = result.firmware
-    stopped = fw.state in ("safe_stop", "fault")
+    # ours reports its state; a firmware of yours that sends a stop event stopped itself
+    stopped = fw.state in ("safe_stop", "fault") or fw.state is None
     return {
         "scenario": scenario.name,
         "seed": seed,
@@ -40,6 +42,9 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
         "faults": dict(sorted(result.faults.items())),
         "no_servo_answered": result.no_servo_answered,
         "interrupted": result.interrupted,
+        "limit_hit": result.limit_hit,
+        "console_dropped_bytes": result.console_dropped_bytes,
+        "violations": None if result.violations is None else dict(result.violations),
         "stopped_safely": stopped and result.stop_reason is not None,
         "stop_reason": result.stop_reason,
         "body": {k: round(v, 4) for k, v in result.body.as_dict().items()},
@@ -91,7 +96,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         realtime: bool = False, navigator: str = "none",
         model_path: str | None = None, firmware: str | None = None,
         gdb_port: int | None = None, coverage: str | None = None,
-        overwrite: bool = False) -> tuple[dict[str, Any], RunResult]:
+        overwrite: bool = False, limits: RunLimits | None = None
+        ) -> tuple[dict[str, Any], RunResult]:
     """Load, simulate, summarise. Returns (summary, raw result).
 
     A recorded run (``out``) carries the 3D scene. With ``live_port`` the trace's channels
@@ -110,7 +116,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     ``firmware``, a MicroPython main file for the virtual board or an executable that
     speaks the link (hil/link/served_firmware.py), or an STM32F411 ELF, runs instead of our
     firmware; an ELF's ``gdb_port`` waits for a GDB client, ``coverage`` writes LCOV there
-    (docs/elf-firmware.md).
+    (docs/elf-firmware.md). ``limits``: the run's wall-clock and memory caps
+    (hil/run/limits.py).
     """
     sc = scenario_mod.load_scenario(path)
     given_seed = None if seed is None else scenario_mod.check_seed(seed, "seed",
@@ -127,6 +134,9 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     if can_wait_clients < 0:
         raise UserError(f"can_wait_clients must be 0 or more, got {can_wait_clients}",
                         params=("can_wait_clients",))
+    if can_wait_clients and can_server_port is None:
+        raise UserError("can_wait_clients waits for clients of can_server_port: give both",
+                        params=("can_wait_clients", "can_server_port"))
     attach_navigator = (plugins.navigator_plan(navigator)(sc, model_path)
                         if navigator != "none" else None)
     server = nav = None
@@ -136,7 +146,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         with Run(sc, seed=given_seed, runtime=python, duration_s=duration_s, tactile=tactile,
                  trace=out, live_port=live_port, can_server=server, realtime=realtime,
                  firmware=firmware, gdb_port=gdb_port, coverage=coverage,
-                 overwrite=overwrite) as r:
+                 overwrite=overwrite, limits=limits) as r:
             if r.live is not None:
                 log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", r.live.port)
             if attach_navigator is not None:

@@ -6,6 +6,7 @@ forever if a refusal regressed (a busy port) run as a child with a timeout.
 """
 from __future__ import annotations
 
+import os
 import socket
 import subprocess
 import sys
@@ -29,7 +30,22 @@ FILES = {
     "longrun.toml": "[scenario]\nduration_s=1e308\n",
     "notmcap.mcap": "hello\n", "bad.csv": "a,b\n1,2\n", "afile": "",
     "notzip.sr": "PK not really\n", "robot.xyz": "", "badmap.toml": "[serail]\nbaud=1\n",
+    "deep.toml": "a = " + "[" * 5000 + "]" * 5000 + "\n", "empty.toml": "",
+    "exists.png": "", "unplug99.toml": "[faults]\nunplug=[{id=99, at_s=1.0}]\n",
+    "leg.toml": '[faults]\nswitch_stuck=[{leg="XX", pressed=true, at_s=1.0}]\n',
 }
+SIGNAL = ('[case]\nscenario = "' + FT + '"\nduration_s = 2\n[[expect]]\nname = "x"\n'
+          'kind = "signal"\nstat = "max"\nlimit = [0, 70]\n')
+FILES.update({
+    "typo.toml": SIGNAL + 'topic = "/servos"\nfield = "servos[0].temprature_c"\n',
+    "notopic.toml": SIGNAL + 'topic = "/servo"\nfield = "servos[0].temperature_c"\n',
+    "index.toml": SIGNAL + 'topic = "/servos"\nfield = "servos[18].temperature_c"\n',
+    "late.toml": SIGNAL + 'topic = "/servos"\nfield = "servos[0].temperature_c"\n'
+                          'window_s = [5, 6]\n',
+    "canfield.toml": SIGNAL + 'topic = "/can/heartbeat"\nfield = "stat"\n',
+})
+WALK = str(ROOT / "examples" / "margin-walk.toml")
+CASE = str(ROOT / "tests" / "firmware" / "flat-tripod.toml")
 B = "{B}"  # the case's folder, filled in by the fixture
 
 # (argv, a phrase the one line must hold)
@@ -110,9 +126,48 @@ CASES = [
       "--unknowns", "4"], "k1"),
     (["beams", "run", "--k1", "0.1", "--k2", "0.1", "--strategy", "fly"], "--strategy"),
     (["experiment", "tactile-hexapod", "--workers", "0"], "--workers must be at least 1"),
-    (["experiment", "tactile-hexapod", "--seeds", "-1"], "--seeds must be at least 1"),
-    (["experiment", "force-sensing", "--seeds", "0"], "--seeds must be at least 1"),
+    (["experiment", "tactile-hexapod", "--seeds", "-1"], "--seeds must be 1-1000, got -1"),
+    (["experiment", "force-sensing", "--seeds", "0"], "--seeds must be 1-1000, got 0"),
     (["experiment", "tactile-hexapod", "--out", f"{B}/afile"], "exists and is not a folder"),
+    (["run", f"{B}/fifo.toml"], "fifo.toml: not a regular file"),
+    (["run", "/dev/null"], "/dev/null: not a regular file"),
+    (["run", f"{B}/empty.toml"], "empty.toml: an empty scenario"),
+    (["run", f"{B}/deep.toml"], "deep.toml: not valid TOML: arrays or tables nested too deeply"),
+    (["test", f"{B}/deep.toml"], "deep.toml: not valid TOML: arrays or tables nested too deeply"),
+    (["bus", "--scenario", f"{B}/deep.toml"], "nested too deeply"),
+    (["run", f"{B}/unplug99.toml"], "'unplug' names servo 99, and the bus has IDs 1-18"),
+    (["bus", "--ids", "1-18", "--unplug", "99:1"], "'unplug' names servo 99"),
+    (["run", f"{B}/leg.toml"], "'switch_stuck.leg' must be 0-5 or one of LF, LM, LH, RF, RM, "
+     "RH, got 'XX'"),
+    (["conformance", "--port", "x", "--ids", "1", "--timeout-ms", "nan"],
+     "--timeout-ms and --scan-timeout-ms must be positive and finite"),
+    (["conformance", "--port", "x", "--ids", "1", "--scan-timeout-ms", "inf"],
+     "must be positive and finite"),
+    (["render", f"{B}/good.mcap", "--out", f"{B}/r.gif", "--fps", "100000"],
+     "--fps 100000: a video has more than 0 and at most 100 frames a second"),
+    (["render", f"{B}/good.mcap", "--out", f"{B}/r.gif", "--fps", "nan"], "--fps nan"),
+    (["render", f"{B}/good.mcap", "--out", f"{B}/r.mp4", "--width", "100000"],
+     "each side is 16-4096 pixels"),
+    (["render", f"{B}/good.mcap", "--out", f"{B}/missing/r.png"], "no such directory"),
+    (["render", f"{B}/good.mcap", "--out", f"{B}/adir.png"], "adir.png: is a directory"),
+    (["render", f"{B}/good.mcap", "--out", f"{B}/exists.png"],
+     "exists.png exists: pass --overwrite to replace it"),
+    (["margin", FT, "--expect", WALK, "--png", f"{B}/missing/m.png"], "no such directory"),
+    (["margin", "scenarios/beams-flimsy.toml", "--expect", WALK], "runs the hexapod firmware"),
+    (["test", CASE, "--junit", f"{B}/missing/r.xml"], "--junit", ),
+    (["test", CASE, "--junit", B], "is a directory"),
+    (["replay", f"{B}/good.mcap", "--can", "virtual:x", "--start", "1000"],
+     "no CAN frames in the chosen time range"),
+    (["trace", "info", f"{B}/fifo.mcap"], "fifo.mcap: not a regular file"),
+    (["replay", f"{B}/fifo.mcap"], "fifo.mcap: not a regular file"),
+    (["trace", "import-csv", f"{B}/fifo.mcap", f"{B}/o2.mcap"], "not a regular file"),
+    (["experiment", "tactile-hexapod", "--seeds", "100000000"], "--seeds must be 1-1000"),
+    (["run", FT, "--can-wait", "3"], "--can-wait waits for clients of --can-server"),
+    (["test", f"{B}/typo.toml"], "no field 'temprature_c' in /servos's messages"),
+    (["test", f"{B}/notopic.toml"], "key 'topic': no topic '/servo' in a trace"),
+    (["test", f"{B}/index.toml"], "servos[18] is out of range (the bus has 18 servos: 0-17)"),
+    (["test", f"{B}/late.toml"], "key 'window_s' [5, 6] reaches past the run's end (2 s)"),
+    (["test", f"{B}/canfield.toml"], "frame heartbeat has no signal 'stat'"),
 ]
 
 
@@ -122,6 +177,9 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     for name, text in FILES.items():
         (d / name).write_text(text)
     (d / "bin.csv").write_bytes(bytes(range(128, 256)) * 3)
+    os.mkfifo(d / "fifo.toml")        # would block a read for ever
+    os.mkfifo(d / "fifo.mcap")
+    (d / "adir.png").mkdir()
     good = sample_trace(d / "good.mcap")
     (d / "trunc.mcap").write_bytes(good[:len(good) // 2])
     return d

@@ -41,9 +41,9 @@ def test_scenario_sets_bus_and_faults_and_flags_win(tmp_path: Path):
     assert dxl.Parser().feed(bus.master_read(6, 10_000)) == [dxl.Packet(10, 0, b"", dxl.status(10))]
     bus.idle_until(2000)
     assert faults.counts == {"unplug": 1}
-    bus2, _ = build_bus(args("--pty", "--ids", "1,2", "--baud", "1000000", "--edition", "emanual",
-                             "--stall", "2:0.5"), sc)
-    assert [s.id for s in bus2.servos] == [1, 2] and bus2.servos[0].baud_bps == 1_000_000
+    bus2, _ = build_bus(args("--pty", "--ids", "1,2,11", "--baud", "1000000", "--edition",
+                             "emanual", "--stall", "2:0.5"), sc)
+    assert [s.id for s in bus2.servos] == [1, 2, 11] and bus2.servos[0].baud_bps == 1_000_000
     assert bus2.faults.config.stall == (FaultEntry(FaultKind.STALL, 0.5, id=2),)
     assert bus2.faults.config.unplug == (FaultEntry(FaultKind.UNPLUG, 0.001, id=11),)
 

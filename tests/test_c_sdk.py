@@ -15,6 +15,7 @@ from hil.link.firmware_process import firmware_env
 from hil.link.client_conformance import SESSIONS, run_suite
 from hil.run_result import Ending
 from host_tools import c_sdk
+from host_tools.trace.reader import Trace
 from host_tools.replay import replay_firmware
 from host_tools.run_summary import run
 from host_tools.trace.reader import info
@@ -154,6 +155,16 @@ def test_the_first_firmware_of_the_docs_builds_with_the_documented_command_and_r
     assert result.exit_code == 0 and s["faults"] == {} and result.firmware.timeouts == 0
     # one answered ping a cycle of 20 ms and the ping's bus time
     assert result.firmware.transactions == result.firmware.cycles >= 45
+    # the same source as an F411 ELF on the emulated board: every ping on the line answered
+    elf = tmp_path / "fw.elf"
+    subprocess.run([sys.executable, "-m", "host_tools.cli", "sdk", "build", "--target",
+                    "stm32f411", str(main), "-o", str(elf)], cwd=tmp_path, check=True,
+                   capture_output=True)
+    s, _ = run(FLAT, duration_s=1.0, firmware=str(elf), out=str(tmp_path / "elf.mcap"))
+    assert s["faults"] == {} and s["no_servo_answered"] is None
+    with Trace(tmp_path / "elf.mcap") as t:
+        replies = [m for _, m in t.decoded(["/serial"]) if m["direction"] == "rx"]
+    assert len(replies) >= 45      # one status of servo 1 a 20 ms cycle
 
 
 def test_firmware_and_python_together_are_refused(built):

@@ -231,3 +231,13 @@ def test_force_sensor_dropout_and_bias_on_seed_000():
     assert r.faults == {"force_bias": 1} and r.host_nodes["force_samples"] > 0
     assert r.host_nodes["estimate"]["k1"] < 0.1 < 0.25             # truth 0.25 N m/rad
     assert r.host_nodes["mode"] != "roll" and not r.host_nodes["traversed"]
+
+
+def test_a_switch_fault_takes_the_legs_name_as_the_docs_name_it() -> None:
+    from hil import scenario
+
+    by_name = scenario.parse({"faults": {"switch_stuck": [
+        {"leg": "rf", "pressed": True, "at_s": 1.0}],
+        "switch_bounce": [{"leg": "LH", "period_s": 0.03, "at_s": 1.0}]}}, "legs")
+    assert by_name.faults.switch_stuck[0].leg == 3      # LF LM LH RF RM RH
+    assert by_name.faults.switch_bounce[0].leg == 2

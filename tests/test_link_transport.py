@@ -1,4 +1,4 @@
-"""Where the firmware connects (hil/link/firmware_process.py ``_listen``): our firmware
+"""Where the firmware connects (hil/link/firmware_child.py ``_listen``): our firmware
 on a Unix socket in a directory of its own, gone once it has connected; a command of the
 caller's on the documented 127.0.0.1 TCP port. Both carry the same run."""
 from __future__ import annotations
@@ -8,7 +8,8 @@ import socket
 
 import pytest
 
-from hil.link.firmware_process import FirmwareProcess, firmware_command
+from hil.link.firmware_child import FirmwareProcess
+from hil.link.firmware_process import firmware_command
 from hil.run.lockstep import Simulator
 from hil.scenario import load_scenario
 from protocol import sim_link

@@ -86,3 +86,16 @@ def test_the_heat_map_has_a_colour_bar_and_only_all_holding_is_green(tmp_path):
     labels = [ax.get_ylabel() for ax in figures[0].axes]
     assert "expectations holding" in labels   # the colour bar's axis
     real_close(figures[0])
+
+
+def test_margin_says_whether_the_expectations_hold_at_nominal_timing() -> None:
+    from host_tools.expect.margin_sweep import Margin, Point
+
+    def point(axis: str, v: float, holds: bool) -> Point:
+        return Point(((axis, v),), 2 if holds else 1, 2, () if holds else ("x",), ())
+
+    far_fails = Margin({"return_delay_us": [point("return_delay_us", 0, True),
+                                            point("return_delay_us", 500, False)]}, [], ((), ()))
+    all_fail = Margin({"return_delay_us": [point("return_delay_us", 0, False),
+                                           point("return_delay_us", 500, False)]}, [], ((), ()))
+    assert far_fails.nominal_holds() and not all_fail.nominal_holds()

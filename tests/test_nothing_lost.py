@@ -59,7 +59,7 @@ def test_sigkill_loses_at_most_one_second(kill_at_s: float, reference: Path,
     assert got == _messages(reference)[:len(got)]  # nothing corrupt, nothing out of order
 
 
-@pytest.mark.parametrize("signum,status", [(signal.SIGTERM, 130), (signal.SIGINT, 130)])
+@pytest.mark.parametrize("signum,status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
 def test_sigterm_and_ctrl_c_finish_the_file(signum: int, status: int, reference: Path,
                                             tmp_path: Path) -> None:
     out = tmp_path / "stopped.mcap"

@@ -67,7 +67,7 @@ def test_mp4_and_png(trace, tmp_path):
 
 @pytest.mark.parametrize("args, needle", [
     (["--out", "x.avi"], "must end in .gif, .mp4 or .png"),
-    (["--out", "x.gif", "--fps", "0"], "--fps must be positive"),
+    (["--out", "x.gif", "--fps", "0"], "--fps 0: a video has more than 0"),
     (["--out", "x.png", "--at", "999"], "--at 999.0: "),      # the trace is 5 s long
 ])
 def test_bad_arguments_are_one_line(trace, args, needle):

@@ -113,6 +113,12 @@ def test_cli_exit_1_on_divergence(trace, tmp_path, capsys, monkeypatch):
     assert r["compared_messages"] >= n_can
 
 
+def test_a_start_past_the_traces_end_is_bad_input_not_identical(trace, capsys):
+    rc, out, err = _cli(capsys, "replay", str(trace), "--start", "1000")
+    assert rc == 2 and "identical" not in out
+    assert err.startswith("hexhil: --start 1000: ") and "nothing to compare" in err
+
+
 def test_unknown_replay_topic(trace, capsys):
     rc, _, err = _cli(capsys, "replay", str(trace), "--topics", "uart,bogus")
     assert rc == 2 and "bogus" in err

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
+from hil.link.firmware_child import end_group
 from hil.link.firmware_process import Connection
 from protocol import sim_link
 
@@ -73,14 +74,15 @@ class Session:
         self.timeout_s = timeout_s
         try:
             self.proc = subprocess.Popen(list(command), cwd=ROOT, env=full_env,
-                                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                                         stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                         process_group=0)
         except OSError as exc:
             srv.close()
             raise Mismatch(f"cannot start the client {' '.join(command)}: {exc}") from None
         try:
             sock, _ = srv.accept()
         except socket.timeout:
-            self.proc.kill()
+            end_group(self.proc.pid)
             self.proc.communicate()
             raise Mismatch(f"the client did not connect within {timeout_s:g} s") from None
         finally:
@@ -112,7 +114,7 @@ class Session:
         try:
             out, err = self.proc.communicate(timeout=self.timeout_s)
         except subprocess.TimeoutExpired:
-            self.proc.kill()
+            end_group(self.proc.pid)
             self.proc.communicate()
             raise Mismatch(f"the client did not exit within {self.timeout_s:g} s") from None
         finally:
@@ -122,7 +124,7 @@ class Session:
 
     def close(self) -> None:
         if self.proc.poll() is None:
-            self.proc.kill()
+            end_group(self.proc.pid)
             self.proc.communicate()
         self.conn.close()
 

@@ -14,12 +14,10 @@ import re
 import select
 import socket
 import struct
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import Callable
 
 from hil.link import cores
 from protocol import sim_link
@@ -28,7 +26,6 @@ from protocol.errors import BadFile, BadValue, UserError
 ROOT = Path(__file__).resolve().parents[2]
 REQUEST_OPS = sim_link.REQUEST_OPS
 RUNTIMES = ("micropython", "cpython")
-ACCEPT_POLL_S = 0.1   # how often a firmware not connected yet is checked for having exited
 IN_PROCESS = "cpython-inprocess"   # the firmware under this CPython, in this process (sweeps)
 # Our firmware's modules compiled by MicroPython's native emitter as they load: the same
 # runtime calls as bytecode (every float operation: the same bits, the same serial digest),
@@ -42,6 +39,9 @@ NATIVE = ("-X", "emit=native")
 # polling (docs/performance.md); each side's sim_link.PollGate keeps it to where
 # each side has a core.
 SPIN_US = 200
+# Posted messages (writes, events, CAN frames) the host holds before the request they come
+# with: about 10 s of a 1 Mbaud line. More is a firmware that never waits for the host.
+MAX_BATCH_BYTES = 1 << 20
 
 
 class LinkViolation(Exception):
@@ -220,6 +220,12 @@ class Connection:
             msgs.append(m)
             if m[0] in REQUEST_OPS:
                 return msgs, False
+            if len(self.raw) > MAX_BATCH_BYTES:
+                raise LinkViolation(f"the firmware posted {len(self.raw):,} bytes of link "
+                                    "messages without a request (a sleep, transact or line "
+                                    f"read) that waits for the host; a batch holds "
+                                    f"{MAX_BATCH_BYTES:,}: a loop that writes and never "
+                                    "waits?")
 
     def reply(self, t_us: int, body: bytes = b"") -> bytes:
         """Answer the pending request; returns the raw reply bytes (length prefix included)."""
@@ -278,119 +284,3 @@ class DirectConnection:
     def answered(self) -> bool:
         """The firmware waits on this very call: the recorder has no time to fill."""
         return True
-
-
-def _listen(ours: bool) -> tuple[socket.socket, dict[str, str]]:
-    """The socket the firmware connects to, and its environment. Our firmware (its HAL,
-    firmware/hal/sim.py) gets a Unix socket in a directory of its own: a round trip about
-    10 us cheaper than TCP's loopback, whose send also runs the receiving side's stack
-    (docs/performance.md). A firmware not ours gets the documented 127.0.0.1 port,
-    and so does ours where no Unix socket can be made."""
-    srv = _unix_listener() if ours else None
-    if srv is not None:
-        return srv, firmware_env(0, srv.getsockname())
-    srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    srv.bind(("127.0.0.1", 0))
-    srv.listen(1)
-    return srv, firmware_env(srv.getsockname()[1])
-
-
-def _unix_listener() -> socket.socket | None:
-    """A Unix socket listening in a new temporary directory, or None where none can be
-    made there (a path too long for a socket's, a directory not writable)."""
-    try:
-        where = tempfile.mkdtemp(prefix="hexhil-link-")
-    except OSError:
-        return None
-    srv = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    try:
-        srv.bind(os.path.join(where, "link"))
-    except OSError:
-        srv.close()
-        os.rmdir(where)
-        return None
-    srv.listen(1)
-    return srv
-
-
-def _close_listener(srv: socket.socket) -> None:
-    """Close the listening socket; a Unix one's file and directory go with it (the
-    accepted connection lives on)."""
-    path = srv.getsockname() if srv.family == socket.AF_UNIX else None
-    srv.close()
-    if path:
-        os.unlink(path)
-        os.rmdir(os.path.dirname(path))
-
-
-class FirmwareProcess:
-    """The firmware as a child process connected to this one: our firmware on a Unix
-    socket, a command of the caller's on an ephemeral 127.0.0.1 port (``_listen``)."""
-
-    def __init__(self, python: str = "micropython", connect_timeout_s: float = 30.0,
-                 command: list[str] | None = None, extra_env: dict[str, str] | None = None,
-                 console: Any = None) -> None:
-        """``extra_env`` is set over ``firmware_env``'s; ``console``, a file, takes the
-        firmware's stdout instead of a pipe (a chatty firmware never blocks on it)."""
-        self.python = python
-        self._console = console
-        cmd = command or firmware_command(python)
-        srv, env = _listen(ours=command is None)
-        srv.settimeout(ACCEPT_POLL_S)
-        env.update(extra_env or {})
-        try:
-            self.proc = subprocess.Popen(cmd, cwd=ROOT, env=env,
-                                         stdout=console or subprocess.PIPE,
-                                         stderr=subprocess.PIPE)
-        except OSError as exc:
-            _close_listener(srv)
-            raise FirmwareError(f"cannot start the firmware ({' '.join(cmd)}): {exc.strerror}",
-                                started=False) from None
-        try:
-            sock = self._accept(srv, cmd, connect_timeout_s)
-        finally:
-            _close_listener(srv)
-        sock.settimeout(None)
-        self.conn = Connection(sock, self.proc.pid)
-
-    def _accept(self, srv: socket.socket, cmd: list[str], timeout_s: float) -> socket.socket:
-        """The firmware's connection; one line if it exits first or takes too long."""
-        deadline = time.monotonic() + timeout_s
-        while True:
-            try:
-                return srv.accept()[0]
-            except socket.timeout:
-                code = self.proc.poll()
-                if code is None and time.monotonic() < deadline:
-                    continue
-            if code is None:
-                self.proc.kill()
-            out, err = self.proc.communicate()
-            if self._console is not None:
-                self._console.seek(0)
-                out = self._console.read()
-            printed = (out or b"").decode(errors="replace")
-            lines = (err.decode(errors="replace").strip() + "\n" + printed.strip()).strip().splitlines()
-            tail = last_words(err.decode(errors="replace"), printed)
-            what = (f"did not connect within {timeout_s:g} s" if code is None
-                    else f"exited with code {code} before it connected to the link")
-            raise FirmwareError(f"the firmware ({' '.join(cmd)}) {what}: {tail}",
-                                tuple(lines[-5:]), started=False,
-                                exit_code=self.proc.returncode) from None
-
-    def finish(self, timeout_s: float = 10.0) -> tuple[int, str, str]:
-        """Wait for the process to exit; (return code, stdout, stderr)."""
-        try:
-            out, err = self.proc.communicate(timeout=timeout_s)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            out, err = self.proc.communicate()
-        self.conn.close()
-        return (self.proc.returncode, (out or b"").decode(errors="replace"),
-                err.decode(errors="replace"))
-
-    def kill(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.kill()
-            self.proc.communicate()
-        self.conn.close()

@@ -6,7 +6,7 @@
   docs/your-firmware.md);
 * ``ExecutableFirmware``: any executable that speaks docs/link.md, such as a C firmware
   built against firmware/c_sdk/ (docs/c-firmware.md). It finds the link through
-  ``HEXHIL_LINK_PORT`` in its environment (hil/link/firmware_process.py ``FirmwareProcess``);
+  ``HEXHIL_LINK_PORT`` in its environment (hil/link/firmware_child.py ``FirmwareProcess``);
 * ``ElfFirmware``: an STM32F411 ELF (its header says ARM, 32-bit), run unchanged on the
   emulated board in this process (hil/mcu/, docs/elf-firmware.md).
 
@@ -25,8 +25,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Callable, Protocol
 
-from hil.link.firmware_process import (ROOT, FirmwareError, FirmwareProcess, firmware_command,
-                                      firmware_env)
+from hil.link.firmware_child import TAIL_BYTES, FirmwareProcess
+from hil.link.firmware_process import ROOT, FirmwareError, firmware_command, firmware_env
 from hil.mcu.elf_image import ELF_MAGIC, ElfImage, is_arm_elf, load_elf
 from hil.mcu.runtime import serve_elf
 from hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
@@ -39,9 +39,14 @@ BOARD_RUNTIME = "micropython-board"   # a run's firmware_runtime
 EXECUTABLE = "executable"
 ELF_RUNTIME = "stm32f411-elf"
 HANG_WALL_S = 20.0          # wall seconds without a link message: the firmware hung
+# wall seconds a firmware has to exit once it closed the link (the board's SystemExit at
+# the run's end); one still running then is ended by the host
+EXIT_GRACE_S = 2.0
 BOARD_SAYS = "hexhil board: "   # the C SDK's one-line verdict on its firmware (hal_board.c)
 HUNG_SAYS = "the firmware hung"   # the board's verdict (hil/link/board_line.py)
 MAIN_SUFFIXES = (".py",)    # a MicroPython main file; anything else is an executable
+CONSOLE_TRACE_BYTES = 1 << 20   # of a firmware's prints, handed on to the trace's log lines
+CONSOLE_CUT_BYTES = 8 << 20     # past the cap, its console file is cut back beyond this size
 
 
 class ServedFirmware(Protocol):
@@ -209,7 +214,8 @@ def serve_process(firmware: ServedFirmware, name: str, server: LinkHost, end_us:
     with tempfile.TemporaryFile() as console:
         try:
             fw = FirmwareProcess(firmware.runtime, command=firmware.command(),
-                                 extra_env=firmware.env(), console=console)
+                                 extra_env=firmware.env(), console=console,
+                                 watch=server.watch)
         except FirmwareError as exc:
             console.seek(0)
             printed = console.read().decode(errors="replace")
@@ -219,23 +225,25 @@ def serve_process(firmware: ServedFirmware, name: str, server: LinkHost, end_us:
                 exc.last_lines or _last_lines("", printed), 0.0, exc.exit_code)
             return
         fw.conn.sock.settimeout(hang_wall_s)
-        hung, broke = False, None
+        hung, broke, closed = False, None, False
         reader = _ConsoleReader(console, take_console)
         server.console = reader.lines if take_console is not None else None
         try:
             server.serve(fw.conn, end_us, result)
+            closed = True
         except TimeoutError:
             hung = True
         except FirmwareError as exc:   # it broke the link's rules (hil/link/server.py)
             broke = exc
-        finally:
+        finally:   # an interrupt or a limit ends it at once
             server.console = None
-            code, _, err = fw.finish(timeout_s=0.0 if hung or broke else 10.0)
+            code, _, err = fw.finish(timeout_s=EXIT_GRACE_S if closed else 0.0)
             printed = reader.rest()
+    result.console_dropped_bytes = reader.dropped
     result.exit_code = code
     result.stderr_tail = "\n".join(err.strip().splitlines()[-LAST_LINES:])
     result.ending = judge(name, code, err, printed, server.clock.t_us, end_us,
-                          hang_wall_s if hung else None, broke)
+                          hang_wall_s if hung else None, broke, fw.ended_by_host)
 
 
 def _last_lines(err: str, printed: str) -> tuple[str, ...]:
@@ -243,11 +251,21 @@ def _last_lines(err: str, printed: str) -> tuple[str, ...]:
 
 
 def judge(name: str, code: int, err: str, printed: str, t_us: int, end_us: int,
-          hung_after_s: float | None = None, broke: Exception | None = None
-          ) -> FirmwareEnding:
-    """How a served firmware ended, in one line and its last lines."""
+          hung_after_s: float | None = None, broke: Exception | None = None,
+          ended_by_host: bool = False) -> FirmwareEnding:
+    """How a served firmware ended, in one line and its last lines. ``ended_by_host``:
+    it closed the link but was still running ``EXIT_GRACE_S`` later, and the host ended
+    it: at the run's end that is a completed run (a bare ``except:`` that catches the
+    board's SystemExit carries on where a real board would), before it an early exit."""
     t_s = t_us * 1e-6
     last = _last_lines(err, printed)
+    if ended_by_host and hung_after_s is None and broke is None:
+        if t_us >= end_us:
+            return FirmwareEnding(Ending.COMPLETED, "", (), t_s, code)
+        return FirmwareEnding(Ending.EXITED_EARLY, f"the firmware {name} closed the link at "
+                              f"t={t_s:.6f} s, before the run's end ({end_us * 1e-6:g} s), "
+                              f"and did not exit (ended by hexhil {EXIT_GRACE_S:g} s later)",
+                              last, t_s, code)
     if hung_after_s is not None:
         return FirmwareEnding(Ending.HUNG, f"the firmware {name} hung: no link message for "
                               f"{hung_after_s:g} s of wall time (at t={t_s:.6f} s)", last, t_s,
@@ -275,31 +293,73 @@ def judge(name: str, code: int, err: str, printed: str, t_us: int, end_us: int,
 
 class _ConsoleReader:
     """A firmware's console file, read on as it grows (``os.pread``: the file offset the
-    firmware writes at is shared, and stays untouched): whole lines to ``take``."""
+    firmware writes at is shared, and stays untouched): whole lines to ``take``, up to
+    ``CONSOLE_TRACE_BYTES``. Past that, bounded: nothing more is read or handed on
+    (``dropped`` counts it), only the last ``TAIL_BYTES`` for the verdict, and the file
+    is cut back to nothing now and then (the firmware's next write leaves a hole, which
+    takes no disk)."""
 
     def __init__(self, console: IO[bytes], take: Callable[[str], None] | None) -> None:
         self._fd, self._take = console.fileno(), take
-        self._done = 0            # bytes handed on
-        self._text = b""          # everything read so far
+        self._pos = 0             # bytes of the file read (the firmware's offset, at most)
+        self._line = b""          # a line begun, not ended yet
+        self._tail = b""          # the last TAIL_BYTES read
+        self.handed = 0           # bytes handed on
+        self.dropped = 0          # bytes past the cap, never handed on
 
-    def _read(self) -> None:
-        while chunk := os.pread(self._fd, 65536, len(self._text)):
-            self._text += chunk
+    def _read(self) -> bytes:
+        """What was printed since, up to a little over the room left under the cap."""
+        out = bytearray()
+        most = CONSOLE_TRACE_BYTES - self.handed + 65536
+        while len(out) < most and (chunk := os.pread(self._fd, 65536, self._pos)):
+            self._pos += len(chunk)
+            out += chunk
+        self._tail = (self._tail + out)[-TAIL_BYTES:]
+        return bytes(out)
 
     def lines(self) -> None:
-        self._read()
-        cut = self._text.rfind(b"\n") + 1
-        if cut > self._done and self._take is not None:
-            self._take(self._text[self._done:cut].decode(errors="replace"))
-            self._done = cut
+        if self.handed >= CONSOLE_TRACE_BYTES:
+            self._skip()
+            return
+        text = self._line + self._read()
+        cut = text.rfind(b"\n") + 1
+        if cut and self._take is not None:
+            self._hand(text[:cut])
+        self._line = text[cut:][-CONSOLE_TRACE_BYTES:]
+
+    def _hand(self, data: bytes) -> None:
+        room = CONSOLE_TRACE_BYTES - self.handed
+        if len(data) > room:   # up to the last whole line that fits
+            keep = data.rfind(b"\n", 0, room) + 1
+            self.dropped += len(data) - keep
+            data = data[:keep]
+            self.handed = CONSOLE_TRACE_BYTES
+        else:
+            self.handed += len(data)
+        if data:
+            self._take(data.decode(errors="replace"))
+
+    def _skip(self) -> None:
+        """Past the cap: count what was printed since, keep only its tail."""
+        size = os.fstat(self._fd).st_size
+        if size > self._pos:
+            start = max(self._pos, size - TAIL_BYTES)
+            self.dropped += size - self._pos
+            self._tail = (self._tail + os.pread(self._fd, size - start, start))[-TAIL_BYTES:]
+            self._pos = size
+        if size > CONSOLE_CUT_BYTES:
+            os.ftruncate(self._fd, 0)
 
     def rest(self) -> str:
-        """Everything printed (for the verdict); what was not handed on yet, handed on."""
-        self._read()
-        if self._done < len(self._text) and self._take is not None:
-            self._take(self._text[self._done:].decode(errors="replace"))
-            self._done = len(self._text)
-        return self._text.decode(errors="replace")
+        """The last ``TAIL_BYTES`` printed (for the verdict); what was not handed on yet,
+        handed on while under the cap."""
+        if self.handed < CONSOLE_TRACE_BYTES:
+            text = self._line + self._read()
+            self._line = b""
+            if text and self._take is not None:
+                self._hand(text)
+        self._skip()   # what is left past the cap: counted, its tail kept
+        return self._tail.replace(b"\0", b"").decode(errors="replace")
 
 
 def console_events(text: str) -> list[tuple[int, str]]:

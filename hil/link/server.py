@@ -66,6 +66,7 @@ class LinkServer:
         self._held: list = []    # frames taken from the inbox that the last reply had no room for
         self.line: BoardLine | None = None   # the virtual board's UART, at its first line request
         self.console: Callable[[], None] | None = None  # takes what the firmware printed
+        self.watch = getattr(sim, "watch", None)   # the run's limits (hil/run/limits.py)
         self.version = sim_link.VERSION      # the link version the hello agreed
         self._parser = dxl.Parser()          # R's retry rule: the master's test of a reply
         self._reads_core = ReadsCore()
@@ -297,7 +298,11 @@ class LinkServer:
     def serve(self, conn: Connection, end_us: int, result: RunTally) -> None:
         """Answer a socket connection's batches until the firmware closes it."""
         while True:
-            msgs, closed = conn.batch()
+            try:
+                msgs, closed = conn.batch()
+            except LinkViolation as exc:   # more posted than a batch holds
+                conn.reply_error(str(exc))
+                raise FirmwareError(f"firmware link: {exc}") from None
             if self.answer(conn, msgs, closed, end_us, result):
                 return
 

@@ -26,17 +26,20 @@ from typing import Any, Callable
 
 from hil.link.board_line import why_no_servo_answered
 from hil.link.served_firmware import ServedFirmware, judge
-from hil.link.firmware_process import IN_PROCESS, DirectConnection, FirmwareProcess
+from hil.link.firmware_child import FirmwareProcess
+from hil.link.firmware_process import IN_PROCESS, DirectConnection
 from hil.link.server import LinkServer, SwitchSampler
 from hil.run.core import RunCore, WallClockPacing
+from hil.run.limits import RunLimits, RunWatch
 from hil.run.lookahead import Lookahead
-from hil.run_result import (BodyDisplacement, HexapodOutcome, RunInterrupted, RunResult,
-                             RunTally)
+from hil.run_result import (BodyDisplacement, Ending, FirmwareEnding, HexapodOutcome,
+                             RunInterrupted, RunResult, RunTally)
 from hil.scenario import Scenario, check_duration
 from hil.seams import CanGateway, FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
 from protocol import link_schema as ls
 
 BODY_SAMPLE_US = 100_000  # ground truth and servo state to the recorder at 10 Hz
+OWN_EXIT_WAIT_S = 10.0    # how long our firmware may take to exit once it closed the link
 # runs a firmware in this process on the link's exchange(bytes written, closed) -> reply
 InProcessFirmware = Callable[[Callable[[bytes, bool], bytes]], None]
 # The firmware's stats event counters a run reports as detected faults. protocol/ will
@@ -80,6 +83,7 @@ class FirmwareDriver:
         self._pose0 = core.world.body_pose() if core.world is not None else None
         self._next_body_us = 0
         self._next_servo_us = 0
+        self.watch: RunWatch | None = None   # the run's limits, set by Simulator.run
 
     def next_tick_us(self) -> int | None:
         """The next host node tick or ground-truth sample: a sleep stops there, so both
@@ -138,11 +142,13 @@ class FirmwareDriver:
         elif firmware is not None:
             firmware.serve(server, end_us, result)
         else:
-            fw = FirmwareProcess(python, command=command)
+            fw = FirmwareProcess(python, command=command, watch=self.watch)
+            closed = False
             try:
                 server.serve(fw.conn, end_us, result)
-            finally:
-                code, out, err = fw.finish()
+                closed = True
+            finally:   # ours exits as soon as it closed the link; an interrupt ends it at once
+                code, out, err = fw.finish(OWN_EXIT_WAIT_S if closed else 0.0)
             result.exit_code = code
             result.stderr_tail = "\n".join(err.strip().splitlines()[-5:])
             # ours may stop before the end on its own (a safe stop): only a crash counts
@@ -168,6 +174,7 @@ class SteppedDriver:
 
     def __init__(self, core: RunCore) -> None:
         self.core = core
+        self.watch: RunWatch | None = None   # the run's limits, set by Simulator.run
         core.world.attach(core.can)
         if hasattr(core.world, "faults"):    # seed 000's force sensor faults ([faults])
             core.world.faults = core.faults
@@ -226,13 +233,16 @@ class Simulator:
 
     def run(self, duration_s: float | None = None, python: str | None = None,
             command: list[str] | None = None, in_process: InProcessFirmware | None = None,
-            firmware: ServedFirmware | None = None) -> RunResult:
+            firmware: ServedFirmware | None = None,
+            limits: RunLimits | None = None) -> RunResult:
         """Serve the firmware (or step the world) until ``duration_s`` of virtual time.
 
         The firmware is a child process (``python``, or ``command``), or with ``in_process``
         a function that runs it in this process, given the link's ``exchange``
         (hil/link/firmware_process.py ``DirectConnection``): the same frames without a socket, or
-        ``firmware``, one that starts and serves itself (hil/link/served_firmware.py)."""
+        ``firmware``, one that starts and serves itself (hil/link/served_firmware.py).
+        ``limits`` (hil/run/limits.py, default ``RunLimits()``): a wall-clock or memory cap
+        hit ends the run with ``Ending.LIMIT``, the trace finished as after Ctrl-C."""
         cfg = self.core.config
         duration_s = (cfg.scenario.duration_s if duration_s is None
                       else check_duration(duration_s, "duration_s"))
@@ -243,17 +253,24 @@ class Simulator:
             python = firmware.runtime
         end_us = int(round(duration_s * 1e6))
         result = RunTally(runtime="none" if self._stepped else python)
+        watch = RunWatch(limits or RunLimits(), duration_s)
+        self.driver.watch = watch
         wall0 = time.perf_counter()
         try:
-            if isinstance(self.driver, SteppedDriver):
-                self.driver.run(end_us, result)
-            else:
-                self.driver.run(python, command, in_process, end_us, result, firmware)
+            with watch:
+                if isinstance(self.driver, SteppedDriver):
+                    self.driver.run(end_us, result)
+                else:
+                    self.driver.run(python, command, in_process, end_us, result, firmware)
         except KeyboardInterrupt:
-            result.interrupted = True
+            result.interrupted = watch.hit is None
             result.serial_digest = self.core.serial_digest
         finally:
             self.core.shutdown()
+        if watch.hit is not None:
+            result.limit_hit = watch.hit
+            result.ending = FirmwareEnding(Ending.LIMIT, watch.reason, result.ending.last_lines,
+                                           self.clock.t_us * 1e-6, result.exit_code)
         result.wall_time_s = time.perf_counter() - wall0
         result.sim_time_s = self.clock.t_us * 1e-6
         if self.faults is not None:

@@ -66,7 +66,9 @@ def build(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int = 0, *,
         return Rig(cfg, seed, clock, world, None, faults)   # a world without a servo bus
     bus_cfg = cfg.bus
     line = protocols.for_model(bus_cfg.model).line
-    bus = line(_servos(bus_cfg, list(bus_cfg.ids if ids is None else ids), world), clock,
+    ids = list(bus_cfg.ids if ids is None else ids)
+    cfg.faults.check_ids(cfg.path, ids)
+    bus = line(_servos(bus_cfg, ids, world), clock,
               baud=bus_cfg.baud, echo=bus_cfg.echo, faults=faults if faults.active() else None,
               on_bytes=on_bytes, advance=world.advance_to if world is not None else None)
     return Rig(cfg, seed, clock, world, bus, faults)

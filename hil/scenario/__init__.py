@@ -122,29 +122,52 @@ def parse(data: dict[str, Any], path: str | Path | None = None,
         TraversalConfig.parse(where, d["traversal"]), d, text)
 
 
-def from_text(text: str, path: str | Path) -> Scenario:
-    """A scenario from its TOML ``text`` (a trace's metadata keeps it); ``path`` names it."""
+def toml_data(text: str, where: str | Path) -> dict[str, Any]:
+    """TOML ``text`` read, or one line: not TOML, or nested deeper than Python's stack."""
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise BadValue(f"{path}: not valid TOML: {exc}") from None
-    return parse(data, path, text)
+        raise BadValue(f"{where}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise BadValue(f"{where}: not valid TOML: arrays or tables nested too deeply") from None
+
+
+def read_toml_file(path: str | Path, what: str) -> str:
+    """The text of the TOML file ``path`` (a ``what`` file: scenario, expectation), or
+    one line: missing, not a regular file (a FIFO would block, a device never ends),
+    unreadable."""
+    p = Path(path)
+    try:
+        if p.exists() and not p.is_file() and not p.is_dir():
+            raise BadFile(f"{p}: not a regular file (a {what} file is a .toml file)")
+        return p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise BadFile(f"{p}: {what} file not found") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise BadFile(f"{p}: cannot read {what} ({exc.__class__.__name__})") from None
+
+
+def from_text(text: str, path: str | Path) -> Scenario:
+    """A scenario from its TOML ``text`` (a trace's metadata keeps it); ``path`` names it.
+    An empty one (no table, no key) is refused: it would run with no world at all."""
+    data = toml_data(text, path)
+    if not data:
+        raise BadValue(f"{path}: an empty scenario (no [scenario], [world] or other table); "
+                        "start from one in scenarios/, e.g. scenarios/flat-tripod.toml")
+    try:
+        return parse(data, path, text)
+    except RecursionError:
+        raise BadValue(f"{path}: a value nested too deeply") from None
 
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read and check a scenario file."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise BadFile(f"{p}: scenario file not found") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
-        raise BadFile(f"{p}: cannot read scenario ({exc.__class__.__name__})") from None
-    return from_text(text, p)
+    return from_text(read_toml_file(path, "scenario"), Path(path))
 
 
 __all__ = ["SCHEMA", "Scenario", "ScenarioInfo", "BusConfig", "FirmwareConfig", "GaitConfig",
            "FaultsConfig", "FaultEntry", "FaultKind", "WorldConfig", "Obstacle", "BeamsConfig",
            "TraversalConfig", "Runtime", "WorldKind", "GAITS", "DEFAULT_BAUD",
            "DEFAULT_DURATION_S", "MAX_DURATION_S", "RETURN_DELAY_MAX_US", "SEED_MAX",
-           "check_duration", "check_seed", "check_span", "parse", "from_text", "load_scenario"]
+           "check_duration", "check_seed", "check_span", "parse", "from_text", "load_scenario",
+           "read_toml_file", "toml_data"]

@@ -7,9 +7,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import Enum
-from typing import Any
+from typing import Any, Sequence
 
 from hil.scenario.rules import check_table, within
+from protocol.hexapod import LEGS
 from protocol.errors import BadValue
 
 
@@ -85,6 +86,12 @@ class FaultEntry:
         if not isinstance(raw, dict):
             raise BadValue(f"{where}: each '{kind.value}' entry must be a table like "
                            f"{{id = 3, at_s = 1.0}}, got {raw!r}")
+        if isinstance(raw.get("leg"), str):   # a leg by its name, as the docs name them
+            name = raw["leg"].upper()
+            if name not in LEGS:
+                raise BadValue(f"{where}: '{kind.value}.leg' must be 0-5 or one of "
+                               f"{', '.join(LEGS)}, got {raw['leg']!r}")
+            raw = {**raw, "leg": LEGS.index(name)}
         d = check_table(where, raw, ENTRY_FIELDS[kind], f"{kind.value}.",
                         f" in a '{kind.value}' entry")
         e = cls(kind, **{**d, "ids": tuple(d.get("ids", ()))})
@@ -132,6 +139,18 @@ class FaultsConfig:
     def active(self) -> bool:
         """Whether the servo line has a fault to inject (the CAN drop rate is the CAN bus's)."""
         return bool(self.bit_error_rate or self.drop_status_rate or self.entries())
+
+    def check_ids(self, where: str, ids: Sequence[int]) -> None:
+        """Every servo a fault names (``id``, a sag's ``ids``) is one of the bus's ``ids``:
+        a fault on a servo that is not there would never happen."""
+        have = set(ids)
+        for e in self.entries():
+            for i in (*e.ids, *((e.id,) if e.id is not None else ())):
+                if i not in have:
+                    lo, hi = min(have), max(have)
+                    raise BadValue(f"{where}: '{e.kind.value}' names servo {i}, and the bus "
+                                    f"has IDs {lo}-{hi}" if len(have) == hi - lo + 1 else
+                                    f"{where}: '{e.kind.value}' names servo {i}, not on the bus")
 
     @classmethod
     def parse(cls, where: str, d: dict[str, Any]) -> "FaultsConfig":

@@ -117,7 +117,8 @@ class RealTimeServer:
     how late it is. ``on_tick(t_us)`` runs after each catch-up (recording, switches);
     ``end_us`` ends serving (``Stop``) once virtual time reaches it. Time starts at the
     master's first byte, as a robot powered on its bench waits for its board: the world
-    holds still until then, so ``--duration`` counts the master's time, not the wait.
+    holds still until then, so ``--duration`` counts the master's time, not the wait; a
+    master that never comes ends serving once the wait itself is that long.
     """
 
     def __init__(self, bus: Bus, step_us: int | None = None,
@@ -131,6 +132,7 @@ class RealTimeServer:
         if bus.advance is not None:
             bus.advance = self._advance
         self._wall0_ns: int | None = None      # set at the master's first byte
+        self._waiting0_ns = time.monotonic_ns()   # when serving began, before any master
         self._v0_us = bus.clock.t_us
         self._framer = bus.parser_class()      # cuts what one read brought into packets
         self.client_bauds: list[int] = []      # each bit rate the client set, in order
@@ -146,6 +148,9 @@ class RealTimeServer:
         self.pacing.add(self.now_us() - t_us)
 
     def _catch_up(self) -> None:
+        if self._wall0_ns is None and self.end_us is not None and \
+                time.monotonic_ns() - self._waiting0_ns >= (self.end_us - self._v0_us) * 1000:
+            raise Stop()   # no master for as long as the run was to last
         t = self.now_us()
         if self.end_us is not None and t >= self.end_us:
             t = self.end_us

@@ -10,6 +10,7 @@ import argparse
 import importlib
 import json
 import logging
+import os
 import re
 import signal
 import sys
@@ -68,7 +69,8 @@ FLAGS = {"python": "--runtime", "runtime": "--runtime", "firmware": "--firmware"
          "gdb_port": "--gdb", "coverage": "--coverage", "bare": "--bare", "target": "--target",
          "seed": "--seed", "tactile": "--no-tactile", "overwrite": "--overwrite",
          "keep_dir": "--keep-traces", "map_path": "--map", "scenario": "--scenario",
-         "kind": "--as"}
+         "kind": "--as", "max_wall_s": "--max-wall", "max_memory_mb": "--max-memory",
+         "width": "--width", "height": "--height", "png": "--png", "junit": "--junit"}
 
 
 def flag_message(exc: UserError) -> str:
@@ -80,6 +82,25 @@ def flag_message(exc: UserError) -> str:
             msg = re.sub(rf"(?<![\w\-\[.'])({re.escape(param)})(?![\w\]])",
                          FLAGS[param], msg, count=1)
     return msg
+
+
+def add_limits(p: argparse.ArgumentParser) -> None:
+    """``--max-wall`` and ``--max-memory``: a run's caps (hil/run/limits.py)."""
+    from hil.run.limits import DEFAULT_MEMORY_MB, WALL_BASE_S, WALL_PER_SIM_S
+
+    p.add_argument("--max-wall", type=float, metavar="S", help="end a run that takes more "
+                   f"than S wall seconds (default {WALL_BASE_S:g} + {WALL_PER_SIM_S:g} per "
+                   "simulated second): a verdict, ending 'limit'")
+    p.add_argument("--max-memory", type=float, metavar="MB", default=DEFAULT_MEMORY_MB,
+                   help="end a run once hexhil and its firmware hold more than MB MiB "
+                        f"(default {DEFAULT_MEMORY_MB:g}): a verdict, ending 'limit'")
+
+
+def limits(args: argparse.Namespace) -> Any:
+    """The ``RunLimits`` of ``--max-wall`` and ``--max-memory``."""
+    from hil.run.limits import RunLimits
+
+    return RunLimits(args.max_wall, args.max_memory)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -210,9 +231,20 @@ class ProgressBar:
             self._bar = None
 
 
+# the signal that interrupted this command (the console script's handlers), None: none yet
+_signalled: list[signal.Signals | None] = [None]
+
+
 def _terminated(signum: int, frame: Any) -> None:
     """SIGTERM ends a command as Ctrl-C does: ``finally`` blocks finish the trace files."""
+    _signalled[0] = signal.Signals(signum)
     raise KeyboardInterrupt
+
+
+def interrupted_status() -> int:
+    """The exit status of a command a signal ended: 128 + its number, 130 for Ctrl-C
+    (SIGINT), 143 for SIGTERM (systemd's, a CI runner's, ``docker stop``'s)."""
+    return 128 + int(_signalled[0] or signal.SIGINT)
 
 
 def _interrupted(exc: BaseException | None) -> bool:
@@ -227,7 +259,21 @@ def _interrupted(exc: BaseException | None) -> bool:
 def main(argv: list[str] | None = None) -> int:
     if argv is None:  # the console script, not a test calling main() in-process
         signal.signal(signal.SIGTERM, _terminated)
-    argv = sys.argv[1:] if argv is None else argv
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:   # not ignored
+            signal.signal(signal.SIGINT, _terminated)
+        status = _main(sys.argv[1:])
+        if _signalled[0] is not None and status == interrupted_status():
+            # Interrupted: every file is finished, and the interpreter's own teardown
+            # (MuJoCo's, about 0.7 s on a loaded machine) is skipped so the signal is
+            # acted on within a second.
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(status)
+        return status
+    return _main(argv)
+
+
+def _main(argv: list[str]) -> int:
     _show_library_log()
     try:
         parser = build_parser(argv)
@@ -240,10 +286,10 @@ def main(argv: list[str] | None = None) -> int:
         sys.stderr.write(f"hexhil: {flag_message(exc)}\n")
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
-        return 130
+        return interrupted_status()
     except ImportError as exc:   # Ctrl-C inside a C extension's initialisation (MuJoCo's)
         if _interrupted(exc):
-            return 130
+            return interrupted_status()
         raise
     except BrokenPipeError:
         return 0

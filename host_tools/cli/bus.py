@@ -268,7 +268,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--world", default=None, metavar="SCENARIO",
                    help="the scenario's MuJoCo world, paced to the wall clock (hexapod scenarios)")
     p.add_argument("--duration", type=float, default=None, metavar="S",
-                   help="stop after S seconds (default: until Ctrl-C/SIGTERM)")
+                   help="stop after S seconds of the master's time (from its first byte), "
+                        "or after S seconds with no master at all (default: until "
+                        "Ctrl-C/SIGTERM)")
     p.add_argument("--out", default=None, metavar="FILE.mcap",
                    help="record serial, CAN, ground truth, switches, faults and violations")
     p.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)

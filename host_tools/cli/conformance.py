@@ -3,6 +3,7 @@ Protocol 2.0) against the spec (host_tools/dynamixel/conformance/)."""
 from __future__ import annotations
 
 import argparse
+import math
 
 from hil.scenario import DEFAULT_BAUD
 from host_tools.cli import JSON_HELP, emit_json
@@ -47,8 +48,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.baud <= 0:
         raise UserError(f"--baud must be positive, got {args.baud}")
-    if args.timeout_ms <= 0 or args.scan_timeout_ms <= 0:
-        raise UserError("--timeout-ms and --scan-timeout-ms must be positive")
+    if not all(0 < t < math.inf for t in (args.timeout_ms, args.scan_timeout_ms)):
+        raise UserError("--timeout-ms and --scan-timeout-ms must be positive and finite")
     ids = parse_ids(args.ids) if args.ids else None
     protocol = models.protocol(args.model) if args.model else args.protocol
     result = CHECKS[protocol](args.port, args.baud, ids, args.timeout_ms / 1000.0,

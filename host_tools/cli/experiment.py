@@ -17,6 +17,8 @@ from hil.scenario.world_section import OBSTACLE_BODIES, OBSTACLE_BODY
 from host_tools.cli import JSON_HELP, actions, emit_json, ProgressBar
 from protocol.errors import UserError
 
+MAX_SEEDS = 1000   # seeds of one sweep: more is a typo, not days of runs
+
 
 def _out_folder(path: str) -> Path:
     out = Path(path)
@@ -69,8 +71,8 @@ def _tactile(args: argparse.Namespace) -> int:
     from host_tools.executor import Executor
 
     seeds = args.seeds if args.seeds is not None else (1 if args.quick else 3)
-    if seeds < 1:
-        raise UserError(f"--seeds must be at least 1, got {seeds}")
+    if not 1 <= seeds <= MAX_SEEDS:
+        raise UserError(f"--seeds must be 1-{MAX_SEEDS}, got {seeds}")
     out = _out_folder(args.out)
     opts = tactile_hexapod.SweepOptions(args.quick, seeds, args.traces, args.model,
                                         args.obstacles, args.python)
@@ -100,8 +102,8 @@ def _force(args: argparse.Namespace) -> int:
     from host_tools.papers.beam_traversal import force_sensing
 
     out = _out_folder(args.out)
-    if args.seeds is not None and args.seeds < 1:
-        raise UserError(f"--seeds must be at least 1, got {args.seeds}")
+    if args.seeds is not None and not 1 <= args.seeds <= MAX_SEEDS:
+        raise UserError(f"--seeds must be 1-{MAX_SEEDS}, got {args.seeds}")
     try:
         summary = force_sensing.main(args.quick, out, args.seeds)
     except UserError:   # a BadFile is an OSError too: already one line

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import sys
 
 from hil.link.firmware_process import IN_PROCESS, RUNTIMES
 from host_tools import cli
@@ -16,6 +17,7 @@ def _run(args: argparse.Namespace) -> int:
     from hil import scenario as scenario_mod
     from host_tools.cli import emit_json
     from host_tools.expect import margin_sweep, spec
+    from host_tools.output import check_output, write_failed
     from protocol.errors import UserError
 
     if args.jobs < 1:
@@ -28,11 +30,15 @@ def _run(args: argparse.Namespace) -> int:
                             "--runtime")
         served_firmware(args.firmware)   # one line before anything runs
     case = spec.load(args.expect)
-    sc = scenario_mod.load_scenario(args.scenario)
+    sc = spec.hexapod(args.scenario, scenario_mod.load_scenario(args.scenario))
+    if args.png:   # written after the sweep: checked before it
+        check_output(args.png, "png")
     case = dataclasses.replace(case, scenario=sc, name=sc.scenario.name or case.name,
                                seed=sc.scenario.seed)
     if args.duration is not None:
         scenario_mod.check_duration(args.duration, "--duration")
+        spec.check_windows(args.expect, case.expectations, args.duration,
+                           case.scenario.bus.servos)
         case = dataclasses.replace(case, duration_s=args.duration)
     python = args.python or case.python
     m = margin_sweep.sweep(case, python, workers=args.jobs, scheduler=args.scheduler,
@@ -54,11 +60,19 @@ def _run(args: argparse.Namespace) -> int:
     print("\nfirst failing setting: " + ", ".join(
         f"{k} {'none' if v is None else f'{v:g}'}" for k, v in m.first_failing().items()))
     if args.png:
-        margin_sweep.heat_map(m, args.png, f"{case.name}: expectations of {args.expect} "
-                                     f"({case.duration_s:g} s, seed {case.seed})")
+        try:
+            margin_sweep.heat_map(m, args.png, f"{case.name}: expectations of {args.expect} "
+                                  f"({case.duration_s:g} s, seed {case.seed})")
+        except OSError as exc:   # a full disk: the sweep above is printed, its verdict stands
+            sys.stderr.write(f"hexhil: {cli.flag_message(write_failed(args.png, 'png', exc))}\n")
+            return 1 if not m.nominal_holds() else 2
         print(f"heat map: {args.png}")
     if args.json:
         emit_json(json.loads(json.dumps(margin_sweep.to_json(m))))
+    if not m.nominal_holds():
+        sys.stderr.write(f"hexhil: the expectations of {args.expect} fail at nominal timing "
+                         "(every setting 0): there is no margin to measure\n")
+        return 1
     return 0
 
 

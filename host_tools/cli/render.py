@@ -11,7 +11,7 @@ def _render(args: argparse.Namespace) -> int:
 
     backend = render_mod.choose_gl()  # before MuJoCo is imported
     n = render_mod.render(args.trace, args.out, args.camera, args.fps, args.width, args.height,
-                          args.at, ProgressBar("frame"))
+                          args.at, ProgressBar("frame"), args.overwrite)
     print(f"{args.out}: {n} frame{'s' if n != 1 else ''} ({backend})")
     return 0
 
@@ -27,8 +27,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--camera", choices=CAMERAS, default="follow",
                    help="follow: behind the body on its left, from above; "
                         "side: from the left, level")
-    p.add_argument("--fps", type=float, default=30.0, help="frames a second (default 30)")
+    p.add_argument("--fps", type=float, default=30.0,
+                   help="frames a second, up to 100 (default 30)")
     p.add_argument("--width", type=int, default=480, help="pixels (default 480)")
     p.add_argument("--height", type=int, default=360, help="pixels (default 360)")
     p.add_argument("--at", type=float, metavar="S", help="the PNG's time in the trace (s)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a file that already exists (without it, it is refused)")
     p.set_defaults(func=_render)

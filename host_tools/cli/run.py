@@ -22,7 +22,7 @@ def _run(args: argparse.Namespace) -> int:
                                 False if args.no_tactile else None, args.out,
                                 args.can_server, args.can_wait, args.live, args.realtime,
                                 args.navigator, args.model, args.firmware, args.gdb,
-                                args.coverage, args.overwrite)
+                                args.coverage, args.overwrite, cli.limits(args))
     except RunInterrupted as exc:   # a beams run's trace holds no firmware link to replay
         replays = "" if exc.summary.get("world") == "beams" else " and replays"
         kept = (f"the trace {args.out} is kept{replays}" if args.out
@@ -30,7 +30,7 @@ def _run(args: argparse.Namespace) -> int:
         sys.stderr.write(f"hexhil: interrupted at t={exc.result.sim_time_s:.3f} s: {kept}\n")
         if args.json and exc.summary:
             cli.emit_json(exc.summary)
-        return 130
+        return cli.interrupted_status()
     if s.get("world") == "beams":
         what = "traversed" if s["traversed"] else ("flipped" if s["flipped"] else "stuck")
         print(f"{s['scenario']}: {s['strategy']}: {what} (mode {s['mode']}), energy "
@@ -43,14 +43,24 @@ def _run(args: argparse.Namespace) -> int:
         print("firmware exception:\n" + text.rstrip())
     if result.unhandled_exceptions and result.stderr_tail:
         print("firmware stderr:\n" + result.stderr_tail)
+    reported = s["state"] is not None or s["cycles"]   # a stats event (ours sends one)
     print(f"{s['scenario']}: {s['sim_time_s']:.1f} s simulated in {s['wall_time_s']:.2f} s "
-          f"({s['real_time_factor']}x) under {s['firmware_runtime']}, {s['cycles']} cycles, "
-          f"{s['overruns']} overruns, state {s['state']}"
+          f"({s['real_time_factor']}x) under {s['firmware_runtime']}"
+          + (f", {s['cycles']} cycles, {s['overruns']} overruns, state {s['state']}"
+             if reported else "")
           + (f", stopped: {s['stop_reason']}" if s["stop_reason"] else ""))
     if s["faults"]:
         print("faults: " + ", ".join(f"{k} {v}" for k, v in s["faults"].items()))
     if s["no_servo_answered"]:
         print(s["no_servo_answered"])
+    if s["violations"] and s["violations"]["total"]:
+        print("master protocol violations: " + ", ".join(
+            f"{k} {n}" for k, n in s["violations"]["counts"].items() if n))
+    if s["console_dropped_bytes"]:
+        from hil.link.served_firmware import CONSOLE_TRACE_BYTES
+
+        print(f"the firmware printed {s['console_dropped_bytes']:,} bytes more than the trace "
+              f"keeps of its prints ({CONSOLE_TRACE_BYTES:,}): they were dropped")
     print(f"body: dx {s['body']['dx_m']:+.3f} m, dy {s['body']['dy_m']:+.3f} m, "
           f"dyaw {s['body']['dyaw_deg']:+.1f} deg; serial sha256 {s['serial_digest'][:16]}...")
     if "navigator" in s:
@@ -109,5 +119,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "still while it is halted (docs/elf-firmware.md)")
     p.add_argument("--coverage", metavar="FILE.info", help="an ELF firmware's line coverage "
                    "from its DWARF line table, as LCOV (genhtml, CI coverage reports)")
+    cli.add_limits(p)
     p.add_argument("--json", action="store_true", help=cli.JSON_HELP)
     p.set_defaults(func=_run)

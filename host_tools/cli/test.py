@@ -5,6 +5,7 @@ JUnit XML for CI, and the trace of each failing case kept with its failures in i
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Sequence
 
 from hil.link.firmware_process import IN_PROCESS, RUNTIMES
@@ -26,6 +27,7 @@ def table(results: Sequence) -> str:
 
 def _run(args: argparse.Namespace) -> int:
     from host_tools.expect import case_runs, junit, spec
+    from host_tools.output import check_output
     from protocol.errors import UserError
 
     if args.jobs < 1 or args.repeat < 1:
@@ -45,6 +47,9 @@ def _run(args: argparse.Namespace) -> int:
         served_firmware(args.firmware, coverage=args.coverage)   # one line before anything runs
     elif args.coverage is not None:
         raise UserError("--coverage needs an STM32F411 ELF given as --firmware")
+    for flag in ("junit", "coverage"):   # written after every case ran: checked first
+        if getattr(args, flag) is not None:
+            check_output(getattr(args, flag), flag)
     cases = [spec.load(f) for f in args.files]
     names = [c.name for c in cases]
     if len(set(names)) != len(names):
@@ -57,7 +62,8 @@ def _run(args: argparse.Namespace) -> int:
         jobs = case_runs.jobs_for(cases, args.repeat,
                                   tactile=False if args.no_tactile else None,
                                   python=args.python, firmware=args.firmware,
-                                  keep_dir=args.keep_traces, overwrite=args.overwrite)
+                                  keep_dir=args.keep_traces, overwrite=args.overwrite,
+                                  limits=cli.limits(args))
         if args.keep_traces and not args.overwrite:   # refused before anything runs
             for job in jobs:
                 kept = case_runs.kept_path(args.keep_traces, job.label)
@@ -84,7 +90,11 @@ def _run(args: argparse.Namespace) -> int:
         if r.trace:
             print(f"trace of {r.label} (failures on /expectations): {r.trace}")
     if args.junit:
-        junit.write(results, args.junit)
+        try:
+            junit.write(results, args.junit)
+        except UserError as exc:   # the verdict stands: 1 if a case failed
+            sys.stderr.write(f"hexhil: {exc}\n")
+            return 1 if failed else 2
     return 1 if failed else 0
 
 
@@ -143,4 +153,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="run every case with the Eq. 5-7 obstacle rule off, as "
                         "'hexhil run --no-tactile' (the tactile expectations should fail)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    cli.add_limits(p)
     p.set_defaults(func=_run)

@@ -13,9 +13,9 @@ from typing import Any, Sequence
 import can
 from mcap.writer import CompressionType, Writer
 
+from hil.run.limits import RunLimits
 from hil.scenario import Scenario, check_seed
 from hil.seams import ServoLine
-from hil.servobus.master_check import MasterCheck
 from host_tools import run_summary as run_mod
 from host_tools.expect.verdicts import Outcome, evaluate
 from host_tools.expect.spec import Case
@@ -69,6 +69,7 @@ class CaseRun:
     scenario: Scenario | None = None      # the case's scenario changed (margin)
     changed: tuple[tuple[str, float], ...] = ()  # ... and what was changed in it (overrides)
     coverage: str | None = None           # an ELF's LCOV to this file (hexhil test --coverage)
+    limits: RunLimits | None = None       # the run's caps (hil/run/limits.py; None: defaults)
 
 
 @dataclass(frozen=True)
@@ -102,8 +103,8 @@ class _Sender:
 def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
                  tactile: bool | None, trace: Path, timing: BusTiming = BusTiming(),
                  sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None,
-                 changed: dict[str, Any] | None = None, coverage: str | None = None
-                 ) -> tuple[dict[str, Any], RunResult]:
+                 changed: dict[str, Any] | None = None, coverage: str | None = None,
+                 limits: RunLimits | None = None) -> tuple[dict[str, Any], RunResult]:
     """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
     file or an executable: ``hexhil run --firmware``) through the one run path
     (host_tools/lockstep_run.py ``Run``), recorded to ``trace`` with the master's protocol check
@@ -112,11 +113,11 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
     ``faults.bit_error_rate``) are recorded as the run's overrides."""
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
-              overrides={**timing.overrides(), **(changed or {})}, coverage=coverage)
+              overrides={**timing.overrides(), **(changed or {})}, coverage=coverage,
+              limits=limits)
     try:
-        check = MasterCheck(run.recorder.violation)
+        run.watch_master()
         sim = run.sim
-        sim.bus.monitor = check
         timing.apply(sim.bus)
         if sends:
             run.add_node(_Sender(run, sends))
@@ -124,9 +125,7 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
         run.close()
         raise
     result = run.run()
-    summary = run_mod.summary(run.scenario, seed, result, str(trace), run.what_ran())
-    summary["violations"] = check.summary()
-    return summary, result
+    return run_mod.summary(run.scenario, seed, result, str(trace), run.what_ran()), result
 
 
 def run_case(job: CaseRun) -> CaseResult:
@@ -139,7 +138,7 @@ def run_case(job: CaseRun) -> CaseResult:
         summary, _ = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
                                   job.python or case.python, tactile, trace, job.timing,
                                   case.sends, job.firmware or case.firmware,
-                                  dict(job.changed), job.coverage)
+                                  dict(job.changed), job.coverage, job.limits)
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):

@@ -53,6 +53,12 @@ class Margin:
     grid: list[Point]                             # return delay x latency
     grid_axes: tuple[tuple[float, ...], tuple[float, ...]]
 
+    def nominal_holds(self) -> bool:
+        """Whether the expectations hold at nominal timing (every setting 0: the scenario's
+        own bus): where they do not, no setting has a margin to measure."""
+        return all(p.holds for points in (*self.axes.values(), self.grid) for p in points
+                   if not any(v for _, v in p.settings))
+
     def first_failing(self) -> dict[str, float | None]:
         """Per axis, the nominal-nearest setting that fails (None: every setting held)."""
         out: dict[str, float | None] = {}

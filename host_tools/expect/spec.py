@@ -8,14 +8,14 @@ naming the file and the key (exit 2), before anything runs.
 from __future__ import annotations
 
 import math
-import tomllib
+import re
 from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import Path
 from typing import Any
 
 from hil import scenario as scenario_mod
-from hil.scenario import Scenario, WorldKind
+from hil.scenario import Scenario, WorldKind, read_toml_file, toml_data
 from hil.scenario.rules import check_table, optional, typed
 from hil.link.firmware_process import IN_PROCESS, RUNTIMES
 from hil.scenario.faults_section import FaultKind
@@ -203,6 +203,49 @@ def _check_kind(where: str, kind: Kind, values: dict[str, Any]) -> None:
             raise UserError(f"{where}: key '{key}' must be 0 or more, got {values[key]}")
 
 
+def _check_signal_field(where: str, topic: str, path: str) -> None:
+    """A ``signal`` expectation's topic is one a trace of ours has, and its field one that
+    topic's messages hold (a protobuf topic's schema, a CAN frame's signals; the firmware's
+    own ``/telemetry`` and the violations are free-form): a typo is bad input before
+    anything runs, not a FAIL after it."""
+    from host_tools.trace import protobuf, topics
+    from protocol.can_frames import FRAMES
+
+    if topic.startswith(topics.T_CAN_PREFIX) and topic != topics.T_CAN_RAW:
+        frame = topic[len(topics.T_CAN_PREFIX):]
+        if frame not in FRAMES:
+            raise UserError(f"{where}: key 'topic': no CAN frame {frame!r} in "
+                            f"protocol/hexhil.dbc ({', '.join(sorted(FRAMES))})")
+        names = [sig[0] for sig in FRAMES[frame][2]]
+        if path not in names:
+            raise UserError(f"{where}: key 'field': frame {frame} has no signal {path!r} "
+                            f"({', '.join(names)})")
+        return
+    if topic not in topics.CHANNELS:
+        raise UserError(f"{where}: key 'topic': no topic {topic!r} in a trace "
+                        f"({', '.join(sorted(topics.CHANNELS))}, or /can/FRAME)")
+    schema, encoding = topics.CHANNELS[topic]
+    if encoding != "protobuf":
+        return
+    desc = protobuf.CLASSES[schema].DESCRIPTOR
+    repeated = False
+    for part in path.replace("[", ".[").split("."):
+        if not part:
+            continue
+        if part.startswith("["):
+            if not repeated or not (part == "[*]" or part[1:-1].lstrip("-").isdigit()):
+                raise UserError(f"{where}: key 'field': {path!r}: {part} follows no list")
+            repeated = False
+            continue
+        if desc is None or part not in desc.fields_by_name:
+            have = ", ".join(desc.fields_by_name) if desc is not None else "none"
+            raise UserError(f"{where}: key 'field': {path!r}: no field {part!r} in "
+                            f"{topic}'s messages (fields here: {have})")
+        fd = desc.fields_by_name[part]
+        desc = fd.message_type
+        repeated = fd.is_repeated
+
+
 def expectation(where: str, raw: Any, index: int = 0) -> Expectation:
     """One ``[[expect]]`` table, checked (``where`` and ``index`` name it in errors)."""
     if not isinstance(raw, dict):
@@ -228,6 +271,8 @@ def expectation(where: str, raw: Any, index: int = 0) -> Expectation:
         else (0.0, None)
     if kind is Kind.TACTILE_RULE:
         values = {**TACTILE_DEFAULTS, **values}
+    if kind is Kind.SIGNAL:
+        _check_signal_field(label, values["topic"], values["field"])
     return Expectation(name, kind, window, tuple(sorted(values.items())))
 
 
@@ -269,7 +314,31 @@ def _scenario(where: str, path: Path, data: dict[str, Any]) -> Scenario:
     return scenario_mod.parse(inline, path)
 
 
-def _hexapod(where: str, sc: Scenario) -> Scenario:
+def check_windows(where: str, expectations: tuple[Expectation, ...], duration_s: float,
+                  servos: int) -> None:
+    """Each expectation looks inside the run: its window (and a signal's ``at_s``) within
+    ``duration_s``, a ``/servos`` index below the bus's ``servos``; else one line, before
+    anything runs."""
+    for i, e in enumerate(expectations):
+        label = f"{where}: expect[{i}] ({e.name!r})"
+        t0, t1 = e.window_s
+        if t0 >= duration_s or (t1 is not None and t1 > duration_s):
+            raise UserError(f"{label}: key 'window_s' [{t0:g}, {'end' if t1 is None else f'{t1:g}'}]"
+                            f" reaches past the run's end ({duration_s:g} s)")
+        if e.kind is not Kind.SIGNAL:
+            continue
+        if e.get("at_s") is not None and not 0 <= e.get("at_s") <= duration_s:
+            raise UserError(f"{label}: key 'at_s' {e.get('at_s'):g} is outside the run "
+                            f"(0-{duration_s:g} s)")
+        if e.get("topic") == "/servos":
+            for index in re.findall(r"servos\[(-?\d+)\]", e.get("field")):
+                if not -servos <= int(index) < servos:
+                    raise UserError(f"{label}: key 'field': servos[{index}] is out of range "
+                                    f"(the bus has {servos} servos: 0-{servos - 1})")
+
+
+def hexapod(where: str, sc: Scenario) -> Scenario:
+    """``sc``, if its world is the hexapod's (the firmware's): else one line."""
     if sc.world.kind not in (None, WorldKind.HEXAPOD):
         raise UserError(f"{where}: key 'world.kind': hexhil test runs the hexapod firmware, "
                         f"this scenario's world is {sc.world.kind.value}")
@@ -279,14 +348,7 @@ def _hexapod(where: str, sc: Scenario) -> Scenario:
 def load(path: str | Path) -> Case:
     """Read and check one expectation file."""
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise UserError(f"{p}: expectation file not found") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
-        raise UserError(f"{p}: cannot read expectation file ({exc.__class__.__name__})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise UserError(f"{p}: not valid TOML ({exc})") from None
+    data = toml_data(read_toml_file(p, "expectation"), p)
     where = str(p)
     case = data.get("case", {})
     if not isinstance(case, dict):
@@ -300,7 +362,7 @@ def load(path: str | Path) -> Case:
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise UserError(f"{where}: key 'expect.name': {dup[0]!r} is used twice")
-    sc = _hexapod(where, _scenario(where, p, data))
+    sc = hexapod(where, _scenario(where, p, data))
     for i, e in enumerate(expectations):
         if e.kind is Kind.TACTILE_RULE and e.get("max_obstacle_height_m") is None \
                 and sc.gait.max_obstacle_height_m is None:
@@ -308,6 +370,7 @@ def load(path: str | Path) -> Case:
                             f"is required (H of Eq. 7: the scenario's gait does not give it)")
     duration = scenario_mod.check_duration(case.get("duration_s", sc.scenario.duration_s),
                                            f"{where}: key 'case.duration_s'")
+    check_windows(where, expectations, duration, sc.bus.servos)
     python = case.get("python", sc.firmware.python.value)
     if python not in RUNTIME_CHOICES:
         raise UserError(f"{where}: key 'case.python' must be one of "

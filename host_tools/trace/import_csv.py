@@ -32,6 +32,8 @@ def import_csv(src: str | Path, dst: str | Path, metadata: dict[str, Any] | None
     body pose ``x_m, roll_rad, pitch_rad``; optional ``y_m, z_m``) -> an MCAP trace with the
     same ``force`` and ``body_pose`` CAN frames a simulated beams run records."""
     src = Path(src)
+    if src.exists() and not src.is_file() and not src.is_dir():
+        raise UserError(f"{src}: not a regular file (a CSV log is a file)")
     try:
         f = open(src, newline="", encoding="utf-8")
     except FileNotFoundError:

@@ -54,6 +54,8 @@ def check_file(path: Path) -> None:
         raise UserError(f"{path}: no such trace file")
     if path.is_dir():
         raise UserError(f"{path}: is a directory, not a trace file")
+    if not path.is_file():   # a FIFO would block for ever, a device never ends
+        raise UserError(f"{path}: not a regular file (a trace is an .mcap file)")
     try:
         with open(path, "rb") as f:
             head = f.read(len(MAGIC))
