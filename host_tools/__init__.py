@@ -29,7 +29,9 @@ _WHERE = {
     "FirmwareStats": "hil.run_result", "BodyDisplacement": "hil.run_result",
     "HexapodOutcome": "hil.run_result", "BeamsOutcome": "hil.run_result",
     "RunInterrupted": "hil.run_result",
-    "scenario_of_trace": "host_tools.lockstep_run",
+    "scenario_of_trace": "host_tools.lockstep_run", "RunLimits": "hil.run.limits",
+    # the bus master's protocol check a run of a firmware of yours keeps (Run.check)
+    "MasterCheck": "hil.servobus.master_check",
     # a master that is not ours, in real time (hexhil bus)
     "RealTimeRun": "host_tools.realtime_run", "Pty": "host_tools.realtime_run",
     "Tcp": "host_tools.realtime_run", "SerialPort": "host_tools.realtime_run",

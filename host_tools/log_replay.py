@@ -25,7 +25,7 @@ import can
 from hil import scenario as scenario_mod
 from hil.canbus.bus import CanBus
 from hil.clock import VirtualClock
-from hil.link.firmware_process import FirmwareProcess
+from hil.link.firmware_child import FirmwareProcess
 from hil.link.served_firmware import ElfFirmware, served_firmware
 from hil.link.server import LinkServer, SwitchSampler
 from hil.run_result import RunTally
