@@ -99,3 +99,20 @@ def test_bit_band_aliases_reach_sram_bits_and_peripheral_registers(tmp_path):
     assert console(r)[-1].split() == ["00800011", "00000001", "03000000", "00000023",
                                       "00000003", "ffffffff"], console(r)
     assert r.ending.kind is Ending.COMPLETED and not r.faults
+
+
+def test_flash_unlocks_programs_erases_and_refuses_as_rm0383_says(tmp_path, caplog):
+    """The FLASH interface: LOCK until the two keys; a word programmed and ANDed with a
+    second program; sector 1 erased to 0xFF, BSY for the datasheet's 250 ms (16 KB at x32),
+    EOP's interrupt with EOPIE; a store without PG gets PGSERR and leaves flash as it was,
+    a byte at PSIZE x32 PGPERR; the flags clear by writing 1; a wrong key locks CR for
+    good. Each refused kind of store is named once in the log."""
+    r, _ = run_elf(build(tmp_path, "flash.c"), 0.4)
+    assert console(r)[-1].split() == [
+        "80000000", "00000000", "12345678", "12340000", "00010000", f"{250:08x}",
+        "ffffffff", "00000001", "00000080", "00000040", "00000000", "ffffffff",
+        "80000000"], console(r)
+    assert r.ending.kind is Ending.COMPLETED and not r.faults
+    said = caplog.text
+    assert said.count("PGSERR") == 1 and said.count("PGPERR") == 1, said
+    assert "is not the unlock sequence" in said

@@ -30,7 +30,9 @@ from hil.mcu.link_client import LinkClient, Reply
 from hil.mcu.poll import PollSkipper
 from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import extra_peripherals
-from hil.mcu.rcc import HSI_HZ, Rcc, flash_interface, power
+from hil.mcu import flash
+from hil.mcu.flash import FlashInterface
+from hil.mcu.rcc import HSI_HZ, Rcc, power
 from hil.mcu.system import Nvic, SystemBlock
 from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
@@ -86,6 +88,7 @@ class Board:
         self.tick = self.events.timer(self._tick)
         self.tick.set(TICK_US * FS_PER_US)
         self.space.attach(core.uc)
+        flash.attach(self)            # stores to flash reach self.flash (hil/mcu/flash.py)
         if self.native:
             hook_interrupts(core.shared, core.uc)    # exception returns in C
         else:
@@ -120,7 +123,8 @@ class Board:
             NativeUsart("USART2", 38, ev, lambda: self.rcc.pclk1_hz) if self.native else
             Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self.line))
         self.usart6 = Usart("USART6", 71, core, ev, lambda: self.rcc.pclk2_hz, line, self)
-        for base, p in ((0x40023800, self.rcc), (0x40023C00, flash_interface()),
+        self.flash = FlashInterface(self)
+        for base, p in ((0x40023800, self.rcc), (0x40023C00, self.flash),
                         (0x40007000, power()), (0x40013C00, self.exti),
                         (0x40013800, Syscfg(self.exti)), (0x40011000, self.usart1),
                         (0x40004400, self.usart2), (0x40011400, self.usart6)):
@@ -227,7 +231,7 @@ class Board:
         self._reset_pending = False
         self.resets += 1
         self.line.flush()
-        old = [self.nvic, self.rcc, self.systick, self.ppb, self.exti, *self.gpio,
+        old = [self.nvic, self.rcc, self.systick, self.ppb, self.exti, self.flash, *self.gpio,
                self.usart1, self.usart2, self.usart6, *(p for _, p in self.extra)]
         for periph in old:
             for value in vars(periph).values():
@@ -370,6 +374,7 @@ class Board:
         core = self.core
         if self.fault is not None:
             raise CoreFault(self.fault_line(self.fault))
+        self.flash.settle()
         if self._reset_pending:
             self._system_reset()
             return
