@@ -9,15 +9,6 @@
 #define PERIPH_BB(addr, bit) REG(0x42000000 + ((addr) - 0x40000000) * 32 + 4 * (bit))
 #define RCC_CSR_ADDR 0x40023874u
 
-static void put_hex(uint32_t v) {
-    char buf[10];
-    for (int i = 0; i < 8; i++)
-        buf[i] = "0123456789abcdef"[(v >> (28 - 4 * i)) & 0xF];
-    buf[8] = ' ';
-    buf[9] = 0;
-    console_puts(buf);
-}
-
 volatile uint32_t word = 0x80000001u;
 
 int main(void) {

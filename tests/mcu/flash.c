@@ -17,15 +17,6 @@
 #define PSIZE_X32 (2u << 8)
 #define WORD REG(0x08004000)
 
-static void put_hex(uint32_t v) {
-    char buf[10];
-    for (int i = 0; i < 8; i++)
-        buf[i] = "0123456789abcdef"[(v >> (28 - 4 * i)) & 0xF];
-    buf[8] = ' ';
-    buf[9] = 0;
-    console_puts(buf);
-}
-
 static volatile uint32_t eop_irqs;
 
 void FLASH_IRQHandler(void) {
