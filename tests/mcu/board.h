@@ -49,7 +49,7 @@ static inline void console_puts(const char *s) {
     }
 }
 
-static inline void put_hex(uint32_t v) {         /* a word in hex and a space */
+static inline void put_word(uint32_t v) {         /* a word in hex and a space */
     char buf[10];
     for (int i = 0; i < 8; i++)
         buf[i] = "0123456789abcdef"[(v >> (28 - 4 * i)) & 0xF];

@@ -64,19 +64,19 @@ int main(void) {
     FLASH_KEYR = 0x12345678u;                 /* a wrong key: locked until reset */
     FLASH_KEYR = 0x45670123u;
     FLASH_KEYR = 0xCDEF89ABu;
-    put_hex(locked);
-    put_hex(unlocked);
-    put_hex(first);
-    put_hex(second);
-    put_hex(busy);
-    put_hex(erase_ms);
-    put_hex(erased);
-    put_hex(eop_irqs);
-    put_hex(pgserr);
-    put_hex(pgperr);
-    put_hex(cleared);
-    put_hex(REG(0x08004004));
-    put_hex(FLASH_CR & LOCK);
+    put_word(locked);
+    put_word(unlocked);
+    put_word(first);
+    put_word(second);
+    put_word(busy);
+    put_word(erase_ms);
+    put_word(erased);
+    put_word(eop_irqs);
+    put_word(pgserr);
+    put_word(pgperr);
+    put_word(cleared);
+    put_word(REG(0x08004004));
+    put_word(FLASH_CR & LOCK);
     console_puts("\n");
     for (;;) __asm__ volatile("wfi");
 }
