@@ -116,3 +116,13 @@ def test_flash_unlocks_programs_erases_and_refuses_as_rm0383_says(tmp_path, capl
     said = caplog.text
     assert said.count("PGSERR") == 1 and said.count("PGPERR") == 1, said
     assert "is not the unlock sequence" in said
+
+
+def test_rtc_counts_the_calendar_from_lsi_in_virtual_time(tmp_path):
+    """The RTC as ST's HAL and MicroPython start it: INIT ignored without WPR's key, INITF
+    after the key, the calendar set in the initialisation mode, then two seconds on LSI
+    with PRER 128 x 250: the date rolls over into the next year and weekday; RSF comes
+    back after a clear; a backup register keeps its word."""
+    r, _ = run_elf(build(tmp_path, "rtc.c"), 2.1)
+    assert console(r)[-1].split() == ["00000007", "00000000", "0027a101",
+                                      "00000030", "00001234"], console(r)
