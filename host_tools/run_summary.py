@@ -7,6 +7,7 @@ from typing import Any
 
 from hil import scenario as scenario_mod
 from hil.canbus.socketcand import CanServer
+from hil.mcu.flash_fs import FlashFiles
 from hil.run_result import RunInterrupted, RunResult
 from hil.scenario import Scenario, WorldKind
 from host_tools import plugins
@@ -91,7 +92,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         realtime: bool = False, navigator: str = "none",
         model_path: str | None = None, firmware: str | None = None,
         gdb_port: int | None = None, coverage: str | None = None,
-        overwrite: bool = False) -> tuple[dict[str, Any], RunResult]:
+        overwrite: bool = False, flash_files: FlashFiles | None = None
+        ) -> tuple[dict[str, Any], RunResult]:
     """Load, simulate, summarise. Returns (summary, raw result).
 
     A recorded run (``out``) carries the 3D scene. With ``live_port`` the trace's channels
@@ -110,7 +112,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     ``firmware``, a MicroPython main file for the virtual board or an executable that
     speaks the link (hil/link/served_firmware.py), or an STM32F411 ELF, runs instead of our
     firmware; an ELF's ``gdb_port`` waits for a GDB client, ``coverage`` writes LCOV there
-    (docs/elf-firmware.md).
+    (docs/elf-firmware.md); ``flash_files`` fills and reads back a MicroPython ELF's
+    ``/flash`` (docs/micropython-on-the-chip.md).
     """
     sc = scenario_mod.load_scenario(path)
     given_seed = None if seed is None else scenario_mod.check_seed(seed, "seed",
@@ -136,6 +139,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         with Run(sc, seed=given_seed, runtime=python, duration_s=duration_s, tactile=tactile,
                  trace=out, live_port=live_port, can_server=server, realtime=realtime,
                  firmware=firmware, gdb_port=gdb_port, coverage=coverage,
+                 flash_files=flash_files,
                  overwrite=overwrite) as r:
             if r.live is not None:
                 log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", r.live.port)
