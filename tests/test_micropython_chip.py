@@ -122,3 +122,31 @@ def test_ticks_us_arithmetic_wraps_and_measures_sleeps():
     assert 500 <= t["sleep_us_500"] < 600
     assert 19_000 <= t["sleep_ms_20"] <= 20_100      # whole SysTick ticks, as the port's delay
     assert 49_000 <= t["spin_ms_50"] <= 51_000
+
+
+def test_the_board_definition_is_the_emulated_board():
+    """firmware/micropython-board/HEXHIL_F411 says what hil/mcu/ emulates: the 25 MHz HSE
+    through the PLL to 100 MHz, the REPL on USART1, the direction pin PA1 and the switches
+    on PB0-PB5; the shared ELF was built from such a definition (its board name)."""
+    import re
+
+    from hil.mcu import rcc
+    from hil.mcu.gpio import SWITCH_PINS
+    board = ROOT / "firmware" / "micropython-board" / "HEXHIL_F411"
+    h = (board / "mpconfigboard.h").read_text()
+    conf = (board / "stm32f4xx_hal_conf.h").read_text()
+
+    def define(text, name):
+        return re.search(rf"#define {name}\s+\(?(\w+|\"[^\"]*\")\)?", text).group(1)
+    hse = int(define(conf, "HSE_VALUE"))
+    m, n = int(define(h, "MICROPY_HW_CLK_PLLM")), int(define(h, "MICROPY_HW_CLK_PLLN"))
+    p = int(define(h, "MICROPY_HW_CLK_PLLP").removeprefix("RCC_PLLP_DIV"))
+    assert hse == rcc.HSE_HZ and hse // m * n // p == rcc.MAX_SYSCLK_HZ
+    assert define(h, "MICROPY_HW_UART_REPL") == "PYB_UART_1"
+    pins = dict(line.split(",") for line in (board / "pins.csv").read_text().splitlines()
+                if line and not line.startswith("#") and not line.startswith(","))
+    assert pins["SERVO_DIR"] == "PA1"
+    assert [pins[f"SW_{s}"] for s in ("LF", "LM", "LH", "RF", "RM", "RH")] == \
+        [f"PB{i}" for i in range(SWITCH_PINS)]
+    name = define(h, "MICROPY_HW_BOARD_NAME").strip('"')
+    assert name.encode() + b"\0" in EMPTY_FS_ELF.read_bytes()
