@@ -149,4 +149,4 @@ def test_the_board_definition_is_the_emulated_board():
     assert [pins[f"SW_{s}"] for s in ("LF", "LM", "LH", "RF", "RM", "RH")] == \
         [f"PB{i}" for i in range(SWITCH_PINS)]
     name = define(h, "MICROPY_HW_BOARD_NAME").strip('"')
-    assert name.encode() + b"\0" in EMPTY_FS_ELF.read_bytes()
+    assert f"; {name} with STM32F411xE\0".encode() in EMPTY_FS_ELF.read_bytes()   # banner
