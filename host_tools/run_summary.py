@@ -55,7 +55,14 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
         "bus_wire_min_per_cycle_us": round(result.bus_wire_us / result.loop_cycles, 1)
         if result.loop_cycles else None,
         "tactile": None, "overrides": {}, **(what_ran or {}),
+        **_deadline(fw.other),
     }
+
+
+def _deadline(other: Any) -> dict[str, Any]:
+    """An ELF's busy time per control cycle (hil/mcu/deadline.py), where it was measured."""
+    mcu = other.get("mcu") if hasattr(other, "get") else None
+    return {"deadline": mcu["deadline"]} if mcu and mcu.get("deadline") else {}
 
 
 def start_can_server(port: int, wait_clients: int) -> CanServer:

@@ -150,3 +150,43 @@ def test_the_board_definition_is_the_emulated_board():
         [f"PB{i}" for i in range(SWITCH_PINS)]
     name = define(h, "MICROPY_HW_BOARD_NAME").strip('"')
     assert f"; {name} with STM32F411xE\0".encode() in EMPTY_FS_ELF.read_bytes()   # banner
+
+
+LOOP_50HZ = MAINS / "loop_50hz.py"
+
+
+def test_the_deadline_figures_and_a_deadline_expectation_that_passes_and_one_that_fails(
+        tmp_path):
+    """A 50 Hz loop (a ping, some float work, sleep_ms to the next 20 ms): --json's
+    ``deadline`` has its busy time per control cycle; a case with ``kind = "deadline"``
+    passes at 15 ms of the period and fails at 0.5 ms, and ``hexhil test`` exits 1."""
+    case = tmp_path / "deadline.toml"
+    case.write_text(f'''[case]
+name = "deadline"
+scenario = "{ROOT / 'scenarios' / 'flat-tripod.toml'}"
+duration_s = 0.5
+firmware = "{EMPTY_FS_ELF}"
+main = "{LOOP_50HZ}"
+
+[[expect]]
+name = "fits"
+kind = "deadline"
+max_busy_ms = 15.0
+stat = "p99"
+
+[[expect]]
+name = "too tight"
+kind = "deadline"
+max_busy_ms = 0.5
+''')
+    done = subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 1, done.stdout + done.stderr
+    rows = {line.split()[1]: line for line in done.stdout.splitlines()
+            if line.startswith("deadline ")}
+    assert rows["fits"].rstrip().endswith("pass") and "0 late" in rows["fits"]
+    assert rows["too"].rstrip().endswith("FAIL")
+    r = run_main(LOOP_50HZ, 0.5)
+    d = r.firmware.other["mcu"]["deadline"]
+    assert d["period_ms"] == 20.0 and d["late"] == 0 and d["cycles"] >= 20
+    assert 0.5 < d["busy_p50_ms"] <= d["busy_p99_ms"] <= d["busy_max_ms"] < 15.0

@@ -22,6 +22,7 @@ from hil.mcu.board_loop import (exception_choice, exception_entry, exception_tak
 from hil.mcu.console import Console, semihost
 from hil.mcu.core import (EXC_SVCALL, EXC_SYSTICK, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT,
                           INTR_INVSTATE, INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
+from hil.mcu.deadline import ControlCycles
 from hil.mcu.elf_image import ElfImage
 from hil.mcu.events import Events, Timer
 from hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
@@ -83,6 +84,7 @@ class Board:
         self._reset_pending = False
         self._last_request_us = -TICK_US
         self.debugger: Any = None      # hil/mcu/gdb.py, with --gdb
+        self.cycles = ControlCycles(core)   # busy time per control cycle (deadline.py)
         self.line = ServoLine(self)
         self.space = PeripheralSpace(self)
         self._peripherals()

@@ -56,7 +56,8 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
                                            "instructions": board.core.executed,
                                            "skipped_cycles": board.skipped_cycles,
                                            "link_requests": board.link.requests,
-                                           "resets": board.resets})
+                                           "resets": board.resets,
+                                           "deadline": board.cycles.figures()})
     if fs_out is not None:            # what the firmware left in /flash, also after a fault
         flash_fs.read_back(bytes(board.core.uc.mem_read(flash_fs.FS_BASE, flash_fs.FS_SIZE)),
                            fs_out)

@@ -13,14 +13,16 @@ from host_tools import cli
 LIVE_PORT = 8765  # Foxglove's default WebSocket port (host_tools/trace/live.py)
 
 
-def add_flash_options(p: argparse.ArgumentParser) -> None:
-    """--main, --fs, --fs-out: a MicroPython ELF's /flash (docs/micropython-on-the-chip.md)."""
+def add_flash_options(p: argparse.ArgumentParser, read_back: bool = True) -> None:
+    """--main, --fs (and --fs-out): a MicroPython ELF's /flash
+    (docs/micropython-on-the-chip.md)."""
     p.add_argument("--main", metavar="MAIN.py", help="with a MicroPython ELF as --firmware: "
                    "lay this file into its internal-flash filesystem as main.py, which it runs")
     p.add_argument("--fs", metavar="DIR", help="with a MicroPython ELF: lay DIR's files into "
                    "its /flash too")
-    p.add_argument("--fs-out", metavar="DIR", help="with a MicroPython ELF: after the run, "
-                   "write the files of its /flash into DIR")
+    if read_back:
+        p.add_argument("--fs-out", metavar="DIR", help="with a MicroPython ELF: after the "
+                       "run, write the files of its /flash into DIR")
 
 
 def flash_files(args: argparse.Namespace):   # -> FlashFiles | None
@@ -28,7 +30,7 @@ def flash_files(args: argparse.Namespace):   # -> FlashFiles | None
     from pathlib import Path
 
     from hil.mcu.flash_fs import FlashFiles
-    given = (args.main, args.fs, args.fs_out)
+    given = (args.main, args.fs, getattr(args, "fs_out", None))
     if all(v is None for v in given):
         return None
     return FlashFiles(*(None if v is None else Path(v) for v in given))
