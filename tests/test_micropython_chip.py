@@ -190,3 +190,16 @@ max_busy_ms = 0.5
     d = r.firmware.other["mcu"]["deadline"]
     assert d["period_ms"] == 20.0 and d["late"] == 0 and d["cycles"] >= 20
     assert 0.5 < d["busy_p50_ms"] <= d["busy_p99_ms"] <= d["busy_max_ms"] < 15.0
+
+
+def test_the_pytest_plugin_and_replay_take_the_flash_files(hexhil_run):
+    """hexhil_run(main=...) fills /flash as --main does, check("deadline") judges the run,
+    and hexhil replay --main replays its trace into the same ELF identically (without the
+    main.py the firmware would format /flash instead: another run)."""
+    done = hexhil_run(ROOT / "scenarios" / "flat-tripod.toml", duration_s=0.4,
+                      firmware=EMPTY_FS_ELF, main=LOOP_50HZ)
+    assert done.check("deadline", max_busy_ms=15.0, stat="p99").passed
+    from host_tools import replay
+    r = replay.replay_firmware(done.trace, firmware=str(EMPTY_FS_ELF),
+                               flash_files=FlashFiles(main=LOOP_50HZ))
+    assert r.identical and r.exchanges > 100
