@@ -203,3 +203,17 @@ def test_the_pytest_plugin_and_replay_take_the_flash_files(hexhil_run):
     r = replay.replay_firmware(done.trace, firmware=str(EMPTY_FS_ELF),
                                flash_files=FlashFiles(main=LOOP_50HZ))
     assert r.identical and r.exchanges > 100
+
+
+def test_an_erased_flash_is_formatted_at_the_first_boot_as_on_the_chip(tmp_path):
+    """Without --main the port finds no filesystem, makes one through the FLASH interface
+    (sector erases of 250 ms, word programming), writes boot.py and main.py, and starts its
+    REPL: the shared README's console; --fs-out reads the new /flash back."""
+    sim = Simulator(load_scenario(ROOT / "scenarios" / "flat-tripod.toml"), seed=0)
+    fw = served_firmware(EMPTY_FS_ELF, flash_files=FlashFiles(out=tmp_path / "flash"))
+    r = sim.run(3.0, firmware=fw)
+    assert r.ending.kind is Ending.COMPLETED, r.ending
+    assert r.stderr_tail == (
+        "MicroPython v1.29.0-preview.731.g1c3c201149 on 2026-08-18; HEXHIL-F411 with "
+        'STM32F411xE\nType "help()" for more information.\n>>> '), r.stderr_tail
+    assert sorted(p.name for p in (tmp_path / "flash").iterdir()) == ["boot.py", "main.py"]
