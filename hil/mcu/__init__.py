@@ -4,7 +4,10 @@
 instruction counts (one instruction is one cycle of HCLK) and does the exception model
 Unicorn leaves out, at the virtual time of ``timebase``; ``events`` schedules what the peripherals will do; ``system`` (NVIC,
 SCB, DWT), ``systick``, ``rcc``, ``gpio``, ``usart`` and ``peripherals`` (TIM2-5, DMA, bxCAN1)
-are the board's peripherals at register level (facts from RM0383); ``board`` joins them,
+are the board's peripherals at register level (facts from RM0383), with ``flash`` (the FLASH
+interface: erase and programming) and ``rtc`` (the calendar, the backup registers);
+``flash_fs`` lays and reads back MicroPython's /flash, ``deadline`` measures the busy time
+per control cycle; ``board`` joins them,
 ``servo_line`` wires USART2 to the servo bus through the PA1 direction buffer, ``console``
 takes USART1/6 and semihosting, ``poll`` skips waiting, and ``link_client`` speaks the
 simulator link as a client, so the line, switches, CAN and console reach hil/link/ as any
