@@ -164,7 +164,7 @@ class FlashInterface:
             start, size = self._erase
             self._erase = None
             self.board.core.uc.mem_write(start, b"\xff" * size)
-            self._stale_code(start, start + size)
+            self._stale.append((start, start + size))
         regs[SR] &= ~BSY
         regs[CR] &= ~STRT
         if regs[CR] & EOPIE:
@@ -215,15 +215,12 @@ class FlashInterface:
                 self._say(0, f"a program of 0x{addr:08x} asked for 0->1 bits: flash bits "
                           "only go from 1 to 0 (an erase sets them)")
             self._busy(PROGRAM_US)
-            self._stale_code(addr, addr + size)
+            self._stale.append((addr, addr + size))
         core = self.board.core
         core.uc.mem_write(addr, kept)
         self._fixes.append((addr, kept))
         core.cut_after()            # settled before the next instruction reads it
         core.shared.touched += 1     # Python takes part: the compiled loop hands over
-
-    def _stale_code(self, start: int, end: int) -> None:
-        self._stale.append((start, end))
 
     def settle(self) -> None:
         """After the chunk that stored to flash: the bytes the chip keeps put back, and the
@@ -239,9 +236,10 @@ class FlashInterface:
         self._fixes, self._stale = [], []
 
 
-def attach(board: Any) -> Any:
+def attach(board: Any) -> list[int]:
     """Stores to flash (at 0x0800_0000 and its alias at 0) go to ``board.flash``'s
-    ``store`` through Unicorn's write-protection hook; returns the hook."""
+    ``store`` through Unicorn's write-protection hook (the interface of the moment: a
+    reset makes a new one); returns the two hooks' handles."""
     uc = board.core.uc
 
     def hook(_uc: Any, _access: int, addr: int, size: int, value: int, _data: Any) -> bool:
@@ -252,6 +250,5 @@ def attach(board: Any) -> Any:
         except BaseException as exc:      # noqa: B036 -- handed to emu_start
             board.space.failed(exc)
             return False
-    handles = [uc.hook_add(UC_HOOK_MEM_WRITE_PROT, hook, begin=base, end=base + FLASH_SIZE - 1)
-               for base in (0, FLASH_BASE)]
-    return handles
+    return [uc.hook_add(UC_HOOK_MEM_WRITE_PROT, hook, begin=base, end=base + FLASH_SIZE - 1)
+            for base in (0, FLASH_BASE)]

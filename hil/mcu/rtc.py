@@ -164,11 +164,11 @@ class Rtc:
             key = value & 0xFF
             self._keys = self._keys + 1 if self._keys < 2 and key == KEYS[self._keys] else 0
             return
-        if off == ISR:
+        if off == ISR:               # bits 13:8 need no key; RSF and INIT do
             self.isr &= ~(FLAGS_RC_W0 & ~value)
-            if not value & RSF:
-                self._rsf_fs = self._periods_fs(2)
             if self._keys == 2:
+                if not value & RSF:
+                    self._rsf_fs = self._periods_fs(2)
                 self._init(bool(value & INIT))
             return
         if self._keys != 2:

@@ -39,13 +39,13 @@ int main(void) {
     RTC(TR) = 0x235958;
     RTC(DR) = 0x26 << 16 | 4u << 13 | 0x12 << 8 | 0x31;
     RTC(ISR) = 0;                             /* leave INIT */
-    RTC(WPR) = 0xFF;
     SYST_RVR = 16000 - 1;                     /* 1 ms at HSI 16 MHz */
     SYST_CVR = 0;
     SYST_CSR = 7;
     while (ms < 2000) __asm__ volatile("wfi");
     RTC(ISR) &= ~(1u << 5);                   /* clear RSF, wait for the shadow copy */
     while (!(RTC(ISR) & (1u << 5))) {}
+    RTC(WPR) = 0xFF;                          /* locked again */
     uint32_t tr = RTC(TR), dr = RTC(DR);
     RTC(BKP0R) = 0x1234;
     put_word(locked);
