@@ -44,6 +44,7 @@ int main(void) {
     SYST_CSR = 7;
     while (ms < 2000) __asm__ volatile("wfi");
     RTC(ISR) &= ~(1u << 5);                   /* clear RSF, wait for the shadow copy */
+    uint32_t rsf_cleared = RTC(ISR) & (1u << 5);
     while (!(RTC(ISR) & (1u << 5))) {}
     RTC(WPR) = 0xFF;                          /* locked again */
     uint32_t tr = RTC(TR), dr = RTC(DR);
@@ -53,6 +54,7 @@ int main(void) {
     put_word(dr);
     put_word(RTC(ISR) & 0x70);                /* INITS, RSF; INITF gone */
     put_word(RTC(BKP0R));
+    put_word(rsf_cleared);
     console_puts("\n");
     for (;;) __asm__ volatile("wfi");
 }
