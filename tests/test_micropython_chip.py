@@ -93,12 +93,13 @@ def test_main_and_fs_need_a_micropython_elf():
             main=MICROPYTHON / "ping" / "main.py"))
 
 
-@pytest.mark.xfail(strict=True, reason="gc.collect() in a loop with interrupts on reads an "
-                   "impossible address in gc_mark_subtree (the exception model)")
 def test_the_garbage_collector_in_a_loop_with_interrupts_on():
+    """gc.collect() back to back for 200 ms, SysTick and the UART interrupting it: every
+    collection completes and the heap is whole afterwards."""
     r = run_main(MAINS / "gc_loop.py", 0.5)
     assert r.ending.kind is Ending.COMPLETED, r.ending
-    assert first_json(r)["collections"] > 10
+    done = first_json(r)
+    assert done["collections"] > 50 and done["free"] > 50_000, done
 
 
 def test_pin_interrupts_on_the_six_switches_count_every_edge():

@@ -29,13 +29,14 @@ from hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
 from hil.mcu.mmio import PeripheralSpace
 from hil.mcu.link_client import LinkClient, Reply
 from hil.mcu.poll import PollSkipper
+from hil.mcu.quiet import QuietLoops
 from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import extra_peripherals
 from hil.mcu import flash
 from hil.mcu.flash import FlashInterface
 from hil.mcu.rcc import HSI_HZ, Rcc, power
 from hil.mcu.rtc import Rtc
-from hil.mcu.system import Nvic, SystemBlock
+from hil.mcu.system import MASKED_STEPS, Nvic, SystemBlock
 from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
 
@@ -97,6 +98,7 @@ class Board:
         else:
             core.uc.hook_add(UC_HOOK_INTR, lambda uc, intno, _: self.intr(intno))
         self.poll = PollSkipper(self)
+        self.quiet = QuietLoops(self)
 
     @property
     def skipped_cycles(self) -> int:
@@ -243,6 +245,7 @@ class Board:
                 if isinstance(value, (Timer, NativeTimer)):
                     value.clear()
         self.poll.forget()
+        self.quiet.forget()
         self._peripherals()
         self.core.vtor = 0
         self.core.fpu_on = False
@@ -349,11 +352,21 @@ class Board:
                 n = handed_over(self, loop(MAX_CHUNK, n))
                 continue
             n = head(MAX_CHUNK)
+            if core.shared.quiet_n > 0:
+                n = min(n, core.shared.quiet_n)
             if self.ended:
                 break
             if self.fault is not None:
                 raise CoreFault(self.fault_line(self.fault))
-            self.trip(n, take_next())
+            taken = take_next()
+            st = core.shared
+            if st.pending_n and self.nvic.masked_ready():   # taken right after its unmasking
+                if st.masked_steps < MASKED_STEPS:
+                    n = 1
+                    st.masked_steps += 1
+            else:
+                st.masked_steps = 0
+            self.trip(n, taken)
         self.console.flush()
         self.line.flush()
 
@@ -369,10 +382,15 @@ class Board:
         if self.debugger is not None:
             n = self.debugger.chunk_limit(n)
         try:
-            core.run(n)
+            ran = core.run(n)
         except CoreFault as exc:
             raise CoreFault(self.fault_line(str(exc))) from None
         self.after_chunk()
+        st = core.shared
+        if st.mmio_n != st.chunk_mmio or core.sleeping or core.stopped or core.cut:
+            self.quiet.loud_chunk()
+        elif ran == n and self.debugger is None and not self._reset_pending:
+            self.quiet.quiet_chunk(ran)
 
     def after_chunk(self) -> None:
         """A chunk ran: its fault, a system reset, a lockup, the poll skipper's next step."""
