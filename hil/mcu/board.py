@@ -33,7 +33,6 @@ from hil.mcu.quiet import QuietLoops
 from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import extra_peripherals
 from hil.mcu import flash
-from hil.mcu.flash import FlashInterface
 from hil.mcu.rcc import HSI_HZ, Rcc, power
 from hil.mcu.rtc import Rtc
 from hil.mcu.system import MASKED_STEPS, Nvic, SystemBlock
@@ -128,9 +127,7 @@ class Board:
             NativeUsart("USART2", 38, ev, lambda: self.rcc.pclk1_hz) if self.native else
             Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self.line))
         self.usart6 = Usart("USART6", 71, core, ev, lambda: self.rcc.pclk2_hz, line, self)
-        self.flash = FlashInterface(self)
-        self.pwr = power()
-        self.rtc = Rtc(self)
+        self.flash, self.pwr, self.rtc = flash.FlashInterface(self), power(), Rtc(self)
         for base, p in ((0x40023800, self.rcc), (0x40023C00, self.flash),
                         (0x40007000, self.pwr), (0x40002800, self.rtc), (0x40013C00, self.exti),
                         (0x40013800, Syscfg(self.exti)), (0x40011000, self.usart1),
