@@ -26,6 +26,7 @@ from hil.scenario import Runtime, Scenario, WorldKind
 from hil.seams import CanGateway, HostNode, TraceRecorder
 from hil.servobus.master_check import MasterCheck
 from hil.link.served_firmware import served_firmware
+from hil.mcu.flash_fs import FlashFiles
 from hil.run.lockstep import Simulator
 from host_tools import plugins
 from host_tools.lifecycle import Closing
@@ -85,7 +86,8 @@ class Run(Closing):
     clients; ``realtime`` paces virtual time to the wall clock; ``tactile`` overrides the
     scenario's ``firmware.tactile``; ``firmware``, a MicroPython main file run on the virtual
     board (docs/your-firmware.md) or an executable that speaks the link (a C firmware,
-    docs/c-firmware.md) or an STM32F411 ELF (docs/elf-firmware.md: ``gdb_port``, ``coverage``),
+    docs/c-firmware.md) or an STM32F411 ELF (docs/elf-firmware.md: ``gdb_port``, ``coverage``;
+    ``flash_files``, MicroPython's ``/flash``: docs/micropython-on-the-chip.md),
     runs instead of ours. An existing ``trace`` file is refused unless ``overwrite``
     (host_tools/trace/target.py). Every argument given is an override, recorded in the
     trace's metadata with the scenario as run (``overrides`` adds what else the caller
@@ -101,11 +103,16 @@ class Run(Closing):
                  live_port: int | None = None, can_server: CanGateway | None = None,
                  realtime: bool = False, firmware: str | Path | None = None,
                  gdb_port: int | None = None, coverage: str | Path | None = None,
+                 flash_files: FlashFiles | None = None,
                  overwrite: bool = False, overrides: dict[str, Any] | None = None,
                  limits: RunLimits | None = None) -> None:
         # a firmware of the user's (hil/link/served_firmware.py) is checked before anything opens
-        self.firmware = (served_firmware(firmware, gdb_port=gdb_port, coverage=coverage)
+        self.firmware = (served_firmware(firmware, gdb_port=gdb_port, coverage=coverage,
+                                         flash_files=flash_files)
                          if firmware is not None else None)
+        if firmware is None and flash_files is not None:
+            raise UserError("main, fs and fs_out need a MicroPython STM32F411 ELF given as "
+                            "firmware", params=("main", "fs", "fs_out", "firmware"))
         if firmware is None and (gdb_port is not None or coverage is not None):
             raise UserError("gdb_port and coverage need an STM32F411 ELF given as firmware",
                             params=("gdb_port", "coverage", "firmware"))

@@ -28,6 +28,7 @@ from protocol import sim_link
 from protocol.dynamixel import models
 from hil.link.served_firmware import (BOARD_RUNTIME, EXECUTABLE, ElfFirmware, console_events,
                                       served_firmware)
+from hil.mcu.flash_fs import FlashFiles
 from hil.mcu.replayed import ReplayedElf
 from host_tools import log_replay
 from hil.link.firmware_child import FirmwareProcess
@@ -151,7 +152,8 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
                     start_s: float | None = None, end_s: float | None = None,
                     topics: Iterable[str] | None = None, timeout_s: float = 60.0,
                     command: list[str] | None = None, firmware: str | None = None,
-                    scenario: str | Path | None = None) -> ReplayResult:
+                    scenario: str | Path | None = None,
+                    flash_files: FlashFiles | None = None) -> ReplayResult:
     """Serve the logged replies to a fresh firmware process and compare its messages.
 
     ``start_s``/``end_s`` bound the compared stretch (the firmware always boots from t=0,
@@ -159,7 +161,8 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     comparison to some of ``TOPICS``; ``rate`` > 0 paces replies in wall time (1.0 =
     real time), 0 runs as fast as the firmware goes. ``firmware`` is the one the trace was
     recorded with (``hexhil run --firmware``'s: a main file for the virtual board or an
-    executable). A robot's imported log (``hexhil trace import``) replays through
+    executable); ``flash_files`` the /flash a MicroPython ELF was run with (``--main``,
+    ``--fs``). A robot's imported log (``hexhil trace import``) replays through
     host_tools/log_replay.py, its firmware settings those of ``scenario`` if given.
     """
     if python not in ("micropython", "cpython"):
@@ -200,9 +203,10 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
 
     result = ReplayResult()
     wall0 = time.perf_counter()
-    theirs = served_firmware(firmware) if firmware is not None else None
+    theirs = (served_firmware(firmware, flash_files=flash_files) if firmware is not None
+              else None)
     if isinstance(theirs, ElfFirmware):      # runs in this process, on a thread
-        fw: Any = ReplayedElf(theirs.image, console_events)
+        fw: Any = ReplayedElf(theirs.image, console_events, theirs.fs_image)
     else:
         fw = FirmwareProcess(python, connect_timeout_s=timeout_s,
                              command=theirs.command() if theirs else command,

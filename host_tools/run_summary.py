@@ -8,6 +8,7 @@ from typing import Any
 from hil import scenario as scenario_mod
 from hil.canbus.socketcand import CanServer
 from hil.run.limits import RunLimits
+from hil.mcu.flash_fs import FlashFiles
 from hil.run_result import RunInterrupted, RunResult
 from hil.scenario import Scenario, WorldKind
 from host_tools import plugins
@@ -59,7 +60,14 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
         "bus_wire_min_per_cycle_us": round(result.bus_wire_us / result.loop_cycles, 1)
         if result.loop_cycles else None,
         "tactile": None, "overrides": {}, **(what_ran or {}),
+        **_deadline(fw.other),
     }
+
+
+def _deadline(other: Any) -> dict[str, Any]:
+    """An ELF's busy time per control cycle (hil/mcu/deadline.py), where it was measured."""
+    mcu = other.get("mcu") if hasattr(other, "get") else None
+    return {"deadline": mcu["deadline"]} if mcu and mcu.get("deadline") else {}
 
 
 def start_can_server(port: int, wait_clients: int) -> CanServer:
@@ -96,7 +104,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         realtime: bool = False, navigator: str = "none",
         model_path: str | None = None, firmware: str | None = None,
         gdb_port: int | None = None, coverage: str | None = None,
-        overwrite: bool = False, limits: RunLimits | None = None
+        overwrite: bool = False, limits: RunLimits | None = None,
+        flash_files: FlashFiles | None = None
         ) -> tuple[dict[str, Any], RunResult]:
     """Load, simulate, summarise. Returns (summary, raw result).
 
@@ -117,7 +126,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     speaks the link (hil/link/served_firmware.py), or an STM32F411 ELF, runs instead of our
     firmware; an ELF's ``gdb_port`` waits for a GDB client, ``coverage`` writes LCOV there
     (docs/elf-firmware.md). ``limits``: the run's wall-clock and memory caps
-    (hil/run/limits.py).
+    (hil/run/limits.py); ``flash_files`` fills and reads back a MicroPython ELF's
+    ``/flash`` (docs/micropython-on-the-chip.md).
     """
     sc = scenario_mod.load_scenario(path)
     given_seed = None if seed is None else scenario_mod.check_seed(seed, "seed",
@@ -146,7 +156,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         with Run(sc, seed=given_seed, runtime=python, duration_s=duration_s, tactile=tactile,
                  trace=out, live_port=live_port, can_server=server, realtime=realtime,
                  firmware=firmware, gdb_port=gdb_port, coverage=coverage,
-                 overwrite=overwrite, limits=limits) as r:
+                 overwrite=overwrite, limits=limits, flash_files=flash_files) as r:
             if r.live is not None:
                 log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", r.live.port)
             if attach_navigator is not None:

@@ -207,3 +207,30 @@ def test_exceptions_follow_the_armv7m_rules(tmp_path, monkeypatch, compiled):
     assert lines[-1] == "done", lines
     seen = {name: int(value, 16) for name, value in (line.split() for line in lines[:-1])}
     assert seen == EXCEPTION_RULES
+
+
+def test_flash_unlocks_programs_erases_and_refuses_as_rm0383_says(tmp_path, caplog):
+    """The FLASH interface: LOCK until the two keys; a word programmed and ANDed with a
+    second program; sector 1 erased to 0xFF, BSY for the datasheet's 250 ms (16 KB at x32),
+    EOP's interrupt with EOPIE; a store without PG gets PGSERR and leaves flash as it was,
+    a byte at PSIZE x32 PGPERR; the flags clear by writing 1; a wrong key locks CR for
+    good. Each refused kind of store is named once in the log."""
+    r, _ = run_elf(build(tmp_path, "flash.c"), 0.4)
+    assert console(r)[-1].split() == [
+        "80000000", "00000000", "12345678", "12340000", "00010000", f"{250:08x}",
+        "ffffffff", "00000001", "00000080", "00000040", "00000000", "ffffffff",
+        "80000000"], console(r)
+    assert r.ending.kind is Ending.COMPLETED and not r.faults
+    said = caplog.text
+    assert said.count("PGSERR") == 1 and said.count("PGPERR") == 1, said
+    assert "is not the unlock sequence" in said
+
+
+def test_rtc_counts_the_calendar_from_lsi_in_virtual_time(tmp_path):
+    """The RTC as ST's HAL and MicroPython start it: INIT ignored without WPR's key, INITF
+    after the key, the calendar set in the initialisation mode, then two seconds on LSI
+    with PRER 128 x 250: the date rolls over into the next year and weekday; RSF comes
+    back after a clear; a backup register keeps its word."""
+    r, _ = run_elf(build(tmp_path, "rtc.c"), 2.1)
+    assert console(r)[-1].split() == ["00000007", "00000000", "0027a101",
+                                      "00000030", "00001234", "00000000"], console(r)

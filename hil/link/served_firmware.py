@@ -27,7 +27,9 @@ from typing import IO, Callable, Protocol
 
 from hil.link.firmware_child import TAIL_BYTES, FirmwareProcess
 from hil.link.firmware_process import ROOT, FirmwareError, firmware_command, firmware_env
+from hil.mcu import flash_fs
 from hil.mcu.elf_image import ELF_MAGIC, ElfImage, is_arm_elf, load_elf
+from hil.mcu.flash_fs import FlashFiles
 from hil.mcu.runtime import serve_elf
 from hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
 from hil.seams import LinkHost
@@ -66,16 +68,20 @@ class ServedFirmware(Protocol):
 
 
 def served_firmware(path: str | Path, what: str = "firmware", gdb_port: int | None = None,
-                    coverage: str | Path | None = None
+                    coverage: str | Path | None = None, flash_files: FlashFiles | None = None
                     ) -> BoardFirmware | ExecutableFirmware | ElfFirmware:
     """``path`` checked: a MicroPython main file (``.py``) for the virtual board, an ARM
     ELF for the emulated STM32F411, else an executable file this user may run
-    (``UserError`` naming ``what`` if neither). ``gdb_port`` and ``coverage`` (an ELF's
-    only) go to the ELF runtime."""
+    (``UserError`` naming ``what`` if neither). ``gdb_port``, ``coverage`` and
+    ``flash_files`` (the MicroPython ELF's ``/flash``: hil/mcu/flash_fs.py) are an ELF's
+    only and go to the ELF runtime."""
     p = Path(path)
     if (gdb_port is not None or coverage is not None) and not is_arm_elf(p):
         raise UserError(f"gdb_port and coverage need an STM32F411 ELF as {what}, not {path}",
                         params=("gdb_port", "coverage", what))
+    if flash_files is not None and not is_arm_elf(p):
+        raise UserError(f"main, fs and fs_out need a MicroPython STM32F411 ELF as {what}, "
+                        f"not {path}", params=("main", "fs", "fs_out", what))
     if gdb_port is not None and not 1 <= gdb_port <= 65535:
         raise UserError(f"gdb_port {gdb_port}: a port is 1-65535", params=("gdb_port",))
     if not p.is_file():
@@ -92,8 +98,9 @@ def served_firmware(path: str | Path, what: str = "firmware", gdb_port: int | No
                             "data, not UTF-8 text)", params=(what,))
         return BoardFirmware(p.resolve())
     if is_arm_elf(p):
-        return ElfFirmware(load_elf(p, what), gdb_port,
-                           Path(coverage) if coverage is not None else None)
+        elf = load_elf(p, what)
+        return ElfFirmware(elf, gdb_port, Path(coverage) if coverage is not None else None,
+                           flash_files, flash_fs.laid(elf, flash_files))
     if not os.access(p, os.X_OK) and p.read_bytes()[:4] == ELF_MAGIC:
         load_elf(p, what)     # names what the ELF is for, in one line
     if not os.access(p, os.X_OK):
@@ -169,6 +176,8 @@ class ElfFirmware:
     image: ElfImage
     gdb_port: int | None = None
     coverage: Path | None = None
+    flash_files: FlashFiles | None = None
+    fs_image: bytes | None = None     # laid at flash_fs.FS_BASE before the boot
     runtime: str = ELF_RUNTIME
     own_process: bool = False   # Unicorn, in the host's process
 
@@ -186,7 +195,8 @@ class ElfFirmware:
         """A fault is its ending (hil/mcu/runtime.py); a semihosting SYS_EXIT before the
         run's end is judged as a process's exit."""
         board = serve_elf(self.image, server, end_us, result, console_events, self.gdb_port,
-                          self.coverage)
+                          self.coverage, self.fs_image,
+                          self.flash_files.out if self.flash_files is not None else None)
         if result.ending.completed and board.exit_code is not None and not board.ended:
             result.ending = judge(self.path.name, board.exit_code, "",
                                   "\n".join(board.console_tail), board.link.t_us, end_us)

@@ -23,6 +23,7 @@ from hil.mcu.board_loop import (exception_choice, exception_entry, exception_tak
 from hil.mcu.console import Console, semihost
 from hil.mcu.core import (EXC_SVCALL, EXC_SYSTICK, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT,
                           INTR_INVSTATE, INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
+from hil.mcu.deadline import ControlCycles
 from hil.mcu.elf_image import ElfImage
 from hil.mcu.events import Events, Timer
 from hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
@@ -32,8 +33,9 @@ from hil.mcu.poll import PollSkipper
 from hil.mcu.quiet import QuietLoops
 from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import IrqLines, extra_peripherals
-from hil.mcu import platform
-from hil.mcu.rcc import CSR, HSI_HZ, Rcc, flash_interface, power
+from hil.mcu import flash, platform
+from hil.mcu.rcc import CSR, HSI_HZ, Rcc, power
+from hil.mcu.rtc import Rtc
 from hil.mcu.system import Nvic, SystemBlock
 from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
@@ -83,12 +85,14 @@ class Board:
         self.noted: set[str] = set()   # registers without behaviour the log named
         self._last_request_us = -TICK_US
         self.debugger: Any = None      # hil/mcu/gdb.py, with --gdb
+        self.cycles = ControlCycles(core)   # busy time per control cycle (deadline.py)
         self.line = ServoLine(self)
         self.space = PeripheralSpace(self)
         self._peripherals()
         self.tick = self.events.timer(self._tick)
         self.tick.set(TICK_US * FS_PER_US)
         self.space.attach(core.uc)
+        flash.attach(self)            # stores to flash reach self.flash (hil/mcu/flash.py)
         if self.native:
             hook_interrupts(core.shared, core.uc)    # exception returns in C
         else:
@@ -123,9 +127,10 @@ class Board:
             NativeUsart("USART2", 38, ev, lambda: self.rcc.pclk1_hz) if self.native else
             Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self.line))
         self.usart6 = Usart("USART6", 71, core, ev, lambda: self.rcc.pclk2_hz, line, self)
+        self.flash, self.pwr, self.rtc = flash.FlashInterface(self), power(), Rtc(self)
         self.can_listening = False     # bxCAN1 in normal mode: CAN input each millisecond
         self.extra = [*extra_peripherals(self), *platform.build(self)]
-        for p in (*gpio, self.rcc, flash_interface(), power(), self.exti, Syscfg(self.exti),
+        for p in (*gpio, self.rcc, self.flash, self.pwr, self.rtc, self.exti, Syscfg(self.exti),
                   self.usart1, self.usart2, self.usart6, *self.extra):
             space.map(platform.row(p.name).base, p)      # at its row's address
         space.relive()
@@ -230,7 +235,7 @@ class Board:
         self.reset_causes[cause] += 1
         flags = self.rcc.regs.get(CSR, 0)
         self.line.flush()
-        old = [self.nvic, self.rcc, self.systick, self.ppb, self.exti, *self.gpio,
+        old = [self.nvic, self.rcc, self.systick, self.ppb, self.exti, self.flash, *self.gpio,
                self.usart1, self.usart2, self.usart6, *self.extra]
         for periph in old:
             for value in vars(periph).values():
@@ -387,6 +392,7 @@ class Board:
         core = self.core
         if self.fault is not None:
             raise CoreFault(self.fault_line(self.fault))
+        self.flash.settle()
         if self.reset_if_asked():
             return
         if core.shared.nactive and self.debugger is None and \

@@ -5,7 +5,7 @@ lines and RCC clock gate.
 A row's ``model`` names what answers there, ``module:attribute``: a ``Description``
 (hil/mcu/registers.py) gets the generic register file; a callable ``(board, row)``
 builds the peripheral. Rows the board builds itself (``Built.BOARD``: the core's, RCC,
-GPIOA-C, the USARTs, EXTI, SYSCFG, TIM2-5, DMA, bxCAN1, FLASH and PWR) name the model
+GPIOA-C, the USARTs, EXTI, SYSCFG, TIM2-5, DMA, bxCAN1, FLASH, PWR and RTC) name the model
 hil/mcu/board.py makes for them. ``build`` makes the ``Built.TABLE`` rows for a board;
 ``clock_bits`` is rcc.py's ``CLOCK_BITS``; ``markdown`` is docs/elf-firmware.md's table.
 Adding a peripheral is a file (its description and behaviour) and a row here.
@@ -83,7 +83,7 @@ REGISTERS_ONLY = "registers as data: reset values and access rules, no behaviour
 PLATFORM: tuple[Row, ...] = (
     Row("Flash", 0x08000000, 0x80000, Kind.MEMORY, "", "hil.mcu.core:Core", B,
         does="512 KB, also at 0 (BOOT0 low); what the ELF leaves reads 0xFF (erased); "
-        "a write is a fault"),
+        "a store programs it only through the FLASH interface (below)"),
     Row("System memory", 0x1FFF0000, 0x7800, Kind.MEMORY, does="not mapped"),
     Row("OTP", 0x1FFF7800, 0x210, Kind.MEMORY, does="not mapped"),
     Row("Option bytes", 0x1FFFC000, 0x10, Kind.MEMORY, does="not mapped"),
@@ -108,9 +108,10 @@ PLATFORM: tuple[Row, ...] = (
        ("APB1ENR", 2), "16-bit"),
     _p("TIM5", 0x40000C00, "APB1", "hil.mcu.peripherals:BasicTimer", B, ("TIM5",),
        ("APB1ENR", 3), "32-bit"),
-    _p("RTC", 0x40002800, "APB1", "hil.mcu.devices.rtc:RTC", T,
-       ("RTC_WKUP", "RTC_Alarm", "TAMP_STAMP"), does=REGISTERS_ONLY + " (calendar, "
-       "alarms, wakeup, backup registers)"),
+    _p("RTC", 0x40002800, "APB1", "hil.mcu.rtc:Rtc", B,
+       ("RTC_WKUP", "RTC_Alarm", "TAMP_STAMP"), does="the calendar TR/DR/SSR in virtual "
+       "time from RTCSEL's clock with RTCEN, PRER; WPR's key, PWR DBP, INIT/INITF/RSF/INITS, "
+       "the shadow lock of TR/DR; BKP0R-BKP19R; not alarms, wake-up, tamper, BDRST"),
     _p("WWDG", 0x40002C00, "APB1", "hil.mcu.devices.wwdg:Wwdg", T, ("WWDG",),
        ("APB1ENR", 11), "the 7-bit counter on PCLK1/4096/2^WDGTB, WDGA, the window: a "
        "timeout or an early refresh resets the MCU (named, counted); EWIF and its interrupt"),
@@ -188,8 +189,11 @@ PLATFORM: tuple[Row, ...] = (
        "ON, SW/SWS, HPRE/PPRE1/PPRE2, the enable bits (a peripheral with its clock off "
        "reads 0 and ignores writes), CSR's reset flags (IWDG, WWDG, software) and RMVF; "
        "not PLLI2S, CSS"),
-    _p("FLASH", 0x40023C00, "AHB1", "hil.mcu.rcc:flash_interface", B, ("FLASH",),
-       does="ACR and the rest read back what is written"),
+    _p("FLASH", 0x40023C00, "AHB1", "hil.mcu.flash:FlashInterface", B, ("FLASH",),
+       does="KEYR's unlock sequence, CR PG/SER/MER/SNB/PSIZE/STRT/LOCK/EOPIE/ERRIE, SR BSY "
+       "for the datasheet's typical times, EOP and the error flags (write 1 to clear), its "
+       "interrupt; sector erase to 0xFF, programming by a store while PG is set (bits 1 to "
+       "0 only); ACR keeps what is written (no wait states modelled)"),
     _p("DMA1", 0x40026000, "AHB1", "hil.mcu.peripherals:Dma", B,
        tuple(f"DMA1_Stream{i}" for i in range(8)), ("AHB1ENR", 21),
        "the USARTs' streams and channels, byte transfers, MINC, CIRC, NDTR counting "

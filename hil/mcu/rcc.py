@@ -149,10 +149,6 @@ class Plain:
         self.regs[off] = value
 
 
-def flash_interface() -> Plain:
-    return Plain("FLASH")
-
-
 class Power(Plain):
     """PWR (RM0383 5.4): CR and CSR kept as written, VOSRDY always set, and the backup
     regulator ready (CSR BRR, bit 3) as soon as it is enabled (CSR BRE, bit 9)."""

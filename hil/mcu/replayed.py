@@ -13,6 +13,7 @@ from hil.link.firmware_process import split_messages
 from hil.mcu.board import Board
 from hil.mcu.core import CoreFault
 from hil.mcu.elf_image import ElfImage
+from hil.mcu.flash_fs import FS_BASE
 from protocol.errors import UserError
 
 WAIT_S = 60.0
@@ -49,13 +50,16 @@ class ReplayedElf:
     """The ELF on a thread, with ``FirmwareProcess``'s ``conn``, ``kill``, ``finish``."""
 
     def __init__(self, image: ElfImage,
-                 console_events: Callable[[str], list[tuple[int, str]]]) -> None:
+                 console_events: Callable[[str], list[tuple[int, str]]],
+                 fs_image: bytes | None = None) -> None:
         self._batches: queue.Queue = queue.Queue()
         self._replies: queue.Queue[bytes] = queue.Queue()
         self.conn = _Connection(self._batches, self._replies)
         self.proc = _Process()
         self._error = ""
         self._board = Board(image, self._exchange, console_events)
+        if fs_image is not None:      # the /flash the run had (hil/mcu/flash_fs.py)
+            self._board.core.uc.mem_write(FS_BASE, fs_image)
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
 

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Callable
 
 from hil.link.firmware_process import DirectConnection
+from hil.mcu import flash_fs
 from hil.mcu.board import Board
 from hil.mcu.board_core import MAX_US
 from hil.mcu.core import CoreFault
@@ -22,11 +23,16 @@ from hil.seams import LinkHost
 
 def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
               console_events: Callable[[str], list[tuple[int, str]]],
-              gdb_port: int | None = None, coverage: Path | None = None) -> Board:
-    """Run ``image`` against ``server`` (hil/link/server.py) until ``end_us``."""
+              gdb_port: int | None = None, coverage: Path | None = None,
+              fs_image: bytes | None = None, fs_out: Path | None = None) -> Board:
+    """Run ``image`` against ``server`` (hil/link/server.py) until ``end_us``; ``fs_image``
+    is laid into flash before the boot, and the flash filesystem read back into ``fs_out``
+    after the run (hil/mcu/flash_fs.py)."""
     conn = DirectConnection(lambda c, msgs, closed: server.answer(c, msgs, closed, end_us,
                                                                   result))
     board = Board(image, conn.exchange, console_events, compiled=end_us <= MAX_US)
+    if fs_image is not None:
+        board.core.uc.mem_write(flash_fs.FS_BASE, fs_image)
     tracer = None
     if coverage is not None:
         from hil.mcu.coverage import LineCounter
@@ -51,7 +57,11 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
                                            "skipped_cycles": board.skipped_cycles,
                                            "link_requests": board.link.requests,
                                            "resets": board.resets,
-                                           "reset_causes": dict(board.reset_causes)})
+                                           "reset_causes": dict(board.reset_causes),
+                                           "deadline": board.cycles.figures()})
+    if fs_out is not None:            # what the firmware left in /flash, also after a fault
+        flash_fs.read_back(bytes(board.core.uc.mem_read(flash_fs.FS_BASE, flash_fs.FS_SIZE)),
+                           fs_out)
     if fault is not None:
         result.exit_code = 1
         result.exceptions.append(f"{image.path.name}: {fault}")

@@ -70,7 +70,8 @@ FLAGS = {"python": "--runtime", "runtime": "--runtime", "firmware": "--firmware"
          "seed": "--seed", "tactile": "--no-tactile", "overwrite": "--overwrite",
          "keep_dir": "--keep-traces", "map_path": "--map", "scenario": "--scenario",
          "kind": "--as", "max_wall_s": "--max-wall", "max_memory_mb": "--max-memory",
-         "width": "--width", "height": "--height", "png": "--png", "junit": "--junit"}
+         "width": "--width", "height": "--height", "png": "--png", "junit": "--junit",
+         "main": "--main", "fs": "--fs", "fs_out": "--fs-out"}
 
 
 def flag_message(exc: UserError) -> str:

@@ -6,6 +6,7 @@ import sys
 
 from host_tools import replay
 from host_tools.cli import JSON_HELP, emit, emit_json
+from host_tools.cli.run import add_flash_options, flash_files
 
 
 def run(args: argparse.Namespace) -> int:
@@ -18,7 +19,8 @@ def run(args: argparse.Namespace) -> int:
     r = replay.replay_firmware(args.file, python=args.python,
                                rate=0.0 if args.rate is None else args.rate,
                                start_s=args.start, end_s=args.end, topics=args.topics,
-                               firmware=args.firmware, scenario=args.scenario)
+                               firmware=args.firmware, scenario=args.scenario,
+                               flash_files=flash_files(args))
     d = r.divergence
     if args.json:
         emit_json(r.as_dict())
@@ -46,6 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Exit 0: the firmware's outputs are identical to the "
                                    "trace's; 1: they diverge (first divergence reported).")
     p.add_argument("file", help="an MCAP trace recorded with --out")
+    add_flash_options(p, read_back=False)
     p.add_argument("--firmware", metavar="PATH", help="the firmware the trace was recorded "
                    "with (hexhil run --firmware: a MicroPython main file or an executable)")
     p.add_argument("--scenario", metavar="SCENARIO", default=None,

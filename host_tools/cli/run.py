@@ -13,6 +13,29 @@ from host_tools import cli
 LIVE_PORT = 8765  # Foxglove's default WebSocket port (host_tools/trace/live.py)
 
 
+def add_flash_options(p: argparse.ArgumentParser, read_back: bool = True) -> None:
+    """--main, --fs (and --fs-out): a MicroPython ELF's /flash
+    (docs/micropython-on-the-chip.md)."""
+    p.add_argument("--main", metavar="MAIN.py", help="with a MicroPython ELF as --firmware: "
+                   "lay this file into its internal-flash filesystem as main.py, which it runs")
+    p.add_argument("--fs", metavar="DIR", help="with a MicroPython ELF: lay DIR's files into "
+                   "its /flash too")
+    if read_back:
+        p.add_argument("--fs-out", metavar="DIR", help="with a MicroPython ELF: after the "
+                       "run, write the files of its /flash into DIR")
+
+
+def flash_files(args: argparse.Namespace):   # -> FlashFiles | None
+    """The --main/--fs/--fs-out options as the API's ``flash_files``."""
+    from pathlib import Path
+
+    from hil.mcu.flash_fs import FlashFiles
+    given = (args.main, args.fs, getattr(args, "fs_out", None))
+    if all(v is None for v in given):
+        return None
+    return FlashFiles(*(None if v is None else Path(v) for v in given))
+
+
 def _run(args: argparse.Namespace) -> int:
     import host_tools.papers  # noqa: F401  (plugs the beams run and the navigators in)
     from host_tools import run_summary as run_mod
@@ -22,7 +45,8 @@ def _run(args: argparse.Namespace) -> int:
                                 False if args.no_tactile else None, args.out,
                                 args.can_server, args.can_wait, args.live, args.realtime,
                                 args.navigator, args.model, args.firmware, args.gdb,
-                                args.coverage, args.overwrite, cli.limits(args))
+                                args.coverage, args.overwrite, cli.limits(args),
+                                flash_files(args))
     except RunInterrupted as exc:   # a beams run's trace holds no firmware link to replay
         replays = "" if exc.summary.get("world") == "beams" else " and replays"
         kept = (f"the trace {args.out} is kept{replays}" if args.out
@@ -120,5 +144,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--coverage", metavar="FILE.info", help="an ELF firmware's line coverage "
                    "from its DWARF line table, as LCOV (genhtml, CI coverage reports)")
     cli.add_limits(p)
+    add_flash_options(p)
     p.add_argument("--json", action="store_true", help=cli.JSON_HELP)
     p.set_defaults(func=_run)

@@ -10,6 +10,7 @@ from typing import Sequence
 
 from hil.link.firmware_process import IN_PROCESS, RUNTIMES
 from host_tools import cli
+from host_tools.cli.run import add_flash_options, flash_files
 
 
 def table(results: Sequence) -> str:
@@ -44,7 +45,8 @@ def _run(args: argparse.Namespace) -> int:
     if args.firmware is not None:
         from hil.link.served_firmware import served_firmware
 
-        served_firmware(args.firmware, coverage=args.coverage)   # one line before anything runs
+        served_firmware(args.firmware, coverage=args.coverage,   # one line before anything runs
+                        flash_files=flash_files(args))
     elif args.coverage is not None:
         raise UserError("--coverage needs an STM32F411 ELF given as --firmware")
     for flag in ("junit", "coverage"):   # written after every case ran: checked first
@@ -62,6 +64,7 @@ def _run(args: argparse.Namespace) -> int:
         jobs = case_runs.jobs_for(cases, args.repeat,
                                   tactile=False if args.no_tactile else None,
                                   python=args.python, firmware=args.firmware,
+                                  flash_files=flash_files(args),
                                   keep_dir=args.keep_traces, overwrite=args.overwrite,
                                   limits=cli.limits(args))
         if args.keep_traces and not args.overwrite:   # refused before anything runs
@@ -145,6 +148,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "--firmware: a MicroPython main file for the virtual board, or an "
                         "executable such as a C firmware); a case may name one itself "
                         "([case] firmware)")
+    add_flash_options(p, read_back=False)
     p.add_argument("--trace", metavar="RUN.mcap",
                    help="run nothing: check one FILE's expectations on this recorded run, "
                         "e.g. a real board's (hexhil bus --world SCENARIO --port DEVICE --out "

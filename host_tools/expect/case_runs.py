@@ -14,6 +14,7 @@ import can
 from mcap.writer import CompressionType, Writer
 
 from hil.run.limits import RunLimits
+from hil.mcu.flash_fs import FlashFiles
 from hil.scenario import Scenario, check_seed
 from hil.seams import ServoLine
 from host_tools import run_summary as run_mod
@@ -70,6 +71,7 @@ class CaseRun:
     changed: tuple[tuple[str, float], ...] = ()  # ... and what was changed in it (overrides)
     coverage: str | None = None           # an ELF's LCOV to this file (hexhil test --coverage)
     limits: RunLimits | None = None       # the run's caps (hil/run/limits.py; None: defaults)
+    flash_files: FlashFiles | None = None  # the command's --main/--fs, over the case's
 
 
 @dataclass(frozen=True)
@@ -104,7 +106,8 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
                  tactile: bool | None, trace: Path, timing: BusTiming = BusTiming(),
                  sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None,
                  changed: dict[str, Any] | None = None, coverage: str | None = None,
-                 limits: RunLimits | None = None) -> tuple[dict[str, Any], RunResult]:
+                 limits: RunLimits | None = None,
+                 flash_files: FlashFiles | None = None) -> tuple[dict[str, Any], RunResult]:
     """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
     file or an executable: ``hexhil run --firmware``) through the one run path
     (host_tools/lockstep_run.py ``Run``), recorded to ``trace`` with the master's protocol check
@@ -114,7 +117,7 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
               overrides={**timing.overrides(), **(changed or {})}, coverage=coverage,
-              limits=limits)
+              limits=limits, flash_files=flash_files)
     try:
         run.watch_master()
         sim = run.sim
@@ -138,7 +141,8 @@ def run_case(job: CaseRun) -> CaseResult:
         summary, _ = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
                                   job.python or case.python, tactile, trace, job.timing,
                                   case.sends, job.firmware or case.firmware,
-                                  dict(job.changed), job.coverage, job.limits)
+                                  dict(job.changed), job.coverage, job.limits,
+                                  job.flash_files or case.flash_files)
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):

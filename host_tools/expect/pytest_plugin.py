@@ -5,12 +5,13 @@ when a check fails, with the run's trace (the failure written into it) named in 
 and in ``--junitxml`` as the test's ``trace`` property.
 
 Fixtures: ``hexhil_run`` (a function: scenario, seed, duration, runtime, tactile, firmware,
-allow_failure -> ``FinishedRun``, whose ``result`` is the run's ``RunResult``; a firmware
-that does not complete its run fails the test).
+main, fs, allow_failure -> ``FinishedRun``, whose ``result`` is the run's ``RunResult``; a
+firmware that does not complete its run fails the test).
 Helpers: ``FinishedRun.check(kind, **keys)``, ``assert_within(name, value, low, high)``.
 Options: ``--hexhil-runtime RUNTIME`` (default runtime; ``--hexhil-python`` is its alias),
 ``--hexhil-firmware PATH`` (a firmware of yours for every run, as ``hexhil run --firmware``),
-``--hexhil-keep DIR`` (copy the trace of every failing test there).
+``--hexhil-main FILE`` and ``--hexhil-fs DIR`` (a MicroPython ELF's /flash, as ``--main`` and
+``--fs``), ``--hexhil-keep DIR`` (copy the trace of every failing test there).
 """
 from __future__ import annotations
 
@@ -101,6 +102,11 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--hexhil-firmware", default=None, metavar="PATH",
                     help="run hexhil_run's scenarios with this firmware instead of ours (a "
                          "MicroPython main file for the virtual board, or an executable)")
+    group.addoption("--hexhil-main", default=None, metavar="MAIN.py",
+                    help="with a MicroPython ELF as the firmware: lay this file into its "
+                         "/flash as main.py (hexhil run --main)")
+    group.addoption("--hexhil-fs", default=None, metavar="DIR",
+                    help="with a MicroPython ELF: lay DIR's files into its /flash (--fs)")
     group.addoption("--hexhil-keep", default=None, metavar="DIR",
                     help="copy the traces of every failing test here")
 
@@ -108,8 +114,10 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 @pytest.fixture
 def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path) -> Callable[..., FinishedRun]:
     """``hexhil_run(scenario, seed=None, duration_s=None, runtime=None, tactile=None,
-    firmware=None, allow_failure=False)``: run a scenario file with our firmware (or
-    ``firmware``, else ``--hexhil-firmware``), recorded to this test's tmp_path. A firmware
+    firmware=None, main=None, fs=None, allow_failure=False)``: run a scenario file with our
+    firmware (or ``firmware``, else ``--hexhil-firmware``; ``main`` and ``fs``, else
+    ``--hexhil-main`` and ``--hexhil-fs``, fill a MicroPython ELF's /flash), recorded to this
+    test's tmp_path. A firmware
     that crashes, hangs, exits early or never starts fails the test with its reason and
     last lines (the trace kept), unless ``allow_failure``: then ``FinishedRun.ending``
     says how it ended and ``check("no_exception")`` judges it."""
@@ -125,7 +133,9 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path) -> Callable[..., 
 
     def run(scenario: str | Path, seed: int | None = None, duration_s: float | None = None,
             runtime: str | None = None, tactile: bool | None = None,
-            firmware: str | Path | None = None, allow_failure: bool = False) -> FinishedRun:
+            firmware: str | Path | None = None, main: str | Path | None = None,
+            fs: str | Path | None = None, allow_failure: bool = False) -> FinishedRun:
+        from hil.mcu.flash_fs import FlashFiles
         sc = scenario_mod.load_scenario(scenario)
         seed = sc.scenario.seed if seed is None else seed
         duration = duration_s or sc.scenario.duration_s
@@ -133,12 +143,17 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path) -> Callable[..., 
                    or sc.firmware.python.value)
         trace = tmp_path / f"{Path(scenario).stem}-seed{seed}-{len(traces)}.mcap"
         firmware = firmware or request.config.getoption("--hexhil-firmware")
+        main = main or request.config.getoption("--hexhil-main")
+        fs = fs or request.config.getoption("--hexhil-fs")
+        flash = (FlashFiles(Path(main) if main else None, Path(fs) if fs else None)
+                 if main or fs else None)
         summary, result = case_runs.run_scenario(sc, seed, duration, runtime, tactile, trace,
-                                                 firmware=str(firmware) if firmware else None)
+                                                 firmware=str(firmware) if firmware else None,
+                                                 flash_files=flash)
         keep(trace)
         case = spec.Case(name=Path(scenario).stem, path=Path(scenario), scenario=sc, seed=seed,
                          duration_s=duration, tactile=tactile, python=runtime, expectations=(),
-                         firmware=str(firmware) if firmware else None)
+                         firmware=str(firmware) if firmware else None, flash_files=flash)
         done = FinishedRun(str(scenario), seed, runtime, result, summary, trace, case, keep)
         ended = verdicts.ending_outcome(case.name, summary)
         if ended is not None and not allow_failure:   # a verdict: the test fails, not errors

@@ -21,6 +21,7 @@ from hil.link.firmware_process import IN_PROCESS, RUNTIMES
 from hil.scenario.faults_section import FaultKind
 from hil.servobus.master_check import KINDS as VIOLATION_KINDS
 from hil.link.served_firmware import served_firmware
+from hil.mcu.flash_fs import FlashFiles
 from protocol import can_frames
 from protocol.errors import UserError
 
@@ -39,6 +40,7 @@ class Kind(str, Enum):
     SERVO_LIMITS = "servo_limits"      # temperature, load, voltage never out of range
     NO_EXCEPTION = "no_exception"      # the firmware raised nothing
     SIGNAL = "signal"                  # any topic's field, a statistic, a range
+    DEADLINE = "deadline"              # an ELF's busy time per control cycle (hil/mcu/deadline.py)
 
 
 class Stat(str, Enum):
@@ -95,11 +97,15 @@ KEYS: dict[Kind, dict[str, tuple[Any, bool]]] = {
     Kind.NO_EXCEPTION: {},
     Kind.SIGNAL: {"topic": (str, True), "field": (str, True), "stat": (str, True),
                   "at_s": (float, False), "limit": (_RANGE, True)},
+    Kind.DEADLINE: {"max_busy_ms": (float, True), "stat": (str, False),
+                    "max_late": (int, False)},
 }
+BUSY_STATS = ("p50", "p99", "max")     # a deadline expectation's statistic of busy time
 COMMON_KEYS = ("name", "kind", "window_s")
 AT_LEAST_ONE = (Kind.DISPLACEMENT, Kind.POSE, Kind.SERVO_LIMITS)
 CASE_KEYS: dict[str, type] = {"name": str, "scenario": str, "duration_s": float, "seed": int,
-                              "tactile": bool, "python": str, "firmware": str, "send": list}
+                              "tactile": bool, "python": str, "firmware": str, "send": list,
+                              "main": str, "fs": str}
 TACTILE_DEFAULTS = {"h_tolerance_m": 0.01, "l_tolerance_m": 0.015, "min_steps": 1,
                     "min_press_s": 0.04}
 
@@ -137,6 +143,7 @@ class Case:
     expectations: tuple[Expectation, ...]
     sends: tuple[tuple[int, int, bytes], ...] = ()   # (t_us, arbitration id, data) from the host
     firmware: str | None = None   # a firmware of the user's (hexhil run --firmware), not ours
+    flash_files: FlashFiles | None = None   # a MicroPython ELF's /flash (--main, --fs)
 
 
 def _range(where: str, value: Any) -> Range:
@@ -191,6 +198,9 @@ def _check_kind(where: str, kind: Kind, values: dict[str, Any]) -> None:
         signals = values.get("signals", {})
         values["signals"] = tuple((k, _range(f"{where}: key 'signals.{k}'", v))
                                   for k, v in sorted(signals.items()))
+    if kind is Kind.DEADLINE and values.get("stat", "max") not in BUSY_STATS:
+        raise UserError(f"{where}: key 'stat' must be one of {', '.join(BUSY_STATS)}, "
+                        f"got {values['stat']!r}")
     if kind is Kind.SIGNAL:
         if values["stat"] not in [s.value for s in Stat]:
             raise UserError(f"{where}: key 'stat' must be one of "
@@ -384,8 +394,16 @@ def load(path: str | Path) -> Case:
             raise UserError(f"{where}: key 'case.tactile' sets our firmware's obstacle rule: "
                             "the case's firmware reads no such setting")
         firmware = str(p.parent / firmware)
-        served_firmware(firmware, f"{where}: key 'case.firmware'")   # checked now
+    flash = None
+    if "main" in case or "fs" in case:
+        if firmware is None:
+            raise UserError(f"{where}: keys 'case.main' and 'case.fs' need a MicroPython "
+                            "STM32F411 ELF as 'case.firmware'")
+        flash = FlashFiles(*(p.parent / case[k] if k in case else None for k in ("main", "fs")))
+    if firmware is not None:
+        served_firmware(firmware, f"{where}: key 'case.firmware'", flash_files=flash)  # checked now
     return Case(name=case.get("name", p.stem), path=p, scenario=sc, firmware=firmware,
+                flash_files=flash,
                 seed=scenario_mod.check_seed(case.get("seed", sc.scenario.seed),
                                              f"{where}: key 'case.seed'"),
                 duration_s=duration,

@@ -249,6 +249,22 @@ def _no_exception(e: Expectation, rec: Recording
     return f"{n} exceptions", "0 exceptions", n == 0, raised[0] if raised else None, float(n)
 
 
+def _deadline(e: Expectation, rec: Recording
+              ) -> tuple[str, str, bool, float | None, float | None]:
+    """The busy time per control cycle of an ELF's run (the summary's ``deadline``)."""
+    stat, most, late_ok = e.get("stat", "max"), e.get("max_busy_ms"), e.get("max_late")
+    limit = f"busy {stat} <= {most:g} ms" + (f", <= {late_ok} late" if late_ok is not None
+                                             else "")
+    d = rec.summary.get("deadline")
+    if not d:
+        return ("not measured: no control cycles of an STM32F411 ELF (two servo bursts) in "
+                "this run", limit, False, None, None)
+    busy = d[f"busy_{stat}_ms"]
+    ok = busy <= most and (late_ok is None or d["late"] <= late_ok)
+    return (f"busy {stat} {busy:g} ms of a {d['period_ms']:g} ms period, {d['late']} late "
+            f"of {d['cycles']}", limit, ok, None, busy)
+
+
 def field_values(message: Any, path: str) -> list[float]:
     """The numbers at ``path`` in a decoded message: dotted keys, ``[i]`` an element,
     ``[*]`` every element (e.g. ``servos[*].temperature_c``); booleans count as 0/1."""
@@ -322,7 +338,7 @@ def evaluate(case: Case, summary: dict[str, Any], trace: Path) -> list[Outcome]:
         Kind.DISPLACEMENT: _body, Kind.HEADING: _body, Kind.POSE: _body, Kind.SPEED: _body,
         Kind.PROTOCOL: _protocol, Kind.FAULT_RESPONSE: _fault, Kind.CAN: _can,
         Kind.SERVO_LIMITS: _servo_limits, Kind.NO_EXCEPTION: _no_exception,
-        Kind.SIGNAL: _signal,
+        Kind.SIGNAL: _signal, Kind.DEADLINE: _deadline,
         Kind.TACTILE_RULE: lambda e, r: _tactile(case, e, r)}
     ended = ending_outcome(case.name, summary)
     out = [ended] if ended is not None else []

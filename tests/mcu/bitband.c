@@ -9,15 +9,6 @@
 #define PERIPH_BB(addr, bit) REG(0x42000000 + ((addr) - 0x40000000) * 32 + 4 * (bit))
 #define RCC_CSR_ADDR 0x40023874u
 
-static void put_hex(uint32_t v) {
-    char buf[10];
-    for (int i = 0; i < 8; i++)
-        buf[i] = "0123456789abcdef"[(v >> (28 - 4 * i)) & 0xF];
-    buf[8] = ' ';
-    buf[9] = 0;
-    console_puts(buf);
-}
-
 volatile uint32_t word = 0x80000001u;
 
 int main(void) {
@@ -38,12 +29,12 @@ int main(void) {
     PERIPH_BB(RCC_CSR_ADDR, 0) = 1;          /* LSION */
     while (!PERIPH_BB(RCC_CSR_ADDR, 1)) {}   /* LSIRDY */
     uint32_t erased = REG(0x0807FFFC);       /* the last word of flash, no ELF section */
-    put_hex(word);
-    put_hex(bit0 | bit1 << 4);
-    put_hex(RCC_CR & (3u << 24));
-    put_hex(GPIOA(0x14));
-    put_hex(REG(RCC_CSR_ADDR) & 3);
-    put_hex(erased);
+    put_word(word);
+    put_word(bit0 | bit1 << 4);
+    put_word(RCC_CR & (3u << 24));
+    put_word(GPIOA(0x14));
+    put_word(REG(RCC_CSR_ADDR) & 3);
+    put_word(erased);
     console_puts("\n");
     for (;;) __asm__ volatile("wfi");
 }

@@ -48,3 +48,12 @@ static inline void console_puts(const char *s) {
         USART1(DR) = *s++;
     }
 }
+
+static inline void put_word(uint32_t v) {         /* a word in hex and a space */
+    char buf[10];
+    for (int i = 0; i < 8; i++)
+        buf[i] = "0123456789abcdef"[(v >> (28 - 4 * i)) & 0xF];
+    buf[8] = ' ';
+    buf[9] = 0;
+    console_puts(buf);
+}

@@ -24,12 +24,13 @@ void USART2_IRQHandler(void) WEAK;
 void DMA1_Stream5_IRQHandler(void) WEAK;
 void DMA1_Stream6_IRQHandler(void) WEAK;
 void CAN1_RX0_IRQHandler(void) WEAK;
+void FLASH_IRQHandler(void) WEAK;
 __attribute__((section(".isr_vector"), used))
 void (*const vectors[16 + 86])(void) = {
     (void (*)(void))&_estack, Reset_Handler, Default_Handler, HardFault_Handler,
     Default_Handler, Default_Handler, Default_Handler, 0, 0, 0, 0, SVC_Handler,
     Default_Handler, 0, PendSV_Handler, SysTick_Handler,
-    [16 + 6] = EXTI0_IRQHandler, [16 + 16] = DMA1_Stream5_IRQHandler,
+    [16 + 4] = FLASH_IRQHandler, [16 + 6] = EXTI0_IRQHandler, [16 + 16] = DMA1_Stream5_IRQHandler,
     [16 + 17] = DMA1_Stream6_IRQHandler, [16 + 20] = CAN1_RX0_IRQHandler,
     [16 + 25] = TIM1_UP_TIM10_IRQHandler, [16 + 27] = TIM1_CC_IRQHandler,
     [16 + 28] = TIM2_IRQHandler, [16 + 38] = USART2_IRQHandler,
