@@ -21,8 +21,8 @@ from hil.mcu.board_core import (NativeBoard, NativeEvents, NativeTimer, NativeUs
 from hil.mcu.board_loop import (exception_choice, exception_entry, exception_taking,
                                 handed_over, hook_interrupts, trips)
 from hil.mcu.console import Console, semihost
-from hil.mcu.core import (EXC_SVCALL, EXC_SYSTICK, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT,
-                          INTR_INVSTATE, INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
+from hil.mcu.core import (EXC_SVCALL, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT, INTR_INVSTATE,
+                          INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
 from hil.mcu.deadline import ControlCycles
 from hil.mcu.elf_image import ElfImage
 from hil.mcu.events import Events, Timer
@@ -302,14 +302,9 @@ class Board:
         """An exception handler branches to itself (the startup's Default_Handler for an
         interrupt without a handler of its own): a lockup when nothing enabled could ever
         preempt it, since then no event can end the loop."""
-        nvic, core = self.nvic, self.core
-        level = nvic.execution_priority()
-        could = set(nvic.pending) | {irq + 16 for irq in nvic.enabled}
-        if self.systick.csr & 3 == 3:
-            could.add(EXC_SYSTICK)
-        if any(nvic.group_priority(e) < level for e in could):
+        if self.nvic.could_preempt(self.systick.csr & 3 == 3):
             return
-        exc = core.active[-1]
+        exc = self.core.active[-1]
         name = SYSTEM_EXCEPTIONS.get(exc, f"interrupt {exc - 16} (exception {exc})")
         raise CoreFault(self.fault_line(
             f"a lockup: {name} runs a loop that branches to itself and nothing can preempt "

@@ -157,6 +157,15 @@ class Nvic:
         level = min((self._group(self._priority(e)) for e in self.core.active), default=256)
         return self._group(best) < level
 
+    def could_preempt(self, systick_running: bool) -> bool:
+        """An exception could still preempt what runs now: one pending, an enabled IRQ, or
+        SysTick's while it counts with its interrupt on."""
+        level = self.execution_priority()
+        could = set(self.pending) | {irq + 16 for irq in self.enabled}
+        if systick_running:
+            could.add(EXC_SYSTICK)
+        return any(self.group_priority(e) < level for e in could)
+
     def masked_chunk(self, n: int) -> int:
         """The next chunk's length: ``n``, or one instruction while a masked exception waits
         (``masked_ready``), for at most ``MASKED_STEPS`` in a row (board_core.c does the

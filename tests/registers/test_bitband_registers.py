@@ -18,8 +18,15 @@ def bus(request):
     return Bus(compiled=request.param)
 
 
+def _backup_domain_writable(bus):
+    """PWR's clock on and PWR CR DBP set: the RTC takes writes (RM0383 5.1.2)."""
+    bus.write(0x40023840, bus.read(0x40023840) | 1 << 28)
+    bus.write(0x40007000, bus.read(0x40007000) | 1 << 8)
+
+
 def test_rtc_backup_register_bits(bus):
     bkp = 0x40002850
+    _backup_domain_writable(bus)
     bus.write(bit(bkp, 31), 1)
     bus.write(bit(bkp, 3), 1)
     assert bus.read(bkp) == 0x80000008
@@ -30,6 +37,9 @@ def test_rtc_backup_register_bits(bus):
 
 def test_a_read_only_bit_written_through_the_alias_is_kept(bus):
     isr = 0x4000280C                                   # RTC ISR: INITS (bit 4) read only
+    _backup_domain_writable(bus)
+    bus.write(0x40002824, 0xCA)                        # WPR's key
+    bus.write(0x40002824, 0x53)
     bus.write(bit(isr, 4), 1)
     assert bus.read(isr) == 0x07
     bus.write(bit(isr, 7), 1)                          # INIT (rw)
