@@ -29,6 +29,7 @@ from hil.link.firmware_process import (ROOT, FirmwareError, FirmwareProcess, fir
                                       firmware_env)
 from hil.mcu.elf_image import ELF_MAGIC, ElfImage, is_arm_elf, load_elf
 from hil.mcu.runtime import serve_elf
+from hil.mcu.verdicts import MASKED_LIMIT_S
 from hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
 from hil.seams import LinkHost
 from protocol import sim_link
@@ -61,12 +62,14 @@ class ServedFirmware(Protocol):
 
 
 def served_firmware(path: str | Path, what: str = "firmware", gdb_port: int | None = None,
-                    coverage: str | Path | None = None
+                    coverage: str | Path | None = None,
+                    masked_limit_s: float = MASKED_LIMIT_S
                     ) -> BoardFirmware | ExecutableFirmware | ElfFirmware:
     """``path`` checked: a MicroPython main file (``.py``) for the virtual board, an ARM
     ELF for the emulated STM32F411, else an executable file this user may run
     (``UserError`` naming ``what`` if neither). ``gdb_port`` and ``coverage`` (an ELF's
-    only) go to the ELF runtime."""
+    only) go to the ELF runtime, and ``masked_limit_s``, the virtual time
+    an ELF may run with interrupts masked before it is hung (hil/mcu/verdicts.py)."""
     p = Path(path)
     if (gdb_port is not None or coverage is not None) and not is_arm_elf(p):
         raise UserError(f"gdb_port and coverage need an STM32F411 ELF as {what}, not {path}",
@@ -87,8 +90,11 @@ def served_firmware(path: str | Path, what: str = "firmware", gdb_port: int | No
                             "data, not UTF-8 text)", params=(what,))
         return BoardFirmware(p.resolve())
     if is_arm_elf(p):
+        if not masked_limit_s > 0:
+            raise UserError(f"masked_limit_s {masked_limit_s}: give a time above 0 s",
+                            params=("masked_limit_s",))
         return ElfFirmware(load_elf(p, what), gdb_port,
-                           Path(coverage) if coverage is not None else None)
+                           Path(coverage) if coverage is not None else None, masked_limit_s)
     if not os.access(p, os.X_OK) and p.read_bytes()[:4] == ELF_MAGIC:
         load_elf(p, what)     # names what the ELF is for, in one line
     if not os.access(p, os.X_OK):
@@ -164,6 +170,7 @@ class ElfFirmware:
     image: ElfImage
     gdb_port: int | None = None
     coverage: Path | None = None
+    masked_limit_s: float = MASKED_LIMIT_S
     runtime: str = ELF_RUNTIME
     own_process: bool = False   # Unicorn, in the host's process
 
@@ -181,7 +188,7 @@ class ElfFirmware:
         """A fault is its ending (hil/mcu/runtime.py); a semihosting SYS_EXIT before the
         run's end is judged as a process's exit."""
         board = serve_elf(self.image, server, end_us, result, console_events, self.gdb_port,
-                          self.coverage)
+                          self.coverage, self.masked_limit_s)
         if result.ending.completed and board.exit_code is not None and not board.ended:
             result.ending = judge(self.path.name, board.exit_code, "",
                                   "\n".join(board.console_tail), board.link.t_us, end_us)

@@ -34,6 +34,7 @@ from hil.mcu.rcc import HSI_HZ, Rcc, flash_interface, power
 from hil.mcu.system import Nvic, SystemBlock
 from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
+from hil.mcu.verdicts import MASKED_LIMIT_S, Endings
 
 log = logging.getLogger(__name__)
 MAX_CHUNK = 20_000           # instructions: the most an interrupt unmasked by CPSIE/MSR waits
@@ -54,7 +55,7 @@ class Board:
 
     def __init__(self, image: ElfImage, exchange: Callable[[bytes, bool], bytes],
                  console_events: Callable[[str], list[tuple[int, str]]],
-                 compiled: bool = True) -> None:
+                 compiled: bool = True, masked_limit_s: float = MASKED_LIMIT_S) -> None:
         self.image = image
         self.console_events = console_events
         self.link = LinkClient(exchange)
@@ -91,6 +92,7 @@ class Board:
         else:
             core.uc.hook_add(UC_HOOK_INTR, lambda uc, intno, _: self.intr(intno))
         self.poll = PollSkipper(self)
+        self.endings = Endings(self, masked_limit_s)    # _exit, abort, assert, main's return
 
     @property
     def skipped_cycles(self) -> int:
@@ -166,6 +168,7 @@ class Board:
         at_us = at_fs // FS_PER_US
         if at_us - self._last_request_us >= TICK_US:
             self.take(self.link.sleep(at_us))
+        self.endings.sample()
         listening = self.exti.regs[0x00] & 0x3F or self.can_listening
         self.tick.set(at_fs + (1 if listening else 10) * TICK_US * FS_PER_US)
 
@@ -335,16 +338,20 @@ class Board:
         loop = trips(core) if native and self.debugger is None else None
         self.link.hello()
         n = -1
-        while not self.ended and self.exit_code is None:
+        while not self.ended and self.exit_code is None and self.endings.verdict is None:
             if loop is not None:
                 n = handed_over(self, loop(MAX_CHUNK, n))
                 continue
             n = head(MAX_CHUNK)
-            if self.ended:
+            if self.ended or self.endings.verdict is not None:
                 break
             if self.fault is not None:
                 raise CoreFault(self.fault_line(self.fault))
             self.trip(n, take_next())
+        for usart in (self.usart1, self.usart6) if self.endings.verdict else ():
+            if usart.tdr is not None:       # the byte waiting in DR goes out, as on the chip
+                self.sent(usart, usart.tdr, 0, 0)
+                usart.tdr = None
         self.console.flush()
         self.line.flush()
 

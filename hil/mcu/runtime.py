@@ -16,17 +16,22 @@ from hil.mcu.board_core import MAX_US
 from hil.mcu.core import CoreFault
 from hil.mcu.elf_image import ElfImage
 from hil.mcu.gdb import GdbServer
+from hil.mcu.verdicts import MASKED_LIMIT_S
 from hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
 from hil.seams import LinkHost
 
 
 def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
               console_events: Callable[[str], list[tuple[int, str]]],
-              gdb_port: int | None = None, coverage: Path | None = None) -> Board:
-    """Run ``image`` against ``server`` (hil/link/server.py) until ``end_us``."""
+              gdb_port: int | None = None, coverage: Path | None = None,
+              masked_limit_s: float = MASKED_LIMIT_S) -> Board:
+    """Run ``image`` against ``server`` (hil/link/server.py) until ``end_us``; a verdict
+    of hil/mcu/verdicts.py (an exit, an abort, an assertion, a masked hang) is the run's
+    ending, exit 1."""
     conn = DirectConnection(lambda c, msgs, closed: server.answer(c, msgs, closed, end_us,
                                                                   result))
-    board = Board(image, conn.exchange, console_events, compiled=end_us <= MAX_US)
+    board = Board(image, conn.exchange, console_events, compiled=end_us <= MAX_US,
+                  masked_limit_s=masked_limit_s)
     tracer = None
     if coverage is not None:
         from hil.mcu.coverage import LineCounter
@@ -57,6 +62,16 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
         result.ending = FirmwareEnding(
             Ending.CRASHED, f"the firmware {image.path.name} faulted: {fault}",
             tuple(board.console_tail[-LAST_LINES:]), board.now_us() * 1e-6, 1)
+        return board
+    verdict = board.endings.verdict
+    if verdict is not None:
+        result.exit_code = 1
+        if verdict.kind is not Ending.EXITED_EARLY:
+            result.exceptions.append(f"{image.path.name}: {verdict.reason}")
+        result.ending = FirmwareEnding(
+            verdict.kind, f"the firmware {image.path.name} {verdict.reason}",
+            tuple(board.console_tail[-LAST_LINES:]), board.now_us() * 1e-6, verdict.exit_code)
+        board.close()
         return board
     result.exit_code = board.exit_code if board.exit_code is not None else 0
     board.close()

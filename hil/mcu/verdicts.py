@@ -1,0 +1,148 @@
+"""How a firmware ends on the chip where the host sees its process end: the run's verdict.
+
+On the chip nothing exits: newlib's `_exit` (libnosys, CubeIDE's syscalls.c) is a loop,
+`abort` ends in it, a failed `assert` prints its message through `__assert_func` and calls
+`abort`, a return from `main` lands in the startup's loop after it, and CubeMX's
+`Error_Handler` spins with interrupts masked. Each ends the run here as the same source
+built for the host would end its process: `_exit(0)` and a `main` returning 0 before the
+run's end are an early exit, any other status, `abort` and a failed assertion a crash, a
+core running with PRIMASK or FAULTMASK set (awake) for longer than ``masked_limit_s`` of
+virtual time a hang. Found from the ELF's symbols (a code hook at each function's entry,
+and at the return address `main` was called with) and the core's state, sampled at the
+board's tick (each 1 to 10 ms); a handler's endless loop is the board's lockup
+(board.py ``_lockup``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from unicorn import UC_HOOK_CODE
+from unicorn import arm_const as A
+
+from hil.mcu.timebase import FS_PER_S
+from hil.run_result import Ending
+
+MASKED_LIMIT_S = 0.5        # virtual seconds awake with interrupts masked: a hang
+MAX_TEXT = 200              # of a string the firmware passed (a file name, an expression)
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """How the firmware ended: ``kind``, the one line naming the symbol, its status."""
+
+    kind: Ending
+    reason: str
+    exit_code: int
+
+
+def _signed(word: int) -> int:
+    return word - (1 << 32) if word & 0x80000000 else word
+
+
+class Endings:
+    """The hooks and the masked-interrupt watch of one board; ``verdict`` once it ended."""
+
+    def __init__(self, board: Any, masked_limit_s: float = MASKED_LIMIT_S) -> None:
+        self.board = board
+        self.verdict: Verdict | None = None
+        self._limit_fs = int(masked_limit_s * FS_PER_S)
+        self._masked_since: int | None = None
+        self._assertion: str | None = None
+        self._returns: set[int] = set()
+        symbols = board.image.symbols
+        for name, hook in (("_exit", self._exit), ("abort", self._abort),
+                           ("__assert_func", self._assert), ("main", self._main)):
+            addr = symbols.get(name)
+            if addr:
+                self._hook(addr & ~1, hook)
+
+    def _hook(self, addr: int, hook: Any) -> None:
+        self.board.core.uc.hook_add(UC_HOOK_CODE, lambda uc, a, size, _: hook(), None,
+                                    addr, addr)
+
+    def _arg(self, n: int) -> int:
+        return self.board.core.reg(A.UC_ARM_REG_R0 + n)
+
+    def _string(self, addr: int) -> str:
+        out = bytearray()
+        try:
+            while len(out) < MAX_TEXT:
+                b = self.board.core.uc.mem_read(addr + len(out), 1)[0]
+                if b == 0:
+                    break
+                out.append(b)
+        except Exception:      # a bad pointer: what was read
+            pass
+        return out.decode(errors="replace")
+
+    def _caller(self) -> str:
+        return self.board.image.function_at(self._arg_lr())
+
+    def _arg_lr(self) -> int:
+        return self.board.core.reg(A.UC_ARM_REG_LR)
+
+    # --- the hooks (inside a chunk: the verdict ends it at this instruction) --------
+    def _end(self, kind: Ending, reason: str, code: int) -> None:
+        if self.verdict is not None:
+            return
+        board = self.board
+        self.verdict = Verdict(kind, f"{reason} at t={board.now_us() * 1e-6:.6f} s", code)
+        board.core.shared.touched += 1        # Python took part: the C loop hands over
+        board.core.stop()
+
+    def _exit(self) -> None:
+        code = _signed(self._arg(0))
+        if code == 0:
+            self._end(Ending.EXITED_EARLY, f"exited through _exit(0) (from {self._caller()}) "
+                      "before the run's end", 0)
+        else:
+            self._end(Ending.CRASHED, f"exited with status {code} through _exit "
+                      f"(from {self._caller()})", code & 0xFF or 1)
+
+    def _abort(self) -> None:
+        if self._assertion is not None:
+            self._end(Ending.CRASHED, self._assertion, 1)
+        else:
+            self._end(Ending.CRASHED, f"called abort() (from {self._caller()})", 1)
+
+    def _assert(self) -> None:
+        """newlib's ``__assert_func(file, line, func, expr)``: named now, ended by its
+        ``abort`` once the message is printed."""
+        file, line, func, expr = (self._arg(i) for i in range(4))
+        where = f" in {self._string(func)}" if func else ""
+        self._assertion = (f"failed an assertion: assert({self._string(expr)}){where} at "
+                           f"{self._string(file)}:{_signed(line)}")
+
+    def _main(self) -> None:
+        back = self._arg_lr() & ~1
+        if back and back not in self._returns:
+            self._returns.add(back)
+            self._hook(back, self._main_returned)
+
+    def _main_returned(self) -> None:
+        code = _signed(self._arg(0))
+        if code == 0:
+            self._end(Ending.EXITED_EARLY, "returned 0 from main before the run's end", 0)
+        else:
+            self._end(Ending.CRASHED, f"returned {code} from main", code & 0xFF or 1)
+
+    # --- the board's tick -------------------------------------------------------------
+    def sample(self) -> None:
+        """At the board's tick: a core awake with interrupts masked since the first sample
+        that saw it so for ``masked_limit_s`` is hung (CubeMX's Error_Handler)."""
+        board = self.board
+        core = board.core
+        masked = core.reg(A.UC_ARM_REG_PRIMASK) & 1 or core.reg(A.UC_ARM_REG_FAULTMASK) & 1
+        if not masked or core.sleeping or self.verdict is not None:
+            self._masked_since = None
+            return
+        now = core.now_fs()
+        if self._masked_since is None:
+            self._masked_since = now
+        elif now - self._masked_since >= self._limit_fs:
+            pc = core.pc
+            self.verdict = Verdict(
+                Ending.HUNG, f"hung: it ran with interrupts masked (PRIMASK) for "
+                f"{(now - self._masked_since) / FS_PER_S:g} s, at PC 0x{pc:08x} in "
+                f"{board.image.function_at(pc)} (t={board.now_us() * 1e-6:.6f} s)", 1)

@@ -1,0 +1,49 @@
+/* A firmware that ends as a host program would, built as a CubeMX user builds one
+ * (newlib-nano, --specs=nano.specs --specs=nosys.specs): after a console line and 20 ms it
+ * calls exit(EXIT_STATUS) (newlib's exit reaches libnosys's `_exit`, a loop on the chip),
+ * or abort(), or fails an assert, or returns from main, or spins as CubeMX's Error_Handler
+ * does (interrupts masked, an endless loop). The ending is chosen with -DEND=... */
+#include "stm32f4xx_hal.h"
+
+#include <assert.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#define END_EXIT 1
+#define END_ABORT 2
+#define END_ASSERT 3
+#define END_RETURN 4
+#define END_ERROR_HANDLER 5
+#define END_NONE 6
+#ifndef EXIT_STATUS
+#define EXIT_STATUS 3
+#endif
+
+volatile int servos_found;   /* 0: the assertion below fails */
+
+__attribute__((noinline)) void Error_Handler(void)   /* called from many places in a CubeMX project */
+{
+    __disable_irq();
+    while (1) {
+    }
+}
+
+int main(void)
+{
+    HAL_Init();
+    printf("endings: start\n");
+    HAL_Delay(20);
+#if END == END_EXIT
+    exit(EXIT_STATUS);
+#elif END == END_ABORT
+    abort();
+#elif END == END_ASSERT
+    assert(servos_found == 18);
+#elif END == END_RETURN
+    return EXIT_STATUS;
+#elif END == END_ERROR_HANDLER
+    Error_Handler();
+#endif
+    for (;;)
+        __WFI();
+}
