@@ -13,6 +13,7 @@ from typing import Any, Mapping
 from protocol import link_schema as ls
 
 LAST_LINES = 5   # of what the firmware printed, kept with an ending that is not COMPLETED
+CONSOLE_LINES = 20   # the console's last lines (virtual time, text) a run result keeps
 
 
 class Ending(str, Enum):
@@ -179,6 +180,7 @@ class RunResult:
     ending: FirmwareEnding = FirmwareEnding()   # how the firmware ended (COMPLETED: served on)
     no_servo_answered: str | None = None   # why, when the firmware wrote and none answered
     interrupted: bool = False   # Ctrl-C (or SIGTERM) ended it early
+    console: tuple[tuple[float, str], ...] = ()   # the firmware's last log lines (t_s, text)
 
     @property
     def unhandled_exceptions(self) -> int:
@@ -212,6 +214,13 @@ class RunTally:
     ending: FirmwareEnding = FirmwareEnding()
     no_servo_answered: str | None = None
     interrupted: bool = False
+    console: list[tuple[float, str]] = field(default_factory=list)
+
+    def console_line(self, t_s: float, text: str) -> None:
+        """A line the firmware printed (a log event), the last ``CONSOLE_LINES`` kept."""
+        self.console.append((t_s, text))
+        if len(self.console) > 2 * CONSOLE_LINES:
+            del self.console[:-CONSOLE_LINES]
 
     def count_can(self, arb_id: int) -> None:
         key = "0x%03X" % arb_id
@@ -231,7 +240,8 @@ class RunTally:
             tuple(_frozen(e) for e in self.tactile_events), self.switch_edges,
             _frozen(self.can_frames), self.bus_busy_us, self.bus_wire_us, self.loop_cycles,
             self.round_trips, self.body, self.world, ending=self.ending,
-            no_servo_answered=self.no_servo_answered, interrupted=self.interrupted)
+            no_servo_answered=self.no_servo_answered, interrupted=self.interrupted,
+            console=tuple(self.console[-CONSOLE_LINES:]))
 
 
 class RunInterrupted(KeyboardInterrupt):

@@ -53,6 +53,7 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
         if result.loop_cycles else None,
         "bus_wire_min_per_cycle_us": round(result.bus_wire_us / result.loop_cycles, 1)
         if result.loop_cycles else None,
+        "console": [{"t_s": round(t_s, 6), "text": text} for t_s, text in result.console],
         "tactile": None, "overrides": {}, **(what_ran or {}),
     }
 

@@ -6,6 +6,8 @@ exits 1 and `hexhil test` counts the case as failed. tests/elf_firmware/endings.
 with newlib-nano as a CubeMX project is."""
 from __future__ import annotations
 
+import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -85,18 +87,31 @@ def test_error_handler_spinning_with_interrupts_masked_is_hung_after_the_limit(e
     assert run(elf, 0.3, masked_limit_s=0.5).ending.completed   # within its limit: runs on
 
 
-def test_a_firmware_idling_in_wfi_completes(ending_elf):
+def test_a_firmware_idling_in_wfi_completes_and_its_console_shows_live(ending_elf):
     result = run(ending_elf("NONE"))
     assert result.ending.completed and result.exit_code == 0, result.ending
+    assert [text for _, text in result.console] == ["endings: start"]  # kept on success
+    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", str(FLAT),
+                           "--duration", "0.1", "--firmware", str(ending_elf("NONE"))],
+                          cwd=ROOT, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    printed = re.fullmatch(r"\[ *(\d+\.\d{6}) s\] endings: start", proc.stderr.strip())
+    assert printed and 0 < float(printed[1]) < 0.01, proc.stderr   # its virtual time
 
 
 def test_hexhil_run_exits_1_and_hexhil_test_fails_the_case(ending_elf, tmp_path):
     elf = ending_elf("ASSERT")
     cli = [sys.executable, "-m", "host_tools.cli"]
     proc = subprocess.run([*cli, "run", str(FLAT), "--duration", "0.1", "--firmware",
-                           str(elf)], cwd=ROOT, capture_output=True, text=True)
-    assert proc.returncode == 1 and "failed an assertion: assert(servos_found == 18)" \
-        in proc.stderr, proc.stderr
+                           str(elf), "--quiet", "--json"], cwd=ROOT, capture_output=True,
+                          text=True)
+    said = proc.stderr.splitlines()
+    assert proc.returncode == 1 and len(said) == 1 and \
+        "failed an assertion: assert(servos_found == 18)" in said[0], proc.stderr
+    console = json.loads(proc.stdout.splitlines()[-1])["console"]
+    assert [c["text"] for c in console][0] == "endings: start"
+    assert 0.0 < console[0]["t_s"] < console[1]["t_s"] < 0.05, console
+    assert console[1]["text"].startswith('assertion "servos_found == 18" failed')
     case = tmp_path / "short.toml"
     case.write_text(f'[case]\nscenario = "{FLAT}"\nduration_s = 0.1\n\n[[expect]]\n'
                     'name = "no firmware exception"\nkind = "no_exception"\n')

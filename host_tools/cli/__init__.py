@@ -149,6 +149,26 @@ def _show_library_log() -> None:
             logger.setLevel(logging.INFO)
 
 
+class _ConsoleLog(logging.Handler):
+    """The firmware's console as it prints (hil/link/server.py ``CONSOLE_LOG``): each
+    line on stderr after its virtual time."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        sys.stderr.write(f"[{getattr(record, 't_s', 0.0):10.6f} s] {record.getMessage()}\n")
+        sys.stderr.flush()
+
+
+def show_console(quiet: bool) -> None:
+    """The firmware's console live on stderr, unless ``quiet`` (once per process)."""
+    from hil.link.server import CONSOLE_LOG as logger
+    logger.propagate = False
+    for h in [h for h in logger.handlers if isinstance(h, _ConsoleLog)]:
+        logger.removeHandler(h)
+    if not quiet:
+        logger.addHandler(_ConsoleLog())
+        logger.setLevel(logging.INFO)
+
+
 def emit(args: Any, obj: dict[str, Any], text: str) -> None:
     """A command's result: ``obj`` as JSON with ``--json``, else ``text`` for a person."""
     if getattr(args, "json", False):

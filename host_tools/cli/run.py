@@ -17,6 +17,7 @@ def _run(args: argparse.Namespace) -> int:
     import host_tools.papers  # noqa: F401  (plugs the beams run and the navigators in)
     from host_tools import run_summary as run_mod
 
+    cli.show_console(args.quiet)
     try:
         s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
                                 False if args.no_tactile else None, args.out,
@@ -110,4 +111,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--coverage", metavar="FILE.info", help="an ELF firmware's line coverage "
                    "from its DWARF line table, as LCOV (genhtml, CI coverage reports)")
     p.add_argument("--json", action="store_true", help=cli.JSON_HELP)
+    p.add_argument("--quiet", action="store_true", help="do not show the firmware's console "
+                   "on stderr as it runs (its last lines stay in --json's console)")
     p.set_defaults(func=_run)
