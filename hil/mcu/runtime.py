@@ -15,7 +15,7 @@ from hil.mcu.board import Board
 from hil.mcu.board_core import MAX_US
 from hil.mcu.core import CoreFault
 from hil.mcu.elf_image import ElfImage
-from hil.mcu.gdb import GdbServer
+from hil.mcu.gdb import SIGABRT, SIGINT, GdbServer, fault_signal
 from hil.mcu.verdicts import MASKED_LIMIT_S
 from hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
 from hil.seams import LinkHost
@@ -41,8 +41,15 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
     fault = None
     try:
         board.run()
+        verdict = board.endings.verdict
+        if verdict is not None and board.debugger is not None and \
+                verdict.kind is not Ending.EXITED_EARLY:
+            board.debugger.halted_by(SIGINT if verdict.kind is Ending.HUNG else SIGABRT,
+                                     f"{image.path.name}: {verdict.reason}")
     except CoreFault as exc:      # a verdict on the firmware, as a crashed process's
         fault = exc
+        if board.debugger is not None:       # GDB inspects the faulting state first
+            board.debugger.halted_by(fault_signal(str(exc)), f"{image.path.name}: {exc}")
         board.close()             # what the board had posted (a console line) is recorded
     finally:
         result.stderr_tail = "\n".join(board.console_tail)
