@@ -92,7 +92,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         realtime: bool = False, navigator: str = "none",
         model_path: str | None = None, firmware: str | None = None,
         gdb_port: int | None = None, coverage: str | None = None,
-        overwrite: bool = False) -> tuple[dict[str, Any], RunResult]:
+        overwrite: bool = False, coverage_libraries: bool = False) -> tuple[dict[str, Any], RunResult]:
     """Load, simulate, summarise. Returns (summary, raw result).
 
     A recorded run (``out``) carries the 3D scene. With ``live_port`` the trace's channels
@@ -111,6 +111,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     ``firmware``, a MicroPython main file for the virtual board or an executable that
     speaks the link (hil/link/served_firmware.py), or an STM32F411 ELF, runs instead of our
     firmware; an ELF's ``gdb_port`` waits for a GDB client, ``coverage`` writes LCOV there
+    (of its own sources; the toolchain's libraries too with ``coverage_libraries``)
     (docs/elf-firmware.md).
     """
     sc = scenario_mod.load_scenario(path)
@@ -137,7 +138,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         with Run(sc, seed=given_seed, runtime=python, duration_s=duration_s, tactile=tactile,
                  trace=out, live_port=live_port, can_server=server, realtime=realtime,
                  firmware=firmware, gdb_port=gdb_port, coverage=coverage,
-                 overwrite=overwrite) as r:
+                 coverage_libraries=coverage_libraries, overwrite=overwrite) as r:
             if r.live is not None:
                 log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", r.live.port)
             if attach_navigator is not None:

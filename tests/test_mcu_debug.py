@@ -123,6 +123,28 @@ def test_lcov_names_source_lines_with_counts_and_zero_for_lines_never_run(tmp_pa
     assert merge([text, text]).count("DA:") == text.count("DA:")
 
 
+def test_coverage_is_of_the_firmwares_own_sources_unless_the_libraries_are_asked_for(
+        tmp_path):
+    from host_tools import c_sdk
+    src = ROOT / "tests" / "elf_firmware" / "endings.c"     # printf: newlib-nano's
+    elf = c_sdk.build([str(src)], tmp_path / "endings.elf", ("-DEND=END_NONE",), "stm32f411")
+    files = {}
+    for name, extra in (("own", ()), ("all", ("--coverage-libraries",))):
+        info = tmp_path / f"{name}.info"
+        r = subprocess.run(run(elf, "--coverage", str(info), "--quiet", *extra), cwd=ROOT,
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr
+        files[name] = {row[3:] for row in info.read_text().splitlines() if row.startswith("SF:")}
+    assert str(src) in files["own"], files["own"]
+    assert not [f for f in files["own"] if "newlib" in f or "libgcc" in f], files["own"]
+    assert files["own"] < files["all"]
+    assert any("/newlib/libc/" in f for f in files["all"]), files["all"]
+    assert any("libgcc" in f for f in files["all"]), files["all"]
+    bad = subprocess.run(run(elf, "--coverage-libraries"), cwd=ROOT, capture_output=True,
+                         text=True, timeout=300)
+    assert bad.returncode == 2 and "--coverage-libraries needs --coverage" in bad.stderr, bad.stderr
+
+
 def test_hexhil_test_counts_a_fault_as_a_failing_case_and_merges_coverage(tmp_path):
     case = tmp_path / "short.toml"
     case.write_text(f'[case]\nscenario = "{ROOT}/scenarios/flat-tripod.toml"\nduration_s = 0.2\n\n'

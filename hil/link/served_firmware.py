@@ -63,13 +63,14 @@ class ServedFirmware(Protocol):
 
 def served_firmware(path: str | Path, what: str = "firmware", gdb_port: int | None = None,
                     coverage: str | Path | None = None,
-                    masked_limit_s: float = MASKED_LIMIT_S
+                    masked_limit_s: float = MASKED_LIMIT_S, coverage_libraries: bool = False
                     ) -> BoardFirmware | ExecutableFirmware | ElfFirmware:
     """``path`` checked: a MicroPython main file (``.py``) for the virtual board, an ARM
     ELF for the emulated STM32F411, else an executable file this user may run
     (``UserError`` naming ``what`` if neither). ``gdb_port`` and ``coverage`` (an ELF's
     only) go to the ELF runtime, and ``masked_limit_s``, the virtual time
-    an ELF may run with interrupts masked before it is hung (hil/mcu/verdicts.py)."""
+    an ELF may run with interrupts masked before it is hung (hil/mcu/verdicts.py);
+    ``coverage_libraries`` counts the toolchain's libraries too (hil/mcu/coverage.py)."""
     p = Path(path)
     if (gdb_port is not None or coverage is not None) and not is_arm_elf(p):
         raise UserError(f"gdb_port and coverage need an STM32F411 ELF as {what}, not {path}",
@@ -94,7 +95,8 @@ def served_firmware(path: str | Path, what: str = "firmware", gdb_port: int | No
             raise UserError(f"masked_limit_s {masked_limit_s}: give a time above 0 s",
                             params=("masked_limit_s",))
         return ElfFirmware(load_elf(p, what), gdb_port,
-                           Path(coverage) if coverage is not None else None, masked_limit_s)
+                           Path(coverage) if coverage is not None else None, masked_limit_s,
+                           coverage_libraries)
     if not os.access(p, os.X_OK) and p.read_bytes()[:4] == ELF_MAGIC:
         load_elf(p, what)     # names what the ELF is for, in one line
     if not os.access(p, os.X_OK):
@@ -171,6 +173,7 @@ class ElfFirmware:
     gdb_port: int | None = None
     coverage: Path | None = None
     masked_limit_s: float = MASKED_LIMIT_S
+    coverage_libraries: bool = False
     runtime: str = ELF_RUNTIME
     own_process: bool = False   # Unicorn, in the host's process
 
@@ -188,7 +191,7 @@ class ElfFirmware:
         """A fault is its ending (hil/mcu/runtime.py); a semihosting SYS_EXIT before the
         run's end is judged as a process's exit."""
         board = serve_elf(self.image, server, end_us, result, console_events, self.gdb_port,
-                          self.coverage, self.masked_limit_s)
+                          self.coverage, self.masked_limit_s, self.coverage_libraries)
         if result.ending.completed and board.exit_code is not None and not board.ended:
             result.ending = judge(self.path.name, board.exit_code, "",
                                   "\n".join(board.console_tail), board.link.t_us, end_us)

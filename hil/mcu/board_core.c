@@ -1020,3 +1020,27 @@ void bc_free(bc_t *s) {
     s->burst = NULL;
     s->n = s->cap = s->ntimers = s->burst_n = s->burst_cap = 0;
 }
+
+/* --coverage (hil/mcu/coverage.py ``LineCounter``): Unicorn's block hook, counting each
+   block run by (address, size) in an open-addressed table the Python side allocated, so a
+   covered run pays no Python call per block. A table three quarters full takes no new
+   block (``lost`` counts them; the table is sized from the firmware's code to leave room). */
+typedef struct { uint64_t *keys, *counts; uint64_t mask, used, lost; } cover_t;
+
+void bc_cover_block(void *uc, uint64_t address, uint32_t size, void *user) {
+    (void)uc;
+    cover_t *c = user;
+    uint64_t key = (address << 32 | size) + 1;          /* 0: an empty slot */
+    uint64_t i = (key * 0x9E3779B97F4A7C15ull) >> 29 & c->mask;
+    while (c->keys[i] && c->keys[i] != key)
+        i = (i + 1) & c->mask;
+    if (!c->keys[i]) {
+        if (4 * (c->used + 1) > 3 * (c->mask + 1)) {
+            c->lost++;
+            return;
+        }
+        c->keys[i] = key;
+        c->used++;
+    }
+    c->counts[i]++;
+}

@@ -24,7 +24,8 @@ from hil.seams import LinkHost
 def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
               console_events: Callable[[str], list[tuple[int, str]]],
               gdb_port: int | None = None, coverage: Path | None = None,
-              masked_limit_s: float = MASKED_LIMIT_S) -> Board:
+              masked_limit_s: float = MASKED_LIMIT_S,
+              coverage_libraries: bool = False) -> Board:
     """Run ``image`` against ``server`` (hil/link/server.py) until ``end_us``; a verdict
     of hil/mcu/verdicts.py (an exit, an abort, an assertion, a masked hang) is the run's
     ending, exit 1."""
@@ -35,7 +36,7 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
     tracer = None
     if coverage is not None:
         from hil.mcu.coverage import LineCounter
-        tracer = LineCounter(image, board.core.uc)
+        tracer = LineCounter(image, board.core.uc, coverage_libraries)
     if gdb_port is not None:
         board.debugger = GdbServer(board, gdb_port)
     fault = None

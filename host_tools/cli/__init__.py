@@ -63,7 +63,7 @@ FLAGS = {"python": "--python", "firmware": "--firmware", "duration_s": "--durati
          "world": "--world", "model_path": "--model", "topics": "--topics",
          "gdb_port": "--gdb", "coverage": "--coverage", "bare": "--bare", "target": "--target",
          "seed": "--seed", "tactile": "--no-tactile", "overwrite": "--overwrite",
-         "keep_dir": "--keep-traces"}
+         "keep_dir": "--keep-traces", "coverage_libraries": "--coverage-libraries"}
 
 
 def flag_message(exc: UserError) -> str:

@@ -23,7 +23,7 @@ def _run(args: argparse.Namespace) -> int:
                                 False if args.no_tactile else None, args.out,
                                 args.can_server, args.can_wait, args.live, args.realtime,
                                 args.navigator, args.model, args.firmware, args.gdb,
-                                args.coverage, args.overwrite)
+                                args.coverage, args.overwrite, args.coverage_libraries)
     except RunInterrupted as exc:   # a beams run's trace holds no firmware link to replay
         replays = "" if exc.summary.get("world") == "beams" else " and replays"
         kept = (f"the trace {args.out} is kept{replays}" if args.out
@@ -110,6 +110,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "still while it is halted (docs/elf-firmware.md)")
     p.add_argument("--coverage", metavar="FILE.info", help="an ELF firmware's line coverage "
                    "from its DWARF line table, as LCOV (genhtml, CI coverage reports)")
+    p.add_argument("--coverage-libraries", action="store_true", help="--coverage counts the "
+                   "toolchain's libraries too (newlib, libgcc), not only the firmware's own "
+                   "sources")
     p.add_argument("--json", action="store_true", help=cli.JSON_HELP)
     p.add_argument("--quiet", action="store_true", help="do not show the firmware's console "
                    "on stderr as it runs (its last lines stay in --json's console)")
