@@ -124,6 +124,10 @@ typedef struct {
     int64_t turn_us[TURNS];
     int32_t turn_level[TURNS];
     set3_t nots;                 /* repeated reads that are no wait: (pc, register, cycles) */
+    /* USART2's IDLE (usart.py): when the line will have been idle a frame (0: no byte
+       since), SR read with IDLE set (a DR read clears it), its timer (with IDLEIE) */
+    int32_t u2_idle_live, u2_idle_tid, u2_idle_seen, _pad4;
+    int64_t u2_idle_at;
 } bc_t;
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
@@ -131,6 +135,7 @@ enum { GPIO_MODER = 0x00, GPIO_PUPDR = 0x0C, GPIO_IDR = 0x10, GPIO_ODR = 0x14, G
 #define PA1 1
 #define SWITCH_MASK 0x3F        /* PB0-PB5 */
 #define ORE (1 << 3)
+#define IDLE (1 << 4)
 #define RXNE (1 << 5)
 #define TC (1 << 6)
 #define TXE (1 << 7)
@@ -139,6 +144,7 @@ enum { GPIO_MODER = 0x00, GPIO_PUPDR = 0x0C, GPIO_IDR = 0x10, GPIO_ODR = 0x14, G
 #define OVER8 (1 << 15)
 #define TE (1 << 3)
 #define RE (1 << 2)
+#define IDLEIE (1 << 4)
 #define RXNEIE (1 << 5)
 #define TCIE (1 << 6)
 #define TXEIE (1 << 7)
@@ -229,6 +235,7 @@ void bc_timer_clear(bc_t *s, int tid) {
 int64_t bc_timer_at(bc_t *s, int tid) { return s->tat[tid]; }
 
 static void usart_shifted(bc_t *s, int64_t at);
+static void usart_idle(bc_t *s);
 
 static void pend(bc_t *s, int exc) {
     uint32_t bit = 1u << (exc & 31);
@@ -266,6 +273,8 @@ int bc_fire_due(bc_t *s, int64_t now_fs) {
             systick_wrapped(s, e.at);
         } else if (e.tid == s->rx_tid) {
             rx_deliver(s, e.at);
+        } else if (s->u2_idle_live && e.tid == s->u2_idle_tid) {
+            usart_idle(s);
         } else if (s->touched++, s->py_timer(e.tid, e.at)) {
             s->err = 1;
         }
@@ -329,12 +338,13 @@ static void line(bc_t *s, int level) {
 
 static void irq(bc_t *s) {
     int sr = s->sr, cr1 = s->cr1;
-    if (!(cr1 & (TXEIE | TCIE | RXNEIE)) && !(s->cr3 & EIE)) {
+    if (!(cr1 & (TXEIE | TCIE | RXNEIE | IDLEIE)) && !(s->cr3 & EIE)) {
         line(s, 0);
         return;
     }
     int level = (cr1 & UE) && (((cr1 & TXEIE) && (sr & TXE)) || ((cr1 & TCIE) && (sr & TC))
                                || ((cr1 & RXNEIE) && (sr & (RXNE | ORE)))
+                               || ((cr1 & IDLEIE) && (sr & IDLE))
                                || ((s->cr3 & EIE) && (sr & ORE)));
     line(s, level);
 }
@@ -408,16 +418,35 @@ void bc_usart_received(bc_t *s, int byte) {
         s->sr |= RXNE;
         if ((s->cr3 & DMAR) && s->u2_dma_rx && py(s, PY_DMA_RX, byte, 0) > 0) s->sr &= ~RXNE;
     }
+    s->u2_idle_at = bc_now_fs(s) + frame_fs(s);
+    if ((s->cr1 & IDLEIE) && s->u2_idle_live) bc_timer_set(s, s->u2_idle_tid, s->u2_idle_at);
     irq(s);
+}
+
+/* the line idle a frame since the last byte received: IDLE */
+static void usart_idle(bc_t *s) {
+    s->u2_idle_at = 0;
+    if (s->u2_idle_live) bc_timer_clear(s, s->u2_idle_tid);
+    s->sr |= IDLE;
+    irq(s);
+}
+
+/* IDLE as of now (read without IDLEIE, nothing was scheduled for it) */
+static void idle_now(bc_t *s) {
+    if (s->u2_idle_at && bc_now_fs(s) >= s->u2_idle_at) usart_idle(s);
 }
 
 uint32_t bc_usart_read(bc_t *s, int off) {
     switch (off) {
     case DR:
-        s->sr &= ~(RXNE | ORE);
+        s->sr &= ~(RXNE | ORE | (s->u2_idle_seen ? IDLE : 0));
+        s->u2_idle_seen = 0;
         irq(s);
         return (uint32_t)s->rdr;
-    case SR: return (uint32_t)s->sr;
+    case SR:
+        idle_now(s);
+        s->u2_idle_seen = (s->sr & IDLE) != 0;
+        return (uint32_t)s->sr;
     case BRR: return (uint32_t)s->brr;
     case CR1: return (uint32_t)s->cr1;
     case CR2: return (uint32_t)s->cr2;
@@ -446,6 +475,14 @@ void bc_usart_write(bc_t *s, int off, uint32_t value) {
             s->sr = TXE | TC;
             s->tdr = -1;
             bc_timer_clear(s, s->u2_tid);
+            s->u2_idle_at = s->u2_idle_seen = 0;
+        }
+        if (off == CR1 && s->u2_idle_live) {
+            bc_timer_clear(s, s->u2_idle_tid);
+            if ((value & IDLEIE) && s->u2_idle_at) {
+                idle_now(s);
+                if (s->u2_idle_at) bc_timer_set(s, s->u2_idle_tid, s->u2_idle_at);
+            }
         }
         if (off == CR3) bc_usart_dma_request(s);
     }
@@ -460,6 +497,8 @@ void bc_usart_reset(bc_t *s) {
     s->frame_fs = s->u2_pclk = 0;
     s->u2_line = s->u2_dma_tx = s->u2_dma_rx = 0;
     bc_timer_clear(s, s->u2_tid);
+    s->u2_idle_at = s->u2_idle_seen = 0;
+    if (s->u2_idle_live) bc_timer_clear(s, s->u2_idle_tid);
 }
 
 /* --- the poll skipper's known waits (poll.py) ---------------------------------------- */

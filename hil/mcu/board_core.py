@@ -83,7 +83,9 @@ class Shared(ctypes.Structure):
                 ("gpio_odr", ctypes.c_uint32 * 3), ("gpio_live", _I32), ("switches", _I32),
                 ("last_request_us", _I64), ("turns_n", _I32), ("_pad3", _I32),
                 ("turn_us", _I64 * TURNS), ("turn_level", _I32 * TURNS),
-                ("nots", (ctypes.c_uint32 * 3) * WAITS), ("nnots", _I32)]
+                ("nots", (ctypes.c_uint32 * 3) * WAITS), ("nnots", _I32),
+                ("u2_idle_live", _I32), ("u2_idle_tid", _I32), ("u2_idle_seen", _I32),
+                ("_pad4", _I32), ("u2_idle_at", _I64)]
 
 
 
@@ -245,6 +247,9 @@ class NativeUsart:
         st = events.shared
         if st.u2_tid < 0:
             st.u2_tid = _LIB.bc_timer_new(events.ref)
+        if not st.u2_idle_live:
+            st.u2_idle_tid = _LIB.bc_timer_new(events.ref)
+            st.u2_idle_live = 1
         self.shift_end = NativeTimer(events, lambda at: None, st.u2_tid)
         _LIB.bc_usart_reset(events.ref)
         self.dma_tx: Callable[[], int | None] | None = None
