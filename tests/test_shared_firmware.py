@@ -7,6 +7,9 @@ serial digest twice. The runs are as short as the line allows: it comes at about
 from __future__ import annotations
 
 import json
+import re
+import subprocess
+import sys
 from pathlib import Path
 
 from host_tools.run_summary import run
@@ -77,3 +80,18 @@ def test_the_freertos_elf_prints_its_line_pings_18_moves_servo_1_and_repeats(tmp
     assert got["polls"] > 0, got
     again, _ = run(FLAT, duration_s=DURATION_S, firmware=elf)
     assert first["serial_digest"] == again["serial_digest"] != ""
+
+
+def test_the_cubemx_pages_expectation_file_passes_with_the_cube_elf(tmp_path):
+    """docs/stm32-cubemx.md's `hexhil test` example, as a user copies it."""
+    page = (ROOT / "docs" / "stm32-cubemx.md").read_text()
+    case = re.search(r"```toml\n# tests/walk.toml\n(.*?)```", page, re.S)[1]
+    tests = tmp_path / "tests"
+    tests.mkdir()
+    (tests / "walk.toml").write_text(case.replace('"../scenarios/', f'"{ROOT}/scenarios/'))
+    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "test",
+                           str(tests / "walk.toml"), "--firmware",
+                           shared_elf("cube/cube.elf")], cwd=ROOT, capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "2 of 2 expectations passed" in proc.stdout, proc.stdout
