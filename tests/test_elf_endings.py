@@ -19,6 +19,7 @@ from hil.run.lockstep import Simulator
 from hil.run_result import Ending
 from hil.scenario import load_scenario
 from host_tools import c_sdk
+from protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
 FLAT = ROOT / "scenarios" / "flat-tripod.toml"
@@ -85,6 +86,17 @@ def test_error_handler_spinning_with_interrupts_masked_is_hung_after_the_limit(e
     assert "in Error_Handler" in ending.reason, ending.reason
     assert 0.07 <= ending.t_s <= 0.09, ending          # 20 ms of start, then the limit
     assert run(elf, 0.3, masked_limit_s=0.5).ending.completed   # within its limit: runs on
+
+
+def test_a_handler_spinning_below_systick_is_hung_and_the_limit_is_checked(ending_elf):
+    result = run(ending_elf("HANDLER_LOOP"), 0.3, masked_limit_s=0.05)
+    ending = result.ending              # SysTick still preempts it: no lockup, a hang
+    assert ending.kind is Ending.HUNG and result.exit_code == 1, ending
+    assert "hung: Default_Handler (interrupt 29) ran a loop that branches to itself for " \
+        "0.05 s" in ending.reason, ending.reason
+    assert 0.07 <= ending.t_s <= 0.09, ending
+    with pytest.raises(UserError, match="masked_limit_s 0: give a time above 0 s"):
+        served_firmware(ending_elf("NONE"), masked_limit_s=0)
 
 
 def test_a_firmware_idling_in_wfi_completes_and_its_console_shows_live(ending_elf):

@@ -34,13 +34,12 @@ from hil.mcu.rcc import HSI_HZ, Rcc, flash_interface, power
 from hil.mcu.system import Nvic, SystemBlock
 from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
-from hil.mcu.verdicts import MASKED_LIMIT_S, Endings
+from hil.mcu.verdicts import BRANCH_TO_SELF, MASKED_LIMIT_S, Endings
 
 log = logging.getLogger(__name__)
 MAX_CHUNK = 20_000           # instructions: the most an interrupt unmasked by CPSIE/MSR waits
 TICK_US = 1000               # a quiet millisecond: a sleep to now (world, switches, CAN)
 PA1 = 1
-BRANCH_TO_SELF = (0xE7FE,)    # Thumb `b .` (GCC's `for (;;) {}`)
 SYSTEM_EXCEPTIONS = {2: "the NMI handler", 3: "the HardFault handler", 4: "MemManage",
                      5: "BusFault", 6: "UsageFault", 11: "the SVC handler",
                      14: "the PendSV handler", 15: "the SysTick handler"}

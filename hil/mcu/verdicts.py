@@ -7,10 +7,12 @@ On the chip nothing exits: newlib's `_exit` (libnosys, CubeIDE's syscalls.c) is 
 built for the host would end its process: `_exit(0)` and a `main` returning 0 before the
 run's end are an early exit, any other status, `abort` and a failed assertion a crash, a
 core running with PRIMASK or FAULTMASK set (awake) for longer than ``masked_limit_s`` of
-virtual time a hang. Found from the ELF's symbols (a code hook at each function's entry,
-and at the return address `main` was called with) and the core's state, sampled at the
-board's tick (each 1 to 10 ms); a handler's endless loop is the board's lockup
-(board.py ``_lockup``).
+virtual time a hang, and so is a handler that branches to itself for as long while
+something of a higher priority still preempts it (CubeMX's `Default_Handler` for an
+interrupt without a handler, below SysTick); one that nothing can preempt is the board's
+lockup at once (board.py ``_lockup``). Found from the ELF's symbols (a code hook at each
+function's entry, and at the return address `main` was called with) and the core's state,
+sampled at the board's tick (each 1 to 10 ms).
 """
 from __future__ import annotations
 
@@ -25,6 +27,7 @@ from hil.run_result import Ending
 
 MASKED_LIMIT_S = 0.5        # virtual seconds awake with interrupts masked: a hang
 MAX_TEXT = 200              # of a string the firmware passed (a file name, an expression)
+BRANCH_TO_SELF = (0xE7FE,)  # Thumb `b .` (GCC's `for (;;) {}`)
 
 
 @dataclass(frozen=True)
@@ -48,6 +51,7 @@ class Endings:
         self.verdict: Verdict | None = None
         self._limit_fs = int(masked_limit_s * FS_PER_S)
         self._masked_since: int | None = None
+        self._spin: tuple[int, int] | None = None    # (PC, since) of a handler's `b .`
         self._assertion: str | None = None
         self._returns: set[int] = set()
         symbols = board.image.symbols
@@ -130,9 +134,11 @@ class Endings:
     # --- the board's tick -------------------------------------------------------------
     def sample(self) -> None:
         """At the board's tick: a core awake with interrupts masked since the first sample
-        that saw it so for ``masked_limit_s`` is hung (CubeMX's Error_Handler)."""
+        that saw it so for ``masked_limit_s`` is hung (CubeMX's Error_Handler), and so is
+        a handler seen at the same branch to itself at every sample for as long."""
         board = self.board
         core = board.core
+        self._handler_spin(board, core)
         masked = core.reg(A.UC_ARM_REG_PRIMASK) & 1 or core.reg(A.UC_ARM_REG_FAULTMASK) & 1
         if not masked or core.sleeping or self.verdict is not None:
             self._masked_since = None
@@ -142,7 +148,23 @@ class Endings:
             self._masked_since = now
         elif now - self._masked_since >= self._limit_fs:
             pc = core.pc
-            self.verdict = Verdict(
+            self.verdict = self.verdict or Verdict(
                 Ending.HUNG, f"hung: it ran with interrupts masked (PRIMASK) for "
                 f"{(now - self._masked_since) / FS_PER_S:g} s, at PC 0x{pc:08x} in "
                 f"{board.image.function_at(pc)} (t={board.now_us() * 1e-6:.6f} s)", 1)
+
+    def _handler_spin(self, board: Any, core: Any) -> None:
+        pc = core.pc
+        if not core.shared.nactive or core.sleeping or core.read16(pc) not in BRANCH_TO_SELF:
+            self._spin = None
+            return
+        now = core.now_fs()
+        if self._spin is None or self._spin[0] != pc:
+            self._spin = (pc, now)
+        elif now - self._spin[1] >= self._limit_fs and self.verdict is None:
+            exc = core.active[-1]
+            what = f"interrupt {exc - 16}" if exc >= 16 else f"exception {exc}"
+            self.verdict = Verdict(
+                Ending.HUNG, f"hung: {board.image.function_at(pc)} ({what}) ran a loop that "
+                f"branches to itself for {(now - self._spin[1]) / FS_PER_S:g} s, at PC "
+                f"0x{pc:08x} (t={board.now_us() * 1e-6:.6f} s)", 1)

@@ -15,6 +15,7 @@
 #define END_RETURN 4
 #define END_ERROR_HANDLER 5
 #define END_NONE 6
+#define END_HANDLER_LOOP 7   /* TIM3 pended without a handler, below SysTick: Default_Handler */
 #ifndef EXIT_STATUS
 #define EXIT_STATUS 3
 #endif
@@ -43,6 +44,11 @@ int main(void)
     return EXIT_STATUS;
 #elif END == END_ERROR_HANDLER
     Error_Handler();
+#elif END == END_HANDLER_LOOP
+    HAL_NVIC_SetPriority(SysTick_IRQn, 0, 0);
+    HAL_NVIC_SetPriority(TIM3_IRQn, 15, 0);
+    HAL_NVIC_EnableIRQ(TIM3_IRQn);
+    NVIC->ISPR[0] = 1u << TIM3_IRQn;
 #endif
     for (;;)
         __WFI();
