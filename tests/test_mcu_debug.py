@@ -98,6 +98,18 @@ def test_a_fault_is_a_signal_with_its_registers_and_gdb_stays_attached(tmp_path)
     assert code == 1 and "a read of nothing" in err, err
 
 
+def test_a_failed_assert_stops_in_gdb_as_sigabrt_in_abort(tmp_path):
+    from host_tools import c_sdk
+    elf = c_sdk.build([str(ROOT / "tests" / "elf_firmware" / "endings.c")],
+                      tmp_path / "assert.elf", ("-DEND=END_ASSERT",), "stm32f411")
+    out, code, err = gdb_session(tmp_path, elf, "continue\nbt 3\ndetach\n")
+    assert "Program received signal SIGABRT" in out, out
+    assert "failed an assertion: assert(servos_found == 18)" in out, out
+    assert "#0  " in out and "abort" in out.split("#0  ")[1].splitlines()[0], out
+    assert "__assert_func" in out, out
+    assert code == 1 and "failed an assertion" in err, err
+
+
 def test_lcov_names_source_lines_with_counts_and_zero_for_lines_never_run(tmp_path):
     elf = build(tmp_path, "ping.c", "BAUD_BRR=50", "RAISE_A1=1", opt="-O0")
     info = tmp_path / "ping.info"
