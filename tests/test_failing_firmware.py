@@ -110,6 +110,18 @@ def test_hexhil_run_of_a_crashing_firmware_is_a_verdict_exit_1(tmp_path: Path) -
         assert t.topics()
 
 
+def test_what_a_micropython_firmware_prints_shows_live_after_its_virtual_time(
+        tmp_path: Path) -> None:
+    r = hexhil("run", str(FLAT), "--firmware", str(firmware(tmp_path, "early")), "--json")
+    said = r.stderr.strip().splitlines()
+    assert r.returncode == 1 and said[0] == "[  0.050000 s] bye", r.stderr   # at its print
+    assert said[-1].startswith("hexhil: the firmware early.py exited at t=0.05"), r.stderr
+    console = json.loads(r.stdout.strip().splitlines()[-1])["console"]
+    assert console == [{"t_s": 0.05, "text": "bye"}], console
+    quiet = hexhil("run", str(FLAT), "--firmware", str(firmware(tmp_path, "early")), "--quiet")
+    assert quiet.stderr.strip().splitlines() == said[1:], quiet.stderr
+
+
 @pytest.mark.parametrize("kind,ending", [
     ("crash", Ending.CRASHED), ("hang", Ending.HUNG), ("early", Ending.EXITED_EARLY),
     ("nostart", Ending.FAILED_TO_START)])
