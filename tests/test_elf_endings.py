@@ -86,6 +86,9 @@ def test_error_handler_spinning_with_interrupts_masked_is_hung_after_the_limit(e
     assert "in Error_Handler" in ending.reason, ending.reason
     assert 0.07 <= ending.t_s <= 0.09, ending          # 20 ms of start, then the limit
     assert run(elf, 0.3, masked_limit_s=0.5).ending.completed   # within its limit: runs on
+    ending = run(ending_elf("RTOS_ASSERT"), 0.3, masked_limit_s=0.05).ending
+    assert ending.kind is Ending.HUNG and "masked (BASEPRI) for 0.05 s" in ending.reason \
+        and "in main" in ending.reason, ending
 
 
 def test_a_handler_spinning_below_systick_is_hung_and_the_limit_is_checked(ending_elf):

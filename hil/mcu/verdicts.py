@@ -51,6 +51,7 @@ class Endings:
         self.verdict: Verdict | None = None
         self._limit_fs = int(masked_limit_s * FS_PER_S)
         self._masked_since: int | None = None
+        self._masked_key: tuple[str | None, int | None] = (None, None)
         self._spin: tuple[int, int] | None = None    # (PC, since) of a handler's `b .`
         self._assertion: str | None = None
         self._returns: set[int] = set()
@@ -134,22 +135,29 @@ class Endings:
     # --- the board's tick -------------------------------------------------------------
     def sample(self) -> None:
         """At the board's tick: a core awake with interrupts masked since the first sample
-        that saw it so for ``masked_limit_s`` is hung (CubeMX's Error_Handler), and so is
-        a handler seen at the same branch to itself at every sample for as long."""
+        that saw it so for ``masked_limit_s`` is hung: by PRIMASK or FAULTMASK anywhere
+        (CubeMX's Error_Handler), by BASEPRI at one branch to itself (FreeRTOS's
+        ``configASSERT``: ``taskDISABLE_INTERRUPTS(); for (;;);``, where a critical
+        section's BASEPRI is short); so is a handler seen at the same branch to itself at
+        every sample for as long."""
         board = self.board
         core = board.core
         self._handler_spin(board, core)
-        masked = core.reg(A.UC_ARM_REG_PRIMASK) & 1 or core.reg(A.UC_ARM_REG_FAULTMASK) & 1
-        if not masked or core.sleeping or self.verdict is not None:
+        pc = core.pc
+        mask = ("PRIMASK" if core.reg(A.UC_ARM_REG_PRIMASK) & 1 else
+                "FAULTMASK" if core.reg(A.UC_ARM_REG_FAULTMASK) & 1 else
+                "BASEPRI" if core.reg(A.UC_ARM_REG_BASEPRI) and
+                core.read16(pc) in BRANCH_TO_SELF else None)
+        key = (mask, pc if mask == "BASEPRI" else None)
+        if mask is None or core.sleeping or self.verdict is not None:
             self._masked_since = None
             return
         now = core.now_fs()
-        if self._masked_since is None:
-            self._masked_since = now
+        if self._masked_since is None or self._masked_key != key:
+            self._masked_since, self._masked_key = now, key
         elif now - self._masked_since >= self._limit_fs:
-            pc = core.pc
-            self.verdict = self.verdict or Verdict(
-                Ending.HUNG, f"hung: it ran with interrupts masked (PRIMASK) for "
+            self.verdict = Verdict(
+                Ending.HUNG, f"hung: it ran with interrupts masked ({mask}) for "
                 f"{(now - self._masked_since) / FS_PER_S:g} s, at PC 0x{pc:08x} in "
                 f"{board.image.function_at(pc)} (t={board.now_us() * 1e-6:.6f} s)", 1)
 

@@ -2,7 +2,9 @@
  * (newlib-nano, --specs=nano.specs --specs=nosys.specs): after a console line and 20 ms it
  * calls exit(EXIT_STATUS) (newlib's exit reaches libnosys's `_exit`, a loop on the chip),
  * or abort(), or fails an assert, or returns from main, or spins as CubeMX's Error_Handler
- * does (interrupts masked, an endless loop). The ending is chosen with -DEND=... */
+ * does (interrupts masked, an endless loop), or as FreeRTOS's configASSERT does (BASEPRI),
+ * or leaves an interrupt to the startup's Default_Handler below SysTick's priority. The
+ * ending is chosen with -DEND=... */
 #include "stm32f4xx_hal.h"
 
 #include <assert.h>
@@ -16,6 +18,7 @@
 #define END_ERROR_HANDLER 5
 #define END_NONE 6
 #define END_HANDLER_LOOP 7   /* TIM3 pended without a handler, below SysTick: Default_Handler */
+#define END_RTOS_ASSERT 8    /* FreeRTOS's configASSERT: BASEPRI raised, an endless loop */
 #ifndef EXIT_STATUS
 #define EXIT_STATUS 3
 #endif
@@ -44,6 +47,10 @@ int main(void)
     return EXIT_STATUS;
 #elif END == END_ERROR_HANDLER
     Error_Handler();
+#elif END == END_RTOS_ASSERT
+    __asm volatile("msr basepri, %0" : : "r"(5u << 4) : "memory");
+    for (;;) {
+    }
 #elif END == END_HANDLER_LOOP
     HAL_NVIC_SetPriority(SysTick_IRQn, 0, 0);
     HAL_NVIC_SetPriority(TIM3_IRQn, 15, 0);
