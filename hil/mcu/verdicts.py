@@ -19,7 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from unicorn import UC_HOOK_CODE
+from unicorn import UC_HOOK_CODE, UcError
 from unicorn import arm_const as A
 
 from hil.mcu.timebase import FS_PER_S
@@ -77,15 +77,15 @@ class Endings:
                 if b == 0:
                     break
                 out.append(b)
-        except Exception:      # a bad pointer: what was read
+        except UcError:        # a bad pointer: what was read
             pass
         return out.decode(errors="replace")
 
-    def _caller(self) -> str:
-        return self.board.image.function_at(self._arg_lr())
-
-    def _arg_lr(self) -> int:
+    def _lr(self) -> int:
         return self.board.core.reg(A.UC_ARM_REG_LR)
+
+    def _caller(self) -> str:
+        return self.board.image.function_at(self._lr())
 
     # --- the hooks (inside a chunk: the verdict ends it at this instruction) --------
     def _end(self, kind: Ending, reason: str, code: int) -> None:
@@ -120,7 +120,7 @@ class Endings:
                            f"{self._string(file)}:{_signed(line)}")
 
     def _main(self) -> None:
-        back = self._arg_lr() & ~1
+        back = self._lr() & ~1
         if back and back not in self._returns:
             self._returns.add(back)
             self._hook(back, self._main_returned)
