@@ -67,6 +67,7 @@ class CaseRun:
     scenario: Scenario | None = None      # the case's scenario changed (margin)
     changed: tuple[tuple[str, float], ...] = ()  # ... and what was changed in it (overrides)
     coverage: str | None = None           # an ELF's LCOV to this file (hexhil test --coverage)
+    coverage_libraries: bool = False      # ... counting the toolchain's libraries too
 
 
 @dataclass(frozen=True)
@@ -99,8 +100,8 @@ class _Sender:
 def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
                  tactile: bool | None, trace: Path, timing: BusTiming = BusTiming(),
                  sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None,
-                 changed: dict[str, Any] | None = None, coverage: str | None = None
-                 ) -> dict[str, Any]:
+                 changed: dict[str, Any] | None = None, coverage: str | None = None,
+                 coverage_libraries: bool = False) -> dict[str, Any]:
     """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
     file or an executable: ``hexhil run --firmware``) through the one run path
     (host_tools/lockstep_run.py ``Run``), recorded to ``trace`` with the master's protocol check
@@ -109,7 +110,8 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
     ``faults.bit_error_rate``) are recorded as the run's overrides."""
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
-              overrides={**timing.overrides(), **(changed or {})}, coverage=coverage)
+              overrides={**timing.overrides(), **(changed or {})}, coverage=coverage,
+              coverage_libraries=coverage_libraries)
     try:
         check = MasterCheck(run.recorder.violation)
         sim = run.sim
@@ -136,7 +138,7 @@ def run_case(job: CaseRun) -> CaseResult:
         summary = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
                                job.python or case.python, tactile, trace, job.timing,
                                case.sends, job.firmware or case.firmware,
-                               dict(job.changed), job.coverage)
+                               dict(job.changed), job.coverage, job.coverage_libraries)
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
