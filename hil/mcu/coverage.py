@@ -17,6 +17,7 @@ import bisect
 import ctypes
 from collections import Counter
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from elftools.elf.elffile import ELFFile
@@ -47,13 +48,15 @@ def line_table(path: Path, libraries: bool = False,
             raise UserError(f"coverage: {path} has no DWARF line table (build it with -g)",
                             params=("coverage",))
         dwarf = elf.get_dwarf_info()
+        own_dir = None if libraries or main is None else _own_dir(dwarf, main)
         for cu in dwarf.iter_CUs():
+            top = cu.get_top_DIE()
+            comp_dir = _comp_dir(top)
+            if own_dir is not None and str(comp_dir) != own_dir:
+                continue             # another build's (a library's): its lines are not read
             prog = dwarf.line_program_for_CU(cu)
             if prog is None:
                 continue
-            top = cu.get_top_DIE()
-            comp = top.attributes.get("DW_AT_comp_dir")
-            comp_dir = Path(comp.value.decode(errors="replace")) if comp else Path(".")
             primary = top.attributes.get("DW_AT_name")
             rows: list[tuple[int, str, int]] = []
             units.append((str(comp_dir), str(comp_dir / primary.value.decode(
@@ -88,6 +91,21 @@ def line_table(path: Path, libraries: bool = False,
             out += [r for r in rows if r[1] == primary or _inside(r[1], comp_dir)]
     out.sort()
     return out
+
+
+def _comp_dir(top: Any) -> Path:
+    comp = top.attributes.get("DW_AT_comp_dir")
+    return Path(comp.value.decode(errors="replace")) if comp else Path(".")
+
+
+def _own_dir(dwarf: Any, main: int) -> str | None:
+    """The compilation directory of the unit holding ``main`` (from .debug_aranges; None
+    without them: then every unit's lines are read and the unit found by its rows)."""
+    aranges = dwarf.get_aranges()
+    offset = aranges.cu_offset_at_addr(main) if aranges is not None else None
+    if offset is None:
+        return None
+    return str(_comp_dir(dwarf.get_CU_at(offset).get_top_DIE()))
 
 
 def _inside(name: str, comp_dir: str) -> bool:
