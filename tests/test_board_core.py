@@ -5,6 +5,8 @@ and without PA1), interrupt- and DMA-driven USART2, half-duplex echo, SysTick an
 (their exception returns done in C, on MSP and PSP, with and without the FPU's frame),
 EXTI switch interrupts, pended exceptions, a reply cut by PA1 (``rx_while_transmitting``)
 and a system reset."""
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -78,3 +80,26 @@ def test_the_board_tests_firmwares_run_the_same_both_ways(source, defines, tmp_p
         assert compiled[6] == {"rx_while_transmitting": 1}
     if "TURN_AT_TXE=1" in defines:  # a turn with a byte on the wire: C hands it to Python
         assert compiled[6]["tx_while_receiving"] == 18
+
+
+def test_a_library_whose_layout_differs_from_shared_is_refused_in_one_line(tmp_path,
+                                                                           monkeypatch):
+    """Shared restates bc_t: the library says how its compiler laid bc_t out, and a build of
+    another board_core.c (here one more field in the middle) is refused, never read wrong."""
+    assert board_core.layout_mismatch(board_core.library()) is None
+    source = board_core.LIBRARY.with_name("board_core.c").read_text()
+    marker = "    int64_t skipped;"
+    assert marker in source
+    changed = tmp_path / "board_core.c"
+    changed.write_text(source.replace(marker, "    int64_t extra;\n" + marker, 1))
+    lib_path = tmp_path / "_board_core.so"
+    subprocess.run([sys.executable, "-m", "ziglang", "cc", "-O1", "-shared", "-fPIC", "-o",
+                    str(lib_path), str(changed)], check=True)
+    import ctypes
+    lib = ctypes.PyDLL(str(lib_path))
+    lib.bc_layout.restype = ctypes.c_int32
+    why = board_core.layout_mismatch(lib)
+    assert why is not None and "bytes" in why, why
+    monkeypatch.setattr(board_core, "_MISMATCH", why)
+    with pytest.raises(board_core.UserError, match=r"does not match .* HEXHIL_BOARD_CORE=python"):
+        board_core.native()

@@ -106,6 +106,86 @@ def test_bit_band_aliases_reach_sram_bits_and_peripheral_registers(tmp_path):
     assert r.ending.kind is Ending.COMPLETED and not r.faults
 
 
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_a_wait_on_ram_is_skipped_to_the_interrupt_and_a_counting_loop_is_not(
+        tmp_path, monkeypatch, compiled):
+    """HAL_Delay's kind of wait (a loop reading a tick only SysTick's handler changes) and
+    `while (!flag) {}` cost no host time: virtual time jumps to each SysTick, and the wait
+    lasts what it lasts on the chip. A loop that counts its passes in RAM runs pass by pass."""
+    if not compiled:
+        monkeypatch.setenv("HEXHIL_BOARD_CORE", "python")
+    quiet, _ = run_elf(build(tmp_path, "ram_wait.c", "WAIT=1"), 0.35)
+    ticks, cycles, passes = map(int, console(quiet)[-1].split())
+    assert ticks == 300 and passes == 0
+    assert 199 * 100_000 <= cycles <= 201 * 100_000          # 200 ms at 100 MHz
+    assert quiet.firmware.other["mcu"]["skipped_cycles"] > 0.9 * 300 * 100_000
+    counting, _ = run_elf(build(tmp_path, "ram_wait.c", "WAIT=2"), 0.35)
+    ticks, cycles, passes = map(int, console(counting)[-1].split())
+    assert ticks == 300 and 199 * 100_000 <= cycles <= 201 * 100_000
+    assert passes > 1_000_000            # every pass ran
+    skipped = counting.firmware.other["mcu"]["skipped_cycles"]
+    assert skipped < 0.4 * 300 * 100_000  # only the flag wait after it was skipped
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_conditional_stores_in_it_blocks_survive_a_watched_interrupt_read(
+        tmp_path, monkeypatch, compiled):
+    """MicroPython's gc.collect() crash: its SysTick handler reads SysTick->CTRL, the poll
+    skipper watches the pass after such a read, and the watch must not change how the code
+    around it runs. gc_mark_subtree's `itte ls; strhls; addls; strhi` push went astray
+    while a Unicorn store hook watched SRAM; here every push of every round lands."""
+    if not compiled:
+        monkeypatch.setenv("HEXHIL_BOARD_CORE", "python")
+    r, _ = run_elf(build(tmp_path, "it_store.c"), 0.06)
+    assert r.ending.kind is Ending.COMPLETED, r.ending
+    rounds, bad = map(int, console(r)[-1].split())
+    assert rounds > 1000 and bad == 0
+
+
+EXCEPTION_RULES = {   # tests/mcu/exceptions.c: what the ARMv7-M ARM (B1.5) gives on the chip
+    "control_before_fp": 0,                 # no FP instruction yet: CONTROL.FPCA 0
+    "lr_thread_basic": 0xFFFFFFF9,          # EXC_RETURN: thread, MSP, basic frame
+    "control_after_basic_return": 0,        # FPCA back as EXC_RETURN bit 4 says
+    "lr_thread_extended": 0xFFFFFFE9,       # an FP context active: the extended frame
+    "float_kept": 3000,                     # S0-S15 restored though the handler used floats
+    "fpscr_kept": 0x00C00001,               # FPSCR too (RMode, IOC)
+    "fpccr": 0xC0000000,                    # ASPEN and LSPEN, as at reset
+    "lr_nested": 0xFFFFFFF1,                # handler to handler, the handler had no FP context
+    "icsr_nested": 22,                      # VECTACTIVE: EXTI0
+    "rettobase_nested": 0,                  # another exception is active
+    "rettobase_outer": 1,
+    "masked_counts": 0,                     # PRIMASK holds both back
+    "taken_at_cpsie": 2,                    # both taken right after CPSIE; ISB
+    "order_tim2": 2,                        # EXTI0 (0x40) before TIM2 (0x80), tail-chained
+    "vectpending_in_first": 44,             # VECTPENDING: TIM2 while EXTI0 runs
+    "basepri_counts": 1,                    # BASEPRI 0x60: CAN (0x20) in, TIM2 (0x80) waits
+    "basepri_released": 1,                  # BASEPRI 0: TIM2 right after the MSR
+    "same_group_lr": 0xFFFFFFE9,            # PRIGROUP 5: 0x40 does not preempt 0x60
+    "sp_before_mod8": 4,
+    "frame_mod8": 0,                        # the frame aligned to 8 bytes ...
+    "frame_xpsr_bit9": 1,                   # ... and the stacked xPSR says so
+    "sp_back": 1,                           # the return gives SP back exactly
+    "lr_naked": 0xFFFFFFE9,
+}
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_exceptions_follow_the_armv7m_rules(tmp_path, monkeypatch, compiled):
+    """Frames with and without the FP context (CONTROL.FPCA, EXC_RETURN), FPSCR and S0-S15
+    across a handler, nesting and tail-chaining by priority, PRIMASK and BASEPRI (taken
+    right after the unmasking), priority grouping, ICSR's VECTACTIVE, VECTPENDING and
+    RETTOBASE, and the stack alignment bit, each as the chip gives it."""
+    import hil.mcu.board as board_module
+    if not compiled:
+        monkeypatch.setenv("HEXHIL_BOARD_CORE", "python")
+    monkeypatch.setattr(board_module, "CONSOLE_TAIL", 64)
+    r, _ = run_elf(build(tmp_path, "exceptions.c"), 0.05)
+    lines = console(r)
+    assert lines[-1] == "done", lines
+    seen = {name: int(value, 16) for name, value in (line.split() for line in lines[:-1])}
+    assert seen == EXCEPTION_RULES
+
+
 @pytest.mark.parametrize("mode", ["it", "dma"])
 def test_receive_to_idle_gets_every_ping_as_one_burst_in_c_and_in_python(tmp_path, mode):
     """USART2 is the compiled core's (board_core.c) and, with HEXHIL_BOARD_CORE=python,

@@ -28,10 +28,11 @@ from hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
 from hil.mcu.mmio import PeripheralSpace
 from hil.mcu.link_client import LinkClient, Reply
 from hil.mcu.poll import PollSkipper
+from hil.mcu.quiet import QuietLoops
 from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import extra_peripherals
 from hil.mcu.rcc import HSI_HZ, Rcc, flash_interface, power
-from hil.mcu.system import Nvic, SystemBlock
+from hil.mcu.system import MASKED_STEPS, Nvic, SystemBlock
 from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
 from hil.mcu.verdicts import BRANCH_TO_SELF, MASKED_LIMIT_S, Endings
@@ -91,6 +92,7 @@ class Board:
         else:
             core.uc.hook_add(UC_HOOK_INTR, lambda uc, intno, _: self.intr(intno))
         self.poll = PollSkipper(self)
+        self.quiet = QuietLoops(self)
         self.endings = Endings(self, masked_limit_s)    # _exit, abort, assert, main's return
 
     @property
@@ -236,6 +238,7 @@ class Board:
                 if isinstance(value, (Timer, NativeTimer)):
                     value.clear()
         self.poll.forget()
+        self.quiet.forget()
         self._peripherals()
         self.core.vtor = 0
         self.core.fpu_on = False
@@ -342,11 +345,21 @@ class Board:
                 n = handed_over(self, loop(MAX_CHUNK, n))
                 continue
             n = head(MAX_CHUNK)
+            if core.shared.quiet_n > 0:
+                n = min(n, core.shared.quiet_n)
             if self.ended or self.endings.verdict is not None:
                 break
             if self.fault is not None:
                 raise CoreFault(self.fault_line(self.fault))
-            self.trip(n, take_next())
+            taken = take_next()
+            st = core.shared
+            if st.pending_n and self.nvic.masked_ready():   # taken right after its unmasking
+                if st.masked_steps < MASKED_STEPS:
+                    n = 1
+                    st.masked_steps += 1
+            else:
+                st.masked_steps = 0
+            self.trip(n, taken)
         for usart in (self.usart1, self.usart6) if self.endings.verdict else ():
             if usart.tdr is not None:       # the byte waiting in DR goes out, as on the chip
                 self.sent(usart, usart.tdr, 0, 0)
@@ -366,10 +379,15 @@ class Board:
         if self.debugger is not None:
             n = self.debugger.chunk_limit(n)
         try:
-            core.run(n)
+            ran = core.run(n)
         except CoreFault as exc:
             raise CoreFault(self.fault_line(str(exc))) from None
         self.after_chunk()
+        st = core.shared
+        if st.mmio_n != st.chunk_mmio or core.sleeping or core.stopped or core.cut:
+            self.quiet.loud_chunk()
+        elif ran == n and self.debugger is None and not self._reset_pending:
+            self.quiet.quiet_chunk(ran)
 
     def after_chunk(self) -> None:
         """A chunk ran: its fault, a system reset, a lockup, the poll skipper's next step."""

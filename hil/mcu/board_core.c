@@ -11,6 +11,7 @@
  * clock change. It also runs the board's loop (``bc_loop``) while no Python takes part.
  * Each function is the Python model's (hil/mcu/usart.py, events.py, poll.py, board.py,
  * core.py) in the same order with the same integers, so traces are the same bytes. */
+#include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -123,14 +124,74 @@ typedef struct {
     int32_t turns_n, _pad3;      /* PA1's turns made here, for the link (link_client.py) */
     int64_t turn_us[TURNS];
     int32_t turn_level[TURNS];
-    set3_t nots;                 /* repeated reads that are no wait: (pc, register, cycles) */
+    set3_t nots;                 /* repeated reads that are no wait: (pc, register, 0) */
+    /* quiet loops (poll.py ``QuietLoops``): a chunk without a register access */
+    int64_t mmio_n;              /* register accesses so far */
+    int64_t chunk_mmio;          /* mmio_n when the chunk began */
+    int64_t quiet_n;             /* > 0: chunks no longer than this (a pass being checked) */
+    int64_t quiet_wait;          /* quiet chunks to let by before Python looks again */
+    int64_t quiet_loud;          /* chunks with register accesses since the last quiet one */
+    int64_t masked_steps;        /* one-instruction chunks while a masked exception waits */
     /* USART2's IDLE (usart.py): when the line will have been idle a frame (0: no byte
        since), SR read with IDLE set (a DR read clears it), its timer (with IDLEIE) */
     int32_t u2_idle_live, u2_idle_tid, u2_idle_seen, _pad4;
     int64_t u2_idle_at;
 } bc_t;
 
+/* bc_t's layout as this compiler laid it out: board_core.py checks its ``Shared`` against
+ * it field by field when it loads this library, and refuses a build that differs. */
+typedef struct { const char *name; int64_t offset, size; } field_t;
+#define F(py, c) {#py, (int64_t)offsetof(bc_t, c), (int64_t)sizeof(((bc_t *)0)->c)},
+static const field_t layout[] = {
+F(ctr, ctr) F(pc, pc) F(chunk0, chunk0) F(cyc, cyc) F(fs0, fs0) F(cyc0, cyc0)
+    F(fs_per_cyc, fs_per_cyc) F(hz, hz) F(running, running) F(_pad, _pad)
+    F(skipped, skipped) F(poll_valid, poll_valid) F(poll_addr, poll_addr)
+    F(poll_value, poll_value) F(reread, reread) F(watching, watching)
+    F(pending_n, pending_n) F(poll_at, poll_at) F(u2_live, u2_live) F(u2_line, u2_line)
+    F(u2_dma_tx, u2_dma_tx) F(u2_dma_rx, u2_dma_rx) F(sr, sr) F(brr, brr) F(cr1, cr1)
+    F(cr2, cr2) F(cr3, cr3) F(gtpr, gtpr) F(tdr, tdr) F(rdr, rdr) F(echo, echo)
+    F(frame_fs, frame_fs) F(direction, direction) F(burst_dir, burst_dir)
+    F(burst_n, burst_n) F(burst_cap, burst_cap) F(burst_fs, burst_fs) F(burst, burst)
+    F(next_at, next_at) F(seq, seq) F(n, n) F(cap, cap) F(ntimers, ntimers)
+    F(u2_tid, u2_tid) F(err, err) F(heap, heap) F(gen, gen) F(tat, tat) F(py_call, py_call)
+    F(py_timer, py_timer) F(py_read, py_read) F(py_write, py_write) F(waits, waits.slot)
+    F(nwaits, waits.n) F(active, active) F(nactive, nactive) F(sleeping, sleeping)
+    F(sleep_on_exit, sleep_on_exit) F(_pad2, _pad2) F(uc, uc) F(sram, sram) F(flash, flash)
+    F(reg_read_batch, reg_read_batch) F(reg_write_batch, reg_write_batch) F(regid, regid)
+    F(fast_returns, fast_returns) F(pend, pend) F(st_tid, st_tid) F(st_csr, st_csr)
+    F(st_rvr, st_rvr) F(st_countflag, st_countflag) F(ena, ena) F(ena_n, ena_n)
+    F(prigroup, prigroup) F(prio, prio) F(rx_tid, rx_tid) F(rx_n, rx_n) F(rx_head, rx_head)
+    F(rx_cap, rx_cap) F(rx_at, rx_at) F(rx_byte, rx_byte) F(pc_next, pc_next) F(vtor, vtor)
+    F(executed, executed) F(touched, touched) F(loop_n, loop_n) F(fpu_on, fpu_on)
+    F(stopped, stopped) F(cut, cut) F(hook_failed, hook_failed) F(uc_err, uc_err)
+    F(loop_exc, loop_exc) F(emu_start, emu_start) F(mem_read, mem_read) F(lines, lines)
+    F(lines_n, lines_n) F(u2_pclk, u2_pclk) F(emu_stop, emu_stop) F(gpio_moder, gpio_moder)
+    F(gpio_pupdr, gpio_pupdr) F(gpio_odr, gpio_odr) F(gpio_live, gpio_live)
+    F(switches, switches) F(last_request_us, last_request_us) F(turns_n, turns_n)
+    F(_pad3, _pad3) F(turn_us, turn_us) F(turn_level, turn_level) F(nots, nots.slot)
+    F(nnots, nots.n) F(mmio_n, mmio_n) F(chunk_mmio, chunk_mmio) F(quiet_n, quiet_n)
+    F(quiet_wait, quiet_wait) F(quiet_loud, quiet_loud)
+    F(masked_steps, masked_steps) F(u2_idle_live, u2_idle_live) F(u2_idle_tid, u2_idle_tid)
+    F(u2_idle_seen, u2_idle_seen) F(_pad4, _pad4) F(u2_idle_at, u2_idle_at)
+};
+#undef F
+
+/* field ``i`` of bc_t (its Python name, offset and size), 0 past the last; the struct's size
+   for i = -1 */
+int bc_layout(int i, const char **name, int64_t *offset, int64_t *size) {
+    if (i < 0) {
+        *size = (int64_t)sizeof(bc_t);
+        return 1;
+    }
+    if (i >= (int)(sizeof layout / sizeof layout[0])) return 0;
+    *name = layout[i].name;
+    *offset = layout[i].offset;
+    *size = layout[i].size;
+    return 1;
+}
+
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
+#define CONTROL_FPCA (1u << 2)  /* an FP context is active (core.py) */
 enum { GPIO_MODER = 0x00, GPIO_PUPDR = 0x0C, GPIO_IDR = 0x10, GPIO_ODR = 0x14, GPIO_BSRR = 0x18 };
 #define PA1 1
 #define SWITCH_MASK 0x3F        /* PB0-PB5 */
@@ -554,7 +615,7 @@ int bc_add_wait(bc_t *s, uint32_t pc, uint32_t addr, uint32_t value) {
     return set_add(&s->waits, pc, addr, value);
 }
 
-/* poll.py ``_loops_ok`` False: a read repeated ``cycles`` apart at ``pc`` waits on nothing */
+/* poll.py ``_loops_ok`` False: a read at ``pc`` waits on nothing (``cycles`` is 0) */
 int bc_add_not_loop(bc_t *s, uint32_t pc, uint32_t addr, uint32_t cycles) {
     return set_add(&s->nots, pc, addr, cycles);
 }
@@ -593,12 +654,14 @@ static int polled(bc_t *s, uint32_t addr, uint32_t value) {
     }
     int64_t now = now_cyc(s), cycles = now - s->poll_at;
     if (!s->watching && s->nots.n >= 0 && cycles >= 0 && cycles < 0x80000000LL &&
-        set_has(&s->nots, *s->pc, addr, (uint32_t)cycles)) {
+        set_has(&s->nots, *s->pc, addr, 0)) {
         s->poll_at = now;         /* the same read again, known to wait on nothing */
         return 0;
     }
     return py(s, PY_POLLED, addr, value) > 0;
 }
+
+static int masked_ready(bc_t *s);
 
 /* --- Unicorn's MMIO callbacks for the peripheral region -------------------------------- */
 static void due(bc_t *s) {
@@ -671,13 +734,14 @@ static int write_porta(bc_t *s, int off, uint32_t value) {
         s->direction = level;
     }
     s->gpio_odr[0] = odr;
-    if (s->pending_n && bc_next_exception(s) >= 0) cut_after(s);
+    if (s->pending_n && (bc_next_exception(s) >= 0 || masked_ready(s))) cut_after(s);
     failed(s);
     return 1;
 }
 
 uint64_t bc_mmio_read(void *uc, uint64_t offset, unsigned size, void *ud) {
     bc_t *s = ud;
+    s->mmio_n++;
     if ((offset >> 10) == GPIOA_PAGE + 1 && (offset & 0x3FC) == GPIO_IDR && s->gpio_live & 2)
         return read_switches(s, offset, size);
     if ((offset >> 10) != USART2_PAGE || !s->u2_live) {
@@ -698,6 +762,7 @@ uint64_t bc_mmio_read(void *uc, uint64_t offset, unsigned size, void *ud) {
 
 void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, void *ud) {
     bc_t *s = ud;
+    s->mmio_n++;
     if ((offset >> 10) == GPIOA_PAGE && size == 4 && s->gpio_live & 1 &&
         ((offset & 0x3FF) == GPIO_ODR || (offset & 0x3FF) == GPIO_BSRR) &&
         write_porta(s, (int)(offset & 0x3FF), (uint32_t)value))
@@ -719,7 +784,7 @@ void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, voi
             value = value << shift;
     }
     bc_usart_write(s, off, (uint32_t)(value & 0xFFFFFFFF));
-    if (s->pending_n && bc_next_exception(s) >= 0) cut_after(s);
+    if (s->pending_n && (bc_next_exception(s) >= 0 || masked_ready(s))) cut_after(s);
     failed(s);
 }
 
@@ -745,6 +810,7 @@ static int leave(bc_t *s) {
     int psp = (exc_return & 0xF) == 0xD;
     uint32_t sp = psp ? psp_value : msp;
     int fpu = !(exc_return & 0x10);
+    control = (control & ~CONTROL_FPCA) | (fpu ? CONTROL_FPCA : 0);   /* as EXC_RETURN says */
     uint32_t n = fpu ? 26 : 8;
     if (sp < SRAM_BASE || sp > SRAM_BASE + SRAM_SIZE - 4 * n) return 0;
     uint32_t v[26];
@@ -800,6 +866,7 @@ int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
     if (s->reg_read_batch(s->uc, ids, ptrs, k)) return -1;
     uint32_t xpsr = (uint32_t)r[6], control = (uint32_t)r[7];
     int psp = !s->nactive && (control & 2);
+    fpu = fpu && (control & CONTROL_FPCA);   /* an FP context is active: the extended frame */
     int64_t sp = psp ? (uint32_t)r[9] : (uint32_t)r[8];
     uint32_t v[26];
     int n = 0;
@@ -823,11 +890,13 @@ int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
     uint32_t exc_return = s->nactive ? 0xFFFFFFF1u : (psp ? 0xFFFFFFFDu : 0xFFFFFFF9u);
     if (fpu) exc_return &= ~0x10u;
     k = 0;
+    control &= ~CONTROL_FPCA;               /* the handler starts with no FP context */
     if (psp) {
         ids[k] = id[REG_PSP]; r[k++] = (uint64_t)sp;
         ids[k] = id[REG_CONTROL]; r[k++] = control & ~2u;
     } else {
         ids[k] = id[REG_MSP]; r[k++] = (uint64_t)sp;
+        ids[k] = id[REG_CONTROL]; r[k++] = control;
     }
     ids[k] = id[REG_IPSR]; r[k++] = (uint32_t)exc;
     ids[k] = id[REG_LR]; r[k++] = exc_return;
@@ -875,6 +944,23 @@ static int pending_from(bc_t *s, int from) {
         }
     }
     return -1;
+}
+
+/* system.py Nvic ``masked_ready``: a pending exception would preempt the active ones but
+   for PRIMASK, BASEPRI or FAULTMASK */
+static int masked_ready(bc_t *s) {
+    int best = -1, best_p = 0;
+    for (int e = pending_from(s, 0); e >= 0; e = pending_from(s, e + 1)) {
+        int p = priority(s, e);
+        if (best < 0 || p < best_p) { best = e; best_p = p; }
+    }
+    if (best < 0) return 0;
+    int level = 256;
+    for (int i = 0; i < s->nactive; i++) {
+        int g = group(s, priority(s, s->active[i]));
+        if (g < level) level = g;
+    }
+    return group(s, best_p) < level;
 }
 
 /* the pending exception that preempts what runs now, -1 when none */
@@ -942,10 +1028,12 @@ int bc_rx_deliver(bc_t *s, int64_t at) {
 /* --- the run loop (board.py ``run`` and core.py ``run``) ------------------------------ */
 /* where Python goes on: hil/mcu/board_loop.py LOOP_*, the same numbers */
 enum { LOOP_AFTER_HEAD = 0, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
-       LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT };
+       LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT, LOOP_QUIET };
 #define WFI 0xBF30
 #define WFE 0xBF20
 #define BRANCH_TO_SELF 0xE7FE
+#define QUIET_LOUD 8             /* chunks with register accesses that end a quiet wait */
+#define MASKED_STEPS 256         /* system.py MASKED_STEPS */
 
 static int read16(bc_t *s, uint32_t addr, uint16_t *op) {
     if (addr >= FLASH_BASE && addr <= FLASH_BASE + FLASH_SIZE - 2) {
@@ -965,6 +1053,7 @@ static int wakes(bc_t *s) {
    Unicorn's: the LOOP_* code in ``loop_exc``) */
 static int64_t run_chunk(bc_t *s, int64_t n) {
     s->chunk0 = s->cyc;
+    s->chunk_mmio = s->mmio_n;
     s->stopped = s->cut = 0;
     s->running = 1;
     s->hook_failed = 0;
@@ -1014,6 +1103,7 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
                 return LOOP_AFTER_HEAD;
             }
         }
+        if (s->quiet_n > 0 && n > s->quiet_n) n = s->quiet_n;
         s->loop_n = n;
         int64_t taken = bc_take_next(s, (uint32_t)s->pc_next, s->fpu_on,
                                      s->vtor ? (uint32_t)s->vtor : FLASH_BASE);
@@ -1033,11 +1123,28 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
                 continue;
             }
         }
-        if (run_chunk(s, n) < 0) return s->loop_exc;
+        if (s->pending_n && masked_ready(s)) {   /* taken right after its unmasking */
+            if (s->masked_steps < MASKED_STEPS) {
+                n = 1;
+                s->masked_steps++;
+            }
+        } else {
+            s->masked_steps = 0;
+        }
+        s->loop_n = n;
+        int64_t ran = run_chunk(s, n);
+        if (ran < 0) return s->loop_exc;
         if (s->touched != seen || s->watching) return LOOP_AFTER_CHUNK;
         uint16_t op = 0;           /* a lockup's first test: Python's, as it reads */
         if (s->nactive && (read16(s, (uint32_t)s->pc_next, &op) || op == BRANCH_TO_SELF))
             return LOOP_AFTER_CHUNK;
+        if (s->mmio_n != s->chunk_mmio) {
+            if (++s->quiet_loud > QUIET_LOUD) s->quiet_n = 0;   /* no wait goes on */
+        } else if (ran == n && !s->sleeping && !s->stopped && !s->cut) {
+            s->quiet_loud = 0;
+            if (s->quiet_wait > 0) s->quiet_wait--;       /* a quiet chunk: quiet.py looks */
+            else return LOOP_QUIET;
+        }
         n = -1;
     }
 }

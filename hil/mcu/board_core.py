@@ -84,6 +84,8 @@ class Shared(ctypes.Structure):
                 ("last_request_us", _I64), ("turns_n", _I32), ("_pad3", _I32),
                 ("turn_us", _I64 * TURNS), ("turn_level", _I32 * TURNS),
                 ("nots", (ctypes.c_uint32 * 3) * WAITS), ("nnots", _I32),
+                ("mmio_n", _I64), ("chunk_mmio", _I64), ("quiet_n", _I64),
+                ("quiet_wait", _I64), ("quiet_loud", _I64), ("masked_steps", _I64),
                 ("u2_idle_live", _I32), ("u2_idle_tid", _I32), ("u2_idle_seen", _I32),
                 ("_pad4", _I32), ("u2_idle_at", _I64)]
 
@@ -131,17 +133,50 @@ def _load() -> Any:
     lib.bc_enter.restype = _I64
     lib.bc_enter.argtypes = [_P, _I32, ctypes.c_uint32, _I32, ctypes.c_uint32]
     lib.bc_loop.restype, lib.bc_loop.argtypes = _I32, [_P, _I64, _I64]
+    lib.bc_layout.restype = _I32
+    lib.bc_layout.argtypes = [_I32, ctypes.POINTER(ctypes.c_char_p), ctypes.POINTER(_I64),
+                              ctypes.POINTER(_I64)]
     for name, (res, args) in sig.items():
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = res, args
     return lib
 
 
+def layout_mismatch(lib: Any) -> str | None:
+    """How the compiled library's bc_t differs from ``Shared`` (the first difference, in
+    words), or None when every field has the same offset and size and the struct the same
+    size: a library built from another board_core.c is refused, never read wrongly."""
+    name, offset, size = ctypes.c_char_p(), _I64(), _I64()
+    lib.bc_layout(-1, ctypes.byref(name), ctypes.byref(offset), ctypes.byref(size))
+    if size.value != ctypes.sizeof(Shared):
+        return f"bc_t is {size.value} bytes there, Shared {ctypes.sizeof(Shared)}"
+    seen = set()
+    i = 0
+    while lib.bc_layout(i, ctypes.byref(name), ctypes.byref(offset), ctypes.byref(size)):
+        field = name.value.decode()
+        mine = getattr(Shared, field, None)
+        if mine is None:
+            return f"bc_t has {field}, Shared has not"
+        if (mine.offset, mine.size) != (offset.value, size.value):
+            return (f"{field} is at {offset.value} ({size.value} bytes) there, at "
+                    f"{mine.offset} ({mine.size} bytes) in Shared")
+        seen.add(field)
+        i += 1
+    missing = [f[0] for f in Shared._fields_ if f[0] not in seen]
+    return f"bc_t has no {missing[0]}" if missing else None
+
+
 _LIB = _load()
+_MISMATCH = layout_mismatch(_LIB) if _LIB is not None else None
 
 
 def native() -> bool:
-    """Whether boards made now run their hot path in C."""
+    """Whether boards made now run their hot path in C (a library whose layout differs
+    from ``Shared`` refuses to run, in one line)."""
+    if _MISMATCH is not None:
+        raise UserError(f"{LIBRARY.name} does not match hil/mcu/board_core.py ({_MISMATCH}): "
+                        "rebuild it with `make`, or run the board in Python with "
+                        "HEXHIL_BOARD_CORE=python")
     return _LIB is not None
 
 
@@ -386,9 +421,8 @@ def add_wait(shared: Shared, pc: int, addr: int, value: int) -> None:
         shared.nwaits = -1
 
 
-def add_not_loop(shared: Shared, pc: int, addr: int, cycles: int) -> None:
-    """A read repeated ``cycles`` apart that waits on nothing (poll.py ``_loops_ok``
-    False): C answers it without Python."""
-    if shared.nnots >= 0 and 0 <= cycles < 1 << 31 and \
-            _LIB.bc_add_not_loop(ctypes.byref(shared), pc, addr, cycles) < 0:
+def add_not_loop(shared: Shared, pc: int, addr: int) -> None:
+    """A read at ``pc`` that waits on nothing (poll.py ``_loops_ok`` False): C answers it
+    without Python, however far apart its repeats come."""
+    if shared.nnots >= 0 and _LIB.bc_add_not_loop(ctypes.byref(shared), pc, addr, 0) < 0:
         shared.nnots = -1

@@ -20,7 +20,7 @@ from hil.mcu.core import CoreFault, error_text
 
 # board_core.c's enum of where Python goes on, the same numbers
 (LOOP_AFTER_HEAD, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
- LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT) = range(8)
+ LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT, LOOP_QUIET) = range(9)
 _P = ctypes.c_void_p
 
 
@@ -79,7 +79,10 @@ def handed_over(board: Any, where: int) -> int:
     core = board.core
     st = core.shared
     if where == LOOP_AFTER_CHUNK:
+        board.quiet.loud_chunk()
         board.after_chunk()
+    elif where == LOOP_QUIET:            # a chunk without a register access (quiet.py)
+        board.quiet.quiet_chunk(st.loop_n)
     elif where == LOOP_AFTER_HEAD:
         if board.ended:
             return -1

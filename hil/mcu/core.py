@@ -31,12 +31,13 @@ EXC_HARDFAULT, EXC_SVCALL, EXC_PENDSV, EXC_SYSTICK = 3, 11, 14, 15
 INTR_UDEF, INTR_SWI, INTR_PREFETCH, INTR_DATA_ABORT, INTR_BKPT, INTR_EXC_EXIT = 1, 2, 3, 4, 7, 8
 INTR_NOCP, INTR_INVSTATE = 17, 18
 WFI, WFE = 0xBF30, 0xBF20
+CONTROL_FPCA = 1 << 2        # an FP context is active: the extended frame at exception entry
 ERASED = 0xFF                # an erased flash byte (RM0383 3.5)
 FRAME_REGS = (A.UC_ARM_REG_R0, A.UC_ARM_REG_R1, A.UC_ARM_REG_R2, A.UC_ARM_REG_R3,
               A.UC_ARM_REG_R12, A.UC_ARM_REG_LR)
 FP_REGS = tuple(A.UC_ARM_REG_S0 + i for i in range(16)) + (A.UC_ARM_REG_FPSCR,)
 STATE_REGS = (A.UC_ARM_REG_XPSR, A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_MSP, A.UC_ARM_REG_PSP)
-_ENTER_MSP = (A.UC_ARM_REG_MSP, A.UC_ARM_REG_IPSR, A.UC_ARM_REG_LR)
+_ENTER_MSP = (A.UC_ARM_REG_MSP, A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_IPSR, A.UC_ARM_REG_LR)
 _ENTER_PSP = (A.UC_ARM_REG_PSP, A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_IPSR, A.UC_ARM_REG_LR)
 _LEAVE = {(fpu, psp): FRAME_REGS + STATE_REGS + (FP_REGS if fpu else ()) + (A.UC_ARM_REG_IPSR,)
           + ((A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_PSP) if psp else (A.UC_ARM_REG_MSP,))
@@ -61,7 +62,7 @@ class Core:
     stopped = SharedField("stopped", bool)     # a read asked for the chunk to end
     cut = SharedField("cut", bool)             # the chunk ends after the instruction running now
     vtor = SharedField("vtor")
-    fpu_on = SharedField("fpu_on", bool)       # CPACR grants CP10/CP11: FPU frames
+    fpu_on = SharedField("fpu_on", bool)       # CPACR grants CP10/CP11: FP contexts exist
 
     def __init__(self, image: ElfImage, hz: int) -> None:
         self.image = image
@@ -202,6 +203,10 @@ class Core:
             return struct.unpack_from("<H", self._flash_mem, addr - FLASH_BASE)[0]
         return int.from_bytes(self.uc.mem_read(addr, 2), "little")
 
+    def sram_view(self) -> memoryview:
+        """SRAM's bytes as they are now (no copy)."""
+        return self._sram_mem
+
     def store32(self, addr: int, value: int) -> None:
         """A word into SRAM's buffer inside a callback (the bit-band alias)."""
         struct.pack_into("<I", self._sram_mem, addr - SRAM_BASE, value & 0xFFFFFFFF)
@@ -233,6 +238,7 @@ class Core:
         """Run up to ``n`` instructions from ``self.pc``; how many ran."""
         uc, st = self.uc, self.shared
         st.chunk0 = st.cyc
+        st.chunk_mmio = st.mmio_n
         st.stopped = st.cut = 0
         st.running = 1
         try:
@@ -286,9 +292,9 @@ class Core:
             if vector >= 0:
                 self.pc = vector & ~1
                 return
-        fpu = self.fpu_on
-        r = self._state_fp.read() if fpu else self._state.read()
+        r = self._state_fp.read() if self.fpu_on else self._state.read()
         xpsr, control, msp, psp_value = r[6:10]
+        fpu = self.fpu_on and bool(control & CONTROL_FPCA)    # an FP context is active
         psp = not self.active and bool(control & 2)
         sp = psp_value if psp else msp
         values = r[:6] + [self.pc & ~1, xpsr | (1 << 24)]
@@ -308,10 +314,11 @@ class Core:
         exc_return = 0xFFFFFFF1 if self.active else (0xFFFFFFFD if psp else 0xFFFFFFF9)
         if fpu:
             exc_return &= ~0x10
+        control &= ~CONTROL_FPCA                 # the handler starts with no FP context
         if psp:
             ids, values = _ENTER_PSP, [sp, control & ~2, exc, exc_return]
         else:
-            ids, values = _ENTER_MSP, [sp, exc, exc_return]
+            ids, values = _ENTER_MSP, [sp, control, exc, exc_return]
         if self.running:
             ids, values = ids + (A.UC_ARM_REG_PC,), values + [vector | 1]
         self._set(ids, values)
@@ -333,6 +340,7 @@ class Core:
         sp = psp_value if psp else msp
         fpu = not exc_return & 0x10
         n = 26 if fpu else 8
+        control = control & ~CONTROL_FPCA | (CONTROL_FPCA if fpu else 0)   # as EXC_RETURN says
         if SRAM_BASE <= sp <= SRAM_BASE + SRAM_SIZE - 4 * n:
             values = list(struct.unpack_from(f"<{n}I", self._sram_mem, sp - SRAM_BASE))
         else:

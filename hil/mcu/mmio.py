@@ -115,9 +115,11 @@ class PeripheralSpace:
     @staticmethod
     def taken_next(board: Any) -> None:
         """A write that made an exception ready (an interrupt enable, a pending bit, a
-        flag's interrupt): it is taken after this instruction, not at the chunk's end."""
+        flag's interrupt): it is taken after this instruction, not at the chunk's end. One
+        that only a mask holds back ends the chunk too: from here the core goes an
+        instruction at a time until the unmasking (board.py ``run``)."""
         nvic = board.nvic
-        if nvic.pending and nvic.next_exception() is not None:
+        if nvic.pending and (nvic.next_exception() is not None or nvic.masked_ready()):
             board.core.cut_after()
 
     def _due(self) -> None:
@@ -138,6 +140,7 @@ class PeripheralSpace:
         directly (Unicorn's Python wrapper costs two more Python frames a register)."""
         try:
             board = self.board
+            board.core.shared.mmio_n += 1
             board.events.fire_due(board.core.now_fs())
             p = self._live.get(offset >> 10)
             if p is None:
@@ -160,6 +163,7 @@ class PeripheralSpace:
     def write(self, handle: int, offset: int, size: int, value: int, _ud: int) -> None:
         try:
             board = self.board
+            board.core.shared.mmio_n += 1
             board.events.fire_due(board.core.now_fs())
             board.poll.other_access()
             p = self._live.get(offset >> 10)
@@ -182,6 +186,7 @@ class PeripheralSpace:
         try:
             board = self.board
             board.core.shared.touched += 1      # Python took part (board_loop.py)
+            board.core.shared.mmio_n += 1
             self._due()
             addr = PPB_BASE + offset
             value = (board.ppb.read(addr & ~3) >> 8 * (addr & 3)) & ((1 << 8 * size) - 1)
@@ -198,6 +203,7 @@ class PeripheralSpace:
         try:
             board = self.board
             board.core.shared.touched += 1
+            board.core.shared.mmio_n += 1
             self._due()
             board.poll.other_access()
             addr = PPB_BASE + offset

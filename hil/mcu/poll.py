@@ -2,21 +2,23 @@
 
 When the same register read returns the same value twice with nothing else in between,
 the next pass is watched (the same instruction count between the reads, the same core
-registers, no RAM written: a Unicorn store hook for that one pass). Confirmed, virtual
+registers, SRAM the same to the byte before and after it). Confirmed, virtual
 time jumps to the next scheduled event (the only moment a register can change) and the
 loop goes on from its read; a loop whose passes differ (a counter in a register or in RAM)
 runs instruction by instruction. A loop once confirmed (its PC, register and pass length)
 is skipped from then on inside the chunk, without stopping the core, at its first read of
 the value it waited on.
+
+SRAM is compared, never watched with a Unicorn store hook: with a UC_HOOK_MEM_WRITE hook
+listed, Unicorn 2.1.4 mistranslates a conditional store inside an IT block (an ITTE whose
+first instruction is a store goes astray), which is what MicroPython's gc_mark_subtree
+runs while its SysTick handler's read of SysTick->CTRL is being watched.
 """
 from __future__ import annotations
 
 from typing import Any
 
-from unicorn import UC_HOOK_MEM_WRITE
-
 from hil.mcu.board_core import add_not_loop, add_wait
-from hil.mcu.elf_image import SRAM_BASE, SRAM_SIZE
 
 
 def _signed(word: int) -> int:
@@ -29,11 +31,11 @@ class PollSkipper:
         self.board = board
         self._st = board.core.shared     # the poll's state, shared with hil/mcu/board_core.c
         self._watch: tuple | None = None
-        self._watch_hook = None
-        self._stale_code = False     # code translated while a deleted watch hook was listed
-        self._ram_written = False
+        self._sram: bytes | None = None   # SRAM when the watched pass began
         self._skip = False
-        self._loops_ok: dict[tuple[int, int, int], bool] = {}
+        # a read site's verdict, keyed on what it reads (PC, register), not on how far
+        # apart its repeats come: a site that is no wait is never watched again
+        self._loops_ok: dict[tuple[int, int], bool] = {}
         self._waits: set[tuple[int, int, int]] = set()        # (pc, register, value)
         self._wait_values: set[tuple[int, int]] = set()
 
@@ -61,7 +63,7 @@ class PollSkipper:
         loop = (core.pc_now(), addr, delta)
         watch = self._watch
         if watch is None:
-            known = self._loops_ok.get(loop)
+            known = self._loops_ok.get(loop[:2])
             if known:                  # watched once: the same code, the same pass
                 self._known_wait(loop[0], addr, value)
                 return self._jump_here()
@@ -70,16 +72,16 @@ class PollSkipper:
                 st.watching = 1
                 st.reread = 1
                 core.stop()
-        elif watch[0] == loop and watch[1] == value and not self._ram_written \
+        elif watch[0] == loop and watch[1] == value and self._sram_unchanged() \
                 and core.context() == watch[2]:
-            self._loops_ok[loop] = True
+            self._loops_ok[loop[:2]] = True
             self._known_wait(loop[0], addr, value)
             self._skip = True
             core.stop()
         else:
-            self._loops_ok[watch[0]] = False
+            self._loops_ok[watch[0][:2]] = False
             if self.board.native is not None:
-                add_not_loop(self._st, *watch[0])
+                add_not_loop(self._st, *watch[0][:2])
             self._end_watch()
         return False
 
@@ -120,19 +122,10 @@ class PollSkipper:
     def _end_watch(self) -> None:
         self._watch = None
         self._st.watching = 0
-        if self._watch_hook is not None:
-            self.board.core.uc.hook_del(self._watch_hook)
-            self._watch_hook = None
-            self._stale_code = True
+        self._sram = None
 
     def after_chunk(self) -> None:
         core = self.board.core
-        if self._stale_code:
-            # Unicorn drops a deleted hook only when emu_start returns: the code translated
-            # before that still takes the slow path at every load and store, so it is
-            # translated again once a chunk has run (a flush at the deletion would keep it)
-            self._stale_code = False
-            core.uc.ctl_flush_tb()
         if self._skip:
             self._skip = False
             self._end_watch()
@@ -142,13 +135,11 @@ class PollSkipper:
             if cyc > core.cyc:
                 self._st.skipped += cyc - core.cyc
                 core.cyc = cyc
-        elif self._watch is not None and self._watch_hook is None and core.stopped:
-            self._ram_written = False      # a loop seen for the first time: watch its stores
-            self._watch_hook = core.uc.hook_add(UC_HOOK_MEM_WRITE, self._stored, None,
-                                                SRAM_BASE, SRAM_BASE + SRAM_SIZE - 1)
-            core.uc.ctl_flush_tb()
+        elif self._watch is not None and self._sram is None and core.stopped:
+            self._sram = bytes(core.sram_view())   # a loop seen for the first time
         elif self._watch is not None and not core.stopped:
             self._end_watch()
 
-    def _stored(self, *args) -> None:
-        self._ram_written = True
+    def _sram_unchanged(self) -> bool:
+        """The watched pass left SRAM as it found it (a copy and a memcmp, ~20 us)."""
+        return self._sram is not None and bytes(self.board.core.sram_view()) == self._sram

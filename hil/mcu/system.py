@@ -23,6 +23,9 @@ CPUID = 0x410FC241            # Cortex-M4 r0p1
 NVIC, SYSTICK, SCB, DWT = 0xE000E100, 0xE000E010, 0xE000ED00, 0xE0001000
 CPACR, DEMCR, STIR, FPCCR = 0xE000ED88, 0xE000EDFC, 0xE000EF00, 0xE000EF34
 SCR_SLEEPONEXIT = 0x2
+# instructions run one at a time while a masked exception waits for its unmasking (then the
+# chunks grow again: a core that spins with interrupts masked runs at full speed)
+MASKED_STEPS = 256
 
 
 class SharedBits:
@@ -142,6 +145,17 @@ class Nvic:
         if self._group(self._priority(best)) < self.execution_priority():
             return best
         return None
+
+    def masked_ready(self) -> bool:
+        """A pending exception would preempt the active ones but for PRIMASK, BASEPRI or
+        FAULTMASK: the instruction that unmasks it (CPSIE, MSR) may come at any moment, and
+        the exception is taken right after it, as on the chip (``MASKED_STEPS``)."""
+        ready = self.ready()
+        if not ready:
+            return False
+        best = min(self._priority(e) for e in ready)
+        level = min((self._group(self._priority(e)) for e in self.core.active), default=256)
+        return self._group(best) < level
 
     def take(self, exc: int) -> None:
         self.pending.discard(exc)

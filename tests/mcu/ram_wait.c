@@ -1,0 +1,48 @@
+/* tests/mcu: waits on RAM that only an interrupt changes, as ST's HAL_Delay waits on uwTick
+ * and a user's `while (!flag) {}` on a flag. SysTick at 1 kHz counts `ticks`; the firmware
+ * waits 200 ticks in a loop that reads only RAM (WAIT=1), or in one that also counts its
+ * passes in RAM (WAIT=2: never a fixed point, so it must run pass by pass), then waits for a
+ * flag TIM-less: SysTick's handler sets `flag` at tick 300. Prints the ticks, the DWT cycles
+ * the first wait took, and the passes counted. */
+#include "board.h"
+
+volatile uint32_t ticks, flag, passes;
+
+void SysTick_Handler(void) {
+    ticks++;
+    if (ticks == 300) flag = 1;
+}
+
+static uint32_t get_tick(void) { return ticks; }
+
+static void put_dec(uint32_t v) {
+    char buf[12];
+    int i = 11;
+    buf[i--] = 0;
+    do { buf[i--] = '0' + v % 10; v /= 10; } while (v);
+    console_puts(&buf[i + 1]);
+    console_puts(" ");
+}
+
+int main(void) {
+    clock_100mhz();
+    console_init();
+    DEMCR |= 1u << 24;
+    DWT_CTRL |= 1;
+    SYST_RVR = 100000 - 1;
+    SYST_CVR = 0;
+    SYST_CSR = 7;
+    uint32_t start = get_tick(), c0 = DWT_CYCCNT;
+    while (get_tick() - start < 200) {
+#if WAIT == 2
+        passes++;
+#endif
+    }
+    uint32_t cycles = DWT_CYCCNT - c0;
+    while (!flag) {}
+    put_dec(ticks);
+    put_dec(cycles);
+    put_dec(passes);
+    console_puts("\n");
+    for (;;) __asm__ volatile("wfi");
+}
