@@ -1,7 +1,7 @@
 """``make bench``: run every ``bench/bench_*.py`` and print one table.
 
 Each module exposes ``run() -> list[Row]``. Figures are measured in this process;
-targets are the issues' numbers, shown beside them, never asserted.
+targets are the goals, shown beside them, never asserted.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The C tripod as an STM32F411 ELF on the emulated board (hil/mcu/, issue 40) against the
+"""The C tripod as an STM32F411 ELF on the emulated board (hil/mcu/) against the
 same ``examples/c_tripod/main.c`` built for the host, measured in one run: the two builds
 alternate ``REPEATS`` times and each row is the median, since the machine is shared (the
 load average is in the note). CPU time counts this process and the host build's child."""

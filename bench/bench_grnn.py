@@ -1,4 +1,4 @@
-"""The GRNN predictor (issue 16): training time per epoch, inference time per step (the
+"""The GRNN predictor: training time per epoch, inference time per step (the
 navigator must keep up with the step rate), and the dataset's build time per run.
 
 As users run it: torch single-threaded as ``hexhil grnn train`` sets it, nothing pinned.

@@ -1,4 +1,4 @@
-"""The soak (issue 20): ``scenarios/soak.toml``, ten simulated minutes on a faulty bus and a
+"""The soak: ``scenarios/soak.toml``, ten simulated minutes on a faulty bus and a
 lossy CAN bus; the firmware keeps its rate, counts every fault, rides through what it can
 and stops safely for the rest. Rows: cycles, overruns, faults by kind, wall time."""
 from __future__ import annotations

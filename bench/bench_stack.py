@@ -1,4 +1,4 @@
-"""The full stack as users run it (issues 18 and 33): ``hexhil run`` unpinned, median of 5,
+"""The full stack as users run it: ``hexhil run`` unpinned, median of 5,
 beside the world alone measured in the same run, with and without recording; where a
 cycle's wall time goes and how much of it is overhead (neither the world step nor the
 firmware's compute); and how the cost grows with servos and obstacles.
@@ -30,7 +30,7 @@ from protocol.dynamixel import v1 as dxl
 RUNS = 5
 GROWTH_S = 10.0
 GROWTH_RUNS = 3
-CEILING_RUNS = 3   # a slow minute moved one breakdown's ceiling by 0.3 (wave 12)
+CEILING_RUNS = 3   # a slow minute moved one breakdown's ceiling by 0.3
 
 
 def _hexhil_rtf(*extra: str) -> float:
@@ -153,19 +153,19 @@ def run() -> list[Row]:
             Row("stack: world alone (MuJoCo + 18 drives)", alone, "x real time", "",
                 "obstacles-low-small, seed 3, joints commanded at 50 Hz"),
             Row("stack: world alone / bare mj_step", alone / bare, "ratio", ">= 0.8",
-                "issue 43 goal"),
+                "goal"),
             Row("stack: hexhil run, unpinned", plain, "x real time", f">= {0.65 * alone:.0f}x",
                 f"`hexhil run {SCENARIO.name} --seed 3 --json`, micropython, median of {RUNS}"),
             Row("stack: hexhil run --out, unpinned", recorded, "x real time", "",
                 f"the same with recording, median of {RUNS}"),
-            Row("stack: run / world alone", plain / alone, "ratio", ">= 0.65", "issue 43 goal"),
+            Row("stack: run / world alone", plain / alone, "ratio", ">= 0.65", "goal"),
             Row("stack: run --out / world alone", recorded / alone, "ratio", "",
                 "with recording")]
     inproc = _median_rtf(False, "--python", IN_PROCESS)
     rows += [Row(f"stack: hexhil run --python {IN_PROCESS}", inproc, "x real time", "",
                  f"firmware in the host's process (the sweeps' runtime), median of {RUNS}"),
              Row(f"stack: run --python {IN_PROCESS} / world alone", inproc / alone, "ratio",
-                 ">= 0.9", "issue 43 goal; same serial digest as micropython")]
+                 ">= 0.9", "goal; same serial digest as micropython")]
     rows += _cpu_rows(alone_cpu_us, bare_cpu_us)
     for label, ip in (("micropython", False), (IN_PROCESS, True)):
         plain = [breakdown(record=False, in_process=ip) for _ in range(CEILING_RUNS)]
@@ -179,7 +179,7 @@ def run() -> list[Row]:
             light_recorded.append(light_cycle(ip))
         parts = {k: statistics.median(p[k] for p in recorded) for k in recorded[0]}
         for runs, goal, what in (
-                (light, "<= 10 %" if ip else "<= 25 %", "issue 43 goal, as users run it "
+                (light, "<= 10 %" if ip else "<= 25 %", "goal, as users run it "
                  "(default options: no trace)"),
                 (light_recorded, "", "recording a trace (--out's recorder, without the "
                  "3D scene)")):
@@ -213,7 +213,7 @@ def run() -> list[Row]:
                         f"flat-tripod + {n} obstacles, full stack, {GROWTH_S:.0f} s, "
                         f"median of {GROWTH_RUNS}, the counts alternating"))
     rows.append(Row("stack growth: 40 obstacles against 0", 100.0 * (1 - growth[40] / growth[0]),
-                    "% slower", "<= 25 %", "issue 43 goal: 1 - RTF(40) / RTF(0), 36 % when filed"))
+                    "% slower", "<= 25 %", "goal: 1 - RTF(40) / RTF(0)"))
     for n in (6, 12, 18):
         rows.append(Row(f"stack growth: {n} servos (bus + servos only)", _bus_and_servos(n),
                         "x real time", "", "scripted master, the firmware's traffic per cycle"))

@@ -1,5 +1,5 @@
-"""What the machine charges for a link round trip between the host and a micropython child
-(issue 43): the floor under a micropython run's two exchanges a cycle, apart from our code.
+"""What the machine charges for a link round trip between the host and a micropython child:
+the floor under a micropython run's two exchanges a cycle, apart from our code.
 """
 from __future__ import annotations
 

@@ -69,7 +69,7 @@ def bare_mj_step(path: Path = ROOT / "scenarios" / "obstacles-high-large.toml",
 
 def _full_stack() -> tuple[float, float, float, float]:
     """Tripod over low-density small obstacles, firmware under micropython, with and
-    without recording to MCAP, and unrecorded with the real world model (issue 21),
+    without recording to MCAP, and unrecorded with the real world model,
     alternated, best of ``REPEATS`` each (the machine is shared); (RTF recorded, RTF plain,
     RTF real model, sim s). The host and the firmware process are
     pinned to one core, as the issue's target is stated: nothing overlaps."""
@@ -129,5 +129,5 @@ def run() -> list[Row]:
                     f"{os.cpu_count()} worker processes, firmware in process"))
     rows.append(Row("experiment tactile-hexapod, firmware under micropython", before, "s wall",
                     "", f"the baseline of the same bench run (`--python micropython`, the "
-                        f"runtime sweeps used before issue 18); {before / wall:.2f}x the time"))
+                        f"runtime the sweeps used before in process); {before / wall:.2f}x the time"))
     return rows

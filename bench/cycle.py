@@ -1,4 +1,4 @@
-"""Where a run's 20 ms cycle goes (issue 43): ``breakdown`` times each part of it with
+"""Where a run's 20 ms cycle goes: ``breakdown`` times each part of it with
 stopwatches on about 22 calls a cycle, ``light_cycle`` the same run with one stopwatch, on
 the world step, for the overhead share a user's run has (bench_stack.py prints both).
 """
@@ -110,7 +110,7 @@ def _once(s: dict[str, float], t0: float, t1: float) -> float:
     """Seconds of a run that are not its cycles' (the firmware's start up to its first
     message, and after the last reply: its exit, the processes' end): once a run, however
     long, so they are given apart instead of spread over a breakdown's few cycles (35 ms
-    of a micropython start read as 70 us a cycle of a 10 s run, wave 13)."""
+    of a micropython start read as 70 us a cycle of a 10 s run)."""
     return s.pop(BOOT) - t0 + t1 - s.pop(LAST)
 
 
@@ -217,7 +217,7 @@ def light_cycle(in_process: bool = False, record: bool = True) -> dict[str, floa
     world step (and, in process, the link's exchange, outside which the firmware computes):
     the cycle's total, world step and firmware compute in us, and the overhead share of
     them. The breakdown wraps about 22 calls a cycle, which made its run 12-17 us a cycle
-    slower than this one (wave 14); a user's run has none, so the goal rows take their
+    slower than this one; a user's run has none, so the goal rows take their
     share from here. The total runs from the firmware's hello to its last reply (to where
     the host turns to the firmware's exit)."""
     from host_tools.trace.recorder import open_recorder

@@ -35,17 +35,17 @@ class HeightLogger:
     def tick(self, t_us: int) -> None:
         self.heights_m.append((t_us, self.world.body_pose().z_m))
         if t_us >= TURN_AT_US and not self.sent:
-            self.port.send(*hx.can_frames.encode("heading_command", direction_rad=HEADING_RAD))
+            self.port.send(hx.can_message("heading_command", direction_rad=HEADING_RAD))
             self.sent = True
 
 
 def main(out: Path) -> None:
     scenario = hx.load_scenario(SCENARIO)
-    run = hx.Run(scenario, runtime=hx.Runtime.CPYTHON_INPROCESS, duration_s=DURATION_S,
-                 trace=out)
-    logger = HeightLogger(run)
-    run.add_node(logger)
-    result = run.run()
+    with hx.Run(scenario, runtime=hx.Runtime.CPYTHON_INPROCESS, duration_s=DURATION_S,
+                trace=out) as run:
+        logger = HeightLogger(run)
+        run.add_node(logger)
+        result = run.run()
     if result.ending.kind is not hx.Ending.COMPLETED:   # a FirmwareEnding: crashed, hung, ...
         raise SystemExit(f"the run failed: {result.ending.reason}")
 

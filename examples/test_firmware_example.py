@@ -1,8 +1,8 @@
 """Firmware tests written as pytest tests with the hexhil plugin (docs/testing.md).
 
-    pytest examples/test_firmware_example.py --hexhil-python cpython-inprocess --junitxml out.xml
+    pytest examples/test_firmware_example.py --hexhil-runtime cpython-inprocess --junitxml out.xml
 
-``hexhil_run`` runs a scenario with our firmware and returns the run (summary and trace);
+``hexhil_run`` runs a scenario with our firmware and returns the run (RunResult, summary, trace);
 ``run.check`` takes an expectation like an ``[[expect]]`` table and fails with the measured
 value against the limit; ``assert_within`` does the same for any number. The last case runs
 with the obstacle rule off, so its tactile check fails: it is marked xfail to keep this file
@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+import host_tools as hx
 from host_tools.expect.pytest_plugin import assert_within
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
@@ -42,6 +43,9 @@ def test_heartbeat_reports_walking(hexhil_run, seed: int) -> None:
     run = hexhil_run(SCENARIOS / "flat-tripod.toml", seed=seed, duration_s=5)
     run.check("can", message="heartbeat", window_s=(1, 5), rate_hz=(9, 11),
               signals={"state": (2, 2)})
+    # the typed result beside its --json view: the same run
+    assert run.result.can_frames[hx.can_frames.ID_HEARTBEAT] >= 45
+    assert run.result.serial_digest == run.summary["serial_digest"]
 
 
 @pytest.mark.parametrize("tactile", [

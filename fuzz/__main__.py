@@ -19,9 +19,11 @@ from fuzz import cov
 from fuzz.tally import Tally
 
 DEFAULT_INPUTS = {"parser": 900_000, "bus": 180_000, "can": 200_000, "scenario": 20_000,
-                  "trace": 2_000, "parser2": 300_000, "bus2": 40_000, "elf": 20_000}
+                  "trace": 2_000, "parser2": 300_000, "bus2": 40_000, "elf": 20_000,
+                  "logs": 500}
 COVERAGE_RUNS = {"parser": 100_000, "bus": 20_000, "can": 100_000, "scenario": 20_000,
-                 "trace": 2_000, "parser2": 50_000, "bus2": 10_000, "elf": 10_000}
+                 "trace": 2_000, "parser2": 50_000, "bus2": 10_000, "elf": 10_000,
+                 "logs": 500}
 PHASES = ("all", "generators", "coverage")
 
 

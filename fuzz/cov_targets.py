@@ -21,7 +21,7 @@ from typing import Any, Callable
 
 import cantools
 
-from fuzz import fuzz_bus, fuzz_v2_bus, fuzz_can, fuzz_elf, fuzz_trace
+from fuzz import fuzz_bus, fuzz_v2_bus, fuzz_can, fuzz_elf, fuzz_logs, fuzz_trace
 from fuzz.hostile import GAP_US, Rng, garbage
 from hil import scenario
 from hil.mcu.elf_image import load_elf
@@ -354,6 +354,29 @@ def elf_seeds() -> list[bytes]:
     return [whole, whole[:len(whole) // 2]]
 
 
+# --- a robot's logs imported ------------------------------------------------------------------
+LOG_SUFFIXES = (".sr", ".asc", ".blf", ".log")
+
+
+def logs_one_input(data: bytes) -> None:
+    """Byte 0 picks the kind (a sigrok capture or one of three CAN logs), the rest is the
+    file: imported (a capture also checked), or refused in one line."""
+    if not data:
+        return
+    src = scratch() / f"mutant{LOG_SUFFIXES[data[0] % len(LOG_SUFFIXES)]}"
+    src.write_bytes(data[1:])
+    escaped = fuzz_logs.one_log(src, scratch() / "imported.mcap")
+    if escaped:
+        raise Broken(escaped)
+
+
+def logs_seeds() -> list[bytes]:
+    """A capture of a few READs and replies, and a CAN log by each of python-can's writers."""
+    sr = fuzz_logs.sr_file(fuzz_logs.METADATA, fuzz_logs.line_samples())
+    logs = fuzz_logs.can_logs(scratch())
+    return [bytes([0]) + sr] + [bytes([LOG_SUFFIXES.index(k)]) + v for k, v in logs.items()]
+
+
 TARGETS = {
     "parser": Target("protocol parser (atheris)", "streams", parser_one_input, parser_seeds,
                      dxl.MAX_PACKET + 41),
@@ -368,5 +391,6 @@ TARGETS = {
     "bus2": Target("protocol 2.0 bus, 18 XL430s (atheris)", "streams", bus2_one_input,
                    bus2_seeds),
     "elf": Target("STM32F411 ELF loader (atheris)", "files", elf_one_input, elf_seeds, 0),
+    "logs": Target("robot log import (atheris)", "files", logs_one_input, logs_seeds, 0),
 }
 

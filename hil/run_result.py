@@ -5,7 +5,7 @@ summary). Below hil/link/ and hil/run/, so no arrow runs back up."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import MISSING, dataclass, field, fields
 from enum import Enum
 from types import MappingProxyType
 from typing import Any, Mapping
@@ -165,7 +165,7 @@ class RunResult:
     firmware: FirmwareStats = FirmwareStats()
     tactile_events: tuple[Mapping[str, Any], ...] = ()
     switch_edges: int = 0
-    can_frames: Mapping[str, int] = field(default_factory=lambda: _frozen({}))
+    can_frames: Mapping[int, int] = field(default_factory=lambda: _frozen({}))  # by arbitration id
     bus_busy_us: int = 0        # bus time of the loop's transactions (after the first cycle)
     bus_wire_us: int = 0        # wire minimum of the same bytes
     loop_cycles: int = 0        # cycles counted for the two figures above
@@ -188,33 +188,30 @@ class RunResult:
         return len(self.exceptions) + (1 if crashed else 0)
 
 
-@dataclass
-class RunTally:
-    """A run's figures while it runs; ``result()`` freezes them."""
+# RunResult's fields a run adds into as it goes, as the mutable form the tally holds;
+# ``firmware`` is the last stats event as sent, typed (``FirmwareStats``) when frozen.
+_GROWING: dict[str, Any] = {"exceptions": list, "faults": dict, "tactile_events": list,
+                            "can_frames": dict, "firmware": dict, "console": list}
+# RunResult's fields that are not counted during the run: the firmware's stats give cycles
+# and overruns; the papers' host nodes report theirs after it (host_nodes).
+_AFTER = ("cycles", "overruns", "host_nodes")
 
-    runtime: str
-    sim_time_s: float = 0.0
-    wall_time_s: float = 0.0
-    exceptions: list[str] = field(default_factory=list)
-    exit_code: int | None = None
-    stderr_tail: str = ""
-    serial_digest: str = ""
-    faults: dict[str, int] = field(default_factory=dict)
-    stop_reason: str | None = None
-    firmware: dict[str, Any] = field(default_factory=dict)   # the last stats event as sent
-    tactile_events: list[dict[str, Any]] = field(default_factory=list)
-    switch_edges: int = 0
-    can_frames: dict[str, int] = field(default_factory=dict)
-    bus_busy_us: int = 0
-    bus_wire_us: int = 0
-    loop_cycles: int = 0
-    round_trips: int = 0
-    body: BodyDisplacement = BodyDisplacement()
-    world: BeamsOutcome | HexapodOutcome | None = None
-    ending: FirmwareEnding = FirmwareEnding()
-    no_servo_answered: str | None = None
-    interrupted: bool = False
-    console: list[tuple[float, str]] = field(default_factory=list)
+
+class RunTally:
+    """A run's figures while it runs: ``RunResult``'s own fields (declared once, there),
+    mutable, but for those in ``_AFTER``; ``result()`` freezes them."""
+
+    def __init__(self, runtime: str) -> None:
+        self.runtime = runtime
+        for f in fields(RunResult):
+            if f.name in _AFTER or f.name == "runtime":
+                continue
+            if f.name in _GROWING:
+                setattr(self, f.name, _GROWING[f.name]())
+            elif f.default is not MISSING:
+                setattr(self, f.name, f.default)
+            else:
+                setattr(self, f.name, f.default_factory())   # type: ignore[misc]
 
     def console_line(self, t_s: float, text: str) -> None:
         """A line the firmware printed (a log event), the last ``CONSOLE_LINES`` kept."""
@@ -223,8 +220,7 @@ class RunTally:
             del self.console[:-CONSOLE_LINES]
 
     def count_can(self, arb_id: int) -> None:
-        key = "0x%03X" % arb_id
-        self.can_frames[key] = self.can_frames.get(key, 0) + 1
+        self.can_frames[arb_id] = self.can_frames.get(arb_id, 0) + 1
 
     def count_fault(self, name: str) -> None:
         self.faults[name] = self.faults.get(name, 0) + 1
@@ -232,16 +228,15 @@ class RunTally:
     def result(self) -> RunResult:
         """The frozen result; cycles, overruns and the stop reason from the firmware's stats."""
         stats = FirmwareStats.from_event(self.firmware)
-        return RunResult(
-            self.runtime, self.sim_time_s, self.wall_time_s, int(stats.cycles),
-            int(stats.overruns), tuple(self.exceptions), self.exit_code, self.stderr_tail,
-            self.serial_digest, _frozen(self.faults),
-            self.stop_reason if self.stop_reason is not None else stats.stop_reason, stats,
-            tuple(_frozen(e) for e in self.tactile_events), self.switch_edges,
-            _frozen(self.can_frames), self.bus_busy_us, self.bus_wire_us, self.loop_cycles,
-            self.round_trips, self.body, self.world, ending=self.ending,
-            no_servo_answered=self.no_servo_answered, interrupted=self.interrupted,
-            console=tuple(self.console[-CONSOLE_LINES:]))
+        values = {f.name: getattr(self, f.name) for f in fields(RunResult)
+                  if f.name not in _AFTER}
+        values.update(
+            exceptions=tuple(self.exceptions), faults=_frozen(self.faults), firmware=stats,
+            tactile_events=tuple(_frozen(e) for e in self.tactile_events),
+            can_frames=_frozen(self.can_frames), cycles=int(stats.cycles),
+            overruns=int(stats.overruns), console=tuple(self.console[-CONSOLE_LINES:]),
+            stop_reason=self.stop_reason if self.stop_reason is not None else stats.stop_reason)
+        return RunResult(**values)
 
 
 class RunInterrupted(KeyboardInterrupt):

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from hil import scenario as scenario_mod
-from hil.canbus.bus import CanBus, Endpoint
+from hil.canbus.bus import CanBus, Endpoint, standard_frame
 from hil.run.rig import make_world
 from hil.run_result import RunInterrupted, RunResult
 from hil.scenario import Runtime, Scenario, WorldKind
@@ -24,6 +24,7 @@ from hil.seams import CanGateway, HostNode, TraceRecorder
 from hil.link.served_firmware import served_firmware
 from hil.run.lockstep import Simulator
 from host_tools import plugins
+from host_tools.lifecycle import Closing
 from protocol import link_schema as ls
 from protocol.dynamixel import models
 from protocol.errors import UserError
@@ -72,7 +73,7 @@ def scenario_of_trace(metadata: dict[str, str], where: str) -> tuple[Scenario, i
     return scenario_mod.load_scenario(path), seed
 
 
-class Run:
+class Run(Closing):
     """One run of ``scenario`` (a ``Scenario``, a file, or a dict as TOML reads it); ``seed``, ``runtime`` and ``duration_s`` default to the
     scenario's. ``trace`` records it to MCAP; with ``live_port`` its channels are also served
     over the Foxglove WebSocket protocol on 127.0.0.1 (``live``, host_tools/trace/live.py;
@@ -210,9 +211,10 @@ class Run:
         ``run()`` or from a host node's tick (docs/servo-bus.md "Fault vocabulary")."""
         return self._firmware_sim().core.inject(kind, **params)
 
-    def send_can(self, arb_id: int, data: bytes) -> None:
-        """One frame from the host to the firmware, now (virtual time)."""
-        self._firmware_sim().send_can(arb_id, data)
+    def send_can(self, msg: "can.Message") -> None:
+        """One frame from the host to the firmware, now (virtual time), as python-can's
+        ``send(msg)`` takes it."""
+        self._firmware_sim().send_can(*standard_frame(msg))
 
     # --- running ------------------------------------------------------------------------
     def run(self) -> RunResult:
@@ -250,9 +252,3 @@ class Run:
         if self.live is not None:
             self.live.close()
             self.live = None
-
-    def __enter__(self) -> "Run":
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self.close()

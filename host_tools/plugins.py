@@ -1,10 +1,13 @@
 """Where the papers' reproductions (host_tools/papers/) plug into the toolkit, so the toolkit
 never imports them: the host side of a world that steps itself (seed 000's beams: push,
-sense, estimate, plan) and the navigators of ``hexhil run --navigator``. A paper's package
-registers its plug-ins when it is imported; the CLI imports ``host_tools.papers`` (all of
-them), an API user imports the one they need (docs/api.md)."""
+sense, estimate, plan) and the navigators of ``hexhil run --navigator``. A package plugs in
+as pytest's and python-can's plug-ins do: it names a module in the ``hexhil.plugins`` entry
+point group (pyproject.toml ``[project.entry-points]``), and the module registers its
+plug-ins here when it is imported. The group is loaded the first time a plug-in is asked
+for, so a script's ``Run`` of a beams scenario needs no import of its own (docs/api.md)."""
 from __future__ import annotations
 
+from importlib.metadata import entry_points
 from typing import Any, Callable, Mapping, Protocol
 
 from hil.run_result import RunResult
@@ -42,8 +45,24 @@ class RunWithNodes(Protocol):
 # checked (and a model file loaded) when it is called, before any run opens.
 NavigatorPlan = Callable[[Scenario, "str | None"], Callable[[RunWithNodes], Navigator]]
 
+GROUP = "hexhil.plugins"
 _STEPPED_LOADERS: dict[WorldKind, Callable[[], SteppedRun]] = {}
 _NAVIGATORS: dict[str, NavigatorPlan] = {}
+_discovered = False
+
+
+def discover() -> None:
+    """Import every module of the ``hexhil.plugins`` entry point group once (each registers
+    its plug-ins); a module that fails to import is one line naming it, not a traceback."""
+    global _discovered
+    if _discovered:
+        return
+    _discovered = True
+    for ep in entry_points(group=GROUP):
+        try:
+            ep.load()
+        except ImportError as exc:
+            raise UserError(f"plug-in {ep.name} ({ep.value}) cannot be imported: {exc}") from exc
 
 
 def register_stepped_run(kind: WorldKind, load: Callable[[], SteppedRun]) -> None:
@@ -54,11 +73,12 @@ def register_stepped_run(kind: WorldKind, load: Callable[[], SteppedRun]) -> Non
 
 def stepped_run(kind: WorldKind) -> SteppedRun:
     """The run registered for a world of ``kind``, loaded."""
+    discover()
     try:
         load = _STEPPED_LOADERS[kind]
     except KeyError:
-        raise UserError(f"a {kind.value} world is run by its paper's package: import "
-                        "host_tools.papers (hexhil does) to plug it in") from None
+        raise UserError(f"no installed plug-in runs a {kind.value} world (entry point group "
+                        f"{GROUP}: is hexhil installed?)") from None
     return load()
 
 
@@ -68,8 +88,9 @@ def register_navigator(name: str, plan: NavigatorPlan) -> None:
 
 def navigator_plan(name: str) -> NavigatorPlan:
     """The navigator registered as ``name``."""
+    discover()
     try:
         return _NAVIGATORS[name]
     except KeyError:
-        known = ", ".join(sorted(_NAVIGATORS)) or "none registered: import host_tools.papers"
+        known = ", ".join(sorted(_NAVIGATORS)) or f"none installed (entry point group {GROUP})"
         raise UserError(f"navigator {name!r}: known ones are {known}") from None

@@ -11,7 +11,8 @@ on hil/run/core.py) and a trace with the same metadata, the scenario's data incl
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence, Union
+from types import MappingProxyType
+from typing import Any, Callable, Mapping, Sequence, Union
 
 from hil import scenario as scenario_mod
 from hil.servobus import serial_server
@@ -19,6 +20,8 @@ from hil.run.realtime_rig import RealTimeRig
 from hil.scenario import DEFAULT_BAUD, Scenario
 from hil.seams import CanGateway
 from hil.servobus.switch_node import DEFAULT_ID
+from hil.run_result import BodyDisplacement
+from host_tools.lifecycle import Closing
 from host_tools.lockstep_run import trace_metadata
 from protocol.dynamixel import models
 from protocol.errors import UserError
@@ -59,7 +62,7 @@ class SerialPort:
 Transport = Union[Pty, Tcp, Rfc2217, SerialPort]
 
 
-class RealTimeRun:
+class RealTimeRun(Closing):
     """One real-time run of ``scenario`` (a dict as TOML reads it, or a ``Scenario``):
     ``world`` serves its robot behind the bus (else the servos alone); ``trace`` records it;
     ``can_server`` bridges its CAN bus; ``sensor_id`` puts the limit-switch sensor node on
@@ -114,12 +117,21 @@ class RealTimeRun:
             self.recorder.close()
             self.recorder = None
 
-    def serve(self, transport: Transport, announce: Callable[[str], None]) -> dict[str, Any]:
+    def close(self) -> None:
+        """Close the rig and the trace (complete as far as the run went); ``serve`` does it
+        on its way out, so this is for a run that is never served."""
+        rig = getattr(self, "rig", None)   # None until made (close() runs on a failed start)
+        if rig is not None:
+            rig.close()
+            self.rig = None
+        self._close_trace()
+
+    def serve(self, transport: Transport, announce: Callable[[str], None]) -> "ServeResult":
         """Serve until the run's end, an interrupt (``KeyboardInterrupt``) or
         ``serial_server.Stop`` (SIGTERM); ``announce`` gets the address line (``pty: PATH``,
         ``tcp: ...``, ``rfc2217: ...``, ``port: ...``) once it is ready. The trace is
         complete on return; returns the summary (time served, body, faults, bus, master
-        violations, pacing, and for RFC 2217 the client's line settings)."""
+        violations, pacing, and the client's line settings) as a ``ServeResult``."""
         try:
             if isinstance(transport, Rfc2217):
                 from hil.servobus.rfc2217_server import serve_rfc2217
@@ -134,11 +146,50 @@ class RealTimeRun:
                 self.server.serve_pty(announce)
         except (KeyboardInterrupt, serial_server.Stop):
             pass
+        except UserError:   # a BadFile is an OSError too: already one line
+            raise
         except OSError as exc:
             raise UserError(str(exc)) from None
         finally:
-            self.rig.close()
-            self._close_trace()
-        summary = self.rig.summary(self.server.pacing.summary())
-        summary["client_bauds"] = list(self.server.client_bauds)
-        return summary
+            rig = self.rig
+            self.close()
+        return ServeResult.of(rig.summary(self.server.pacing.summary()), self.server.client_bauds)
+
+
+@dataclass(frozen=True)
+class ServeResult:
+    """What a real-time run served, frozen when it ends; ``as_dict()`` is ``hexhil bus
+    --json``'s summary. ``body`` and ``world_s`` are None without a world."""
+
+    scenario: str | None
+    seed: int
+    served_s: float
+    bus: Mapping[str, Any]            # the line's counters (packets, replies, bytes, ...)
+    faults: Mapping[str, int]         # injected faults by kind
+    switch_edges: int
+    violations: Mapping[str, Any]     # the master's protocol mistakes (counts, first ones)
+    pacing: Mapping[str, Any]         # lag against the wall clock, the host's apart
+    sensor_node: Mapping[str, Any] | None
+    client_bauds: tuple[int, ...]     # the rates the client set, in order
+    body: BodyDisplacement | None = None
+    world_s: float | None = None
+
+    @classmethod
+    def of(cls, summary: dict[str, Any], client_bauds: Sequence[int]) -> "ServeResult":
+        frozen = {k: MappingProxyType(dict(v)) if isinstance(v, dict) else v
+                  for k, v in summary.items() if k != "body"}
+        body = summary.get("body")
+        return cls(**frozen, client_bauds=tuple(client_bauds),
+                   body=None if body is None else BodyDisplacement(**body))
+
+    def as_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "scenario": self.scenario, "seed": self.seed, "served_s": self.served_s,
+            "bus": dict(self.bus), "faults": dict(self.faults),
+            "switch_edges": self.switch_edges, "violations": dict(self.violations),
+            "pacing": dict(self.pacing),
+            "sensor_node": None if self.sensor_node is None else dict(self.sensor_node),
+            "client_bauds": list(self.client_bauds)}
+        if self.body is not None:
+            out["body"], out["world_s"] = self.body.as_dict(), self.world_s
+        return out

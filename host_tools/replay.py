@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterable
 
@@ -24,11 +23,13 @@ from hil import scenario as scenario_mod
 from hil.scenario import check_span
 from hil.scenario.rules import within
 from host_tools.dynamixel.decode import DECODERS
+from host_tools.replay_result import Divergence, ReplayResult
 from protocol import sim_link
 from protocol.dynamixel import models
 from hil.link.served_firmware import (BOARD_RUNTIME, EXECUTABLE, ElfFirmware, console_events,
                                       served_firmware)
 from hil.mcu.replayed import ReplayedElf
+from host_tools import log_replay
 from hil.link.firmware_process import REQUEST_OPS, FirmwareProcess, split_messages
 from host_tools.trace.protobuf import CanFrame, LinkExchanges
 from host_tools.trace.reader import Trace
@@ -38,6 +39,7 @@ from protocol.errors import UserError
 if TYPE_CHECKING:
     import can
 
+IMPORTED = "trace import"   # host_tools/trace/import_logs.py SOURCE: a robot's own log
 # What each link message is, for reports and --topics.
 OP_TOPICS = {sim_link.OP_HELLO: "hello", sim_link.OP_TRANSACT: "uart", sim_link.OP_WRITE: "uart",
              sim_link.OP_SLEEP: "sleep", sim_link.OP_MORE: "sleep", sim_link.OP_CAN: "can",
@@ -55,7 +57,7 @@ JSON_EVENTS = (sim_link.EVENT_TACTILE, sim_link.EVENT_FAULT)
 
 def _compared(op: int, payload: bytes) -> bool:
     if op == sim_link.OP_HELLO:
-        return False  # names the runtime, which --python may change on purpose
+        return False  # names the runtime, which --runtime may change on purpose
     if op == sim_link.OP_EVENT and payload and payload[0] in UNCOMPARED_EVENTS:
         return False
     return True
@@ -72,39 +74,6 @@ def _same(e: tuple[int, bytes] | None, a: tuple[int, bytes] | None) -> bool:
         return json.loads(e[1][1:]) == json.loads(a[1][1:])
     except ValueError:
         return False
-
-
-@dataclass
-class Divergence:
-    t_s: float
-    topic: str
-    expected: str
-    actual: str
-    exchange: int
-    # on the servo line: each side's bytes in the diverging exchange as Dynamixel packets,
-    # decoded in the protocol of the trace's servo model ("SYNC_WRITE to 254")
-    packets: dict[str, list[str]] | None = None
-
-    def as_dict(self) -> dict[str, Any]:
-        return {"t_s": self.t_s, "topic": self.topic, "expected": self.expected,
-                "actual": self.actual, "exchange": self.exchange, "packets": self.packets}
-
-
-@dataclass
-class ReplayResult:
-    exchanges: int = 0
-    compared_messages: int = 0
-    identical: bool = True
-    divergence: Divergence | None = None
-    firmware_exit: int | None = None
-    stderr_tail: str = ""
-    extra: dict[str, Any] = field(default_factory=dict)
-
-    def as_dict(self) -> dict[str, Any]:
-        return {"identical": self.identical, "exchanges": self.exchanges,
-                "compared_messages": self.compared_messages,
-                "first_divergence": self.divergence.as_dict() if self.divergence else None,
-                "firmware_exit": self.firmware_exit, **self.extra}
 
 
 def _describe(op: int, payload: bytes) -> str:
@@ -180,8 +149,8 @@ def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | No
 def replay_firmware(path: str | Path, python: str = "micropython", rate: float = 0.0,
                     start_s: float | None = None, end_s: float | None = None,
                     topics: Iterable[str] | None = None, timeout_s: float = 60.0,
-                    command: list[str] | None = None, firmware: str | None = None
-                    ) -> ReplayResult:
+                    command: list[str] | None = None, firmware: str | None = None,
+                    scenario: str | Path | None = None) -> ReplayResult:
     """Serve the logged replies to a fresh firmware process and compare its messages.
 
     ``start_s``/``end_s`` bound the compared stretch (the firmware always boots from t=0,
@@ -189,7 +158,8 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     comparison to some of ``TOPICS``; ``rate`` > 0 paces replies in wall time (1.0 =
     real time), 0 runs as fast as the firmware goes. ``firmware`` is the one the trace was
     recorded with (``hexhil run --firmware``'s: a main file for the virtual board or an
-    executable).
+    executable). A robot's imported log (``hexhil trace import``) replays through
+    host_tools/log_replay.py, its firmware settings those of ``scenario`` if given.
     """
     if python not in ("micropython", "cpython"):
         raise UserError(f"python must be micropython or cpython, not {python!r}",
@@ -204,11 +174,21 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
             raise UserError(f"unknown replay topic(s) {', '.join(bad)} "
                             f"(known: {', '.join(TOPICS)})")
     with Trace(path) as tr:
+        imported = tr.metadata().get("source") == IMPORTED
         recorded_with = tr.metadata().get("firmware_runtime")
         if firmware is None and recorded_with in (BOARD_RUNTIME, EXECUTABLE):
             _needs_firmware(path, recorded_with, tr.metadata())
-        exchanges = load_exchanges(tr, start_s, end_s)
+        exchanges = [] if imported else load_exchanges(tr, start_s, end_s)
         model = trace_model(tr)
+    if imported:   # a robot's own log: the firmware becomes the logged line's master
+        if start_s is not None or end_s is not None or topics or rate:
+            raise UserError(f"{path} is a robot's log (hexhil trace import): it replays whole, "
+                            "without start_s, end_s, topics or rate",
+                            params=("start_s", "end_s", "topics", "rate"))
+        return log_replay.replay_log(path, python, scenario, firmware, timeout_s)
+    if scenario is not None:
+        raise UserError(f"{path}: scenario is for a robot's imported log; a recorded run "
+                        "replays with its own settings", params=("scenario",))
     if not exchanges:
         raise UserError(f"{path}: the {T_LINK} topic is empty in the chosen time range")
     start_us = int(round((start_s or 0.0) * 1e6))

@@ -19,8 +19,8 @@ log = logging.getLogger(__name__)   # the addresses a client attaches to (hexhil
 
 def summary(scenario: Scenario, seed: int, result: RunResult,
             trace: str | None, what_ran: dict[str, Any] | None = None) -> dict[str, Any]:
-    """The ``--json`` object of a firmware run (keys fixed by issue 4; ``what_ran``,
-    ``Run.what_ran()``: the tactile rule as run and every override, issue 41)."""
+    """The ``--json`` object of a firmware run (its keys are a promise to scripts;
+    ``what_ran``, ``Run.what_ran()``: the tactile rule as run and every override)."""
     wall = result.wall_time_s
     fw = result.firmware
     stopped = fw.state in ("safe_stop", "fault")

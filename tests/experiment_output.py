@@ -1,4 +1,4 @@
-"""The one output style of ``hexhil experiment NAME`` (issue 34), checked the same way for
+"""The one output style of ``hexhil experiment NAME``, checked the same way for
 every experiment: a headline, indented headline figures, where the report and the figures
 are, the JSON summary last with --json; the Markdown report stays in its file."""
 from __future__ import annotations

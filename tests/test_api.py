@@ -1,6 +1,7 @@
 """The public API (host_tools/__init__.py, docs/api.md): every name resolves and is
 documented, a scenario loads typed and frozen, and examples/host_node.py (which uses the
 API alone) runs a shipped scenario with its own host node and reads its trace back."""
+import builtins
 import dataclasses
 import re
 import subprocess
@@ -21,6 +22,15 @@ def test_every_public_name_resolves_and_is_documented():
         assert f"`{name}" in doc, f"docs/api.md does not describe {name}"
     with pytest.raises(AttributeError):
         hx.no_such_name
+
+
+def test_every_type_the_docs_name_is_exported():
+    """A class docs/api.md names (`Name`, `Name(`, `Name.attr`) is importable from hx;
+    enum members and the standard library's names are not classes of ours."""
+    doc = (ROOT / "docs" / "api.md").read_text()
+    named = set(re.findall(r"`([A-Z][a-z][A-Za-z0-9]*)[`(.]", doc)) - {"Enum", "Protocol"}
+    named -= set(dir(builtins))
+    assert named and not named - set(hx.__all__), sorted(named - set(hx.__all__))
 
 
 def test_a_host_node_is_anything_with_a_period_and_a_tick():
@@ -112,7 +122,7 @@ def test_a_real_time_run_serves_a_master_on_a_pty_and_records_its_scenario(tmp_p
         where.append(line.split(": ", 1)[1])
         ready.set()
 
-    server = threading.Thread(target=lambda: summary.update(run.serve(hx.Pty(), announce)))
+    server = threading.Thread(target=lambda: summary.update(result=run.serve(hx.Pty(), announce)))
     server.start()
     assert ready.wait(10)
     with serial.Serial(where[0], 1_000_000, timeout=0.5) as port:
@@ -120,7 +130,12 @@ def test_a_real_time_run_serves_a_master_on_a_pty_and_records_its_scenario(tmp_p
         reply = port.read(6)
     server.join(10)
     assert reply == dxl.status(1, 0, b"")   # ID 1, no error, no parameters
-    assert summary["bus"]["replies"] == 1 and summary["served_s"] >= 1.4
+    result = summary["result"]   # a frozen ServeResult, as Run's RunResult
+    assert result.bus["replies"] == 1 and result.served_s >= 1.4
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        result.served_s = 0
+    assert result.as_dict()["bus"]["replies"] == 1
+    run.close()   # the same close() as Run's, again after serve: nothing left to close
     with hx.open_trace(out) as trace:
         meta = trace.metadata()
         sc, seed = hx.scenario_of_trace(meta, str(out))
@@ -128,3 +143,39 @@ def test_a_real_time_run_serves_a_master_on_a_pty_and_records_its_scenario(tmp_p
     as_run = shipped.as_toml_data()   # what was run: its seed written in
     as_run["scenario"] = {**as_run["scenario"], "seed": 4}
     assert seed == 4 and sc.as_toml_data() == as_run
+
+
+def _blocks(doc: str) -> list[str]:
+    return re.findall(r"```python\n(.*?)```", doc, re.S)
+
+
+@pytest.mark.parametrize("n", range(len(_blocks((ROOT / "docs" / "api.md").read_text()))))
+def test_the_docs_examples_run_and_print_what_they_say(n: int, tmp_path: Path) -> None:
+    """Each Python block of docs/api.md runs as it is; a ``print(...)  # X`` prints X (the
+    part after the comment's last colon)."""
+    code = _blocks((ROOT / "docs" / "api.md").read_text())[n]
+    (tmp_path / "scenarios").symlink_to(ROOT / "scenarios")
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                         text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    said = [line.split("#", 1)[1].rsplit(": ", 1)[-1].strip()
+            for line in code.splitlines() if line.startswith("print(") and "#" in line]
+    assert out.stdout.split("\n")[:len(said)] == said
+
+
+def test_one_result_form_the_tally_holds_the_results_fields():
+    """A run's tally is RunResult's fields, mutable (declared once, in RunResult), bar the
+    ones the firmware's stats or the host nodes give when it ends."""
+    from hil.run_result import RunTally
+
+    tally = RunTally("micropython")
+    after = {"cycles", "overruns", "host_nodes"}
+    assert set(vars(tally)) == {f.name for f in dataclasses.fields(hx.RunResult)} - after
+    tally.exceptions.append("ValueError: boom")
+    tally.count_can(0x700)
+    tally.firmware = {"cycles": 3, "overruns": 1, "state": "walking"}
+    result = tally.result()
+    assert (result.cycles, result.overruns, result.exceptions) == (3, 1, ("ValueError: boom",))
+    assert result.can_frames == {0x700: 1} and result.firmware.state == "walking"
+    with pytest.raises(TypeError):
+        result.can_frames[0x700] = 2   # frozen, as the result is

@@ -18,7 +18,7 @@ ALLOWED = {
     "host_tools": {"protocol", "hil", "host_tools"},
 }
 # host_tools/ stands on firmware/ too, but only here: the in-process runtime runs the
-# firmware in the host (issue 18); every other host tool meets it through the link.
+# firmware in the host; every other host tool meets it through the link.
 FIRMWARE_RUNNERS = {"host_tools/in_process.py"}
 PACKAGES = set(ALLOWED)
 MAX_LINES = 400
@@ -69,7 +69,7 @@ def test_no_source_file_over_400_lines() -> None:
     assert not long, long
 
 
-# --- the CLI is a shell (issue 28 part 2) ----------------------------------------------
+# --- the CLI is a shell ----------------------------------------------
 # Only host_tools/cli/ parses arguments, writes to the user's terminal and picks exit codes;
 # library code returns values, raises UserError, and reports progress through a callback
 # (host_tools/progress.py) or ``logging``. firmware/ is out of scope: its print() is the
@@ -226,7 +226,7 @@ def test_the_circle_finder_sees_a_circle(tmp_path: Path) -> None:
     assert import_circles(import_graph(files, tmp_path)) == [["pkg.a", "pkg.b", "pkg.c", "pkg.e"]]
 
 
-# --- names and shape (issue 39) --------------------------------------------------------
+# --- names and shape --------------------------------------------------------
 # A protocol's variant of a thing lives in a folder named for the thing, one file a protocol
 # (hil/servobus/protocols/v2.py, host_tools/dynamixel/decode/v1.py, firmware/servo_bus/v2.py),
 # never as a numbered sibling (bus2.py, conformance2.py, test_sdk_pty2.py). A model's name

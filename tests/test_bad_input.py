@@ -1,4 +1,4 @@
-"""Bad input, everywhere (issue 20): every command, option and file type refused with one
+"""Bad input, everywhere: every command, option and file type refused with one
 line on stderr that names what is wrong and where, exit status 2, never a traceback.
 
 The table runs in-process through ``host_tools.cli.main``; the cases that would serve
@@ -28,6 +28,7 @@ FILES = {
     "inf.toml": "[firmware]\ncycle_hz=inf\n", "pyfoo.toml": '[firmware]\npython="foo"\n',
     "longrun.toml": "[scenario]\nduration_s=1e308\n",
     "notmcap.mcap": "hello\n", "bad.csv": "a,b\n1,2\n", "afile": "",
+    "notzip.sr": "PK not really\n", "robot.xyz": "", "badmap.toml": "[serail]\nbaud=1\n",
 }
 B = "{B}"  # the case's folder, filled in by the fixture
 
@@ -91,6 +92,16 @@ CASES = [
     (["trace", "import-csv", f"{B}/missing.csv", f"{B}/o.mcap"], "no such CSV file"),
     (["trace", "import-csv", f"{B}/bad.csv", f"{B}/o.mcap"], "CSV lacks column(s)"),
     (["trace", "import-csv", f"{B}/bin.csv", f"{B}/o.mcap"], "not a readable CSV"),
+    (["trace", "import", f"{B}/missing.sr", "--out", f"{B}/o.mcap"], "no such log file"),
+    (["trace", "import", f"{B}/notzip.sr", "--out", f"{B}/o.mcap"], "not a sigrok session"),
+    (["trace", "import", f"{B}/robot.xyz", "--out", f"{B}/o.mcap"], "give --as can"),
+    (["trace", "import", f"{B}/notzip.sr", "--map", f"{B}/badmap.toml", "--out",
+      f"{B}/o.mcap"], "unknown map section(s) serail"),
+    (["trace", "import", f"{B}/notmcap.mcap", "--as", "can", "--out", f"{B}/o.mcap"],
+     "not a CAN log python-can reads"),
+    (["conformance", "--capture", f"{B}/notzip.sr"], "not a sigrok session"),
+    (["conformance", "--capture", f"{B}/empty.mcap"], "not an MCAP file"),
+    (["conformance", "--capture", f"{B}/notzip.sr", "--port", "x"], "one of them"),
     (["replay", f"{B}/notmcap.mcap"], "not an MCAP file"),
     (["replay", f"{B}/good.mcap", "--rate", "-1"], "--rate (0: as fast as possible) must be in [0, 1e+06], got -1.0"),
     (["replay", f"{B}/good.mcap", "--can", "bogus"], "--can wants INTERFACE:CHANNEL"),

@@ -1,4 +1,4 @@
-"""Ctrl-C during a beams run (seed 000) ends it as it ends a hexapod run (issue 41 item 11):
+"""Ctrl-C during a beams run (seed 000) ends it as it ends a hexapod run:
 exit 130, one line naming the virtual time and the trace kept, the ``--json`` summary with
 ``"interrupted": true``, and a finished trace; at any moment of ``Run.run``, set-up included."""
 from __future__ import annotations
@@ -19,9 +19,9 @@ from host_tools.lockstep_run import Run
 from host_tools.papers.beam_traversal import beams_run
 from host_tools.trace.reader import Trace, info
 from host_tools.trace.target import partial_of
+from conftest import hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
-HEXHIL = str(Path(sys.executable).with_name("hexhil"))
 FLIMSY = str(ROOT / "scenarios" / "beams-flimsy.toml")
 KILL_AT_S = 1.0          # after the plan (0.43 s), before the far side (2.49 s)
 
@@ -43,8 +43,7 @@ def test_ctrl_c_during_a_beams_run_prints_the_line_and_the_summary_and_keeps_the
     assert summary["sim_time_s"] == pytest.approx(KILL_AT_S, abs=1e-3)
     assert not partial_of(out).exists()
     assert KILL_AT_S - 0.5 <= info(out)["end_s"] <= KILL_AT_S   # finished up to the stop
-    cat = subprocess.run([HEXHIL, "trace", "cat", str(out), "--topics", "/can/body_pose"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=120)
+    cat = hexhil("trace", "cat", str(out), "--topics", "/can/body_pose", timeout=120)
     assert cat.returncode == 0 and cat.stdout.count("\n") >= 5, cat.stderr
 
 

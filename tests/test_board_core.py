@@ -3,8 +3,8 @@ test firmware gives the same serial digest, the same console, the same cycle cou
 same trace bytes either way: polled USART2 (the C tripod, the bare-metal pings at two bauds
 and without PA1), interrupt- and DMA-driven USART2, half-duplex echo, SysTick and PendSV
 (their exception returns done in C, on MSP and PSP, with and without the FPU's frame),
-EXTI switch interrupts, pended exceptions, a reply cut by PA1 (``rx_while_transmitting``)
-and a system reset."""
+EXTI switch interrupts, pended exceptions, a reply cut by PA1 (``rx_while_transmitting``),
+a system reset, a watchdog's reset and TIM1's interrupts."""
 import subprocess
 import sys
 from pathlib import Path
@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from hil.mcu import board_core
+from hil.mcu.struct_layout import layout_mismatch
 from host_tools import c_sdk
 from host_tools.run_summary import run
 from tests.mcu_elf import MCU, build
@@ -70,7 +71,8 @@ def test_a_firmware_runs_the_same_with_and_without_the_compiled_board(name, tmp_
                                             ("faults.c", ("FAULT=1",)),
                                             ("faults.c", ("FAULT=2",)),
                                             ("faults.c", ("FAULT=3",)),
-                                            ("faults.c", ("FAULT=8",))])
+                                            ("faults.c", ("FAULT=8",)),
+                                            ("iwdg.c", ()), ("tim1.c", ())])
 def test_the_board_tests_firmwares_run_the_same_both_ways(source, defines, tmp_path,
                                                          monkeypatch):
     assert (MCU / source).exists()
@@ -86,7 +88,7 @@ def test_a_library_whose_layout_differs_from_shared_is_refused_in_one_line(tmp_p
                                                                            monkeypatch):
     """Shared restates bc_t: the library says how its compiler laid bc_t out, and a build of
     another board_core.c (here one more field in the middle) is refused, never read wrong."""
-    assert board_core.layout_mismatch(board_core.library()) is None
+    assert layout_mismatch(board_core.library(), board_core.Shared) is None
     source = board_core.LIBRARY.with_name("board_core.c").read_text()
     marker = "    int64_t skipped;"
     assert marker in source
@@ -96,10 +98,44 @@ def test_a_library_whose_layout_differs_from_shared_is_refused_in_one_line(tmp_p
     subprocess.run([sys.executable, "-m", "ziglang", "cc", "-O1", "-shared", "-fPIC", "-o",
                     str(lib_path), str(changed)], check=True)
     import ctypes
-    lib = ctypes.PyDLL(str(lib_path))
-    lib.bc_layout.restype = ctypes.c_int32
-    why = board_core.layout_mismatch(lib)
+    why = layout_mismatch(ctypes.PyDLL(str(lib_path)), board_core.Shared)
     assert why is not None and "bytes" in why, why
     monkeypatch.setattr(board_core, "_MISMATCH", why)
     with pytest.raises(board_core.UserError, match=r"does not match .* HEXHIL_BOARD_CORE=python"):
         board_core.native()
+
+
+def test_the_calibrated_engine_counts_as_the_public_one(tmp_path, monkeypatch):
+    """engine.py's two engines: Unicorn's own counter found by calibration, and a public
+    UC_HOOK_CODE. The start-up check agrees, and a firmware runs the same under either
+    (console, cycles, instructions, serial digest), compiled and in Python."""
+    from hil.mcu import engine
+    assert engine.check_calibrated() is None
+    elf = build(tmp_path, "exceptions.c")
+    seen = []
+    for kind in ("hooked", "calibrated"):
+        for compiled in (True, False):
+            monkeypatch.setenv("HEXHIL_UNICORN_ENGINE", kind)
+            monkeypatch.setattr(board_core, "_LIB", board_core._LIB if compiled else None)
+            _, result = run(FLAT, duration_s=0.05, firmware=str(elf))
+            mcu = result.firmware.other["mcu"]
+            seen.append((result.stderr_tail, mcu["cycles"], mcu["instructions"],
+                         result.serial_digest))
+    assert all(s == seen[0] for s in seen), seen
+    assert seen[0][0].splitlines()[-1] == "done"
+
+
+def test_a_unicorn_whose_counter_moved_is_run_through_its_public_api(monkeypatch, caplog):
+    """A Unicorn build that keeps its count elsewhere than 2.1.4 is never read wrong: the
+    check names what differs in one warning line and the public engine runs the board."""
+    from hil.mcu import engine
+    real = engine._check_run
+    monkeypatch.setattr(engine, "_check_run",
+                        lambda calibrated: [(n + calibrated, pc) for n, pc in real(calibrated)])
+    monkeypatch.setattr(engine, "_KIND", [])
+    monkeypatch.delenv("HEXHIL_UNICORN_ENGINE", raising=False)
+    with caplog.at_level("WARNING", logger="hil.mcu.engine"):
+        assert engine.engine_kind(compiled=False) is engine.EngineKind.HOOKED
+    (line,) = [r.getMessage() for r in caplog.records]
+    assert "its own instruction count ends chunk 1 of the check at 3 instructions" in line
+    assert "public API instead" in line and "\n" not in line

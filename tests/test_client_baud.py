@@ -1,4 +1,4 @@
-"""Acceptance (issue 42): the client's line settings count on `hexhil bus --pty`. A client at
+"""Acceptance: the client's line settings count on `hexhil bus --pty`. A client at
 another rate than a servo's Baud Rate register reaches nothing; one that follows a servo
 to its new rate reaches that servo and no other, for both protocols."""
 from __future__ import annotations

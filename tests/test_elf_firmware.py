@@ -1,4 +1,4 @@
-"""STM32F411 ELFs on the emulated board (issue 40's acceptance, the build side): the C
+"""STM32F411 ELFs on the emulated board: the C
 tripod built with ``--target stm32f411`` walks; a bare-metal firmware written from RM0383
 alone pings the 18 servos through the PA1 buffer, and built without driving PA1 or at the
 wrong baud gets no replies and the run says why; two tasks share the core through

@@ -1,4 +1,4 @@
-"""Building for the board (issue 40): ``hexhil sdk build --target stm32f411`` makes an F411
+"""Building for the board: ``hexhil sdk build --target stm32f411`` makes an F411
 ELF (Thumb-2, hard float, newlib-nano) from the same main.c that builds for the host, with
 the SDK's own startup file, linker script and register-level HAL; compiler flags pass
 through; ``hexhil sdk flags --target stm32f411`` serves a user's Makefile; a missing
@@ -6,7 +6,6 @@ toolchain is one line. What the ELFs do when they run is tests/test_elf_firmware
 import os
 import shlex
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -14,6 +13,7 @@ from elftools.elf.elffile import ELFFile
 
 from host_tools import c_sdk
 from protocol.errors import UserError
+from conftest import hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 TRIPOD = ROOT / "examples" / "c_tripod" / "main.c"
@@ -21,11 +21,6 @@ ELF_FW = ROOT / "tests" / "elf_firmware"
 FLASH = range(0x08000000, 0x08000000 + 512 * 1024)
 SRAM = range(0x20000000, 0x20000000 + 128 * 1024)
 EF_ARM_ABI_FLOAT_HARD = 0x400
-
-
-def hexhil(*argv: str, **kw) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "host_tools.cli", *argv], cwd=ROOT,
-                          capture_output=True, text=True, **kw)
 
 
 def layout(path: Path) -> dict:

@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import subprocess
-import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -17,6 +15,7 @@ from lxml import etree
 from host_tools.expect import spec, steps, verdicts
 from host_tools.trace.reader import Trace
 from protocol.errors import UserError
+from conftest import hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 CASES = sorted(str(p) for p in (ROOT / "tests" / "firmware").glob("*.toml"))
@@ -60,11 +59,6 @@ JUNIT_XSD = b"""<?xml version="1.0"?>
     <xs:attribute name="errors" type="xs:nonNegativeInteger"/>
     <xs:attribute name="time" type="xs:decimal"/></xs:complexType></xs:element>
 </xs:schema>"""
-
-
-def hexhil(*argv: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "host_tools.cli", *argv], cwd=ROOT,
-                          capture_output=True, text=True, timeout=300)
 
 
 def validate_junit(path: Path) -> None:

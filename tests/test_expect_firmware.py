@@ -13,6 +13,7 @@ import pytest
 
 from host_tools.expect import spec
 from protocol.errors import UserError
+from conftest import hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 BOARD_TRIPOD = ROOT / "examples" / "board_tripod.py"
@@ -43,11 +44,6 @@ message = "heartbeat"
 window_s = [1, 8]
 rate_hz = [9, 11]
 '''
-
-
-def hexhil(*argv: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "host_tools.cli", *argv], cwd=ROOT,
-                          capture_output=True, text=True, timeout=300)
 
 
 def case_file(tmp_path: Path, text: str, name: str = "mine.toml") -> Path:

@@ -26,7 +26,7 @@ def test_executor_reports_each_run_done_to_its_progress_callback():
 
 
 def test_executor_on_a_dask_cluster():
-    distributed = pytest.importorskip("distributed")
+    import distributed
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
         ex = Executor(scheduler=cluster.scheduler_address)
@@ -116,7 +116,7 @@ def test_quick_sweep_from_the_command_line(tmp_path):
     """The paper's headline, the method beats no method, on the default world: the real model
     with obstacles the legs get stuck behind, as the paper's were. Its loose wooden obstacles
     (``--obstacles free``) are shoved aside, and there the method's longer steps cost more
-    than they save (docs/hexapod-world.md, issue 21)."""
+    than they save (docs/hexapod-world.md)."""
     import json
     import subprocess
     import sys

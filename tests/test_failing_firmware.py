@@ -1,5 +1,5 @@
 """A firmware that crashes, hangs, exits early or never starts is a failing case, not an
-error of hexhil (issue 41, item 1): ``hexhil test`` runs the other cases, prints its table
+error of hexhil: ``hexhil test`` runs the other cases, prints its table
 with the reason and the firmware's last lines, writes JUnit with the case as an error,
 keeps the trace with the reason on ``/expectations`` and exits 1; ``hexhil run`` exits 1
 with the ending in its ``--json`` summary; the API's ``RunResult.ending`` says how the
@@ -18,6 +18,7 @@ import pytest
 from hil.run_result import Ending
 from host_tools import Run
 from host_tools.trace.reader import Trace
+from conftest import hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 FLAT = ROOT / "scenarios" / "flat-tripod.toml"
@@ -39,11 +40,6 @@ duration_s = 3
 name = "no firmware exception"
 kind = "no_exception"
 '''
-
-
-def hexhil(*argv: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "host_tools.cli", *argv], cwd=ROOT,
-                          capture_output=True, text=True, timeout=300)
 
 
 def firmware(tmp_path: Path, kind: str) -> Path:

@@ -1,4 +1,4 @@
-"""Issue 42's fault vocabulary: each kind from a scenario's [faults], from the API
+"""The named failures: each kind from a scenario's [faults], from the API
 (``Run.inject``, a host node) and from ``hexhil bus --inject-stdin``; our firmware's
 reaction to each (docs/servo-bus.md, "Fault vocabulary")."""
 from __future__ import annotations

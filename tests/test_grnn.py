@@ -1,4 +1,4 @@
-"""The GRNN positional-error predictor (issue 16, seed 003 Sec. 2.6, Fig. 8): features from
+"""The GRNN positional-error predictor: features from
 real traces, the dataset command, training (shapes, determinism), the model file (round
 trip, refusals), evaluation, and that ``hexhil run`` never imports torch."""
 from __future__ import annotations

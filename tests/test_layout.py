@@ -1,4 +1,4 @@
-"""The shape issue 39 gave the project, held: the papers' packages above the toolkit (never
+"""The project's shape, held: the papers' packages above the toolkit (never
 imported by it), one scenario form (only hil/scenario/ reads the data as written), the run's
 seams typed, ``RunResult`` frozen, and library errors in the API's terms (the CLI adds the
 flags). The floors, circles and line caps are tests/test_architecture.py's."""
@@ -13,7 +13,7 @@ import pytest
 from tests.test_architecture import ROOT, SHELL, _library_modules, _modules, imported
 
 
-# --- issue 39: the papers apart, one scenario form, the seams typed ------------------------
+# --- the papers apart, one scenario form, the seams typed ------------------------
 # The papers' reproductions sit above the toolkit: nothing of the toolkit imports them; the
 # toolkit meets them through host_tools/plugins.py, which they register into. The CLI is the
 # shell over both (``hexhil experiment``, ``hexhil grnn``, ``hexhil beams`` are theirs).
@@ -217,7 +217,7 @@ def test_the_cli_writes_the_parameters_as_flags(tmp_path: Path) -> None:
     assert flags_in_errors(src) == ["line 1: '--rate must be >= 0, got '"]
     err = UserError("firmware fw.py brings its own runtime: leave out python (micropython)",
                     params=("firmware", "python"))
-    assert flag_message(err) == ("--firmware fw.py brings its own runtime: leave out --python "
+    assert flag_message(err) == ("--firmware fw.py brings its own runtime: leave out --runtime "
                                  "(micropython)")
     assert flag_message(UserError("x.toml: world needs a [world] section", params=("world",))) \
         == "x.toml: --world needs a [world] section"

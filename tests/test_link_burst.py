@@ -1,4 +1,4 @@
-"""A burst of 1,000 CAN frames queued for the firmware within one sleep (issue 28): more
+"""A burst of 1,000 CAN frames queued for the firmware within one sleep: more
 than one sleep reply holds (protocol/sim_link.py MAX_CAN_PER_REPLY), so the host continues
 it over OP_MORE replies; every frame must arrive, in order, in that same cycle, under the
 real micropython binary and under CPython, and the link stays up."""

@@ -1,4 +1,4 @@
-"""The listeners against hostile clients (issue 20): the socketcand server (hil/canbus/socketcand.py),
+"""The listeners against hostile clients: the socketcand server (hil/canbus/socketcand.py),
 the serial TCP server of ``hexhil bus --tcp`` and the live view of ``hexhil run --live``
 (host_tools/trace/live.py) bind 127.0.0.1 by default, survive garbage and clients that
 vanish mid-message, and stay bounded under a client that never reads. The socketcand

@@ -6,16 +6,14 @@ import asyncio
 import json
 import struct
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
-
-websockets = pytest.importorskip("websockets")
+import websockets
+from conftest import HEXHIL
 
 ROOT = Path(__file__).resolve().parent.parent
-HEXHIL = str(Path(sys.executable).with_name("hexhil"))
 WANTED = ("/scene", "/scene/frames", "/joints")
 SUBPROTOCOL = "foxglove.sdk.v1"  # the SDK server speaks this; foxglove.websocket.v1 is refused
 
@@ -65,7 +63,7 @@ async def _drop_out(url: str) -> None:
 
 
 def test_live_channels_reach_a_websocket_client():
-    proc = subprocess.Popen([HEXHIL, "run", "scenarios/obstacles-high-large.toml",
+    proc = subprocess.Popen([*HEXHIL, "run", "scenarios/obstacles-high-large.toml",
                              "--duration", "10", "--live", "0", "--realtime"], cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:

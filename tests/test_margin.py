@@ -62,7 +62,7 @@ def test_the_sweep_finds_the_firmwares_reply_budget(tmp_path: Path) -> None:
 
 
 def test_the_heat_map_has_a_colour_bar_and_only_all_holding_is_green(tmp_path):
-    """80 % (one expectation of five failing) must not look like a pass (issue 41)."""
+    """80 % (one expectation of five failing) must not look like a pass."""
     import matplotlib.pyplot as plt
 
     cmap, norm = margin_sweep.share_colouring()

@@ -1,4 +1,4 @@
-"""The emulated STM32F411 (hil/mcu/, issue 40) on bare-metal ELFs of its own
+"""The emulated STM32F411 (hil/mcu/) on bare-metal ELFs of its own
 (tests/mcu/*.c, registers from RM0383): clocks, SysTick, DWT, the servo line through the
 PA1 buffer at the baud the firmware sets, USART IDLE, the console, timers, EXTI, bxCAN."""
 import json
@@ -50,7 +50,7 @@ def test_timer_switch_and_can_interrupts(tmp_path):
     assert 199 <= tim <= 200            # TIM2 at 1 kHz for the 200 SysTicks
     assert falls == 3 and pb0 == 1      # EXTI0 on each press; released reads 1 (pull-up)
     assert can_rx == 1 and last_id == 0x120
-    assert r.can_frames == {"0x321": 1, "0x121": 1}
+    assert r.can_frames == {0x321: 1, 0x121: 1}   # by arbitration id, as python-can keys them
 
 
 def test_semihosting_console_and_exit(tmp_path):
@@ -106,6 +106,26 @@ def test_bit_band_aliases_reach_sram_bits_and_peripheral_registers(tmp_path):
     assert r.ending.kind is Ending.COMPLETED and not r.faults
 
 
+def test_the_independent_watchdog_resets_a_firmware_that_stops_refreshing_it(tmp_path):
+    """IWDG at 10 ms, never refreshed: the MCU resets as by SYSRESETREQ, the run names the
+    cause and counts it, and the second boot finds RCC CSR's IWDGRSTF (cleared by RMVF)."""
+    r, _ = run_elf(build(tmp_path, "iwdg.c"), 0.05)
+    assert console(r) == ["iwdg started", "iwdg reset seen"], console(r)
+    assert r.firmware.other["mcu"]["resets"] == 1
+    assert r.firmware.other["mcu"]["reset_causes"] == {"IWDG": 1}
+    r, _ = run_elf(build(tmp_path, "iwdg.c", "REFRESH=1"), 0.05)
+    assert console(r) == ["iwdg started"] and r.firmware.other["mcu"]["resets"] == 0
+
+
+def test_tim1_as_the_hal_timebase_with_a_compare_at_ccr_0(tmp_path):
+    """TIM1's update interrupt at 1 kHz from APB2's timer clock (IRQ 25), its channel 1
+    compare at CCR1 = 0 each period on TIM1_CC (IRQ 27): 100 ticks in 100 ms of DWT."""
+    r, _ = run_elf(build(tmp_path, "tim1.c"), 0.15)
+    words = console(r)[-1].split()
+    assert words[:4] == ["tim1", "100", "cc", "100"], console(r)
+    assert 9_990_000 <= int(words[5]) <= 10_010_000
+
+
 @pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
 def test_a_wait_on_ram_is_skipped_to_the_interrupt_and_a_counting_loop_is_not(
         tmp_path, monkeypatch, compiled):
@@ -125,6 +145,14 @@ def test_a_wait_on_ram_is_skipped_to_the_interrupt_and_a_counting_loop_is_not(
     assert passes > 1_000_000            # every pass ran
     skipped = counting.firmware.other["mcu"]["skipped_cycles"]
     assert skipped < 0.4 * 300 * 100_000  # only the flag wait after it was skipped
+
+
+def test_the_window_watchdog_refreshed_in_its_window_then_left_to_reset(tmp_path):
+    """WWDG's counter polled down into the window (a poll of it is not skipped: it moves
+    between events) and refreshed five times, then not: its reset is named and counted."""
+    r, _ = run_elf(build(tmp_path, "wwdg.c"), 0.03)
+    assert console(r) == ["5f 5f 5f 5f 5f refreshed", "wwdg reset seen"], console(r)
+    assert r.firmware.other["mcu"]["reset_causes"] == {"WWDG": 1}
 
 
 @pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])

@@ -6,16 +6,15 @@ import json
 import shutil
 import socket
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from hil.mcu.coverage import merge
 from mcu_elf import MCU, build
+from conftest import HEXHIL, hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
-HEXHIL = str(Path(sys.executable).with_name("hexhil"))
 
 
 def free_port():
@@ -25,7 +24,7 @@ def free_port():
 
 
 def run(elf, *extra):
-    return [HEXHIL, "run", "scenarios/flat-tripod.toml", "--firmware", str(elf),
+    return [*HEXHIL, "run", "scenarios/flat-tripod.toml", "--firmware", str(elf),
             "--duration", "0.3", "--json", *extra]
 
 
@@ -175,15 +174,12 @@ def test_hexhil_test_counts_a_fault_as_a_failing_case_and_merges_coverage(tmp_pa
     case.write_text(f'[case]\nscenario = "{ROOT}/scenarios/flat-tripod.toml"\nduration_s = 0.2\n\n'
                     '[[expect]]\nname = "no firmware exception"\nkind = "no_exception"\n')
     hard = build(tmp_path, "faults.c", "FAULT=1")
-    r = subprocess.run([HEXHIL, "test", str(case), "--firmware", str(hard)], cwd=ROOT,
-                       capture_output=True, text=True, timeout=300)
+    r = hexhil("test", str(case), "--firmware", str(hard), timeout=300)
     assert r.returncode == 1, r.stdout + r.stderr
     assert "faulted: an undefined instruction (UsageFault)" in r.stdout and "FAIL" in r.stdout
     info = tmp_path / "all.info"
     ping = build(tmp_path, "ping.c", "BAUD_BRR=50", "RAISE_A1=1", opt="-O0")
-    r = subprocess.run([HEXHIL, "test", str(case),
-                        "--repeat", "2", "--firmware", str(ping), "--coverage", str(info)],
-                       cwd=ROOT, capture_output=True, text=True, timeout=300)
+    r = hexhil("test", case, "--repeat", "2", "--firmware", ping, "--coverage", info)
     assert "coverage of 2 runs" in r.stdout, r.stdout + r.stderr
     line = next(n for n, text in enumerate((MCU / "ping.c").read_text().splitlines(), 1)
                 if text.startswith("void SysTick_Handler"))      # 1 kHz

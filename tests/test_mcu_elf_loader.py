@@ -2,7 +2,6 @@
 HardFault ends the run (exit 1, the firmware's verdict) in one line naming the PC and the
 function, the trace kept."""
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -11,15 +10,14 @@ from hil.mcu.elf_image import load_elf
 from host_tools.trace.reader import Trace
 from mcu_elf import build
 from protocol.errors import UserError
+from conftest import HEXHIL, hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
-HEXHIL = str(Path(sys.executable).with_name("hexhil"))
 
 
 def hexhil_run(elf, *extra):
-    return subprocess.run([HEXHIL, "run", "scenarios/flat-tripod.toml", "--firmware", str(elf),
-                           "--duration", "0.1", *extra], cwd=ROOT, capture_output=True,
-                          text=True, timeout=120)
+    return hexhil("run", "scenarios/flat-tripod.toml", "--firmware", elf, "--duration", "0.1",
+                  *extra, timeout=120)
 
 
 def one_line(r, status=2):
@@ -94,7 +92,7 @@ def test_the_trace_is_the_same_bytes_twice_replay_is_identical_a_changed_elf_div
     again = tmp_path / "again.mcap"
     assert hexhil_run(elf, "--out", str(again)).returncode == 0
     assert again.read_bytes() == trace.read_bytes()      # the same ELF, scenario, seed
-    replay = [HEXHIL, "replay", str(trace), "--firmware"]
+    replay = [*HEXHIL, "replay", str(trace), "--firmware"]
     same = subprocess.run(replay + [str(elf)], cwd=ROOT, capture_output=True, text=True,
                           timeout=300)
     assert same.returncode == 0 and same.stdout.startswith("identical:"), same.stdout + same.stderr

@@ -1,4 +1,4 @@
-"""Nothing recorded is lost (issue 20): SIGKILL, SIGTERM and Ctrl-C at several simulated
+"""Nothing recorded is lost: SIGKILL, SIGTERM and Ctrl-C at several simulated
 moments of ``hexhil run --out``, and a full disk. After SIGKILL ``hexhil trace recover``
 gives back every message up to 1 s before the kill, byte for byte as an unbroken run wrote
 it; SIGTERM and SIGINT end with a finished file; a failed write gives one line and keeps

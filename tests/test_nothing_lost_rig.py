@@ -1,4 +1,4 @@
-"""Nothing recorded is lost (issue 20), beyond ``hexhil run --out``: the real-time rig
+"""Nothing recorded is lost, beyond ``hexhil run --out``: the real-time rig
 (``hexhil bus --world ... --out``) driven by our firmware over a pty, and an experiment
 recording every run (``hexhil experiment tactile-hexapod --traces``).
 

@@ -1,5 +1,5 @@
-"""Every number given to hexhil is checked for finiteness and its documented physical range
-(issue 41, item 3): in the scenario loader (hil/scenario/rules.py's range rules),
+"""Every number given to hexhil is checked for finiteness and its documented physical range:
+in the scenario loader (hil/scenario/rules.py's range rules),
 on the command line and through the API alike; one line, exit 2, never a traceback."""
 from __future__ import annotations
 

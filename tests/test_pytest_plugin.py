@@ -16,7 +16,7 @@ EXAMPLE = ROOT / "examples" / "test_firmware_example.py"
 
 def _pytest(*argv: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "pytest", str(EXAMPLE), "-p", "no:cacheprovider",
-                           "--hexhil-python", "cpython-inprocess", *argv],
+                           "--hexhil-runtime", "cpython-inprocess", *argv],
                           cwd=ROOT, capture_output=True, text=True, timeout=600)
 
 

@@ -15,9 +15,9 @@ from ctrl_c import sigint_default
 from host_tools.trace.reader import Trace
 from host_tools.trace.topics import T_BODY, T_SERIAL
 from protocol.dynamixel import v1 as dxl
+from conftest import HEXHIL
 
 ROOT = Path(__file__).resolve().parent.parent
-HEXHIL = [sys.executable, "-m", "host_tools.cli"]
 MICROPYTHON = Path(sys.executable).with_name("micropython")
 
 

@@ -3,8 +3,7 @@ one line saying what to install when no OpenGL library is there."""
 from __future__ import annotations
 
 import ctypes.util
-import subprocess
-import sys
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -12,16 +11,19 @@ import pytest
 
 from host_tools import render as render_mod
 from protocol.errors import UserError
+from conftest import hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
-HEXHIL = str(Path(sys.executable).with_name("hexhil"))
 GL = ctypes.util.find_library("EGL") or ctypes.util.find_library("OSMesa")
-needs_gl = pytest.mark.skipif(not GL, reason="no libEGL or libOSMesa for offscreen rendering "
-                                             "(apt-get install libegl1)")
 
 
-def hexhil(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([HEXHIL, *args], cwd=ROOT, capture_output=True, text=True, timeout=300)
+def needs_gl(test):
+    """A test that renders: without libEGL or libOSMesa it fails saying so (``make test``
+    installs libegl1), never skips."""
+    def run(*args, **kw):
+        assert GL, "no libEGL or libOSMesa for offscreen rendering: apt-get install libegl1"
+        return test(*args, **kw)
+    return functools.wraps(test)(run)
 
 
 @pytest.fixture(scope="module")

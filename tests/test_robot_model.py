@@ -10,12 +10,11 @@ import sys
 import mujoco
 import numpy as np
 import pytest
+import yourdfpy
 
 from hil.world.hexapod_world import RobotParams, mjcf
 from host_tools.robot_model import urdf
 from protocol.hexapod import JOINTS, LEGS
-
-yourdfpy = pytest.importorskip("yourdfpy")
 
 
 @pytest.fixture(scope="module")

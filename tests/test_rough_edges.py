@@ -1,4 +1,4 @@
-"""The rough edges a new user hit (issue 34): exports that cannot be what their name says,
+"""The rough edges a new user hit: exports that cannot be what their name says,
 times and stiffnesses outside what a trace or the world holds, and a pacing warning only
 when a master can notice. Each refusal is one line on stderr and exit status 2."""
 from __future__ import annotations

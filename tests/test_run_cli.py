@@ -1,21 +1,15 @@
 """``hexhil run``: the shipped scenarios end to end, the JSON summary, one-line errors."""
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from conftest import hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
-HEXHIL = str(Path(sys.executable).with_name("hexhil"))
 KEYS = {"scenario", "seed", "firmware_runtime", "sim_time_s", "wall_time_s", "real_time_factor",
         "boot_s", "cycles", "overruns", "unhandled_exceptions", "serial_digest", "faults",
         "stopped_safely", "stop_reason", "body", "trace"}
-
-
-def hexhil(*args):
-    return subprocess.run([HEXHIL, *args], cwd=ROOT, capture_output=True, text=True, timeout=300)
 
 
 def summary(r):

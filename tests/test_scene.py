@@ -3,8 +3,6 @@ decoders, the geometry has the world's sizes, plates change colour, feet carry t
 and the scene's topics are added beside the old ones without touching them."""
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 import mujoco
@@ -19,15 +17,14 @@ from hil.world import scene as scene_mod
 from hil.world.beam_body import PAPER_BODY
 from hil.world.beams import BeamsWorld, BodyState
 from host_tools.trace import topics
+from conftest import hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
-HEXHIL = str(Path(sys.executable).with_name("hexhil"))
 
 
 def _run(tmp_path: Path, name: str, *extra: str) -> Path:
     out = tmp_path / f"{name}.mcap"
-    r = subprocess.run([HEXHIL, "run", f"scenarios/{name}.toml", "--out", str(out), *extra],
-                       cwd=ROOT, capture_output=True, text=True, timeout=300)
+    r = hexhil("run", f"scenarios/{name}.toml", "--out", str(out), *extra, timeout=300)
     assert r.returncode == 0, r.stderr
     return out
 

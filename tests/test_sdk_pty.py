@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import signal
 import subprocess
-import sys
 import time
 from contextlib import contextmanager
 from pathlib import Path
@@ -17,9 +16,9 @@ import dynamixel_sdk.port_handler
 from ctrl_c import sigint_default
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
+from conftest import HEXHIL, hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
-HEXHIL = [sys.executable, "-m", "host_tools.cli"]
 
 
 @contextmanager
@@ -148,11 +147,9 @@ def test_stock_sdk_misreads_an_echoing_line(monkeypatch_module):
 
 
 def test_cli_rejects_bad_flags_in_one_line():
-    r = subprocess.run([*HEXHIL, "bus", "--pty", "--ids", "5-2"], cwd=ROOT, capture_output=True,
-                       text=True, timeout=60)
+    r = hexhil("bus", "--pty", "--ids", "5-2", timeout=60)
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
-    r = subprocess.run([*HEXHIL, "bus", "--pty", "--tcp", "7000"], cwd=ROOT, capture_output=True,
-                       text=True, timeout=60)
+    r = hexhil("bus", "--pty", "--tcp", "7000", timeout=60)
     assert r.returncode == 2 and "one transport" in r.stderr
 
 

@@ -14,7 +14,7 @@ from protocol.errors import UserError
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def test_soak_has_every_fault_the_issue_names() -> None:
+def test_soak_has_every_fault_kind_of_its_scenario() -> None:
     sc = scenario.load_scenario(ROOT / "scenarios" / "soak.toml")
     f = sc.faults
     assert sc.scenario.duration_s == 600

@@ -1,4 +1,4 @@
-"""Acceptance (issue 42): third-party Dynamixel clients on `hexhil bus` as on a real bus:
+"""Acceptance: third-party Dynamixel clients on `hexhil bus` as on a real bus:
 `dynamixel-controller`'s wheel mode (two EEPROM writes back to back) works, scans
 beside a CPU hog see no invented collision, the first ping after the pty is announced is
 answered."""

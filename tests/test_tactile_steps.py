@@ -1,5 +1,5 @@
 """Seed 003's tactile rule is judged on the step after a press, and a step starts when the
-foot leaves the ground (issue 41 item 8): a switch that closes during the first centimetre
+foot leaves the ground: a switch that closes during the first centimetre
 of a swing belongs to the next step, where the firmware (switched only at the start of a
 step) applies it."""
 import subprocess

@@ -1,4 +1,4 @@
-"""A recorded trace is never lost (issue 41, item 2): every trace is written to
+"""A recorded trace is never lost: every trace is written to
 ``TARGET.partial`` and renamed at the end (host_tools/trace/target.py); an existing file is
 refused unless ``--overwrite``; a second run onto the same target is refused while the
 first holds it; a killed run's partial file is found by ``trace recover``; a full or
@@ -18,15 +18,11 @@ from host_tools.trace.reader import Trace, info
 from host_tools.trace.recorder import Recorder
 from host_tools.trace.target import partial_of
 from protocol.errors import UserError
+from conftest import hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
 FAST = ("--python", "cpython-inprocess")
-
-
-def hexhil(*argv: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "host_tools.cli", *argv], cwd=ROOT,
-                          capture_output=True, text=True, timeout=300)
 
 
 def one_line(r: subprocess.CompletedProcess) -> str:

@@ -1,9 +1,7 @@
-"""The virtual STM32F411 board (issue 29): a MicroPython firmware on ``machine``/``time``
+"""The virtual STM32F411 board: a MicroPython firmware on ``machine``/``time``
 stand-ins in lockstep, ``hexhil run --firmware``, and how a bad firmware is reported."""
 import json
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -16,9 +14,9 @@ from hil.run.lockstep import Simulator
 from hil.scenario import SCHEMA
 from host_tools import cli
 from host_tools.trace.reader import Trace
+from conftest import hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
-HEXHIL = str(Path(sys.executable).with_name("hexhil"))
 EXAMPLE = ROOT / "examples" / "board_tripod.py"
 
 PING = '''
@@ -38,10 +36,6 @@ def ping(i):
     direction.value(0)
     return uart.read(6)
 '''
-
-
-def hexhil(*args):
-    return subprocess.run([HEXHIL, *args], cwd=ROOT, capture_output=True, text=True, timeout=300)
 
 
 def board_run(tmp_path, source, *extra):

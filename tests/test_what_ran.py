@@ -1,27 +1,21 @@
-"""What the run was is in the trace (issue 41, item 6): every override (tactile, seed,
+"""What the run was is in the trace: every override (tactile, seed,
 duration, firmware and its runtime, bus timing added) in the trace's metadata, the
 ``--json`` summary and the JUnit properties; ``scenario_of_trace`` gives what was run;
-replay re-runs it; a flag that cannot apply is refused. And replay (item 7): a trace of a
+replay re-runs it; a flag that cannot apply is refused. And replay: a trace of a
 firmware of the user's asks for it, and a divergence shows the servo packets decoded."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from host_tools import scenario_of_trace
 from host_tools.trace.reader import Trace
+from conftest import hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
 EXAMPLE = ROOT / "examples" / "board_tripod.py"
-
-
-def hexhil(*argv: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "host_tools.cli", *argv], cwd=ROOT,
-                          capture_output=True, text=True, timeout=300)
 
 
 def test_overrides_are_in_the_trace_the_summary_and_scenario_of_trace(tmp_path: Path) -> None:

@@ -1,4 +1,4 @@
-"""The real world model (issue 21): off by default, seeded, and physically different."""
+"""The real world model: off by default, seeded, and physically different."""
 import math
 
 import pytest

@@ -27,8 +27,26 @@ import can
 
 from hil.clock import VirtualClock
 from hil.seams import CanGateway, TraceRecorder
+from protocol import can_frames
+from protocol.errors import UserError
 
 _channels = itertools.count()
+
+
+def message(name: str, **signals: float) -> can.Message:
+    """Our DBC's frame ``name`` (protocol/can_frames.py) as a python-can message."""
+    arb_id, data = can_frames.encode(name, **signals)
+    return can.Message(arbitration_id=arb_id, data=data, is_extended_id=False)
+
+
+def standard_frame(msg: can.Message) -> tuple[int, bytes]:
+    """(arbitration id, data) of a standard 11-bit data frame, the only kind a run carries."""
+    if msg.is_extended_id or msg.is_remote_frame or msg.is_error_frame or msg.is_fd:
+        raise UserError("a run's CAN bus carries standard 11-bit data frames: "
+                        f"got {msg!r}")
+    if not 0 <= msg.arbitration_id <= 0x7FF:
+        raise UserError(f"arbitration id 0x{msg.arbitration_id:X} is not an 11-bit id")
+    return msg.arbitration_id, bytes(msg.data)
 
 
 def t_us_of(msg: can.Message) -> int:
@@ -53,7 +71,14 @@ class Endpoint(can.BufferedReader):
         if self.hears is None or (msg.is_rx == (self.hears == "rx")):
             super().on_message_received(msg)
 
-    def send(self, arb_id: int, data: bytes) -> None:
+    def send(self, msg: can.Message) -> None:
+        """``msg`` on the run's bus now, as python-can's ``BusABC.send`` takes it (its
+        timestamp is the run's virtual time, not the message's)."""
+        self.send_frame(*standard_frame(msg))
+
+    def send_frame(self, arb_id: int, data: bytes) -> None:
+        """A standard frame's id and bytes, already checked: the link's host side, which
+        has them as the firmware sent them, builds the message once, here."""
         self._bus.send(arb_id, data, sender=self, direction=self.direction)
 
     def frames(self, limit: int = -1) -> Iterator[can.Message]:

@@ -19,7 +19,7 @@ No frame is lost on the link: each client's output buffer is drained, not droppe
 ``close()`` sends what is left before closing. Timestamps are virtual time in seconds, so a
 tool's time axis matches the trace.
 
-Hostile clients (issue 20): it binds 127.0.0.1 unless told otherwise and serves every
+Hostile clients: it binds 127.0.0.1 unless told otherwise and serves every
 client that connects (each gets every frame). Memory is bounded per client: a client
 that stops reading is disconnected once ``MAX_OUT_BYTES`` of frames wait for it (it sees
 the stream end rather than a silent gap; the run is never held back), and a command

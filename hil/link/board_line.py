@@ -1,4 +1,4 @@
-"""The host side of the virtual STM32F411 board (firmware/virtual_board/, issue 29).
+"""The host side of the virtual STM32F411 board (firmware/virtual_board/).
 
 ``BoardLine`` answers the link's line request (docs/link.md "L line"): the board's UART
 behind its 74HC126/74HC04 direction circuit, in virtual time. Bytes written while the

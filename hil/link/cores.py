@@ -6,7 +6,7 @@ Two things narrow the machine's cores: the affinity (``taskset``) and the cgroup
 quota (``docker run --cpus=1``, a CI runner's limit). A quota is not a core count: under
 one CPU's quota on a 16-core host the affinity still says 16, and two polling processes
 each spin on a core of their own until the quota is spent and the kernel throttles the
-group for the rest of the period (a run 30 % slower under ``--cpus=1``, wave 14). So the
+group for the rest of the period (a run 30 % slower under ``--cpus=1``). So the
 quota counts too: quota / period CPUs, the smallest along the cgroup's path (a limit set
 on a parent holds for its children), in cgroup v2's ``cpu.max`` and v1's
 ``cpu.cfs_quota_us`` / ``cpu.cfs_period_us``. Whatever cannot be read counts as no limit.

@@ -23,7 +23,7 @@ from typing import Any, Callable
 
 from hil.link import cores
 from protocol import sim_link
-from protocol.errors import UserError
+from protocol.errors import BadFile, BadValue, UserError
 
 ROOT = Path(__file__).resolve().parents[2]
 REQUEST_OPS = sim_link.REQUEST_OPS
@@ -39,7 +39,7 @@ NATIVE = ("-X", "emit=native")
 # How long each side polls for the other's next message before it blocks (the host sets
 # sim_link.ENV_SPIN_US for its firmware): most come sooner, and a process that blocks pays
 # the scheduler's wake-up on top. A micropython cycle 330 -> 260 us with both sides
-# polling (docs/performance.md, wave 13); each side's sim_link.PollGate keeps it to where
+# polling (docs/performance.md); each side's sim_link.PollGate keeps it to where
 # each side has a core.
 SPIN_US = 200
 
@@ -66,13 +66,13 @@ def firmware_command(python: str) -> list[str]:
     if python == "micropython":
         exe = Path(sys.executable).with_name("micropython")
         if not exe.exists():
-            raise UserError("the micropython binary is not in this environment "
-                            "(run `make test` once, or give python cpython)", params=("python",))
+            raise BadFile("the micropython binary is not in this environment "
+                          "(run `make test` once, or give python cpython)", params=("python",))
         return [str(exe), *NATIVE, "-m", "firmware.main"]
     if python == "cpython":
         return [sys.executable, "-m", "firmware.main"]
-    raise UserError(f"python must be one of {', '.join(RUNTIMES)}, not {python!r}",
-                    params=("python",))
+    raise BadValue(f"python must be one of {', '.join(RUNTIMES)}, not {python!r}",
+                   params=("python",))
 
 
 def firmware_env(port: int, path: str | None = None) -> dict[str, str]:
@@ -159,8 +159,8 @@ def spin_us() -> int:
     given = os.environ.get(sim_link.ENV_SPIN_US)
     if given is not None:
         if not given.isdigit():
-            raise UserError(f"{sim_link.ENV_SPIN_US} must be a whole number of microseconds "
-                            f"(0 turns polling off), not {given!r}")
+            raise BadValue(f"{sim_link.ENV_SPIN_US} must be a whole number of microseconds "
+                           f"(0 turns polling off), not {given!r}")
         return int(given)
     return SPIN_US if cores.usable() >= 2 else 0
 
@@ -284,7 +284,7 @@ def _listen(ours: bool) -> tuple[socket.socket, dict[str, str]]:
     """The socket the firmware connects to, and its environment. Our firmware (its HAL,
     firmware/hal/sim.py) gets a Unix socket in a directory of its own: a round trip about
     10 us cheaper than TCP's loopback, whose send also runs the receiving side's stack
-    (docs/performance.md, wave 11). A firmware not ours gets the documented 127.0.0.1 port,
+    (docs/performance.md). A firmware not ours gets the documented 127.0.0.1 port,
     and so does ours where no Unix socket can be made."""
     srv = _unix_listener() if ours else None
     if srv is not None:

@@ -136,7 +136,7 @@ class LinkServer:
             raise LinkViolation(f"malformed CAN message ({len(payload)} bytes)")
         arb_id, dlc = struct.unpack_from("<HB", payload, 0)
         result.count_can(arb_id)
-        self.inbox.send(arb_id, bytes(payload[3:3 + dlc]))
+        self.inbox.send_frame(arb_id, bytes(payload[3:3 + dlc]))
 
     def _can_records(self) -> tuple[int, bytes]:
         """(flags, u8 n + records) of the frames queued for the client, as many as one

@@ -3,8 +3,12 @@
 ``elf_image`` reads and checks the ELF; ``core`` runs it on Unicorn in chunks of exact
 instruction counts (one instruction is one cycle of HCLK) and does the exception model
 Unicorn leaves out, at the virtual time of ``timebase``; ``events`` schedules what the peripherals will do; ``system`` (NVIC,
-SCB, DWT), ``systick``, ``rcc``, ``gpio``, ``usart`` and ``peripherals`` (TIM2-5, DMA, bxCAN1)
-are the board's peripherals at register level (facts from RM0383); ``board`` joins them,
+SCB, DWT), ``systick``, ``rcc``, ``gpio``, ``usart`` and ``peripherals`` (TIM1-5, TIM9-11,
+DMA, bxCAN1) are the board's peripherals at register level (facts from RM0383);
+``registers`` describes a peripheral's registers as data and is the generic register file,
+``devices`` holds the peripherals built that way (IWDG, WWDG, CRC, RTC, ADC1, I2C, SPI,
+SDIO), ``platform`` is the table of every region and peripheral (address, model, IRQs,
+clock gate); ``board`` joins them,
 ``servo_line`` wires USART2 to the servo bus through the PA1 direction buffer, ``console``
 takes USART1/6 and semihosting, ``poll`` skips waiting, and ``link_client`` speaks the
 simulator link as a client, so the line, switches, CAN and console reach hil/link/ as any

@@ -5,11 +5,12 @@ The loop runs the core in chunks that end at the next scheduled event, so every 
 changes at its exact cycle. Waiting costs no host time: WFI/WFE sleep to the next event,
 and a poll loop is skipped to it (hil/mcu/poll.py). The registers are Unicorn MMIO
 callbacks (hil/mcu/mmio.py). SCB AIRCR SYSRESETREQ resets the MCU and the firmware starts
-again from its reset vector while the world goes on (``_system_reset``).
+again from its reset vector while the world goes on (``reset_if_asked``).
 """
 from __future__ import annotations
 
 import logging
+from collections import Counter
 from typing import Any, Callable
 
 from unicorn import UC_HOOK_INTR
@@ -30,20 +31,18 @@ from hil.mcu.link_client import LinkClient, Reply
 from hil.mcu.poll import PollSkipper
 from hil.mcu.quiet import QuietLoops
 from hil.mcu.servo_line import ServoLine
-from hil.mcu.peripherals import extra_peripherals
-from hil.mcu.rcc import HSI_HZ, Rcc, flash_interface, power
-from hil.mcu.system import MASKED_STEPS, Nvic, SystemBlock
+from hil.mcu.peripherals import IrqLines, extra_peripherals
+from hil.mcu import platform
+from hil.mcu.rcc import CSR, HSI_HZ, Rcc, flash_interface, power
+from hil.mcu.system import Nvic, SystemBlock
 from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
-from hil.mcu.verdicts import BRANCH_TO_SELF, MASKED_LIMIT_S, Endings
+from hil.mcu.verdicts import BRANCH_TO_SELF, MASKED_LIMIT_S, SYSTEM_EXCEPTIONS, Endings
 
 log = logging.getLogger(__name__)
 MAX_CHUNK = 20_000           # instructions: the most an interrupt unmasked by CPSIE/MSR waits
 TICK_US = 1000               # a quiet millisecond: a sleep to now (world, switches, CAN)
 PA1 = 1
-SYSTEM_EXCEPTIONS = {2: "the NMI handler", 3: "the HardFault handler", 4: "MemManage",
-                     5: "BusFault", 6: "UsageFault", 11: "the SVC handler",
-                     14: "the PendSV handler", 15: "the SysTick handler"}
 CONSOLE_TAIL = 5             # console lines a run result keeps (its stderr_tail)
 
 
@@ -63,22 +62,22 @@ class Board:
         self.shared = core.shared
         # the compiled hot path (hil/mcu/board_core.py) where it is built, else Python
         self.native = NativeBoard(self) if compiled and native() else None
-        if self.native:           # the exception model's entry and the NVIC's choice in C
+        self.events = NativeEvents(core.shared) if self.native else Events()
+        if self.native:   # in C: exception entry, the NVIC's choice, PA1's turns, the clock
             core.enter_c = exception_entry(core.shared)
             core.choose_c = exception_choice(core.shared)
-        self.events = NativeEvents(core.shared) if self.native else Events()
-        if self.native:           # PA1's turns made in C go out before the next message
-            self.link.turns = self.native.turns
-        if self.native:           # the same clock in one C call (a callback asks it often)
-            core.now_fs = self.events.now_fs
+            self.link.turns = self.native.turns     # out before the next message
+            core.now_fs = self.events.now_fs        # one C call (a callback asks it often)
         self.console = Console(self._console_line)
         self.console_tail: list[str] = []
         self.switches = 0
         self.exit_code: int | None = None
         self.ended = False
         self.fault: str | None = None
-        self.resets = 0                # SYSRESETREQs taken
-        self._reset_pending = False
+        self.resets = 0                # system resets taken (SYSRESETREQ, a watchdog)
+        self.reset_causes: Counter[str] = Counter()
+        self._reset_pending: str | None = None     # what asked for the reset
+        self.noted: set[str] = set()   # registers without behaviour the log named
         self._last_request_us = -TICK_US
         self.debugger: Any = None      # hil/mcu/gdb.py, with --gdb
         self.line = ServoLine(self)
@@ -106,16 +105,15 @@ class Board:
         self.nvic = Nvic(core)
         self.rcc = Rcc(ev, core.now_fs, self._clock_changed)
         self.systick = SysTick(core, self.nvic, ev, lambda: self.rcc.hclk_hz)
-        self.ppb = SystemBlock(core, self.nvic, self.systick, self._reset_request)
+        self.ppb = SystemBlock(core, self.nvic, self.systick, self.request_reset)
         self.exti = Exti(self.nvic.line)
+        self.irq_lines = IrqLines(self.nvic.line)
         space = self.space
         space.clear()
         gpio = [GpioPort(n, i, self._gpio_out, self._grounded(i),
                          core.shared if self.native else None)
                 for i, n in enumerate(("GPIOA", "GPIOB", "GPIOC"))]
         gpio[1].before_input = self.fresh_switches
-        for i, port in enumerate(gpio):
-            space.map(0x40020000 + 0x400 * i, port)
         self.gpio = gpio
         line = self.nvic.line
         self.usart1 = Usart("USART1", 37, core, ev, lambda: self.rcc.pclk2_hz, line, self)
@@ -123,15 +121,11 @@ class Board:
             NativeUsart("USART2", 38, ev, lambda: self.rcc.pclk1_hz) if self.native else
             Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self.line))
         self.usart6 = Usart("USART6", 71, core, ev, lambda: self.rcc.pclk2_hz, line, self)
-        for base, p in ((0x40023800, self.rcc), (0x40023C00, flash_interface()),
-                        (0x40007000, power()), (0x40013C00, self.exti),
-                        (0x40013800, Syscfg(self.exti)), (0x40011000, self.usart1),
-                        (0x40004400, self.usart2), (0x40011400, self.usart6)):
-            space.map(base, p)
         self.can_listening = False     # bxCAN1 in normal mode: CAN input each millisecond
-        self.extra = extra_peripherals(self)
-        for base, p in self.extra:
-            space.map(base, p)
+        self.extra = [*extra_peripherals(self), *platform.build(self)]
+        for p in (*gpio, self.rcc, flash_interface(), power(), self.exti, Syscfg(self.exti),
+                  self.usart1, self.usart2, self.usart6, *self.extra):
+            space.map(platform.row(p.name).base, p)      # at its row's address
         space.relive()
 
     # --- the world ----------------------------------------------------------------
@@ -209,30 +203,34 @@ class Board:
         for usart in (self.usart1, self.usart2, self.usart6):
             usart.clock_changed()
         self.systick.rebase()
-        for _, p in self.extra:
-            rebase = getattr(p, "rebase", None)
-            if rebase is not None:
-                rebase()
+        for p in self.extra:
+            if hasattr(p, "rebase"):
+                p.rebase()
 
-    def _reset_request(self) -> None:
-        """SCB AIRCR SYSRESETREQ: the chunk ends at this store (a write callback may stop
-        the core: the store would run again on resume, but the core resumes at the reset
-        vector instead), and ``run`` resets the MCU there (``_system_reset``)."""
-        self._reset_pending = True
+    def request_reset(self, cause: str = "SYSRESETREQ") -> None:
+        """SCB AIRCR SYSRESETREQ or a watchdog's timeout (``cause``: IWDG, WWDG): the chunk
+        ends at this access (a write callback may stop the core: the store would run again
+        on resume, but the core resumes at the reset vector instead), and the loop resets
+        the MCU there, or at its head when a timer asked (``reset_if_asked``)."""
+        self._reset_pending = cause
         self.core.stop()
 
-    def _system_reset(self) -> None:
-        """A system reset, as the chip's: the core and every peripheral back to their reset
-        state (HSI 16 MHz, no clocks enabled, GPIO inputs, USARTs off, NVIC and SysTick
-        cleared, VTOR 0, the FPU off), what they had scheduled dropped, the firmware again
-        from its reset vector. SRAM keeps its contents (the startup code sets .data and
-        .bss); virtual time, the link and the world go on. The bytes already on the servo
-        line go out as sent, and PA1 falls (its pin is an input after reset)."""
-        self._reset_pending = False
+    def reset_if_asked(self) -> bool:
+        """The system reset asked for, if one was, as the chip's: the core and every
+        peripheral back to their reset state (HSI 16 MHz, no clocks enabled, GPIO inputs,
+        USARTs off, NVIC and SysTick cleared, VTOR 0, the FPU off), what they had scheduled
+        dropped, the firmware again from its reset vector. SRAM keeps its contents (the
+        startup code sets .data and .bss); virtual time, the link and the world go on. The
+        bytes already on the servo line go out as sent, and PA1 falls (an input now)."""
+        if not self._reset_pending:
+            return False
+        cause, self._reset_pending = self._reset_pending, None
         self.resets += 1
+        self.reset_causes[cause] += 1
+        flags = self.rcc.regs.get(CSR, 0)
         self.line.flush()
         old = [self.nvic, self.rcc, self.systick, self.ppb, self.exti, *self.gpio,
-               self.usart1, self.usart2, self.usart6, *(p for _, p in self.extra)]
+               self.usart1, self.usart2, self.usart6, *self.extra]
         for periph in old:
             for value in vars(periph).values():
                 if isinstance(value, (Timer, NativeTimer)):
@@ -240,21 +238,24 @@ class Board:
         self.poll.forget()
         self.quiet.forget()
         self._peripherals()
+        self.rcc.reset_by(cause, flags)
         self.core.vtor = 0
         self.core.fpu_on = False
         self.core.set_hz(self.rcc.hclk_hz)
         self.core.reset()
         self.line.pin(0)
-        log.info("firmware %s: system reset (SYSRESETREQ) at t=%.6f s, restarting from the "
-                 "reset vector", self.image.path.name, self.now_us() * 1e-6)
+        (log.info if cause == "SYSRESETREQ" else log.warning)(
+            "firmware %s: system reset (%s) at t=%.6f s, restarting from the reset vector",
+            self.image.path.name, cause if cause == "SYSRESETREQ" else f"{cause} timeout",
+            self.now_us() * 1e-6)
+        return True
 
-    # --- registers ----------------------------------------------------------------
     # --- exceptions ---------------------------------------------------------------
     def intr(self, intno: int) -> None:
         """Unicorn's interrupt hook: an exception return, SVC, a breakpoint, a fault."""
         core = self.core
         uc = core.uc
-        pc = core.pc_now()
+        pc = core.reg(A.UC_ARM_REG_PC)    # an exception return's EXC_RETURN, SVC's next
         try:
             if intno == INTR_EXC_EXIT:
                 exc = core.leave(pc | 1)
@@ -349,21 +350,12 @@ class Board:
                 n = min(n, core.shared.quiet_n)
             if self.ended or self.endings.verdict is not None:
                 break
+            if self.reset_if_asked():
+                continue
             if self.fault is not None:
                 raise CoreFault(self.fault_line(self.fault))
             taken = take_next()
-            st = core.shared
-            if st.pending_n and self.nvic.masked_ready():   # taken right after its unmasking
-                if st.masked_steps < MASKED_STEPS:
-                    n = 1
-                    st.masked_steps += 1
-            else:
-                st.masked_steps = 0
-            self.trip(n, taken)
-        for usart in (self.usart1, self.usart6) if self.endings.verdict else ():
-            if usart.tdr is not None:       # the byte waiting in DR goes out, as on the chip
-                self.sent(usart, usart.tdr, 0, 0)
-                usart.tdr = None
+            self.trip(self.nvic.masked_chunk(n), taken)
         self.console.flush()
         self.line.flush()
 
@@ -394,8 +386,7 @@ class Board:
         core = self.core
         if self.fault is not None:
             raise CoreFault(self.fault_line(self.fault))
-        if self._reset_pending:
-            self._system_reset()
+        if self.reset_if_asked():
             return
         if core.shared.nactive and self.debugger is None and \
                 core.read16(core.pc) in BRANCH_TO_SELF:

@@ -132,10 +132,15 @@ typedef struct {
     int64_t quiet_wait;          /* quiet chunks to let by before Python looks again */
     int64_t quiet_loud;          /* chunks with register accesses since the last quiet one */
     int64_t masked_steps;        /* one-instruction chunks while a masked exception waits */
+    /* the public engine (engine.py): a UC_HOOK_CODE counts here what Unicorn's own count
+       would, the count given right after it, as Unicorn keeps the two */
+    uint64_t pub_count, pub_limit;
+    uint32_t pub_pc;             /* the running instruction's PC */
+    int32_t engine_counts;       /* 1: Unicorn counts (emu_start's count); 0: bc_count does */
     /* USART2's IDLE (usart.py): when the line will have been idle a frame (0: no byte
        since), SR read with IDLE set (a DR read clears it), its timer (with IDLEIE) */
-    int32_t u2_idle_live, u2_idle_tid, u2_idle_seen, _pad4;
     int64_t u2_idle_at;
+    int32_t u2_idle_live, u2_idle_tid, u2_idle_seen;
 } bc_t;
 
 /* bc_t's layout as this compiler laid it out: board_core.py checks its ``Shared`` against
@@ -171,8 +176,9 @@ F(ctr, ctr) F(pc, pc) F(chunk0, chunk0) F(cyc, cyc) F(fs0, fs0) F(cyc0, cyc0)
     F(_pad3, _pad3) F(turn_us, turn_us) F(turn_level, turn_level) F(nots, nots.slot)
     F(nnots, nots.n) F(mmio_n, mmio_n) F(chunk_mmio, chunk_mmio) F(quiet_n, quiet_n)
     F(quiet_wait, quiet_wait) F(quiet_loud, quiet_loud)
-    F(masked_steps, masked_steps) F(u2_idle_live, u2_idle_live) F(u2_idle_tid, u2_idle_tid)
-    F(u2_idle_seen, u2_idle_seen) F(_pad4, _pad4) F(u2_idle_at, u2_idle_at)
+    F(masked_steps, masked_steps) F(pub_count, pub_count) F(pub_limit, pub_limit)
+    F(pub_pc, pub_pc) F(engine_counts, engine_counts) F(u2_idle_at, u2_idle_at)
+    F(u2_idle_live, u2_idle_live) F(u2_idle_tid, u2_idle_tid) F(u2_idle_seen, u2_idle_seen)
 };
 #undef F
 
@@ -551,6 +557,10 @@ void bc_usart_write(bc_t *s, int off, uint32_t value) {
 }
 
 void bc_usart_reset(bc_t *s) {
+    if (!s->u2_idle_live) {       /* IDLE's timer, made once a board */
+        s->u2_idle_tid = bc_timer_new(s);
+        s->u2_idle_live = 1;
+    }
     s->sr = TXE | TC;
     s->brr = s->cr1 = s->cr2 = s->cr3 = s->gtpr = 0;
     s->tdr = s->echo = -1;
@@ -788,6 +798,16 @@ void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, voi
     failed(s);
 }
 
+/* the PC as Unicorn's registers say it (the public engine's word holds the last
+   instruction's own address) */
+static uint32_t reg_pc(bc_t *s) {
+    int rid = s->regid[REG_PC];
+    uint64_t pc = 0;
+    void *ptr = &pc;
+    s->reg_read_batch(s->uc, &rid, &ptr, 1);
+    return (uint32_t)pc;
+}
+
 /* --- the exception return (core.py ``leave``, board.py ``_intr``) ----------------------
  * Done here when nothing follows it in Python: no exception pending (no tail-chaining), a
  * system exception or an IRQ whose line is low (a line held high pends it again), not
@@ -795,7 +815,8 @@ void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, voi
  * goes to board.py's _intr. */
 static int leave(bc_t *s) {
     if (!s->pc || !s->uc || s->nactive < 1 || s->pending_n || s->sleeping) return 0;
-    uint32_t exc_return = *s->pc | 1;
+    /* Unicorn's PC word holds the EXC_RETURN branched to; bc_count's the branch's address */
+    uint32_t exc_return = (s->engine_counts ? *s->pc : reg_pc(s)) | 1;
     int exc = s->active[s->nactive - 1];
     int to_thread = (exc_return & 0xF) == 0x9 || (exc_return & 0xF) == 0xD;
     if ((exc >= 16 && s->lines[(exc - 16) >> 5] >> ((exc - 16) & 31) & 1) ||
@@ -991,6 +1012,15 @@ int64_t bc_take_next(bc_t *s, uint32_t pc, int fpu, uint32_t vtor_base) {
     return vector < 0 ? -2 - exc : (int64_t)exc << 32 | vector;
 }
 
+/* The public engine's UC_HOOK_CODE (engine.py): before each instruction, its PC where the
+   core reads it and one more in the count; past the chunk's length the chunk ends here, as
+   emu_start's own count ends it */
+void bc_count(void *uc, uint64_t address, uint32_t size, void *ud) {
+    bc_t *s = ud;
+    s->pub_pc = (uint32_t)address;
+    if (++s->pub_count > s->pub_limit) s->emu_stop(uc);
+}
+
 /* Unicorn's interrupt hook (UC_HOOK_INTR) */
 void bc_intr(void *uc, uint32_t intno, void *ud) {
     bc_t *s = ud;
@@ -1057,14 +1087,21 @@ static int64_t run_chunk(bc_t *s, int64_t n) {
     s->stopped = s->cut = 0;
     s->running = 1;
     s->hook_failed = 0;
-    int err = s->emu_start(s->uc, (uint32_t)s->pc_next | 1, 0, 0, (size_t)n);
+    int err;
+    if (s->engine_counts) {
+        err = s->emu_start(s->uc, (uint32_t)s->pc_next | 1, 0, 0, (size_t)n);
+    } else {
+        s->pub_count = 0;
+        s->pub_limit = (uint64_t)n;
+        err = s->emu_start(s->uc, (uint32_t)s->pc_next | 1, 0, 0, 0);
+    }
     s->running = 0;
     if (s->hook_failed) {         /* raised as Unicorn's wrapper would: nothing updated */
         s->loop_exc = LOOP_HOOK_FAILED;
         return -1;
     }
     int64_t ran = (int64_t)*s->ctr - 1;
-    s->pc_next = *s->pc;
+    s->pc_next = s->engine_counts ? *s->pc : reg_pc(s);
     if (!err && ran < n && !s->stopped && !s->cut) {
         if (s->pc_next == 0) {
             s->loop_exc = LOOP_NULL_JUMP;

@@ -29,6 +29,7 @@ import weakref
 from pathlib import Path
 from typing import Any, Callable
 
+from hil.mcu.struct_layout import layout_mismatch
 from hil.native import load_library
 from protocol.errors import UserError
 
@@ -57,8 +58,7 @@ class Shared(ctypes.Structure):
                 ("reread", _I32), ("watching", _I32), ("pending_n", _I32), ("poll_at", _I64),
                 ("u2_live", _I32), ("u2_line", _I32), ("u2_dma_tx", _I32), ("u2_dma_rx", _I32),
                 ("sr", _I32), ("brr", _I32), ("cr1", _I32), ("cr2", _I32), ("cr3", _I32),
-                ("gtpr", _I32), ("tdr", _I32), ("rdr", _I32), ("echo", _I32),
-                ("frame_fs", _I64),
+                ("gtpr", _I32), ("tdr", _I32), ("rdr", _I32), ("echo", _I32), ("frame_fs", _I64),
                 ("direction", _I32), ("burst_dir", _I32), ("burst_n", _I32),
                 ("burst_cap", _I32), ("burst_fs", _I64), ("burst", _P),
                 ("next_at", _I64), ("seq", ctypes.c_uint64), ("n", _I32), ("cap", _I32),
@@ -86,8 +86,9 @@ class Shared(ctypes.Structure):
                 ("nots", (ctypes.c_uint32 * 3) * WAITS), ("nnots", _I32),
                 ("mmio_n", _I64), ("chunk_mmio", _I64), ("quiet_n", _I64),
                 ("quiet_wait", _I64), ("quiet_loud", _I64), ("masked_steps", _I64),
-                ("u2_idle_live", _I32), ("u2_idle_tid", _I32), ("u2_idle_seen", _I32),
-                ("_pad4", _I32), ("u2_idle_at", _I64)]
+                ("pub_count", ctypes.c_uint64), ("pub_limit", ctypes.c_uint64),
+                ("pub_pc", ctypes.c_uint32), ("engine_counts", _I32), ("u2_idle_at", _I64),
+                ("u2_idle_live", _I32), ("u2_idle_tid", _I32), ("u2_idle_seen", _I32)]
 
 
 
@@ -124,6 +125,7 @@ def _load() -> Any:
            "bc_add_not_loop": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
            "bc_free": (None, [_P])}
     lib.bc_intr.restype, lib.bc_intr.argtypes = None, [_P, ctypes.c_uint32, _P]
+    lib.bc_count.restype, lib.bc_count.argtypes = None, [_P, ctypes.c_uint64, ctypes.c_uint32, _P]
     lib.bc_rx_queue.restype, lib.bc_rx_queue.argtypes = None, [_P, _P, _P, _I32]
     lib.bc_rx_deliver.restype, lib.bc_rx_deliver.argtypes = _I32, [_P, _I64]
     lib.bc_next_exception.restype, lib.bc_next_exception.argtypes = _I32, [_P]
@@ -133,41 +135,14 @@ def _load() -> Any:
     lib.bc_enter.restype = _I64
     lib.bc_enter.argtypes = [_P, _I32, ctypes.c_uint32, _I32, ctypes.c_uint32]
     lib.bc_loop.restype, lib.bc_loop.argtypes = _I32, [_P, _I64, _I64]
-    lib.bc_layout.restype = _I32
-    lib.bc_layout.argtypes = [_I32, ctypes.POINTER(ctypes.c_char_p), ctypes.POINTER(_I64),
-                              ctypes.POINTER(_I64)]
     for name, (res, args) in sig.items():
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = res, args
     return lib
 
 
-def layout_mismatch(lib: Any) -> str | None:
-    """How the compiled library's bc_t differs from ``Shared`` (the first difference, in
-    words), or None when every field has the same offset and size and the struct the same
-    size: a library built from another board_core.c is refused, never read wrongly."""
-    name, offset, size = ctypes.c_char_p(), _I64(), _I64()
-    lib.bc_layout(-1, ctypes.byref(name), ctypes.byref(offset), ctypes.byref(size))
-    if size.value != ctypes.sizeof(Shared):
-        return f"bc_t is {size.value} bytes there, Shared {ctypes.sizeof(Shared)}"
-    seen = set()
-    i = 0
-    while lib.bc_layout(i, ctypes.byref(name), ctypes.byref(offset), ctypes.byref(size)):
-        field = name.value.decode()
-        mine = getattr(Shared, field, None)
-        if mine is None:
-            return f"bc_t has {field}, Shared has not"
-        if (mine.offset, mine.size) != (offset.value, size.value):
-            return (f"{field} is at {offset.value} ({size.value} bytes) there, at "
-                    f"{mine.offset} ({mine.size} bytes) in Shared")
-        seen.add(field)
-        i += 1
-    missing = [f[0] for f in Shared._fields_ if f[0] not in seen]
-    return f"bc_t has no {missing[0]}" if missing else None
-
-
 _LIB = _load()
-_MISMATCH = layout_mismatch(_LIB) if _LIB is not None else None
+_MISMATCH = layout_mismatch(_LIB, Shared) if _LIB is not None else None
 
 
 def native() -> bool:
@@ -282,9 +257,6 @@ class NativeUsart:
         st = events.shared
         if st.u2_tid < 0:
             st.u2_tid = _LIB.bc_timer_new(events.ref)
-        if not st.u2_idle_live:
-            st.u2_idle_tid = _LIB.bc_timer_new(events.ref)
-            st.u2_idle_live = 1
         self.shift_end = NativeTimer(events, lambda at: None, st.u2_tid)
         _LIB.bc_usart_reset(events.ref)
         self.dma_tx: Callable[[], int | None] | None = None

@@ -84,7 +84,7 @@ def handed_over(board: Any, where: int) -> int:
     elif where == LOOP_QUIET:            # a chunk without a register access (quiet.py)
         board.quiet.quiet_chunk(st.loop_n)
     elif where == LOOP_AFTER_HEAD:
-        if board.ended:
+        if board.ended or board.reset_if_asked():
             return -1
         if board.fault is not None:
             raise CoreFault(board.fault_line(board.fault))

@@ -22,9 +22,9 @@ from unicorn import (UC_ARCH_ARM, UC_HOOK_INTR, UC_MODE_MCLASS, UC_MODE_THUMB, U
 from unicorn import arm_const as A
 from unicorn.unicorn_py3.unicorn import uclib
 
-from hil.mcu.board_core import Shared, SharedField
+from hil.mcu.board_core import Shared, SharedField, library
 from hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
-from hil.mcu.engine import Regs, counter_offset, regs_place
+from hil.mcu.engine import EngineKind, Regs, attach_engine, regs_place
 from hil.mcu.timebase import FS_PER_S, FS_PER_US, TimeBase
 
 EXC_HARDFAULT, EXC_SVCALL, EXC_PENDSV, EXC_SYSTICK = 3, 11, 14, 15
@@ -87,11 +87,11 @@ class Core:
         self._one_ref = ctypes.byref(self._one)
         self._h = uc._uch
         self._batches: dict[tuple[int, ...], Regs] = {}
-        engine = ctypes.cast(uc._uch, ctypes.c_void_p).value + counter_offset()
-        self._ctr = ctypes.c_uint64.from_address(engine)
-        self._limit = ctypes.c_uint64.from_address(engine + 8)   # the count emu_start was given
         # the time and the chunk's origin live where the compiled board sees them
-        self.shared = st = Shared(ctr=engine, u2_tid=-1, st_tid=-1, rx_tid=-1, next_at=-1)
+        self.shared = st = Shared(u2_tid=-1, st_tid=-1, rx_tid=-1, next_at=-1)
+        self.engine = attach_engine(uc, st, library())     # hil/mcu/engine.py
+        self._ctr = ctypes.c_uint64.from_address(st.ctr)
+        self._limit = ctypes.c_uint64.from_address(st.ctr + 8)   # the chunk's length
         self.time = TimeBase(hz, st)
         self.cyc = 0                 # instructions run before the current chunk
         self._share_exceptions(st)
@@ -100,9 +100,8 @@ class Core:
         self.choose_c: Callable[[], int] | None = None
         self._fpscr0 = uc.reg_read(A.UC_ARM_REG_FPSCR)
         self.reset()
-        self._pc_word = self._find_pc()
-        if self._pc_word is not None:
-            st.pc = ctypes.addressof(self._pc_word)
+        self._pc_word = (self._find_pc() if self.engine is EngineKind.CALIBRATED else
+                         ctypes.c_uint32.from_address(st.pc))
 
     def _share_exceptions(self, st: Shared) -> None:
         """What the compiled board's exception return (board_core.c) reads and writes: the
@@ -148,7 +147,11 @@ class Core:
         self.uc.reg_write(A.UC_ARM_REG_R12, 0x5A5A1234)
         same = ctypes.c_uint32.from_address(cpu + place[1] + 48).value == 0x5A5A1234
         self.uc.reg_write(A.UC_ARM_REG_R12, r12)
-        return ctypes.c_uint32.from_address(cpu + place[1] + 60) if same else None
+        if not same:
+            return None
+        word = ctypes.c_uint32.from_address(cpu + place[1] + 60)
+        self.shared.pc = ctypes.addressof(word)
+        return word
 
     def reset(self) -> None:
         """The core's reset: thread mode on MSP from the vector table, the masks clear,
@@ -242,14 +245,18 @@ class Core:
         st.stopped = st.cut = 0
         st.running = 1
         try:
-            uc.emu_start(self.pc | 1, 0, 0, n)
+            if st.engine_counts:
+                uc.emu_start(self.pc | 1, 0, 0, n)
+            else:
+                st.pub_count, st.pub_limit = 0, n
+                uc.emu_start(self.pc | 1, 0, 0, 0)
             error = None
         except UcError as exc:
             error = exc
         finally:
             st.running = 0
         ran = self._ctr.value - 1
-        self.pc = self.pc_now()
+        self.pc = self.pc_now() if st.engine_counts else self.reg(A.UC_ARM_REG_PC)
         if error is None and ran < n and not self.stopped and not self.cut:
             if self.pc == 0:
                 raise CoreFault("a jump to address 0 (a null function pointer)")

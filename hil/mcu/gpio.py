@@ -118,6 +118,13 @@ class GpioPort:
         self.on_output(self, old)
 
 
+def other_port(board: Any, row: Any) -> GpioPort:
+    """GPIOD, E or H from its platform row (hil/mcu/platform.py): nothing is wired to
+    them on the robot's board."""
+    return GpioPort(row.name, (row.base - 0x40020000) // 0x400, lambda port, old: None,
+                    lambda: 0)
+
+
 class Exti:
     """EXTI lines 0-15 from GPIO pins (SYSCFG_EXTICRx picks the port), to the NVIC."""
 

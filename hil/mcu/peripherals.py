@@ -1,9 +1,12 @@
 """The peripherals beyond the core's, the clocks, GPIO and the USARTs: TIM2-5, DMA1/2 and
 bxCAN1, each at its RM0383 base address (hil/mcu/board.py maps them).
 
-* TIM2-5 (RM0383 13): up-counting at TIMxCLK / (PSC + 1), the update event at ARR (UIF,
-  its interrupt, one-pulse mode, UG). Not modelled: down/centre counting, capture/compare,
-  PWM outputs, slave modes, preload timing (PSC and ARR take effect at once).
+* TIM2-5 (RM0383 13), and TIM1 and TIM9-11 (RM0383 12, 14; built from hil/mcu/platform.py,
+  ``apb2_timer``): up-counting at TIMxCLK / (PSC + 1), the update event at ARR (UIF, its
+  interrupt, one-pulse mode, UG), the compare flags CCxIF when the counter reaches CCRx
+  (at the update for CCR = 0) and their interrupts. Not modelled: down/centre counting,
+  input capture, PWM outputs, slave modes, TIM1's repetition counter and break, preload
+  timing (PSC and ARR take effect at once).
 * DMA1/DMA2 (RM0383 9): the streams and channels the USARTs use (USART2: DMA1 stream 6
   channel 4 TX, stream 5 channel 4 RX; USART1: DMA2 stream 7 / 2 and 5, channel 4; USART6:
   DMA2 stream 6 and 7 / 1 and 2, channel 5), byte transfers, MINC, circular mode, HT/TC
@@ -27,26 +30,38 @@ log = logging.getLogger(__name__)
 UIF, UIE, CEN, OPM = 1, 1, 1, 1 << 3
 
 
+CCR = (0x34, 0x38, 0x3C, 0x40)      # CCR1-CCR4; their flags are SR bits 1-4, DIER's too
+
+
 class BasicTimer:
-    """TIM2-TIM5 as up-counters with update interrupts."""
+    """TIM1-5 and TIM9-11 as up-counters with update interrupts and compare flags
+    (``apb2``: clocked from APB2, as TIM1 and TIM9-11). ``irqs`` maps "update" and "cc"
+    to IRQ numbers; IRQs shared with another timer go through the board's ``irq_lines``."""
 
     pollable = frozenset({0x00, 0x0C, 0x10})
 
-    def __init__(self, board: Any, name: str, irq: int, bits: int) -> None:
+    def __init__(self, board: Any, name: str, irq: int, bits: int, apb2: bool = False,
+                 cc_irq: int | None = None, channels: int = 4) -> None:
         self.board, self.name, self.irq = board, name, irq
+        self.cc_irq = irq if cc_irq is None else cc_irq
+        self.apb2, self.channels = apb2, channels
         self.top = (1 << bits) - 1
         self.regs = {0x00: 0, 0x0C: 0, 0x10: 0, 0x28: 0, 0x2C: self.top}
         self._c0 = 0
         self._t0 = 0
         self.update = board.events.timer(self._overflow)
+        self.compare = board.events.timer(self._compared)
 
     def _hz(self) -> int:
-        return self.board.rcc.timer_hz(False) // (self.regs[0x28] + 1)
+        return self.board.rcc.timer_hz(self.apb2) // (self.regs[0x28] + 1)
 
     def count(self) -> int:
+        return self._count_at(self.board.core.now_fs())
+
+    def _count_at(self, at_fs: int) -> int:
         if not self.regs[0x00] & CEN:
             return self._c0
-        ticks = (self.board.core.now_fs() - self._t0) * self._hz() // FS_PER_S
+        ticks = (at_fs - self._t0) * self._hz() // FS_PER_S
         return (self._c0 + ticks) % (self.regs[0x2C] + 1)
 
     def _anchor(self, value: int) -> None:
@@ -56,9 +71,36 @@ class BasicTimer:
             self.update.set(self._t0 + -(-left * FS_PER_S // self._hz()))
         else:
             self.update.clear()
+        self._next_compare(value)
+
+    def _ccrs(self) -> list[int]:
+        return [self.regs.get(CCR[i], 0) for i in range(self.channels)]
+
+    def _next_compare(self, now: int) -> None:
+        """The next instant the counter reaches a CCR above ``now`` in this period (a CCR
+        of 0 matches at the update, ``_overflow``)."""
+        arr = self.regs[0x2C]
+        ahead = [ccr - self._c0 for ccr in self._ccrs() if now < ccr <= arr]
+        if ahead and self.regs[0x00] & CEN:
+            self.compare.set(self._t0 + -(-min(ahead) * FS_PER_S // self._hz()))
+        elif self.compare.at_fs is not None:
+            self.compare.clear()
+
+    def _matched(self, low: int, high: int) -> None:
+        """CCxIF for each channel whose CCR the counter reached in ``low..high``."""
+        for i, ccr in enumerate(self._ccrs()):
+            if low <= ccr <= high:
+                self.regs[0x10] |= 2 << i
+
+    def _compared(self, at_fs: int) -> None:
+        now = self._count_at(at_fs)
+        self._matched(self._c0 + 1, now)
+        self._line()
+        self._next_compare(now)
 
     def _overflow(self, at_fs: int) -> None:
         self.regs[0x10] |= UIF
+        self._matched(0, 0)
         self._line()
         if self.regs[0x00] & OPM:
             self.regs[0x00] &= ~CEN
@@ -67,9 +109,17 @@ class BasicTimer:
         self._c0, self._t0 = 0, at_fs
         period = self.regs[0x2C] + 1
         self.update.set(at_fs + -(-period * FS_PER_S // self._hz()))
+        self._next_compare(0)
 
     def _line(self) -> None:
-        self.board.nvic.line(self.irq, bool(self.regs[0x10] & self.regs[0x0C] & UIF))
+        sr, dier = self.regs[0x10], self.regs[0x0C]
+        update, cc = bool(sr & dier & UIF), bool(sr & dier & 0x1E)
+        lines = self.board.irq_lines
+        if self.cc_irq == self.irq:
+            lines(self.irq, self, update or cc)
+        else:
+            lines(self.irq, self, update)
+            lines(self.cc_irq, self, cc)
 
     def rebase(self) -> None:
         self._anchor(self.count())
@@ -91,9 +141,26 @@ class BasicTimer:
         elif off == 0x24:
             now = value & self.top
         else:
-            self.regs[off] = value & (self.top if off == 0x2C else 0xFFFFFFFF)
+            self.regs[off] = value & (self.top if off in (0x2C, *CCR) else 0xFFFFFFFF)
         self._anchor(now)
         self._line()
+
+
+class IrqLines:
+    """Interrupt lines that several peripherals share (TIM1's update and TIM10's on IRQ
+    25): an IRQ is high while any of its sources holds it high."""
+
+    def __init__(self, line: Any) -> None:
+        self.line = line
+        self.high: dict[int, set[int]] = {}
+
+    def __call__(self, irq: int, source: object, level: bool) -> None:
+        held = self.high.setdefault(irq, set())
+        if level:
+            held.add(id(source))
+        else:
+            held.discard(id(source))
+        self.line(irq, bool(held))
 
 
 FLAG_SHIFT = (0, 6, 16, 22)
@@ -287,15 +354,25 @@ class BxCan:
         self._lines()
 
 
-def extra_peripherals(board: Any) -> list[tuple[int, object]]:
-    """(base address, peripheral) of the timers, DMA controllers and bxCAN1 of ``board``;
-    also wires the USARTs' DMA requests and the board's CAN input."""
-    timers = [(0x40000000, BasicTimer(board, "TIM2", IRQS["TIM2"], 32)),
-              (0x40000400, BasicTimer(board, "TIM3", IRQS["TIM3"], 16)),
-              (0x40000800, BasicTimer(board, "TIM4", IRQS["TIM4"], 16)),
-              (0x40000C00, BasicTimer(board, "TIM5", IRQS["TIM5"], 32))]
+TIMER_CHANNELS = {"TIM1": 4, "TIM9": 2, "TIM10": 1, "TIM11": 1}
+
+
+def apb2_timer(board: Any, row: Any) -> BasicTimer:
+    """TIM1 or TIM9-11 from its platform row (hil/mcu/platform.py): 16-bit on APB2, the
+    update on the row's first IRQ, the compares on its second (TIM1_CC) or the same."""
+    irqs = row.irq_numbers
+    return BasicTimer(board, row.name, irqs[0], 16, apb2=True,
+                      cc_irq=irqs[1] if len(irqs) > 1 else None,
+                      channels=TIMER_CHANNELS[row.name])
+
+
+def extra_peripherals(board: Any) -> list[Any]:
+    """TIM2-5, the DMA controllers and bxCAN1 of ``board`` (mapped at their platform rows'
+    bases, hil/mcu/platform.py); also wires the USARTs' DMA requests and the board's CAN input."""
+    timers = [BasicTimer(board, name, IRQS[name], bits)
+              for name, bits in (("TIM2", 32), ("TIM3", 16), ("TIM4", 16), ("TIM5", 32))]
     dmas = {1: Dma(board, 1), 2: Dma(board, 2)}
     for usart in (board.usart1, board.usart2, board.usart6):
         wire_usart_dma(usart, dmas)
     board.can = BxCan(board)
-    return timers + [(0x40026000, dmas[1]), (0x40026400, dmas[2]), (0x40006400, board.can)]
+    return [*timers, dmas[1], dmas[2], board.can]

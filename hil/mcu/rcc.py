@@ -14,6 +14,7 @@ from __future__ import annotations
 from typing import Callable
 
 from hil.mcu.events import Events
+from hil.mcu.platform import clock_bits
 
 HSI_HZ = 16_000_000
 HSE_HZ = 25_000_000
@@ -21,15 +22,12 @@ READY_FS = 100 * 10 ** 9          # 100 us from ON to ready
 MAX_SYSCLK_HZ = 100_000_000
 CR, PLLCFGR, CFGR = 0x00, 0x04, 0x08
 BDCR, CSR = 0x70, 0x74              # the backup domain (LSE) and LSI control
-AHB1ENR, AHB2ENR, APB1ENR, APB2ENR = 0x30, 0x34, 0x40, 0x44
 HPRE = {8: 2, 9: 4, 10: 8, 11: 16, 12: 64, 13: 128, 14: 256, 15: 512}
 PPRE = {4: 2, 5: 4, 6: 8, 7: 16}
-# (enable register, bit) of each modelled peripheral (RM0383 6.3.9-6.3.12)
-CLOCK_BITS = {"GPIOA": (AHB1ENR, 0), "GPIOB": (AHB1ENR, 1), "GPIOC": (AHB1ENR, 2),
-              "DMA1": (AHB1ENR, 21), "DMA2": (AHB1ENR, 22), "TIM2": (APB1ENR, 0),
-              "TIM3": (APB1ENR, 1), "TIM4": (APB1ENR, 2), "TIM5": (APB1ENR, 3),
-              "USART2": (APB1ENR, 17), "CAN1": (APB1ENR, 25), "PWR": (APB1ENR, 28),
-              "USART1": (APB2ENR, 4), "USART6": (APB2ENR, 5), "SYSCFG": (APB2ENR, 14)}
+CLOCK_BITS = clock_bits()      # (enable register, bit) of each peripheral, from the platform
+RMVF, RESET_FLAGS = 1 << 24, 0xFE000000      # CSR: remove the reset flags; the flags
+RESET_FLAG = {"IWDG": 1 << 29, "WWDG": 1 << 30, "SYSRESETREQ": 1 << 28}
+PINRSTF = 1 << 26
 
 
 class Rcc:
@@ -82,6 +80,11 @@ class Rcc:
     def read(self, off: int) -> int:
         return self.regs.get(off, 0)
 
+    def reset_by(self, cause: str, before: int) -> None:
+        """After a system reset by ``cause``: CSR's reset flags as ``before`` left them
+        (only a power-on clears them), the pin's and the cause's set."""
+        self.regs[CSR] |= (before & RESET_FLAGS) | PINRSTF | RESET_FLAG[cause]
+
     def write(self, off: int, value: int) -> None:
         old = self.regs.get(off, 0)
         if off == CR:
@@ -101,6 +104,8 @@ class Rcc:
             value = (value & ~0xC) | (old & 0xC)
         elif off in (BDCR, CSR):
             value = self._low_oscillator(off, old, value)
+            if off == CSR:        # the reset flags are read-only; RMVF clears them
+                value = (value & ~RESET_FLAGS) | (0 if value & RMVF else old & RESET_FLAGS)
         self.regs[off] = value
         self._update()
 

@@ -63,7 +63,8 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
                                            "instructions": board.core.executed,
                                            "skipped_cycles": board.skipped_cycles,
                                            "link_requests": board.link.requests,
-                                           "resets": board.resets})
+                                           "resets": board.resets,
+                                           "reset_causes": dict(board.reset_causes)})
     if fault is not None:
         result.exit_code = 1
         result.exceptions.append(f"{image.path.name}: {fault}")

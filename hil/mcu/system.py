@@ -157,6 +157,18 @@ class Nvic:
         level = min((self._group(self._priority(e)) for e in self.core.active), default=256)
         return self._group(best) < level
 
+    def masked_chunk(self, n: int) -> int:
+        """The next chunk's length: ``n``, or one instruction while a masked exception waits
+        (``masked_ready``), for at most ``MASKED_STEPS`` in a row (board_core.c does the
+        same in its loop)."""
+        st = self.shared
+        if not (st.pending_n and self.masked_ready()):
+            st.masked_steps = 0
+        elif st.masked_steps < MASKED_STEPS:
+            st.masked_steps += 1
+            return 1
+        return n
+
     def take(self, exc: int) -> None:
         self.pending.discard(exc)
         self.core.enter(exc)

@@ -28,6 +28,9 @@ from hil.run_result import Ending
 MASKED_LIMIT_S = 0.5        # virtual seconds awake with interrupts masked: a hang
 MAX_TEXT = 200              # of a string the firmware passed (a file name, an expression)
 BRANCH_TO_SELF = (0xE7FE,)  # Thumb `b .` (GCC's `for (;;) {}`)
+SYSTEM_EXCEPTIONS = {2: "the NMI handler", 3: "the HardFault handler", 4: "MemManage",
+                     5: "BusFault", 6: "UsageFault", 11: "the SVC handler",
+                     14: "the PendSV handler", 15: "the SysTick handler"}
 
 
 @dataclass(frozen=True)
@@ -92,9 +95,19 @@ class Endings:
         if self.verdict is not None:
             return
         board = self.board
-        self.verdict = Verdict(kind, f"{reason} at t={board.now_us() * 1e-6:.6f} s", code)
+        self._ended(Verdict(kind, f"{reason} at t={board.now_us() * 1e-6:.6f} s", code))
         board.core.shared.touched += 1        # Python took part: the C loop hands over
         board.core.stop()
+
+    def _ended(self, verdict: Verdict) -> None:
+        """The run's verdict; the byte waiting in USART1/6's DR reaches the console, as it
+        would leave the chip."""
+        self.verdict = verdict
+        board = self.board
+        for usart in (board.usart1, board.usart6):
+            if usart.tdr is not None:
+                board.sent(usart, usart.tdr, 0, 0)
+                usart.tdr = None
 
     def _exit(self) -> None:
         code = _signed(self._arg(0))
@@ -156,10 +169,10 @@ class Endings:
         if self._masked_since is None or self._masked_key != key:
             self._masked_since, self._masked_key = now, key
         elif now - self._masked_since >= self._limit_fs:
-            self.verdict = Verdict(
+            self._ended(Verdict(
                 Ending.HUNG, f"hung: it ran with interrupts masked ({mask}) for "
                 f"{(now - self._masked_since) / FS_PER_S:g} s, at PC 0x{pc:08x} in "
-                f"{board.image.function_at(pc)} (t={board.now_us() * 1e-6:.6f} s)", 1)
+                f"{board.image.function_at(pc)} (t={board.now_us() * 1e-6:.6f} s)", 1))
 
     def _handler_spin(self, board: Any, core: Any) -> None:
         pc = core.pc
@@ -172,7 +185,7 @@ class Endings:
         elif now - self._spin[1] >= self._limit_fs and self.verdict is None:
             exc = core.active[-1]
             what = f"interrupt {exc - 16}" if exc >= 16 else f"exception {exc}"
-            self.verdict = Verdict(
+            self._ended(Verdict(
                 Ending.HUNG, f"hung: {board.image.function_at(pc)} ({what}) ran a loop that "
                 f"branches to itself for {(now - self._spin[1]) / FS_PER_S:g} s, at PC "
-                f"0x{pc:08x} (t={board.now_us() * 1e-6:.6f} s)", 1)
+                f"0x{pc:08x} (t={board.now_us() * 1e-6:.6f} s)", 1))

@@ -40,7 +40,7 @@ BODY_SAMPLE_US = 100_000  # ground truth and servo state to the recorder at 10 H
 # runs a firmware in this process on the link's exchange(bytes written, closed) -> reply
 InProcessFirmware = Callable[[Callable[[bytes, bool], bytes]], None]
 # The firmware's stats event counters a run reports as detected faults. protocol/ will
-# define the stats schema (issue 28 part 3); until then its names are read here only.
+# define the stats schema; until then its names are read here only.
 DETECTED_COUNTERS = (ls.TIMEOUTS, ls.CORRUPT_REPLIES, ls.ERROR_STATUSES, ls.ECHO_MISMATCH,
                      ls.OVERRUNS)
 

@@ -1,4 +1,4 @@
-"""The world steps on while the firmware finishes its cycle (issue 43).
+"""The world steps on while the firmware finishes its cycle.
 
 Under micropython a cycle has two exchanges: the status reads (R) and the sleep. After R's
 reply the firmware checks its faults and sends its CAN telemetry, then asks to sleep; the

@@ -23,7 +23,7 @@ from hil.scenario.sections import (DEFAULT_BAUD, DEFAULT_DURATION_S, GAITS, MAX_
 from hil.scenario.world_section import Obstacle, WorldConfig, WorldKind
 from protocol import link_schema as ls
 from protocol.dynamixel import models
-from protocol.errors import UserError
+from protocol.errors import BadFile, BadValue
 
 
 @dataclass(frozen=True)
@@ -94,10 +94,10 @@ def _sections(data: dict[str, Any], where: str) -> dict[str, Any]:
         if section == "_path":
             continue
         if section not in SCHEMA:
-            raise UserError(f"{where}: unknown section '[{section}]' "
-                            f"(known: {', '.join(sorted(SCHEMA))})")
+            raise BadValue(f"{where}: unknown section '[{section}]' "
+                           f"(known: {', '.join(sorted(SCHEMA))})")
         if not isinstance(body, dict):
-            raise UserError(f"{where}: '{section}' must be a table ([{section}])")
+            raise BadValue(f"{where}: '{section}' must be a table ([{section}])")
         out[section] = check_table(where, body, optional(SCHEMA[section]), f"{section}.")
     for section in SCHEMA:
         out.setdefault(section, {})
@@ -127,7 +127,7 @@ def from_text(text: str, path: str | Path) -> Scenario:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise UserError(f"{path}: not valid TOML: {exc}") from None
+        raise BadValue(f"{path}: not valid TOML: {exc}") from None
     return parse(data, path, text)
 
 
@@ -137,9 +137,9 @@ def load_scenario(path: str | Path) -> Scenario:
     try:
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise UserError(f"{p}: scenario file not found") from None
+        raise BadFile(f"{p}: scenario file not found") from None
     except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
-        raise UserError(f"{p}: cannot read scenario ({exc.__class__.__name__})") from None
+        raise BadFile(f"{p}: cannot read scenario ({exc.__class__.__name__})") from None
     return from_text(text, p)
 
 

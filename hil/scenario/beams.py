@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from protocol.errors import UserError
+from protocol.errors import BadValue
 
 STRATEGIES = ("interact", "avoid", "none")
 METHODS = ("fast", "paper")
@@ -30,11 +30,11 @@ class BeamsConfig:
         if required:
             for key in ("k1_nm_per_rad", "k2_nm_per_rad"):
                 if key not in d:
-                    raise UserError(f"{where}: world.kind 'beams' needs key 'beams.{key}'")
+                    raise BadValue(f"{where}: world.kind 'beams' needs key 'beams.{key}'")
         for key, value in d.items():
             if not (math.isfinite(value) and value >= 0):
-                raise UserError(f"{where}: key 'beams.{key}' must be a finite number >= 0, "
-                                f"got {value}")
+                raise BadValue(f"{where}: key 'beams.{key}' must be a finite number >= 0, "
+                               f"got {value}")
         return cls(**{"hb2_m": d.get("hb1_m", 0.0), **d})
 
 
@@ -52,14 +52,14 @@ class TraversalConfig:
     def parse(cls, where: str, d: dict[str, Any]) -> "TraversalConfig":
         strategy = d.get("strategy", "interact")
         if strategy not in STRATEGIES:
-            raise UserError(f"{where}: key 'traversal.strategy' must be one of "
-                            f"{', '.join(STRATEGIES)}, got {strategy!r}")
+            raise BadValue(f"{where}: key 'traversal.strategy' must be one of "
+                           f"{', '.join(STRATEGIES)}, got {strategy!r}")
         t = cls(**{"fx_n": 1.0 if strategy == "none" else 0.1, **d})
         if t.method not in METHODS:
-            raise UserError(f"{where}: key 'traversal.method' must be fast or paper")
+            raise BadValue(f"{where}: key 'traversal.method' must be fast or paper")
         if t.unknowns not in (2, 3, 4):
-            raise UserError(f"{where}: key 'traversal.unknowns' must be 2, 3 or 4")
+            raise BadValue(f"{where}: key 'traversal.unknowns' must be 2, 3 or 4")
         if abs(t.fx_n) > FX_LIMIT_N:
-            raise UserError(f"{where}: key 'traversal.fx_n' must be within the actuator limit "
-                            f"|F_x| <= 2 N, got {t.fx_n}")
+            raise BadValue(f"{where}: key 'traversal.fx_n' must be within the actuator limit "
+                           f"|F_x| <= 2 N, got {t.fx_n}")
         return t

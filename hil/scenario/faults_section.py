@@ -1,5 +1,5 @@
 """The ``[faults]`` section as frozen types: the line's fault rates and the timed faults'
-entries (a servo unplugged, stalled, overheating; a supply sag; and issue 42's vocabulary:
+entries (a servo unplugged, stalled, overheating; a supply sag; and the named failures:
 brown-out, overload, a stuck or noisy position, two servos on one ID, a stuck or bouncing
 switch, the CAN sensor node silent or babbling, seed 000's force sensor biased or dropping
 out), every key, default and rule here; hil/servobus/faults.py injects them."""
@@ -10,7 +10,7 @@ from enum import Enum
 from typing import Any
 
 from hil.scenario.rules import check_table, within
-from protocol.errors import UserError
+from protocol.errors import BadValue
 
 
 class FaultKind(str, Enum):
@@ -83,24 +83,24 @@ class FaultEntry:
     @classmethod
     def parse(cls, kind: FaultKind, raw: Any, where: str) -> "FaultEntry":
         if not isinstance(raw, dict):
-            raise UserError(f"{where}: each '{kind.value}' entry must be a table like "
-                            f"{{id = 3, at_s = 1.0}}, got {raw!r}")
+            raise BadValue(f"{where}: each '{kind.value}' entry must be a table like "
+                           f"{{id = 3, at_s = 1.0}}, got {raw!r}")
         d = check_table(where, raw, ENTRY_FIELDS[kind], f"{kind.value}.",
                         f" in a '{kind.value}' entry")
         e = cls(kind, **{**d, "ids": tuple(d.get("ids", ()))})
         if e.at_s < 0 or (e.until_s is not None and e.until_s <= e.at_s):
-            raise UserError(f"{where}: '{kind.value}' needs 0 <= at_s < until_s, got {raw!r}")
+            raise BadValue(f"{where}: '{kind.value}' needs 0 <= at_s < until_s, got {raw!r}")
         ids = [*(e.ids or (e.id if e.id is not None else 1,)),
                *((e.as_id,) if e.as_id is not None else ())]
         for i in ids:
             if not isinstance(i, int) or isinstance(i, bool) or not 0 <= i <= 253:
-                raise UserError(f"{where}: '{kind.value}' servo id must be 0-253, got {i!r}")
+                raise BadValue(f"{where}: '{kind.value}' servo id must be 0-253, got {i!r}")
         if e.leg is not None and not 0 <= e.leg <= 5:
-            raise UserError(f"{where}: '{kind.value}.leg' must be 0-5 (LF, LM, LH, RF, RM, RH),"
-                            f" got {e.leg}")
+            raise BadValue(f"{where}: '{kind.value}.leg' must be 0-5 (LF, LM, LH, RF, RM, RH),"
+                           f" got {e.leg}")
         if (e.sigma is not None and e.sigma < 0) or (e.period_s is not None and e.period_s <= 0):
-            raise UserError(f"{where}: '{kind.value}' needs sigma >= 0 and period_s > 0, "
-                            f"got {raw!r}")
+            raise BadValue(f"{where}: '{kind.value}' needs sigma >= 0 and period_s > 0, "
+                           f"got {raw!r}")
         return e
 
 

@@ -8,7 +8,7 @@ import math
 from typing import Any, Callable, Mapping, Union
 
 from protocol import schema
-from protocol.errors import UserError
+from protocol.errors import BadValue
 
 SCHEMA: dict[str, dict[str, type]] = {
     "scenario": {"name": str, "description": str, "seed": int, "duration_s": float},
@@ -21,7 +21,7 @@ SCHEMA: dict[str, dict[str, type]] = {
              "max_obstacle_height_m": float, "direction_deg": float, "distance_m": float},
     "faults": {"bit_error_rate": float, "drop_status_rate": float, "can_drop_rate": float,
                "unplug": list, "stall": list, "overheat": list, "voltage_sag": list,
-               # issue 42's vocabulary (hil/scenario/faults_section.py types each entry)
+               # the named failures (hil/scenario/faults_section.py types each entry)
                "brownout": list, "overload": list, "position_stuck": list,
                "position_noise": list, "id_conflict": list, "switch_stuck": list,
                "switch_bounce": list, "can_silent": list, "can_garbage": list,
@@ -51,10 +51,10 @@ def typed(what: str, value: Any, want: Want) -> Any:
     if not isinstance(want, type):
         return want(what, value)
     if not schema.is_kind(value, _KIND[want]):
-        raise UserError(f"{what} must be {_SAID[want]}, got {type(value).__name__} {value!r}")
+        raise BadValue(f"{what} must be {_SAID[want]}, got {type(value).__name__} {value!r}")
     if want is float:
         if not math.isfinite(value):
-            raise UserError(f"{what} must be a finite number, got {value}")
+            raise BadValue(f"{what} must be a finite number, got {value}")
         return float(value)
     return value
 
@@ -68,10 +68,10 @@ def check_table(where: str, raw: Mapping[str, Any], fields: Mapping[str, tuple[W
              for k, (w, req) in fields.items()}
     for key, what in schema.problems(raw, kinds):
         if what == schema.UNKNOWN:
-            raise UserError(f"{where}: unknown key '{prefix}{key}'{context} "
-                            f"(known: {', '.join(sorted(fields))})")
+            raise BadValue(f"{where}: unknown key '{prefix}{key}'{context} "
+                           f"(known: {', '.join(sorted(fields))})")
         if what == schema.MISSING:
-            raise UserError(f"{where}: key '{prefix}{key}' is required{context}")
+            raise BadValue(f"{where}: key '{prefix}{key}' is required{context}")
         typed(f"{where}: key '{prefix}{key}'", raw[key], fields[key][0])   # raises
     return {k: typed(f"{where}: key '{prefix}{k}'", v, fields[k][0]) for k, v in raw.items()}
 
@@ -86,22 +86,22 @@ def optional(types: Mapping[str, type]) -> dict[str, tuple[Want, bool]]:
 # number: each rule refuses what is not one). ``params``: the API parameters ``what`` names.
 def _real(what: str, value: Any, params: tuple[str, ...]) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise UserError(f"{what} must be a number, got {type(value).__name__} {value!r}",
-                        params=params)
+        raise BadValue(f"{what} must be a number, got {type(value).__name__} {value!r}",
+                       params=params)
 
 
 def positive(what: str, value: float, params: tuple[str, ...] = ()) -> float:
     _real(what, value, params)
     if not value > 0:
-        raise UserError(f"{what} must be positive, got {value}", params=params)
+        raise BadValue(f"{what} must be positive, got {value}", params=params)
     return value
 
 
 def at_least(what: str, value: float, low: float, params: tuple[str, ...] = ()) -> float:
     _real(what, value, params)
     if not low <= value < math.inf:
-        raise UserError(f"{what} must be {'0' if low == 0 else low} or more, got {value}",
-                        params=params)
+        raise BadValue(f"{what} must be {'0' if low == 0 else low} or more, got {value}",
+                       params=params)
     return value
 
 
@@ -113,12 +113,12 @@ def within(what: str, value: float, low: float, high: float, high_open: bool = F
     above = low < value if low_open else low <= value
     below = value < high if high_open else value <= high
     if not (above and below):
-        raise UserError(f"{what} must be in {'(' if low_open else '['}{low:g}, {high:g}"
-                        f"{')' if high_open else ']'}, got {value}", params=params)
+        raise BadValue(f"{what} must be in {'(' if low_open else '['}{low:g}, {high:g}"
+                       f"{')' if high_open else ']'}, got {value}", params=params)
     return value
 
 
 def one_of(what: str, value: Any, choices: tuple[Any, ...]) -> Any:
     if value not in choices:
-        raise UserError(f"{what} must be one of {', '.join(map(str, choices))}, got {value!r}")
+        raise BadValue(f"{what} must be one of {', '.join(map(str, choices))}, got {value!r}")
     return value

@@ -17,7 +17,7 @@ from typing import Any
 from hil.scenario.rules import at_least, positive, within
 from protocol import hexapod
 from protocol.dynamixel import ax12, models
-from protocol.errors import UserError
+from protocol.errors import BadValue
 
 DEFAULT_DURATION_S = 30.0
 # Trace timestamps are u64 nanoseconds (MCAP log_time): 1.8e10 s; a run is kept well inside.
@@ -61,8 +61,8 @@ class Runtime(str, Enum):
         try:
             return cls(value)
         except ValueError:
-            raise UserError(f"{what} must be one of {', '.join(r.value for r in cls)}, "
-                            f"got {value!r}") from None
+            raise BadValue(f"{what} must be one of {', '.join(r.value for r in cls)}, "
+                           f"got {value!r}") from None
 
 
 def check_duration(value: float, what: str, params: tuple[str, ...] = ()) -> float:
@@ -70,16 +70,16 @@ def check_duration(value: float, what: str, params: tuple[str, ...] = ()) -> flo
     the API parameter ``what`` names (protocol/errors.py)."""
     positive(what, value, params)
     if not value <= MAX_DURATION_S:
-        raise UserError(f"{what} must be at most {MAX_DURATION_S:g} s (a trace's clock is "
-                        f"u64 nanoseconds), got {value}", params=params)
+        raise BadValue(f"{what} must be at most {MAX_DURATION_S:g} s (a trace's clock is "
+                       f"u64 nanoseconds), got {value}", params=params)
     return float(value)
 
 
 def check_seed(value: int, what: str, params: tuple[str, ...] = ()) -> int:
     """A seed: an integer from 0 to ``SEED_MAX`` (the RNGs take 32 bits)."""
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= SEED_MAX:
-        raise UserError(f"{what} must be an integer from 0 to {SEED_MAX} (2**32 - 1), "
-                        f"got {value!r}", params=params)
+        raise BadValue(f"{what} must be an integer from 0 to {SEED_MAX} (2**32 - 1), "
+                       f"got {value!r}", params=params)
     return value
 
 
@@ -90,8 +90,8 @@ def check_span(start_s: float | None, end_s: float | None) -> None:
         if value is not None:
             within(what, value, 0.0, MAX_DURATION_S, params=(what,))
     if start_s is not None and end_s is not None and not start_s < end_s:
-        raise UserError(f"start_s {start_s:g} s is not before end_s {end_s:g} s: the range "
-                        "is empty", params=("start_s", "end_s"))
+        raise BadValue(f"start_s {start_s:g} s is not before end_s {end_s:g} s: the range "
+                       "is empty", params=("start_s", "end_s"))
 
 
 def _check_ranges(where: str, section: str, values: Any,
@@ -139,33 +139,33 @@ class BusConfig:
     def parse(cls, where: str, d: dict[str, Any]) -> "BusConfig":
         b = cls(**d)
         if b.servos < 1 or b.first_id < 0 or b.first_id + b.servos - 1 > 253:
-            raise UserError(f"{where}: servos {b.servos} from ID {b.first_id} do not fit "
-                            "IDs 0-253")
+            raise BadValue(f"{where}: servos {b.servos} from ID {b.first_id} do not fit "
+                           "IDs 0-253")
         positive(f"{where}: key 'bus.baud'", b.baud)
         if b.model not in SERVO_MODELS:
-            raise UserError(f"{where}: key 'bus.model' must be one of "
-                            f"{', '.join(SERVO_MODELS)}, got {b.model!r}")
+            raise BadValue(f"{where}: key 'bus.model' must be one of "
+                           f"{', '.join(SERVO_MODELS)}, got {b.model!r}")
         table = models.table(b.model)
         if table.bps_to_baud(b.baud) < 0:
-            raise UserError(f"{where}: baud {b.baud}: {table.BAUD_RULE}")
+            raise BadValue(f"{where}: baud {b.baud}: {table.BAUD_RULE}")
         max_id = models.codec(b.model).MAX_ID
         if b.first_id + b.servos - 1 > max_id:
-            raise UserError(f"{where}: servos {b.servos} from ID {b.first_id} do not fit an "
-                            f"{b.model}'s IDs 0-{max_id}")
+            raise BadValue(f"{where}: servos {b.servos} from ID {b.first_id} do not fit an "
+                           f"{b.model}'s IDs 0-{max_id}")
         if b.sensor_node and models.protocol(b.model) != SENSOR_NODE_PROTOCOL:
-            raise UserError(f"{where}: the sensor node speaks Protocol 1.0, not an "
-                            f"{b.model}'s Protocol {models.protocol(b.model)}.0")
+            raise BadValue(f"{where}: the sensor node speaks Protocol 1.0, not an "
+                           f"{b.model}'s Protocol {models.protocol(b.model)}.0")
         if b.edition not in ax12.EDITIONS:
-            raise UserError(f"{where}: key 'bus.edition' must be one of "
-                            f"{', '.join(ax12.EDITIONS)}, got {b.edition!r}")
+            raise BadValue(f"{where}: key 'bus.edition' must be one of "
+                           f"{', '.join(ax12.EDITIONS)}, got {b.edition!r}")
         rd = b.return_delay_us
         if rd is not None and (rd % 2 or not 0 <= rd <= RETURN_DELAY_MAX_US):
-            raise UserError(f"{where}: key 'bus.return_delay_us' must be even and "
-                            f"0-{RETURN_DELAY_MAX_US}, got {rd}")
+            raise BadValue(f"{where}: key 'bus.return_delay_us' must be even and "
+                           f"0-{RETURN_DELAY_MAX_US}, got {rd}")
         node = b.sensor_node_id
         if node is not None and (not 0 <= node <= 253 or node in b.ids):
-            raise UserError(f"{where}: key 'bus.sensor_node_id' must be 0-253 and no servo's "
-                            f"ID, got {node}")
+            raise BadValue(f"{where}: key 'bus.sensor_node_id' must be 0-253 and no servo's "
+                           f"ID, got {node}")
         if b.eeprom_busy_us is not None:
             at_least(f"{where}: key 'bus.eeprom_busy_us'", b.eeprom_busy_us, 0)
         return b
@@ -207,7 +207,7 @@ class GaitConfig:
     def parse(cls, where: str, d: dict[str, Any]) -> "GaitConfig":
         name = d.get("name", DEFAULT_GAIT)
         if name not in GAITS:
-            raise UserError(f"{where}: key 'gait.name' must be tripod or wave, got {name!r}")
+            raise BadValue(f"{where}: key 'gait.name' must be tripod or wave, got {name!r}")
         g = cls(**{"period_s": hexapod.GAIT_PERIOD_S[name], **d})
         _check_ranges(where, "gait", g, GAIT_RANGES)
         return g

@@ -7,7 +7,7 @@ from enum import Enum
 from typing import Any
 
 from hil.scenario.rules import check_table, one_of, positive
-from protocol.errors import UserError
+from protocol.errors import BadValue
 
 TERRAINS = ("flat", "obstacles")
 DENSITIES = ("low", "high")          # hil/world/terrain.py: the spacing of each (Sec. 2.2)
@@ -42,11 +42,11 @@ def _obstacles(where: str, items: list[Any]) -> tuple[Obstacle, ...]:
     out = []
     for i, item in enumerate(items):
         if not isinstance(item, dict):
-            raise UserError(f"{where}: world.obstacles[{i}] must be a table with exactly "
-                            f"{', '.join(sorted(_OBSTACLE_FIELDS))}")
+            raise BadValue(f"{where}: world.obstacles[{i}] must be a table with exactly "
+                           f"{', '.join(sorted(_OBSTACLE_FIELDS))}")
         o = Obstacle(**check_table(where, item, _OBSTACLE_FIELDS, f"world.obstacles[{i}]."))
         if min(o.length_m, o.width_m, o.height_m) <= 0:
-            raise UserError(f"{where}: world.obstacles[{i}] sizes must be positive")
+            raise BadValue(f"{where}: world.obstacles[{i}] sizes must be positive")
         out.append(o)
     return tuple(out)
 
@@ -83,26 +83,26 @@ class WorldConfig:
         try:
             values: dict[str, Any] = {**d, "kind": WorldKind(kind)}
         except ValueError:
-            raise UserError(f"{where}: key 'world.kind' must be one of "
-                            f"{', '.join(k.value for k in WorldKind)}, got {kind!r}") from None
+            raise BadValue(f"{where}: key 'world.kind' must be one of "
+                           f"{', '.join(k.value for k in WorldKind)}, got {kind!r}") from None
         if "obstacles" in d:
             values["obstacles"] = _obstacles(where, d["obstacles"])
         values.setdefault("length_m", length_m)
         w = cls(**values)
         if w.terrain == "flat" and w.obstacles is not None:
-            raise UserError(f"{where}: world.obstacles needs world.terrain = \"obstacles\"")
+            raise BadValue(f"{where}: world.obstacles needs world.terrain = \"obstacles\"")
         if w.terrain not in TERRAINS:
-            raise UserError(f"{where}: world.terrain must be \"flat\" or \"obstacles\", "
-                            f"got {w.terrain!r}")
+            raise BadValue(f"{where}: world.terrain must be \"flat\" or \"obstacles\", "
+                           f"got {w.terrain!r}")
         one_of(f"{where}: key 'world.density'", w.density, DENSITIES)
         one_of(f"{where}: key 'world.height_class'", w.height_class, HEIGHT_CLASSES)
         positive(f"{where}: key 'world.friction'", w.friction)
         if w.model not in MODELS:
-            raise UserError(f"{where}: key 'world.model' must be ideal or real, got {w.model!r}")
+            raise BadValue(f"{where}: key 'world.model' must be ideal or real, got {w.model!r}")
         if w.obstacle_body not in OBSTACLE_BODIES:
-            raise UserError(f"{where}: key 'world.obstacle_body' must be fixed or free, "
-                            f"got {w.obstacle_body!r}")
+            raise BadValue(f"{where}: key 'world.obstacle_body' must be fixed or free, "
+                           f"got {w.obstacle_body!r}")
         if w.ideal and (w.obstacle_body == "free" or w.units_seed is not None):
-            raise UserError(f"{where}: world.obstacle_body = \"free\" and world.units_seed "
-                            f"need world.model = \"real\"")
+            raise BadValue(f"{where}: world.obstacle_body = \"free\" and world.units_seed "
+                           f"need world.model = \"real\"")
         return w

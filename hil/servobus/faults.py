@@ -4,7 +4,7 @@ its keys, defaults and rules; ``hexhil bus``'s flags write into it).
 Line faults (bit errors, dropped status packets) draw from seeded RNGs, one stream each,
 so a scenario and a seed give the same faults byte for byte. Timed faults fire at exact
 virtual microseconds: a servo unplugged, stalled by an external load, overheating; supply
-voltage sag; and the vocabulary of issue 42 (docs/servo-bus.md "Fault vocabulary"): a
+voltage sag; and the named failures (docs/servo-bus.md "Fault vocabulary"): a
 servo's brown-out (it reboots), its Present Position stuck or noisy (seeded), an overload
 (the Overload bit, torque off per Alarm Shutdown), two servos answering one ID, a leg's
 limit switch stuck or bouncing, the CAN sensor node silent or sending garbage, seed 000's

@@ -3,9 +3,9 @@
 Link version 2 hands the host a cycle's status reads in one message, R; the general path
 (hil/link/server.py ``_attempts``) carries each attempt out through ``Bus.transact``, tests
 its reply with the master's own rule and packs it: about 60 us of a 930 us in-process
-cycle, half of it left compiled (docs/performance.md, wave 10). The SYNC_WRITE the
+cycle, half of it left compiled (docs/performance.md). The SYNC_WRITE the
 firmware sends just before, in the same batch (its W), goes with them: ``Bus.master_write``
-and the servos' taking it cost about 5 us more a cycle in Python (wave 15). On a plain line
+and the servos' taking it cost about 5 us more a cycle in Python. On a plain line
 (``Bus.plain``) whose world steps by its own ``advance_to``, the C code does the same from
 the payload to the reply, stopping for the world's physics steps and handing back to the
 general path wherever it does not serve an attempt. The bytes heard reach ``on_bytes``, in

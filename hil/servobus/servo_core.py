@@ -13,25 +13,24 @@ traces are the same bits (tests/test_servo_core.py runs both on real traffic). A
 C code does not serve (an actuator other than a MuJoCo joint, deaf, finishing an EEPROM
 write, a Present Position fault) is handed to its own ``handle``, in the line's order.
 
-``make`` builds ``_servo_core.so`` beside this file with the pinned ziglang's C compiler;
+The package builds ``_servo_core.so`` beside this file (setup.py, the pinned ziglang's cc);
 without it the bus serves every servo in Python.
 """
 from __future__ import annotations
 
 import ctypes
 import struct
-from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
-from hil.native import load_library
+from hil.native import CORES, load_library
 from hil.seams import HeldSample
 from hil.servobus import drive, health
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
 
-LIBRARY = Path(__file__).with_name("_servo_core.so")
+LIBRARY = CORES["servo bank and reads"]
 _P = ctypes.c_void_p
 
 
@@ -97,7 +96,7 @@ STATE_ROW = struct.Struct("<Bddddd??B")   # hx_state_rows: a servo's TableServo.
 class StateRows(HeldSample[tuple]):
     """The bank's ``state_row``s as ``hx_state_rows`` packed them, unpacked where the
     recorder encodes them: a 10 Hz ground-truth sample costs the run one call instead of
-    18 (about 19 us, wave 15), and a window's pickle 800 bytes a sample instead of 162
+    18 (about 19 us), and a window's pickle 800 bytes a sample instead of 162
     objects."""
 
     @staticmethod

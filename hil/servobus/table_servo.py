@@ -7,7 +7,7 @@ they reboot. From those this base reads the identity, takes an instruction (late
 EEPROM write finishes; not at all while deaf), keeps a REG_WRITE for ACTION and gives the
 recorder its state; each servo executes its own instruction set.
 
-An EEPROM write is not a deaf time (issue 42, sources in docs/servo-bus.md): ROBOTIS's own
+An EEPROM write is not a deaf time (sources in docs/servo-bus.md): ROBOTIS's own
 advice for wheel mode is two WRITEs back to back, each waiting for its status, and users
 confirm it on AX-12 and X-series servos. The servo's UART keeps receiving while the write
 finishes; the packet is executed when it is done and its Return Delay counts from then.

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from hil.canbus.bus import CanBus, Endpoint
+from hil.canbus.bus import CanBus, Endpoint, message
 from hil.run_result import BeamsOutcome
 from hil.scenario.beams import MAX_TIME_S
 from hil.world import scene
@@ -58,11 +58,11 @@ class BeamsNode:
         self.peak_rad = [max(self.peak_rad[0], abs(s.roll_rad)),
                          max(self.peak_rad[1], abs(s.pitch_rad))]
         if t % CONTROL_PERIOD_US == 0:
-            port.send(*can_frames.encode("body_pose", x_m=s.x_m, roll_rad=s.roll_rad,
-                                         pitch_rad=s.pitch_rad))
-            port.send(*can_frames.encode("body_rate", vx_m_s=s.vx_m_s,
-                                         roll_rate_rad_s=s.roll_rate_rad_s,
-                                         pitch_rate_rad_s=s.pitch_rate_rad_s))
+            port.send(message("body_pose", x_m=s.x_m, roll_rad=s.roll_rad,
+                              pitch_rad=s.pitch_rad))
+            port.send(message("body_rate", vx_m_s=s.vx_m_s,
+                              roll_rate_rad_s=s.roll_rate_rad_s,
+                              pitch_rate_rad_s=s.pitch_rate_rad_s))
             if not world.free_run:
                 self.energy_j += energy_increment_j(world.applied, s.qd())
         if t % SENSOR_PERIOD_US == 0:
@@ -70,8 +70,8 @@ class BeamsNode:
             if self.faults is not None:
                 f = self.faults.force_sample(f)
             if f is not None:
-                port.send(*can_frames.encode("force", fx_n=f[0], fy_n=f[1], fz_n=f[2],
-                                             sample=self.sample_no))
+                port.send(message("force", fx_n=f[0], fy_n=f[1], fz_n=f[2],
+                                  sample=self.sample_no))
             self.sample_no += 1
 
     def scene_shapes(self) -> list[scene.Shape]:

@@ -1,7 +1,7 @@
 """The drive bank's per-step arithmetic compiled (hil/world/drive_core.c), through ctypes.
 
-``make`` builds ``_drive_core.so`` beside this file with the pinned ziglang's C compiler
-(no hand installs). The C code does numpy's operations in numpy's order, element by
+The package builds ``_drive_core.so`` beside this file (setup.py, the pinned ziglang's C
+compiler). The C code does numpy's operations in numpy's order, element by
 element, so the duties and the run's bytes are the same with or without it
 (tests/test_drive_core.py); without the library ``DriveBank`` keeps its numpy path.
 One call a physics step instead of about fifteen numpy calls: 18 us -> about 2 us.
@@ -9,14 +9,13 @@ One call a physics step instead of about fifteen numpy calls: 18 us -> about 2 u
 from __future__ import annotations
 
 import ctypes
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from hil.native import load_library
+from hil.native import CORES, load_library
 
-LIBRARY = Path(__file__).with_name("_drive_core.so")
+LIBRARY = CORES["drive bank"]
 _P = ctypes.c_void_p
 
 

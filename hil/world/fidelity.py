@@ -1,4 +1,4 @@
-"""The real robot's error sources, selected by ``[world] model = "real"`` (issue 21).
+"""The real robot's error sources, selected by ``[world] model = "real"``.
 
 ``ideal`` (the default for scenario files, so regression runs and conformance digests do not
 move) is the world as it landed: identical servos, smooth fixed obstacles, a deterministic

@@ -38,6 +38,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+# Exit statuses are the command line's alone; the library raises, the shell maps: a
+# UserError of any kind (protocol/errors.py: BadValue, BadFile) is bad input, status 2.
+EXIT_BAD_INPUT = 2
+
 # every --json says this, whatever the command: scripts may rely on the last line
 JSON_HELP = "end with the result as one JSON object, the last line of stdout (for scripts)"
 OVERWRITE_HELP = "replace a trace file that already exists (without it, an existing file is refused)"
@@ -54,7 +58,7 @@ def actions(sub: argparse._SubParsersAction, name: str, help: str, metavar: str 
 
 # The library's errors name API parameters (protocol/errors.py ``params``); a user of the
 # CLI typed these flags for them.
-FLAGS = {"python": "--python", "firmware": "--firmware", "duration_s": "--duration",
+FLAGS = {"python": "--runtime", "runtime": "--runtime", "firmware": "--firmware", "duration_s": "--duration",
          "can_server_port": "--can-server", "can_wait_clients": "--can-wait",
          "live_port": "--live", "start_s": "--start", "end_s": "--end", "rate": "--rate",
          "spec": "--can", "bus_args": "--can-arg", "out": "--out", "out_dir": "--out",
@@ -63,7 +67,8 @@ FLAGS = {"python": "--python", "firmware": "--firmware", "duration_s": "--durati
          "world": "--world", "model_path": "--model", "topics": "--topics",
          "gdb_port": "--gdb", "coverage": "--coverage", "bare": "--bare", "target": "--target",
          "seed": "--seed", "tactile": "--no-tactile", "overwrite": "--overwrite",
-         "keep_dir": "--keep-traces", "coverage_libraries": "--coverage-libraries"}
+         "keep_dir": "--keep-traces", "map_path": "--map", "scenario": "--scenario",
+         "kind": "--as", "coverage_libraries": "--coverage-libraries"}
 
 
 def flag_message(exc: UserError) -> str:
@@ -84,8 +89,27 @@ class _Parser(argparse.ArgumentParser):
         raise UserError(f"{message} (see '{self.prog} --help')")
 
 
+class _Version(argparse.Action):
+    """``hexhil --version``: the package's version and which compiled cores this install has."""
+
+    def __init__(self, option_strings: list[str], dest: str, **kwargs: Any) -> None:
+        super().__init__(option_strings, dest, nargs=0, help="print the version and which "
+                         "compiled cores are built, then exit")
+
+    def __call__(self, parser: argparse.ArgumentParser, *_: Any) -> None:
+        from importlib.metadata import version
+
+        from hil.native import compiled
+
+        lines = [f"hexhil {version('hexhil')}"]
+        lines += [f"  {name}: {state}" for name, state in compiled().items()]
+        sys.stdout.write("\n".join(lines) + "\n")
+        parser.exit(0)
+
+
 def build_parser(argv: list[str]) -> argparse.ArgumentParser:
     parser = _Parser(prog="hexhil", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action=_Version)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     wanted = argv[0] if argv and argv[0] in COMMANDS else None
     for name, (module, help_text) in COMMANDS.items():
@@ -234,7 +258,7 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.func(args) or 0)
     except UserError as exc:
         sys.stderr.write(f"hexhil: {flag_message(exc)}\n")
-        return exc.code
+        return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         return 130
     except ImportError as exc:   # Ctrl-C inside a C extension's initialisation (MuJoCo's)

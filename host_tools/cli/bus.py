@@ -216,7 +216,7 @@ def run(args: argparse.Namespace) -> int:
             import threading
 
             threading.Thread(target=_read_injections, args=(rt,), daemon=True).start()
-        s = rt.serve(transport, announce)
+        s = rt.serve(transport, announce).as_dict()
     finally:
         if can_server is not None:
             can_server.close()

@@ -10,8 +10,38 @@ from protocol.dynamixel import models
 from protocol.errors import UserError
 
 
+def _capture(args: argparse.Namespace) -> int:
+    """``--capture FILE``: the master check on a captured line (the same counts as a run's)."""
+    from host_tools.cli.bus import parse_ids
+    from host_tools.dynamixel.conformance.capture import check_capture
+
+    r = check_capture(args.capture, args.model, parse_ids(args.ids) if args.ids else None,
+                      args.map)
+    v, ln = r["violations"], r["line"]
+    wrong = ", ".join(f"{k} {n}" for k, n in v["counts"].items() if n) or "none"
+    print(f"{r['capture']}: {r['master_bursts']} master bursts at {r['baud']} bit/s, Protocol "
+          f"{r['protocol']}.0 ({r['model']}), servos {','.join(map(str, r['servos']))}")
+    for e in v["events"]:
+        print(f"  {e['t_s']:.6f} s {e['kind']}: {e['packet']} ({e['detail']})")
+    delays = "; ".join(f"id {i} " + (f"{d['min']}-{d['max']}" if d["min"] != d["max"]
+                                     else str(d["min"])) + " us"
+                       for i, d in ln["return_delay_us"].items())
+    print(f"line: {ln['framing_errors']} framing errors, {ln['unanswered']} pings and reads "
+          f"unanswered; return delays: {delays or 'none measured'}")
+    print(f"master violations: {wrong}", flush=True)
+    if args.json:
+        emit_json(r)
+    return 0 if r["ok"] else 1
+
+
 def run(args: argparse.Namespace) -> int:
     from host_tools.cli.bus import parse_ids
+
+    if (args.port is None) == (args.capture is None):
+        raise UserError("give --port PORT (check a live bus) or --capture FILE (check a "
+                        "captured master), one of them")
+    if args.capture is not None:
+        return _capture(args)
     from host_tools.dynamixel.conformance import CHECKS
     from host_tools.dynamixel.conformance.report import format_table
 
@@ -33,9 +63,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("conformance", help="check any Dynamixel bus (Protocol 1.0 or 2.0) against the spec",
                        description="Scan, ping, read the control table and check error replies, "
                                    "status return levels and response timing of every servo; "
-                                   "restore what was changed. Exit 0 only when all pass.")
-    p.add_argument("--port", required=True,
+                                   "restore what was changed. Exit 0 only when all pass. "
+                                   "With --capture, check a captured master instead.")
+    p.add_argument("--port", default=None,
                    help="serial port or pyserial URL (/dev/ttyUSB0, /dev/pts/N, socket://127.0.0.1:7000)")
+    p.add_argument("--capture", default=None, metavar="FILE",
+                   help="instead of a port: run the master check on a captured line, a sigrok "
+                        "capture (.sr) or a trace's /serial (.mcap); exit 1 on a violation")
+    p.add_argument("--map", default=None, metavar="MAP.toml",
+                   help="with --capture: the capture's [serial] channels, baud, protocol")
     p.add_argument("--baud", type=int, default=DEFAULT_BAUD, help="bit/s (default 1000000)")
     p.add_argument("--ids", default=None, help="IDs to check, e.g. 1-18 (default: scan 0-253)")
     p.add_argument("--timeout-ms", type=float, default=50.0,

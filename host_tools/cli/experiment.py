@@ -57,8 +57,8 @@ def _tactile_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--obstacles", choices=OBSTACLE_BODIES, default=OBSTACLE_BODY,
                    help="with the real model: obstacles fixed to the ground (default, as the "
                         "paper's held) or loose wooden ones")
-    p.add_argument("--python", choices=(IN_PROCESS, *RUNTIMES), default=IN_PROCESS,
-                   help="firmware runtime: in this process (default; the same serial digest "
+    p.add_argument("--runtime", "--python", dest="python", choices=(IN_PROCESS, *RUNTIMES),
+                   default=IN_PROCESS, help="firmware runtime: in this process (default; the same serial digest "
                         "as micropython, without two process wake-ups a link round trip), or a "
                         "child process under micropython (the reference) or cpython")
     p.add_argument("--json", action="store_true", help=JSON_HELP)
@@ -104,6 +104,8 @@ def _force(args: argparse.Namespace) -> int:
         raise UserError(f"--seeds must be at least 1, got {args.seeds}")
     try:
         summary = force_sensing.main(args.quick, out, args.seeds)
+    except UserError:   # a BadFile is an OSError too: already one line
+        raise
     except OSError as exc:
         raise UserError(f"cannot write into {out}: {exc.strerror}") from None
     modes = ", ".join(f"k = {k} {m}" for k, m in summary["modes"].items())

@@ -25,7 +25,7 @@ def _run(args: argparse.Namespace) -> int:
 
         if args.python is not None:
             raise UserError(f"--firmware {args.firmware} brings its own runtime: leave out "
-                            "--python")
+                            "--runtime")
         served_firmware(args.firmware)   # one line before anything runs
     case = spec.load(args.expect)
     sc = scenario_mod.load_scenario(args.scenario)
@@ -74,7 +74,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--jobs", type=int, default=1, metavar="N", help="worker processes")
     p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                    help="run on this Dask distributed scheduler instead")
-    p.add_argument("--python", choices=(*RUNTIMES, IN_PROCESS),
+    p.add_argument("--runtime", "--python", dest="python", choices=(*RUNTIMES, IN_PROCESS),
                    help=f"firmware runtime (default: the case's); {IN_PROCESS} is faster")
     p.add_argument("--firmware", metavar="PATH",
                    help="your firmware in place of the case's: a MicroPython main file, an "

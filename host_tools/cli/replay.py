@@ -18,15 +18,20 @@ def run(args: argparse.Namespace) -> int:
     r = replay.replay_firmware(args.file, python=args.python,
                                rate=0.0 if args.rate is None else args.rate,
                                start_s=args.start, end_s=args.end, topics=args.topics,
-                               firmware=args.firmware)
+                               firmware=args.firmware, scenario=args.scenario)
     d = r.divergence
     if args.json:
         emit_json(r.as_dict())
+    elif d is None and r.extra.get("log"):
+        print(f"identical: {r.extra['master_packets']} logged master packets and "
+              f"{r.extra['controller_frames']} controller CAN frames, as the firmware sent them")
     elif d is None:
         print(f"identical: {r.exchanges} link exchanges, {r.compared_messages} firmware "
               f"messages compared")
     else:
-        print(f"DIVERGED at t={d.t_s:.6f} s (exchange {d.exchange}) on {d.topic}:\n"
+        where = (f"{'packet' if d.topic == 'uart' else 'frame'} {d.exchange}"
+                 if r.extra.get("log") else f"exchange {d.exchange}")
+        print(f"DIVERGED at t={d.t_s:.6f} s ({where}) on {d.topic}:\n"
               f"  expected {d.expected}\n  actual   {d.actual}")
         if d.packets is not None:
             print(f"  expected packets: {'; '.join(d.packets['expected']) or '(none)'}\n"
@@ -43,8 +48,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("file", help="an MCAP trace recorded with --out")
     p.add_argument("--firmware", metavar="PATH", help="the firmware the trace was recorded "
                    "with (hexhil run --firmware: a MicroPython main file or an executable)")
-    p.add_argument("--python", choices=("micropython", "cpython"), default="micropython",
-                   help="runtime for the firmware (default micropython)")
+    p.add_argument("--scenario", metavar="SCENARIO", default=None,
+                   help="for a robot's imported log: the scenario whose firmware settings the "
+                        "firmware gets (default: the log's servo line, the rest defaults)")
+    p.add_argument("--runtime", "--python", dest="python", choices=("micropython", "cpython"),
+                   default="micropython", help="runtime for the firmware (default micropython)")
     p.add_argument("--rate", type=float, default=None,
                    help="wall-clock pacing, 1 = real time (default: as fast as possible "
                         "into the firmware, real time onto CAN); 0 = no pacing")

@@ -78,7 +78,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, metavar="S", help="simulated seconds "
                    "(default: the scenario's duration_s, else 30)")
     p.add_argument("--seed", type=int, help="RNG seed (default: the scenario's, else 0)")
-    p.add_argument("--python", choices=(*RUNTIMES, IN_PROCESS),
+    p.add_argument("--runtime", "--python", dest="python", choices=(*RUNTIMES, IN_PROCESS),
                    help="firmware runtime (default: micropython, the reference); "
                         f"{IN_PROCESS} runs it in this process: same digest, faster")
     p.add_argument("--no-tactile", action="store_true",

@@ -31,14 +31,14 @@ def _run(args: argparse.Namespace) -> int:
     if args.jobs < 1 or args.repeat < 1:
         raise UserError("--jobs and --repeat must be at least 1")
     if args.firmware is not None and args.python is not None:
-        raise UserError(f"--firmware {args.firmware} brings its own runtime: leave out --python")
+        raise UserError(f"--firmware {args.firmware} brings its own runtime: leave out --runtime")
     if args.firmware is not None and args.no_tactile:
         raise UserError("--no-tactile sets our firmware's obstacle rule: a firmware of yours "
                         f"({args.firmware}) reads no such setting")
     if args.trace is not None and (len(args.files) != 1 or args.firmware or args.python
                                    or args.no_tactile or args.repeat != 1):
         raise UserError("--trace evaluates one recorded run: give one FILE, and no --firmware, "
-                        "--python, --no-tactile or --repeat")
+                        "--runtime, --no-tactile or --repeat")
     if args.firmware is not None:
         from hil.link.served_firmware import served_firmware
 
@@ -128,7 +128,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--overwrite", action="store_true",
                    help="replace a kept trace of the same name in --keep-traces DIR (without "
                         "it, an existing one is refused before anything runs)")
-    p.add_argument("--python", choices=(*RUNTIMES, IN_PROCESS),
+    p.add_argument("--runtime", "--python", dest="python", choices=(*RUNTIMES, IN_PROCESS),
                    help="firmware runtime for every case (default: each case's, else "
                         f"micropython); {IN_PROCESS} is faster with the same digest")
     p.add_argument("--coverage", metavar="FILE.info", help="with an ELF --firmware: its LCOV "

@@ -1,4 +1,5 @@
-"""``hexhil trace info|cat|export|recover|import-csv``: look inside MCAP traces."""
+"""``hexhil trace info|cat|export|recover|import|import-csv``: look inside MCAP traces, and
+make them of a robot's logs."""
 from __future__ import annotations
 
 import argparse
@@ -6,7 +7,7 @@ import json
 import sys
 
 from host_tools.cli import JSON_HELP, OVERWRITE_HELP, actions, emit, emit_json
-from host_tools.trace import export, import_csv, reader, recover
+from host_tools.trace import export, import_csv, import_logs, reader, recover
 from host_tools.trace.import_csv import CSV_OPTIONAL, CSV_POSE, CSV_REQUIRED
 from protocol.errors import UserError
 
@@ -81,6 +82,17 @@ def _import_csv(args: argparse.Namespace) -> int:
     return 0
 
 
+def _import(args: argparse.Namespace) -> int:
+    r = import_logs.import_log(args.file, args.out, args.kind, args.map, args.overwrite)
+    what = {"can": lambda s: f"{s['frames']} CAN frames ({s['firmware_frames']} the firmware's)",
+            "serial": lambda s: f"{s['bursts']} serial bursts ({s['master_bursts']} the "
+                                f"master's) at {s['baud']} bit/s, Protocol {s['protocol']}.0",
+            "rosbag2": lambda s: f"{s['messages']} messages of {len(s['topics'])} topics"}
+    said = "; ".join(what[s["kind"]](s) for s in r["logs"])
+    emit(args, r, f"imported {said} into {r['output']}")
+    return 0
+
+
 _TRACE_HELP = "an MCAP trace (hexhil run/bus/beams run --out, or trace import-csv)"
 
 
@@ -113,6 +125,24 @@ def register(sub: argparse._SubParsersAction) -> None:
     q.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
     q.add_argument("--json", action="store_true", help=JSON_HELP)
     q.set_defaults(func=_recover)
+
+    q = tsub.add_parser("import", help="a robot's CAN log, servo-line capture or rosbag2 -> MCAP",
+                        description="A robot's own log as a trace on the virtual clock: a CAN "
+                                    "log python-can reads (.asc .blf .log .csv .trc .mf4 .db), "
+                                    "a sigrok capture of the servo line (.sr, decoded as "
+                                    "Dynamixel traffic) or a rosbag2 folder (topics mapped by "
+                                    "--map). docs/traces.md, \"Your robot's logs\".")
+    q.add_argument("file", nargs="+", help="the log: FILE.asc/.blf/.log..., CAPTURE.sr, or a "
+                                           "rosbag2 folder; one of each kind of one session")
+    q.add_argument("--as", dest="kind", choices=[k.value for k in import_logs.LogKind],
+                   default=None, help="what the file is (default: from its name)")
+    q.add_argument("--map", default=None, metavar="MAP.toml",
+                   help="[serial] channels/baud/protocol, [can] tx_ids, [topics.\"/t\"] as = "
+                        "joints|switches|can")
+    q.add_argument("--out", required=True, metavar="T.mcap", help="the MCAP trace to write")
+    q.add_argument("--overwrite", action="store_true", help=OVERWRITE_HELP)
+    q.add_argument("--json", action="store_true", help=JSON_HELP)
+    q.set_defaults(func=_import)
 
     q = tsub.add_parser("import-csv", help="a robot's force+pose CSV -> MCAP for 'estimate'",
                         description="A physical robot's force log as a trace 'hexhil estimate' "

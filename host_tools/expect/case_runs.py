@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
+import can
 from mcap.writer import CompressionType, Writer
 
 from hil.scenario import Scenario, check_seed
@@ -20,6 +21,7 @@ from host_tools.expect.verdicts import Outcome, evaluate
 from host_tools.expect.spec import Case
 from host_tools.executor import Executor
 from host_tools.progress import Progress
+from hil.run_result import RunResult
 from host_tools.lockstep_run import Run
 from host_tools.trace import protobuf as pb
 from host_tools.trace import topics
@@ -94,19 +96,20 @@ class _Sender:
     def tick(self, t_us: int) -> None:
         while self.sends and self.sends[0][0] <= t_us:
             _, arb_id, data = self.sends.pop(0)
-            self.run.send_can(arb_id, data)
+            self.run.send_can(can.Message(arbitration_id=arb_id, data=data,
+                                          is_extended_id=False))
 
 
 def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
                  tactile: bool | None, trace: Path, timing: BusTiming = BusTiming(),
                  sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None,
                  changed: dict[str, Any] | None = None, coverage: str | None = None,
-                 coverage_libraries: bool = False) -> dict[str, Any]:
+                 coverage_libraries: bool = False) -> tuple[dict[str, Any], RunResult]:
     """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
     file or an executable: ``hexhil run --firmware``) through the one run path
     (host_tools/lockstep_run.py ``Run``), recorded to ``trace`` with the master's protocol check
-    on; returns ``hexhil run --json``'s summary plus ``violations``. Every case and margin
-    run goes through here; ``timing`` and ``changed`` (a scenario key changed, e.g.
+    on; returns ``hexhil run --json``'s summary plus ``violations``, and the ``RunResult``.
+    Every case and margin run goes through here; ``timing`` and ``changed`` (a scenario key changed, e.g.
     ``faults.bit_error_rate``) are recorded as the run's overrides."""
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
@@ -125,7 +128,7 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
     result = run.run()
     summary = run_mod.summary(run.scenario, seed, result, str(trace), run.what_ran())
     summary["violations"] = check.summary()
-    return summary
+    return summary, result
 
 
 def run_case(job: CaseRun) -> CaseResult:
@@ -135,10 +138,10 @@ def run_case(job: CaseRun) -> CaseResult:
     kept = None
     with tempfile.TemporaryDirectory(prefix="hexhil-test-") as tmp:
         trace = Path(tmp) / "run.mcap"
-        summary = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
-                               job.python or case.python, tactile, trace, job.timing,
-                               case.sends, job.firmware or case.firmware,
-                               dict(job.changed), job.coverage, job.coverage_libraries)
+        summary, _ = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
+                                  job.python or case.python, tactile, trace, job.timing,
+                                  case.sends, job.firmware or case.firmware,
+                                  dict(job.changed), job.coverage, job.coverage_libraries)
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):

@@ -5,11 +5,12 @@ when a check fails, with the run's trace (the failure written into it) named in 
 and in ``--junitxml`` as the test's ``trace`` property.
 
 Fixtures: ``hexhil_run`` (a function: scenario, seed, duration, runtime, tactile, firmware,
-allow_failure -> ``FinishedRun``; a firmware that does not complete its run fails the test).
+allow_failure -> ``FinishedRun``, whose ``result`` is the run's ``RunResult``; a firmware
+that does not complete its run fails the test).
 Helpers: ``FinishedRun.check(kind, **keys)``, ``assert_within(name, value, low, high)``.
-Options: ``--hexhil-python RUNTIME`` (default runtime), ``--hexhil-firmware PATH`` (a firmware
-of yours for every run, as ``hexhil run --firmware``), ``--hexhil-keep DIR`` (copy the trace
-of every failing test there).
+Options: ``--hexhil-runtime RUNTIME`` (default runtime; ``--hexhil-python`` is its alias),
+``--hexhil-firmware PATH`` (a firmware of yours for every run, as ``hexhil run --firmware``),
+``--hexhil-keep DIR`` (copy the trace of every failing test there).
 """
 from __future__ import annotations
 
@@ -18,18 +19,24 @@ import os
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import pytest
+
+if TYPE_CHECKING:
+    from hil.run_result import RunResult
 
 
 @dataclass(frozen=True)
 class FinishedRun:
-    """A run as a test sees it: ``hexhil run --json``'s summary (plus ``violations``) and its trace."""
+    """A run as a test sees it: the run's ``RunResult`` (what ``Run.run()`` returns), its
+    ``hexhil run --json`` view (``summary``, plus ``violations``: what expectations read)
+    and its trace."""
 
     scenario: str
     seed: int
-    python: str
+    runtime: str
+    result: "RunResult"
     summary: dict[str, Any]
     trace: Path
     case: Any = dataclasses.field(repr=False)        # host_tools.expect.spec.Case
@@ -87,7 +94,8 @@ def pytest_configure(config: pytest.Config) -> None:
 
 def pytest_addoption(parser: pytest.Parser) -> None:
     group = parser.getgroup("hexhil", "hexhil firmware-in-the-loop runs")
-    group.addoption("--hexhil-python", default=None, metavar="RUNTIME",
+    group.addoption("--hexhil-runtime", "--hexhil-python", dest="hexhil_runtime", default=None,
+                    metavar="RUNTIME",
                     help="firmware runtime of hexhil_run (default: the scenario's, else "
                          "micropython; cpython-inprocess is faster, same digest)")
     group.addoption("--hexhil-firmware", default=None, metavar="PATH",
@@ -99,7 +107,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 @pytest.fixture
 def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path) -> Callable[..., FinishedRun]:
-    """``hexhil_run(scenario, seed=None, duration_s=None, python=None, tactile=None,
+    """``hexhil_run(scenario, seed=None, duration_s=None, runtime=None, tactile=None,
     firmware=None, allow_failure=False)``: run a scenario file with our firmware (or
     ``firmware``, else ``--hexhil-firmware``), recorded to this test's tmp_path. A firmware
     that crashes, hangs, exits early or never starts fails the test with its reason and
@@ -116,22 +124,22 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path) -> Callable[..., 
         _record_trace(request, path)
 
     def run(scenario: str | Path, seed: int | None = None, duration_s: float | None = None,
-            python: str | None = None, tactile: bool | None = None,
+            runtime: str | None = None, tactile: bool | None = None,
             firmware: str | Path | None = None, allow_failure: bool = False) -> FinishedRun:
         sc = scenario_mod.load_scenario(scenario)
         seed = sc.scenario.seed if seed is None else seed
         duration = duration_s or sc.scenario.duration_s
-        python = (python or request.config.getoption("--hexhil-python")
-                  or sc.firmware.python.value)
+        runtime = (runtime or request.config.getoption("hexhil_runtime")
+                   or sc.firmware.python.value)
         trace = tmp_path / f"{Path(scenario).stem}-seed{seed}-{len(traces)}.mcap"
         firmware = firmware or request.config.getoption("--hexhil-firmware")
-        summary = case_runs.run_scenario(sc, seed, duration, python, tactile, trace,
-                                      firmware=str(firmware) if firmware else None)
+        summary, result = case_runs.run_scenario(sc, seed, duration, runtime, tactile, trace,
+                                                 firmware=str(firmware) if firmware else None)
         keep(trace)
         case = spec.Case(name=Path(scenario).stem, path=Path(scenario), scenario=sc, seed=seed,
-                         duration_s=duration, tactile=tactile, python=python, expectations=(),
+                         duration_s=duration, tactile=tactile, python=runtime, expectations=(),
                          firmware=str(firmware) if firmware else None)
-        done = FinishedRun(str(scenario), seed, python, summary, trace, case, keep)
+        done = FinishedRun(str(scenario), seed, runtime, result, summary, trace, case, keep)
         ended = verdicts.ending_outcome(case.name, summary)
         if ended is not None and not allow_failure:   # a verdict: the test fails, not errors
             failed = trace.with_name(f"{trace.stem}-failed-firmware.mcap")

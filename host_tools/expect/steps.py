@@ -14,7 +14,7 @@ Its lift-off is when the foot left the ground, not when it passed the threshold:
 into the swing is followed back to the last sample on the ground (the foot rose less than
 ``RISE_M`` from the one before), and the moment between that sample and the first one up
 is where the line through the first two samples up meets the ground sample's height. A
-switch that closes during the first centimetre of a swing (issue 41: LM at 60.9 s of
+switch that closes during the first centimetre of a swing (LM at 60.9 s of
 obstacles-low-small) is after this lift-off, so the rule is judged on the next step, as
 the firmware (switched only at the start of a step) applies it.
 """

@@ -1,4 +1,4 @@
-"""The recorder's encoding in a child process, off the run's critical path (issue 43).
+"""The recorder's encoding in a child process, off the run's critical path.
 
 The run hands each closed window's raw values (what ``Recorder`` held) to a forked child,
 which encodes and writes them with the same ``Recorder`` code on its copy of the recorder:

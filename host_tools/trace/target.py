@@ -1,4 +1,4 @@
-"""Where a trace is written, so that no trace is ever lost (issue 41): every trace hexhil
+"""Where a trace is written, so that no trace is ever lost: every trace hexhil
 writes (``--out`` of run, bus, beams, an experiment's folder, ``test --keep-traces``,
 ``trace import-csv``) is opened here.
 
@@ -18,7 +18,7 @@ import os
 from pathlib import Path
 from typing import Any, BinaryIO
 
-from protocol.errors import UserError
+from protocol.errors import BadFile, UserError
 
 PARTIAL_SUFFIX = ".partial"
 
@@ -39,12 +39,12 @@ class TraceTarget:
         self.partial: Path | None = None
         if self.path.exists() and not self.path.is_file():
             if self.path.is_dir():
-                raise UserError(f"{self.path}: is a directory, not a trace file")
+                raise BadFile(f"{self.path}: is a directory, not a trace file")
             self.file = self._open_direct()   # a device: /dev/null, /dev/full
             return
         if self.path.exists() and not overwrite:
-            raise UserError(f"{self.path} exists: pass overwrite to replace it "
-                            "(or write the trace elsewhere)", params=("overwrite",))
+            raise BadFile(f"{self.path} exists: pass overwrite to replace it "
+                          "(or write the trace elsewhere)", params=("overwrite",))
         self.partial = partial_of(self.path)
         self.file = self._open_partial(self.partial)
 
@@ -52,13 +52,13 @@ class TraceTarget:
         try:
             return open(self.path, "wb")
         except OSError as exc:
-            raise UserError(f"{self.path}: cannot write trace ({exc.strerror})") from None
+            raise BadFile(f"{self.path}: cannot write trace ({exc.strerror})") from None
 
     def _open_partial(self, partial: Path) -> BinaryIO:
         try:
             fd = os.open(partial, os.O_RDWR | os.O_CREAT, 0o666)
         except OSError as exc:
-            raise UserError(f"{self.path}: cannot write trace ({exc.strerror})") from None
+            raise BadFile(f"{self.path}: cannot write trace ({exc.strerror})") from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -98,8 +98,8 @@ class TraceTarget:
             raise UserError(f"{self.path} appeared while this run wrote its trace: the trace "
                             f"is in {self.partial}") from None
         except OSError as exc:
-            raise UserError(f"{self.path}: cannot finish the trace ({exc.strerror}); it is "
-                            f"in {self.partial}") from None
+            raise BadFile(f"{self.path}: cannot finish the trace ({exc.strerror}); it is "
+                          f"in {self.partial}") from None
         finally:
             try:
                 self.file.close()

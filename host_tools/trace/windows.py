@@ -39,7 +39,7 @@ def encode_in_for(firmware_own_process: bool) -> EncodeIn:
     process, none) hands it to a child, which made an in-process run 11 % faster, where
     the child has a CPU of its own: with fewer than two (``taskset``, a cgroup's quota,
     hil/link/cores.py) it takes the run's, and the encoding stays here (an in-process
-    ``--out`` run on one core: 54x with a child, 58x without, wave 14)."""
+    ``--out`` run on one core: 54x with a child, 58x without)."""
     if firmware_own_process or cores.usable() < 2:
         return EncodeIn.THIS_PROCESS
     return EncodeIn.CHILD_PROCESS
@@ -190,8 +190,8 @@ class HeldWindows:
         chunk, or write it), else encode up to ``budget`` of the open window's; True while
         some is left. The simulator calls this while it waits for the firmware, slice after
         slice until the firmware answers, so the work overlaps the firmware's computing
-        instead of adding to it (a closed window's chunk written whole took 150-330 us,
-        wave 13); the bytes written do not depend on when (or whether) it is called. A
+        instead of adding to it (a closed window's chunk written whole took 150-330 us);
+        the bytes written do not depend on when (or whether) it is called. A
         closed window is written before the next one closes. With a child there is
         nothing to do."""
         self._idle_seen = True

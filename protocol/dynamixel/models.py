@@ -26,6 +26,17 @@ def check(name):
     return name
 
 
+def default_model(version):
+    """The model a line of protocol ``version`` is taken to carry when nothing says: the
+    default model, or the first of that protocol's."""
+    if MODELS[DEFAULT][1] == version:
+        return DEFAULT
+    for name, (_, v) in MODELS.items():
+        if v == version:
+            return name
+    raise ValueError("no servo model speaks Protocol %s" % version)
+
+
 def table(name):
     """The control-table module of a model (addresses, fields, units, limits)."""
     return MODELS[check(name)][0]

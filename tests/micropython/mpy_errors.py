@@ -1,5 +1,5 @@
-# protocol/errors.py under the real micropython binary: the one user-error type.
-from protocol.errors import UserError
+# protocol/errors.py under the real micropython binary: the user errors, their kinds UserErrors.
+from protocol.errors import BadFile, BadValue, UserError
 from tests.micropython.checks import check, done, raises
 
 
@@ -13,8 +13,8 @@ try:
     bad()
 except UserError as exc:
     check(str(exc) == "scenario.toml: key 'bus.baud' must be positive", "message kept")
-    check(exc.code == 2, "default exit status 2")
-check(UserError("x", 3).code == 3, "exit status given")
+check(isinstance(BadValue("x"), UserError) and isinstance(BadFile("x"), UserError), "kinds")
+check(str(BadValue("v", ["a"])) == "v" and BadValue("v", ["a"]).params == ("a",), "a kind's fields")
 check(UserError("x").params == (), "no parameters named")
 check(UserError("rate must be >= 0", params=["rate"]).params == ("rate",), "parameters kept")
 done("errors")

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 import numpy as np
 
-from hil.canbus.bus import Endpoint
+from hil.canbus.bus import Endpoint, message
 from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
 from hil.world.beams import DT_US
 from hil.world.beams_node import CONTROL_PERIOD_US, MAX_TIME_S
@@ -95,7 +95,7 @@ class PlannerNode:
             land = landscape.build(cfg.grid, est.hb1_m, est.hb2_m, g)
             self.plan = planner.plan(land, est.k1, est.k2, self.start_pose)
             model = [BeamParams(est.k1, est.hb1_m), BeamParams(est.k2, est.hb2_m)]
-            self.port.send(*can_frames.encode(
+            self.port.send(message(
                 "beam_estimate", k1_nm_per_rad=est.k1, k2_nm_per_rad=est.k2, hb_m=hb,
                 mode=can_frames.MODE_NAMES.index(self.plan.mode)))
         else:
@@ -122,5 +122,5 @@ class ControllerNode:
                 self.rate = (sig["vx_m_s"], sig["roll_rate_rad_s"], sig["pitch_rate_rad_s"])
         ctl = self.planner.controller
         u = ctl(t, self.pose, self.rate) if ctl is not None else (self.fx_n, 0.0, 0.0)
-        self.port.send(*can_frames.encode("actuator_command", fx_n=u[0], tau1_nm=u[1],
-                                          tau2_nm=u[2]))
+        self.port.send(message("actuator_command", fx_n=u[0], tau1_nm=u[1],
+                               tau2_nm=u[2]))

@@ -82,7 +82,7 @@ def markdown(result: dict[str, Any], quick: bool) -> str:
              f"{len(runs)} runs after the calibration probe. "
              "Errors in cm, heading change in degrees; dx = goal x - end x, dy = end y.",
              f"Measured flat-ground speed: " + ", ".join(f"{g} {v:.4f} m/s" for g, v in result["speed_m_s"].items())
-             + " (paper: wave 0.013, tripod 0.036 m/s); gait periods walked: "
+             + " (paper: wave gait 0.013, tripod 0.036 m/s); gait periods walked: "
              + ", ".join(f"{k}: {v}" for k, v in result["periods"].items()) + ".", "",
              "## Headline", "",
              "| quantity | this run | ideal model as landed (docs/hexapod-world.md) | paper |",

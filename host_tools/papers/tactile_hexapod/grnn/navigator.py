@@ -1,4 +1,4 @@
-"""Closing the loop (issue 16, beyond the paper): a host node on the run's CAN bus that walks
+"""Closing the loop (beyond the paper): a host node on the run's CAN bus that walks
 the robot to its goal by predicting how far short it will end.
 
 Seed 003 walks a fixed number of steps (Sec. 3.3) and measures the shortfall afterwards;
@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from hil.canbus.bus import Endpoint, t_us_of
+from hil.canbus.bus import Endpoint, message, t_us_of
 from hil.run.lockstep import BODY_SAMPLE_US
 from hil.seams import FirmwareWorld
 from host_tools.plugins import RunWithNodes
@@ -177,15 +177,15 @@ class Navigator:
             done = row.step >= self.planned_steps
         if done:
             self.stop_step = row.step
-            self.port.send(*cf.encode("gait_command", command=cf.COMMAND_STOP, gait=0,
-                                      step_length_m=0, step_height_m=0, period_s=0))
+            self.port.send(message("gait_command", command=cf.COMMAND_STOP, gait=0,
+                                   step_length_m=0, step_height_m=0, period_s=0))
 
     def _head_for_goal(self, row: StepRow) -> None:
         """Walk from the fix's pose straight at the goal (d, 0) of the start frame."""
         bearing = math.atan2(-row.body_y_m, self.distance_m - row.body_x_m)
         eps = max(-MAX_HEADING_RAD, min(MAX_HEADING_RAD, bearing - row.yaw_rad))
         self.heading_rad = eps
-        self.port.send(*cf.encode("heading_command", direction_rad=eps))
+        self.port.send(message("heading_command", direction_rad=eps))
 
     def summary(self) -> dict[str, Any]:
         last = self.predicted[-1][1] if self.predicted else None

@@ -1,5 +1,5 @@
 """``hexhil grnn closed-loop``: the tactile-hexapod experiment's with-method runs on a
-dataset's terrains, three ways (issue 16, beyond the paper):
+dataset's terrains, three ways (beyond the paper):
 
 * tactile only: the planned steps and no more, as in the paper (Sec. 3.3), stopped by the
   same ``gait_command`` as the navigated arms;

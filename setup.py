@@ -1,0 +1,61 @@
+"""The compiled cores, built by the package: ``pip install .`` and ``pip install -e .`` both
+run ``build_ext``, which compiles each core with the pinned ziglang's ``cc`` (a build
+requirement in pyproject.toml, so no system compiler is needed) into the plain shared
+library its loader opens beside its Python module (hil/native.py).
+
+The flags are the results' promise: ``-mcpu=baseline`` so that a tree copied to another
+x86-64 machine still runs, and ``-ffp-contract=off`` (no fused multiply-add) so that the
+floating-point cores round as numpy and CPython do, bit for bit.
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+from setuptools import Extension, setup
+from setuptools.command.build_ext import build_ext
+
+COMMON = ["-mcpu=baseline", "-O2", "-shared", "-fPIC"]
+FLOAT = ["-ffp-contract=off"]   # numpy's and CPython's bits
+
+
+def _core(name: str, sources: list[str], flags: list[str], depends: list[str] = ()) -> Extension:
+    ext = Extension(name, sources=sources, depends=list(depends))
+    ext.hexhil_flags = COMMON + flags   # type: ignore[attr-defined]
+    return ext
+
+
+CORES = [
+    _core("hil.world._drive_core", ["hil/world/drive_core.c"], FLOAT),
+    _core("hil.servobus._servo_core",
+          ["hil/servobus/servo_core.c", "hil/servobus/reads_core.c"], FLOAT,
+          depends=["hil/servobus/servo_core.h"]),
+    _core("hil.mcu._board_core", ["hil/mcu/board_core.c"], []),   # integers only
+]
+
+
+class BuildCores(build_ext):
+    """Each core as ``NAME.so`` (what its loader opens: no Python module, no ABI tag),
+    compiled by ``zig cc`` with the core's flags and nothing of Python's own CFLAGS."""
+
+    def get_ext_filename(self, fullname: str) -> str:
+        return str(Path(*fullname.split("."))) + ".so"
+
+    def build_extension(self, ext: Extension) -> None:
+        out = Path(self.get_ext_fullpath(ext.name))
+        out.parent.mkdir(parents=True, exist_ok=True)
+        cmd = [*_zig_cc(), *ext.hexhil_flags, "-o", str(out), *ext.sources]
+        self.announce(" ".join(cmd), level=2)
+        subprocess.run(cmd, check=True)
+
+
+def _zig_cc() -> list[str]:
+    try:
+        import ziglang
+    except ImportError:   # built without isolation in an environment that lacks it
+        return [sys.executable, "-m", "ziglang", "cc"]
+    return [str(Path(ziglang.__file__).with_name("zig")), "cc"]
+
+
+setup(ext_modules=CORES, cmdclass={"build_ext": BuildCores})

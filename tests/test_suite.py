@@ -1,0 +1,48 @@
+"""The suite's own rules: one ``hexhil()`` helper (conftest.py), no path into a virtual
+environment, nothing skipped for a missing package, and a test module whose optional
+extra is missing is one failing test naming the extra instead of a collection error."""
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+from conftest import HEXHIL, hexhil
+
+TESTS = Path(__file__).resolve().parent
+ROOT = TESTS.parent
+FILES = sorted(p for p in TESTS.rglob("*.py") if p.name not in ("conftest.py", "test_suite.py"))
+
+
+def test_one_hexhil_helper_and_no_venv_path() -> None:
+    for path in FILES:
+        text = path.read_text()
+        assert not re.search(r"^def hexhil\(", text, re.M), f"{path.name}: use conftest.hexhil"
+        assert ".venv" not in text, f"{path.name}: a path into a virtual environment"
+
+
+def test_nothing_skips_for_a_missing_package() -> None:
+    for path in FILES:
+        assert "importorskip" not in path.read_text(), path.name
+
+
+def test_the_helper_runs_the_command_line() -> None:
+    r = hexhil("--version")
+    assert r.returncode == 0 and r.stdout.startswith("hexhil ")
+    assert HEXHIL[1:] == ["-m", "host_tools.cli"]
+
+
+def test_a_missing_extra_is_one_failing_test_not_a_collection_error(tmp_path: Path) -> None:
+    shadow = tmp_path / "torch"
+    shadow.mkdir()
+    (shadow / "__init__.py").write_text(
+        "raise ModuleNotFoundError(\"No module named 'torch'\", name='torch')\n")
+    out = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                          "tests/test_grnn.py"], cwd=ROOT, capture_output=True, text=True,
+                         env={"PYTHONPATH": str(tmp_path), "PATH": "/usr/bin:/bin"},
+                         timeout=300)
+    assert out.returncode == 1, out.stdout + out.stderr
+    assert "error" not in out.stdout.splitlines()[-1], out.stdout
+    assert "test_grnn.py needs torch, from the [grnn] extra" in out.stdout
+    assert "1 failed" in out.stdout.splitlines()[-1]
