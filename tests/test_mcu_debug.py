@@ -158,13 +158,13 @@ def test_coverage_is_of_the_firmwares_own_sources_unless_the_libraries_are_asked
     case.write_text(f'[case]\nscenario = "{ROOT}/scenarios/flat-tripod.toml"\nduration_s = 0.1'
                     '\n\n[[expect]]\nname = "no firmware exception"\nkind = "no_exception"\n')
     merged = tmp_path / "merged.info"
-    r = subprocess.run([HEXHIL, "test", str(case), "--firmware", str(elf), "--coverage",
+    r = subprocess.run([*HEXHIL, "test", str(case), "--firmware", str(elf), "--coverage",
                         str(merged), "--coverage-libraries"], cwd=ROOT, capture_output=True,
                        text=True, timeout=300)
     assert r.returncode == 0, r.stdout + r.stderr
     assert {row[3:] for row in merged.read_text().splitlines() if row.startswith("SF:")} \
         == files["all"]
-    bad = subprocess.run([HEXHIL, "test", str(case), "--firmware", str(elf),
+    bad = subprocess.run([*HEXHIL, "test", str(case), "--firmware", str(elf),
                           "--coverage-libraries"], cwd=ROOT, capture_output=True, text=True)
     assert bad.returncode == 2 and "--coverage-libraries needs --coverage" in bad.stderr
 
