@@ -13,6 +13,7 @@ from typing import Any, Mapping
 from protocol import link_schema as ls
 
 LAST_LINES = 5   # of what the firmware printed, kept with an ending that is not COMPLETED
+CONSOLE_LINES = 20   # the console's last lines (virtual time, text) a run result keeps
 
 
 class Ending(str, Enum):
@@ -185,6 +186,7 @@ class RunResult:
     # the bus master's protocol mistakes (hil/servobus/master_check.py ``summary``), where
     # the run checked them (a firmware of yours, every hexhil test case); else None
     violations: Mapping[str, Any] | None = None
+    console: tuple[tuple[float, str], ...] = ()   # the firmware's last log lines (t_s, text)
 
     @property
     def unhandled_exceptions(self) -> int:
@@ -195,7 +197,7 @@ class RunResult:
 # RunResult's fields a run adds into as it goes, as the mutable form the tally holds;
 # ``firmware`` is the last stats event as sent, typed (``FirmwareStats``) when frozen.
 _GROWING: dict[str, Any] = {"exceptions": list, "faults": dict, "tactile_events": list,
-                            "can_frames": dict, "firmware": dict}
+                            "can_frames": dict, "firmware": dict, "console": list}
 # RunResult's fields that are not counted during the run: the firmware's stats give cycles
 # and overruns; the papers' host nodes report theirs after it (host_nodes).
 _AFTER = ("cycles", "overruns", "host_nodes")
@@ -217,6 +219,12 @@ class RunTally:
             else:
                 setattr(self, f.name, f.default_factory())   # type: ignore[misc]
 
+    def console_line(self, t_s: float, text: str) -> None:
+        """A line the firmware printed (a log event), the last ``CONSOLE_LINES`` kept."""
+        self.console.append((t_s, text))
+        if len(self.console) > 2 * CONSOLE_LINES:
+            del self.console[:-CONSOLE_LINES]
+
     def count_can(self, arb_id: int) -> None:
         self.can_frames[arb_id] = self.can_frames.get(arb_id, 0) + 1
 
@@ -232,7 +240,7 @@ class RunTally:
             exceptions=tuple(self.exceptions), faults=_frozen(self.faults), firmware=stats,
             tactile_events=tuple(_frozen(e) for e in self.tactile_events),
             can_frames=_frozen(self.can_frames), cycles=int(stats.cycles),
-            overruns=int(stats.overruns),
+            overruns=int(stats.overruns), console=tuple(self.console[-CONSOLE_LINES:]),
             stop_reason=self.stop_reason if self.stop_reason is not None else stats.stop_reason)
         return RunResult(**values)
 

@@ -103,12 +103,13 @@ class Run(Closing):
                  live_port: int | None = None, can_server: CanGateway | None = None,
                  realtime: bool = False, firmware: str | Path | None = None,
                  gdb_port: int | None = None, coverage: str | Path | None = None,
-                 flash_files: FlashFiles | None = None,
+                 flash_files: FlashFiles | None = None, coverage_libraries: bool = False,
                  overwrite: bool = False, overrides: dict[str, Any] | None = None,
                  limits: RunLimits | None = None) -> None:
         # a firmware of the user's (hil/link/served_firmware.py) is checked before anything opens
         self.firmware = (served_firmware(firmware, gdb_port=gdb_port, coverage=coverage,
-                                         flash_files=flash_files)
+                                         flash_files=flash_files,
+                                         coverage_libraries=coverage_libraries)
                          if firmware is not None else None)
         if firmware is None and flash_files is not None:
             raise UserError("main, fs and fs_out need a MicroPython STM32F411 ELF given as "
@@ -116,6 +117,9 @@ class Run(Closing):
         if firmware is None and (gdb_port is not None or coverage is not None):
             raise UserError("gdb_port and coverage need an STM32F411 ELF given as firmware",
                             params=("gdb_port", "coverage", "firmware"))
+        if coverage_libraries and coverage is None:
+            raise UserError("coverage_libraries needs coverage (the LCOV file to write)",
+                            params=("coverage_libraries", "coverage"))
         self.scenario = (scenario_mod.load_scenario(scenario)
                          if isinstance(scenario, (str, Path)) else scenario_mod.parse(scenario))
         sc = self.scenario

@@ -59,6 +59,7 @@ def summary(scenario: Scenario, seed: int, result: RunResult,
         if result.loop_cycles else None,
         "bus_wire_min_per_cycle_us": round(result.bus_wire_us / result.loop_cycles, 1)
         if result.loop_cycles else None,
+        "console": [{"t_s": round(t_s, 6), "text": text} for t_s, text in result.console],
         "tactile": None, "overrides": {}, **(what_ran or {}),
         **_deadline(fw.other),
     }
@@ -105,7 +106,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         model_path: str | None = None, firmware: str | None = None,
         gdb_port: int | None = None, coverage: str | None = None,
         overwrite: bool = False, limits: RunLimits | None = None,
-        flash_files: FlashFiles | None = None
+        flash_files: FlashFiles | None = None, coverage_libraries: bool = False
         ) -> tuple[dict[str, Any], RunResult]:
     """Load, simulate, summarise. Returns (summary, raw result).
 
@@ -125,6 +126,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     ``firmware``, a MicroPython main file for the virtual board or an executable that
     speaks the link (hil/link/served_firmware.py), or an STM32F411 ELF, runs instead of our
     firmware; an ELF's ``gdb_port`` waits for a GDB client, ``coverage`` writes LCOV there
+    (of its own sources; the toolchain's libraries too with ``coverage_libraries``)
     (docs/elf-firmware.md). ``limits``: the run's wall-clock and memory caps
     (hil/run/limits.py); ``flash_files`` fills and reads back a MicroPython ELF's
     ``/flash`` (docs/micropython-on-the-chip.md).
@@ -156,7 +158,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         with Run(sc, seed=given_seed, runtime=python, duration_s=duration_s, tactile=tactile,
                  trace=out, live_port=live_port, can_server=server, realtime=realtime,
                  firmware=firmware, gdb_port=gdb_port, coverage=coverage,
-                 overwrite=overwrite, limits=limits, flash_files=flash_files) as r:
+                 overwrite=overwrite, limits=limits, flash_files=flash_files,
+                 coverage_libraries=coverage_libraries) as r:
             if r.live is not None:
                 log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", r.live.port)
             if attach_navigator is not None:

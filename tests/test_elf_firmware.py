@@ -180,7 +180,10 @@ def test_a_hardfault_is_one_line_with_the_pc_and_the_function_and_the_trace_is_k
     proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", FLAT, "--duration",
                            "0.5", "--firmware", elfs["hardfault"]], cwd=ROOT,
                           capture_output=True, text=True)
-    assert proc.returncode == 1 and proc.stderr == f"hexhil: {line}\n", proc.stderr
+    assert proc.returncode == 1 and proc.stderr.endswith(f"\nhexhil: {line}\n"), proc.stderr
+    printed = re.fullmatch(r"\[ *(\d+\.\d{6}) s\] hardfault: about to fault",
+                           proc.stderr.splitlines()[0])      # the console, live
+    assert printed and 0 < float(printed[1]) <= ending.t_s, proc.stderr
 
 
 def test_an_interrupt_without_a_handler_is_a_lockup_in_one_line_and_a_failing_case(

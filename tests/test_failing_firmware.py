@@ -97,13 +97,27 @@ def test_hexhil_run_of_a_crashing_firmware_is_a_verdict_exit_1(tmp_path: Path) -
     r = hexhil("run", str(FLAT), "--firmware", str(firmware(tmp_path, "crash")), "--out",
                str(trace), "--json")
     assert r.returncode == 1, r.stderr
-    assert r.stderr.strip().splitlines() == [
-        "hexhil: the firmware crash.py crashed at t=0.050000 s (exit 1): ValueError: boom"]
+    said = r.stderr.strip().splitlines()     # its traceback live, then the verdict
+    assert said[-1] == \
+        "hexhil: the firmware crash.py crashed at t=0.050000 s (exit 1): ValueError: boom"
+    assert said[:-1] and all(ln.startswith("[  0.050000 s] ") for ln in said[:-1]), said
     s = json.loads(r.stdout.strip().splitlines()[-1])
     assert s["ending"]["kind"] == "crashed" and s["ending"]["t_s"] == 0.05
     assert s["ending"]["last_lines"][-1] == "ValueError: boom"
     with Trace(trace) as t:
         assert t.topics()
+
+
+def test_what_a_micropython_firmware_prints_shows_live_after_its_virtual_time(
+        tmp_path: Path) -> None:
+    r = hexhil("run", str(FLAT), "--firmware", str(firmware(tmp_path, "early")), "--json")
+    said = r.stderr.strip().splitlines()
+    assert r.returncode == 1 and said[0] == "[  0.050000 s] bye", r.stderr   # at its print
+    assert said[-1].startswith("hexhil: the firmware early.py exited at t=0.05"), r.stderr
+    console = json.loads(r.stdout.strip().splitlines()[-1])["console"]
+    assert console == [{"t_s": 0.05, "text": "bye"}], console
+    quiet = hexhil("run", str(FLAT), "--firmware", str(firmware(tmp_path, "early")), "--quiet")
+    assert quiet.stderr.strip().splitlines() == said[1:], quiet.stderr
 
 
 @pytest.mark.parametrize("kind,ending", [

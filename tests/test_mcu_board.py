@@ -1,7 +1,12 @@
 """The emulated STM32F411 (hil/mcu/) on bare-metal ELFs of its own
 (tests/mcu/*.c, registers from RM0383): clocks, SysTick, DWT, the servo line through the
-PA1 buffer at the baud the firmware sets, the console, timers, EXTI, bxCAN."""
+PA1 buffer at the baud the firmware sets, USART IDLE, the console, timers, EXTI, bxCAN."""
+import json
+import os
 import re
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -234,3 +239,25 @@ def test_rtc_counts_the_calendar_from_lsi_in_virtual_time(tmp_path):
     r, _ = run_elf(build(tmp_path, "rtc.c"), 2.1)
     assert console(r)[-1].split() == ["00000007", "00000000", "0027a101",
                                       "00000030", "00001234", "00000000"], console(r)
+
+
+@pytest.mark.parametrize("mode", ["it", "dma"])
+def test_receive_to_idle_gets_every_ping_as_one_burst_in_c_and_in_python(tmp_path, mode):
+    """USART2 is the compiled core's (board_core.c) and, with HEXHIL_BOARD_CORE=python,
+    usart.py's; USART1 is always usart.py's."""
+    elf = build(tmp_path, "idle.c", *(("USE_DMA=1",) if mode == "dma" else ()))
+    root = Path(__file__).resolve().parent.parent
+    for core in ("c", "python"):
+        env = {**os.environ, **({"HEXHIL_BOARD_CORE": "python"} if core == "python" else {})}
+        proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run",
+                               "scenarios/flat-tripod.toml", "--firmware", str(elf),
+                               "--duration", "0.15", "--json", "--quiet"], cwd=root, env=env,
+                              capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+        lines = [c["text"] for c in json.loads(proc.stdout.splitlines()[-1])["console"]]
+        said = re.fullmatch(rf"idle {mode}: (\d+) pings, (\d+) bursts, gap (\d+) (\d+)",
+                            lines[0])
+        assert said and said.group(1, 2) == ("18", "18"), (core, lines)
+        if mode == "it":   # one frame (10 bits at 1 Mbps) after the last byte's RXNE
+            assert 900 <= int(said[3]) <= int(said[4]) <= 1100, (core, lines)
+        assert lines[1] == "usart1 idle ok", (core, lines)

@@ -31,10 +31,11 @@ from hil.mcu import flash_fs
 from hil.mcu.elf_image import ELF_MAGIC, ElfImage, is_arm_elf, load_elf
 from hil.mcu.flash_fs import FlashFiles
 from hil.mcu.runtime import serve_elf
+from hil.mcu.verdicts import MASKED_LIMIT_S
 from hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
 from hil.seams import LinkHost
 from protocol import sim_link
-from protocol.errors import UserError
+from protocol.errors import BadValue, UserError
 
 BOARD_DIR = ROOT / "firmware" / "virtual_board"
 BOARD_RUNTIME = "micropython-board"   # a run's firmware_runtime
@@ -68,13 +69,16 @@ class ServedFirmware(Protocol):
 
 
 def served_firmware(path: str | Path, what: str = "firmware", gdb_port: int | None = None,
-                    coverage: str | Path | None = None, flash_files: FlashFiles | None = None
+                    coverage: str | Path | None = None, flash_files: FlashFiles | None = None,
+                    masked_limit_s: float = MASKED_LIMIT_S, coverage_libraries: bool = False
                     ) -> BoardFirmware | ExecutableFirmware | ElfFirmware:
     """``path`` checked: a MicroPython main file (``.py``) for the virtual board, an ARM
     ELF for the emulated STM32F411, else an executable file this user may run
     (``UserError`` naming ``what`` if neither). ``gdb_port``, ``coverage`` and
     ``flash_files`` (the MicroPython ELF's ``/flash``: hil/mcu/flash_fs.py) are an ELF's
-    only and go to the ELF runtime."""
+    only and go to the ELF runtime, and so do ``masked_limit_s``, the virtual time an ELF
+    may run with interrupts masked before it is hung (hil/mcu/verdicts.py), and
+    ``coverage_libraries``, which counts the toolchain's libraries too (hil/mcu/coverage.py)."""
     p = Path(path)
     if (gdb_port is not None or coverage is not None) and not is_arm_elf(p):
         raise UserError(f"gdb_port and coverage need an STM32F411 ELF as {what}, not {path}",
@@ -98,9 +102,13 @@ def served_firmware(path: str | Path, what: str = "firmware", gdb_port: int | No
                             "data, not UTF-8 text)", params=(what,))
         return BoardFirmware(p.resolve())
     if is_arm_elf(p):
+        if not masked_limit_s > 0:
+            raise BadValue(f"masked_limit_s {masked_limit_s}: give a time above 0 s",
+                           params=("masked_limit_s",))
         elf = load_elf(p, what)
         return ElfFirmware(elf, gdb_port, Path(coverage) if coverage is not None else None,
-                           flash_files, flash_fs.laid(elf, flash_files))
+                           flash_files, flash_fs.laid(elf, flash_files), masked_limit_s,
+                           coverage_libraries)
     if not os.access(p, os.X_OK) and p.read_bytes()[:4] == ELF_MAGIC:
         load_elf(p, what)     # names what the ELF is for, in one line
     if not os.access(p, os.X_OK):
@@ -178,6 +186,8 @@ class ElfFirmware:
     coverage: Path | None = None
     flash_files: FlashFiles | None = None
     fs_image: bytes | None = None     # laid at flash_fs.FS_BASE before the boot
+    masked_limit_s: float = MASKED_LIMIT_S
+    coverage_libraries: bool = False
     runtime: str = ELF_RUNTIME
     own_process: bool = False   # Unicorn, in the host's process
 
@@ -196,7 +206,8 @@ class ElfFirmware:
         run's end is judged as a process's exit."""
         board = serve_elf(self.image, server, end_us, result, console_events, self.gdb_port,
                           self.coverage, self.fs_image,
-                          self.flash_files.out if self.flash_files is not None else None)
+                          self.flash_files.out if self.flash_files is not None else None,
+                          self.masked_limit_s, self.coverage_libraries)
         if result.ending.completed and board.exit_code is not None and not board.ended:
             result.ending = judge(self.path.name, board.exit_code, "",
                                   "\n".join(board.console_tail), board.link.t_us, end_us)

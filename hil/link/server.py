@@ -8,6 +8,7 @@ the limit switches and hands over the CAN frames queued for the firmware.
 from __future__ import annotations
 
 import json
+import logging
 import struct
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -26,6 +27,9 @@ if TYPE_CHECKING:   # hil/run builds the server; the server only calls it
     from hil.run.lookahead import Lookahead
 
 RECORDER_SLICE = 4  # held messages the recorder encodes between looks at the link (~10 us)
+# the firmware's console as it prints (every runtime's log lines): a record each, with its
+# virtual time ``t_s``; outside the ``hil`` tree, so the CLI shows it on stderr, not stdout
+CONSOLE_LOG = logging.getLogger("hexhil.console")
 
 
 class SwitchSampler:
@@ -110,8 +114,12 @@ class LinkServer:
                 raise ValueError("a fault event is not a JSON object")
             self.run_fault(str(fault.get(ls.NAME, "firmware_fault")),
                            str(fault.get(ls.DETAIL, "")), result)
-        elif rec is not None:
-            rec.telemetry(t, {"event": kind, "text": text})
+        else:
+            if kind == sim_link.EVENT_LOG:
+                result.console_line(t * 1e-6, text)
+                CONSOLE_LOG.info(text, extra={"t_s": t * 1e-6})
+            if rec is not None:
+                rec.telemetry(t, {"event": kind, "text": text})
 
     def run_fault(self, name: str, detail: str, result: RunTally) -> None:
         """A fault of the run now: counted, recorded, and a direction mistake (the virtual

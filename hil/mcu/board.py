@@ -39,15 +39,12 @@ from hil.mcu.rtc import Rtc
 from hil.mcu.system import Nvic, SystemBlock
 from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
+from hil.mcu.verdicts import BRANCH_TO_SELF, MASKED_LIMIT_S, SYSTEM_EXCEPTIONS, Endings
 
 log = logging.getLogger(__name__)
 MAX_CHUNK = 20_000           # instructions: the most an interrupt unmasked by CPSIE/MSR waits
 TICK_US = 1000               # a quiet millisecond: a sleep to now (world, switches, CAN)
 PA1 = 1
-BRANCH_TO_SELF = (0xE7FE,)    # Thumb `b .` (GCC's `for (;;) {}`)
-SYSTEM_EXCEPTIONS = {2: "the NMI handler", 3: "the HardFault handler", 4: "MemManage",
-                     5: "BusFault", 6: "UsageFault", 11: "the SVC handler",
-                     14: "the PendSV handler", 15: "the SysTick handler"}
 CONSOLE_TAIL = 5             # console lines a run result keeps (its stderr_tail)
 
 
@@ -59,7 +56,7 @@ class Board:
 
     def __init__(self, image: ElfImage, exchange: Callable[[bytes, bool], bytes],
                  console_events: Callable[[str], list[tuple[int, str]]],
-                 compiled: bool = True) -> None:
+                 compiled: bool = True, masked_limit_s: float = MASKED_LIMIT_S) -> None:
         self.image = image
         self.console_events = console_events
         self.link = LinkClient(exchange)
@@ -99,6 +96,7 @@ class Board:
             core.uc.hook_add(UC_HOOK_INTR, lambda uc, intno, _: self.intr(intno))
         self.poll = PollSkipper(self)
         self.quiet = QuietLoops(self)
+        self.endings = Endings(self, masked_limit_s)    # _exit, abort, assert, main's return
 
     @property
     def skipped_cycles(self) -> int:
@@ -170,6 +168,7 @@ class Board:
         at_us = at_fs // FS_PER_US
         if at_us - self._last_request_us >= TICK_US:
             self.take(self.link.sleep(at_us))
+        self.endings.sample()
         listening = self.exti.regs[0x00] & 0x3F or self.can_listening
         self.tick.set(at_fs + (1 if listening else 10) * TICK_US * FS_PER_US)
 
@@ -342,14 +341,14 @@ class Board:
         loop = trips(core) if native and self.debugger is None else None
         self.link.hello()
         n = -1
-        while not self.ended and self.exit_code is None:
+        while not self.ended and self.exit_code is None and self.endings.verdict is None:
             if loop is not None:
                 n = handed_over(self, loop(MAX_CHUNK, n))
                 continue
             n = head(MAX_CHUNK)
             if core.shared.quiet_n > 0:
                 n = min(n, core.shared.quiet_n)
-            if self.ended:
+            if self.ended or self.endings.verdict is not None:
                 break
             if self.reset_if_asked():
                 continue

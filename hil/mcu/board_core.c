@@ -137,6 +137,10 @@ typedef struct {
     uint64_t pub_count, pub_limit;
     uint32_t pub_pc;             /* the running instruction's PC */
     int32_t engine_counts;       /* 1: Unicorn counts (emu_start's count); 0: bc_count does */
+    /* USART2's IDLE (usart.py): when the line will have been idle a frame (0: no byte
+       since), SR read with IDLE set (a DR read clears it), its timer (with IDLEIE) */
+    int64_t u2_idle_at;
+    int32_t u2_idle_live, u2_idle_tid, u2_idle_seen;
 } bc_t;
 
 /* bc_t's layout as this compiler laid it out: board_core.py checks its ``Shared`` against
@@ -173,7 +177,8 @@ F(ctr, ctr) F(pc, pc) F(chunk0, chunk0) F(cyc, cyc) F(fs0, fs0) F(cyc0, cyc0)
     F(nnots, nots.n) F(mmio_n, mmio_n) F(chunk_mmio, chunk_mmio) F(quiet_n, quiet_n)
     F(quiet_wait, quiet_wait) F(quiet_loud, quiet_loud)
     F(masked_steps, masked_steps) F(pub_count, pub_count) F(pub_limit, pub_limit)
-    F(pub_pc, pub_pc) F(engine_counts, engine_counts)
+    F(pub_pc, pub_pc) F(engine_counts, engine_counts) F(u2_idle_at, u2_idle_at)
+    F(u2_idle_live, u2_idle_live) F(u2_idle_tid, u2_idle_tid) F(u2_idle_seen, u2_idle_seen)
 };
 #undef F
 
@@ -197,6 +202,7 @@ enum { GPIO_MODER = 0x00, GPIO_PUPDR = 0x0C, GPIO_IDR = 0x10, GPIO_ODR = 0x14, G
 #define PA1 1
 #define SWITCH_MASK 0x3F        /* PB0-PB5 */
 #define ORE (1 << 3)
+#define IDLE (1 << 4)
 #define RXNE (1 << 5)
 #define TC (1 << 6)
 #define TXE (1 << 7)
@@ -205,6 +211,7 @@ enum { GPIO_MODER = 0x00, GPIO_PUPDR = 0x0C, GPIO_IDR = 0x10, GPIO_ODR = 0x14, G
 #define OVER8 (1 << 15)
 #define TE (1 << 3)
 #define RE (1 << 2)
+#define IDLEIE (1 << 4)
 #define RXNEIE (1 << 5)
 #define TCIE (1 << 6)
 #define TXEIE (1 << 7)
@@ -295,6 +302,7 @@ void bc_timer_clear(bc_t *s, int tid) {
 int64_t bc_timer_at(bc_t *s, int tid) { return s->tat[tid]; }
 
 static void usart_shifted(bc_t *s, int64_t at);
+static void usart_idle(bc_t *s);
 
 static void pend(bc_t *s, int exc) {
     uint32_t bit = 1u << (exc & 31);
@@ -332,6 +340,8 @@ int bc_fire_due(bc_t *s, int64_t now_fs) {
             systick_wrapped(s, e.at);
         } else if (e.tid == s->rx_tid) {
             rx_deliver(s, e.at);
+        } else if (s->u2_idle_live && e.tid == s->u2_idle_tid) {
+            usart_idle(s);
         } else if (s->touched++, s->py_timer(e.tid, e.at)) {
             s->err = 1;
         }
@@ -395,12 +405,13 @@ static void line(bc_t *s, int level) {
 
 static void irq(bc_t *s) {
     int sr = s->sr, cr1 = s->cr1;
-    if (!(cr1 & (TXEIE | TCIE | RXNEIE)) && !(s->cr3 & EIE)) {
+    if (!(cr1 & (TXEIE | TCIE | RXNEIE | IDLEIE)) && !(s->cr3 & EIE)) {
         line(s, 0);
         return;
     }
     int level = (cr1 & UE) && (((cr1 & TXEIE) && (sr & TXE)) || ((cr1 & TCIE) && (sr & TC))
                                || ((cr1 & RXNEIE) && (sr & (RXNE | ORE)))
+                               || ((cr1 & IDLEIE) && (sr & IDLE))
                                || ((s->cr3 & EIE) && (sr & ORE)));
     line(s, level);
 }
@@ -474,16 +485,35 @@ void bc_usart_received(bc_t *s, int byte) {
         s->sr |= RXNE;
         if ((s->cr3 & DMAR) && s->u2_dma_rx && py(s, PY_DMA_RX, byte, 0) > 0) s->sr &= ~RXNE;
     }
+    s->u2_idle_at = bc_now_fs(s) + frame_fs(s);
+    if ((s->cr1 & IDLEIE) && s->u2_idle_live) bc_timer_set(s, s->u2_idle_tid, s->u2_idle_at);
     irq(s);
+}
+
+/* the line idle a frame since the last byte received: IDLE */
+static void usart_idle(bc_t *s) {
+    s->u2_idle_at = 0;
+    if (s->u2_idle_live) bc_timer_clear(s, s->u2_idle_tid);
+    s->sr |= IDLE;
+    irq(s);
+}
+
+/* IDLE as of now (read without IDLEIE, nothing was scheduled for it) */
+static void idle_now(bc_t *s) {
+    if (s->u2_idle_at && bc_now_fs(s) >= s->u2_idle_at) usart_idle(s);
 }
 
 uint32_t bc_usart_read(bc_t *s, int off) {
     switch (off) {
     case DR:
-        s->sr &= ~(RXNE | ORE);
+        s->sr &= ~(RXNE | ORE | (s->u2_idle_seen ? IDLE : 0));
+        s->u2_idle_seen = 0;
         irq(s);
         return (uint32_t)s->rdr;
-    case SR: return (uint32_t)s->sr;
+    case SR:
+        idle_now(s);
+        s->u2_idle_seen = (s->sr & IDLE) != 0;
+        return (uint32_t)s->sr;
     case BRR: return (uint32_t)s->brr;
     case CR1: return (uint32_t)s->cr1;
     case CR2: return (uint32_t)s->cr2;
@@ -512,6 +542,14 @@ void bc_usart_write(bc_t *s, int off, uint32_t value) {
             s->sr = TXE | TC;
             s->tdr = -1;
             bc_timer_clear(s, s->u2_tid);
+            s->u2_idle_at = s->u2_idle_seen = 0;
+        }
+        if (off == CR1 && s->u2_idle_live) {
+            bc_timer_clear(s, s->u2_idle_tid);
+            if ((value & IDLEIE) && s->u2_idle_at) {
+                idle_now(s);
+                if (s->u2_idle_at) bc_timer_set(s, s->u2_idle_tid, s->u2_idle_at);
+            }
         }
         if (off == CR3) bc_usart_dma_request(s);
     }
@@ -519,6 +557,10 @@ void bc_usart_write(bc_t *s, int off, uint32_t value) {
 }
 
 void bc_usart_reset(bc_t *s) {
+    if (!s->u2_idle_live) {       /* IDLE's timer, made once a board */
+        s->u2_idle_tid = bc_timer_new(s);
+        s->u2_idle_live = 1;
+    }
     s->sr = TXE | TC;
     s->brr = s->cr1 = s->cr2 = s->cr3 = s->gtpr = 0;
     s->tdr = s->echo = -1;
@@ -526,6 +568,8 @@ void bc_usart_reset(bc_t *s) {
     s->frame_fs = s->u2_pclk = 0;
     s->u2_line = s->u2_dma_tx = s->u2_dma_rx = 0;
     bc_timer_clear(s, s->u2_tid);
+    s->u2_idle_at = s->u2_idle_seen = 0;
+    if (s->u2_idle_live) bc_timer_clear(s, s->u2_idle_tid);
 }
 
 /* --- the poll skipper's known waits (poll.py) ---------------------------------------- */
@@ -1158,4 +1202,28 @@ void bc_free(bc_t *s) {
     s->tat = NULL;
     s->burst = NULL;
     s->n = s->cap = s->ntimers = s->burst_n = s->burst_cap = 0;
+}
+
+/* --coverage (hil/mcu/coverage.py ``LineCounter``): Unicorn's block hook, counting each
+   block run by (address, size) in an open-addressed table the Python side allocated, so a
+   covered run pays no Python call per block. A table three quarters full takes no new
+   block (``lost`` counts them; the table is sized from the firmware's code to leave room). */
+typedef struct { uint64_t *keys, *counts; uint64_t mask, used, lost; } cover_t;
+
+void bc_cover_block(void *uc, uint64_t address, uint32_t size, void *user) {
+    (void)uc;
+    cover_t *c = user;
+    uint64_t key = (address << 32 | size) + 1;          /* 0: an empty slot */
+    uint64_t i = (key * 0x9E3779B97F4A7C15ull) >> 29 & c->mask;
+    while (c->keys[i] && c->keys[i] != key)
+        i = (i + 1) & c->mask;
+    if (!c->keys[i]) {
+        if (4 * (c->used + 1) > 3 * (c->mask + 1)) {
+            c->lost++;
+            return;
+        }
+        c->keys[i] = key;
+        c->used++;
+    }
+    c->counts[i]++;
 }

@@ -58,8 +58,7 @@ class Shared(ctypes.Structure):
                 ("reread", _I32), ("watching", _I32), ("pending_n", _I32), ("poll_at", _I64),
                 ("u2_live", _I32), ("u2_line", _I32), ("u2_dma_tx", _I32), ("u2_dma_rx", _I32),
                 ("sr", _I32), ("brr", _I32), ("cr1", _I32), ("cr2", _I32), ("cr3", _I32),
-                ("gtpr", _I32), ("tdr", _I32), ("rdr", _I32), ("echo", _I32),
-                ("frame_fs", _I64),
+                ("gtpr", _I32), ("tdr", _I32), ("rdr", _I32), ("echo", _I32), ("frame_fs", _I64),
                 ("direction", _I32), ("burst_dir", _I32), ("burst_n", _I32),
                 ("burst_cap", _I32), ("burst_fs", _I64), ("burst", _P),
                 ("next_at", _I64), ("seq", ctypes.c_uint64), ("n", _I32), ("cap", _I32),
@@ -88,7 +87,8 @@ class Shared(ctypes.Structure):
                 ("mmio_n", _I64), ("chunk_mmio", _I64), ("quiet_n", _I64),
                 ("quiet_wait", _I64), ("quiet_loud", _I64), ("masked_steps", _I64),
                 ("pub_count", ctypes.c_uint64), ("pub_limit", ctypes.c_uint64),
-                ("pub_pc", ctypes.c_uint32), ("engine_counts", _I32)]
+                ("pub_pc", ctypes.c_uint32), ("engine_counts", _I32), ("u2_idle_at", _I64),
+                ("u2_idle_live", _I32), ("u2_idle_tid", _I32), ("u2_idle_seen", _I32)]
 
 
 

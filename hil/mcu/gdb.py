@@ -5,8 +5,12 @@ the start, a breakpoint, a step) the board's loop is blocked here: no instructio
 so virtual time, the bus and the world stand still and a debugged run's trace equals an
 undebugged one. Served: the Cortex-M register set (r0-r12, sp, lr, pc, xpsr, as GDB's
 m-profile target description), memory reads and writes (flash and SRAM; the peripherals
-answer E01, a read would change them), software breakpoints, single steps, continue,
-detach. (udbserver 0.3.0, the GDB server made for Unicorn, refuses Unicorn's
+answer E01, a read would change them), software breakpoints (in exception handlers too),
+single steps, range steps (``vCont;r``: a ``next`` over a C line is one packet), continue,
+detach; no-ack mode, and TCP_NODELAY, so a step answers at once. A fault, an abort or a
+hang halts the core and is reported as a signal (SIGSEGV, SIGBUS, SIGILL, SIGABRT, SIGINT)
+with the registers where it happened, the run's one line as console output; the client
+stays attached to inspect it until it detaches or kills, and then the run ends. (udbserver 0.3.0, the GDB server made for Unicorn, refuses Unicorn's
 Thumb+M-class mode, hence this one.)
 """
 from __future__ import annotations
@@ -29,6 +33,19 @@ TARGET_XML = ('<?xml version="1.0"?><!DOCTYPE target SYSTEM "gdb-target.dtd"><ta
               '</feature></target>')
 MEMORY = ((0x00000000, 0x00080000), (0x08000000, 0x08080000), (0x20000000, 0x20020000))
 ACCEPT_S = 600.0
+SIGINT, SIGILL, SIGTRAP, SIGABRT, SIGBUS, SIGSEGV = 2, 4, 5, 6, 10, 11   # GDB's numbers
+PC_REG, SP_REG, LR_REG = 15, 13, 14
+
+
+def fault_signal(line: str) -> int:
+    """The signal GDB is told for the fault a run's line names (hil/mcu/core.py)."""
+    if "unaligned" in line:
+        return SIGBUS
+    if "undefined instruction" in line or "UsageFault" in line or "breakpoint" in line:
+        return SIGILL
+    if "lockup" in line:
+        return SIGABRT
+    return SIGSEGV
 
 
 def _hex32(v: int) -> str:
@@ -59,31 +76,65 @@ class GdbServer:
         finally:
             srv.close()
         self.conn.settimeout(None)
+        self.conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._ack = True             # until the client asks for QStartNoAckMode
+        self._range: tuple[int, int] | None = None    # vCont;r: step while the PC is in it
+        self._stop = "S05"           # the stop reply ``?`` repeats
         self._buf = b""
         self.attached = True
         self.halted = True           # GDB has the core before the first instruction
         self.stepping = False
         self.hit = False
+        self.ended = False           # the run is over: the core cannot go on
         self._breaks: dict[int, int] = {}
         self._resume_at: int | None = None   # a breakpoint the next run steps over
         self.core.uc.reg_write(A.UC_ARM_REG_PC, self.core.pc | 1)
 
     # --- the board's side -----------------------------------------------------------
     def chunk_limit(self, n: int) -> int:
-        """Serve GDB while it holds the core; the instructions the next chunk may run."""
+        """Serve GDB while it holds the core (before the first instruction); the
+        instructions the next chunk may run."""
         if self.attached and self.halted:
-            self._serve()
-        self._resume_at = self.core.pc if self.core.pc in self._breaks else None
+            self._hold()
         return 1 if self.stepping else n
 
+    def _hold(self) -> None:
+        """Serve GDB until it lets the core run; a breakpoint at the PC it continues
+        from is stepped over once."""
+        self._serve()
+        self._resume_at = self.core.pc if self.core.pc in self._breaks else None
+
     def after_chunk(self) -> None:
+        """A chunk ran: at a breakpoint or the step's end GDB has the core, at once (the
+        state it sees is the halt's, before the next events and exceptions)."""
         if not self.attached:
             return
+        if self.stepping and not self.hit and self._range is not None and \
+                self._range[0] <= self.core.pc < self._range[1]:
+            return                      # a range step goes on
         if self.hit or self.stepping:
             self.hit = False
             self.stepping = False
+            self._range = None
             self.halted = True
-            self._send("S05")
+            self._stop = "S05"
+            self._send(self._stop)
+            self._hold()
+
+    def halted_by(self, signal: int, line: str) -> None:
+        """The run ends with a fault or a verdict: GDB is told ``signal`` with the
+        registers as they are, and keeps the core until it detaches."""
+        if not self.attached:
+            return
+        uc = self.core.uc
+        regs = ";".join(f"{n:02x}:{_hex32(uc.reg_read(REGS[n]))}"
+                        for n in (PC_REG, SP_REG, LR_REG))
+        self._send("O" + (line + "\n").encode().hex())
+        self._stop = f"T{signal:02x}{regs};"
+        self._send(self._stop)
+        self.halted = True
+        self.ended = True
+        self._serve()
 
     def run_ended(self, code: int = 0) -> None:
         if self.attached:
@@ -115,7 +166,8 @@ class GdbServer:
             if start >= 0 and end >= 0 and len(self._buf) >= end + 3:
                 body = self._buf[start + 1:end].decode(errors="replace")
                 self._buf = self._buf[end + 3:]
-                self.conn.sendall(b"+")
+                if self._ack:
+                    self.conn.sendall(b"+")
                 return body
             data = self.conn.recv(4096)
             if not data:
@@ -145,13 +197,17 @@ class GdbServer:
     def _answer(self, p: str) -> str | None:
         uc = self.core.uc
         if p.startswith("qSupported"):
-            return "PacketSize=4000;qXfer:features:read+"
+            return "PacketSize=4000;qXfer:features:read+;QStartNoAckMode+"
+        if p == "QStartNoAckMode":
+            self._send("OK")
+            self._ack = False
+            return None
         if p.startswith("qXfer:features:read:target.xml:"):
             off, length = (int(x, 16) for x in p.rsplit(":", 1)[1].split(","))
             part = TARGET_XML[off:off + length]
             return ("l" if off + length >= len(TARGET_XML) else "m") + part
         if p == "?":
-            return "S05"
+            return self._stop
         if p == "g":
             return "".join(_hex32(uc.reg_read(r)) for r in REGS)
         if p.startswith("p"):
@@ -176,20 +232,34 @@ class GdbServer:
             if h is not None:
                 uc.hook_del(h)
             return "OK"
-        if p in ("c", "vCont;c") or p.startswith("vCont;c"):
-            self.halted = False
-            return None
-        if p in ("s", "vCont;s") or p.startswith("vCont;s"):
-            self.halted, self.stepping = False, True
-            return None
+        if p[:1] in ("c", "C", "s", "S") or p.startswith("vCont;"):
+            return self._resume(p)
         if p == "vCont?":
-            return "vCont;c;s"
+            return "vCont;c;s;r"
         if p in ("D", "k") or p.startswith("D;"):
             self._send("OK")
             self.detach()
             return None
         return {"qC": "QC1", "qfThreadInfo": "m1", "qsThreadInfo": "l", "qAttached": "1",
                 "qSymbol::": "OK"}.get(p, "OK" if p.startswith("H") else "")
+
+    def _resume(self, p: str) -> str | None:
+        """``c``, ``s`` (and their with-a-signal forms ``C``, ``S``, which drop the
+        signal) and ``vCont``'s first action, ``r`` a range step; after the run's end the
+        stop again (the core cannot go on)."""
+        action = p[6:7] if p.startswith("vCont;") else p[:1]
+        if self.ended:
+            return self._stop
+        if action in ("c", "C"):
+            self.halted = False
+        elif action in ("s", "S"):
+            self.halted, self.stepping = False, True
+        elif action == "r":
+            lo, hi = (int(x, 16) for x in p[7:].split(";")[0].split(":")[0].split(","))
+            self.halted, self.stepping, self._range = False, True, (lo, hi)
+        else:
+            return ""
+        return None
 
     def _memory(self, p: str) -> str:
         head, _, data = p[1:].partition(":")

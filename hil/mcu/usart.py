@@ -4,10 +4,14 @@ The baud comes from BRR and the APB clock (OVER8 honoured); a frame is start + 8
 data bits + the stop bits of CR2. A byte written to DR moves into the shift register at
 once when it is free (TXE stays set), else waits in DR (TXE clear) until the shift
 register takes it; TC sets when the last stop bit has gone. A byte received sets RXNE,
-or ORE when RXNE was still set (the byte is lost). Interrupts (TXEIE, TCIE, RXNEIE, EIE)
-and DMA requests (CR3 DMAT/DMAR, served by hil/mcu/dma.py) as on the chip. HDSEL (single
-wire): the receiver hears the transmitter's own bytes. Not modelled: parity errors,
-framing/noise errors, IDLE and LIN break detection, synchronous mode, smartcard, IrDA.
+or ORE when RXNE was still set (the byte is lost). IDLE sets one frame after the last byte
+received (an idle line for a character's time), once per burst, and clears by a read of
+SR then DR; read without IDLEIE it is worked out at the read (no event is scheduled for
+it, so a firmware that ignores it runs as before). Interrupts (TXEIE, TCIE, RXNEIE,
+IDLEIE, EIE) and DMA requests (CR3 DMAT/DMAR, served by hil/mcu/peripherals.py ``Dma``)
+as on the chip, so ``HAL_UARTEx_ReceiveToIdle_IT`` and ``_DMA`` get their bursts. HDSEL
+(single wire): the receiver hears the transmitter's own bytes. Not modelled: parity
+errors, framing/noise errors, LIN break detection, synchronous mode, smartcard, IrDA.
 
 Where the bytes go is the board's (``UsartWiring``): USART2 to the servo line through the
 direction buffer, USART1 and USART6 to the console.
@@ -22,7 +26,7 @@ from hil.mcu.events import Events
 SR, DR, BRR, CR1, CR2, CR3, GTPR = range(0, 0x1C, 4)
 PE, FE, NF, ORE, IDLE, RXNE, TC, TXE = (1 << i for i in range(8))
 UE, M_9BIT, OVER8 = 1 << 13, 1 << 12, 1 << 15
-TE, RE, RXNEIE, TCIE, TXEIE = 1 << 3, 1 << 2, 1 << 5, 1 << 6, 1 << 7
+TE, RE, IDLEIE, RXNEIE, TCIE, TXEIE = 1 << 3, 1 << 2, 1 << 4, 1 << 5, 1 << 6, 1 << 7
 EIE, HDSEL, DMAR, DMAT = 1 << 0, 1 << 3, 1 << 6, 1 << 7
 STOP_HALF_BITS = {0: 2, 1: 1, 2: 4, 3: 3}
 
@@ -49,6 +53,9 @@ class Usart:
         self._echo: int | None = None        # HDSEL: the byte on the wire comes back
         self._frame_fs = 0                   # 0: to be worked out (CR1, CR2, BRR, PCLK)
         self.shift_end = events.timer(self._shifted)
+        self.idle_end = events.timer(self._idle)   # scheduled only with IDLEIE
+        self._idle_at: int | None = None     # when the line will have been idle a frame
+        self._idle_seen = False              # SR was read with IDLE: a DR read clears it
         self.dma_tx: Callable[[], int | None] | None = None     # set by the DMA controller
         self.dma_rx: Callable[[int], bool] | None = None
 
@@ -133,24 +140,44 @@ class Usart:
             self.regs[SR] |= RXNE
             if self.regs[CR3] & DMAR and self.dma_rx is not None and self.dma_rx(byte):
                 self.regs[SR] &= ~RXNE
+        self._idle_at = self.core.now_fs() + (self._frame_fs or self.frame_fs())
+        if cr1 & IDLEIE:
+            self.idle_end.set(self._idle_at)
         self._irq()
+
+    def _idle(self, at_fs: int | None = None) -> None:
+        """The line has been idle a frame since the last byte received: IDLE."""
+        self._idle_at = None
+        self.idle_end.clear()
+        self.regs[SR] |= IDLE
+        self._irq()
+
+    def _idle_now(self) -> None:
+        """IDLE as of now (read without IDLEIE, nothing was scheduled for it)."""
+        if self._idle_at is not None and self.core.now_fs() >= self._idle_at:
+            self._idle()
 
     def _irq(self) -> None:
         sr, cr1 = self.regs[SR], self.regs[CR1]
-        if not cr1 & (TXEIE | TCIE | RXNEIE) and not self.regs[CR3] & EIE:
+        if not cr1 & (TXEIE | TCIE | RXNEIE | IDLEIE) and not self.regs[CR3] & EIE:
             self.line(self.irq, False)
             return
         level = bool(cr1 & UE) and bool(
             (cr1 & TXEIE and sr & TXE) or (cr1 & TCIE and sr & TC)
-            or (cr1 & RXNEIE and sr & (RXNE | ORE)) or (self.regs[CR3] & EIE and sr & ORE))
+            or (cr1 & RXNEIE and sr & (RXNE | ORE)) or (cr1 & IDLEIE and sr & IDLE)
+            or (self.regs[CR3] & EIE and sr & ORE))
         self.line(self.irq, level)
 
     # --- registers ----------------------------------------------------------------
     def read(self, off: int) -> int:
         if off == DR:
-            self.regs[SR] &= ~(RXNE | ORE)
+            self.regs[SR] &= ~(RXNE | ORE | (IDLE if self._idle_seen else 0))
+            self._idle_seen = False
             self._irq()
             return self.rdr
+        if off == SR:
+            self._idle_now()
+            self._idle_seen = bool(self.regs[SR] & IDLE)
         return self.regs.get(off, 0)
 
     def write(self, off: int, value: int) -> None:
@@ -166,6 +193,13 @@ class Usart:
                 self.regs[SR] = TXE | TC
                 self.tdr = None
                 self.shift_end.clear()
+                self._idle_at, self._idle_seen = None, False
+            if off == CR1:
+                self.idle_end.clear()
+                if value & IDLEIE and self._idle_at is not None:
+                    self._idle_now()
+                    if self._idle_at is not None:
+                        self.idle_end.set(self._idle_at)
             if off == CR3:
                 self.dma_request()
         self._irq()

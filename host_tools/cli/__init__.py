@@ -71,7 +71,8 @@ FLAGS = {"python": "--runtime", "runtime": "--runtime", "firmware": "--firmware"
          "keep_dir": "--keep-traces", "map_path": "--map", "scenario": "--scenario",
          "kind": "--as", "max_wall_s": "--max-wall", "max_memory_mb": "--max-memory",
          "width": "--width", "height": "--height", "png": "--png", "junit": "--junit",
-         "main": "--main", "fs": "--fs", "fs_out": "--fs-out"}
+         "main": "--main", "fs": "--fs", "fs_out": "--fs-out",
+         "coverage_libraries": "--coverage-libraries"}
 
 
 def flag_message(exc: UserError) -> str:
@@ -193,6 +194,26 @@ def _show_library_log() -> None:
         if not any(isinstance(h, _LibraryLog) for h in logger.handlers):
             logger.addHandler(_LibraryLog())
             logger.setLevel(logging.INFO)
+
+
+class _ConsoleLog(logging.Handler):
+    """The firmware's console as it prints (hil/link/server.py ``CONSOLE_LOG``): each
+    line on stderr after its virtual time."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        sys.stderr.write(f"[{getattr(record, 't_s', 0.0):10.6f} s] {record.getMessage()}\n")
+        sys.stderr.flush()
+
+
+def show_console(quiet: bool) -> None:
+    """The firmware's console live on stderr, unless ``quiet`` (once per process)."""
+    from hil.link.server import CONSOLE_LOG as logger
+    logger.propagate = False
+    for h in [h for h in logger.handlers if isinstance(h, _ConsoleLog)]:
+        logger.removeHandler(h)
+    if not quiet:
+        logger.addHandler(_ConsoleLog())
+        logger.setLevel(logging.INFO)
 
 
 def emit(args: Any, obj: dict[str, Any], text: str) -> None:

@@ -40,13 +40,14 @@ def _run(args: argparse.Namespace) -> int:
     import host_tools.papers  # noqa: F401  (plugs the beams run and the navigators in)
     from host_tools import run_summary as run_mod
 
+    cli.show_console(args.quiet)
     try:
         s, result = run_mod.run(args.scenario, args.duration, args.seed, args.python,
                                 False if args.no_tactile else None, args.out,
                                 args.can_server, args.can_wait, args.live, args.realtime,
                                 args.navigator, args.model, args.firmware, args.gdb,
                                 args.coverage, args.overwrite, cli.limits(args),
-                                flash_files(args))
+                                flash_files(args), args.coverage_libraries)
     except RunInterrupted as exc:   # a beams run's trace holds no firmware link to replay
         replays = "" if exc.summary.get("world") == "beams" else " and replays"
         kept = (f"the trace {args.out} is kept{replays}" if args.out
@@ -145,5 +146,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "from its DWARF line table, as LCOV (genhtml, CI coverage reports)")
     cli.add_limits(p)
     add_flash_options(p)
+    p.add_argument("--coverage-libraries", action="store_true", help="--coverage counts the "
+                   "toolchain's libraries too (newlib, libgcc), not only the firmware's own "
+                   "sources")
     p.add_argument("--json", action="store_true", help=cli.JSON_HELP)
+    p.add_argument("--quiet", action="store_true", help="do not show the firmware's console "
+                   "on stderr as it runs (its last lines stay in --json's console)")
     p.set_defaults(func=_run)

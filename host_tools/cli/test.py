@@ -49,6 +49,8 @@ def _run(args: argparse.Namespace) -> int:
                         flash_files=flash_files(args))
     elif args.coverage is not None:
         raise UserError("--coverage needs an STM32F411 ELF given as --firmware")
+    if args.coverage_libraries and args.coverage is None:
+        raise UserError("--coverage-libraries needs --coverage (the LCOV file to write)")
     for flag in ("junit", "coverage"):   # written after every case ran: checked first
         if getattr(args, flag) is not None:
             check_output(getattr(args, flag), flag)
@@ -111,7 +113,8 @@ def _covered(jobs: list, args: argparse.Namespace, bar: object) -> list:
     from host_tools.expect import case_runs
 
     with tempfile.TemporaryDirectory(prefix="hexhil-cov-") as tmp:
-        jobs = [dataclasses.replace(j, coverage=str(Path(tmp) / f"{k}.info"))
+        jobs = [dataclasses.replace(j, coverage=str(Path(tmp) / f"{k}.info"),
+                                    coverage_libraries=args.coverage_libraries)
                 for k, j in enumerate(jobs)]
         results = case_runs.run_all(jobs, args.jobs, args.scheduler, progress=bar)
         infos = [Path(j.coverage).read_text() for j in jobs if Path(j.coverage).exists()]
@@ -143,6 +146,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         f"micropython); {IN_PROCESS} is faster with the same digest")
     p.add_argument("--coverage", metavar="FILE.info", help="with an ELF --firmware: its LCOV "
                    "line coverage over every case, merged (docs/elf-firmware.md)")
+    p.add_argument("--coverage-libraries", action="store_true", help="--coverage counts the "
+                   "toolchain's libraries too (newlib, libgcc), not only the firmware's own "
+                   "sources")
     p.add_argument("--firmware", metavar="PATH",
                    help="run every case with this firmware instead of ours (as hexhil run "
                         "--firmware: a MicroPython main file for the virtual board, or an "

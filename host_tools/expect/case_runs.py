@@ -72,6 +72,7 @@ class CaseRun:
     coverage: str | None = None           # an ELF's LCOV to this file (hexhil test --coverage)
     limits: RunLimits | None = None       # the run's caps (hil/run/limits.py; None: defaults)
     flash_files: FlashFiles | None = None  # the command's --main/--fs, over the case's
+    coverage_libraries: bool = False      # ... counting the toolchain's libraries too
 
 
 @dataclass(frozen=True)
@@ -107,7 +108,8 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
                  sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None,
                  changed: dict[str, Any] | None = None, coverage: str | None = None,
                  limits: RunLimits | None = None,
-                 flash_files: FlashFiles | None = None) -> tuple[dict[str, Any], RunResult]:
+                 flash_files: FlashFiles | None = None,
+                 coverage_libraries: bool = False) -> tuple[dict[str, Any], RunResult]:
     """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
     file or an executable: ``hexhil run --firmware``) through the one run path
     (host_tools/lockstep_run.py ``Run``), recorded to ``trace`` with the master's protocol check
@@ -117,7 +119,7 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
               overrides={**timing.overrides(), **(changed or {})}, coverage=coverage,
-              limits=limits, flash_files=flash_files)
+              limits=limits, flash_files=flash_files, coverage_libraries=coverage_libraries)
     try:
         run.watch_master()
         sim = run.sim
@@ -142,7 +144,7 @@ def run_case(job: CaseRun) -> CaseResult:
                                   job.python or case.python, tactile, trace, job.timing,
                                   case.sends, job.firmware or case.firmware,
                                   dict(job.changed), job.coverage, job.limits,
-                                  job.flash_files or case.flash_files)
+                                  job.flash_files or case.flash_files, job.coverage_libraries)
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
