@@ -62,12 +62,17 @@ class Wire:
         self.exchange(True)
 
 
-def run_firmware(exchange: Callable[[bytes, bool], bytes]) -> None:
-    """Boot and run the firmware until the simulator ends the run (``Simulator.run``'s
-    ``in_process``); the simulator's own exception, if it raised one, is raised here."""
+Exchange = Callable[[bytes, bool], bytes]
+FirmwareMain = Callable[[Board], None]
+
+
+def run_firmware(exchange: Exchange, main: FirmwareMain | None = None) -> None:
+    """Boot and run the firmware (``main``, default ours: ``firmware/main.py``'s) until the
+    simulator ends the run (``Simulator.run``'s ``in_process``); the simulator's own
+    exception, if it raised one, is raised here."""
     wire = Wire(exchange)
     try:
-        firmware_main.main(Board(io=wire))
+        (main or firmware_main.main)(Board(io=wire))
     except OSError:
         if wire.error is None:
             raise
@@ -75,10 +80,17 @@ def run_firmware(exchange: Callable[[bytes, bool], bytes]) -> None:
         raise wire.error
 
 
-def run(sim: Simulator, duration_s: float | None, python: str | None) -> RunResult:
+def run(sim: Simulator, duration_s: float | None, python: str | None,
+        wrap: Callable[[Exchange], Exchange] | None = None,
+        main: FirmwareMain | None = None) -> RunResult:
     """``sim.run`` under the runtime named ``python``: this module's ``run_firmware`` for
     ``cpython-inprocess``, else a child process (hil/ cannot import the firmware, so the
-    choice is made here, on the top floor)."""
+    choice is made here, on the top floor). In process, ``wrap`` sees every exchange of the
+    link (the bus fuzzer forks there: host_tools/bus_fuzz/) and ``main`` is the firmware
+    run (default ours)."""
     if python == IN_PROCESS:
-        return sim.run(duration_s, in_process=run_firmware)
+        if wrap is None and main is None:
+            return sim.run(duration_s, in_process=run_firmware)
+        return sim.run(duration_s, in_process=lambda exchange: run_firmware(
+            wrap(exchange) if wrap is not None else exchange, main))
     return sim.run(duration_s, python=python)

@@ -210,10 +210,11 @@ class Run:
         self._firmware_sim().send_can(arb_id, data)
 
     # --- running ------------------------------------------------------------------------
-    def run(self) -> RunResult:
+    def run(self, wrap: Any = None, main: Any = None) -> RunResult:
         """Run to the end (``duration_s`` of virtual time, or the firmware's stop); the
         trace is complete when this returns. Ctrl-C (or SIGTERM) at any moment of it raises
-        ``RunInterrupted`` with the run up to then, its trace closed and kept."""
+        ``RunInterrupted`` with the run up to then, its trace closed and kept. With our
+        firmware in process, ``wrap`` and ``main`` go to host_tools/in_process.py ``run``."""
         try:
             if self.beams:
                 return self._traverse()
@@ -221,7 +222,8 @@ class Run:
                 return self._firmware_sim().run(self.duration_s, firmware=self.firmware)
             from host_tools import in_process
 
-            return in_process.run(self._firmware_sim(), self.duration_s, self.runtime.value)
+            return in_process.run(self._firmware_sim(), self.duration_s, self.runtime.value,
+                                  wrap, main)
         except RunInterrupted:
             raise
         except KeyboardInterrupt:    # before the lockstep loop began (a beams run's set-up)

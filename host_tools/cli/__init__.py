@@ -34,6 +34,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "grnn": ("grnn", "GRNN positional-error predictor (seed 003 Sec. 2.6)"),
     "test": ("test", "run expectation files against the firmware: pass/fail, JUnit XML"),
     "margin": ("margin", "sweep bus timing (Return Delay, adapter latency, bit errors, baud) until the expectations fail"),
+    "fuzz": ("fuzz", "fuzz the firmware through its bus: faults in virtual time, shrunk reproducers"),
     "sdk": ("sdk", "build a C firmware against the STM32Cube-style C SDK"),
 }
 
@@ -63,7 +64,8 @@ FLAGS = {"python": "--python", "firmware": "--firmware", "duration_s": "--durati
          "world": "--world", "model_path": "--model", "topics": "--topics",
          "gdb_port": "--gdb", "coverage": "--coverage", "bare": "--bare", "target": "--target",
          "seed": "--seed", "tactile": "--no-tactile", "overwrite": "--overwrite",
-         "keep_dir": "--keep-traces"}
+         "keep_dir": "--keep-traces", "main_file": "--in-process", "runs": "--runs",
+         "time_s": "--time", "jobs": "--jobs", "kinds": "--kinds", "window_s": "--window"}
 
 
 def flag_message(exc: UserError) -> str:

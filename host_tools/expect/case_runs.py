@@ -8,7 +8,7 @@ import dataclasses
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from mcap.writer import CompressionType, Writer
 
@@ -99,28 +99,32 @@ class _Sender:
 def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
                  tactile: bool | None, trace: Path, timing: BusTiming = BusTiming(),
                  sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None,
-                 changed: dict[str, Any] | None = None, coverage: str | None = None
-                 ) -> dict[str, Any]:
+                 changed: dict[str, Any] | None = None, coverage: str | None = None,
+                 wrap: Callable[[Run, Any], Any] | None = None, main: Any = None,
+                 master_check: bool = True) -> dict[str, Any]:
     """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
     file or an executable: ``hexhil run --firmware``) through the one run path
     (host_tools/lockstep_run.py ``Run``), recorded to ``trace`` with the master's protocol check
     on; returns ``hexhil run --json``'s summary plus ``violations``. Every case and margin
     run goes through here; ``timing`` and ``changed`` (a scenario key changed, e.g.
-    ``faults.bit_error_rate``) are recorded as the run's overrides."""
+    ``faults.bit_error_rate``) are recorded as the run's overrides. In process, ``wrap(run,
+    exchange)`` sees every exchange of the link and ``main`` is the firmware run (the bus
+    fuzzer: host_tools/bus_fuzz/); ``master_check=False`` leaves the master check out (a quarter
+    of a run's time) where no expectation reads it."""
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
               overrides={**timing.overrides(), **(changed or {})}, coverage=coverage)
     try:
         check = MasterCheck(run.recorder.violation)
         sim = run.sim
-        sim.bus.monitor = check
+        sim.bus.monitor = check if master_check else None
         timing.apply(sim.bus)
         if sends:
             run.add_node(_Sender(run, sends))
     except BaseException:
         run.close()
         raise
-    result = run.run()
+    result = run.run(None if wrap is None else lambda exchange: wrap(run, exchange), main)
     summary = run_mod.summary(run.scenario, seed, result, str(trace), run.what_ran())
     summary["violations"] = check.summary()
     return summary
