@@ -10,6 +10,9 @@ firmware/ and hil/, which never import each other.
 """
 from __future__ import annotations
 
+import importlib.util
+import sys
+from pathlib import Path
 from typing import Callable
 
 from firmware import main as firmware_main
@@ -17,6 +20,7 @@ from firmware.hal.sim import Board
 from hil.link.firmware_process import IN_PROCESS
 from hil.run_result import RunResult
 from hil.run.lockstep import Simulator
+from protocol.errors import UserError
 
 
 class Wire:
@@ -78,6 +82,28 @@ def run_firmware(exchange: Exchange, main: FirmwareMain | None = None) -> None:
             raise
     if wire.error is not None:
         raise wire.error
+
+
+def load_main(path: str | Path) -> FirmwareMain:
+    """``main(board)`` of a Python file: a firmware run in process like ours (a variant of
+    it, e.g. tests/fuzz_targets/trusting_ids.py; ``hexhil test --in-process``)."""
+    p = Path(path)
+    spec = importlib.util.spec_from_file_location(f"hexhil_in_process_{p.stem}", p)
+    if spec is None or spec.loader is None or not p.is_file():
+        raise UserError(f"main_file {path}: not a Python file", params=("main_file",))
+    module = importlib.util.module_from_spec(spec)
+    sys.path.insert(0, str(p.parent))
+    try:
+        spec.loader.exec_module(module)
+    except Exception as exc:
+        raise UserError(f"main_file {path}: it raised {exc!r} on import",
+                        params=("main_file",)) from None
+    finally:
+        sys.path.remove(str(p.parent))
+    main = getattr(module, "main", None)
+    if not callable(main):
+        raise UserError(f"main_file {path}: defines no main(board)", params=("main_file",))
+    return main
 
 
 def run(sim: Simulator, duration_s: float | None, python: str | None,

@@ -133,11 +133,11 @@ class CanBus:
         verdict, delay_us, data = self.faults.can_mangle(data)
         swapped = [h for h in self._held if h[0] < 0]
         self._held = [h for h in self._held if h[0] >= 0]
-        if verdict == "send":
-            self._put(arb_id, data, sender, direction)
-        elif verdict == "hold":
+        if verdict == "hold" and (delay_us >= 0 or not swapped):
             release = -1 if delay_us < 0 else self.clock.t_us + delay_us
             self._held.append((release, arb_id, data, sender, direction))
+        elif verdict != "drop":       # sent, or the frame a held one is swapped with
+            self._put(arb_id, data, sender, direction)
         for _, *frame in swapped:
             self._put(*frame)
 

@@ -172,7 +172,9 @@ def load_target(settings: Settings, fork: bool = True) -> Target:
         firmware = str(Path(firmware).resolve())
     main_file = str(Path(settings.main_file).resolve()) if settings.main_file else None
     if main_file is not None:
-        execution.load_main(main_file)
+        from host_tools.in_process import load_main
+
+        load_main(main_file)
     return Target(case, settings.window_s, firmware, main_file, settings.coverage, fork)
 
 

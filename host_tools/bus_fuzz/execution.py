@@ -9,13 +9,13 @@ run it; so does every reproducer, to check it fails the same way without the fuz
 from __future__ import annotations
 
 import shutil
-import sys
 import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
+from host_tools import in_process
 from host_tools.bus_fuzz.features import LineTracer, elf_lines
 
 from host_tools.bus_fuzz.mutations import Input, faults_table
@@ -78,28 +78,6 @@ def judge(case: Case, summary: dict[str, Any], trace: Path) -> tuple[tuple[str, 
     return names, tuple(f"{n}: {failures[n]}" for n in names)
 
 
-def load_main(path: str) -> Callable[[Any], None]:
-    """``main(board)`` of a Python file (a firmware run in process like ours)."""
-    import importlib.util
-
-    p = Path(path)
-    spec = importlib.util.spec_from_file_location(f"hexhil_fuzz_main_{p.stem}", p)
-    if spec is None or spec.loader is None or not p.is_file():
-        raise UserError(f"in-process firmware {path}: not a Python file")
-    module = importlib.util.module_from_spec(spec)
-    sys.path.insert(0, str(p.parent))
-    try:
-        spec.loader.exec_module(module)
-    except Exception as exc:
-        raise UserError(f"in-process firmware {path}: it raised {exc!r} on import") from None
-    finally:
-        sys.path.remove(str(p.parent))
-    main = getattr(module, "main", None)
-    if not callable(main):
-        raise UserError(f"in-process firmware {path}: defines no main(board)")
-    return main
-
-
 # --- one run ----------------------------------------------------------------------------
 def run_input(target: Target, faults: Input, trace: Path, wrap: Any = None,
               coverage: str | None = None) -> dict[str, Any]:
@@ -111,7 +89,7 @@ def run_input(target: Target, faults: Input, trace: Path, wrap: Any = None,
     scenario = case.scenario
     if faults and wrap is None:       # a fresh run: the faults are the scenario's
         scenario = scenario.overlay({"faults": faults_table(faults)})
-    main = load_main(target.main_file) if target.main_file else None
+    main = in_process.load_main(target.main_file) if target.main_file else None
     judged = any(e.kind is Kind.PROTOCOL for e in case.expectations)
     return run_scenario(scenario, case.seed, case.duration_s,
                         "cpython-inprocess" if target.in_process else case.python,

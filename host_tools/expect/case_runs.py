@@ -12,6 +12,7 @@ from typing import Any, Callable, Sequence
 
 from mcap.writer import CompressionType, Writer
 
+from hil.link.firmware_process import IN_PROCESS
 from hil.scenario import Scenario, check_seed
 from hil.seams import ServoLine
 from hil.servobus.master_check import MasterCheck
@@ -67,6 +68,7 @@ class CaseRun:
     scenario: Scenario | None = None      # the case's scenario changed (margin)
     changed: tuple[tuple[str, float], ...] = ()  # ... and what was changed in it (overrides)
     coverage: str | None = None           # an ELF's LCOV to this file (hexhil test --coverage)
+    main_file: str | None = None          # a module's main(board) in process, not ours
 
 
 @dataclass(frozen=True)
@@ -137,10 +139,15 @@ def run_case(job: CaseRun) -> CaseResult:
     kept = None
     with tempfile.TemporaryDirectory(prefix="hexhil-test-") as tmp:
         trace = Path(tmp) / "run.mcap"
+        main = None
+        if job.main_file is not None:
+            from host_tools.in_process import load_main
+
+            main = load_main(job.main_file)
         summary = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
-                               job.python or case.python, tactile, trace, job.timing,
-                               case.sends, job.firmware or case.firmware,
-                               dict(job.changed), job.coverage)
+                               IN_PROCESS if main else job.python or case.python, tactile,
+                               trace, job.timing, case.sends, job.firmware or case.firmware,
+                               dict(job.changed), job.coverage, main=main)
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
