@@ -11,7 +11,7 @@ from pathlib import Path
 from bench import Row
 from host_tools.bus_fuzz import campaign
 
-CASE = Path(__file__).resolve().parent / "fuzz-flat-tripod.toml"
+CASE = Path(__file__).resolve().parent.parent / "examples" / "fuzz-flat-tripod.toml"
 RUNS = 48
 
 

@@ -167,11 +167,18 @@ def test_the_planted_bug_is_found_shrunk_and_replayed_and_ours_survives(tmp_path
     assert ours.findings == [] and ours.executions == report.executions
 
 
-def test_a_campaign_is_its_seed_whatever_the_jobs():
+def test_a_campaign_is_its_seed_on_one_server_on_two_and_on_dask():
+    distributed = pytest.importorskip("distributed")
     settings = campaign.Settings(**{**SMALL, "runs": 20, "seed": 5}, main_file=str(PLANTED))
     one, two = campaign.fuzz(settings), campaign.fuzz(replace(settings, jobs=2))
-    assert one.as_dict()["findings"] == two.as_dict()["findings"]
-    assert (one.features, one.corpus) == (two.features, two.corpus)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        dask = campaign.fuzz(replace(settings, jobs=2, scheduler=cluster.scheduler_address))
+    for other in (two, dask):
+        assert other.as_dict()["findings"] == one.as_dict()["findings"]
+        assert (other.executions, other.features, other.corpus) == (
+            one.executions, one.features, one.corpus)
+    assert one.features > one.baseline_features      # faults reached new packet sequences
 
 
 def test_bad_settings_are_one_line_errors():

@@ -1,14 +1,21 @@
-"""What an execution reached, as features (hashed to 32 bits): the firmware's lines run (in
-process, ``sys.settrace``; an ELF's from its LCOV) and the bus master's packet sequences.
-An input that reaches a feature no other reached joins the corpus (campaign.py)."""
+"""What an execution reached, as features (CRC-32s, the same in every process, unlike
+``hash`` of a string): the firmware's lines run (in process, ``sys.settrace``; an ELF's from
+its LCOV) and the bus master's packet sequences. An input that reaches a feature no other
+reached joins the corpus (campaign.py)."""
 from __future__ import annotations
 
 import os
 import sys
+import zlib
 from pathlib import Path
 from typing import Any, Sequence
 
 from hil.seams import ServoLine
+
+
+def feature(*parts: object) -> int:
+    """A feature's number: the CRC-32 of its parts."""
+    return zlib.crc32(":".join(map(str, parts)).encode())
 
 
 class LineTracer:
@@ -42,7 +49,7 @@ class LineTracer:
 
     def stop(self) -> set[int]:
         sys.settrace(None)
-        return {hash(("line", Path(f).name, n)) & 0xFFFFFFFF for f, n in self.hits}
+        return {feature("line", Path(f).name, n) for f, n in self.hits}
 
 
 class PacketSequence:
@@ -62,7 +69,7 @@ class PacketSequence:
         while i + 4 < n:
             if data[i] == 0xFF and data[i + 1] == 0xFF and data[i + 2] != 0xFF:
                 now = (data[i + 4], data[i + 2])
-                self.pairs.add(hash(("packets", self._last, now)) & 0xFFFFFFFF)
+                self.pairs.add(feature("packets", *self._last, *now))
                 self._last = now
                 i += 4 + data[i + 3]
             else:
@@ -83,5 +90,5 @@ def elf_lines(info: Path) -> set[int]:
         elif row.startswith("DA:"):
             line, n = row[3:].split(",")[:2]
             if int(n):
-                out.add(hash(("elf", name, int(line))) & 0xFFFFFFFF)
+                out.add(feature("elf", name, int(line)))
     return out
