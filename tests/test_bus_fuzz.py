@@ -4,6 +4,7 @@ firmware (tests/fuzz_targets/trusting_ids.py) found, shrunk and replayed by ``he
 our firmware survives the same campaign."""
 from __future__ import annotations
 
+import json
 import random
 import subprocess
 from dataclasses import replace
@@ -155,8 +156,9 @@ SMALL = dict(expect=str(CASE), runs=64, seed=3, coverage=False,
 def test_the_planted_bug_is_found_shrunk_and_replayed_and_ours_survives(tmp_path):
     report = campaign.fuzz(campaign.Settings(**SMALL, main_file=str(PLANTED),
                                              out=str(tmp_path)))
-    [f] = report.findings
-    assert f.failures == ("expect: no firmware exception",)
+    assert report.findings and all(f.failures == ("expect: no firmware exception",)
+                                   for f in report.findings)
+    f = report.findings[0]
     assert report.executions <= 2000 and 1 <= len(f.shrunk) <= 3
     assert any(m.kind is FaultKind.STATUS_WRONG_ID for m in f.shrunk)
     assert f.replayed and Path(f.trace).stat().st_size > 0
@@ -188,3 +190,14 @@ def test_bad_settings_are_one_line_errors():
     r = subprocess.run([*HEXHIL, "fuzz", "scenarios/flat-tripod.toml", "--expect", str(CASE),
                         "--kinds", "status_nonsense"], capture_output=True, text=True, cwd=ROOT)
     assert r.returncode == 2 and "--kinds" in r.stderr and "status_nonsense" in r.stderr
+
+
+def test_the_example_case_on_the_command_line_with_json(tmp_path):
+    r = subprocess.run([*HEXHIL, "fuzz", "scenarios/flat-tripod.toml", "--expect",
+                        "examples/fuzz-flat-tripod.toml", "--runs", "3", "--seed", "2",
+                        "--kinds", "status_twin", "--json", "--quiet"],
+                       capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert r.returncode == 0, r.stderr
+    report = json.loads(r.stdout.splitlines()[-1])
+    assert report["executions"] == 3 and report["findings"] == []
+    assert report["features"] >= report["baseline_features"] > 0

@@ -30,6 +30,7 @@ from protocol.errors import UserError
 
 BATCH = 16                # inputs a round
 SHRINK_RUNS = 120         # executions at most to shrink one failure
+PER_FAILURE = 4           # failing inputs kept a failure, of different kinds of faults
 
 
 @dataclass(frozen=True)
@@ -194,7 +195,7 @@ def fuzz(settings: Settings, progress: Progress | None = None) -> Report:
         seen = set(base.features)
         report.baseline_features = len(seen)
         corpus: list[Input] = [()]
-        by_failure: dict[tuple[str, ...], Finding] = {}
+        by_failure: dict[tuple[str, ...], list[Finding]] = {}
         k = 0
         while not _spent(settings, report, wall0):
             rng = random.Random(f"{settings.seed}:round:{k}")
@@ -209,10 +210,11 @@ def fuzz(settings: Settings, progress: Progress | None = None) -> Report:
                 if new:
                     seen |= new
                     corpus.append(faults)
-                if e.failed and e.failures not in by_failure:
-                    by_failure[e.failures] = Finding(e.failures, e.details, report.executions,
-                                                     faults)
-                    report.findings.append(by_failure[e.failures])
+                group = by_failure.setdefault(e.failures, []) if e.failed else []
+                if e.failed and len(group) < PER_FAILURE and _kinds(faults) not in [
+                        _kinds(g.first) for g in group]:
+                    group.append(Finding(e.failures, e.details, report.executions, faults))
+                    report.findings.append(group[-1])
             k += 1
             report.features, report.corpus = len(seen), len(corpus)
             report.wall_s = time.perf_counter() - wall0
@@ -222,12 +224,27 @@ def fuzz(settings: Settings, progress: Progress | None = None) -> Report:
             for f in report.findings:
                 f.shrunk, used = shrink(f.first, f.failures, runner.run)
                 report.shrink_executions += used
+            report.findings = _distinct(report.findings)
     finally:
         runner.close()
     report.wall_s = time.perf_counter() - wall0
     if settings.out is not None:
         write_findings(target, settings, report)
     return report
+
+
+def _kinds(faults: Input) -> frozenset[FaultKind]:
+    return frozenset(m.kind for m in faults)
+
+
+def _distinct(findings: list[Finding]) -> list[Finding]:
+    """One finding a failure and kinds of faults that cause it, once shrunk: the first
+    found of those that shrank to the same."""
+    out: list[Finding] = []
+    for f in findings:
+        if all((g.failures, _kinds(g.shrunk)) != (f.failures, _kinds(f.shrunk)) for g in out):
+            out.append(f)
+    return out
 
 
 def _spent(settings: Settings, report: Report, wall0: float) -> bool:

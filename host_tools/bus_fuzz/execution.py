@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from host_tools import in_process
-from host_tools.bus_fuzz.features import LineTracer, elf_lines
+from host_tools.bus_fuzz.features import LineTracer, PacketSequence, elf_lines
 
 from host_tools.bus_fuzz.mutations import Input, faults_table
 from host_tools.expect.spec import Case, Kind
@@ -80,7 +80,7 @@ def judge(case: Case, summary: dict[str, Any], trace: Path) -> tuple[tuple[str, 
 
 # --- one run ----------------------------------------------------------------------------
 def run_input(target: Target, faults: Input, trace: Path, wrap: Any = None,
-              coverage: str | None = None) -> dict[str, Any]:
+              coverage: str | None = None, setup: Any = None) -> dict[str, Any]:
     """The case's run, the faults in its scenario; with ``wrap`` (the fork server) none:
     the children inject them."""
     from host_tools.expect.case_runs import run_scenario
@@ -94,7 +94,8 @@ def run_input(target: Target, faults: Input, trace: Path, wrap: Any = None,
     return run_scenario(scenario, case.seed, case.duration_s,
                         "cpython-inprocess" if target.in_process else case.python,
                         case.tactile, trace, sends=case.sends, firmware=target.firmware,
-                        coverage=coverage, wrap=wrap, main=main, master_check=judged)
+                        coverage=coverage, wrap=wrap, main=main, master_check=judged,
+                        setup=setup)
 
 
 def fresh(target: Target, faults: Input, keep: Path | None = None) -> Execution:
@@ -107,12 +108,20 @@ def fresh(target: Target, faults: Input, keep: Path | None = None) -> Execution:
         tracer = tracer_for(target) if target.coverage and target.in_process else None
         if tracer is not None:
             tracer.start()
+        sequences: list[PacketSequence] = []
+
+        def setup(run: Any) -> None:
+            sequences.append(PacketSequence(run.sim.bus.monitor))
+            run.sim.bus.monitor = sequences[0]
+
         try:
-            summary = run_input(target, faults, trace, coverage=str(info) if info else None)
+            summary = run_input(target, faults, trace, coverage=str(info) if info else None,
+                                setup=setup)
         finally:
             lines = tracer.stop() if tracer is not None else set()
         failures, details = judge(target.case, summary, trace)
-        features = lines | (elf_lines(info) if info is not None else set())
+        features = lines | (elf_lines(info) if info is not None else set()) | (
+            sequences[0].pairs if sequences else set())
         if keep is not None:
             shutil.copyfile(trace, keep)
     return Execution(failures, details, frozenset(features), time.perf_counter() - wall0)

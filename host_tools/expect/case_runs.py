@@ -103,7 +103,8 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
                  sends: Sequence[tuple[int, int, bytes]] = (), firmware: str | None = None,
                  changed: dict[str, Any] | None = None, coverage: str | None = None,
                  wrap: Callable[[Run, Any], Any] | None = None, main: Any = None,
-                 master_check: bool = True) -> dict[str, Any]:
+                 master_check: bool = True, setup: Callable[[Run], None] | None = None
+                 ) -> dict[str, Any]:
     """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
     file or an executable: ``hexhil run --firmware``) through the one run path
     (host_tools/lockstep_run.py ``Run``), recorded to ``trace`` with the master's protocol check
@@ -111,8 +112,9 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
     run goes through here; ``timing`` and ``changed`` (a scenario key changed, e.g.
     ``faults.bit_error_rate``) are recorded as the run's overrides. In process, ``wrap(run,
     exchange)`` sees every exchange of the link and ``main`` is the firmware run (the bus
-    fuzzer: host_tools/bus_fuzz/); ``master_check=False`` leaves the master check out (a quarter
-    of a run's time) where no expectation reads it."""
+    fuzzer: host_tools/bus_fuzz/); ``master_check=False`` leaves the master check out (a
+    quarter of a run's time) where no expectation reads it; ``setup(run)`` is called once
+    the run is built (the fuzzer puts its packet sequence on the bus's monitor)."""
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
               overrides={**timing.overrides(), **(changed or {})}, coverage=coverage)
@@ -123,6 +125,8 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
         timing.apply(sim.bus)
         if sends:
             run.add_node(_Sender(run, sends))
+        if setup is not None:
+            setup(run)
     except BaseException:
         run.close()
         raise
