@@ -31,8 +31,10 @@ def run() -> list[Row]:
                             ("packets only, --jobs 2", replace(base, coverage=False, jobs=2))):
         report, cpu_s = _campaign(settings)
         rows.append(Row(f"fuzz: executions a second ({label})", report.rate, "exec/s", "20",
-                        f"flat-tripod, 2 s window, {report.executions} runs, "
-                        f"{report.wall_s:.1f} s wall, {len(report.findings)} findings"))
-        rows.append(Row(f"fuzz: CPU an execution ({label})", 1e3 * cpu_s / report.executions,
-                        "ms", "", "servers and forks, boots included"))
+                        f"flat-tripod, 2 s window, {report.executions} runs and "
+                        f"{report.shrink_executions} shrinking, {report.wall_s:.1f} s wall, "
+                        f"{len(report.findings)} findings"))
+        done = report.executions + report.shrink_executions
+        rows.append(Row(f"fuzz: CPU an execution ({label})", 1e3 * cpu_s / done, "ms", "",
+                        f"servers and forks, boots included, {done} executions"))
     return rows
