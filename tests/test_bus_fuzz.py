@@ -171,7 +171,8 @@ def test_the_planted_bug_is_found_shrunk_and_replayed_and_ours_survives(tmp_path
 
 def test_a_campaign_is_its_seed_on_one_server_on_two_and_on_dask():
     distributed = pytest.importorskip("distributed")
-    settings = campaign.Settings(**{**SMALL, "runs": 20, "seed": 5}, main_file=str(PLANTED))
+    settings = campaign.Settings(**{**SMALL, "runs": 14}, main_file=str(PLANTED),
+                                 shrink=False)
     one, two = campaign.fuzz(settings), campaign.fuzz(replace(settings, jobs=2))
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
                                   dashboard_address=None) as cluster:
@@ -180,7 +181,7 @@ def test_a_campaign_is_its_seed_on_one_server_on_two_and_on_dask():
         assert other.as_dict()["findings"] == one.as_dict()["findings"]
         assert (other.executions, other.features, other.corpus) == (
             one.executions, one.features, one.corpus)
-    assert one.features > one.baseline_features      # faults reached new packet sequences
+    assert one.findings and one.features > one.baseline_features   # found at the 12th
 
 
 def test_bad_settings_are_one_line_errors():
