@@ -92,7 +92,12 @@ class _Forks:
                 self._child(run, faults, boot_trace, n, w)
                 return
             os.close(w)
-            _send(self.outbox, _reap(pid, r, wall0))
+            verdict = _reap(pid, r, wall0)
+            try:
+                _send(self.outbox, verdict)
+            except BrokenPipeError:     # the campaign ended (Ctrl-C): so does the server
+                shutil.rmtree(self.tmp, ignore_errors=True)
+                os._exit(0)
 
     def _child(self, run: Any, faults: Input, boot_trace: Path, n: int, w: int) -> None:
         """In the forked child: its own copy of the trace so far, the faults, the tracers."""
@@ -291,6 +296,18 @@ def run_batch(target: Target, inputs: Sequence[Input]) -> list[Execution]:
 
 
 def server_main(fds: Sequence[str]) -> None:
-    """A server process (host_tools/bus_fuzz/server.py): its two pipes' descriptors."""
-    with os.fdopen(int(fds[0]), "rb") as inbox, os.fdopen(int(fds[1]), "wb") as outbox:
+    """A server process (host_tools/bus_fuzz/server.py): its two pipes' descriptors. Ctrl-C
+    is the campaign's to handle: it closes the pipes, and the server ends after the
+    execution it is running."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    inbox, outbox = os.fdopen(int(fds[0]), "rb"), os.fdopen(int(fds[1]), "wb")
+    try:
         serve(inbox, outbox)
+    except BrokenPipeError:            # the campaign ended while this one ran an input
+        pass
+    finally:
+        inbox.close()
+        try:
+            outbox.close()
+        except BrokenPipeError:
+            pass
