@@ -202,3 +202,15 @@ def test_the_example_case_on_the_command_line_with_json(tmp_path):
     report = json.loads(r.stdout.splitlines()[-1])
     assert report["executions"] == 3 and report["findings"] == []
     assert report["features"] >= report["baseline_features"] > 0
+
+
+def test_the_packet_sequence_passes_a_direction_mistake_on_or_drops_it():
+    from hil.servobus.master_check import MasterCheck
+    from host_tools.bus_fuzz.features import PacketSequence
+
+    PacketSequence(None).direction_mistake(5, "tx_while_receiving", "no master check")
+    check = MasterCheck()
+    seq = PacketSequence(check)
+    seq.direction_mistake(5, "tx_while_receiving", "pin low")
+    seq.master_bytes(None, 0, b"")
+    assert check.counts["tx_while_receiving"] == 1 and seq.pairs == set()

@@ -75,8 +75,10 @@ class PacketSequence:
             else:
                 i += 1
 
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self.check, name)
+    def direction_mistake(self, t_us: int, kind: str, detail: str) -> None:
+        """The virtual board's direction pin was wrong (hil/link/server.py ``run_fault``)."""
+        if self.check is not None:
+            self.check.direction_mistake(t_us, kind, detail)
 
 
 def elf_lines(info: Path) -> set[int]:
