@@ -208,9 +208,10 @@ def test_the_packet_sequence_passes_a_direction_mistake_on_or_drops_it():
     from hil.servobus.master_check import MasterCheck
     from host_tools.bus_fuzz.features import PacketSequence
 
-    PacketSequence(None).direction_mistake(5, "tx_while_receiving", "no master check")
+    alone = PacketSequence(None)
+    alone.direction_mistake(5, "tx_while_receiving", "no master check")
+    alone.master_bytes(None, 0, dxl.read(1, 36, 6) + dxl.read(2, 36, 6) + dxl.read(1, 36, 6))
+    assert len(alone.pairs) == 3          # (start, 1), (1, 2), (2, 1)
     check = MasterCheck()
-    seq = PacketSequence(check)
-    seq.direction_mistake(5, "tx_while_receiving", "pin low")
-    seq.master_bytes(None, 0, b"")
-    assert check.counts["tx_while_receiving"] == 1 and seq.pairs == set()
+    PacketSequence(check).direction_mistake(5, "tx_while_receiving", "pin low")
+    assert check.counts["tx_while_receiving"] == 1
