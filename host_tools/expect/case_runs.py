@@ -113,7 +113,7 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
     ``faults.bit_error_rate``) are recorded as the run's overrides. In process, ``wrap(run,
     exchange)`` sees every exchange of the link and ``main`` is the firmware run (the bus
     fuzzer: host_tools/bus_fuzz/); ``master_check=False`` leaves the master check out (a
-    quarter of a run's time) where no expectation reads it; ``setup(run)`` is called once
+    quarter of a profiled in-process run) where no expectation reads it; ``setup(run)`` is called once
     the run is built (the fuzzer puts its packet sequence on the bus's monitor)."""
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
