@@ -10,6 +10,9 @@ firmware/ and hil/, which never import each other.
 """
 from __future__ import annotations
 
+import importlib.util
+import sys
+from pathlib import Path
 from typing import Callable
 
 from firmware import main as firmware_main
@@ -18,6 +21,7 @@ from hil.link.firmware_process import IN_PROCESS
 from hil.run.limits import RunLimits
 from hil.run_result import RunResult
 from hil.run.lockstep import Simulator
+from protocol.errors import BadValue
 
 
 class Wire:
@@ -63,12 +67,17 @@ class Wire:
         self.exchange(True)
 
 
-def run_firmware(exchange: Callable[[bytes, bool], bytes]) -> None:
-    """Boot and run the firmware until the simulator ends the run (``Simulator.run``'s
-    ``in_process``); the simulator's own exception, if it raised one, is raised here."""
+Exchange = Callable[[bytes, bool], bytes]
+FirmwareMain = Callable[[Board], None]
+
+
+def run_firmware(exchange: Exchange, main: FirmwareMain | None = None) -> None:
+    """Boot and run the firmware (``main``, default ours: ``firmware/main.py``'s) until the
+    simulator ends the run (``Simulator.run``'s ``in_process``); the simulator's own
+    exception, if it raised one, is raised here."""
     wire = Wire(exchange)
     try:
-        firmware_main.main(Board(io=wire))
+        (main or firmware_main.main)(Board(io=wire))
     except OSError:
         if wire.error is None:
             raise
@@ -76,11 +85,39 @@ def run_firmware(exchange: Callable[[bytes, bool], bytes]) -> None:
         raise wire.error
 
 
+def load_main(path: str | Path) -> FirmwareMain:
+    """``main(board)`` of a Python file: a firmware run in process like ours (a variant of
+    it, e.g. tests/fuzz_targets/trusting_ids.py; ``hexhil test --in-process``)."""
+    p = Path(path)
+    spec = importlib.util.spec_from_file_location(f"hexhil_in_process_{p.stem}", p)
+    if spec is None or spec.loader is None or not p.is_file():
+        raise BadValue(f"main_file {path}: not a Python file", params=("main_file",))
+    module = importlib.util.module_from_spec(spec)
+    sys.path.insert(0, str(p.parent))
+    try:
+        spec.loader.exec_module(module)
+    except Exception as exc:
+        raise BadValue(f"main_file {path}: it raised {exc!r} on import",
+                        params=("main_file",)) from None
+    finally:
+        sys.path.remove(str(p.parent))
+    main = getattr(module, "main", None)
+    if not callable(main):
+        raise BadValue(f"main_file {path}: defines no main(board)", params=("main_file",))
+    return main
+
+
 def run(sim: Simulator, duration_s: float | None, python: str | None,
-        limits: RunLimits | None = None) -> RunResult:
+        limits: RunLimits | None = None, wrap: Callable[[Exchange], Exchange] | None = None,
+        main: FirmwareMain | None = None) -> RunResult:
     """``sim.run`` under the runtime named ``python``: this module's ``run_firmware`` for
     ``cpython-inprocess``, else a child process (hil/ cannot import the firmware, so the
-    choice is made here, on the top floor); ``limits``, the run's caps."""
+    choice is made here, on the top floor); ``limits``, the run's caps. In process,
+    ``wrap`` sees every exchange of the link (the bus fuzzer forks there:
+    host_tools/bus_fuzz/) and ``main`` is the firmware run (default ours)."""
     if python == IN_PROCESS:
-        return sim.run(duration_s, in_process=run_firmware, limits=limits)
+        if wrap is None and main is None:
+            return sim.run(duration_s, in_process=run_firmware, limits=limits)
+        return sim.run(duration_s, in_process=lambda exchange: run_firmware(
+            wrap(exchange) if wrap is not None else exchange, main), limits=limits)
     return sim.run(duration_s, python=python, limits=limits)

@@ -248,10 +248,11 @@ class Run(Closing):
         self._firmware_sim().send_can(*standard_frame(msg))
 
     # --- running ------------------------------------------------------------------------
-    def run(self) -> RunResult:
+    def run(self, wrap: Any = None, main: Any = None) -> RunResult:
         """Run to the end (``duration_s`` of virtual time, or the firmware's stop); the
         trace is complete when this returns. Ctrl-C (or SIGTERM) at any moment of it raises
-        ``RunInterrupted`` with the run up to then, its trace closed and kept."""
+        ``RunInterrupted`` with the run up to then, its trace closed and kept. With our
+        firmware in process, ``wrap`` and ``main`` go to host_tools/in_process.py ``run``."""
         try:
             if self.beams:
                 return self._traverse()
@@ -262,7 +263,7 @@ class Run(Closing):
                 from host_tools import in_process
 
                 result = in_process.run(self._firmware_sim(), self.duration_s,
-                                        self.runtime.value, self.limits)
+                                        self.runtime.value, self.limits, wrap, main)
             if self.check is not None:
                 result = dataclasses.replace(result, violations=self.check.summary())
             return result

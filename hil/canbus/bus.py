@@ -117,6 +117,8 @@ class CanBus:
                            receive_own_messages=False, preserve_timestamps=True)
         self.listeners: list[can.Listener] = []
         self.gateways: list[CanGateway] = []
+        self.faults: Any = None    # hil/servobus/faults.py: its CAN faults mangle frames
+        self._held: list[tuple[int, int, bytes, Any, str]] = []   # (release, id, data, ...)
 
     def add_gateway(self, gateway: CanGateway) -> None:
         """A listener that also brings frames in from outside (``poll() -> [(id, data,
@@ -138,10 +140,40 @@ class CanBus:
             if self._on_fault is not None:
                 self._on_fault(self.clock.t_us, "can_drop", f"frame 0x{arb_id:03X} lost")
             return
+        faults = self.faults
+        if faults is not None and (faults.can_faults or self._held):
+            self._mangled(arb_id, data, sender, direction)
+            return
+        self._put(arb_id, data, sender, direction)
+
+    def _put(self, arb_id: int, data: bytes, sender: Any, direction: str) -> None:
         msg = can.Message(timestamp=self.clock.t_us * 1e-6, arbitration_id=arb_id,
                           is_extended_id=False, data=data, is_rx=direction == "rx")
         self.bus.send(msg)
         self._deliver(msg, sender)
+
+    def _mangled(self, arb_id: int, data: bytes, sender: Any, direction: str) -> None:
+        """A frame through the CAN faults active now: lost, garbled, held back a while
+        (``release_due`` delivers it) or held until the next frame has gone (swapped)."""
+        verdict, delay_us, data = self.faults.can_mangle(data)
+        swapped = [h for h in self._held if h[0] < 0]
+        self._held = [h for h in self._held if h[0] >= 0]
+        if verdict == "hold" and (delay_us >= 0 or not swapped):
+            release = -1 if delay_us < 0 else self.clock.t_us + delay_us
+            self._held.append((release, arb_id, data, sender, direction))
+        elif verdict != "drop":       # sent, or the frame a held one is swapped with
+            self._put(arb_id, data, sender, direction)
+        for _, *frame in swapped:
+            self._put(*frame)
+
+    def release_due(self) -> None:
+        """Deliver the delayed frames due by now, in the order they were sent."""
+        now = self.clock.t_us
+        due = [h for h in self._held if 0 <= h[0] <= now]
+        if due:
+            self._held = [h for h in self._held if not 0 <= h[0] <= now]
+            for _, *frame in due:
+                self._put(*frame)
 
     def _deliver(self, msg: can.Message, sender: Any) -> None:
         for listener in self.listeners:
@@ -151,6 +183,8 @@ class CanBus:
     def poll(self) -> None:
         """Deliver what came in from outside since the last call (logged as ``rx``): the
         gateways' frames, then what in-process python-can code sent on ``channel``."""
+        if self._held:
+            self.release_due()
         for gateway in self.gateways:
             for arb_id, data, extended in gateway.poll():
                 if not extended:

@@ -97,6 +97,8 @@ class RunCore:
         self.clock, self.bus, self.faults = self.rig.clock, self.rig.bus, self.rig.faults
         self.can = (CanBus(self.clock, self.config.faults.can_drop_rate, seed, self._on_fault)
                     if can_faults else CanBus(self.clock))
+        if can_faults:
+            self.can.faults = self.faults     # [faults] can_dropped, can_delayed, ...
         if recorder is not None:
             self.can.add(RecorderListener(recorder))
         if can_server is not None:

@@ -30,11 +30,30 @@ class FaultKind(str, Enum):
     CAN_GARBAGE = "can_garbage"
     FORCE_BIAS = "force_bias"
     FORCE_DROPOUT = "force_dropout"
+    # one servo's status packets mangled on the line while the fault lasts
+    STATUS_CHECKSUM = "status_checksum"
+    STATUS_WRONG_ID = "status_wrong_id"
+    STATUS_TRUNCATED = "status_truncated"
+    STATUS_PADDED = "status_padded"
+    STATUS_ERROR = "status_error"
+    STATUS_LATE = "status_late"
+    STATUS_MISSING = "status_missing"
+    STATUS_TWIN = "status_twin"
+    # the run's CAN bus, both ways, while the fault lasts
+    CAN_DROPPED = "can_dropped"
+    CAN_DELAYED = "can_delayed"
+    CAN_REORDERED = "can_reordered"
+    CAN_CORRUPT = "can_corrupt"
 
 
 SWITCH_KINDS = (FaultKind.SWITCH_STUCK, FaultKind.SWITCH_BOUNCE)
 CAN_KINDS = (FaultKind.CAN_SILENT, FaultKind.CAN_GARBAGE)
 FORCE_KINDS = (FaultKind.FORCE_BIAS, FaultKind.FORCE_DROPOUT)  # hil/world/beams_node.py
+STATUS_KINDS = (FaultKind.STATUS_CHECKSUM, FaultKind.STATUS_WRONG_ID, FaultKind.STATUS_TRUNCATED,
+                FaultKind.STATUS_PADDED, FaultKind.STATUS_ERROR, FaultKind.STATUS_LATE,
+                FaultKind.STATUS_MISSING, FaultKind.STATUS_TWIN)
+BUS_CAN_KINDS = (FaultKind.CAN_DROPPED, FaultKind.CAN_DELAYED, FaultKind.CAN_REORDERED,
+                 FaultKind.CAN_CORRUPT)   # hil/canbus/bus.py
 SERVO_STATE_KINDS = (FaultKind.BROWNOUT, FaultKind.OVERLOAD, FaultKind.POSITION_STUCK,
                      FaultKind.POSITION_NOISE, FaultKind.ID_CONFLICT)
 
@@ -57,6 +76,18 @@ ENTRY_FIELDS: dict[FaultKind, dict[str, tuple[type, bool]]] = {
     FaultKind.CAN_GARBAGE: dict(_TIMED),
     FaultKind.FORCE_BIAS: {**_TIMED, "fx_n": (float, True), "fz_n": (float, False)},
     FaultKind.FORCE_DROPOUT: dict(_TIMED),
+    FaultKind.STATUS_CHECKSUM: {**_ID, **_TIMED},
+    FaultKind.STATUS_WRONG_ID: {**_ID, "as_id": (int, True), **_TIMED},
+    FaultKind.STATUS_TRUNCATED: {**_ID, **_TIMED},
+    FaultKind.STATUS_PADDED: {**_ID, **_TIMED},
+    FaultKind.STATUS_ERROR: {**_ID, "bits": (int, True), **_TIMED},
+    FaultKind.STATUS_LATE: {**_ID, "delay_s": (float, True), **_TIMED},
+    FaultKind.STATUS_MISSING: {**_ID, **_TIMED},
+    FaultKind.STATUS_TWIN: {**_ID, **_TIMED},
+    FaultKind.CAN_DROPPED: dict(_TIMED),
+    FaultKind.CAN_DELAYED: {**_TIMED, "delay_s": (float, True)},
+    FaultKind.CAN_REORDERED: dict(_TIMED),
+    FaultKind.CAN_CORRUPT: dict(_TIMED),
 }
 
 
@@ -80,6 +111,8 @@ class FaultEntry:
     period_s: float | None = None       # switch_bounce: the chatter period
     fx_n: float | None = None           # force_bias
     fz_n: float | None = None
+    bits: int | None = None             # status_error: the error byte's bits set (1-127)
+    delay_s: float | None = None        # status_late, can_delayed: how much later
 
     @classmethod
     def parse(cls, kind: FaultKind, raw: Any, where: str) -> "FaultEntry":
@@ -108,6 +141,12 @@ class FaultEntry:
         if (e.sigma is not None and e.sigma < 0) or (e.period_s is not None and e.period_s <= 0):
             raise BadValue(f"{where}: '{kind.value}' needs sigma >= 0 and period_s > 0, "
                            f"got {raw!r}")
+        if e.bits is not None and not 1 <= e.bits <= 127:
+            raise BadValue(f"{where}: '{kind.value}.bits' must be 1-127 (the AX-12's seven "
+                           f"error bits), got {e.bits}")
+        if e.delay_s is not None and not 0 < e.delay_s <= 1.0:
+            raise BadValue(f"{where}: '{kind.value}.delay_s' must be in (0, 1] s, got "
+                           f"{e.delay_s:g}")
         return e
 
 
@@ -131,6 +170,18 @@ class FaultsConfig:
     can_garbage: tuple[FaultEntry, ...] = ()
     force_bias: tuple[FaultEntry, ...] = ()
     force_dropout: tuple[FaultEntry, ...] = ()
+    status_checksum: tuple[FaultEntry, ...] = ()
+    status_wrong_id: tuple[FaultEntry, ...] = ()
+    status_truncated: tuple[FaultEntry, ...] = ()
+    status_padded: tuple[FaultEntry, ...] = ()
+    status_error: tuple[FaultEntry, ...] = ()
+    status_late: tuple[FaultEntry, ...] = ()
+    status_missing: tuple[FaultEntry, ...] = ()
+    status_twin: tuple[FaultEntry, ...] = ()
+    can_dropped: tuple[FaultEntry, ...] = ()
+    can_delayed: tuple[FaultEntry, ...] = ()
+    can_reordered: tuple[FaultEntry, ...] = ()
+    can_corrupt: tuple[FaultEntry, ...] = ()
 
     def entries(self) -> list[FaultEntry]:
         """Every timed fault, kind by kind in FaultKind's order, each kind as written."""

@@ -25,7 +25,12 @@ SCHEMA: dict[str, dict[str, type]] = {
                "brownout": list, "overload": list, "position_stuck": list,
                "position_noise": list, "id_conflict": list, "switch_stuck": list,
                "switch_bounce": list, "can_silent": list, "can_garbage": list,
-               "force_bias": list, "force_dropout": list},
+               "force_bias": list, "force_dropout": list,
+               # the bus fuzzer's (docs/fuzzing.md): status packets and CAN frames mangled
+               **{k: list for k in ("status_checksum", "status_wrong_id", "status_truncated",
+                                    "status_padded", "status_error", "status_late",
+                                    "status_missing", "status_twin", "can_dropped",
+                                    "can_delayed", "can_reordered", "can_corrupt")}},
     "world": {"kind": str, "terrain": str, "density": str, "height_class": str,
               "obstacles": list, "length_m": float, "friction": float, "terrain_seed": int,
               # "ideal" (default: regression) or "real" (experiments): hil/world/fidelity.py

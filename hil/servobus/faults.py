@@ -18,7 +18,8 @@ import math
 import random
 from typing import Any, Callable
 
-from hil.scenario.faults_section import (CAN_KINDS, FORCE_KINDS, SERVO_STATE_KINDS, SWITCH_KINDS,
+from hil.scenario.faults_section import (BUS_CAN_KINDS, CAN_KINDS, FORCE_KINDS,
+                                         SERVO_STATE_KINDS, STATUS_KINDS, SWITCH_KINDS,
                                          FaultEntry, FaultKind, FaultsConfig)
 from hil.servobus.health import SUPPLY_V
 from protocol.errors import UserError
@@ -52,6 +53,9 @@ class Faults:
         self._garbage_rng = random.Random(f"{seed}:can_garbage")
         self._force_bias: tuple[float, float] | None = None         # (fx_n, fz_n) added
         self._force_dropout = False
+        self._status: dict[int, list[FaultEntry]] = {}             # id -> its status faults
+        self.can_faults: list[FaultEntry] = []                      # hil/canbus/bus.py reads
+        self._can_rng = random.Random(f"{seed}:can_corrupt")
         self.next_us = NEVER_US
         self.bus = None
 
@@ -160,6 +164,23 @@ class Faults:
                 detail = "force sensor silent" if start else "force sensor back"
             self.report(t_us, name, detail)
             return
+        if e.kind in STATUS_KINDS:
+            faults = self._status.setdefault(e.id, [])
+            if start:
+                faults.append(e)
+            elif e in faults:
+                faults.remove(e)
+            self.report(t_us, name, f"id {e.id}: " + (_STATUS_SAYS[e.kind] if start
+                                                      else "status packets sent as they are"))
+            return
+        if e.kind in BUS_CAN_KINDS:
+            if start:
+                self.can_faults.append(e)
+            elif e in self.can_faults:
+                self.can_faults.remove(e)
+            self.report(t_us, name, ("CAN frames " + _CAN_SAYS[e.kind]) if start
+                        else "CAN frames delivered as sent")
+            return
         if e.kind in CAN_KINDS:
             self._can_node = e.kind if start else None
             self.report(t_us, name,
@@ -232,6 +253,43 @@ class Faults:
         s.set_reading(NoisyReading(e.sigma, rng), t_us)
         return f"Present Position noisy, sigma {e.sigma:g} units"
 
+    def status_bursts(self, dev_id: int, data: bytearray, start_us: int, wire_us: int
+                      ) -> list[tuple[int, bytearray]]:
+        """Servo ``dev_id``'s status packet ``data``, due on the line at ``start_us``, as the
+        status faults active on it send it: (start, bytes) of each burst, none when it is
+        lost. ``wire_us`` is the packet's own time on the wire (a twin answers after it)."""
+        faults = self._status.get(dev_id)
+        if not faults:
+            return [(start_us, data)]
+        out = [(start_us, data)]
+        for e in faults:
+            kind = e.kind
+            if kind is FaultKind.STATUS_MISSING:
+                return []
+            if kind is FaultKind.STATUS_LATE:
+                out = [(t + int(round(e.delay_s * 1e6)), d) for t, d in out]
+            elif kind is FaultKind.STATUS_TWIN:
+                out = out + [(out[-1][0] + wire_us, bytearray(out[-1][1]))]
+            else:
+                out = [(t, _mangled(kind, e, d)) for t, d in out]
+        return out
+
+    def can_mangle(self, data: bytes) -> tuple[str, int, bytes]:
+        """What the CAN faults active now do to a frame's ``data``: (``"drop"``, ``"hold"``
+        or ``"send"``, how long it is held in us (-1: until the next frame has gone), the
+        bytes sent: garbage of the same length while ``can_corrupt`` lasts, seeded)."""
+        verdict, delay_us = "send", 0
+        for e in self.can_faults:
+            if e.kind is FaultKind.CAN_DROPPED:
+                return "drop", 0, data
+            if e.kind is FaultKind.CAN_CORRUPT:
+                data = bytes(self._can_rng.randrange(256) for _ in range(len(data)))
+            elif e.kind is FaultKind.CAN_DELAYED:
+                verdict, delay_us = "hold", int(round(e.delay_s * 1e6))
+            elif verdict == "send":
+                verdict, delay_us = "hold", -1
+        return verdict, delay_us, data
+
     # --- line faults ---------------------------------------------------------------
     def _draw_gap(self) -> int:
         """Error-free data bits before the next flipped one (geometric)."""
@@ -263,6 +321,41 @@ class Faults:
             self.report(t_us, "drop_status", f"id {dev_id}: status packet lost")
             return True
         return False
+
+
+_STATUS_SAYS = {
+    FaultKind.STATUS_CHECKSUM: "status packets with a wrong checksum",
+    FaultKind.STATUS_WRONG_ID: "status packets carry another ID",
+    FaultKind.STATUS_TRUNCATED: "status packets cut short by their last byte",
+    FaultKind.STATUS_PADDED: "status packets with one parameter too many",
+    FaultKind.STATUS_ERROR: "status packets with error bits set",
+    FaultKind.STATUS_LATE: "status packets sent late",
+    FaultKind.STATUS_MISSING: "status packets never sent",
+    FaultKind.STATUS_TWIN: "a twin sends each status packet again",
+}
+_CAN_SAYS = {FaultKind.CAN_DROPPED: "lost", FaultKind.CAN_DELAYED: "delayed",
+             FaultKind.CAN_REORDERED: "swapped with the next", FaultKind.CAN_CORRUPT:
+             "with garbage data"}
+
+
+def _mangled(kind: FaultKind, e: FaultEntry, data: bytearray) -> bytearray:
+    """A Protocol 1.0 status packet (FF FF ID LEN ERR P.. CHK) as ``kind`` mangles it."""
+    if len(data) < 6:
+        return data
+    if kind is FaultKind.STATUS_CHECKSUM:
+        data[-1] ^= 0xFF
+        return data
+    if kind is FaultKind.STATUS_TRUNCATED:
+        return data[:-1]
+    if kind is FaultKind.STATUS_WRONG_ID:
+        data[2] = e.as_id
+    elif kind is FaultKind.STATUS_ERROR:
+        data[4] |= e.bits
+    elif kind is FaultKind.STATUS_PADDED:
+        data[-1:-1] = b"\x00"
+        data[3] += 1
+    data[-1] = (~sum(data[2:-1])) & 0xFF
+    return data
 
 
 class StuckReading:

@@ -387,13 +387,14 @@ class Bus:
     def _schedule(self, s: Servo, reply: bytes | None, t_us: int) -> None:
         if not reply:
             return
-        data = bytearray(reply)
-        delay = self.return_delay_override_us
+        faults, data, delay = self.faults, bytearray(reply), self.return_delay_override_us
         start = t_us + (s.return_delay_us if delay is None else delay)
-        faults = self.faults
+        bursts = [(start, data)]
         if faults is not None:
             if faults.drop_status(s.id, start):
                 return
             faults.corrupt(data, start, "rx")
-        self.stats["replies"] += 1
-        self._put(Burst(start, data, True))
+            bursts = faults.status_bursts(s.id, data, start, self.wire_us(len(data)))
+        for t, burst in bursts:   # none, one, or a twin's too ([faults] status_*)
+            self.stats["replies"] += 1
+            self._put(Burst(t, burst, True))

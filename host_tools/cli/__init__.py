@@ -35,6 +35,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "grnn": ("grnn", "GRNN positional-error predictor (seed 003 Sec. 2.6)"),
     "test": ("test", "run expectation files against the firmware: pass/fail, JUnit XML"),
     "margin": ("margin", "sweep bus timing (Return Delay, adapter latency, bit errors, baud) until the expectations fail"),
+    "fuzz": ("fuzz", "fuzz the firmware through its bus: faults in virtual time, shrunk reproducers"),
     "sdk": ("sdk", "build a C firmware against the STM32Cube-style C SDK"),
 }
 
@@ -72,7 +73,9 @@ FLAGS = {"python": "--runtime", "runtime": "--runtime", "firmware": "--firmware"
          "kind": "--as", "max_wall_s": "--max-wall", "max_memory_mb": "--max-memory",
          "width": "--width", "height": "--height", "png": "--png", "junit": "--junit",
          "main": "--main", "fs": "--fs", "fs_out": "--fs-out",
-         "coverage_libraries": "--coverage-libraries"}
+         "coverage_libraries": "--coverage-libraries", "main_file": "--in-process",
+         "runs": "--runs", "time_s": "--time", "jobs": "--jobs", "kinds": "--kinds",
+         "window_s": "--window"}
 
 
 def flag_message(exc: UserError) -> str:

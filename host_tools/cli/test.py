@@ -35,11 +35,18 @@ def _run(args: argparse.Namespace) -> int:
         raise UserError("--jobs and --repeat must be at least 1")
     if args.firmware is not None and args.python is not None:
         raise UserError(f"--firmware {args.firmware} brings its own runtime: leave out --runtime")
+    if args.in_process is not None:
+        from host_tools.in_process import load_main
+
+        if args.firmware is not None or args.python not in (None, IN_PROCESS):
+            raise UserError(f"--in-process {args.in_process} runs in this process: leave out "
+                            "--firmware and --runtime")
+        load_main(args.in_process)   # one line before anything runs
     if args.firmware is not None and args.no_tactile:
         raise UserError("--no-tactile sets our firmware's obstacle rule: a firmware of yours "
                         f"({args.firmware}) reads no such setting")
     if args.trace is not None and (len(args.files) != 1 or args.firmware or args.python
-                                   or args.no_tactile or args.repeat != 1):
+                                   or args.no_tactile or args.repeat != 1 or args.in_process):
         raise UserError("--trace evaluates one recorded run: give one FILE, and no --firmware, "
                         "--runtime, --no-tactile or --repeat")
     if args.firmware is not None:
@@ -66,7 +73,7 @@ def _run(args: argparse.Namespace) -> int:
         jobs = case_runs.jobs_for(cases, args.repeat,
                                   tactile=False if args.no_tactile else None,
                                   python=args.python, firmware=args.firmware,
-                                  flash_files=flash_files(args),
+                                  flash_files=flash_files(args), main_file=args.in_process,
                                   keep_dir=args.keep_traces, overwrite=args.overwrite,
                                   limits=cli.limits(args))
         if args.keep_traces and not args.overwrite:   # refused before anything runs
@@ -155,6 +162,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "executable such as a C firmware); a case may name one itself "
                         "([case] firmware)")
     add_flash_options(p, read_back=False)
+    p.add_argument("--in-process", metavar="FILE.py",
+                   help="run every case with this Python module's main(board) in this "
+                        "process, as ours (a variant of our firmware, e.g. a reproducer of "
+                        "hexhil fuzz --in-process)")
     p.add_argument("--trace", metavar="RUN.mcap",
                    help="run nothing: check one FILE's expectations on this recorded run, "
                         "e.g. a real board's (hexhil bus --world SCENARIO --port DEVICE --out "

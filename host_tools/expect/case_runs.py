@@ -8,13 +8,14 @@ import dataclasses
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import can
 from mcap.writer import CompressionType, Writer
 
 from hil.run.limits import RunLimits
 from hil.mcu.flash_fs import FlashFiles
+from hil.link.firmware_process import IN_PROCESS
 from hil.scenario import Scenario, check_seed
 from hil.seams import ServoLine
 from host_tools import run_summary as run_mod
@@ -73,6 +74,7 @@ class CaseRun:
     limits: RunLimits | None = None       # the run's caps (hil/run/limits.py; None: defaults)
     flash_files: FlashFiles | None = None  # the command's --main/--fs, over the case's
     coverage_libraries: bool = False      # ... counting the toolchain's libraries too
+    main_file: str | None = None          # a module's main(board) in process, not ours
 
 
 @dataclass(frozen=True)
@@ -109,27 +111,38 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
                  changed: dict[str, Any] | None = None, coverage: str | None = None,
                  limits: RunLimits | None = None,
                  flash_files: FlashFiles | None = None,
-                 coverage_libraries: bool = False) -> tuple[dict[str, Any], RunResult]:
+                 coverage_libraries: bool = False,
+                 wrap: Callable[[Run, Any], Any] | None = None, main: Any = None,
+                 master_check: bool = True, setup: Callable[[Run], None] | None = None
+                 ) -> tuple[dict[str, Any], RunResult]:
     """Run a checked hexapod scenario with our firmware (or ``firmware``, a MicroPython main
     file or an executable: ``hexhil run --firmware``) through the one run path
     (host_tools/lockstep_run.py ``Run``), recorded to ``trace`` with the master's protocol check
     on; returns ``hexhil run --json``'s summary plus ``violations``, and the ``RunResult``.
-    Every case and margin run goes through here; ``timing`` and ``changed`` (a scenario key changed, e.g.
-    ``faults.bit_error_rate``) are recorded as the run's overrides."""
+    Every case and margin run goes through here; ``timing`` and ``changed`` (a scenario key
+    changed, e.g. ``faults.bit_error_rate``) are recorded as the run's overrides. In
+    process, ``wrap(run, exchange)`` sees every exchange of the link and ``main`` is the
+    firmware run (the bus fuzzer: host_tools/bus_fuzz/); ``master_check=False`` leaves the
+    master check out (a quarter of a profiled in-process run) where no expectation reads it;
+    ``setup(run)`` is called once the run is built (the fuzzer puts its packet sequence on
+    the bus's monitor)."""
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
               overrides={**timing.overrides(), **(changed or {})}, coverage=coverage,
               limits=limits, flash_files=flash_files, coverage_libraries=coverage_libraries)
     try:
-        run.watch_master()
+        if master_check:
+            run.watch_master()
         sim = run.sim
         timing.apply(sim.bus)
         if sends:
             run.add_node(_Sender(run, sends))
+        if setup is not None:
+            setup(run)
     except BaseException:
         run.close()
         raise
-    result = run.run()
+    result = run.run(None if wrap is None else lambda exchange: wrap(run, exchange), main)
     return run_mod.summary(run.scenario, seed, result, str(trace), run.what_ran()), result
 
 
@@ -140,11 +153,17 @@ def run_case(job: CaseRun) -> CaseResult:
     kept = None
     with tempfile.TemporaryDirectory(prefix="hexhil-test-") as tmp:
         trace = Path(tmp) / "run.mcap"
+        main = None
+        if job.main_file is not None:
+            from host_tools.in_process import load_main
+
+            main = load_main(job.main_file)
         summary, _ = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
-                                  job.python or case.python, tactile, trace, job.timing,
-                                  case.sends, job.firmware or case.firmware,
+                                  IN_PROCESS if main else job.python or case.python, tactile,
+                                  trace, job.timing, case.sends, job.firmware or case.firmware,
                                   dict(job.changed), job.coverage, job.limits,
-                                  job.flash_files or case.flash_files, job.coverage_libraries)
+                                  job.flash_files or case.flash_files, job.coverage_libraries,
+                                  main=main)
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):

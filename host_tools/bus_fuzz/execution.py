@@ -1,0 +1,142 @@
+"""Running the fuzzer's inputs: one execution an input, judged, with the features it reached.
+
+A firmware in this process (ours, or a module of the user's with ``main(board)``) runs on
+the fork server (host_tools/bus_fuzz/fork_server.py): booted once, forked at the window
+for each input. Any other firmware (the virtual board, an executable, an ELF) gets a fresh
+run an input (``fresh``), the faults written into the scenario, as ``hexhil test`` would
+run it; so does every reproducer, to check it fails the same way without the fuzzer.
+"""
+from __future__ import annotations
+
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+from host_tools import in_process
+from host_tools.bus_fuzz.features import LineTracer, PacketSequence, elf_lines
+
+from host_tools.bus_fuzz.mutations import Input, faults_table
+from host_tools.expect.spec import Case, Kind
+from protocol.errors import UserError
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@dataclass(frozen=True)
+class Target:
+    """What is fuzzed: the case (its expectations judge), the firmware (ours in process by
+    default; ``firmware`` as ``hexhil run --firmware``; ``main_file``, a module with
+    ``main(board)`` run in process like ours), and where the window starts."""
+
+    case: Case
+    window_s: float                      # faults start at or after this
+    firmware: str | None = None
+    main_file: str | None = None
+    coverage: bool = True                # line coverage as a feature (in process, an ELF)
+    fork: bool = True                    # in process: fork after boot (False: fresh runs)
+
+    @property
+    def in_process(self) -> bool:
+        return self.firmware is None
+
+
+@dataclass(frozen=True)
+class Execution:
+    """One input's verdict: what failed (sorted labels; empty: it passed), the failures'
+    measured values, the features it reached, its wall time."""
+
+    failures: tuple[str, ...]
+    details: tuple[str, ...]
+    features: frozenset[int]
+    wall_s: float
+
+    @property
+    def failed(self) -> bool:
+        return bool(self.failures)
+
+
+def judge(case: Case, summary: dict[str, Any], trace: Path) -> tuple[tuple[str, ...],
+                                                                     tuple[str, ...]]:
+    """The failures of one run: each failed expectation, a firmware that did not complete
+    (a crash, a hang, an early exit) and an exception the expectations do not judge."""
+    from host_tools.expect.verdicts import evaluate
+
+    failures: dict[str, str] = {}
+    for o in evaluate(case, summary, trace):
+        if not o.passed:
+            failures[f"expect: {o.name}"] = f"measured {o.measured}; limit {o.limit}"
+    ending = summary.get("ending") or {}
+    if ending.get("kind", "completed") != "completed":
+        failures[f"firmware {ending['kind']}"] = ending.get("reason", "")
+    judged = any(e.kind is Kind.NO_EXCEPTION for e in case.expectations)
+    if summary.get("unhandled_exceptions") and not judged:
+        failures["firmware exception"] = f"{summary['unhandled_exceptions']} exceptions"
+    names = tuple(sorted(failures))
+    return names, tuple(f"{n}: {failures[n]}" for n in names)
+
+
+# --- one run ----------------------------------------------------------------------------
+def run_input(target: Target, faults: Input, trace: Path, wrap: Any = None,
+              coverage: str | None = None, setup: Any = None) -> dict[str, Any]:
+    """The case's run, the faults in its scenario; with ``wrap`` (the fork server) none:
+    the children inject them."""
+    from host_tools.expect.case_runs import run_scenario
+
+    case = target.case
+    scenario = case.scenario
+    if faults and wrap is None:       # a fresh run: the faults are the scenario's
+        scenario = scenario.overlay({"faults": faults_table(faults)})
+    main = in_process.load_main(target.main_file) if target.main_file else None
+    judged = any(e.kind is Kind.PROTOCOL for e in case.expectations)
+    return run_scenario(scenario, case.seed, case.duration_s,
+                        "cpython-inprocess" if target.in_process else case.python,
+                        case.tactile, trace, sends=case.sends, firmware=target.firmware,
+                        coverage=coverage, wrap=wrap, main=main, master_check=judged,
+                        setup=setup)[0]
+
+
+def fresh(target: Target, faults: Input, keep: Path | None = None) -> Execution:
+    """One input as a run of its own, the faults in the scenario (no fork): what
+    ``hexhil test`` on the reproducer runs. ``keep``: the trace is kept there."""
+    wall0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="hexhil-fuzz-") as tmp:
+        trace = Path(tmp) / "run.mcap"
+        info = Path(tmp) / "run.info" if target.coverage and _is_elf(target) else None
+        tracer = tracer_for(target) if target.coverage and target.in_process else None
+        if tracer is not None:
+            tracer.start()
+        sequences: list[PacketSequence] = []
+
+        def setup(run: Any) -> None:
+            sequences.append(PacketSequence(run.sim.bus.monitor))
+            run.sim.bus.monitor = sequences[0]
+
+        try:
+            summary = run_input(target, faults, trace, coverage=str(info) if info else None,
+                                setup=setup)
+        finally:
+            lines = tracer.stop() if tracer is not None else set()
+        failures, details = judge(target.case, summary, trace)
+        features = lines | (elf_lines(info) if info is not None else set()) | (
+            sequences[0].pairs if sequences else set())
+        if keep is not None:
+            shutil.copyfile(trace, keep)
+    return Execution(failures, details, frozenset(features), time.perf_counter() - wall0)
+
+
+def _is_elf(target: Target) -> bool:
+    from hil.mcu.elf_image import is_arm_elf
+
+    return target.firmware is not None and is_arm_elf(Path(target.firmware))
+
+
+def tracer_for(target: Target) -> LineTracer:
+    roots = [ROOT / "firmware"]
+    if target.main_file:
+        roots.append(Path(target.main_file).resolve().parent)
+    return LineTracer(roots)
+
+

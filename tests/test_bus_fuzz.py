@@ -1,0 +1,217 @@
+"""The bus fuzzer (docs/fuzzing.md): its fault kinds on the line and the CAN bus, its
+mutations and shrinking, and the acceptance campaign: a planted bug in a variant of our
+firmware (tests/fuzz_targets/trusting_ids.py) found, shrunk and replayed by ``hexhil test``;
+our firmware survives the same campaign."""
+from __future__ import annotations
+
+import json
+import random
+import subprocess
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+from hil.clock import VirtualClock
+from hil.canbus.bus import CanBus
+from hil.scenario.faults_section import FaultEntry, FaultKind, FaultsConfig
+from hil.servobus.faults import Faults
+from host_tools.bus_fuzz import campaign
+from host_tools.bus_fuzz.execution import Execution
+from host_tools.bus_fuzz.mutations import DEFAULT_KINDS, Mutation, Mutator, Vocabulary
+from protocol.dynamixel import v1 as dxl
+from protocol.errors import UserError
+from test_sdk_pty import HEXHIL, ROOT
+
+TARGETS = ROOT / "tests" / "fuzz_targets"
+CASE = TARGETS / "no-exception.toml"
+PLANTED = TARGETS / "trusting_ids.py"
+STATUS = dxl.status(3, 0, b"\x10\x02")          # servo 3's reply to a 2-byte READ
+
+
+def faults_on(kind: FaultKind, **keys) -> Faults:
+    """Faults whose one entry of ``kind`` is active from t = 0."""
+    entry = {"at_s": 0.0, "until_s": 1.0, **keys}
+    f = Faults(FaultsConfig(**{kind.value: (FaultEntry.parse(kind, entry, "test"),)}))
+    f.start(VirtualClock(), 0)
+    f.apply_due(0)
+    return f
+
+
+def parsed(data: bytes) -> tuple[int, int, bytes] | None:
+    """(id, error, params) of the one status packet in ``data``, None if it is not one."""
+    p = dxl.Parser()
+    got = [(p.id, p.code, bytes(p.buf[5:5 + p.nparams])) for b in data if p.push(b)]
+    return got[0] if len(got) == 1 else None
+
+
+@pytest.mark.parametrize("kind,keys,expect", [
+    (FaultKind.STATUS_CHECKSUM, {}, None),
+    (FaultKind.STATUS_WRONG_ID, {"as_id": 200}, (200, 0, b"\x10\x02")),
+    (FaultKind.STATUS_TRUNCATED, {}, None),
+    (FaultKind.STATUS_PADDED, {}, (3, 0, b"\x10\x02\x00")),
+    (FaultKind.STATUS_ERROR, {"bits": 0x20}, (3, 0x20, b"\x10\x02")),
+])
+def test_a_status_fault_mangles_the_servos_reply(kind, keys, expect):
+    f = faults_on(kind, id=3, **keys)
+    [(t, data)] = f.status_bursts(3, bytearray(STATUS), 500, 80)
+    assert t == 500 and bytes(data) != STATUS and parsed(bytes(data)) == expect
+    assert f.status_bursts(4, bytearray(STATUS), 500, 80) == [(500, bytearray(STATUS))]
+
+
+def test_a_status_is_late_missing_or_doubled():
+    assert faults_on(FaultKind.STATUS_LATE, id=3, delay_s=0.002).status_bursts(
+        3, bytearray(STATUS), 500, 80) == [(2500, bytearray(STATUS))]
+    assert faults_on(FaultKind.STATUS_MISSING, id=3).status_bursts(
+        3, bytearray(STATUS), 500, 80) == []
+    assert faults_on(FaultKind.STATUS_TWIN, id=3).status_bursts(
+        3, bytearray(STATUS), 500, 80) == [(500, bytearray(STATUS)), (580, bytearray(STATUS))]
+
+
+def test_status_faults_end_at_until_s():
+    f = faults_on(FaultKind.STATUS_MISSING, id=3)
+    f.apply_due(1_000_000)
+    assert f.status_bursts(3, bytearray(STATUS), 1_000_500, 80) == [
+        (1_000_500, bytearray(STATUS))]
+    assert f.counts == {"status_missing": 1, "status_missing_end": 1}
+
+
+def can_bus(kind: FaultKind, **keys) -> tuple[CanBus, list, VirtualClock]:
+    f = faults_on(kind, **keys)
+    clock = f._clock
+    bus = CanBus(clock)
+    bus.faults = f
+    got = bus.endpoint("rx")
+    return bus, got, clock
+
+
+def frames(endpoint) -> list[tuple[int, bytes, int]]:
+    return [(m.arbitration_id, bytes(m.data), round(m.timestamp * 1e6))
+            for m in endpoint.frames()]
+
+
+def test_can_faults_drop_garble_delay_and_swap_frames():
+    bus, got, clock = can_bus(FaultKind.CAN_DROPPED)
+    bus.send(0x100, b"\x01\x02", direction="tx")
+    assert frames(got) == []
+    bus, got, clock = can_bus(FaultKind.CAN_CORRUPT)
+    bus.send(0x100, b"\x01\x02\x03\x04", direction="tx")
+    [(arb_id, data, _)] = frames(got)
+    assert arb_id == 0x100 and len(data) == 4 and data != b"\x01\x02\x03\x04"
+    bus, got, clock = can_bus(FaultKind.CAN_DELAYED, delay_s=0.05)
+    bus.send(0x100, b"\x01", direction="tx")
+    clock.advance_to(49_000)
+    bus.poll()
+    assert frames(got) == []
+    clock.advance_to(50_000)
+    bus.poll()
+    assert frames(got) == [(0x100, b"\x01", 50_000)]
+    bus, got, clock = can_bus(FaultKind.CAN_REORDERED)
+    bus.send(0x100, b"\x01", direction="tx")
+    assert frames(got) == []                              # the first waits for the next
+    bus.send(0x101, b"\x02", direction="tx")
+    bus.send(0x102, b"\x03", direction="tx")
+    bus.faults.can_faults.clear()
+    bus.send(0x103, b"\x04", direction="tx")
+    assert [f[0] for f in frames(got)] == [0x101, 0x100, 0x103, 0x102]
+
+
+def test_a_fault_key_out_of_range_is_one_line():
+    with pytest.raises(UserError, match="bits' must be 1-127"):
+        FaultEntry.parse(FaultKind.STATUS_ERROR, {"id": 1, "at_s": 1.0, "bits": 128}, "t")
+    with pytest.raises(UserError, match="delay_s' must be in"):
+        FaultEntry.parse(FaultKind.STATUS_LATE, {"id": 1, "at_s": 1.0, "delay_s": 0}, "t")
+
+
+def test_mutations_are_seeded_and_stay_in_the_window():
+    vocab = Vocabulary(DEFAULT_KINDS, tuple(range(1, 19)), 1.0, 3.0)
+    draws = [[m.fresh() for _ in range(50)]
+             for m in (Mutator(vocab, random.Random(7)), Mutator(vocab, random.Random(7)))]
+    assert draws[0] == draws[1]
+    faults = [m for i in draws[0] for m in i]
+    assert {m.kind for m in faults} >= {FaultKind.STATUS_WRONG_ID, FaultKind.SWITCH_STUCK}
+    assert all(1.0 <= m.at_s < 3.0 for m in faults)
+    m = Mutator(vocab, random.Random(1))
+    child = m.mutate(draws[0][0], draws[0][1])
+    assert 1 <= len(child) <= 8 and all(c.checked() == c for c in child)
+
+
+def test_ddmin_keeps_the_faults_that_fail_together():
+    faults = tuple(Mutation(FaultKind.BROWNOUT, (("id", i), ("at_s", 1.0 + i / 100)))
+                   for i in range(1, 9))
+    culprits = {faults[2], faults[6]}
+
+    def run(inputs):
+        return [Execution(("x",) if culprits <= set(i) else (), (), frozenset(), 0.0)
+                for i in inputs]
+
+    shrunk, used = campaign.shrink(faults, ("x",), run)
+    assert set(shrunk) == culprits and used < campaign.SHRINK_RUNS
+
+
+SMALL = dict(expect=str(CASE), runs=64, seed=3, coverage=False,
+             kinds=tuple(k for k in DEFAULT_KINDS if k.value.startswith("status_")))
+
+
+def test_the_planted_bug_is_found_shrunk_and_replayed_and_ours_survives(tmp_path):
+    report = campaign.fuzz(campaign.Settings(**SMALL, main_file=str(PLANTED),
+                                             out=str(tmp_path)))
+    assert report.findings and all(f.failures == ("expect: no firmware exception",)
+                                   for f in report.findings)
+    f = report.findings[0]
+    assert report.executions <= 2000 and 1 <= len(f.shrunk) <= 3
+    assert any(m.kind is FaultKind.STATUS_WRONG_ID for m in f.shrunk)
+    assert f.replayed and Path(f.trace).stat().st_size > 0
+    r = subprocess.run([*HEXHIL, "test", f.expect, "--in-process", str(PLANTED)],
+                       capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert r.returncode == 1 and "no firmware exception" in r.stdout and "FAIL" in r.stdout
+    ours = campaign.fuzz(campaign.Settings(**SMALL))
+    assert ours.findings == [] and ours.executions == report.executions
+
+
+def test_a_campaign_is_its_seed_on_one_server_on_two_and_on_dask():
+    distributed = pytest.importorskip("distributed")
+    settings = campaign.Settings(**{**SMALL, "runs": 14}, main_file=str(PLANTED),
+                                 shrink=False)
+    one, two = campaign.fuzz(settings), campaign.fuzz(replace(settings, jobs=2))
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        dask = campaign.fuzz(replace(settings, jobs=2, scheduler=cluster.scheduler_address))
+    for other in (two, dask):
+        assert other.as_dict()["findings"] == one.as_dict()["findings"]
+        assert (other.executions, other.features, other.corpus) == (
+            one.executions, one.features, one.corpus)
+    assert one.findings and one.features > one.baseline_features   # found at the 12th
+
+
+def test_bad_settings_are_one_line_errors():
+    r = subprocess.run([*HEXHIL, "fuzz", "scenarios/flat-tripod.toml", "--expect", str(CASE),
+                        "--window", "5"], capture_output=True, text=True, cwd=ROOT)
+    assert r.returncode == 2 and "--window" in r.stderr and "Traceback" not in r.stderr
+    r = subprocess.run([*HEXHIL, "fuzz", "scenarios/flat-tripod.toml", "--expect", str(CASE),
+                        "--kinds", "status_nonsense"], capture_output=True, text=True, cwd=ROOT)
+    assert r.returncode == 2 and "--kinds" in r.stderr and "status_nonsense" in r.stderr
+
+
+def test_the_example_case_on_the_command_line_with_json(tmp_path):
+    r = subprocess.run([*HEXHIL, "fuzz", "scenarios/flat-tripod.toml", "--expect",
+                        "examples/fuzz-flat-tripod.toml", "--runs", "3", "--seed", "2",
+                        "--kinds", "status_twin", "--json", "--quiet"],
+                       capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert r.returncode == 0, r.stderr
+    report = json.loads(r.stdout.splitlines()[-1])
+    assert report["executions"] == 3 and report["findings"] == []
+    assert report["features"] >= report["baseline_features"] > 0
+
+
+def test_the_packet_sequence_passes_a_direction_mistake_on_or_drops_it():
+    from hil.servobus.master_check import MasterCheck
+    from host_tools.bus_fuzz.features import PacketSequence
+
+    alone = PacketSequence(None)
+    alone.direction_mistake(5, "tx_while_receiving", "no master check")
+    alone.master_bytes(None, 0, dxl.read(1, 36, 6) + dxl.read(2, 36, 6) + dxl.read(1, 36, 6))
+    assert len(alone.pairs) == 3          # (start, 1), (1, 2), (2, 1)
+    check = MasterCheck()
+    PacketSequence(check).direction_mistake(5, "tx_while_receiving", "pin low")
+    assert check.counts["tx_while_receiving"] == 1
