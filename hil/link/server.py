@@ -1,10 +1,7 @@
-"""Serving one firmware connection: its link requests become bus, switch and CAN traffic.
-
-The firmware speaks ``protocol/sim_link.py`` (hil/link/firmware_process.py reads the frames); this module
-answers each batch in virtual time: UART writes and transactions go to the servo bus, CAN
-frames to the run's CAN bus, events to the run result, and a sleep moves the clock, samples
-the limit switches and hands over the CAN frames queued for the firmware.
-"""
+"""Serving one firmware connection: its link requests (``protocol/sim_link.py``) become bus,
+switch and CAN traffic in virtual time: UART writes and transactions go to the servo bus,
+CAN frames to the run's CAN bus, events to the run result, and a sleep moves the clock,
+samples the limit switches and hands over the CAN frames queued for the firmware."""
 from __future__ import annotations
 
 import json
@@ -316,10 +313,9 @@ class LinkServer:
 
     def answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
                closed: bool, end_us: int, result: RunTally) -> bool:
-        """Carry out one batch (posted messages, then the request) and reply to it;
-        True once the firmware has closed the link. A message the host cannot carry out
-        (unknown op, malformed, another link version) gets an error reply and raises
-        FirmwareError, a UserError (docs/link.md)."""
+        """Carry out one batch (posted messages, then the request) and reply to it; True once
+        the firmware has closed the link. A message the host cannot carry out (unknown op,
+        malformed, another link version): an error reply and FirmwareError (docs/link.md)."""
         try:
             return self._answer(conn, msgs, closed, end_us, result)
         except (LinkViolation, struct.error) as exc:
@@ -330,9 +326,8 @@ class LinkServer:
 
     def _answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
                 closed: bool, end_us: int, result: RunTally) -> bool:
-        bus, clock, rec = self.bus, self.clock, self.sim.recorder
-        reply = None
-        slept = reads = False
+        clock, rec = self.clock, self.sim.recorder
+        reply, slept, reads = None, False, False
         if self.lookahead is not None:
             self.lookahead.settle(msgs)
         write = None   # a W carried out with the R right after it (``_reads``)

@@ -22,6 +22,7 @@ from hil.scenario.faults_section import FaultKind
 from hil.servobus.master_check import KINDS as VIOLATION_KINDS
 from hil.link.served_firmware import served_firmware
 from hil.mcu.flash_fs import FlashFiles
+from host_tools.expect.signal_fields import check_signal_field
 from protocol import can_frames
 from protocol.errors import UserError
 
@@ -213,49 +214,6 @@ def _check_kind(where: str, kind: Kind, values: dict[str, Any]) -> None:
             raise UserError(f"{where}: key '{key}' must be 0 or more, got {values[key]}")
 
 
-def _check_signal_field(where: str, topic: str, path: str) -> None:
-    """A ``signal`` expectation's topic is one a trace of ours has, and its field one that
-    topic's messages hold (a protobuf topic's schema, a CAN frame's signals; the firmware's
-    own ``/telemetry`` and the violations are free-form): a typo is bad input before
-    anything runs, not a FAIL after it."""
-    from host_tools.trace import protobuf, topics
-    from protocol.can_frames import FRAMES
-
-    if topic.startswith(topics.T_CAN_PREFIX) and topic != topics.T_CAN_RAW:
-        frame = topic[len(topics.T_CAN_PREFIX):]
-        if frame not in FRAMES:
-            raise UserError(f"{where}: key 'topic': no CAN frame {frame!r} in "
-                            f"protocol/hexhil.dbc ({', '.join(sorted(FRAMES))})")
-        names = [sig[0] for sig in FRAMES[frame][2]]
-        if path not in names:
-            raise UserError(f"{where}: key 'field': frame {frame} has no signal {path!r} "
-                            f"({', '.join(names)})")
-        return
-    if topic not in topics.CHANNELS:
-        raise UserError(f"{where}: key 'topic': no topic {topic!r} in a trace "
-                        f"({', '.join(sorted(topics.CHANNELS))}, or /can/FRAME)")
-    schema, encoding = topics.CHANNELS[topic]
-    if encoding != "protobuf":
-        return
-    desc = protobuf.CLASSES[schema].DESCRIPTOR
-    repeated = False
-    for part in path.replace("[", ".[").split("."):
-        if not part:
-            continue
-        if part.startswith("["):
-            if not repeated or not (part == "[*]" or part[1:-1].lstrip("-").isdigit()):
-                raise UserError(f"{where}: key 'field': {path!r}: {part} follows no list")
-            repeated = False
-            continue
-        if desc is None or part not in desc.fields_by_name:
-            have = ", ".join(desc.fields_by_name) if desc is not None else "none"
-            raise UserError(f"{where}: key 'field': {path!r}: no field {part!r} in "
-                            f"{topic}'s messages (fields here: {have})")
-        fd = desc.fields_by_name[part]
-        desc = fd.message_type
-        repeated = fd.is_repeated
-
-
 def expectation(where: str, raw: Any, index: int = 0) -> Expectation:
     """One ``[[expect]]`` table, checked (``where`` and ``index`` name it in errors)."""
     if not isinstance(raw, dict):
@@ -282,7 +240,7 @@ def expectation(where: str, raw: Any, index: int = 0) -> Expectation:
     if kind is Kind.TACTILE_RULE:
         values = {**TACTILE_DEFAULTS, **values}
     if kind is Kind.SIGNAL:
-        _check_signal_field(label, values["topic"], values["field"])
+        check_signal_field(label, values["topic"], values["field"])
     return Expectation(name, kind, window, tuple(sorted(values.items())))
 
 
