@@ -170,7 +170,7 @@ def test_the_planted_bug_is_found_shrunk_and_replayed_and_ours_survives(tmp_path
 
 
 def test_a_campaign_is_its_seed_on_one_server_on_two_and_on_dask():
-    distributed = pytest.importorskip("distributed")
+    import distributed
     settings = campaign.Settings(**{**SMALL, "runs": 14}, main_file=str(PLANTED),
                                  shrink=False)
     one, two = campaign.fuzz(settings), campaign.fuzz(replace(settings, jobs=2))

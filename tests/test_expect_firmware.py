@@ -91,7 +91,7 @@ def test_a_bad_case_firmware_is_one_line(tmp_path: Path, extra: str, says: str) 
 
 @pytest.mark.parametrize("argv, says", [
     (["--firmware", "nowhere.py"], "--firmware nowhere.py: not a file"),
-    (["--firmware", str(BOARD_TRIPOD), "--python", "cpython"], "leave out --python"),
+    (["--firmware", str(BOARD_TRIPOD), "--python", "cpython"], "leave out --runtime"),
     (["--trace", "t.mcap", "--repeat", "2"], "--trace evaluates one recorded run"),
 ])
 def test_bad_options_are_one_line(tmp_path: Path, argv: list[str], says: str) -> None:

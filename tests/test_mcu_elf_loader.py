@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def hexhil_run(elf, *extra):
     return hexhil("run", "scenarios/flat-tripod.toml", "--firmware", elf, "--duration", "0.1",
-                  *extra, timeout=120)
+                  "--quiet", *extra, timeout=120)   # the verdict alone, no live console
 
 
 def one_line(r, status=2):

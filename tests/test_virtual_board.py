@@ -151,7 +151,8 @@ while True:
     ("pass\n", r"the firmware main.py exited at t=0\.\d+ s, before the run's end \(30 s\)"),
 ])
 def test_a_bad_firmware_is_one_line_and_keeps_its_trace(tmp_path, tail, message):
-    r, _ = board_run(tmp_path, PING + "ping(1)\ntime.sleep_ms(50)\n" + tail)
+    """Quiet: the firmware's own console (its traceback too) is not on stderr."""
+    r, _ = board_run(tmp_path, PING + "ping(1)\ntime.sleep_ms(50)\n" + tail, "--quiet")
     assert r.returncode == 1 and "Traceback" not in r.stderr   # a verdict, not bad input
     assert len(r.stderr.strip().splitlines()) == 1 and re.search(message, r.stderr), r.stderr
     with Trace(tmp_path / "t.mcap") as t:

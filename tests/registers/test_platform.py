@@ -63,5 +63,5 @@ def test_every_model_resolves():
 def test_the_docs_table_is_the_generators():
     page = platform.DOCS.read_text()
     assert platform.documented(page) == platform.markdown(), (
-        "docs/elf-firmware.md's platform table is stale: run .venv/bin/python -c "
+        "docs/elf-firmware.md's platform table is stale: run python -c "
         "'from hil.mcu import platform; platform.write_docs()'")

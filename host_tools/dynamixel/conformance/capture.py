@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from hil.run import rig
+from hil.servobus.line import Bus
 from hil.servobus.master_check import MasterCheck
 from hil.servobus.wire import US_BITS
 from host_tools.dynamixel.decode import DECODERS, packet_spans
@@ -37,7 +38,7 @@ class _Line:
     """What the check asks of a bus, answered from the capture: the servos (emulated),
     each byte's time and whether a captured status is still arriving at ``now_us``."""
 
-    bus: Any
+    bus: Bus
     replies: list[tuple[int, int]]   # (start_us, end_us) of each captured status, in order
     now_us: int = 0
 
