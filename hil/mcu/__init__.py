@@ -1,4 +1,4 @@
-"""The emulated STM32F411 (issue 40): an unchanged Cortex-M4F ELF in lockstep with the robot.
+"""The emulated STM32F411: an unchanged Cortex-M4F ELF in lockstep with the robot.
 
 ``elf_image`` reads and checks the ELF; ``core`` runs it on Unicorn in chunks of exact
 instruction counts (one instruction is one cycle of HCLK) and does the exception model
