@@ -57,3 +57,14 @@ static inline void put_word(uint32_t v) {         /* a word in hex and a space *
     buf[9] = 0;
     console_puts(buf);
 }
+
+static inline void put_dec(uint32_t v) {          /* a number in decimal */
+    char buf[12];
+    int i = 11;
+    buf[i] = 0;
+    do {
+        buf[--i] = '0' + v % 10;
+        v /= 10;
+    } while (v);
+    console_puts(buf + i);
+}

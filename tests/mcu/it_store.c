@@ -15,15 +15,6 @@ void SysTick_Handler(void) {
     (void)SYST_CSR;                     /* clears COUNTFLAG */
 }
 
-static void put_dec(uint32_t v) {
-    char buf[12];
-    int i = 11;
-    buf[i--] = 0;
-    do { buf[i--] = '0' + v % 10; v /= 10; } while (v);
-    console_puts(&buf[i + 1]);
-    console_puts(" ");
-}
-
 int main(void) {
     clock_100mhz();
     console_init();
@@ -50,7 +41,9 @@ int main(void) {
         rounds++;
     }
     put_dec(rounds);
+    console_puts(" ");
     put_dec(bad);
+    console_puts(" ");
     console_puts("\n");
     for (;;) __asm__ volatile("wfi");
 }

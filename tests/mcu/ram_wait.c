@@ -15,15 +15,6 @@ void SysTick_Handler(void) {
 
 static uint32_t get_tick(void) { return ticks; }
 
-static void put_dec(uint32_t v) {
-    char buf[12];
-    int i = 11;
-    buf[i--] = 0;
-    do { buf[i--] = '0' + v % 10; v /= 10; } while (v);
-    console_puts(&buf[i + 1]);
-    console_puts(" ");
-}
-
 int main(void) {
     clock_100mhz();
     console_init();
@@ -41,8 +32,11 @@ int main(void) {
     uint32_t cycles = DWT_CYCCNT - c0;
     while (!flag) {}
     put_dec(ticks);
+    console_puts(" ");
     put_dec(cycles);
+    console_puts(" ");
     put_dec(passes);
+    console_puts(" ");
     console_puts("\n");
     for (;;) __asm__ volatile("wfi");
 }

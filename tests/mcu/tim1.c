@@ -29,17 +29,6 @@ void TIM1_CC_IRQHandler(void) {
     }
 }
 
-static void put_dec(uint32_t v) {
-    char buf[12];
-    int i = 11;
-    buf[i] = 0;
-    do {
-        buf[--i] = '0' + v % 10;
-        v /= 10;
-    } while (v);
-    console_puts(buf + i);
-}
-
 int main(void) {
     clock_100mhz();
     console_init();
