@@ -7,7 +7,8 @@ STAMP := $(VENV)/.installed
 .PHONY: setup demo test test-slow bench fuzz clean toolchain gl sigrok
 
 # the compiled cores' sources: pip builds them (setup.py's build_ext), so an edit reinstalls
-CORE_SOURCES := setup.py hil/world/drive_core.c hil/servobus/servo_core.c \
+CORE_SOURCES := setup.py hil/native.py hil/world/drive_core.c hil/world/drive_layout.py \
+	hil/servobus/servo_core.c hil/servobus/servo_layout.py protocol/dynamixel/ax12.py \
 	hil/servobus/reads_core.c hil/servobus/servo_core.h hil/mcu/board_core.c
 
 # `make` alone: the venv and the compiled cores, nothing run

@@ -6,9 +6,14 @@ library its loader opens beside its Python module (hil/native.py).
 The flags are the results' promise: ``-mcpu=baseline`` so that a tree copied to another
 x86-64 machine still runs, and ``-ffp-contract=off`` (no fused multiply-add) so that the
 floating-point cores round as numpy and CPython do, bit for bit.
+
+A core's structs and constants are written once, in Python (hil/native.py ``Layout``): this
+writes them as the header the core includes (``layout``: the module that holds them, and
+the header's name), into the build's temporary folder; the library keeps its fingerprint.
 """
 from __future__ import annotations
 
+import importlib
 import subprocess
 import sys
 from pathlib import Path
@@ -16,23 +21,42 @@ from pathlib import Path
 from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
-COMMON = ["-mcpu=baseline", "-O2", "-shared", "-fPIC"]
+# -g0: no debug information, so no build folder's path in the library (the same bytes
+# from pip's isolated build and from a checkout's)
+COMMON = ["-mcpu=baseline", "-O2", "-g0", "-shared", "-fPIC"]
 FLOAT = ["-ffp-contract=off"]   # numpy's and CPython's bits
 
 
-def _core(name: str, sources: list[str], flags: list[str], depends: list[str] = ()) -> Extension:
+ROOT = Path(__file__).resolve().parent
+
+
+def _core(name: str, sources: list[str], flags: list[str], depends: list[str] = (),
+          layout: tuple[str, str] | None = None) -> Extension:
     ext = Extension(name, sources=sources, depends=list(depends))
     ext.hexhil_flags = COMMON + flags   # type: ignore[attr-defined]
+    ext.hexhil_layout = layout          # type: ignore[attr-defined]
     return ext
 
 
 CORES = [
-    _core("hil.world._drive_core", ["hil/world/drive_core.c"], FLOAT),
+    _core("hil.world._drive_core", ["hil/world/drive_core.c"], FLOAT,
+          depends=["hil/world/drive_layout.py"],
+          layout=("hil.world.drive_layout", "drive_layout.h")),
     _core("hil.servobus._servo_core",
           ["hil/servobus/servo_core.c", "hil/servobus/reads_core.c"], FLOAT,
-          depends=["hil/servobus/servo_core.h"]),
+          depends=["hil/servobus/servo_core.h", "hil/servobus/servo_layout.py"],
+          layout=("hil.servobus.servo_layout", "servo_layout.h")),
     _core("hil.mcu._board_core", ["hil/mcu/board_core.c"], []),   # integers only
 ]
+
+
+def _write_layout(module: str, header: str, folder: Path) -> None:
+    """The core's header from its Layout (the source tree's hil/ and protocol/: plain
+    Python and ctypes, importable in the build's isolated environment)."""
+    if str(ROOT) not in sys.path:
+        sys.path.insert(0, str(ROOT))
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / header).write_text(importlib.import_module(module).LAYOUT.header())
 
 
 class BuildCores(build_ext):
@@ -45,7 +69,12 @@ class BuildCores(build_ext):
     def build_extension(self, ext: Extension) -> None:
         out = Path(self.get_ext_fullpath(ext.name))
         out.parent.mkdir(parents=True, exist_ok=True)
-        cmd = [*_zig_cc(), *ext.hexhil_flags, "-o", str(out), *ext.sources]
+        flags = list(ext.hexhil_flags)
+        if ext.hexhil_layout is not None:
+            include = Path(self.build_temp).resolve() / "hexhil_layouts"
+            _write_layout(*ext.hexhil_layout, include)
+            flags.append(f"-I{include}")
+        cmd = [*_zig_cc(), *flags, "-o", str(out), *ext.sources]
         self.announce(" ".join(cmd), level=2)
         subprocess.run(cmd, check=True)
 

@@ -1,15 +1,21 @@
 """The package builds its compiled cores (setup.py's ``build_ext``, what ``pip install .``
 and ``pip install -e .`` run) where their loaders look, with the flags that keep the
-results' bits; ``hexhil --version`` says which are built; a missing core is one warning."""
+results' bits; ``hexhil --version`` says which are built; a missing core is one warning; a
+core built from other structs or constants than its Python side's is refused."""
 from __future__ import annotations
 
 import ctypes
+import dataclasses
+import importlib
 import logging
 import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from hil import native
+from protocol.errors import BadFile
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -56,3 +62,38 @@ def test_an_unloadable_core_says_so(tmp_path: Path, caplog) -> None:
     with caplog.at_level(logging.WARNING, logger="hil.native"):
         assert native.load_library(stale) is None
     assert "not loadable" in caplog.records[0].getMessage()
+
+
+def test_each_core_was_built_with_the_layout_its_python_side_reads() -> None:
+    for name, module in native.LAYOUTS.items():
+        layout = importlib.import_module(module).LAYOUT
+        assert native.load_library(native.CORES[name], layout=layout) is not None, name
+
+
+def test_a_core_built_with_other_structs_is_refused_in_one_line() -> None:
+    layout = importlib.import_module(native.LAYOUTS["drive bank"]).LAYOUT
+    other = dataclasses.replace(layout, constants=[("HX_OTHER", 1)])
+    with pytest.raises(BadFile) as exc:
+        native.load_library(native.CORES["drive bank"], layout=other)
+    text = str(exc.value)
+    assert "_drive_core.so was built with other structs" in text and "\n" not in text
+
+
+def test_the_header_says_what_the_python_side_lays_out() -> None:
+    layout = importlib.import_module(native.LAYOUTS["servo bank and reads"]).LAYOUT
+    header = layout.header()
+    assert "#define AX12_MOVING_SPEED 32\n" in header
+    assert "    uint8_t present_stale;\n" in header   # Servo's _present_stale
+    assert "    const struct bank *bank;\n" in header
+    assert f'#define HX_LAYOUT "{layout.fingerprint()}"' in header
+
+
+def test_drives_without_their_core_are_refused_in_one_line(monkeypatch) -> None:
+    import numpy as np
+
+    from hil.world import drive_core
+    from hil.world.actuator import DriveBank
+
+    monkeypatch.setattr(drive_core, "_HX_DUTY", None)   # as where the library is missing
+    with pytest.raises(BadFile, match=r"_drive_core.so is not built .*builds it$"):
+        DriveBank(np.zeros(2))

@@ -21,6 +21,7 @@ import ctypes
 from hil.servobus.drive import Actuator, KinematicActuator, drive, is_moving, wheel_mode
 from hil.servobus.table_servo import TableServo
 from hil.servobus.health import ServoHealth
+from hil.servobus.servo_layout import SERVO
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
 
@@ -78,12 +79,7 @@ class Servo(TableServo, ctypes.Structure):
     ``struct servo``) steps the same state this class does.
     """
 
-    _fields_ = [("t_us", ctypes.c_int64), ("busy_until_us", ctypes.c_int64),
-                ("deaf_until_us", ctypes.c_int64), ("held_us", ctypes.c_int64),
-                ("held", ctypes.c_int64), ("instructions", ctypes.c_int64),
-                ("ignored", ctypes.c_int64), ("eeprom_busy_us", ctypes.c_int64),
-                ("alarm_led", ctypes.c_bool), ("address_changed", ctypes.c_bool),
-                ("_present_stale", ctypes.c_bool)]
+    _fields_ = SERVO   # servo_layout.py: the C code's ``struct servo`` too
     layout = ax12
 
     def __init__(self, dev_id: int = 1, edition: str = ax12.EDITION_EMANUAL,

@@ -10,6 +10,7 @@ from __future__ import annotations
 import ctypes
 import math
 
+from hil.servobus.servo_layout import HEALTH
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
 
@@ -34,15 +35,10 @@ class ServoHealth(ctypes.Structure):
 
     Present Voltage and Present Temperature units are kept beside the SI values: the alarm
     check reads them twice per instruction. A ctypes structure: the compiled SYNC_WRITE
-    (hil/servobus/servo_core.c, its ``struct health``) steps it in place.
+    (hil/servobus/servo_core.c) steps it in place.
     """
 
-    _fields_ = [("supply_v", ctypes.c_double), ("supply_frac", ctypes.c_double),
-                ("temperature_c", ctypes.c_double), ("_hot_spot_c", ctypes.c_double),
-                ("saturated_us", ctypes.c_int64), ("voltage_units", ctypes.c_int32),
-                ("temperature_units", ctypes.c_int32),
-                ("overload", ctypes.c_bool),   # latched until Torque Limit is written again
-                ("_hot", ctypes.c_bool)]
+    _fields_ = HEALTH   # servo_layout.py: the C code's ``struct health`` too
 
     def __init__(self) -> None:
         super().__init__()

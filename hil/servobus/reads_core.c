@@ -1,4 +1,4 @@
-/* A cycle's status reads on a plain line: link version 2's R (hil/link/server.py _reads,
+/* A cycle's status reads on a plain line: link version 2's R (hil/servobus/status_reads.py,
  * docs/link.md "R reads") carried out in one call, where the Python code makes about thirty
  * calls an attempt (Bus.transact, the master's status test, the reply's packing), with the
  * SYNC_WRITE the firmware sends before them in the same batch (its W: Bus.master_write of
@@ -20,37 +20,7 @@
  * re-indexed). */
 #include "servo_core.h"
 
-enum { DONE = 0, ADVANCE = 1, PYTHON = 2, PYTHON_REPLY = 3, FALLBACK = 4, WRITE_LEFT = 5 };
-enum { START = 0, SERVO = 1, HEARD = 2, WRITTEN = 3 };
-enum { HEAD = 12, NO_SKIP = 0xFF, MAX_REPLY = 2048, ATTEMPT_HEAD = 10, US_BITS = 10000000,
-       READ = 0x02, RETURN_DELAY = 5, BROADCAST = 0xFE, SYNC_WRITE = 0x83 };
-
-struct reads {
-    const struct bank *bank;
-    const unsigned char *payload;
-    int32_t len;
-    const int16_t *index;         /* 256: the bank index of the one servo an ID reaches; -1 */
-    int64_t baud;
-    int64_t delay_override_us;    /* -1: each servo's own Return Delay Time */
-    int64_t t_us;                 /* the line's clock */
-    int64_t next_step_us;         /* the clock reaching this steps the world */
-    int32_t r, k, at, phase;      /* read r, whose head is at payload[at]; its attempt k */
-    int32_t i, m;                 /* the attempt's servo (bank index) and reply length */
-    int64_t t0_us, t1_us, start_us;
-    int8_t done[256];             /* per read: 1 it succeeded, 0 it failed, -1 skipped */
-    unsigned char reply[64];
-    unsigned char body[MAX_REPLY];   /* the reply after its time: u8 attempts, then each */
-    int32_t body_len;
-    unsigned char log[32768];     /* heard since the Python side last took it (serial_stream.py):
-                                     u64 t, u8 'T'/'R', the bytes; at most ~200 attempts an R */
-    int32_t log_len;
-    unsigned char lens[1024];     /* each record's length */
-    int32_t nrec;
-    int64_t tx_bytes, rx_bytes, packets, replies, busy_us, wire_us;
-    const unsigned char *write;   /* the W before the reads, or NULL (write_len 0) */
-    int32_t write_len;
-    int32_t *changed;             /* the bank's flag: the W changed an ID or Baud Rate */
-};
+enum { START = 0, SERVO = 1, HEARD = 2, WRITTEN = 3 };   /* an attempt's phase */
 
 static int64_t wire_us(const struct reads *s, int64_t n) { return n * US_BITS / s->baud; }
 
@@ -64,27 +34,28 @@ static void heard(struct reads *s, int64_t t_us, char dir, const unsigned char *
     s->lens[s->nrec++] = (unsigned char)n;
 }
 
-/* server.py _reads's checks, and this path's own: every read a clean 8-byte READ, no echo */
+/* status_reads.py parse's checks, and this path's own: every read a clean 8-byte READ, no echo */
 static int checked(struct reads *s)
 {
     const unsigned char *p = s->payload;
     if (s->len < 1)
         return 0;
-    int n = p[0], at = 1, room = MAX_REPLY - 9;
+    int n = p[0], at = 1, room = LINK_MAX_REPLY_LEN - 9;
     for (int r = 0; r < n; r++) {
-        if (at + HEAD > s->len)
+        if (at + LINK_READ_LEN > s->len)
             return 0;
         const unsigned char *h = p + at;
         int retries = h[2], flags = h[3], skip = h[4], nrx = h[5] | (h[6] << 8), ntx = h[11];
-        if ((skip != NO_SKIP && skip >= r) || flags || ntx != 8 || at + HEAD + 8 > s->len)
+        if ((skip != LINK_NO_SKIP && skip >= r) || flags || ntx != 8
+            || at + LINK_READ_LEN + 8 > s->len)
             return 0;
-        const unsigned char *tx = h + HEAD;
+        const unsigned char *tx = h + LINK_READ_LEN;
         int sum = tx[2] + tx[3] + tx[4] + tx[5] + tx[6];
-        if (tx[0] != 0xFF || tx[1] != 0xFF || tx[3] != 4 || tx[4] != READ
+        if (tx[0] != 0xFF || tx[1] != 0xFF || tx[3] != 4 || tx[4] != DXL_READ
             || (~sum & 0xFF) != tx[7])
             return 0;
-        room -= (1 + retries) * (ATTEMPT_HEAD + nrx);
-        at += HEAD + 8;
+        room -= (1 + retries) * (LINK_ATTEMPT_HEAD_LEN + nrx);
+        at += LINK_READ_LEN + 8;
     }
     return at == s->len && room >= 0;
 }
@@ -95,8 +66,8 @@ static int write_checked(const struct reads *s)
 {
     const unsigned char *w = s->write;
     int n = s->write_len, sum = 0;
-    if (n < 6 || w[0] != 0xFF || w[1] != 0xFF || w[2] != BROADCAST || w[3] + 4 != n
-        || w[4] != SYNC_WRITE)
+    if (n < 6 || w[0] != 0xFF || w[1] != 0xFF || w[2] != DXL_BROADCAST_ID || w[3] + 4 != n
+        || w[4] != DXL_SYNC_WRITE)
         return 0;
     for (int j = 2; j < n - 1; j++)
         sum += w[j];
@@ -113,7 +84,7 @@ int hx_reads(struct reads *s)
     const unsigned char *p = s->payload;
     if (s->at == 0) {                 /* a new R, and the W before it */
         if (!checked(s) || (s->write_len && !write_checked(s)))
-            return FALLBACK;
+            return HX_FALLBACK;
         s->log_len = s->nrec = 0;
         s->at = 1;
         s->r = s->k = s->phase = 0;
@@ -127,7 +98,7 @@ int hx_reads(struct reads *s)
             s->t_us += wire_us(s, s->write_len);
             s->phase = WRITTEN;
             if (s->t_us >= s->next_step_us)
-                return ADVANCE;
+                return HX_ADVANCE;
         }
     }
     if (s->phase == WRITTEN) {
@@ -138,10 +109,10 @@ int hx_reads(struct reads *s)
         *s->changed = 0;
         s->i = hx_sync_write(s->bank, 0, s->t_us, s->write + 5, s->write_len - 6, s->changed);
         if (s->i < s->bank->n || *s->changed)
-            return WRITE_LEFT;
+            return HX_WRITE_LEFT;
     }
     while (s->r < p[0]) {
-        const unsigned char *h = p + s->at, *tx = h + HEAD;
+        const unsigned char *h = p + s->at, *tx = h + LINK_READ_LEN;
         int dev_id = h[0], nparams = h[1], retries = h[2], skip = h[4];
         int nrx = h[5] | (h[6] << 8);
         int64_t timeout_us;
@@ -149,15 +120,15 @@ int hx_reads(struct reads *s)
         memcpy(&to, h + 7, 4);
         timeout_us = to;
         if (s->phase == START) {
-            if (skip != NO_SKIP && s->done[skip] != 1) {
+            if (skip != LINK_NO_SKIP && s->done[skip] != 1) {
                 s->done[s->r++] = -1;
-                s->at += HEAD + 8;
+                s->at += LINK_READ_LEN + 8;
                 continue;
             }
             int i = s->index[tx[2]];
             int64_t t1 = s->t_us + wire_us(s, 8);
             if (i < 0 || !hx_serves(s->bank, i, t1))
-                return PYTHON;        /* no servo in the bank, or hx_read would leave it */
+                return HX_PYTHON;     /* no servo in the bank, or hx_read would leave it */
             s->i = i;
             s->t0_us = s->t_us;
             s->t1_us = t1;
@@ -167,7 +138,7 @@ int hx_reads(struct reads *s)
             s->t_us = t1;
             s->phase = SERVO;
             if (t1 >= s->next_step_us)
-                return ADVANCE;
+                return HX_ADVANCE;
         }
         if (s->phase == SERVO) {
             int i = s->i;
@@ -178,13 +149,14 @@ int hx_reads(struct reads *s)
                 /* the margin's override, else TableServo.return_delay_us: register 5 in
                  * 2 us units (ax12.return_delay_us), plus how long the READ waited */
                 int64_t delay = s->delay_override_us >= 0 ? s->delay_override_us
-                    : 2 * (int64_t)s->bank->table[i][RETURN_DELAY] + s->bank->servo[i]->held_us;
+                    : 2 * (int64_t)s->bank->table[i][AX12_RETURN_DELAY_TIME]
+                      + s->bank->servo[i]->held_us;
                 int64_t start = s->t1_us + delay, t_last = start + wire_us(s, m);
                 s->replies += 1;
                 s->start_us = start;
                 s->m = m;
                 if (m > nrx || t_last > deadline)
-                    return PYTHON_REPLY;   /* bytes left on the line, or cut off */
+                    return HX_PYTHON_REPLY;   /* bytes left on the line, or cut off */
                 s->rx_bytes += m;
                 heard(s, start, 'R', s->reply, m);
                 t_end = m == nrx ? t_last : deadline;
@@ -192,7 +164,7 @@ int hx_reads(struct reads *s)
             s->t_us = t_end;
             s->phase = HEARD;
             if (t_end >= s->next_step_us)
-                return ADVANCE;
+                return HX_ADVANCE;
         }
         /* HEARD: the attempt into the reply, then the retry rule */
         int m = s->m;
@@ -200,8 +172,8 @@ int hx_reads(struct reads *s)
         memcpy(b, &s->t_us, 8);
         b[8] = (unsigned char)(m & 0xFF);
         b[9] = (unsigned char)(m >> 8);
-        memcpy(b + ATTEMPT_HEAD, s->reply, (size_t)m);
-        s->body_len += ATTEMPT_HEAD + m;
+        memcpy(b + LINK_ATTEMPT_HEAD_LEN, s->reply, (size_t)m);
+        s->body_len += LINK_ATTEMPT_HEAD_LEN + m;
         s->body[0] += 1;
         s->busy_us += s->t_us - s->t0_us;
         s->wire_us += wire_time_us(s, 8 + m);
@@ -212,10 +184,10 @@ int hx_reads(struct reads *s)
         if (ok || s->k >= retries) {
             s->done[s->r++] = (int8_t)ok;
             s->k = 0;
-            s->at += HEAD + 8;
+            s->at += LINK_READ_LEN + 8;
         } else {
             s->k += 1;
         }
     }
-    return DONE;
+    return HX_DONE;
 }

@@ -1,7 +1,7 @@
 """A cycle's status reads compiled (hil/servobus/reads_core.c ``hx_reads``), through ctypes.
 
 Link version 2 hands the host a cycle's status reads in one message, R; the general path
-(hil/link/server.py ``_attempts``) carries each attempt out through ``Bus.transact``, tests
+(hil/servobus/status_reads.py) carries each attempt out through ``Bus.transact``, tests
 its reply with the master's own rule and packs it: about 60 us of a 930 us in-process
 cycle, half of it left compiled (docs/performance.md). The SYNC_WRITE the
 firmware sends just before, in the same batch (its W), goes with them: ``Bus.master_write``
@@ -24,31 +24,18 @@ from hil.native import load_library
 from hil.servobus import serial_stream
 from hil.servobus.line import Bus
 from hil.servobus.servo_core import LIBRARY, ServoBank
+from hil.servobus.servo_layout import HANDOVER, LAYOUT
 
 _P = ctypes.c_void_p
-DONE, ADVANCE, PYTHON, PYTHON_REPLY, FALLBACK, WRITE_LEFT = range(6)
+DONE, ADVANCE, PYTHON, PYTHON_REPLY, FALLBACK, WRITE_LEFT = range(len(HANDOVER))
 
 
 class _Reads(ctypes.Structure):
-    _fields_ = [("bank", _P), ("payload", ctypes.c_char_p), ("len", ctypes.c_int32),
-                ("index", _P), ("baud", ctypes.c_int64), ("delay_override_us", ctypes.c_int64),
-                ("t_us", ctypes.c_int64), ("next_step_us", ctypes.c_int64),
-                ("r", ctypes.c_int32), ("k", ctypes.c_int32), ("at", ctypes.c_int32),
-                ("phase", ctypes.c_int32), ("i", ctypes.c_int32), ("m", ctypes.c_int32),
-                ("t0_us", ctypes.c_int64), ("t1_us", ctypes.c_int64),
-                ("start_us", ctypes.c_int64), ("done", ctypes.c_int8 * 256),
-                ("reply", ctypes.c_uint8 * 64), ("body", ctypes.c_uint8 * 2048),
-                ("body_len", ctypes.c_int32), ("log", ctypes.c_uint8 * 32768),
-                ("log_len", ctypes.c_int32), ("lens", ctypes.c_uint8 * 1024),
-                ("nrec", ctypes.c_int32), ("tx_bytes", ctypes.c_int64),
-                ("rx_bytes", ctypes.c_int64), ("packets", ctypes.c_int64),
-                ("replies", ctypes.c_int64), ("busy_us", ctypes.c_int64),
-                ("wire_us", ctypes.c_int64), ("write", ctypes.c_char_p),
-                ("write_len", ctypes.c_int32), ("changed", _P)]
+    _fields_ = LAYOUT.fields("reads")
 
 
 def _load() -> Any:
-    lib = load_library(LIBRARY, keep_gil=True)
+    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT)
     fn = getattr(lib, "hx_reads", None) if lib is not None else None
     if fn is not None:
         fn.argtypes, fn.restype = [_P], ctypes.c_int

@@ -7,23 +7,21 @@
  * bits (built with -ffp-contract=off: no fused multiply-add; exp and rint are the C
  * library's, which CPython's math.exp and round call too). The servos' state lives in
  * ctypes structures the Python code reads and writes as attributes (servo_core.py).
- * Loaded by hil/servobus/servo_core.py; built by the Makefile. */
+ * Loaded by hil/servobus/servo_core.py; built by setup.py, which writes servo_layout.h (the
+ * structs and the protocol's constants) from hil/servobus/servo_layout.py. */
 #include "servo_core.h"
 
-enum { ERR_INPUT_VOLTAGE = 0x01, ERR_OVERHEATING = 0x04, ERR_RANGE = 0x08, ERR_OVERLOAD = 0x20,
-       ERR_INSTRUCTION = 0x40 };
-enum { ID = 3, BAUD = 4, CW = 6, CCW = 8, TEMP_LIMIT = 11, MIN_V = 12, MAX_V = 13,
-       ALARM_LED = 17, SHUTDOWN = 18, EEPROM_END = 24, TORQUE_ENABLE = 24, GOAL = 30,
-       MOVING_SPEED = 32, TORQUE_LIMIT = 34, PRESENT_POSITION = 36, PRESENT_VOLTAGE = 42,
-       PRESENT_TEMPERATURE = 43, MOVING = 46, LOCK = 47, PUNCH = 48, TABLE_SIZE = 50,
-       STATUS_RETURN_LEVEL = 16, DIRECTION = 0x400 };
+const char hx_layout[] = HX_LAYOUT;   /* checked at load (hil/native.py) */
 
 /* Python's min(a, b) and max(a, b): the first unless the second is strictly beyond it */
 static double py_min(double a, double b) { return b < a ? b : a; }
 static double py_max(double a, double b) { return b > a ? b : a; }
 
 static int u16(const unsigned char *t, int a) { return t[a] | (t[a + 1] << 8); }
-static int wheel(const unsigned char *t) { return !(t[6] || t[7] || t[8] || t[9]); }
+static int wheel(const unsigned char *t)   /* both angle limits 0 */
+{
+    return !(u16(t, AX12_CW_ANGLE_LIMIT) || u16(t, AX12_CCW_ANGLE_LIMIT));
+}
 
 /* MujocoActuator.state()[0] and [2] */
 static double present_rad(const struct bank *b, int j) { return b->q[j] + b->offset[j]; }
@@ -36,7 +34,7 @@ static double load_frac(const struct bank *b, int j)
 /* drive.py drive() into MujocoActuator.command() */
 static void command(const struct bank *b, const unsigned char *t, double supply_frac, int j)
 {
-    int speed = u16(t, MOVING_SPEED);
+    int speed = u16(t, AX12_MOVING_SPEED);
     double goal_rad, speed_rad_s;
     if (wheel(t)) {
         int mag = speed & 0x3FF;
@@ -46,20 +44,22 @@ static void command(const struct bank *b, const unsigned char *t, double supply_
             goal_rad = present_rad(b, j);
         speed_rad_s = (double)mag * b->speed_unit * 2.0 * M_PI / 60.0;
     } else {
-        int cw = u16(t, CW), ccw = u16(t, CCW), goal = u16(t, GOAL);
+        int cw = u16(t, AX12_CW_ANGLE_LIMIT), ccw = u16(t, AX12_CCW_ANGLE_LIMIT),
+            goal = u16(t, AX12_GOAL_POSITION);
         goal_rad = b->position_rad[goal < cw ? cw : (goal > ccw ? ccw : goal)];
         speed_rad_s = b->speed_rad_s[speed];
     }
     double limit = py_min(speed_rad_s, b->ax12_no_load * supply_frac);
-    double torque = (double)u16(t, TORQUE_LIMIT) * b->load_unit * supply_frac;
-    int enabled = t[TORQUE_ENABLE] != 0;
+    double torque = (double)u16(t, AX12_TORQUE_LIMIT) * b->load_unit * supply_frac;
+    int enabled = t[AX12_TORQUE_ENABLE] != 0;
     if (enabled && !b->enabled[j])
         b->setpoint[j] = present_rad(b, j);   /* resume from where it reads */
     b->goal[j] = goal_rad;
     b->speed[j] = limit > 0 ? limit : b->motor_no_load;
     b->torque_limit[j] = py_min(py_max(torque, 0.0), 1.0);
     b->enabled[j] = (unsigned char)enabled;
-    double c[5] = {t[26], t[27], t[28], t[29], u16(t, PUNCH)};
+    const unsigned char *m = t + AX12_CW_COMPLIANCE_MARGIN;   /* CW, CCW margin; CW, CCW slope */
+    double c[5] = {m[0], m[1], m[2], m[3], u16(t, AX12_PUNCH)};
     double *seen = b->compliance + 5 * j;
     if (memcmp(c, seen, sizeof c) != 0 || seen[0] != seen[0]) {   /* DriveBank.set_compliance */
         int n = b->joints;
@@ -103,12 +103,13 @@ static void health_advance(const struct bank *b, struct health *h, int64_t dt_us
 static int health_errors(const struct health *h, const unsigned char *t)
 {
     int e = 0;
-    if (h->voltage_units < t[MIN_V] || h->voltage_units > t[MAX_V])
-        e |= ERR_INPUT_VOLTAGE;
-    if (h->temperature_units > t[TEMP_LIMIT])
-        e |= ERR_OVERHEATING;
+    int v = h->voltage_units;
+    if (v < t[AX12_MIN_VOLTAGE_LIMIT] || v > t[AX12_MAX_VOLTAGE_LIMIT])
+        e |= DXL_ERR_INPUT_VOLTAGE;
+    if (h->temperature_units > t[AX12_TEMPERATURE_LIMIT])
+        e |= DXL_ERR_OVERHEATING;
     if (h->overload)
-        e |= ERR_OVERLOAD;
+        e |= DXL_ERR_OVERLOAD;
     return e;
 }
 
@@ -119,11 +120,11 @@ static void alarm(const struct bank *b, int i, int errors)
         return;
     struct servo *s = b->servo[i];
     unsigned char *t = b->table[i];
-    if (errors & t[ALARM_LED])
+    if (errors & t[AX12_ALARM_LED])
         s->alarm_led = 1;
-    if ((errors & t[SHUTDOWN]) && (t[TORQUE_LIMIT] || t[TORQUE_LIMIT + 1])) {
-        t[TORQUE_LIMIT] = 0;
-        t[TORQUE_LIMIT + 1] = 0;
+    if ((errors & t[AX12_SHUTDOWN]) && (t[AX12_TORQUE_LIMIT] || t[AX12_TORQUE_LIMIT + 1])) {
+        t[AX12_TORQUE_LIMIT] = 0;
+        t[AX12_TORQUE_LIMIT + 1] = 0;
         command(b, t, b->health[i]->supply_frac, b->joint[i]);
         s->present_stale = 1;
     }
@@ -139,7 +140,7 @@ static void advance(const struct bank *b, int i, int64_t t_us)
     s->t_us = t_us;
     unsigned char *t = b->table[i];
     struct health *h = b->health[i];
-    int tl = t[TORQUE_ENABLE] ? u16(t, TORQUE_LIMIT) : 0;
+    int tl = t[AX12_TORQUE_ENABLE] ? u16(t, AX12_TORQUE_LIMIT) : 0;
     health_advance(b, h, dt, load_frac(b, b->joint[i]), tl);
     s->present_stale = 1;
     alarm(b, i, health_errors(h, t));
@@ -150,13 +151,14 @@ static int refused(const struct bank *b, int i, int a, const unsigned char *d, i
 {
     const unsigned char *t = b->table[i];
     int end = a + n;
-    if (end > TABLE_SIZE)
+    if (end > AX12_TABLE_SIZE)
         return 1;
-    if (t[LOCK]) {
+    if (t[AX12_LOCK]) {
         if (b->original[i]) {
-            if (a < TORQUE_ENABLE || end > PRESENT_POSITION)
+            if (a < AX12_TORQUE_ENABLE || end > AX12_PRESENT_POSITION)
                 return 1;
-        } else if (a < EEPROM_END || (a <= LOCK && LOCK < end && d[LOCK - a] == 0)) {
+        } else if (a < AX12_EEPROM_END
+                   || (a <= AX12_LOCK && AX12_LOCK < end && d[AX12_LOCK - a] == 0)) {
             return 1;
         }
     }
@@ -172,7 +174,7 @@ static int refused(const struct bank *b, int i, int a, const unsigned char *d, i
             int hi_i = start + 1;
             v = lo | ((hi_i < end ? d[hi_i - a] : t[hi_i]) << 8);
         }
-        if (v < f->lo || v > ((start == MOVING_SPEED && w) ? 2047 : f->hi))
+        if (v < f->lo || v > ((start == AX12_MOVING_SPEED && w) ? 2047 : f->hi))
             return 1;
         c = start + f->size;
     }
@@ -186,17 +188,17 @@ static int apply(const struct bank *b, int i, int a, const unsigned char *d, int
     unsigned char *t = b->table[i];
     int end = a + n;
     memcpy(t + a, d, (size_t)n);
-    if (a < EEPROM_END)
+    if (a < AX12_EEPROM_END)
         s->busy_until_us = s->t_us + s->eeprom_busy_us;
-    int changed = a <= BAUD && end > ID;
+    int changed = a <= AX12_BAUD_RATE && end > AX12_ID;
     if (changed)
         s->address_changed = 1;
-    if (a <= TORQUE_LIMIT + 1 && end > TORQUE_LIMIT) {   /* ServoHealth.rearm */
+    if (a <= AX12_TORQUE_LIMIT + 1 && end > AX12_TORQUE_LIMIT) {   /* ServoHealth.rearm */
         b->health[i]->overload = 0;
         b->health[i]->saturated_us = 0;
     }
-    if ((end > TORQUE_ENABLE && a < PRESENT_POSITION) || end > PUNCH
-        || (a <= CCW + 1 && end > CW)) {
+    if ((end > AX12_TORQUE_ENABLE && a < AX12_PRESENT_POSITION) || end > AX12_PUNCH
+        || (a <= AX12_CCW_ANGLE_LIMIT + 1 && end > AX12_CW_ANGLE_LIMIT)) {
         command(b, t, b->health[i]->supply_frac, b->joint[i]);
         s->present_stale = 1;
     }
@@ -223,14 +225,14 @@ int hx_sync_write(const struct bank *b, int from, int64_t t_us, const unsigned c
     }
     for (int i = from; i < b->n; i++) {
         struct servo *s = b->servo[i];
-        if (!hx_serves(b, i, t_us) || u16(b->table[i], MOVING_SPEED) > 2047)
+        if (!hx_serves(b, i, t_us) || u16(b->table[i], AX12_MOVING_SPEED) > 2047)
             return i;
         advance(b, i, t_us);                /* TableServo._take, nothing to wait for */
         s->held_us = 0;
         s->instructions += 1;
         if (a < 0)
             continue;
-        int at = first[b->table[i][ID]];
+        int at = first[b->table[i][AX12_ID]];
         if (at < 0 || refused(b, i, a, p + at, stride - 1))
             continue;
         if (apply(b, i, a, p + at, stride - 1))
@@ -251,25 +253,26 @@ static void refresh_present(const struct bank *b, int i)
     int j = b->joint[i];
     double pos = present_rad(b, j), vel = b->qd[j], load = load_frac(b, j);
     /* rad_to_position: math.degrees is x * (180 / pi) */
-    int64_t p = py_round((pos * (180.0 / M_PI) + 150.0) * 1023.0 / 300.0);
-    p = p < 0 ? 0 : (p > 1023 ? 1023 : p);
-    t[36] = (unsigned char)(p & 0xFF);
-    t[37] = (unsigned char)(p >> 8);
+    int64_t p = py_round((pos * (180.0 / M_PI) + AX12_POSITION_CENTRE_DEG) * AX12_POSITION_MAX
+                         / AX12_POSITION_RANGE_DEG);
+    p = p < 0 ? 0 : (p > AX12_POSITION_MAX ? AX12_POSITION_MAX : p);
+    t[AX12_PRESENT_POSITION] = (unsigned char)(p & 0xFF);
+    t[AX12_PRESENT_POSITION + 1] = (unsigned char)(p >> 8);
     int64_t v = py_round(fabs(vel) * 60.0 / (2.0 * M_PI) / b->speed_unit);   /* rad_s_to_signed */
     v = v > 1023 ? 1023 : v;
     if (vel < 0 && v)
-        v |= DIRECTION;
-    t[38] = (unsigned char)(v & 0xFF);
-    t[39] = (unsigned char)(v >> 8);
+        v |= AX12_DIRECTION_BIT;
+    t[AX12_PRESENT_SPEED] = (unsigned char)(v & 0xFF);
+    t[AX12_PRESENT_SPEED + 1] = (unsigned char)(v >> 8);
     int64_t ld = py_round(fabs(load) / b->load_unit);                       /* fraction_to_load */
     ld = ld > 1023 ? 1023 : ld;
     if (load < 0 && ld)
-        ld |= DIRECTION;
-    t[40] = (unsigned char)(ld & 0xFF);
-    t[41] = (unsigned char)(ld >> 8);
-    t[PRESENT_VOLTAGE] = (unsigned char)h->voltage_units;
-    t[PRESENT_TEMPERATURE] = (unsigned char)h->temperature_units;
-    t[MOVING] = fabs(vel) >= b->moving_eps;
+        ld |= AX12_DIRECTION_BIT;
+    t[AX12_PRESENT_LOAD] = (unsigned char)(ld & 0xFF);
+    t[AX12_PRESENT_LOAD + 1] = (unsigned char)(ld >> 8);
+    t[AX12_PRESENT_VOLTAGE] = (unsigned char)h->voltage_units;
+    t[AX12_PRESENT_TEMPERATURE] = (unsigned char)h->temperature_units;
+    t[AX12_MOVING] = fabs(vel) >= b->moving_eps;
     b->servo[i]->present_stale = 0;
 }
 
@@ -286,9 +289,9 @@ int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned ch
     s->instructions += 1;
     unsigned char *t = b->table[i];
     int error = 0, len = 0;
-    unsigned char data[TABLE_SIZE];
-    if (a + n > TABLE_SIZE || n == 0) {
-        error = ERR_RANGE;
+    unsigned char data[AX12_TABLE_SIZE];
+    if (a + n > AX12_TABLE_SIZE || n == 0) {
+        error = DXL_ERR_RANGE;
     } else {
         if (s->present_stale)
             refresh_present(b, i);
@@ -296,12 +299,12 @@ int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned ch
         len = n;
     }
     alarm(b, i, error | health_errors(b->health[i], t));
-    if (t[STATUS_RETURN_LEVEL] < 1)   /* Servo._answer: a READ is answered from level 1 */
+    if (t[AX12_STATUS_RETURN_LEVEL] < 1)   /* Servo._answer: a READ is answered from level 1 */
         return 0;
     int code = error | health_errors(b->health[i], t);
-    int sum = t[ID] + len + 2 + code;
+    int sum = t[AX12_ID] + len + 2 + code;
     out[0] = out[1] = 0xFF;
-    out[2] = t[ID];
+    out[2] = t[AX12_ID];
     out[3] = (unsigned char)(len + 2);
     out[4] = (unsigned char)code;
     for (int k = 0; k < len; k++) {
@@ -316,8 +319,8 @@ int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned ch
  * checks), as the recorder logs it on /servos: id, Present Position's true angle, speed,
  * load (MujocoActuator.state), temperature, voltage, torque enabled, moving (drive.py
  * is_moving), the error bits (ServoHealth.errors); packed little-endian "<Bddddd??B",
- * STATE_ROW bytes a servo (servo_core.py unpacks them where the recorder encodes). */
-enum { STATE_ROW = 44 };
+ * STATE_ROW bytes a servo (servo_layout.py; servo_core.py unpacks them where the recorder
+ * encodes). */
 
 void hx_state_rows(const struct bank *b, unsigned char *out)
 {
@@ -326,13 +329,13 @@ void hx_state_rows(const struct bank *b, unsigned char *out)
         const struct health *h = b->health[i];
         int j = b->joint[i];
         double pos = present_rad(b, j), vel = b->qd[j], load = load_frac(b, j);
-        out[0] = t[ID];
+        out[0] = t[AX12_ID];
         memcpy(out + 1, &pos, 8);
         memcpy(out + 9, &vel, 8);
         memcpy(out + 17, &load, 8);
         memcpy(out + 25, &h->temperature_c, 8);
         memcpy(out + 33, &h->supply_v, 8);
-        out[41] = t[TORQUE_ENABLE] != 0;
+        out[41] = t[AX12_TORQUE_ENABLE] != 0;
         out[42] = fabs(vel) >= b->moving_eps;
         out[43] = (unsigned char)health_errors(h, t);
     }

@@ -19,7 +19,6 @@ without it the bus serves every servo in Python.
 from __future__ import annotations
 
 import ctypes
-import struct
 from typing import Any, Sequence
 
 import numpy as np
@@ -27,6 +26,7 @@ import numpy as np
 from hil.native import CORES, load_library
 from hil.seams import HeldSample
 from hil.servobus import drive, health
+from hil.servobus.servo_layout import LAYOUT, STATE_ROW
 from protocol.dynamixel import ax12
 from protocol.dynamixel import v1 as dxl
 
@@ -35,24 +35,12 @@ _P = ctypes.c_void_p
 
 
 class _Bank(ctypes.Structure):
-    _fields_ = [("n", ctypes.c_int), ("servo", _P), ("health", _P), ("table", _P),
-                ("joint", _P), ("original", _P), ("cells", _P), ("position_rad", _P),
-                ("speed_rad_s", _P), ("q", _P), ("qd", _P), ("duty", _P), ("offset", _P),
-                ("goal", _P), ("setpoint", _P), ("speed", _P), ("torque_limit", _P),
-                ("margin", _P), ("slope", _P), ("punch", _P), ("compliance", _P),
-                ("enabled", _P), ("joints", ctypes.c_int),
-                ("motor_no_load", ctypes.c_double), ("ax12_no_load", ctypes.c_double),
-                ("speed_unit", ctypes.c_double), ("load_unit", ctypes.c_double),
-                ("position_unit", ctypes.c_double), ("punch_unit", ctypes.c_double),
-                ("moving_eps", ctypes.c_double), ("ambient_c", ctypes.c_double),
-                ("heat_c", ctypes.c_double),
-                ("thermal_tau_s", ctypes.c_double), ("overheat_tau_s", ctypes.c_double),
-                ("overload_us", ctypes.c_int64)]
+    _fields_ = LAYOUT.fields("bank")
 
 
 def _load() -> Any:
     """The library's functions, (hx_sync_write, hx_read, hx_state_rows), or None."""
-    lib = load_library(LIBRARY, keep_gil=True)   # the state is Python's too
+    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT)   # the state is Python's too
     if lib is None:
         return None
     sync, read, rows = lib.hx_sync_write, lib.hx_read, lib.hx_state_rows
@@ -88,9 +76,6 @@ _SPEED_RAD_S = np.array(drive.SPEED_RAD_S, dtype=np.float64)
 
 def _address(a: np.ndarray) -> int:
     return a.ctypes.data
-
-
-STATE_ROW = struct.Struct("<Bddddd??B")   # hx_state_rows: a servo's TableServo.state_row
 
 
 class StateRows(HeldSample[tuple]):

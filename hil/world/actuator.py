@@ -91,7 +91,7 @@ class DriveBank:
             {"goal": self.goal_rad, "setpoint": self.setpoint_rad,
              "speed": self.speed_limit_rad_s, "torque_limit": self.torque_limit,
              "margin": self.margin_rad, "slope": self.slope_rad, "punch": self.punch,
-             "duty": self.duty, "enabled": self.enabled}) if drive_core.available() else None
+             "duty": self.duty, "enabled": self.enabled})
 
     def buffers(self) -> dict[str, Any]:
         """Its arrays by name, which a compiled servo bank (hil/servobus/servo_core.py)
@@ -114,11 +114,8 @@ class DriveBank:
 
     def control_into(self, q_rad: np.ndarray, dt_s: float, ctrl: np.ndarray) -> None:
         """Advance set-points by one step and write the motor torques (N m) into ``ctrl``
-        (the world's MjData.ctrl): one compiled call a physics step where it is built."""
-        if self._compiled is not None:
-            self._compiled(q_rad, dt_s, ctrl, self.motor.stall_torque_nm)
-        else:
-            ctrl[:] = self.control(q_rad, dt_s)
+        (the world's MjData.ctrl): one compiled call a physics step."""
+        self._compiled(q_rad, dt_s, ctrl, self.motor.stall_torque_nm)
 
     def control(self, q_rad: np.ndarray, dt_s: float) -> np.ndarray:
         """Advance set-points by one step and return the motor torques (N m) to apply."""
@@ -128,11 +125,12 @@ class DriveBank:
         """Advance set-points by one step; the signed duty on the measured angles ``q_rad``
         (``self.duty``, updated in place).
 
-        Runs every physics step: hil/world/drive_core.c where it is built, else in-place
-        ufuncs (np.clip's Python wrapper alone cost as much as the rest); the same bits."""
-        if self._compiled is not None:
-            self._compiled(q_rad, dt_s)
-            return self.duty
+        Runs every physics step, in hil/world/drive_core.c: the set-point moves toward the
+        goal by at most the speed limit's step; the duty is the error beyond the compliance
+        margin over the slope, plus punch, capped at the torque limit, signed as the error,
+        zero inside the margin or with torque off."""
+        self._compiled(q_rad, dt_s)
+        return self.duty
         sp = self.setpoint_rad
         step = self.speed_limit_rad_s * dt_s
         d = self.goal_rad - sp

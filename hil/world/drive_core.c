@@ -1,15 +1,14 @@
 /* The drive bank's per-step arithmetic (hil/world/actuator.py DriveBank.duty_for) for all
- * joints in one call: the same IEEE operations in the same order as the numpy version,
- * element by element, so the duties are the same bits (built with -ffp-contract=off: no
- * fused multiply-add). Loaded by hil/world/drive_core.py; built by the Makefile. */
+ * joints in one call, its one implementation: numpy's element-wise semantics (NaN through
+ * minimum and maximum, sign of zero), the operations in the order the recorded traces
+ * were made with (built with -ffp-contract=off: no fused multiply-add). Loaded by hil/world/drive_core.py; built by setup.py, which writes
+ * the struct's header from hil/world/drive_layout.py. */
 #include <math.h>
 #include <stddef.h>
 
-struct bank {
-    int n;
-    double *goal, *setpoint, *speed, *torque_limit, *margin, *slope, *punch, *duty;
-    const unsigned char *enabled;   /* numpy bool: one byte each */
-};
+#include "drive_layout.h"
+
+const char hx_layout[] = HX_LAYOUT;
 
 /* Advance the set-points by one step of dt_s; the signed duties on the angles q into
  * b->duty and, when ctrl is not NULL, stall * duty into ctrl. */

@@ -1,0 +1,91 @@
+"""The compiled servo core's structs and constants (hil/servobus/servo_core.c and
+reads_core.c), written once here: the ctypes fields its Python side shares with it
+(health.py ``ServoHealth``, ax12_servo.py ``Servo``, servo_core.py's bank, reads_core.py's
+reads) and the control-table addresses, error bits, instructions and link limits it takes
+from protocol/. setup.py generates the C header from them (hil/native.py ``Layout``)."""
+from __future__ import annotations
+
+import ctypes
+import struct
+
+from hil.native import Layout
+from hil.servobus.wire import US_BITS
+from protocol import sim_link
+from protocol.dynamixel import ax12
+from protocol.dynamixel import v1 as dxl
+
+_P = ctypes.c_void_p
+_D, _I64, _I32 = ctypes.c_double, ctypes.c_int64, ctypes.c_int32
+# a servo's TableServo.state_row as hx_state_rows packs it for the recorder
+STATE_ROW = struct.Struct("<Bddddd??B")
+# hx_reads's answers: done, or why it hands back to the general path (reads_core.py)
+HANDOVER = ("DONE", "ADVANCE", "PYTHON", "PYTHON_REPLY", "FALLBACK", "WRITE_LEFT")
+
+HEALTH = [("supply_v", _D), ("supply_frac", _D), ("temperature_c", _D), ("_hot_spot_c", _D),
+          ("saturated_us", _I64), ("voltage_units", _I32), ("temperature_units", _I32),
+          ("overload", ctypes.c_bool),   # latched until Torque Limit is written again
+          ("_hot", ctypes.c_bool)]
+SERVO = [("t_us", _I64), ("busy_until_us", _I64), ("deaf_until_us", _I64), ("held_us", _I64),
+         ("held", _I64), ("instructions", _I64), ("ignored", _I64), ("eeprom_busy_us", _I64),
+         ("alarm_led", ctypes.c_bool), ("address_changed", ctypes.c_bool),
+         ("_present_stale", ctypes.c_bool)]
+# one control-table cell's field, from protocol/dynamixel/ax12.py (start < 0: reserved)
+CELL = [("start", _I32), ("size", _I32), ("lo", _I32), ("hi", _I32), ("writable", _I32)]
+_IN, _OUT = "const double *", "double *"
+BANK = [("n", ctypes.c_int), ("servo", _P, "struct servo **"),
+        ("health", _P, "struct health **"), ("table", _P, "unsigned char **"),
+        ("joint", _P, "const int32_t *"),      # the servo's joint; -1: not a MuJoCo joint
+        ("original", _P, "const int32_t *"),   # the 2006 manual's Lock rule
+        ("cells", _P, "const struct cell *"),  # TABLE_SIZE
+        ("position_rad", _P, _IN), ("speed_rad_s", _P, _IN),   # drive.py's tables
+        *((n, _P, _IN) for n in ("q", "qd", "duty", "offset")),   # the world's joints
+        *((n, _P, _OUT) for n in ("goal", "setpoint", "speed", "torque_limit", "margin",
+                                  "slope", "punch", "compliance")),   # its drive bank
+        ("enabled", _P, "unsigned char *"),
+        ("joints", ctypes.c_int),   # the drive bank's size: margin and slope rows
+        *((n, _D) for n in ("motor_no_load", "ax12_no_load", "speed_unit", "load_unit",
+                            "position_unit", "punch_unit", "moving_eps", "ambient_c",
+                            "heat_c", "thermal_tau_s", "overheat_tau_s")),
+        ("overload_us", _I64)]
+_U8 = ctypes.c_uint8
+READS = [("bank", _P, "const struct bank *"), ("payload", ctypes.c_char_p,
+                                                "const unsigned char *"),
+         ("len", _I32),
+         ("index", _P, "const int16_t *"),   # 256: the bank index an ID reaches; -1
+         ("baud", _I64),
+         ("delay_override_us", _I64),        # -1: each servo's own Return Delay Time
+         ("t_us", _I64),                     # the line's clock
+         ("next_step_us", _I64),             # the clock reaching this steps the world
+         ("r", _I32), ("k", _I32), ("at", _I32), ("phase", _I32), ("i", _I32), ("m", _I32),
+         ("t0_us", _I64), ("t1_us", _I64), ("start_us", _I64),
+         ("done", ctypes.c_int8 * 256),      # per read: 1 succeeded, 0 failed, -1 skipped
+         ("reply", _U8 * 64),
+         ("body", _U8 * sim_link.MAX_REPLY_LEN),   # u8 attempts, then each
+         ("body_len", _I32),
+         ("log", _U8 * 32768),   # heard since the Python side took it: u64 t, u8 'T'/'R', bytes
+         ("log_len", _I32), ("lens", _U8 * 1024), ("nrec", _I32),
+         *((n, _I64) for n in ("tx_bytes", "rx_bytes", "packets", "replies", "busy_us",
+                               "wire_us")),
+         ("write", ctypes.c_char_p, "const unsigned char *"),   # the W before, or NULL
+         ("write_len", _I32),
+         ("changed", _P, "int32_t *")]   # the bank's flag: the W changed an ID or Baud Rate
+
+_REGISTERS = ("ID", "BAUD_RATE", "RETURN_DELAY_TIME", "CW_ANGLE_LIMIT", "CCW_ANGLE_LIMIT",
+              "TEMPERATURE_LIMIT", "MIN_VOLTAGE_LIMIT", "MAX_VOLTAGE_LIMIT",
+              "STATUS_RETURN_LEVEL", "ALARM_LED", "SHUTDOWN", "EEPROM_END", "TORQUE_ENABLE",
+              "CW_COMPLIANCE_MARGIN", "GOAL_POSITION", "MOVING_SPEED", "TORQUE_LIMIT",
+              "PRESENT_POSITION", "PRESENT_SPEED", "PRESENT_LOAD", "PRESENT_VOLTAGE",
+              "PRESENT_TEMPERATURE", "MOVING", "LOCK", "PUNCH", "TABLE_SIZE", "DIRECTION_BIT",
+              "POSITION_MAX", "POSITION_CENTRE_DEG", "POSITION_RANGE_DEG")
+_ERRORS = ("ERR_INPUT_VOLTAGE", "ERR_OVERHEATING", "ERR_RANGE", "ERR_OVERLOAD")
+LAYOUT = Layout("HX_SERVO_LAYOUT_H", [
+    ("health", HEALTH), ("servo", SERVO), ("cell", CELL), ("bank", BANK), ("reads", READS)], [
+    *((f"AX12_{n}", getattr(ax12, n)) for n in _REGISTERS),
+    *((f"DXL_{n}", getattr(dxl, n)) for n in _ERRORS),
+    ("DXL_READ", dxl.READ), ("DXL_SYNC_WRITE", dxl.SYNC_WRITE),
+    ("DXL_BROADCAST_ID", dxl.BROADCAST_ID),
+    ("LINK_READ_LEN", sim_link.READ_HEAD_LEN + 1),   # a read's head with its u8 ntx
+    ("LINK_NO_SKIP", sim_link.NO_SKIP), ("LINK_MAX_REPLY_LEN", sim_link.MAX_REPLY_LEN),
+    ("LINK_ATTEMPT_HEAD_LEN", sim_link.ATTEMPT_HEAD_LEN), ("US_BITS", US_BITS),
+    ("STATE_ROW", STATE_ROW.size),
+    *((f"HX_{n}", i) for i, n in enumerate(HANDOVER))])
