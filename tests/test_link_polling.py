@@ -1,9 +1,9 @@
 """How long each side of the link polls for the other's message before it blocks
 (hil/link/firmware_process.py ``spin_us``, the hint ``HEXHIL_LINK_SPIN_US`` for the
-firmware's HAL, each side's ``sim_link.PollGate``; the gate itself is checked under
-micropython in tests/micropython/mpy_sim_link.py): a matter of wall time only, so the run
-is the same with or without it; off where the two sides would share one core; a bad
-setting is one line."""
+firmware's HAL, each side's ``PollGate``; the gate itself, firmware/hal/poll_gate.py, is
+checked under micropython in tests/micropython/mpy_poll_gate.py): a matter of wall time
+only, so the run is the same with or without it; off where the two sides would share one
+core; a bad setting is one line."""
 from __future__ import annotations
 
 import os

@@ -13,6 +13,7 @@ import struct
 import sys
 
 from firmware.hal import base
+from firmware.hal.poll_gate import PollGate, schedstat_paths
 from protocol import sim_link
 
 try:
@@ -66,8 +67,7 @@ class Link:
         if self.spin_us:
             self.poll = select.poll()
             self.poll.register(io, select.POLLIN)
-            self.gate = sim_link.PollGate(("/proc/self/schedstat",
-                                           "/proc/%s/schedstat" % host_pid), _perf_us)
+            self.gate = PollGate(schedstat_paths(host_pid), _perf_us)
 
     def begin(self, op, n):
         """Reserve a message of ``n`` payload bytes; return the payload's offset in ``out``."""

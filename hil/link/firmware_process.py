@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 from typing import Callable
 
+from firmware.hal.poll_gate import PollGate, schedstat_paths
 from hil.link import cores
 from protocol import sim_link
 from protocol.errors import BadFile, BadValue, UserError
@@ -36,7 +37,7 @@ NATIVE = ("-X", "emit=native")
 # How long each side polls for the other's next message before it blocks (the host sets
 # sim_link.ENV_SPIN_US for its firmware): most come sooner, and a process that blocks pays
 # the scheduler's wake-up on top. A micropython cycle 330 -> 260 us with both sides
-# polling (docs/performance.md); each side's sim_link.PollGate keeps it to where
+# polling (docs/performance.md); each side's PollGate (firmware/hal/poll_gate.py) keeps it to where
 # each side has a core.
 SPIN_US = 200
 # Posted messages (writes, events, CAN frames) the host holds before the request they come
@@ -180,9 +181,8 @@ class Connection:
         self._poll.register(sock, select.POLLIN)
         self._spin_s = spin_us() * 1e-6 if peer_pid is not None else 0.0
         if self._spin_s:
-            self._gate = sim_link.PollGate(("/proc/self/schedstat",
-                                            f"/proc/{peer_pid}/schedstat"),
-                                           lambda: time.perf_counter_ns() // 1000)
+            self._gate = PollGate(schedstat_paths(peer_pid),
+                                  lambda: time.perf_counter_ns() // 1000)
 
     def _message(self) -> tuple[int, bytes] | None:
         try:
@@ -204,7 +204,7 @@ class Connection:
 
     def batch(self) -> tuple[list[tuple[int, bytes]], bool]:
         """Messages up to and including the next request: (messages, closed). Polls for
-        them for up to ``spin_us()`` before it blocks, while ``sim_link.PollGate`` sees a
+        them for up to ``spin_us()`` before it blocks, while ``PollGate`` sees a
         core for each side."""
         self.raw = bytearray()
         poll = self._poll.poll
