@@ -11,19 +11,16 @@ from typing import TYPE_CHECKING, Any, Callable
 
 from hil.link.board_line import MISTAKES, BoardLine, set_master_baud
 from hil.canbus.bus import CanBus
-from hil.servobus import reads_core
-from hil.servobus.reads_core import Handover, ReadsCore
+from hil.servobus.status_reads import MalformedReads, StatusReads
 from hil.link.firmware_process import Connection, DirectConnection, FirmwareError, LinkViolation
 from hil.run_result import RunTally
 from hil.seams import TraceRecorder
 from protocol import sim_link
-from protocol.dynamixel import v1 as dxl
 from protocol import link_schema as ls
 
 if TYPE_CHECKING:   # hil/run builds the server; the server only calls it
     from hil.run.lookahead import Lookahead
 
-RECORDER_SLICE = 4  # held messages the recorder encodes between looks at the link (~10 us)
 # the firmware's console as it prints (every runtime's log lines): a record each, with its
 # virtual time ``t_s``; outside the ``hil`` tree, so the CLI shows it on stderr, not stdout
 CONSOLE_LOG = logging.getLogger("hexhil.console")
@@ -69,8 +66,7 @@ class LinkServer:
         self.console: Callable[[], None] | None = None  # takes what the firmware printed
         self.watch = getattr(sim, "watch", None)   # the run's limits (hil/run/limits.py)
         self.version = sim_link.VERSION      # the link version the hello agreed
-        self._parser = dxl.Parser()          # R's retry rule: the master's test of a reply
-        self._reads_core = ReadsCore()
+        self.reads = StatusReads(self.bus)   # R: the cycle's status reads
 
     def _event(self, payload: bytes, result: RunTally) -> None:
         if not payload:
@@ -224,81 +220,16 @@ class LinkServer:
             result.bus_wire_us += round(len(data) * self.byte_us)
 
     def _reads(self, payload: bytes, result: RunTally, write: bytes | None = None) -> bytes:
-        """Link version 2's R (docs/link.md), after ``write`` (the W just before it, if
-        one was): each read in order, tried again while its
-        reply is not its servo's status (protocol/dynamixel/v1.py ``status_ok``, the
-        master's own test) and retries are left, skipped when the read it names did not
-        succeed; the reply holds every attempt's time and bytes. Compiled on a plain line
-        (hil/servobus/reads_core.py), which hands back what it does not serve."""
-        out = self._reads_core.carry_out(self.bus, payload, write)
-        if out is None:
-            if write is not None:
-                self._write(write, result)
-            return self._attempts(self._parse_reads(payload), 0, 0, [], bytearray(1), result)
+        """Link version 2's R, after ``write`` (the W just before it, if one was): carried
+        out by the bus wing (hil/servobus/status_reads.py); its bus time counts."""
+        try:
+            done = self.reads.carry_out(payload, self.byte_us, write)
+        except MalformedReads as exc:
+            raise LinkViolation(str(exc)) from None
         if self._counting:
-            result.bus_busy_us += out.busy_us
-            result.bus_wire_us += out.wire_us
-        h = out.handover
-        if h is None:
-            return out.body
-        reads = self._parse_reads(payload)
-        heard = ((lambda: self._hear_reply(reads[h.r], h, result))
-                 if h.code == reads_core.PYTHON_REPLY else None)   # its servo has answered
-        return self._attempts(reads, h.r, h.k, h.done, h.body, result, heard)
-
-    def _hear_reply(self, read: tuple, h: Handover, result: RunTally) -> bytes:
-        """What the master reads of the reply the compiled reads left on its way
-        (PYTHON_REPLY), the clock at the end of its READ."""
-        nrx, timeout_us, tx = read[5:]
-        t0 = self.clock.t_us - self.bus.wire_us(len(tx))   # the READ's start
-        rx = self.bus.hear_reply(h.reply, h.start_us, nrx, timeout_us)
-        self._count(tx, rx, t0, result)
-        return rx
-
-    def _parse_reads(self, payload: bytes) -> list[tuple]:
-        """R's reads, checked: (dev_id, nparams, retries, flags, skip, nrx, timeout_us, tx)."""
-        reads, at, room = [], 1, sim_link.MAX_REPLY_LEN - 9
-        for _ in range(payload[0]):
-            dev_id, nparams, retries, flags, skip, nrx, timeout_us, ntx = struct.unpack_from(
-                "<BBBBBHIB", payload, at)
-            at += sim_link.READ_HEAD_LEN + 1
-            if skip != sim_link.NO_SKIP and skip >= len(reads):
-                raise LinkViolation(f"read {len(reads)} skips on read {skip}, not an earlier one")
-            room -= (1 + retries) * (sim_link.ATTEMPT_HEAD_LEN + nrx)
-            reads.append((dev_id, nparams, retries, flags, skip, nrx, timeout_us,
-                          payload[at:at + ntx]))
-            at += ntx
-        if at != len(payload):
-            raise LinkViolation(f"malformed reads ({len(payload)} bytes, {at} announced)")
-        if room < 0:
-            raise LinkViolation("the reads' replies could be longer than a reply holds "
-                                f"({sim_link.MAX_REPLY_LEN})")
-        return reads
-
-    def _attempts(self, reads: list[tuple], r: int, k: int, done: list[bool | None],
-                  body: bytearray, result: RunTally,
-                  heard: Callable[[], bytes] | None = None) -> bytes:
-        """``reads[r:]`` from attempt ``k`` of read ``r`` (its earlier ones failed), the
-        outcomes of the earlier reads in ``done``, their attempts in ``body``; ``heard``:
-        attempt ``k`` was begun, and this gives what the master reads of it."""
-        for dev_id, nparams, retries, flags, skip, nrx, timeout_us, tx in reads[r:]:
-            if skip != sim_link.NO_SKIP and done[skip] is not True:
-                done.append(None)
-                continue
-            start = len(tx) if flags & sim_link.READ_ECHO else 0
-            ok = False
-            while k <= retries:
-                rx = self._transact(tx, nrx, timeout_us, result) if heard is None else heard()
-                heard = None
-                body += struct.pack("<QH", self.clock.t_us, len(rx)) + rx
-                body[0] += 1
-                ok = dxl.status_ok(self._parser, rx, start, len(rx), dev_id, nparams)
-                k += 1
-                if ok:
-                    break
-            done.append(ok)
-            k = 0
-        return bytes(body)
+            result.bus_busy_us += done.busy_us
+            result.bus_wire_us += done.wire_us
+        return done.reply
 
     def serve(self, conn: Connection, end_us: int, result: RunTally) -> None:
         """Answer a socket connection's batches until the firmware closes it."""
@@ -391,8 +322,7 @@ class LinkServer:
             self.lookahead.step(end_us)
         if rec is not None and raw is not None:
             rec.link(clock.t_us, bytes(conn.raw), raw)
-            while not conn.answered() and rec.idle(RECORDER_SLICE):
-                pass   # write a closed window, encode until the firmware's next batch is in
+            rec.work_while(lambda: not conn.answered())   # until the next batch is in
         if closed:
             result.round_trips = conn.round_trips
         return closed

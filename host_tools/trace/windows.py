@@ -46,6 +46,7 @@ def encode_in_for(firmware_own_process: bool) -> EncodeIn:
 
 
 PACK_PER_MESSAGE = 8   # chunk records packed in the time one message is encoded (~0.3 us)
+IDLE_SLICE = 4         # held messages encoded between looks at whether the firmware answered
 
 
 def _encode_some(pending: list[tuple], out: Encoded, done: int, budget: int) -> int:
@@ -205,6 +206,13 @@ class HeldWindows:
             return self._done < len(self._pending)
         self._done = _encode_some(self._pending, self._out, self._done, budget)
         return self._done < len(self._pending)
+
+    def work_while(self, waiting: Callable[[], bool]) -> None:
+        """``idle`` slice by slice (``IDLE_SLICE`` messages, about 10 us) while ``waiting()``
+        says the simulator still waits for the firmware's next message, or until nothing
+        is left."""
+        while waiting() and self.idle(IDLE_SLICE):
+            pass
 
     def flush(self) -> None:
         """Write the held messages in log-time order as one chunk and hand it to the OS."""
