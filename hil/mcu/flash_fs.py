@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hil.mcu.elf_image import ElfImage
+from hil.mcu.flash_modules import module_files
 from protocol.errors import UserError
 
 FS_BASE, FS_SIZE = 0x08004000, 64 * 1024
@@ -52,8 +53,12 @@ def _fatfs() -> types.ModuleType:
 
 
 def files_of(spec: FlashFiles) -> dict[str, bytes]:
-    """The files to lay, path in the volume -> bytes (``UserError`` for a missing one)."""
+    """The files to lay, path in the volume -> bytes (``UserError`` for a missing one): the
+    modules main imports (hil/mcu/flash_modules.py), then the folder's files over them,
+    then main as ``/main.py``."""
     out: dict[str, bytes] = {}
+    if spec.main is not None and spec.main.is_file():
+        out.update(module_files(spec.main))
     if spec.folder is not None:
         if not spec.folder.is_dir():
             raise UserError(f"fs {spec.folder}: not a folder", params=("fs",))
