@@ -193,17 +193,20 @@ max_busy_ms = 0.5
     assert 0.5 < d["busy_p50_ms"] <= d["busy_p99_ms"] <= d["busy_max_ms"] < 15.0
 
 
-def test_the_pytest_plugin_and_replay_take_the_flash_files(hexhil_run):
-    """hexhil_run(main=...) fills /flash as --main does, check("deadline") judges the run,
-    and hexhil replay --main replays its trace into the same ELF identically (without the
-    main.py the firmware would format /flash instead: another run)."""
+def test_the_pytest_plugin_and_replay_take_the_flash_files(hexhil_run, tmp_path):
+    """hexhil_run(main=..., fs_out=...) fills /flash as --main does and reads it back,
+    check("deadline") judges the run, and hexhil replay --main replays its trace into the
+    same ELF identically, its /flash read back too (without the main.py the firmware
+    would format /flash instead: another run)."""
     done = hexhil_run(ROOT / "scenarios" / "flat-tripod.toml", duration_s=0.4,
-                      firmware=EMPTY_FS_ELF, main=LOOP_50HZ)
+                      firmware=EMPTY_FS_ELF, main=LOOP_50HZ, fs_out=tmp_path / "run")
     assert done.check("deadline", max_busy_ms=15.0, stat="p99").passed
+    assert (tmp_path / "run" / "main.py").read_bytes() == LOOP_50HZ.read_bytes()
     from host_tools import replay
     r = replay.replay_firmware(done.trace, firmware=str(EMPTY_FS_ELF),
-                               flash_files=FlashFiles(main=LOOP_50HZ))
+                               flash_files=FlashFiles(main=LOOP_50HZ, out=tmp_path / "replay"))
     assert r.identical and r.exchanges >= 20        # a line request a 20 ms cycle at least
+    assert (tmp_path / "replay" / "main.py").read_bytes() == LOOP_50HZ.read_bytes()
     other = replay.replay_firmware(done.trace, firmware=str(EMPTY_FS_ELF))
     assert not other.identical
 

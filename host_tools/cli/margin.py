@@ -97,7 +97,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--firmware", metavar="PATH",
                    help="your firmware in place of the case's: a MicroPython main file, an "
                         "executable (a C firmware) or an STM32F411 ELF")
-    add_flash_options(p, read_back=False)
+    add_flash_options(p)
     p.add_argument("--png", metavar="OUT.png", help="write the heat map")
     p.add_argument("--json", action="store_true", help=cli.JSON_HELP + ": every point of the sweep")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -158,12 +158,14 @@ def run_case(job: CaseRun) -> CaseResult:
             from host_tools.in_process import load_main
 
             main = load_main(job.main_file)
+        flash = job.flash_files or case.flash_files
+        if flash is not None and flash.out is not None:   # one folder a run
+            flash = dataclasses.replace(flash, out=flash.out / label_stem(job.label))
         summary, _ = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
                                   IN_PROCESS if main else job.python or case.python, tactile,
                                   trace, job.timing, case.sends, job.firmware or case.firmware,
-                                  dict(job.changed), job.coverage, job.limits,
-                                  job.flash_files or case.flash_files, job.coverage_libraries,
-                                  main=main)
+                                  dict(job.changed), job.coverage, job.limits, flash,
+                                  job.coverage_libraries, main=main)
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
@@ -193,9 +195,14 @@ def evaluate_recorded(case: Case, trace: Path, keep_dir: str | None = None,
     return CaseResult(case.name, case.seed, outcomes, summary, kept)
 
 
+def label_stem(label: str) -> str:
+    """The case run ``label`` as a file or folder name (its kept trace, its /flash)."""
+    return label.replace("/", "_").replace("#", "-")
+
+
 def kept_path(keep_dir: str, label: str) -> Path:
     """Where ``--keep-traces DIR`` keeps the trace of the case run ``label``."""
-    return Path(keep_dir) / (label.replace("/", "_").replace("#", "-") + ".mcap")
+    return Path(keep_dir) / (label_stem(label) + ".mcap")
 
 
 def keep(trace: Path, keep_dir: str, label: str, failed: Sequence[Outcome],
