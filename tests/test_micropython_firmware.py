@@ -61,11 +61,15 @@ def test_the_compiled_firmware_fits_the_f411_flash_filesystem():
     assert len(flash_fs.image(files)) == flash_fs.FS_SIZE     # raises when it does not fit
 
 
-def test_a_module_that_does_not_parse_is_one_line(tmp_path):
+def test_a_module_that_does_not_parse_is_one_line_a_main_that_does_not_is_laid(tmp_path):
+    """The port would say a broken main.py's SyntaxError on the board: it is laid as is."""
     (tmp_path / "main.py").write_text("import helper\n")
     (tmp_path / "helper.py").write_text("def broken(:\n")
     with pytest.raises(UserError, match="helper.py does not parse"):
         flash_fs.files_of(FlashFiles(main=tmp_path / "main.py"))
+    (tmp_path / "main.py").write_text("import helper\nif :\n")
+    assert flash_fs.files_of(FlashFiles(main=tmp_path / "main.py")) == {
+        "/main.py": b"import helper\nif :\n"}
 
 
 def test_sync_writes_of_both_protocols_start_control_cycles():

