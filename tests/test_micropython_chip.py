@@ -160,7 +160,8 @@ def test_the_deadline_figures_and_a_deadline_expectation_that_passes_and_one_tha
         tmp_path):
     """A 50 Hz loop (a ping, some float work, sleep_ms to the next 20 ms): --json's
     ``deadline`` has its busy time per control cycle; a case with ``kind = "deadline"``
-    passes at 15 ms of the period and fails at 0.5 ms, and ``hexhil test`` exits 1."""
+    passes at 15 ms of the period and fails at 0.5 ms, and ``hexhil test`` exits 1;
+    ``--fs-out`` reads the case's /flash back into a folder of its own."""
     case = tmp_path / "deadline.toml"
     case.write_text(f'''[case]
 name = "deadline"
@@ -180,9 +181,11 @@ name = "too tight"
 kind = "deadline"
 max_busy_ms = 0.5
 ''')
-    done = subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case)],
+    done = subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case),
+                           "--fs-out", str(tmp_path / "flash")],
                           cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert done.returncode == 1, done.stdout + done.stderr
+    assert (tmp_path / "flash" / "deadline" / "main.py").read_bytes() == LOOP_50HZ.read_bytes()
     rows = {line.split()[1]: line for line in done.stdout.splitlines()
             if line.startswith("deadline ")}
     assert rows["fits"].rstrip().endswith("pass") and "0 late" in rows["fits"]

@@ -1,8 +1,6 @@
 """Our firmware (firmware/main.py, its board back end hal/board.py) on MicroPython's stm32
 port as flashed: ``--main firmware/main.py`` lays it with the modules it imports, compiled
 (hil/mcu/flash_modules.py), on the shared empty-filesystem ELF, and it walks flat-tripod."""
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -100,26 +98,6 @@ def test_our_firmware_walks_0_3_m_in_30_s_on_the_chip(tmp_path):
     assert s["body"]["dx_m"] >= 0.3, s["body"]
 
 
-def test_hexhil_test_reads_each_cases_flash_back_into_its_own_folder(tmp_path):
-    case = tmp_path / "ping.toml"
-    case.write_text(f'''[case]
-name = "ping"
-scenario = "{ROOT / 'scenarios' / 'flat-tripod.toml'}"
-duration_s = 0.05
-firmware = "{EMPTY_FS_ELF}"
-
-[[expect]]
-name = "completes"
-kind = "no_exception"
-''')
-    out = tmp_path / "flash"
-    done = subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case), "--main",
-                           str(PING_MAIN), "--fs-out", str(out), "--quiet"],
-                          cwd=ROOT, capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stdout + done.stderr
-    assert (out / "ping" / "main.py").read_bytes() == PING_MAIN.read_bytes()
-
-
 def test_margin_takes_fs_out_through_the_shared_option():
     from host_tools.cli import build_parser
     from host_tools.cli.run import flash_files
@@ -127,3 +105,5 @@ def test_margin_takes_fs_out_through_the_shared_option():
     argv = ["margin", "s.toml", "--expect", "e.toml", "--main", "m.py", "--fs-out", "back"]
     args = build_parser(argv).parse_args(argv)
     assert flash_files(args) == FlashFiles(main=Path("m.py"), out=Path("back"))
+    case = FlashFiles(main=Path("case.py"), folder=Path("lib"))     # each option over the case's
+    assert flash_files(args).over(case) == FlashFiles(Path("m.py"), Path("lib"), Path("back"))

@@ -38,6 +38,15 @@ class FlashFiles:
     def lays(self) -> bool:
         return self.main is not None or self.folder is not None
 
+    def over(self, other: "FlashFiles | None") -> "FlashFiles":
+        """These, with ``other``'s where these have none (a command's options over a
+        case file's: ``--fs-out`` alone keeps the case's ``main``)."""
+        if other is None:
+            return self
+        return FlashFiles(*(mine if mine is not None else theirs for mine, theirs in
+                            ((self.main, other.main), (self.folder, other.folder),
+                             (self.out, other.out))))
+
 
 def _fatfs() -> types.ModuleType:
     """fatfs-ng with its clock fixed (its FatFs asks ``datetime.datetime.now()``)."""

@@ -33,7 +33,7 @@ def _run(args: argparse.Namespace) -> int:
                         flash_files=flash_files(args))
     case = spec.load(args.expect)
     if flash_files(args) is not None:      # a MicroPython ELF's /flash over the case's
-        case = dataclasses.replace(case, flash_files=flash_files(args))
+        case = dataclasses.replace(case, flash_files=flash_files(args).over(case.flash_files))
     sc = spec.hexapod(args.scenario, scenario_mod.load_scenario(args.scenario))
     if args.png:   # written after the sweep: checked before it
         check_output(args.png, "png")

@@ -72,7 +72,7 @@ class CaseRun:
     changed: tuple[tuple[str, float], ...] = ()  # ... and what was changed in it (overrides)
     coverage: str | None = None           # an ELF's LCOV to this file (hexhil test --coverage)
     limits: RunLimits | None = None       # the run's caps (hil/run/limits.py; None: defaults)
-    flash_files: FlashFiles | None = None  # the command's --main/--fs, over the case's
+    flash_files: FlashFiles | None = None  # --main/--fs/--fs-out over the case's, each
     coverage_libraries: bool = False      # ... counting the toolchain's libraries too
     main_file: str | None = None          # a module's main(board) in process, not ours
 
@@ -158,7 +158,7 @@ def run_case(job: CaseRun) -> CaseResult:
             from host_tools.in_process import load_main
 
             main = load_main(job.main_file)
-        flash = job.flash_files or case.flash_files
+        flash = job.flash_files.over(case.flash_files) if job.flash_files else case.flash_files
         if flash is not None and flash.out is not None:   # one folder a run
             flash = dataclasses.replace(flash, out=flash.out / label_stem(job.label))
         summary, _ = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
