@@ -59,6 +59,18 @@ def test_the_compiled_firmware_fits_the_f411_flash_filesystem():
     assert len(flash_fs.image(files)) == flash_fs.FS_SIZE     # raises when it does not fit
 
 
+def test_a_module_given_as_source_in_fs_is_not_laid_compiled_too(tmp_path):
+    (tmp_path / "main.py").write_text("import helper\n")
+    (tmp_path / "helper.py").write_text("X = 1\n")
+    assert sorted(flash_fs.files_of(FlashFiles(main=tmp_path / "main.py"))) == [
+        "/helper.mpy", "/main.py"]
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "helper.py").write_text("X = 2\n")
+    files = flash_fs.files_of(FlashFiles(main=tmp_path / "main.py", folder=lib))
+    assert sorted(files) == ["/helper.py", "/main.py"] and files["/helper.py"] == b"X = 2\n"
+
+
 def test_a_module_that_does_not_parse_is_one_line_a_main_that_does_not_is_laid(tmp_path):
     """The port would say a broken main.py's SyntaxError on the board: it is laid as is."""
     (tmp_path / "main.py").write_text("import helper\n")

@@ -63,11 +63,13 @@ def _fatfs() -> types.ModuleType:
 
 def files_of(spec: FlashFiles) -> dict[str, bytes]:
     """The files to lay, path in the volume -> bytes (``UserError`` for a missing one): the
-    modules main imports (hil/mcu/flash_modules.py), then the folder's files over them,
-    then main as ``/main.py``."""
+    modules main imports (hil/mcu/flash_modules.py) but those the folder holds as source,
+    the folder's files, then main as ``/main.py``."""
     out: dict[str, bytes] = {}
     if spec.main is not None and spec.main.is_file():
-        out.update(module_files(spec.main))
+        given = spec.folder
+        out.update((rel, mpy) for rel, mpy in module_files(spec.main).items()
+                   if given is None or not (given / (rel[1:-4] + ".py")).is_file())
     if spec.folder is not None:
         if not spec.folder.is_dir():
             raise UserError(f"fs {spec.folder}: not a folder", params=("fs",))
