@@ -5,6 +5,7 @@ our firmware survives the same campaign."""
 from __future__ import annotations
 
 import json
+import os
 import random
 import subprocess
 from dataclasses import replace
@@ -215,3 +216,41 @@ def test_the_packet_sequence_passes_a_direction_mistake_on_or_drops_it():
     check = MasterCheck()
     PacketSequence(check).direction_mistake(5, "tx_while_receiving", "pin low")
     assert check.counts["tx_while_receiving"] == 1
+
+
+def test_the_held_trace_judges_as_the_written_file_does(tmp_path):
+    """The fork server's trace in memory (boot decoded at the fork, the rest at the end)
+    holds what the file would, on every topic the expectations read."""
+    from host_tools.bus_fuzz.execution import Target, run_input
+    from host_tools.bus_fuzz.held_trace import HeldTrace
+    from host_tools.expect import spec, verdicts
+
+    case = replace(spec.load(ROOT / "examples" / "fuzz-flat-tripod.toml"), duration_s=0.7)
+    target = Target(case, 0.5, coverage=False)
+    held: list[HeldTrace] = []
+
+    def setup(run):
+        write = run.recorder._write_chunk
+        held.append(HeldTrace(run, case))
+        keep = run.recorder._write_chunk
+        run.recorder._write_chunk = lambda msgs, packing=None: (keep(msgs), write(msgs))
+
+    def wrap(run, exchange):
+        def hooked(data, closed):
+            if not held[0].boot and run.sim.clock.t_us >= 400_000:
+                held[0].at_fork()
+            return exchange(data, closed)
+        return hooked
+
+    trace = tmp_path / "run.mcap"
+    cpus = os.sched_getaffinity(0)
+    os.sched_setaffinity(0, {min(cpus)})      # as the server: the recorder encodes here
+    try:
+        summary = run_input(target, (), trace, wrap=wrap, setup=setup)
+    finally:
+        os.sched_setaffinity(0, cpus)
+    rec = held[0].recording(summary)
+    assert held[0].boot and rec.messages[verdicts.topics.T_BODY][-1][0] > 0.6
+    assert rec.messages == verdicts.read(trace, summary, verdicts.topics_read(case)).messages
+    untimed = lambda outcomes: [replace(o, time_s=0.0) for o in outcomes]
+    assert untimed(verdicts.judged(case, rec)) == untimed(verdicts.evaluate(case, summary, trace))

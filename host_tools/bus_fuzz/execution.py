@@ -13,13 +13,13 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 from host_tools import in_process
 from host_tools.bus_fuzz.features import LineTracer, PacketSequence, elf_lines
-
 from host_tools.bus_fuzz.mutations import Input, faults_table
 from host_tools.expect.spec import Case, Kind
+from host_tools.expect.verdicts import Outcome, evaluate
 from protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -58,14 +58,13 @@ class Execution:
         return bool(self.failures)
 
 
-def judge(case: Case, summary: dict[str, Any], trace: Path) -> tuple[tuple[str, ...],
-                                                                     tuple[str, ...]]:
-    """The failures of one run: each failed expectation, a firmware that did not complete
-    (a crash, a hang, an early exit) and an exception the expectations do not judge."""
-    from host_tools.expect.verdicts import evaluate
-
+def judge(case: Case, summary: dict[str, Any], outcomes: Sequence[Outcome]
+          ) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The failures of one run (``outcomes``: its expectations' verdicts): each failed
+    expectation, a firmware that did not complete (a crash, a hang, an early exit) and an
+    exception the expectations do not judge."""
     failures: dict[str, str] = {}
-    for o in evaluate(case, summary, trace):
+    for o in outcomes:
         if not o.passed:
             failures[f"expect: {o.name}"] = f"measured {o.measured}; limit {o.limit}"
     ending = summary.get("ending") or {}
@@ -119,7 +118,7 @@ def fresh(target: Target, faults: Input, keep: Path | None = None) -> Execution:
                                 setup=setup)
         finally:
             lines = tracer.stop() if tracer is not None else set()
-        failures, details = judge(target.case, summary, trace)
+        failures, details = judge(target.case, summary, evaluate(target.case, summary, trace))
         features = lines | (elf_lines(info) if info is not None else set()) | (
             sequences[0].pairs if sequences else set())
         if keep is not None:
@@ -133,10 +132,10 @@ def _is_elf(target: Target) -> bool:
     return target.firmware is not None and is_arm_elf(Path(target.firmware))
 
 
-def tracer_for(target: Target) -> LineTracer:
+def tracer_for(target: Target, done: frozenset[int] = frozenset()) -> LineTracer:
     roots = [ROOT / "firmware"]
     if target.main_file:
         roots.append(Path(target.main_file).resolve().parent)
-    return LineTracer(roots)
+    return LineTracer(roots, done)
 
 
