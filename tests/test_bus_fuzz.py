@@ -21,6 +21,7 @@ from host_tools.bus_fuzz import campaign
 from host_tools.bus_fuzz.execution import Execution
 from host_tools.bus_fuzz.mutations import DEFAULT_KINDS, Mutation, Mutator, Vocabulary
 from protocol.dynamixel import v1 as dxl
+from protocol.dynamixel import v2 as dx2
 from protocol.errors import UserError
 from test_sdk_pty import HEXHIL, ROOT
 
@@ -67,6 +68,68 @@ def test_a_status_is_late_missing_or_doubled():
         3, bytearray(STATUS), 500, 80) == []
     assert faults_on(FaultKind.STATUS_TWIN, id=3).status_bursts(
         3, bytearray(STATUS), 500, 80) == [(500, bytearray(STATUS)), (580, bytearray(STATUS))]
+
+
+STATUS2 = dx2.status(3, 0, b"\x10\x02")       # the same reply in Protocol 2.0
+
+
+def parsed2(data: bytes) -> tuple[int, int, bytes] | None:
+    """(id, error, params after the error) of the one 2.0 status in ``data``, or None."""
+    got = dx2.Parser().feed(bytes(data))
+    return (got[0].id, got[0].error, bytes(got[0].params[1:])) if len(got) == 1 else None
+
+
+@pytest.mark.parametrize("kind,keys,expect", [
+    (FaultKind.STATUS_CHECKSUM, {}, None),
+    (FaultKind.STATUS_WRONG_ID, {"as_id": 200}, (200, 0, b"\x10\x02")),
+    (FaultKind.STATUS_TRUNCATED, {}, None),
+    (FaultKind.STATUS_PADDED, {}, (3, 0, b"\x10\x02\x00")),
+    *((FaultKind.STATUS_ERROR, {"bits": b}, (3, b, b"\x10\x02")) for b in (1, 2, 3, 4, 5, 6, 7, 128)),
+    (FaultKind.STATUS_ERROR, {"bits": 0x84}, (3, 0x84, b"\x10\x02")),
+])
+def test_a_status_fault_mangles_a_protocol_2_reply(kind, keys, expect):
+    f = faults_on(kind, id=3, **keys)
+    [(t, data)] = f.status_bursts(3, bytearray(STATUS2), 500, 80, protocol=2)
+    assert t == 500 and bytes(data) != STATUS2 and parsed2(data) == expect
+    assert parsed2(STATUS2) == (3, 0, b"\x10\x02")
+
+
+def test_status_faults_on_a_protocol_2_line_late_missing_twin_and_the_group_read():
+    from hil.servobus.protocols.v2 import Bus2
+    from hil.servobus.xseries_servo import XSeriesServo
+    from protocol.dynamixel import xl430 as xl
+
+    def line(kind, **keys) -> Bus2:
+        entry = FaultEntry.parse(kind, {"id": 1, "at_s": 0.0, "until_s": 1.0, **keys}, "t")
+        servos = [XSeriesServo(i) for i in (1, 2)]
+        for s in servos:
+            s.table[xl.BAUD_RATE], s.table[xl.RETURN_DELAY_TIME] = 3, 0     # 1 Mbps, no delay
+        return Bus2(servos, VirtualClock(), faults=Faults(FaultsConfig(**{kind.value: (entry,)})))
+
+    def heard(bus: Bus2, pkt: bytes, timeout_us: int = 5000) -> list:
+        bus.master_write(pkt)
+        return dx2.Parser().feed(bus.master_read(4096, timeout_us))
+
+    read1 = dx2.read(1, xl.PRESENT_POSITION, 4)
+    assert [p.id for p in heard(line(FaultKind.STATUS_TWIN), read1)] == [1, 1]
+    assert heard(line(FaultKind.STATUS_MISSING), read1) == []
+    assert [p.id for p in heard(line(FaultKind.STATUS_WRONG_ID, as_id=7), read1)] == [7]
+    late = line(FaultKind.STATUS_LATE, delay_s=0.002)
+    assert heard(late, read1, 1000) == [] and [p.id for p in heard(late, b"", 5000)] == [1]
+    # a group read: servo 1's reply garbled, servo 2's answered after it as ever
+    bad = line(FaultKind.STATUS_CHECKSUM)
+    got = heard(bad, dx2.sync_read(xl.PRESENT_POSITION, 4, [1, 2]))
+    assert [p.id for p in got] == [2]
+
+
+def test_the_mutator_draws_the_error_byte_of_the_lines_protocol():
+    def drawn(protocol: int) -> set[int]:
+        m = Mutator(Vocabulary((FaultKind.STATUS_ERROR,), (1, 2), 1.0, 3.0,
+                               protocol=protocol), random.Random(5))
+        return {m.fault().entry()["bits"] for _ in range(200)}
+    assert drawn(1) <= set(range(1, 128)) and {1, 64} <= drawn(1)
+    two = drawn(2)
+    assert {1, 7, 128} <= two and all(b & 0x7F <= 7 for b in two) and any(b > 128 for b in two)
 
 
 def test_status_faults_end_at_until_s():
@@ -118,8 +181,8 @@ def test_can_faults_drop_garble_delay_and_swap_frames():
 
 
 def test_a_fault_key_out_of_range_is_one_line():
-    with pytest.raises(UserError, match="bits' must be 1-127"):
-        FaultEntry.parse(FaultKind.STATUS_ERROR, {"id": 1, "at_s": 1.0, "bits": 128}, "t")
+    with pytest.raises(UserError, match="bits' must be 1-255"):
+        FaultEntry.parse(FaultKind.STATUS_ERROR, {"id": 1, "at_s": 1.0, "bits": 256}, "t")
     with pytest.raises(UserError, match="delay_s' must be in"):
         FaultEntry.parse(FaultKind.STATUS_LATE, {"id": 1, "at_s": 1.0, "delay_s": 0}, "t")
 

@@ -111,7 +111,7 @@ class FaultEntry:
     period_s: float | None = None       # switch_bounce: the chatter period
     fx_n: float | None = None           # force_bias
     fz_n: float | None = None
-    bits: int | None = None             # status_error: the error byte's bits set (1-127)
+    bits: int | None = None             # status_error: the error byte's bits set (1-255)
     delay_s: float | None = None        # status_late, can_delayed: how much later
 
     @classmethod
@@ -141,9 +141,10 @@ class FaultEntry:
         if (e.sigma is not None and e.sigma < 0) or (e.period_s is not None and e.period_s <= 0):
             raise BadValue(f"{where}: '{kind.value}' needs sigma >= 0 and period_s > 0, "
                            f"got {raw!r}")
-        if e.bits is not None and not 1 <= e.bits <= 127:
-            raise BadValue(f"{where}: '{kind.value}.bits' must be 1-127 (the AX-12's seven "
-                           f"error bits), got {e.bits}")
+        if e.bits is not None and not 1 <= e.bits <= 255:
+            raise BadValue(f"{where}: '{kind.value}.bits' must be 1-255 (the AX-12's seven "
+                           f"error bits; Protocol 2.0's error number 1-7 and alert bit "
+                           f"128), got {e.bits}")
         if e.delay_s is not None and not 0 < e.delay_s <= 1.0:
             raise BadValue(f"{where}: '{kind.value}.delay_s' must be in (0, 1] s, got "
                            f"{e.delay_s:g}")

@@ -22,6 +22,7 @@ from hil.scenario.faults_section import (BUS_CAN_KINDS, CAN_KINDS, FORCE_KINDS,
                                          SERVO_STATE_KINDS, STATUS_KINDS, SWITCH_KINDS,
                                          FaultEntry, FaultKind, FaultsConfig)
 from hil.servobus.health import SUPPLY_V
+from protocol.dynamixel import v2 as dx2
 from protocol.errors import UserError
 
 OnFault = Callable[[int, str, str], None]
@@ -253,11 +254,12 @@ class Faults:
         s.set_reading(NoisyReading(e.sigma, rng), t_us)
         return f"Present Position noisy, sigma {e.sigma:g} units"
 
-    def status_bursts(self, dev_id: int, data: bytearray, start_us: int, wire_us: int
-                      ) -> list[tuple[int, bytearray]]:
-        """Servo ``dev_id``'s status packet ``data``, due on the line at ``start_us``, as the
-        status faults active on it send it: (start, bytes) of each burst, none when it is
-        lost. ``wire_us`` is the packet's own time on the wire (a twin answers after it)."""
+    def status_bursts(self, dev_id: int, data: bytearray, start_us: int, wire_us: int,
+                      protocol: int = 1) -> list[tuple[int, bytearray]]:
+        """Servo ``dev_id``'s status packet ``data`` (Dynamixel ``protocol`` 1 or 2), due on
+        the line at ``start_us``, as the status faults active on it send it: (start, bytes)
+        of each burst, none when it is lost. ``wire_us`` is the packet's own time on the
+        wire (a twin answers after it)."""
         faults = self._status.get(dev_id)
         if not faults:
             return [(start_us, data)]
@@ -271,7 +273,8 @@ class Faults:
             elif kind is FaultKind.STATUS_TWIN:
                 out = out + [(out[-1][0] + wire_us, bytearray(out[-1][1]))]
             else:
-                out = [(t, _mangled(kind, e, d)) for t, d in out]
+                mangle = _mangled if protocol == 1 else _mangled2
+                out = [(t, mangle(kind, e, d)) for t, d in out]
         return out
 
     def can_mangle(self, data: bytes) -> tuple[str, int, bytes]:
@@ -355,6 +358,31 @@ def _mangled(kind: FaultKind, e: FaultEntry, data: bytearray) -> bytearray:
         data[-1:-1] = b"\x00"
         data[3] += 1
     data[-1] = (~sum(data[2:-1])) & 0xFF
+    return data
+
+
+def _mangled2(kind: FaultKind, e: FaultEntry, data: bytearray) -> bytearray:
+    """A Protocol 2.0 status packet (FF FF FD 00 ID LEN_L LEN_H 55 ERR P.. CRC_L CRC_H) as
+    ``kind`` mangles it; the CRC-16 made anew over what it covers, except for a wrong one.
+    A Fast Sync/Bulk Read's one reply is mangled the same way: its first servo's error
+    byte, its last CRC."""
+    if len(data) < 11:
+        return data
+    if kind is FaultKind.STATUS_CHECKSUM:
+        data[-1] ^= 0xFF
+        return data
+    if kind is FaultKind.STATUS_TRUNCATED:
+        return data[:-1]
+    if kind is FaultKind.STATUS_WRONG_ID:
+        data[4] = e.as_id
+    elif kind is FaultKind.STATUS_ERROR:
+        data[8] |= e.bits
+    elif kind is FaultKind.STATUS_PADDED:
+        data[-2:-2] = b"\x00"
+        length = (data[5] | data[6] << 8) + 1
+        data[5], data[6] = length & 0xFF, length >> 8
+    crc = dx2.crc16(data, 0, len(data) - 2)
+    data[-2], data[-1] = crc & 0xFF, crc >> 8
     return data
 
 

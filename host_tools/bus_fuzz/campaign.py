@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from hil.scenario.faults_section import FaultKind
+from protocol.dynamixel import models
 from host_tools.bus_fuzz import execution, fork_server
 from host_tools.bus_fuzz.execution import Execution, Target
 from host_tools.bus_fuzz.mutations import (DEFAULT_KINDS, Input, Mutation, Mutator, Vocabulary,
@@ -148,7 +149,8 @@ def vocabulary(target: Target, kinds: Sequence[FaultKind]) -> Vocabulary:
     if not 0 < target.window_s < end_s:
         raise UserError(f"window_s: the faults must start inside the case's {end_s:g} s "
                         f"(window_s {target.window_s:g} s)", params=("window_s",))
-    return Vocabulary(tuple(kinds), ids, target.window_s, end_s)
+    return Vocabulary(tuple(kinds), ids, target.window_s, end_s,
+                      protocol=models.protocol(bus.model))
 
 
 def load_target(settings: Settings, fork: bool = True) -> Target:
