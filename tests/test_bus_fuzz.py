@@ -317,3 +317,47 @@ def test_the_held_trace_judges_as_the_written_file_does(tmp_path):
     assert rec.messages == verdicts.read(trace, summary, verdicts.topics_read(case)).messages
     untimed = lambda outcomes: [replace(o, time_s=0.0) for o in outcomes]
     assert untimed(verdicts.judged(case, rec)) == untimed(verdicts.evaluate(case, summary, trace))
+
+
+def test_a_swing_press_presses_once_a_swing_after_the_foot_is_lifted():
+    entry = FaultEntry.parse(FaultKind.SWITCH_SWING_PRESS,
+                             {"leg": "LM", "after_s": 0.05, "press_s": 0.02, "at_s": 0.0}, "t")
+    f = Faults(FaultsConfig(switch_swing_press=(entry,)))
+    f.start(VirtualClock(), 0)
+    f.apply_due(0)
+    feet = [True] * 6
+    seen = []
+    for t_ms in range(0, 400, 10):
+        feet[1] = not 100 <= t_ms < 300           # LM in the air from 100 ms to 300 ms
+        seen.append(f.switch_bits(t_ms * 1000, 0, lambda: feet))
+    pressed = [t for t, bits in zip(range(0, 400, 10), seen) if bits]
+    assert pressed == [150, 160] and set(seen) == {0, 2}    # bit 1: LM, one press, 20 ms
+    assert [n for _, n, _ in f.log] == ["switch_swing_press", "swing_press"]
+    assert f.switch_bits(500_000, 0) == 0                   # no world, no swing
+
+
+def test_a_swing_press_lands_in_the_swing_of_a_walking_run(tmp_path):
+    """On flat-tripod the press comes while the leg's foot carries no load (the world's
+    ground truth), and the firmware reads it as a contact."""
+    from host_tools.expect import case_runs
+    from hil import scenario as scenario_mod
+
+    sc = scenario_mod.load_scenario(ROOT / "scenarios" / "flat-tripod.toml").overlay(
+        {"faults": {"switch_swing_press": [{"leg": 0, "at_s": 0.3, "after_s": 0.2}]}})
+    at_press: list[tuple[int, bool]] = []
+
+    def setup(run):
+        report, world = run.sim.faults.report, run.sim.world
+
+        def heard(t_us, name, detail):
+            if name == "swing_press":
+                at_press.append((t_us, world.foot_contacts()[0]))
+            report(t_us, name, detail)
+        run.sim.faults.report = heard
+
+    summary, result = case_runs.run_scenario(sc, 1, 2.0, "cpython-inprocess", None,
+                                             tmp_path / "run.mcap", setup=setup,
+                                             master_check=False)
+    assert at_press and not any(loaded for _, loaded in at_press)
+    assert all(t >= 500_000 for t, _ in at_press)
+    assert summary["switch_edges"] == 2 * len(at_press), (summary["switch_edges"], at_press)

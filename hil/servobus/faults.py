@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import math
 import random
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 from hil.scenario.faults_section import (BUS_CAN_KINDS, CAN_KINDS, FORCE_KINDS,
                                          SERVO_STATE_KINDS, STATUS_KINDS, SWITCH_KINDS,
                                          FaultEntry, FaultKind, FaultsConfig)
 from hil.servobus.health import SUPPLY_V
-from protocol.dynamixel import v2 as dx2
+from hil.servobus.fault_effects import NoisyReading, StuckReading, SwingPress
+from hil.servobus.status_mangling import mangled
 from protocol.errors import UserError
 
 OnFault = Callable[[int, str, str], None]
@@ -49,6 +50,7 @@ class Faults:
         self._t0_us = 0
         self._clock: Any = None                                     # set by start
         self._switches: dict[int, tuple[FaultEntry, int]] = {}     # leg -> (entry, since)
+        self._swings: dict[int, SwingPress] = {}                    # leg -> its swing press
         self._conflicts: dict[int, Any] = {}                        # id(entry) -> servo
         self._can_node: FaultKind | None = None                     # a CAN_KINDS, or None
         self._garbage_rng = random.Random(f"{seed}:can_garbage")
@@ -113,9 +115,16 @@ class Faults:
         self._schedule(e)
         return e
 
-    def switch_bits(self, t_us: int, bits: int) -> int:
+    def switch_bits(self, t_us: int, bits: int,
+                    contacts: Callable[[], Sequence[bool]] | None = None) -> int:
         """The six limit-switch bits as the firmware reads them, stuck or bouncing legs
-        applied: a bouncing contact flips every half period from the true level."""
+        applied: a bouncing contact flips every half period from the true level; a swing
+        press (``contacts``: the world's loaded feet) presses it in the leg's swing."""
+        if self._swings and contacts is not None:
+            feet = contacts()
+            for leg, swing in self._swings.items():
+                if swing.pressed(t_us, feet[leg], self.report):
+                    bits |= 1 << leg
         for leg, (e, since_us) in self._switches.items():
             bit = 1 << leg
             if e.pressed is not None:
@@ -188,6 +197,15 @@ class Faults:
                         "the CAN sensor node " + ("silent" if e.kind is FaultKind.CAN_SILENT
                                                   else "sends garbage frames") if start
                         else "the CAN sensor node speaks normally again")
+            return
+        if e.kind is FaultKind.SWITCH_SWING_PRESS:
+            if start:
+                self._swings[e.leg] = SwingPress(e)
+            else:
+                self._swings.pop(e.leg, None)
+            self.report(t_us, name, f"leg {e.leg}: " + (
+                f"pressed {e.press_s:g} s once its foot is {e.after_s:g} s in the air, each "
+                "swing" if start else "released to the true level"))
             return
         if e.kind in SWITCH_KINDS:
             if start:
@@ -273,8 +291,7 @@ class Faults:
             elif kind is FaultKind.STATUS_TWIN:
                 out = out + [(out[-1][0] + wire_us, bytearray(out[-1][1]))]
             else:
-                mangle = _mangled if protocol == 1 else _mangled2
-                out = [(t, mangle(kind, e, d)) for t, d in out]
+                out = [(t, mangled(kind, e, d, protocol)) for t, d in out]
         return out
 
     def can_mangle(self, data: bytes) -> tuple[str, int, bytes]:
@@ -339,70 +356,3 @@ _STATUS_SAYS = {
 _CAN_SAYS = {FaultKind.CAN_DROPPED: "lost", FaultKind.CAN_DELAYED: "delayed",
              FaultKind.CAN_REORDERED: "swapped with the next", FaultKind.CAN_CORRUPT:
              "with garbage data"}
-
-
-def _mangled(kind: FaultKind, e: FaultEntry, data: bytearray) -> bytearray:
-    """A Protocol 1.0 status packet (FF FF ID LEN ERR P.. CHK) as ``kind`` mangles it."""
-    if len(data) < 6:
-        return data
-    if kind is FaultKind.STATUS_CHECKSUM:
-        data[-1] ^= 0xFF
-        return data
-    if kind is FaultKind.STATUS_TRUNCATED:
-        return data[:-1]
-    if kind is FaultKind.STATUS_WRONG_ID:
-        data[2] = e.as_id
-    elif kind is FaultKind.STATUS_ERROR:
-        data[4] |= e.bits
-    elif kind is FaultKind.STATUS_PADDED:
-        data[-1:-1] = b"\x00"
-        data[3] += 1
-    data[-1] = (~sum(data[2:-1])) & 0xFF
-    return data
-
-
-def _mangled2(kind: FaultKind, e: FaultEntry, data: bytearray) -> bytearray:
-    """A Protocol 2.0 status packet (FF FF FD 00 ID LEN_L LEN_H 55 ERR P.. CRC_L CRC_H) as
-    ``kind`` mangles it; the CRC-16 made anew over what it covers, except for a wrong one.
-    A Fast Sync/Bulk Read's one reply is mangled the same way: its first servo's error
-    byte, its last CRC."""
-    if len(data) < 11:
-        return data
-    if kind is FaultKind.STATUS_CHECKSUM:
-        data[-1] ^= 0xFF
-        return data
-    if kind is FaultKind.STATUS_TRUNCATED:
-        return data[:-1]
-    if kind is FaultKind.STATUS_WRONG_ID:
-        data[4] = e.as_id
-    elif kind is FaultKind.STATUS_ERROR:
-        data[8] |= e.bits
-    elif kind is FaultKind.STATUS_PADDED:
-        data[-2:-2] = b"\x00"
-        length = (data[5] | data[6] << 8) + 1
-        data[5], data[6] = length & 0xFF, length >> 8
-    crc = dx2.crc16(data, 0, len(data) - 2)
-    data[-2], data[-1] = crc & 0xFF, crc >> 8
-    return data
-
-
-class StuckReading:
-    """Present Position frozen at what it read when the fault began."""
-
-    def __init__(self) -> None:
-        self.units: int | None = None
-
-    def apply(self, units: int) -> int:
-        if self.units is None:
-            self.units = units
-        return self.units
-
-
-class NoisyReading:
-    """Present Position plus Gaussian noise of ``sigma`` units, from a seeded stream."""
-
-    def __init__(self, sigma: float, rng: random.Random) -> None:
-        self.sigma, self.rng = sigma, rng
-
-    def apply(self, units: int) -> int:
-        return int(round(units + self.rng.gauss(0.0, self.sigma)))

@@ -63,7 +63,7 @@ DEFAULT_KINDS = (
     FaultKind.STATUS_CHECKSUM, FaultKind.STATUS_WRONG_ID, FaultKind.STATUS_TRUNCATED,
     FaultKind.STATUS_PADDED, FaultKind.STATUS_ERROR, FaultKind.STATUS_LATE,
     FaultKind.STATUS_MISSING, FaultKind.STATUS_TWIN, FaultKind.SWITCH_BOUNCE,
-    FaultKind.SWITCH_STUCK, FaultKind.CAN_DROPPED, FaultKind.CAN_DELAYED,
+    FaultKind.SWITCH_STUCK, FaultKind.SWITCH_SWING_PRESS, FaultKind.CAN_DROPPED, FaultKind.CAN_DELAYED,
     FaultKind.CAN_REORDERED, FaultKind.CAN_CORRUPT, FaultKind.BROWNOUT, FaultKind.OVERLOAD,
     FaultKind.POSITION_STUCK, FaultKind.POSITION_NOISE, FaultKind.UNPLUG)
 
@@ -93,6 +93,9 @@ class Mutator:
         keys: list[tuple[str, Any]]
         if kind in (FaultKind.BROWNOUT, FaultKind.OVERLOAD):
             keys = [("id", rng.choice(v.ids)), ("at_s", at)]
+        elif kind is FaultKind.SWITCH_SWING_PRESS:     # each swing from at_s to the end
+            keys = [("leg", rng.choice(v.legs)), ("after_s", _ms(rng.uniform(0.0, 0.5))),
+                    ("press_s", _ms(rng.uniform(0.01, 0.1))), ("at_s", at)]
         elif kind in (FaultKind.SWITCH_STUCK, FaultKind.SWITCH_BOUNCE):
             keys = [("leg", rng.choice(v.legs))]
             keys.append(("pressed", rng.random() < 0.7) if kind is FaultKind.SWITCH_STUCK
