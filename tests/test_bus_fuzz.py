@@ -291,10 +291,12 @@ def test_the_held_trace_judges_as_the_written_file_does(tmp_path):
     case = replace(spec.load(ROOT / "examples" / "fuzz-flat-tripod.toml"), duration_s=0.7)
     target = Target(case, 0.5, coverage=False)
     held: list[HeldTrace] = []
+    caps: list[float] = []
 
     def setup(run):
         write = run.recorder._write_chunk
         held.append(HeldTrace(run, case))
+        caps.append(run.limits.wall_s(case.duration_s))
         keep = run.recorder._write_chunk
         run.recorder._write_chunk = lambda msgs, packing=None: (keep(msgs), write(msgs))
 
@@ -312,6 +314,7 @@ def test_the_held_trace_judges_as_the_written_file_does(tmp_path):
         summary = run_input(target, (), trace, wrap=wrap, setup=setup)
     finally:
         os.sched_setaffinity(0, cpus)
+    assert caps == [float("inf")]         # no wall-clock cap: the server waits for inputs
     rec = held[0].recording(summary)
     assert held[0].boot and rec.messages[verdicts.topics.T_BODY][-1][0] > 0.6
     assert rec.messages == verdicts.read(trace, summary, verdicts.topics_read(case)).messages

@@ -8,6 +8,7 @@ run it; so does every reproducer, to check it fails the same way without the fuz
 """
 from __future__ import annotations
 
+import math
 import shutil
 import tempfile
 import time
@@ -15,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from hil.run.limits import RunLimits
 from host_tools import in_process
 from host_tools.bus_fuzz.features import LineTracer, PacketSequence, elf_lines
 from host_tools.bus_fuzz.mutations import Input, faults_table
@@ -81,7 +83,8 @@ def judge(case: Case, summary: dict[str, Any], outcomes: Sequence[Outcome]
 def run_input(target: Target, faults: Input, trace: Path, wrap: Any = None,
               coverage: str | None = None, setup: Any = None) -> dict[str, Any]:
     """The case's run, the faults in its scenario; with ``wrap`` (the fork server) none:
-    the children inject them."""
+    the children inject them, and the run has no wall-clock cap: the server's run waits
+    for inputs as long as the campaign lasts (a child's hang is ``HANG_WALL_S``'s)."""
     from host_tools.expect.case_runs import run_scenario
 
     case = target.case
@@ -94,6 +97,7 @@ def run_input(target: Target, faults: Input, trace: Path, wrap: Any = None,
                         "cpython-inprocess" if target.in_process else case.python,
                         case.tactile, trace, sends=case.sends, firmware=target.firmware,
                         coverage=coverage, wrap=wrap, main=main, master_check=judged,
+                        limits=None if wrap is None else RunLimits(max_wall_s=math.inf),
                         setup=setup)[0]
 
 

@@ -111,7 +111,12 @@ class _Forks:
             pid = os.fork()
             if pid == 0:
                 os.close(r)
-                self._child(run, faults, w)
+                try:
+                    self._child(run, faults, w)
+                except BaseException as exc:   # hexhil's own error: the firmware never sees it
+                    self.child = (w, None, PacketSequence(None))
+                    self.verdict(Execution(("host error",), (f"host error: {exc!r}",),
+                                           frozenset(), 0.0))
                 return
             os.close(w)
             verdict = _reap(pid, r, wall0)
