@@ -258,6 +258,13 @@ def test_bad_settings_are_one_line_errors():
 
 
 def test_the_example_case_on_the_command_line_with_json(tmp_path):
+    import resource
+
+    def cpu_s() -> float:
+        u = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return u.ru_utime + u.ru_stime
+
+    before = cpu_s()
     r = subprocess.run([*HEXHIL, "fuzz", "scenarios/flat-tripod.toml", "--expect",
                         "examples/fuzz-flat-tripod.toml", "--runs", "3", "--seed", "2",
                         "--kinds", "status_twin", "--json", "--quiet"],
@@ -266,6 +273,7 @@ def test_the_example_case_on_the_command_line_with_json(tmp_path):
     report = json.loads(r.stdout.splitlines()[-1])
     assert report["executions"] == 3 and report["findings"] == []
     assert report["features"] >= report["baseline_features"] > 0
+    assert 0 < report["child_cpu_s"] < cpu_s() - before     # the forked children's, of all
 
 
 def test_the_packet_sequence_passes_a_direction_mistake_on_or_drops_it():

@@ -48,12 +48,14 @@ class Target:
 @dataclass(frozen=True)
 class Execution:
     """One input's verdict: what failed (sorted labels; empty: it passed), the failures'
-    measured values, the features it reached, its wall time."""
+    measured values, the features it reached, its wall time and (a forked child's) the CPU
+    time it took, exit included."""
 
     failures: tuple[str, ...]
     details: tuple[str, ...]
     features: frozenset[int]
     wall_s: float
+    cpu_s: float = 0.0
 
     @property
     def failed(self) -> bool:

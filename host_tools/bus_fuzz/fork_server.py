@@ -177,10 +177,11 @@ def _reap(pid: int, r: int, wall0: float) -> Execution:
             break
         chunks.append(chunk)
     os.close(r)
-    _, status = os.waitpid(pid, 0)
+    _, status, usage = os.wait4(pid, 0)
     wall = time.perf_counter() - wall0
     if chunks:
-        return replace(pickle.loads(b"".join(chunks)), wall_s=wall)
+        return replace(pickle.loads(b"".join(chunks)), wall_s=wall,
+                       cpu_s=usage.ru_utime + usage.ru_stime)
     return Execution(("host crashed",), (f"host crashed: the execution ended with status "
                                          f"{status} and no verdict",), frozenset(), wall)
 
