@@ -14,7 +14,7 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Sequence
 
 from hil.run.limits import RunLimits
 from host_tools import in_process
@@ -22,7 +22,6 @@ from host_tools.bus_fuzz.features import LineTracer, PacketSequence, elf_lines
 from host_tools.bus_fuzz.mutations import Input, faults_table
 from host_tools.expect.spec import Case, Kind
 from host_tools.expect.verdicts import Outcome, evaluate
-from protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parents[2]
 
