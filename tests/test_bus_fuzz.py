@@ -284,6 +284,9 @@ def test_the_packet_sequence_passes_a_direction_mistake_on_or_drops_it():
     alone.direction_mistake(5, "tx_while_receiving", "no master check")
     alone.master_bytes(None, 0, dxl.read(1, 36, 6) + dxl.read(2, 36, 6) + dxl.read(1, 36, 6))
     assert len(alone.pairs) == 3          # (start, 1), (1, 2), (2, 1)
+    two = PacketSequence(None)
+    two.master_bytes(None, 0, dx2.read(1, 132, 4) + dx2.read(2, 132, 4) + dx2.read(1, 132, 4))
+    assert len(two.pairs) == 3 and two._last == (dx2.READ, 1)     # Protocol 2.0's packets
     check = MasterCheck()
     PacketSequence(check).direction_mistake(5, "tx_while_receiving", "pin low")
     assert check.counts["tx_while_receiving"] == 1

@@ -81,7 +81,7 @@ class LineTracer:
 
 class PacketSequence:
     """The bus master's packets in order, as features: each (instruction, ID) after the one
-    before it. Stands in front of the master check (``bus.monitor``, if there is one) and
+    before it, in Protocol 1.0 or 2.0 (told by the header). Stands in front of the master check (``bus.monitor``, if there is one) and
     passes all on."""
 
     def __init__(self, check: Any) -> None:
@@ -94,13 +94,19 @@ class PacketSequence:
             self.check.master_bytes(bus, t0_us, data)
         i, n = 0, len(data)
         while i + 4 < n:
-            if data[i] == 0xFF and data[i + 1] == 0xFF and data[i + 2] != 0xFF:
-                now = (data[i + 4], data[i + 2])
-                self.pairs.add(feature("packets", *self._last, *now))
-                self._last = now
-                i += 4 + data[i + 3]
-            else:
+            if data[i] != 0xFF or data[i + 1] != 0xFF or data[i + 2] == 0xFF:
                 i += 1
+                continue
+            if data[i + 2] == 0xFD and data[i + 3] == 0x00:     # Protocol 2.0's header
+                if i + 7 >= n:
+                    return
+                now = (data[i + 7], data[i + 4])
+                step = 7 + (data[i + 5] | data[i + 6] << 8)
+            else:                                                # Protocol 1.0's
+                now, step = (data[i + 4], data[i + 2]), 4 + data[i + 3]
+            self.pairs.add(feature("packets", *self._last, *now))
+            self._last = now
+            i += step
 
     def direction_mistake(self, t_us: int, kind: str, detail: str) -> None:
         """The virtual board's direction pin was wrong (hil/link/server.py ``run_fault``)."""
