@@ -33,7 +33,7 @@ from hil.mcu.poll import PollSkipper
 from hil.mcu.quiet import QuietLoops
 from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import IrqLines, extra_peripherals
-from hil.mcu import flash, platform
+from hil.mcu import device_id, flash, platform
 from hil.mcu.rcc import CSR, HSI_HZ, Rcc, power
 from hil.mcu.rtc import Rtc
 from hil.mcu.system import Nvic, SystemBlock
@@ -90,6 +90,7 @@ class Board:
         self.tick.set(TICK_US * FS_PER_US)
         self.space.attach(core.uc)
         flash.attach(self)            # stores to flash reach self.flash (hil/mcu/flash.py)
+        self._system_memory = device_id.attach(core.uc)   # the unique ID, the flash size
         if self.native:
             hook_interrupts(core.shared, core.uc)    # exception returns in C
         else:

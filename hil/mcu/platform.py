@@ -84,8 +84,12 @@ PLATFORM: tuple[Row, ...] = (
     Row("Flash", 0x08000000, 0x80000, Kind.MEMORY, "", "hil.mcu.core:Core", B,
         does="512 KB, also at 0 (BOOT0 low); what the ELF leaves reads 0xFF (erased); "
         "a store programs it only through the FLASH interface (below)"),
-    Row("System memory", 0x1FFF0000, 0x7800, Kind.MEMORY, does="not mapped"),
-    Row("OTP", 0x1FFF7800, 0x210, Kind.MEMORY, does="not mapped"),
+    Row("System memory", 0x1FFF0000, 0x7800, Kind.MEMORY, "", "hil.mcu.device_id:attach", B,
+        does="read-only; the bootloader's code is not there (reads 0)"),
+    Row("OTP", 0x1FFF7800, 0x210, Kind.MEMORY, "", "hil.mcu.device_id:attach", B,
+        does="read-only, erased (0xFF)"),
+    Row("Unique ID, flash size", 0x1FFF7A10, 0x14, Kind.MEMORY, "", "hil.mcu.device_id:attach",
+        B, does="a fixed 96-bit ID (the same every run) at 0x1FFF7A10, 512 (KB) at 0x1FFF7A22"),
     Row("Option bytes", 0x1FFFC000, 0x10, Kind.MEMORY, does="not mapped"),
     Row("SRAM", 0x20000000, 0x20000, Kind.MEMORY, "", "hil.mcu.core:Core", B, does="128 KB"),
     Row("SRAM bit-band", 0x22000000, 0x400000, Kind.ALIAS, "", "hil.mcu.bitband:BitBandAlias",
@@ -214,7 +218,9 @@ PLATFORM: tuple[Row, ...] = (
         "FAULTMASK, tail-chaining, level lines"),
     Row("SCB", 0xE000ED00, 0x90, Kind.CORE, "PPB", "hil.mcu.system:SystemBlock", B,
         does="CPUID, ICSR, VTOR, AIRCR (PRIGROUP, SYSRESETREQ), SCR SLEEPONEXIT, SHPR1-3, "
-        "CPACR; not the MPU, fault status"),
+        "SHCSR, CFSR, HFSR, MMFAR, BFAR (hil/mcu/faults.py), CPACR; not the MPU"),
+    Row("DBGMCU", 0xE0042000, 0x10, Kind.CORE, "PPB", "hil.mcu.system:SystemBlock", B,
+        does="IDCODE (DEV_ID 0x431, REV_ID 0x1000); CR and the freeze bits kept as written"),
     Row("FPU", 0xE000EF30, 0x10, Kind.CORE, "PPB", "hil.mcu.system:SystemBlock", B,
         ("FPU",), does="FPCCR, FPCAR kept as written"),
 )

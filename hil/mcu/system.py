@@ -17,6 +17,7 @@ from unicorn import arm_const as A
 
 from hil.mcu.board_core import SharedField
 from hil.mcu.core import EXC_PENDSV, EXC_SYSTICK, Core, Regs
+from hil.mcu.device_id import DBGMCU_IDCODE, IDCODE
 from hil.mcu.faults import FaultStatus
 
 NUM_IRQS = 86                 # RM0383 table 37: positions 0..85
@@ -252,6 +253,8 @@ class SystemBlock:
             return int.from_bytes(nvic.prio[e:e + 4], "little")
         if SCB + 0x24 <= addr < SCB + 0x40:
             return self.faults.read(addr - SCB)
+        if addr == DBGMCU_IDCODE:
+            return IDCODE
         return self.regs.get(addr, 0)
 
     def _nvic_read(self, addr: int) -> int:
