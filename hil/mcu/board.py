@@ -245,7 +245,9 @@ class Board:
                     value.clear()
         self.poll.forget()
         self.quiet.forget()
+        rtc, bdcr = self.rtc, self.rcc.regs.get(0x70, 0)    # the backup domain goes on
         self._peripherals()
+        rtc.survive_reset(self, bdcr)
         self.rcc.reset_by(cause, flags)
         self.core.vtor = 0
         self.core.fpu_on = False
