@@ -153,8 +153,10 @@ PLATFORM: tuple[Row, ...] = (
        "the console; see USART1/2/6"),
     _p("USART6", 0x40011400, "APB2", "hil.mcu.usart:Usart", B, ("USART6",), ("APB2ENR", 5),
        "a second console; see USART1/2/6"),
-    _p("ADC1", 0x40012000, "APB2", "hil.mcu.devices.adc:ADC1", T, ("ADC",), ("APB2ENR", 8),
-       REGISTERS_ONLY + " (and the common CSR, CCR)"),
+    _p("ADC1", 0x40012000, "APB2", "hil.mcu.devices.adc:Adc", T, ("ADC",), ("APB2ENR", 8),
+       "a regular conversion by SWSTART (CONT), EOC and its interrupt after the sampling "
+       "time; VREFINT, the temperature sensor, VBAT/4; the pins read 0 V; not scan, "
+       "injected, triggers, DMA"),
     _p("SDIO", 0x40012C00, "APB2", "hil.mcu.devices.sdio:SDIO", T, ("SDIO",),
        ("APB2ENR", 11), "no registers: each access named, reads 0"),
     _p("SPI1", 0x40013000, "APB2", "hil.mcu.devices.spi:SPI", T, ("SPI1",), ("APB2ENR", 12),
