@@ -80,6 +80,7 @@ def _p(name: str, base: int, bus: str, model: str, built: Built = Built.TABLE,
 
 B, T = Built.BOARD, Built.TABLE
 REGISTERS_ONLY = "registers as data: reset values and access rules, no behaviour"
+I2C_DOES = "a master on a bus with no device: START, the address not acknowledged (AF), STOP"
 PLATFORM: tuple[Row, ...] = (
     Row("Flash", 0x08000000, 0x80000, Kind.MEMORY, "", "hil.mcu.core:Core", B,
         does="512 KB, also at 0 (BOOT0 low); what the ELF leaves reads 0xFF (erased); "
@@ -132,12 +133,12 @@ PLATFORM: tuple[Row, ...] = (
        does=REGISTERS_ONLY),
     _p("USART2", 0x40004400, "APB1", "hil.mcu.usart:Usart", B, ("USART2",), ("APB1ENR", 17),
        "the servo line (in C with the compiled board); see USART1/2/6"),
-    _p("I2C1", 0x40005400, "APB1", "hil.mcu.devices.i2c:I2C", T, ("I2C1_EV", "I2C1_ER"),
-       ("APB1ENR", 21), REGISTERS_ONLY),
-    _p("I2C2", 0x40005800, "APB1", "hil.mcu.devices.i2c:I2C", T, ("I2C2_EV", "I2C2_ER"),
-       ("APB1ENR", 22), REGISTERS_ONLY),
-    _p("I2C3", 0x40005C00, "APB1", "hil.mcu.devices.i2c:I2C", T, ("I2C3_EV", "I2C3_ER"),
-       ("APB1ENR", 23), REGISTERS_ONLY),
+    _p("I2C1", 0x40005400, "APB1", "hil.mcu.devices.i2c:I2cBus", T, ("I2C1_EV", "I2C1_ER"),
+       ("APB1ENR", 21), I2C_DOES),
+    _p("I2C2", 0x40005800, "APB1", "hil.mcu.devices.i2c:I2cBus", T, ("I2C2_EV", "I2C2_ER"),
+       ("APB1ENR", 22), I2C_DOES),
+    _p("I2C3", 0x40005C00, "APB1", "hil.mcu.devices.i2c:I2cBus", T, ("I2C3_EV", "I2C3_ER"),
+       ("APB1ENR", 23), I2C_DOES),
     _p("CAN1", 0x40006400, "APB1", "hil.mcu.peripherals:BxCan", B,
        ("CAN1_TX", "CAN1_RX0", "CAN1_RX1", "CAN1_SCE"), ("APB1ENR", 25),
        "**not on the F411**: the F4 family's bxCAN1, for CAN firmware of a bigger F4; "
