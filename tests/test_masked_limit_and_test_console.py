@@ -5,6 +5,7 @@ import json
 
 import pytest
 
+from firmware import main as firmware_main
 from host_tools.expect import spec
 from host_tools.lockstep_run import Run
 from mcu_elf import build
@@ -57,3 +58,16 @@ def test_a_case_limit_must_be_above_zero(case, tmp_path):
     bad.write_text(case[0].read_text().replace("masked_limit_s = 0.03", "masked_limit_s = 0"))
     with pytest.raises(UserError, match="case.masked_limit_s' must be above 0 s"):
         spec.load(bad)
+
+
+def test_a_print_of_a_firmware_in_process_is_a_console_line_as_a_child_process_s():
+    def main(board):
+        print("in process: hello", end="\n")
+        print("second ", end="")
+        print("line")
+        firmware_main.main(board)
+
+    with Run(ROOT / "scenarios" / "flat-tripod.toml", runtime="cpython-inprocess",
+             duration_s=0.05) as run:
+        result = run.run(None, main)
+    assert [text for _, text in result.console] == ["in process: hello", "second line"]
