@@ -13,16 +13,17 @@ from host_tools import cli
 LIVE_PORT = 8765  # Foxglove's default WebSocket port (host_tools/trace/live.py)
 
 
-def add_flash_options(p: argparse.ArgumentParser, read_back: bool = True) -> None:
-    """--main, --fs (and --fs-out): a MicroPython ELF's /flash
+def add_flash_options(p: argparse.ArgumentParser) -> None:
+    """--main, --fs and --fs-out: a MicroPython ELF's /flash
     (docs/micropython-on-the-chip.md)."""
     p.add_argument("--main", metavar="MAIN.py", help="with a MicroPython ELF as --firmware: "
-                   "lay this file into its internal-flash filesystem as main.py, which it runs")
+                   "lay this file into its internal-flash filesystem as main.py, which it runs, "
+                   "with the modules it imports from its package, compiled")
     p.add_argument("--fs", metavar="DIR", help="with a MicroPython ELF: lay DIR's files into "
                    "its /flash too")
-    if read_back:
-        p.add_argument("--fs-out", metavar="DIR", help="with a MicroPython ELF: after the "
-                       "run, write the files of its /flash into DIR")
+    p.add_argument("--fs-out", metavar="DIR", help="with a MicroPython ELF: after the run, "
+                   "write the files of its /flash into DIR (hexhil test and margin: into "
+                   "DIR/<run>/, one folder a run)")
 
 
 def add_masked_limit(p: argparse.ArgumentParser) -> None:

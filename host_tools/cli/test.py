@@ -180,7 +180,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "--firmware: a MicroPython main file for the virtual board, or an "
                         "executable such as a C firmware); a case may name one itself "
                         "([case] firmware)")
-    add_flash_options(p, read_back=False)
+    add_flash_options(p)
     add_masked_limit(p)
     p.add_argument("--in-process", metavar="FILE.py",
                    help="run every case with this Python module's main(board) in this "
