@@ -75,6 +75,7 @@ class CaseRun:
     flash_files: FlashFiles | None = None  # --main/--fs/--fs-out over the case's, each
     coverage_libraries: bool = False      # ... counting the toolchain's libraries too
     main_file: str | None = None          # a module's main(board) in process, not ours
+    masked_limit_s: float | None = None   # an ELF's masked-spin limit (None: the default)
 
 
 @dataclass(frozen=True)
@@ -111,7 +112,7 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
                  changed: dict[str, Any] | None = None, coverage: str | None = None,
                  limits: RunLimits | None = None,
                  flash_files: FlashFiles | None = None,
-                 coverage_libraries: bool = False,
+                 coverage_libraries: bool = False, masked_limit_s: float | None = None,
                  wrap: Callable[[Run, Any], Any] | None = None, main: Any = None,
                  master_check: bool = True, setup: Callable[[Run], None] | None = None
                  ) -> tuple[dict[str, Any], RunResult]:
@@ -129,7 +130,8 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
               overrides={**timing.overrides(), **(changed or {})}, coverage=coverage,
-              limits=limits, flash_files=flash_files, coverage_libraries=coverage_libraries)
+              limits=limits, flash_files=flash_files, coverage_libraries=coverage_libraries,
+              masked_limit_s=masked_limit_s)
     try:
         if master_check:
             run.watch_master()
@@ -165,7 +167,9 @@ def run_case(job: CaseRun) -> CaseResult:
                                   IN_PROCESS if main else job.python or case.python, tactile,
                                   trace, job.timing, case.sends, job.firmware or case.firmware,
                                   dict(job.changed), job.coverage, job.limits, flash,
-                                  job.coverage_libraries, main=main)
+                                  job.coverage_libraries,
+                                  job.masked_limit_s if job.masked_limit_s is not None
+                                  else case.masked_limit_s, main=main)
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
