@@ -1,7 +1,8 @@
 """Where the recorder encodes (host_tools/trace/windows.py): its child process
 (encoder_process.py) writes the same bytes as the run's own process, flushes and discards
 through it, says a full disk in the same one line and holds no descriptor of the run; in
-the run's process, a closed window is written at the next idle()."""
+the run's process, a closed window is written at the next idle(), and the simulator's wait
+is worked in slices until the firmware answers."""
 from __future__ import annotations
 
 import os
@@ -171,3 +172,19 @@ def test_with_one_cpu_the_encoding_stays_in_the_run(tmp_path, monkeypatch):
     with Run(ROOT / "scenarios" / "flat-tripod.toml", runtime="cpython-inprocess",
              duration_s=0.1, trace=tmp_path / "r.mcap") as run:
         assert run.recorder.encode_in is rec.EncodeIn.THIS_PROCESS
+
+
+def test_work_while_encodes_until_the_firmware_answers_or_nothing_is_left(tmp_path):
+    r = rec.Recorder(tmp_path / "run.mcap", {"seed": 1}, encode_in=rec.EncodeIn.THIS_PROCESS)
+    for t in range(0, 40_000, 1000):
+        r.telemetry(t, {"t_us": t})
+    looks = []
+
+    def waiting() -> bool:   # the firmware answers at the third look
+        looks.append(1)
+        return len(looks) < 3
+    r.work_while(waiting)
+    assert len(looks) == 3 and r.idle(0)   # stopped at the answer, work left
+    r.work_while(lambda: True)             # a long wait: returns once nothing is left
+    assert not r.idle(0)
+    r.close()

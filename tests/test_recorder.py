@@ -387,18 +387,3 @@ def test_sigkilled_hexhil_run_recovers_to_an_exact_prefix(tmp_path):
         got = [(m.topic, m.log_time_ns, m.data) for m in b.messages(end_s=3.0)]
     assert got == want and len(want) > 1000
 
-
-def test_work_while_encodes_until_the_firmware_answers_or_nothing_is_left(tmp_path):
-    r = rec.Recorder(tmp_path / "run.mcap", {"seed": 1}, encode_in=rec.EncodeIn.THIS_PROCESS)
-    for t in range(0, 40_000, 1000):
-        r.telemetry(t, {"t_us": t})
-    looks = []
-
-    def waiting() -> bool:   # the firmware answers at the third look
-        looks.append(1)
-        return len(looks) < 3
-    r.work_while(waiting)
-    assert len(looks) == 3 and r.idle(0)   # stopped at the answer, work left
-    r.work_while(lambda: True)             # a long wait: returns once nothing is left
-    assert not r.idle(0)
-    r.close()
