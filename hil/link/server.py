@@ -30,10 +30,13 @@ CONSOLE_LOG = logging.getLogger("hexhil.console")
 
 
 class SwitchSampler:
-    """The six limit-switch levels at each sleep; edges go to the result and the recorder."""
+    """The six limit-switch levels at each sleep; edges go to the result and the recorder.
+    ``steady_until`` gives the earliest virtual time (us) the levels may differ from what
+    they are at the clock's time now (0: any time)."""
 
-    def __init__(self, levels: Callable[[int], int], recorder: TraceRecorder | None) -> None:
-        self.levels, self.recorder = levels, recorder
+    def __init__(self, levels: Callable[[int], int], recorder: TraceRecorder | None,
+                 steady_until: Callable[[], int] = lambda: 0) -> None:
+        self.levels, self.recorder, self.steady_until = levels, recorder, steady_until
         self.bits = 0
 
     def sample(self, t_us: int, result: RunTally) -> int:
@@ -128,6 +131,11 @@ class LinkServer:
         check = getattr(self.bus, "monitor", None)
         if check is not None and name in MISTAKES:
             check.direction_mistake(t, name, detail)
+
+    def switches_steady_until(self) -> int:
+        """Until when (us of virtual time) the switch levels stay what they are now: an
+        in-process board needs no sleep before it to see them change (0: unknown)."""
+        return self.switches.steady_until()
 
     def _can_from_firmware(self, payload: bytes, result: RunTally) -> None:
         if len(payload) < 3 or payload[2] > sim_link.CAN_MAX_DLC or len(payload) != 3 + payload[2]:

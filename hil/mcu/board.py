@@ -53,11 +53,14 @@ class Board:
 
     switches = SharedField("switches")                # pressed, a bit each (PB0-PB5)
     _last_request_us = SharedField("last_request_us")  # the switches are as old as it
+    _switches_until_us = SharedField("switches_until_us")  # ... and stay so until then
 
     def __init__(self, image: ElfImage, exchange: Callable[[bytes, bool], bytes],
                  console_events: Callable[[str], list[tuple[int, str]]],
-                 compiled: bool = True, masked_limit_s: float = MASKED_LIMIT_S) -> None:
+                 compiled: bool = True, masked_limit_s: float = MASKED_LIMIT_S,
+                 switches_until: Callable[[], int] = lambda: 0) -> None:
         self.image = image
+        self.switches_until = switches_until    # the host's LinkHost.switches_steady_until
         self.console_events = console_events
         self.link = LinkClient(exchange)
         self.core = core = Core(image, HSI_HZ)
@@ -81,6 +84,7 @@ class Board:
         self._reset_pending: str | None = None     # what asked for the reset
         self.noted: set[str] = set()   # registers without behaviour the log named
         self._last_request_us = -TICK_US
+        self._switches_until_us = 0
         self.debugger: Any = None      # hil/mcu/gdb.py, with --gdb
         self.cycles = ControlCycles(core)   # busy time per control cycle (deadline.py)
         self.line = ServoLine(self)
@@ -156,6 +160,7 @@ class Board:
             self.ended = True
             self.core.stop()
         self._last_request_us = self.link.t_us
+        self._switches_until_us = self.switches_until()
         return reply
 
     def now_us(self) -> int:
@@ -164,9 +169,11 @@ class Board:
     def _tick(self, at_fs: int) -> None:
         """A sleep to now after a quiet while: each millisecond while an interrupt waits
         for a switch or a CAN frame, else every 10 ms (a read of the switch pins asks
-        for fresh levels itself, ``fresh_switches``)."""
+        for fresh levels itself, ``fresh_switches``). A switch waits for no sleep before
+        the time the host said its levels hold until (the world's next physics step)."""
         at_us = at_fs // FS_PER_US
-        if at_us - self._last_request_us >= TICK_US:
+        if at_us - self._last_request_us >= TICK_US and \
+                (self.can_listening or at_us >= self._switches_until_us):
             self.take(self.link.sleep(at_us))
         self.endings.sample()
         listening = self.exti.regs[0x00] & 0x3F or self.can_listening
@@ -175,7 +182,7 @@ class Board:
     def fresh_switches(self) -> None:
         """The firmware reads port B: the switch levels of the last millisecond."""
         now_us = self.now_us()
-        if now_us - self._last_request_us >= TICK_US:
+        if now_us - self._last_request_us >= TICK_US and now_us >= self._switches_until_us:
             self.take(self.link.sleep(now_us))
 
     def can_received(self, arb_id: int, data: bytes) -> None:
@@ -368,6 +375,12 @@ class Board:
             else:
                 core.cyc = max(core.cyc, core.time.cycle_of(self.events.next_fs()))
                 return
+        st = core.shared
+        if st.quiet_hold:               # board_core.c ``bc_loop`` does the same
+            if not taken and not core.sleeping and not (st.pending_n and self.nvic.masked_ready()) \
+                    and self.quiet.held():
+                return
+            st.quiet_hold = 0
         if self.debugger is not None:
             n = self.debugger.chunk_limit(n)
         try:
@@ -375,7 +388,6 @@ class Board:
         except CoreFault as exc:
             raise CoreFault(self.fault_line(str(exc))) from None
         self.after_chunk()
-        st = core.shared
         if st.mmio_n != st.chunk_mmio or core.sleeping or core.stopped or core.cut:
             self.quiet.loud_chunk()
         elif ran == n and self.debugger is None and not self._reset_pending:

@@ -141,6 +141,10 @@ typedef struct {
        since), SR read with IDLE set (a DR read clears it), its timer (with IDLEIE) */
     int64_t u2_idle_at;
     int32_t u2_idle_live, u2_idle_tid, u2_idle_seen;
+    /* quiet.py ``held``: 1 while the state is a fixed point a skip confirmed and no
+       instruction has run since (an event that changed nothing lets it skip again) */
+    int32_t quiet_hold, _pad4;
+    int64_t switches_until_us;   /* the host's word: no switch changes before it (board.py) */
 } bc_t;
 
 /* bc_t's layout as this compiler laid it out: board_core.py checks its ``Shared`` against
@@ -179,6 +183,7 @@ F(ctr, ctr) F(pc, pc) F(chunk0, chunk0) F(cyc, cyc) F(fs0, fs0) F(cyc0, cyc0)
     F(masked_steps, masked_steps) F(pub_count, pub_count) F(pub_limit, pub_limit)
     F(pub_pc, pub_pc) F(engine_counts, engine_counts) F(u2_idle_at, u2_idle_at)
     F(u2_idle_live, u2_idle_live) F(u2_idle_tid, u2_idle_tid) F(u2_idle_seen, u2_idle_seen)
+    F(quiet_hold, quiet_hold) F(_pad4, _pad4) F(switches_until_us, switches_until_us)
 };
 #undef F
 
@@ -712,7 +717,9 @@ static uint32_t port_idr(bc_t *s, int port) {
 
 /* gpio.py ``read`` of PB's IDR with board.py ``fresh_switches`` before it */
 static uint32_t switches_idr(bc_t *s) {
-    if (bc_now_fs(s) / FS_PER_US - s->last_request_us >= TICK_US) py(s, PY_SWITCHES, 0, 0);
+    int64_t now_us = bc_now_fs(s) / FS_PER_US;
+    if (now_us - s->last_request_us >= TICK_US && now_us >= s->switches_until_us)
+        py(s, PY_SWITCHES, 0, 0);
     return port_idr(s, 1);
 }
 
@@ -1058,7 +1065,7 @@ int bc_rx_deliver(bc_t *s, int64_t at) {
 /* --- the run loop (board.py ``run`` and core.py ``run``) ------------------------------ */
 /* where Python goes on: hil/mcu/board_loop.py LOOP_*, the same numbers */
 enum { LOOP_AFTER_HEAD = 0, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
-       LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT, LOOP_QUIET };
+       LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT, LOOP_QUIET, LOOP_HELD };
 #define WFI 0xBF30
 #define WFE 0xBF20
 #define BRANCH_TO_SELF 0xE7FE
@@ -1085,6 +1092,7 @@ static int64_t run_chunk(bc_t *s, int64_t n) {
     s->chunk0 = s->cyc;
     s->chunk_mmio = s->mmio_n;
     s->stopped = s->cut = 0;
+    s->quiet_hold = 0;
     s->running = 1;
     s->hook_failed = 0;
     int err;
@@ -1159,6 +1167,13 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
                 n = -1;
                 continue;
             }
+        }
+        if (s->quiet_hold) {      /* still the confirmed fixed point? quiet.py ``held`` */
+            if (taken == -1 && !s->sleeping && !(s->pending_n && masked_ready(s))) {
+                s->masked_steps = 0;
+                return LOOP_HELD;
+            }
+            s->quiet_hold = 0;
         }
         if (s->pending_n && masked_ready(s)) {   /* taken right after its unmasking */
             if (s->masked_steps < MASKED_STEPS) {

@@ -20,7 +20,7 @@ from hil.mcu.core import CoreFault, error_text
 
 # board_core.c's enum of where Python goes on, the same numbers
 (LOOP_AFTER_HEAD, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
- LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT, LOOP_QUIET) = range(9)
+ LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT, LOOP_QUIET, LOOP_HELD) = range(10)
 _P = ctypes.c_void_p
 
 
@@ -83,6 +83,8 @@ def handed_over(board: Any, where: int) -> int:
         board.after_chunk()
     elif where == LOOP_QUIET:            # a chunk without a register access (quiet.py)
         board.quiet.quiet_chunk(st.loop_n)
+    elif where == LOOP_HELD:             # nothing ran since a quiet skip (quiet.py ``held``)
+        return -1 if board.quiet.held() else st.loop_n
     elif where == LOOP_AFTER_HEAD:
         if board.ended or board.reset_if_asked():
             return -1

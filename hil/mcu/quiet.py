@@ -16,6 +16,11 @@ that counts (in a register, in RAM, in an FPU register) is never skipped.
 instruction, correct and only slower. A chunk that turns out not to be such a loop costs
 Python a look; after a miss the next ones are let by (up to ``MAX_BACKOFF`` chunks), so
 code that computes for a long time without touching a register pays almost nothing.
+
+After a skip the state is held (``held``): the event at the end of the skip may change
+nothing the loop sees (the link's millisecond tick, a timer whose interrupt is off), and
+when no exception was taken and the state is still the confirmed one, to the bit, time
+jumps to the following event at once, without running the two passes again.
 """
 from __future__ import annotations
 
@@ -43,6 +48,7 @@ class QuietLoops:
         self._st = board.core.shared
         self._regs = Regs(board.core.uc, STATE_REGS)
         self._seen: tuple[int, list[int], bytes] | None = None   # (cycle, registers, SRAM)
+        self._held: tuple[list[int], bytes] | None = None        # a confirmed fixed point
         self._backoff = 1
         self.skips = 0
 
@@ -61,18 +67,39 @@ class QuietLoops:
             self._miss()
             return
         self._backoff = 1
+        if self._skip():
+            self._held = (state, sram)
+            st.quiet_hold = 1
+
+    def _skip(self) -> bool:
+        """Time jumps to the next event; whether it moved."""
+        core = self.board.core
         nxt = self.board.events.next_fs()
         if nxt is None:
-            return
+            return False
         cyc = core.time.cycle_of(nxt)
-        if cyc > core.cyc:
-            st.skipped += cyc - core.cyc
-            core.cyc = cyc
-            self.skips += 1
+        if cyc <= core.cyc:
+            return False
+        self._st.skipped += cyc - core.cyc
+        core.cyc = cyc
+        self.skips += 1
+        return True
+
+    def held(self) -> bool:
+        """No exception was taken since the last skip and nothing has run: when the state
+        is still the confirmed fixed point, skip again (True); else the hold ends."""
+        held, st = self._held, self._st
+        if held is not None and self._regs.read() == held[0] and \
+                bytes(self.board.core.sram_view()) == held[1] and self._skip():
+            return True
+        self._held = None
+        st.quiet_hold = 0
+        return False
 
     def loud_chunk(self) -> None:
         """A chunk that touched a register or slept: no pass is being checked."""
         self._seen = None
+        self._held = None
 
     def _miss(self) -> None:
         st = self._st
@@ -83,5 +110,7 @@ class QuietLoops:
     def forget(self) -> None:
         """A system reset: nothing recorded goes on."""
         self._seen = None
+        self._held = None
+        self._st.quiet_hold = 0
         self._st.quiet_n = 0
         self._st.quiet_wait = 0
