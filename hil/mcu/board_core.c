@@ -145,6 +145,14 @@ typedef struct {
        instruction has run since (an event that changed nothing lets it skip again) */
     int32_t quiet_hold, _pad4;
     int64_t switches_until_us;   /* the host's word: no switch changes before it (board.py) */
+    /* quiet.py ``QuietLoops`` done here: the state recorded at the end of a quiet chunk
+       (cycle, registers, SRAM), the misses' back-off, Unicorn's ids of the registers */
+    int64_t q_cyc, q_backoff;
+    int32_t q_seen, q_nregs;
+    int32_t *q_ids;
+    uint64_t *q_regs, *q_now;
+    void **q_ptrs;
+    uint8_t *q_sram;
 } bc_t;
 
 /* bc_t's layout as this compiler laid it out: board_core.py checks its ``Shared`` against
@@ -184,6 +192,8 @@ F(ctr, ctr) F(pc, pc) F(chunk0, chunk0) F(cyc, cyc) F(fs0, fs0) F(cyc0, cyc0)
     F(pub_pc, pub_pc) F(engine_counts, engine_counts) F(u2_idle_at, u2_idle_at)
     F(u2_idle_live, u2_idle_live) F(u2_idle_tid, u2_idle_tid) F(u2_idle_seen, u2_idle_seen)
     F(quiet_hold, quiet_hold) F(_pad4, _pad4) F(switches_until_us, switches_until_us)
+    F(q_cyc, q_cyc) F(q_backoff, q_backoff) F(q_seen, q_seen) F(q_nregs, q_nregs)
+    F(q_ids, q_ids) F(q_regs, q_regs) F(q_now, q_now) F(q_ptrs, q_ptrs) F(q_sram, q_sram)
 };
 #undef F
 
@@ -1065,7 +1075,7 @@ int bc_rx_deliver(bc_t *s, int64_t at) {
 /* --- the run loop (board.py ``run`` and core.py ``run``) ------------------------------ */
 /* where Python goes on: hil/mcu/board_loop.py LOOP_*, the same numbers */
 enum { LOOP_AFTER_HEAD = 0, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
-       LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT, LOOP_QUIET, LOOP_HELD };
+       LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT };
 #define WFI 0xBF30
 #define WFE 0xBF20
 #define BRANCH_TO_SELF 0xE7FE
@@ -1132,6 +1142,86 @@ static int64_t run_chunk(bc_t *s, int64_t n) {
     return ran;
 }
 
+/* --- quiet loops (quiet.py, the same steps) ------------------------------------------- */
+#define PASS 2520                /* quiet.py PASS */
+#define MAX_BACKOFF 64           /* quiet.py MAX_BACKOFF */
+
+/* quiet.py's registers, by Unicorn's ids; 0 when the buffers cannot be had */
+int bc_quiet_init(bc_t *s, const int32_t *ids, int n) {
+    s->q_ids = malloc(n * sizeof *s->q_ids);
+    s->q_regs = calloc(n, sizeof *s->q_regs);
+    s->q_now = calloc(n, sizeof *s->q_now);
+    s->q_ptrs = malloc(n * sizeof *s->q_ptrs);
+    s->q_sram = malloc(SRAM_SIZE);
+    if (!s->q_ids || !s->q_regs || !s->q_now || !s->q_ptrs || !s->q_sram) return 0;
+    memcpy(s->q_ids, ids, n * sizeof *ids);
+    for (int i = 0; i < n; i++) s->q_ptrs[i] = &s->q_now[i];
+    s->q_nregs = n;
+    s->q_backoff = 1;
+    return 1;
+}
+
+static void quiet_read(bc_t *s) {
+    memset(s->q_now, 0, s->q_nregs * sizeof *s->q_now);
+    s->reg_read_batch(s->uc, s->q_ids, s->q_ptrs, s->q_nregs);
+}
+
+/* a word at a time, 4 words a step: the toolchain's memcmp goes byte by byte */
+static int same_words(const uint8_t *a, const uint8_t *b, size_t n) {
+    for (size_t i = 0; i + 32 <= n; i += 32) {
+        uint64_t x[4], y[4];
+        memcpy(x, a + i, 32);
+        memcpy(y, b + i, 32);
+        if ((x[0] ^ y[0]) | (x[1] ^ y[1]) | (x[2] ^ y[2]) | (x[3] ^ y[3])) return 0;
+    }
+    return 1;
+}
+
+static int quiet_same(bc_t *s) {
+    return !memcmp(s->q_now, s->q_regs, s->q_nregs * sizeof *s->q_now) &&
+           same_words(s->sram, s->q_sram, SRAM_SIZE);
+}
+
+/* quiet.py ``_skip`` */
+static int quiet_skip(bc_t *s) {
+    if (s->next_at < 0) return 0;
+    int64_t cyc = cycle_of(s, s->next_at);
+    if (cyc <= s->cyc) return 0;
+    s->skipped += cyc - s->cyc;
+    s->cyc = cyc;
+    return 1;
+}
+
+/* quiet.py ``quiet_chunk`` */
+static void quiet_chunk(bc_t *s, int64_t ran) {
+    quiet_read(s);
+    if (!s->q_seen || ran != PASS || s->cyc - s->q_cyc != PASS) {
+        memcpy(s->q_regs, s->q_now, s->q_nregs * sizeof *s->q_now);
+        memcpy(s->q_sram, s->sram, SRAM_SIZE);
+        s->q_cyc = s->cyc;
+        s->q_seen = 1;
+        s->quiet_n = PASS;
+        return;
+    }
+    s->q_seen = 0;
+    if (!quiet_same(s)) {         /* quiet.py ``_miss`` */
+        s->quiet_n = 0;
+        s->quiet_wait = s->q_backoff;
+        s->q_backoff = 2 * s->q_backoff < MAX_BACKOFF ? 2 * s->q_backoff : MAX_BACKOFF;
+        return;
+    }
+    s->q_backoff = 1;
+    if (quiet_skip(s)) s->quiet_hold = 1;     /* the recorded state is the fixed point */
+}
+
+/* quiet.py ``held`` */
+static int quiet_held(bc_t *s) {
+    quiet_read(s);
+    if (quiet_same(s) && quiet_skip(s)) return 1;
+    s->quiet_hold = 0;
+    return 0;
+}
+
 /* board.py ``run``'s loop for as long as no Python takes part: the head, the exception
    taken, the sleep, the chunk, the lockup's first test. It returns where Python goes on
    (LOOP_*): after the head (a Python timer fired; ``loop_n`` is the chunk's length), after
@@ -1171,7 +1261,10 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
         if (s->quiet_hold) {      /* still the confirmed fixed point? quiet.py ``held`` */
             if (taken == -1 && !s->sleeping && !(s->pending_n && masked_ready(s))) {
                 s->masked_steps = 0;
-                return LOOP_HELD;
+                if (quiet_held(s)) {
+                    n = -1;
+                    continue;
+                }
             }
             s->quiet_hold = 0;
         }
@@ -1194,8 +1287,8 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
             if (++s->quiet_loud > QUIET_LOUD) s->quiet_n = 0;   /* no wait goes on */
         } else if (ran == n && !s->sleeping && !s->stopped && !s->cut) {
             s->quiet_loud = 0;
-            if (s->quiet_wait > 0) s->quiet_wait--;       /* a quiet chunk: quiet.py looks */
-            else return LOOP_QUIET;
+            if (s->quiet_wait > 0) s->quiet_wait--;       /* a quiet chunk: quiet.py's look */
+            else quiet_chunk(s, ran);
         }
         n = -1;
     }
@@ -1209,6 +1302,16 @@ void bc_free(bc_t *s) {
     free(s->burst);
     free(s->rx_at);
     free(s->rx_byte);
+    free(s->q_ids);
+    free(s->q_regs);
+    free(s->q_now);
+    free(s->q_ptrs);
+    free(s->q_sram);
+    s->q_ids = NULL;
+    s->q_regs = s->q_now = NULL;
+    s->q_ptrs = NULL;
+    s->q_sram = NULL;
+    s->q_nregs = s->q_seen = 0;
     s->rx_at = NULL;
     s->rx_byte = NULL;
     s->rx_n = s->rx_head = s->rx_cap = 0;

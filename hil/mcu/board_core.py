@@ -89,7 +89,9 @@ class Shared(ctypes.Structure):
                 ("pub_count", ctypes.c_uint64), ("pub_limit", ctypes.c_uint64),
                 ("pub_pc", ctypes.c_uint32), ("engine_counts", _I32), ("u2_idle_at", _I64),
                 ("u2_idle_live", _I32), ("u2_idle_tid", _I32), ("u2_idle_seen", _I32),
-                ("quiet_hold", _I32), ("_pad4", _I32), ("switches_until_us", _I64)]
+                ("quiet_hold", _I32), ("_pad4", _I32), ("switches_until_us", _I64),
+                ("q_cyc", _I64), ("q_backoff", _I64), ("q_seen", _I32), ("q_nregs", _I32),
+                ("q_ids", _P), ("q_regs", _P), ("q_now", _P), ("q_ptrs", _P), ("q_sram", _P)]
 
 
 
@@ -124,7 +126,7 @@ def _load() -> Any:
            "bc_usart_reset": (None, [_P]),
            "bc_add_wait": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
            "bc_add_not_loop": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
-           "bc_free": (None, [_P])}
+           "bc_quiet_init": (_I32, [_P, _P, _I32]), "bc_free": (None, [_P])}
     lib.bc_intr.restype, lib.bc_intr.argtypes = None, [_P, ctypes.c_uint32, _P]
     lib.bc_count.restype, lib.bc_count.argtypes = None, [_P, ctypes.c_uint64, ctypes.c_uint32, _P]
     lib.bc_rx_queue.restype, lib.bc_rx_queue.argtypes = None, [_P, _P, _P, _I32]

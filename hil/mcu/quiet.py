@@ -21,13 +21,19 @@ After a skip the state is held (``held``): the event at the end of the skip may 
 nothing the loop sees (the link's millisecond tick, a timer whose interrupt is off), and
 when no exception was taken and the state is still the confirmed one, to the bit, time
 jumps to the following event at once, without running the two passes again.
+
+The compiled board (hil/mcu/board_core.c) takes the same steps in its loop, on copies of its
+own, so a quiet wait costs no call into Python; the board in Python takes them here.
 """
 from __future__ import annotations
+
+import ctypes
 
 from typing import Any
 
 from unicorn import arm_const as A
 
+from hil.mcu.board_core import library
 from hil.mcu.engine import Regs
 
 PASS = 2520                  # lcm(1..10) instructions
@@ -50,7 +56,10 @@ class QuietLoops:
         self._seen: tuple[int, list[int], bytes] | None = None   # (cycle, registers, SRAM)
         self._held: tuple[list[int], bytes] | None = None        # a confirmed fixed point
         self._backoff = 1
-        self.skips = 0
+        if board.native is not None:       # the same steps in C (board_core.c)
+            ids = (ctypes.c_int32 * len(STATE_REGS))(*STATE_REGS)
+            if not library().bc_quiet_init(ctypes.byref(self._st), ids, len(STATE_REGS)):
+                raise MemoryError("the compiled board core got no buffers for quiet loops")
 
     def quiet_chunk(self, ran: int) -> None:
         """A chunk of ``ran`` instructions made no register access and did not sleep."""
@@ -82,7 +91,6 @@ class QuietLoops:
             return False
         self._st.skipped += cyc - core.cyc
         core.cyc = cyc
-        self.skips += 1
         return True
 
     def held(self) -> bool:
@@ -100,6 +108,7 @@ class QuietLoops:
         """A chunk that touched a register or slept: no pass is being checked."""
         self._seen = None
         self._held = None
+        self._st.q_seen = 0
 
     def _miss(self) -> None:
         st = self._st
@@ -111,6 +120,7 @@ class QuietLoops:
         """A system reset: nothing recorded goes on."""
         self._seen = None
         self._held = None
+        self._st.q_seen = 0
         self._st.quiet_hold = 0
         self._st.quiet_n = 0
         self._st.quiet_wait = 0
