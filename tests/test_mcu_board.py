@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from hil.mcu import board_core
 from hil.run_result import Ending
 from mcu_elf import build, console, run_elf
 
@@ -261,3 +262,22 @@ def test_receive_to_idle_gets_every_ping_as_one_burst_in_c_and_in_python(tmp_pat
         if mode == "it":   # one frame (10 bits at 1 Mbps) after the last byte's RXNE
             assert 900 <= int(said[3]) <= int(said[4]) <= 1100, (core, lines)
         assert lines[1] == "usart1 idle ok", (core, lines)
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_a_wait_on_ram_runs_nothing_across_events_that_change_nothing(tmp_path, monkeypatch,
+                                                                     compiled):
+    """With a switch interrupt armed the board meets an event each millisecond between
+    SysTick's 10 ms ticks: a wait confirmed as a fixed point stays skipped across each one
+    (no instruction runs: the state is the confirmed one), and the board syncs with the
+    world only at its physics steps (2 ms), where the switches can change."""
+    if not compiled:
+        monkeypatch.setattr(board_core, "_LIB", None)
+    r, _ = run_elf(build(tmp_path, "ram_wait.c", "WAIT=3"), 0.35)
+    ticks, cycles, passes = map(int, console(r)[-1].split())
+    assert ticks == 30 and passes == 0
+    assert 199 * 100_000 <= cycles <= 201 * 100_000
+    mcu = r.firmware.other["mcu"]
+    # two passes of 2520 instructions a SysTick, none at the 320 events between them
+    assert mcu["instructions"] < 30 * 2 * 2520 + 200_000, mcu
+    assert mcu["link_requests"] < 0.6 * 350, mcu

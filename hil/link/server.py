@@ -31,8 +31,7 @@ CONSOLE_LOG = logging.getLogger("hexhil.console")
 
 class SwitchSampler:
     """The six limit-switch levels at each sleep; edges go to the result and the recorder.
-    ``steady_until`` gives the earliest virtual time (us) the levels may differ from what
-    they are at the clock's time now (0: any time)."""
+    ``steady_until``: the earliest time (us) they may differ from now's (0: any time)."""
 
     def __init__(self, levels: Callable[[int], int], recorder: TraceRecorder | None,
                  steady_until: Callable[[], int] = lambda: 0) -> None:
@@ -133,8 +132,7 @@ class LinkServer:
             check.direction_mistake(t, name, detail)
 
     def switches_steady_until(self) -> int:
-        """Until when (us of virtual time) the switch levels stay what they are now: an
-        in-process board needs no sleep before it to see them change (0: unknown)."""
+        """Until when (us) the switch levels stay as now: a board asks no sooner."""
         return self.switches.steady_until()
 
     def _can_from_firmware(self, payload: bytes, result: RunTally) -> None:

@@ -31,6 +31,7 @@
 #define TURNS 64                /* PA1's turns made here before the link takes them */
 #define FS_PER_US 1000000000LL
 #define TICK_US 1000            /* board.py: a read of the switches older than this asks */
+#define IDLE_TICKS 10           /* board.py: ... and as old as this, whatever the host said */
 enum { REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR, REG_XPSR, REG_CONTROL, REG_MSP,
        REG_PSP, REG_S0, REG_FPSCR, REG_IPSR, REG_PC, REG_FAULTMASK, REG_PRIMASK, REG_BASEPRI,
        N_REGID };
@@ -143,17 +144,22 @@ typedef struct {
     int32_t u2_idle_live, u2_idle_tid, u2_idle_seen;
     /* quiet.py ``held``: 1 while the state is a fixed point a skip confirmed and no
        instruction has run since (an event that changed nothing lets it skip again) */
-    int32_t quiet_hold, _pad4;
-    int64_t switches_until_us;   /* the host's word: no switch changes before it (board.py) */
-    /* quiet.py ``QuietLoops`` done here: the state recorded at the end of a quiet chunk
-       (cycle, registers, SRAM), the misses' back-off, Unicorn's ids of the registers */
-    int64_t q_cyc, q_backoff;
-    int32_t q_seen, q_nregs;
-    int32_t *q_ids;
-    uint64_t *q_regs, *q_now;
-    void **q_ptrs;
-    uint8_t *q_sram;
+    int32_t quiet_hold;
+    int32_t q_seen;              /* 1: ``q`` holds the state at the end of a quiet chunk */
+    int64_t switches_until_us;   /* the host's word: no switch changes before it (world_sync.py) */
+    struct quiet *q;             /* quiet.py's steps done here (bc_quiet_init) */
 } bc_t;
+
+/* quiet.py ``QuietLoops`` in C: the state recorded at the end of a quiet chunk (cycle,
+   registers, SRAM), the misses' back-off, Unicorn's ids of the registers read */
+typedef struct quiet {
+    int64_t cyc, backoff;
+    int32_t nregs, _pad;
+    int32_t *ids;
+    uint64_t *regs, *now;
+    void **ptrs;
+    uint8_t *sram;
+} quiet_t;
 
 /* bc_t's layout as this compiler laid it out: board_core.py checks its ``Shared`` against
  * it field by field when it loads this library, and refuses a build that differs. */
@@ -191,9 +197,8 @@ F(ctr, ctr) F(pc, pc) F(chunk0, chunk0) F(cyc, cyc) F(fs0, fs0) F(cyc0, cyc0)
     F(masked_steps, masked_steps) F(pub_count, pub_count) F(pub_limit, pub_limit)
     F(pub_pc, pub_pc) F(engine_counts, engine_counts) F(u2_idle_at, u2_idle_at)
     F(u2_idle_live, u2_idle_live) F(u2_idle_tid, u2_idle_tid) F(u2_idle_seen, u2_idle_seen)
-    F(quiet_hold, quiet_hold) F(_pad4, _pad4) F(switches_until_us, switches_until_us)
-    F(q_cyc, q_cyc) F(q_backoff, q_backoff) F(q_seen, q_seen) F(q_nregs, q_nregs)
-    F(q_ids, q_ids) F(q_regs, q_regs) F(q_now, q_now) F(q_ptrs, q_ptrs) F(q_sram, q_sram)
+    F(quiet_hold, quiet_hold) F(q_seen, q_seen) F(switches_until_us, switches_until_us)
+    F(q, q)
 };
 #undef F
 
@@ -727,8 +732,9 @@ static uint32_t port_idr(bc_t *s, int port) {
 
 /* gpio.py ``read`` of PB's IDR with board.py ``fresh_switches`` before it */
 static uint32_t switches_idr(bc_t *s) {
-    int64_t now_us = bc_now_fs(s) / FS_PER_US;
-    if (now_us - s->last_request_us >= TICK_US && now_us >= s->switches_until_us)
+    int64_t now_us = bc_now_fs(s) / FS_PER_US, quiet_us = now_us - s->last_request_us;
+    if (quiet_us >= TICK_US &&
+            (now_us >= s->switches_until_us || quiet_us >= IDLE_TICKS * TICK_US))
         py(s, PY_SWITCHES, 0, 0);
     return port_idr(s, 1);
 }
@@ -1147,23 +1153,42 @@ static int64_t run_chunk(bc_t *s, int64_t n) {
 #define MAX_BACKOFF 64           /* quiet.py MAX_BACKOFF */
 
 /* quiet.py's registers, by Unicorn's ids; 0 when the buffers cannot be had */
+static void quiet_free(quiet_t *q) {
+    if (!q) return;
+    free(q->ids);
+    free(q->regs);
+    free(q->now);
+    free(q->ptrs);
+    free(q->sram);
+    free(q);
+}
+
 int bc_quiet_init(bc_t *s, const int32_t *ids, int n) {
-    s->q_ids = malloc(n * sizeof *s->q_ids);
-    s->q_regs = calloc(n, sizeof *s->q_regs);
-    s->q_now = calloc(n, sizeof *s->q_now);
-    s->q_ptrs = malloc(n * sizeof *s->q_ptrs);
-    s->q_sram = malloc(SRAM_SIZE);
-    if (!s->q_ids || !s->q_regs || !s->q_now || !s->q_ptrs || !s->q_sram) return 0;
-    memcpy(s->q_ids, ids, n * sizeof *ids);
-    for (int i = 0; i < n; i++) s->q_ptrs[i] = &s->q_now[i];
-    s->q_nregs = n;
-    s->q_backoff = 1;
+    quiet_t *q = calloc(1, sizeof *q);
+    if (!q) return 0;
+    q->ids = malloc(n * sizeof *q->ids);
+    q->regs = calloc(n, sizeof *q->regs);
+    q->now = calloc(n, sizeof *q->now);
+    q->ptrs = malloc(n * sizeof *q->ptrs);
+    q->sram = malloc(SRAM_SIZE);
+    if (!q->ids || !q->regs || !q->now || !q->ptrs || !q->sram) {
+        quiet_free(q);
+        return 0;
+    }
+    memcpy(q->ids, ids, n * sizeof *ids);
+    for (int i = 0; i < n; i++) q->ptrs[i] = &q->now[i];
+    q->nregs = n;
+    q->backoff = 1;
+    quiet_free(s->q);
+    s->q = q;
+    s->q_seen = 0;
     return 1;
 }
 
 static void quiet_read(bc_t *s) {
-    memset(s->q_now, 0, s->q_nregs * sizeof *s->q_now);
-    s->reg_read_batch(s->uc, s->q_ids, s->q_ptrs, s->q_nregs);
+    quiet_t *q = s->q;
+    memset(q->now, 0, q->nregs * sizeof *q->now);
+    s->reg_read_batch(s->uc, q->ids, q->ptrs, q->nregs);
 }
 
 /* a word at a time, 4 words a step: the toolchain's memcmp goes byte by byte */
@@ -1178,8 +1203,9 @@ static int same_words(const uint8_t *a, const uint8_t *b, size_t n) {
 }
 
 static int quiet_same(bc_t *s) {
-    return !memcmp(s->q_now, s->q_regs, s->q_nregs * sizeof *s->q_now) &&
-           same_words(s->sram, s->q_sram, SRAM_SIZE);
+    quiet_t *q = s->q;
+    return !memcmp(q->now, q->regs, q->nregs * sizeof *q->now) &&
+           same_words(s->sram, q->sram, SRAM_SIZE);
 }
 
 /* quiet.py ``_skip`` */
@@ -1194,11 +1220,12 @@ static int quiet_skip(bc_t *s) {
 
 /* quiet.py ``quiet_chunk`` */
 static void quiet_chunk(bc_t *s, int64_t ran) {
+    quiet_t *q = s->q;
     quiet_read(s);
-    if (!s->q_seen || ran != PASS || s->cyc - s->q_cyc != PASS) {
-        memcpy(s->q_regs, s->q_now, s->q_nregs * sizeof *s->q_now);
-        memcpy(s->q_sram, s->sram, SRAM_SIZE);
-        s->q_cyc = s->cyc;
+    if (!s->q_seen || ran != PASS || s->cyc - q->cyc != PASS) {
+        memcpy(q->regs, q->now, q->nregs * sizeof *q->now);
+        memcpy(q->sram, s->sram, SRAM_SIZE);
+        q->cyc = s->cyc;
         s->q_seen = 1;
         s->quiet_n = PASS;
         return;
@@ -1206,11 +1233,11 @@ static void quiet_chunk(bc_t *s, int64_t ran) {
     s->q_seen = 0;
     if (!quiet_same(s)) {         /* quiet.py ``_miss`` */
         s->quiet_n = 0;
-        s->quiet_wait = s->q_backoff;
-        s->q_backoff = 2 * s->q_backoff < MAX_BACKOFF ? 2 * s->q_backoff : MAX_BACKOFF;
+        s->quiet_wait = q->backoff;
+        q->backoff = 2 * q->backoff < MAX_BACKOFF ? 2 * q->backoff : MAX_BACKOFF;
         return;
     }
-    s->q_backoff = 1;
+    q->backoff = 1;
     if (quiet_skip(s)) s->quiet_hold = 1;     /* the recorded state is the fixed point */
 }
 
@@ -1302,16 +1329,9 @@ void bc_free(bc_t *s) {
     free(s->burst);
     free(s->rx_at);
     free(s->rx_byte);
-    free(s->q_ids);
-    free(s->q_regs);
-    free(s->q_now);
-    free(s->q_ptrs);
-    free(s->q_sram);
-    s->q_ids = NULL;
-    s->q_regs = s->q_now = NULL;
-    s->q_ptrs = NULL;
-    s->q_sram = NULL;
-    s->q_nregs = s->q_seen = 0;
+    quiet_free(s->q);
+    s->q = NULL;
+    s->q_seen = 0;
     s->rx_at = NULL;
     s->rx_byte = NULL;
     s->rx_n = s->rx_head = s->rx_cap = 0;

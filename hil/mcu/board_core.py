@@ -89,10 +89,7 @@ class Shared(ctypes.Structure):
                 ("pub_count", ctypes.c_uint64), ("pub_limit", ctypes.c_uint64),
                 ("pub_pc", ctypes.c_uint32), ("engine_counts", _I32), ("u2_idle_at", _I64),
                 ("u2_idle_live", _I32), ("u2_idle_tid", _I32), ("u2_idle_seen", _I32),
-                ("quiet_hold", _I32), ("_pad4", _I32), ("switches_until_us", _I64),
-                ("q_cyc", _I64), ("q_backoff", _I64), ("q_seen", _I32), ("q_nregs", _I32),
-                ("q_ids", _P), ("q_regs", _P), ("q_now", _P), ("q_ptrs", _P), ("q_sram", _P)]
-
+                ("quiet_hold", _I32), ("q_seen", _I32), ("switches_until_us", _I64), ("q", _P)]
 
 
 class SharedField:
@@ -332,7 +329,7 @@ class NativeBoard:
             elif kind == PY_INTR:
                 board.intr(a)
             elif kind == PY_SWITCHES:
-                board.fresh_switches()
+                board.sync.fresh_switches()
             elif kind == PY_FAILED:
                 exc, board.events._error = board.events._error, None
                 if exc is not None:

@@ -32,6 +32,7 @@ from hil.link.server import LinkServer, SwitchSampler
 from hil.run.core import RunCore, WallClockPacing
 from hil.run.limits import RunLimits, RunWatch
 from hil.run.lookahead import Lookahead
+from hil.servobus.faults import NEVER_US
 from hil.run_result import (BodyDisplacement, Ending, FirmwareEnding, HexapodOutcome,
                              RunInterrupted, RunResult, RunTally)
 from hil.scenario import Scenario, check_duration
@@ -125,12 +126,18 @@ class FirmwareDriver:
         return self.core.faults.switch_bits(t_us, bits) if self.core.faults else bits
 
     def _levels_steady_until(self) -> int:
-        """The switches change only with a physics step of the world, or with a fault:
-        the earliest of the two, 0 with scripted switches or a stuck or bouncing leg."""
+        """The switches change only with a physics step of the world (never without a
+        world or a script), or with a fault: the earliest of the two; 0 with scripted
+        switches, a world that steps otherwise, or a stuck or bouncing leg."""
         core = self.core
-        if core.world is None or not hasattr(core.world, "next_step_us"):
+        if core.world is not None:
+            if not hasattr(core.world, "next_step_us"):
+                return 0
+            until = core.world.next_step_us()
+        elif self._switches is not None:
             return 0
-        until = core.world.next_step_us()
+        else:
+            until = NEVER_US
         faults = core.faults
         if faults is not None:
             if faults.switches_faulted():
