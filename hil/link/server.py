@@ -131,10 +131,6 @@ class LinkServer:
         if check is not None and name in MISTAKES:
             check.direction_mistake(t, name, detail)
 
-    def switches_steady_until(self) -> int:
-        """Until when (us) the switch levels stay as now: a board asks no sooner."""
-        return self.switches.steady_until()
-
     def _can_from_firmware(self, payload: bytes, result: RunTally) -> None:
         if len(payload) < 3 or payload[2] > sim_link.CAN_MAX_DLC or len(payload) != 3 + payload[2]:
             raise LinkViolation(f"malformed CAN message ({len(payload)} bytes)")

@@ -2,9 +2,10 @@
 EXTI edges, the servo line's reply on its way, CAN frames, the run's end), and when the board
 asks the world again while the firmware does not: a sleep to now after a quiet while, each
 millisecond while an interrupt waits for a CAN frame, else every 10 ms. A switch interrupt
-asks only once the host's word that the levels hold (``LinkHost.switches_steady_until``:
-the world's next physics step) has run out, and a read of the switch pins asks for fresh
-levels itself (``fresh_switches``; board_core.c ``switches_idr`` asks the same in C)."""
+asks only once the host's word that the levels hold has run out (hil/link/server.py
+``SwitchSampler.steady_until``: the world's next physics step), and a read of the switch
+pins asks for fresh levels itself (``fresh_switches``; board_core.c ``switches_idr`` asks
+the same in C)."""
 from __future__ import annotations
 
 from typing import Any, Callable
