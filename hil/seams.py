@@ -104,7 +104,6 @@ class LinkHost(Protocol):
     byte_us: float                         # one byte's wire time at the master's rate
     console: Callable[[], None] | None     # takes what the firmware printed, as it sleeps
     watch: Any                             # the run's limits (hil/run/limits.py), or None
-    switches: Any                          # server.py SwitchSampler: levels, until when they hold
 
     def serve(self, conn: Any, end_us: int, result: "RunTally") -> None: ...
     def answer(self, conn: Any, msgs: list[tuple[int, bytes]], closed: bool, end_us: int,

@@ -268,9 +268,8 @@ def test_receive_to_idle_gets_every_ping_as_one_burst_in_c_and_in_python(tmp_pat
 def test_a_wait_on_ram_runs_nothing_across_events_that_change_nothing(tmp_path, monkeypatch,
                                                                      compiled):
     """With a switch interrupt armed the board meets an event each millisecond between
-    SysTick's 10 ms ticks: a wait confirmed as a fixed point stays skipped across each one
-    (no instruction runs: the state is the confirmed one), and the board syncs with the
-    world only at its physics steps (2 ms), where the switches can change."""
+    SysTick's 10 ms ticks (its sleep to now): a wait confirmed as a fixed point stays
+    skipped across each one, no instruction run, since the state is the confirmed one."""
     if not compiled:
         monkeypatch.setattr(board_core, "_LIB", None)
     r, _ = run_elf(build(tmp_path, "ram_wait.c", "WAIT=3"), 0.35)
@@ -280,4 +279,4 @@ def test_a_wait_on_ram_runs_nothing_across_events_that_change_nothing(tmp_path, 
     mcu = r.firmware.other["mcu"]
     # two passes of 2520 instructions a SysTick, none at the 320 events between them
     assert mcu["instructions"] < 30 * 2 * 2520 + 200_000, mcu
-    assert mcu["link_requests"] < 0.6 * 350, mcu
+    assert mcu["link_requests"] > 300, mcu       # the events were there: a sleep each ms

@@ -30,12 +30,10 @@ CONSOLE_LOG = logging.getLogger("hexhil.console")
 
 
 class SwitchSampler:
-    """The six limit-switch levels at each sleep; edges go to the result and the recorder.
-    ``steady_until``: the earliest time (us) they may differ from now's (0: any time)."""
+    """The six limit-switch levels at each sleep; edges go to the result and the recorder."""
 
-    def __init__(self, levels: Callable[[int], int], recorder: TraceRecorder | None,
-                 steady_until: Callable[[], int] = lambda: 0) -> None:
-        self.levels, self.recorder, self.steady_until = levels, recorder, steady_until
+    def __init__(self, levels: Callable[[int], int], recorder: TraceRecorder | None) -> None:
+        self.levels, self.recorder = levels, recorder
         self.bits = 0
 
     def sample(self, t_us: int, result: RunTally) -> int:

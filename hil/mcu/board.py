@@ -55,8 +55,7 @@ class Board:
 
     def __init__(self, image: ElfImage, exchange: Callable[[bytes, bool], bytes],
                  console_events: Callable[[str], list[tuple[int, str]]],
-                 compiled: bool = True, masked_limit_s: float = MASKED_LIMIT_S,
-                 switches_until: Callable[[], int] = lambda: 0) -> None:
+                 compiled: bool = True, masked_limit_s: float = MASKED_LIMIT_S) -> None:
         self.image = image
         self.console_events = console_events
         self.link = LinkClient(exchange)
@@ -85,7 +84,7 @@ class Board:
         self.line = ServoLine(self)
         self.space = PeripheralSpace(self)
         self._peripherals()
-        self.sync = WorldSync(self, switches_until)   # the link's replies, its sleeps
+        self.sync = WorldSync(self)   # the link's replies, its sleeps
         self.space.attach(core.uc)
         flash.attach(self)            # stores to flash reach self.flash (hil/mcu/flash.py)
         if self.native:

@@ -31,7 +31,6 @@
 #define TURNS 64                /* PA1's turns made here before the link takes them */
 #define FS_PER_US 1000000000LL
 #define TICK_US 1000            /* board.py: a read of the switches older than this asks */
-#define IDLE_TICKS 10           /* board.py: ... and as old as this, whatever the host said */
 enum { REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR, REG_XPSR, REG_CONTROL, REG_MSP,
        REG_PSP, REG_S0, REG_FPSCR, REG_IPSR, REG_PC, REG_FAULTMASK, REG_PRIMASK, REG_BASEPRI,
        N_REGID };
@@ -146,7 +145,6 @@ typedef struct {
        instruction has run since (an event that changed nothing lets it skip again) */
     int32_t quiet_hold;
     int32_t q_seen;              /* 1: ``q`` holds the state at the end of a quiet chunk */
-    int64_t switches_until_us;   /* the host's word: no switch changes before it (world_sync.py) */
     struct quiet *q;             /* quiet.py's steps done here (bc_quiet_init) */
 } bc_t;
 
@@ -197,8 +195,7 @@ F(ctr, ctr) F(pc, pc) F(chunk0, chunk0) F(cyc, cyc) F(fs0, fs0) F(cyc0, cyc0)
     F(masked_steps, masked_steps) F(pub_count, pub_count) F(pub_limit, pub_limit)
     F(pub_pc, pub_pc) F(engine_counts, engine_counts) F(u2_idle_at, u2_idle_at)
     F(u2_idle_live, u2_idle_live) F(u2_idle_tid, u2_idle_tid) F(u2_idle_seen, u2_idle_seen)
-    F(quiet_hold, quiet_hold) F(q_seen, q_seen) F(switches_until_us, switches_until_us)
-    F(q, q)
+    F(quiet_hold, quiet_hold) F(q_seen, q_seen) F(q, q)
 };
 #undef F
 
@@ -732,10 +729,7 @@ static uint32_t port_idr(bc_t *s, int port) {
 
 /* gpio.py ``read`` of PB's IDR with board.py ``fresh_switches`` before it */
 static uint32_t switches_idr(bc_t *s) {
-    int64_t now_us = bc_now_fs(s) / FS_PER_US, quiet_us = now_us - s->last_request_us;
-    if (quiet_us >= TICK_US &&
-            (now_us >= s->switches_until_us || quiet_us >= IDLE_TICKS * TICK_US))
-        py(s, PY_SWITCHES, 0, 0);
+    if (bc_now_fs(s) / FS_PER_US - s->last_request_us >= TICK_US) py(s, PY_SWITCHES, 0, 0);
     return port_idr(s, 1);
 }
 

@@ -89,7 +89,7 @@ class Shared(ctypes.Structure):
                 ("pub_count", ctypes.c_uint64), ("pub_limit", ctypes.c_uint64),
                 ("pub_pc", ctypes.c_uint32), ("engine_counts", _I32), ("u2_idle_at", _I64),
                 ("u2_idle_live", _I32), ("u2_idle_tid", _I32), ("u2_idle_seen", _I32),
-                ("quiet_hold", _I32), ("q_seen", _I32), ("switches_until_us", _I64), ("q", _P)]
+                ("quiet_hold", _I32), ("q_seen", _I32), ("q", _P)]
 
 
 class SharedField:

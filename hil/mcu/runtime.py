@@ -35,7 +35,7 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
     conn = DirectConnection(lambda c, msgs, closed: server.answer(c, msgs, closed, end_us,
                                                                   result))
     board = Board(image, conn.exchange, console_events, compiled=end_us <= MAX_US,
-                  masked_limit_s=masked_limit_s, switches_until=server.switches.steady_until)
+                  masked_limit_s=masked_limit_s)
     if fs_image is not None:
         board.core.uc.mem_write(flash_fs.FS_BASE, fs_image)
     tracer = None

@@ -32,7 +32,6 @@ from hil.link.server import LinkServer, SwitchSampler
 from hil.run.core import RunCore, WallClockPacing
 from hil.run.limits import RunLimits, RunWatch
 from hil.run.lookahead import Lookahead
-from hil.servobus.faults import NEVER_US
 from hil.run_result import (BodyDisplacement, Ending, FirmwareEnding, HexapodOutcome,
                              RunInterrupted, RunResult, RunTally)
 from hil.scenario import Scenario, check_duration
@@ -125,26 +124,6 @@ class FirmwareDriver:
         bits = int(self._switches(t_us)) if self._switches is not None else 0
         return self.core.faults.switch_bits(t_us, bits) if self.core.faults else bits
 
-    def _levels_steady_until(self) -> int:
-        """The switches change only with a physics step of the world (never without a
-        world or a script), or with a fault: the earliest of the two; 0 with scripted
-        switches, a world that steps otherwise, or a stuck or bouncing leg."""
-        core = self.core
-        if core.world is not None:
-            if not hasattr(core.world, "next_step_us"):
-                return 0
-            until = core.world.next_step_us()
-        elif self._switches is not None:
-            return 0
-        else:
-            until = NEVER_US
-        faults = core.faults
-        if faults is not None:
-            if faults.switches_faulted():
-                return 0
-            until = min(until, faults.next_us)
-        return until
-
     def run(self, python: str, command: list[str] | None,
             in_process: InProcessFirmware | None, end_us: int, result: RunTally,
             firmware: ServedFirmware | None = None) -> None:
@@ -153,7 +132,7 @@ class FirmwareDriver:
         if in_process is None and firmware is None and hasattr(core.world, "checkpoint"):
             ahead = Lookahead(core.world, lambda: core.clock.t_us, self._next_due)
         server = LinkServer(self, core.config.firmware_settings(self._tactile),
-                            SwitchSampler(self._levels, core.recorder, self._levels_steady_until), self._wake,
+                            SwitchSampler(self._levels, core.recorder), self._wake,
                             self._ground_truth, ahead)
         if in_process is not None:
             in_process(DirectConnection(

@@ -112,10 +112,6 @@ class Faults:
         self._schedule(e)
         return e
 
-    def switches_faulted(self) -> bool:
-        """A leg is stuck or bouncing now: its level may change at any time."""
-        return bool(self._switches)
-
     def switch_bits(self, t_us: int, bits: int) -> int:
         """The six limit-switch bits as the firmware reads them, stuck or bouncing legs
         applied: a bouncing contact flips every half period from the true level."""

@@ -4,7 +4,7 @@
  * passes in RAM (WAIT=2: never a fixed point, so it must run pass by pass), then waits for a
  * flag TIM-less: SysTick's handler sets `flag` at tick 300. Prints the ticks, the DWT cycles
  * the first wait took, and the passes counted. WAIT=3: the WAIT=1 loop with SysTick at
- * 100 Hz (20 ticks, the flag at 30) and EXTI0's interrupt mask set (the board then syncs with the world each
+ * 100 Hz (20 ticks, the flag at 30) and EXTI0's interrupt mask set (the board then sleeps to now each
  * millisecond: events between the ticks that change nothing the loop reads). */
 #include "board.h"
 
