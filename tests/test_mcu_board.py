@@ -280,3 +280,16 @@ def test_a_wait_on_ram_runs_nothing_across_events_that_change_nothing(tmp_path, 
     # two passes of 2520 instructions a SysTick, none at the 320 events between them
     assert mcu["instructions"] < 30 * 2 * 2520 + 200_000, mcu
     assert mcu["link_requests"] > 300, mcu       # the events were there: a sleep each ms
+
+
+def test_a_run_with_a_switch_interrupt_armed_replays_identically(tmp_path):
+    """Every sleep the board makes while a switch interrupt waits is in the trace's /link,
+    and replay's board, which has no world, makes the same ones: when it asks depends on
+    its own time only."""
+    from host_tools import Run
+    from host_tools.replay import replay_firmware
+    elf = build(tmp_path, "ram_wait.c", "WAIT=3")
+    trace = tmp_path / "run.mcap"
+    Run("scenarios/flat-tripod.toml", seed=1, duration_s=0.1, firmware=elf, trace=trace).run()
+    r = replay_firmware(trace, firmware=str(elf))
+    assert r.identical and r.divergence is None and r.exchanges > 90, r
