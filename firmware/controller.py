@@ -14,7 +14,7 @@ commands), ``telemetry`` (frames, events, the run summary).
 """
 import math
 
-from firmware.servo_bus import MASTERS
+from firmware.servo_bus import master_class
 from firmware.servo_bus.v1 import EEPROM_SETTLE_US
 from firmware import tactile
 from firmware import trajectory as traj
@@ -44,7 +44,7 @@ class Controller:
             raise ValueError("the hexapod needs 18 servos, config says %d" % n)
         first = cfg["first_id"]
         self.ids = [first + k for k in range(18)]
-        master = MASTERS[cfg[ls.PROTOCOL]]
+        master = master_class(cfg[ls.PROTOCOL])
         self.master = master(board.uart, self.ids, cfg["baud"], retries=cfg["read_retries"])
         self.gait = Gait(cfg["gait"], cfg["period_s"])
         self.period_us = int(1000000 / cfg["cycle_hz"])
@@ -92,6 +92,7 @@ class Controller:
         # EEPROM for all servos, one wait after the last of those writes, then RAM: a servo
         # that has just written its EEPROM ignores packets for a few ms
         board = self.board
+        self.master.delay_set_us = 2 * (self.cfg["return_delay_us"] // 2)
         for j in range(18):
             lo, hi = self.goals.limits[j]
             if not self.master.configure_eeprom(self.ids[j], lo, hi, board):
@@ -101,7 +102,7 @@ class Controller:
             if not self.master.configure_ram(self.ids[j], COMPLIANCE_MARGIN, COMPLIANCE_SLOPE,
                                              board):
                 return self._not_configured(self.ids[j])
-        self.master.return_delay_us = 2 * (self.cfg["return_delay_us"] // 2)
+        self.master.return_delay_us = self.master.delay_set_us
         now = self.boot_us = self._clock()
         for s in self.master.servos.values():
             s.last_ok_us = now

@@ -14,8 +14,13 @@ from firmware import telemetry
 from firmware.controller import Controller
 from protocol import sim_link
 
+if sys.platform == "pyboard":   # MicroPython's stm32 port: the robot. Imported with main, so
+    from firmware.hal.board import Board as _Robot   # hexhil --main lays it (flash_modules.py)
+
 
 def _board():
+    if sys.platform == "pyboard":
+        return _Robot()
     if "--serial" in sys.argv:
         from firmware.hal.serial import Board
         from firmware.sensor_switches import attach

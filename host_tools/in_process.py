@@ -10,6 +10,7 @@ firmware/ and hil/, which never import each other.
 """
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import sys
 from pathlib import Path
@@ -21,6 +22,7 @@ from hil.link.firmware_process import IN_PROCESS
 from hil.run.limits import RunLimits
 from hil.run_result import RunResult
 from hil.run.lockstep import Simulator
+from protocol import sim_link
 from protocol.errors import BadValue
 
 
@@ -67,6 +69,23 @@ class Wire:
         self.exchange(True)
 
 
+class Printed:
+    """The firmware's ``print`` in process, as a child's stdout is: each line a log event
+    on the link (the run's console: live on stderr, ``--json``'s console, ``/telemetry``)."""
+
+    def __init__(self, board: Board) -> None:
+        self.board, self._line = board, ""
+
+    def write(self, text: str) -> int:
+        *lines, self._line = (self._line + text).split("\n")
+        for line in lines:
+            self.board.event(sim_link.EVENT_LOG, line)
+        return len(text)
+
+    def flush(self) -> None:
+        """Nothing waits: a line goes with the link's next message."""
+
+
 Exchange = Callable[[bytes, bool], bytes]
 FirmwareMain = Callable[[Board], None]
 
@@ -76,8 +95,10 @@ def run_firmware(exchange: Exchange, main: FirmwareMain | None = None) -> None:
     simulator ends the run (``Simulator.run``'s ``in_process``); the simulator's own
     exception, if it raised one, is raised here."""
     wire = Wire(exchange)
+    board = Board(io=wire)
     try:
-        (main or firmware_main.main)(Board(io=wire))
+        with contextlib.redirect_stdout(Printed(board)):
+            (main or firmware_main.main)(board)
     except OSError:
         if wire.error is None:
             raise

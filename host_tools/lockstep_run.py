@@ -25,8 +25,9 @@ from hil.run_result import RunInterrupted, RunResult
 from hil.scenario import Runtime, Scenario, WorldKind
 from hil.seams import CanGateway, HostNode, TraceRecorder
 from hil.servobus.master_check import MasterCheck
-from hil.link.served_firmware import served_firmware
+from hil.link.served_firmware import ElfFirmware, served_firmware
 from hil.mcu.flash_fs import FlashFiles
+from hil.mcu.verdicts import MASKED_LIMIT_S
 from hil.run.lockstep import Simulator
 from host_tools import plugins
 from host_tools.lifecycle import Closing
@@ -86,7 +87,8 @@ class Run(Closing):
     clients; ``realtime`` paces virtual time to the wall clock; ``tactile`` overrides the
     scenario's ``firmware.tactile``; ``firmware``, a MicroPython main file run on the virtual
     board (docs/your-firmware.md) or an executable that speaks the link (a C firmware,
-    docs/c-firmware.md) or an STM32F411 ELF (docs/elf-firmware.md: ``gdb_port``, ``coverage``;
+    docs/c-firmware.md) or an STM32F411 ELF (docs/elf-firmware.md: ``gdb_port``, ``coverage``,
+    ``masked_limit_s`` for its masked-spin and fault-handler verdicts;
     ``flash_files``, MicroPython's ``/flash``: docs/micropython-on-the-chip.md),
     runs instead of ours. An existing ``trace`` file is refused unless ``overwrite``
     (host_tools/trace/target.py). Every argument given is an override, recorded in the
@@ -105,12 +107,17 @@ class Run(Closing):
                  gdb_port: int | None = None, coverage: str | Path | None = None,
                  flash_files: FlashFiles | None = None, coverage_libraries: bool = False,
                  overwrite: bool = False, overrides: dict[str, Any] | None = None,
-                 limits: RunLimits | None = None) -> None:
+                 limits: RunLimits | None = None, masked_limit_s: float | None = None) -> None:
         # a firmware of the user's (hil/link/served_firmware.py) is checked before anything opens
         self.firmware = (served_firmware(firmware, gdb_port=gdb_port, coverage=coverage,
                                          flash_files=flash_files,
-                                         coverage_libraries=coverage_libraries)
+                                         coverage_libraries=coverage_libraries,
+                                         masked_limit_s=(MASKED_LIMIT_S if masked_limit_s is None
+                                                         else masked_limit_s))
                          if firmware is not None else None)
+        if masked_limit_s is not None and not isinstance(self.firmware, ElfFirmware):
+            raise UserError("masked_limit_s needs an STM32F411 ELF given as firmware",
+                            params=("masked_limit_s", "firmware"))
         if firmware is None and flash_files is not None:
             raise UserError("main, fs and fs_out need a MicroPython STM32F411 ELF given as "
                             "firmware", params=("main", "fs", "fs_out", "firmware"))

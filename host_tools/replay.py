@@ -162,7 +162,7 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     real time), 0 runs as fast as the firmware goes. ``firmware`` is the one the trace was
     recorded with (``hexhil run --firmware``'s: a main file for the virtual board or an
     executable); ``flash_files`` the /flash a MicroPython ELF was run with (``--main``,
-    ``--fs``). A robot's imported log (``hexhil trace import``) replays through
+    ``--fs``), its ``out`` where that /flash goes after the replay (``--fs-out``). A robot's imported log (``hexhil trace import``) replays through
     host_tools/log_replay.py, its firmware settings those of ``scenario`` if given.
     """
     if python not in ("micropython", "cpython"):
@@ -206,7 +206,8 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     theirs = (served_firmware(firmware, flash_files=flash_files) if firmware is not None
               else None)
     if isinstance(theirs, ElfFirmware):      # runs in this process, on a thread
-        fw: Any = ReplayedElf(theirs.image, console_events, theirs.fs_image)
+        fw: Any = ReplayedElf(theirs.image, console_events, theirs.fs_image,
+                              flash_files.out if flash_files is not None else None)
     else:
         fw = FirmwareProcess(python, connect_timeout_s=timeout_s,
                              command=theirs.command() if theirs else command,

@@ -106,8 +106,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
         model_path: str | None = None, firmware: str | None = None,
         gdb_port: int | None = None, coverage: str | None = None,
         overwrite: bool = False, limits: RunLimits | None = None,
-        flash_files: FlashFiles | None = None, coverage_libraries: bool = False
-        ) -> tuple[dict[str, Any], RunResult]:
+        flash_files: FlashFiles | None = None, coverage_libraries: bool = False,
+        masked_limit_s: float | None = None) -> tuple[dict[str, Any], RunResult]:
     """Load, simulate, summarise. Returns (summary, raw result).
 
     A recorded run (``out``) carries the 3D scene. With ``live_port`` the trace's channels
@@ -126,7 +126,8 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     ``firmware``, a MicroPython main file for the virtual board or an executable that
     speaks the link (hil/link/served_firmware.py), or an STM32F411 ELF, runs instead of our
     firmware; an ELF's ``gdb_port`` waits for a GDB client, ``coverage`` writes LCOV there
-    (of its own sources; the toolchain's libraries too with ``coverage_libraries``)
+    (of its own sources; the toolchain's libraries too with ``coverage_libraries``),
+    ``masked_limit_s`` sets how long it may spin masked or in a fault's handler
     (docs/elf-firmware.md). ``limits``: the run's wall-clock and memory caps
     (hil/run/limits.py); ``flash_files`` fills and reads back a MicroPython ELF's
     ``/flash`` (docs/micropython-on-the-chip.md).
@@ -159,7 +160,7 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
                  trace=out, live_port=live_port, can_server=server, realtime=realtime,
                  firmware=firmware, gdb_port=gdb_port, coverage=coverage,
                  overwrite=overwrite, limits=limits, flash_files=flash_files,
-                 coverage_libraries=coverage_libraries) as r:
+                 coverage_libraries=coverage_libraries, masked_limit_s=masked_limit_s) as r:
             if r.live is not None:
                 log.info("live: ws://127.0.0.1:%s (Foxglove WebSocket)", r.live.port)
             if attach_navigator is not None:

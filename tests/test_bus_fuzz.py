@@ -5,6 +5,7 @@ our firmware survives the same campaign."""
 from __future__ import annotations
 
 import json
+import os
 import random
 import subprocess
 from dataclasses import replace
@@ -20,6 +21,7 @@ from host_tools.bus_fuzz import campaign
 from host_tools.bus_fuzz.execution import Execution
 from host_tools.bus_fuzz.mutations import DEFAULT_KINDS, Mutation, Mutator, Vocabulary
 from protocol.dynamixel import v1 as dxl
+from protocol.dynamixel import v2 as dx2
 from protocol.errors import UserError
 from test_sdk_pty import HEXHIL, ROOT
 
@@ -66,6 +68,68 @@ def test_a_status_is_late_missing_or_doubled():
         3, bytearray(STATUS), 500, 80) == []
     assert faults_on(FaultKind.STATUS_TWIN, id=3).status_bursts(
         3, bytearray(STATUS), 500, 80) == [(500, bytearray(STATUS)), (580, bytearray(STATUS))]
+
+
+STATUS2 = dx2.status(3, 0, b"\x10\x02")       # the same reply in Protocol 2.0
+
+
+def parsed2(data: bytes) -> tuple[int, int, bytes] | None:
+    """(id, error, params after the error) of the one 2.0 status in ``data``, or None."""
+    got = dx2.Parser().feed(bytes(data))
+    return (got[0].id, got[0].error, bytes(got[0].params[1:])) if len(got) == 1 else None
+
+
+@pytest.mark.parametrize("kind,keys,expect", [
+    (FaultKind.STATUS_CHECKSUM, {}, None),
+    (FaultKind.STATUS_WRONG_ID, {"as_id": 200}, (200, 0, b"\x10\x02")),
+    (FaultKind.STATUS_TRUNCATED, {}, None),
+    (FaultKind.STATUS_PADDED, {}, (3, 0, b"\x10\x02\x00")),
+    *((FaultKind.STATUS_ERROR, {"bits": b}, (3, b, b"\x10\x02")) for b in (1, 2, 3, 4, 5, 6, 7, 128)),
+    (FaultKind.STATUS_ERROR, {"bits": 0x84}, (3, 0x84, b"\x10\x02")),
+])
+def test_a_status_fault_mangles_a_protocol_2_reply(kind, keys, expect):
+    f = faults_on(kind, id=3, **keys)
+    [(t, data)] = f.status_bursts(3, bytearray(STATUS2), 500, 80, protocol=2)
+    assert t == 500 and bytes(data) != STATUS2 and parsed2(data) == expect
+    assert parsed2(STATUS2) == (3, 0, b"\x10\x02")
+
+
+def test_status_faults_on_a_protocol_2_line_late_missing_twin_and_the_group_read():
+    from hil.servobus.protocols.v2 import Bus2
+    from hil.servobus.xseries_servo import XSeriesServo
+    from protocol.dynamixel import xl430 as xl
+
+    def line(kind, **keys) -> Bus2:
+        entry = FaultEntry.parse(kind, {"id": 1, "at_s": 0.0, "until_s": 1.0, **keys}, "t")
+        servos = [XSeriesServo(i) for i in (1, 2)]
+        for s in servos:
+            s.table[xl.BAUD_RATE], s.table[xl.RETURN_DELAY_TIME] = 3, 0     # 1 Mbps, no delay
+        return Bus2(servos, VirtualClock(), faults=Faults(FaultsConfig(**{kind.value: (entry,)})))
+
+    def heard(bus: Bus2, pkt: bytes, timeout_us: int = 5000) -> list:
+        bus.master_write(pkt)
+        return dx2.Parser().feed(bus.master_read(4096, timeout_us))
+
+    read1 = dx2.read(1, xl.PRESENT_POSITION, 4)
+    assert [p.id for p in heard(line(FaultKind.STATUS_TWIN), read1)] == [1, 1]
+    assert heard(line(FaultKind.STATUS_MISSING), read1) == []
+    assert [p.id for p in heard(line(FaultKind.STATUS_WRONG_ID, as_id=7), read1)] == [7]
+    late = line(FaultKind.STATUS_LATE, delay_s=0.002)
+    assert heard(late, read1, 1000) == [] and [p.id for p in heard(late, b"", 5000)] == [1]
+    # a group read: servo 1's reply garbled, servo 2's answered after it as ever
+    bad = line(FaultKind.STATUS_CHECKSUM)
+    got = heard(bad, dx2.sync_read(xl.PRESENT_POSITION, 4, [1, 2]))
+    assert [p.id for p in got] == [2]
+
+
+def test_the_mutator_draws_the_error_byte_of_the_lines_protocol():
+    def drawn(protocol: int) -> set[int]:
+        m = Mutator(Vocabulary((FaultKind.STATUS_ERROR,), (1, 2), 1.0, 3.0,
+                               protocol=protocol), random.Random(5))
+        return {m.fault().entry()["bits"] for _ in range(200)}
+    assert drawn(1) <= set(range(1, 128)) and {1, 64} <= drawn(1)
+    two = drawn(2)
+    assert {1, 7, 128} <= two and all(b & 0x7F <= 7 for b in two) and any(b > 128 for b in two)
 
 
 def test_status_faults_end_at_until_s():
@@ -117,8 +181,8 @@ def test_can_faults_drop_garble_delay_and_swap_frames():
 
 
 def test_a_fault_key_out_of_range_is_one_line():
-    with pytest.raises(UserError, match="bits' must be 1-127"):
-        FaultEntry.parse(FaultKind.STATUS_ERROR, {"id": 1, "at_s": 1.0, "bits": 128}, "t")
+    with pytest.raises(UserError, match="bits' must be 1-255"):
+        FaultEntry.parse(FaultKind.STATUS_ERROR, {"id": 1, "at_s": 1.0, "bits": 256}, "t")
     with pytest.raises(UserError, match="delay_s' must be in"):
         FaultEntry.parse(FaultKind.STATUS_LATE, {"id": 1, "at_s": 1.0, "delay_s": 0}, "t")
 
@@ -194,6 +258,13 @@ def test_bad_settings_are_one_line_errors():
 
 
 def test_the_example_case_on_the_command_line_with_json(tmp_path):
+    import resource
+
+    def cpu_s() -> float:
+        u = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return u.ru_utime + u.ru_stime
+
+    before = cpu_s()
     r = subprocess.run([*HEXHIL, "fuzz", "scenarios/flat-tripod.toml", "--expect",
                         "examples/fuzz-flat-tripod.toml", "--runs", "3", "--seed", "2",
                         "--kinds", "status_twin", "--json", "--quiet"],
@@ -202,6 +273,7 @@ def test_the_example_case_on_the_command_line_with_json(tmp_path):
     report = json.loads(r.stdout.splitlines()[-1])
     assert report["executions"] == 3 and report["findings"] == []
     assert report["features"] >= report["baseline_features"] > 0
+    assert 0 < report["child_cpu_s"] < cpu_s() - before     # the forked children's, of all
 
 
 def test_the_packet_sequence_passes_a_direction_mistake_on_or_drops_it():
@@ -212,6 +284,94 @@ def test_the_packet_sequence_passes_a_direction_mistake_on_or_drops_it():
     alone.direction_mistake(5, "tx_while_receiving", "no master check")
     alone.master_bytes(None, 0, dxl.read(1, 36, 6) + dxl.read(2, 36, 6) + dxl.read(1, 36, 6))
     assert len(alone.pairs) == 3          # (start, 1), (1, 2), (2, 1)
+    two = PacketSequence(None)
+    two.master_bytes(None, 0, dx2.read(1, 132, 4) + dx2.read(2, 132, 4) + dx2.read(1, 132, 4))
+    assert len(two.pairs) == 3 and two._last == (dx2.READ, 1)     # Protocol 2.0's packets
     check = MasterCheck()
     PacketSequence(check).direction_mistake(5, "tx_while_receiving", "pin low")
     assert check.counts["tx_while_receiving"] == 1
+
+
+def test_the_held_trace_judges_as_the_written_file_does(tmp_path):
+    """The fork server's trace in memory (boot decoded at the fork, the rest at the end)
+    holds what the file would, on every topic the expectations read."""
+    from host_tools.bus_fuzz.execution import Target, run_input
+    from host_tools.bus_fuzz.held_trace import HeldTrace
+    from host_tools.expect import spec, verdicts
+
+    case = replace(spec.load(ROOT / "examples" / "fuzz-flat-tripod.toml"), duration_s=0.7)
+    target = Target(case, 0.5, coverage=False)
+    held: list[HeldTrace] = []
+    caps: list[float] = []
+
+    def setup(run):
+        write = run.recorder._write_chunk
+        held.append(HeldTrace(run, case))
+        caps.append(run.limits.wall_s(case.duration_s))
+        keep = run.recorder._write_chunk
+        run.recorder._write_chunk = lambda msgs, packing=None: (keep(msgs), write(msgs))
+
+    def wrap(run, exchange):
+        def hooked(data, closed):
+            if not held[0].boot and run.sim.clock.t_us >= 400_000:
+                held[0].at_fork()
+            return exchange(data, closed)
+        return hooked
+
+    trace = tmp_path / "run.mcap"
+    cpus = os.sched_getaffinity(0)
+    os.sched_setaffinity(0, {min(cpus)})      # as the server: the recorder encodes here
+    try:
+        summary = run_input(target, (), trace, wrap=wrap, setup=setup)
+    finally:
+        os.sched_setaffinity(0, cpus)
+    assert caps == [float("inf")]         # no wall-clock cap: the server waits for inputs
+    rec = held[0].recording(summary)
+    assert held[0].boot and rec.messages[verdicts.topics.T_BODY][-1][0] > 0.6
+    assert rec.messages == verdicts.read(trace, summary, verdicts.topics_read(case)).messages
+    untimed = lambda outcomes: [replace(o, time_s=0.0) for o in outcomes]
+    assert untimed(verdicts.judged(case, rec)) == untimed(verdicts.evaluate(case, summary, trace))
+
+
+def test_a_swing_press_presses_once_a_swing_after_the_foot_is_lifted():
+    entry = FaultEntry.parse(FaultKind.SWITCH_SWING_PRESS,
+                             {"leg": "LM", "after_s": 0.05, "press_s": 0.02, "at_s": 0.0}, "t")
+    f = Faults(FaultsConfig(switch_swing_press=(entry,)))
+    f.start(VirtualClock(), 0)
+    f.apply_due(0)
+    feet = [True] * 6
+    seen = []
+    for t_ms in range(0, 400, 10):
+        feet[1] = not 100 <= t_ms < 300           # LM in the air from 100 ms to 300 ms
+        seen.append(f.switch_bits(t_ms * 1000, 0, lambda: feet))
+    pressed = [t for t, bits in zip(range(0, 400, 10), seen) if bits]
+    assert pressed == [150, 160] and set(seen) == {0, 2}    # bit 1: LM, one press, 20 ms
+    assert [n for _, n, _ in f.log] == ["switch_swing_press", "swing_press"]
+    assert f.switch_bits(500_000, 0) == 0                   # no world, no swing
+
+
+def test_a_swing_press_lands_in_the_swing_of_a_walking_run(tmp_path):
+    """On flat-tripod the press comes while the leg's foot carries no load (the world's
+    ground truth), and the firmware reads it as a contact."""
+    from host_tools.expect import case_runs
+    from hil import scenario as scenario_mod
+
+    sc = scenario_mod.load_scenario(ROOT / "scenarios" / "flat-tripod.toml").overlay(
+        {"faults": {"switch_swing_press": [{"leg": 0, "at_s": 0.3, "after_s": 0.2}]}})
+    at_press: list[tuple[int, bool]] = []
+
+    def setup(run):
+        report, world = run.sim.faults.report, run.sim.world
+
+        def heard(t_us, name, detail):
+            if name == "swing_press":
+                at_press.append((t_us, world.foot_contacts()[0]))
+            report(t_us, name, detail)
+        run.sim.faults.report = heard
+
+    summary, result = case_runs.run_scenario(sc, 1, 2.0, "cpython-inprocess", None,
+                                             tmp_path / "run.mcap", setup=setup,
+                                             master_check=False)
+    assert at_press and not any(loaded for _, loaded in at_press)
+    assert all(t >= 500_000 for t, _ in at_press)
+    assert summary["switch_edges"] == 2 * len(at_press), (summary["switch_edges"], at_press)

@@ -242,6 +242,15 @@ def test_rtc_counts_the_calendar_from_lsi_in_virtual_time(tmp_path):
                                       "00000030", "00001234", "00000000"], console(r)
 
 
+def test_the_backup_domain_survives_a_system_reset(tmp_path):
+    """The RTC on LSE, a backup register and RCC BDCR go on through SYSRESETREQ, as on the
+    chip: boot 2 finds the register, LSEON/LSERDY/RTCSEL/RTCEN and the calendar one second
+    on (the CubeMX way to keep the time across a reset)."""
+    r, _ = run_elf(build(tmp_path, "backup.c"), 1.4)
+    assert console(r) == ["b0075afe 00008103 00100001 "], console(r)
+    assert r.firmware.other["mcu"]["resets"] == 1
+
+
 @pytest.mark.parametrize("mode", ["it", "dma"])
 def test_receive_to_idle_gets_every_ping_as_one_burst_in_c_and_in_python(tmp_path, mode):
     """USART2 is the compiled core's (board_core.c) and, with HEXHIL_BOARD_CORE=python,

@@ -160,7 +160,8 @@ def test_the_deadline_figures_and_a_deadline_expectation_that_passes_and_one_tha
         tmp_path):
     """A 50 Hz loop (a ping, some float work, sleep_ms to the next 20 ms): --json's
     ``deadline`` has its busy time per control cycle; a case with ``kind = "deadline"``
-    passes at 15 ms of the period and fails at 0.5 ms, and ``hexhil test`` exits 1."""
+    passes at 15 ms of the period and fails at 0.5 ms, and ``hexhil test`` exits 1;
+    ``--fs-out`` reads the case's /flash back into a folder of its own."""
     case = tmp_path / "deadline.toml"
     case.write_text(f'''[case]
 name = "deadline"
@@ -180,9 +181,11 @@ name = "too tight"
 kind = "deadline"
 max_busy_ms = 0.5
 ''')
-    done = subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case)],
+    done = subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case),
+                           "--fs-out", str(tmp_path / "flash")],
                           cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert done.returncode == 1, done.stdout + done.stderr
+    assert (tmp_path / "flash" / "deadline" / "main.py").read_bytes() == LOOP_50HZ.read_bytes()
     rows = {line.split()[1]: line for line in done.stdout.splitlines()
             if line.startswith("deadline ")}
     assert rows["fits"].rstrip().endswith("pass") and "0 late" in rows["fits"]
@@ -193,17 +196,20 @@ max_busy_ms = 0.5
     assert 0.5 < d["busy_p50_ms"] <= d["busy_p99_ms"] <= d["busy_max_ms"] < 15.0
 
 
-def test_the_pytest_plugin_and_replay_take_the_flash_files(hexhil_run):
-    """hexhil_run(main=...) fills /flash as --main does, check("deadline") judges the run,
-    and hexhil replay --main replays its trace into the same ELF identically (without the
-    main.py the firmware would format /flash instead: another run)."""
+def test_the_pytest_plugin_and_replay_take_the_flash_files(hexhil_run, tmp_path):
+    """hexhil_run(main=..., fs_out=...) fills /flash as --main does and reads it back,
+    check("deadline") judges the run, and hexhil replay --main replays its trace into the
+    same ELF identically, its /flash read back too (without the main.py the firmware
+    would format /flash instead: another run)."""
     done = hexhil_run(ROOT / "scenarios" / "flat-tripod.toml", duration_s=0.4,
-                      firmware=EMPTY_FS_ELF, main=LOOP_50HZ)
+                      firmware=EMPTY_FS_ELF, main=LOOP_50HZ, fs_out=tmp_path / "run")
     assert done.check("deadline", max_busy_ms=15.0, stat="p99").passed
+    assert (tmp_path / "run" / "main.py").read_bytes() == LOOP_50HZ.read_bytes()
     from host_tools import replay
     r = replay.replay_firmware(done.trace, firmware=str(EMPTY_FS_ELF),
-                               flash_files=FlashFiles(main=LOOP_50HZ))
+                               flash_files=FlashFiles(main=LOOP_50HZ, out=tmp_path / "replay"))
     assert r.identical and r.exchanges >= 20        # a line request a 20 ms cycle at least
+    assert (tmp_path / "replay" / "main.py").read_bytes() == LOOP_50HZ.read_bytes()
     other = replay.replay_firmware(done.trace, firmware=str(EMPTY_FS_ELF))
     assert not other.identical
 

@@ -1,6 +1,6 @@
 """firmware/servo_bus/v2.py (the X-series master) against the emulated Protocol 2.0 bus:
 scan, configuration, one SYNC_WRITE, one SYNC_READ of all 18, stuffed replies, a silent
-servo ending the chain."""
+servo ending the chain; the return delay both masters write at configuration."""
 from __future__ import annotations
 
 from firmware.servo_bus import v2 as servo_bus2
@@ -88,3 +88,22 @@ def test_a_silent_servo_ends_the_chain() -> None:
     bus.set_plugged(bus.servos[4], False, bus.clock.t_us)
     assert m.sync_read_present(now) == list(range(4, 18))
     assert m.servos[5].timeouts == 1 and m.servos[4].timeouts == 0
+
+
+def test_configuration_writes_the_return_delay_the_board_asks_for() -> None:
+    """delay_set_us (the board back end's 100 us: hal/board.py) reaches every servo's
+    register in both protocols, in its 2 us units."""
+    from firmware.servo_bus import master_class
+    from hil.servobus.ax12_servo import Servo
+    from hil.servobus.line import Bus
+
+    bus, m, now = rig()
+    m.delay_set_us = 100
+    assert m.configure_eeprom(1, 200, 800, now)
+    assert bus.servos[0].value("return_delay_time") == 50
+    assert bus.servos[0].return_delay_us == 100
+    bus1 = Bus([Servo(i) for i in range(1, 19)], VirtualClock())
+    m1 = master_class(1)(BusUart(bus1), list(range(1, 19)))
+    m1.delay_set_us = 100
+    assert m1.configure_eeprom(2, 200, 800, BusUart(bus1))
+    assert bus1.servos[1].return_delay_us == 100

@@ -55,7 +55,8 @@ class Master:
         self.byte_us = (10 * 1000000 + baud - 1) // baud
         self.echo = echo                 # None: detect on the first transaction
         self.retries = retries
-        self.return_delay_us = 500       # factory default until configure() writes 0
+        self.return_delay_us = 500       # factory default until configured
+        self.delay_set_us = 0            # the return delay configure_eeprom writes (2 us units)
         self.tx = bytearray(dxl.MAX_PACKET)
         self.rx = bytearray(dxl.MAX_PACKET * 2)
         self.small = bytearray(8)
@@ -226,10 +227,11 @@ class Master:
         return found
 
     def configure_eeprom(self, dev_id, cw_limit, ccw_limit, now):
-        """Return delay 0 and angle limits (EEPROM, one WRITE); True when acknowledged. The
-        servo then ignores packets for a few ms: wait EEPROM_SETTLE_US before talking to it."""
+        """Return delay ``delay_set_us`` and angle limits (EEPROM, one WRITE); True when
+        acknowledged. The servo then ignores packets for a few ms: wait EEPROM_SETTLE_US
+        before talking to it."""
         d = self.small
-        d[0] = 0
+        d[0] = self.delay_set_us // 2
         d[1] = cw_limit & 0xFF
         d[2] = cw_limit >> 8
         d[3] = ccw_limit & 0xFF

@@ -150,9 +150,10 @@ class Master2(Master):
         s.position = pulses_to_ax(p.param_u32(7))
 
     def configure_eeprom(self, dev_id, cw_limit, ccw_limit, now):
-        """Return delay 0 and the joint limits as Min/Max Position Limit (AX-12 units in):
+        """Return delay ``delay_set_us`` and the joint limits as Min/Max Position Limit (AX-12 units in):
         two EEPROM writes (the cells are apart), the servo deaf for a few ms after each."""
-        if not self.write(dev_id, xl.RETURN_DELAY_TIME, b"\x00", 1, now):
+        if not self.write(dev_id, xl.RETURN_DELAY_TIME, bytes((self.delay_set_us // 2,)), 1,
+                          now):
             return False
         now.sleep_until(now.ticks_add(now.ticks_us(), EEPROM_SETTLE_US))
         lim = bytearray(8)    # configuration only, not the loop

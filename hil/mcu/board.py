@@ -21,11 +21,11 @@ from hil.mcu.board_core import (NativeBoard, NativeEvents, NativeTimer, NativeUs
 from hil.mcu.board_loop import (exception_choice, exception_entry, exception_taking,
                                 handed_over, hook_interrupts, trips)
 from hil.mcu.console import Console, semihost
-from hil.mcu.core import (EXC_SVCALL, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT, INTR_INVSTATE,
-                          INTR_NOCP, INTR_SWI, INTR_UDEF, Core, CoreFault)
+from hil.mcu.core import EXC_SVCALL, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT, INTR_SWI, Core, CoreFault
 from hil.mcu.deadline import ControlCycles
 from hil.mcu.elf_image import ElfImage
 from hil.mcu.events import Events, Timer
+from hil.mcu.faults import Faults, intr_fault
 from hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
 from hil.mcu.mmio import PeripheralSpace
 from hil.mcu.link_client import LinkClient
@@ -33,13 +33,13 @@ from hil.mcu.poll import PollSkipper
 from hil.mcu.quiet import QuietLoops
 from hil.mcu.servo_line import ServoLine
 from hil.mcu.peripherals import IrqLines, extra_peripherals
-from hil.mcu import flash, platform
+from hil.mcu import device_id, flash, platform
 from hil.mcu.rcc import CSR, HSI_HZ, Rcc, power
 from hil.mcu.rtc import Rtc
 from hil.mcu.system import Nvic, SystemBlock
 from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
-from hil.mcu.verdicts import BRANCH_TO_SELF, MASKED_LIMIT_S, SYSTEM_EXCEPTIONS, Endings
+from hil.mcu.verdicts import BRANCH_TO_SELF, MASKED_LIMIT_S, Endings
 from hil.mcu.world_sync import WorldSync
 
 log = logging.getLogger(__name__)
@@ -74,7 +74,7 @@ class Board:
         self.switches = 0
         self.exit_code: int | None = None
         self.ended = False
-        self.fault: str | None = None
+        self.fault: CoreFault | None = None   # raised in a hook, taken after the chunk
         self.resets = 0                # system resets taken (SYSRESETREQ, a watchdog)
         self.reset_causes: Counter[str] = Counter()
         self._reset_pending: str | None = None     # what asked for the reset
@@ -87,6 +87,7 @@ class Board:
         self.sync = WorldSync(self)   # the link's replies, its sleeps
         self.space.attach(core.uc)
         flash.attach(self)            # stores to flash reach self.flash (hil/mcu/flash.py)
+        self._system_memory = device_id.attach(core.uc)   # the unique ID, the flash size
         if self.native:
             hook_interrupts(core.shared, core.uc)    # exception returns in C
         else:
@@ -94,6 +95,7 @@ class Board:
         self.poll = PollSkipper(self)
         self.quiet = QuietLoops(self)
         self.endings = Endings(self, masked_limit_s)    # _exit, abort, assert, main's return
+        self.faults = Faults(self, masked_limit_s)      # fault exceptions and their handlers
 
     @property
     def skipped_cycles(self) -> int:
@@ -204,17 +206,20 @@ class Board:
                     value.clear()
         self.poll.forget()
         self.quiet.forget()
+        rtc, bdcr = self.rtc, self.rcc.regs.get(0x70, 0)    # the backup domain goes on
         self._peripherals()
+        rtc.survive_reset(self, bdcr)
         self.rcc.reset_by(cause, flags)
         self.core.vtor = 0
         self.core.fpu_on = False
         self.core.set_hz(self.rcc.hclk_hz)
         self.core.reset()
         self.line.pin(0)
-        (log.info if cause == "SYSRESETREQ" else log.warning)(
-            "firmware %s: system reset (%s) at t=%.6f s, restarting from the reset vector",
+        after = self.faults.reset()      # a fault handler's reset says which fault
+        (log.info if cause == "SYSRESETREQ" and not after else log.warning)(
+            "firmware %s: system reset (%s)%s at t=%.6f s, restarting from the reset vector",
             self.image.path.name, cause if cause == "SYSRESETREQ" else f"{cause} timeout",
-            self.now_us() * 1e-6)
+            after, self.now_us() * 1e-6)
         return True
 
     # --- exceptions ---------------------------------------------------------------
@@ -238,20 +243,17 @@ class Board:
             elif intno == INTR_BKPT:
                 self._breakpoint(pc)
             else:
-                what = {INTR_UDEF: "an undefined instruction (UsageFault)",
-                        INTR_NOCP: "a coprocessor instruction with the FPU off (UsageFault NOCP)",
-                        INTR_INVSTATE: "a branch to ARM state (UsageFault INVSTATE: an address "
-                        "without its Thumb bit)"}.get(intno, f"CPU exception {intno}")
-                raise CoreFault(what)
+                raise intr_fault(intno)
         except CoreFault as exc:
-            self.fault = str(exc)
+            self.fault = exc
             uc.emu_stop()
 
     def _breakpoint(self, pc: int) -> None:
         core = self.core
         op = int.from_bytes(core.uc.mem_read(pc, 2), "little")
         if op != 0xBEAB:
-            raise CoreFault(f"a breakpoint (BKPT 0x{op & 0xFF:02x}) with no debugger attached")
+            raise CoreFault(f"a breakpoint (BKPT 0x{op & 0xFF:02x}) with no debugger attached",
+                            ("intr", INTR_BKPT))
         code = semihost(core, self.console)
         core.uc.reg_write(A.UC_ARM_REG_PC, (pc + 2) | 1)
         if code is not None:
@@ -259,19 +261,14 @@ class Board:
             self.console.flush()
             core.uc.emu_stop()
 
-    def _lockup(self) -> None:
-        """An exception handler branches to itself (the startup's Default_Handler for an
-        interrupt without a handler of its own): a lockup when nothing enabled could ever
-        preempt it, since then no event can end the loop."""
-        if self.nvic.could_preempt(self.systick.csr & 3 == 3):
-            return
-        exc = self.core.active[-1]
-        name = SYSTEM_EXCEPTIONS.get(exc, f"interrupt {exc - 16} (exception {exc})")
-        raise CoreFault(self.fault_line(
-            f"a lockup: {name} runs a loop that branches to itself and nothing can preempt "
-            "it (an interrupt enabled without a handler of its own?)"))
-
     # --- the run --------------------------------------------------------------------
+    def faulted(self, fault: CoreFault) -> None:
+        """A fault: taken as its exception where the chip takes one (hil/mcu/faults.py),
+        else the run's end in its one line."""
+        self.fault = None
+        if not self.faults.take(fault):
+            raise CoreFault(self.fault_line(str(fault))) from None
+
     def fault_line(self, text: str) -> str:
         pc = self.core.pc
         return (f"{text} at PC 0x{pc:08x} in {self.image.function_at(pc)} "
@@ -315,7 +312,7 @@ class Board:
             if self.reset_if_asked():
                 continue
             if self.fault is not None:
-                raise CoreFault(self.fault_line(self.fault))
+                self.faulted(self.fault)
             taken = take_next()
             self.trip(self.nvic.masked_chunk(n), taken)
         self.console.flush()
@@ -341,7 +338,8 @@ class Board:
         try:
             ran = core.run(n)
         except CoreFault as exc:
-            raise CoreFault(self.fault_line(str(exc))) from None
+            self.faulted(exc)
+            return
         self.after_chunk()
         if st.mmio_n != st.chunk_mmio or core.sleeping or core.stopped or core.cut:
             self.quiet.loud_chunk()
@@ -352,13 +350,14 @@ class Board:
         """A chunk ran: its fault, a system reset, a lockup, the poll skipper's next step."""
         core = self.core
         if self.fault is not None:
-            raise CoreFault(self.fault_line(self.fault))
+            self.faulted(self.fault)
+            return
         self.flash.settle()
         if self.reset_if_asked():
             return
         if core.shared.nactive and self.debugger is None and \
                 core.read16(core.pc) in BRANCH_TO_SELF:
-            self._lockup()
+            self.faults.at_branch_to_self()
         self.poll.after_chunk()
         if self.debugger is not None:
             self.debugger.after_chunk()

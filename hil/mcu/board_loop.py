@@ -18,6 +18,7 @@ from unicorn import UcError
 
 from hil.mcu.board_core import Shared, library
 from hil.mcu.core import CoreFault, error_text
+from hil.mcu.faults import NULL_JUMP
 
 # board_core.c's enum of where Python goes on, the same numbers
 (LOOP_AFTER_HEAD, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
@@ -86,7 +87,8 @@ def handed_over(board: Any, where: int) -> int:
         if board.ended or board.reset_if_asked():
             return -1
         if board.fault is not None:
-            raise CoreFault(board.fault_line(board.fault))
+            board.faulted(board.fault)
+            return -1
         return st.loop_n
     elif where == LOOP_ENTER:
         core.enter(st.loop_exc)
@@ -99,9 +101,9 @@ def handed_over(board: Any, where: int) -> int:
             raise CoreFault(board.fault_line(str(exc))) from None
         raise exc
     elif where == LOOP_NULL_JUMP:
-        raise CoreFault(board.fault_line("a jump to address 0 (a null function pointer)"))
+        board.faulted(CoreFault("a jump to address 0 (a null function pointer)", NULL_JUMP))
     elif where == LOOP_UC_ERROR:
-        raise CoreFault(board.fault_line(error_text(UcError(st.uc_err), core)))
+        board.faulted(CoreFault(error_text(UcError(st.uc_err), core), ("uc", st.uc_err)))
     else:                                # asleep with nothing scheduled: Python's own step
         board.trip(st.loop_n, False)
     return -1

@@ -19,7 +19,7 @@ from typing import Callable
 
 from unicorn import (UC_ARCH_ARM, UC_HOOK_INTR, UC_MODE_MCLASS, UC_MODE_THUMB, UC_PROT_ALL,
                      UC_PROT_EXEC, UC_PROT_READ, Uc, UcError)
-from unicorn import arm_const as A
+from unicorn import arm_const as A, unicorn_const as U
 from unicorn.unicorn_py3.unicorn import uclib
 
 from hil.mcu.board_core import Shared, SharedField, library
@@ -28,8 +28,7 @@ from hil.mcu.engine import EngineKind, Regs, attach_engine, regs_place
 from hil.mcu.timebase import FS_PER_S, FS_PER_US, TimeBase
 
 EXC_HARDFAULT, EXC_SVCALL, EXC_PENDSV, EXC_SYSTICK = 3, 11, 14, 15
-INTR_UDEF, INTR_SWI, INTR_PREFETCH, INTR_DATA_ABORT, INTR_BKPT, INTR_EXC_EXIT = 1, 2, 3, 4, 7, 8
-INTR_NOCP, INTR_INVSTATE = 17, 18
+INTR_UDEF, INTR_SWI, INTR_BKPT, INTR_EXC_EXIT, INTR_NOCP, INTR_INVSTATE = 1, 2, 7, 8, 17, 18
 WFI, WFE = 0xBF30, 0xBF20
 CONTROL_FPCA = 1 << 2        # an FP context is active: the extended frame at exception entry
 ERASED = 0xFF                # an erased flash byte (RM0383 3.5)
@@ -47,7 +46,12 @@ CONTEXT_REGS = tuple(A.UC_ARM_REG_R0 + i for i in range(13)) + (A.UC_ARM_REG_SP,
 
 
 class CoreFault(Exception):
-    """The firmware did what ends a run (a fault, a lockup, an access to nothing)."""
+    """The firmware did what ends a run (a fault, a lockup, an access to nothing); the
+    ``origin`` of one the chip takes as an exception (hil/mcu/faults.py ``CAUSES``)."""
+
+    def __init__(self, text: str, origin: tuple[str, int] | None = None) -> None:
+        super().__init__(text)
+        self.origin = origin
 
 
 class Core:
@@ -125,14 +129,12 @@ class Core:
         return st.active[:st.nactive]
 
     def _push(self, exc: int) -> None:
-        st = self.shared
-        st.active[st.nactive] = exc
-        st.nactive += 1
+        self.shared.active[self.shared.nactive] = exc
+        self.shared.nactive += 1
 
     def _pop(self) -> int:
-        st = self.shared
-        st.nactive -= 1
-        return st.active[st.nactive]
+        self.shared.nactive -= 1
+        return self.shared.active[self.shared.nactive]
 
     def _find_pc(self) -> ctypes.c_uint32 | None:
         """The PC's word in this engine's CPU state (``regs_place``), checked here too."""
@@ -206,8 +208,7 @@ class Core:
             return struct.unpack_from("<H", self._flash_mem, addr - FLASH_BASE)[0]
         return int.from_bytes(self.uc.mem_read(addr, 2), "little")
 
-    def sram_view(self) -> memoryview:
-        """SRAM's bytes as they are now (no copy)."""
+    def sram_view(self) -> memoryview:   # SRAM's bytes as they are now (no copy)
         return self._sram_mem
 
     def store32(self, addr: int, value: int) -> None:
@@ -259,7 +260,7 @@ class Core:
         self.pc = self.pc_now() if st.engine_counts else self.reg(A.UC_ARM_REG_PC)
         if error is None and ran < n and not self.stopped and not self.cut:
             if self.pc == 0:
-                raise CoreFault("a jump to address 0 (a null function pointer)")
+                raise CoreFault("a jump to address 0 (a null function pointer)", ("null", 0))
             op = self.read16(self.pc - 2)
             if op in (WFI, WFE):
                 ran += 1
@@ -268,7 +269,7 @@ class Core:
         st.cyc = st.chunk0 + ran          # chunk0 has moved by any jump inside the chunk
         self.executed += ran
         if error is not None:
-            raise CoreFault(error_text(error, self))
+            raise CoreFault(error_text(error, self), ("uc", error.errno))
         return ran
 
     # --- exceptions ---------------------------------------------------------------
@@ -384,7 +385,6 @@ class Core:
 
 
 def error_text(error: UcError, core: Core) -> str:
-    from unicorn import unicorn_const as U
     kinds = {U.UC_ERR_READ_UNMAPPED: "a read of nothing", U.UC_ERR_WRITE_UNMAPPED:
              "a write to nothing", U.UC_ERR_FETCH_UNMAPPED: "an instruction fetch from nothing",
              U.UC_ERR_WRITE_PROT: "a write to flash", U.UC_ERR_FETCH_PROT:

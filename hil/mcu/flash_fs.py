@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hil.mcu.elf_image import ElfImage
+from hil.mcu.flash_modules import module_files
 from protocol.errors import UserError
 
 FS_BASE, FS_SIZE = 0x08004000, 64 * 1024
@@ -37,6 +38,15 @@ class FlashFiles:
     def lays(self) -> bool:
         return self.main is not None or self.folder is not None
 
+    def over(self, other: "FlashFiles | None") -> "FlashFiles":
+        """These, with ``other``'s where these have none (a command's options over a
+        case file's: ``--fs-out`` alone keeps the case's ``main``)."""
+        if other is None:
+            return self
+        return FlashFiles(*(mine if mine is not None else theirs for mine, theirs in
+                            ((self.main, other.main), (self.folder, other.folder),
+                             (self.out, other.out))))
+
 
 def _fatfs() -> types.ModuleType:
     """fatfs-ng with its clock fixed (its FatFs asks ``datetime.datetime.now()``)."""
@@ -52,8 +62,14 @@ def _fatfs() -> types.ModuleType:
 
 
 def files_of(spec: FlashFiles) -> dict[str, bytes]:
-    """The files to lay, path in the volume -> bytes (``UserError`` for a missing one)."""
+    """The files to lay, path in the volume -> bytes (``UserError`` for a missing one): the
+    modules main imports (hil/mcu/flash_modules.py) but those the folder holds as source,
+    the folder's files, then main as ``/main.py``."""
     out: dict[str, bytes] = {}
+    if spec.main is not None and spec.main.is_file():
+        given = spec.folder
+        out.update((rel, mpy) for rel, mpy in module_files(spec.main).items()
+                   if given is None or not (given / (rel[1:-4] + ".py")).is_file())
     if spec.folder is not None:
         if not spec.folder.is_dir():
             raise UserError(f"fs {spec.folder}: not a folder", params=("fs",))

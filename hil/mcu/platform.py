@@ -80,12 +80,17 @@ def _p(name: str, base: int, bus: str, model: str, built: Built = Built.TABLE,
 
 B, T = Built.BOARD, Built.TABLE
 REGISTERS_ONLY = "registers as data: reset values and access rules, no behaviour"
+I2C_DOES = "a master on a bus with no device: START, the address not acknowledged (AF), STOP"
 PLATFORM: tuple[Row, ...] = (
     Row("Flash", 0x08000000, 0x80000, Kind.MEMORY, "", "hil.mcu.core:Core", B,
         does="512 KB, also at 0 (BOOT0 low); what the ELF leaves reads 0xFF (erased); "
         "a store programs it only through the FLASH interface (below)"),
-    Row("System memory", 0x1FFF0000, 0x7800, Kind.MEMORY, does="not mapped"),
-    Row("OTP", 0x1FFF7800, 0x210, Kind.MEMORY, does="not mapped"),
+    Row("System memory", 0x1FFF0000, 0x7800, Kind.MEMORY, "", "hil.mcu.device_id:attach", B,
+        does="read-only; the bootloader's code is not there (reads 0)"),
+    Row("OTP", 0x1FFF7800, 0x210, Kind.MEMORY, "", "hil.mcu.device_id:attach", B,
+        does="read-only, erased (0xFF)"),
+    Row("Unique ID, flash size", 0x1FFF7A10, 0x14, Kind.MEMORY, "", "hil.mcu.device_id:attach",
+        B, does="a fixed 96-bit ID (the same every run) at 0x1FFF7A10, 512 (KB) at 0x1FFF7A22"),
     Row("Option bytes", 0x1FFFC000, 0x10, Kind.MEMORY, does="not mapped"),
     Row("SRAM", 0x20000000, 0x20000, Kind.MEMORY, "", "hil.mcu.core:Core", B, does="128 KB"),
     Row("SRAM bit-band", 0x22000000, 0x400000, Kind.ALIAS, "", "hil.mcu.bitband:BitBandAlias",
@@ -128,12 +133,12 @@ PLATFORM: tuple[Row, ...] = (
        does=REGISTERS_ONLY),
     _p("USART2", 0x40004400, "APB1", "hil.mcu.usart:Usart", B, ("USART2",), ("APB1ENR", 17),
        "the servo line (in C with the compiled board); see USART1/2/6"),
-    _p("I2C1", 0x40005400, "APB1", "hil.mcu.devices.i2c:I2C", T, ("I2C1_EV", "I2C1_ER"),
-       ("APB1ENR", 21), REGISTERS_ONLY),
-    _p("I2C2", 0x40005800, "APB1", "hil.mcu.devices.i2c:I2C", T, ("I2C2_EV", "I2C2_ER"),
-       ("APB1ENR", 22), REGISTERS_ONLY),
-    _p("I2C3", 0x40005C00, "APB1", "hil.mcu.devices.i2c:I2C", T, ("I2C3_EV", "I2C3_ER"),
-       ("APB1ENR", 23), REGISTERS_ONLY),
+    _p("I2C1", 0x40005400, "APB1", "hil.mcu.devices.i2c:I2cBus", T, ("I2C1_EV", "I2C1_ER"),
+       ("APB1ENR", 21), I2C_DOES),
+    _p("I2C2", 0x40005800, "APB1", "hil.mcu.devices.i2c:I2cBus", T, ("I2C2_EV", "I2C2_ER"),
+       ("APB1ENR", 22), I2C_DOES),
+    _p("I2C3", 0x40005C00, "APB1", "hil.mcu.devices.i2c:I2cBus", T, ("I2C3_EV", "I2C3_ER"),
+       ("APB1ENR", 23), I2C_DOES),
     _p("CAN1", 0x40006400, "APB1", "hil.mcu.peripherals:BxCan", B,
        ("CAN1_TX", "CAN1_RX0", "CAN1_RX1", "CAN1_SCE"), ("APB1ENR", 25),
        "**not on the F411**: the F4 family's bxCAN1, for CAN firmware of a bigger F4; "
@@ -149,8 +154,10 @@ PLATFORM: tuple[Row, ...] = (
        "the console; see USART1/2/6"),
     _p("USART6", 0x40011400, "APB2", "hil.mcu.usart:Usart", B, ("USART6",), ("APB2ENR", 5),
        "a second console; see USART1/2/6"),
-    _p("ADC1", 0x40012000, "APB2", "hil.mcu.devices.adc:ADC1", T, ("ADC",), ("APB2ENR", 8),
-       REGISTERS_ONLY + " (and the common CSR, CCR)"),
+    _p("ADC1", 0x40012000, "APB2", "hil.mcu.devices.adc:Adc", T, ("ADC",), ("APB2ENR", 8),
+       "a regular conversion by SWSTART (CONT), EOC and its interrupt after the sampling "
+       "time; VREFINT, the temperature sensor, VBAT/4; the pins read 0 V; not scan, "
+       "injected, triggers, DMA"),
     _p("SDIO", 0x40012C00, "APB2", "hil.mcu.devices.sdio:SDIO", T, ("SDIO",),
        ("APB2ENR", 11), "no registers: each access named, reads 0"),
     _p("SPI1", 0x40013000, "APB2", "hil.mcu.devices.spi:SPI", T, ("SPI1",), ("APB2ENR", 12),
@@ -214,7 +221,9 @@ PLATFORM: tuple[Row, ...] = (
         "FAULTMASK, tail-chaining, level lines"),
     Row("SCB", 0xE000ED00, 0x90, Kind.CORE, "PPB", "hil.mcu.system:SystemBlock", B,
         does="CPUID, ICSR, VTOR, AIRCR (PRIGROUP, SYSRESETREQ), SCR SLEEPONEXIT, SHPR1-3, "
-        "CPACR; not the MPU, fault status"),
+        "SHCSR, CFSR, HFSR, MMFAR, BFAR (hil/mcu/faults.py), CPACR; not the MPU"),
+    Row("DBGMCU", 0xE0042000, 0x10, Kind.CORE, "PPB", "hil.mcu.system:SystemBlock", B,
+        does="IDCODE (DEV_ID 0x431, REV_ID 0x1000); CR and the freeze bits kept as written"),
     Row("FPU", 0xE000EF30, 0x10, Kind.CORE, "PPB", "hil.mcu.system:SystemBlock", B,
         ("FPU",), does="FPCCR, FPCAR kept as written"),
 )

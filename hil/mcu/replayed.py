@@ -7,13 +7,14 @@ from __future__ import annotations
 
 import queue
 import threading
+from pathlib import Path
 from typing import Callable
 
 from hil.link.firmware_process import split_messages
 from hil.mcu.board import Board
 from hil.mcu.core import CoreFault
 from hil.mcu.elf_image import ElfImage
-from hil.mcu.flash_fs import FS_BASE
+from hil.mcu import flash_fs
 from protocol.errors import UserError
 
 WAIT_S = 60.0
@@ -51,7 +52,7 @@ class ReplayedElf:
 
     def __init__(self, image: ElfImage,
                  console_events: Callable[[str], list[tuple[int, str]]],
-                 fs_image: bytes | None = None) -> None:
+                 fs_image: bytes | None = None, fs_out: Path | None = None) -> None:
         self._batches: queue.Queue = queue.Queue()
         self._replies: queue.Queue[bytes] = queue.Queue()
         self.conn = _Connection(self._batches, self._replies)
@@ -59,7 +60,8 @@ class ReplayedElf:
         self._error = ""
         self._board = Board(image, self._exchange, console_events)
         if fs_image is not None:      # the /flash the run had (hil/mcu/flash_fs.py)
-            self._board.core.uc.mem_write(FS_BASE, fs_image)
+            self._board.core.uc.mem_write(flash_fs.FS_BASE, fs_image)
+        self._fs_out = fs_out         # where /flash goes once the board stopped
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
 
@@ -79,12 +81,19 @@ class ReplayedElf:
             self.proc.returncode = 1
             self._batches.put(([], True))
 
-    def kill(self) -> None:
-        self._replies.put(b"")       # the board's next request finds the link closed
-        self._thread.join(timeout=10.0)
-
-    def finish(self, timeout_s: float = 10.0) -> tuple[int, str, str]:
+    def _stopped(self, timeout_s: float) -> None:
+        """The board's next request finds the link closed; then its /flash is read back."""
         self._replies.put(b"")
         self._thread.join(timeout=timeout_s)
+        if self._fs_out is not None and not self._thread.is_alive():
+            uc = self._board.core.uc
+            flash_fs.read_back(bytes(uc.mem_read(flash_fs.FS_BASE, flash_fs.FS_SIZE)),
+                               self._fs_out)
+
+    def kill(self) -> None:
+        self._stopped(10.0)
+
+    def finish(self, timeout_s: float = 10.0) -> tuple[int, str, str]:
+        self._stopped(timeout_s)
         return (self.proc.returncode if self.proc.returncode is not None else 1, "",
                 self._error)

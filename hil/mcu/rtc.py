@@ -15,14 +15,17 @@ DR until DR is read, as the shadow registers do.
 
 Not modelled: alarms and the wake-up timer (their registers keep what is written, the
 write flags read 1 while the unit is off), timestamps and tamper, the smooth calibration,
-the 12-hour format, BDRST. The backup domain is reset with the system here (on the chip
-it survives a system reset), and RCC BDCR takes writes without DBP.
+the 12-hour format, BDRST. The backup domain survives a system reset (SYSRESETREQ, a
+watchdog) as on the chip: the calendar, its prescalers, the backup registers and RCC BDCR
+(LSE, RTCSEL, RTCEN) go on; PWR's DBP and LSI do not (an RTC on LSI stops until the
+firmware turns LSI on again). RCC BDCR takes writes without DBP.
 """
 from __future__ import annotations
 
 import datetime as dt
 from typing import Any
 
+from hil.mcu import platform
 from hil.mcu.timebase import FS_PER_S
 
 TR, DR, CR, ISR, PRER, WUTR, WPR, SSR = 0x00, 0x04, 0x08, 0x0C, 0x10, 0x14, 0x24, 0x28
@@ -65,6 +68,15 @@ class Rtc:
         self._clock: tuple[int, int, int] = (0, 0, 0)  # (RTCCLK Hz, PREDIV_A, PREDIV_S)
         self._base_fs = 0
         self._base = (EPOCH, 1, 0, 0)   # (date, weekday 1-7, seconds of day, ck_apre ticks)
+
+    def survive_reset(self, board: Any, bdcr: int) -> None:
+        """A system reset: this RTC and RCC BDCR's ``bdcr`` go on in ``board``'s new
+        peripherals (the calendar counted up to now on the clock it had)."""
+        board.rcc.regs[0x70] = bdcr
+        board.rtc = self
+        board.space.map(platform.row(self.name).base, self)
+        self._frozen, self._keys = None, 0      # the shadow registers copy again; locked
+        self._calendar()
 
     # --- clock -------------------------------------------------------------------
     def rtcclk_hz(self) -> int:

@@ -70,6 +70,7 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
                                            "link_requests": board.link.requests,
                                            "resets": board.resets,
                                            "reset_causes": dict(board.reset_causes),
+                                           "faults": list(board.faults.lines),
                                            "deadline": board.cycles.figures()})
     if fs_out is not None:            # what the firmware left in /flash, also after a fault
         flash_fs.read_back(bytes(board.core.uc.mem_read(flash_fs.FS_BASE, flash_fs.FS_SIZE)),

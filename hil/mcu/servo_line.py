@@ -84,7 +84,7 @@ class ServoLine:
                                       f"the servo line at {line}: the servos hear garbage and "
                                       "never answer")
             tx = resample(tx, max(1, baud), line)
-        self.board.cycles.burst(self._burst_fs, self.board.rcc.hclk_hz)   # deadline.py
+        self.board.cycles.burst(self._burst_fs, self.board.rcc.hclk_hz, tx)   # deadline.py
         self.board.sync.take(self.board.link.line(self._burst_fs // FS_PER_US, tx,
                                              bool(self._burst_dir), False, 0))
 

@@ -17,6 +17,8 @@ from unicorn import arm_const as A
 
 from hil.mcu.board_core import SharedField
 from hil.mcu.core import EXC_PENDSV, EXC_SYSTICK, Core, Regs
+from hil.mcu.device_id import DBGMCU_IDCODE, IDCODE
+from hil.mcu.faults import FaultStatus
 
 NUM_IRQS = 86                 # RM0383 table 37: positions 0..85
 CPUID = 0x410FC241            # Cortex-M4 r0p1
@@ -205,6 +207,7 @@ class SystemBlock:
         self._cyc_base = 0
         self._cyc_anchor = 0
         self.pollable = frozenset({SYSTICK, SCB + 0x04})
+        self.faults = FaultStatus(core, nvic)     # SHCSR, CFSR, HFSR, MMFAR, BFAR
 
     def cyccnt(self) -> int:
         if not self.cyccnt_on:
@@ -248,6 +251,10 @@ class SystemBlock:
         if SCB + 0x18 <= addr < SCB + 0x24:
             e = addr - (SCB + 0x18) + 4
             return int.from_bytes(nvic.prio[e:e + 4], "little")
+        if SCB + 0x24 <= addr < SCB + 0x40:
+            return self.faults.read(addr - SCB)
+        if addr == DBGMCU_IDCODE:
+            return IDCODE
         return self.regs.get(addr, 0)
 
     def _nvic_read(self, addr: int) -> int:
@@ -311,6 +318,8 @@ class SystemBlock:
         elif SCB + 0x18 <= addr < SCB + 0x24:
             e = addr - (SCB + 0x18) + 4
             nvic.set_priorities(e, (value & 0xF0F0F0F0).to_bytes(4, "little"))
+        elif SCB + 0x24 <= addr < SCB + 0x40:
+            self.faults.write(addr - SCB, value)
         elif addr == CPACR:
             self.regs[addr] = value
             self.core.fpu_on = (value >> 20) & 0xF == 0xF

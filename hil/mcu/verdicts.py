@@ -95,11 +95,11 @@ class Endings:
         if self.verdict is not None:
             return
         board = self.board
-        self._ended(Verdict(kind, f"{reason} at t={board.now_us() * 1e-6:.6f} s", code))
+        self.ended_with(Verdict(kind, f"{reason} at t={board.now_us() * 1e-6:.6f} s", code))
         board.core.shared.touched += 1        # Python took part: the C loop hands over
         board.core.stop()
 
-    def _ended(self, verdict: Verdict) -> None:
+    def ended_with(self, verdict: Verdict) -> None:
         """The run's verdict; the byte waiting in USART1/6's DR reaches the console, as it
         would leave the chip."""
         self.verdict = verdict
@@ -169,7 +169,7 @@ class Endings:
         if self._masked_since is None or self._masked_key != key:
             self._masked_since, self._masked_key = now, key
         elif now - self._masked_since >= self._limit_fs:
-            self._ended(Verdict(
+            self.ended_with(Verdict(
                 Ending.HUNG, f"hung: it ran with interrupts masked ({mask}) for "
                 f"{(now - self._masked_since) / FS_PER_S:g} s, at PC 0x{pc:08x} in "
                 f"{board.image.function_at(pc)} (t={board.now_us() * 1e-6:.6f} s)", 1))
@@ -185,7 +185,7 @@ class Endings:
         elif now - self._spin[1] >= self._limit_fs and self.verdict is None:
             exc = core.active[-1]
             what = f"interrupt {exc - 16}" if exc >= 16 else f"exception {exc}"
-            self._ended(Verdict(
+            self.ended_with(Verdict(
                 Ending.HUNG, f"hung: {board.image.function_at(pc)} ({what}) ran a loop that "
                 f"branches to itself for {(now - self._spin[1]) / FS_PER_S:g} s, at PC "
                 f"0x{pc:08x} (t={board.now_us() * 1e-6:.6f} s)", 1))

@@ -52,6 +52,7 @@ class WorldSync:
         at_us = at_fs // FS_PER_US
         if at_us - self.last_request_us >= TICK_US:
             self.take(board.link.sleep(at_us))
+        board.faults.sample()
         board.endings.sample()
         listening = board.exti.regs[0x00] & 0x3F or board.can_listening
         self.tick.set(at_fs + (1 if listening else IDLE_TICKS) * TICK_US * FS_PER_US)

@@ -161,7 +161,8 @@ class RunCore:
 
     def switch_bits(self) -> int:
         """The world's six limit switches as bits (bit i = leg i pressed), 0 without one,
-        as the firmware reads them: stuck or bouncing legs applied (``[faults]``)."""
+        as the firmware reads them: stuck, bouncing or swing-pressed legs applied
+        (``[faults]``)."""
         bits = 0
         if self.world is not None:
             levels = self.world.switch_levels()
@@ -169,7 +170,10 @@ class RunCore:
                 for i, pressed in enumerate(levels):
                     if pressed:
                         bits |= 1 << i
-        return self.faults.switch_bits(self.clock.t_us, bits) if self.faults else bits
+        if not self.faults:
+            return bits
+        return self.faults.switch_bits(self.clock.t_us, bits, self.world.foot_contacts
+                                       if self.world is not None else None)
 
     def shutdown(self) -> None:
         self.can.shutdown()

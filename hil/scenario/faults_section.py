@@ -26,6 +26,7 @@ class FaultKind(str, Enum):
     ID_CONFLICT = "id_conflict"
     SWITCH_STUCK = "switch_stuck"
     SWITCH_BOUNCE = "switch_bounce"
+    SWITCH_SWING_PRESS = "switch_swing_press"
     CAN_SILENT = "can_silent"
     CAN_GARBAGE = "can_garbage"
     FORCE_BIAS = "force_bias"
@@ -46,7 +47,7 @@ class FaultKind(str, Enum):
     CAN_CORRUPT = "can_corrupt"
 
 
-SWITCH_KINDS = (FaultKind.SWITCH_STUCK, FaultKind.SWITCH_BOUNCE)
+SWITCH_KINDS = (FaultKind.SWITCH_STUCK, FaultKind.SWITCH_BOUNCE)   # one a leg at a time
 CAN_KINDS = (FaultKind.CAN_SILENT, FaultKind.CAN_GARBAGE)
 FORCE_KINDS = (FaultKind.FORCE_BIAS, FaultKind.FORCE_DROPOUT)  # hil/world/beams_node.py
 STATUS_KINDS = (FaultKind.STATUS_CHECKSUM, FaultKind.STATUS_WRONG_ID, FaultKind.STATUS_TRUNCATED,
@@ -72,6 +73,8 @@ ENTRY_FIELDS: dict[FaultKind, dict[str, tuple[type, bool]]] = {
     FaultKind.ID_CONFLICT: {**_ID, "as_id": (int, True), **_TIMED},
     FaultKind.SWITCH_STUCK: {"leg": (int, True), "pressed": (bool, True), **_TIMED},
     FaultKind.SWITCH_BOUNCE: {"leg": (int, True), "period_s": (float, True), **_TIMED},
+    FaultKind.SWITCH_SWING_PRESS: {"leg": (int, True), "after_s": (float, False),
+                                   "press_s": (float, False), **_TIMED},
     FaultKind.CAN_SILENT: dict(_TIMED),
     FaultKind.CAN_GARBAGE: dict(_TIMED),
     FaultKind.FORCE_BIAS: {**_TIMED, "fx_n": (float, True), "fz_n": (float, False)},
@@ -111,8 +114,10 @@ class FaultEntry:
     period_s: float | None = None       # switch_bounce: the chatter period
     fx_n: float | None = None           # force_bias
     fz_n: float | None = None
-    bits: int | None = None             # status_error: the error byte's bits set (1-127)
+    bits: int | None = None             # status_error: the error byte's bits set (1-255)
     delay_s: float | None = None        # status_late, can_delayed: how much later
+    after_s: float = 0.1                # switch_swing_press: the foot this long in the air,
+    press_s: float = 0.03               # ... then the switch pressed this long
 
     @classmethod
     def parse(cls, kind: FaultKind, raw: Any, where: str) -> "FaultEntry":
@@ -141,9 +146,13 @@ class FaultEntry:
         if (e.sigma is not None and e.sigma < 0) or (e.period_s is not None and e.period_s <= 0):
             raise BadValue(f"{where}: '{kind.value}' needs sigma >= 0 and period_s > 0, "
                            f"got {raw!r}")
-        if e.bits is not None and not 1 <= e.bits <= 127:
-            raise BadValue(f"{where}: '{kind.value}.bits' must be 1-127 (the AX-12's seven "
-                           f"error bits), got {e.bits}")
+        if e.after_s < 0 or e.press_s <= 0:
+            raise BadValue(f"{where}: '{kind.value}' needs after_s >= 0 and press_s > 0, "
+                           f"got {raw!r}")
+        if e.bits is not None and not 1 <= e.bits <= 255:
+            raise BadValue(f"{where}: '{kind.value}.bits' must be 1-255 (the AX-12's seven "
+                           f"error bits; Protocol 2.0's error number 1-7 and alert bit "
+                           f"128), got {e.bits}")
         if e.delay_s is not None and not 0 < e.delay_s <= 1.0:
             raise BadValue(f"{where}: '{kind.value}.delay_s' must be in (0, 1] s, got "
                            f"{e.delay_s:g}")
@@ -166,6 +175,7 @@ class FaultsConfig:
     id_conflict: tuple[FaultEntry, ...] = ()
     switch_stuck: tuple[FaultEntry, ...] = ()
     switch_bounce: tuple[FaultEntry, ...] = ()
+    switch_swing_press: tuple[FaultEntry, ...] = ()
     can_silent: tuple[FaultEntry, ...] = ()
     can_garbage: tuple[FaultEntry, ...] = ()
     force_bias: tuple[FaultEntry, ...] = ()

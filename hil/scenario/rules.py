@@ -24,7 +24,8 @@ SCHEMA: dict[str, dict[str, type]] = {
                # the named failures (hil/scenario/faults_section.py types each entry)
                "brownout": list, "overload": list, "position_stuck": list,
                "position_noise": list, "id_conflict": list, "switch_stuck": list,
-               "switch_bounce": list, "can_silent": list, "can_garbage": list,
+               "switch_bounce": list, "switch_swing_press": list, "can_silent": list,
+               "can_garbage": list,
                "force_bias": list, "force_dropout": list,
                # the bus fuzzer's (docs/fuzzing.md): status packets and CAN frames mangled
                **{k: list for k in ("status_checksum", "status_wrong_id", "status_truncated",

@@ -16,12 +16,14 @@ from __future__ import annotations
 
 import math
 import random
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 from hil.scenario.faults_section import (BUS_CAN_KINDS, CAN_KINDS, FORCE_KINDS,
                                          SERVO_STATE_KINDS, STATUS_KINDS, SWITCH_KINDS,
                                          FaultEntry, FaultKind, FaultsConfig)
 from hil.servobus.health import SUPPLY_V
+from hil.servobus.fault_effects import NoisyReading, StuckReading, SwingPress
+from hil.servobus.status_mangling import mangled
 from protocol.errors import UserError
 
 OnFault = Callable[[int, str, str], None]
@@ -48,6 +50,7 @@ class Faults:
         self._t0_us = 0
         self._clock: Any = None                                     # set by start
         self._switches: dict[int, tuple[FaultEntry, int]] = {}     # leg -> (entry, since)
+        self._swings: dict[int, SwingPress] = {}                    # leg -> its swing press
         self._conflicts: dict[int, Any] = {}                        # id(entry) -> servo
         self._can_node: FaultKind | None = None                     # a CAN_KINDS, or None
         self._garbage_rng = random.Random(f"{seed}:can_garbage")
@@ -112,9 +115,16 @@ class Faults:
         self._schedule(e)
         return e
 
-    def switch_bits(self, t_us: int, bits: int) -> int:
+    def switch_bits(self, t_us: int, bits: int,
+                    contacts: Callable[[], Sequence[bool]] | None = None) -> int:
         """The six limit-switch bits as the firmware reads them, stuck or bouncing legs
-        applied: a bouncing contact flips every half period from the true level."""
+        applied: a bouncing contact flips every half period from the true level; a swing
+        press (``contacts``: the world's loaded feet) presses it in the leg's swing."""
+        if self._swings and contacts is not None:
+            feet = contacts()
+            for leg, swing in self._swings.items():
+                if swing.pressed(t_us, feet[leg], self.report):
+                    bits |= 1 << leg
         for leg, (e, since_us) in self._switches.items():
             bit = 1 << leg
             if e.pressed is not None:
@@ -188,6 +198,15 @@ class Faults:
                                                   else "sends garbage frames") if start
                         else "the CAN sensor node speaks normally again")
             return
+        if e.kind is FaultKind.SWITCH_SWING_PRESS:
+            if start:
+                self._swings[e.leg] = SwingPress(e)
+            else:
+                self._swings.pop(e.leg, None)
+            self.report(t_us, name, f"leg {e.leg}: " + (
+                f"pressed {e.press_s:g} s once its foot is {e.after_s:g} s in the air, each "
+                "swing" if start else "released to the true level"))
+            return
         if e.kind in SWITCH_KINDS:
             if start:
                 self._switches[e.leg] = (e, t_us)
@@ -253,11 +272,12 @@ class Faults:
         s.set_reading(NoisyReading(e.sigma, rng), t_us)
         return f"Present Position noisy, sigma {e.sigma:g} units"
 
-    def status_bursts(self, dev_id: int, data: bytearray, start_us: int, wire_us: int
-                      ) -> list[tuple[int, bytearray]]:
-        """Servo ``dev_id``'s status packet ``data``, due on the line at ``start_us``, as the
-        status faults active on it send it: (start, bytes) of each burst, none when it is
-        lost. ``wire_us`` is the packet's own time on the wire (a twin answers after it)."""
+    def status_bursts(self, dev_id: int, data: bytearray, start_us: int, wire_us: int,
+                      protocol: int = 1) -> list[tuple[int, bytearray]]:
+        """Servo ``dev_id``'s status packet ``data`` (Dynamixel ``protocol`` 1 or 2), due on
+        the line at ``start_us``, as the status faults active on it send it: (start, bytes)
+        of each burst, none when it is lost. ``wire_us`` is the packet's own time on the
+        wire (a twin answers after it)."""
         faults = self._status.get(dev_id)
         if not faults:
             return [(start_us, data)]
@@ -271,7 +291,7 @@ class Faults:
             elif kind is FaultKind.STATUS_TWIN:
                 out = out + [(out[-1][0] + wire_us, bytearray(out[-1][1]))]
             else:
-                out = [(t, _mangled(kind, e, d)) for t, d in out]
+                out = [(t, mangled(kind, e, d, protocol)) for t, d in out]
         return out
 
     def can_mangle(self, data: bytes) -> tuple[str, int, bytes]:
@@ -336,45 +356,3 @@ _STATUS_SAYS = {
 _CAN_SAYS = {FaultKind.CAN_DROPPED: "lost", FaultKind.CAN_DELAYED: "delayed",
              FaultKind.CAN_REORDERED: "swapped with the next", FaultKind.CAN_CORRUPT:
              "with garbage data"}
-
-
-def _mangled(kind: FaultKind, e: FaultEntry, data: bytearray) -> bytearray:
-    """A Protocol 1.0 status packet (FF FF ID LEN ERR P.. CHK) as ``kind`` mangles it."""
-    if len(data) < 6:
-        return data
-    if kind is FaultKind.STATUS_CHECKSUM:
-        data[-1] ^= 0xFF
-        return data
-    if kind is FaultKind.STATUS_TRUNCATED:
-        return data[:-1]
-    if kind is FaultKind.STATUS_WRONG_ID:
-        data[2] = e.as_id
-    elif kind is FaultKind.STATUS_ERROR:
-        data[4] |= e.bits
-    elif kind is FaultKind.STATUS_PADDED:
-        data[-1:-1] = b"\x00"
-        data[3] += 1
-    data[-1] = (~sum(data[2:-1])) & 0xFF
-    return data
-
-
-class StuckReading:
-    """Present Position frozen at what it read when the fault began."""
-
-    def __init__(self) -> None:
-        self.units: int | None = None
-
-    def apply(self, units: int) -> int:
-        if self.units is None:
-            self.units = units
-        return self.units
-
-
-class NoisyReading:
-    """Present Position plus Gaussian noise of ``sigma`` units, from a seeded stream."""
-
-    def __init__(self, sigma: float, rng: random.Random) -> None:
-        self.sigma, self.rng = sigma, rng
-
-    def apply(self, units: int) -> int:
-        return int(round(units + self.rng.gauss(0.0, self.sigma)))

@@ -394,7 +394,7 @@ class Bus:
             if faults.drop_status(s.id, start):
                 return
             faults.corrupt(data, start, "rx")
-            bursts = faults.status_bursts(s.id, data, start, self.wire_us(len(data)))
+            bursts = faults.status_bursts(s.id, data, start, self.wire_us(len(data)), 1)
         for t, burst in bursts:   # none, one, or a twin's too ([faults] status_*)
             self.stats["replies"] += 1
             self._put(Burst(t, burst, True))

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from hil.scenario.faults_section import FaultKind
+from protocol.dynamixel import models
 from host_tools.bus_fuzz import execution, fork_server
 from host_tools.bus_fuzz.execution import Execution, Target
 from host_tools.bus_fuzz.mutations import (DEFAULT_KINDS, Input, Mutation, Mutator, Vocabulary,
@@ -81,6 +82,7 @@ class Report:
     executions: int = 0
     shrink_executions: int = 0
     wall_s: float = 0.0
+    child_cpu_s: float = 0.0              # the forked children's CPU, all executions'
     features: int = 0
     baseline_features: int = 0
     corpus: int = 0
@@ -95,6 +97,7 @@ class Report:
     def as_dict(self) -> dict[str, Any]:
         return {"executions": self.executions, "shrink_executions": self.shrink_executions,
                 "wall_s": round(self.wall_s, 3), "executions_per_s": round(self.rate, 2),
+                "child_cpu_s": round(self.child_cpu_s, 3),
                 "features": self.features, "baseline_features": self.baseline_features,
                 "corpus": self.corpus, "findings": [f.as_dict() for f in self.findings]}
 
@@ -148,7 +151,8 @@ def vocabulary(target: Target, kinds: Sequence[FaultKind]) -> Vocabulary:
     if not 0 < target.window_s < end_s:
         raise UserError(f"window_s: the faults must start inside the case's {end_s:g} s "
                         f"(window_s {target.window_s:g} s)", params=("window_s",))
-    return Vocabulary(tuple(kinds), ids, target.window_s, end_s)
+    return Vocabulary(tuple(kinds), ids, target.window_s, end_s,
+                      protocol=models.protocol(bus.model))
 
 
 def load_target(settings: Settings, fork: bool = True) -> Target:
@@ -190,7 +194,7 @@ def fuzz(settings: Settings, progress: Progress | None = None) -> Report:
     runner = _Runner(target, settings)
     try:
         base = runner.run([()])[0]
-        report.executions = 1
+        report.executions, report.child_cpu_s = 1, base.cpu_s
         if base.failed:
             raise UserError(f"{settings.expect}: the case fails with no fault injected ("
                             + "; ".join(base.details) + "): fix it before fuzzing it")
@@ -208,6 +212,7 @@ def fuzz(settings: Settings, progress: Progress | None = None) -> Report:
                       for _ in range(n)]
             for faults, e in zip(inputs, runner.run(inputs)):
                 report.executions += 1
+                report.child_cpu_s += e.cpu_s
                 new = e.features - seen
                 if new:
                     seen |= new

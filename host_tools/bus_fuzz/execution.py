@@ -8,19 +8,20 @@ run it; so does every reproducer, to check it fails the same way without the fuz
 """
 from __future__ import annotations
 
+import math
 import shutil
 import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Sequence
 
+from hil.run.limits import RunLimits
 from host_tools import in_process
 from host_tools.bus_fuzz.features import LineTracer, PacketSequence, elf_lines
-
 from host_tools.bus_fuzz.mutations import Input, faults_table
 from host_tools.expect.spec import Case, Kind
-from protocol.errors import UserError
+from host_tools.expect.verdicts import Outcome, evaluate
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -46,26 +47,27 @@ class Target:
 @dataclass(frozen=True)
 class Execution:
     """One input's verdict: what failed (sorted labels; empty: it passed), the failures'
-    measured values, the features it reached, its wall time."""
+    measured values, the features it reached, its wall time and (a forked child's) the CPU
+    time it took, exit included."""
 
     failures: tuple[str, ...]
     details: tuple[str, ...]
     features: frozenset[int]
     wall_s: float
+    cpu_s: float = 0.0
 
     @property
     def failed(self) -> bool:
         return bool(self.failures)
 
 
-def judge(case: Case, summary: dict[str, Any], trace: Path) -> tuple[tuple[str, ...],
-                                                                     tuple[str, ...]]:
-    """The failures of one run: each failed expectation, a firmware that did not complete
-    (a crash, a hang, an early exit) and an exception the expectations do not judge."""
-    from host_tools.expect.verdicts import evaluate
-
+def judge(case: Case, summary: dict[str, Any], outcomes: Sequence[Outcome]
+          ) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The failures of one run (``outcomes``: its expectations' verdicts): each failed
+    expectation, a firmware that did not complete (a crash, a hang, an early exit) and an
+    exception the expectations do not judge."""
     failures: dict[str, str] = {}
-    for o in evaluate(case, summary, trace):
+    for o in outcomes:
         if not o.passed:
             failures[f"expect: {o.name}"] = f"measured {o.measured}; limit {o.limit}"
     ending = summary.get("ending") or {}
@@ -82,7 +84,8 @@ def judge(case: Case, summary: dict[str, Any], trace: Path) -> tuple[tuple[str, 
 def run_input(target: Target, faults: Input, trace: Path, wrap: Any = None,
               coverage: str | None = None, setup: Any = None) -> dict[str, Any]:
     """The case's run, the faults in its scenario; with ``wrap`` (the fork server) none:
-    the children inject them."""
+    the children inject them, and the run has no wall-clock cap: the server's run waits
+    for inputs as long as the campaign lasts (a child's hang is ``HANG_WALL_S``'s)."""
     from host_tools.expect.case_runs import run_scenario
 
     case = target.case
@@ -95,6 +98,7 @@ def run_input(target: Target, faults: Input, trace: Path, wrap: Any = None,
                         "cpython-inprocess" if target.in_process else case.python,
                         case.tactile, trace, sends=case.sends, firmware=target.firmware,
                         coverage=coverage, wrap=wrap, main=main, master_check=judged,
+                        limits=None if wrap is None else RunLimits(max_wall_s=math.inf),
                         setup=setup)[0]
 
 
@@ -119,7 +123,7 @@ def fresh(target: Target, faults: Input, keep: Path | None = None) -> Execution:
                                 setup=setup)
         finally:
             lines = tracer.stop() if tracer is not None else set()
-        failures, details = judge(target.case, summary, trace)
+        failures, details = judge(target.case, summary, evaluate(target.case, summary, trace))
         features = lines | (elf_lines(info) if info is not None else set()) | (
             sequences[0].pairs if sequences else set())
         if keep is not None:
@@ -133,10 +137,10 @@ def _is_elf(target: Target) -> bool:
     return target.firmware is not None and is_arm_elf(Path(target.firmware))
 
 
-def tracer_for(target: Target) -> LineTracer:
+def tracer_for(target: Target, done: frozenset[int] = frozenset()) -> LineTracer:
     roots = [ROOT / "firmware"]
     if target.main_file:
         roots.append(Path(target.main_file).resolve().parent)
-    return LineTracer(roots)
+    return LineTracer(roots, done)
 
 

@@ -3,21 +3,24 @@
 A server process boots the case once and, at the first link exchange of the fuzzed window
 (within ``FORK_BEFORE_S`` of it), forks one child an input. The child injects the input's
 faults (``Run.inject``: the same entries a scenario's ``[faults]`` schedules, at the same
-microseconds), takes its own copy of the trace so far, runs to the case's end, judges the
-run and sends back its verdict; the server waits for the next input. An execution so costs
-the window, not the boot. A child that sends nothing in ``HANG_WALL_S`` is a hang; one that
-dies is a crash.
+microseconds), runs to the case's end, judges the run from its trace held in memory
+(held_trace.py: the boot's messages decoded once in the server, its own at the end) and
+sends back its verdict; the server waits for the next input. An execution so costs the
+window, not the boot. With line coverage the server traces the firmware's lines in the
+``PRIME_S`` before the fork, and the children leave untraced the functions it ran every
+line of (features.py ``LineTracer``). A child that sends nothing in ``HANG_WALL_S`` is a
+hang; one that dies is a crash.
 
 Servers are processes of their own (``python -m host_tools.bus_fuzz.server``), started
 the same way beside this process or inside a Dask worker (``run_batch``), talking in
 length-prefixed pickles on two pipes. A server holds one CPU while it builds its run, so
 that the recorder encodes in the run's own process (host_tools/trace/windows.py
-``encode_in_for``: an encoding child cannot be shared by forked runs), and all of them
-again from the fork on. A firmware not in process is served the same way, a fresh run an
+``encode_in_for``: the held trace needs it), and all of them again from the fork on. A firmware not in process is served the same way, a fresh run an
 input (execution.py ``fresh``).
 """
 from __future__ import annotations
 
+import gc
 import os
 import pickle
 import select
@@ -35,11 +38,14 @@ from typing import Any, BinaryIO, Callable, Sequence
 from host_tools.bus_fuzz.execution import (ROOT, Execution, Target, fresh, judge, run_input,
                                            tracer_for)
 from host_tools.bus_fuzz.features import LineTracer, PacketSequence
+from host_tools.bus_fuzz.held_trace import HeldTrace
 from host_tools.bus_fuzz.mutations import Input
+from host_tools.expect.verdicts import judged
 from protocol.errors import UserError
 
 HANG_WALL_S = 30.0        # wall seconds an in-process execution may take: past it, a hang
 FORK_BEFORE_S = 0.1       # the server forks at the first exchange this close to the window
+PRIME_S = 0.5             # ... and traces the firmware's lines for this long before that
 
 
 class _Forks:
@@ -49,16 +55,32 @@ class _Forks:
     def __init__(self, target: Target, inbox: BinaryIO, outbox: BinaryIO, tmp: Path) -> None:
         self.target, self.inbox, self.outbox, self.tmp = target, inbox, outbox, tmp
         self.fork_us = int(round((target.window_s - FORK_BEFORE_S) * 1e6))
+        self.prime_us = self.fork_us - int(round(PRIME_S * 1e6))
+        self.priming: LineTracer | None = None
+        self.done: frozenset[int] = frozenset()   # functions the priming ran every line of
         self.window_us = int(round(target.window_s * 1e6))
-        self.child: tuple[int, Path, LineTracer | None, PacketSequence] | None = None
+        self.child: tuple[int, LineTracer | None, PacketSequence] | None = None
+        self.held: HeldTrace | None = None
         self.forked = False
         self.cpus: set[int] = set()      # the affinity to give back at the fork
+
+    def setup(self, run: Any) -> None:
+        """The run built: its trace held in memory (held_trace.py)."""
+        self.held = HeldTrace(run, self.target.case)
 
     def wrap(self, run: Any, exchange: Callable[[bytes, bool], bytes]
              ) -> Callable[[bytes, bool], bytes]:
         def hooked(data: bytes, closed: bool) -> bytes:
-            if not self.forked and run.sim.clock.t_us >= self.fork_us:
+            t_us = run.sim.clock.t_us
+            if (self.target.coverage and self.priming is None and not self.forked
+                    and t_us >= self.prime_us):
+                self.priming = tracer_for(self.target)
+                self.priming.start()
+            if not self.forked and t_us >= self.fork_us:
                 self.forked = True
+                if self.priming is not None:
+                    self.priming.stop()
+                    self.done = self.priming.complete()
                 self._serve(run)         # returns in a child only
             return exchange(data, closed)
         return hooked
@@ -73,9 +95,9 @@ class _Forks:
             os._exit(0)
         if self.cpus:
             os.sched_setaffinity(0, self.cpus)
-        rec = run.recorder
-        rec._file.flush()
-        boot_trace = rec._target.partial or rec.path
+        assert self.held is not None
+        self.held.at_fork()
+        gc.freeze()      # the boot's objects: a child's collections leave them (and their pages) be
         _send(self.outbox, "ready")
         n = 0
         while True:
@@ -89,7 +111,12 @@ class _Forks:
             pid = os.fork()
             if pid == 0:
                 os.close(r)
-                self._child(run, faults, boot_trace, n, w)
+                try:
+                    self._child(run, faults, w)
+                except BaseException as exc:   # hexhil's own error: the firmware never sees it
+                    self.child = (w, None, PacketSequence(None))
+                    self.verdict(Execution(("host error",), (f"host error: {exc!r}",),
+                                           frozenset(), 0.0))
                 return
             os.close(w)
             verdict = _reap(pid, r, wall0)
@@ -99,33 +126,29 @@ class _Forks:
                 shutil.rmtree(self.tmp, ignore_errors=True)
                 os._exit(0)
 
-    def _child(self, run: Any, faults: Input, boot_trace: Path, n: int, w: int) -> None:
-        """In the forked child: its own copy of the trace so far, the faults, the tracers."""
-        own = self.tmp / f"exec{n}.mcap"
-        shutil.copyfile(boot_trace, own)
-        fd = os.open(own, os.O_WRONLY)
-        os.lseek(fd, 0, os.SEEK_END)
-        rec = run.recorder
-        os.dup2(fd, rec._file.fileno())
-        os.close(fd)
-        rec._target.partial, rec._target.path = None, own   # written in place, no rename
+    def _child(self, run: Any, faults: Input, w: int) -> None:
+        """In the forked child: the trace held apart from the server's, the faults, the
+        tracers."""
+        assert self.held is not None
+        self.held.in_child()
         for m in faults:
             run.inject(m.kind.value, **m.entry())
         bus = run.sim.bus
         sequence = PacketSequence(bus.monitor)
         bus.monitor = sequence
-        tracer = tracer_for(self.target) if self.target.coverage else None
+        tracer = tracer_for(self.target, self.done) if self.target.coverage else None
         if tracer is not None:
             tracer.start()
-        self.child = (w, own, tracer, sequence)
+        self.child = (w, tracer, sequence)
 
     def finish(self, summary: dict[str, Any]) -> None:
         """The child's run is over: judge it, send the verdict to the server, exit."""
         assert self.child is not None
-        w, trace, tracer, sequence = self.child
+        _, tracer, sequence = self.child
         lines = tracer.stop() if tracer is not None else set()
-        failures, details = judge(self.target.case, summary, trace)
-        os.unlink(trace)
+        assert self.held is not None
+        case = self.target.case
+        failures, details = judge(case, summary, judged(case, self.held.recording(summary)))
         self.verdict(Execution(failures, details, frozenset(lines | sequence.pairs), 0.0))
 
     def verdict(self, execution: Execution) -> None:
@@ -154,10 +177,11 @@ def _reap(pid: int, r: int, wall0: float) -> Execution:
             break
         chunks.append(chunk)
     os.close(r)
-    _, status = os.waitpid(pid, 0)
+    _, status, usage = os.wait4(pid, 0)
     wall = time.perf_counter() - wall0
     if chunks:
-        return replace(pickle.loads(b"".join(chunks)), wall_s=wall)
+        return replace(pickle.loads(b"".join(chunks)), wall_s=wall,
+                       cpu_s=usage.ru_utime + usage.ru_stime)
     return Execution(("host crashed",), (f"host crashed: the execution ended with status "
                                          f"{status} and no verdict",), frozenset(), wall)
 
@@ -179,7 +203,7 @@ def _recv(stream: BinaryIO) -> Any:
 def serve(inbox: BinaryIO, outbox: BinaryIO) -> None:
     """A server's life: a target, then inputs until the stream ends, a verdict each."""
     target: Target = _recv(inbox)
-    with tempfile.TemporaryDirectory(prefix="hexhil-fuzz-", dir=_fast_tmp()) as tmp:
+    with tempfile.TemporaryDirectory(prefix="hexhil-fuzz-") as tmp:
         if not (target.in_process and target.fork):
             _send(outbox, "ready")
             while (faults := _recv(inbox)) is not None:
@@ -192,7 +216,8 @@ def serve(inbox: BinaryIO, outbox: BinaryIO) -> None:
         forks.cpus = os.sched_getaffinity(0)
         os.sched_setaffinity(0, {min(forks.cpus)})
         try:
-            summary = run_input(target, (), Path(tmp) / "boot.mcap", wrap=forks.wrap)
+            summary = run_input(target, (), Path(tmp) / "boot.mcap", wrap=forks.wrap,
+                                setup=forks.setup)
         except BaseException as exc:
             if forks.child is not None:     # in a child: hexhil's own error, as a failure
                 forks.verdict(Execution(("host error",), (f"host error: {exc!r}",),
@@ -206,11 +231,6 @@ def serve(inbox: BinaryIO, outbox: BinaryIO) -> None:
         _send(outbox, UserError(f"the run ended at {summary['sim_time_s']:g} s, before the "
                                 f"window ({target.window_s:g} s): the firmware stopped "
                                 "during boot"))
-
-
-def _fast_tmp() -> str | None:
-    """/dev/shm where there is one: each execution copies the boot's trace."""
-    return "/dev/shm" if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK) else None
 
 
 class Server:

@@ -14,7 +14,8 @@ from typing import Any, Sequence
 from hil.scenario.faults_section import FaultEntry, FaultKind
 
 MAX_FAULTS = 8          # in one input
-ERROR_BITS = (1, 2, 4, 8, 16, 32, 64)   # the AX-12's error byte, one bit each
+ERROR_BITS = {1: (1, 2, 4, 8, 16, 32, 64),       # the AX-12's error byte, one bit each
+              2: (1, 2, 3, 4, 5, 6, 7, 128)}     # Protocol 2.0's: an error number, the alert
 LATE_S = (0.0002, 0.0005, 0.001, 0.002, 0.005, 0.02)   # around and past the master's timeout
 FOREIGN_IDS = (0, 100, 200, 253)        # IDs no walking servo has: half the wrong IDs drawn
 
@@ -47,20 +48,22 @@ Input = tuple[Mutation, ...]
 
 @dataclass(frozen=True)
 class Vocabulary:
-    """What may be drawn: the kinds, the servo IDs and legs, the window [start_s, end_s)."""
+    """What may be drawn: the kinds, the servo IDs and legs, the window [start_s, end_s),
+    the line's Dynamixel protocol (its status packets' error byte)."""
 
     kinds: tuple[FaultKind, ...]
     ids: tuple[int, ...]
     start_s: float
     end_s: float
     legs: tuple[int, ...] = (0, 1, 2, 3, 4, 5)
+    protocol: int = 1
 
 
 DEFAULT_KINDS = (
     FaultKind.STATUS_CHECKSUM, FaultKind.STATUS_WRONG_ID, FaultKind.STATUS_TRUNCATED,
     FaultKind.STATUS_PADDED, FaultKind.STATUS_ERROR, FaultKind.STATUS_LATE,
     FaultKind.STATUS_MISSING, FaultKind.STATUS_TWIN, FaultKind.SWITCH_BOUNCE,
-    FaultKind.SWITCH_STUCK, FaultKind.CAN_DROPPED, FaultKind.CAN_DELAYED,
+    FaultKind.SWITCH_STUCK, FaultKind.SWITCH_SWING_PRESS, FaultKind.CAN_DROPPED, FaultKind.CAN_DELAYED,
     FaultKind.CAN_REORDERED, FaultKind.CAN_CORRUPT, FaultKind.BROWNOUT, FaultKind.OVERLOAD,
     FaultKind.POSITION_STUCK, FaultKind.POSITION_NOISE, FaultKind.UNPLUG)
 
@@ -90,6 +93,9 @@ class Mutator:
         keys: list[tuple[str, Any]]
         if kind in (FaultKind.BROWNOUT, FaultKind.OVERLOAD):
             keys = [("id", rng.choice(v.ids)), ("at_s", at)]
+        elif kind is FaultKind.SWITCH_SWING_PRESS:     # each swing from at_s to the end
+            keys = [("leg", rng.choice(v.legs)), ("after_s", _ms(rng.uniform(0.0, 0.5))),
+                    ("press_s", _ms(rng.uniform(0.01, 0.1))), ("at_s", at)]
         elif kind in (FaultKind.SWITCH_STUCK, FaultKind.SWITCH_BOUNCE):
             keys = [("leg", rng.choice(v.legs))]
             keys.append(("pressed", rng.random() < 0.7) if kind is FaultKind.SWITCH_STUCK
@@ -106,14 +112,21 @@ class Mutator:
                 keys.append(("as_id", rng.choice(FOREIGN_IDS if rng.random() < 0.5 or not others
                                                  else others)))
             elif kind is FaultKind.STATUS_ERROR:
-                keys.append(("bits", rng.choice(ERROR_BITS) if rng.random() < 0.8
-                             else rng.randrange(1, 128)))
+                keys.append(("bits", self._error_bits()))
             elif kind is FaultKind.STATUS_LATE:
                 keys.append(("delay_s", rng.choice(LATE_S)))
             elif kind is FaultKind.POSITION_NOISE:
                 keys.append(("sigma", float(rng.choice((5, 20, 80)))))
             keys += [("at_s", at), ("until_s", until)]
         return Mutation(kind, tuple(keys)).checked()
+
+    def _error_bits(self) -> int:
+        """One error of the line's error byte alone, or (a fifth of the time) a mix: any
+        bits of the AX-12's seven; an error number with the alert bit on Protocol 2.0."""
+        rng, one = self.rng, ERROR_BITS[self.v.protocol]
+        if rng.random() < 0.8:
+            return rng.choice(one)
+        return rng.randrange(1, 128) if self.v.protocol == 1 else rng.choice(one[:-1]) | 128
 
     def fresh(self) -> Input:
         return ordered([self.fault() for _ in range(self.rng.randint(1, 3))])

@@ -75,7 +75,7 @@ FLAGS = {"python": "--runtime", "runtime": "--runtime", "firmware": "--firmware"
          "main": "--main", "fs": "--fs", "fs_out": "--fs-out",
          "coverage_libraries": "--coverage-libraries", "main_file": "--in-process",
          "runs": "--runs", "time_s": "--time", "jobs": "--jobs", "kinds": "--kinds",
-         "window_s": "--window"}
+         "window_s": "--window", "masked_limit_s": "--masked-limit"}
 
 
 def flag_message(exc: UserError) -> str:

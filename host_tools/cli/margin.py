@@ -33,7 +33,7 @@ def _run(args: argparse.Namespace) -> int:
                         flash_files=flash_files(args))
     case = spec.load(args.expect)
     if flash_files(args) is not None:      # a MicroPython ELF's /flash over the case's
-        case = dataclasses.replace(case, flash_files=flash_files(args))
+        case = dataclasses.replace(case, flash_files=flash_files(args).over(case.flash_files))
     sc = spec.hexapod(args.scenario, scenario_mod.load_scenario(args.scenario))
     if args.png:   # written after the sweep: checked before it
         check_output(args.png, "png")
@@ -97,7 +97,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--firmware", metavar="PATH",
                    help="your firmware in place of the case's: a MicroPython main file, an "
                         "executable (a C firmware) or an STM32F411 ELF")
-    add_flash_options(p, read_back=False)
+    add_flash_options(p)
     p.add_argument("--png", metavar="OUT.png", help="write the heat map")
     p.add_argument("--json", action="store_true", help=cli.JSON_HELP + ": every point of the sweep")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

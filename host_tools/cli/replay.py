@@ -48,7 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Exit 0: the firmware's outputs are identical to the "
                                    "trace's; 1: they diverge (first divergence reported).")
     p.add_argument("file", help="an MCAP trace recorded with --out")
-    add_flash_options(p, read_back=False)
+    add_flash_options(p)
     p.add_argument("--firmware", metavar="PATH", help="the firmware the trace was recorded "
                    "with (hexhil run --firmware: a MicroPython main file or an executable)")
     p.add_argument("--scenario", metavar="SCENARIO", default=None,

@@ -13,16 +13,24 @@ from host_tools import cli
 LIVE_PORT = 8765  # Foxglove's default WebSocket port (host_tools/trace/live.py)
 
 
-def add_flash_options(p: argparse.ArgumentParser, read_back: bool = True) -> None:
-    """--main, --fs (and --fs-out): a MicroPython ELF's /flash
+def add_flash_options(p: argparse.ArgumentParser) -> None:
+    """--main, --fs and --fs-out: a MicroPython ELF's /flash
     (docs/micropython-on-the-chip.md)."""
     p.add_argument("--main", metavar="MAIN.py", help="with a MicroPython ELF as --firmware: "
-                   "lay this file into its internal-flash filesystem as main.py, which it runs")
+                   "lay this file into its internal-flash filesystem as main.py, which it runs, "
+                   "with the modules it imports from its package, compiled")
     p.add_argument("--fs", metavar="DIR", help="with a MicroPython ELF: lay DIR's files into "
                    "its /flash too")
-    if read_back:
-        p.add_argument("--fs-out", metavar="DIR", help="with a MicroPython ELF: after the "
-                       "run, write the files of its /flash into DIR")
+    p.add_argument("--fs-out", metavar="DIR", help="with a MicroPython ELF: after the run, "
+                   "write the files of its /flash into DIR (hexhil test and margin: into "
+                   "DIR/<run>/, one folder a run)")
+
+
+def add_masked_limit(p: argparse.ArgumentParser) -> None:
+    """--masked-limit: an ELF's masked-spin limit (docs/elf-firmware.md)."""
+    p.add_argument("--masked-limit", type=float, metavar="S", help="with an STM32F411 ELF: "
+                   "the virtual seconds it may run with interrupts masked, or in a fault's "
+                   "handler, before the run ends hung or crashed (default 0.5)")
 
 
 def flash_files(args: argparse.Namespace):   # -> FlashFiles | None
@@ -47,7 +55,8 @@ def _run(args: argparse.Namespace) -> int:
                                 args.can_server, args.can_wait, args.live, args.realtime,
                                 args.navigator, args.model, args.firmware, args.gdb,
                                 args.coverage, args.overwrite, cli.limits(args),
-                                flash_files(args), args.coverage_libraries)
+                                flash_files(args), args.coverage_libraries,
+                                args.masked_limit)
     except RunInterrupted as exc:   # a beams run's trace holds no firmware link to replay
         replays = "" if exc.summary.get("world") == "beams" else " and replays"
         kept = (f"the trace {args.out} is kept{replays}" if args.out
@@ -149,6 +158,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--coverage-libraries", action="store_true", help="--coverage counts the "
                    "toolchain's libraries too (newlib, libgcc), not only the firmware's own "
                    "sources")
+    add_masked_limit(p)
     p.add_argument("--json", action="store_true", help=cli.JSON_HELP)
     p.add_argument("--quiet", action="store_true", help="do not show the firmware's console "
                    "on stderr as it runs (its last lines stay in --json's console)")

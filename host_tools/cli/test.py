@@ -10,7 +10,7 @@ from typing import Sequence
 
 from hil.link.firmware_process import IN_PROCESS, RUNTIMES
 from host_tools import cli
-from host_tools.cli.run import add_flash_options, flash_files
+from host_tools.cli.run import add_flash_options, add_masked_limit, flash_files
 
 
 def table(results: Sequence) -> str:
@@ -51,9 +51,12 @@ def _run(args: argparse.Namespace) -> int:
                         "--runtime, --no-tactile or --repeat")
     if args.firmware is not None:
         from hil.link.served_firmware import served_firmware
+        from hil.mcu.verdicts import MASKED_LIMIT_S
 
         served_firmware(args.firmware, coverage=args.coverage,   # one line before anything runs
-                        flash_files=flash_files(args))
+                        flash_files=flash_files(args),
+                        masked_limit_s=MASKED_LIMIT_S if args.masked_limit is None
+                        else args.masked_limit)
     elif args.coverage is not None:
         raise UserError("--coverage needs an STM32F411 ELF given as --firmware")
     if args.coverage_libraries and args.coverage is None:
@@ -61,6 +64,7 @@ def _run(args: argparse.Namespace) -> int:
     for flag in ("junit", "coverage"):   # written after every case ran: checked first
         if getattr(args, flag) is not None:
             check_output(getattr(args, flag), flag)
+    cli.show_console(args.quiet)
     cases = [spec.load(f) for f in args.files]
     names = [c.name for c in cases]
     if len(set(names)) != len(names):
@@ -75,7 +79,7 @@ def _run(args: argparse.Namespace) -> int:
                                   python=args.python, firmware=args.firmware,
                                   flash_files=flash_files(args), main_file=args.in_process,
                                   keep_dir=args.keep_traces, overwrite=args.overwrite,
-                                  limits=cli.limits(args))
+                                  limits=cli.limits(args), masked_limit_s=args.masked_limit)
         if args.keep_traces and not args.overwrite:   # refused before anything runs
             for job in jobs:
                 kept = case_runs.kept_path(args.keep_traces, job.label)
@@ -101,6 +105,8 @@ def _run(args: argparse.Namespace) -> int:
     for r in failed:
         if r.trace:
             print(f"trace of {r.label} (failures on /expectations): {r.trace}")
+    if args.json:
+        cli.emit_json(as_json(results))
     if args.junit:
         try:
             junit.write(results, args.junit)
@@ -108,6 +114,19 @@ def _run(args: argparse.Namespace) -> int:
             sys.stderr.write(f"hexhil: {exc}\n")
             return 1 if failed else 2
     return 1 if failed else 0
+
+
+def as_json(results: Sequence) -> dict:
+    """``--json``: each case's verdicts, ending and console's last lines."""
+    return {"passed": all(r.passed for r in results),
+            "cases": [{"label": r.label, "seed": r.seed, "passed": r.passed,
+                       "ending": r.summary.get("ending"),
+                       "console": r.summary.get("console", []),
+                       "serial_digest": r.summary.get("serial_digest"), "trace": r.trace,
+                       "expectations": [{"name": o.name, "kind": o.kind,
+                                         "measured": o.measured, "limit": o.limit,
+                                         "passed": o.passed} for o in r.outcomes]}
+                      for r in results]}
 
 
 def _covered(jobs: list, args: argparse.Namespace, bar: object) -> list:
@@ -161,7 +180,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "--firmware: a MicroPython main file for the virtual board, or an "
                         "executable such as a C firmware); a case may name one itself "
                         "([case] firmware)")
-    add_flash_options(p, read_back=False)
+    add_flash_options(p)
+    add_masked_limit(p)
     p.add_argument("--in-process", metavar="FILE.py",
                    help="run every case with this Python module's main(board) in this "
                         "process, as ours (a variant of our firmware, e.g. a reproducer of "
@@ -173,6 +193,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-tactile", action="store_true",
                    help="run every case with the Eq. 5-7 obstacle rule off, as "
                         "'hexhil run --no-tactile' (the tactile expectations should fail)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help=cli.JSON_HELP + ": each case's "
+                   "expectations, ending and console's last lines")
+    p.add_argument("--quiet", action="store_true", help="no progress bar, and do not show "
+                   "the firmware's console on stderr as it runs (with --jobs 1)")
     cli.add_limits(p)
     p.set_defaults(func=_run)

@@ -72,9 +72,10 @@ class CaseRun:
     changed: tuple[tuple[str, float], ...] = ()  # ... and what was changed in it (overrides)
     coverage: str | None = None           # an ELF's LCOV to this file (hexhil test --coverage)
     limits: RunLimits | None = None       # the run's caps (hil/run/limits.py; None: defaults)
-    flash_files: FlashFiles | None = None  # the command's --main/--fs, over the case's
+    flash_files: FlashFiles | None = None  # --main/--fs/--fs-out over the case's, each
     coverage_libraries: bool = False      # ... counting the toolchain's libraries too
     main_file: str | None = None          # a module's main(board) in process, not ours
+    masked_limit_s: float | None = None   # an ELF's masked-spin limit (None: the default)
 
 
 @dataclass(frozen=True)
@@ -111,7 +112,7 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
                  changed: dict[str, Any] | None = None, coverage: str | None = None,
                  limits: RunLimits | None = None,
                  flash_files: FlashFiles | None = None,
-                 coverage_libraries: bool = False,
+                 coverage_libraries: bool = False, masked_limit_s: float | None = None,
                  wrap: Callable[[Run, Any], Any] | None = None, main: Any = None,
                  master_check: bool = True, setup: Callable[[Run], None] | None = None
                  ) -> tuple[dict[str, Any], RunResult]:
@@ -129,7 +130,8 @@ def run_scenario(scenario: Scenario, seed: int, duration_s: float, python: str,
     run = Run(scenario, seed=seed, runtime=None if firmware else python,
               duration_s=duration_s, tactile=tactile, trace=trace, firmware=firmware,
               overrides={**timing.overrides(), **(changed or {})}, coverage=coverage,
-              limits=limits, flash_files=flash_files, coverage_libraries=coverage_libraries)
+              limits=limits, flash_files=flash_files, coverage_libraries=coverage_libraries,
+              masked_limit_s=masked_limit_s)
     try:
         if master_check:
             run.watch_master()
@@ -158,12 +160,16 @@ def run_case(job: CaseRun) -> CaseResult:
             from host_tools.in_process import load_main
 
             main = load_main(job.main_file)
+        flash = job.flash_files.over(case.flash_files) if job.flash_files else case.flash_files
+        if flash is not None and flash.out is not None:   # one folder a run
+            flash = dataclasses.replace(flash, out=flash.out / label_stem(job.label))
         summary, _ = run_scenario(job.scenario or case.scenario, job.seed, case.duration_s,
                                   IN_PROCESS if main else job.python or case.python, tactile,
                                   trace, job.timing, case.sends, job.firmware or case.firmware,
-                                  dict(job.changed), job.coverage, job.limits,
-                                  job.flash_files or case.flash_files, job.coverage_libraries,
-                                  main=main)
+                                  dict(job.changed), job.coverage, job.limits, flash,
+                                  job.coverage_libraries,
+                                  job.masked_limit_s if job.masked_limit_s is not None
+                                  else case.masked_limit_s, main=main)
         outcomes = tuple(evaluate(case, summary, trace))
         failed = [o for o in outcomes if not o.passed]
         if job.keep_dir is not None and (failed or job.keep_all):
@@ -193,9 +199,14 @@ def evaluate_recorded(case: Case, trace: Path, keep_dir: str | None = None,
     return CaseResult(case.name, case.seed, outcomes, summary, kept)
 
 
+def label_stem(label: str) -> str:
+    """The case run ``label`` as a file or folder name (its kept trace, its /flash)."""
+    return label.replace("/", "_").replace("#", "-")
+
+
 def kept_path(keep_dir: str, label: str) -> Path:
     """Where ``--keep-traces DIR`` keeps the trace of the case run ``label``."""
-    return Path(keep_dir) / (label.replace("/", "_").replace("#", "-") + ".mcap")
+    return Path(keep_dir) / (label_stem(label) + ".mcap")
 
 
 def keep(trace: Path, keep_dir: str, label: str, failed: Sequence[Outcome],

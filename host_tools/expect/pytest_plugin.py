@@ -5,13 +5,14 @@ when a check fails, with the run's trace (the failure written into it) named in 
 and in ``--junitxml`` as the test's ``trace`` property.
 
 Fixtures: ``hexhil_run`` (a function: scenario, seed, duration, runtime, tactile, firmware,
-main, fs, allow_failure -> ``FinishedRun``, whose ``result`` is the run's ``RunResult``; a
+main, fs, fs_out, allow_failure -> ``FinishedRun``, whose ``result`` is the run's ``RunResult``; a
 firmware that does not complete its run fails the test).
 Helpers: ``FinishedRun.check(kind, **keys)``, ``assert_within(name, value, low, high)``.
 Options: ``--hexhil-runtime RUNTIME`` (default runtime; ``--hexhil-python`` is its alias),
 ``--hexhil-firmware PATH`` (a firmware of yours for every run, as ``hexhil run --firmware``),
-``--hexhil-main FILE`` and ``--hexhil-fs DIR`` (a MicroPython ELF's /flash, as ``--main`` and
-``--fs``), ``--hexhil-keep DIR`` (copy the trace of every failing test there).
+``--hexhil-main FILE``, ``--hexhil-fs DIR`` and ``--hexhil-fs-out DIR`` (a MicroPython ELF's
+/flash, as ``--main``, ``--fs`` and ``--fs-out``: each run's into DIR/<test>-<k>/),
+``--hexhil-keep DIR`` (copy the trace of every failing test there).
 """
 from __future__ import annotations
 
@@ -107,6 +108,9 @@ def pytest_addoption(parser: pytest.Parser) -> None:
                          "/flash as main.py (hexhil run --main)")
     group.addoption("--hexhil-fs", default=None, metavar="DIR",
                     help="with a MicroPython ELF: lay DIR's files into its /flash (--fs)")
+    group.addoption("--hexhil-fs-out", default=None, metavar="DIR",
+                    help="with a MicroPython ELF: write each run's /flash into "
+                         "DIR/<test>-<k>/ after it (--fs-out)")
     group.addoption("--hexhil-keep", default=None, metavar="DIR",
                     help="copy the traces of every failing test here")
 
@@ -114,9 +118,10 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 @pytest.fixture
 def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path) -> Callable[..., FinishedRun]:
     """``hexhil_run(scenario, seed=None, duration_s=None, runtime=None, tactile=None,
-    firmware=None, main=None, fs=None, allow_failure=False)``: run a scenario file with our
-    firmware (or ``firmware``, else ``--hexhil-firmware``; ``main`` and ``fs``, else
-    ``--hexhil-main`` and ``--hexhil-fs``, fill a MicroPython ELF's /flash), recorded to this
+    firmware=None, main=None, fs=None, fs_out=None, allow_failure=False)``: run a scenario
+    file with our firmware (or ``firmware``, else ``--hexhil-firmware``; ``main`` and ``fs``,
+    else ``--hexhil-main`` and ``--hexhil-fs``, fill a MicroPython ELF's /flash, and
+    ``fs_out``, else ``--hexhil-fs-out``, gets it back after the run), recorded to this
     test's tmp_path. A firmware
     that crashes, hangs, exits early or never starts fails the test with its reason and
     last lines (the trace kept), unless ``allow_failure``: then ``FinishedRun.ending``
@@ -134,7 +139,8 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path) -> Callable[..., 
     def run(scenario: str | Path, seed: int | None = None, duration_s: float | None = None,
             runtime: str | None = None, tactile: bool | None = None,
             firmware: str | Path | None = None, main: str | Path | None = None,
-            fs: str | Path | None = None, allow_failure: bool = False) -> FinishedRun:
+            fs: str | Path | None = None, fs_out: str | Path | None = None,
+            allow_failure: bool = False) -> FinishedRun:
         from hil.mcu.flash_fs import FlashFiles
         sc = scenario_mod.load_scenario(scenario)
         seed = sc.scenario.seed if seed is None else seed
@@ -145,8 +151,11 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path) -> Callable[..., 
         firmware = firmware or request.config.getoption("--hexhil-firmware")
         main = main or request.config.getoption("--hexhil-main")
         fs = fs or request.config.getoption("--hexhil-fs")
-        flash = (FlashFiles(Path(main) if main else None, Path(fs) if fs else None)
-                 if main or fs else None)
+        if fs_out is None and request.config.getoption("--hexhil-fs-out"):
+            fs_out = (Path(request.config.getoption("--hexhil-fs-out"))
+                      / f"{case_runs.label_stem(request.node.name)}-{len(traces)}")
+        flash = (FlashFiles(*(None if v is None else Path(v) for v in (main, fs, fs_out)))
+                 if main or fs or fs_out else None)
         summary, result = case_runs.run_scenario(sc, seed, duration, runtime, tactile, trace,
                                                  firmware=str(firmware) if firmware else None,
                                                  flash_files=flash)

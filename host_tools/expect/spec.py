@@ -106,7 +106,7 @@ COMMON_KEYS = ("name", "kind", "window_s")
 AT_LEAST_ONE = (Kind.DISPLACEMENT, Kind.POSE, Kind.SERVO_LIMITS)
 CASE_KEYS: dict[str, type] = {"name": str, "scenario": str, "duration_s": float, "seed": int,
                               "tactile": bool, "python": str, "firmware": str, "send": list,
-                              "main": str, "fs": str}
+                              "main": str, "fs": str, "masked_limit_s": float}
 TACTILE_DEFAULTS = {"h_tolerance_m": 0.01, "l_tolerance_m": 0.015, "min_steps": 1,
                     "min_press_s": 0.04}
 
@@ -145,6 +145,7 @@ class Case:
     sends: tuple[tuple[int, int, bytes], ...] = ()   # (t_us, arbitration id, data) from the host
     firmware: str | None = None   # a firmware of the user's (hexhil run --firmware), not ours
     flash_files: FlashFiles | None = None   # a MicroPython ELF's /flash (--main, --fs)
+    masked_limit_s: float | None = None     # an ELF's masked-spin limit (--masked-limit)
 
 
 def _range(where: str, value: Any) -> Range:
@@ -358,10 +359,13 @@ def load(path: str | Path) -> Case:
             raise UserError(f"{where}: keys 'case.main' and 'case.fs' need a MicroPython "
                             "STM32F411 ELF as 'case.firmware'")
         flash = FlashFiles(*(p.parent / case[k] if k in case else None for k in ("main", "fs")))
+    masked = case.get("masked_limit_s")
+    if masked is not None and not masked > 0:
+        raise UserError(f"{where}: key 'case.masked_limit_s' must be above 0 s, got {masked}")
     if firmware is not None:
         served_firmware(firmware, f"{where}: key 'case.firmware'", flash_files=flash)  # checked now
     return Case(name=case.get("name", p.stem), path=p, scenario=sc, firmware=firmware,
-                flash_files=flash,
+                flash_files=flash, masked_limit_s=masked,
                 seed=scenario_mod.check_seed(case.get("seed", sc.scenario.seed),
                                              f"{where}: key 'case.seed'"),
                 duration_s=duration,

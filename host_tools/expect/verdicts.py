@@ -67,13 +67,29 @@ class Recording:
         return out
 
 
-def read(path: Path, summary: dict[str, Any], extra_topics: set[str]) -> Recording:
-    """Every message on the topics the kinds read, and on ``extra_topics``."""
-    wanted = {topics.T_BODY, topics.T_JOINTS, topics.T_SWITCHES, topics.T_FAULTS,
-              topics.T_VIOLATIONS, topics.T_SERVOS, *extra_topics}
+def topics_read(case: Case) -> frozenset[str]:
+    """The topics ``case``'s expectations read: the kinds' own, each signal's, and, where
+    a kind reads frames (``can``, ``fault_response``: the heartbeat) or a signal is on
+    one, every ``/can/`` topic (``T_CAN_PREFIX`` in the set: ``reads``)."""
+    signals = {e.get("topic") for e in case.expectations if e.kind is Kind.SIGNAL}
+    can = any(e.kind in (Kind.CAN, Kind.FAULT_RESPONSE) for e in case.expectations) or any(
+        t.startswith(topics.T_CAN_PREFIX) for t in signals)
+    return frozenset({topics.T_BODY, topics.T_JOINTS, topics.T_SWITCHES, topics.T_FAULTS,
+                      topics.T_VIOLATIONS, topics.T_SERVOS, *signals,
+                      *((topics.T_CAN_PREFIX,) if can else ())})
+
+
+def reads(topic: str, wanted: frozenset[str]) -> bool:
+    """Whether a recording of the topics ``wanted`` (``topics_read``) holds ``topic``."""
+    return topic in wanted or (topics.T_CAN_PREFIX in wanted
+                               and topic.startswith(topics.T_CAN_PREFIX))
+
+
+def read(path: Path, summary: dict[str, Any], wanted: frozenset[str]) -> Recording:
+    """Every message on the topics ``wanted`` (``topics_read``)."""
     rec = Recording(end_s=float(summary.get("sim_time_s", 0.0)), summary=summary)
     with Trace(path) as tr:
-        present = [t for t in tr.topics() if t in wanted or t.startswith(topics.T_CAN_PREFIX)]
+        present = [t for t in tr.topics() if reads(t, wanted)]
         for m, value in tr.decoded(present):
             rec.messages.setdefault(m.topic, []).append((m.log_time_ns / 1e9, value))
     return rec
@@ -332,8 +348,12 @@ def ending_outcome(case: str, summary: dict[str, Any]) -> Outcome | None:
 def evaluate(case: Case, summary: dict[str, Any], trace: Path) -> list[Outcome]:
     """Every expectation of ``case`` on the run that produced ``summary`` and ``trace``,
     after the firmware's own ending when it did not complete the run."""
-    extra = {e.get("topic") for e in case.expectations if e.kind is Kind.SIGNAL}
-    rec = read(trace, summary, extra)
+    return judged(case, read(trace, summary, topics_read(case)))
+
+
+def judged(case: Case, rec: Recording) -> list[Outcome]:
+    """``evaluate`` on a recording already read (or held in memory: the bus fuzzer's)."""
+    summary = rec.summary
     kinds: dict[Kind, Callable[[Expectation, Recording], tuple]] = {
         Kind.DISPLACEMENT: _body, Kind.HEADING: _body, Kind.POSE: _body, Kind.SPEED: _body,
         Kind.PROTOCOL: _protocol, Kind.FAULT_RESPONSE: _fault, Kind.CAN: _can,

@@ -24,7 +24,7 @@ from typing import Any, Callable, Iterable, Iterator, NamedTuple
 
 from mcap.data_stream import ReadDataStream
 from mcap.reader import SeekingReader
-from mcap.records import Channel, Chunk, Message
+from mcap.records import Channel, Chunk, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk, get_chunk_data_stream
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 
@@ -208,19 +208,7 @@ class Trace:
     def decoder(self, channel_id: int) -> Callable[[bytes], Any]:
         """bytes -> dict for a channel (protobuf via its own schema, json as is)."""
         ch = self.channels[channel_id]
-        schema = self.schemas.get(ch.schema_id)
-        if ch.message_encoding == "protobuf" and schema is not None:
-            try:
-                decode = ProtobufDecoderFactory().decoder_for("protobuf", schema)
-            except Exception as exc:
-                raise UserError(f"{self.path}: schema {schema.name!r} is not valid protobuf "
-                                f"({why(exc)})") from None
-            if decode is None:
-                raise UserError(f"{self.path}: cannot decode schema {schema.name!r}")
-            return lambda data: proto_to_dict(decode(data))
-        if ch.message_encoding == "json":
-            return json.loads
-        return lambda data: {"data": bytes(data).hex()}
+        return message_decoder(ch.message_encoding, self.schemas.get(ch.schema_id), self.path)
 
     def decoded(self, topics: Iterable[str] | None = None, start_s: float | None = None,
                 end_s: float | None = None) -> Iterator[tuple[TraceMessage, dict[str, Any]]]:
@@ -236,6 +224,24 @@ class Trace:
                                 f"t={m.log_time_ns / 1e9:.6f} s does not decode "
                                 f"({why(exc)})") from None
             yield m, value
+
+
+def message_decoder(encoding: str, schema: Schema | None, where: Path | str
+                    ) -> Callable[[bytes], Any]:
+    """bytes -> dict for messages of ``encoding`` (protobuf via ``schema``, json as is),
+    whether read from a file or held in memory (host_tools/bus_fuzz/held_trace.py)."""
+    if encoding == "protobuf" and schema is not None:
+        try:
+            decode = ProtobufDecoderFactory().decoder_for("protobuf", schema)
+        except Exception as exc:
+            raise UserError(f"{where}: schema {schema.name!r} is not valid protobuf "
+                            f"({why(exc)})") from None
+        if decode is None:
+            raise UserError(f"{where}: cannot decode schema {schema.name!r}")
+        return lambda data: proto_to_dict(decode(data))
+    if encoding == "json":
+        return json.loads
+    return lambda data: {"data": bytes(data).hex()}
 
 
 def proto_to_dict(msg: Any) -> dict[str, Any]:

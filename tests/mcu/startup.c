@@ -13,6 +13,9 @@ void Reset_Handler(void) {
 void Default_Handler(void) { for (;;) {} }
 #define WEAK __attribute__((weak, alias("Default_Handler")))
 void HardFault_Handler(void) WEAK;
+void MemManage_Handler(void) WEAK;
+void BusFault_Handler(void) WEAK;
+void UsageFault_Handler(void) WEAK;
 void SVC_Handler(void) WEAK;
 void PendSV_Handler(void) WEAK;
 void SysTick_Handler(void) WEAK;
@@ -28,7 +31,7 @@ void FLASH_IRQHandler(void) WEAK;
 __attribute__((section(".isr_vector"), used))
 void (*const vectors[16 + 86])(void) = {
     (void (*)(void))&_estack, Reset_Handler, Default_Handler, HardFault_Handler,
-    Default_Handler, Default_Handler, Default_Handler, 0, 0, 0, 0, SVC_Handler,
+    MemManage_Handler, BusFault_Handler, UsageFault_Handler, 0, 0, 0, 0, SVC_Handler,
     Default_Handler, 0, PendSV_Handler, SysTick_Handler,
     [16 + 4] = FLASH_IRQHandler, [16 + 6] = EXTI0_IRQHandler, [16 + 16] = DMA1_Stream5_IRQHandler,
     [16 + 17] = DMA1_Stream6_IRQHandler, [16 + 20] = CAN1_RX0_IRQHandler,

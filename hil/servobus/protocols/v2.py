@@ -124,16 +124,22 @@ class Bus2(Bus):
             end_us = self._send(s, s.ping_reply(), end_us + s.return_delay_us)
 
     def _send(self, s, reply: bytes, start_us: int) -> int:
-        """Put a reply on the line from ``start_us``; when it ends (even if lost)."""
+        """Put a reply on the line from ``start_us``, as the status faults active on ``s``
+        send it (none, one, late, mangled, or a twin's too: ``[faults] status_*``); when
+        it would have ended: the next servo of a group read answers after that, as ever."""
         data = bytearray(reply)
-        end = start_us + self.wire_us(len(data))
+        wire_us = self.wire_us(len(data))
+        end = start_us + wire_us
         faults = self.faults
+        bursts = [(start_us, data)]
         if faults is not None:
             if faults.drop_status(s.id, start_us):
                 return end
             faults.corrupt(data, start_us, "rx")
-        self.stats["replies"] += 1
-        self._put(Burst(start_us, data, True))
+            bursts = faults.status_bursts(s.id, data, start_us, wire_us, self.protocol)
+        for t, burst in bursts:
+            self.stats["replies"] += 1
+            self._put(Burst(t, burst, True))
         return end
 
     def _deliver_foreign(self, s, parser: dx2.Parser, tx: bytearray, t_us: int) -> None:
