@@ -72,7 +72,8 @@ def test_a_firmware_runs_the_same_with_and_without_the_compiled_board(name, tmp_
                                             ("faults.c", ("FAULT=2",)),
                                             ("faults.c", ("FAULT=3",)),
                                             ("faults.c", ("FAULT=8",)),
-                                            ("iwdg.c", ()), ("tim1.c", ())])
+                                            ("iwdg.c", ()), ("tim1.c", ()),
+                                            ("ram_wait.c", ("WAIT=3",))])
 def test_the_board_tests_firmwares_run_the_same_both_ways(source, defines, tmp_path,
                                                          monkeypatch):
     assert (MCU / source).exists()

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from hil.mcu import board_core
 from hil.run_result import Ending
 from mcu_elf import build, console, run_elf
 
@@ -270,3 +271,34 @@ def test_receive_to_idle_gets_every_ping_as_one_burst_in_c_and_in_python(tmp_pat
         if mode == "it":   # one frame (10 bits at 1 Mbps) after the last byte's RXNE
             assert 900 <= int(said[3]) <= int(said[4]) <= 1100, (core, lines)
         assert lines[1] == "usart1 idle ok", (core, lines)
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_a_wait_on_ram_runs_nothing_across_events_that_change_nothing(tmp_path, monkeypatch,
+                                                                     compiled):
+    """With a switch interrupt armed the board meets an event each millisecond between
+    SysTick's 10 ms ticks (its sleep to now): a wait confirmed as a fixed point stays
+    skipped across each one, no instruction run, since the state is the confirmed one."""
+    if not compiled:
+        monkeypatch.setattr(board_core, "_LIB", None)
+    r, _ = run_elf(build(tmp_path, "ram_wait.c", "WAIT=3"), 0.35)
+    ticks, cycles, passes = map(int, console(r)[-1].split())
+    assert ticks == 30 and passes == 0
+    assert 199 * 100_000 <= cycles <= 201 * 100_000
+    mcu = r.firmware.other["mcu"]
+    # two passes of 2520 instructions a SysTick, none at the 320 events between them
+    assert mcu["instructions"] < 30 * 2 * 2520 + 200_000, mcu
+    assert mcu["link_requests"] > 300, mcu       # the events were there: a sleep each ms
+
+
+def test_a_run_with_a_switch_interrupt_armed_replays_identically(tmp_path):
+    """Every sleep the board makes while a switch interrupt waits is in the trace's /link,
+    and replay's board, which has no world, makes the same ones: when it asks depends on
+    its own time only."""
+    from host_tools import Run
+    from host_tools.replay import replay_firmware
+    elf = build(tmp_path, "ram_wait.c", "WAIT=3")
+    trace = tmp_path / "run.mcap"
+    Run("scenarios/flat-tripod.toml", seed=1, duration_s=0.1, firmware=elf, trace=trace).run()
+    r = replay_firmware(trace, firmware=str(elf))
+    assert r.identical and r.divergence is None and r.exchanges > 90, r

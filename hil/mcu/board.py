@@ -28,7 +28,7 @@ from hil.mcu.events import Events, Timer
 from hil.mcu.faults import Faults, intr_fault
 from hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
 from hil.mcu.mmio import PeripheralSpace
-from hil.mcu.link_client import LinkClient, Reply
+from hil.mcu.link_client import LinkClient
 from hil.mcu.poll import PollSkipper
 from hil.mcu.quiet import QuietLoops
 from hil.mcu.servo_line import ServoLine
@@ -40,10 +40,10 @@ from hil.mcu.system import Nvic, SystemBlock
 from hil.mcu.systick import SysTick
 from hil.mcu.usart import Usart
 from hil.mcu.verdicts import BRANCH_TO_SELF, MASKED_LIMIT_S, Endings
+from hil.mcu.world_sync import WorldSync
 
 log = logging.getLogger(__name__)
 MAX_CHUNK = 20_000           # instructions: the most an interrupt unmasked by CPSIE/MSR waits
-TICK_US = 1000               # a quiet millisecond: a sleep to now (world, switches, CAN)
 PA1 = 1
 CONSOLE_TAIL = 5             # console lines a run result keeps (its stderr_tail)
 
@@ -52,7 +52,6 @@ class Board:
     """One run of an ELF; ``run`` serves it until the host ends the run."""
 
     switches = SharedField("switches")                # pressed, a bit each (PB0-PB5)
-    _last_request_us = SharedField("last_request_us")  # the switches are as old as it
 
     def __init__(self, image: ElfImage, exchange: Callable[[bytes, bool], bytes],
                  console_events: Callable[[str], list[tuple[int, str]]],
@@ -80,14 +79,12 @@ class Board:
         self.reset_causes: Counter[str] = Counter()
         self._reset_pending: str | None = None     # what asked for the reset
         self.noted: set[str] = set()   # registers without behaviour the log named
-        self._last_request_us = -TICK_US
         self.debugger: Any = None      # hil/mcu/gdb.py, with --gdb
         self.cycles = ControlCycles(core)   # busy time per control cycle (deadline.py)
         self.line = ServoLine(self)
         self.space = PeripheralSpace(self)
         self._peripherals()
-        self.tick = self.events.timer(self._tick)
-        self.tick.set(TICK_US * FS_PER_US)
+        self.sync = WorldSync(self)   # the link's replies, its sleeps
         self.space.attach(core.uc)
         flash.attach(self)            # stores to flash reach self.flash (hil/mcu/flash.py)
         self._system_memory = device_id.attach(core.uc)   # the unique ID, the flash size
@@ -119,7 +116,7 @@ class Board:
         gpio = [GpioPort(n, i, self._gpio_out, self._grounded(i),
                          core.shared if self.native else None)
                 for i, n in enumerate(("GPIOA", "GPIOB", "GPIOC"))]
-        gpio[1].before_input = self.fresh_switches
+        gpio[1].before_input = lambda: self.sync.fresh_switches()
         self.gpio = gpio
         line = self.nvic.line
         self.usart1 = Usart("USART1", 37, core, ev, lambda: self.rcc.pclk2_hz, line, self)
@@ -142,44 +139,8 @@ class Board:
             return lambda: 0
         return lambda: self.switches & ((1 << SWITCH_PINS) - 1)
 
-    def take(self, reply: Reply) -> Reply:
-        if reply.switches != self.switches:
-            port = self.gpio[1]
-            before = [port.input_level(p) for p in range(SWITCH_PINS)]
-            self.switches = reply.switches
-            for p in range(SWITCH_PINS):
-                now = port.input_level(p)
-                if now != before[p]:
-                    self.exti.edge(1, p, bool(now))
-        self.line.reply(reply.next_rx_us, reply.pending)
-        for arb_id, data in reply.can:
-            self.can_received(arb_id, data)
-        if reply.ended:
-            self.ended = True
-            self.core.stop()
-        self._last_request_us = self.link.t_us
-        return reply
-
     def now_us(self) -> int:
         return self.core.now_fs() // FS_PER_US
-
-    def _tick(self, at_fs: int) -> None:
-        """A sleep to now after a quiet while: each millisecond while an interrupt waits
-        for a switch or a CAN frame, else every 10 ms (a read of the switch pins asks
-        for fresh levels itself, ``fresh_switches``)."""
-        at_us = at_fs // FS_PER_US
-        if at_us - self._last_request_us >= TICK_US:
-            self.take(self.link.sleep(at_us))
-        self.faults.sample()
-        self.endings.sample()
-        listening = self.exti.regs[0x00] & 0x3F or self.can_listening
-        self.tick.set(at_fs + (1 if listening else 10) * TICK_US * FS_PER_US)
-
-    def fresh_switches(self) -> None:
-        """The firmware reads port B: the switch levels of the last millisecond."""
-        now_us = self.now_us()
-        if now_us - self._last_request_us >= TICK_US:
-            self.take(self.link.sleep(now_us))
 
     def can_received(self, arb_id: int, data: bytes) -> None:
         self.can.received(arb_id, data)
@@ -366,6 +327,12 @@ class Board:
             else:
                 core.cyc = max(core.cyc, core.time.cycle_of(self.events.next_fs()))
                 return
+        st = core.shared
+        if st.quiet_hold:               # board_core.c ``bc_loop`` does the same
+            if not taken and not core.sleeping and not (st.pending_n and self.nvic.masked_ready()) \
+                    and self.quiet.held():
+                return
+            st.quiet_hold = 0
         if self.debugger is not None:
             n = self.debugger.chunk_limit(n)
         try:
@@ -374,7 +341,6 @@ class Board:
             self.faulted(exc)
             return
         self.after_chunk()
-        st = core.shared
         if st.mmio_n != st.chunk_mmio or core.sleeping or core.stopped or core.cut:
             self.quiet.loud_chunk()
         elif ran == n and self.debugger is None and not self._reset_pending:

@@ -141,7 +141,23 @@ typedef struct {
        since), SR read with IDLE set (a DR read clears it), its timer (with IDLEIE) */
     int64_t u2_idle_at;
     int32_t u2_idle_live, u2_idle_tid, u2_idle_seen;
+    /* quiet.py ``held``: 1 while the state is a fixed point a skip confirmed and no
+       instruction has run since (an event that changed nothing lets it skip again) */
+    int32_t quiet_hold;
+    int32_t q_seen;              /* 1: ``q`` holds the state at the end of a quiet chunk */
+    struct quiet *q;             /* quiet.py's steps done here (bc_quiet_init) */
 } bc_t;
+
+/* quiet.py ``QuietLoops`` in C: the state recorded at the end of a quiet chunk (cycle,
+   registers, SRAM), the misses' back-off, Unicorn's ids of the registers read */
+typedef struct quiet {
+    int64_t cyc, backoff;
+    int32_t nregs, _pad;
+    int32_t *ids;
+    uint64_t *regs, *now;
+    void **ptrs;
+    uint8_t *sram;
+} quiet_t;
 
 /* bc_t's layout as this compiler laid it out: board_core.py checks its ``Shared`` against
  * it field by field when it loads this library, and refuses a build that differs. */
@@ -179,6 +195,7 @@ F(ctr, ctr) F(pc, pc) F(chunk0, chunk0) F(cyc, cyc) F(fs0, fs0) F(cyc0, cyc0)
     F(masked_steps, masked_steps) F(pub_count, pub_count) F(pub_limit, pub_limit)
     F(pub_pc, pub_pc) F(engine_counts, engine_counts) F(u2_idle_at, u2_idle_at)
     F(u2_idle_live, u2_idle_live) F(u2_idle_tid, u2_idle_tid) F(u2_idle_seen, u2_idle_seen)
+    F(quiet_hold, quiet_hold) F(q_seen, q_seen) F(q, q)
 };
 #undef F
 
@@ -1058,7 +1075,7 @@ int bc_rx_deliver(bc_t *s, int64_t at) {
 /* --- the run loop (board.py ``run`` and core.py ``run``) ------------------------------ */
 /* where Python goes on: hil/mcu/board_loop.py LOOP_*, the same numbers */
 enum { LOOP_AFTER_HEAD = 0, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
-       LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT, LOOP_QUIET };
+       LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT };
 #define WFI 0xBF30
 #define WFE 0xBF20
 #define BRANCH_TO_SELF 0xE7FE
@@ -1085,6 +1102,7 @@ static int64_t run_chunk(bc_t *s, int64_t n) {
     s->chunk0 = s->cyc;
     s->chunk_mmio = s->mmio_n;
     s->stopped = s->cut = 0;
+    s->quiet_hold = 0;
     s->running = 1;
     s->hook_failed = 0;
     int err;
@@ -1124,6 +1142,107 @@ static int64_t run_chunk(bc_t *s, int64_t n) {
     return ran;
 }
 
+/* --- quiet loops (quiet.py, the same steps) ------------------------------------------- */
+#define PASS 2520                /* quiet.py PASS */
+#define MAX_BACKOFF 64           /* quiet.py MAX_BACKOFF */
+
+/* quiet.py's registers, by Unicorn's ids; 0 when the buffers cannot be had */
+static void quiet_free(quiet_t *q) {
+    if (!q) return;
+    free(q->ids);
+    free(q->regs);
+    free(q->now);
+    free(q->ptrs);
+    free(q->sram);
+    free(q);
+}
+
+int bc_quiet_init(bc_t *s, const int32_t *ids, int n) {
+    quiet_t *q = calloc(1, sizeof *q);
+    if (!q) return 0;
+    q->ids = malloc(n * sizeof *q->ids);
+    q->regs = calloc(n, sizeof *q->regs);
+    q->now = calloc(n, sizeof *q->now);
+    q->ptrs = malloc(n * sizeof *q->ptrs);
+    q->sram = malloc(SRAM_SIZE);
+    if (!q->ids || !q->regs || !q->now || !q->ptrs || !q->sram) {
+        quiet_free(q);
+        return 0;
+    }
+    memcpy(q->ids, ids, n * sizeof *ids);
+    for (int i = 0; i < n; i++) q->ptrs[i] = &q->now[i];
+    q->nregs = n;
+    q->backoff = 1;
+    quiet_free(s->q);
+    s->q = q;
+    s->q_seen = 0;
+    return 1;
+}
+
+static void quiet_read(bc_t *s) {
+    quiet_t *q = s->q;
+    memset(q->now, 0, q->nregs * sizeof *q->now);
+    s->reg_read_batch(s->uc, q->ids, q->ptrs, q->nregs);
+}
+
+/* a word at a time, 4 words a step: the toolchain's memcmp goes byte by byte */
+static int same_words(const uint8_t *a, const uint8_t *b, size_t n) {
+    for (size_t i = 0; i + 32 <= n; i += 32) {
+        uint64_t x[4], y[4];
+        memcpy(x, a + i, 32);
+        memcpy(y, b + i, 32);
+        if ((x[0] ^ y[0]) | (x[1] ^ y[1]) | (x[2] ^ y[2]) | (x[3] ^ y[3])) return 0;
+    }
+    return 1;
+}
+
+static int quiet_same(bc_t *s) {
+    quiet_t *q = s->q;
+    return !memcmp(q->now, q->regs, q->nregs * sizeof *q->now) &&
+           same_words(s->sram, q->sram, SRAM_SIZE);
+}
+
+/* quiet.py ``_skip`` */
+static int quiet_skip(bc_t *s) {
+    if (s->next_at < 0) return 0;
+    int64_t cyc = cycle_of(s, s->next_at);
+    if (cyc <= s->cyc) return 0;
+    s->skipped += cyc - s->cyc;
+    s->cyc = cyc;
+    return 1;
+}
+
+/* quiet.py ``quiet_chunk`` */
+static void quiet_chunk(bc_t *s, int64_t ran) {
+    quiet_t *q = s->q;
+    quiet_read(s);
+    if (!s->q_seen || ran != PASS || s->cyc - q->cyc != PASS) {
+        memcpy(q->regs, q->now, q->nregs * sizeof *q->now);
+        memcpy(q->sram, s->sram, SRAM_SIZE);
+        q->cyc = s->cyc;
+        s->q_seen = 1;
+        s->quiet_n = PASS;
+        return;
+    }
+    s->q_seen = 0;
+    if (!quiet_same(s)) {         /* quiet.py ``_miss`` */
+        s->quiet_n = 0;
+        s->quiet_wait = q->backoff;
+        q->backoff = 2 * q->backoff < MAX_BACKOFF ? 2 * q->backoff : MAX_BACKOFF;
+        return;
+    }
+    q->backoff = 1;
+    if (quiet_skip(s)) s->quiet_hold = 1;     /* the recorded state is the fixed point */
+}
+
+/* quiet.py ``held`` */
+static int quiet_held(bc_t *s) {
+    quiet_read(s);
+    if (quiet_same(s) && quiet_skip(s)) return 1;
+    s->quiet_hold = 0;
+    return 0;
+}
+
 /* board.py ``run``'s loop for as long as no Python takes part: the head, the exception
    taken, the sleep, the chunk, the lockup's first test. It returns where Python goes on
    (LOOP_*): after the head (a Python timer fired; ``loop_n`` is the chunk's length), after
@@ -1160,6 +1279,16 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
                 continue;
             }
         }
+        if (s->quiet_hold) {      /* still the confirmed fixed point? quiet.py ``held`` */
+            if (taken == -1 && !s->sleeping && !(s->pending_n && masked_ready(s))) {
+                s->masked_steps = 0;
+                if (quiet_held(s)) {
+                    n = -1;
+                    continue;
+                }
+            }
+            s->quiet_hold = 0;
+        }
         if (s->pending_n && masked_ready(s)) {   /* taken right after its unmasking */
             if (s->masked_steps < MASKED_STEPS) {
                 n = 1;
@@ -1179,8 +1308,8 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
             if (++s->quiet_loud > QUIET_LOUD) s->quiet_n = 0;   /* no wait goes on */
         } else if (ran == n && !s->sleeping && !s->stopped && !s->cut) {
             s->quiet_loud = 0;
-            if (s->quiet_wait > 0) s->quiet_wait--;       /* a quiet chunk: quiet.py looks */
-            else return LOOP_QUIET;
+            if (s->quiet_wait > 0) s->quiet_wait--;       /* a quiet chunk: quiet.py's look */
+            else quiet_chunk(s, ran);
         }
         n = -1;
     }
@@ -1194,6 +1323,9 @@ void bc_free(bc_t *s) {
     free(s->burst);
     free(s->rx_at);
     free(s->rx_byte);
+    quiet_free(s->q);
+    s->q = NULL;
+    s->q_seen = 0;
     s->rx_at = NULL;
     s->rx_byte = NULL;
     s->rx_n = s->rx_head = s->rx_cap = 0;

@@ -88,8 +88,8 @@ class Shared(ctypes.Structure):
                 ("quiet_wait", _I64), ("quiet_loud", _I64), ("masked_steps", _I64),
                 ("pub_count", ctypes.c_uint64), ("pub_limit", ctypes.c_uint64),
                 ("pub_pc", ctypes.c_uint32), ("engine_counts", _I32), ("u2_idle_at", _I64),
-                ("u2_idle_live", _I32), ("u2_idle_tid", _I32), ("u2_idle_seen", _I32)]
-
+                ("u2_idle_live", _I32), ("u2_idle_tid", _I32), ("u2_idle_seen", _I32),
+                ("quiet_hold", _I32), ("q_seen", _I32), ("q", _P)]
 
 
 class SharedField:
@@ -123,7 +123,7 @@ def _load() -> Any:
            "bc_usart_reset": (None, [_P]),
            "bc_add_wait": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
            "bc_add_not_loop": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
-           "bc_free": (None, [_P])}
+           "bc_quiet_init": (_I32, [_P, _P, _I32]), "bc_free": (None, [_P])}
     lib.bc_intr.restype, lib.bc_intr.argtypes = None, [_P, ctypes.c_uint32, _P]
     lib.bc_count.restype, lib.bc_count.argtypes = None, [_P, ctypes.c_uint64, ctypes.c_uint32, _P]
     lib.bc_rx_queue.restype, lib.bc_rx_queue.argtypes = None, [_P, _P, _P, _I32]
@@ -329,7 +329,7 @@ class NativeBoard:
             elif kind == PY_INTR:
                 board.intr(a)
             elif kind == PY_SWITCHES:
-                board.fresh_switches()
+                board.sync.fresh_switches()
             elif kind == PY_FAILED:
                 exc, board.events._error = board.events._error, None
                 if exc is not None:

@@ -5,7 +5,8 @@ preempts, sleeps through WFI or runs a chunk, then looks for a lockup and the po
 next step. ``bc_loop`` does those trips in C, calling ``uc_emu_start`` itself, for as long
 as no Python callback took part; it hands the trip to Python where one did (a Python timer
 in the head, a Python register or link call in the chunk, a poll loop watched), where a
-lockup may be starting, and for everything Python names (a fault, an entry off SRAM). A run
+lockup may be starting, and for everything Python names (a fault, an entry off SRAM); a quiet
+wait (hil/mcu/quiet.py) it checks and skips itself. A run
 has about 20,000 trips, most of them a wake-up, a short handler and WFI again.
 """
 from __future__ import annotations
@@ -21,7 +22,7 @@ from hil.mcu.faults import NULL_JUMP
 
 # board_core.c's enum of where Python goes on, the same numbers
 (LOOP_AFTER_HEAD, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
- LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT, LOOP_QUIET) = range(9)
+ LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT) = range(8)
 _P = ctypes.c_void_p
 
 
@@ -82,8 +83,6 @@ def handed_over(board: Any, where: int) -> int:
     if where == LOOP_AFTER_CHUNK:
         board.quiet.loud_chunk()
         board.after_chunk()
-    elif where == LOOP_QUIET:            # a chunk without a register access (quiet.py)
-        board.quiet.quiet_chunk(st.loop_n)
     elif where == LOOP_AFTER_HEAD:
         if board.ended or board.reset_if_asked():
             return -1

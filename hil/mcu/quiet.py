@@ -16,13 +16,24 @@ that counts (in a register, in RAM, in an FPU register) is never skipped.
 instruction, correct and only slower. A chunk that turns out not to be such a loop costs
 Python a look; after a miss the next ones are let by (up to ``MAX_BACKOFF`` chunks), so
 code that computes for a long time without touching a register pays almost nothing.
+
+After a skip the state is held (``held``): the event at the end of the skip may change
+nothing the loop sees (the link's millisecond tick, a timer whose interrupt is off), and
+when no exception was taken and the state is still the confirmed one, to the bit, time
+jumps to the following event at once, without running the two passes again.
+
+The compiled board (hil/mcu/board_core.c) takes the same steps in its loop, on copies of its
+own, so a quiet wait costs no call into Python; the board in Python takes them here.
 """
 from __future__ import annotations
+
+import ctypes
 
 from typing import Any
 
 from unicorn import arm_const as A
 
+from hil.mcu.board_core import library
 from hil.mcu.engine import Regs
 
 PASS = 2520                  # lcm(1..10) instructions
@@ -43,8 +54,12 @@ class QuietLoops:
         self._st = board.core.shared
         self._regs = Regs(board.core.uc, STATE_REGS)
         self._seen: tuple[int, list[int], bytes] | None = None   # (cycle, registers, SRAM)
+        self._held: tuple[list[int], bytes] | None = None        # a confirmed fixed point
         self._backoff = 1
-        self.skips = 0
+        if board.native is not None:       # the same steps in C (board_core.c)
+            ids = (ctypes.c_int32 * len(STATE_REGS))(*STATE_REGS)
+            if not library().bc_quiet_init(ctypes.byref(self._st), ids, len(STATE_REGS)):
+                raise MemoryError("the compiled board core got no buffers for quiet loops")
 
     def quiet_chunk(self, ran: int) -> None:
         """A chunk of ``ran`` instructions made no register access and did not sleep."""
@@ -61,18 +76,39 @@ class QuietLoops:
             self._miss()
             return
         self._backoff = 1
+        if self._skip():
+            self._held = (state, sram)
+            st.quiet_hold = 1
+
+    def _skip(self) -> bool:
+        """Time jumps to the next event; whether it moved."""
+        core = self.board.core
         nxt = self.board.events.next_fs()
         if nxt is None:
-            return
+            return False
         cyc = core.time.cycle_of(nxt)
-        if cyc > core.cyc:
-            st.skipped += cyc - core.cyc
-            core.cyc = cyc
-            self.skips += 1
+        if cyc <= core.cyc:
+            return False
+        self._st.skipped += cyc - core.cyc
+        core.cyc = cyc
+        return True
+
+    def held(self) -> bool:
+        """No exception was taken since the last skip and nothing has run: when the state
+        is still the confirmed fixed point, skip again (True); else the hold ends."""
+        held, st = self._held, self._st
+        if held is not None and self._regs.read() == held[0] and \
+                bytes(self.board.core.sram_view()) == held[1] and self._skip():
+            return True
+        self._held = None
+        st.quiet_hold = 0
+        return False
 
     def loud_chunk(self) -> None:
         """A chunk that touched a register or slept: no pass is being checked."""
         self._seen = None
+        self._held = None
+        self._st.q_seen = 0
 
     def _miss(self) -> None:
         st = self._st
@@ -83,5 +119,8 @@ class QuietLoops:
     def forget(self) -> None:
         """A system reset: nothing recorded goes on."""
         self._seen = None
+        self._held = None
+        self._st.q_seen = 0
+        self._st.quiet_hold = 0
         self._st.quiet_n = 0
         self._st.quiet_wait = 0

@@ -85,7 +85,7 @@ class ServoLine:
                                       "never answer")
             tx = resample(tx, max(1, baud), line)
         self.board.cycles.burst(self._burst_fs, self.board.rcc.hclk_hz, tx)   # deadline.py
-        self.board.take(self.board.link.line(self._burst_fs // FS_PER_US, tx,
+        self.board.sync.take(self.board.link.line(self._burst_fs // FS_PER_US, tx,
                                              bool(self._burst_dir), False, 0))
 
     def direction_turned(self, level: int) -> None:
@@ -120,7 +120,7 @@ class ServoLine:
             self.board.native.queue_rx(queue)
         else:
             self._rx_queue = queue
-        self.board.take(reply)
+        self.board.sync.take(reply)
         self.deliver(at_fs)
 
     def deliver(self, at_fs: int) -> None:

@@ -3,14 +3,24 @@
  * waits 200 ticks in a loop that reads only RAM (WAIT=1), or in one that also counts its
  * passes in RAM (WAIT=2: never a fixed point, so it must run pass by pass), then waits for a
  * flag TIM-less: SysTick's handler sets `flag` at tick 300. Prints the ticks, the DWT cycles
- * the first wait took, and the passes counted. */
+ * the first wait took, and the passes counted. WAIT=3: the WAIT=1 loop with SysTick at
+ * 100 Hz (20 ticks, the flag at 30) and EXTI0's interrupt mask set (the board then sleeps to now each
+ * millisecond: events between the ticks that change nothing the loop reads). */
 #include "board.h"
+
+#if WAIT == 3
+#define WAIT_TICKS 20
+#define FLAG_TICK 30
+#else
+#define WAIT_TICKS 200
+#define FLAG_TICK 300
+#endif
 
 volatile uint32_t ticks, flag, passes;
 
 void SysTick_Handler(void) {
     ticks++;
-    if (ticks == 300) flag = 1;
+    if (ticks == FLAG_TICK) flag = 1;
 }
 
 static uint32_t get_tick(void) { return ticks; }
@@ -20,11 +30,16 @@ int main(void) {
     console_init();
     DEMCR |= 1u << 24;
     DWT_CTRL |= 1;
+#if WAIT == 3
+    *(volatile uint32_t *)0x40013C00 = 1;     /* EXTI_IMR: line 0 */
+    SYST_RVR = 1000000 - 1;
+#else
     SYST_RVR = 100000 - 1;
+#endif
     SYST_CVR = 0;
     SYST_CSR = 7;
     uint32_t start = get_tick(), c0 = DWT_CYCCNT;
-    while (get_tick() - start < 200) {
+    while (get_tick() - start < WAIT_TICKS) {
 #if WAIT == 2
         passes++;
 #endif

@@ -34,7 +34,7 @@ class Bus:
 
     def __init__(self, compiled: bool = True) -> None:
         self.board = board = Board(_image(), self._exchange, lambda text: [], compiled)
-        board.tick.clear()                 # no link: nothing asks the world
+        board.sync.tick.clear()            # no link: nothing asks the world
         board.core.uc.reg_write(A.UC_ARM_REG_PRIMASK, 1)
 
     @staticmethod
