@@ -1,8 +1,13 @@
 """What every test file shares: the tests folder on the import path (its helper modules),
-``hexhil()`` to run the command line as a user does, and ``tool()`` to find a program
-that the environment installed beside this interpreter."""
+``hexhil()`` to run the command line as a user does, ``hexhil_in_process()`` to run a
+command without a new interpreter, and ``tool()`` to find a program that the environment
+installed beside this interpreter."""
 from __future__ import annotations
 
+import contextlib
+import io
+import logging
+import os
 import shutil
 import subprocess
 import sys
@@ -23,6 +28,38 @@ def hexhil(*argv: str | Path, timeout: float = 300, **kw) -> subprocess.Complete
     goes to ``subprocess.run`` (``env``, ``input``)."""
     return subprocess.run([*HEXHIL, *map(str, argv)], cwd=ROOT, capture_output=True, text=True,
                           timeout=timeout, **kw)
+
+
+def hexhil_in_process(*argv: str | Path) -> subprocess.CompletedProcess:
+    """``hexhil ARGV...`` through ``cli.main`` in this process, from the repository root: the
+    exit status, stdout and stderr that ``hexhil()`` gives, without a new interpreter's
+    start-up and imports (MuJoCo's; about a second of CPU each). For a test of what a command
+    does; one of the process around it (signals, exit on Ctrl-C) uses ``hexhil()``."""
+    from host_tools import cli
+
+    out, err = io.StringIO(), io.StringIO()
+    here = os.getcwd()
+    # the loggers a command routes to the terminal: as a new process has them, then back
+    loggers = [logging.getLogger(name) for name in ("hil", "host_tools", "hexhil.console")]
+    before = [(log.handlers[:], log.level, log.propagate) for log in loggers]
+    for log in loggers:
+        log.handlers[:], log.propagate = [], True
+        log.setLevel(logging.NOTSET)
+    os.chdir(ROOT)
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                code = cli.main([str(a) for a in argv])
+            except SystemExit as exc:   # argparse's own exits: --help, --version
+                code = exc.code if isinstance(exc.code, int) else 0
+    finally:
+        os.chdir(here)
+        for log, (handlers, level, propagate) in zip(loggers, before):
+            log.handlers[:] = handlers
+            log.setLevel(level)
+            log.propagate = propagate
+    return subprocess.CompletedProcess([*HEXHIL, *map(str, argv)], code, out.getvalue(),
+                                       err.getvalue())
 
 
 def tool(name: str) -> str:

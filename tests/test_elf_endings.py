@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import json
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -20,6 +18,7 @@ from hil.run_result import Ending
 from hil.scenario import load_scenario
 from host_tools import c_sdk
 from protocol.errors import UserError
+from conftest import hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent
 FLAT = ROOT / "scenarios" / "flat-tripod.toml"
@@ -106,9 +105,7 @@ def test_a_firmware_idling_in_wfi_completes_and_its_console_shows_live(ending_el
     result = run(ending_elf("NONE"))
     assert result.ending.completed and result.exit_code == 0, result.ending
     assert [text for _, text in result.console] == ["endings: start"]  # kept on success
-    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", str(FLAT),
-                           "--duration", "0.1", "--firmware", str(ending_elf("NONE"))],
-                          cwd=ROOT, capture_output=True, text=True)
+    proc = hexhil_in_process("run", FLAT, "--duration", "0.1", "--firmware", ending_elf("NONE"))
     assert proc.returncode == 0, proc.stderr
     printed = re.fullmatch(r"\[ *(\d+\.\d{6}) s\] endings: start", proc.stderr.strip())
     assert printed and 0 < float(printed[1]) < 0.01, proc.stderr   # its virtual time
@@ -116,10 +113,8 @@ def test_a_firmware_idling_in_wfi_completes_and_its_console_shows_live(ending_el
 
 def test_hexhil_run_exits_1_and_hexhil_test_fails_the_case(ending_elf, tmp_path):
     elf = ending_elf("ASSERT")
-    cli = [sys.executable, "-m", "host_tools.cli"]
-    proc = subprocess.run([*cli, "run", str(FLAT), "--duration", "0.1", "--firmware",
-                           str(elf), "--quiet", "--json"], cwd=ROOT, capture_output=True,
-                          text=True)
+    proc = hexhil_in_process("run", FLAT, "--duration", "0.1", "--firmware", elf, "--quiet",
+                             "--json")
     said = proc.stderr.splitlines()
     assert proc.returncode == 1 and len(said) == 1 and \
         "failed an assertion: assert(servos_found == 18)" in said[0], proc.stderr
@@ -130,7 +125,6 @@ def test_hexhil_run_exits_1_and_hexhil_test_fails_the_case(ending_elf, tmp_path)
     case = tmp_path / "short.toml"
     case.write_text(f'[case]\nscenario = "{FLAT}"\nduration_s = 0.1\n\n[[expect]]\n'
                     'name = "no firmware exception"\nkind = "no_exception"\n')
-    proc = subprocess.run([*cli, "test", str(case), "--firmware", str(elf)], cwd=ROOT,
-                          capture_output=True, text=True)
+    proc = hexhil_in_process("test", case, "--firmware", elf)
     assert proc.returncode == 1 and "FAIL" in proc.stdout and "assert" in proc.stdout, \
         proc.stdout + proc.stderr

@@ -17,6 +17,7 @@ from hil.run_result import Ending
 from host_tools import c_sdk
 from host_tools.run_summary import run
 from host_tools.trace.reader import Trace, info
+from conftest import hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent
 FW = ROOT / "tests" / "elf_firmware"
@@ -64,9 +65,10 @@ def run_traced(elf: str, tmp_path: Path, duration_s: float):
 
 
 def test_the_c_tripod_elf_walks_flat_tripod_with_the_same_digest_twice(elfs):
-    first, result = run(FLAT, firmware=elfs["c_tripod"])
-    second, _ = run(FLAT, firmware=elfs["c_tripod"])
-    assert first["firmware_runtime"] == "stm32f411-elf" and first["sim_time_s"] == 30.0
+    # 12 s of the scenario's 30: the walk, its CAN and its digest, at 40 % of the cost
+    first, result = run(FLAT, duration_s=12.0, firmware=elfs["c_tripod"])
+    second, _ = run(FLAT, duration_s=12.0, firmware=elfs["c_tripod"])
+    assert first["firmware_runtime"] == "stm32f411-elf" and first["sim_time_s"] == 12.0
     assert result.firmware.other["mcu"]["hclk_hz"] == 100_000_000   # the SDK's SystemInit
     assert first["body"]["dx_m"] >= 0.3, first["body"]
     assert first["faults"] == {}
@@ -104,9 +106,8 @@ def test_built_without_driving_pa1_it_gets_no_replies_and_the_run_names_the_mist
 
 def test_a_wrong_usart2_baud_gets_no_replies_and_the_run_says_so(elfs, tmp_path):
     trace = tmp_path / "run.mcap"
-    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", FLAT, "--duration",
-                           "0.1", "--firmware", elfs["bare_wrong_baud"], "--out", str(trace)],
-                          cwd=ROOT, capture_output=True, text=True)
+    proc = hexhil_in_process("run", FLAT, "--duration", "0.1", "--firmware",
+                             elfs["bare_wrong_baud"], "--out", str(trace))
     assert proc.returncode == 0, proc.stderr
     fault_line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("faults:"))
     assert "baud" in fault_line, proc.stdout
@@ -177,9 +178,7 @@ def test_a_hardfault_is_one_line_with_the_pc_and_the_function_and_the_trace_is_k
     assert 0 < ending.t_s < 0.5 and ending.last_lines == ("hardfault: about to fault",)
     assert console(trace) == ["hardfault: about to fault"]          # the trace is kept
     assert "/body" in [t["topic"] for t in info(trace)["topics"]]
-    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", FLAT, "--duration",
-                           "0.5", "--firmware", elfs["hardfault"]], cwd=ROOT,
-                          capture_output=True, text=True)
+    proc = hexhil_in_process("run", FLAT, "--duration", "0.5", "--firmware", elfs["hardfault"])
     assert proc.returncode == 1 and proc.stderr.endswith(f"\nhexhil: {line}\n"), proc.stderr
     printed = re.fullmatch(r"\[ *(\d+\.\d{6}) s\] hardfault: about to fault",
                            proc.stderr.splitlines()[0])      # the console, live
@@ -201,9 +200,7 @@ def test_an_interrupt_without_a_handler_is_a_lockup_in_one_line_and_a_failing_ca
     case = tmp_path / "short.toml"
     case.write_text(f'[case]\nscenario = "{FLAT}"\nduration_s = 0.2\n\n[[expect]]\n'
                     'name = "no firmware exception"\nkind = "no_exception"\n')
-    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case),
-                           "--firmware", elfs["unhandled_irq"]], cwd=ROOT,
-                          capture_output=True, text=True)
+    proc = hexhil_in_process("test", str(case), "--firmware", elfs["unhandled_irq"])
     assert proc.returncode == 1 and "a lockup" in proc.stdout and "FAIL" in proc.stdout, \
         proc.stdout + proc.stderr
 

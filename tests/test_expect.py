@@ -15,7 +15,7 @@ from lxml import etree
 from host_tools.expect import spec, steps, verdicts
 from host_tools.trace.reader import Trace
 from protocol.errors import UserError
-from conftest import hexhil
+from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 CASES = sorted(str(p) for p in (ROOT / "tests" / "firmware").glob("*.toml"))

@@ -13,7 +13,7 @@ import pytest
 
 from host_tools.expect import spec
 from protocol.errors import UserError
-from conftest import hexhil
+from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 BOARD_TRIPOD = ROOT / "examples" / "board_tripod.py"

@@ -10,6 +10,7 @@ from host_tools.papers.beam_traversal import estimator, landscape
 from host_tools.papers.beam_traversal.push import push_samples
 from host_tools.papers.beam_traversal import force_sensing
 from host_tools.papers.beam_traversal.force_sensing import sections as fs
+from conftest import hexhil_in_process
 
 
 def test_sensed_reproduces_the_worlds_sensor_draws():
@@ -85,8 +86,7 @@ def test_cli_bad_out_or_seeds_is_one_line(tmp_path):
     f = tmp_path / "file"
     f.write_text("x")
     for args in (["--out", str(f)], ["--out", str(tmp_path), "--seeds", "0"]):
-        r = subprocess.run([sys.executable, "-m", "host_tools.cli", "experiment", "force-sensing", *args],
-                           capture_output=True, text=True, timeout=120)
+        r = hexhil_in_process("experiment", "force-sensing", *args)
         assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
 
 

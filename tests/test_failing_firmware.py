@@ -18,7 +18,7 @@ import pytest
 from hil.run_result import Ending
 from host_tools import Run
 from host_tools.trace.reader import Trace
-from conftest import hexhil
+from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 FLAT = ROOT / "scenarios" / "flat-tripod.toml"

@@ -10,14 +10,14 @@ from hil.mcu.elf_image import load_elf
 from host_tools.trace.reader import Trace
 from mcu_elf import build
 from protocol.errors import UserError
-from conftest import HEXHIL, hexhil
+from conftest import HEXHIL, hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def hexhil_run(elf, *extra):
-    return hexhil("run", "scenarios/flat-tripod.toml", "--firmware", elf, "--duration", "0.1",
-                  "--quiet", *extra, timeout=120)   # the verdict alone, no live console
+    return hexhil_in_process("run", "scenarios/flat-tripod.toml", "--firmware", elf,
+                             "--duration", "0.1", "--quiet", *extra)   # the verdict alone
 
 
 def one_line(r, status=2):

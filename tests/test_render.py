@@ -11,7 +11,7 @@ import pytest
 
 from host_tools import render as render_mod
 from protocol.errors import UserError
-from conftest import hexhil
+from conftest import hexhil, hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent
 GL = ctypes.util.find_library("EGL") or ctypes.util.find_library("OSMesa")
@@ -29,7 +29,8 @@ def needs_gl(test):
 @pytest.fixture(scope="module")
 def trace(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("render") / "run.mcap"
-    r = hexhil("run", "scenarios/obstacles-high-large.toml", "--duration", "5", "--out", str(out))
+    r = hexhil_in_process("run", "scenarios/obstacles-high-large.toml", "--duration", "5",
+                          "--out", str(out))
     assert r.returncode == 0, r.stderr
     return out
 

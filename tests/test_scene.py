@@ -17,14 +17,14 @@ from hil.world import scene as scene_mod
 from hil.world.beam_body import PAPER_BODY
 from hil.world.beams import BeamsWorld, BodyState
 from host_tools.trace import topics
-from conftest import hexhil
+from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def _run(tmp_path: Path, name: str, *extra: str) -> Path:
     out = tmp_path / f"{name}.mcap"
-    r = hexhil("run", f"scenarios/{name}.toml", "--out", str(out), *extra, timeout=300)
+    r = hexhil("run", f"scenarios/{name}.toml", "--out", str(out), *extra)
     assert r.returncode == 0, r.stderr
     return out
 

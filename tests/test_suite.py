@@ -8,7 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from conftest import HEXHIL, hexhil
+from conftest import HEXHIL, hexhil, hexhil_in_process
 
 TESTS = Path(__file__).resolve().parent
 ROOT = TESTS.parent
@@ -31,6 +31,15 @@ def test_the_helper_runs_the_command_line() -> None:
     r = hexhil("--version")
     assert r.returncode == 0 and r.stdout.startswith("hexhil ")
     assert HEXHIL[1:] == ["-m", "host_tools.cli"]
+
+
+def test_the_in_process_helper_gives_what_the_command_line_gives(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[gait]\nspeed = 1\n")
+    for argv in (["--version"], ["run", str(bad)], ["protocol", "decode", "FF FF 01 02 01 FB"]):
+        here, there = hexhil_in_process(*argv), hexhil(*argv)
+        assert (here.returncode, here.stdout, here.stderr) == \
+            (there.returncode, there.stdout, there.stderr), argv
 
 
 def test_a_missing_extra_is_one_failing_test_not_a_collection_error(tmp_path: Path) -> None:

@@ -18,7 +18,7 @@ from host_tools.trace.reader import Trace, info
 from host_tools.trace.recorder import Recorder
 from host_tools.trace.target import partial_of
 from protocol.errors import UserError
-from conftest import hexhil
+from conftest import hexhil, hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
@@ -35,7 +35,8 @@ def one_line(r: subprocess.CompletedProcess) -> str:
 @pytest.fixture
 def precious(tmp_path: Path) -> Path:
     out = tmp_path / "precious.mcap"
-    assert hexhil("run", FLAT, "--duration", "1", *FAST, "--out", str(out)).returncode == 0
+    r = hexhil_in_process("run", FLAT, "--duration", "1", *FAST, "--out", str(out))
+    assert r.returncode == 0, r.stderr
     return out
 
 
@@ -43,12 +44,13 @@ def test_an_existing_trace_survives_out_onto_it(tmp_path: Path, precious: Path) 
     before = precious.read_bytes()
     bad = tmp_path / "syntaxerr.py"
     bad.write_text("def (:\n")
-    r = hexhil("run", FLAT, "--firmware", str(bad), "--out", str(precious))
+    r = hexhil_in_process("run", FLAT, "--firmware", str(bad), "--out", str(precious))
     assert "precious.mcap exists: pass --overwrite" in one_line(r)
-    r = hexhil("run", FLAT, "--duration", "0.5", *FAST, "--out", str(precious))
+    r = hexhil_in_process("run", FLAT, "--duration", "0.5", *FAST, "--out", str(precious))
     assert "exists: pass --overwrite" in one_line(r)
     assert precious.read_bytes() == before and not partial_of(precious).exists()
-    r = hexhil("run", FLAT, "--duration", "0.5", *FAST, "--out", str(precious), "--overwrite")
+    r = hexhil_in_process("run", FLAT, "--duration", "0.5", *FAST, "--out", str(precious),
+                          "--overwrite")
     assert r.returncode == 0, r.stderr
     assert info(precious)["end_s"] == pytest.approx(0.5, abs=0.01)
 
@@ -100,7 +102,7 @@ def test_a_killed_run_leaves_its_partial_file_for_recover(tmp_path: Path) -> Non
     ("/dev/full", "/dev/full: cannot write trace (No space left on device)"),
     ("/nonexistent-dir/t.mcap", "cannot write trace (No such file or directory)")])
 def test_a_full_or_unwritable_disk_is_one_line(out: str, says: str) -> None:
-    r = hexhil("run", FLAT, "--duration", "1", *FAST, "--out", out)
+    r = hexhil_in_process("run", FLAT, "--duration", "1", *FAST, "--out", out)
     assert says in one_line(r)
 
 
@@ -124,8 +126,8 @@ def test_kept_traces_are_not_overwritten_without_overwrite(tmp_path: Path) -> No
                     'name = "impossible"\nkind = "displacement"\ndx_m = [5, 6]\n')
     kept = tmp_path / "kept"
     argv = ("test", str(case), "--quiet", *FAST, "--keep-traces", str(kept))
-    assert hexhil(*argv).returncode == 1
+    assert hexhil_in_process(*argv).returncode == 1
     before = (kept / "c.mcap").read_bytes()
-    assert "kept/c.mcap exists: pass --overwrite" in one_line(hexhil(*argv))
+    assert "kept/c.mcap exists: pass --overwrite" in one_line(hexhil_in_process(*argv))
     assert (kept / "c.mcap").read_bytes() == before
-    assert hexhil(*argv, "--overwrite").returncode == 1
+    assert hexhil_in_process(*argv, "--overwrite").returncode == 1

@@ -14,7 +14,7 @@ from hil.run.lockstep import Simulator
 from hil.scenario import SCHEMA
 from host_tools import cli
 from host_tools.trace.reader import Trace
-from conftest import hexhil
+from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "board_tripod.py"

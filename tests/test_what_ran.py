@@ -11,7 +11,7 @@ from pathlib import Path
 
 from host_tools import scenario_of_trace
 from host_tools.trace.reader import Trace
-from conftest import hexhil
+from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
