@@ -101,6 +101,14 @@ def test_a_handler_spinning_below_systick_is_hung_and_the_limit_is_checked(endin
         served_firmware(ending_elf("NONE"), masked_limit_s=0)
 
 
+def test_hal_delay_in_an_interrupt_systick_cannot_preempt_is_hung(ending_elf):
+    ending = run(ending_elf("ISR_DELAY"), 0.3, masked_limit_s=0.05).ending
+    assert ending.kind is Ending.HUNG, ending      # on the chip the tick never comes
+    assert "hung: interrupt 29's handler ran 0.05 s with SysTick pending behind it, never " \
+        "taken" in ending.reason and " in HAL_" in ending.reason, ending.reason
+    assert 0.07 <= ending.t_s <= 0.09, ending
+
+
 def test_a_firmware_idling_in_wfi_completes_and_its_console_shows_live(ending_elf):
     result = run(ending_elf("NONE"))
     assert result.ending.completed and result.exit_code == 0, result.ending

@@ -7,7 +7,9 @@ On the chip nothing exits: newlib's `_exit` (libnosys, CubeIDE's syscalls.c) is 
 built for the host would end its process: `_exit(0)` and a `main` returning 0 before the
 run's end are an early exit, any other status, `abort` and a failed assertion a crash, a
 core running with PRIMASK or FAULTMASK set (awake) for longer than ``masked_limit_s`` of
-virtual time a hang, and so is a handler that branches to itself for as long while
+virtual time a hang, and so is a handler that keeps an exception of its own priority or
+lower pending for as long (``HAL_Delay`` in an interrupt above SysTick: the tick it waits
+for is never taken), and a handler that branches to itself for as long while
 something of a higher priority still preempts it (CubeMX's `Default_Handler` for an
 interrupt without a handler, below SysTick); one that nothing can preempt is the board's
 lockup at once (board.py ``_lockup``). Found from the ELF's symbols (a code hook at each
@@ -56,6 +58,7 @@ class Endings:
         self._masked_since: int | None = None
         self._masked_key: tuple[str | None, int | None] = (None, None)
         self._spin: tuple[int, int] | None = None    # (PC, since) of a handler's `b .`
+        self._held: tuple[tuple[int, int], int] | None = None   # ((active, held), since)
         self._assertion: str | None = None
         self._returns: set[int] = set()
         symbols = board.image.symbols
@@ -156,6 +159,7 @@ class Endings:
         board = self.board
         core = board.core
         self._handler_spin(board, core)
+        self._held_back(board, core)
         pc = core.pc
         mask = ("PRIMASK" if core.reg(A.UC_ARM_REG_PRIMASK) & 1 else
                 "FAULTMASK" if core.reg(A.UC_ARM_REG_FAULTMASK) & 1 else
@@ -183,9 +187,32 @@ class Endings:
         if self._spin is None or self._spin[0] != pc:
             self._spin = (pc, now)
         elif now - self._spin[1] >= self._limit_fs and self.verdict is None:
-            exc = core.active[-1]
-            what = f"interrupt {exc - 16}" if exc >= 16 else f"exception {exc}"
+            what = _exception(core.active[-1])
             self.ended_with(Verdict(
                 Ending.HUNG, f"hung: {board.image.function_at(pc)} ({what}) ran a loop that "
                 f"branches to itself for {(now - self._spin[1]) / FS_PER_S:g} s, at PC "
                 f"0x{pc:08x} (t={board.now_us() * 1e-6:.6f} s)", 1))
+
+    def _held_back(self, board: Any, core: Any) -> None:
+        """A handler seen at every sample for ``masked_limit_s`` with the same exception
+        pending behind it (its priority cannot preempt) is hung."""
+        ready = board.nvic.ready() if core.shared.nactive and not core.sleeping else []
+        if not ready or self.verdict is not None:
+            self._held = None
+            return
+        key = (core.active[-1], min(ready))
+        now = core.now_fs()
+        if self._held is None or self._held[0] != key:
+            self._held = (key, now)
+        elif now - self._held[1] >= self._limit_fs:
+            pc = core.pc
+            self.ended_with(Verdict(
+                Ending.HUNG, f"hung: {_exception(key[0])}'s handler ran "
+                f"{(now - self._held[1]) / FS_PER_S:g} s with {_exception(key[1])} pending "
+                f"behind it, never taken, at PC 0x{pc:08x} in {board.image.function_at(pc)} "
+                f"(t={board.now_us() * 1e-6:.6f} s)", 1))
+
+
+def _exception(exc: int) -> str:
+    return f"interrupt {exc - 16}" if exc >= 16 else {15: "SysTick", 14: "PendSV",
+                                                      11: "SVCall"}.get(exc, f"exception {exc}")

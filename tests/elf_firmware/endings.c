@@ -3,8 +3,9 @@
  * calls exit(EXIT_STATUS) (newlib's exit reaches libnosys's `_exit`, a loop on the chip),
  * or abort(), or fails an assert, or returns from main, or spins as CubeMX's Error_Handler
  * does (interrupts masked, an endless loop), or as FreeRTOS's configASSERT does (BASEPRI),
- * or leaves an interrupt to the startup's Default_Handler below SysTick's priority. The
- * ending is chosen with -DEND=... */
+ * or leaves an interrupt to the startup's Default_Handler below SysTick's priority, or
+ * calls HAL_Delay in an interrupt that SysTick (at CubeMX's tick priority, 15) cannot
+ * preempt. The ending is chosen with -DEND=... */
 #include "stm32f4xx_hal.h"
 
 #include <assert.h>
@@ -19,6 +20,7 @@
 #define END_NONE 6
 #define END_HANDLER_LOOP 7   /* TIM3 pended without a handler, below SysTick: Default_Handler */
 #define END_RTOS_ASSERT 8    /* FreeRTOS's configASSERT: BASEPRI raised, an endless loop */
+#define END_ISR_DELAY 9      /* HAL_Delay(5) in TIM3's handler at priority 0: no tick comes */
 #ifndef EXIT_STATUS
 #define EXIT_STATUS 3
 #endif
@@ -31,6 +33,14 @@ __attribute__((noinline)) void Error_Handler(void)   /* called from many places 
     while (1) {
     }
 }
+
+#if END == END_ISR_DELAY
+void TIM3_IRQHandler(void)
+{
+    HAL_Delay(5);
+    printf("endings: never here\n");
+}
+#endif
 
 int main(void)
 {
@@ -54,6 +64,10 @@ int main(void)
 #elif END == END_HANDLER_LOOP
     HAL_NVIC_SetPriority(SysTick_IRQn, 0, 0);
     HAL_NVIC_SetPriority(TIM3_IRQn, 15, 0);
+    HAL_NVIC_EnableIRQ(TIM3_IRQn);
+    NVIC->ISPR[0] = 1u << TIM3_IRQn;
+#elif END == END_ISR_DELAY
+    HAL_NVIC_SetPriority(TIM3_IRQn, 0, 0);
     HAL_NVIC_EnableIRQ(TIM3_IRQn);
     NVIC->ISPR[0] = 1u << TIM3_IRQn;
 #endif
