@@ -220,8 +220,9 @@ PLATFORM: tuple[Row, ...] = (
         does="ISER/ICER/ISPR/ICPR/IABR, IPR (4 bits), STIR; PRIGROUP, PRIMASK/BASEPRI/"
         "FAULTMASK, tail-chaining, level lines"),
     Row("SCB", 0xE000ED00, 0x90, Kind.CORE, "PPB", "hil.mcu.system:SystemBlock", B,
-        does="CPUID, ICSR, VTOR, AIRCR (PRIGROUP, SYSRESETREQ), SCR SLEEPONEXIT, SHPR1-3, "
-        "SHCSR, CFSR, HFSR, MMFAR, BFAR (hil/mcu/faults.py), CPACR; not the MPU"),
+        does="CPUID, ICSR, VTOR, AIRCR (PRIGROUP, SYSRESETREQ), SCR (SLEEPONEXIT; "
+        "SLEEPDEEP and SEVONPEND kept: Stop and Standby not modelled, named once in the log), "
+        "SHPR1-3, SHCSR, CFSR, HFSR, MMFAR, BFAR (hil/mcu/faults.py), CPACR; not the MPU"),
     Row("DBGMCU", 0xE0042000, 0x10, Kind.CORE, "PPB", "hil.mcu.system:SystemBlock", B,
         does="IDCODE (DEV_ID 0x431, REV_ID 0x1000); CR and the freeze bits kept as written"),
     Row("FPU", 0xE000EF30, 0x10, Kind.CORE, "PPB", "hil.mcu.system:SystemBlock", B,

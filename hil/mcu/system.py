@@ -10,6 +10,7 @@ line is a level: an IRQ whose flag is still set when its handler returns is pend
 from __future__ import annotations
 
 import ctypes
+import logging
 
 from typing import Any, Callable, Iterator
 
@@ -24,10 +25,12 @@ NUM_IRQS = 86                 # RM0383 table 37: positions 0..85
 CPUID = 0x410FC241            # Cortex-M4 r0p1
 NVIC, SYSTICK, SCB, DWT = 0xE000E100, 0xE000E010, 0xE000ED00, 0xE0001000
 CPACR, DEMCR, STIR, FPCCR = 0xE000ED88, 0xE000EDFC, 0xE000EF00, 0xE000EF34
-SCR_SLEEPONEXIT = 0x2
+SCR_SLEEPONEXIT, SCR_SLEEPDEEP, SCR_SEVONPEND = 0x2, 0x4, 0x10
 # instructions run one at a time while a masked exception waits for its unmasking (then the
 # chunks grow again: a core that spins with interrupts masked runs at full speed)
 MASKED_STEPS = 256
+
+log = logging.getLogger(__name__)
 
 
 class SharedBits:
@@ -208,6 +211,7 @@ class SystemBlock:
         self._cyc_anchor = 0
         self.pollable = frozenset({SYSTICK, SCB + 0x04})
         self.faults = FaultStatus(core, nvic)     # SHCSR, CFSR, HFSR, MMFAR, BFAR
+        self._deep_named = False
 
     def cyccnt(self) -> int:
         if not self.cyccnt_on:
@@ -247,7 +251,7 @@ class SystemBlock:
         if addr == SCB + 0x0C:
             return 0xFA050000 | (nvic.prigroup << 8)
         if addr == SCB + 0x10:
-            return SCR_SLEEPONEXIT if nvic.sleep_on_exit else 0
+            return (SCR_SLEEPONEXIT if nvic.sleep_on_exit else 0) | self.regs.get(addr, 0)
         if SCB + 0x18 <= addr < SCB + 0x24:
             e = addr - (SCB + 0x18) + 4
             return int.from_bytes(nvic.prio[e:e + 4], "little")
@@ -315,6 +319,12 @@ class SystemBlock:
                     self.on_reset()
         elif addr == SCB + 0x10:
             nvic.sleep_on_exit = bool(value & SCR_SLEEPONEXIT)
+            self.regs[addr] = value & (SCR_SLEEPDEEP | SCR_SEVONPEND)
+            if value & SCR_SLEEPDEEP and not self._deep_named:
+                self._deep_named = True
+                log.warning("firmware set SCB SCR SLEEPDEEP: Stop and Standby modes are not "
+                            "modelled, WFI and WFE sleep as in Sleep mode (clocks and SysTick "
+                            "keep running)")
         elif SCB + 0x18 <= addr < SCB + 0x24:
             e = addr - (SCB + 0x18) + 4
             nvic.set_priorities(e, (value & 0xF0F0F0F0).to_bytes(4, "little"))
