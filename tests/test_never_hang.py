@@ -128,6 +128,37 @@ def test_a_run_past_its_memory_cap_ends_as_a_limit_verdict() -> None:
     assert result.sim_time_s < 600
 
 
+def test_a_child_forked_mid_run_ends_the_watch_its_thread_held_a_lock_of() -> None:
+    """The bus fuzzer forks a run whose watch thread can hold its event's lock at that
+    moment (woken, waiting for the interpreter): the child, with no such thread, must still
+    end the run, not wait on that lock for ever (a fuzzed input taken for a hang)."""
+    import threading
+
+    from hil.run.limits import RunWatch
+
+    watch = RunWatch(RunLimits(), 1.0)
+    with watch:
+        held, release = threading.Event(), threading.Event()
+
+        def hold() -> None:
+            with watch._stop._cond:
+                held.set()
+                release.wait()
+
+        holder = threading.Thread(target=hold)
+        holder.start()
+        held.wait()
+        pid = os.fork()
+        if pid == 0:
+            signal.alarm(5)
+            watch.__exit__(None, None, None)
+            os._exit(0)
+        release.set()
+        holder.join()
+        _, status = os.waitpid(pid, 0)
+    assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0
+
+
 @pytest.mark.parametrize("argv", [["--max-wall", "nan"], ["--max-wall", "-1"],
                                   ["--max-memory", "0"], ["--max-memory", "nan"]])
 def test_bad_limits_are_one_line_and_exit_2(argv: list[str]) -> None:

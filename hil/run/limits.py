@@ -16,6 +16,7 @@ import ctypes
 import os
 import threading
 import time
+import weakref
 from dataclasses import dataclass
 from typing import Any
 
@@ -73,7 +74,9 @@ def _rss_mb(pid: int | str) -> float:
 
 class RunWatch:
     """Watches one run's limits while it is entered (``with``): ``hit`` is None, or
-    ``"wall"`` or ``"memory"`` with ``reason``, the verdict's line."""
+    ``"wall"`` or ``"memory"`` with ``reason``, the verdict's line. A process forked
+    during the run (the bus fuzzer's children) has no watch thread, and the locks that
+    thread may have held at the fork are made anew there (``_forked``)."""
 
     def __init__(self, limits: RunLimits, duration_s: float) -> None:
         self.limits, self.duration_s = limits, duration_s
@@ -100,15 +103,24 @@ class RunWatch:
         self._armed = True
         self._thread = threading.Thread(target=self._loop, name="hexhil-run-watch",
                                         daemon=True)
+        _WATCHED.add(self)
         self._thread.start()
         return self
 
     def __exit__(self, *exc: Any) -> None:
+        _WATCHED.discard(self)
         with self._lock:
             self._armed = False
         self._stop.set()
         if self._thread is not None:
             self._thread.join()
+
+    def _forked(self) -> None:
+        """In a forked child: no watch thread, and its locks free (a lock the thread held
+        at the fork stays held for ever in the child: ending the run would wait on it)."""
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread = None
 
     def _loop(self) -> None:
         cap_mb = self.limits.max_memory_mb
@@ -133,3 +145,14 @@ class RunWatch:
                 end_group(pid)
             ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(self._run_thread),
                                                        ctypes.py_object(LimitHit))
+
+
+_WATCHED: "weakref.WeakSet[RunWatch]" = weakref.WeakSet()   # the runs being watched
+
+
+def _after_fork_in_child() -> None:
+    for watch in list(_WATCHED):
+        watch._forked()
+
+
+os.register_at_fork(after_in_child=_after_fork_in_child)
