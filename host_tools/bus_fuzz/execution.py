@@ -18,7 +18,8 @@ from typing import Any, Sequence
 
 from hil.run.limits import RunLimits
 from host_tools import in_process
-from host_tools.bus_fuzz.features import LineTracer, PacketSequence, elf_lines
+from host_tools.bus_fuzz import line_probes
+from host_tools.bus_fuzz.features import PacketSequence, elf_lines, line_features
 from host_tools.bus_fuzz.mutations import Input, faults_table
 from host_tools.expect.spec import Case, Kind
 from host_tools.expect.verdicts import Outcome, evaluate
@@ -109,20 +110,19 @@ def fresh(target: Target, faults: Input, keep: Path | None = None) -> Execution:
     with tempfile.TemporaryDirectory(prefix="hexhil-fuzz-") as tmp:
         trace = Path(tmp) / "run.mcap"
         info = Path(tmp) / "run.info" if target.coverage and _is_elf(target) else None
-        tracer = tracer_for(target) if target.coverage and target.in_process else None
-        if tracer is not None:
-            tracer.start()
+        probed = target.coverage and target.in_process
         sequences: list[PacketSequence] = []
 
         def setup(run: Any) -> None:
+            if probed:               # after an in-process module's import, before it runs
+                line_probes.install(probe_roots(target))
+                line_probes.reset()
             sequences.append(PacketSequence(run.sim.bus.monitor))
             run.sim.bus.monitor = sequences[0]
 
-        try:
-            summary = run_input(target, faults, trace, coverage=str(info) if info else None,
-                                setup=setup)
-        finally:
-            lines = tracer.stop() if tracer is not None else set()
+        summary = run_input(target, faults, trace, coverage=str(info) if info else None,
+                            setup=setup)
+        lines = line_features(line_probes.lines()) if probed else set()
         failures, details = judge(target.case, summary, evaluate(target.case, summary, trace))
         features = lines | (elf_lines(info) if info is not None else set()) | (
             sequences[0].pairs if sequences else set())
@@ -137,10 +137,11 @@ def _is_elf(target: Target) -> bool:
     return target.firmware is not None and is_arm_elf(Path(target.firmware))
 
 
-def tracer_for(target: Target, done: frozenset[int] = frozenset()) -> LineTracer:
+def probe_roots(target: Target) -> list[Path]:
+    """The folders whose files' lines are features: ours, and an in-process module's."""
     roots = [ROOT / "firmware"]
     if target.main_file:
         roots.append(Path(target.main_file).resolve().parent)
-    return LineTracer(roots, done)
+    return roots
 
 

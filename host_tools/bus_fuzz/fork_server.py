@@ -6,9 +6,8 @@ faults (``Run.inject``: the same entries a scenario's ``[faults]`` schedules, at
 microseconds), runs to the case's end, judges the run from its trace held in memory
 (held_trace.py: the boot's messages decoded once in the server, its own at the end) and
 sends back its verdict; the server waits for the next input. An execution so costs the
-window, not the boot. With line coverage the server traces the firmware's lines in the
-``PRIME_S`` before the fork, and the children leave untraced the functions it ran every
-line of (features.py ``LineTracer``). A child that sends nothing in ``HANG_WALL_S`` is a
+window, not the boot. With line coverage the server puts probes in the firmware's functions
+as the run is built (line_probes.py), and each child counts the lines run after the fork. A child that sends nothing in ``HANG_WALL_S`` is a
 hang; one that dies is a crash.
 
 Servers are processes of their own (``python -m host_tools.bus_fuzz.server``), started
@@ -35,9 +34,10 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, BinaryIO, Callable, Sequence
 
-from host_tools.bus_fuzz.execution import (ROOT, Execution, Target, fresh, judge, run_input,
-                                           tracer_for)
-from host_tools.bus_fuzz.features import LineTracer, PacketSequence
+from host_tools.bus_fuzz import line_probes
+from host_tools.bus_fuzz.execution import (ROOT, Execution, Target, fresh, judge, probe_roots,
+                                           run_input)
+from host_tools.bus_fuzz.features import PacketSequence, line_features
 from host_tools.bus_fuzz.held_trace import HeldTrace
 from host_tools.bus_fuzz.mutations import Input
 from host_tools.expect.verdicts import judged
@@ -45,7 +45,6 @@ from protocol.errors import UserError
 
 HANG_WALL_S = 30.0        # wall seconds an in-process execution may take: past it, a hang
 FORK_BEFORE_S = 0.1       # the server forks at the first exchange this close to the window
-PRIME_S = 0.5             # ... and traces the firmware's lines for this long before that
 
 
 class _Forks:
@@ -55,32 +54,24 @@ class _Forks:
     def __init__(self, target: Target, inbox: BinaryIO, outbox: BinaryIO, tmp: Path) -> None:
         self.target, self.inbox, self.outbox, self.tmp = target, inbox, outbox, tmp
         self.fork_us = int(round((target.window_s - FORK_BEFORE_S) * 1e6))
-        self.prime_us = self.fork_us - int(round(PRIME_S * 1e6))
-        self.priming: LineTracer | None = None
-        self.done: frozenset[int] = frozenset()   # functions the priming ran every line of
         self.window_us = int(round(target.window_s * 1e6))
-        self.child: tuple[int, LineTracer | None, PacketSequence] | None = None
+        self.child: tuple[int, PacketSequence] | None = None
         self.held: HeldTrace | None = None
         self.forked = False
         self.cpus: set[int] = set()      # the affinity to give back at the fork
 
     def setup(self, run: Any) -> None:
-        """The run built: its trace held in memory (held_trace.py)."""
+        """The run built: its trace held in memory (held_trace.py), the firmware's functions
+        probed (before it runs: its main loop's frame too)."""
         self.held = HeldTrace(run, self.target.case)
+        if self.target.coverage:
+            line_probes.install(probe_roots(self.target))
 
     def wrap(self, run: Any, exchange: Callable[[bytes, bool], bytes]
              ) -> Callable[[bytes, bool], bytes]:
         def hooked(data: bytes, closed: bool) -> bytes:
-            t_us = run.sim.clock.t_us
-            if (self.target.coverage and self.priming is None and not self.forked
-                    and t_us >= self.prime_us):
-                self.priming = tracer_for(self.target)
-                self.priming.start()
-            if not self.forked and t_us >= self.fork_us:
+            if not self.forked and run.sim.clock.t_us >= self.fork_us:
                 self.forked = True
-                if self.priming is not None:
-                    self.priming.stop()
-                    self.done = self.priming.complete()
                 self._serve(run)         # returns in a child only
             return exchange(data, closed)
         return hooked
@@ -114,7 +105,7 @@ class _Forks:
                 try:
                     self._child(run, faults, w)
                 except BaseException as exc:   # hexhil's own error: the firmware never sees it
-                    self.child = (w, None, PacketSequence(None))
+                    self.child = (w, PacketSequence(None))
                     self.verdict(Execution(("host error",), (f"host error: {exc!r}",),
                                            frozenset(), 0.0))
                 return
@@ -128,7 +119,7 @@ class _Forks:
 
     def _child(self, run: Any, faults: Input, w: int) -> None:
         """In the forked child: the trace held apart from the server's, the faults, the
-        tracers."""
+        packet sequence, the boot's lines forgotten."""
         assert self.held is not None
         self.held.in_child()
         for m in faults:
@@ -136,16 +127,14 @@ class _Forks:
         bus = run.sim.bus
         sequence = PacketSequence(bus.monitor)
         bus.monitor = sequence
-        tracer = tracer_for(self.target, self.done) if self.target.coverage else None
-        if tracer is not None:
-            tracer.start()
-        self.child = (w, tracer, sequence)
+        line_probes.reset()
+        self.child = (w, sequence)
 
     def finish(self, summary: dict[str, Any]) -> None:
         """The child's run is over: judge it, send the verdict to the server, exit."""
         assert self.child is not None
-        _, tracer, sequence = self.child
-        lines = tracer.stop() if tracer is not None else set()
+        _, sequence = self.child
+        lines = line_features(line_probes.lines()) if self.target.coverage else set()
         assert self.held is not None
         case = self.target.case
         failures, details = judge(case, summary, judged(case, self.held.recording(summary)))
@@ -292,14 +281,27 @@ class Servers:
             raise
 
     def run(self, inputs: Sequence[Input]) -> list[Execution]:
-        out: list[Execution] = []
-        n = len(self.servers)
-        for start in range(0, len(inputs), n):
-            chunk = inputs[start:start + n]
-            for server, faults in zip(self.servers, chunk):
-                server.submit(faults)
-            out += [server.result() for server, _ in zip(self.servers, chunk)]
-        return out
+        """Each input to the next server free (one at a time each: a server's pipe holds
+        at most one verdict, so ``select`` on it tells the truth), verdicts in input order."""
+        out: dict[int, Execution] = {}
+        todo = iter(range(len(inputs)))
+        running: dict[int, tuple[Server, int]] = {}     # by the server's pipe descriptor
+
+        def feed(server: Server) -> None:
+            i = next(todo, None)
+            if i is not None:
+                server.submit(inputs[i])
+                running[server.inbox.fileno()] = (server, i)
+
+        for server in self.servers:
+            feed(server)
+        while running:
+            ready, _, _ = select.select(list(running), [], [])
+            for fd in ready:
+                server, i = running.pop(fd)
+                out[i] = server.result()
+                feed(server)
+        return [out[i] for i in range(len(inputs))]
 
     def close(self) -> None:
         for s in self.servers:
