@@ -8,13 +8,14 @@ run it; so does every reproducer, to check it fails the same way without the fuz
 """
 from __future__ import annotations
 
+import itertools
 import math
 import shutil
 import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from hil.run.limits import RunLimits
 from host_tools import in_process
@@ -112,16 +113,21 @@ def fresh(target: Target, faults: Input, keep: Path | None = None) -> Execution:
         info = Path(tmp) / "run.info" if target.coverage and _is_elf(target) else None
         probed = target.coverage and target.in_process
         sequences: list[PacketSequence] = []
+        undo: list[Callable[[], None]] = []
 
         def setup(run: Any) -> None:
             if probed:               # after an in-process module's import, before it runs
-                line_probes.install(probe_roots(target))
+                undo.append(probe_lines(target))
                 line_probes.reset()
             sequences.append(PacketSequence(run.sim.bus.monitor))
             run.sim.bus.monitor = sequences[0]
 
-        summary = run_input(target, faults, trace, coverage=str(info) if info else None,
-                            setup=setup)
+        try:
+            summary = run_input(target, faults, trace, coverage=str(info) if info else None,
+                                setup=setup)
+        finally:
+            for put_back in undo:
+                put_back()
         lines = line_features(line_probes.lines()) if probed else set()
         failures, details = judge(target.case, summary, evaluate(target.case, summary, trace))
         features = lines | (elf_lines(info) if info is not None else set()) | (
@@ -137,11 +143,23 @@ def _is_elf(target: Target) -> bool:
     return target.firmware is not None and is_arm_elf(Path(target.firmware))
 
 
-def probe_roots(target: Target) -> list[Path]:
-    """The folders whose files' lines are features: ours, and an in-process module's."""
+def probe_lines(target: Target) -> Callable[[], None]:
+    """Probes in the functions of ours and of an in-process module's folder (line_probes.py),
+    and the sim HAL's profiling clock (``perf_us``, wall microseconds: telemetry's compute
+    time) made to count its calls: which lines run must not hang on the machine's load (a
+    cycle slower than any before it), or a seed would not give one campaign. Control reads
+    ``ticks_us``, the virtual time, as before. Returns what puts the wall clock back."""
+    from firmware.hal import sim
+
     roots = [ROOT / "firmware"]
     if target.main_file:
         roots.append(Path(target.main_file).resolve().parent)
-    return roots
+    line_probes.install(roots)
+    wall = sim._perf_us
+    sim._perf_us = itertools.count().__next__
+
+    def undo() -> None:
+        sim._perf_us = wall
+    return undo
 
 

@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any, BinaryIO, Callable, Sequence
 
 from host_tools.bus_fuzz import line_probes
-from host_tools.bus_fuzz.execution import (ROOT, Execution, Target, fresh, judge, probe_roots,
+from host_tools.bus_fuzz.execution import (ROOT, Execution, Target, fresh, judge, probe_lines,
                                            run_input)
 from host_tools.bus_fuzz.features import PacketSequence, line_features
 from host_tools.bus_fuzz.held_trace import HeldTrace
@@ -65,7 +65,7 @@ class _Forks:
         probed (before it runs: its main loop's frame too)."""
         self.held = HeldTrace(run, self.target.case)
         if self.target.coverage:
-            line_probes.install(probe_roots(self.target))
+            probe_lines(self.target)
 
     def wrap(self, run: Any, exchange: Callable[[bytes, bool], bytes]
              ) -> Callable[[bytes, bool], bytes]:
