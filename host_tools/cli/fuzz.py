@@ -92,8 +92,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--kinds", metavar="K1,K2",
                    help="fault kinds to draw (default: all the fuzzer knows)")
     p.add_argument("--no-coverage", action="store_true",
-                   help="keep no corpus by line coverage (faster; packet sequences still "
-                        "count)")
+                   help="keep no corpus by line coverage (packet sequences still count; "
+                        "faster for an ELF, about the same in process)")
     p.add_argument("--out", metavar="DIR",
                    help="write each finding here: its scenario, expectation file and trace")
     p.add_argument("--json", action="store_true", help=cli.JSON_HELP)
