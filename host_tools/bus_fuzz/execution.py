@@ -8,7 +8,6 @@ run it; so does every reproducer, to check it fails the same way without the fuz
 """
 from __future__ import annotations
 
-import itertools
 import math
 import shutil
 import tempfile
@@ -145,21 +144,11 @@ def _is_elf(target: Target) -> bool:
 
 def probe_lines(target: Target) -> Callable[[], None]:
     """Probes in the functions of ours and of an in-process module's folder (line_probes.py),
-    and the sim HAL's profiling clock (``perf_us``, wall microseconds: telemetry's compute
-    time) made to count its calls: which lines run must not hang on the machine's load (a
-    cycle slower than any before it), or a seed would not give one campaign. Control reads
-    ``ticks_us``, the virtual time, as before. Returns what puts the wall clock back."""
-    from firmware.hal import sim
-
+    and the profiling clock counting calls (``in_process.counted_profiling_clock``): which
+    lines run must not hang on the machine's load (a cycle slower than any before it), or a
+    seed would not give one campaign. Returns what puts the wall clock back."""
     roots = [ROOT / "firmware"]
     if target.main_file:
         roots.append(Path(target.main_file).resolve().parent)
     line_probes.install(roots)
-    wall = sim._perf_us
-    sim._perf_us = itertools.count().__next__
-
-    def undo() -> None:
-        sim._perf_us = wall
-    return undo
-
-
+    return in_process.counted_profiling_clock()
