@@ -7,8 +7,8 @@ microseconds), runs to the case's end, judges the run from its trace held in mem
 (held_trace.py: the boot's messages decoded once in the server, its own at the end) and
 sends back its verdict; the server waits for the next input. An execution so costs the
 window, not the boot. With line coverage the server puts probes in the firmware's functions
-as the run is built (line_probes.py), and each child counts the lines run after the fork. A child that sends nothing in ``HANG_WALL_S`` is a
-hang; one that dies is a crash.
+as the run is built (line_probes.py), and each child counts the lines run after the fork.
+A child that sends nothing in ``HANG_WALL_S`` is a hang; one that dies is a crash.
 
 Servers are processes of their own (``python -m host_tools.bus_fuzz.server``), started
 the same way beside this process or inside a Dask worker (``run_batch``), talking in
