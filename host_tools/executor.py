@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import multiprocessing
+import socket
+from urllib.parse import urlsplit
 from typing import Any, Callable, Sequence
 
 from hil.link.firmware_process import runs_share_cores
@@ -38,9 +40,11 @@ class Executor:
         def done(n: int) -> None:
             report(self.progress, desc, n, len(specs))
 
-        done(0)
         if self.scheduler:
-            return self._dask(fn, specs, done)
+            client = dask_client(self.scheduler)    # refused before the progress starts
+            done(0)
+            return self._dask(client, fn, specs, done)
+        done(0)
         if self.workers == 1 or len(specs) <= 1:
             out = []
             for s in specs:
@@ -63,14 +67,11 @@ class Executor:
                 done(n)
         return results
 
-    def _dask(self, fn: Callable[[Any], Any], specs: Sequence[Any],
+    @staticmethod
+    def _dask(client: Any, fn: Callable[[Any], Any], specs: Sequence[Any],
               done: Callable[[int], None]) -> list[Any]:
-        from distributed import Client, as_completed
+        from distributed import as_completed
 
-        try:
-            client = Client(self.scheduler, timeout="10s")
-        except (OSError, TimeoutError) as exc:
-            raise UserError(f"cannot reach Dask scheduler {self.scheduler}: {exc}") from None
         try:
             futures = client.map(fn, list(specs), pure=False)
             index = {f.key: i for i, f in enumerate(futures)}
@@ -81,3 +82,31 @@ class Executor:
             return results
         finally:
             client.close()
+
+
+def dask_client(scheduler: str) -> Any:
+    """A ``distributed.Client`` on ``scheduler``, or a UserError saying why not. A TCP
+    address is tried first, so a refused one is named at once: Dask's own connect retries
+    it until its timeout (10 s here)."""
+    require("distributed")
+    from distributed import Client
+
+    _probe(scheduler)
+    try:
+        return Client(scheduler, timeout="10s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise UserError(f"cannot reach Dask scheduler {scheduler}: {exc}") from None
+
+
+def _probe(scheduler: str) -> None:
+    parts = urlsplit(scheduler)
+    try:
+        port = parts.port
+    except ValueError:
+        raise UserError(f"Dask scheduler {scheduler!r}: the port is not a number") from None
+    if parts.scheme != "tcp" or not parts.hostname or port is None:
+        return
+    try:
+        socket.create_connection((parts.hostname, port), timeout=10).close()
+    except OSError as exc:
+        raise UserError(f"cannot reach Dask scheduler {scheduler}: {exc}") from None

@@ -64,7 +64,7 @@ async def _drop_out(url: str) -> None:
 
 def test_live_channels_reach_a_websocket_client():
     proc = subprocess.Popen([*HEXHIL, "run", "scenarios/obstacles-high-large.toml",
-                             "--duration", "10", "--live", "0", "--realtime"], cwd=ROOT,
+                             "--duration", "4", "--live", "0", "--realtime"], cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         line = proc.stdout.readline()
@@ -73,13 +73,13 @@ def test_live_channels_reach_a_websocket_client():
         port = int(url.rsplit(":", 1)[1])
         assert _listening_on(port) == ["0100007F"]  # 127.0.0.1 only
         asyncio.run(_drop_out(url))
-        counts = asyncio.run(_watch(url, 9.0))   # stops once every channel has arrived
+        counts = asyncio.run(_watch(url, 3.5))   # stops once every channel has arrived
         assert set(counts) == set(WANTED), counts
         out, err = proc.communicate(timeout=60)
     finally:
         proc.kill()
     assert proc.returncode == 0, err
-    assert "10.0 s simulated" in out
+    assert "4.0 s simulated" in out
 
 
 async def _advertised_at_connect(url: str) -> set[str]:

@@ -19,6 +19,8 @@
 #define FS_PER_S 1000000000000000LL
 #define NONE (-1LL)
 #define PERIPH_BASE 0x40000000ULL
+#define PPB_BASE 0xE0000000ULL
+#define SYSTICK_CSR 0xE000E010ULL
 #define USART2_PAGE 17          /* (0x40004400 - PERIPH_BASE) >> 10 */
 #define WAITS 256               /* open-addressed set of (pc, register, value) */
 #define ACTIVE_MAX 128          /* each of the 102 exceptions is active at most once */
@@ -146,6 +148,7 @@ typedef struct {
     int32_t quiet_hold;
     int32_t q_seen;              /* 1: ``q`` holds the state at the end of a quiet chunk */
     struct quiet *q;             /* quiet.py's steps done here (bc_quiet_init) */
+    mmio_read_t py_ppb_read;     /* mmio.py ``ppb_read``: the PPB's reads but SysTick CSR's */
 } bc_t;
 
 /* quiet.py ``QuietLoops`` in C: the state recorded at the end of a quiet chunk (cycle,
@@ -195,7 +198,7 @@ F(ctr, ctr) F(pc, pc) F(chunk0, chunk0) F(cyc, cyc) F(fs0, fs0) F(cyc0, cyc0)
     F(masked_steps, masked_steps) F(pub_count, pub_count) F(pub_limit, pub_limit)
     F(pub_pc, pub_pc) F(engine_counts, engine_counts) F(u2_idle_at, u2_idle_at)
     F(u2_idle_live, u2_idle_live) F(u2_idle_tid, u2_idle_tid) F(u2_idle_seen, u2_idle_seen)
-    F(quiet_hold, quiet_hold) F(q_seen, q_seen) F(q, q)
+    F(quiet_hold, quiet_hold) F(q_seen, q_seen) F(q, q) F(py_ppb_read, py_ppb_read)
 };
 #undef F
 
@@ -338,6 +341,14 @@ static void systick_wrapped(bc_t *s, int64_t at) {
     int64_t hz = (s->st_csr & 4) ? s->hz : s->hz / 8;
     __int128 span = (__int128)(s->st_rvr + 1) * FS_PER_S;
     bc_timer_set(s, s->st_tid, at + (int64_t)((span + hz - 1) / hz));
+}
+
+/* SysTick's CSR read (systick.py ``read``): ENABLE, TICKINT, CLKSOURCE and COUNTFLAG,
+ * which the read clears */
+static uint32_t systick_csr(bc_t *s) {
+    uint32_t v = ((uint32_t)s->st_csr & 7) | (s->st_countflag ? 0x10000u : 0);
+    s->st_countflag = 0;
+    return v;
 }
 
 static void rx_deliver(bc_t *s, int64_t at);
@@ -813,6 +824,24 @@ void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, voi
     bc_usart_write(s, off, (uint32_t)(value & 0xFFFFFFFF));
     if (s->pending_n && (bc_next_exception(s) >= 0 || masked_ready(s))) cut_after(s);
     failed(s);
+}
+
+/* Unicorn's MMIO read callback for the private peripheral bus: SysTick's CSR, which an
+ * interpreter's SysTick handler and its microsecond clock read each time, is mmio.py
+ * ``ppb_read`` and systick.py ``read`` in C (the chunk still ends in Python, as after
+ * that callback); every other register is Python's. */
+uint64_t bc_ppb_read(void *uc, uint64_t offset, unsigned size, void *ud) {
+    bc_t *s = ud;
+    if ((offset & ~3ULL) != SYSTICK_CSR - PPB_BASE || s->st_tid < 0)
+        return s->py_ppb_read(uc, offset, size, 0);
+    s->touched++;
+    s->mmio_n++;
+    due(s);
+    uint32_t value = sized(systick_csr(s), offset, size);
+    if (polled(s, (uint32_t)(PPB_BASE + offset), value))
+        value = sized(systick_csr(s), offset, size);
+    failed(s);
+    return value;
 }
 
 /* the PC as Unicorn's registers say it (the public engine's word holds the last

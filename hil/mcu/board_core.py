@@ -1,6 +1,6 @@
 """The ELF board's hot path compiled (hil/mcu/board_core.c), through ctypes: the event heap,
 USART2 with its byte timing, the servo line's outgoing burst, PA1's turns and PB's switch
-reads, and the poll skipper's known waits and known non-waits.
+reads, SysTick's CSR reads, and the poll skipper's known waits and known non-waits.
 
 A firmware sending servo packets spends its time on USART2: a byte written to DR, a poll of
 TXE skipped to the byte's end, the next byte. In Python each of those is a register
@@ -89,7 +89,7 @@ class Shared(ctypes.Structure):
                 ("pub_count", ctypes.c_uint64), ("pub_limit", ctypes.c_uint64),
                 ("pub_pc", ctypes.c_uint32), ("engine_counts", _I32), ("u2_idle_at", _I64),
                 ("u2_idle_live", _I32), ("u2_idle_tid", _I32), ("u2_idle_seen", _I32),
-                ("quiet_hold", _I32), ("q_seen", _I32), ("q", _P)]
+                ("quiet_hold", _I32), ("q_seen", _I32), ("q", _P), ("py_ppb_read", _P)]
 
 
 class SharedField:
@@ -378,13 +378,13 @@ class NativeBoard:
         return data, st.burst_fs, st.burst_dir
 
 
-def front(shared: Shared, py_read: Any, py_write: Any) -> tuple[Any, Any]:
-    """The C MMIO callbacks for the peripheral region (cast for ``uc_mmio_map``), the
-    Python ones behind them for every page but USART2's."""
-    shared.py_read = ctypes.cast(py_read, _P).value
-    shared.py_write = ctypes.cast(py_write, _P).value
-    return (ctypes.cast(_LIB.bc_mmio_read, type(py_read)),
-            ctypes.cast(_LIB.bc_mmio_write, type(py_write)))
+def front(shared: Shared, py_read: Any, py_write: Any, ppb_read: Any) -> tuple[Any, ...]:
+    """The C MMIO callbacks (peripherals, PPB reads), Python's behind: all but USART2, CSR."""
+    pairs = (("py_read", "bc_mmio_read", py_read), ("py_write", "bc_mmio_write", py_write),
+             ("py_ppb_read", "bc_ppb_read", ppb_read))
+    for field, _, fn in pairs:
+        setattr(shared, field, ctypes.cast(fn, _P).value)
+    return tuple(ctypes.cast(getattr(_LIB, c), type(fn)) for _, c, fn in pairs)
 
 
 def add_wait(shared: Shared, pc: int, addr: int, value: int) -> None:

@@ -48,13 +48,14 @@ class PeripheralSpace:
         self._callbacks = (MMIO_READ_CFUNC(self.read), MMIO_WRITE_CFUNC(self.write),
                            MMIO_READ_CFUNC(self.ppb_read), MMIO_WRITE_CFUNC(self.ppb_write))
         read, write, data = self._callbacks[:2] + (None,)
+        ppb_read = self._callbacks[2]
         if self.board.native is not None:
             shared = self.board.core.shared
-            read, write = front(shared, *self._callbacks[:2])
+            read, write, ppb_read = front(shared, *self._callbacks[:3])
             data = ctypes.addressof(shared)
         if uclib.uc_mmio_map(uc._uch, PERIPH_BASE, PERIPH_SIZE, read, data, write, data):
             raise RuntimeError("Unicorn refused to map the peripherals")
-        if uclib.uc_mmio_map(uc._uch, PPB_BASE, PPB_SIZE, self._callbacks[2], None,
+        if uclib.uc_mmio_map(uc._uch, PPB_BASE, PPB_SIZE, ppb_read, data,
                              self._callbacks[3], None):
             raise RuntimeError("Unicorn refused to map the private peripheral bus")
         for alias in self.aliases():

@@ -113,16 +113,9 @@ class _Runner:
         self.servers: fork_server.Servers | None = None
         self.client: Any = None
         if settings.scheduler:
-            from host_tools.extras import require
+            from host_tools.executor import dask_client
 
-            require("distributed")
-            from distributed import Client
-
-            try:
-                self.client = Client(settings.scheduler, timeout="10s")
-            except (OSError, TimeoutError) as exc:
-                raise UserError(f"cannot reach Dask scheduler {settings.scheduler}: "
-                                f"{exc}") from None
+            self.client = dask_client(settings.scheduler)
         else:
             self.servers = fork_server.Servers(target, settings.jobs)
 

@@ -283,6 +283,9 @@ def _interrupted(exc: BaseException | None) -> bool:
 
 def main(argv: list[str] | None = None) -> int:
     if argv is None:  # the console script, not a test calling main() in-process
+        # numpy's matrices here are small: OpenBLAS's worker threads would only spin on
+        # start-up, on a core the emulated chip could use (set the variable to choose)
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
         signal.signal(signal.SIGTERM, _terminated)
         if signal.getsignal(signal.SIGINT) is signal.default_int_handler:   # not ignored
             signal.signal(signal.SIGINT, _terminated)
