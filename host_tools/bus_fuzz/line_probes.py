@@ -37,7 +37,7 @@ def install(roots: Sequence[Path]) -> None:
     prefixes = tuple(str(r) + os.sep for r in roots)
     by_file: dict[str, list[types.FunctionType]] = {}
     for obj in gc.get_objects():
-        if (isinstance(obj, types.FunctionType) and PROBE not in obj.__code__.co_names
+        if (type(obj) is types.FunctionType and PROBE not in obj.__code__.co_names
                 and obj.__code__.co_filename.startswith(prefixes)):
             by_file.setdefault(obj.__code__.co_filename, []).append(obj)
     for filename, functions in sorted(by_file.items()):
