@@ -176,10 +176,7 @@ class LinkServer:
 
     def idle_to(self, wake_us: int) -> None:
         """The line idles to ``wake_us``, stopping at each host node's tick on the way
-        (docs/api.md ``HostNode``); then ``on_wake`` at the wake. What the firmware printed
-        before it slept is taken first, stamped now."""
-        if self.console is not None:
-            self.console()
+        (docs/api.md ``HostNode``); then ``on_wake`` at the wake."""
         clock, bus, next_tick = self.clock, self.bus, self.sim.next_tick_us
         while True:
             due = next_tick()
@@ -293,6 +290,8 @@ class LinkServer:
     def _answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
                 closed: bool, end_us: int, result: RunTally) -> bool:
         clock, rec = self.clock, self.sim.recorder
+        if self.console is not None:   # what it printed since the last reply: of that time
+            self.console()
         reply, slept, reads = None, False, False
         if self.lookahead is not None:
             self.lookahead.settle(msgs)
