@@ -64,9 +64,10 @@ def board():
 def _synced_print(*args, **kwargs):
     """``print`` once the host's clock is the board's: the host stamps a printed line with
     its time at the board's next request, so a board ahead of it (busy-wait polls, a sleep
-    kept on the board) asks at ``now_us`` first, as a poll does."""
+    kept on the board) asks at ``now_us`` first, as a poll does; not from a pin's irq handler,
+    which runs while the board takes a reply (its line has the reply's time)."""
     b = _board
-    if b is not None and not b.ended and b.now_us > b.link.t_us:
+    if b is not None and not b.ended and not b.in_handler and b.now_us > b.link.t_us:
         b.line(b"", True)
     _print(*args, **kwargs)
 
@@ -99,6 +100,7 @@ class Board:
         self.can_rx = []
         self.can_sync_us = 0        # when the host last handed CAN frames over
         self.ended = False
+        self.in_handler = False     # a pin's irq handler runs (from a reply's switch levels)
         builtins.print = _synced_print
 
     # --- time -----------------------------------------------------------------------
@@ -237,7 +239,11 @@ class Board:
                 pin, handler, trigger = self.irqs[i]
                 falling = bits & (1 << i)       # pressed pulls the input low
                 if trigger & (pin.IRQ_FALLING if falling else pin.IRQ_RISING):
-                    handler(pin)
+                    self.in_handler = True    # inside a reply: no question to the host
+                    try:
+                        handler(pin)
+                    finally:
+                        self.in_handler = False
 
     # --- the end ----------------------------------------------------------------------
     def _end(self):
