@@ -83,13 +83,14 @@ class LinkServer:
     def _timed_event(self, payload: bytes, result: RunTally) -> None:
         """A T: the event of ``at_us`` (a console line's end on the ELF board, which the
         board may post before the host's clock gets there); held until the world reaches
-        it, so that the trace, the result and the live console see it in time order."""
+        it, so that the trace, the result and the live console see it in time order. One
+        of a time the host has passed (the clock runs ahead of the board by a servo reply
+        it fetched) is taken at once, at its own time."""
         if len(payload) < sim_link.EVENT_AT_HEAD_LEN:
             raise LinkViolation(f"malformed timed event ({len(payload)} bytes)")
         at_us, kind = struct.unpack_from("<QB", payload, 0)
         text = bytes(payload[sim_link.EVENT_AT_HEAD_LEN:]).decode("utf-8", errors="replace")
-        self._timed.append((max(at_us, self._timed[-1][0] if self._timed else 0), kind, text,
-                            result))
+        self._timed.append((at_us, kind, text, result))
         self.take_due(self.clock.t_us)
 
     def take_due(self, t_us: int) -> None:
@@ -97,7 +98,7 @@ class LinkServer:
         while self._timed and self._timed[0][0] <= t_us:
             at_us, kind, text, result = self._timed.pop(0)
             try:
-                self.take_event(kind, text, result, max(at_us, self.clock.t_us))
+                self.take_event(kind, text, result, at_us)
             except ValueError as exc:   # JSON that does not parse
                 raise LinkViolation(f"malformed event {kind}: {exc}") from None
 

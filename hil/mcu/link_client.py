@@ -115,8 +115,9 @@ class LinkClient:
 
     def event_at(self, at_us: int, kind: int, text: str) -> None:
         """An event of virtual time ``at_us`` (a console line's end, which may lie past
-        the last request's time: the host takes it when its world gets there)."""
-        self._post(sim_link.OP_EVENT_AT, struct.pack("<QB", max(at_us, self.t_us), kind)
+        the last request's time, or before the last reply's while a servo reply's bytes
+        still arrive: the host takes it at that time)."""
+        self._post(sim_link.OP_EVENT_AT, struct.pack("<QB", at_us, kind)
                    + text.encode()[:sim_link.MAX_REPLY_LEN])
 
     def fault(self, name: str, detail: str) -> None:
