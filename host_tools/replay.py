@@ -46,7 +46,8 @@ IMPORTED = "trace import"   # host_tools/trace/import_logs.py SOURCE: a robot's 
 OP_TOPICS = {sim_link.OP_HELLO: "hello", sim_link.OP_TRANSACT: "uart", sim_link.OP_WRITE: "uart",
              sim_link.OP_SLEEP: "sleep", sim_link.OP_MORE: "sleep", sim_link.OP_CAN: "can",
              sim_link.OP_EVENT: "event", sim_link.OP_LINE: "uart",
-             sim_link.OP_DIRECTION: "uart", sim_link.OP_READS: "uart"}
+             sim_link.OP_DIRECTION: "uart", sim_link.OP_READS: "uart",
+             sim_link.OP_EVENT_AT: "event"}
 TOPICS = ("uart", "can", "sleep", "event", "hello")
 MAX_RATE = 1e6   # wall-clock pacing: a million times real time is as good as none
 # Events whose text is not a firmware output: wall-clock profiling counters.
@@ -60,9 +61,16 @@ JSON_EVENTS = (sim_link.EVENT_TACTILE, sim_link.EVENT_FAULT)
 def _compared(op: int, payload: bytes) -> bool:
     if op == sim_link.OP_HELLO:
         return False  # names the runtime, which --runtime may change on purpose
-    if op == sim_link.OP_EVENT and payload and payload[0] in UNCOMPARED_EVENTS:
-        return False
-    return True
+    return _event_kind(op, payload) not in UNCOMPARED_EVENTS
+
+
+def _event_kind(op: int, payload: bytes) -> int | None:
+    """An event's kind (E, or T after its time), None for any other message."""
+    if op == sim_link.OP_EVENT and payload:
+        return payload[0]
+    if op == sim_link.OP_EVENT_AT and len(payload) >= sim_link.EVENT_AT_HEAD_LEN:
+        return payload[sim_link.EVENT_AT_HEAD_LEN - 1]
+    return None
 
 
 def _same(e: tuple[int, bytes] | None, a: tuple[int, bytes] | None) -> bool:

@@ -26,6 +26,7 @@ Posted:
   W write       tx bytes (UART write, no reply expected)
   C can         u16 id, u8 dlc, data (dlc bytes)
   E event       u8 kind, utf-8 text (kinds below)
+  T timed event u64 at_us, u8 kind, utf-8 text (an event of that virtual time)
   D direction   u64 turn_us, u8 level (the virtual board's direction pin turned; L)
   B baud        u32 bit/s (the client's servo UART rate, the C SDK's HAL_UART_Init)
 """
@@ -44,8 +45,9 @@ OP_EVENT = 0x45   # 'E'
 OP_DIRECTION = 0x44  # 'D': the virtual board's direction pin turned (docs/link.md)
 OP_BAUD = 0x42    # 'B': the client's servo UART runs at this rate (docs/link.md)
 OP_READS = 0x52   # 'R': version 2, a cycle's status reads in one exchange (docs/link.md)
+OP_EVENT_AT = 0x54  # 'T': an event of a given virtual time, the ELF board's console line
 REQUEST_OPS = (OP_HELLO, OP_TRANSACT, OP_SLEEP, OP_MORE, OP_LINE, OP_READS)
-POSTED_OPS = (OP_WRITE, OP_CAN, OP_EVENT, OP_DIRECTION, OP_BAUD)
+POSTED_OPS = (OP_WRITE, OP_CAN, OP_EVENT, OP_DIRECTION, OP_BAUD, OP_EVENT_AT)
 
 FLAG_END = 0x01   # sleep reply: the run is over, exit the loop
 FLAG_MORE = 0x02  # sleep or more reply: further CAN frames are queued, ask with OP_MORE
@@ -78,6 +80,7 @@ LINE_POLL = 0x02     # line request flag: a busy-wait poll, not an action of the
 LINE_HEAD_LEN = 11   # line request: u64 at_us, u8 flags, u16 nrx
 DIRECTION_LEN = 9    # direction message: u64 turn_us, u8 level
 BAUD_LEN = 4         # baud message: u32 bit/s
+EVENT_AT_HEAD_LEN = 9   # timed event: u64 at_us, u8 kind (the text follows)
 LINE_REPLY_HEAD_LEN = 20  # line reply: t_us, u8 flags, u8 switches, u64 next_rx_us, u16 pending
 NO_RX = 0            # line reply's next_rx_us when no byte is on its way
 READ_HEAD_LEN = 11   # a read of R: u8 id, u8 nparams, u8 retries, u8 flags, u8 skip, u16 nrx,

@@ -84,6 +84,16 @@ def test_the_bare_metal_firmware_pings_18_servos_moves_one_and_counts_cycles(elf
     # DWT's CYCCNT over 1000 SysTick periods: 100 M cycles a virtual second (PLL at 100 MHz)
     cycles = int(re.fullmatch(r"bare-metal: (\d+) cycles in 1000 SysTick ms", lines[1])[1])
     assert abs(cycles - 100_000_000) <= 100, cycles
+    # a line's time is its newline's end, with no interrupt armed that makes the board
+    # sync often: the third line says at which DWT cycle the second one ended, and takes
+    # its own bytes' UART time (115200 baud: BRR 868 at 100 MHz, 86.8 us a frame) more
+    ended = int(re.fullmatch(r"bare-metal: that line ended at cycle (\d+)", lines[2])[1])
+    with Trace(trace) as t:
+        logged = [m.log_time_ns * 1e-9 for m in t.messages(["/telemetry"])]
+    (t2, _), (t3, _) = result.console[1:3]
+    assert logged[1:3] == pytest.approx([t2, t3], abs=1e-9)
+    assert 0 <= t2 - ended / 100e6 < 1e-3, (t2, ended)            # the boot before DWT's 0
+    assert 0 <= t3 - t2 - (len(lines[2]) + 1) * 10 * 868 / 100e6 < 20e-6, (t2, t3)
     seen = packets(trace)
     pings = [p["id"] for p in seen if p["direction"] == "tx" and p["instruction"] == "PING"]
     replies = [p["id"] for p in seen if p["direction"] == "rx" and p["id"] in range(1, 19)]

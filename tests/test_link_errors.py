@@ -38,6 +38,8 @@ def test_the_host_refuses_a_firmware_of_another_version(runtime):
     ("43", "230102" + "00", "malformed CAN message (4 bytes)"),
     ("45", "", "malformed event (no kind byte)"),
     ("45", "03" + b"{bad".hex(), "malformed event 3: "),
+    ("54", "0000", "malformed timed event (2 bytes)"),
+    ("54", "00" * 8 + "03" + b"{bad".hex(), "malformed event 3: "),
     ("58", "0008", "malformed message: "),
     ("52", "01", "malformed message: "),
     ("52", "010106010000" + "0e00" + "00000000" + "00", "read 0 skips on read 0, not an "

@@ -106,11 +106,15 @@ while not uart.any():             # busy-wait: each call costs the quantum
     pass
 t2 = time.ticks_us()
 print(r, time.ticks_diff(t1, t0), time.ticks_diff(t2, t1), uart.read(6))
+print("at", time.ticks_us())      # the board ahead of the host: the line has its time
 while True:
     time.sleep_ms(20)
 '''
     r, lines = board_run(tmp_path, src, "--duration", "0.2")
     assert r.returncode == 0, r.stderr
+    with Trace(tmp_path / "t.mcap") as t:
+        stamps_us = [m.log_time_ns // 1000 for m in t.messages(["/telemetry"])]
+    assert lines[1] == f"at {stamps_us[1]}", (lines, stamps_us)
     fields = lines[0].split(" ", 3)
     assert fields[0] == "None" and 5000 <= int(fields[1]) < 5200
     # 60 us of PING, 500 us of Return Delay, the first status byte: 10 us

@@ -12,11 +12,14 @@ loop that spins on them moves forward, deterministically. Sleeps jump to their e
 host is asked only when the answer can have changed: a UART write, a read that needs
 bytes (each reply says when the next bytes arrive, so ``any()`` counts them without
 asking), a sleep of ``SYNC_US`` or more, and after ``SYNC_US`` of local time (switch
-levels, the run's end). A turn of the direction pin is posted with the next question.
+levels, the run's end), and a ``print`` while the board is ahead of the host (the host
+stamps a printed line with its own time). A turn of the direction pin is posted with the
+next question.
 CAN frames come with the sleeps, and ``pyb.CAN.any()`` asks for them at most every
 ``SYNC_US``.
 MicroPython-compatible (unix port).
 """
+import builtins
 import struct
 
 from protocol import sim_link
@@ -30,6 +33,7 @@ DIR_PIN = "A1"
 SWITCH_PINS = ("B0", "B1", "B2", "B3", "B4", "B5")  # leg order LF, LM, LH, RF, RM, RH
 
 _board = None
+_print = builtins.print
 
 
 def _link_class():
@@ -55,6 +59,17 @@ def board():
     if _board is None:
         _board = Board()
     return _board
+
+
+def _synced_print(*args, **kwargs):
+    """``print`` once the host's clock is the board's: the host stamps a printed line with
+    its time at the board's next request, so a board ahead of it (busy-wait polls, a sleep
+    kept on the board) asks at ``now_us`` first, as a poll does; not from a pin's irq handler,
+    which runs while the board takes a reply (its line has the reply's time)."""
+    b = _board
+    if b is not None and not b.ended and not b.in_handler and b.now_us > b.link.t_us:
+        b.line(b"", True)
+    _print(*args, **kwargs)
 
 
 class Board:
@@ -85,6 +100,8 @@ class Board:
         self.can_rx = []
         self.can_sync_us = 0        # when the host last handed CAN frames over
         self.ended = False
+        self.in_handler = False     # a pin's irq handler runs (from a reply's switch levels)
+        builtins.print = _synced_print
 
     # --- time -----------------------------------------------------------------------
     def poll(self):
@@ -222,7 +239,11 @@ class Board:
                 pin, handler, trigger = self.irqs[i]
                 falling = bits & (1 << i)       # pressed pulls the input low
                 if trigger & (pin.IRQ_FALLING if falling else pin.IRQ_RISING):
-                    handler(pin)
+                    self.in_handler = True    # inside a reply: no question to the host
+                    try:
+                        handler(pin)
+                    finally:
+                        self.in_handler = False
 
     # --- the end ----------------------------------------------------------------------
     def _end(self):

@@ -228,9 +228,9 @@ def serve_process(firmware: ServedFirmware, name: str, server: LinkHost, end_us:
     """Start ``firmware``, serve its link to ``end_us`` and judge how it ended
     (``result.ending``: a crash, a hang, an early exit or a failed start is the run's
     verdict, not an error). Its stdout goes to a file: a firmware that prints a lot never
-    blocks on a full pipe; ``take_console`` reads what it printed, whole lines as the line
-    idles (so each is stamped with the virtual time it was printed at), the rest at the
-    end."""
+    blocks on a full pipe; ``take_console`` reads what it printed, whole lines at each
+    batch of its link messages (so each is stamped with the time of the host's last reply
+    before it, the firmware's time where its clock is the link's), the rest at the end."""
     hang_wall_s = HANG_WALL_S
     with tempfile.TemporaryFile() as console:
         try:

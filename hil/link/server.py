@@ -67,6 +67,8 @@ class LinkServer:
         self.watch = getattr(sim, "watch", None)   # the run's limits (hil/run/limits.py)
         self.version = sim_link.VERSION      # the link version the hello agreed
         self.reads = StatusReads(self.bus)   # R: the cycle's status reads
+        # timed events (T) ahead of the clock, in order: taken when the world reaches them
+        self._timed: list[tuple[int, int, str, RunTally]] = []
 
     def _event(self, payload: bytes, result: RunTally) -> None:
         if not payload:
@@ -78,9 +80,33 @@ class LinkServer:
         except ValueError as exc:   # JSON that does not parse
             raise LinkViolation(f"malformed event {kind}: {exc}") from None
 
-    def take_event(self, kind: int, text: str, result: RunTally) -> None:
-        """An event of the firmware's (``EVENT_*`` kind) into the result and the trace."""
-        t = self.clock.t_us
+    def _timed_event(self, payload: bytes, result: RunTally) -> None:
+        """A T: the event of ``at_us`` (a console line's end on the ELF board, which the
+        board may post before the host's clock gets there); held until the world reaches
+        it, so that the trace, the result and the live console see it in time order. One
+        of a time the host has passed (the clock runs ahead of the board by a servo reply
+        it fetched) is taken at once, at its own time."""
+        if len(payload) < sim_link.EVENT_AT_HEAD_LEN:
+            raise LinkViolation(f"malformed timed event ({len(payload)} bytes)")
+        at_us, kind = struct.unpack_from("<QB", payload, 0)
+        text = bytes(payload[sim_link.EVENT_AT_HEAD_LEN:]).decode("utf-8", errors="replace")
+        self._timed.append((at_us, kind, text, result))
+        self.take_due(self.clock.t_us)
+
+    def take_due(self, t_us: int) -> None:
+        """The held timed events of ``t_us`` or before, each at its own time."""
+        while self._timed and self._timed[0][0] <= t_us:
+            at_us, kind, text, result = self._timed.pop(0)
+            try:
+                self.take_event(kind, text, result, at_us)
+            except ValueError as exc:   # JSON that does not parse
+                raise LinkViolation(f"malformed event {kind}: {exc}") from None
+
+    def take_event(self, kind: int, text: str, result: RunTally, t_us: int | None = None
+                   ) -> None:
+        """An event of the firmware's (``EVENT_*`` kind) into the result and the trace, at
+        ``t_us`` (the clock's time unless given)."""
+        t = self.clock.t_us if t_us is None else t_us
         rec = self.sim.recorder
         if kind == sim_link.EVENT_EXCEPTION:
             result.exceptions.append(text)
@@ -106,7 +132,7 @@ class LinkServer:
             if not isinstance(fault, dict):
                 raise ValueError("a fault event is not a JSON object")
             self.run_fault(str(fault.get(ls.NAME, "firmware_fault")),
-                           str(fault.get(ls.DETAIL, "")), result)
+                           str(fault.get(ls.DETAIL, "")), result, t)
         else:
             if kind == sim_link.EVENT_LOG:
                 result.console_line(t * 1e-6, text)
@@ -114,10 +140,12 @@ class LinkServer:
             if rec is not None:
                 rec.telemetry(t, {"event": kind, "text": text})
 
-    def run_fault(self, name: str, detail: str, result: RunTally) -> None:
-        """A fault of the run now: counted, recorded, and a direction mistake (the virtual
-        board's, or one a C SDK's board saw) handed to the master check if one watches."""
-        t = self.clock.t_us
+    def run_fault(self, name: str, detail: str, result: RunTally, t_us: int | None = None
+                  ) -> None:
+        """A fault of the run now (or at ``t_us``): counted, recorded, and a direction
+        mistake (the virtual board's, or one a C SDK's board saw) handed to the master
+        check if one watches."""
+        t = self.clock.t_us if t_us is None else t_us
         result.count_fault(name)
         if self.sim.recorder is not None:
             self.sim.recorder.fault(t, name, detail)
@@ -149,21 +177,26 @@ class LinkServer:
 
     def idle_to(self, wake_us: int) -> None:
         """The line idles to ``wake_us``, stopping at each host node's tick on the way
-        (docs/api.md ``HostNode``); then ``on_wake`` at the wake. What the firmware printed
-        before it slept is taken first, stamped now."""
-        if self.console is not None:
-            self.console()
+        (docs/api.md ``HostNode``); then ``on_wake`` at the wake."""
         clock, bus, next_tick = self.clock, self.bus, self.sim.next_tick_us
         while True:
             due = next_tick()
             if due is None or due >= wake_us:
                 break
-            if due > clock.t_us:
-                bus.idle_until(due)
+            self._idle_line(due)
             self.on_wake(clock.t_us)
-        if wake_us > clock.t_us:
-            bus.idle_until(wake_us)
+        self._idle_line(wake_us)
         self.on_wake(clock.t_us)
+
+    def _idle_line(self, t_us: int) -> None:
+        """The line idles to ``t_us``, taking the held timed events on the way."""
+        timed, clock = self._timed, self.clock
+        while timed and timed[0][0] < t_us:
+            if timed[0][0] > clock.t_us:
+                self.bus.idle_until(timed[0][0])
+            self.take_due(clock.t_us)
+        if t_us > clock.t_us:
+            self.bus.idle_until(t_us)
 
     def _sleep_reply(self, wake_us: int, end_us: int, result: RunTally) -> tuple[bytes, bool]:
         flags = 0
@@ -258,6 +291,8 @@ class LinkServer:
     def _answer(self, conn: Connection | DirectConnection, msgs: list[tuple[int, bytes]],
                 closed: bool, end_us: int, result: RunTally) -> bool:
         clock, rec = self.clock, self.sim.recorder
+        if self.console is not None:   # what it printed since the last reply: of that time
+            self.console()
         reply, slept, reads = None, False, False
         if self.lookahead is not None:
             self.lookahead.settle(msgs)
@@ -284,6 +319,8 @@ class LinkServer:
                 self._can_from_firmware(payload, result)
             elif op == sim_link.OP_EVENT:
                 self._event(payload, result)
+            elif op == sim_link.OP_EVENT_AT:
+                self._timed_event(payload, result)
             elif op == sim_link.OP_SLEEP:
                 if len(payload) != 8:
                     raise LinkViolation(f"malformed sleep ({len(payload)} bytes, not 8)")
@@ -311,6 +348,8 @@ class LinkServer:
                 reply = self._hello_reply(payload, result)
             else:
                 raise LinkViolation(f"unknown message op 0x{op:02x}")
+        if self._timed:   # those the request's bus time passed; at the end, all
+            self.take_due(sim_link.ERROR_T_US if closed else clock.t_us)
         # Recording comes after the reply: the clock stays until the firmware's next
         # batch, so the recorder's work overlaps the firmware's instead of delaying it; so
         # does the world's stepping ahead after R (hil/run/lookahead.py), which records

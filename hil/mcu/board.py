@@ -152,7 +152,7 @@ class Board:
 
     # --- the console (USART1 and USART6: UsartWiring) ----------------------------------
     def sent(self, usart: Usart, byte: int, start_fs: int, end_fs: int) -> None:
-        self.console.put(bytes((byte,)))
+        self.console.put(bytes((byte,)), end_fs // FS_PER_US)
 
     def idle(self, usart: Usart, at_fs: int) -> None:
         """Nothing waits for a console line's end."""
@@ -161,10 +161,10 @@ class Board:
         if port.index == 0:
             self.line.pin(port.output(PA1))
 
-    def _console_line(self, text: str) -> None:
+    def _console_line(self, at_us: int, text: str) -> None:
         self.console_tail = self.console_tail[-(CONSOLE_TAIL - 1):] + [text]
         for kind, body in self.console_events(text):
-            self.link.event(kind, body)
+            self.link.event_at(at_us, kind, body)
 
     # --- clocks and reset -------------------------------------------------------------
     def _clock_changed(self) -> None:

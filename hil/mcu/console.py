@@ -2,7 +2,8 @@
 
 Each line becomes an event on the link as the other runtimes' prints do
 (hil/link/served_firmware.py ``console_events``): ``event KIND TEXT`` is that event (a C
-firmware's stats, stop or tactile events), any other line a log line in ``/telemetry``.
+firmware's stats, stop or tactile events), any other line a log line in ``/telemetry``;
+its time is when its last byte (the newline) left the UART, or the semihosting call's.
 Semihosting (``BKPT 0xAB``, r0 = operation, r1 = argument): SYS_WRITEC, SYS_WRITE0,
 SYS_WRITE (to any handle), SYS_EXIT and SYS_EXIT_EXTENDED; others answer -1.
 """
@@ -12,7 +13,7 @@ from typing import Callable
 
 from unicorn import arm_const as A
 
-from hil.mcu.core import Core
+from hil.mcu.core import FS_PER_US, Core
 
 SYS_WRITEC, SYS_WRITE0, SYS_WRITE, SYS_EXIT, SYS_EXIT_EXTENDED = 0x03, 0x04, 0x05, 0x18, 0x20
 ADP_APPLICATION_EXIT = 0x20026
@@ -21,14 +22,17 @@ MAX_STRING = 4096
 
 
 class Console:
-    """Collects bytes into lines; ``emit(line)`` hears each whole one."""
+    """Collects bytes into lines; ``emit(at_us, line)`` hears each whole one, with the
+    virtual time its last byte came at."""
 
-    def __init__(self, emit: Callable[[str], None]) -> None:
+    def __init__(self, emit: Callable[[int, str], None]) -> None:
         self.emit = emit
         self._buf = bytearray()
+        self._at_us = 0       # when the last byte came
         self.lines = 0
 
-    def put(self, data: bytes) -> None:
+    def put(self, data: bytes, at_us: int) -> None:
+        self._at_us = at_us
         for b in data:
             if b == 0x0A:
                 self.flush()
@@ -38,9 +42,11 @@ class Console:
                     self.flush()
 
     def flush(self) -> None:
+        """The line so far (at the run's end, one without its newline), at its last byte's
+        time."""
         if self._buf:
             self.lines += 1
-            self.emit(self._buf.decode(errors="replace"))
+            self.emit(self._at_us, self._buf.decode(errors="replace"))
             self._buf.clear()
 
 
@@ -48,10 +54,11 @@ def semihost(core: Core, console: Console) -> int | None:
     """Carry out the semihosting call the core stopped at; the exit code when the
     firmware asked to exit."""
     uc = core.uc
+    now_us = core.now_fs() // FS_PER_US
     op, arg = uc.reg_read(A.UC_ARM_REG_R0), uc.reg_read(A.UC_ARM_REG_R1)
     result = 0
     if op == SYS_WRITEC:
-        console.put(bytes(uc.mem_read(arg, 1)))
+        console.put(bytes(uc.mem_read(arg, 1)), now_us)
     elif op == SYS_WRITE0:
         out = bytearray()
         while len(out) < MAX_STRING:
@@ -59,10 +66,10 @@ def semihost(core: Core, console: Console) -> int | None:
             if b == 0:
                 break
             out.append(b)
-        console.put(bytes(out))
+        console.put(bytes(out), now_us)
     elif op == SYS_WRITE:
         buf, n = core.read32(arg + 4), core.read32(arg + 8)
-        console.put(bytes(uc.mem_read(buf, min(n, MAX_STRING))))
+        console.put(bytes(uc.mem_read(buf, min(n, MAX_STRING))), now_us)
     elif op == SYS_EXIT:
         return 0 if arg == ADP_APPLICATION_EXIT else 1
     elif op == SYS_EXIT_EXTENDED:

@@ -4,7 +4,7 @@ The ELF itself knows nothing of the link: the board's peripherals turn what the 
 does at its pins into the virtual board's messages, as firmware/virtual_board/vboard.py
 does for MicroPython. A byte burst on USART2 is a line request at its first byte's time,
 a turn of PA1 a direction message, a byte arriving at the RX pin a line request at its
-arrival, a console line an event, a bxCAN frame a CAN message, and a quiet millisecond a
+arrival, a console line a timed event (at its newline's end), a bxCAN frame a CAN message, and a quiet millisecond a
 sleep to now (the world, switches and CAN input move on). The host answers it all with
 hil/link/ as for any firmware, so trace, replay, faults, master check and expectations work
 unchanged; ``exchange`` is the in-process link (hil/link/firmware_process.py ``DirectConnection``).
@@ -112,6 +112,13 @@ class LinkClient:
 
     def event(self, kind: int, text: str) -> None:
         self._post(sim_link.OP_EVENT, bytes((kind,)) + text.encode()[:sim_link.MAX_REPLY_LEN])
+
+    def event_at(self, at_us: int, kind: int, text: str) -> None:
+        """An event of virtual time ``at_us`` (a console line's end, which may lie past
+        the last request's time, or before the last reply's while a servo reply's bytes
+        still arrive: the host takes it at that time)."""
+        self._post(sim_link.OP_EVENT_AT, struct.pack("<QB", at_us, kind)
+                   + text.encode()[:sim_link.MAX_REPLY_LEN])
 
     def fault(self, name: str, detail: str) -> None:
         """A mistake the board saw (a wrong baud, a byte cut by the direction pin)."""

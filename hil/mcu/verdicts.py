@@ -107,9 +107,10 @@ class Endings:
         would leave the chip."""
         self.verdict = verdict
         board = self.board
+        now_fs = board.core.now_fs()
         for usart in (board.usart1, board.usart6):
             if usart.tdr is not None:
-                board.sent(usart, usart.tdr, 0, 0)
+                board.sent(usart, usart.tdr, now_fs, now_fs)
                 usart.tdr = None
 
     def _exit(self) -> None:

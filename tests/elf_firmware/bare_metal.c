@@ -199,6 +199,10 @@ int main(void)
     console_put("bare-metal: ");
     console_num(cycles);
     console_put(" cycles in 1000 SysTick ms\n");
+    uint32_t ended = DWT_CYCCNT;                          /* the newline has left: TC */
+    console_put("bare-metal: that line ended at cycle ");
+    console_num(ended);
+    console_put("\n");
     for (;;) {
         __asm volatile ("wfi");
     }
