@@ -67,7 +67,7 @@ demo: $(STAMP)
 	$(BIN)/hexhil demo
 
 test: $(STAMP) toolchain gl sigrok
-	$(BIN)/python -m pytest -q -n auto --maxprocesses 4
+	$(BIN)/python -m pytest -q -n auto --maxprocesses 4 --dist loadfile
 
 test-slow: $(STAMP) toolchain gl sigrok
 	$(BIN)/python -m pytest -q -m slow

@@ -93,9 +93,10 @@ def test_bulk_read_of_two_addresses_and_fast_bulk_read(port) -> None:
 
 def test_eeprom_write_with_torque_on_is_refused(port) -> None:
     assert retry(lambda: PH.write1ByteTxRx(port, 4, xl.TORQUE_ENABLE, 1)) == (sdk.COMM_SUCCESS, 0)
-    res, err = retry(lambda: PH.write1ByteTxRx(port, 4, xl.RETURN_DELAY_TIME, 0))
+    before = retry(lambda: PH.read1ByteTxRx(port, 4, xl.RETURN_DELAY_TIME))[0]
+    res, err = retry(lambda: PH.write1ByteTxRx(port, 4, xl.RETURN_DELAY_TIME, 100 - before % 100))
     assert (res, err) == (sdk.COMM_SUCCESS, dx2.ERR_ACCESS)
-    assert retry(lambda: PH.read1ByteTxRx(port, 4, xl.RETURN_DELAY_TIME))[0] == 0
+    assert retry(lambda: PH.read1ByteTxRx(port, 4, xl.RETURN_DELAY_TIME))[0] == before
 
 
 def test_reboot_and_factory_reset(port) -> None:
