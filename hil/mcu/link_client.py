@@ -4,8 +4,9 @@ The ELF itself knows nothing of the link: the board's peripherals turn what the 
 does at its pins into the virtual board's messages, as firmware/virtual_board/vboard.py
 does for MicroPython. A byte burst on USART2 is a line request at its first byte's time,
 a turn of PA1 a direction message, a byte arriving at the RX pin a line request at its
-arrival, a console line a timed event (at its newline's end), a bxCAN frame a CAN message, and a quiet millisecond a
-sleep to now (the world, switches and CAN input move on). The host answers it all with
+arrival, a console line a timed event (at its newline's end), a bxCAN frame a CAN
+message, and a quiet millisecond a sleep to now (the world, switches and CAN input move
+on). The host answers it all with
 hil/link/ as for any firmware, so trace, replay, faults, master check and expectations work
 unchanged; ``exchange`` is the in-process link (hil/link/firmware_process.py ``DirectConnection``).
 """
