@@ -16,6 +16,7 @@ from __future__ import annotations
 import importlib
 import subprocess
 import sys
+import types
 from pathlib import Path
 
 from setuptools import Extension, setup
@@ -28,6 +29,21 @@ FLOAT = ["-ffp-contract=off"]   # numpy's and CPython's bits
 
 
 ROOT = Path(__file__).resolve().parent
+# the installed packages -> the repository's folders: the public API and command line are
+# ``hexhil``, the simulator, the contracts and the firmware live under it, so that no generic
+# top-level name (``protocol``, ``firmware``) is taken from other projects
+FOLDERS = {"hexhil": "host_tools", "hexhil.hil": "hil", "hexhil.protocol": "protocol",
+           "hexhil.firmware": "firmware"}
+
+
+def _packages() -> list[str]:
+    """Every package under the four folders (a folder with an ``__init__.py``)."""
+    out = []
+    for name, folder in FOLDERS.items():
+        top = ROOT / folder
+        out += [".".join((name, *init.parent.relative_to(top).parts))
+                for init in sorted(top.rglob("__init__.py"))]
+    return out
 
 
 def _core(name: str, sources: list[str], flags: list[str], depends: list[str] = (),
@@ -39,22 +55,27 @@ def _core(name: str, sources: list[str], flags: list[str], depends: list[str] = 
 
 
 CORES = [
-    _core("hil.world._drive_core", ["hil/world/drive_core.c"], FLOAT,
+    _core("hexhil.hil.world._drive_core", ["hil/world/drive_core.c"], FLOAT,
           depends=["hil/world/drive_layout.py"],
-          layout=("hil.world.drive_layout", "drive_layout.h")),
-    _core("hil.servobus._servo_core",
+          layout=("hexhil.hil.world.drive_layout", "drive_layout.h")),
+    _core("hexhil.hil.servobus._servo_core",
           ["hil/servobus/servo_core.c", "hil/servobus/reads_core.c"], FLOAT,
           depends=["hil/servobus/servo_core.h", "hil/servobus/servo_layout.py"],
-          layout=("hil.servobus.servo_layout", "servo_layout.h")),
-    _core("hil.mcu._board_core", ["hil/mcu/board_core.c"], []),   # integers only
+          layout=("hexhil.hil.servobus.servo_layout", "servo_layout.h")),
+    _core("hexhil.hil.mcu._board_core", ["hil/mcu/board_core.c"], []),   # integers only
 ]
 
 
 def _write_layout(module: str, header: str, folder: Path) -> None:
     """The core's header from its Layout (the source tree's hil/ and protocol/: plain
     Python and ctypes, importable in the build's isolated environment)."""
-    if str(ROOT) not in sys.path:
+    if str(ROOT) not in sys.path:   # the chip's names, which protocol/ imports itself by
         sys.path.insert(0, str(ROOT))
+    for name, source in FOLDERS.items():   # the installed names, their __init__ not run
+        if name not in sys.modules:
+            package = types.ModuleType(name)
+            package.__path__ = [str(ROOT / source)]
+            sys.modules[name] = package
     folder.mkdir(parents=True, exist_ok=True)
     (folder / header).write_text(importlib.import_module(module).LAYOUT.header())
 
@@ -87,4 +108,5 @@ def _zig_cc() -> list[str]:
     return [str(Path(ziglang.__file__).with_name("zig")), "cc"]
 
 
-setup(ext_modules=CORES, cmdclass={"build_ext": BuildCores})
+setup(packages=_packages(), package_dir=FOLDERS, ext_modules=CORES,
+      cmdclass={"build_ext": BuildCores})

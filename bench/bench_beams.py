@@ -9,10 +9,10 @@ from bench import Row
 
 
 def run() -> list[Row]:
-    from hil.world.beam_body import BeamParams
-    from hil.world.beams import BeamsWorld
-    from host_tools.papers.beam_traversal import estimator, landscape, planner
-    from host_tools.papers.beam_traversal.push import push_samples
+    from hexhil.hil.world.beam_body import BeamParams
+    from hexhil.hil.world.beams import BeamsWorld
+    from hexhil.papers.beam_traversal import estimator, landscape, planner
+    from hexhil.papers.beam_traversal.push import push_samples
 
     rows: list[Row] = []
     poses, forces = push_samples(0.25, 0.27, 0.0, 0.0, 0.2, 300, 1)     # Table 1 set-up, 20 % noise

@@ -9,11 +9,11 @@ import time
 from pathlib import Path
 
 from bench import Row
-from hil.servobus.line import Bus
-from hil.clock import VirtualClock
-from hil.servobus.ax12_servo import Servo
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil.servobus.line import Bus
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.servobus.ax12_servo import Servo
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -63,7 +63,7 @@ def pty_round_trips(n: int = 400) -> list[float]:
     """dynamixel-sdk read2ByteTxRx on `hexhil bus --pty`, Return Delay 0, seconds each."""
     import dynamixel_sdk as sdk
 
-    proc = subprocess.Popen([sys.executable, "-m", "host_tools.cli", "bus", "--pty", "--servos", "2"],
+    proc = subprocess.Popen([sys.executable, "-m", "hexhil.cli", "bus", "--pty", "--servos", "2"],
                             cwd=ROOT, stdout=subprocess.PIPE, text=True)
     try:
         path = proc.stdout.readline().strip().split(": ", 1)[1]

@@ -11,8 +11,8 @@ import tempfile
 from pathlib import Path
 
 from bench import Row
-from host_tools import Run
-from host_tools.c_sdk import build
+from hexhil import Run
+from hexhil.c_sdk import build
 
 DURATION_S = 10.0
 REPEATS = 3

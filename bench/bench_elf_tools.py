@@ -13,8 +13,8 @@ import time
 from pathlib import Path
 
 from bench import Row
-from host_tools import Run
-from host_tools.c_sdk import build
+from hexhil import Run
+from hexhil.c_sdk import build
 
 ROOT = Path(__file__).resolve().parent.parent
 MAIN = ROOT / "examples" / "c_tripod" / "main.c"
@@ -42,7 +42,7 @@ def _step_s(elf: Path) -> float:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
-    server = subprocess.Popen([sys.executable, "-m", "host_tools.cli", "run",
+    server = subprocess.Popen([sys.executable, "-m", "hexhil.cli", "run",
                                "scenarios/flat-tripod.toml", "--firmware", str(elf),
                                "--duration", "1", "--quiet", "--gdb", str(port)], cwd=ROOT,
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

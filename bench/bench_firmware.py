@@ -3,7 +3,7 @@ against the wire minimum of the transactions issued; real-time factor of the loo
 from __future__ import annotations
 
 from bench import Row
-from host_tools import Run
+from hexhil import Run
 
 DURATION_S = 10.0
 

@@ -13,7 +13,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from bench import Row
-from host_tools.bus_fuzz import campaign
+from hexhil.bus_fuzz import campaign
 
 ROOT = Path(__file__).resolve().parent.parent
 RUNS = 200        # the CLI's default: the servers' boots weigh as in a user's campaign

@@ -21,7 +21,7 @@ BUILD_RUNS = (("tripod", 11, 1), ("wave", 18, 2))
 
 
 def _training_and_inference(tmp: Path) -> list[Row]:
-    from host_tools.papers.tactile_hexapod.grnn import data, model, train
+    from hexhil.papers.tactile_hexapod.grnn import data, model, train
 
     runs, rows = data.synthetic(TRAIN_WALKS, 0, 1)
     path = data.write(tmp / "syn", runs, rows, data.feature_meta())
@@ -51,9 +51,9 @@ def _training_and_inference(tmp: Path) -> list[Row]:
 
 
 def _dataset_build(tmp: Path) -> Row:
-    from host_tools.papers.tactile_hexapod import experiment as th
-    from host_tools.papers.tactile_hexapod.grnn.dataset import build_one
-    from protocol import hexapod
+    from hexhil.papers.tactile_hexapod import experiment as th
+    from hexhil.papers.tactile_hexapod.grnn.dataset import build_one
+    from hexhil.protocol import hexapod
 
     times = []
     for gait, periods, seed in BUILD_RUNS:

@@ -14,8 +14,8 @@ import tempfile
 from pathlib import Path
 
 from bench import Row
-from hil.mcu.flash_fs import FlashFiles
-from host_tools import Run
+from hexhil.hil.mcu.flash_fs import FlashFiles
+from hexhil import Run
 
 ROOT = Path(__file__).resolve().parent.parent
 ELF = ROOT.parent / "shared" / "firmware" / "micropython" / "micropython-hexhil-f411.elf"

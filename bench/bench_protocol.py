@@ -15,8 +15,8 @@ import time
 from pathlib import Path
 
 from bench import Row
-from protocol import can_frames
-from protocol.dynamixel import v1 as dxl
+from hexhil.protocol import can_frames
+from hexhil.protocol.dynamixel import v1 as dxl
 from tests.mpy import ROOT, run_micropython
 
 CYCLES = 300

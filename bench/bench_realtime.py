@@ -19,13 +19,13 @@ CONFIG = {"gait": "tripod", "step_length_m": 0.05, "step_height_m": 0.03, "perio
 
 
 def _lockstep_dx_m() -> float:
-    out = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", SCENARIO, "--json"],
+    out = subprocess.run([sys.executable, "-m", "hexhil.cli", "run", SCENARIO, "--json"],
                          cwd=ROOT, capture_output=True, text=True, check=True).stdout
     return json.loads(out.strip().splitlines()[-1])["body"]["dx_m"]
 
 
 def realtime() -> dict:
-    rig = subprocess.Popen([sys.executable, "-m", "host_tools.cli", "bus", "--world", SCENARIO,
+    rig = subprocess.Popen([sys.executable, "-m", "hexhil.cli", "bus", "--world", SCENARIO,
                             "--duration", str(DURATION_S + 2), "--json"], cwd=ROOT,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     pty = rig.stdout.readline().strip().split(": ", 1)[1]

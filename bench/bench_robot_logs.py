@@ -9,14 +9,14 @@ import time
 from pathlib import Path
 
 from bench import Row
-from hil import scenario
-from hil.run.lockstep import Simulator
-from host_tools.dynamixel.conformance.capture import check_capture
-from host_tools.trace import recorder as rec
-from host_tools.trace.logic_capture import read_sr
-from host_tools.trace.protobuf import SerialBytes
-from host_tools.trace.reader import Trace
-from host_tools.trace.servo_capture import decode_line
+from hexhil.hil import scenario
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.dynamixel.conformance.capture import check_capture
+from hexhil.trace import recorder as rec
+from hexhil.trace.logic_capture import read_sr
+from hexhil.trace.protobuf import SerialBytes
+from hexhil.trace.reader import Trace
+from hexhil.trace.servo_capture import decode_line
 from tests import uart_wave
 
 RATE_HZ = 8_000_000

@@ -11,8 +11,8 @@ import tempfile
 from pathlib import Path
 
 from bench import Row
-from host_tools import Run
-from host_tools.c_sdk import build
+from hexhil import Run
+from hexhil.c_sdk import build
 
 ROOT = Path(__file__).resolve().parent.parent
 SHARED = ROOT.parent / "shared" / "firmware"

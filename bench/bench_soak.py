@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from bench import Row
-from host_tools import run_summary as run_mod
+from hexhil import run_summary as run_mod
 
 SOAK = Path(__file__).resolve().parent.parent / "scenarios" / "soak.toml"
 

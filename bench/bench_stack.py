@@ -18,14 +18,14 @@ from bench import Row
 from bench.bench_world import ROOT, bare_mj_step, world_alone
 from bench.cycle import (BREAKDOWN_S, ONCE, OVERHEAD, SCENARIO, TO_READS, breakdown,
                          light_cycle)
-from hil import scenario as scenario_mod
-from hil.clock import VirtualClock
-from hil.link.firmware_process import IN_PROCESS
-from hil.servobus.ax12_servo import Servo
-from hil.servobus.line import Bus
-from host_tools import Run
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.link.firmware_process import IN_PROCESS
+from hexhil.hil.servobus.ax12_servo import Servo
+from hexhil.hil.servobus.line import Bus
+from hexhil import Run
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 RUNS = 5
 GROWTH_S = 10.0
@@ -35,7 +35,7 @@ CEILING_RUNS = 3   # a slow minute moved one breakdown's ceiling by 0.3
 
 def _hexhil_rtf(*extra: str) -> float:
     """``hexhil run SCENARIO --seed 3 --json`` as a user runs it; its real-time factor."""
-    out = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", str(SCENARIO), "--seed",
+    out = subprocess.run([sys.executable, "-m", "hexhil.cli", "run", str(SCENARIO), "--seed",
                           "3", "--json", *extra], cwd=ROOT, capture_output=True, text=True,
                          check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])["real_time_factor"]

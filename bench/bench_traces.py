@@ -9,7 +9,7 @@ recorder's whole CPU cost). Read rate:
 ``Trace.messages`` (what replay, export and estimate read through) against the stock mcap
 reader in log-time order on the same file. Writers:
 a real run's messages, chunk by chunk as the recorder wrote them, through
-``host_tools.trace.writer.TraceWriter`` and through ``mcap.writer.Writer`` (zstd,
+``hexhil.trace.writer.TraceWriter`` and through ``mcap.writer.Writer`` (zstd,
 ``flush()`` after each chunk so it keeps the same crash-safety windows).
 """
 from __future__ import annotations
@@ -36,7 +36,7 @@ CAT_S = 30.0  # the trace `hexhil trace cat` is timed on
 def _time_inside_recorder(run, out: Path) -> float:
     """Seconds spent inside Recorder methods during one recorded run (a noise-free view
     of the same overhead: it does not depend on what else the shared machine runs)."""
-    from host_tools.trace import recorder as rec_mod
+    from hexhil.trace import recorder as rec_mod
 
     spent = [0.0]
     depth = [0]   # serial_stream may call serial: counted once
@@ -81,7 +81,7 @@ def _overhead(tmp: Path) -> list[Row]:
     """The overhead of each pair of neighbouring runs, median over the pairs: the machine
     is shared and its load drifts, so a pair sees the same conditions and the median
     ignores the disturbed ones (best-of each side compares two outliers)."""
-    from host_tools.run_summary import run
+    from hexhil.run_summary import run
 
     out = tmp / "run.mcap"
     run(SCENARIO, 1.0)  # warm-up: imports, MuJoCo model build, micropython start
@@ -106,7 +106,7 @@ def _overhead(tmp: Path) -> list[Row]:
                         f"alternated pairs (range {100 * ratios[0]:.1f}-{100 * ratios[-1]:.1f} "
                         f"%); medians {statistics.median(plain):.3f} s plain, "
                         f"{statistics.median(recorded):.3f} s with --out"))
-    from host_tools.trace.reader import info
+    from hexhil.trace.reader import info
 
     n = info(out)["messages"]
     rows.append(Row("traces: time inside the recorder", 100 * inside / statistics.median(plain),
@@ -116,10 +116,10 @@ def _overhead(tmp: Path) -> list[Row]:
 
 
 def _rates(tmp: Path) -> list[Row]:
-    from host_tools.trace.recorder import Recorder
-    from host_tools.trace.reader import Trace
-    from protocol import can_frames
-    from protocol.dynamixel import v1 as dynamixel
+    from hexhil.trace.recorder import Recorder
+    from hexhil.trace.reader import Trace
+    from hexhil.protocol import can_frames
+    from hexhil.protocol.dynamixel import v1 as dynamixel
 
     path = tmp / "big.mcap"
     pkt = dynamixel.read(1, 36, 2)
@@ -148,8 +148,8 @@ def _rates(tmp: Path) -> list[Row]:
 
 
 def _replay(tmp: Path) -> list[Row]:
-    from host_tools.replay import replay_firmware
-    from host_tools.run_summary import run
+    from hexhil.replay import replay_firmware
+    from hexhil.run_summary import run
 
     out = tmp / "replay.mcap"
     run(SCENARIO, RUN_S, out=str(out), overwrite=True)
@@ -182,7 +182,7 @@ def _run_chunks(path: Path) -> tuple[list[Any], list[Any], list[list[tuple[int, 
 
 def _write_ours(schemas: list[Any], channels: list[Any],
                 chunks: list[list[tuple[int, int, bytes]]]) -> int:
-    from host_tools.trace.writer import TraceWriter
+    from hexhil.trace.writer import TraceWriter
 
     buf = io.BytesIO()
     w = TraceWriter(buf, "hexhil bench")
@@ -244,7 +244,7 @@ def _write_sdk(schemas: list[Any], channels: list[Any],
 def _writers(tmp: Path) -> list[Row]:
     """The same messages of a real run through our writer and the stock one, alternated,
     median of ``WRITER_REPEATS`` each."""
-    from host_tools.run_summary import run
+    from hexhil.run_summary import run
 
     out = tmp / "writers.mcap"
     run(SCENARIO, RUN_S, out=str(out), overwrite=True)
@@ -272,8 +272,8 @@ def _writers(tmp: Path) -> list[Row]:
 
 def _cat(tmp: Path) -> list[Row]:
     """``hexhil trace cat`` (in this process, output discarded) of a 30 s run's trace."""
-    from host_tools.cli import main
-    from host_tools.run_summary import run
+    from hexhil.cli import main
+    from hexhil.run_summary import run
 
     out = tmp / "cat.mcap"
     run(SCENARIO, CAT_S, out=str(out), overwrite=True)

@@ -12,10 +12,10 @@ from pathlib import Path
 from typing import Any, Callable
 
 from bench import Row
-from hil.link.firmware_process import IN_PROCESS
-from hil.scenario.world_section import OBSTACLE_BODY
-from hil.world.hexapod_world import PHYSICS_DT_US, HexapodWorld
-from hil import scenario as scenario_mod
+from hexhil.hil.link.firmware_process import IN_PROCESS
+from hexhil.hil.scenario.world_section import OBSTACLE_BODY
+from hexhil.hil.world.hexapod_world import PHYSICS_DT_US, HexapodWorld
+from hexhil.hil import scenario as scenario_mod
 
 # the folder bench/ is in, links not followed: run from a folder that holds links to a
 # checkout's bench/ and scenarios/ only, the benches measure the installed package
@@ -75,7 +75,7 @@ def _full_stack() -> tuple[float, float, float, float]:
     alternated, best of ``REPEATS`` each (the machine is shared); (RTF recorded, RTF plain,
     RTF real model, sim s). The host and the firmware process are
     pinned to one core, as the issue's target is stated: nothing overlaps."""
-    from host_tools.papers.tactile_hexapod import experiment as th
+    from hexhil.papers.tactile_hexapod import experiment as th
 
     spec = th.RunSpec("bench", "tripod", 1.0, True, 1, "low", "small", periods=15, model="ideal",
                       python="micropython")
@@ -103,8 +103,8 @@ def _full_stack() -> tuple[float, float, float, float]:
 def _sweep(python: str) -> tuple[float, int]:
     """The whole ``hexhil experiment tactile-hexapod`` sweep (its defaults: 3 seeds, real
     model, one worker process per core) with the firmware under ``python``; (wall s, runs)."""
-    from host_tools.papers.tactile_hexapod import experiment as th
-    from host_tools.executor import Executor
+    from hexhil.papers.tactile_hexapod import experiment as th
+    from hexhil.executor import Executor
 
     with tempfile.TemporaryDirectory() as tmp:
         res = th.main(Path(tmp), th.SweepOptions(seeds=3, python=python),

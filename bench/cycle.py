@@ -13,15 +13,15 @@ from typing import Any, Callable
 from unittest import mock
 
 from bench.bench_world import ROOT
-from hil import scenario as scenario_mod
-from hil.link.firmware_child import FirmwareProcess
-from hil.link.firmware_process import Connection, DirectConnection
-from hil.link.server import LinkServer
-from hil.run.lockstep import Simulator
-from hil.run.rig import make_world
-from hil.servobus.reads_core import ReadsCore
-from host_tools.in_process import run_firmware
-from protocol import sim_link
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.link.firmware_child import FirmwareProcess
+from hexhil.hil.link.firmware_process import Connection, DirectConnection
+from hexhil.hil.link.server import LinkServer
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil.run.rig import make_world
+from hexhil.hil.servobus.reads_core import ReadsCore
+from hexhil.in_process import run_firmware
+from hexhil.protocol import sim_link
 
 SCENARIO = ROOT / "scenarios" / "obstacles-low-small.toml"   # the issue's command, seed 3
 BREAKDOWN_S = 10.0
@@ -147,8 +147,8 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
     rec = None
     with tempfile.TemporaryDirectory() as tmp:
         if record:
-            from host_tools.trace.recorder import open_recorder
-            from host_tools.trace.windows import encode_in_for
+            from hexhil.trace.recorder import open_recorder
+            from hexhil.trace.windows import encode_in_for
             rec = open_recorder(Path(tmp) / "b.mcap", {}, encode_in=encode_in_for(not in_process))
             for name in ("serial", "serial_stream"):   # called from inside the bus
                 setattr(rec, name, sw.wrap("recorder in bus", getattr(rec, name)))
@@ -221,8 +221,8 @@ def light_cycle(in_process: bool = False, record: bool = True) -> dict[str, floa
     slower than this one; a user's run has none, so the goal rows take their
     share from here. The total runs from the firmware's hello to its last reply (to where
     the host turns to the firmware's exit)."""
-    from host_tools.trace.recorder import open_recorder
-    from host_tools.trace.windows import encode_in_for
+    from hexhil.trace.recorder import open_recorder
+    from hexhil.trace.windows import encode_in_for
 
     sc = scenario_mod.load_scenario(SCENARIO)
     sw = _Stopwatch()

@@ -13,7 +13,7 @@ import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-import host_tools as hx  # noqa: E402  (the public API; the line above finds it from a clone)
+import hexhil as hx  # noqa: E402  (the public API; the line above finds it from a clone)
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "flat-tripod.toml"
 DURATION_S = 6.0

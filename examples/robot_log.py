@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import sys
 
-from host_tools.dynamixel.conformance.capture import check_capture
-from host_tools.replay import replay_firmware
-from host_tools.trace.import_logs import import_log
+from hexhil.dynamixel.conformance.capture import check_capture
+from hexhil.replay import replay_firmware
+from hexhil.trace.import_logs import import_log
 
 
 def main(capture: str, can_log: str, out: str) -> int:

@@ -20,7 +20,7 @@ from pathlib import Path
 import dynamixel_sdk as sdk
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from protocol import hexapod  # noqa: E402  (the robot's geometry, not a bus master)
+from hexhil.protocol import hexapod  # noqa: E402  (the robot's geometry, not a bus master)
 
 GOAL_POSITION, TORQUE_ENABLE, SWITCHES = 30, 24, 26
 SENSOR_ID = 100

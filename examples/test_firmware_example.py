@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-import host_tools as hx
-from host_tools.expect.pytest_plugin import assert_within
+import hexhil as hx
+from hexhil.expect.pytest_plugin import assert_within
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 BOARD_TRIPOD = Path(__file__).resolve().parent / "board_tripod.py"   # a firmware of yours

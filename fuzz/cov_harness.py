@@ -10,7 +10,7 @@ import sys
 
 import atheris
 
-INSTRUMENTED = ["protocol", "hil", "host_tools", "tomllib", "mcap"]
+INSTRUMENTED = ["hexhil", "tomllib", "mcap"]
 
 with atheris.instrument_imports(include=INSTRUMENTED):
     from fuzz.cov_targets import TARGETS

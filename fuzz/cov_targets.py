@@ -23,15 +23,15 @@ import cantools
 
 from fuzz import fuzz_bus, fuzz_v2_bus, fuzz_can, fuzz_elf, fuzz_logs, fuzz_trace
 from fuzz.hostile import GAP_US, Rng, garbage
-from hil import scenario
-from hil.mcu.elf_image import load_elf
-from hil.servobus.faults import Faults
-from host_tools.trace import reader, recover
-from protocol.dynamixel import ax12
-from protocol import can_frames as cf
-from protocol.dynamixel import v1 as dxl
-from protocol.dynamixel import v2 as dx2
-from protocol.errors import UserError
+from hexhil.hil import scenario
+from hexhil.hil.mcu.elf_image import load_elf
+from hexhil.hil.servobus.faults import Faults
+from hexhil.trace import reader, recover
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol import can_frames as cf
+from hexhil.protocol.dynamixel import v1 as dxl
+from hexhil.protocol.dynamixel import v2 as dx2
+from hexhil.protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
 _SCRATCH: list[Path] = []

@@ -12,11 +12,11 @@ from typing import Any, Callable
 
 from fuzz.hostile import Rng, garbage
 from fuzz.tally import Budget, Tally
-from hil.servobus.line import Bus
-from hil.clock import VirtualClock
-from hil.servobus.ax12_servo import Servo
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil.servobus.line import Bus
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.servobus.ax12_servo import Servo
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 SERVOS = 18
 READ_TIMEOUT_US = 3_000        # the longest reply (50-byte READ) after 508 us return delay

@@ -10,7 +10,7 @@ from pathlib import Path
 import cantools
 
 from fuzz.tally import Budget, Tally
-from protocol import can_frames as cf
+from hexhil.protocol import can_frames as cf
 
 DBC = Path(cf.__file__).with_name("hexhil.dbc")
 

@@ -10,8 +10,8 @@ from pathlib import Path
 
 from fuzz.fuzz_trace import mutate
 from fuzz.tally import Budget, Tally
-from hil.mcu.elf_image import load_elf
-from protocol.errors import UserError
+from hexhil.hil.mcu.elf_image import load_elf
+from hexhil.protocol.errors import UserError
 
 FLASH = 0x08000000
 

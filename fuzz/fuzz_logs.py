@@ -14,10 +14,10 @@ import can
 
 from fuzz.fuzz_trace import mutate
 from fuzz.tally import Budget, Tally
-from host_tools.dynamixel.conformance.capture import check_capture
-from host_tools.trace.import_logs import import_log
-from protocol.dynamixel import v1 as dxl
-from protocol.errors import UserError
+from hexhil.dynamixel.conformance.capture import check_capture
+from hexhil.trace.import_logs import import_log
+from hexhil.protocol.dynamixel import v1 as dxl
+from hexhil.protocol.errors import UserError
 
 RATE_HZ = 4_000_000
 BAUD = 1_000_000

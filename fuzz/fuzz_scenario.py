@@ -11,9 +11,9 @@ from pathlib import Path
 from typing import Any
 
 from fuzz.tally import Budget, Tally
-from hil import scenario
-from hil.servobus.faults import Faults
-from protocol.errors import UserError
+from hexhil.hil import scenario
+from hexhil.hil.servobus.faults import Faults
+from hexhil.protocol.errors import UserError
 
 SHIPPED = sorted((Path(__file__).resolve().parent.parent / "scenarios").glob("*.toml"))
 ODD_STRINGS = ("", "tripod", "wave", "beams", "hexapod", "original", "\u00e9\u0000", "x" * 300)

@@ -8,11 +8,11 @@ import tempfile
 from pathlib import Path
 
 from fuzz.tally import Budget, Tally
-from host_tools.trace import reader, recover
-from host_tools.trace.recorder import Recorder
-from protocol import can_frames as cf
-from protocol.dynamixel import v1 as dxl
-from protocol.errors import UserError
+from hexhil.trace import reader, recover
+from hexhil.trace.recorder import Recorder
+from hexhil.protocol import can_frames as cf
+from hexhil.protocol.dynamixel import v1 as dxl
+from hexhil.protocol.errors import UserError
 
 SECONDS = 3  # six 0.5 s chunks
 

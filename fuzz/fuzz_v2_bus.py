@@ -9,11 +9,11 @@ import random
 from fuzz.fuzz_bus import BusSpec, rare_id_writes, run_streams
 from fuzz.fuzz_v2_parser import garbage
 from fuzz.tally import Tally
-from hil.servobus.protocols.v2 import Bus2
-from hil.clock import VirtualClock
-from hil.servobus.xseries_servo import XSeriesServo
-from protocol.dynamixel import v2 as dx2
-from protocol.dynamixel import xl430 as xl
+from hexhil.hil.servobus.protocols.v2 import Bus2
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.servobus.xseries_servo import XSeriesServo
+from hexhil.protocol.dynamixel import v2 as dx2
+from hexhil.protocol.dynamixel import xl430 as xl
 
 SERVOS = 18
 READ_TIMEOUT_US = 20_000       # a SYNC_READ of 18 x 148 bytes would take longer: fine

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from fuzz.hostile import Rng
 from fuzz.tally import Budget, Tally
-from protocol.dynamixel import v2 as dx2
+from hexhil.protocol.dynamixel import v2 as dx2
 
 GAP_US = dx2.INTER_BYTE_TIMEOUT_US + 1
 BATCH = 2000

@@ -7,7 +7,10 @@ flipped bits, cut-off packets, runs of FF, a header with a large LEN) followed, 
 line has been idle longer than the AX-12's inter-byte timeout (100 ms), by one valid
 packet: the parser must find that packet again ("resync").
 """
-from protocol.dynamixel import v1 as dxl
+try:
+    from hexhil.protocol.dynamixel import v1 as dxl   # the host: the installed package
+except ImportError:
+    from protocol.dynamixel import v1 as dxl          # micropython: the chip's names
 
 GAP_US = dxl.INTER_BYTE_TIMEOUT_US + 1
 MASK32 = 0xFFFFFFFF

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
-from protocol.errors import BadFile
+from hexhil.protocol.errors import BadFile
 
 log = logging.getLogger(__name__)
 
@@ -32,8 +32,8 @@ CORES: dict[str, Path] = {
 }
 # each core's Layout (the module that holds it: light, setup.py imports it too)
 LAYOUTS: dict[str, str] = {
-    "drive bank": "hil.world.drive_layout",
-    "servo bank and reads": "hil.servobus.servo_layout",
+    "drive bank": "hexhil.hil.world.drive_layout",
+    "servo bank and reads": "hexhil.hil.servobus.servo_layout",
 }
 REBUILD = "pip install -e . (or make) builds it"
 _warned: set[Path] = set()

@@ -10,7 +10,7 @@ from enum import Enum
 from types import MappingProxyType
 from typing import Any, Mapping
 
-from protocol import link_schema as ls
+from hexhil.protocol import link_schema as ls
 
 LAST_LINES = 5   # of what the firmware printed, kept with an ending that is not COMPLETED
 CONSOLE_LINES = 20   # the console's last lines (virtual time, text) a run result keeps

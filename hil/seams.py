@@ -9,8 +9,8 @@ from typing import (TYPE_CHECKING, Any, Callable, Iterator, Mapping, Protocol, S
 if TYPE_CHECKING:
     import can
 
-    from hil.clock import VirtualClock
-    from hil.run_result import BeamsOutcome, RunTally
+    from hexhil.hil.clock import VirtualClock
+    from hexhil.hil.run_result import BeamsOutcome, RunTally
 
 
 @runtime_checkable

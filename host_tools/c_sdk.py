@@ -19,9 +19,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-from protocol.errors import UserError
+from hexhil.hil.link.firmware_process import ROOT
+from hexhil.protocol.errors import UserError
 
-ROOT = Path(__file__).resolve().parent.parent
 SDK_DIR = ROOT / "firmware" / "c_sdk"
 INCLUDE_DIR = SDK_DIR / "include"
 SOURCES = tuple(sorted((SDK_DIR / "src").glob("*.c")))

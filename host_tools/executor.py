@@ -13,10 +13,10 @@ import socket
 from urllib.parse import urlsplit
 from typing import Any, Callable, Sequence
 
-from hil.link.firmware_process import runs_share_cores
-from host_tools.extras import require
-from host_tools.progress import Progress, report
-from protocol.errors import UserError
+from hexhil.hil.link.firmware_process import runs_share_cores
+from hexhil.extras import require
+from hexhil.progress import Progress, report
+from hexhil.protocol.errors import UserError
 
 
 class Executor:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import importlib
 
-from protocol.errors import UserError
+from hexhil.protocol.errors import UserError
 
 # module -> (extra that installs it, what needs it)
 EXTRAS: dict[str, tuple[str, str]] = {

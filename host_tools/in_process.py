@@ -17,15 +17,16 @@ import sys
 from pathlib import Path
 from typing import Callable
 
-from firmware import main as firmware_main
-from firmware.hal import sim as sim_hal
-from firmware.hal.sim import Board
-from hil.link.firmware_process import IN_PROCESS
-from hil.run.limits import RunLimits
-from hil.run_result import RunResult
-from hil.run.lockstep import Simulator
-from protocol import sim_link
-from protocol.errors import BadValue
+from hexhil import chip_names
+from hexhil.firmware import main as firmware_main
+from hexhil.firmware.hal import sim as sim_hal
+from hexhil.firmware.hal.sim import Board
+from hexhil.hil.link.firmware_process import IN_PROCESS
+from hexhil.hil.run.limits import RunLimits
+from hexhil.hil.run_result import RunResult
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.protocol import sim_link
+from hexhil.protocol.errors import BadValue
 
 
 class Wire:
@@ -128,7 +129,7 @@ def load_main(path: str | Path) -> FirmwareMain:
     spec = importlib.util.spec_from_file_location(f"hexhil_in_process_{p.stem}", p)
     if spec is None or spec.loader is None or not p.is_file():
         raise BadValue(f"main_file {path}: not a Python file", params=("main_file",))
-    module = importlib.util.module_from_spec(spec)
+    module = chip_names.chip_module(importlib.util.module_from_spec(spec))
     sys.path.insert(0, str(p.parent))
     try:
         spec.loader.exec_module(module)

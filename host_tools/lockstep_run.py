@@ -17,26 +17,26 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from hil import scenario as scenario_mod
-from hil.canbus.bus import CanBus, Endpoint, standard_frame
-from hil.run.limits import RunLimits
-from hil.run.rig import make_world
-from hil.run_result import RunInterrupted, RunResult
-from hil.scenario import Runtime, Scenario, WorldKind
-from hil.seams import CanGateway, HostNode, TraceRecorder
-from hil.servobus.master_check import MasterCheck
-from hil.link.served_firmware import ElfFirmware, served_firmware
-from hil.mcu.flash_fs import FlashFiles
-from hil.mcu.verdicts import MASKED_LIMIT_S
-from hil.run.lockstep import Simulator
-from host_tools import plugins
-from host_tools.lifecycle import Closing
-from protocol import link_schema as ls
-from protocol.dynamixel import models
-from protocol.errors import UserError
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.canbus.bus import CanBus, Endpoint, standard_frame
+from hexhil.hil.run.limits import RunLimits
+from hexhil.hil.run.rig import make_world
+from hexhil.hil.run_result import RunInterrupted, RunResult
+from hexhil.hil.scenario import Runtime, Scenario, WorldKind
+from hexhil.hil.seams import CanGateway, HostNode, TraceRecorder
+from hexhil.hil.servobus.master_check import MasterCheck
+from hexhil.hil.link.served_firmware import ElfFirmware, served_firmware
+from hexhil.hil.mcu.flash_fs import FlashFiles
+from hexhil.hil.mcu.verdicts import MASKED_LIMIT_S
+from hexhil.hil.run.lockstep import Simulator
+from hexhil import plugins
+from hexhil.lifecycle import Closing
+from hexhil.protocol import link_schema as ls
+from hexhil.protocol.dynamixel import models
+from hexhil.protocol.errors import UserError
 
 if TYPE_CHECKING:
-    from host_tools.trace.windows import EncodeIn
+    from hexhil.trace.windows import EncodeIn
 
 NO_RUNTIME = "none"   # a beams run has no firmware
 
@@ -166,11 +166,11 @@ class Run(Closing):
         self.recorder: TraceRecorder | None = None
         self.live: Any = None
         if live_port is not None:
-            from host_tools.trace.live import LiveServer
+            from hexhil.trace.live import LiveServer
 
             self.live = LiveServer(live_port)
         if self.trace or live_port is not None:
-            from host_tools.trace.recorder import Recorder
+            from hexhil.trace.recorder import Recorder
 
             meta = trace_metadata(sc, self.seed, self._runtime_name(), self.overrides)
             extra = ({"flush_interval_us": self.live.flush_interval_us}
@@ -207,7 +207,7 @@ class Run(Closing):
         return self.check
 
     def _encode_in(self) -> "EncodeIn":
-        from host_tools.trace.windows import encode_in_for
+        from hexhil.trace.windows import encode_in_for
 
         return encode_in_for(not self.beams and (
             self.firmware.own_process if self.firmware is not None
@@ -267,7 +267,7 @@ class Run(Closing):
                 result = self._firmware_sim().run(self.duration_s, firmware=self.firmware,
                                                   limits=self.limits)
             else:
-                from host_tools import in_process
+                from hexhil import in_process
 
                 result = in_process.run(self._firmware_sim(), self.duration_s,
                                         self.runtime.value, self.limits, wrap, main)

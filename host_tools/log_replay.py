@@ -22,24 +22,24 @@ from typing import Any
 
 import can
 
-from hil import scenario as scenario_mod
-from hil.canbus.bus import CanBus
-from hil.clock import VirtualClock
-from hil.link.firmware_child import FirmwareProcess
-from hil.link.served_firmware import ElfFirmware, served_firmware
-from hil.link.server import LinkServer, SwitchSampler
-from hil.run_result import RunTally
-from hil.servobus.line import Bus
-from hil.servobus.wire import US_BITS, Burst
-from host_tools.dynamixel.decode import DECODERS, packet_spans
-from host_tools.replay_result import Divergence, ReplayResult
-from host_tools.trace.protobuf import CanFrame, SerialBytes, SwitchEdge
-from host_tools.trace.reader import Trace
-from host_tools.trace.topics import T_CAN_RAW, T_SERIAL, T_SWITCHES
-from protocol.dynamixel import models
-from protocol.dynamixel import v1 as dxl
-from protocol.dynamixel import v2 as dx2
-from protocol.errors import UserError
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.canbus.bus import CanBus
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.link.firmware_child import FirmwareProcess
+from hexhil.hil.link.served_firmware import ElfFirmware, served_firmware
+from hexhil.hil.link.server import LinkServer, SwitchSampler
+from hexhil.hil.run_result import RunTally
+from hexhil.hil.servobus.line import Bus
+from hexhil.hil.servobus.wire import US_BITS, Burst
+from hexhil.dynamixel.decode import DECODERS, packet_spans
+from hexhil.replay_result import Divergence, ReplayResult
+from hexhil.trace.protobuf import CanFrame, SerialBytes, SwitchEdge
+from hexhil.trace.reader import Trace
+from hexhil.trace.topics import T_CAN_RAW, T_SERIAL, T_SWITCHES
+from hexhil.protocol.dynamixel import models
+from hexhil.protocol.dynamixel import v1 as dxl
+from hexhil.protocol.dynamixel import v2 as dx2
+from hexhil.protocol.errors import UserError
 
 
 

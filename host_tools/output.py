@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from protocol.errors import UserError
+from hexhil.protocol.errors import UserError
 
 
 def check_output(path: str | Path, param: str, overwrite: bool = True) -> Path:

@@ -10,10 +10,10 @@ from __future__ import annotations
 from importlib.metadata import entry_points
 from typing import Any, Callable, Mapping, Protocol
 
-from hil.run_result import RunResult
-from hil.scenario import Scenario, WorldKind
-from hil.seams import CanGateway, CanHub, FirmwareWorld, HostNode, TraceRecorder
-from protocol.errors import UserError
+from hexhil.hil.run_result import RunResult
+from hexhil.hil.scenario import Scenario, WorldKind
+from hexhil.hil.seams import CanGateway, CanHub, FirmwareWorld, HostNode, TraceRecorder
+from hexhil.protocol.errors import UserError
 
 
 class SteppedRun(Protocol):

@@ -14,17 +14,17 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, Callable, Mapping, Sequence, Union
 
-from hil import scenario as scenario_mod
-from hil.servobus import serial_server
-from hil.run.realtime_rig import RealTimeRig
-from hil.scenario import DEFAULT_BAUD, Scenario
-from hil.seams import CanGateway
-from hil.servobus.switch_node import DEFAULT_ID
-from hil.run_result import BodyDisplacement
-from host_tools.lifecycle import Closing
-from host_tools.lockstep_run import trace_metadata
-from protocol.dynamixel import models
-from protocol.errors import UserError
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.servobus import serial_server
+from hexhil.hil.run.realtime_rig import RealTimeRig
+from hexhil.hil.scenario import DEFAULT_BAUD, Scenario
+from hexhil.hil.seams import CanGateway
+from hexhil.hil.servobus.switch_node import DEFAULT_ID
+from hexhil.hil.run_result import BodyDisplacement
+from hexhil.lifecycle import Closing
+from hexhil.lockstep_run import trace_metadata
+from hexhil.protocol.dynamixel import models
+from hexhil.protocol.errors import UserError
 
 EXTERNAL = "external"        # a run's firmware_runtime: the master on the line is not ours
 WORLD_STEP_US = 2_000        # the world catches up in steps this long
@@ -80,7 +80,7 @@ class RealTimeRun(Closing):
             scenario_mod.check_duration(duration_s, "duration_s")
         self.recorder = None
         if trace:
-            from host_tools.trace.recorder import Recorder
+            from hexhil.trace.recorder import Recorder
 
             self.recorder = Recorder(trace, {**trace_metadata(sc, seed, EXTERNAL),
                                              "command": "bus"},
@@ -134,7 +134,7 @@ class RealTimeRun(Closing):
         violations, pacing, and the client's line settings) as a ``ServeResult``."""
         try:
             if isinstance(transport, Rfc2217):
-                from hil.servobus.rfc2217_server import serve_rfc2217
+                from hexhil.hil.servobus.rfc2217_server import serve_rfc2217
 
                 serve_rfc2217(self.server, transport.port, transport.host, announce,
                                          transport.rts_direction)

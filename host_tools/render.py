@@ -14,9 +14,9 @@ import os
 from pathlib import Path
 from typing import Any, Iterator
 
-from host_tools.output import check_output, write_failed
-from host_tools.progress import Progress, report
-from protocol.errors import UserError
+from hexhil.output import check_output, write_failed
+from hexhil.progress import Progress, report
+from hexhil.protocol.errors import UserError
 
 GL_LIBRARIES = {"egl": ("EGL", "libegl1"), "osmesa": ("OSMesa", "libosmesa6")}
 CAMERAS = ("follow", "side")
@@ -54,8 +54,8 @@ def _ground_truth(path: str) -> tuple[dict[str, str], list[tuple[float, list[flo
     from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
     from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
 
-    from host_tools.trace.reader import open_trace
-    from host_tools.trace.topics import T_BODY, T_JOINTS
+    from hexhil.trace.reader import open_trace
+    from hexhil.trace.topics import T_BODY, T_JOINTS
 
     bodies: dict[int, list[float]] = {}
     joints: dict[int, list[float]] = {}
@@ -79,8 +79,8 @@ def _ground_truth(path: str) -> tuple[dict[str, str], list[tuple[float, list[flo
 
 def _world(meta: dict[str, str], path: str) -> Any:
     """The run's world (its obstacles) from the trace's scenario and seed."""
-    from hil.run.rig import make_world
-    from host_tools.lockstep_run import scenario_of_trace
+    from hexhil.hil.run.rig import make_world
+    from hexhil.lockstep_run import scenario_of_trace
 
     return make_world(*scenario_of_trace(meta, path))
 
@@ -137,7 +137,7 @@ def render(trace: str, out: str, camera: str = "follow", fps: float = 30.0,
     world = _world(meta, trace)
     import mujoco
 
-    from hil.world.scene import ROBOT_RGBA
+    from hexhil.hil.world.scene import ROBOT_RGBA
 
     model = mujoco.MjModel.from_xml_string(world.xml.replace("<worldbody>", FLOOR_XML, 1)
                                            .replace('name="ground" type="plane"',

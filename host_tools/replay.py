@@ -19,24 +19,24 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterable
 
-from hil import scenario as scenario_mod
-from hil.scenario import check_span
-from hil.scenario.rules import within
-from host_tools.dynamixel.decode import DECODERS
-from host_tools.replay_result import Divergence, ReplayResult
-from protocol import sim_link
-from protocol.dynamixel import models
-from hil.link.served_firmware import (BOARD_RUNTIME, EXECUTABLE, ElfFirmware, console_events,
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.scenario import check_span
+from hexhil.hil.scenario.rules import within
+from hexhil.dynamixel.decode import DECODERS
+from hexhil.replay_result import Divergence, ReplayResult
+from hexhil.protocol import sim_link
+from hexhil.protocol.dynamixel import models
+from hexhil.hil.link.served_firmware import (BOARD_RUNTIME, EXECUTABLE, ElfFirmware, console_events,
                                       served_firmware)
-from hil.mcu.flash_fs import FlashFiles
-from hil.mcu.replayed import ReplayedElf
-from host_tools import log_replay
-from hil.link.firmware_child import FirmwareProcess
-from hil.link.firmware_process import REQUEST_OPS, split_messages
-from host_tools.trace.protobuf import CanFrame, LinkExchanges
-from host_tools.trace.reader import Trace
-from host_tools.trace.topics import T_CAN_RAW, T_LINK
-from protocol.errors import UserError
+from hexhil.hil.mcu.flash_fs import FlashFiles
+from hexhil.hil.mcu.replayed import ReplayedElf
+from hexhil import log_replay
+from hexhil.hil.link.firmware_child import FirmwareProcess
+from hexhil.hil.link.firmware_process import REQUEST_OPS, split_messages
+from hexhil.trace.protobuf import CanFrame, LinkExchanges
+from hexhil.trace.reader import Trace
+from hexhil.trace.topics import T_CAN_RAW, T_LINK
+from hexhil.protocol.errors import UserError
 
 if TYPE_CHECKING:
     import can

@@ -13,10 +13,10 @@ from __future__ import annotations
 import math
 from xml.sax.saxutils import quoteattr
 
-from hil.world import actuator as act
-from hil.world.hexapod_world import RobotParams
-from protocol import hexapod as robot_desc
-from protocol.hexapod import LEGS
+from hexhil.hil.world import actuator as act
+from hexhil.hil.world.hexapod_world import RobotParams
+from hexhil.protocol import hexapod as robot_desc
+from hexhil.protocol.hexapod import LEGS
 
 SERVO_RANGE_RAD = math.radians(150)  # the AX-12's 300 deg travel, as the MJCF's joint range
 LINK_RADIUS_M = 0.012                 # the coxa and femur capsules of the MJCF

@@ -5,15 +5,15 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-from hil import scenario as scenario_mod
-from hil.canbus.socketcand import CanServer
-from hil.run.limits import RunLimits
-from hil.mcu.flash_fs import FlashFiles
-from hil.run_result import RunInterrupted, RunResult
-from hil.scenario import Scenario, WorldKind
-from host_tools import plugins
-from host_tools.lockstep_run import Run
-from protocol.errors import UserError
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.canbus.socketcand import CanServer
+from hexhil.hil.run.limits import RunLimits
+from hexhil.hil.mcu.flash_fs import FlashFiles
+from hexhil.hil.run_result import RunInterrupted, RunResult
+from hexhil.hil.scenario import Scenario, WorldKind
+from hexhil import plugins
+from hexhil.lockstep_run import Run
+from hexhil.protocol.errors import UserError
 
 CAN_WAIT_TIMEOUT_S = 60.0
 log = logging.getLogger(__name__)   # the addresses a client attaches to (hexhil prints them)

@@ -21,7 +21,7 @@ sys.path.insert(0, str(TESTS))
 from mpy import tool  # noqa: E402  (re-exported: the test files import it from here)
 
 # ``hexhil`` as a child process: the console script's own entry point, in this interpreter
-HEXHIL = [sys.executable, "-m", "host_tools.cli"]
+HEXHIL = [sys.executable, "-m", "hexhil.cli"]
 
 
 def hexhil(*argv: str | Path, timeout: float = 300, **kw) -> subprocess.CompletedProcess:
@@ -36,12 +36,12 @@ def hexhil_in_process(*argv: str | Path) -> subprocess.CompletedProcess:
     exit status, stdout and stderr that ``hexhil()`` gives, without a new interpreter's
     start-up and imports (MuJoCo's; about a second of CPU each). For a test of what a command
     does; one of the process around it (signals, exit on Ctrl-C) uses ``hexhil()``."""
-    from host_tools import cli
+    from hexhil import cli
 
     out, err = io.StringIO(), io.StringIO()
     here = os.getcwd()
     # the loggers a command routes to the terminal: as a new process has them, then back
-    loggers = [logging.getLogger(name) for name in ("hil", "host_tools", "hexhil.console")]
+    loggers = [logging.getLogger(name) for name in ("hexhil", "hexhil.console")]
     before = [(log.handlers[:], log.level, log.propagate) for log in loggers]
     for log in loggers:
         log.handlers[:], log.propagate = [], True

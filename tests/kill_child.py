@@ -13,11 +13,11 @@ import os
 import resource
 import sys
 
-from hil.clock import VirtualClock
-from hil.servobus import line as bus
-from hil.servobus import reads_core
-from host_tools import cli
-from host_tools.trace import recorder
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.servobus import line as bus
+from hexhil.hil.servobus import reads_core
+from hexhil import cli
+from hexhil.trace import recorder
 
 kill_at_us, signum, fsize = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
 in_recording = int(os.environ.get("KILL_IN_RECORDING", "0"))

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from hil.scenario import load_scenario
-from hil.link.served_firmware import served_firmware
-from hil.run.lockstep import Simulator
-from host_tools import c_sdk
+from hexhil.hil.scenario import load_scenario
+from hexhil.hil.link.served_firmware import served_firmware
+from hexhil.hil.run.lockstep import Simulator
+from hexhil import c_sdk
 
 ROOT = Path(__file__).resolve().parent.parent
 MCU = ROOT / "tests" / "mcu"

@@ -9,15 +9,15 @@ from pathlib import Path
 import pytest
 
 import uart_wave
-from hil import scenario
-from hil.run.lockstep import Simulator
-from host_tools.cli import main
-from host_tools.trace import recorder as rec
-from host_tools.trace.protobuf import CanFrame, SerialBytes
-from host_tools.trace.reader import Trace
+from hexhil.hil import scenario
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.cli import main
+from hexhil.trace import recorder as rec
+from hexhil.trace.protobuf import CanFrame, SerialBytes
+from hexhil.trace.reader import Trace
 
 ROOT = Path(__file__).resolve().parent.parent
-HEXHIL = [sys.executable, "-m", "host_tools.cli"]
+HEXHIL = [sys.executable, "-m", "hexhil.cli"]
 RATE_HZ = 8_000_000
 BAUD = 1_000_000
 

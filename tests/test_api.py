@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-import host_tools as hx
+import hexhil as hx
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -92,7 +92,7 @@ def test_the_example_runs_its_own_host_node_and_reads_the_trace_back(tmp_path):
 
 
 def test_the_grnn_dataset_reads_a_hexhil_run_trace_whose_scenario_file_is_gone(tmp_path):
-    from host_tools.papers.tactile_hexapod.grnn.dataset import rows_from_trace
+    from hexhil.papers.tactile_hexapod.grnn.dataset import rows_from_trace
 
     path = tmp_path / "walk.toml"
     path.write_text('[scenario]\nname = "walk"\nseed = 2\nduration_s = 6.0\n'
@@ -111,7 +111,7 @@ def test_a_real_time_run_serves_a_master_on_a_pty_and_records_its_scenario(tmp_p
 
     import serial
 
-    from protocol.dynamixel import v1 as dxl
+    from hexhil.protocol.dynamixel import v1 as dxl
 
     out = tmp_path / "bus.mcap"
     shipped = hx.load_scenario(ROOT / "scenarios" / "flat-tripod.toml")
@@ -166,7 +166,7 @@ def test_the_docs_examples_run_and_print_what_they_say(n: int, tmp_path: Path) -
 def test_one_result_form_the_tally_holds_the_results_fields():
     """A run's tally is RunResult's fields, mutable (declared once, in RunResult), bar the
     ones the firmware's stats or the host nodes give when it ends."""
-    from hil.run_result import RunTally
+    from hexhil.hil.run_result import RunTally
 
     tally = RunTally("micropython")
     after = {"cycles", "overruns", "host_nodes"}

@@ -23,8 +23,25 @@ FIRMWARE_RUNNERS = {"host_tools/in_process.py"}
 # The host's end of the link paces its polling by the gate the firmware's HAL uses
 # (firmware/hal/poll_gate.py): one rule for both ends, outside the link's contract.
 LINK_PACERS = {"hil/link/firmware_process.py"}
-PACKAGES = set(ALLOWED)
 MAX_LINES = 400
+# the installed names of the host's floors (setup.py FOLDERS); protocol/ and firmware/ import
+# each other by the chip's names, the top-level folders of the chip's filesystem
+INSTALLED = {"hexhil.hil": "hil", "hexhil.protocol": "protocol", "hexhil.firmware": "firmware",
+             "hexhil": "host_tools"}
+CHIP_FLOORS = ("protocol", "firmware")
+
+
+def floor_named(module: str, importer: str) -> str | None:
+    """The floor a module name points into from a file of floor ``importer`` (None: not the
+    project's). The host's floors write the installed names, the chip's its own; a chip name
+    written on the host, or an installed name on the chip, is its own violation."""
+    top, _, rest = module.partition(".")
+    if top == "hexhil":
+        floor = INSTALLED.get(f"hexhil.{rest.partition('.')[0]}", "host_tools")
+        return floor if importer not in CHIP_FLOORS else f"{floor} (by its installed name)"
+    if top in CHIP_FLOORS or top in ("hil", "host_tools"):
+        return top if importer in CHIP_FLOORS else f"{top} (by a bare name)"
+    return None
 
 
 def _modules() -> list[Path]:
@@ -40,12 +57,13 @@ def imported(node: ast.AST) -> list[str]:
     return []
 
 
-def project_imports(path: Path) -> list[tuple[int, str]]:
-    """(line, top-level package) of every project import in a file, nested ones too."""
+def project_imports(path: Path, importer: str) -> list[tuple[int, str]]:
+    """(line, floor) of every project import in a file of floor ``importer``, nested ones
+    too."""
     out = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        names = imported(node)
-        out += [(node.lineno, n.split(".")[0]) for n in names if n.split(".")[0] in PACKAGES]
+        floors = [floor_named(n, importer) for n in imported(node)]
+        out += [(node.lineno, f) for f in floors if f is not None]
     return out
 
 
@@ -55,15 +73,43 @@ def test_imports_stay_on_or_below_their_floor(path: Path) -> None:
     floor = rel.parts[0]
     allowed = ALLOWED[floor] | ({"firmware"} if rel.as_posix() in FIRMWARE_RUNNERS | LINK_PACERS
                                 else set())
-    bad = [f"line {line}: {floor} imports {pkg}" for line, pkg in project_imports(path)
+    bad = [f"line {line}: {floor} imports {pkg}" for line, pkg in project_imports(path, floor)
            if pkg not in allowed]
     assert not bad, bad
 
 
 def test_the_walker_sees_a_violation(tmp_path: Path) -> None:
     src = tmp_path / "m.py"
-    src.write_text("import os\ndef f():\n    from firmware import config\nfrom hil.servobus.line import Bus\n")
-    assert sorted(project_imports(src)) == [(3, "firmware"), (4, "hil")]
+    src.write_text("import os\ndef f():\n    from hexhil.firmware import config\n"
+                   "from hexhil.hil.servobus.line import Bus\nimport protocol.errors\n"
+                   "import hexhil as hx\n")
+    assert sorted(project_imports(src, "hil")) == [
+        (3, "firmware"), (4, "hil"), (5, "protocol (by a bare name)"), (6, "host_tools")]
+    assert sorted(project_imports(src, "firmware")) == [
+        (3, "firmware (by its installed name)"), (4, "hil (by its installed name)"),
+        (5, "protocol"), (6, "host_tools (by its installed name)")]
+
+
+# The host's programs beside the package (tests, benchmarks, fuzzers, examples) import it by
+# its installed names too; the chip's programs among them (run by ``micropython`` or served to
+# the link) by the chip's.
+HOST_PROGRAMS = ("tests", "bench", "fuzz", "examples")
+# (fuzz/hostile.py runs in both: it tries the installed name first)
+CHIP_PROGRAMS = ("tests/micropython/", "tests/micropython_chip/", "tests/link_clients/",
+                 "tests/fuzz_targets/", "tests/firmware/", "fuzz/hostile.py")
+
+
+def _host_programs() -> list[Path]:
+    return sorted(p for d in HOST_PROGRAMS for p in (ROOT / d).rglob("*.py")
+                  if not p.relative_to(ROOT).as_posix().startswith(CHIP_PROGRAMS))
+
+
+def test_host_programs_import_the_installed_names() -> None:
+    files = _host_programs()
+    assert len(files) > 100
+    bad = {str(p.relative_to(ROOT)): [f"line {line}: {f}" for line, f in project_imports(p, "tests")
+                                      if f.endswith("(by a bare name)")] for p in files}
+    assert not {k: v for k, v in bad.items() if v}, bad
 
 
 def test_no_source_file_over_400_lines() -> None:
@@ -80,19 +126,19 @@ def test_no_source_file_over_400_lines() -> None:
 # firmware's serial console, which the simulator captures (the serial digest). bench/ and
 # fuzz/ are programs of their own (python -m bench, python -m fuzz) that print their tables.
 SHELL = "host_tools/cli"
-SHELL_MODULE = "host_tools.cli"
+SHELL_MODULE = "hexhil.cli"
 LIBRARY = ("protocol", "hil", "host_tools")
 TERMINAL_MODULES = {"argparse", "tqdm"}
 
 
 def cli_only_violations(path: Path) -> list[str]:
     """Argument parsing, printing, terminal streams, exits and the shell itself (a library
-    that imports host_tools.cli prints through it) in one file."""
+    that imports hexhil.cli prints through it) in one file."""
     bad = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         bad += [f"line {node.lineno}: imports {m}" for m in imported(node)
                 if m.split(".")[0] in TERMINAL_MODULES or f"{m}.".startswith(f"{SHELL_MODULE}.")]
-        if isinstance(node, ast.ImportFrom) and node.module == "host_tools":
+        if isinstance(node, ast.ImportFrom) and node.module == "hexhil":
             bad += [f"line {node.lineno}: imports {SHELL_MODULE}" for a in node.names if a.name == "cli"]
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
                 and node.func.id in ("print", "exit", "quit"):
@@ -119,10 +165,10 @@ def test_the_cli_checker_sees_a_violation(tmp_path: Path) -> None:
     src = tmp_path / "m.py"
     src.write_text("import sys\nfrom argparse import Namespace\ndef f(x):\n    print(x)\n"
                    "    sys.stderr.write(x)\n    sys.exit(2)\n    raise SystemExit(1)\n"
-                   "def g(log):\n    log.info('fine')\n    from host_tools.cli import emit\n"
-                   "    from host_tools import cli, run\n")
+                   "def g(log):\n    log.info('fine')\n    from hexhil.cli import emit\n"
+                   "    from hexhil import cli, run\n")
     assert sorted(cli_only_violations(src)) == [
-        "line 10: imports host_tools.cli", "line 11: imports host_tools.cli",
+        "line 10: imports hexhil.cli", "line 11: imports hexhil.cli",
         "line 2: imports argparse", "line 4: print()", "line 5: sys.stderr", "line 6: sys.exit",
         "line 7: raise SystemExit"]
 
@@ -140,9 +186,18 @@ def module_name(path: Path, root: Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
+def installed_name(name: str) -> str:
+    """A module's name as installed (setup.py FOLDERS): the chip's and the folders' names
+    read as the package's, so that one module has one name in the graph."""
+    top, dot, rest = name.partition(".")
+    if top == "host_tools":
+        return f"hexhil{dot}{rest}"
+    return f"hexhil.{name}" if top in ("hil", *CHIP_FLOORS) else name
+
+
 def import_graph(files: list[Path], root: Path) -> dict[str, set[str]]:
     """Project module -> the project modules it imports."""
-    names = {module_name(p, root): p for p in files}
+    names = {installed_name(module_name(p, root)): p for p in files}
     graph: dict[str, set[str]] = {}
     for name, path in names.items():
         package = name if path.name == "__init__.py" else name.rpartition(".")[0]
@@ -151,9 +206,9 @@ def import_graph(files: list[Path], root: Path) -> dict[str, set[str]]:
             if not isinstance(node, (ast.Import, ast.ImportFrom)):
                 continue
             if isinstance(node, ast.Import):
-                targets = [a.name for a in node.names]
+                targets = [installed_name(a.name) for a in node.names]
             else:
-                base = node.module or ""
+                base = installed_name(node.module or "")
                 if node.level:
                     up = package.split(".")[:len(package.split(".")) - node.level + 1]
                     base = ".".join([*up, *([base] if base else [])])

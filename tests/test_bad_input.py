@@ -1,7 +1,7 @@
 """Bad input, everywhere: every command, option and file type refused with one
 line on stderr that names what is wrong and where, exit status 2, never a traceback.
 
-The table runs in-process through ``host_tools.cli.main``; the cases that would serve
+The table runs in-process through ``hexhil.cli.main``; the cases that would serve
 forever if a refusal regressed (a busy port) run as a child with a timeout.
 """
 from __future__ import annotations
@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from fuzz.fuzz_trace import sample_trace
-from host_tools import cli
+from hexhil import cli
 
 ROOT = Path(__file__).resolve().parent.parent
 FT = str(ROOT / "scenarios" / "flat-tripod.toml")
@@ -217,7 +217,7 @@ def test_a_busy_port_gets_one_line_and_status_2(command: list[str]) -> None:
         s.listen()
         port = str(s.getsockname()[1])
         argv = [a.replace("{port}", port) for a in command]
-        proc = subprocess.run([sys.executable, "-m", "host_tools.cli", *argv], cwd=ROOT,
+        proc = subprocess.run([sys.executable, "-m", "hexhil.cli", *argv], cwd=ROOT,
                               capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2, proc.stdout + proc.stderr
     _one_line(proc.stderr, port)

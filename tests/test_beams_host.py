@@ -6,9 +6,9 @@ import sys
 import numpy as np
 import pytest
 
-from host_tools.papers.beam_traversal import beams_run, estimator, landscape, planner
-from host_tools.papers.beam_traversal.push import push_samples
-from host_tools.papers.beam_traversal.force_sensing import sections as fs
+from hexhil.papers.beam_traversal import beams_run, estimator, landscape, planner
+from hexhil.papers.beam_traversal.push import push_samples
+from hexhil.papers.beam_traversal.force_sensing import sections as fs
 
 # Tables 1, 2 and 4: the paper's relative errors (k1, k2, h_b as a fraction of 5 mm) for
 # (unknowns, noise, T_s ms); None where the paper's single trial is below what even the
@@ -111,7 +111,7 @@ def test_critical_push_flimsy_just_below_the_papers_0p1_n_stiff_well_above():
 
 
 def test_clear_gap_reading_rolls_for_every_k():
-    from hil.world.beam_body import BodyGeometry
+    from hexhil.hil.world.beam_body import BodyGeometry
     land = landscape.build(landscape.paper_grid(0.004, 5), geometry=BodyGeometry(gap_centre_to_centre=False))
     assert planner.plan(land, 0.01, 0.01, (-0.1, 0, 0)).mode == "roll"
 
@@ -131,7 +131,7 @@ def test_closed_loop_over_can_traverses(k, mode):
     out = beams_run.run(cfg, recorder=Rec())
     assert out["traversed"] and not out["flipped"] and out["mode"] == mode
     assert out["force_samples"] == 30 and out["energy_J"] > 0
-    from protocol import can_frames
+    from hexhil.protocol import can_frames
     names = {can_frames.decode(a, d)[0] for _, a, d in frames}
     assert {"force", "body_pose", "body_rate", "actuator_command", "beam_estimate"} <= names
     again = []
@@ -141,7 +141,7 @@ def test_closed_loop_over_can_traverses(k, mode):
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "host_tools.cli", *args], capture_output=True, text=True, timeout=120)
+    return subprocess.run([sys.executable, "-m", "hexhil.cli", *args], capture_output=True, text=True, timeout=120)
 
 
 def test_cli_estimate_json_and_bad_flags():

@@ -13,12 +13,12 @@ from pathlib import Path
 import pytest
 
 from ctrl_c import sigint_default
-from hil.run_result import RunInterrupted
-from host_tools import run_summary
-from host_tools.lockstep_run import Run
-from host_tools.papers.beam_traversal import beams_run
-from host_tools.trace.reader import Trace, info
-from host_tools.trace.target import partial_of
+from hexhil.hil.run_result import RunInterrupted
+from hexhil import run_summary
+from hexhil.lockstep_run import Run
+from hexhil.papers.beam_traversal import beams_run
+from hexhil.trace.reader import Trace, info
+from hexhil.trace.target import partial_of
 from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -76,7 +76,7 @@ def test_ctrl_c_in_a_c_extensions_import_is_exit_130_without_a_traceback(
         except KeyboardInterrupt:
             raise ImportError("initialization failed")
     monkeypatch.setattr(beams_run, "run_scenario", importing)
-    from host_tools import cli
+    from hexhil import cli
 
     assert cli.main(["run", str(FLIMSY)]) == 130
     assert "Traceback" not in capsys.readouterr().err

@@ -4,9 +4,9 @@ import math
 import numpy as np
 import pytest
 
-from hil.world.beam_body import PAPER_BODY, BeamParams, gravity_energy_j
-from hil.world.beam_contact import deflection_angle, deflection_angles, unit_contact_forces
-from hil.world.beams import SENSOR_PERIOD_US, BeamsWorld, external_forces
+from hexhil.hil.world.beam_body import PAPER_BODY, BeamParams, gravity_energy_j
+from hexhil.hil.world.beam_contact import deflection_angle, deflection_angles, unit_contact_forces
+from hexhil.hil.world.beams import SENSOR_PERIOD_US, BeamsWorld, external_forces
 
 G = PAPER_BODY
 

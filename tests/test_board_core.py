@@ -11,10 +11,10 @@ from pathlib import Path
 
 import pytest
 
-from hil.mcu import board_core
-from hil.mcu.struct_layout import layout_mismatch
-from host_tools import c_sdk
-from host_tools.run_summary import run
+from hexhil.hil.mcu import board_core
+from hexhil.hil.mcu.struct_layout import layout_mismatch
+from hexhil import c_sdk
+from hexhil.run_summary import run
 from tests.mcu_elf import MCU, build
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -110,7 +110,7 @@ def test_the_calibrated_engine_counts_as_the_public_one(tmp_path, monkeypatch):
     """engine.py's two engines: Unicorn's own counter found by calibration, and a public
     UC_HOOK_CODE. The start-up check agrees, and a firmware runs the same under either
     (console, cycles, instructions, serial digest), compiled and in Python."""
-    from hil.mcu import engine
+    from hexhil.hil.mcu import engine
     assert engine.check_calibrated() is None
     elf = build(tmp_path, "exceptions.c")
     seen = []
@@ -129,13 +129,13 @@ def test_the_calibrated_engine_counts_as_the_public_one(tmp_path, monkeypatch):
 def test_a_unicorn_whose_counter_moved_is_run_through_its_public_api(monkeypatch, caplog):
     """A Unicorn build that keeps its count elsewhere than 2.1.4 is never read wrong: the
     check names what differs in one warning line and the public engine runs the board."""
-    from hil.mcu import engine
+    from hexhil.hil.mcu import engine
     real = engine._check_run
     monkeypatch.setattr(engine, "_check_run",
                         lambda calibrated: [(n + calibrated, pc) for n, pc in real(calibrated)])
     monkeypatch.setattr(engine, "_KIND", [])
     monkeypatch.delenv("HEXHIL_UNICORN_ENGINE", raising=False)
-    with caplog.at_level("WARNING", logger="hil.mcu.engine"):
+    with caplog.at_level("WARNING", logger="hexhil.hil.mcu.engine"):
         assert engine.engine_kind(compiled=False) is engine.EngineKind.HOOKED
     (line,) = [r.getMessage() for r in caplog.records]
     assert "its own instruction count ends chunk 1 of the check at 3 instructions" in line

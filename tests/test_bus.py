@@ -7,18 +7,18 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from hil.servobus.line import Bus
-from hil.servobus.wire import resample
-from hil.clock import VirtualClock
-from hil.scenario import FaultEntry, FaultKind
-from hil.servobus.faults import Faults
-from host_tools.cli.bus import parse_flag
-from hil.servobus.ax12_servo import Servo
-from hil.servobus.health import OVERLOAD_TIME_US
-from hil import scenario
-from protocol.errors import UserError
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil.servobus.line import Bus
+from hexhil.hil.servobus.wire import resample
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.scenario import FaultEntry, FaultKind
+from hexhil.hil.servobus.faults import Faults
+from hexhil.cli.bus import parse_flag
+from hexhil.hil.servobus.ax12_servo import Servo
+from hexhil.hil.servobus.health import OVERLOAD_TIME_US
+from hexhil.hil import scenario
+from hexhil.protocol.errors import UserError
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 
 def make_bus(n: int = 18, **kw) -> Bus:

@@ -6,12 +6,12 @@ from pathlib import Path
 
 import pytest
 
-from hil import scenario
-from hil.scenario import FaultEntry, FaultKind
-from host_tools.cli.bus import build_bus, parse_ids, register
-from protocol.errors import UserError
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil import scenario
+from hexhil.hil.scenario import FaultEntry, FaultKind
+from hexhil.cli.bus import build_bus, parse_ids, register
+from hexhil.protocol.errors import UserError
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 
 def args(*argv: str) -> argparse.Namespace:

@@ -13,16 +13,16 @@ from pathlib import Path
 
 import pytest
 
-from hil.clock import VirtualClock
-from hil.canbus.bus import CanBus
-from hil.scenario.faults_section import FaultEntry, FaultKind, FaultsConfig
-from hil.servobus.faults import Faults
-from host_tools.bus_fuzz import campaign
-from host_tools.bus_fuzz.execution import Execution
-from host_tools.bus_fuzz.mutations import DEFAULT_KINDS, Mutation, Mutator, Vocabulary
-from protocol.dynamixel import v1 as dxl
-from protocol.dynamixel import v2 as dx2
-from protocol.errors import UserError
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.canbus.bus import CanBus
+from hexhil.hil.scenario.faults_section import FaultEntry, FaultKind, FaultsConfig
+from hexhil.hil.servobus.faults import Faults
+from hexhil.bus_fuzz import campaign
+from hexhil.bus_fuzz.execution import Execution
+from hexhil.bus_fuzz.mutations import DEFAULT_KINDS, Mutation, Mutator, Vocabulary
+from hexhil.protocol.dynamixel import v1 as dxl
+from hexhil.protocol.dynamixel import v2 as dx2
+from hexhil.protocol.errors import UserError
 from test_sdk_pty import HEXHIL, ROOT
 
 TARGETS = ROOT / "tests" / "fuzz_targets"
@@ -95,9 +95,9 @@ def test_a_status_fault_mangles_a_protocol_2_reply(kind, keys, expect):
 
 
 def test_status_faults_on_a_protocol_2_line_late_missing_twin_and_the_group_read():
-    from hil.servobus.protocols.v2 import Bus2
-    from hil.servobus.xseries_servo import XSeriesServo
-    from protocol.dynamixel import xl430 as xl
+    from hexhil.hil.servobus.protocols.v2 import Bus2
+    from hexhil.hil.servobus.xseries_servo import XSeriesServo
+    from hexhil.protocol.dynamixel import xl430 as xl
 
     def line(kind, **keys) -> Bus2:
         entry = FaultEntry.parse(kind, {"id": 1, "at_s": 0.0, "until_s": 1.0, **keys}, "t")
@@ -277,8 +277,8 @@ def test_the_example_case_on_the_command_line_with_json(tmp_path):
 
 
 def test_the_packet_sequence_passes_a_direction_mistake_on_or_drops_it():
-    from hil.servobus.master_check import MasterCheck
-    from host_tools.bus_fuzz.features import PacketSequence
+    from hexhil.hil.servobus.master_check import MasterCheck
+    from hexhil.bus_fuzz.features import PacketSequence
 
     alone = PacketSequence(None)
     alone.direction_mistake(5, "tx_while_receiving", "no master check")
@@ -295,9 +295,9 @@ def test_the_packet_sequence_passes_a_direction_mistake_on_or_drops_it():
 def test_the_held_trace_judges_as_the_written_file_does(tmp_path):
     """The fork server's trace in memory (boot decoded at the fork, the rest at the end)
     holds what the file would, on every topic the expectations read."""
-    from host_tools.bus_fuzz.execution import Target, run_input
-    from host_tools.bus_fuzz.held_trace import HeldTrace
-    from host_tools.expect import spec, verdicts
+    from hexhil.bus_fuzz.execution import Target, run_input
+    from hexhil.bus_fuzz.held_trace import HeldTrace
+    from hexhil.expect import spec, verdicts
 
     case = replace(spec.load(ROOT / "examples" / "fuzz-flat-tripod.toml"), duration_s=0.7)
     target = Target(case, 0.5, coverage=False)
@@ -353,8 +353,8 @@ def test_a_swing_press_presses_once_a_swing_after_the_foot_is_lifted():
 def test_a_swing_press_lands_in_the_swing_of_a_walking_run(tmp_path):
     """On flat-tripod the press comes while the leg's foot carries no load (the world's
     ground truth), and the firmware reads it as a contact."""
-    from host_tools.expect import case_runs
-    from hil import scenario as scenario_mod
+    from hexhil.expect import case_runs
+    from hexhil.hil import scenario as scenario_mod
 
     sc = scenario_mod.load_scenario(ROOT / "scenarios" / "flat-tripod.toml").overlay(
         {"faults": {"switch_swing_press": [{"leg": 0, "at_s": 0.3, "after_s": 0.2}]}})

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from host_tools.bus_fuzz import line_probes
+from hexhil.bus_fuzz import line_probes
 
 SOURCE = '''
 def run(n):

@@ -10,16 +10,16 @@ from pathlib import Path
 
 import pytest
 
-from hil.link import served_firmware
-from hil.link.firmware_process import firmware_env
-from hil.link.client_conformance import SESSIONS, run_suite
-from hil.run_result import Ending
-from host_tools import c_sdk
-from host_tools.trace.reader import Trace
-from host_tools.replay import replay_firmware
-from host_tools.run_summary import run
-from host_tools.trace.reader import info
-from protocol.errors import UserError
+from hexhil.hil.link import served_firmware
+from hexhil.hil.link.firmware_process import firmware_env
+from hexhil.hil.link.client_conformance import SESSIONS, run_suite
+from hexhil.hil.run_result import Ending
+from hexhil import c_sdk
+from hexhil.trace.reader import Trace
+from hexhil.replay import replay_firmware
+from hexhil.run_summary import run
+from hexhil.trace.reader import info
+from hexhil.protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
 PROGRAMS = ROOT / "tests" / "c_firmware"
@@ -71,7 +71,7 @@ def test_hexhil_test_judges_the_c_tripod(built, tmp_path):
                     f'[case]\nscenario = "{FLAT}"\nduration_s = 8\n')
 
     def judge(firmware):
-        return subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case),
+        return subprocess.run([sys.executable, "-m", "hexhil.cli", "test", str(case),
                                "--firmware", firmware], cwd=ROOT, capture_output=True,
                               text=True)
 
@@ -91,7 +91,7 @@ def test_the_hal_keeps_cubes_promises_in_virtual_time(built):
 
 
 def test_a_firmware_that_never_enables_the_transmitter_times_out_and_is_named(built):
-    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", FLAT, "--duration",
+    proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "run", FLAT, "--duration",
                            "1", "--firmware", built["no_transmitter"], "--json"],
                           cwd=ROOT, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
@@ -135,7 +135,7 @@ def test_a_firmware_that_prints_a_lot_runs_to_the_end(built):
 
 def test_a_file_that_is_not_executable_is_refused_in_one_line(tmp_path):
     src = ROOT / "examples" / "c_tripod" / "main.c"
-    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", FLAT, "--firmware",
+    proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "run", FLAT, "--firmware",
                            str(src)], cwd=ROOT, capture_output=True, text=True)
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr.strip().splitlines() == [f"hexhil: --firmware {src}: neither a "
@@ -149,7 +149,7 @@ def test_the_first_firmware_of_the_docs_builds_with_the_documented_command_and_r
     main = tmp_path / "main.c"
     main.write_text(doc.split("```c\n", 1)[1].split("```", 1)[0])
     fw = tmp_path / "fw"
-    subprocess.run([sys.executable, "-m", "host_tools.cli", "sdk", "build", str(main), "-o",
+    subprocess.run([sys.executable, "-m", "hexhil.cli", "sdk", "build", str(main), "-o",
                     str(fw)], cwd=tmp_path, check=True, capture_output=True)
     s, result = run(FLAT, duration_s=1.0, firmware=str(fw))
     assert result.exit_code == 0 and s["faults"] == {} and result.firmware.timeouts == 0
@@ -157,7 +157,7 @@ def test_the_first_firmware_of_the_docs_builds_with_the_documented_command_and_r
     assert result.firmware.transactions == result.firmware.cycles >= 45
     # the same source as an F411 ELF on the emulated board: every ping on the line answered
     elf = tmp_path / "fw.elf"
-    subprocess.run([sys.executable, "-m", "host_tools.cli", "sdk", "build", "--target",
+    subprocess.run([sys.executable, "-m", "hexhil.cli", "sdk", "build", "--target",
                     "stm32f411", str(main), "-o", str(elf)], cwd=tmp_path, check=True,
                    capture_output=True)
     s, _ = run(FLAT, duration_s=1.0, firmware=str(elf), out=str(tmp_path / "elf.mcap"))
@@ -180,7 +180,7 @@ def test_the_link_conformance_suite_passes_against_the_c_client(built):
 
 
 def test_sdk_flags_build_a_firmware_from_a_users_own_makefile_line(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "sdk", "flags",
+    proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "sdk", "flags",
                            "--lib-dir", str(tmp_path / "lib")], cwd=ROOT, capture_output=True,
                           text=True)
     assert proc.returncode == 0, proc.stderr
@@ -201,7 +201,7 @@ def test_sdk_flags_build_a_firmware_from_a_users_own_makefile_line(tmp_path):
     (["sdk", "build", "tests/c_firmware/misbehave.c", "-o", "/tmp/x"], "does not build"),
 ])
 def test_sdk_build_bad_input_is_one_line_and_exit_2(argv, says):
-    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", *argv], cwd=ROOT,
+    proc = subprocess.run([sys.executable, "-m", "hexhil.cli", *argv], cwd=ROOT,
                           capture_output=True, text=True)
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 2 and len(lines) == 1 and says in lines[0]

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from protocol import can_frames as cf
+from hexhil.protocol import can_frames as cf
 
 DBC = Path(cf.__file__).with_name("hexhil.dbc")
 DB = cantools.database.load_file(str(DBC))

@@ -9,14 +9,14 @@ import time
 import can
 import pytest
 
-from hil.canbus.socketcand import CanServer, frame_line, parse_send
-from hil.run.lockstep import Simulator
-from hil import scenario
-from host_tools.trace import protobuf as pb
-from host_tools.trace import recorder as rec
-from host_tools.trace import topics
-from host_tools.trace.reader import open_trace
-from protocol import can_frames
+from hexhil.hil.canbus.socketcand import CanServer, frame_line, parse_send
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil import scenario
+from hexhil.trace import protobuf as pb
+from hexhil.trace import recorder as rec
+from hexhil.trace import topics
+from hexhil.trace.reader import open_trace
+from hexhil.protocol import can_frames
 
 
 def test_wire_format_matches_the_stock_client_parser():

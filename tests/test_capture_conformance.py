@@ -16,10 +16,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import uart_wave
-from hil import scenario
-from hil.run.lockstep import Simulator
-from host_tools.trace import recorder as rec
-from protocol.dynamixel import ax12
+from hexhil.hil import scenario
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.trace import recorder as rec
+from hexhil.protocol.dynamixel import ax12
 from robot_logs import (BAUD, HEXHIL, RATE_HZ, ROOT, cli, refused, run, run_sr,  # noqa: F401
                         serial_bursts, streams)
 
@@ -108,7 +108,7 @@ def test_the_stock_sdks_captured_master_passes(sdk_session, capsys):
 def _packets(bursts):
     """The bursts as one a packet (a loaded host may hand the real-time bus a packet in two
     reads, or two in one): each direction's run of bytes cut at its packets."""
-    from host_tools.dynamixel.decode import packet_spans
+    from hexhil.dynamixel.decode import packet_spans
 
     runs = []
     for t, d, data in bursts:
@@ -211,8 +211,8 @@ def test_a_wide_capture_in_several_chunks_reads_whole(run, tmp_path, capsys):
        samples=st.binary(max_size=4096), names=st.booleans())
 def test_a_hostile_sr_file_is_read_or_refused_in_one_line(tmp_path, rate, unit, probes,
                                                           samples, names):
-    from host_tools.trace.import_logs import read_servo_line
-    from protocol.errors import UserError
+    from hexhil.trace.import_logs import read_servo_line
+    from hexhil.protocol.errors import UserError
 
     path = tmp_path / "hostile.sr"
     meta = f"[device 1]\ncapturefile=logic-1\ntotal probes={probes}\nsamplerate={rate}\n" \

@@ -11,9 +11,9 @@ import dynamixel_sdk.port_handler
 import pytest
 import serial
 
-from protocol.dynamixel import ax12, xl430
-from protocol.dynamixel import v1 as dxl
-from protocol.dynamixel import v2 as dx2
+from hexhil.protocol.dynamixel import ax12, xl430
+from hexhil.protocol.dynamixel import v1 as dxl
+from hexhil.protocol.dynamixel import v2 as dx2
 from test_sdk_pty import bus_server
 
 PH1, PH2 = sdk.PacketHandler(1.0), sdk.PacketHandler(2.0)

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from hil import native
-from protocol.errors import BadFile
+from hexhil.hil import native
+from hexhil.protocol.errors import BadFile
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -25,7 +25,7 @@ def test_build_ext_puts_each_core_where_its_loader_looks(tmp_path: Path) -> None
                     "--build-temp", str(tmp_path / "tmp")], cwd=ROOT, check=True,
                    capture_output=True)
     for name, path in native.CORES.items():
-        built = tmp_path / path.relative_to(ROOT)
+        built = tmp_path / "hexhil" / path.relative_to(ROOT)   # hil/ is hexhil.hil
         assert built.is_file(), name
         ctypes.CDLL(str(built))
         # the same compiler and flags as the tree's own build: the same library, byte for byte
@@ -39,7 +39,7 @@ def test_the_build_keeps_the_flags_the_bits_depend_on() -> None:
 
 
 def test_version_names_every_core() -> None:
-    out = subprocess.run([sys.executable, "-m", "host_tools.cli", "--version"],
+    out = subprocess.run([sys.executable, "-m", "hexhil.cli", "--version"],
                          capture_output=True, text=True, check=True).stdout.splitlines()
     assert out[0].startswith("hexhil ")
     assert [line.split(":")[0].strip() for line in out[1:]] == list(native.CORES)
@@ -48,7 +48,7 @@ def test_version_names_every_core() -> None:
 
 def test_a_missing_core_is_one_warning_line(tmp_path: Path, caplog) -> None:
     missing = tmp_path / "_gone_core.so"
-    with caplog.at_level(logging.WARNING, logger="hil.native"):
+    with caplog.at_level(logging.WARNING, logger="hexhil.hil.native"):
         assert native.load_library(missing) is None
         assert native.load_library(missing, keep_gil=True) is None   # a second loader
     lines = [r.getMessage() for r in caplog.records]
@@ -59,7 +59,7 @@ def test_a_missing_core_is_one_warning_line(tmp_path: Path, caplog) -> None:
 def test_an_unloadable_core_says_so(tmp_path: Path, caplog) -> None:
     stale = tmp_path / "_stale_core.so"
     stale.write_bytes(b"not an ELF")
-    with caplog.at_level(logging.WARNING, logger="hil.native"):
+    with caplog.at_level(logging.WARNING, logger="hexhil.hil.native"):
         assert native.load_library(stale) is None
     assert "not loadable" in caplog.records[0].getMessage()
 
@@ -91,8 +91,8 @@ def test_the_header_says_what_the_python_side_lays_out() -> None:
 def test_drives_without_their_core_are_refused_in_one_line(monkeypatch) -> None:
     import numpy as np
 
-    from hil.world import drive_core
-    from hil.world.actuator import DriveBank
+    from hexhil.hil.world import drive_core
+    from hexhil.hil.world.actuator import DriveBank
 
     monkeypatch.setattr(drive_core, "_HX_DUTY", None)   # as where the library is missing
     with pytest.raises(BadFile, match=r"_drive_core.so is not built .*builds it$"):

@@ -43,7 +43,7 @@ SLOPPY = textwrap.dedent("""
     from hil.servobus.line import Bus
     from hil.clock import VirtualClock
     from hil.servobus.serial_server import RealTimeServer, install_sigterm, Stop
-    from host_tools.cli import flush_print
+    from hexhil.cli import flush_print
     from hil.servobus.ax12_servo import Servo
 
     class Sloppy(Servo):  # ignores packets with a bad checksum instead of answering bit 4
@@ -99,7 +99,7 @@ def test_lost_replies_are_retried_and_never_blamed_on_the_servo():
 
 
 def test_results_shared_by_servos_are_shown_once_with_their_ids():
-    from host_tools.dynamixel.conformance.report import collapse, format_ids
+    from hexhil.dynamixel.conformance.report import collapse, format_ids
 
     assert format_ids([5, 1, 2, 3, 7, 8, None]) == "1-3,5,7-8" and format_ids([None]) == "-"
     rows = [{"id": i, "check": c, "result": "pass", "detail": d, "cause": ""}
@@ -112,7 +112,7 @@ QUIET_AND_LOCKED = textwrap.dedent("""
     from hil.servobus.line import Bus
     from hil.clock import VirtualClock
     from hil.servobus.serial_server import RealTimeServer, install_sigterm, Stop
-    from host_tools.cli import flush_print
+    from hexhil.cli import flush_print
     from hil.servobus.ax12_servo import Servo
 
     s = [Servo(1), Servo(2), Servo(3)]

@@ -12,12 +12,12 @@ from pathlib import Path
 
 import pytest
 
-from hil.link.served_firmware import served_firmware
-from hil.run.lockstep import Simulator
-from hil.run_result import Ending
-from hil.scenario import load_scenario
-from host_tools import c_sdk
-from protocol.errors import UserError
+from hexhil.hil.link.served_firmware import served_firmware
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil.run_result import Ending
+from hexhil.hil.scenario import load_scenario
+from hexhil import c_sdk
+from hexhil.protocol.errors import UserError
 from conftest import hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -13,10 +13,10 @@ from pathlib import Path
 import pytest
 from elftools.elf.elffile import ELFFile
 
-from hil.run_result import Ending
-from host_tools import c_sdk
-from host_tools.run_summary import run
-from host_tools.trace.reader import Trace, info
+from hexhil.hil.run_result import Ending
+from hexhil import c_sdk
+from hexhil.run_summary import run
+from hexhil.trace.reader import Trace, info
 from conftest import hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -220,7 +220,7 @@ def test_the_docs_first_elf_builds_for_both_targets_and_answers_every_ping(tmp_p
     main = tmp_path / "main.c"
     main.write_text(doc.split("```c\n", 1)[1].split("```", 1)[0])
     for target, out in (("stm32f411", "fw.elf"), ("host", "fw")):
-        proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "sdk", "build",
+        proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "sdk", "build",
                                "--target", target, str(main), "-o", str(tmp_path / out)],
                               cwd=tmp_path, capture_output=True, text=True)
         assert proc.returncode == 0, proc.stderr

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from elftools.elf.elffile import ELFFile
 
-from host_tools import c_sdk
-from protocol.errors import UserError
+from hexhil import c_sdk
+from hexhil.protocol.errors import UserError
 from conftest import hexhil
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -11,19 +11,19 @@ from pathlib import Path
 
 import pytest
 
-from host_tools.trace import recorder as rec
-from host_tools.trace.target import partial_of
-from protocol.dynamixel import v1 as dynamixel
+from hexhil.trace import recorder as rec
+from hexhil.trace.target import partial_of
+from hexhil.protocol.dynamixel import v1 as dynamixel
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_a_run_encoded_in_a_child_process_is_the_same_file(tmp_path):
     """The default child process writes the bytes the run's own process would."""
-    from hil import scenario
-    from hil.run.lockstep import Simulator
-    from hil.run.rig import make_world
-    from host_tools.in_process import run_firmware
+    from hexhil.hil import scenario
+    from hexhil.hil.run.lockstep import Simulator
+    from hexhil.hil.run.rig import make_world
+    from hexhil.in_process import run_firmware
 
     sc = scenario.load_scenario(ROOT / "scenarios" / "obstacles-low-small.toml")
     for where in rec.EncodeIn:
@@ -109,8 +109,8 @@ def test_discard_stops_the_child_and_leaves_no_file(tmp_path):
 
 FULL_DISK = """
 import resource, sys
-from host_tools.trace.recorder import EncodeIn, Recorder
-from protocol.errors import UserError
+from hexhil.trace.recorder import EncodeIn, Recorder
+from hexhil.protocol.errors import UserError
 resource.setrlimit(resource.RLIMIT_FSIZE, (6000, 6000))
 r = Recorder(sys.argv[1], encode_in=EncodeIn(sys.argv[2]))
 try:
@@ -129,7 +129,7 @@ def test_a_full_disk_in_the_child_is_the_runs_one_line(tmp_path):
     import subprocess
     import sys
 
-    from host_tools.trace import recover
+    from hexhil.trace import recover
 
     lines = []
     for where in rec.EncodeIn:
@@ -153,8 +153,8 @@ def test_a_run_encodes_beside_its_firmware_or_in_a_child(tmp_path, monkeypatch, 
                                                         where):
     """A firmware in a process of its own leaves the run waiting while it computes, so the
     run encodes then; a firmware in the run's process leaves it nothing to wait on."""
-    from hil.link import cores
-    from host_tools import Run
+    from hexhil.hil.link import cores
+    from hexhil import Run
 
     monkeypatch.setattr(cores, "usable", lambda: 2.0)
 
@@ -165,8 +165,8 @@ def test_a_run_encodes_beside_its_firmware_or_in_a_child(tmp_path, monkeypatch, 
 
 def test_with_one_cpu_the_encoding_stays_in_the_run(tmp_path, monkeypatch):
     """A child would take the run's only CPU (``taskset -c 0``, a cgroup quota of one)."""
-    from hil.link import cores
-    from host_tools import Run
+    from hexhil.hil.link import cores
+    from hexhil import Run
 
     monkeypatch.setattr(cores, "usable", lambda: 1.0)
     with Run(ROOT / "scenarios" / "flat-tripod.toml", runtime="cpython-inprocess",

@@ -3,7 +3,7 @@ import math
 
 import pytest
 
-from host_tools.papers.tactile_hexapod import error_model as em
+from hexhil.papers.tactile_hexapod import error_model as em
 
 
 def test_alpha_k_is_eq_12_to_14():

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-import host_tools as hx
-from host_tools import cli
-from protocol.errors import BadFile, BadValue, UserError
+import hexhil as hx
+from hexhil import cli
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -12,9 +12,9 @@ from pathlib import Path
 import pytest
 from lxml import etree
 
-from host_tools.expect import spec, steps, verdicts
-from host_tools.trace.reader import Trace
-from protocol.errors import UserError
+from hexhil.expect import spec, steps, verdicts
+from hexhil.trace.reader import Trace
+from hexhil.protocol.errors import UserError
 from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -177,7 +177,7 @@ def test_step_extraction_on_a_synthetic_track() -> None:
 
 
 def test_repeats_run_successive_seeds() -> None:
-    from host_tools.expect import case_runs
+    from hexhil.expect import case_runs
 
     case = spec.load(TACTILE)
     jobs = case_runs.jobs_for([case], repeat=3, python="cpython-inprocess")
@@ -187,7 +187,7 @@ def test_repeats_run_successive_seeds() -> None:
 
 def test_wrong_expectations_fail_with_their_measured_values(tmp_path: Path) -> None:
     """Every kind can fail: the unplug case's run against expectations it does not meet."""
-    from host_tools.expect import case_runs
+    from hexhil.expect import case_runs
 
     wrong = [
         {"name": "ride", "kind": "fault_response", "fault": "unplug",

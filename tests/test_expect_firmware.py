@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from host_tools.expect import spec
-from protocol.errors import UserError
+from hexhil.expect import spec
+from hexhil.protocol.errors import UserError
 from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -118,7 +118,7 @@ def test_a_real_time_board_run_is_judged_from_its_trace(tmp_path: Path) -> None:
     """The real-board flow: `hexhil bus --world ... --out`, then `hexhil test --trace`. Our
     firmware on its serial back end plays the board, on the rig's pty."""
     trace = tmp_path / "rt.mcap"
-    rig = subprocess.Popen([sys.executable, "-m", "host_tools.cli", "bus", "--world", str(FLAT),
+    rig = subprocess.Popen([sys.executable, "-m", "hexhil.cli", "bus", "--world", str(FLAT),
                             "--duration", "6", "--out", str(trace), "--json"], cwd=ROOT,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     pty = rig.stdout.readline().strip().split(": ", 1)[1]

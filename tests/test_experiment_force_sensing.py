@@ -6,10 +6,10 @@ import sys
 import numpy as np
 import pytest
 
-from host_tools.papers.beam_traversal import estimator, landscape
-from host_tools.papers.beam_traversal.push import push_samples
-from host_tools.papers.beam_traversal import force_sensing
-from host_tools.papers.beam_traversal.force_sensing import sections as fs
+from hexhil.papers.beam_traversal import estimator, landscape
+from hexhil.papers.beam_traversal.push import push_samples
+from hexhil.papers.beam_traversal import force_sensing
+from hexhil.papers.beam_traversal.force_sensing import sections as fs
 from conftest import hexhil_in_process
 
 
@@ -74,7 +74,7 @@ def test_tiny_run_key_outcomes(tiny):
 
 @pytest.mark.slow
 def test_cli_quick(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "host_tools.cli", "experiment", "force-sensing", "--quick",
+    r = subprocess.run([sys.executable, "-m", "hexhil.cli", "experiment", "force-sensing", "--quick",
                         "--out", str(tmp_path), "--json"], capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr
     s = json.loads(r.stdout.strip().splitlines()[-1])
@@ -92,7 +92,7 @@ def test_cli_bad_out_or_seeds_is_one_line(tmp_path):
 
 def test_cli_prints_the_experiment_style_not_the_report(tiny, tmp_path, monkeypatch, capsys):
     from experiment_output import check_output
-    from host_tools.cli import main as cli
+    from hexhil.cli import main as cli
 
     out, s = tiny
     monkeypatch.setattr(force_sensing, "main", lambda quick, o, seeds: s)   # the tiny run's summary

@@ -1,10 +1,10 @@
 """The tactile-hexapod experiment: scenarios, plan, executor, and (with the Simulator) runs."""
 import pytest
 
-from host_tools.papers.tactile_hexapod import experiment as th
-from host_tools.executor import Executor
-from protocol.errors import UserError
-from hil.world.hexapod_world import HexapodWorld
+from hexhil.papers.tactile_hexapod import experiment as th
+from hexhil.executor import Executor
+from hexhil.protocol.errors import UserError
+from hexhil.hil.world.hexapod_world import HexapodWorld
 
 
 def _square(x):
@@ -64,7 +64,7 @@ def test_run_scenarios_are_valid_and_pair_terrain_across_the_method():
 
 def _one_obstacle(tactile: bool):
     """Tripod, firmware under micropython, one 4.5 cm obstacle in the left-front leg's path."""
-    from hil.run.lockstep import Simulator
+    from hexhil.hil.run.lockstep import Simulator
 
     spec = th.RunSpec("with" if tactile else "without", "tripod", 1.0, tactile, 0, periods=4,
                       model="ideal")   # the firmware pipeline on the regression world
@@ -121,7 +121,7 @@ def test_quick_sweep_from_the_command_line(tmp_path):
     import subprocess
     import sys
 
-    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "experiment", "tactile-hexapod", "--quick",
+    proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "experiment", "tactile-hexapod", "--quick",
                            "--out", str(tmp_path), "--workers", "2", "--json"],
                           capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr[-2000:]
@@ -132,7 +132,7 @@ def test_quick_sweep_from_the_command_line(tmp_path):
 
 
 def test_an_experiment_run_records_its_trace(tmp_path):
-    from host_tools.trace.reader import info
+    from hexhil.trace.reader import info
 
     spec = th.RunSpec("with", "tripod", 1.0, True, 1, "low", "small", periods=1)
     r = th.run_one(spec, 0.0326, str(tmp_path))
@@ -147,7 +147,7 @@ def test_an_experiment_run_records_its_trace(tmp_path):
 def test_cli_prints_the_experiment_style_not_the_report(tmp_path, monkeypatch, capsys):
     """The whole CLI path on three real short runs (the sweep itself is the slow test)."""
     from experiment_output import check_output
-    from host_tools.cli import main as cli
+    from hexhil.cli import main as cli
 
     speed = 0.0326
     runs = [th.run_one(th.RunSpec(stage, "tripod", 1.0, stage == "with", 1, "low", "small",

@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def _hexhil_without(module: str, *argv: str) -> subprocess.CompletedProcess:
     code = (f"import sys; sys.modules[{module!r}] = None\n"
-            f"from host_tools.cli import main\nsys.exit(main({list(argv)!r}))\n")
+            f"from hexhil.cli import main\nsys.exit(main({list(argv)!r}))\n")
     return subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                           timeout=120)
 

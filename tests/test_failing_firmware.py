@@ -15,9 +15,9 @@ from pathlib import Path
 
 import pytest
 
-from hil.run_result import Ending
-from host_tools import Run
-from host_tools.trace.reader import Trace
+from hexhil.hil.run_result import Ending
+from hexhil import Run
+from hexhil.trace.reader import Trace
 from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -139,7 +139,7 @@ def test_the_api_says_a_good_firmware_completed() -> None:
 
 def test_margin_goes_on_past_a_crashing_setting(tmp_path: Path) -> None:
     """A firmware that crashes at a setting (here: every setting) is the sweep's result."""
-    from host_tools.expect import margin_sweep, spec
+    from hexhil.expect import margin_sweep, spec
 
     p = tmp_path / "c.toml"
     p.write_text(CASE.format(name="c", flat=FLAT,
@@ -155,7 +155,7 @@ def test_margin_goes_on_past_a_crashing_setting(tmp_path: Path) -> None:
 def test_margin_firmware_runs_yours_in_place_of_the_cases(tmp_path: Path) -> None:
     """``hexhil margin --firmware``: the case names none, the sweep runs the one given (here
     a crashing one, so every point says so); a missing file is one line, exit 2."""
-    from host_tools.expect import margin_sweep, spec
+    from hexhil.expect import margin_sweep, spec
 
     p = tmp_path / "ours.toml"
     p.write_text(CASE.format(name="ours", flat=FLAT, firmware=""))

@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pytest
 
-from hil.link.served_firmware import served_firmware
-from hil.mcu.elf_image import load_elf
-from hil.run.lockstep import Simulator
-from hil.run_result import Ending
-from hil.scenario import load_scenario
+from hexhil.hil.link.served_firmware import served_firmware
+from hexhil.hil.mcu.elf_image import load_elf
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil.run_result import Ending
+from hexhil.hil.scenario import load_scenario
 from mcu_elf import build, console
 
 ROOT = Path(__file__).resolve().parent.parent

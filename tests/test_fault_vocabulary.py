@@ -11,13 +11,13 @@ import time
 import dynamixel_sdk as sdk
 import pytest
 
-from hil import scenario as scenario_mod
-from hil.run.lockstep import Simulator
-from hil.servobus.faults import Faults
-from host_tools.lockstep_run import Run
-from host_tools.papers import beam_traversal  # noqa: F401  registers the beams run (docs/api.md)
-from protocol.dynamixel import ax12
-from protocol.errors import UserError
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil.servobus.faults import Faults
+from hexhil.lockstep_run import Run
+from hexhil.papers import beam_traversal  # noqa: F401  registers the beams run (docs/api.md)
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.errors import UserError
 from test_firmware_loop import scenario
 from test_sdk_pty import HEXHIL, ROOT
 
@@ -61,9 +61,9 @@ def test_position_faults_are_ridden_through(kind, entry):
 
 
 def test_position_readings_stuck_and_noisy_are_what_a_master_reads():
-    from hil.clock import VirtualClock
-    from hil.servobus.ax12_servo import Servo
-    from hil.servobus.line import Bus
+    from hexhil.hil.clock import VirtualClock
+    from hexhil.hil.servobus.ax12_servo import Servo
+    from hexhil.hil.servobus.line import Bus
 
     servos = [Servo(1), Servo(2)]
     section = {"position_stuck": [{"id": 1, "at_s": 0.0, "until_s": 2.0}],
@@ -187,8 +187,8 @@ def test_can_sensor_node_silent_then_garbage_on_the_real_time_rig():
     babbling frames our DBC does not define, then itself again. Our firmware reads the
     switches from the servo bus's sensor node, never these frames: no reaction of its own;
     a CAN client sees the gap (its `sequence` jumps) or frames it cannot decode."""
-    from hil.run.realtime_rig import RealTimeRig
-    from protocol import can_frames as cf
+    from hexhil.hil.run.realtime_rig import RealTimeRig
+    from hexhil.protocol import can_frames as cf
 
     sc = scenario(faults={"can_silent": [{"at_s": 0.5, "until_s": 1.0}],
                           "can_garbage": [{"at_s": 1.5, "until_s": 2.0}]})
@@ -234,7 +234,7 @@ def test_force_sensor_dropout_and_bias_on_seed_000():
 
 
 def test_a_switch_fault_takes_the_legs_name_as_the_docs_name_it() -> None:
-    from hil import scenario
+    from hexhil.hil import scenario
 
     by_name = scenario.parse({"faults": {"switch_stuck": [
         {"leg": "rf", "pressed": True, "at_s": 1.0}],

@@ -10,10 +10,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from host_tools.papers.beam_traversal.force_sensing import figures
-from host_tools.papers.beam_traversal.force_sensing.sections import (DELAY_SERIES, DELAYS_MS,
+from hexhil.papers.beam_traversal.force_sensing import figures
+from hexhil.papers.beam_traversal.force_sensing.sections import (DELAY_SERIES, DELAYS_MS,
                                                                       K_FLIMSY, K_STIFF)
-from host_tools.papers.tactile_hexapod import report
+from hexhil.papers.tactile_hexapod import report
 
 
 @pytest.fixture

@@ -8,7 +8,7 @@ import can
 import pytest
 
 from ctrl_c import sigint_default
-from host_tools import cli
+from hexhil import cli
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIO = str(ROOT / "scenarios" / "flat-tripod.toml")
@@ -89,7 +89,7 @@ def test_a_run_where_servos_answered_has_no_such_line(tmp_path, capsys):
 
 
 def _c_tripod_at(tmp_path, baud: int) -> str:
-    from host_tools import c_sdk
+    from hexhil import c_sdk
 
     src = (ROOT / "examples" / "c_tripod" / "main.c").read_text()
     assert "huart2.Init.BaudRate = 1000000;" in src
@@ -113,7 +113,7 @@ def test_a_c_firmware_at_the_wrong_baud_hears_no_servo_and_the_run_says_so(tmp_p
 
 
 def _fault_details(trace) -> list[tuple[str, str]]:
-    from host_tools.trace.reader import Trace
+    from hexhil.trace.reader import Trace
 
     with Trace(trace) as t:
         return [(v["name"], v["message"]) for _, v in t.decoded(["/faults"])]
@@ -121,14 +121,14 @@ def _fault_details(trace) -> list[tuple[str, str]]:
 
 def test_faults_are_plain_text_from_the_board_and_the_c_sdk(tmp_path):
     """/faults holds the fault's detail as text, whichever board saw the mistake."""
-    from host_tools.run_summary import run
+    from hexhil.run_summary import run
 
     main = tmp_path / "main.py"
     main.write_text("IDS = (1,)\nRAISE = False\n" + PING)
     run(SCENARIO, duration_s=0.05, out=str(tmp_path / "board.mcap"), firmware=str(main))
     board = [d for n, d in _fault_details(tmp_path / "board.mcap") if n == "tx_while_receiving"]
     src = (ROOT / "tests" / "c_firmware" / "no_transmitter.c")
-    from host_tools import c_sdk
+    from hexhil import c_sdk
 
     exe = c_sdk.build([str(src)], tmp_path / "no_tx")
     run(SCENARIO, duration_s=0.05, out=str(tmp_path / "c.mcap"), firmware=str(exe))
@@ -139,7 +139,7 @@ def test_faults_are_plain_text_from_the_board_and_the_c_sdk(tmp_path):
 
 
 def test_can_endpoint_frames_are_the_firmwares_only():
-    import host_tools as hx
+    import hexhil as hx
 
     scenario = hx.load_scenario(SCENARIO)
     run = hx.Run(scenario, runtime=hx.Runtime.CPYTHON_INPROCESS, duration_s=0.3)
@@ -177,7 +177,7 @@ int main(void)
 
 
 def _console_lines(trace) -> list[tuple[float, str]]:
-    from host_tools.trace.reader import Trace
+    from hexhil.trace.reader import Trace
 
     with Trace(trace) as t:
         return [(m.log_time_ns * 1e-9, v["text"]) for m, v in t.decoded(["/telemetry"])
@@ -185,10 +185,10 @@ def _console_lines(trace) -> list[tuple[float, str]]:
 
 
 def test_a_c_firmwares_console_is_in_the_trace_when_printed_and_a_crash_keeps_body(tmp_path):
-    from host_tools import c_sdk
-    from host_tools.run_summary import run
-    from host_tools.trace.reader import Trace
-    from protocol.errors import UserError
+    from hexhil import c_sdk
+    from hexhil.run_summary import run
+    from hexhil.trace.reader import Trace
+    from hexhil.protocol.errors import UserError
 
     src = tmp_path / "says.c"
     src.write_text(SAYS_AND_CRASHES)
@@ -206,7 +206,7 @@ def test_a_c_firmwares_console_is_in_the_trace_when_printed_and_a_crash_keeps_bo
 
 
 def test_a_board_firmwares_prints_are_stamped_when_printed(tmp_path):
-    from host_tools.run_summary import run
+    from hexhil.run_summary import run
 
     main = tmp_path / "main.py"
     main.write_text("import time\nprint('one')\ntime.sleep_ms(300)\nprint('two')\n"
@@ -224,14 +224,14 @@ def test_ctrl_c_keeps_the_trace_says_so_and_prints_the_summary(tmp_path):
     import sys
     import time
 
-    from host_tools.trace.reader import Trace
+    from hexhil.trace.reader import Trace
 
     trace = tmp_path / "long.mcap"
     proc = subprocess.Popen([str(Path(sys.executable).with_name("hexhil")), "run", SCENARIO,
                              "--duration", "600", "--python", "cpython-inprocess", "--out",
                              str(trace), "--json"], cwd=ROOT, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, preexec_fn=sigint_default)
-    from host_tools.trace.target import partial_of
+    from hexhil.trace.target import partial_of
 
     partial = partial_of(trace)        # a run writes beside its target until it ends
     deadline = time.monotonic() + 60
@@ -252,7 +252,7 @@ def test_a_run_closed_without_running_leaves_no_warning():
     import subprocess
     import sys
 
-    code = ("import gc, host_tools as hx\n"
+    code = ("import gc, hexhil as hx\n"
             f"r = hx.Run(hx.load_scenario({SCENARIO!r}))\n"
             "r.close()\ndel r\ngc.collect()\n"
             f"with hx.Run(hx.load_scenario({SCENARIO!r})):\n    pass\ngc.collect()\n")
@@ -262,8 +262,8 @@ def test_a_run_closed_without_running_leaves_no_warning():
 
 
 def test_a_hexapod_runs_result_has_its_worlds_final_state():
-    import host_tools as hx
-    from hil.run_result import HexapodOutcome
+    import hexhil as hx
+    from hexhil.hil.run_result import HexapodOutcome
 
     run = hx.Run(hx.load_scenario(SCENARIO), runtime=hx.Runtime.CPYTHON_INPROCESS,
                  duration_s=0.5)
@@ -275,9 +275,9 @@ def test_a_hexapod_runs_result_has_its_worlds_final_state():
 
 
 def test_junit_testcases_have_their_own_times():
-    from host_tools.expect import junit
-    from host_tools.expect.verdicts import Outcome
-    from host_tools.expect.case_runs import CaseResult
+    from hexhil.expect import junit
+    from hexhil.expect.verdicts import Outcome
+    from hexhil.expect.case_runs import CaseResult
 
     outcomes = (Outcome("c", "quick", "protocol", "0", "0", True, time_s=0.002),
                 Outcome("c", "slow", "tactile_rule", "h", "h_k", True, time_s=0.75))

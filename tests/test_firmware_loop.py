@@ -4,10 +4,10 @@ import subprocess
 
 import pytest
 
-from hil.run.lockstep import Simulator
-from protocol.errors import UserError
-from hil.scenario import SCHEMA
-from protocol import can_frames as cf
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.protocol.errors import UserError
+from hexhil.hil.scenario import SCHEMA
+from hexhil.protocol import can_frames as cf
 from conftest import tool
 
 
@@ -160,8 +160,8 @@ def test_a_servo_deaf_longer_than_the_firmware_waits_fails_configuration_cleanly
 def test_can_heading_turns_the_walk_at_each_legs_next_lift_off():
     """``heading_command`` (the navigator's correction) sets Eq. 2-3's epsilon; a +0.3 rad
     heading walks the body to the left of the straight walk on the same ground."""
-    from hil.scenario import parse
-    from hil.world.hexapod_world import HexapodWorld
+    from hexhil.hil.scenario import parse
+    from hexhil.hil.world.hexapod_world import HexapodWorld
 
     def walk(heading_rad: float | None):
         sc = parse({"scenario": {"name": "heading"}, "gait": {"name": "tripod"},

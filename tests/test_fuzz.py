@@ -8,12 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from firmware.commands import GaitCommands
+from hexhil.firmware.commands import GaitCommands
 from fuzz import (cov, cov_targets, fuzz_bus, fuzz_v2_bus, fuzz_can, fuzz_elf, fuzz_logs,
                   fuzz_parser, fuzz_v2_parser, fuzz_scenario, fuzz_trace)
-from host_tools.trace import reader, recover
-from protocol import can_frames as cf
-from protocol.dynamixel import v1 as dxl
+from hexhil.trace import reader, recover
+from hexhil.protocol import can_frames as cf
+from hexhil.protocol.dynamixel import v1 as dxl
 
 SLICES = {fuzz_parser: 3_000, fuzz_bus: 300, fuzz_can: 3_000, fuzz_scenario: 300,
           fuzz_trace: 25, fuzz_v2_parser: 3_000, fuzz_v2_bus: 200, fuzz_elf: 500,

@@ -1,9 +1,9 @@
 """Gait phase tables (seed 003 Fig. 13, protocol/hexapod.py) and the gait clock (firmware/gait.py)."""
 import pytest
 
-from firmware import gait as g
-from firmware import trajectory as traj
-from protocol import hexapod
+from hexhil.firmware import gait as g
+from hexhil.firmware import trajectory as traj
+from hexhil.protocol import hexapod
 
 LEGS = ("LF", "LM", "LH", "RF", "RM", "RH")
 

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 import torch
 
-from host_tools.cli import main as cli
-from host_tools.papers.tactile_hexapod.grnn import data, held_out_report, model, train
-from host_tools.papers.tactile_hexapod.grnn.features import LEGS, SENSING, StepSampler, hip_errors_m
+from hexhil.cli import main as cli
+from hexhil.papers.tactile_hexapod.grnn import data, held_out_report, model, train
+from hexhil.papers.tactile_hexapod.grnn.features import LEGS, SENSING, StepSampler, hip_errors_m
 
 ROOT = Path(__file__).resolve().parent.parent
 PY = sys.executable
@@ -40,7 +40,7 @@ def synth(tmp_path_factory) -> dict[str, Path]:
 @pytest.fixture(scope="module")
 def traced(tmp_path_factory) -> Path:
     """Two short real with-method runs (tripod, wave), recorded, read back by the command."""
-    from host_tools.papers.tactile_hexapod import experiment as th
+    from hexhil.papers.tactile_hexapod import experiment as th
 
     tmp = tmp_path_factory.mktemp("traces")
     paths = [th.run_one(th.RunSpec("with", g, 1.0, True, s, "high", "large", periods=p),
@@ -233,7 +233,7 @@ def test_trained_model_beats_a_constant_on_held_out_walks(tmp_path):
 
 
 def test_hexhil_run_does_not_import_torch():
-    code = ("import sys; from host_tools.cli import main; "
+    code = ("import sys; from hexhil.cli import main; "
             "rc = main(['run', 'scenarios/flat-tripod.toml', '--duration', '1']); "
             "assert rc == 0, rc; print('torch' in sys.modules)")
     out = subprocess.run([PY, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)

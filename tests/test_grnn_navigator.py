@@ -11,13 +11,13 @@ from pathlib import Path
 
 import pytest
 
-from hil import scenario as scenario_mod
-from host_tools.cli import main as cli
-from host_tools.papers.tactile_hexapod import experiment as th
-from host_tools.papers.tactile_hexapod.grnn import data, navigator, train
-from host_tools.papers.tactile_hexapod.grnn.dataset import rows_from_trace
-from host_tools.trace.reader import Trace
-from host_tools.trace.topics import T_BODY
+from hexhil.hil import scenario as scenario_mod
+from hexhil.cli import main as cli
+from hexhil.papers.tactile_hexapod import experiment as th
+from hexhil.papers.tactile_hexapod.grnn import data, navigator, train
+from hexhil.papers.tactile_hexapod.grnn.dataset import rows_from_trace
+from hexhil.trace.reader import Trace
+from hexhil.trace.topics import T_BODY
 
 ROOT = Path(__file__).resolve().parent.parent
 PERIOD_S = 2.778
@@ -104,7 +104,7 @@ def test_planned_steps_stop_the_walk_and_the_body_stays(planned_run):
 
 def _hexhil_json(*args: str) -> tuple[int, dict, str]:
     """``hexhil`` in a child process; also reports whether torch got imported."""
-    code = ("import sys, json; from host_tools.cli import main; rc = main(sys.argv[1:]); "
+    code = ("import sys, json; from hexhil.cli import main; rc = main(sys.argv[1:]); "
             "print(json.dumps({'torch': 'torch' in sys.modules})); sys.exit(rc)")
     p = subprocess.run([sys.executable, "-c", code, *args], cwd=ROOT, capture_output=True,
                        text=True, timeout=300)

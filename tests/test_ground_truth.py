@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from hil import scenario as scenario_mod
-from hil.run import rig
-from hil.seams import SERVO_STATE_FIELDS
-from host_tools.trace import protobuf as pb
-from host_tools.trace import recorder as rec
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.run import rig
+from hexhil.hil.seams import SERVO_STATE_FIELDS
+from hexhil.trace import protobuf as pb
+from hexhil.trace import recorder as rec
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -14,9 +14,9 @@ import threading
 
 import pytest
 
-from hil.link import client_conformance as lc
-from hil.link.firmware_process import firmware_env
-from protocol import sim_link
+from hexhil.hil.link import client_conformance as lc
+from hexhil.hil.link.firmware_process import firmware_env
+from hexhil.protocol import sim_link
 from conftest import tool
 from mpy import ROOT, micropython_binary
 

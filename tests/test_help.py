@@ -1,4 +1,4 @@
-"""`--help` for every command and subcommand (walked from host_tools.cli.build_parser): no
+"""`--help` for every command and subcommand (walked from hexhil.cli.build_parser): no
 reStructuredText markup leaks into it, and every option and positional says what it is."""
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import re
 
 import pytest
 
-from host_tools import cli
+from hexhil import cli
 
 RST = re.compile(r"``|:(?:func|mod|class|meth|ref|py:\w+):`|\.\. \w+::")
 

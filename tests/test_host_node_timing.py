@@ -3,7 +3,7 @@ the firmware's next cycle boundary after it: the driver stops the firmware's sle
 node's tick, so a 100 ms node ticks with the trace's 10 Hz ground truth."""
 from pathlib import Path
 
-import host_tools as hx
+import hexhil as hx
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -7,12 +7,12 @@ from dataclasses import replace
 
 import pytest
 
-from hil.link.firmware_process import IN_PROCESS
-from hil.run.rig import make_world
-from hil.scenario import SCHEMA, load_scenario
-from hil.run.lockstep import Simulator
-from host_tools.papers.tactile_hexapod import experiment as th
-from host_tools.in_process import run_firmware
+from hexhil.hil.link.firmware_process import IN_PROCESS
+from hexhil.hil.run.rig import make_world
+from hexhil.hil.scenario import SCHEMA, load_scenario
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.papers.tactile_hexapod import experiment as th
+from hexhil.in_process import run_firmware
 
 from mpy import ROOT
 
@@ -62,7 +62,7 @@ def test_an_experiment_run_is_the_same_under_either_runtime():
 
 def test_hexhil_run_takes_the_in_process_runtime():
     def digest(python):
-        out = subprocess.run([sys.executable, "-m", "host_tools.cli", "run",
+        out = subprocess.run([sys.executable, "-m", "hexhil.cli", "run",
                               "scenarios/flat-tripod.toml", "--duration", "2", "--json",
                               "--python", python], cwd=ROOT, capture_output=True, text=True)
         assert out.returncode == 0, out.stderr

@@ -6,9 +6,9 @@ import sys
 
 import pytest
 
-from firmware import trajectory as traj
+from hexhil.firmware import trajectory as traj
 from mpy import ROOT, run_micropython
-from protocol import hexapod as kin
+from hexhil.protocol import hexapod as kin
 
 
 def workspace(leg):

@@ -17,7 +17,7 @@ from tests.test_architecture import ROOT, SHELL, _library_modules, _modules, imp
 # The papers' reproductions sit above the toolkit: nothing of the toolkit imports them; the
 # toolkit meets them through host_tools/plugins.py, which they register into. The CLI is the
 # shell over both (``hexhil experiment``, ``hexhil grnn``, ``hexhil beams`` are theirs).
-PAPERS = "host_tools.papers"
+PAPERS = "hexhil.papers"
 PAPERS_DIR = "host_tools/papers"
 
 
@@ -27,13 +27,13 @@ def _toolkit_modules() -> list[Path]:
 
 
 def paper_imports(path: Path) -> list[str]:
-    """Every import of the papers' package in a file, nested ones and ``from host_tools
+    """Every import of the papers' package in a file, nested ones and ``from hexhil
     import papers`` too."""
     bad = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         names = imported(node)
-        if isinstance(node, ast.ImportFrom) and node.module == "host_tools":
-            names += [f"host_tools.{a.name}" for a in node.names]
+        if isinstance(node, ast.ImportFrom) and node.module == "hexhil":
+            names += [f"hexhil.{a.name}" for a in node.names]
         bad += [f"line {node.lineno}: imports {n}" for n in names
                 if n == PAPERS or n.startswith(PAPERS + ".")]
     return bad
@@ -46,16 +46,16 @@ def test_the_toolkit_never_imports_the_papers(path: Path) -> None:
 
 def test_the_paper_import_checker_sees_a_violation(tmp_path: Path) -> None:
     src = tmp_path / "m.py"
-    src.write_text("def f():\n    from host_tools.papers.beam_traversal import planner\n"
-                   "from host_tools import papers, plugins\nimport host_tools.papers\n")
-    assert paper_imports(src) == ["line 3: imports host_tools.papers",
-                                  "line 4: imports host_tools.papers",
-                                  "line 2: imports host_tools.papers.beam_traversal"]
+    src.write_text("def f():\n    from hexhil.papers.beam_traversal import planner\n"
+                   "from hexhil import papers, plugins\nimport hexhil.papers\n")
+    assert paper_imports(src) == ["line 3: imports hexhil.papers",
+                                  "line 4: imports hexhil.papers",
+                                  "line 2: imports hexhil.papers.beam_traversal"]
 
 
 def test_the_papers_packages_exist_and_register_their_plugins() -> None:
-    from hil.scenario import WorldKind
-    from host_tools import papers, plugins
+    from hexhil.hil.scenario import WorldKind
+    from hexhil import papers, plugins
 
     assert {p.name for p in (ROOT / PAPERS_DIR).iterdir() if p.is_dir()} >= {
         "tactile_hexapod", "beam_traversal"}
@@ -169,7 +169,7 @@ def test_run_result_is_frozen_and_its_parts_typed() -> None:
     import dataclasses
     import typing
 
-    from hil import run_result
+    from hexhil.hil import run_result
 
     assert run_result.RunResult.__dataclass_params__.frozen
     hints = typing.get_type_hints(run_result.RunResult)
@@ -208,8 +208,8 @@ def test_library_errors_name_no_cli_flags(path: Path) -> None:
 
 
 def test_the_cli_writes_the_parameters_as_flags(tmp_path: Path) -> None:
-    from host_tools.cli import flag_message
-    from protocol.errors import UserError
+    from hexhil.cli import flag_message
+    from hexhil.protocol.errors import UserError
 
     src = tmp_path / "m.py"
     src.write_text("raise UserError(f'--rate must be >= 0, got {r}')\n"

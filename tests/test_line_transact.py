@@ -13,11 +13,11 @@ from pathlib import Path
 
 import pytest
 
-from hil import scenario as scenario_mod
-from hil.run import rig as rig_mod
-from hil.run.rig import make_world
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.run import rig as rig_mod
+from hexhil.hil.run.rig import make_world
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 from tests.test_servo_core import _state
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -103,5 +103,5 @@ def test_transact_is_write_then_read(scenario, overlay):
 
 def _x_read(dev: int) -> bytes:
     """A Protocol 2.0 READ of Present Position (address 132, 4 bytes)."""
-    from protocol.dynamixel import v2 as dx2
+    from hexhil.protocol.dynamixel import v2 as dx2
     return dx2.read(dev, 132, 4)

@@ -6,10 +6,10 @@ import sys
 
 import pytest
 
-from hil.run.lockstep import Simulator
-from hil.scenario import SCHEMA
-from protocol import can_frames as cf
-from protocol import sim_link
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil.scenario import SCHEMA
+from hexhil.protocol import can_frames as cf
+from hexhil.protocol import sim_link
 from mpy import micropython_binary
 
 BURST = 1000

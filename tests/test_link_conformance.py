@@ -9,8 +9,8 @@ import sys
 
 import pytest
 
-from hil.link.firmware_process import firmware_env
-from hil.link.client_conformance import BURST, SESSIONS, run_suite
+from hexhil.hil.link.firmware_process import firmware_env
+from hexhil.hil.link.client_conformance import BURST, SESSIONS, run_suite
 from mpy import micropython_binary
 
 CLIENT = "tests/link_clients/python_client.py"

@@ -6,11 +6,11 @@ import sys
 
 import pytest
 
-from hil.link import client_conformance as lc
-from hil.link.firmware_process import firmware_env
-from hil.scenario import SCHEMA
-from hil.run.lockstep import Simulator
-from protocol.errors import UserError
+from hexhil.hil.link import client_conformance as lc
+from hexhil.hil.link.firmware_process import firmware_env
+from hexhil.hil.scenario import SCHEMA
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.protocol.errors import UserError
 from mpy import micropython_binary
 
 ENV = {k: v for k, v in firmware_env(0).items() if k in ("MICROPYPATH", "PYTHONPATH")}

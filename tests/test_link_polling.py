@@ -16,13 +16,13 @@ from pathlib import Path
 
 import pytest
 
-from firmware.hal.sim import Link
-from hil.link import cores
-from hil.link.firmware_process import (SPIN_US, Connection, firmware_env, runs_share_cores,
+from hexhil.firmware.hal.sim import Link
+from hexhil.hil.link import cores
+from hexhil.hil.link.firmware_process import (SPIN_US, Connection, firmware_env, runs_share_cores,
                                        spin_us)
-from hil.run.lockstep import Simulator
-from hil.scenario import load_scenario
-from protocol import sim_link
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil.scenario import load_scenario
+from hexhil.protocol import sim_link
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -143,7 +143,7 @@ def test_the_hal_polls_then_blocks_for_a_reply(tmp_path, monkeypatch, delay_s: f
 
 def test_a_bad_setting_is_one_line() -> None:
     env = dict(os.environ, **{sim_link.ENV_SPIN_US: "lots"})
-    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run",
+    proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "run",
                            str(ROOT / "scenarios" / "flat-tripod.toml"), "--duration", "0.1"],
                           cwd=ROOT, env=env, capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2, proc.stdout + proc.stderr

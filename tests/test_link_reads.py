@@ -12,12 +12,12 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from firmware.fault_policy import FaultPolicy
-from hil import scenario
-from hil.link.firmware_process import firmware_command
-from hil.run.lockstep import Simulator
-from host_tools import replay
-from host_tools.trace import recorder as rec
+from hexhil.firmware.fault_policy import FaultPolicy
+from hexhil.hil import scenario
+from hexhil.hil.link.firmware_process import firmware_command
+from hexhil.hil.run.lockstep import Simulator
+from hexhil import replay
+from hexhil.trace import recorder as rec
 from mpy import ROOT
 
 V1_CLIENT = "tests/link_clients/firmware_base_link.py"

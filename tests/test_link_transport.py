@@ -8,11 +8,11 @@ import socket
 
 import pytest
 
-from hil.link.firmware_child import FirmwareProcess
-from hil.link.firmware_process import firmware_command
-from hil.run.lockstep import Simulator
-from hil.scenario import load_scenario
-from protocol import sim_link
+from hexhil.hil.link.firmware_child import FirmwareProcess
+from hexhil.hil.link.firmware_process import firmware_command
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil.scenario import load_scenario
+from hexhil.protocol import sim_link
 
 
 def _hello(fw: FirmwareProcess) -> None:

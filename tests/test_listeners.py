@@ -18,10 +18,10 @@ from pathlib import Path
 import can
 import pytest
 
-from hil.canbus import socketcand as can_server
-from hil.canbus.socketcand import CanServer
-from host_tools.trace.live import LiveServer
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil.canbus import socketcand as can_server
+from hexhil.hil.canbus.socketcand import CanServer
+from hexhil.trace.live import LiveServer
+from hexhil.protocol.dynamixel import v1 as dxl
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -88,7 +88,7 @@ def test_can_server_drops_a_client_that_never_reads(monkeypatch: pytest.MonkeyPa
 
 
 def _serial_server() -> tuple[subprocess.Popen, int]:
-    proc = subprocess.Popen([sys.executable, "-m", "host_tools.cli", "bus", "--tcp", "0"],
+    proc = subprocess.Popen([sys.executable, "-m", "hexhil.cli", "bus", "--tcp", "0"],
                             cwd=ROOT, stdout=subprocess.PIPE, text=True)
     line = proc.stdout.readline()
     assert line.startswith("tcp: 127.0.0.1:"), line

@@ -101,8 +101,8 @@ def test_every_channel_is_advertised_before_a_client_can_subscribe():
     table only after advertising it, so a prompt subscribe can be refused ("Unknown
     channel ID") and the panel stays empty: the live server makes every channel the
     recorder may open before it listens, and a client gets them all as it connects."""
-    from host_tools.trace.live import LiveServer
-    from host_tools.trace.topics import CHANNELS, T_CAN_PREFIX
+    from hexhil.trace.live import LiveServer
+    from hexhil.trace.topics import CHANNELS, T_CAN_PREFIX
 
     live = LiveServer(0)
     try:

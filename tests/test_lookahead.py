@@ -9,13 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hil import scenario
-from hil.link.firmware_process import firmware_command
-from hil.run import lookahead
-from hil.run.lockstep import Simulator
-from hil.run.rig import make_world
-from hil.world.hexapod_world import HexapodWorld
-from host_tools.trace import recorder as rec
+from hexhil.hil import scenario
+from hexhil.hil.link.firmware_process import firmware_command
+from hexhil.hil.run import lookahead
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil.run.rig import make_world
+from hexhil.hil.world.hexapod_world import HexapodWorld
+from hexhil.trace import recorder as rec
 from mpy import ROOT
 
 OFF_RHYTHM = "tests/link_clients/firmware_off_rhythm.py"

@@ -6,13 +6,13 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from firmware.servo_bus.v1 import TIMEOUT_MARGIN_US
-from hil.servobus.line import Bus
-from hil.clock import VirtualClock
-from hil.servobus.ax12_servo import Servo
-from host_tools.expect import margin_sweep, spec
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.firmware.servo_bus.v1 import TIMEOUT_MARGIN_US
+from hexhil.hil.servobus.line import Bus
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.servobus.ax12_servo import Servo
+from hexhil.expect import margin_sweep, spec
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -89,7 +89,7 @@ def test_the_heat_map_has_a_colour_bar_and_only_all_holding_is_green(tmp_path):
 
 
 def test_margin_says_whether_the_expectations_hold_at_nominal_timing() -> None:
-    from host_tools.expect.margin_sweep import Margin, Point
+    from hexhil.expect.margin_sweep import Margin, Point
 
     def point(axis: str, v: float, holds: bool) -> Point:
         return Point(((axis, v),), 2 if holds else 1, 2, () if holds else ("x",), ())

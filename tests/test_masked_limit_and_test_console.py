@@ -5,11 +5,11 @@ import json
 
 import pytest
 
-from firmware import main as firmware_main
-from host_tools.expect import spec
-from host_tools.lockstep_run import Run
+from hexhil.firmware import main as firmware_main
+from hexhil.expect import spec
+from hexhil.lockstep_run import Run
 from mcu_elf import build
-from protocol.errors import UserError
+from hexhil.protocol.errors import UserError
 from conftest import ROOT, hexhil
 
 SPIN = "still running after"

@@ -2,13 +2,13 @@
 our firmware gets none (lockstep, serial digest unchanged); the sensor node answers."""
 from __future__ import annotations
 
-from hil.run import rig
-from hil.link.board_line import MISTAKES
-from hil.servobus.master_check import KINDS, MasterCheck
-from hil.servobus.switch_node import MODEL_NUMBER, SWITCHES, SensorNode
-from hil.run.lockstep import Simulator
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil.run import rig
+from hexhil.hil.link.board_line import MISTAKES
+from hexhil.hil.servobus.master_check import KINDS, MasterCheck
+from hexhil.hil.servobus.switch_node import MODEL_NUMBER, SWITCHES, SensorNode
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 
 def _bus(levels=lambda: 0b100101):

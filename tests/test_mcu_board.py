@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from hil.mcu import board_core
-from hil.run_result import Ending
+from hexhil.hil.mcu import board_core
+from hexhil.hil.run_result import Ending
 from mcu_elf import build, console, run_elf
 
 
@@ -204,7 +204,7 @@ def test_exceptions_follow_the_armv7m_rules(tmp_path, monkeypatch, compiled):
     across a handler, nesting and tail-chaining by priority, PRIMASK and BASEPRI (taken
     right after the unmasking), priority grouping, ICSR's VECTACTIVE, VECTPENDING and
     RETTOBASE, and the stack alignment bit, each as the chip gives it."""
-    import hil.mcu.board as board_module
+    import hexhil.hil.mcu.board as board_module
     if not compiled:
         monkeypatch.setenv("HEXHIL_BOARD_CORE", "python")
     monkeypatch.setattr(board_module, "CONSOLE_TAIL", 64)
@@ -259,7 +259,7 @@ def test_receive_to_idle_gets_every_ping_as_one_burst_in_c_and_in_python(tmp_pat
     root = Path(__file__).resolve().parent.parent
     for core in ("c", "python"):
         env = {**os.environ, **({"HEXHIL_BOARD_CORE": "python"} if core == "python" else {})}
-        proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "run",
+        proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "run",
                                "scenarios/flat-tripod.toml", "--firmware", str(elf),
                                "--duration", "0.15", "--json", "--quiet"], cwd=root, env=env,
                               capture_output=True, text=True, timeout=300)
@@ -295,8 +295,8 @@ def test_a_run_with_a_switch_interrupt_armed_replays_identically(tmp_path):
     """Every sleep the board makes while a switch interrupt waits is in the trace's /link,
     and replay's board, which has no world, makes the same ones: when it asks depends on
     its own time only."""
-    from host_tools import Run
-    from host_tools.replay import replay_firmware
+    from hexhil import Run
+    from hexhil.replay import replay_firmware
     elf = build(tmp_path, "ram_wait.c", "WAIT=3")
     trace = tmp_path / "run.mcap"
     Run("scenarios/flat-tripod.toml", seed=1, duration_s=0.1, firmware=elf, trace=trace).run()

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from hil.mcu.coverage import merge
+from hexhil.hil.mcu.coverage import merge
 from mcu_elf import MCU, build
 from conftest import HEXHIL, hexhil
 
@@ -98,7 +98,7 @@ def test_a_fault_is_a_signal_with_its_registers_and_gdb_stays_attached(tmp_path)
 
 
 def test_a_failed_assert_stops_in_gdb_as_sigabrt_in_abort(tmp_path):
-    from host_tools import c_sdk
+    from hexhil import c_sdk
     elf = c_sdk.build([str(ROOT / "tests" / "elf_firmware" / "endings.c")],
                       tmp_path / "assert.elf", ("-DEND=END_ASSERT",), "stm32f411")
     out, code, err = gdb_session(tmp_path, elf, "continue\nbt 3\ndetach\n")
@@ -136,7 +136,7 @@ def test_lcov_names_source_lines_with_counts_and_zero_for_lines_never_run(tmp_pa
 
 def test_coverage_is_of_the_firmwares_own_sources_unless_the_libraries_are_asked_for(
         tmp_path):
-    from host_tools import c_sdk
+    from hexhil import c_sdk
     src = ROOT / "tests" / "elf_firmware" / "endings.c"     # printf: newlib-nano's
     elf = c_sdk.build([str(src)], tmp_path / "endings.elf", ("-DEND=END_NONE",), "stm32f411")
     files = {}

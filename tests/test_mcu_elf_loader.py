@@ -6,10 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from hil.mcu.elf_image import load_elf
-from host_tools.trace.reader import Trace
+from hexhil.hil.mcu.elf_image import load_elf
+from hexhil.trace.reader import Trace
 from mcu_elf import build
-from protocol.errors import UserError
+from hexhil.protocol.errors import UserError
 from conftest import HEXHIL, hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -8,13 +8,13 @@ from pathlib import Path
 
 import pytest
 
-from hil.link.served_firmware import served_firmware
-from hil.mcu import flash_fs
-from hil.mcu.flash_fs import FlashFiles
-from hil.run.lockstep import Simulator
-from hil.run_result import Ending
-from hil.scenario import load_scenario
-from protocol.errors import UserError
+from hexhil.hil.link.served_firmware import served_firmware
+from hexhil.hil.mcu import flash_fs
+from hexhil.hil.mcu.flash_fs import FlashFiles
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil.run_result import Ending
+from hexhil.hil.scenario import load_scenario
+from hexhil.protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
 MICROPYTHON = ROOT.parent / "shared" / "firmware" / "micropython"
@@ -76,7 +76,7 @@ def test_the_cli_lays_a_folder_and_reads_the_files_main_py_wrote_back(tmp_path):
                     "while True:\n"
                     "    time.sleep_ms(100)\n")
     out = tmp_path / "back"
-    done = subprocess.run([sys.executable, "-m", "host_tools.cli", "run",
+    done = subprocess.run([sys.executable, "-m", "hexhil.cli", "run",
                            str(ROOT / "scenarios" / "flat-tripod.toml"), "--firmware",
                            str(EMPTY_FS_ELF), "--main", str(main), "--fs", str(lib),
                            "--fs-out", str(out), "--duration", "1.0"],
@@ -131,8 +131,8 @@ def test_the_board_definition_is_the_emulated_board():
     on PB0-PB5; the shared ELF was built from such a definition (its board name)."""
     import re
 
-    from hil.mcu import rcc
-    from hil.mcu.gpio import SWITCH_PINS
+    from hexhil.hil.mcu import rcc
+    from hexhil.hil.mcu.gpio import SWITCH_PINS
     board = ROOT / "firmware" / "micropython-board" / "HEXHIL_F411"
     h = (board / "mpconfigboard.h").read_text()
     conf = (board / "stm32f4xx_hal_conf.h").read_text()
@@ -181,7 +181,7 @@ name = "too tight"
 kind = "deadline"
 max_busy_ms = 0.5
 ''')
-    done = subprocess.run([sys.executable, "-m", "host_tools.cli", "test", str(case),
+    done = subprocess.run([sys.executable, "-m", "hexhil.cli", "test", str(case),
                            "--fs-out", str(tmp_path / "flash")],
                           cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert done.returncode == 1, done.stdout + done.stderr
@@ -205,7 +205,7 @@ def test_the_pytest_plugin_and_replay_take_the_flash_files(hexhil_run, tmp_path)
                       firmware=EMPTY_FS_ELF, main=LOOP_50HZ, fs_out=tmp_path / "run")
     assert done.check("deadline", max_busy_ms=15.0, stat="p99").passed
     assert (tmp_path / "run" / "main.py").read_bytes() == LOOP_50HZ.read_bytes()
-    from host_tools import replay
+    from hexhil import replay
     r = replay.replay_firmware(done.trace, firmware=str(EMPTY_FS_ELF),
                                flash_files=FlashFiles(main=LOOP_50HZ, out=tmp_path / "replay"))
     assert r.identical and r.exchanges >= 20        # a line request a 20 ms cycle at least

@@ -5,15 +5,15 @@ from pathlib import Path
 
 import pytest
 
-from hil.mcu import flash_fs, flash_modules
-from hil.mcu.deadline import is_sync_write
-from hil.mcu.flash_fs import FlashFiles
-from hil.run_result import Ending
-from hil.scenario import load_scenario
-from host_tools.expect.case_runs import run_scenario
-from protocol.dynamixel import v1 as dxl
-from protocol.dynamixel import v2 as dx2
-from protocol.errors import UserError
+from hexhil.hil.mcu import flash_fs, flash_modules
+from hexhil.hil.mcu.deadline import is_sync_write
+from hexhil.hil.mcu.flash_fs import FlashFiles
+from hexhil.hil.run_result import Ending
+from hexhil.hil.scenario import load_scenario
+from hexhil.expect.case_runs import run_scenario
+from hexhil.protocol.dynamixel import v1 as dxl
+from hexhil.protocol.dynamixel import v2 as dx2
+from hexhil.protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
 EMPTY_FS_ELF = ROOT.parent / "shared" / "firmware" / "micropython" / "micropython-hexhil-f411.elf"
@@ -111,8 +111,8 @@ def test_our_firmware_walks_0_3_m_in_30_s_on_the_chip(tmp_path):
 
 
 def test_margin_takes_fs_out_through_the_shared_option():
-    from host_tools.cli import build_parser
-    from host_tools.cli.run import flash_files
+    from hexhil.cli import build_parser
+    from hexhil.cli.run import flash_files
 
     argv = ["margin", "s.toml", "--expect", "e.toml", "--main", "m.py", "--fs-out", "back"]
     args = build_parser(argv).parse_args(argv)

@@ -13,13 +13,13 @@ from pathlib import Path
 
 import pytest
 
-from hil.link.firmware_child import FirmwareProcess
-from hil.link.firmware_process import FirmwareError
-from hil.run.limits import RunLimits
-from hil.run_result import Ending
-from host_tools import Run, c_sdk
-from host_tools.trace.reader import Trace
-from host_tools.trace.target import partial_of
+from hexhil.hil.link.firmware_child import FirmwareProcess
+from hexhil.hil.link.firmware_process import FirmwareError
+from hexhil.hil.run.limits import RunLimits
+from hexhil.hil.run_result import Ending
+from hexhil import Run, c_sdk
+from hexhil.trace.reader import Trace
+from hexhil.trace.target import partial_of
 
 ROOT = Path(__file__).resolve().parent.parent
 FLAT = ROOT / "scenarios" / "flat-tripod.toml"
@@ -134,7 +134,7 @@ def test_a_child_forked_mid_run_ends_the_watch_its_thread_held_a_lock_of() -> No
     end the run, not wait on that lock for ever (a fuzzed input taken for a hang)."""
     import threading
 
-    from hil.run.limits import RunWatch
+    from hexhil.hil.run.limits import RunWatch
 
     watch = RunWatch(RunLimits(), 1.0)
     with watch:
@@ -208,7 +208,7 @@ while True:
 
 
 def test_a_chatty_firmwares_prints_are_bounded_and_the_rest_is_reported(tmp_path: Path) -> None:
-    from hil.link.served_firmware import CONSOLE_TRACE_BYTES
+    from hexhil.hil.link.served_firmware import CONSOLE_TRACE_BYTES
 
     fw = tmp_path / "chatty.py"
     fw.write_text(CHATTY)                   # 10 kB a virtual millisecond

@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from ctrl_c import sigint_default
-from host_tools.trace.reader import Trace
-from host_tools.trace.recover import recover
+from hexhil.trace.reader import Trace
+from hexhil.trace.recover import recover
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIO = str(ROOT / "scenarios" / "flat-tripod.toml")

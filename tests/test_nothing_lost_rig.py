@@ -24,9 +24,9 @@ from pathlib import Path
 import pytest
 
 from ctrl_c import sigint_default
-from host_tools.trace.reader import Trace
-from host_tools.trace.recover import recover
-from host_tools.trace.topics import T_BODY, T_SERIAL
+from hexhil.trace.reader import Trace
+from hexhil.trace.recover import recover
+from hexhil.trace.topics import T_BODY, T_SERIAL
 
 ROOT = Path(__file__).resolve().parent.parent
 KILL_CHILD = str(ROOT / "tests" / "kill_child.py")

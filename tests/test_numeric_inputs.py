@@ -9,11 +9,11 @@ from pathlib import Path
 import pytest
 
 from fuzz.fuzz_trace import sample_trace
-from hil import scenario as scenario_mod
-from host_tools import Run, cli
-from host_tools.replay import replay_can, replay_firmware
-from host_tools.trace.reader import Trace
-from protocol.errors import UserError
+from hexhil.hil import scenario as scenario_mod
+from hexhil import Run, cli
+from hexhil.replay import replay_can, replay_firmware
+from hexhil.trace.reader import Trace
+from hexhil.protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
 FT = str(ROOT / "scenarios" / "flat-tripod.toml")

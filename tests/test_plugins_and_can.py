@@ -11,23 +11,23 @@ from pathlib import Path
 import can
 import pytest
 
-import host_tools as hx
-from protocol import can_frames as cf
+import hexhil as hx
+from hexhil.protocol import can_frames as cf
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_the_papers_are_entry_points() -> None:
     found = {ep.name: ep.value for ep in entry_points(group="hexhil.plugins")}
-    assert found == {"beam_traversal": "host_tools.papers.beam_traversal",
-                     "tactile_hexapod": "host_tools.papers.tactile_hexapod"}
+    assert found == {"beam_traversal": "hexhil.papers.beam_traversal",
+                     "tactile_hexapod": "hexhil.papers.tactile_hexapod"}
 
 
 def test_a_beams_scenario_runs_through_run_with_no_import() -> None:
-    script = ("import sys, host_tools as hx\n"
-              "assert 'host_tools.papers' not in sys.modules\n"
+    script = ("import sys, hexhil as hx\n"
+              "assert 'hexhil.papers' not in sys.modules\n"
               "r = hx.Run('scenarios/beams-stiff.toml', duration_s=0.1).run()\n"
-              "print(sorted(r.host_nodes)[:3], 'host_tools.papers' in sys.modules)\n")
+              "print(sorted(r.host_nodes)[:3], 'hexhil.papers' in sys.modules)\n")
     out = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True,
                          text=True, timeout=120)
     assert out.returncode == 0, out.stderr

@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 
 from bench import bench_protocol
-from protocol.dynamixel import v1 as dxl
+from hexhil.protocol.dynamixel import v1 as dxl
 
 
 def test_bus_capture_is_what_the_note_says() -> None:

@@ -7,8 +7,8 @@ import sys
 
 import pytest
 
-from host_tools.cli import main
-from protocol.dynamixel import v1 as dxl
+from hexhil.cli import main
+from hexhil.protocol.dynamixel import v1 as dxl
 
 SYNC_4 = "FF FF FE 18 83 1E 04 00 10 00 50 01 01 20 02 60 03 02 30 00 70 01 03 20 02 80 03 12"
 
@@ -133,7 +133,7 @@ def test_lenient_turns_bad_packets_into_reported_garbage(capsys: pytest.CaptureF
 
 def test_console_script_no_traceback() -> None:
     """The installed entry point: one line on stderr, exit 2, for each kind of bad input."""
-    exe = [sys.executable, "-m", "host_tools.cli", "protocol", "decode"]
+    exe = [sys.executable, "-m", "hexhil.cli", "protocol", "decode"]
     for bad in (["FFF"], ["FF FF 01 02 01 FA"], ["FF FF 01 02"]):
         r = subprocess.run(exe + bad, capture_output=True, text=True, timeout=60)
         assert r.returncode == 2 and r.stdout == ""
@@ -144,7 +144,7 @@ def test_console_script_no_traceback() -> None:
 
 
 def test_protocol_2_bytes_are_recognised_and_unstuffed(capsys: pytest.CaptureFixture) -> None:
-    from protocol.dynamixel import v2 as dx2
+    from hexhil.protocol.dynamixel import v2 as dx2
 
     data = b"\x00" + dx2.sync_read(132, 4, [1, 2]) + dx2.status(1, dx2.ERR_ACCESS | dx2.ALERT,
                                                                 b"\xff\xff\xfd\x00")
@@ -160,8 +160,8 @@ def test_packets_in_words_read_against_the_models_control_table() -> None:
     """What a replay divergence prints (host_tools/dynamixel/decode/words.py), built on the
     decoder ``hexhil protocol decode`` uses: Protocol 1.0 against the AX-12's table, 2.0
     against the XL430's, a status packet's error bits and data."""
-    from host_tools.dynamixel.decode import DECODERS
-    from protocol.dynamixel import v2 as dx2
+    from hexhil.dynamixel.decode import DECODERS
+    from hexhil.protocol.dynamixel import v2 as dx2
 
     v1, v2 = DECODERS[1].names, DECODERS[2].names
     le = int.to_bytes

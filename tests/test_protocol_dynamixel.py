@@ -1,7 +1,7 @@
 """protocol/dynamixel/v1.py API details the conformance suite does not reach."""
 from __future__ import annotations
 
-from protocol.dynamixel import v1 as dxl
+from hexhil.protocol.dynamixel import v1 as dxl
 
 
 def test_reset_drops_the_partial_packet() -> None:

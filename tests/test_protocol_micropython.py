@@ -15,7 +15,7 @@ import cantools
 import pytest
 
 from mpy import ROOT, run_micropython
-from protocol import can_frames as cf
+from hexhil.protocol import can_frames as cf
 
 SCRIPTS = sorted((ROOT / "tests" / "micropython").glob("mpy_*.py"))
 

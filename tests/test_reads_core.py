@@ -17,16 +17,16 @@ from pathlib import Path
 
 import pytest
 
-from hil import scenario as scenario_mod
-from hil.link.server import LinkServer, SwitchSampler
-from hil.run.lockstep import Simulator
-from hil.run.rig import make_world
-from hil.run_result import RunTally
-from hil.servobus import reads_core
-from host_tools.in_process import run_firmware
-from protocol import sim_link
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.link.server import LinkServer, SwitchSampler
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil.run.rig import make_world
+from hexhil.hil.run_result import RunTally
+from hexhil.hil.servobus import reads_core
+from hexhil.in_process import run_firmware
+from hexhil.protocol import sim_link
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 from tests.test_servo_core import _state
 
 ROOT = Path(__file__).resolve().parent.parent

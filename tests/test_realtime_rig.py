@@ -12,9 +12,9 @@ import time
 from pathlib import Path
 
 from ctrl_c import sigint_default
-from host_tools.trace.reader import Trace
-from host_tools.trace.topics import T_BODY, T_SERIAL
-from protocol.dynamixel import v1 as dxl
+from hexhil.trace.reader import Trace
+from hexhil.trace.topics import T_BODY, T_SERIAL
+from hexhil.protocol.dynamixel import v1 as dxl
 from conftest import HEXHIL
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -21,15 +21,15 @@ from mcap.records import Chunk, MessageIndex
 from mcap.stream_reader import StreamReader
 from mcap_protobuf.decoder import DecoderFactory
 
-from host_tools.trace import protobuf as pb
-from host_tools.trace import reader as trace_reader
-from host_tools.trace import recorder as rec
-from host_tools.trace import recover as trace_recover
-from host_tools.trace.target import partial_of
-from host_tools.trace.writer import software_version
-from host_tools.trace import topics
-from protocol import can_frames
-from protocol.dynamixel import v1 as dynamixel
+from hexhil.trace import protobuf as pb
+from hexhil.trace import reader as trace_reader
+from hexhil.trace import recorder as rec
+from hexhil.trace import recover as trace_recover
+from hexhil.trace.target import partial_of
+from hexhil.trace.writer import software_version
+from hexhil.trace import topics
+from hexhil.protocol import can_frames
+from hexhil.protocol.dynamixel import v1 as dynamixel
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -271,7 +271,7 @@ def test_idle_work_changes_no_byte(tmp_path_factory, budgets):
 def test_a_recorded_run_is_the_same_bytes_however_it_is_scheduled(tmp_path):
     """How much encoding overlaps the firmware depends on timing (the simulator skips
     idle work when the firmware has already answered); the trace must not."""
-    from host_tools.run_summary import run
+    from hexhil.run_summary import run
 
     run("scenarios/flat-tripod.toml", 2.0, out=str(tmp_path / "free.mcap"))
     cores = os.sched_getaffinity(0)
@@ -284,7 +284,7 @@ def test_a_recorded_run_is_the_same_bytes_however_it_is_scheduled(tmp_path):
 
 
 def test_unwritable_path_is_a_user_error(tmp_path):
-    from protocol.errors import UserError
+    from hexhil.protocol.errors import UserError
 
     with pytest.raises(UserError, match="cannot write trace"):
         rec.Recorder(tmp_path / "no" / "such" / "dir.mcap")
@@ -307,7 +307,7 @@ def test_a_packet_hidden_behind_a_bad_header_is_decoded_at_close(tmp_path):
 
 KILL_SCRIPT = textwrap.dedent("""
     import sys, time
-    from host_tools.trace.recorder import Recorder
+    from hexhil.trace.recorder import Recorder
     r = Recorder(sys.argv[1], {"seed": 1})
     budget = int(sys.argv[2])        # -1: never idle(), like a world without firmware
     t = 0
@@ -338,7 +338,7 @@ def test_sigkill_loses_at_most_the_last_simulated_second(tmp_path, idle_budget):
         proc.send_signal(signal.SIGKILL)
         proc.wait()
     # the killed file is unreadable to the seeking reader (no summary) ...
-    from protocol.errors import UserError
+    from hexhil.protocol.errors import UserError
     with pytest.raises(UserError, match="recover"):
         trace_reader.info(path)
     # ... and recover salvages everything but the last window

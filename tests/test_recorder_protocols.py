@@ -8,14 +8,14 @@ import re
 import sys
 from pathlib import Path
 
-from host_tools import lockstep_run, replay
-from host_tools.dynamixel.decode import DECODERS
-from host_tools.cli import main
-from host_tools.trace import reader as trace_reader
-from host_tools.trace import recorder as rec
-from host_tools.trace import topics
-from protocol.dynamixel import v1 as dx1
-from protocol.dynamixel import v2 as dx2
+from hexhil import lockstep_run, replay
+from hexhil.dynamixel.decode import DECODERS
+from hexhil.cli import main
+from hexhil.trace import reader as trace_reader
+from hexhil.trace import recorder as rec
+from hexhil.trace import topics
+from hexhil.protocol.dynamixel import v1 as dx1
+from hexhil.protocol.dynamixel import v2 as dx2
 
 MICROPYTHON = str(Path(sys.executable).with_name("micropython"))
 

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from host_tools import render as render_mod
-from protocol.errors import UserError
+from hexhil import render as render_mod
+from hexhil.protocol.errors import UserError
 from conftest import hexhil, hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent

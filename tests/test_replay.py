@@ -11,14 +11,14 @@ from pathlib import Path
 import can
 import pytest
 
-from hil.run.lockstep import Simulator
-from hil import scenario
-from host_tools import replay
-from host_tools.cli import main
-from host_tools.trace import protobuf as pb
-from host_tools.trace import recorder as rec
-from host_tools.trace import topics
-from host_tools.trace.reader import open_trace
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil import scenario
+from hexhil import replay
+from hexhil.cli import main
+from hexhil.trace import protobuf as pb
+from hexhil.trace import recorder as rec
+from hexhil.trace import topics
+from hexhil.trace.reader import open_trace
 
 MICROPYTHON = str(Path(sys.executable).with_name("micropython"))
 DURATION_S = 1.5
@@ -163,7 +163,7 @@ def test_a_trace_of_cpython_in_process_replays_under_micropython(tmp_path, capsy
     """MicroPython writes a JSON event's keys in another order than CPython; replay compares
     those events decoded, so a sweep's trace (firmware in process) replays under the
     reference runtime."""
-    from host_tools.in_process import run_firmware
+    from hexhil.in_process import run_firmware
 
     def switches(t_us):   # LF pressed from 0.3 s to 0.4 s: two edges, tactile events
         return 1 if 300_000 <= t_us < 400_000 else 0
@@ -179,7 +179,7 @@ def test_a_trace_of_cpython_in_process_replays_under_micropython(tmp_path, capsy
 
 
 def test_json_events_compare_decoded_and_still_catch_a_changed_value():
-    from protocol import sim_link
+    from hexhil.protocol import sim_link
 
     def event(text):
         return (sim_link.OP_EVENT, bytes([sim_link.EVENT_TACTILE]) + text)

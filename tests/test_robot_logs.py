@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import uart_wave
-from host_tools.trace.reader import Trace
+from hexhil.trace.reader import Trace
 from robot_logs import (BAUD, RATE_HZ, ROOT, can_frames, cli, refused, run, run_sr,  # noqa: F401
                         serial_bursts)
 
@@ -41,7 +41,7 @@ def test_capture_and_can_log_replay_into_the_firmware_identically(run, run_sr, t
 
 
 def test_python_can_writers_logs_import_with_direction_and_dbc_names(tmp_path, capsys):
-    from protocol import can_frames as dbc
+    from hexhil.protocol import can_frames as dbc
 
     msgs = []
     for i in range(5):

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 import yourdfpy
 
-from hil.world.hexapod_world import RobotParams, mjcf
-from host_tools.robot_model import urdf
-from protocol.hexapod import JOINTS, LEGS
+from hexhil.hil.world.hexapod_world import RobotParams, mjcf
+from hexhil.robot_model import urdf
+from hexhil.protocol.hexapod import JOINTS, LEGS
 
 
 @pytest.fixture(scope="module")
@@ -70,9 +70,9 @@ def test_feet_match_the_world_at_random_angles(both):
 
 
 def test_cli_prints_both_descriptions():
-    out = subprocess.run([sys.executable, "-m", "host_tools.cli", "model", "urdf"],
+    out = subprocess.run([sys.executable, "-m", "hexhil.cli", "model", "urdf"],
                          capture_output=True, text=True, check=True).stdout
     assert out == urdf()
-    out = subprocess.run([sys.executable, "-m", "host_tools.cli", "model", "mjcf"],
+    out = subprocess.run([sys.executable, "-m", "hexhil.cli", "model", "mjcf"],
                          capture_output=True, text=True, check=True).stdout
     assert out == mjcf(RobotParams(), [], 1.0)

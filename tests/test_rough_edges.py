@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from firmware.hal import serial as fw_serial
+from hexhil.firmware.hal import serial as fw_serial
 from fuzz.fuzz_trace import sample_trace
-from host_tools import cli
-from host_tools.cli import bus as bus_cli
+from hexhil import cli
+from hexhil.cli import bus as bus_cli
 
 
 @pytest.fixture(scope="module")

@@ -7,15 +7,15 @@ import threading
 
 import can
 
-from host_tools.trace import protobuf as pb
-from host_tools.trace import topics
-from host_tools.trace.reader import open_trace
+from hexhil.trace import protobuf as pb
+from hexhil.trace import topics
+from hexhil.trace.reader import open_trace
 
 
 def test_stock_client_receives_every_frame_of_hexhil_run(tmp_path):
     trace = tmp_path / "live.mcap"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "host_tools.cli", "run", "scenarios/faults.toml", "--duration", "2",
+        [sys.executable, "-m", "hexhil.cli", "run", "scenarios/faults.toml", "--duration", "2",
          "--out", str(trace), "--can-server", "0", "--can-wait", "1"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     line = proc.stdout.readline()
@@ -57,7 +57,7 @@ def test_can_server_port_in_use_is_one_line(tmp_path):
         s.bind(("127.0.0.1", 0))
         s.listen(1)
         port = s.getsockname()[1]
-        p = subprocess.run([sys.executable, "-m", "host_tools.cli", "run", "scenarios/faults.toml",
+        p = subprocess.run([sys.executable, "-m", "hexhil.cli", "run", "scenarios/faults.toml",
                             "--duration", "1", "--can-server", str(port)],
                            capture_output=True, text=True, timeout=60)
     assert p.returncode == 2

@@ -69,9 +69,9 @@ def test_missing_file_and_bad_flag():
 def test_run_trace_holds_ground_truth_servo_state_and_joints(tmp_path):
     from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
 
-    from host_tools.trace import protobuf as pb
-    from host_tools.trace import topics
-    from host_tools.trace.reader import open_trace
+    from hexhil.trace import protobuf as pb
+    from hexhil.trace import topics
+    from hexhil.trace.reader import open_trace
 
     out = tmp_path / "t.mcap"
     s = summary(hexhil("run", "scenarios/flat-tripod.toml", "--duration", "1", "--out", str(out),

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from host_tools import cli
-from protocol.errors import UserError
+from hexhil import cli
+from hexhil.protocol.errors import UserError
 
 
 @pytest.mark.parametrize("command", [["run", "s.toml"], ["test", "c.toml"],

@@ -11,12 +11,12 @@ import pytest
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
-from hil import scenario as scenario_mod
-from hil.run.rig import make_world
-from hil.world import scene as scene_mod
-from hil.world.beam_body import PAPER_BODY
-from hil.world.beams import BeamsWorld, BodyState
-from host_tools.trace import topics
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.run.rig import make_world
+from hexhil.hil.world import scene as scene_mod
+from hexhil.hil.world.beam_body import PAPER_BODY
+from hexhil.hil.world.beams import BeamsWorld, BodyState
+from hexhil.trace import topics
 from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -162,7 +162,7 @@ def test_a_samples_frames_and_forces_are_what_the_world_was_when_taken():
 def test_frame_transforms_encoder_matches_the_generated_class():
     from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
 
-    from host_tools.trace import protobuf as pb
+    from hexhil.trace import protobuf as pb
 
     frames = [("body", "world", (0.1, 0.0, 0.09), (0.99, 0.0, 0.1, -0.0)),
               ("LF_coxa", "body", (0.1, 0.06, 0.0), (0.92, 0.0, 0.0, 0.38))]

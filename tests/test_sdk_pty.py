@@ -14,8 +14,8 @@ import dynamixel_sdk as sdk
 import dynamixel_sdk.port_handler
 
 from ctrl_c import sigint_default
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 from conftest import HEXHIL, hexhil
 
 ROOT = Path(__file__).resolve().parent.parent

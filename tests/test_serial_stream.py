@@ -10,11 +10,11 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from hil.run.core import SerialTap
-from hil.servobus import serial_stream
-from host_tools.trace import recorder as rec
-from host_tools.trace import topics
-from protocol.dynamixel import v1 as dynamixel
+from hexhil.hil.run.core import SerialTap
+from hexhil.hil.servobus import serial_stream
+from hexhil.trace import recorder as rec
+from hexhil.trace import topics
+from hexhil.protocol.dynamixel import v1 as dynamixel
 
 WINDOW_US = 50_000
 

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from protocol import hexapod
-from protocol.dynamixel import ax12
+from hexhil.protocol import hexapod
+from hexhil.protocol.dynamixel import ax12
 
 DOC = (Path(__file__).resolve().parent.parent / "docs" / "servo-bus.md").read_text()
 QUICK = DOC.split("## Quick reference", 1)[1].split("\n## ", 1)[0]

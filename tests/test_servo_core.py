@@ -15,14 +15,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hil import scenario as scenario_mod
-from hil.run.lockstep import Simulator
-from hil.run.rig import make_world
-from hil.servobus import servo_core
-from hil.servobus.switch_node import SensorNode
-from host_tools.in_process import run_firmware
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil.run.rig import make_world
+from hexhil.hil.servobus import servo_core
+from hexhil.hil.servobus.switch_node import SensorNode
+from hexhil.in_process import run_firmware
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 ROOT = Path(__file__).resolve().parent.parent
 NODE_ID = 100   # the limit-switch node's (hil/servobus/switch_node.py)
@@ -162,7 +162,7 @@ def test_the_ground_truth_rows_are_the_servos_own(monkeypatch, tmp_path):
     """``hx_state_rows`` (a 10 Hz ground-truth sample in one call) gives what each servo's
     ``state_row`` gives, to the bit and the type (their reprs), through the fault
     vocabulary: error bits of each kind, torque off, moving and still."""
-    from host_tools.trace.recorder import Recorder
+    from hexhil.trace.recorder import Recorder
 
     seen = []
     rows_of = servo_core.ServoBank.state_rows

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import pytest
 
-from hil.link.board_line import MISTAKES
-from hil.servobus.protocols.v2 import Bus2
-from hil.clock import VirtualClock
-from hil.servobus.health import OVERLOAD_TIME_US
-from hil.servobus.profile import Trapezoid
-from hil.servobus.xseries_servo import XSeriesServo
-from protocol.dynamixel import v2 as dx2
-from protocol.dynamixel import xl430 as xl
+from hexhil.hil.link.board_line import MISTAKES
+from hexhil.hil.servobus.protocols.v2 import Bus2
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.servobus.health import OVERLOAD_TIME_US
+from hexhil.hil.servobus.profile import Trapezoid
+from hexhil.hil.servobus.xseries_servo import XSeriesServo
+from hexhil.protocol.dynamixel import v2 as dx2
+from hexhil.protocol.dynamixel import xl430 as xl
 
 
 def make_bus(n: int = 18, rd_units: int = 0, **kw) -> Bus2:
@@ -187,8 +187,8 @@ def test_stuffed_write_reaches_the_table() -> None:
 
 
 def test_master_check_names_a_protocol_2_masters_mistakes() -> None:
-    from hil.servobus.master_check import MasterCheck
-    from hil.servobus.protocols import RULES
+    from hexhil.hil.servobus.master_check import MasterCheck
+    from hexhil.hil.servobus.protocols import RULES
     KINDS_2 = RULES[2].kinds
 
     bus = make_bus(2)
@@ -220,7 +220,7 @@ def test_master_check_names_a_protocol_2_masters_mistakes() -> None:
 
 
 def test_the_ax12_faults_reach_xl430s_through_the_scenario() -> None:
-    from hil.run import rig
+    from hexhil.hil.run import rig
 
     sc = {"_path": "t", "bus": {"model": "xl430-w250", "servos": 3, "return_delay_us": 0},
           "faults": {"unplug": [{"id": 2, "at_s": 0.05, "until_s": 0.1}],

@@ -12,8 +12,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from host_tools.run_summary import run
-from host_tools.trace.reader import Trace
+from hexhil.run_summary import run
+from hexhil.trace.reader import Trace
 
 ROOT = Path(__file__).resolve().parent.parent
 SHARED = ROOT.parent / "shared" / "firmware"
@@ -89,7 +89,7 @@ def test_the_cubemx_pages_expectation_file_passes_with_the_cube_elf(tmp_path):
     tests = tmp_path / "tests"
     tests.mkdir()
     (tests / "walk.toml").write_text(case.replace('"../scenarios/', f'"{ROOT}/scenarios/'))
-    proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "test",
+    proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "test",
                            str(tests / "walk.toml"), "--firmware",
                            shared_elf("cube/cube.elf")], cwd=ROOT, capture_output=True,
                           text=True, timeout=300)

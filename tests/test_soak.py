@@ -6,10 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from hil import scenario
-from hil.canbus.bus import CanBus
-from hil.clock import VirtualClock
-from protocol.errors import UserError
+from hexhil.hil import scenario
+from hexhil.hil.canbus.bus import CanBus
+from hexhil.hil.clock import VirtualClock
+from hexhil.protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -16,7 +16,7 @@ import dynamixel_sdk as sdk
 import dynamixel_sdk.port_handler
 import pytest
 
-from protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import ax12
 from test_sdk_pty import HEXHIL, ROOT, _sdk_outcome
 
 PH = sdk.PacketHandler(1.0)
@@ -131,11 +131,11 @@ def test_packets_read_together_wait_for_the_status_they_would_talk_over():
     """The issue's pypot failure: the host read servo 1's ping late, the client timed out and
     pinged servo 2; both pings came in one read. They must not become the wired AND of two
     replies (b'\xff\xff\x00\x02\x00\xf8') but two clean replies and no collision."""
-    from hil.clock import VirtualClock
-    from hil.servobus.ax12_servo import Servo
-    from hil.servobus.line import Bus
-    from hil.servobus.serial_server import RealTimeServer
-    from protocol.dynamixel import v1 as dxl
+    from hexhil.hil.clock import VirtualClock
+    from hexhil.hil.servobus.ax12_servo import Servo
+    from hexhil.hil.servobus.line import Bus
+    from hexhil.hil.servobus.serial_server import RealTimeServer
+    from hexhil.protocol.dynamixel import v1 as dxl
 
     bus = Bus([Servo(1), Servo(2)], VirtualClock())
     server = RealTimeServer(bus)
@@ -188,7 +188,7 @@ def _transact(port, packet: bytes, n: int) -> bytes:
 
 def test_a_pyserial_client_on_rfc2217_pings_sets_baud_and_rts():
     import serial
-    from protocol.dynamixel import v1 as dxl
+    from hexhil.protocol.dynamixel import v1 as dxl
 
     ping = dxl.packet(1, dxl.PING)
     with rfc2217_bus() as (url, summary):
@@ -208,7 +208,7 @@ def test_a_pyserial_client_on_rfc2217_pings_sets_baud_and_rts():
 
 def test_rts_as_the_direction_line_is_judged_like_pa1():
     import serial
-    from protocol.dynamixel import v1 as dxl
+    from hexhil.protocol.dynamixel import v1 as dxl
 
     ping = dxl.packet(2, dxl.PING)
     with rfc2217_bus("--rts-direction") as (url, summary):

@@ -30,7 +30,7 @@ def test_nothing_skips_for_a_missing_package() -> None:
 def test_the_helper_runs_the_command_line() -> None:
     r = hexhil("--version")
     assert r.returncode == 0 and r.stdout.startswith("hexhil ")
-    assert HEXHIL[1:] == ["-m", "host_tools.cli"]
+    assert HEXHIL[1:] == ["-m", "hexhil.cli"]
 
 
 def test_the_in_process_helper_gives_what_the_command_line_gives(tmp_path: Path) -> None:

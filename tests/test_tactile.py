@@ -1,7 +1,7 @@
 """Debounce and the Eq. 5-7 switching rule (firmware/tactile.py)."""
 import pytest
 
-from firmware import tactile
+from hexhil.firmware import tactile
 
 
 def test_debounce_needs_consecutive_samples():

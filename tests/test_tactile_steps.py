@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from host_tools.expect import steps
+from hexhil.expect import steps
 
 ROOT = Path(__file__).resolve().parent.parent
 LM = 1
@@ -128,7 +128,7 @@ def _case(tmp_path: Path, seed: int) -> Path:
 def test_our_firmware_keeps_the_rule_over_the_whole_obstacles_low_small(tmp_path, seed):
     """The full 90 s of obstacles-low-small, seeds 1-3: the rule holds, and fails with it off."""
     def judge(*extra: str) -> str:
-        proc = subprocess.run([sys.executable, "-m", "host_tools.cli", "test",
+        proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "test",
                                str(_case(tmp_path, seed)), "--python", "cpython-inprocess",
                                *extra], cwd=ROOT, capture_output=True, text=True, timeout=900)
         return next(line for line in proc.stdout.splitlines() if "tactile rule" in line)

@@ -5,9 +5,9 @@ from pathlib import Path
 
 import pytest
 
-from hil.world import terrain
-from hil import scenario
-from protocol.errors import UserError
+from hexhil.hil.world import terrain
+from hexhil.hil import scenario
+from hexhil.protocol.errors import UserError
 
 ROOT = Path(__file__).resolve().parent.parent
 

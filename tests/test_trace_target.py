@@ -14,10 +14,10 @@ from pathlib import Path
 import pytest
 
 from ctrl_c import sigint_default
-from host_tools.trace.reader import Trace, info
-from host_tools.trace.recorder import Recorder
-from host_tools.trace.target import partial_of
-from protocol.errors import UserError
+from hexhil.trace.reader import Trace, info
+from hexhil.trace.recorder import Recorder
+from hexhil.trace.target import partial_of
+from hexhil.protocol.errors import UserError
 from conftest import hexhil, hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -58,7 +58,7 @@ def test_an_existing_trace_survives_out_onto_it(tmp_path: Path, precious: Path) 
 def test_a_second_run_onto_one_target_is_refused_while_the_first_writes(tmp_path: Path
                                                                         ) -> None:
     out = tmp_path / "shared.mcap"
-    first = subprocess.Popen([sys.executable, "-m", "host_tools.cli", "run", FLAT,
+    first = subprocess.Popen([sys.executable, "-m", "hexhil.cli", "run", FLAT,
                               "--duration", "600", *FAST, "--out", str(out)], cwd=ROOT,
                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                              preexec_fn=sigint_default)
@@ -78,7 +78,7 @@ def test_a_second_run_onto_one_target_is_refused_while_the_first_writes(tmp_path
 
 def test_a_killed_run_leaves_its_partial_file_for_recover(tmp_path: Path) -> None:
     out = tmp_path / "killed.mcap"
-    proc = subprocess.Popen([sys.executable, "-m", "host_tools.cli", "run", FLAT,
+    proc = subprocess.Popen([sys.executable, "-m", "hexhil.cli", "run", FLAT,
                              "--duration", "600", *FAST, "--out", str(out)], cwd=ROOT,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 120

@@ -14,11 +14,11 @@ import pytest
 from mcap.records import Message
 from mcap.stream_reader import StreamReader, breakup_chunk
 
-from host_tools.trace import reader as trace_reader
-from host_tools.trace import recorder as rec
-from host_tools.trace import recover as trace_recover
-from host_tools.cli import main
-from protocol import can_frames
+from hexhil.trace import reader as trace_reader
+from hexhil.trace import recorder as rec
+from hexhil.trace import recover as trace_recover
+from hexhil.cli import main
+from hexhil.protocol import can_frames
 
 
 def _trace(path, seconds: float = 2.0):
@@ -121,8 +121,8 @@ def test_recover_truncated_file(tmp_path, capsys):
 
 def _beams_csv(path, k=(0.3, 0.5), hb_m=0.0, seconds=1.2):
     """A 100 Hz force + pose log of the seed-000 beams world, as a physical robot logs it."""
-    from hil.world.beam_body import BeamParams
-    from hil.world.beams import SENSOR_PERIOD_US, BeamsWorld
+    from hexhil.hil.world.beam_body import BeamParams
+    from hexhil.hil.world.beams import SENSOR_PERIOD_US, BeamsWorld
 
     w = BeamsWorld(beams=[BeamParams(k[0], hb_m), BeamParams(k[1], hb_m)])
     with open(path, "w", newline="") as f:
@@ -310,7 +310,7 @@ def test_no_traceback_from_the_real_command_line(tmp_path):
     bad = tmp_path / "trunc.mcap"
     bad.write_bytes(b"\x89MCAP0\r\n" + b"\x01" * 40)
     for argv in (["trace", "info", str(bad)], ["replay", str(bad)], ["estimate", str(bad)]):
-        p = subprocess.run([sys.executable, "-m", "host_tools.cli", *argv], capture_output=True,
+        p = subprocess.run([sys.executable, "-m", "hexhil.cli", *argv], capture_output=True,
                            text=True)
         assert p.returncode == 2 and "Traceback" not in p.stderr
         assert len(p.stderr.strip().splitlines()) == 1
@@ -336,7 +336,7 @@ def test_estimate_reproduces_the_estimate_a_beams_run_logged(tmp_path, capsys):
     """`hexhil beams run --out` logs force/pose frames and the estimate it made online;
     re-running the estimator on the logged frames gives that estimate back (to the
     beam_estimate frame's resolution: 2e-5 N m/rad, 0.02 mm)."""
-    from host_tools.papers.beam_traversal.beams_run import RunConfig, run
+    from hexhil.papers.beam_traversal.beams_run import RunConfig, run
 
     p = tmp_path / "beams.mcap"
     with rec.Recorder(p, {"command": "beams run"}) as r:

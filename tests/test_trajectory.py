@@ -3,7 +3,7 @@ import math
 
 import pytest
 
-from firmware import trajectory as traj
+from hexhil.firmware import trajectory as traj
 
 L, H = 0.05, 0.03
 

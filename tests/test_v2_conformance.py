@@ -23,7 +23,7 @@ FAULTY = textwrap.dedent("""
     from hil.servobus.protocols.v2 import Bus2
     from hil.clock import VirtualClock
     from hil.servobus.serial_server import RealTimeServer, install_sigterm, Stop
-    from host_tools.cli import flush_print
+    from hexhil.cli import flush_print
     from hil.servobus.xseries_servo import XSeriesServo
     from protocol.dynamixel import v2 as dx2
 

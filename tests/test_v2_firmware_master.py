@@ -3,11 +3,11 @@ scan, configuration, one SYNC_WRITE, one SYNC_READ of all 18, stuffed replies, a
 servo ending the chain; the return delay both masters write at configuration."""
 from __future__ import annotations
 
-from firmware.servo_bus import v2 as servo_bus2
-from hil.servobus.protocols.v2 import Bus2
-from hil.clock import VirtualClock
-from hil.servobus.xseries_servo import XSeriesServo
-from protocol.dynamixel import xl430 as xl
+from hexhil.firmware.servo_bus import v2 as servo_bus2
+from hexhil.hil.servobus.protocols.v2 import Bus2
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.servobus.xseries_servo import XSeriesServo
+from hexhil.protocol.dynamixel import xl430 as xl
 
 
 class BusUart:
@@ -93,9 +93,9 @@ def test_a_silent_servo_ends_the_chain() -> None:
 def test_configuration_writes_the_return_delay_the_board_asks_for() -> None:
     """delay_set_us (the board back end's 100 us: hal/board.py) reaches every servo's
     register in both protocols, in its 2 us units."""
-    from firmware.servo_bus import master_class
-    from hil.servobus.ax12_servo import Servo
-    from hil.servobus.line import Bus
+    from hexhil.firmware.servo_bus import master_class
+    from hexhil.hil.servobus.ax12_servo import Servo
+    from hexhil.hil.servobus.line import Bus
 
     bus, m, now = rig()
     m.delay_set_us = 100

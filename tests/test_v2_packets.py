@@ -6,7 +6,7 @@ from dynamixel_sdk import PacketHandler
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from protocol.dynamixel import v2 as dx2
+from hexhil.protocol.dynamixel import v2 as dx2
 
 PH = PacketHandler(2.0)
 INSTRS = sorted(set(dx2.INSTRUCTION_NAMES) - {dx2.STATUS})

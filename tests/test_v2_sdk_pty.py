@@ -10,8 +10,8 @@ import dynamixel_sdk as sdk
 import dynamixel_sdk.port_handler
 import pytest
 
-from protocol.dynamixel import v2 as dx2
-from protocol.dynamixel import xl430 as xl
+from hexhil.protocol.dynamixel import v2 as dx2
+from hexhil.protocol.dynamixel import xl430 as xl
 from test_sdk_pty import bus_server
 
 PH = sdk.PacketHandler(2.0)

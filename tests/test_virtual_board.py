@@ -6,14 +6,14 @@ from pathlib import Path
 
 import pytest
 
-from hil.link import served_firmware
-from hil.link.board_line import MISTAKES
-from hil.link.served_firmware import served_firmware as board_firmware
-from hil.servobus.master_check import MasterCheck
-from hil.run.lockstep import Simulator
-from hil.scenario import SCHEMA
-from host_tools import cli
-from host_tools.trace.reader import Trace
+from hexhil.hil.link import served_firmware
+from hexhil.hil.link.board_line import MISTAKES
+from hexhil.hil.link.served_firmware import served_firmware as board_firmware
+from hexhil.hil.servobus.master_check import MasterCheck
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil.scenario import SCHEMA
+from hexhil import cli
+from hexhil.trace.reader import Trace
 from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent

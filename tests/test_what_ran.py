@@ -9,8 +9,8 @@ import json
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from host_tools import scenario_of_trace
-from host_tools.trace.reader import Trace
+from hexhil import scenario_of_trace
+from hexhil.trace.reader import Trace
 from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -111,7 +111,7 @@ def test_a_divergence_shows_the_servo_packets_decoded(tmp_path: Path) -> None:
 def test_margin_settings_are_the_runs_overrides(tmp_path: Path) -> None:
     import dataclasses
 
-    from host_tools.expect import case_runs, margin_sweep, spec
+    from hexhil.expect import case_runs, margin_sweep, spec
 
     case_file = tmp_path / "m.toml"
     case_file.write_text(f'[case]\nscenario = "{FLAT}"\nduration_s = 0.5\n\n[[expect]]\n'

@@ -4,9 +4,9 @@ import math
 import numpy as np
 import pytest
 
-from hil.world import actuator as act
-from hil.scenario import parse
-from hil.world.hexapod_world import HexapodWorld
+from hexhil.hil.world import actuator as act
+from hexhil.hil.scenario import parse
+from hexhil.hil.world.hexapod_world import HexapodWorld
 
 UNIT = act.POSITION_UNIT_RAD
 

@@ -3,9 +3,9 @@ import math
 
 import pytest
 
-from hil.scenario import parse
-from hil.world.hexapod_world import HexapodWorld
-from protocol.errors import UserError
+from hexhil.hil.scenario import parse
+from hexhil.hil.world.hexapod_world import HexapodWorld
+from hexhil.protocol.errors import UserError
 
 
 def _world(model: str, seed: int = 1, **world) -> HexapodWorld:

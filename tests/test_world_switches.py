@@ -3,11 +3,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from hil.scenario import parse
-from hil.world import actuator as act
-from hil.world.hexapod_world import LEGS, HexapodWorld, RobotParams
-from hil.world.switches import SwitchBank
-from protocol import hexapod as kin
+from hexhil.hil.scenario import parse
+from hexhil.hil.world import actuator as act
+from hexhil.hil.world.hexapod_world import LEGS, HexapodWorld, RobotParams
+from hexhil.hil.world.switches import SwitchBank
+from hexhil.protocol import hexapod as kin
 
 
 def test_hysteresis_between_operating_and_release_force():

@@ -7,11 +7,11 @@ import math
 
 import pytest
 
-from firmware import gait as gait_mod
-from firmware import trajectory as traj
-from hil.scenario import parse
-from hil.world.hexapod_world import HexapodWorld
-from protocol import hexapod as kin
+from hexhil.firmware import gait as gait_mod
+from hexhil.firmware import trajectory as traj
+from hexhil.hil.scenario import parse
+from hexhil.hil.world.hexapod_world import HexapodWorld
+from hexhil.protocol import hexapod as kin
 
 CYCLE_US = 20_000  # the firmware's 50 Hz loop
 

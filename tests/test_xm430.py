@@ -13,13 +13,13 @@ import dynamixel_sdk as sdk
 import dynamixel_sdk.port_handler
 import pytest
 
-from hil.run import rig
-from hil.servobus.protocols.v2 import Bus2
-from hil.servobus.xseries_servo import XSeriesServo
-from protocol.dynamixel import models
-from protocol.dynamixel import v2 as dx2
-from protocol.dynamixel import xl430
-from protocol.dynamixel import xm430 as xm
+from hexhil.hil.run import rig
+from hexhil.hil.servobus.protocols.v2 import Bus2
+from hexhil.hil.servobus.xseries_servo import XSeriesServo
+from hexhil.protocol.dynamixel import models
+from hexhil.protocol.dynamixel import v2 as dx2
+from hexhil.protocol.dynamixel import xl430
+from hexhil.protocol.dynamixel import xm430 as xm
 from test_conformance_checker import conformance
 from test_sdk_pty import bus_server
 from test_v2_sdk_pty import retry

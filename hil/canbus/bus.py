@@ -25,10 +25,10 @@ from typing import Any, Callable, Iterator
 
 import can
 
-from hil.clock import VirtualClock
-from hil.seams import CanGateway, TraceRecorder
-from protocol import can_frames
-from protocol.errors import UserError
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.seams import CanGateway, TraceRecorder
+from hexhil.protocol import can_frames
+from hexhil.protocol.errors import UserError
 
 _channels = itertools.count()
 

@@ -13,10 +13,10 @@ from __future__ import annotations
 import struct
 from typing import Mapping
 
-from hil.link.firmware_process import LinkViolation
-from hil.run_result import RunTally
-from hil.seams import LinkHost, ServoLine
-from protocol import sim_link
+from hexhil.hil.link.firmware_process import LinkViolation
+from hexhil.hil.run_result import RunTally
+from hexhil.hil.seams import LinkHost, ServoLine
+from hexhil.protocol import sim_link
 
 HANG_S = 2.0          # virtual seconds without a UART write, pin turn or sleep: a hang
 TX_WHILE_RECEIVING = "tx_while_receiving"

@@ -19,9 +19,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
-from hil.link.firmware_child import end_group
-from hil.link.firmware_process import Connection
-from protocol import sim_link
+from hexhil.hil.link.firmware_child import end_group
+from hexhil.hil.link.firmware_process import Connection
+from hexhil.protocol import sim_link
 
 ROOT = Path(__file__).resolve().parents[2]
 TOKEN = "conformance-7f3a"     # the config value the client must echo as a log event

@@ -11,7 +11,7 @@ import tempfile
 import time
 from typing import Any
 
-from hil.link.firmware_process import (ROOT, Connection, FirmwareError, firmware_command,
+from hexhil.hil.link.firmware_process import (ROOT, Connection, FirmwareError, firmware_command,
                                       firmware_env, last_words)
 
 ACCEPT_POLL_S = 0.1   # how often a firmware not connected yet is checked for having exited

@@ -19,11 +19,13 @@ import time
 from pathlib import Path
 from typing import Callable
 
-from firmware.hal.poll_gate import PollGate, schedstat_paths
-from hil.link import cores
-from protocol import sim_link
-from protocol.errors import BadFile, BadValue, UserError
+from hexhil.firmware.hal.poll_gate import PollGate, schedstat_paths
+from hexhil.hil.link import cores
+from hexhil.protocol import sim_link
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
+# the folder that holds firmware/ and protocol/ (a clone's root, or the installed hexhil/):
+# the chip's top level, where a firmware process finds them by their own names
 ROOT = Path(__file__).resolve().parents[2]
 REQUEST_OPS = sim_link.REQUEST_OPS
 RUNTIMES = ("micropython", "cpython")

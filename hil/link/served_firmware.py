@@ -25,17 +25,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Callable, Protocol
 
-from hil.link.firmware_child import TAIL_BYTES, FirmwareProcess
-from hil.link.firmware_process import ROOT, FirmwareError, firmware_command, firmware_env
-from hil.mcu import flash_fs
-from hil.mcu.elf_image import ELF_MAGIC, ElfImage, is_arm_elf, load_elf
-from hil.mcu.flash_fs import FlashFiles
-from hil.mcu.runtime import serve_elf
-from hil.mcu.verdicts import MASKED_LIMIT_S
-from hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
-from hil.seams import LinkHost
-from protocol import sim_link
-from protocol.errors import BadValue, UserError
+from hexhil.hil.link.firmware_child import TAIL_BYTES, FirmwareProcess
+from hexhil.hil.link.firmware_process import ROOT, FirmwareError, firmware_command, firmware_env
+from hexhil.hil.mcu import flash_fs
+from hexhil.hil.mcu.elf_image import ELF_MAGIC, ElfImage, is_arm_elf, load_elf
+from hexhil.hil.mcu.flash_fs import FlashFiles
+from hexhil.hil.mcu.runtime import serve_elf
+from hexhil.hil.mcu.verdicts import MASKED_LIMIT_S
+from hexhil.hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
+from hexhil.hil.seams import LinkHost
+from hexhil.protocol import sim_link
+from hexhil.protocol.errors import BadValue, UserError
 
 BOARD_DIR = ROOT / "firmware" / "virtual_board"
 BOARD_RUNTIME = "micropython-board"   # a run's firmware_runtime

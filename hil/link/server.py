@@ -9,17 +9,19 @@ import logging
 import struct
 from typing import TYPE_CHECKING, Any, Callable
 
-from hil.link.board_line import MISTAKES, BoardLine, set_master_baud
-from hil.canbus.bus import CanBus
-from hil.servobus.status_reads import MalformedReads, StatusReads
-from hil.link.firmware_process import Connection, DirectConnection, FirmwareError, LinkViolation
-from hil.run_result import RunTally
-from hil.seams import TraceRecorder
-from protocol import sim_link
-from protocol import link_schema as ls
+from hexhil.hil.link.board_line import MISTAKES, BoardLine, set_master_baud
+from hexhil.hil.canbus.bus import CanBus
+from hexhil.hil.servobus.status_reads import MalformedReads, StatusReads
+from hexhil.hil.link.firmware_process import (
+    Connection, DirectConnection, FirmwareError, LinkViolation
+)
+from hexhil.hil.run_result import RunTally
+from hexhil.hil.seams import TraceRecorder
+from hexhil.protocol import sim_link
+from hexhil.protocol import link_schema as ls
 
 if TYPE_CHECKING:   # hil/run builds the server; the server only calls it
-    from hil.run.lookahead import Lookahead
+    from hexhil.hil.run.lookahead import Lookahead
 
 # the firmware's console as it prints (every runtime's log lines): a record each, with its
 # virtual time ``t_s``; outside the ``hil`` tree, so the CLI shows it on stderr, not stdout

@@ -16,31 +16,33 @@ from typing import Any, Callable
 from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
 
-from hil.mcu.board_core import (NativeBoard, NativeEvents, NativeTimer, NativeUsart,
+from hexhil.hil.mcu.board_core import (NativeBoard, NativeEvents, NativeTimer, NativeUsart,
                                 SharedField, native)
-from hil.mcu.board_loop import (exception_choice, exception_entry, exception_taking,
+from hexhil.hil.mcu.board_loop import (exception_choice, exception_entry, exception_taking,
                                 handed_over, hook_interrupts, trips)
-from hil.mcu.console import Console, semihost
-from hil.mcu.core import EXC_SVCALL, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT, INTR_SWI, Core, CoreFault
-from hil.mcu.deadline import ControlCycles
-from hil.mcu.elf_image import ElfImage
-from hil.mcu.events import Events, Timer
-from hil.mcu.faults import Faults, intr_fault
-from hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
-from hil.mcu.mmio import PeripheralSpace
-from hil.mcu.link_client import LinkClient
-from hil.mcu.poll import PollSkipper
-from hil.mcu.quiet import QuietLoops
-from hil.mcu.servo_line import ServoLine
-from hil.mcu.peripherals import IrqLines, extra_peripherals
-from hil.mcu import device_id, flash, platform
-from hil.mcu.rcc import CSR, HSI_HZ, Rcc, power
-from hil.mcu.rtc import Rtc
-from hil.mcu.system import Nvic, SystemBlock
-from hil.mcu.systick import SysTick
-from hil.mcu.usart import Usart
-from hil.mcu.verdicts import BRANCH_TO_SELF, MASKED_LIMIT_S, Endings
-from hil.mcu.world_sync import WorldSync
+from hexhil.hil.mcu.console import Console, semihost
+from hexhil.hil.mcu.core import (
+    EXC_SVCALL, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT, INTR_SWI, Core, CoreFault
+)
+from hexhil.hil.mcu.deadline import ControlCycles
+from hexhil.hil.mcu.elf_image import ElfImage
+from hexhil.hil.mcu.events import Events, Timer
+from hexhil.hil.mcu.faults import Faults, intr_fault
+from hexhil.hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
+from hexhil.hil.mcu.mmio import PeripheralSpace
+from hexhil.hil.mcu.link_client import LinkClient
+from hexhil.hil.mcu.poll import PollSkipper
+from hexhil.hil.mcu.quiet import QuietLoops
+from hexhil.hil.mcu.servo_line import ServoLine
+from hexhil.hil.mcu.peripherals import IrqLines, extra_peripherals
+from hexhil.hil.mcu import device_id, flash, platform
+from hexhil.hil.mcu.rcc import CSR, HSI_HZ, Rcc, power
+from hexhil.hil.mcu.rtc import Rtc
+from hexhil.hil.mcu.system import Nvic, SystemBlock
+from hexhil.hil.mcu.systick import SysTick
+from hexhil.hil.mcu.usart import Usart
+from hexhil.hil.mcu.verdicts import BRANCH_TO_SELF, MASKED_LIMIT_S, Endings
+from hexhil.hil.mcu.world_sync import WorldSync
 
 log = logging.getLogger(__name__)
 MAX_CHUNK = 20_000           # instructions: the most an interrupt unmasked by CPSIE/MSR waits

@@ -29,9 +29,9 @@ import weakref
 from pathlib import Path
 from typing import Any, Callable
 
-from hil.mcu.struct_layout import layout_mismatch
-from hil.native import load_library
-from protocol.errors import UserError
+from hexhil.hil.mcu.struct_layout import layout_mismatch
+from hexhil.hil.native import load_library
+from hexhil.protocol.errors import UserError
 
 LIBRARY = Path(__file__).with_name("_board_core.so")
 USART2_IRQ = 38

@@ -16,9 +16,9 @@ from typing import Any, Callable
 
 from unicorn import UcError
 
-from hil.mcu.board_core import Shared, library
-from hil.mcu.core import CoreFault, error_text
-from hil.mcu.faults import NULL_JUMP
+from hexhil.hil.mcu.board_core import Shared, library
+from hexhil.hil.mcu.core import CoreFault, error_text
+from hexhil.hil.mcu.faults import NULL_JUMP
 
 # board_core.c's enum of where Python goes on, the same numbers
 (LOOP_AFTER_HEAD, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,

@@ -22,10 +22,10 @@ from unicorn import (UC_ARCH_ARM, UC_HOOK_INTR, UC_MODE_MCLASS, UC_MODE_THUMB, U
 from unicorn import arm_const as A, unicorn_const as U
 from unicorn.unicorn_py3.unicorn import uclib
 
-from hil.mcu.board_core import Shared, SharedField, library
-from hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
-from hil.mcu.engine import EngineKind, Regs, attach_engine, regs_place
-from hil.mcu.timebase import FS_PER_S, FS_PER_US, TimeBase
+from hexhil.hil.mcu.board_core import Shared, SharedField, library
+from hexhil.hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
+from hexhil.hil.mcu.engine import EngineKind, Regs, attach_engine, regs_place
+from hexhil.hil.mcu.timebase import FS_PER_S, FS_PER_US, TimeBase
 
 EXC_HARDFAULT, EXC_SVCALL, EXC_PENDSV, EXC_SYSTICK = 3, 11, 14, 15
 INTR_UDEF, INTR_SWI, INTR_BKPT, INTR_EXC_EXIT, INTR_NOCP, INTR_INVSTATE = 1, 2, 7, 8, 17, 18

@@ -23,9 +23,9 @@ import numpy as np
 from elftools.elf.elffile import ELFFile
 from unicorn import UC_HOOK_BLOCK, Uc
 
-from hil.mcu.board_core import library
-from hil.mcu.elf_image import ElfImage
-from protocol.errors import UserError
+from hexhil.hil.mcu.board_core import library
+from hexhil.hil.mcu.elf_image import ElfImage
+from hexhil.protocol.errors import UserError
 
 _U64 = ctypes.c_uint64
 

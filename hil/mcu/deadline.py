@@ -15,9 +15,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from hil.mcu.timebase import FS_PER_S
-from protocol.dynamixel.stream import SYNC_WRITE
-from protocol.dynamixel.v1 import BROADCAST_ID
+from hexhil.hil.mcu.timebase import FS_PER_S
+from hexhil.protocol.dynamixel.stream import SYNC_WRITE
+from hexhil.protocol.dynamixel.v1 import BROADCAST_ID
 
 QUIET_MS = 2.0          # a gap on the servo line this long starts a new control cycle
 LATE = 1.1              # a cycle this much longer than the median period is late

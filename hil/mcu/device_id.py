@@ -13,7 +13,7 @@ import struct
 
 from unicorn import UC_PROT_READ, Uc
 
-from hil.mcu.devices.adc import VREFINT_V, counts, temperature_v
+from hexhil.hil.mcu.devices.adc import VREFINT_V, counts, temperature_v
 
 SYSTEM_MEMORY, SYSTEM_MEMORY_SIZE = 0x1FFF0000, 0x8000     # bootloader, OTP, the ID
 OTP, OTP_SIZE = 0x1FFF7800, 0x210

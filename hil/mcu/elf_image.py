@@ -19,7 +19,7 @@ from pathlib import Path
 from elftools.common.exceptions import ELFError
 from elftools.elf.elffile import ELFFile
 
-from protocol.errors import UserError
+from hexhil.protocol.errors import UserError
 
 ELF_MAGIC = b"\x7fELF"
 EM_ARM = 40

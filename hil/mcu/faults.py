@@ -28,11 +28,11 @@ from typing import Any
 from unicorn import UC_HOOK_MEM_UNMAPPED
 from unicorn import unicorn_const as U
 
-from hil.mcu.core import (EXC_PENDSV, EXC_SVCALL, EXC_SYSTICK, INTR_BKPT, INTR_INVSTATE,
+from hexhil.hil.mcu.core import (EXC_PENDSV, EXC_SVCALL, EXC_SYSTICK, INTR_BKPT, INTR_INVSTATE,
                           INTR_NOCP, INTR_UDEF, CoreFault)
-from hil.mcu.timebase import FS_PER_S
-from hil.mcu.verdicts import SYSTEM_EXCEPTIONS, Verdict
-from hil.run_result import Ending
+from hexhil.hil.mcu.timebase import FS_PER_S
+from hexhil.hil.mcu.verdicts import SYSTEM_EXCEPTIONS, Verdict
+from hexhil.hil.run_result import Ending
 
 log = logging.getLogger(__name__)
 EXC_HARD, EXC_MEM, EXC_BUS, EXC_USAGE = 3, 4, 5, 6

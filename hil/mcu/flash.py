@@ -25,8 +25,8 @@ from typing import Any
 
 from unicorn import UC_HOOK_MEM_WRITE_PROT
 
-from hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE
-from hil.mcu.timebase import FS_PER_US
+from hexhil.hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE
+from hexhil.hil.mcu.timebase import FS_PER_US
 
 log = logging.getLogger(__name__)
 ACR, KEYR, OPTKEYR, SR, CR, OPTCR = 0x00, 0x04, 0x08, 0x0C, 0x10, 0x14

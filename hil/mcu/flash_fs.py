@@ -16,9 +16,9 @@ import types
 from dataclasses import dataclass
 from pathlib import Path
 
-from hil.mcu.elf_image import ElfImage
-from hil.mcu.flash_modules import module_files
-from protocol.errors import UserError
+from hexhil.hil.mcu.elf_image import ElfImage
+from hexhil.hil.mcu.flash_modules import module_files
+from hexhil.protocol.errors import UserError
 
 FS_BASE, FS_SIZE = 0x08004000, 64 * 1024
 BLOCK_BYTES = 512

@@ -19,7 +19,7 @@ import ast
 import subprocess
 from pathlib import Path
 
-from protocol.errors import UserError
+from hexhil.protocol.errors import UserError
 
 MPY_OPTIONS = ("-X", "no-source-lines")
 

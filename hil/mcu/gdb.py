@@ -21,7 +21,7 @@ from typing import Any
 from unicorn import UC_HOOK_CODE, UcError
 from unicorn import arm_const as A
 
-from protocol.errors import UserError
+from hexhil.protocol.errors import UserError
 
 REGS = tuple(A.UC_ARM_REG_R0 + i for i in range(13)) + (
     A.UC_ARM_REG_SP, A.UC_ARM_REG_LR, A.UC_ARM_REG_PC, A.UC_ARM_REG_XPSR)

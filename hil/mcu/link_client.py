@@ -17,8 +17,8 @@ import struct
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from protocol import sim_link
-from protocol.errors import UserError
+from hexhil.protocol import sim_link
+from hexhil.protocol.errors import UserError
 
 RUNTIME_NAME = b"stm32f411-elf"
 

@@ -20,10 +20,10 @@ from typing import Any
 from unicorn import Uc
 from unicorn.unicorn_py3.unicorn import MMIO_READ_CFUNC, MMIO_WRITE_CFUNC, uclib
 
-from hil.mcu.bitband import BitBandAlias
-from hil.mcu.board_core import front
-from hil.mcu.elf_image import SRAM_BASE, SRAM_SIZE
-from hil.mcu.rcc import CLOCK_BITS
+from hexhil.hil.mcu.bitband import BitBandAlias
+from hexhil.hil.mcu.board_core import front
+from hexhil.hil.mcu.elf_image import SRAM_BASE, SRAM_SIZE
+from hexhil.hil.mcu.rcc import CLOCK_BITS
 
 log = logging.getLogger(__name__)
 PERIPH_BASE, PERIPH_SIZE = 0x40000000, 0x80000      # APB1, APB2, AHB1

@@ -23,8 +23,8 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-from hil.mcu.core import FS_PER_S
-from hil.mcu.system import IRQS
+from hexhil.hil.mcu.core import FS_PER_S
+from hexhil.hil.mcu.system import IRQS
 
 log = logging.getLogger(__name__)
 UIF, UIE, CEN, OPM = 1, 1, 1, 1 << 3

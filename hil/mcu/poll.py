@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from hil.mcu.board_core import add_not_loop, add_wait
+from hexhil.hil.mcu.board_core import add_not_loop, add_wait
 
 
 def _signed(word: int) -> int:

@@ -33,8 +33,8 @@ from typing import Any
 
 from unicorn import arm_const as A
 
-from hil.mcu.board_core import library
-from hil.mcu.engine import Regs
+from hexhil.hil.mcu.board_core import library
+from hexhil.hil.mcu.engine import Regs
 
 PASS = 2520                  # lcm(1..10) instructions
 MAX_BACKOFF = 64             # quiet chunks let by after repeated misses

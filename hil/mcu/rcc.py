@@ -13,8 +13,8 @@ from __future__ import annotations
 
 from typing import Callable
 
-from hil.mcu.events import Events
-from hil.mcu.platform import clock_bits
+from hexhil.hil.mcu.events import Events
+from hexhil.hil.mcu.platform import clock_bits
 
 HSI_HZ = 16_000_000
 HSE_HZ = 25_000_000

@@ -10,12 +10,12 @@ import threading
 from pathlib import Path
 from typing import Callable
 
-from hil.link.firmware_process import split_messages
-from hil.mcu.board import Board
-from hil.mcu.core import CoreFault
-from hil.mcu.elf_image import ElfImage
-from hil.mcu import flash_fs
-from protocol.errors import UserError
+from hexhil.hil.link.firmware_process import split_messages
+from hexhil.hil.mcu.board import Board
+from hexhil.hil.mcu.core import CoreFault
+from hexhil.hil.mcu.elf_image import ElfImage
+from hexhil.hil.mcu import flash_fs
+from hexhil.protocol.errors import UserError
 
 WAIT_S = 60.0
 

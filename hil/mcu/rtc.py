@@ -25,8 +25,8 @@ from __future__ import annotations
 import datetime as dt
 from typing import Any
 
-from hil.mcu import platform
-from hil.mcu.timebase import FS_PER_S
+from hexhil.hil.mcu import platform
+from hexhil.hil.mcu.timebase import FS_PER_S
 
 TR, DR, CR, ISR, PRER, WUTR, WPR, SSR = 0x00, 0x04, 0x08, 0x0C, 0x10, 0x14, 0x24, 0x28
 BKP0R, BKP_COUNT = 0x50, 20

@@ -10,16 +10,16 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Callable
 
-from hil.link.firmware_process import DirectConnection
-from hil.mcu import flash_fs
-from hil.mcu.board import Board
-from hil.mcu.board_core import MAX_US
-from hil.mcu.core import CoreFault
-from hil.mcu.elf_image import ElfImage
-from hil.mcu.gdb import SIGABRT, SIGINT, GdbServer, fault_signal
-from hil.mcu.verdicts import MASKED_LIMIT_S
-from hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
-from hil.seams import LinkHost
+from hexhil.hil.link.firmware_process import DirectConnection
+from hexhil.hil.mcu import flash_fs
+from hexhil.hil.mcu.board import Board
+from hexhil.hil.mcu.board_core import MAX_US
+from hexhil.hil.mcu.core import CoreFault
+from hexhil.hil.mcu.elf_image import ElfImage
+from hexhil.hil.mcu.gdb import SIGABRT, SIGINT, GdbServer, fault_signal
+from hexhil.hil.mcu.verdicts import MASKED_LIMIT_S
+from hexhil.hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
+from hexhil.hil.seams import LinkHost
 
 
 def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
@@ -40,7 +40,7 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
         board.core.uc.mem_write(flash_fs.FS_BASE, fs_image)
     tracer = None
     if coverage is not None:
-        from hil.mcu.coverage import LineCounter
+        from hexhil.hil.mcu.coverage import LineCounter
         tracer = LineCounter(image, board.core.uc, coverage_libraries)
     if gdb_port is not None:
         board.debugger = GdbServer(board, gdb_port)

@@ -13,10 +13,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from hil.mcu.board_core import SharedField
-from hil.mcu.core import FS_PER_US
-from hil.mcu.usart import Usart
-from hil.servobus.line import resample
+from hexhil.hil.mcu.board_core import SharedField
+from hexhil.hil.mcu.core import FS_PER_US
+from hexhil.hil.mcu.usart import Usart
+from hexhil.hil.servobus.line import resample
 
 LINE_BAUD = 1_000_000
 BAUD_TOLERANCE = 0.03        # a UART frame survives about this much clock error

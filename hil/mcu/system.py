@@ -16,10 +16,10 @@ from typing import Any, Callable, Iterator
 
 from unicorn import arm_const as A
 
-from hil.mcu.board_core import SharedField
-from hil.mcu.core import EXC_PENDSV, EXC_SYSTICK, Core, Regs
-from hil.mcu.device_id import DBGMCU_IDCODE, IDCODE
-from hil.mcu.faults import FaultStatus
+from hexhil.hil.mcu.board_core import SharedField
+from hexhil.hil.mcu.core import EXC_PENDSV, EXC_SYSTICK, Core, Regs
+from hexhil.hil.mcu.device_id import DBGMCU_IDCODE, IDCODE
+from hexhil.hil.mcu.faults import FaultStatus
 
 NUM_IRQS = 86                 # RM0383 table 37: positions 0..85
 CPUID = 0x410FC241            # Cortex-M4 r0p1

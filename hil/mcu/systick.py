@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from typing import Callable
 
-from hil.mcu.board_core import NativeTimer, SharedField
-from hil.mcu.core import EXC_SYSTICK, FS_PER_S, Core
-from hil.mcu.events import Events
-from hil.mcu.system import Nvic
+from hexhil.hil.mcu.board_core import NativeTimer, SharedField
+from hexhil.hil.mcu.core import EXC_SYSTICK, FS_PER_S, Core
+from hexhil.hil.mcu.events import Events
+from hexhil.hil.mcu.system import Nvic
 
 
 class SysTick:

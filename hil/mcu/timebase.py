@@ -1,7 +1,7 @@
 """Virtual time on the MCU: cycles and femtoseconds at a clock the firmware may change."""
 from __future__ import annotations
 
-from hil.mcu.board_core import Shared
+from hexhil.hil.mcu.board_core import Shared
 
 FS_PER_S = 10 ** 15            # virtual time inside the MCU is in femtoseconds (exact)
 FS_PER_US = 10 ** 9

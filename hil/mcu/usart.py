@@ -20,8 +20,8 @@ from __future__ import annotations
 
 from typing import Callable, Protocol
 
-from hil.mcu.core import FS_PER_S, Core
-from hil.mcu.events import Events
+from hexhil.hil.mcu.core import FS_PER_S, Core
+from hexhil.hil.mcu.events import Events
 
 SR, DR, BRR, CR1, CR2, CR3, GTPR = range(0, 0x1C, 4)
 PE, FE, NF, ORE, IDLE, RXNE, TC, TXE = (1 << i for i in range(8))

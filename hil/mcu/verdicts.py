@@ -24,8 +24,8 @@ from typing import Any
 from unicorn import UC_HOOK_CODE, UcError
 from unicorn import arm_const as A
 
-from hil.mcu.timebase import FS_PER_S
-from hil.run_result import Ending
+from hexhil.hil.mcu.timebase import FS_PER_S
+from hexhil.hil.run_result import Ending
 
 MASKED_LIMIT_S = 0.5        # virtual seconds awake with interrupts masked: a hang
 MAX_TEXT = 200              # of a string the firmware passed (a file name, an expression)

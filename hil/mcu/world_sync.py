@@ -9,10 +9,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from hil.mcu.board_core import SharedField
-from hil.mcu.core import FS_PER_US
-from hil.mcu.gpio import SWITCH_PINS
-from hil.mcu.link_client import Reply
+from hexhil.hil.mcu.board_core import SharedField
+from hexhil.hil.mcu.core import FS_PER_US
+from hexhil.hil.mcu.gpio import SWITCH_PINS
+from hexhil.hil.mcu.link_client import Reply
 
 TICK_US = 1000               # a quiet millisecond: a sleep to now (world, switches, CAN)
 IDLE_TICKS = 10              # the ticks between sleeps when nothing listens

@@ -13,13 +13,13 @@ import hashlib
 import time
 from typing import Any, Callable, Protocol, Sequence
 
-from hil.run import rig as rig_mod
-from hil.canbus.bus import CanBus, RecorderListener
-from hil.run.ground_truth import GroundTruth
-from hil.scenario import Scenario
-from hil.seams import CanGateway, FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
-from hil.servobus import serial_stream
-from hil.servobus.table_servo import TableServo
+from hexhil.hil.run import rig as rig_mod
+from hexhil.hil.canbus.bus import CanBus, RecorderListener
+from hexhil.hil.run.ground_truth import GroundTruth
+from hexhil.hil.scenario import Scenario
+from hexhil.hil.seams import CanGateway, FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
+from hexhil.hil.servobus import serial_stream
+from hexhil.hil.servobus.table_servo import TableServo
 
 OnFault = Callable[[int, str, str], None]
 

@@ -7,10 +7,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, Sequence
 
-from hil.seams import FirmwareWorld, SteppedWorld, TraceRecorder
+from hexhil.hil.seams import FirmwareWorld, SteppedWorld, TraceRecorder
 
 if TYPE_CHECKING:
-    from hil.servobus.line import Bus
+    from hexhil.hil.servobus.line import Bus
 
 
 class GroundTruth:

@@ -20,8 +20,8 @@ import weakref
 from dataclasses import dataclass
 from typing import Any
 
-from hil.link.firmware_child import end_group
-from protocol.errors import UserError
+from hexhil.hil.link.firmware_child import end_group
+from hexhil.protocol.errors import UserError
 
 DEFAULT_MEMORY_MB = 4096.0   # this process and its firmware's, resident
 WALL_BASE_S = 120.0          # the wall-clock cap, unless given: this, plus

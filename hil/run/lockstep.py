@@ -24,19 +24,19 @@ import math
 import time
 from typing import Any, Callable
 
-from hil.link.board_line import why_no_servo_answered
-from hil.link.served_firmware import ServedFirmware, judge
-from hil.link.firmware_child import FirmwareProcess
-from hil.link.firmware_process import IN_PROCESS, DirectConnection
-from hil.link.server import LinkServer, SwitchSampler
-from hil.run.core import RunCore, WallClockPacing
-from hil.run.limits import RunLimits, RunWatch
-from hil.run.lookahead import Lookahead
-from hil.run_result import (BodyDisplacement, Ending, FirmwareEnding, HexapodOutcome,
+from hexhil.hil.link.board_line import why_no_servo_answered
+from hexhil.hil.link.served_firmware import ServedFirmware, judge
+from hexhil.hil.link.firmware_child import FirmwareProcess
+from hexhil.hil.link.firmware_process import IN_PROCESS, DirectConnection
+from hexhil.hil.link.server import LinkServer, SwitchSampler
+from hexhil.hil.run.core import RunCore, WallClockPacing
+from hexhil.hil.run.limits import RunLimits, RunWatch
+from hexhil.hil.run.lookahead import Lookahead
+from hexhil.hil.run_result import (BodyDisplacement, Ending, FirmwareEnding, HexapodOutcome,
                              RunInterrupted, RunResult, RunTally)
-from hil.scenario import Scenario, check_duration
-from hil.seams import CanGateway, FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
-from protocol import link_schema as ls
+from hexhil.hil.scenario import Scenario, check_duration
+from hexhil.hil.seams import CanGateway, FirmwareWorld, HostNode, SteppedWorld, TraceRecorder
+from hexhil.protocol import link_schema as ls
 
 BODY_SAMPLE_US = 100_000  # ground truth and servo state to the recorder at 10 Hz
 OWN_EXIT_WAIT_S = 10.0    # how long our firmware may take to exit once it closed the link

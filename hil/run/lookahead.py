@@ -21,8 +21,8 @@ from __future__ import annotations
 import struct
 from typing import Any, Callable
 
-from hil.seams import CheckpointWorld
-from protocol import sim_link
+from hexhil.hil.seams import CheckpointWorld
+from hexhil.protocol import sim_link
 
 _CLOCK_ONLY = (sim_link.OP_CAN, sim_link.OP_EVENT)   # take effect on the run's clock alone
 

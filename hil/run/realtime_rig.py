@@ -12,17 +12,17 @@ from __future__ import annotations
 
 from typing import Any, Callable, Sequence
 
-from hil.run import rig as rig_mod
-from hil import scenario as scenario_mod
-from hil.servobus.master_check import MasterCheck
-from hil.run.core import RunCore
-from hil.scenario import Scenario
-from hil.seams import CanGateway, TraceRecorder
-from hil.run_result import BodyDisplacement
-from hil.servobus.switch_node import DEFAULT_ID, SensorNode
-from protocol import can_frames as cf
-from protocol.dynamixel import ax12
-from protocol.errors import UserError
+from hexhil.hil.run import rig as rig_mod
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.servobus.master_check import MasterCheck
+from hexhil.hil.run.core import RunCore
+from hexhil.hil.scenario import Scenario
+from hexhil.hil.seams import CanGateway, TraceRecorder
+from hexhil.hil.run_result import BodyDisplacement
+from hexhil.hil.servobus.switch_node import DEFAULT_ID, SensorNode
+from hexhil.protocol import can_frames as cf
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.errors import UserError
 
 SAMPLE_US = 100_000        # ground truth, servo states and the CAN switches frame: 10 Hz
 

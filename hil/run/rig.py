@@ -9,14 +9,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Sequence
 
-from hil import scenario as scenario_mod
-from hil.seams import FirmwareWorld, SteppedWorld
-from hil.clock import VirtualClock
-from hil.servobus import protocols
-from hil.servobus.faults import Faults, OnFault
-from hil.servobus.line import Bus, OnBytes
-from hil.servobus.table_servo import TableServo
-from protocol.dynamixel import models
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.seams import FirmwareWorld, SteppedWorld
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.servobus import protocols
+from hexhil.hil.servobus.faults import Faults, OnFault
+from hexhil.hil.servobus.line import Bus, OnBytes
+from hexhil.hil.servobus.table_servo import TableServo
+from hexhil.protocol.dynamixel import models
 
 
 @dataclass
@@ -39,7 +39,7 @@ def make_world(scenario: dict[str, Any] | scenario_mod.Scenario, seed: int
     cfg = scenario_mod.parse(scenario)
     if cfg.world.kind is None:
         return None
-    from hil.world.hexapod_world import HexapodWorld
+    from hexhil.hil.world.hexapod_world import HexapodWorld
     return HexapodWorld(cfg, seed)
 
 

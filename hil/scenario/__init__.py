@@ -13,17 +13,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
-from hil.scenario.beams import BeamsConfig, TraversalConfig
-from hil.scenario.faults_section import FaultEntry, FaultKind, FaultsConfig
-from hil.scenario.rules import SCHEMA, check_table, optional
-from hil.scenario.sections import (DEFAULT_BAUD, DEFAULT_DURATION_S, GAITS, MAX_DURATION_S,
+from hexhil.hil.scenario.beams import BeamsConfig, TraversalConfig
+from hexhil.hil.scenario.faults_section import FaultEntry, FaultKind, FaultsConfig
+from hexhil.hil.scenario.rules import SCHEMA, check_table, optional
+from hexhil.hil.scenario.sections import (DEFAULT_BAUD, DEFAULT_DURATION_S, GAITS, MAX_DURATION_S,
                                    RETURN_DELAY_MAX_US, SEED_MAX, BusConfig, FirmwareConfig,
                                    GaitConfig, Runtime, ScenarioInfo, check_duration, check_seed,
                                    check_span)
-from hil.scenario.world_section import Obstacle, WorldConfig, WorldKind
-from protocol import link_schema as ls
-from protocol.dynamixel import models
-from protocol.errors import BadFile, BadValue
+from hexhil.hil.scenario.world_section import Obstacle, WorldConfig, WorldKind
+from hexhil.protocol import link_schema as ls
+from hexhil.protocol.dynamixel import models
+from hexhil.protocol.errors import BadFile, BadValue
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from protocol.errors import BadValue
+from hexhil.protocol.errors import BadValue
 
 STRATEGIES = ("interact", "avoid", "none")
 METHODS = ("fast", "paper")

@@ -9,9 +9,9 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any, Sequence
 
-from hil.scenario.rules import check_table, within
-from protocol.hexapod import LEGS
-from protocol.errors import BadValue
+from hexhil.hil.scenario.rules import check_table, within
+from hexhil.protocol.hexapod import LEGS
+from hexhil.protocol.errors import BadValue
 
 
 class FaultKind(str, Enum):

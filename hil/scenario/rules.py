@@ -7,8 +7,8 @@ from __future__ import annotations
 import math
 from typing import Any, Callable, Mapping, Union
 
-from protocol import schema
-from protocol.errors import BadValue
+from hexhil.protocol import schema
+from hexhil.protocol.errors import BadValue
 
 SCHEMA: dict[str, dict[str, type]] = {
     "scenario": {"name": str, "description": str, "seed": int, "duration_s": float},

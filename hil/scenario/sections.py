@@ -14,10 +14,10 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
-from hil.scenario.rules import at_least, positive, within
-from protocol import hexapod
-from protocol.dynamixel import ax12, models
-from protocol.errors import BadValue
+from hexhil.hil.scenario.rules import at_least, positive, within
+from hexhil.protocol import hexapod
+from hexhil.protocol.dynamixel import ax12, models
+from hexhil.protocol.errors import BadValue
 
 DEFAULT_DURATION_S = 30.0
 # Trace timestamps are u64 nanoseconds (MCAP log_time): 1.8e10 s; a run is kept well inside.

@@ -6,8 +6,8 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
-from hil.scenario.rules import check_table, one_of, positive
-from protocol.errors import BadValue
+from hexhil.hil.scenario.rules import check_table, one_of, positive
+from hexhil.protocol.errors import BadValue
 
 TERRAINS = ("flat", "obstacles")
 DENSITIES = ("low", "high")          # hil/world/terrain.py: the spacing of each (Sec. 2.2)

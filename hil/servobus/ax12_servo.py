@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import ctypes
 
-from hil.servobus.drive import Actuator, KinematicActuator, drive, is_moving, wheel_mode
-from hil.servobus.table_servo import TableServo
-from hil.servobus.health import ServoHealth
-from hil.servobus.servo_layout import SERVO
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil.servobus.drive import Actuator, KinematicActuator, drive, is_moving, wheel_mode
+from hexhil.hil.servobus.table_servo import TableServo
+from hexhil.hil.servobus.health import ServoHealth
+from hexhil.hil.servobus.servo_layout import SERVO
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 _OWNER = [ax12.owner(a) for a in range(ax12.TABLE_SIZE)]
 

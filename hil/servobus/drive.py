@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import math
 
-from hil.seams import Actuator
-from protocol.dynamixel import ax12
+from hexhil.hil.seams import Actuator
+from hexhil.protocol.dynamixel import ax12
 
 MOVING_EPS_RAD_S = 0.5 * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0  # half a speed unit
 NO_LOAD_RAD_S = ax12.speed_to_rad_s(0)   # Moving Speed 0: the motor's no-load speed at 12 V

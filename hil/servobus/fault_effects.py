@@ -5,7 +5,7 @@ from __future__ import annotations
 import random
 from typing import Callable
 
-from hil.scenario.faults_section import FaultEntry
+from hexhil.hil.scenario.faults_section import FaultEntry
 
 
 class SwingPress:

@@ -18,13 +18,13 @@ import math
 import random
 from typing import Any, Callable, Sequence
 
-from hil.scenario.faults_section import (BUS_CAN_KINDS, CAN_KINDS, FORCE_KINDS,
+from hexhil.hil.scenario.faults_section import (BUS_CAN_KINDS, CAN_KINDS, FORCE_KINDS,
                                          SERVO_STATE_KINDS, STATUS_KINDS, SWITCH_KINDS,
                                          FaultEntry, FaultKind, FaultsConfig)
-from hil.servobus.health import SUPPLY_V
-from hil.servobus.fault_effects import NoisyReading, StuckReading, SwingPress
-from hil.servobus.status_mangling import mangled
-from protocol.errors import UserError
+from hexhil.hil.servobus.health import SUPPLY_V
+from hexhil.hil.servobus.fault_effects import NoisyReading, StuckReading, SwingPress
+from hexhil.hil.servobus.status_mangling import mangled
+from hexhil.protocol.errors import UserError
 
 OnFault = Callable[[int, str, str], None]
 NEVER_US = 1 << 62

@@ -10,9 +10,9 @@ from __future__ import annotations
 import ctypes
 import math
 
-from hil.servobus.servo_layout import HEALTH
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil.servobus.servo_layout import HEALTH
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 # Thermal model (our choice; the manuals give no thermal data): first order,
 # dT/dt = (ambient + HEAT_AT_FULL_LOAD_C * load^2 - T) / THERMAL_TAU_S.

@@ -17,11 +17,11 @@ from __future__ import annotations
 
 from typing import Callable, Iterable
 
-from hil.clock import VirtualClock
-from hil.servobus.ax12_servo import Servo
-from hil.servobus.servo_core import ServoBank
-from hil.servobus.wire import US_BITS, Burst, and_overlap, merge_burst, resample
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil.clock import VirtualClock
+from hexhil.hil.servobus.ax12_servo import Servo
+from hexhil.hil.servobus.servo_core import ServoBank
+from hexhil.hil.servobus.wire import US_BITS, Burst, and_overlap, merge_burst, resample
+from hexhil.protocol.dynamixel import v1 as dxl
 
 OnBytes = Callable[[int, str, bytes], None]
 Advance = Callable[[int], None]

@@ -27,8 +27,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from hil.servobus import protocols
-from hil.servobus.packet_check import KINDS, OnViolation
+from hexhil.hil.servobus import protocols
+from hexhil.hil.servobus.packet_check import KINDS, OnViolation
 
 MAX_EVENTS = 1000  # kept with their times for the summary; counts go on past it
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, Callable
 
 if TYPE_CHECKING:
-    from hil.servobus.line import Bus
+    from hexhil.hil.servobus.line import Bus
 
 # What a master can do wrong on any Dynamixel line (hil/servobus/master_check.py says each);
 # a protocol adds its own (hil/servobus/protocols/).

@@ -20,11 +20,11 @@ import ctypes
 from dataclasses import dataclass
 from typing import Any
 
-from hil.native import load_library
-from hil.servobus import serial_stream
-from hil.servobus.line import Bus
-from hil.servobus.servo_core import LIBRARY, ServoBank
-from hil.servobus.servo_layout import HANDOVER, LAYOUT
+from hexhil.hil.native import load_library
+from hexhil.hil.servobus import serial_stream
+from hexhil.hil.servobus.line import Bus
+from hexhil.hil.servobus.servo_core import LIBRARY, ServoBank
+from hexhil.hil.servobus.servo_layout import HANDOVER, LAYOUT
 
 _P = ctypes.c_void_p
 DONE, ADVANCE, PYTHON, PYTHON_REPLY, FALLBACK, WRITE_LEFT = range(len(HANDOVER))

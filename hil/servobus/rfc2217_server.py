@@ -14,7 +14,7 @@ from __future__ import annotations
 import socket
 from typing import Callable
 
-from hil.servobus.serial_server import RealTimeServer
+from hexhil.hil.servobus.serial_server import RealTimeServer
 
 TX_WHILE_RECEIVING = "tx_while_receiving"
 RX_WHILE_TRANSMITTING = "rx_while_transmitting"

@@ -34,7 +34,7 @@ import tty
 from array import array
 from typing import Callable, Iterator
 
-from hil.servobus.line import Bus
+from hexhil.hil.servobus.line import Bus
 
 MAX_WAIT_S = 0.2  # wake at least this often so timed faults and signals are handled
 LATE_US = 2_000   # one physics step (hil/world/hexapod_world.py): a step finished later is late

@@ -23,12 +23,12 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from hil.native import CORES, load_library
-from hil.seams import HeldSample
-from hil.servobus import drive, health
-from hil.servobus.servo_layout import LAYOUT, STATE_ROW
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil.native import CORES, load_library
+from hexhil.hil.seams import HeldSample
+from hexhil.hil.servobus import drive, health
+from hexhil.hil.servobus.servo_layout import LAYOUT, STATE_ROW
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 LIBRARY = CORES["servo bank and reads"]
 _P = ctypes.c_void_p

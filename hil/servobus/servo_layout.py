@@ -8,11 +8,11 @@ from __future__ import annotations
 import ctypes
 import struct
 
-from hil.native import Layout
-from hil.servobus.wire import US_BITS
-from protocol import sim_link
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil.native import Layout
+from hexhil.hil.servobus.wire import US_BITS
+from hexhil.protocol import sim_link
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 _P = ctypes.c_void_p
 _D, _I64, _I32 = ctypes.c_double, ctypes.c_int64, ctypes.c_int32

@@ -6,8 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from hil.scenario.faults_section import FaultEntry, FaultKind
-from protocol.dynamixel import v2 as dx2
+from hexhil.hil.scenario.faults_section import FaultEntry, FaultKind
+from hexhil.protocol.dynamixel import v2 as dx2
 
 
 @dataclass(frozen=True)

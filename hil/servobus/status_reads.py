@@ -11,11 +11,11 @@ import struct
 from dataclasses import dataclass
 from typing import Callable
 
-from hil.servobus import reads_core
-from hil.servobus.line import Bus
-from hil.servobus.reads_core import Handover, ReadsCore
-from protocol import sim_link
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil.servobus import reads_core
+from hexhil.hil.servobus.line import Bus
+from hexhil.hil.servobus.reads_core import Handover, ReadsCore
+from hexhil.protocol import sim_link
+from hexhil.protocol.dynamixel import v1 as dxl
 
 
 class MalformedReads(ValueError):

@@ -27,9 +27,9 @@ from __future__ import annotations
 
 from typing import Callable
 
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
-from protocol.sensor_node import DEFAULT_ID, MODEL_NUMBER, PRESSES, SWITCHES
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
+from hexhil.protocol.sensor_node import DEFAULT_ID, MODEL_NUMBER, PRESSES, SWITCHES
 FIRMWARE_VERSION = 1
 TABLE_SIZE = 28
 MODEL_L, VERSION, ID, BAUD_RATE, RETURN_DELAY, STATUS_RETURN_LEVEL = 0, 2, 3, 4, 5, 16

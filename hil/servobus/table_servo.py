@@ -17,8 +17,8 @@ from __future__ import annotations
 from types import ModuleType
 from typing import Any
 
-from hil.servobus.drive import Actuator, is_moving
-from hil.servobus.health import ServoHealth
+from hexhil.hil.servobus.drive import Actuator, is_moving
+from hexhil.hil.servobus.health import ServoHealth
 
 
 class TableServo:

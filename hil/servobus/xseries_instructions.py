@@ -5,8 +5,8 @@ RESET, REBOOT, CLEAR and the control-table backup, each checked against the mode
 """
 from __future__ import annotations
 
-from hil.servobus.table_servo import TableServo
-from protocol.dynamixel import v2 as dx2
+from hexhil.hil.servobus.table_servo import TableServo
+from hexhil.protocol.dynamixel import v2 as dx2
 
 READ_INSTRUCTIONS = (dx2.READ, dx2.SYNC_READ, dx2.FAST_SYNC_READ, dx2.BULK_READ,
                      dx2.FAST_BULK_READ)

@@ -20,12 +20,12 @@ from __future__ import annotations
 import math
 from types import ModuleType
 
-from hil.servobus.drive import Actuator, KinematicActuator, is_moving
-from hil.servobus.health import ServoHealth
-from hil.servobus.profile import Trapezoid
-from hil.servobus.xseries_instructions import XSeriesInstructions
-from protocol.dynamixel import v2 as dx2
-from protocol.dynamixel import xl430
+from hexhil.hil.servobus.drive import Actuator, KinematicActuator, is_moving
+from hexhil.hil.servobus.health import ServoHealth
+from hexhil.hil.servobus.profile import Trapezoid
+from hexhil.hil.servobus.xseries_instructions import XSeriesInstructions
+from hexhil.protocol.dynamixel import v2 as dx2
+from hexhil.protocol.dynamixel import xl430
 
 
 class XSeriesServo(XSeriesInstructions):

@@ -29,8 +29,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from hil.world import drive_core
-from protocol.dynamixel import ax12, models
+from hexhil.hil.world import drive_core
+from hexhil.protocol.dynamixel import ax12, models
 
 ROTOR_ARMATURE_KG_M2 = 0.0015   # reflected rotor inertia through the 254:1 gear train
 POSITION_UNIT_RAD = math.radians(ax12.POSITION_RANGE_DEG / ax12.POSITION_MAX)

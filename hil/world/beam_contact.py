@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from hil.world.beam_body import PAPER_BODY, BodyGeometry
+from hexhil.hil.world.beam_body import PAPER_BODY, BodyGeometry
 
 THETA_MAX_RAD = math.pi / 2  # plate flat on the ground: it cannot be pushed further
 _LEVER_MIN_M = 1e-3         # contact at the hinge line: keep the force finite

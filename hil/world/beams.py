@@ -21,8 +21,8 @@ from typing import Callable
 
 import numpy as np
 
-from hil.world.beam_body import G_M_S2, PAPER_BODY, BeamParams, BodyGeometry, beam_torque_nm
-from hil.world.beam_contact import contact
+from hexhil.hil.world.beam_body import G_M_S2, PAPER_BODY, BeamParams, BodyGeometry, beam_torque_nm
+from hexhil.hil.world.beam_contact import contact
 
 DT_US = 200                 # Sec. II-B: time step 0.0002 s
 SENSOR_PERIOD_US = 10_000   # Sec. II-D: 100 Hz force sensor

@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import math
 
-from hil.canbus.bus import CanBus, Endpoint, message
-from hil.run_result import BeamsOutcome
-from hil.scenario.beams import MAX_TIME_S
-from hil.world import scene
-from hil.world.beams import DT_US, SENSOR_PERIOD_US, BeamsWorld
-from protocol import can_frames
+from hexhil.hil.canbus.bus import CanBus, Endpoint, message
+from hexhil.hil.run_result import BeamsOutcome
+from hexhil.hil.scenario.beams import MAX_TIME_S
+from hexhil.hil.world import scene
+from hexhil.hil.world.beams import DT_US, SENSOR_PERIOD_US, BeamsWorld
+from hexhil.protocol import can_frames
 
 CONTROL_PERIOD_US = 2000      # Sec. II-I: control input every 0.002 s; pose and rate as often
 NO_CONTACT_LIMIT_US = 5_000_000  # a push that has not reached the beams in 5 s never will

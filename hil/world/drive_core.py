@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from hil.native import CORES, REBUILD, load_library
-from hil.world.drive_layout import LAYOUT
-from protocol.errors import BadFile
+from hexhil.hil.native import CORES, REBUILD, load_library
+from hexhil.hil.world.drive_layout import LAYOUT
+from hexhil.protocol.errors import BadFile
 
 LIBRARY = CORES["drive bank"]
 

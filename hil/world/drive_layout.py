@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import ctypes
 
-from hil.native import Layout
+from hexhil.hil.native import Layout
 
 _P = ctypes.c_void_p
 LAYOUT = Layout("HX_DRIVE_LAYOUT_H", [

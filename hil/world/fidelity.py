@@ -24,8 +24,8 @@ import math
 from dataclasses import dataclass
 import numpy as np
 
-from hil.scenario.world_section import WorldConfig
-from hil.world import actuator as act
+from hexhil.hil.scenario.world_section import WorldConfig
+from hexhil.hil.world import actuator as act
 
 RATED_SUPPLY_V = 12.0          # e-manual: stall torque and no-load speed are given at 12 V
 SUPPLY_V = 11.0                # paper Sec. 3.1: servo supply 10-12 V; the middle of it

@@ -25,15 +25,15 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from hil.scenario import Scenario, WorldKind
-from hil.world import actuator as act
-from hil.world import fidelity
-from hil.world import scene as scene_mod
-from hil.world import terrain as terrain_mod
-from hil.world.switches import SwitchBank
-from protocol import hexapod as robot_desc
-from protocol.errors import UserError
-from protocol.hexapod import JOINTS, LEGS
+from hexhil.hil.scenario import Scenario, WorldKind
+from hexhil.hil.world import actuator as act
+from hexhil.hil.world import fidelity
+from hexhil.hil.world import scene as scene_mod
+from hexhil.hil.world import terrain as terrain_mod
+from hexhil.hil.world.switches import SwitchBank
+from hexhil.protocol import hexapod as robot_desc
+from hexhil.protocol.errors import UserError
+from hexhil.protocol.hexapod import JOINTS, LEGS
 
 PHYSICS_DT_US = 2000   # 2 ms steps: contact-stable with implicit joint damping (see docs)
 JOINT_NAMES = tuple(f"{leg}_{part}" for leg in LEGS for part in JOINTS)   # servo-ID order

@@ -16,8 +16,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from hil.world.beams import BeamsWorld
-from hil.world.scene_values import (Arrow, ContactForces, Frame, JointFrames, Shape,
+from hexhil.hil.world.beams import BeamsWorld
+from hexhil.hil.world.scene_values import (Arrow, ContactForces, Frame, JointFrames, Shape,
                                      f32_tuple)
 
 ROBOT_RGBA = (0.25, 0.45, 0.75, 1.0)

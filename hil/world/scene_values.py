@@ -15,7 +15,7 @@ import math
 import struct
 from typing import Any, NamedTuple
 
-from hil.seams import HeldSample
+from hexhil.hil.seams import HeldSample
 
 _F32 = [struct.Struct(f"<{n}f") for n in range(8)]
 

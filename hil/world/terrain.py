@@ -21,8 +21,8 @@ from typing import Callable
 
 import numpy as np
 
-from hil.scenario.world_section import Obstacle, WorldConfig
-from protocol.errors import UserError
+from hexhil.hil.scenario.world_section import Obstacle, WorldConfig
+from hexhil.protocol.errors import UserError
 
 DENSITY_SPACING_M = {"low": (0.15, 0.25), "high": (0.10, 0.15)}  # Sec. 2.2, R ranges
 HEIGHT_CLASS_M = {"small": (0.03, 0.05), "large": (0.06, 0.08)}  # Sec. 2.2, H ranges

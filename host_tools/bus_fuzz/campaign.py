@@ -20,14 +20,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from hil.scenario.faults_section import FaultKind
-from protocol.dynamixel import models
-from host_tools.bus_fuzz import execution, fork_server
-from host_tools.bus_fuzz.execution import Execution, Target
-from host_tools.bus_fuzz.mutations import (DEFAULT_KINDS, Input, Mutation, Mutator, Vocabulary,
+from hexhil.hil.scenario.faults_section import FaultKind
+from hexhil.protocol.dynamixel import models
+from hexhil.bus_fuzz import execution, fork_server
+from hexhil.bus_fuzz.execution import Execution, Target
+from hexhil.bus_fuzz.mutations import (DEFAULT_KINDS, Input, Mutation, Mutator, Vocabulary,
                                            faults_table, ordered)
-from host_tools.expect import spec
-from protocol.errors import UserError
+from hexhil.expect import spec
+from hexhil.protocol.errors import UserError
 
 BATCH = 16                # inputs a round
 SHRINK_RUNS = 120         # executions at most to shrink one failure
@@ -113,7 +113,7 @@ class _Runner:
         self.servers: fork_server.Servers | None = None
         self.client: Any = None
         if settings.scheduler:
-            from host_tools.executor import dask_client
+            from hexhil.executor import dask_client
 
             self.client = dask_client(settings.scheduler)
         else:
@@ -152,7 +152,7 @@ def load_target(settings: Settings, fork: bool = True) -> Target:
     """The settings' case and firmware, checked before anything runs."""
     case = spec.load(settings.expect)
     if settings.scenario is not None:     # as hexhil margin: the scenario's name and seed
-        from hil import scenario as scenario_mod
+        from hexhil.hil import scenario as scenario_mod
 
         sc = scenario_mod.load_scenario(settings.scenario)
         case = dataclasses.replace(case, scenario=sc, name=sc.scenario.name or case.name,
@@ -166,13 +166,13 @@ def load_target(settings: Settings, fork: bool = True) -> Target:
         raise UserError("runs and jobs must be at least 1", params=("runs", "jobs"))
     firmware = settings.firmware or case.firmware
     if firmware is not None:
-        from hil.link.served_firmware import served_firmware
+        from hexhil.hil.link.served_firmware import served_firmware
 
         served_firmware(firmware)
         firmware = str(Path(firmware).resolve())
     main_file = str(Path(settings.main_file).resolve()) if settings.main_file else None
     if main_file is not None:
-        from host_tools.in_process import load_main
+        from hexhil.in_process import load_main
 
         load_main(main_file)
     return Target(case, settings.window_s, firmware, main_file, settings.coverage, fork)

@@ -16,15 +16,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from hil.run.limits import RunLimits
-from host_tools import in_process
-from host_tools.bus_fuzz import line_probes
-from host_tools.bus_fuzz.features import PacketSequence, elf_lines, line_features
-from host_tools.bus_fuzz.mutations import Input, faults_table
-from host_tools.expect.spec import Case, Kind
-from host_tools.expect.verdicts import Outcome, evaluate
-
-ROOT = Path(__file__).resolve().parents[2]
+from hexhil.hil.run.limits import RunLimits
+from hexhil import in_process
+from hexhil.bus_fuzz import line_probes
+from hexhil.bus_fuzz.features import PacketSequence, elf_lines, line_features
+from hexhil.bus_fuzz.mutations import Input, faults_table
+from hexhil.expect.spec import Case, Kind
+from hexhil.expect.verdicts import Outcome, evaluate
+from hexhil.hil.link.firmware_process import ROOT
 
 
 @dataclass(frozen=True)
@@ -87,7 +86,7 @@ def run_input(target: Target, faults: Input, trace: Path, wrap: Any = None,
     """The case's run, the faults in its scenario; with ``wrap`` (the fork server) none:
     the children inject them, and the run has no wall-clock cap: the server's run waits
     for inputs as long as the campaign lasts (a child's hang is ``HANG_WALL_S``'s)."""
-    from host_tools.expect.case_runs import run_scenario
+    from hexhil.expect.case_runs import run_scenario
 
     case = target.case
     scenario = case.scenario
@@ -137,7 +136,7 @@ def fresh(target: Target, faults: Input, keep: Path | None = None) -> Execution:
 
 
 def _is_elf(target: Target) -> bool:
-    from hil.mcu.elf_image import is_arm_elf
+    from hexhil.hil.mcu.elf_image import is_arm_elf
 
     return target.firmware is not None and is_arm_elf(Path(target.firmware))
 

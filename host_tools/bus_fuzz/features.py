@@ -8,7 +8,7 @@ import zlib
 from pathlib import Path
 from typing import Any
 
-from hil.seams import ServoLine
+from hexhil.hil.seams import ServoLine
 
 
 def feature(*parts: object) -> int:

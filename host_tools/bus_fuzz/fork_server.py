@@ -10,7 +10,7 @@ window, not the boot. With line coverage the server puts probes in the firmware'
 as the run is built (line_probes.py), and each child counts the lines run after the fork.
 A child that sends nothing in ``HANG_WALL_S`` is a hang; one that dies is a crash.
 
-Servers are processes of their own (``python -m host_tools.bus_fuzz.server``), started
+Servers are processes of their own (``python -m hexhil.bus_fuzz.server``), started
 the same way beside this process or inside a Dask worker (``run_batch``), talking in
 length-prefixed pickles on two pipes. A server holds one CPU while it builds its run, so
 that the recorder encodes in the run's own process (host_tools/trace/windows.py
@@ -34,14 +34,14 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, BinaryIO, Callable, Sequence
 
-from host_tools.bus_fuzz import line_probes
-from host_tools.bus_fuzz.execution import (ROOT, Execution, Target, fresh, judge, probe_lines,
+from hexhil.bus_fuzz import line_probes
+from hexhil.bus_fuzz.execution import (ROOT, Execution, Target, fresh, judge, probe_lines,
                                            run_input)
-from host_tools.bus_fuzz.features import PacketSequence, line_features
-from host_tools.bus_fuzz.held_trace import HeldTrace
-from host_tools.bus_fuzz.mutations import Input
-from host_tools.expect.verdicts import judged
-from protocol.errors import UserError
+from hexhil.bus_fuzz.features import PacketSequence, line_features
+from hexhil.bus_fuzz.held_trace import HeldTrace
+from hexhil.bus_fuzz.mutations import Input
+from hexhil.expect.verdicts import judged
+from hexhil.protocol.errors import UserError
 
 HANG_WALL_S = 30.0        # wall seconds an in-process execution may take: past it, a hang
 FORK_BEFORE_S = 0.1       # the server forks at the first exchange this close to the window
@@ -231,7 +231,7 @@ class Server:
         to_server, self._w = os.pipe()
         self._r, from_server = os.pipe()
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "host_tools.bus_fuzz.server", str(to_server),
+            [sys.executable, "-m", "hexhil.bus_fuzz.server", str(to_server),
              str(from_server)], pass_fds=(to_server, from_server), env=env, cwd=str(ROOT),
             stdin=subprocess.DEVNULL)
         os.close(to_server)

@@ -16,12 +16,12 @@ from typing import Any, Callable
 
 from mcap.records import Schema
 
-from host_tools.expect.spec import Case
-from host_tools.expect.verdicts import Recording, reads, topics_read
-from host_tools.trace import topics
-from host_tools.trace.channels import topic_schema
-from host_tools.trace.reader import message_decoder
-from host_tools.trace.windows import Encoded, EncodeIn
+from hexhil.expect.spec import Case
+from hexhil.expect.verdicts import Recording, reads, topics_read
+from hexhil.trace import topics
+from hexhil.trace.channels import topic_schema
+from hexhil.trace.reader import message_decoder
+from hexhil.trace.windows import Encoded, EncodeIn
 
 # the recorder's methods for topics an expectation seldom reads: left out unless one does
 # (``can`` writes /can/raw and the frame's /can/NAME: read together)

@@ -11,7 +11,7 @@ import random
 from dataclasses import dataclass
 from typing import Any, Sequence
 
-from hil.scenario.faults_section import FaultEntry, FaultKind
+from hexhil.hil.scenario.faults_section import FaultEntry, FaultKind
 
 MAX_FAULTS = 8          # in one input
 ERROR_BITS = {1: (1, 2, 4, 8, 16, 32, 64),       # the AX-12's error byte, one bit each

@@ -16,7 +16,7 @@ import signal
 import sys
 from typing import Any
 
-from protocol.errors import UserError
+from hexhil.protocol.errors import UserError
 
 # command name -> (module in this package, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -91,7 +91,7 @@ def flag_message(exc: UserError) -> str:
 
 def add_limits(p: argparse.ArgumentParser) -> None:
     """``--max-wall`` and ``--max-memory``: a run's caps (hil/run/limits.py)."""
-    from hil.run.limits import DEFAULT_MEMORY_MB, WALL_BASE_S, WALL_PER_SIM_S
+    from hexhil.hil.run.limits import DEFAULT_MEMORY_MB, WALL_BASE_S, WALL_PER_SIM_S
 
     p.add_argument("--max-wall", type=float, metavar="S", help="end a run that takes more "
                    f"than S wall seconds (default {WALL_BASE_S:g} + {WALL_PER_SIM_S:g} per "
@@ -103,7 +103,7 @@ def add_limits(p: argparse.ArgumentParser) -> None:
 
 def limits(args: argparse.Namespace) -> Any:
     """The ``RunLimits`` of ``--max-wall`` and ``--max-memory``."""
-    from hil.run.limits import RunLimits
+    from hexhil.hil.run.limits import RunLimits
 
     return RunLimits(args.max_wall, args.max_memory)
 
@@ -125,7 +125,7 @@ class _Version(argparse.Action):
     def __call__(self, parser: argparse.ArgumentParser, *_: Any) -> None:
         from importlib.metadata import version
 
-        from hil.native import compiled
+        from hexhil.hil.native import compiled
 
         lines = [f"hexhil {version('hexhil')}"]
         lines += [f"  {name}: {state}" for name, state in compiled().items()]
@@ -143,9 +143,9 @@ def build_parser(argv: list[str]) -> argparse.ArgumentParser:
             sub.add_parser(name, help=help_text)
             continue
         try:
-            mod = importlib.import_module(f"host_tools.cli.{module}")
+            mod = importlib.import_module(f"hexhil.cli.{module}")
         except ModuleNotFoundError as exc:
-            if exc.name != f"host_tools.cli.{module}":
+            if exc.name != f"hexhil.cli.{module}":
                 raise
             continue  # command not built yet: leave it out of the listing
         mod.register(sub)
@@ -192,11 +192,13 @@ class _LibraryLog(logging.Handler):
 
 def _show_library_log() -> None:
     """Route the project's loggers to the terminal, once per process."""
-    for name in ("hil", "host_tools"):
-        logger = logging.getLogger(name)
-        if not any(isinstance(h, _LibraryLog) for h in logger.handlers):
-            logger.addHandler(_LibraryLog())
-            logger.setLevel(logging.INFO)
+    logger = logging.getLogger("hexhil")
+    if not any(isinstance(h, _LibraryLog) for h in logger.handlers):
+        handler = _LibraryLog()
+        # the firmware's console has its own handler (show_console), or none when quiet
+        handler.addFilter(lambda record: not record.name.startswith("hexhil.console"))
+        logger.addHandler(handler)
+        logger.setLevel(logging.INFO)
 
 
 class _ConsoleLog(logging.Handler):
@@ -210,7 +212,7 @@ class _ConsoleLog(logging.Handler):
 
 def show_console(quiet: bool) -> None:
     """The firmware's console live on stderr, unless ``quiet`` (once per process)."""
-    from hil.link.server import CONSOLE_LOG as logger
+    from hexhil.hil.link.server import CONSOLE_LOG as logger
     logger.propagate = False
     for h in [h for h in logger.handlers if isinstance(h, _ConsoleLog)]:
         logger.removeHandler(h)

@@ -1,6 +1,6 @@
-"""``python -m host_tools.cli``: the same entry point as the ``hexhil`` script."""
+"""``python -m hexhil.cli``: the same entry point as the ``hexhil`` script."""
 import sys
 
-from host_tools.cli import main
+from hexhil.cli import main
 
 sys.exit(main())

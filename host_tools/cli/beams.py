@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 
-from hil.scenario import check_seed
-from host_tools.cli import JSON_HELP, OVERWRITE_HELP, actions, emit
-from protocol.errors import UserError
+from hexhil.hil.scenario import check_seed
+from hexhil.cli import JSON_HELP, OVERWRITE_HELP, actions, emit
+from hexhil.protocol.errors import UserError
 
 
 def _nonneg(name: str, v: float) -> float:
@@ -22,7 +22,7 @@ def _stiffness(name: str, v: float) -> float:
     rigid beams (nodes.RIGID_K_NM_PER_RAD, 100 N m/rad). With a 1 N push into both beams,
     T + E - F_x x drifts 0.04 mJ at k = 100, 1.3 mJ at 1e4 and 52 J at 1e5: the 0.2 ms step
     no longer resolves the spring, and a run reports a made-up outcome."""
-    from host_tools.papers.beam_traversal.nodes import RIGID_K_NM_PER_RAD
+    from hexhil.papers.beam_traversal.nodes import RIGID_K_NM_PER_RAD
 
     if not (math.isfinite(v) and 0 <= v <= RIGID_K_NM_PER_RAD):
         raise UserError(f"--{name} must be a stiffness in 0..{RIGID_K_NM_PER_RAD:g} N m/rad "
@@ -31,8 +31,8 @@ def _stiffness(name: str, v: float) -> float:
 
 
 def cmd_estimate(args: argparse.Namespace) -> int:
-    from host_tools.papers.beam_traversal.estimator import estimate
-    from host_tools.papers.beam_traversal.push import push_samples
+    from hexhil.papers.beam_traversal.estimator import estimate
+    from hexhil.papers.beam_traversal.push import push_samples
 
     k1, k2 = _stiffness("k1", args.k1), _stiffness("k2", args.k2)
     hb1 = _nonneg("hb-mm", args.hb_mm) * 1e-3
@@ -55,9 +55,9 @@ def cmd_estimate(args: argparse.Namespace) -> int:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
-    from hil.world.beam_body import PAPER_BODY
-    from host_tools.papers.beam_traversal import landscape, planner
-    from host_tools.papers.beam_traversal.push import start_after_delay
+    from hexhil.hil.world.beam_body import PAPER_BODY
+    from hexhil.papers.beam_traversal import landscape, planner
+    from hexhil.papers.beam_traversal.push import start_after_delay
 
     k1, k2 = _stiffness("k1", args.k1), _stiffness("k2", args.k2)
     hb = _nonneg("hb-mm", args.hb_mm) * 1e-3
@@ -75,8 +75,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from host_tools.papers.beam_traversal.beams_run import RunConfig, run
-    from host_tools.trace.recorder import open_recorder
+    from hexhil.papers.beam_traversal.beams_run import RunConfig, run
+    from hexhil.trace.recorder import open_recorder
 
     hb = _nonneg("hb-mm", args.hb_mm) * 1e-3
     fx = args.fx if args.fx is not None else (1.0 if args.strategy == "none" else 0.1)

@@ -8,14 +8,14 @@ import json
 import sys
 from typing import Any
 
-from hil.canbus.socketcand import DEFAULT_PORT
-from hil.scenario import DEFAULT_BAUD, FaultEntry, FaultKind, Scenario, check_seed
-from hil.scenario import parse as parse_scenario
-from hil.scenario.sections import SENSOR_NODE_PROTOCOL
-from host_tools.cli import JSON_HELP, OVERWRITE_HELP, flush_print
-from protocol import sensor_node
-from protocol.dynamixel import models
-from protocol.errors import UserError
+from hexhil.hil.canbus.socketcand import DEFAULT_PORT
+from hexhil.hil.scenario import DEFAULT_BAUD, FaultEntry, FaultKind, Scenario, check_seed
+from hexhil.hil.scenario import parse as parse_scenario
+from hexhil.hil.scenario.sections import SENSOR_NODE_PROTOCOL
+from hexhil.cli import JSON_HELP, OVERWRITE_HELP, flush_print
+from hexhil.protocol import sensor_node
+from hexhil.protocol.dynamixel import models
+from hexhil.protocol.errors import UserError
 
 _FAULT_FLAGS = ("unplug", "stall", "overheat", "voltage_sag")
 # A reply due while the world catches up leaves that much late. A master waits past a
@@ -148,7 +148,7 @@ def scenario_from_flags(args: argparse.Namespace, scenario: Scenario | None
 
 def build_bus(args: argparse.Namespace, scenario: Scenario | None, on_fault=None):
     """Servos, clock, faults and bus from flags over scenario over defaults (hil/run/rig.py)."""
-    from hil.run import rig
+    from hexhil.hil.run import rig
 
     sc, seed, ids = scenario_from_flags(args, scenario)
     built = rig.build(sc, seed, ids=ids, on_fault=on_fault)
@@ -170,10 +170,10 @@ def _sensor_id(args: argparse.Namespace, sc: Scenario) -> int | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from hil.servobus import serial_server
-    from hil import scenario as scenario_mod
-    from host_tools import cli
-    from host_tools.realtime_run import Pty, RealTimeRun, Rfc2217, SerialPort, Tcp
+    from hexhil.hil.servobus import serial_server
+    from hexhil.hil import scenario as scenario_mod
+    from hexhil import cli
+    from hexhil.realtime_run import Pty, RealTimeRun, Rfc2217, SerialPort, Tcp
 
     if sum((args.pty, args.tcp is not None, args.rfc2217 is not None, args.port is not None)) > 1:
         raise UserError("choose one transport: --pty, --tcp PORT, --rfc2217 PORT or --port DEVICE")
@@ -203,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
 
     can_server = None
     if args.can_server is not None:
-        from host_tools.run_summary import start_can_server
+        from hexhil.run_summary import start_can_server
         can_server = start_can_server(args.can_server, 0)
     try:
         rt = RealTimeRun(sc, seed, world=args.world is not None, ids=ids, trace=args.out,

@@ -5,16 +5,16 @@ from __future__ import annotations
 import argparse
 import math
 
-from hil.scenario import DEFAULT_BAUD
-from host_tools.cli import JSON_HELP, emit_json
-from protocol.dynamixel import models
-from protocol.errors import UserError
+from hexhil.hil.scenario import DEFAULT_BAUD
+from hexhil.cli import JSON_HELP, emit_json
+from hexhil.protocol.dynamixel import models
+from hexhil.protocol.errors import UserError
 
 
 def _capture(args: argparse.Namespace) -> int:
     """``--capture FILE``: the master check on a captured line (the same counts as a run's)."""
-    from host_tools.cli.bus import parse_ids
-    from host_tools.dynamixel.conformance.capture import check_capture
+    from hexhil.cli.bus import parse_ids
+    from hexhil.dynamixel.conformance.capture import check_capture
 
     r = check_capture(args.capture, args.model, parse_ids(args.ids) if args.ids else None,
                       args.map)
@@ -36,15 +36,15 @@ def _capture(args: argparse.Namespace) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from host_tools.cli.bus import parse_ids
+    from hexhil.cli.bus import parse_ids
 
     if (args.port is None) == (args.capture is None):
         raise UserError("give --port PORT (check a live bus) or --capture FILE (check a "
                         "captured master), one of them")
     if args.capture is not None:
         return _capture(args)
-    from host_tools.dynamixel.conformance import CHECKS
-    from host_tools.dynamixel.conformance.report import format_table
+    from hexhil.dynamixel.conformance import CHECKS
+    from hexhil.dynamixel.conformance.report import format_table
 
     if args.baud <= 0:
         raise UserError(f"--baud must be positive, got {args.baud}")

@@ -12,13 +12,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from host_tools.cli import JSON_HELP, emit_json
+from hexhil.cli import JSON_HELP, emit_json
 
 SCENARIO = "scenarios/obstacles-low-small.toml"
 
 
 def _walks(out_dir: Path) -> dict:
-    from host_tools.run_summary import run
+    from hexhil.run_summary import run
 
     trace = out_dir / "tactile.mcap"
     with_method, _ = run(SCENARIO, out=str(trace), overwrite=True)   # the demo's folder
@@ -33,7 +33,7 @@ def _walks(out_dir: Path) -> dict:
 
 
 def _trace_summary(path: str) -> dict:
-    from host_tools.trace.reader import info
+    from hexhil.trace.reader import info
 
     summary = info(path)
     print(f"  {summary['file']}: {summary['messages']} messages on {len(summary['topics'])} topics, "
@@ -44,7 +44,7 @@ def _trace_summary(path: str) -> dict:
 
 
 def _beams() -> dict:
-    from host_tools.papers.beam_traversal.beams_run import RunConfig, run
+    from hexhil.papers.beam_traversal.beams_run import RunConfig, run
 
     out = {}
     for label, k in (("flimsy", 0.01), ("stiff", 0.25)):

@@ -14,16 +14,16 @@ import math
 
 import numpy as np
 
-from host_tools.cli import JSON_HELP, emit_json
-from protocol.errors import UserError
+from hexhil.cli import JSON_HELP, emit_json
+from hexhil.protocol.errors import UserError
 
 SENSING_S = 0.300        # seed 000 Sec. II-E: T_s = 300 ms after first contact
 CONTACT_N = 0.01         # |F| above this counts as contact (the frame's 1 mN step x 10)
 
 
 def run(args: argparse.Namespace) -> int:
-    from host_tools.papers.beam_traversal.estimator import estimate
-    from host_tools.papers.beam_traversal.trace_samples import load_samples
+    from hexhil.papers.beam_traversal.estimator import estimate
+    from hexhil.papers.beam_traversal.trace_samples import load_samples
 
     if args.sensing_s <= 0 or not math.isfinite(args.sensing_s):
         raise UserError("--sensing-s must be a positive number of seconds")

@@ -1,6 +1,6 @@
 """``hexhil experiment NAME``: reproduce a paper's experiments.
 
-Each experiment is a library module (under ``host_tools.papers``) whose ``main`` runs
+Each experiment is a library module (under ``hexhil.papers``) whose ``main`` runs
 it and writes its report; here each gets its options and its handler, and one line in
 ``EXPERIMENTS`` (name -> (help, add_arguments, handler)). Heavy imports (MuJoCo,
 matplotlib) stay inside the handlers.
@@ -12,10 +12,10 @@ import os
 from pathlib import Path
 from typing import Any, Callable
 
-from hil.link.firmware_process import IN_PROCESS, RUNTIMES
-from hil.scenario.world_section import OBSTACLE_BODIES, OBSTACLE_BODY
-from host_tools.cli import JSON_HELP, actions, emit_json, ProgressBar
-from protocol.errors import UserError
+from hexhil.hil.link.firmware_process import IN_PROCESS, RUNTIMES
+from hexhil.hil.scenario.world_section import OBSTACLE_BODIES, OBSTACLE_BODY
+from hexhil.cli import JSON_HELP, actions, emit_json, ProgressBar
+from hexhil.protocol.errors import UserError
 
 MAX_SEEDS = 1000   # seeds of one sweep: more is a typo, not days of runs
 
@@ -67,8 +67,8 @@ def _tactile_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _tactile(args: argparse.Namespace) -> int:
-    from host_tools.papers.tactile_hexapod import experiment as tactile_hexapod
-    from host_tools.executor import Executor
+    from hexhil.papers.tactile_hexapod import experiment as tactile_hexapod
+    from hexhil.executor import Executor
 
     seeds = args.seeds if args.seeds is not None else (1 if args.quick else 3)
     if not 1 <= seeds <= MAX_SEEDS:
@@ -99,7 +99,7 @@ def _force_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _force(args: argparse.Namespace) -> int:
-    from host_tools.papers.beam_traversal import force_sensing
+    from hexhil.papers.beam_traversal import force_sensing
 
     out = _out_folder(args.out)
     if args.seeds is not None and not 1 <= args.seeds <= MAX_SEEDS:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import argparse
 
-from host_tools import cli
+from hexhil import cli
 
 
 def table(report) -> str:
@@ -24,8 +24,8 @@ def table(report) -> str:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from host_tools.bus_fuzz import campaign
-    from host_tools.cli import emit_json, flush_print
+    from hexhil.bus_fuzz import campaign
+    from hexhil.cli import emit_json, flush_print
 
     settings = campaign.Settings(
         expect=args.expect, scenario=args.scenario, window_s=args.window,

@@ -10,15 +10,15 @@ import os
 from dataclasses import asdict
 from pathlib import Path
 
-from hil.scenario.world_section import OBSTACLE_BODIES, OBSTACLE_BODY
-from host_tools.cli import JSON_HELP, actions, emit, emit_json, ProgressBar
-from protocol.errors import UserError
+from hexhil.hil.scenario.world_section import OBSTACLE_BODIES, OBSTACLE_BODY
+from hexhil.cli import JSON_HELP, actions, emit, emit_json, ProgressBar
+from hexhil.protocol.errors import UserError
 
 WORKERS = max(1, os.cpu_count() or 1)
 
 
 def _dataset(args: argparse.Namespace) -> int:
-    from host_tools.papers.tactile_hexapod.grnn import dataset
+    from hexhil.papers.tactile_hexapod.grnn import dataset
 
     opts = dataset.DatasetOptions(tuple(args.traces), args.terrains, args.seed, args.distance,
                                   args.obstacles, args.workers)
@@ -35,7 +35,7 @@ def _dataset(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from host_tools.papers.tactile_hexapod.grnn import train
+    from hexhil.papers.tactile_hexapod.grnn import train
 
     r = train.main(args.data, args.out, args.epochs, args.seed, ProgressBar("epoch"))
     emit(args, asdict(r), f"wrote {r.model}: {r.epochs} epochs on {r.runs} walks, final loss "
@@ -44,7 +44,7 @@ def _train(args: argparse.Namespace) -> int:
 
 
 def _eval(args: argparse.Namespace) -> int:
-    from host_tools.papers.tactile_hexapod.grnn import held_out_report
+    from hexhil.papers.tactile_hexapod.grnn import held_out_report
 
     res = held_out_report.write_report(args.model, args.data, Path(args.out))
     print(held_out_report.markdown(res))
@@ -55,7 +55,7 @@ def _eval(args: argparse.Namespace) -> int:
 
 
 def _closed_loop(args: argparse.Namespace) -> int:
-    from host_tools.papers.tactile_hexapod.grnn import navigator_trials
+    from hexhil.papers.tactile_hexapod.grnn import navigator_trials
 
     if args.workers < 1:
         raise UserError(f"--workers must be at least 1, got {args.workers}")

@@ -8,23 +8,23 @@ import dataclasses
 import json
 import sys
 
-from hil.link.firmware_process import IN_PROCESS, RUNTIMES
-from host_tools import cli
-from host_tools.cli.run import add_flash_options, flash_files
+from hexhil.hil.link.firmware_process import IN_PROCESS, RUNTIMES
+from hexhil import cli
+from hexhil.cli.run import add_flash_options, flash_files
 
 
 def _run(args: argparse.Namespace) -> int:
 
-    from hil import scenario as scenario_mod
-    from host_tools.cli import emit_json
-    from host_tools.expect import margin_sweep, spec
-    from host_tools.output import check_output, write_failed
-    from protocol.errors import UserError
+    from hexhil.hil import scenario as scenario_mod
+    from hexhil.cli import emit_json
+    from hexhil.expect import margin_sweep, spec
+    from hexhil.output import check_output, write_failed
+    from hexhil.protocol.errors import UserError
 
     if args.jobs < 1:
         raise UserError("--jobs must be at least 1")
     if args.firmware is not None:
-        from hil.link.served_firmware import served_firmware
+        from hexhil.hil.link.served_firmware import served_firmware
 
         if args.python is not None:
             raise UserError(f"--firmware {args.firmware} brings its own runtime: leave out "

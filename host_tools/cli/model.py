@@ -6,20 +6,20 @@ from __future__ import annotations
 import argparse
 import sys
 
-from host_tools.cli import actions
+from hexhil.cli import actions
 
 
 def _urdf(args: argparse.Namespace) -> int:
-    from host_tools.robot_model import urdf
+    from hexhil.robot_model import urdf
 
     sys.stdout.write(urdf())
     return 0
 
 
 def _mjcf(args: argparse.Namespace) -> int:
-    from hil import scenario as scenario_mod
-    from hil.run.rig import make_world
-    from hil.world.hexapod_world import RobotParams, mjcf
+    from hexhil.hil import scenario as scenario_mod
+    from hexhil.hil.run.rig import make_world
+    from hexhil.hil.world.hexapod_world import RobotParams, mjcf
 
     if args.scenario:
         sc = scenario_mod.load_scenario(args.scenario)

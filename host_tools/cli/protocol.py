@@ -19,9 +19,9 @@ import argparse
 import string
 from typing import Any
 
-from host_tools.cli import JSON_HELP, actions, emit, emit_json
-from host_tools.dynamixel.decode import DECODERS, guess_protocol
-from protocol.errors import UserError
+from hexhil.cli import JSON_HELP, actions, emit, emit_json
+from hexhil.dynamixel.decode import DECODERS, guess_protocol
+from hexhil.protocol.errors import UserError
 
 HEXDIGITS = set(string.hexdigits)
 

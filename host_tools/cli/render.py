@@ -6,8 +6,8 @@ import argparse
 
 
 def _render(args: argparse.Namespace) -> int:
-    from host_tools import render as render_mod
-    from host_tools.cli import ProgressBar
+    from hexhil import render as render_mod
+    from hexhil.cli import ProgressBar
 
     backend = render_mod.choose_gl()  # before MuJoCo is imported
     n = render_mod.render(args.trace, args.out, args.camera, args.fps, args.width, args.height,
@@ -17,7 +17,7 @@ def _render(args: argparse.Namespace) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from host_tools.render import CAMERAS
+    from hexhil.render import CAMERAS
 
     p = sub.add_parser("render", help="render a trace's ground truth to a video or PNG",
                        description=__doc__)

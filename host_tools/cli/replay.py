@@ -4,9 +4,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from host_tools import replay
-from host_tools.cli import JSON_HELP, emit, emit_json
-from host_tools.cli.run import add_flash_options, flash_files
+from hexhil import replay
+from hexhil.cli import JSON_HELP, emit, emit_json
+from hexhil.cli.run import add_flash_options, flash_files
 
 
 def run(args: argparse.Namespace) -> int:

@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from hil.canbus.socketcand import DEFAULT_PORT
-from hil.link.firmware_process import IN_PROCESS, RUNTIMES
-from hil.run_result import RunInterrupted
-from host_tools import cli
+from hexhil.hil.canbus.socketcand import DEFAULT_PORT
+from hexhil.hil.link.firmware_process import IN_PROCESS, RUNTIMES
+from hexhil.hil.run_result import RunInterrupted
+from hexhil import cli
 
 LIVE_PORT = 8765  # Foxglove's default WebSocket port (host_tools/trace/live.py)
 
@@ -37,7 +37,7 @@ def flash_files(args: argparse.Namespace):   # -> FlashFiles | None
     """The --main/--fs/--fs-out options as the API's ``flash_files``."""
     from pathlib import Path
 
-    from hil.mcu.flash_fs import FlashFiles
+    from hexhil.hil.mcu.flash_fs import FlashFiles
     given = (args.main, args.fs, getattr(args, "fs_out", None))
     if all(v is None for v in given):
         return None
@@ -45,8 +45,8 @@ def flash_files(args: argparse.Namespace):   # -> FlashFiles | None
 
 
 def _run(args: argparse.Namespace) -> int:
-    import host_tools.papers  # noqa: F401  (plugs the beams run and the navigators in)
-    from host_tools import run_summary as run_mod
+    import hexhil.papers  # noqa: F401  (plugs the beams run and the navigators in)
+    from hexhil import run_summary as run_mod
 
     cli.show_console(args.quiet)
     try:
@@ -91,7 +91,7 @@ def _run(args: argparse.Namespace) -> int:
         print("master protocol violations: " + ", ".join(
             f"{k} {n}" for k, n in s["violations"]["counts"].items() if n))
     if s["console_dropped_bytes"]:
-        from hil.link.served_firmware import CONSOLE_TRACE_BYTES
+        from hexhil.hil.link.served_firmware import CONSOLE_TRACE_BYTES
 
         print(f"the firmware printed {s['console_dropped_bytes']:,} bytes more than the trace "
               f"keeps of its prints ({CONSOLE_TRACE_BYTES:,}): they were dropped")

@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 import re
 
-from host_tools.cli import actions
+from hexhil.cli import actions
 
 TARGETS = ("host", "stm32f411")
 
@@ -33,7 +33,7 @@ def _level(pattern: str, what: str):
 
 
 def _build(args: argparse.Namespace) -> int:
-    from host_tools import c_sdk
+    from hexhil import c_sdk
 
     print(c_sdk.build(args.sources, args.output, tuple(args.cflags or ()), args.target,
                       args.bare))
@@ -41,7 +41,7 @@ def _build(args: argparse.Namespace) -> int:
 
 
 def _flags(args: argparse.Namespace) -> int:
-    from host_tools import c_sdk
+    from hexhil import c_sdk
 
     lib = c_sdk.library(args.lib_dir or c_sdk.default_library_dir(args.target), args.target)
     for name, value in c_sdk.make_flags(lib, args.target).items():

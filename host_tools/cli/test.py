@@ -8,9 +8,9 @@ import argparse
 import sys
 from typing import Sequence
 
-from hil.link.firmware_process import IN_PROCESS, RUNTIMES
-from host_tools import cli
-from host_tools.cli.run import add_flash_options, add_masked_limit, flash_files
+from hexhil.hil.link.firmware_process import IN_PROCESS, RUNTIMES
+from hexhil import cli
+from hexhil.cli.run import add_flash_options, add_masked_limit, flash_files
 
 
 def table(results: Sequence) -> str:
@@ -27,16 +27,16 @@ def table(results: Sequence) -> str:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from host_tools.expect import case_runs, junit, spec
-    from host_tools.output import check_output
-    from protocol.errors import UserError
+    from hexhil.expect import case_runs, junit, spec
+    from hexhil.output import check_output
+    from hexhil.protocol.errors import UserError
 
     if args.jobs < 1 or args.repeat < 1:
         raise UserError("--jobs and --repeat must be at least 1")
     if args.firmware is not None and args.python is not None:
         raise UserError(f"--firmware {args.firmware} brings its own runtime: leave out --runtime")
     if args.in_process is not None:
-        from host_tools.in_process import load_main
+        from hexhil.in_process import load_main
 
         if args.firmware is not None or args.python not in (None, IN_PROCESS):
             raise UserError(f"--in-process {args.in_process} runs in this process: leave out "
@@ -50,8 +50,8 @@ def _run(args: argparse.Namespace) -> int:
         raise UserError("--trace evaluates one recorded run: give one FILE, and no --firmware, "
                         "--runtime, --no-tactile or --repeat")
     if args.firmware is not None:
-        from hil.link.served_firmware import served_firmware
-        from hil.mcu.verdicts import MASKED_LIMIT_S
+        from hexhil.hil.link.served_firmware import served_firmware
+        from hexhil.hil.mcu.verdicts import MASKED_LIMIT_S
 
         served_firmware(args.firmware, coverage=args.coverage,   # one line before anything runs
                         flash_files=flash_files(args),
@@ -135,8 +135,8 @@ def _covered(jobs: list, args: argparse.Namespace, bar: object) -> list:
     import tempfile
     from pathlib import Path
 
-    from hil.mcu.coverage import merge
-    from host_tools.expect import case_runs
+    from hexhil.hil.mcu.coverage import merge
+    from hexhil.expect import case_runs
 
     with tempfile.TemporaryDirectory(prefix="hexhil-cov-") as tmp:
         jobs = [dataclasses.replace(j, coverage=str(Path(tmp) / f"{k}.info"),

@@ -6,10 +6,10 @@ import argparse
 import json
 import sys
 
-from host_tools.cli import JSON_HELP, OVERWRITE_HELP, actions, emit, emit_json
-from host_tools.trace import export, import_csv, import_logs, reader, recover
-from host_tools.trace.import_csv import CSV_OPTIONAL, CSV_POSE, CSV_REQUIRED
-from protocol.errors import UserError
+from hexhil.cli import JSON_HELP, OVERWRITE_HELP, actions, emit, emit_json
+from hexhil.trace import export, import_csv, import_logs, reader, recover
+from hexhil.trace.import_csv import CSV_OPTIONAL, CSV_POSE, CSV_REQUIRED
+from hexhil.protocol.errors import UserError
 
 
 def _filters(p: argparse.ArgumentParser) -> None:

@@ -13,23 +13,23 @@ from typing import Any, Callable, Sequence
 import can
 from mcap.writer import CompressionType, Writer
 
-from hil.run.limits import RunLimits
-from hil.mcu.flash_fs import FlashFiles
-from hil.link.firmware_process import IN_PROCESS
-from hil.scenario import Scenario, check_seed
-from hil.seams import ServoLine
-from host_tools import run_summary as run_mod
-from host_tools.expect.verdicts import Outcome, evaluate
-from host_tools.expect.spec import Case
-from host_tools.executor import Executor
-from host_tools.progress import Progress
-from hil.run_result import RunResult
-from host_tools.lockstep_run import Run
-from host_tools.trace import protobuf as pb
-from host_tools.trace import topics
-from host_tools.trace.reader import Trace, info
-from host_tools.trace.target import TraceTarget
-from protocol.errors import UserError
+from hexhil.hil.run.limits import RunLimits
+from hexhil.hil.mcu.flash_fs import FlashFiles
+from hexhil.hil.link.firmware_process import IN_PROCESS
+from hexhil.hil.scenario import Scenario, check_seed
+from hexhil.hil.seams import ServoLine
+from hexhil import run_summary as run_mod
+from hexhil.expect.verdicts import Outcome, evaluate
+from hexhil.expect.spec import Case
+from hexhil.executor import Executor
+from hexhil.progress import Progress
+from hexhil.hil.run_result import RunResult
+from hexhil.lockstep_run import Run
+from hexhil.trace import protobuf as pb
+from hexhil.trace import topics
+from hexhil.trace.reader import Trace, info
+from hexhil.trace.target import TraceTarget
+from hexhil.protocol.errors import UserError
 
 T_EXPECTATIONS = "/expectations"  # foxglove.Log: each failed expectation at its moment
 
@@ -157,7 +157,7 @@ def run_case(job: CaseRun) -> CaseResult:
         trace = Path(tmp) / "run.mcap"
         main = None
         if job.main_file is not None:
-            from host_tools.in_process import load_main
+            from hexhil.in_process import load_main
 
             main = load_main(job.main_file)
         flash = job.flash_files.over(case.flash_files) if job.flash_files else case.flash_files

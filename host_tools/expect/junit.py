@@ -10,9 +10,9 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Sequence
 
-from host_tools.expect.case_runs import CaseResult
-from host_tools.expect.verdicts import ENDING
-from protocol.errors import UserError
+from hexhil.expect.case_runs import CaseResult
+from hexhil.expect.verdicts import ENDING
+from hexhil.protocol.errors import UserError
 
 
 def to_xml(results: Sequence[CaseResult], name: str = "hexhil test") -> ET.ElementTree:

@@ -18,9 +18,9 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any, Sequence
 
-from host_tools.expect.case_runs import BusTiming, CaseResult, CaseRun, run_all
-from host_tools.expect.spec import Case
-from host_tools.progress import Progress
+from hexhil.expect.case_runs import BusTiming, CaseResult, CaseRun, run_all
+from hexhil.expect.spec import Case
+from hexhil.progress import Progress
 
 AXES: dict[str, tuple[float, ...]] = {
     "return_delay_us": (0, 40, 80, 100, 120, 160, 250, 500),

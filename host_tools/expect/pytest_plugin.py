@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import pytest
 
 if TYPE_CHECKING:
-    from hil.run_result import RunResult
+    from hexhil.hil.run_result import RunResult
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,7 @@ class FinishedRun:
     result: "RunResult"
     summary: dict[str, Any]
     trace: Path
-    case: Any = dataclasses.field(repr=False)        # host_tools.expect.spec.Case
+    case: Any = dataclasses.field(repr=False)        # hexhil.expect.spec.Case
     _record: Callable[[Path], None] = dataclasses.field(repr=False)
 
     @property
@@ -58,7 +58,7 @@ class FinishedRun:
         """One expectation (an ``[[expect]]`` table's keys as arguments, ranges as
         ``(low, high)`` or ``{"min": ..}``); returns its ``Outcome``, or fails the test
         with measured value against limit, the failure written into a copy of the trace."""
-        from host_tools.expect import case_runs, spec, verdicts
+        from hexhil.expect import case_runs, spec, verdicts
 
         table = {"name": name or kind, "kind": kind, **keys}
         e = spec.expectation(f"{self.scenario} check", table)
@@ -78,7 +78,7 @@ class FinishedRun:
 def assert_within(name: str, value: float, low: float | None = None,
                   high: float | None = None, unit: str = "") -> None:
     """Fail with ``name: measured VALUE UNIT; limit [LOW, HIGH]`` unless low <= value <= high."""
-    from host_tools.expect.spec import Range
+    from hexhil.expect.spec import Range
 
     r = Range(low, high)
     if not r.holds(value):
@@ -90,7 +90,7 @@ def pytest_configure(config: pytest.Config) -> None:
     """Under pytest-xdist each worker's runs share the machine with the others'."""
     workers = os.environ.get("PYTEST_XDIST_WORKER_COUNT", "")
     if workers.isdigit():
-        from hil.link.firmware_process import runs_share_cores
+        from hexhil.hil.link.firmware_process import runs_share_cores
         runs_share_cores(int(workers))
 
 
@@ -126,8 +126,8 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path) -> Callable[..., 
     that crashes, hangs, exits early or never starts fails the test with its reason and
     last lines (the trace kept), unless ``allow_failure``: then ``FinishedRun.ending``
     says how it ended and ``check("no_exception")`` judges it."""
-    from hil import scenario as scenario_mod
-    from host_tools.expect import case_runs, spec, verdicts
+    from hexhil.hil import scenario as scenario_mod
+    from hexhil.expect import case_runs, spec, verdicts
 
     traces: list[Path] = []
     request.node.stash[_TRACES] = traces
@@ -141,7 +141,7 @@ def hexhil_run(request: pytest.FixtureRequest, tmp_path: Path) -> Callable[..., 
             firmware: str | Path | None = None, main: str | Path | None = None,
             fs: str | Path | None = None, fs_out: str | Path | None = None,
             allow_failure: bool = False) -> FinishedRun:
-        from hil.mcu.flash_fs import FlashFiles
+        from hexhil.hil.mcu.flash_fs import FlashFiles
         sc = scenario_mod.load_scenario(scenario)
         seed = sc.scenario.seed if seed is None else seed
         duration = duration_s or sc.scenario.duration_s
@@ -182,7 +182,7 @@ _TRACES = pytest.StashKey[list]()
 def _copy(src: Path, dst: Path) -> Path:
     """``src`` copied to ``dst`` as every trace is written (host_tools/trace/target.py); a
     session's ``--hexhil-keep DIR`` replaces a copy an earlier session kept by that name."""
-    from host_tools.trace.target import TraceTarget
+    from hexhil.trace.target import TraceTarget
 
     dst.parent.mkdir(parents=True, exist_ok=True)
     with open(src, "rb") as f, TraceTarget(dst, overwrite=True) as out:

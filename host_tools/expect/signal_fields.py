@@ -3,7 +3,7 @@
 field (the topic's protobuf schema, the frame's signals)."""
 from __future__ import annotations
 
-from protocol.errors import UserError
+from hexhil.protocol.errors import UserError
 
 
 def check_signal_field(where: str, topic: str, path: str) -> None:
@@ -11,8 +11,8 @@ def check_signal_field(where: str, topic: str, path: str) -> None:
     topic's messages hold (a protobuf topic's schema, a CAN frame's signals; the firmware's
     own ``/telemetry`` and the violations are free-form): a typo is bad input before
     anything runs, not a FAIL after it."""
-    from host_tools.trace import protobuf, topics
-    from protocol.can_frames import FRAMES
+    from hexhil.trace import protobuf, topics
+    from hexhil.protocol.can_frames import FRAMES
 
     if topic.startswith(topics.T_CAN_PREFIX) and topic != topics.T_CAN_RAW:
         frame = topic[len(topics.T_CAN_PREFIX):]

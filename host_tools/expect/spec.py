@@ -14,17 +14,17 @@ from enum import Enum
 from pathlib import Path
 from typing import Any
 
-from hil import scenario as scenario_mod
-from hil.scenario import Scenario, WorldKind, read_toml_file, toml_data
-from hil.scenario.rules import check_table, optional, typed
-from hil.link.firmware_process import IN_PROCESS, RUNTIMES
-from hil.scenario.faults_section import FaultKind
-from hil.servobus.master_check import KINDS as VIOLATION_KINDS
-from hil.link.served_firmware import served_firmware
-from hil.mcu.flash_fs import FlashFiles
-from host_tools.expect.signal_fields import check_signal_field
-from protocol import can_frames
-from protocol.errors import UserError
+from hexhil.hil import scenario as scenario_mod
+from hexhil.hil.scenario import Scenario, WorldKind, read_toml_file, toml_data
+from hexhil.hil.scenario.rules import check_table, optional, typed
+from hexhil.hil.link.firmware_process import IN_PROCESS, RUNTIMES
+from hexhil.hil.scenario.faults_section import FaultKind
+from hexhil.hil.servobus.master_check import KINDS as VIOLATION_KINDS
+from hexhil.hil.link.served_firmware import served_firmware
+from hexhil.hil.mcu.flash_fs import FlashFiles
+from hexhil.expect.signal_fields import check_signal_field
+from hexhil.protocol import can_frames
+from hexhil.protocol.errors import UserError
 
 
 class Kind(str, Enum):

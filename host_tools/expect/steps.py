@@ -25,7 +25,7 @@ import statistics
 from dataclasses import dataclass
 from typing import Sequence
 
-from protocol import hexapod
+from hexhil.protocol import hexapod
 
 STEP_FACTOR = 2.0            # Eq. 6: l_k = 2 l_i
 OBSTACLE_CLEARANCE_M = 0.02  # Eq. 7: h_k = H + 2 cm

@@ -10,13 +10,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, NamedTuple
 
-from hil.run_result import BodyDisplacement
-from host_tools.expect import steps as steps_mod
-from host_tools.expect.spec import Case, Expectation, Kind, Range, Stat
-from host_tools.trace import topics
-from host_tools.trace.reader import Trace
-from protocol import hexapod
-from protocol.errors import UserError
+from hexhil.hil.run_result import BodyDisplacement
+from hexhil.expect import steps as steps_mod
+from hexhil.expect.spec import Case, Expectation, Kind, Range, Stat
+from hexhil.trace import topics
+from hexhil.trace.reader import Trace
+from hexhil.protocol import hexapod
+from hexhil.protocol.errors import UserError
 
 WALKING = 2  # protocol/can_frames.py STATE_WALKING, the heartbeat's state signal
 

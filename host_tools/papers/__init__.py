@@ -3,6 +3,6 @@ experiment, the GRNN, the error model) and seed 000's beam traversal (estimator,
 planner, the force-sensing experiment). The toolkit never imports them; importing this
 package plugs their features into it (host_tools/plugins.py): ``hexhil run`` of a beams
 scenario, ``--navigator model|grnn``."""
-from host_tools.papers import beam_traversal, tactile_hexapod
+from hexhil.papers import beam_traversal, tactile_hexapod
 
 __all__ = ["beam_traversal", "tactile_hexapod"]

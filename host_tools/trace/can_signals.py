@@ -9,8 +9,8 @@ import json
 from pathlib import Path
 from typing import Any
 
-from host_tools.trace.topics import CAN_SCHEMA_PREFIX
-from protocol import can_frames
+from hexhil.trace.topics import CAN_SCHEMA_PREFIX
+from hexhil.protocol import can_frames
 
 
 @functools.cache

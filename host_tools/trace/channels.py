@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 from typing import Any, Callable
 
-from host_tools.trace import protobuf as pb
-from host_tools.trace.can_signals import dbc, json_schema
-from host_tools.trace.topics import CAN_SCHEMA_PREFIX, CHANNELS, T_CAN_PREFIX, schema_encoding
-from host_tools.trace.writer import TraceWriter
+from hexhil.trace import protobuf as pb
+from hexhil.trace.can_signals import dbc, json_schema
+from hexhil.trace.topics import CAN_SCHEMA_PREFIX, CHANNELS, T_CAN_PREFIX, schema_encoding
+from hexhil.trace.writer import TraceWriter
 
 
 class Channels:

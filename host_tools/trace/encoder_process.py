@@ -25,7 +25,7 @@ import traceback
 from enum import Enum
 from typing import Any, Protocol
 
-from protocol.errors import UserError
+from hexhil.protocol.errors import UserError
 
 _LEN = struct.Struct("<I")
 _STOP = {signal.SIGINT, signal.SIGTERM}

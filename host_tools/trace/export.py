@@ -5,11 +5,11 @@ import csv
 from pathlib import Path
 from typing import Any, Iterable
 
-from hil.scenario import check_span
-from host_tools.trace.protobuf import CanFrame
-from host_tools.trace.reader import Trace, why
-from host_tools.trace.topics import T_CAN_RAW
-from protocol.errors import UserError
+from hexhil.hil.scenario import check_span
+from hexhil.trace.protobuf import CanFrame
+from hexhil.trace.reader import Trace, why
+from hexhil.trace.topics import T_CAN_RAW
+from hexhil.protocol.errors import UserError
 
 CAN_LOG_SUFFIXES = (".asc", ".blf", ".log", ".trc")
 

@@ -7,10 +7,10 @@ import math
 from pathlib import Path
 from typing import Any
 
-from host_tools.trace.reader import why
-from host_tools.trace.recorder import Recorder
-from protocol import can_frames
-from protocol.errors import UserError
+from hexhil.trace.reader import why
+from hexhil.trace.recorder import Recorder
+from hexhil.protocol import can_frames
+from hexhil.protocol.errors import UserError
 
 CSV_REQUIRED = ("time_s", "fx_n", "fy_n", "fz_n")
 CSV_POSE = ("x_m", "roll_rad", "pitch_rad")

@@ -28,13 +28,13 @@ from enum import Enum
 from pathlib import Path
 from typing import Any
 
-from hil.scenario.sections import MAX_DURATION_S
-from host_tools.trace.reader import why
-from host_tools.trace.recorder import Recorder
-from host_tools.trace.windows import EncodeIn
-from host_tools.trace.servo_capture import LineMap, ServoLine, decode_line
-from protocol.dynamixel import models
-from protocol.errors import UserError
+from hexhil.hil.scenario.sections import MAX_DURATION_S
+from hexhil.trace.reader import why
+from hexhil.trace.recorder import Recorder
+from hexhil.trace.windows import EncodeIn
+from hexhil.trace.servo_capture import LineMap, ServoLine, decode_line
+from hexhil.protocol.dynamixel import models
+from hexhil.protocol.errors import UserError
 
 SOURCE = "trace import"   # the metadata's ``source``: replay and conformance look for it
 
@@ -105,7 +105,7 @@ def line_map(table: dict[str, Any], where: str) -> LineMap:
 def read_servo_line(src: str | Path, table: dict[str, Any] | None = None,
                     where: str = "map") -> ServoLine:
     """A ``.sr`` capture's servo traffic (the map's ``[serial]`` table, if any)."""
-    from host_tools.trace.logic_capture import read_sr
+    from hexhil.trace.logic_capture import read_sr
 
     return decode_line(read_sr(src), line_map(table or {}, where))
 
@@ -282,7 +282,7 @@ def import_log(src: str | Path | list[str | Path], dst: str | Path,
         elif k is LogKind.CAN:
             extra, summary = _import_can(path, maps, where, h)
         else:
-            from host_tools.trace import rosbag_import
+            from hexhil.trace import rosbag_import
 
             extra, summary = {}, rosbag_import.import_bag(path, maps, where, h)
         meta.update(extra)

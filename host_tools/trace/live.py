@@ -19,8 +19,8 @@ from typing import Any, Iterable
 
 import foxglove
 
-from host_tools.trace.channels import every_channel
-from protocol.errors import UserError
+from hexhil.trace.channels import every_channel
+from hexhil.protocol.errors import UserError
 
 # Messages held per client (the SDK's default, set here so the bound is ours): a client
 # that stops reading loses the oldest data messages, never the run's memory; one whose

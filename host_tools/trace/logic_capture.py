@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from protocol.dynamixel import ax12, xl430
-from protocol.errors import UserError
+from hexhil.protocol.dynamixel import ax12, xl430
+from hexhil.protocol.errors import UserError
 
 # the rates a Dynamixel line runs at: the X series' register values and the AX-12's usual
 STANDARD_BPS = tuple(sorted(set(xl430.BAUD_BPS) | {19_200, 38_400, 200_000, 250_000,

@@ -21,7 +21,7 @@ from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from mcap_protobuf.schema import build_file_descriptor_set
 
-from protocol.dynamixel import v1 as dynamixel
+from hexhil.protocol.dynamixel import v1 as dynamixel
 
 _F = descriptor_pb2.FieldDescriptorProto
 _TYPES = {"string": _F.TYPE_STRING, "bytes": _F.TYPE_BYTES, "uint32": _F.TYPE_UINT32,

@@ -28,9 +28,9 @@ from mcap.records import Channel, Chunk, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk, get_chunk_data_stream
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 
-from hil.scenario import check_span
-from host_tools.trace.target import partial_of
-from protocol.errors import UserError
+from hexhil.hil.scenario import check_span
+from hexhil.trace.target import partial_of
+from hexhil.protocol.errors import UserError
 
 MAGIC = b"\x89MCAP0\r\n"
 

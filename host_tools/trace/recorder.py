@@ -2,7 +2,7 @@
 
 ``Recorder(path, metadata)`` is handed to the simulator (``None`` means no recording);
 each part reports what it sees with an integer virtual timestamp in microseconds, on the
-topics ``host_tools.trace.topics`` lists.
+topics ``hexhil.trace.topics`` lists.
 
 Why it is built this way:
 
@@ -35,25 +35,25 @@ import json
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
-from host_tools.trace import protobuf as pb
-from host_tools.trace.can_signals import CanSignals, json_default, json_schema, to_json
-from host_tools.trace import scene_encoding as scene_msgs
-from host_tools.trace.topics import (CAN_SCHEMA_PREFIX, T_BODY, T_CAN_PREFIX,
+from hexhil.trace import protobuf as pb
+from hexhil.trace.can_signals import CanSignals, json_default, json_schema, to_json
+from hexhil.trace import scene_encoding as scene_msgs
+from hexhil.trace.topics import (CAN_SCHEMA_PREFIX, T_BODY, T_CAN_PREFIX,
                                      T_CAN_RAW, T_FAULTS, T_JOINTS, T_LINK, T_SCENE,
                                      T_SCENE_FORCES, T_SCENE_FRAMES, T_SERIAL, T_SERVOS,
                                      T_SWITCHES, T_TELEMETRY, T_VIOLATIONS)
-from host_tools.trace.channels import Channels
-from host_tools.trace.windows import EncodeIn, Encoded, HeldWindows
-from host_tools.dynamixel.decode import DECODERS
-from hil.servobus import serial_stream
-from hil.seams import HeldSample
-from protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
+from hexhil.trace.channels import Channels
+from hexhil.trace.windows import EncodeIn, Encoded, HeldWindows
+from hexhil.dynamixel.decode import DECODERS
+from hexhil.hil.servobus import serial_stream
+from hexhil.hil.seams import HeldSample
+from hexhil.protocol.can_frames import LEGS as LEG_NAMES  # bit order of tactile.switches
 
 DEFAULT_FLUSH_INTERVAL_US = 500_000  # well inside the issue's "once per simulated second"
 
 
 class Recorder(HeldWindows):
-    """Writes one run to one MCAP file, on the topics ``host_tools.trace.topics`` lists.
+    """Writes one run to one MCAP file, on the topics ``hexhil.trace.topics`` lists.
 
     ``metadata`` (scenario, seed, command...) is stored as the ``hexhil`` metadata record
     together with the software version. Times are integer virtual microseconds and should

@@ -20,9 +20,9 @@ from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap.writer import CompressionType, Writer
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 
-from host_tools.trace.reader import MAGIC, check_file, why
-from host_tools.trace.target import TraceTarget, partial_of
-from protocol.errors import UserError
+from hexhil.trace.reader import MAGIC, check_file, why
+from hexhil.trace.target import TraceTarget, partial_of
+from hexhil.protocol.errors import UserError
 
 _OP_CHUNK = 0x06  # the chunk record's opcode (mcap.opcode.Opcode.CHUNK)
 _KNOWN_OPCODES = range(0x01, 0x10)  # Header .. DataEnd

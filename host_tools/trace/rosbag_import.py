@@ -22,8 +22,8 @@ from enum import Enum
 from pathlib import Path
 from typing import Any, Callable
 
-from host_tools.trace.reader import why
-from protocol.errors import UserError
+from hexhil.trace.reader import why
+from hexhil.protocol.errors import UserError
 
 
 class TopicAs(str, Enum):

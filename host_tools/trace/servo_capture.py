@@ -17,11 +17,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from host_tools.dynamixel.decode import guess_protocol, packet_spans
-from host_tools.dynamixel.decode import v1 as decode_v1
-from host_tools.trace.logic_capture import (BITS_PER_BYTE, LogicCapture, UartByte,
+from hexhil.dynamixel.decode import guess_protocol, packet_spans
+from hexhil.dynamixel.decode import v1 as decode_v1
+from hexhil.trace.logic_capture import (BITS_PER_BYTE, LogicCapture, UartByte,
                                             decode_uart, find_baud)
-from protocol.errors import UserError
+from hexhil.protocol.errors import UserError
 
 DIRECTION_NAMES = ("dir", "direction", "de", "txen", "tx_en", "rts")
 DATA_NAMES = ("data", "dxl", "line", "bus")

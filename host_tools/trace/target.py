@@ -18,7 +18,7 @@ import os
 from pathlib import Path
 from typing import Any, BinaryIO
 
-from protocol.errors import BadFile, UserError
+from hexhil.protocol.errors import BadFile, UserError
 
 PARTIAL_SUFFIX = ".partial"
 

@@ -14,13 +14,13 @@ from operator import itemgetter
 from pathlib import Path
 from typing import Any, BinaryIO, Callable, Mapping
 
-from hil.link import cores
-from host_tools.trace.can_signals import json_default
-from host_tools.trace.encoder_process import ChildWriteFailed, Command, EncoderProcess
-from host_tools.trace.target import TraceTarget
-from host_tools.trace.topics import METADATA_NAME
-from host_tools.trace.writer import ChunkPacking, TraceWriter, software_version
-from protocol.errors import UserError
+from hexhil.hil.link import cores
+from hexhil.trace.can_signals import json_default
+from hexhil.trace.encoder_process import ChildWriteFailed, Command, EncoderProcess
+from hexhil.trace.target import TraceTarget
+from hexhil.trace.topics import METADATA_NAME
+from hexhil.trace.writer import ChunkPacking, TraceWriter, software_version
+from hexhil.protocol.errors import UserError
 
 Encoded = list[tuple[int, int, bytes]]   # (log_time_ns, channel id, data)
 

@@ -31,7 +31,7 @@ from mcap.records import (Channel, Chunk, ChunkIndex, DataEnd, Footer, Header, M
                           MetadataIndex, Schema, Statistics, SummaryOffset)
 from mcap.writer import MCAP0_MAGIC
 
-from host_tools.trace.topics import PROFILE
+from hexhil.trace.topics import PROFILE
 
 _MESSAGE_HEADER = struct.Struct("<BQHIQQ")  # opcode, length, channel, sequence, times
 

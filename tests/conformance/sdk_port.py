@@ -2,7 +2,7 @@
 with status packets built by ``protocol.dynamixel.v1``, so one exchange checks both directions."""
 from __future__ import annotations
 
-from protocol.dynamixel import v1 as dxl
+from hexhil.protocol.dynamixel import v1 as dxl
 
 
 class ScriptedPort:

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import pytest
 
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 
 def h(text: str) -> bytes:

@@ -4,7 +4,7 @@ from __future__ import annotations
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from protocol.dynamixel import v1 as dxl
+from hexhil.protocol.dynamixel import v1 as dxl
 
 SETTINGS = settings(max_examples=200, deadline=None, derandomize=True)
 

@@ -11,8 +11,8 @@ import tty
 import dynamixel_sdk as sdk
 import pytest
 
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
 
 
 class PtyServo:

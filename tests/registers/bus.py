@@ -9,9 +9,9 @@ from pathlib import Path
 
 from unicorn import arm_const as A
 
-from hil.mcu.board import Board
-from hil.mcu.core import FS_PER_S
-from hil.mcu.elf_image import FLASH_BASE, ElfImage, Segment
+from hexhil.hil.mcu.board import Board
+from hexhil.hil.mcu.core import FS_PER_S
+from hexhil.hil.mcu.elf_image import FLASH_BASE, ElfImage, Segment
 
 CODE = FLASH_BASE + 0x100
 # Thumb: b . ; then r1 = [r0] or [r0] = r1 at 4, 2 and 1 bytes
@@ -60,7 +60,7 @@ class Bus:
 
     def enable(self, name: str) -> None:
         """The peripheral's RCC clock on (its row's gate, hil/mcu/platform.py)."""
-        from hil.mcu.platform import row
+        from hexhil.hil.mcu.platform import row
         reg, bit = row(name).clock
         self.write(ENABLE[reg], self.read(ENABLE[reg]) | 1 << bit)
 

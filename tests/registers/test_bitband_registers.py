@@ -3,7 +3,7 @@ peripherals, with the compiled board and without: a read gives the bit, a write 
 that bit alone through the register's access rules."""
 import pytest
 
-from hil.mcu.bitband import alias_of
+from hexhil.hil.mcu.bitband import alias_of
 from registers.bus import Bus
 
 PERIPH, ALIAS = 0x40000000, 0x42000000

@@ -3,7 +3,7 @@ RM0383's reset values of the register files (I2C, SPI, ADC1, CRC, GPIOD/E/H), th
 gate, CRC-32 on DR and DMA's NDTR counting down as a USART moves the bytes."""
 import pytest
 
-from hil.mcu import platform
+from hexhil.hil.mcu import platform
 from registers.bus import Bus
 
 

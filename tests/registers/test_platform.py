@@ -2,10 +2,10 @@
 peripheral a CubeMX project for the board may touch, the IRQ numbers system.py's IRQS
 gives the hand-written models, the clock gates rcc.py uses, and docs/elf-firmware.md's
 table as the generator writes it."""
-from hil.mcu import platform
-from hil.mcu.platform import PLATFORM, VECTORS, Built, Kind
-from hil.mcu.rcc import CLOCK_BITS
-from hil.mcu.system import IRQS, NUM_IRQS
+from hexhil.hil.mcu import platform
+from hexhil.hil.mcu.platform import PLATFORM, VECTORS, Built, Kind
+from hexhil.hil.mcu.rcc import CLOCK_BITS
+from hexhil.hil.mcu.system import IRQS, NUM_IRQS
 
 CUBEMX = ("RCC PWR FLASH RTC IWDG WWDG TIM1 TIM2 TIM3 TIM4 TIM5 TIM9 TIM10 TIM11 ADC1 I2C1 "
           "I2C2 I2C3 SPI1 SPI2 SPI3 SPI4 SPI5 USART1 USART2 USART6 DMA1 DMA2 EXTI SYSCFG "

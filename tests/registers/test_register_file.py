@@ -2,7 +2,7 @@
 the description alone, and the names an access without behaviour is logged by."""
 import logging
 
-from hil.mcu.registers import Description, RegisterFile, reg
+from hexhil.hil.mcu.registers import Description, RegisterFile, reg
 
 DEV = Description("DEV", (
     reg("CTRL", 0x00, 0x0000_00A5, "EN:0:rw MODE:4-7:rw RO:8:r KEY:16-23:w"),

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from hil.mcu.registers import Description, RegisterFile, reg
-from hil.mcu.timebase import FS_PER_S
+from hexhil.hil.mcu.registers import Description, RegisterFile, reg
+from hexhil.hil.mcu.timebase import FS_PER_S
 
 VDDA_V = 3.3
 VREFINT_V, TEMP_25C_V, TEMP_SLOPE_V = 1.21, 0.76, 0.0025

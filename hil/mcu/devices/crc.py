@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from hil.mcu.registers import Description, RegisterFile, reg
+from hexhil.hil.mcu.registers import Description, RegisterFile, reg
 
 POLY = 0x04C11DB7
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from hil.mcu.registers import Description, RegisterFile, reg
-from hil.mcu.timebase import FS_PER_S
+from hexhil.hil.mcu.registers import Description, RegisterFile, reg
+from hexhil.hil.mcu.timebase import FS_PER_S
 
 I2C = Description("I2C", (
     reg("CR1", 0x00, 0, "PE:0:rw SMBUS:1:rw SMBTYPE:3:rw ENARP:4:rw ENPEC:5:rw ENGC:6:rw "

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from hil.mcu.core import FS_PER_S
-from hil.mcu.registers import Description, RegisterFile, reg
+from hexhil.hil.mcu.core import FS_PER_S
+from hexhil.hil.mcu.registers import Description, RegisterFile, reg
 
 LSI_HZ = 32_000
 UPDATE_LSI_PERIODS = 5

@@ -2,6 +2,6 @@
 reads 0 and drops writes."""
 from __future__ import annotations
 
-from hil.mcu.registers import Description
+from hexhil.hil.mcu.registers import Description
 
 SDIO = Description("SDIO", ())

@@ -3,7 +3,7 @@ modelled (TXE reads set, nothing is received), the HAL's configuration reads bac
 """
 from __future__ import annotations
 
-from hil.mcu.registers import Description, reg
+from hexhil.hil.mcu.registers import Description, reg
 
 SPI = Description("SPI", (
     reg("CR1", 0x00, 0, "CPHA:0:rw CPOL:1:rw MSTR:2:rw BR:3-5:rw SPE:6:rw LSBFIRST:7:rw "

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from hil.mcu.core import FS_PER_S
-from hil.mcu.registers import Description, RegisterFile, reg
+from hexhil.hil.mcu.core import FS_PER_S
+from hexhil.hil.mcu.registers import Description, RegisterFile, reg
 
 WWDG = Description("WWDG", (
     reg("CR", 0x00, 0x7F, "T:0-6:rw WDGA:7:rs"),

@@ -11,13 +11,13 @@ from dataclasses import dataclass
 from types import ModuleType
 from typing import Callable
 
-from hil.scenario import BusConfig
-from hil.servobus.drive import Actuator
-from hil.servobus.line import Bus
-from hil.servobus.packet_check import KINDS, OnViolation, PacketCheck
-from hil.servobus.protocols import v1, v2
-from hil.servobus.table_servo import TableServo
-from protocol.dynamixel import models
+from hexhil.hil.scenario import BusConfig
+from hexhil.hil.servobus.drive import Actuator
+from hexhil.hil.servobus.line import Bus
+from hexhil.hil.servobus.packet_check import KINDS, OnViolation, PacketCheck
+from hexhil.hil.servobus.protocols import v1, v2
+from hexhil.hil.servobus.table_servo import TableServo
+from hexhil.protocol.dynamixel import models
 
 
 @dataclass(frozen=True)

@@ -5,14 +5,14 @@ from __future__ import annotations
 from types import ModuleType
 from typing import TYPE_CHECKING
 
-from hil.scenario import BusConfig
-from hil.servobus.ax12_servo import Servo
-from hil.servobus.drive import Actuator
-from hil.servobus.packet_check import OnViolation, PacketCheck
-from protocol.dynamixel import v1 as dxl
+from hexhil.hil.scenario import BusConfig
+from hexhil.hil.servobus.ax12_servo import Servo
+from hexhil.hil.servobus.drive import Actuator
+from hexhil.hil.servobus.packet_check import OnViolation, PacketCheck
+from hexhil.protocol.dynamixel import v1 as dxl
 
 if TYPE_CHECKING:
-    from hil.servobus.line import Bus
+    from hexhil.hil.servobus.line import Bus
 
 
 def make_servo(layout: ModuleType, dev_id: int, actuator: Actuator | None,

@@ -25,17 +25,17 @@ from __future__ import annotations
 from types import ModuleType
 from typing import TYPE_CHECKING
 
-from hil.scenario import BusConfig
-from hil.servobus.drive import Actuator
-from hil.servobus.line import Bus
-from hil.servobus.packet_check import OnViolation, PacketCheck
-from hil.servobus.wire import Burst, resample
-from hil.servobus.xseries_servo import XSeriesServo
-from protocol.dynamixel import v2 as dx2
-from protocol.errors import UserError
+from hexhil.hil.scenario import BusConfig
+from hexhil.hil.servobus.drive import Actuator
+from hexhil.hil.servobus.line import Bus
+from hexhil.hil.servobus.packet_check import OnViolation, PacketCheck
+from hexhil.hil.servobus.wire import Burst, resample
+from hexhil.hil.servobus.xseries_servo import XSeriesServo
+from hexhil.protocol.dynamixel import v2 as dx2
+from hexhil.protocol.errors import UserError
 
 if TYPE_CHECKING:
-    from hil.servobus.line import Bus
+    from hexhil.hil.servobus.line import Bus
 
 GROUP_READS = (dx2.SYNC_READ, dx2.FAST_SYNC_READ, dx2.BULK_READ, dx2.FAST_BULK_READ)
 

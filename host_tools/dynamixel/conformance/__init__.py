@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
-from host_tools.dynamixel.conformance import v1, v2
+from hexhil.dynamixel.conformance import v1, v2
 
 RunChecks = Callable[[str, int, "list[int] | None", float, float], dict[str, Any]]
 CHECKS: dict[int, RunChecks] = {1: v1.run_checks, 2: v2.run_checks}

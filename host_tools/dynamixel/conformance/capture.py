@@ -16,16 +16,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hil.run import rig
-from hil.servobus.line import Bus
-from hil.servobus.master_check import MasterCheck
-from hil.servobus.wire import US_BITS
-from host_tools.dynamixel.decode import DECODERS, packet_spans
-from host_tools.trace.servo_capture import LineBurst, ServoLine
-from protocol.dynamixel import models
-from protocol.dynamixel import v1 as dxl
-from protocol.dynamixel import v2 as dx2
-from protocol.errors import UserError
+from hexhil.hil.run import rig
+from hexhil.hil.servobus.line import Bus
+from hexhil.hil.servobus.master_check import MasterCheck
+from hexhil.hil.servobus.wire import US_BITS
+from hexhil.dynamixel.decode import DECODERS, packet_spans
+from hexhil.trace.servo_capture import LineBurst, ServoLine
+from hexhil.protocol.dynamixel import models
+from hexhil.protocol.dynamixel import v1 as dxl
+from hexhil.protocol.dynamixel import v2 as dx2
+from hexhil.protocol.errors import UserError
 
 EVENTS_SHOWN = 20
 # instructions no servo answers; of the rest, a PING or READ (the same codes in both
@@ -63,7 +63,7 @@ class _Line:
 
 def load_line(path: str | Path, map_path: str | Path | None = None) -> ServoLine:
     """A capture's servo traffic: a ``.sr`` decoded, or an MCAP trace's ``/serial``."""
-    from host_tools.trace import import_logs
+    from hexhil.trace import import_logs
 
     p = Path(path)
     if p.suffix.lower() == ".mcap":
@@ -76,9 +76,9 @@ def load_line(path: str | Path, map_path: str | Path | None = None) -> ServoLine
 def _trace_line(path: Path) -> ServoLine:
     import json
 
-    from host_tools.trace.protobuf import SerialBytes
-    from host_tools.trace.reader import Trace
-    from host_tools.trace.topics import T_SERIAL
+    from hexhil.trace.protobuf import SerialBytes
+    from hexhil.trace.reader import Trace
+    from hexhil.trace.topics import T_SERIAL
 
     with Trace(path) as tr:
         if T_SERIAL not in tr.topics():

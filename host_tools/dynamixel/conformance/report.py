@@ -8,7 +8,7 @@ from dataclasses import asdict, dataclass
 from enum import Enum
 from typing import Any, Iterable
 
-from host_tools.dynamixel.decode import words
+from hexhil.dynamixel.decode import words
 
 
 class Cause(str, Enum):

@@ -21,11 +21,11 @@ from typing import Any
 
 import serial
 
-from hil.servobus import switch_node as sensor_node
-from host_tools.dynamixel.conformance.report import Cause, Check, summarise
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
-from protocol.errors import UserError
+from hexhil.hil.servobus import switch_node as sensor_node
+from hexhil.dynamixel.conformance.report import Cause, Check, summarise
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
+from hexhil.protocol.errors import UserError
 
 EEPROM_PAUSE_S = 0.01
 TRIES = 3  # sends of a repeatable instruction before its reply counts as missing

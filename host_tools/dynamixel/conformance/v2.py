@@ -20,10 +20,10 @@ from typing import Any
 
 from types import ModuleType
 
-from host_tools.dynamixel.conformance.v1 import EEPROM_PAUSE_S, SILENCE_S, Checker, Link
-from protocol.dynamixel import models
-from protocol.dynamixel import v2 as dx2
-from protocol.dynamixel import xl430 as xl
+from hexhil.dynamixel.conformance.v1 import EEPROM_PAUSE_S, SILENCE_S, Checker, Link
+from hexhil.protocol.dynamixel import models
+from hexhil.protocol.dynamixel import v2 as dx2
+from hexhil.protocol.dynamixel import xl430 as xl
 
 STUFFED_OFFSET = int.from_bytes(b"\xff\xff\xfd\xff", "little", signed=True)  # in range
 TIMING_ROUNDS = 12   # the fastest of these: a loaded host only adds time

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 from types import ModuleType
 
-from host_tools.dynamixel.decode import v1, v2
-from protocol.dynamixel import v1 as dx1
-from protocol.dynamixel import v2 as dx2
+from hexhil.dynamixel.decode import v1, v2
+from hexhil.protocol.dynamixel import v1 as dx1
+from hexhil.protocol.dynamixel import v2 as dx2
 
 DECODERS: dict[int, ModuleType] = {1: v1, 2: v2}
 

@@ -14,11 +14,11 @@ from __future__ import annotations
 from types import ModuleType
 from typing import Any
 
-from host_tools.dynamixel.decode.words import phrase
-from host_tools.trace import protobuf as pb
-from protocol.dynamixel import ax12
-from protocol.dynamixel import v1 as dxl
-from protocol.errors import UserError
+from hexhil.dynamixel.decode.words import phrase
+from hexhil.trace import protobuf as pb
+from hexhil.protocol.dynamixel import ax12
+from hexhil.protocol.dynamixel import v1 as dxl
+from hexhil.protocol.errors import UserError
 
 
 def _malformed(data: bytes, j: int, next_packet: int | None) -> str | None:

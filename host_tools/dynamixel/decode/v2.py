@@ -7,10 +7,10 @@ from __future__ import annotations
 from types import ModuleType
 from typing import Any
 
-from host_tools.dynamixel.decode.words import phrase
-from host_tools.trace import protobuf as pb
-from protocol.dynamixel import v2 as dx2
-from protocol.dynamixel import xl430 as xl
+from hexhil.dynamixel.decode.words import phrase
+from hexhil.trace import protobuf as pb
+from hexhil.protocol.dynamixel import v2 as dx2
+from hexhil.protocol.dynamixel import xl430 as xl
 
 HEADER = b"\xff\xff\xfd\x00"
 

@@ -5,12 +5,12 @@ registers the beams world's run, so ``hexhil run`` of a beams scenario and
 ``host_tools.Run`` traverse (host_tools/plugins.py)."""
 from __future__ import annotations
 
-from hil.scenario import WorldKind
-from host_tools import plugins
+from hexhil.hil.scenario import WorldKind
+from hexhil import plugins
 
 
 def _load() -> plugins.SteppedRun:
-    from host_tools.papers.beam_traversal import beams_run   # scipy, MuJoCo: when a run is made
+    from hexhil.papers.beam_traversal import beams_run   # scipy, MuJoCo: when a run is made
 
     return beams_run.run_scenario
 

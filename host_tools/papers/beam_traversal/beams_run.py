@@ -9,15 +9,15 @@ from __future__ import annotations
 import math
 import time
 
-from hil.run_result import RunResult
-from hil.scenario import Scenario, parse
-from hil.seams import CanGateway, TraceRecorder
-from hil.scenario.beams import STRATEGIES
-from hil.run.lockstep import Simulator
-from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
-from hil.world.beams import BeamsWorld, BodyState
-from hil.world.beams_node import NO_CONTACT_LIMIT_US, BeamsNode
-from host_tools.papers.beam_traversal.nodes import ControllerNode, PlannerNode, RunConfig
+from hexhil.hil.run_result import RunResult
+from hexhil.hil.scenario import Scenario, parse
+from hexhil.hil.seams import CanGateway, TraceRecorder
+from hexhil.hil.scenario.beams import STRATEGIES
+from hexhil.hil.run.lockstep import Simulator
+from hexhil.hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
+from hexhil.hil.world.beams import BeamsWorld, BodyState
+from hexhil.hil.world.beams_node import NO_CONTACT_LIMIT_US, BeamsNode
+from hexhil.papers.beam_traversal.nodes import ControllerNode, PlannerNode, RunConfig
 
 
 

@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
-from hil.world.beams import external_forces, saturate
-from host_tools.papers.beam_traversal.planner import Plan
+from hexhil.hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
+from hexhil.hil.world.beams import external_forces, saturate
+from hexhil.papers.beam_traversal.planner import Plan
 
 KP_1_S2 = 100.0             # critically damped, natural frequency 10 rad/s
 KD_1_S = 20.0

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
-from hil.world.beam_body import G_M_S2, PAPER_BODY, BodyGeometry
-from hil.world.beam_contact import unit_contact_forces
+from hexhil.hil.world.beam_body import G_M_S2, PAPER_BODY, BodyGeometry
+from hexhil.hil.world.beam_contact import unit_contact_forces
 
 HB_MAX_M = 0.005        # Sec. II-E: h_b guesses in [0, 5] mm
 K_MAX_NM_PER_RAD = 5.0  # Sec. II-E: k guesses in [0, 5] N m/rad

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hil.world.beam_body import PAPER_BODY, BodyGeometry, gravity_energy_j
-from hil.world.beam_contact import deflection_angles
+from hexhil.hil.world.beam_body import PAPER_BODY, BodyGeometry, gravity_energy_j
+from hexhil.hil.world.beam_contact import deflection_angles
 
 
 @dataclass(frozen=True)

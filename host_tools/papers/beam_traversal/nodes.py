@@ -14,13 +14,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 import numpy as np
 
-from hil.canbus.bus import Endpoint, message
-from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
-from hil.world.beams import DT_US
-from hil.world.beams_node import CONTROL_PERIOD_US, MAX_TIME_S
-from host_tools.papers.beam_traversal import estimator, landscape, planner
-from host_tools.papers.beam_traversal.control import FeedbackLinearisation
-from protocol import can_frames
+from hexhil.hil.canbus.bus import Endpoint, message
+from hexhil.hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
+from hexhil.hil.world.beams import DT_US
+from hexhil.hil.world.beams_node import CONTROL_PERIOD_US, MAX_TIME_S
+from hexhil.papers.beam_traversal import estimator, landscape, planner
+from hexhil.papers.beam_traversal.control import FeedbackLinearisation
+from hexhil.protocol import can_frames
 
 RIGID_K_NM_PER_RAD = 100.0     # the avoidance baseline's map: beams as obstacles to roll past
 

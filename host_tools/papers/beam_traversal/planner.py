@@ -13,7 +13,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from host_tools.papers.beam_traversal.landscape import Landscape
+from hexhil.papers.beam_traversal.landscape import Landscape
 
 VERTEX_DT_S = 0.02      # Sec. II-H: 0.02 s between path vertices
 POLY_ORDER = 5          # Sec. II-H: three 5th-order polynomials

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from hil.world.beam_body import BeamParams
-from hil.world.beams import BeamsWorld
+from hexhil.hil.world.beam_body import BeamParams
+from hexhil.hil.world.beams import BeamsWorld
 
 
 def push_samples(k1: float, k2: float, hb1_m: float, hb2_m: float, noise: float, sensing_ms: float,

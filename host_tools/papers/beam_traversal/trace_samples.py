@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from host_tools.trace.protobuf import CanFrame
-from host_tools.trace.reader import Trace
-from host_tools.trace.topics import T_CAN_RAW
-from protocol import can_frames
-from protocol.errors import UserError
+from hexhil.trace.protobuf import CanFrame
+from hexhil.trace.reader import Trace
+from hexhil.trace.topics import T_CAN_RAW
+from hexhil.protocol import can_frames
+from hexhil.protocol.errors import UserError
 
 
 def load_samples(path: str, start_s: float | None, end_s: float | None

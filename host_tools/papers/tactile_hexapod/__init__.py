@@ -7,10 +7,10 @@ from __future__ import annotations
 
 from typing import Callable
 
-from hil.scenario import Scenario, WorldKind
-from host_tools import plugins
-from protocol import hexapod
-from protocol.errors import UserError
+from hexhil.hil.scenario import Scenario, WorldKind
+from hexhil import plugins
+from hexhil.protocol import hexapod
+from hexhil.protocol.errors import UserError
 
 
 def _plan(kind: str) -> plugins.NavigatorPlan:
@@ -26,7 +26,7 @@ def _plan(kind: str) -> plugins.NavigatorPlan:
         if kind == "grnn" and not model_path:
             raise UserError("the grnn navigator needs model_path, a model file (hexhil grnn "
                             "train)", params=("model_path",))
-        from host_tools.papers.tactile_hexapod.grnn import navigator
+        from hexhil.papers.tactile_hexapod.grnn import navigator
 
         gait, period_s = sc.gait.name, sc.gait.period_s
         step_m = sc.gait.step_length_m or hexapod.STEP_LENGTH_M

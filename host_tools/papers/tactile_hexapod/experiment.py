@@ -12,7 +12,7 @@ Protocol, as in the paper:
 
 Each run records dx (goal x minus end x), dy (end y) and the heading change at the goal,
 as in Sections 2.5 and 3.3, and evaluates the analytic error model (Eq. 8-14,
-``host_tools.papers.tactile_hexapod.error_model``) from the run's own switch events. Runs without the method use
+``hexhil.papers.tactile_hexapod.error_model``) from the run's own switch events. Runs without the method use
 the same terrains and seeds as the low-density 1 m runs with it, so they pair up.
 """
 from __future__ import annotations
@@ -24,14 +24,14 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-from host_tools.papers.tactile_hexapod import error_model
-from host_tools.executor import Executor
-from host_tools.papers.tactile_hexapod.report import GAITS, markdown, plots, summary
-from hil.link.firmware_process import IN_PROCESS
-from hil.scenario import Scenario, parse
-from host_tools.lockstep_run import Run
-from hil.scenario.world_section import OBSTACLE_BODY
-from protocol import hexapod
+from hexhil.papers.tactile_hexapod import error_model
+from hexhil.executor import Executor
+from hexhil.papers.tactile_hexapod.report import GAITS, markdown, plots, summary
+from hexhil.hil.link.firmware_process import IN_PROCESS
+from hexhil.hil.scenario import Scenario, parse
+from hexhil.lockstep_run import Run
+from hexhil.hil.scenario.world_section import OBSTACLE_BODY
+from hexhil.protocol import hexapod
 
 DENSITIES = ("low", "high")
 HEIGHTS = ("small", "large")
@@ -57,7 +57,7 @@ class RunSpec:
     model: str = "real"   # world.model (hil/world/fidelity.py)
     obstacle_body: str = OBSTACLE_BODY   # world.obstacle_body with the real model
     navigator: str = ""   # "": no host node, the run ends after the planned periods; else one
-                          # of host_tools.papers.tactile_hexapod.grnn.navigator.KINDS stops the walk
+                          # of hexhil.papers.tactile_hexapod.grnn.navigator.KINDS stops the walk
     model_path: str = ""  # the GRNN's model file with navigator "grnn"
     python: str = IN_PROCESS  # firmware runtime: in this process (micropython's digest, faster)
 
@@ -120,7 +120,7 @@ def run_one(spec: RunSpec, speed_m_s: float | None = None,
     nav: list[Any] = []
     navigate = None
     if spec.navigator:
-        from host_tools.papers.tactile_hexapod.grnn import navigator
+        from hexhil.papers.tactile_hexapod.grnn import navigator
 
         def navigate(run: Run) -> None:
             args = (spec.gait, spec.period_s, hexapod.STEP_LENGTH_M, spec.distance_m)

@@ -22,11 +22,11 @@ from typing import Any
 
 import numpy as np
 
-from host_tools.papers.beam_traversal.force_sensing import figures, report
-from host_tools.papers.beam_traversal.force_sensing.sections import (K_FLIMSY, K_STIFF, clear_gap_plans, energy_runs,
+from hexhil.papers.beam_traversal.force_sensing import figures, report
+from hexhil.papers.beam_traversal.force_sensing.sections import (K_FLIMSY, K_STIFF, clear_gap_plans, energy_runs,
                                                            estimation_tables, no_control, planning,
                                                            robot_validation)
-from host_tools.papers.beam_traversal import landscape, planner
+from hexhil.papers.beam_traversal import landscape, planner
 
 
 def main(quick: bool, out: Path, seeds: int | None = None, grid: landscape.Grid | None = None) -> dict[str, Any]:

@@ -7,8 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from hil.world.beams import SENSOR_PERIOD_US
-from host_tools.papers.beam_traversal.force_sensing.sections import (DELAY_SERIES, DELAYS_MS, K_FLIMSY, K_STIFF, NOISES,
+from hexhil.hil.world.beams import SENSOR_PERIOD_US
+from hexhil.papers.beam_traversal.force_sensing.sections import (DELAY_SERIES, DELAYS_MS, K_FLIMSY, K_STIFF, NOISES,
                                                            sensed)
 
 VMAX_MJ = 60.0                            # landscape colour scale: barriers of interest are below this

@@ -5,7 +5,7 @@ from typing import Any
 
 import numpy as np
 
-from host_tools.papers.beam_traversal.force_sensing.sections import (DELAY_SERIES, DELAYS_MS, FX_GENTLE_N, FX_SENSING_N,
+from hexhil.papers.beam_traversal.force_sensing.sections import (DELAY_SERIES, DELAYS_MS, FX_GENTLE_N, FX_SENSING_N,
                                                            K_FLIMSY, K_STIFF, NOISES, PAPER_ENERGY_MJ, PAPER_K0,
                                                            PAPER_ROBOT_ESTIMATE, PAPER_TABLE4, PAPER_TABLES,
                                                            ROBOT_K, ROBOT_MB_KG, ROBOT_NOISE, ROBOT_TAU0_NM,

@@ -11,10 +11,10 @@ from typing import Any
 
 import numpy as np
 
-from hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
-from hil.world.beams import SENSOR_PERIOD_US, BeamsWorld, BodyState
-from host_tools.papers.beam_traversal.push import push_samples, start_after_delay
-from host_tools.papers.beam_traversal import beams_run, estimator, landscape, planner
+from hexhil.hil.world.beam_body import PAPER_BODY, BeamParams, BodyGeometry
+from hexhil.hil.world.beams import SENSOR_PERIOD_US, BeamsWorld, BodyState
+from hexhil.papers.beam_traversal.push import push_samples, start_after_delay
+from hexhil.papers.beam_traversal import beams_run, estimator, landscape, planner
 
 K_FLIMSY, K_STIFF = 0.01, 0.25            # Sec. III-A
 K1_TRUE, K2_TRUE = 0.25, 0.27             # Sec. III-B

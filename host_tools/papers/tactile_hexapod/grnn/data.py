@@ -13,9 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from host_tools.papers.tactile_hexapod.grnn.features import (DEFINITIONS, FEATURE_VERSION, KNOWN_FRACTION, LEGS,
+from hexhil.papers.tactile_hexapod.grnn.features import (DEFINITIONS, FEATURE_VERSION, KNOWN_FRACTION, LEGS,
                                       M_MAX, SENSING, StepRow)
-from protocol.errors import UserError
+from hexhil.protocol.errors import UserError
 
 # per-run columns of the run table (strings and numbers), in the npz and the sidecar
 RUN_TEXT = ("gait", "density", "height_class", "source")
@@ -105,7 +105,7 @@ def synthetic(walks: int, seed: int = 0, first_terrain_seed: int = 1
     """Walks that need no simulator, for the tests and the bench: the body falls short of
     the plan by a gait-specific slip plus 2 cm for every switch hit, so an error grows with
     what the robot senses and a constant cannot follow it. Realistic sizes: 15-30 steps."""
-    from host_tools.papers.tactile_hexapod.grnn.features import hip_errors_m
+    from hexhil.papers.tactile_hexapod.grnn.features import hip_errors_m
 
     rng = np.random.default_rng(seed)
     runs, rows = [], []

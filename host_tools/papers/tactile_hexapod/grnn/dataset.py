@@ -17,17 +17,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hil.scenario.world_section import OBSTACLE_BODY
-from hil.world.hexapod_world import yaw_rad
-from host_tools.papers.tactile_hexapod.grnn import data as data_mod
-from hil.scenario import WorldKind, check_seed
-from host_tools.papers.tactile_hexapod.grnn.features import StepRow, StepSampler
-from host_tools.progress import Progress
-from host_tools.lockstep_run import scenario_of_trace
-from host_tools.trace.reader import Trace
-from host_tools.trace.topics import T_BODY, T_CAN_RAW, T_JOINTS
-from protocol import can_frames, hexapod
-from protocol.errors import UserError
+from hexhil.hil.scenario.world_section import OBSTACLE_BODY
+from hexhil.hil.world.hexapod_world import yaw_rad
+from hexhil.papers.tactile_hexapod.grnn import data as data_mod
+from hexhil.hil.scenario import WorldKind, check_seed
+from hexhil.papers.tactile_hexapod.grnn.features import StepRow, StepSampler
+from hexhil.progress import Progress
+from hexhil.lockstep_run import scenario_of_trace
+from hexhil.trace.reader import Trace
+from hexhil.trace.topics import T_BODY, T_CAN_RAW, T_JOINTS
+from hexhil.protocol import can_frames, hexapod
+from hexhil.protocol.errors import UserError
 
 COMBINATIONS = [(g, dens, h) for g in ("tripod", "wave") for dens in ("low", "high")
                 for h in ("small", "large")]   # the with-method cases of Fig. 17-20
@@ -84,7 +84,7 @@ def rows_from_trace(path: str | Path) -> tuple[list[StepRow], dict[str, Any]]:
 
 def build_one(args: tuple[Any, float, str]) -> tuple[dict[str, Any], list[StepRow]]:
     """One with-method run with its trace, then its rows (in a worker process)."""
-    from host_tools.papers.tactile_hexapod import experiment as th
+    from hexhil.papers.tactile_hexapod import experiment as th
 
     spec, speed_m_s, trace_dir = args
     t0 = time.perf_counter()
@@ -121,8 +121,8 @@ class DatasetResult:
 def simulate_runs(out_dir: Path, opts: DatasetOptions, progress: Progress | None = None
                   ) -> tuple[list[dict[str, Any]], list[list[StepRow]], dict]:
     """The experiment's probe, then one traced with-method run per terrain seed."""
-    from host_tools.papers.tactile_hexapod import experiment as th
-    from host_tools.executor import Executor
+    from hexhil.papers.tactile_hexapod import experiment as th
+    from hexhil.executor import Executor
 
     ex = Executor(opts.workers, progress=progress)
     distance_m, obstacles = opts.distance_m, opts.obstacles
@@ -151,7 +151,7 @@ def code_version() -> str:
             return out.stdout.strip()
     except OSError:
         pass
-    from host_tools.trace.writer import software_version
+    from hexhil.trace.writer import software_version
 
     return software_version()
 

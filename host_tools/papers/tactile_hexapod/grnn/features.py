@@ -3,7 +3,7 @@
 One ``StepRow`` per completed step k (k = 1..N gait periods): the planned position (the
 firmware's dead reckoning), the ground-truth body pose, what the robot senses onboard, and
 the target, the longitudinal error of each leg's hip. ``StepSampler`` is fed a run's events
-in time order, from a trace (``host_tools.papers.tactile_hexapod.grnn.dataset``) or live from the CAN bus and the
+in time order, from a trace (``hexhil.papers.tactile_hexapod.grnn.dataset``) or live from the CAN bus and the
 world (the navigator), so it knows neither.
 
 Pure Python and ``protocol.hexapod``: no torch, no numpy.
@@ -14,7 +14,7 @@ import math
 from dataclasses import dataclass
 from typing import Sequence
 
-from protocol import hexapod
+from hexhil.protocol import hexapod
 
 FEATURE_VERSION = "grnn-features-1"   # bump when a definition below changes
 LEGS = 6                               # LF, LM, LH, RF, RM, RH (protocol/hexapod.py order)

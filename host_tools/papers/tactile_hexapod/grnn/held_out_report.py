@@ -1,5 +1,5 @@
 """``hexhil grnn eval``: the GRNN's predicted dx at the goal on terrains it never saw,
-beside the measured dx, the analytic model (Eq. 8-14, ``host_tools.papers.tactile_hexapod.error_model``) and a
+beside the measured dx, the analytic model (Eq. 8-14, ``hexhil.papers.tactile_hexapod.error_model``) and a
 constant (the training runs' mean dx).
 
 Per held-out walk: the first n = ceil(KNOWN_FRACTION * N) steps are fed with their measured
@@ -18,10 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from host_tools.papers.tactile_hexapod.grnn import data as data_mod
-from host_tools.papers.tactile_hexapod.grnn.features import M_MAX, known_steps
-from host_tools.papers.tactile_hexapod.grnn.model import Predictor, load
-from protocol.errors import UserError
+from hexhil.papers.tactile_hexapod.grnn import data as data_mod
+from hexhil.papers.tactile_hexapod.grnn.features import M_MAX, known_steps
+from hexhil.papers.tactile_hexapod.grnn.model import Predictor, load
+from hexhil.protocol.errors import UserError
 
 
 def predict_dx_m(pred: Predictor, walk: data_mod.Walk, run: dict[str, Any]) -> float:

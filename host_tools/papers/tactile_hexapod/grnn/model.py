@@ -16,13 +16,13 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from host_tools.extras import require
+from hexhil.extras import require
 
 require("torch")   # before torch itself: a missing extra is one line, not a traceback
 import torch  # noqa: E402
 
-from host_tools.papers.tactile_hexapod.grnn.features import FEATURE_VERSION, LEGS, SENSING
-from protocol.errors import UserError
+from hexhil.papers.tactile_hexapod.grnn.features import FEATURE_VERSION, LEGS, SENSING
+from hexhil.protocol.errors import UserError
 
 HIDDEN = 64        # Sec. 2.6: hidden state size 64
 EMBED = 64         # Sec. 2.6: ReLU embedding into 64 dimensions

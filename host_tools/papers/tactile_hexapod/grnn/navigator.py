@@ -17,7 +17,7 @@ Estimators (``step(row, known) -> error_m``, the body's error = planned x - actu
 
 * ``GrnnEstimator``: the trained GRNN (Fig. 8), its own predictions fed back;
 * ``ModelEstimator``: Eq. 8 on the unobserved part: each switch press loses the mean
-  dL per hit that Eq. 8-14 (``host_tools.papers.tactile_hexapod.error_model``) measured on the known path, and
+  dL per hit that Eq. 8-14 (``hexhil.papers.tactile_hexapod.error_model``) measured on the known path, and
   every step loses the flat-ground shortfall of the nominal speed against the calibrated
   one;
 * ``PlannedSteps``: no prediction: stop after the planned steps (tactile only).
@@ -27,14 +27,14 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from hil.canbus.bus import Endpoint, message, t_us_of
-from hil.run.lockstep import BODY_SAMPLE_US
-from hil.seams import FirmwareWorld
-from host_tools.plugins import RunWithNodes
-from host_tools.papers.tactile_hexapod import error_model
-from host_tools.papers.tactile_hexapod.grnn.features import LEGS, StepRow, StepSampler, known_steps
-from protocol import can_frames as cf
-from protocol import hexapod
+from hexhil.hil.canbus.bus import Endpoint, message, t_us_of
+from hexhil.hil.run.lockstep import BODY_SAMPLE_US
+from hexhil.hil.seams import FirmwareWorld
+from hexhil.plugins import RunWithNodes
+from hexhil.papers.tactile_hexapod import error_model
+from hexhil.papers.tactile_hexapod.grnn.features import LEGS, StepRow, StepSampler, known_steps
+from hexhil.protocol import can_frames as cf
+from hexhil.protocol import hexapod
 
 MAX_HEADING_RAD = 0.35   # a correction beyond 20 deg means the fix is not to be trusted
 
@@ -202,7 +202,7 @@ def make_estimator(kind: str, model_path: str | None, gait: str, period_s: float
     """The estimator of one of ``KINDS`` (torch is imported only for grnn); a model file
     that will not load is refused here, before a run starts."""
     if kind == "grnn":
-        from host_tools.papers.tactile_hexapod.grnn.model import load
+        from hexhil.papers.tactile_hexapod.grnn.model import load
         return GrnnEstimator(load(model_path))
     if kind == "model":
         nominal = hexapod.speed_m_s(gait, step_length_m, period_s)

@@ -17,10 +17,10 @@ from pathlib import Path
 from statistics import mean
 from typing import Any
 
-from hil.scenario.world_section import OBSTACLE_BODY
-from host_tools.papers.tactile_hexapod.grnn import data as data_mod
-from host_tools.progress import Progress
-from protocol.errors import UserError
+from hexhil.hil.scenario.world_section import OBSTACLE_BODY
+from hexhil.papers.tactile_hexapod.grnn import data as data_mod
+from hexhil.progress import Progress
+from hexhil.protocol.errors import UserError
 
 ARMS = (("planned", "tactile only"), ("model", "tactile + Eq. 8-14 navigator"),
         ("grnn", "tactile + GRNN navigator"))
@@ -28,7 +28,7 @@ ARMS = (("planned", "tactile only"), ("model", "tactile + Eq. 8-14 navigator"),
 
 def specs(ds: data_mod.Dataset, model_path: str) -> list[tuple[Any, float]]:
     """(RunSpec, calibrated speed) for every run of ``ds`` and every arm."""
-    from host_tools.papers.tactile_hexapod import experiment as th
+    from hexhil.papers.tactile_hexapod import experiment as th
 
     speed = ds.meta.get("probe_speed_m_s")
     if not speed:
@@ -49,9 +49,9 @@ def specs(ds: data_mod.Dataset, model_path: str) -> list[tuple[Any, float]]:
 def closed_loop(model_path: str, data_path: str, workers: int,
                 progress: Progress | None = None) -> dict[str, Any]:
     """Run the three arms; returns per-arm means and the per-case table."""
-    from host_tools.executor import Executor
-    from host_tools.papers.tactile_hexapod.experiment import run_with_speed
-    from host_tools.papers.tactile_hexapod.grnn.model import load
+    from hexhil.executor import Executor
+    from hexhil.papers.tactile_hexapod.experiment import run_with_speed
+    from hexhil.papers.tactile_hexapod.grnn.model import load
 
     pred = load(model_path)      # refuses a mismatched model before any run starts
     ds = data_mod.read(data_path)

@@ -14,17 +14,17 @@ from typing import Any
 
 import numpy as np
 
-from hil.scenario import check_seed
-from host_tools.extras import require
+from hexhil.hil.scenario import check_seed
+from hexhil.extras import require
 
 require("torch")   # before torch itself: a missing extra is one line, not a traceback
 import torch  # noqa: E402
 
-from host_tools.papers.tactile_hexapod.grnn import data as data_mod
-from host_tools.papers.tactile_hexapod.grnn.features import LEGS, M_MAX, known_steps
-from host_tools.papers.tactile_hexapod.grnn.model import GRNN, Norm, save
-from host_tools.progress import Progress, report
-from protocol.errors import UserError
+from hexhil.papers.tactile_hexapod.grnn import data as data_mod
+from hexhil.papers.tactile_hexapod.grnn.features import LEGS, M_MAX, known_steps
+from hexhil.papers.tactile_hexapod.grnn.model import GRNN, Norm, save
+from hexhil.progress import Progress, report
+from hexhil.protocol.errors import UserError
 
 LEARNING_RATE = 0.001   # Sec. 2.6
 BATCH = 4               # sequences per Adam step (the paper is silent; 24 walks -> 6 a epoch)
