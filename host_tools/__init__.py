@@ -46,6 +46,7 @@ _WHERE = {
     "Recorder": "hexhil.trace.recorder", "EncodeIn": "hexhil.trace.recorder",
     # errors a user can act on: one line, no traceback
     "UserError": "hexhil.protocol.errors", "BadValue": "hexhil.protocol.errors", "BadFile": "hexhil.protocol.errors",
+    "TimedOut": "hexhil.protocol.errors",
 }
 # parse_scenario: a scenario from a dict as TOML reads it (tests and sweeps build them);
 # can_message: a frame of our DBC as a python-can message (what a port's send takes)
@@ -87,4 +88,4 @@ if TYPE_CHECKING:   # for type checkers and editors: the same names, eagerly
     from hexhil.trace.reader import Trace, TraceMessage, open_trace
     from hexhil.trace.recorder import EncodeIn, Recorder
     from hexhil.protocol import can_frames
-    from hexhil.protocol.errors import BadFile, BadValue, UserError
+    from hexhil.protocol.errors import BadFile, BadValue, TimedOut, UserError

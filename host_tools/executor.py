@@ -16,7 +16,7 @@ from typing import Any, Callable, Sequence
 from hexhil.hil.link.firmware_process import runs_share_cores
 from hexhil.extras import require
 from hexhil.progress import Progress, report
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, TimedOut, UserError
 
 
 class Executor:
@@ -29,7 +29,7 @@ class Executor:
     def __init__(self, workers: int = 1, scheduler: str | None = None,
                  progress: Progress | None = None) -> None:
         if workers < 1:
-            raise UserError(f"workers must be at least 1, got {workers}", params=("workers",))
+            raise BadValue(f"workers must be at least 1, got {workers}", params=("workers",))
         if scheduler:
             require("distributed")
         self.workers = workers
@@ -94,8 +94,8 @@ def dask_client(scheduler: str) -> Any:
     _probe(scheduler)
     try:
         return Client(scheduler, timeout="10s")
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise UserError(f"cannot reach Dask scheduler {scheduler}: {exc}") from None
+    except (OSError, ValueError) as exc:
+        raise _unreached(scheduler, exc) from None
 
 
 def _probe(scheduler: str) -> None:
@@ -103,10 +103,16 @@ def _probe(scheduler: str) -> None:
     try:
         port = parts.port
     except ValueError:
-        raise UserError(f"Dask scheduler {scheduler!r}: the port is not a number") from None
+        raise BadValue(f"Dask scheduler {scheduler!r}: the port is not a number") from None
     if parts.scheme != "tcp" or not parts.hostname or port is None:
         return
     try:
         socket.create_connection((parts.hostname, port), timeout=10).close()
     except OSError as exc:
-        raise UserError(f"cannot reach Dask scheduler {scheduler}: {exc}") from None
+        raise _unreached(scheduler, exc) from None
+
+
+def _unreached(scheduler: str, exc: Exception) -> UserError:
+    kind = (TimedOut if isinstance(exc, TimeoutError) else
+            BadFile if isinstance(exc, OSError) else BadValue)
+    return kind(f"cannot reach Dask scheduler {scheduler}: {exc}")

@@ -13,7 +13,7 @@ from hexhil.hil.run_result import RunInterrupted, RunResult
 from hexhil.hil.scenario import Scenario, WorldKind
 from hexhil import plugins
 from hexhil.lockstep_run import Run
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, TimedOut, UserError
 
 CAN_WAIT_TIMEOUT_S = 60.0
 log = logging.getLogger(__name__)   # the addresses a client attaches to (hexhil prints them)
@@ -75,13 +75,13 @@ def start_can_server(port: int, wait_clients: int) -> CanServer:
     try:
         server = CanServer(port=port)
     except OSError as exc:
-        raise UserError(f"can_server_port: cannot listen on 127.0.0.1:{port}: {exc.strerror}",
+        raise BadFile(f"can_server_port: cannot listen on 127.0.0.1:{port}: {exc.strerror}",
                         params=("can_server_port",)) from None
     log.info("can-server: %s:%s channel %s (socketcand)", server.host, server.port,
              server.channel)
     if wait_clients and not server.wait_for_clients(wait_clients, CAN_WAIT_TIMEOUT_S):
         server.close()
-        raise UserError(f"can_wait_clients: {wait_clients} socketcand client(s) did not attach "
+        raise TimedOut(f"can_wait_clients: {wait_clients} socketcand client(s) did not attach "
                         f"within {CAN_WAIT_TIMEOUT_S:.0f} s", params=("can_wait_clients",))
     return server
 
@@ -139,13 +139,13 @@ def run(path: str, duration_s: float | None = None, seed: int | None = None,
     if duration_s is not None:
         scenario_mod.check_duration(duration_s, "duration_s", params=("duration_s",))
     if can_server_port is not None and not 0 <= can_server_port <= 65535:
-        raise UserError(f"can_server_port {can_server_port}: port must be 0-65535",
+        raise BadValue(f"can_server_port {can_server_port}: port must be 0-65535",
                         params=("can_server_port",))
     if firmware is not None and python is not None:
         raise UserError(f"firmware {firmware} brings its own runtime: leave out python",
                         params=("firmware", "python"))
     if can_wait_clients < 0:
-        raise UserError(f"can_wait_clients must be 0 or more, got {can_wait_clients}",
+        raise BadValue(f"can_wait_clients must be 0 or more, got {can_wait_clients}",
                         params=("can_wait_clients",))
     if can_wait_clients and can_server_port is None:
         raise UserError("can_wait_clients waits for clients of can_server_port: give both",

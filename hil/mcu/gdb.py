@@ -21,7 +21,7 @@ from typing import Any
 from unicorn import UC_HOOK_CODE, UcError
 from unicorn import arm_const as A
 
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, TimedOut
 
 REGS = tuple(A.UC_ARM_REG_R0 + i for i in range(13)) + (
     A.UC_ARM_REG_SP, A.UC_ARM_REG_LR, A.UC_ARM_REG_PC, A.UC_ARM_REG_XPSR)
@@ -64,14 +64,14 @@ class GdbServer:
             srv.bind(("127.0.0.1", port))
         except OSError as exc:
             srv.close()
-            raise UserError(f"gdb_port {port}: cannot listen on 127.0.0.1:{port} "
+            raise BadFile(f"gdb_port {port}: cannot listen on 127.0.0.1:{port} "
                             f"({exc.strerror})", params=("gdb_port",)) from None
         srv.listen(1)
         srv.settimeout(ACCEPT_S)
         try:
             self.conn, _ = srv.accept()
         except TimeoutError:
-            raise UserError(f"gdb_port {port}: no GDB client came in {ACCEPT_S:g} s",
+            raise TimedOut(f"gdb_port {port}: no GDB client came in {ACCEPT_S:g} s",
                             params=("gdb_port",)) from None
         finally:
             srv.close()

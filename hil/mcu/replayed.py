@@ -15,7 +15,7 @@ from hexhil.hil.mcu.board import Board
 from hexhil.hil.mcu.core import CoreFault
 from hexhil.hil.mcu.elf_image import ElfImage
 from hexhil.hil.mcu import flash_fs
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import TimedOut, UserError
 
 WAIT_S = 60.0
 
@@ -37,7 +37,7 @@ class _Connection:
         try:
             return self._batches.get(timeout=WAIT_S)
         except queue.Empty:
-            raise UserError(f"the ELF sent nothing for {WAIT_S:g} s of wall time") from None
+            raise TimedOut(f"the ELF sent nothing for {WAIT_S:g} s of wall time") from None
 
     def close(self) -> None:
         self.sock.sendall(b"")

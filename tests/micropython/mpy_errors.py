@@ -1,5 +1,5 @@
 # protocol/errors.py under the real micropython binary: the user errors, their kinds UserErrors.
-from protocol.errors import BadFile, BadValue, UserError
+from protocol.errors import BadFile, BadValue, TimedOut, UserError
 from tests.micropython.checks import check, done, raises
 
 
@@ -13,7 +13,7 @@ try:
     bad()
 except UserError as exc:
     check(str(exc) == "scenario.toml: key 'bus.baud' must be positive", "message kept")
-check(isinstance(BadValue("x"), UserError) and isinstance(BadFile("x"), UserError), "kinds")
+check(all(isinstance(kind("x"), UserError) for kind in (BadValue, BadFile, TimedOut)), "kinds")
 check(str(BadValue("v", ["a"])) == "v" and BadValue("v", ["a"]).params == ("a",), "a kind's fields")
 check(UserError("x").params == (), "no parameters named")
 check(UserError("rate must be >= 0", params=["rate"]).params == ("rate",), "parameters kept")
