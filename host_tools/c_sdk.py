@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 from hexhil.hil.link.firmware_process import ROOT
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 SDK_DIR = ROOT / "firmware" / "c_sdk"
 INCLUDE_DIR = SDK_DIR / "include"
@@ -56,8 +56,8 @@ class Target(str, enum.Enum):
         try:
             return cls(name)
         except ValueError:
-            raise UserError(f"unknown target {name!r}: one of "
-                            + ", ".join(t.value for t in cls)) from None
+            raise BadValue(f"unknown target {name!r}: one of "
+                           + ", ".join(t.value for t in cls)) from None
 
 
 def compiler() -> list[str]:
@@ -70,12 +70,12 @@ def compiler() -> list[str]:
             return [path]
     if importlib.util.find_spec("ziglang") is not None:
         return [sys.executable, "-m", "ziglang", "cc"]
-    raise UserError("no C compiler: install gcc, or `pip install ziglang` (the test extra)")
+    raise BadFile("no C compiler: install gcc, or `pip install ziglang` (the test extra)")
 
 
-def _missing_toolchain(what: str) -> UserError:
-    return UserError(f"no ARM toolchain ({what}): install it with `sudo apt-get install -y "
-                     f"{ARM_PACKAGES}` (`make test` does it when run as root)")
+def _missing_toolchain(what: str) -> BadFile:
+    return BadFile(f"no ARM toolchain ({what}): install it with `sudo apt-get install -y "
+                   f"{ARM_PACKAGES}` (`make test` does it when run as root)")
 
 
 @functools.lru_cache(maxsize=None)
@@ -99,20 +99,20 @@ def _compile(args: list[str], what: str) -> None:
         errors = [ln for ln in lines if any(w in ln for w in LINE_ERRORS)
                   and "ld returned" not in ln] or lines or [f"exit {proc.returncode}"]
         log.info("compiler output:\n%s", proc.stderr)
-        raise UserError(f"{what} does not build: {errors[0]}"
-                        + (f" (and {len(errors) - 1} more errors)" if len(errors) > 1 else ""))
+        raise BadValue(f"{what} does not build: {errors[0]}"
+                       + (f" (and {len(errors) - 1} more errors)" if len(errors) > 1 else ""))
 
 
 def _sources(paths: list[str]) -> list[Path]:
     if not paths:
-        raise UserError("give at least one C source file (main.c)")
+        raise BadValue("give at least one C source file (main.c)")
     out = []
     for p in paths:
         path = Path(p)
         if path.suffix != ".c":
-            raise UserError(f"{p}: not a C source (.c)")
+            raise BadValue(f"{p}: not a C source (.c)")
         if not path.is_file():
-            raise UserError(f"{p}: no such file")
+            raise BadFile(f"{p}: no such file")
         out.append(path)
     return out
 
@@ -131,9 +131,9 @@ def build(sources: list[str], output: str | Path, cflags: tuple[str, ...] = (),
     srcs = _sources(sources)
     out = Path(output)
     if out.is_dir():
-        raise UserError(f"-o {output}: is a folder (give the firmware's file name)")
+        raise BadFile(f"-o {output}: is a folder (give the firmware's file name)")
     if not out.parent.is_dir():
-        raise UserError(f"-o {output}: the folder {out.parent} does not exist")
+        raise BadFile(f"-o {output}: the folder {out.parent} does not exist")
     what = ", ".join(map(str, srcs))
     if target is Target.HOST:
         if bare:
@@ -187,7 +187,7 @@ def _archiver(target: Target) -> list[str]:
     if ar is not None:
         return [ar]
     if importlib.util.find_spec("ziglang") is None:
-        raise UserError("no `ar` to make the SDK library (install binutils)")
+        raise BadFile("no `ar` to make the SDK library (install binutils)")
     return [sys.executable, "-m", "ziglang", "ar"]
 
 

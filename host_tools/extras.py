@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import importlib
 
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile
 
 # module -> (extra that installs it, what needs it)
 EXTRAS: dict[str, tuple[str, str]] = {
@@ -21,5 +21,5 @@ def require(module: str) -> None:
         if exc.name != module:      # installed, but broken underneath: not ours to explain
             raise
         extra, needed_for = EXTRAS[module]
-        raise UserError(f"{needed_for} needs {module}, an optional dependency: "
-                        f"pip install 'hexhil[{extra}]'") from None
+        raise BadFile(f"{needed_for} needs {module}, an optional dependency: "
+                      f"pip install 'hexhil[{extra}]'") from None

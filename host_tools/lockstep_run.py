@@ -33,7 +33,7 @@ from hexhil import plugins
 from hexhil.lifecycle import Closing
 from hexhil.protocol import link_schema as ls
 from hexhil.protocol.dynamixel import models
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 if TYPE_CHECKING:
     from hexhil.trace.windows import EncodeIn
@@ -69,13 +69,13 @@ def scenario_of_trace(metadata: dict[str, str], where: str) -> tuple[Scenario, i
         seed = int(metadata.get("seed", "0"))
         data = json.loads(metadata["scenario_data"]) if "scenario_data" in metadata else None
     except (ValueError, RecursionError):
-        raise UserError(f"{where}: unreadable run metadata") from None
+        raise BadValue(f"{where}: unreadable run metadata") from None
     path = metadata.get("scenario", "")
     if data is not None:
         return scenario_mod.parse(data, path or where), seed
     if not path or not Path(path).is_file():
-        raise UserError(f"{where}: the trace names no scenario file this machine has "
-                        f"({path or 'none'})")
+        raise BadFile(f"{where}: the trace names no scenario file this machine has "
+                      f"({path or 'none'})")
     return scenario_mod.load_scenario(path), seed
 
 

@@ -39,7 +39,7 @@ from hexhil.trace.topics import T_CAN_RAW, T_SERIAL, T_SWITCHES
 from hexhil.protocol.dynamixel import models
 from hexhil.protocol.dynamixel import v1 as dxl
 from hexhil.protocol.dynamixel import v2 as dx2
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 
 
@@ -123,8 +123,8 @@ def load_robot_log(path: str | Path) -> RobotLog:
             sw_bits.append(e.switches)
             end = max(end, sw_t[-1])
     if not packets and not can_out:
-        raise UserError(f"{path}: nothing the firmware sends is logged (no master packets on "
-                        f"{T_SERIAL}, no controller frames on {T_CAN_RAW}): nothing to compare")
+        raise BadValue(f"{path}: nothing the firmware sends is logged (no master packets on "
+                       f"{T_SERIAL}, no controller frames on {T_CAN_RAW}): nothing to compare")
     return RobotLog(baud, model,
                     tuple(LoggedPacket(t, raw, tuple(r)) for t, raw, r in packets),
                     tuple(can_in), tuple(can_out), tuple(sw_t), tuple(sw_bits),
@@ -254,8 +254,8 @@ def replay_log(path: str | Path, python: str = "micropython",
                timeout_s: float = 60.0) -> ReplayResult:
     """Run a firmware against an imported robot log (the module docstring says how)."""
     if python not in ("micropython", "cpython"):
-        raise UserError(f"python must be micropython or cpython, not {python!r}",
-                        params=("python",))
+        raise BadValue(f"python must be micropython or cpython, not {python!r}",
+                       params=("python",))
     log = load_robot_log(path)
     sc = scenario_mod.load_scenario(scenario) if scenario is not None else \
         scenario_mod.parse({"_path": str(path), "bus": {"model": log.model, "baud": log.baud}})

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile
 
 
 def check_output(path: str | Path, param: str, overwrite: bool = True) -> Path:
@@ -15,21 +15,21 @@ def check_output(path: str | Path, param: str, overwrite: bool = True) -> Path:
     device (``/dev/null``) is taken as it is."""
     p = Path(path)
     if p.is_dir():
-        raise UserError(f"{param} {p}: is a directory, not a file", params=(param,))
+        raise BadFile(f"{param} {p}: is a directory, not a file", params=(param,))
     if p.exists() and not p.is_file():
         return p
     folder = p.parent
     if not folder.is_dir():
-        raise UserError(f"{param} {p}: no such directory {folder}", params=(param,))
+        raise BadFile(f"{param} {p}: no such directory {folder}", params=(param,))
     if p.exists() and not overwrite:
-        raise UserError(f"{param} {p} exists: pass overwrite to replace it",
-                        params=(param, "overwrite"))
+        raise BadFile(f"{param} {p} exists: pass overwrite to replace it",
+                      params=(param, "overwrite"))
     if not os.access(p if p.exists() else folder, os.W_OK):
-        raise UserError(f"{param} {p}: not writable here", params=(param,))
+        raise BadFile(f"{param} {p}: not writable here", params=(param,))
     return p
 
 
-def write_failed(path: str | Path, param: str, exc: OSError) -> UserError:
+def write_failed(path: str | Path, param: str, exc: OSError) -> BadFile:
     """The one line for a write that failed after the work (a full disk, ``/dev/full``)."""
-    return UserError(f"{param} {path}: cannot write it ({exc.strerror or exc})",
-                     params=(param,))
+    return BadFile(f"{param} {path}: cannot write it ({exc.strerror or exc})",
+                   params=(param,))

@@ -13,7 +13,7 @@ from typing import Any, Callable, Mapping, Protocol
 from hexhil.hil.run_result import RunResult
 from hexhil.hil.scenario import Scenario, WorldKind
 from hexhil.hil.seams import CanGateway, CanHub, FirmwareWorld, HostNode, TraceRecorder
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 
 class SteppedRun(Protocol):
@@ -77,8 +77,8 @@ def stepped_run(kind: WorldKind) -> SteppedRun:
     try:
         load = _STEPPED_LOADERS[kind]
     except KeyError:
-        raise UserError(f"no installed plug-in runs a {kind.value} world (entry point group "
-                        f"{GROUP}: is hexhil installed?)") from None
+        raise BadFile(f"no installed plug-in runs a {kind.value} world (entry point group "
+                      f"{GROUP}: is hexhil installed?)") from None
     return load()
 
 
@@ -93,4 +93,4 @@ def navigator_plan(name: str) -> NavigatorPlan:
         return _NAVIGATORS[name]
     except KeyError:
         known = ", ".join(sorted(_NAVIGATORS)) or f"none installed (entry point group {GROUP})"
-        raise UserError(f"navigator {name!r}: known ones are {known}") from None
+        raise BadValue(f"navigator {name!r}: known ones are {known}") from None

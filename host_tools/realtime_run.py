@@ -24,7 +24,7 @@ from hexhil.hil.run_result import BodyDisplacement
 from hexhil.lifecycle import Closing
 from hexhil.lockstep_run import trace_metadata
 from hexhil.protocol.dynamixel import models
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, UserError
 
 EXTERNAL = "external"        # a run's firmware_runtime: the master on the line is not ours
 WORLD_STEP_US = 2_000        # the world catches up in steps this long
@@ -149,7 +149,7 @@ class RealTimeRun(Closing):
         except UserError:   # a BadFile is an OSError too: already one line
             raise
         except OSError as exc:
-            raise UserError(str(exc)) from None
+            raise BadFile(str(exc)) from None
         finally:
             rig = self.rig
             self.close()

@@ -16,7 +16,7 @@ from typing import Any, Iterator
 
 from hexhil.output import check_output, write_failed
 from hexhil.progress import Progress, report
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue
 
 GL_LIBRARIES = {"egl": ("EGL", "libegl1"), "osmesa": ("OSMesa", "libosmesa6")}
 CAMERAS = ("follow", "side")
@@ -45,8 +45,8 @@ def choose_gl() -> str:
         if ctypes.util.find_library(lib):
             os.environ["MUJOCO_GL"] = backend
             return backend
-    raise UserError("hexhil render needs an OpenGL library for offscreen rendering: install "
-                    "libegl1 (or libosmesa6), e.g. 'apt-get install libegl1'")
+    raise BadFile("hexhil render needs an OpenGL library for offscreen rendering: install "
+                  "libegl1 (or libosmesa6), e.g. 'apt-get install libegl1'")
 
 
 def _ground_truth(path: str) -> tuple[dict[str, str], list[tuple[float, list[float]]]]:
@@ -61,7 +61,7 @@ def _ground_truth(path: str) -> tuple[dict[str, str], list[tuple[float, list[flo
     joints: dict[int, list[float]] = {}
     with open_trace(path) as tr:
         if not {T_BODY, T_JOINTS} <= set(tr.topics()):
-            raise UserError(f"{path}: no hexapod ground truth ({T_BODY}, {T_JOINTS}) to render")
+            raise BadValue(f"{path}: no hexapod ground truth ({T_BODY}, {T_JOINTS}) to render")
         meta = tr.metadata()
         for m in tr.messages([T_BODY, T_JOINTS]):
             if m.topic == T_BODY:
@@ -73,7 +73,7 @@ def _ground_truth(path: str) -> tuple[dict[str, str], list[tuple[float, list[flo
                 joints[m.log_time_ns] = [j.position for j in JointStates.FromString(m.data).joints]
     samples = [(t * 1e-9, bodies[t] + joints[t]) for t in sorted(bodies) if t in joints]
     if len(samples) < 2:
-        raise UserError(f"{path}: fewer than two ground-truth samples to render")
+        raise BadValue(f"{path}: fewer than two ground-truth samples to render")
     return meta, samples
 
 
@@ -113,27 +113,27 @@ def render(trace: str, out: str, camera: str = "follow", fps: float = 30.0,
     existing ``out`` is refused unless ``overwrite``, as a trace is."""
     suffix = Path(out).suffix.lower()
     if suffix not in (".gif", ".mp4", ".png"):
-        raise UserError(f"out {out}: the video's name must end in .gif, .mp4 or .png",
-                        params=("out",))
+        raise BadValue(f"out {out}: the video's name must end in .gif, .mp4 or .png",
+                       params=("out",))
     check_output(out, "out", overwrite)
     if not 0 < fps <= MAX_FPS:
-        raise UserError(f"fps {fps:g}: a video has more than 0 and at most {MAX_FPS} frames a "
-                        "second (the ground truth is sampled at 10 Hz)", params=("fps",))
+        raise BadValue(f"fps {fps:g}: a video has more than 0 and at most {MAX_FPS} frames a "
+                       "second (the ground truth is sampled at 10 Hz)", params=("fps",))
     if not (16 <= width <= MAX_SIDE and 16 <= height <= MAX_SIDE):
-        raise UserError(f"size {width} x {height}: each side is 16-{MAX_SIDE} pixels",
-                        params=("width", "height"))
+        raise BadValue(f"size {width} x {height}: each side is 16-{MAX_SIDE} pixels",
+                       params=("width", "height"))
     meta, samples = _ground_truth(trace)
     t0_s, t_end_s = samples[0][0], samples[-1][0]
     if at_s is not None and not t0_s <= at_s <= t_end_s:
-        raise UserError(f"at_s {at_s}: {trace} has ground truth from {t0_s:.3f} s to "
-                        f"{t_end_s:.3f} s only", params=("at_s",))
+        raise BadValue(f"at_s {at_s}: {trace} has ground truth from {t0_s:.3f} s to "
+                       f"{t_end_s:.3f} s only", params=("at_s",))
     if suffix == ".png" and at_s is None:
         at_s = (samples[0][0] + samples[-1][0]) / 2
     n = 1 if at_s is not None else int((t_end_s - t0_s) * fps) + 1
     if suffix == ".gif" and n > MAX_GIF_FRAMES:
-        raise UserError(f"fps {fps:g}: {n:,} frames, and a GIF is held whole until it is "
-                        f"written (at most {MAX_GIF_FRAMES:,}); lower fps, or write an .mp4",
-                        params=("fps",))
+        raise BadValue(f"fps {fps:g}: {n:,} frames, and a GIF is held whole until it is "
+                       f"written (at most {MAX_GIF_FRAMES:,}); lower fps, or write an .mp4",
+                       params=("fps",))
     world = _world(meta, trace)
     import mujoco
 
@@ -149,8 +149,8 @@ def render(trace: str, out: str, camera: str = "follow", fps: float = 30.0,
         renderer = mujoco.Renderer(model, height, width)
     except Exception as exc:  # the GL backend's own error types
         backend = os.environ.get("MUJOCO_GL")
-        raise UserError(f"hexhil render: MuJoCo could not open an offscreen {backend} context "
-                        f"({exc}); install libegl1 or libosmesa6, or set MUJOCO_GL") from None
+        raise BadFile(f"hexhil render: MuJoCo could not open an offscreen {backend} context "
+                      f"({exc}); install libegl1 or libosmesa6, or set MUJOCO_GL") from None
     cam = mujoco.MjvCamera()
     cam.type = mujoco.mjtCamera.mjCAMERA_FREE
     cam.distance, cam.elevation, cam.azimuth = (0.8, -28.0, 35.0) if camera == "follow" \

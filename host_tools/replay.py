@@ -36,7 +36,7 @@ from hexhil.hil.link.firmware_process import REQUEST_OPS, split_messages
 from hexhil.trace.protobuf import CanFrame, LinkExchanges
 from hexhil.trace.reader import Trace
 from hexhil.trace.topics import T_CAN_RAW, T_LINK
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 if TYPE_CHECKING:
     import can
@@ -133,23 +133,23 @@ def load_exchanges(trace: Trace, start_s: float | None = None, end_s: float | No
                    ) -> list[tuple[int, bytes, bytes]]:
     """(t_us, request, reply) of every logged link exchange, in order."""
     if T_LINK not in trace.topics():
-        raise UserError(f"{trace.path}: no {T_LINK} topic: this trace holds no "
-                        "firmware link exchanges to replay (a recorded firmware run's trace has them)")
+        raise BadValue(f"{trace.path}: no {T_LINK} topic: this trace holds no "
+                       "firmware link exchanges to replay (a recorded firmware run's trace has them)")
     cls = LinkExchanges
     schemas = {trace.schemas[c.schema_id].name for c in trace.channels.values()
                if c.topic == T_LINK and c.schema_id in trace.schemas}
     if schemas != {cls.DESCRIPTOR.full_name}:
         got = ", ".join(sorted(schemas)) or "untyped"
-        raise UserError(f"{trace.path}: {T_LINK} is {got}, not "
-                        f"{cls.DESCRIPTOR.full_name}: recorded by another hexhil version; "
-                        "record it again with this one")
+        raise BadValue(f"{trace.path}: {T_LINK} is {got}, not "
+                       f"{cls.DESCRIPTOR.full_name}: recorded by another hexhil version; "
+                       "record it again with this one")
     out = []
     for m in trace.messages([T_LINK], None, end_s):
         try:
             batch = cls.FromString(m.data).exchanges
         except Exception:
-            raise UserError(f"{trace.path}: corrupt {T_LINK} message at "
-                            f"t={m.log_time_ns / 1e9:.6f} s") from None
+            raise BadValue(f"{trace.path}: corrupt {T_LINK} message at "
+                           f"t={m.log_time_ns / 1e9:.6f} s") from None
         end_us = None if end_s is None else end_s * 1e6
         out.extend((x.t_us, x.request, x.reply) for x in batch
                    if end_us is None or x.t_us < end_us)
@@ -174,8 +174,8 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
     host_tools/log_replay.py, its firmware settings those of ``scenario`` if given.
     """
     if python not in ("micropython", "cpython"):
-        raise UserError(f"python must be micropython or cpython, not {python!r}",
-                        params=("python",))
+        raise BadValue(f"python must be micropython or cpython, not {python!r}",
+                       params=("python",))
     within("rate (0: as fast as possible)", rate, 0.0, MAX_RATE, params=("rate",))
     check_span(start_s, end_s)
     wanted = set(TOPICS)
@@ -183,8 +183,8 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
         wanted = {t for item in topics for t in item.split(",") if t}
         bad = sorted(wanted - set(TOPICS))
         if bad:
-            raise UserError(f"unknown replay topic(s) {', '.join(bad)} "
-                            f"(known: {', '.join(TOPICS)})")
+            raise BadValue(f"unknown replay topic(s) {', '.join(bad)} "
+                           f"(known: {', '.join(TOPICS)})")
     with Trace(path) as tr:
         imported = tr.metadata().get("source") == IMPORTED
         recorded_with = tr.metadata().get("firmware_runtime")
@@ -205,9 +205,9 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
         raise UserError(f"{path}: the {T_LINK} topic is empty in the chosen time range")
     start_us = int(round((start_s or 0.0) * 1e6))
     if exchanges[-1][0] < start_us:   # nothing would be compared: not "identical"
-        raise UserError(f"start_s {start_s:g}: {path}'s link exchanges end at "
-                        f"{exchanges[-1][0] * 1e-6:.3f} s: nothing to compare from there",
-                        params=("start_s",))
+        raise BadValue(f"start_s {start_s:g}: {path}'s link exchanges end at "
+                       f"{exchanges[-1][0] * 1e-6:.3f} s: nothing to compare from there",
+                       params=("start_s",))
 
     result = ReplayResult()
     wall0 = time.perf_counter()
@@ -227,7 +227,7 @@ def replay_firmware(path: str | Path, python: str = "micropython", rate: float =
             try:
                 expected = split_messages(request)
             except ValueError as exc:
-                raise UserError(f"{path}: corrupt {T_LINK} exchange {i}: {exc}") from None
+                raise BadValue(f"{path}: corrupt {T_LINK} exchange {i}: {exc}") from None
             actual, closed = conn.batch()
             div = _compare(expected, actual, wanted, prev_t_us, i,
                            compare=prev_t_us >= start_us)
@@ -309,8 +309,8 @@ def _compare(expected: list[tuple[int, bytes]], actual: list[tuple[int, bytes]],
 def parse_can_target(spec: str) -> tuple[str, str]:
     interface, sep, channel = spec.partition(":")
     if not sep or not interface or not channel:
-        raise UserError(f"spec wants INTERFACE:CHANNEL (e.g. virtual:0, "
-                        f"socketcand:hexhil0), got {spec!r}", params=("spec",))
+        raise BadValue(f"spec wants INTERFACE:CHANNEL (e.g. virtual:0, "
+                       f"socketcand:hexhil0), got {spec!r}", params=("spec",))
     return interface, channel
 
 
@@ -319,7 +319,7 @@ def _bus_kwargs(items: Iterable[str]) -> dict[str, Any]:
     for item in items or ():
         key, sep, value = item.partition("=")
         if not sep or not key:
-            raise UserError(f"bus_args wants KEY=VALUE, got {item!r}", params=("bus_args",))
+            raise BadValue(f"bus_args wants KEY=VALUE, got {item!r}", params=("bus_args",))
         try:
             out[key] = int(value)
         except ValueError:
@@ -340,7 +340,7 @@ def replay_can(path: str | Path, spec: str, rate: float = 1.0, start_s: float | 
     cls = CanFrame
     with Trace(path) as tr:
         if T_CAN_RAW not in tr.topics():
-            raise UserError(f"{tr.path}: no CAN frames to replay (no {T_CAN_RAW} topic)")
+            raise BadValue(f"{tr.path}: no CAN frames to replay (no {T_CAN_RAW} topic)")
         frames = [(m.log_time_ns, cls.FromString(m.data))
                   for m in tr.messages([T_CAN_RAW], start_s, end_s)]
     if not frames:
@@ -352,7 +352,7 @@ def replay_can(path: str | Path, spec: str, rate: float = 1.0, start_s: float | 
             bus = can.Bus(interface=interface, channel=channel, **_bus_kwargs(bus_args))
         except Exception as exc:  # python-can raises many kinds for a bad interface
             why = str(exc).splitlines()[0] if str(exc) else exc.__class__.__name__
-            raise UserError(f"cannot open CAN {spec}: {why}") from None
+            raise BadFile(f"cannot open CAN {spec}: {why}") from None
     sent = 0
     wall0 = time.perf_counter()
     t0_ns = frames[0][0] if frames else 0

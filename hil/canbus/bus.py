@@ -28,7 +28,7 @@ import can
 from hexhil.hil.clock import VirtualClock
 from hexhil.hil.seams import CanGateway, TraceRecorder
 from hexhil.protocol import can_frames
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 _channels = itertools.count()
 
@@ -42,10 +42,10 @@ def message(name: str, **signals: float) -> can.Message:
 def standard_frame(msg: can.Message) -> tuple[int, bytes]:
     """(arbitration id, data) of a standard 11-bit data frame, the only kind a run carries."""
     if msg.is_extended_id or msg.is_remote_frame or msg.is_error_frame or msg.is_fd:
-        raise UserError("a run's CAN bus carries standard 11-bit data frames: "
-                        f"got {msg!r}")
+        raise BadValue("a run's CAN bus carries standard 11-bit data frames: "
+                       f"got {msg!r}")
     if not 0 <= msg.arbitration_id <= 0x7FF:
-        raise UserError(f"arbitration id 0x{msg.arbitration_id:X} is not an 11-bit id")
+        raise BadValue(f"arbitration id 0x{msg.arbitration_id:X} is not an 11-bit id")
     return msg.arbitration_id, bytes(msg.data)
 
 

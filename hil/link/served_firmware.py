@@ -35,7 +35,7 @@ from hexhil.hil.mcu.verdicts import MASKED_LIMIT_S
 from hexhil.hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
 from hexhil.hil.seams import LinkHost
 from hexhil.protocol import sim_link
-from hexhil.protocol.errors import BadValue, UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 BOARD_DIR = ROOT / "firmware" / "virtual_board"
 BOARD_RUNTIME = "micropython-board"   # a run's firmware_runtime
@@ -87,19 +87,19 @@ def served_firmware(path: str | Path, what: str = "firmware", gdb_port: int | No
         raise UserError(f"main, fs and fs_out need a MicroPython STM32F411 ELF as {what}, "
                         f"not {path}", params=("main", "fs", "fs_out", what))
     if gdb_port is not None and not 1 <= gdb_port <= 65535:
-        raise UserError(f"gdb_port {gdb_port}: a port is 1-65535", params=("gdb_port",))
+        raise BadValue(f"gdb_port {gdb_port}: a port is 1-65535", params=("gdb_port",))
     if not p.is_file():
-        raise UserError(f"{what} {path}: not a file (give a MicroPython main file, an "
-                        "STM32F411 ELF or an executable)", params=(what,))
+        raise BadFile(f"{what} {path}: not a file (give a MicroPython main file, an "
+                      "STM32F411 ELF or an executable)", params=(what,))
     if p.suffix in MAIN_SUFFIXES:
         try:
             text = _is_text(p.read_bytes())
         except OSError as exc:
-            raise UserError(f"{what} {path}: cannot read it ({exc.strerror})",
-                            params=(what,)) from None
+            raise BadFile(f"{what} {path}: cannot read it ({exc.strerror})",
+                          params=(what,)) from None
         if not text:
-            raise UserError(f"{what} {path}: not a MicroPython source file (it holds binary "
-                            "data, not UTF-8 text)", params=(what,))
+            raise BadValue(f"{what} {path}: not a MicroPython source file (it holds binary "
+                           "data, not UTF-8 text)", params=(what,))
         return BoardFirmware(p.resolve())
     if is_arm_elf(p):
         if not masked_limit_s > 0:
@@ -112,9 +112,9 @@ def served_firmware(path: str | Path, what: str = "firmware", gdb_port: int | No
     if not os.access(p, os.X_OK) and p.read_bytes()[:4] == ELF_MAGIC:
         load_elf(p, what)     # names what the ELF is for, in one line
     if not os.access(p, os.X_OK):
-        raise UserError(f"{what} {path}: neither a MicroPython main file (.py) nor "
-                        "executable (build a C firmware with `hexhil sdk build main.c -o fw`, "
-                        "or chmod +x)", params=(what,))
+        raise BadFile(f"{what} {path}: neither a MicroPython main file (.py) nor "
+                      "executable (build a C firmware with `hexhil sdk build main.c -o fw`, "
+                      "or chmod +x)", params=(what,))
     return ExecutableFirmware(p.resolve())
 
 

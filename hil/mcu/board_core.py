@@ -31,7 +31,7 @@ from typing import Any, Callable
 
 from hexhil.hil.mcu.struct_layout import layout_mismatch
 from hexhil.hil.native import load_library
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, UserError
 
 LIBRARY = Path(__file__).with_name("_board_core.so")
 USART2_IRQ = 38
@@ -149,9 +149,9 @@ def native() -> bool:
     """Whether boards made now run their hot path in C (a library whose layout differs
     from ``Shared`` refuses to run, in one line)."""
     if _MISMATCH is not None:
-        raise UserError(f"{LIBRARY.name} does not match hil/mcu/board_core.py ({_MISMATCH}): "
-                        "rebuild it with `make`, or run the board in Python with "
-                        "HEXHIL_BOARD_CORE=python")
+        raise BadFile(f"{LIBRARY.name} does not match hil/mcu/board_core.py ({_MISMATCH}): "
+                      "rebuild it with `make`, or run the board in Python with "
+                      "HEXHIL_BOARD_CORE=python")
     return _LIB is not None
 
 

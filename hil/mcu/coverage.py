@@ -25,7 +25,7 @@ from unicorn import UC_HOOK_BLOCK, Uc
 
 from hexhil.hil.mcu.board_core import library
 from hexhil.hil.mcu.elf_image import ElfImage
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 _U64 = ctypes.c_uint64
 
@@ -45,8 +45,8 @@ def line_table(path: Path, libraries: bool = False,
     with open(path, "rb") as f:
         elf = ELFFile(f)
         if not elf.has_dwarf_info():
-            raise UserError(f"coverage: {path} has no DWARF line table (build it with -g)",
-                            params=("coverage",))
+            raise BadValue(f"coverage: {path} has no DWARF line table (build it with -g)",
+                           params=("coverage",))
         dwarf = elf.get_dwarf_info()
         own_dir = None if libraries or main is None else _own_dir(dwarf, main)
         for cu in dwarf.iter_CUs():
@@ -174,7 +174,7 @@ class LineCounter:
         try:
             path.write_text(lcov(self.hits()))
         except OSError as exc:
-            raise UserError(f"coverage {path}: {exc.strerror}", params=("coverage",)) from None
+            raise BadFile(f"coverage {path}: {exc.strerror}", params=("coverage",)) from None
 
 
 def lcov(hits: dict[str, dict[int, int]]) -> str:

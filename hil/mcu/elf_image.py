@@ -19,7 +19,7 @@ from pathlib import Path
 from elftools.common.exceptions import ELFError
 from elftools.elf.elffile import ELFFile
 
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 ELF_MAGIC = b"\x7fELF"
 EM_ARM = 40
@@ -75,21 +75,23 @@ def load_elf(path: str | Path, what: str = "firmware") -> ElfImage:
     try:
         raw = p.read_bytes()
     except OSError as exc:
-        raise UserError(f"{what} {path}: {exc.strerror}", params=(what,)) from None
+        raise BadFile(f"{what} {path}: {exc.strerror}", params=(what,)) from None
     if len(raw) > MAX_FILE_BYTES:
-        raise UserError(f"{what} {path}: {len(raw)} bytes, too large for an STM32F411 ELF", params=(what,))
+        raise BadValue(f"{what} {path}: {len(raw)} bytes, too large for an STM32F411 ELF", params=(what,))
     if raw[:4] != ELF_MAGIC:
-        raise UserError(f"{what} {path}: not an ELF file", params=(what,))
+        raise BadValue(f"{what} {path}: not an ELF file", params=(what,))
     try:
         return _read(p, raw, what)
+    except UserError:   # _read's own line (a BadValue is a ValueError too)
+        raise
     except (ELFError, ValueError, KeyError, IndexError, AssertionError, TypeError,
             AttributeError, OverflowError, RecursionError, UnicodeDecodeError) as exc:
-        raise UserError(f"{what} {path}: a broken ELF file ({type(exc).__name__}: "
-                        f"{str(exc)[:80]})", params=(what,)) from None
+        raise BadValue(f"{what} {path}: a broken ELF file ({type(exc).__name__}: "
+                       f"{str(exc)[:80]})", params=(what,)) from None
     except Exception as exc:    # construct.StreamError and kin: a truncated file
         if type(exc).__module__.startswith(("elftools", "construct")):
-            raise UserError(f"{what} {path}: a truncated or broken ELF file "
-                            f"({str(exc)[:80]})", params=(what,)) from None
+            raise BadValue(f"{what} {path}: a truncated or broken ELF file "
+                           f"({str(exc)[:80]})", params=(what,)) from None
         raise
 
 
@@ -97,11 +99,11 @@ def _read(p: Path, raw: bytes, what: str) -> ElfImage:
     elf = ELFFile(io.BytesIO(raw))
     name = f"{what} {p}"
     if elf.elfclass != 32 or elf["e_machine"] != "EM_ARM" or not elf.little_endian:
-        raise UserError(f"{name}: an ELF for {elf['e_machine']} ({elf.elfclass}-bit), not "
-                        "a 32-bit little-endian ARM (Cortex-M4) one", params=(what,))
+        raise BadValue(f"{name}: an ELF for {elf['e_machine']} ({elf.elfclass}-bit), not "
+                       "a 32-bit little-endian ARM (Cortex-M4) one", params=(what,))
     if elf["e_type"] != "ET_EXEC":
-        raise UserError(f"{name}: not a linked executable ({elf['e_type']}): link it with a "
-                        "linker script for the F411 (the C SDK's stm32f411 target links one)", params=(what,))
+        raise BadValue(f"{name}: not a linked executable ({elf['e_type']}): link it with a "
+                       "linker script for the F411 (the C SDK's stm32f411 target links one)", params=(what,))
     segments: list[Segment] = []
     for seg in elf.iter_segments():
         if seg["p_type"] != "PT_LOAD" or seg["p_filesz"] == 0:
@@ -109,27 +111,27 @@ def _read(p: Path, raw: bytes, what: str) -> ElfImage:
         addr, size = seg["p_paddr"], seg["p_filesz"]
         data = seg.data()
         if len(data) != size:
-            raise UserError(f"{name}: truncated (a segment at 0x{addr:08x} holds "
-                            f"{len(data)} of its {size} bytes)", params=(what,))
+            raise BadValue(f"{name}: truncated (a segment at 0x{addr:08x} holds "
+                           f"{len(data)} of its {size} bytes)", params=(what,))
         if not (_inside(addr, size, FLASH_BASE, FLASH_SIZE)
                 or _inside(addr, size, SRAM_BASE, SRAM_SIZE)):
-            raise UserError(f"{name}: a segment of {size} bytes at 0x{addr:08x} lies outside "
-                            f"flash (0x{FLASH_BASE:08x}, 512 KB) and SRAM (0x{SRAM_BASE:08x}, "
-                            "128 KB): over the peripherals or nothing", params=(what,))
+            raise BadValue(f"{name}: a segment of {size} bytes at 0x{addr:08x} lies outside "
+                           f"flash (0x{FLASH_BASE:08x}, 512 KB) and SRAM (0x{SRAM_BASE:08x}, "
+                           "128 KB): over the peripherals or nothing", params=(what,))
         segments.append(Segment(addr, data))
     if not segments:
-        raise UserError(f"{name}: no loadable segment (nothing to put in flash)", params=(what,))
+        raise BadValue(f"{name}: no loadable segment (nothing to put in flash)", params=(what,))
     vectors = next((s for s in segments if s.addr == FLASH_BASE and len(s.data) >= 8), None)
     if vectors is None:
-        raise UserError(f"{name}: no vector table at the start of flash (0x{FLASH_BASE:08x}): "
-                        "the startup file's .isr_vector must come first", params=(what,))
+        raise BadValue(f"{name}: no vector table at the start of flash (0x{FLASH_BASE:08x}): "
+                       "the startup file's .isr_vector must come first", params=(what,))
     sp = int.from_bytes(vectors.data[0:4], "little")
     reset = int.from_bytes(vectors.data[4:8], "little")
     if not _inside(reset & ~1, 2, FLASH_BASE, FLASH_SIZE) or not reset & 1:
-        raise UserError(f"{name}: the reset vector 0x{reset:08x} is not a Thumb address in "
-                        "flash", params=(what,))
+        raise BadValue(f"{name}: the reset vector 0x{reset:08x} is not a Thumb address in "
+                       "flash", params=(what,))
     if not _inside(sp - 4, 4, SRAM_BASE, SRAM_SIZE):
-        raise UserError(f"{name}: the initial stack pointer 0x{sp:08x} is not in SRAM", params=(what,))
+        raise BadValue(f"{name}: the initial stack pointer 0x{sp:08x} is not in SRAM", params=(what,))
     return ElfImage(p, tuple(segments), sp, reset, *_functions(elf, raw))
 
 

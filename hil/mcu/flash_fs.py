@@ -18,7 +18,7 @@ from pathlib import Path
 
 from hexhil.hil.mcu.elf_image import ElfImage
 from hexhil.hil.mcu.flash_modules import module_files
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, UserError
 
 FS_BASE, FS_SIZE = 0x08004000, 64 * 1024
 BLOCK_BYTES = 512
@@ -72,13 +72,13 @@ def files_of(spec: FlashFiles) -> dict[str, bytes]:
                    if given is None or not (given / (rel[1:-4] + ".py")).is_file())
     if spec.folder is not None:
         if not spec.folder.is_dir():
-            raise UserError(f"fs {spec.folder}: not a folder", params=("fs",))
+            raise BadFile(f"fs {spec.folder}: not a folder", params=("fs",))
         for p in sorted(spec.folder.rglob("*")):
             if p.is_file():
                 out["/" + p.relative_to(spec.folder).as_posix()] = p.read_bytes()
     if spec.main is not None:
         if not spec.main.is_file():
-            raise UserError(f"main {spec.main}: not a file", params=("main",))
+            raise BadFile(f"main {spec.main}: not a file", params=("main",))
         out["/main.py"] = spec.main.read_bytes()
     return out
 

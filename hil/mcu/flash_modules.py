@@ -19,7 +19,7 @@ import ast
 import subprocess
 from pathlib import Path
 
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 MPY_OPTIONS = ("-X", "no-source-lines")
 
@@ -68,7 +68,7 @@ def _parsed(path: Path) -> ast.Module:
     try:
         return ast.parse(path.read_text(encoding="utf-8"), str(path))
     except (SyntaxError, UnicodeDecodeError) as exc:
-        raise UserError(f"main: {path} does not parse ({exc})", params=("main",)) from None
+        raise BadValue(f"main: {path} does not parse ({exc})", params=("main",)) from None
 
 
 def _only_docstring(tree: ast.Module) -> bool:
@@ -110,7 +110,7 @@ def compiled(rel: str, src: Path) -> bytes:
                           input=src.read_bytes(), capture_output=True)
     if done.returncode != 0:
         said = done.stderr.decode(errors="replace").strip().splitlines() or ["no message"]
-        raise UserError(f"main: mpy-cross cannot compile {src}: {said[-1]}", params=("main",))
+        raise BadValue(f"main: mpy-cross cannot compile {src}: {said[-1]}", params=("main",))
     return done.stdout
 
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from hexhil.hil.link.firmware_child import end_group
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 DEFAULT_MEMORY_MB = 4096.0   # this process and its firmware's, resident
 WALL_BASE_S = 120.0          # the wall-clock cap, unless given: this, plus
@@ -48,8 +48,8 @@ class RunLimits:
             if v is None and name == "max_wall_s":
                 continue
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
-                raise UserError(f"{name} must be a positive number (inf: no cap), not {v!r}",
-                                params=(name,))
+                raise BadValue(f"{name} must be a positive number (inf: no cap), not {v!r}",
+                               params=(name,))
 
     def wall_s(self, duration_s: float) -> float:
         """The wall-clock cap of a run of ``duration_s`` simulated seconds."""

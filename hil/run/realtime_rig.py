@@ -22,7 +22,7 @@ from hexhil.hil.run_result import BodyDisplacement
 from hexhil.hil.servobus.switch_node import DEFAULT_ID, SensorNode
 from hexhil.protocol import can_frames as cf
 from hexhil.protocol.dynamixel import ax12
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue, UserError
 
 SAMPLE_US = 100_000        # ground truth, servo states and the CAN switches frame: 10 Hz
 
@@ -54,7 +54,7 @@ class RealTimeRig:
         self.node = None
         if sensor_id is not None:
             if self.bus.servo(sensor_id) is not None:
-                raise UserError(f"sensor node ID {sensor_id} is already a servo's")
+                raise BadValue(f"sensor node ID {sensor_id} is already a servo's")
             self.node = SensorNode(self.core.switch_bits, sensor_id,
                                    ax12.bps_to_baud(self.bus.baud))
             self.bus.add_device(self.node)

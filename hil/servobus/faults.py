@@ -24,7 +24,7 @@ from hexhil.hil.scenario.faults_section import (BUS_CAN_KINDS, CAN_KINDS, FORCE_
 from hexhil.hil.servobus.health import SUPPLY_V
 from hexhil.hil.servobus.fault_effects import NoisyReading, StuckReading, SwingPress
 from hexhil.hil.servobus.status_mangling import mangled
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue, UserError
 
 OnFault = Callable[[int, str, str], None]
 NEVER_US = 1 << 62
@@ -102,15 +102,15 @@ class Faults:
         try:
             fault = FaultKind(kind)
         except ValueError:
-            raise UserError(f"inject: unknown fault kind {kind!r} "
-                            f"(known: {', '.join(k.value for k in FaultKind)})") from None
+            raise BadValue(f"inject: unknown fault kind {kind!r} "
+                           f"(known: {', '.join(k.value for k in FaultKind)})") from None
         if self._clock is None:
             raise UserError("inject: these faults are on no run yet")
         now_s = (self._clock.t_us - self._t0_us) * 1e-6
         params.setdefault("at_s", now_s)
         e = FaultEntry.parse(fault, params, "inject")
         if e.at_s < now_s:
-            raise UserError(f"inject: at_s {e.at_s:g} is in the past (now {now_s:g} s)")
+            raise BadValue(f"inject: at_s {e.at_s:g} is in the past (now {now_s:g} s)")
         self.entries.append(e)
         self._schedule(e)
         return e

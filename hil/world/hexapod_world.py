@@ -32,7 +32,7 @@ from hexhil.hil.world import scene as scene_mod
 from hexhil.hil.world import terrain as terrain_mod
 from hexhil.hil.world.switches import SwitchBank
 from hexhil.protocol import hexapod as robot_desc
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 from hexhil.protocol.hexapod import JOINTS, LEGS
 
 PHYSICS_DT_US = 2000   # 2 ms steps: contact-stable with implicit joint damping (see docs)
@@ -211,8 +211,8 @@ class HexapodWorld:
     def __post_init__(self) -> None:
         world = self.scenario.world
         if world.kind not in (None, WorldKind.HEXAPOD):
-            raise UserError(f"{self.scenario.path}: world.kind {world.kind.value!r} "
-                            f"is not the hexapod world")
+            raise BadValue(f"{self.scenario.path}: world.kind {world.kind.value!r} "
+                           f"is not the hexapod world")
         self.obstacles = terrain_mod.from_scenario(world, self.seed)
         self.motor = act.motor(self.scenario.bus.model)
         self.real = fidelity.from_scenario(world, self.motor, self.seed,

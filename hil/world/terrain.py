@@ -22,7 +22,7 @@ from typing import Callable
 import numpy as np
 
 from hexhil.hil.scenario.world_section import Obstacle, WorldConfig
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 DENSITY_SPACING_M = {"low": (0.15, 0.25), "high": (0.10, 0.15)}  # Sec. 2.2, R ranges
 HEIGHT_CLASS_M = {"small": (0.03, 0.05), "large": (0.06, 0.08)}  # Sec. 2.2, H ranges
@@ -41,12 +41,12 @@ def generate(density: str, height_class: str, length_m: float, seed: int,
     so nearest-neighbour spacings stay inside the paper's 10-15 cm band.
     """
     if density not in DENSITY_SPACING_M:
-        raise UserError(f"world.density must be one of {sorted(DENSITY_SPACING_M)}, got {density!r}")
+        raise BadValue(f"world.density must be one of {sorted(DENSITY_SPACING_M)}, got {density!r}")
     if height_class not in HEIGHT_CLASS_M:
-        raise UserError(f"world.height_class must be one of {sorted(HEIGHT_CLASS_M)}, "
-                        f"got {height_class!r}")
+        raise BadValue(f"world.height_class must be one of {sorted(HEIGHT_CLASS_M)}, "
+                       f"got {height_class!r}")
     if length_m <= CORRIDOR_START_M:
-        raise UserError(f"world.length_m must exceed {CORRIDOR_START_M} m, got {length_m}")
+        raise BadValue(f"world.length_m must exceed {CORRIDOR_START_M} m, got {length_m}")
     r_min, r_max = DENSITY_SPACING_M[density]
     rng = np.random.default_rng(seed)
     centres: list[tuple[float, float]] = []

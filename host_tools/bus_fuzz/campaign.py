@@ -27,7 +27,7 @@ from hexhil.bus_fuzz.execution import Execution, Target
 from hexhil.bus_fuzz.mutations import (DEFAULT_KINDS, Input, Mutation, Mutator, Vocabulary,
                                            faults_table, ordered)
 from hexhil.expect import spec
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 BATCH = 16                # inputs a round
 SHRINK_RUNS = 120         # executions at most to shrink one failure
@@ -142,8 +142,8 @@ def vocabulary(target: Target, kinds: Sequence[FaultKind]) -> Vocabulary:
     ids = tuple(range(bus.first_id, bus.first_id + bus.servos))
     end_s = target.case.duration_s
     if not 0 < target.window_s < end_s:
-        raise UserError(f"window_s: the faults must start inside the case's {end_s:g} s "
-                        f"(window_s {target.window_s:g} s)", params=("window_s",))
+        raise BadValue(f"window_s: the faults must start inside the case's {end_s:g} s "
+                       f"(window_s {target.window_s:g} s)", params=("window_s",))
     return Vocabulary(tuple(kinds), ids, target.window_s, end_s,
                       protocol=models.protocol(bus.model))
 
@@ -163,7 +163,7 @@ def load_target(settings: Settings, fork: bool = True) -> Target:
     if settings.runs is None and settings.time_s is None:
         raise UserError("give a budget: runs or time_s", params=("runs", "time_s"))
     if settings.runs is not None and settings.runs < 1 or settings.jobs < 1:
-        raise UserError("runs and jobs must be at least 1", params=("runs", "jobs"))
+        raise BadValue("runs and jobs must be at least 1", params=("runs", "jobs"))
     firmware = settings.firmware or case.firmware
     if firmware is not None:
         from hexhil.hil.link.served_firmware import served_firmware
@@ -290,8 +290,8 @@ def write_findings(target: Target, settings: Settings, report: Report) -> None:
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise UserError(f"out {out}: cannot make the folder ({exc.strerror})",
-                        params=("out",)) from None
+        raise BadFile(f"out {out}: cannot make the folder ({exc.strerror})",
+                      params=("out",)) from None
     raw = tomllib.loads(Path(settings.expect).read_text(encoding="utf-8"))
     for k, f in enumerate(report.findings, 1):
         faults = f.shrunk or f.first
@@ -347,7 +347,7 @@ def _value(v: Any) -> str:
         return "[" + ", ".join(_value(x) for x in v) + "]"
     if isinstance(v, dict):
         return "{" + ", ".join(f"{k} = {_value(x)}" for k, x in v.items()) + "}"
-    raise UserError(f"cannot write {v!r} as TOML")
+    raise BadValue(f"cannot write {v!r} as TOML")
 
 
 def replay_command(f: Finding, settings: Settings) -> str:
@@ -363,9 +363,9 @@ def mutation_kinds(names: Sequence[str]) -> tuple[FaultKind, ...]:
         try:
             out.append(FaultKind(name))
         except ValueError:
-            raise UserError(f"kinds: unknown fault kind {name!r} (known: "
-                            f"{', '.join(k.value for k in DEFAULT_KINDS)})",
-                            params=("kinds",)) from None
+            raise BadValue(f"kinds: unknown fault kind {name!r} (known: "
+                           f"{', '.join(k.value for k in DEFAULT_KINDS)})",
+                           params=("kinds",)) from None
     return tuple(out)
 
 

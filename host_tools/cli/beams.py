@@ -8,12 +8,12 @@ import numpy as np
 
 from hexhil.hil.scenario import check_seed
 from hexhil.cli import JSON_HELP, OVERWRITE_HELP, actions, emit
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue, UserError
 
 
 def _nonneg(name: str, v: float) -> float:
     if not math.isfinite(v) or v < 0:
-        raise UserError(f"--{name} must be a finite number >= 0, got {v}")
+        raise BadValue(f"--{name} must be a finite number >= 0, got {v}")
     return v
 
 
@@ -25,8 +25,8 @@ def _stiffness(name: str, v: float) -> float:
     from hexhil.papers.beam_traversal.nodes import RIGID_K_NM_PER_RAD
 
     if not (math.isfinite(v) and 0 <= v <= RIGID_K_NM_PER_RAD):
-        raise UserError(f"--{name} must be a stiffness in 0..{RIGID_K_NM_PER_RAD:g} N m/rad "
-                        f"(seed 000: flimsy 0.01, stiff 0.25, rig 0.78; 100 is rigid), got {v}")
+        raise BadValue(f"--{name} must be a stiffness in 0..{RIGID_K_NM_PER_RAD:g} N m/rad "
+                       f"(seed 000: flimsy 0.01, stiff 0.25, rig 0.78; 100 is rigid), got {v}")
     return v
 
 
@@ -38,7 +38,7 @@ def cmd_estimate(args: argparse.Namespace) -> int:
     hb1 = _nonneg("hb-mm", args.hb_mm) * 1e-3
     hb2 = hb1 if args.hb2_mm is None else _nonneg("hb2-mm", args.hb2_mm) * 1e-3
     if not 10 <= args.sensing_ms <= 5000:
-        raise UserError(f"--sensing-ms must be in 10..5000, got {args.sensing_ms}")
+        raise BadValue(f"--sensing-ms must be in 10..5000, got {args.sensing_ms}")
     _nonneg("noise", args.noise)
     poses, forces = push_samples(k1, k2, hb1, hb2, args.noise, args.sensing_ms,
                                  check_seed(args.seed, "--seed"))
@@ -81,7 +81,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     hb = _nonneg("hb-mm", args.hb_mm) * 1e-3
     fx = args.fx if args.fx is not None else (1.0 if args.strategy == "none" else 0.1)
     if abs(fx) > 2.0:
-        raise UserError(f"--fx must be within the actuator limit |F_x| <= 2 N, got {fx}")
+        raise BadValue(f"--fx must be within the actuator limit |F_x| <= 2 N, got {fx}")
     cfg = RunConfig(_stiffness("k1", args.k1), _stiffness("k2", args.k2), hb, hb, args.strategy, fx,
                     _nonneg("noise", args.noise), _nonneg("delay-ms", args.delay_ms),
                     seed=check_seed(args.seed, "--seed"))

@@ -15,7 +15,7 @@ from hexhil.hil.scenario.sections import SENSOR_NODE_PROTOCOL
 from hexhil.cli import JSON_HELP, OVERWRITE_HELP, flush_print
 from hexhil.protocol import sensor_node
 from hexhil.protocol.dynamixel import models
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue, UserError
 
 _FAULT_FLAGS = ("unplug", "stall", "overheat", "voltage_sag")
 # A reply due while the world catches up leaves that much late. A master waits past a
@@ -40,12 +40,12 @@ def parse_injection(line: str) -> tuple[str, dict[str, Any]]:
     values are JSON (3, 0.5, true) or else strings."""
     words = line.split()
     if not words:
-        raise UserError("empty fault line: expected KIND key=value ..., e.g. brownout id=3")
+        raise BadValue("empty fault line: expected KIND key=value ..., e.g. brownout id=3")
     params: dict[str, Any] = {}
     for word in words[1:]:
         key, eq, text = word.partition("=")
         if not eq or not key:
-            raise UserError(f"{line.strip()!r}: expected key=value, got {word!r}")
+            raise BadValue(f"{line.strip()!r}: expected key=value, got {word!r}")
         try:
             params[key] = json.loads(text)
         except ValueError:
@@ -80,9 +80,9 @@ def parse_ids(spec: str) -> list[int]:
             else:
                 lo = hi = int(part)
         except ValueError:
-            raise UserError(f"--ids {spec!r}: expected IDs like 1-18 or 1,3,5-7") from None
+            raise BadValue(f"--ids {spec!r}: expected IDs like 1-18 or 1,3,5-7") from None
         if not 0 <= lo <= hi <= 253:
-            raise UserError(f"--ids {spec!r}: IDs must be 0-253, low before high")
+            raise BadValue(f"--ids {spec!r}: IDs must be 0-253, low before high")
         ids.update(range(lo, hi + 1))
     return sorted(ids)
 
@@ -98,9 +98,9 @@ def parse_flag(kind: str, spec: str) -> dict[str, Any]:
     try:
         nums = [float(p) for p in parts]
     except ValueError:
-        raise UserError(f"--{kind.replace('_', '-')} {spec!r}: expected numbers separated by ':'") from None
+        raise BadValue(f"--{kind.replace('_', '-')} {spec!r}: expected numbers separated by ':'") from None
     if not head + 1 <= len(nums) <= head + 2:
-        raise UserError(f"--{kind.replace('_', '-')} {spec!r}: see 'hexhil bus --help' for the form")
+        raise BadValue(f"--{kind.replace('_', '-')} {spec!r}: see 'hexhil bus --help' for the form")
     out: dict[str, Any] = {"at_s": nums[head]}
     if len(nums) == head + 2:
         out["until_s"] = nums[head + 1]
@@ -108,7 +108,7 @@ def parse_flag(kind: str, spec: str) -> dict[str, Any]:
         out["volts"] = nums[0]
     else:
         if nums[0] != int(nums[0]):
-            raise UserError(f"--{kind} {spec!r}: servo id must be an integer")
+            raise BadValue(f"--{kind} {spec!r}: servo id must be an integer")
         out["id"] = int(nums[0])
         if kind == "overheat":
             out["temperature_c"] = nums[1]
@@ -164,7 +164,7 @@ def _sensor_id(args: argparse.Namespace, sc: Scenario) -> int | None:
         return None
     if args.sensor_id is not None:
         if not 0 <= args.sensor_id <= 253:
-            raise UserError(f"--sensor-id {args.sensor_id}: must be 0-253")
+            raise BadValue(f"--sensor-id {args.sensor_id}: must be 0-253")
         return args.sensor_id
     return bus.sensor_node_id if bus.sensor_node_id is not None else sensor_node.DEFAULT_ID
 
@@ -179,7 +179,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("choose one transport: --pty, --tcp PORT, --rfc2217 PORT or --port DEVICE")
     for flag in ("tcp", "rfc2217"):
         if getattr(args, flag) is not None and not 0 <= getattr(args, flag) <= 65535:
-            raise UserError(f"--{flag} {getattr(args, flag)}: port must be 0-65535")
+            raise BadValue(f"--{flag} {getattr(args, flag)}: port must be 0-65535")
     if args.rts_direction and args.rfc2217 is None:
         raise UserError("--rts-direction needs --rfc2217 PORT (a pty has no RTS line)")
     if args.world and args.scenario:

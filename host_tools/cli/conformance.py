@@ -8,7 +8,7 @@ import math
 from hexhil.hil.scenario import DEFAULT_BAUD
 from hexhil.cli import JSON_HELP, emit_json
 from hexhil.protocol.dynamixel import models
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue, UserError
 
 
 def _capture(args: argparse.Namespace) -> int:
@@ -47,9 +47,9 @@ def run(args: argparse.Namespace) -> int:
     from hexhil.dynamixel.conformance.report import format_table
 
     if args.baud <= 0:
-        raise UserError(f"--baud must be positive, got {args.baud}")
+        raise BadValue(f"--baud must be positive, got {args.baud}")
     if not all(0 < t < math.inf for t in (args.timeout_ms, args.scan_timeout_ms)):
-        raise UserError("--timeout-ms and --scan-timeout-ms must be positive and finite")
+        raise BadValue("--timeout-ms and --scan-timeout-ms must be positive and finite")
     ids = parse_ids(args.ids) if args.ids else None
     protocol = models.protocol(args.model) if args.model else args.protocol
     result = CHECKS[protocol](args.port, args.baud, ids, args.timeout_ms / 1000.0,

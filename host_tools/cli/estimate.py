@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from hexhil.cli import JSON_HELP, emit_json
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 SENSING_S = 0.300        # seed 000 Sec. II-E: T_s = 300 ms after first contact
 CONTACT_N = 0.01         # |F| above this counts as contact (the frame's 1 mN step x 10)
@@ -26,12 +26,12 @@ def run(args: argparse.Namespace) -> int:
     from hexhil.papers.beam_traversal.trace_samples import load_samples
 
     if args.sensing_s <= 0 or not math.isfinite(args.sensing_s):
-        raise UserError("--sensing-s must be a positive number of seconds")
+        raise BadValue("--sensing-s must be a positive number of seconds")
     t, poses, forces, logged = load_samples(args.file, args.start, args.end)
     mag = np.linalg.norm(forces, axis=1)
     hit = np.flatnonzero(mag > args.contact_n)
     if hit.size == 0:
-        raise UserError(f"{args.file}: no force sample above {args.contact_n} N: no beam contact")
+        raise BadValue(f"{args.file}: no force sample above {args.contact_n} N: no beam contact")
     t0 = t[hit[0]]
     window = (t >= t0) & (t < t0 + args.sensing_s)
     est = estimate(poses[window], forces[window], unknowns=args.unknowns, method=args.method)

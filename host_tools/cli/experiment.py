@@ -15,7 +15,7 @@ from typing import Any, Callable
 from hexhil.hil.link.firmware_process import IN_PROCESS, RUNTIMES
 from hexhil.hil.scenario.world_section import OBSTACLE_BODIES, OBSTACLE_BODY
 from hexhil.cli import JSON_HELP, actions, emit_json, ProgressBar
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 MAX_SEEDS = 1000   # seeds of one sweep: more is a typo, not days of runs
 
@@ -23,7 +23,7 @@ MAX_SEEDS = 1000   # seeds of one sweep: more is a typo, not days of runs
 def _out_folder(path: str) -> Path:
     out = Path(path)
     if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out} exists and is not a folder")
+        raise BadFile(f"--out {out} exists and is not a folder")
     return out
 
 
@@ -72,7 +72,7 @@ def _tactile(args: argparse.Namespace) -> int:
 
     seeds = args.seeds if args.seeds is not None else (1 if args.quick else 3)
     if not 1 <= seeds <= MAX_SEEDS:
-        raise UserError(f"--seeds must be 1-{MAX_SEEDS}, got {seeds}")
+        raise BadValue(f"--seeds must be 1-{MAX_SEEDS}, got {seeds}")
     out = _out_folder(args.out)
     opts = tactile_hexapod.SweepOptions(args.quick, seeds, args.traces, args.model,
                                         args.obstacles, args.python)
@@ -103,13 +103,13 @@ def _force(args: argparse.Namespace) -> int:
 
     out = _out_folder(args.out)
     if args.seeds is not None and not 1 <= args.seeds <= MAX_SEEDS:
-        raise UserError(f"--seeds must be 1-{MAX_SEEDS}, got {args.seeds}")
+        raise BadValue(f"--seeds must be 1-{MAX_SEEDS}, got {args.seeds}")
     try:
         summary = force_sensing.main(args.quick, out, args.seeds)
     except UserError:   # a BadFile is an OSError too: already one line
         raise
     except OSError as exc:
-        raise UserError(f"cannot write into {out}: {exc.strerror}") from None
+        raise BadFile(f"cannot write into {out}: {exc.strerror}") from None
     modes = ", ".join(f"k = {k} {m}" for k, m in summary["modes"].items())
     energy = summary["energy_mJ"]
     interact_avoid = "; ".join(

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from hexhil.hil.scenario.world_section import OBSTACLE_BODIES, OBSTACLE_BODY
 from hexhil.cli import JSON_HELP, actions, emit, emit_json, ProgressBar
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 WORKERS = max(1, os.cpu_count() or 1)
 
@@ -58,7 +58,7 @@ def _closed_loop(args: argparse.Namespace) -> int:
     from hexhil.papers.tactile_hexapod.grnn import navigator_trials
 
     if args.workers < 1:
-        raise UserError(f"--workers must be at least 1, got {args.workers}")
+        raise BadValue(f"--workers must be at least 1, got {args.workers}")
     res = navigator_trials.closed_loop(args.model, args.data, args.workers, ProgressBar("run"))
     print(navigator_trials.markdown(res), end="")
     if args.out:

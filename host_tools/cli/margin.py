@@ -19,10 +19,10 @@ def _run(args: argparse.Namespace) -> int:
     from hexhil.cli import emit_json
     from hexhil.expect import margin_sweep, spec
     from hexhil.output import check_output, write_failed
-    from hexhil.protocol.errors import UserError
+    from hexhil.protocol.errors import BadValue, UserError
 
     if args.jobs < 1:
-        raise UserError("--jobs must be at least 1")
+        raise BadValue("--jobs must be at least 1")
     if args.firmware is not None:
         from hexhil.hil.link.served_firmware import served_firmware
 

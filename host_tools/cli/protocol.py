@@ -21,7 +21,7 @@ from typing import Any
 
 from hexhil.cli import JSON_HELP, actions, emit, emit_json
 from hexhil.dynamixel.decode import DECODERS, guess_protocol
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 HEXDIGITS = set(string.hexdigits)
 
@@ -35,13 +35,13 @@ def parse_hex(args: list[str]) -> bytes:
                 token = token[2:]
             bad = next((c for c in token if c not in HEXDIGITS), None)
             if bad is not None:
-                raise UserError(f"not hex: {bad!r} in {token!r} (argument {n})")
+                raise BadValue(f"not hex: {bad!r} in {token!r} (argument {n})")
             digits.append(token)
     text = "".join(digits)
     if not text:
-        raise UserError("no hex digits given")
+        raise BadValue("no hex digits given")
     if len(text) % 2:
-        raise UserError(f"odd number of hex digits ({len(text)}): each byte needs two")
+        raise BadValue(f"odd number of hex digits ({len(text)}): each byte needs two")
     return bytes.fromhex(text)
 
 

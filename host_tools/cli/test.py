@@ -29,10 +29,10 @@ def table(results: Sequence) -> str:
 def _run(args: argparse.Namespace) -> int:
     from hexhil.expect import case_runs, junit, spec
     from hexhil.output import check_output
-    from hexhil.protocol.errors import UserError
+    from hexhil.protocol.errors import BadFile, BadValue, UserError
 
     if args.jobs < 1 or args.repeat < 1:
-        raise UserError("--jobs and --repeat must be at least 1")
+        raise BadValue("--jobs and --repeat must be at least 1")
     if args.firmware is not None and args.python is not None:
         raise UserError(f"--firmware {args.firmware} brings its own runtime: leave out --runtime")
     if args.in_process is not None:
@@ -84,8 +84,8 @@ def _run(args: argparse.Namespace) -> int:
             for job in jobs:
                 kept = case_runs.kept_path(args.keep_traces, job.label)
                 if kept.exists():
-                    raise UserError(f"--keep-traces: {kept} exists: pass --overwrite to "
-                                    "replace it")
+                    raise BadFile(f"--keep-traces: {kept} exists: pass --overwrite to "
+                                  "replace it")
         bar = None if args.quiet or len(jobs) < 2 else cli.ProgressBar("run")
         if args.coverage is None:
             results = case_runs.run_all(jobs, args.jobs, args.scheduler, progress=bar)

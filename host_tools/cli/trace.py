@@ -9,7 +9,7 @@ import sys
 from hexhil.cli import JSON_HELP, OVERWRITE_HELP, actions, emit, emit_json
 from hexhil.trace import export, import_csv, import_logs, reader, recover
 from hexhil.trace.import_csv import CSV_OPTIONAL, CSV_POSE, CSV_REQUIRED
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 
 def _filters(p: argparse.ArgumentParser) -> None:
@@ -42,7 +42,7 @@ def _info(args: argparse.Namespace) -> int:
 
 def _cat(args: argparse.Namespace) -> int:
     if args.limit < 0:
-        raise UserError(f"--limit must be 0 (no limit) or more, got {args.limit}")
+        raise BadValue(f"--limit must be 0 (no limit) or more, got {args.limit}")
     n = 0
     out = sys.stdout
     with reader.open_trace(args.file) as tr:

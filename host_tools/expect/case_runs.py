@@ -29,7 +29,7 @@ from hexhil.trace import protobuf as pb
 from hexhil.trace import topics
 from hexhil.trace.reader import Trace, info
 from hexhil.trace.target import TraceTarget
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 T_EXPECTATIONS = "/expectations"  # foxglove.Log: each failed expectation at its moment
 
@@ -186,9 +186,11 @@ def evaluate_recorded(case: Case, trace: Path, keep_dir: str | None = None,
     The run's length is the trace's; a failing case's copy goes to ``keep_dir``."""
     try:
         about = info(trace)
+    except UserError:   # the reader's own line (its kinds are OSError and ValueError too)
+        raise
     except (OSError, ValueError) as exc:
-        raise UserError(f"trace {trace}: not a readable hexhil trace ({exc})",
-                        params=("trace",)) from None
+        raise BadValue(f"trace {trace}: not a readable hexhil trace ({exc})",
+                       params=("trace",)) from None
     end_s = about["end_s"]
     linked = about["metadata"].get("command") != "bus"   # hexhil bus --world: no link
     summary = {"sim_time_s": end_s, "firmware_link": linked}
@@ -215,8 +217,8 @@ def keep(trace: Path, keep_dir: str, label: str, failed: Sequence[Outcome],
     try:
         Path(keep_dir).mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise UserError(f"keep_dir {keep_dir}: cannot make the folder "
-                        f"({exc.strerror})", params=("keep_dir",)) from None
+        raise BadFile(f"keep_dir {keep_dir}: cannot make the folder "
+                      f"({exc.strerror})", params=("keep_dir",)) from None
     kept = kept_path(keep_dir, label)
     annotate(trace, kept, failed, end_s, overwrite)
     return str(kept)

@@ -12,7 +12,7 @@ from typing import Sequence
 
 from hexhil.expect.case_runs import CaseResult
 from hexhil.expect.verdicts import ENDING
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile
 
 
 def to_xml(results: Sequence[CaseResult], name: str = "hexhil test") -> ET.ElementTree:
@@ -63,4 +63,4 @@ def write(results: Sequence[CaseResult], path: str | Path) -> None:
     try:
         to_xml(results).write(path, encoding="utf-8", xml_declaration=True)
     except OSError as exc:
-        raise UserError(f"the JUnit report {path}: cannot write ({exc.strerror})") from None
+        raise BadFile(f"the JUnit report {path}: cannot write ({exc.strerror})") from None

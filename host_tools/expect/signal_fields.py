@@ -3,7 +3,7 @@
 field (the topic's protobuf schema, the frame's signals)."""
 from __future__ import annotations
 
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 
 def check_signal_field(where: str, topic: str, path: str) -> None:
@@ -17,16 +17,16 @@ def check_signal_field(where: str, topic: str, path: str) -> None:
     if topic.startswith(topics.T_CAN_PREFIX) and topic != topics.T_CAN_RAW:
         frame = topic[len(topics.T_CAN_PREFIX):]
         if frame not in FRAMES:
-            raise UserError(f"{where}: key 'topic': no CAN frame {frame!r} in "
-                            f"protocol/hexhil.dbc ({', '.join(sorted(FRAMES))})")
+            raise BadValue(f"{where}: key 'topic': no CAN frame {frame!r} in "
+                           f"protocol/hexhil.dbc ({', '.join(sorted(FRAMES))})")
         names = [sig[0] for sig in FRAMES[frame][2]]
         if path not in names:
-            raise UserError(f"{where}: key 'field': frame {frame} has no signal {path!r} "
-                            f"({', '.join(names)})")
+            raise BadValue(f"{where}: key 'field': frame {frame} has no signal {path!r} "
+                           f"({', '.join(names)})")
         return
     if topic not in topics.CHANNELS:
-        raise UserError(f"{where}: key 'topic': no topic {topic!r} in a trace "
-                        f"({', '.join(sorted(topics.CHANNELS))}, or /can/FRAME)")
+        raise BadValue(f"{where}: key 'topic': no topic {topic!r} in a trace "
+                       f"({', '.join(sorted(topics.CHANNELS))}, or /can/FRAME)")
     schema, encoding = topics.CHANNELS[topic]
     if encoding != "protobuf":
         return
@@ -37,13 +37,13 @@ def check_signal_field(where: str, topic: str, path: str) -> None:
             continue
         if part.startswith("["):
             if not repeated or not (part == "[*]" or part[1:-1].lstrip("-").isdigit()):
-                raise UserError(f"{where}: key 'field': {path!r}: {part} follows no list")
+                raise BadValue(f"{where}: key 'field': {path!r}: {part} follows no list")
             repeated = False
             continue
         if desc is None or part not in desc.fields_by_name:
             have = ", ".join(desc.fields_by_name) if desc is not None else "none"
-            raise UserError(f"{where}: key 'field': {path!r}: no field {part!r} in "
-                            f"{topic}'s messages (fields here: {have})")
+            raise BadValue(f"{where}: key 'field': {path!r}: no field {part!r} in "
+                           f"{topic}'s messages (fields here: {have})")
         fd = desc.fields_by_name[part]
         desc = fd.message_type
         repeated = fd.is_repeated

@@ -24,7 +24,7 @@ from hexhil.hil.link.served_firmware import served_firmware
 from hexhil.hil.mcu.flash_fs import FlashFiles
 from hexhil.expect.signal_fields import check_signal_field
 from hexhil.protocol import can_frames
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue, UserError
 
 
 class Kind(str, Enum):
@@ -153,17 +153,17 @@ def _range(where: str, value: Any) -> Range:
         unknown = set(value) - {"min", "max"}
         lo, hi = value.get("min"), value.get("max")
         if unknown or (lo is None and hi is None):
-            raise UserError(f"{where} must be [low, high] or {{min = .., max = ..}}, got {value!r}")
+            raise BadValue(f"{where} must be [low, high] or {{min = .., max = ..}}, got {value!r}")
     elif isinstance(value, (list, tuple)) and len(value) == 2:
         lo, hi = value
     else:
-        raise UserError(f"{where} must be [low, high] or {{min = .., max = ..}}, got {value!r}")
+        raise BadValue(f"{where} must be [low, high] or {{min = .., max = ..}}, got {value!r}")
     for v in (lo, hi):
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
                               or not math.isfinite(v)):
-            raise UserError(f"{where} limits must be finite numbers, got {value!r}")
+            raise BadValue(f"{where} limits must be finite numbers, got {value!r}")
     if lo is not None and hi is not None and lo > hi:
-        raise UserError(f"{where} low {lo} is above high {hi}")
+        raise BadValue(f"{where} low {lo} is above high {hi}")
     return Range(None if lo is None else float(lo), None if hi is None else float(hi))
 
 
@@ -175,61 +175,61 @@ def _window(where: str, value: Any) -> tuple[float, float | None]:
     r = _range(where, value)
     start = r.low if r.low is not None else 0.0
     if start < 0:
-        raise UserError(f"{where} must start at 0 s or later, got {value!r}")
+        raise BadValue(f"{where} must start at 0 s or later, got {value!r}")
     return start, r.high
 
 
 def _check_kind(where: str, kind: Kind, values: dict[str, Any]) -> None:
     """Rules between a kind's keys (the types are checked already)."""
     if kind in AT_LEAST_ONE and not values:
-        raise UserError(f"{where}: kind '{kind.value}' needs at least one of "
-                        f"{', '.join(k for k in KEYS[kind] if k != 'ids')}")
+        raise BadValue(f"{where}: kind '{kind.value}' needs at least one of "
+                       f"{', '.join(k for k in KEYS[kind] if k != 'ids')}")
     if kind is Kind.PROTOCOL:
         for v in values.get("allow", []):
             if v not in VIOLATION_KINDS:
-                raise UserError(f"{where}: key 'allow': {v!r} is not a violation kind "
-                                f"({', '.join(VIOLATION_KINDS)})")
+                raise BadValue(f"{where}: key 'allow': {v!r} is not a violation kind "
+                               f"({', '.join(VIOLATION_KINDS)})")
     if kind is Kind.FAULT_RESPONSE:
         if values["fault"] not in FAULTS:
-            raise UserError(f"{where}: key 'fault' must be one of {', '.join(FAULTS)}, "
-                            f"got {values['fault']!r}")
+            raise BadValue(f"{where}: key 'fault' must be one of {', '.join(FAULTS)}, "
+                           f"got {values['fault']!r}")
         if values["response"] not in RESPONSES:
-            raise UserError(f"{where}: key 'response' must be one of {', '.join(RESPONSES)}, "
-                            f"got {values['response']!r}")
+            raise BadValue(f"{where}: key 'response' must be one of {', '.join(RESPONSES)}, "
+                           f"got {values['response']!r}")
     if kind is Kind.CAN:
         signals = values.get("signals", {})
         values["signals"] = tuple((k, _range(f"{where}: key 'signals.{k}'", v))
                                   for k, v in sorted(signals.items()))
     if kind is Kind.DEADLINE and values.get("stat", "max") not in BUSY_STATS:
-        raise UserError(f"{where}: key 'stat' must be one of {', '.join(BUSY_STATS)}, "
-                        f"got {values['stat']!r}")
+        raise BadValue(f"{where}: key 'stat' must be one of {', '.join(BUSY_STATS)}, "
+                       f"got {values['stat']!r}")
     if kind is Kind.SIGNAL:
         if values["stat"] not in [s.value for s in Stat]:
-            raise UserError(f"{where}: key 'stat' must be one of "
-                            f"{', '.join(s.value for s in Stat)}, got {values['stat']!r}")
+            raise BadValue(f"{where}: key 'stat' must be one of "
+                           f"{', '.join(s.value for s in Stat)}, got {values['stat']!r}")
         values["stat"] = Stat(values["stat"])
         if values["stat"] is Stat.AT and "at_s" not in values:
-            raise UserError(f"{where}: stat 'at' needs key 'at_s'")
+            raise BadValue(f"{where}: stat 'at' needs key 'at_s'")
     for key in ("within_s", "min_m_s", "h_tolerance_m", "l_tolerance_m", "min_press_s"):
         if key in values and values[key] < 0:
-            raise UserError(f"{where}: key '{key}' must be 0 or more, got {values[key]}")
+            raise BadValue(f"{where}: key '{key}' must be 0 or more, got {values[key]}")
 
 
 def expectation(where: str, raw: Any, index: int = 0) -> Expectation:
     """One ``[[expect]]`` table, checked (``where`` and ``index`` name it in errors)."""
     if not isinstance(raw, dict):
-        raise UserError(f"{where}: each [[expect]] must be a table")
+        raise BadValue(f"{where}: each [[expect]] must be a table")
     name = raw.get("name")
     label = f"{where}: expect[{index}]" + (f" ({name!r})" if isinstance(name, str) else "")
     if not isinstance(name, str) or not name:
-        raise UserError(f"{label}: key 'name' is required (a string)")
+        raise BadValue(f"{label}: key 'name' is required (a string)")
     if "kind" not in raw:
-        raise UserError(f"{label}: key 'kind' is required ({', '.join(k.value for k in Kind)})")
+        raise BadValue(f"{label}: key 'kind' is required ({', '.join(k.value for k in Kind)})")
     try:
         kind = Kind(raw["kind"])
     except ValueError:
-        raise UserError(f"{label}: key 'kind' must be one of "
-                        f"{', '.join(k.value for k in Kind)}, got {raw['kind']!r}") from None
+        raise BadValue(f"{label}: key 'kind' must be one of "
+                       f"{', '.join(k.value for k in Kind)}, got {raw['kind']!r}") from None
     fields = {**{k: (_range if want == _RANGE else want, required)
                  for k, (want, required) in KEYS[kind].items()},
               **{k: (_as_is, False) for k in COMMON_KEYS}}
@@ -249,20 +249,21 @@ def _sends(where: str, raw: list[Any]) -> tuple[tuple[int, int, bytes], ...]:
     """``case.send``: CAN frames (by DBC name, SI signal values) the host sends at a time."""
     out = []
     for i, e in enumerate(raw):
-        label = f"{where}: key 'case.send[{i}]'"
+        key = f"case.send[{i}]"
+        label = f"{where}: key '{key}'"
         if not isinstance(e, dict) or set(e) - {"at_s", "message", "signals"} \
                 or "at_s" not in e or "message" not in e:
-            raise UserError(f"{label} must be a table {{at_s = .., message = .., "
-                            f"signals = {{..}}}}, got {e!r}")
-        at_s = typed(f"{label}.at_s", e["at_s"], float)
+            raise BadValue(f"{label} must be a table {{at_s = .., message = .., "
+                           f"signals = {{..}}}}, got {e!r}")
+        at_s = typed(f"{where}: key '{key}.at_s'", e["at_s"], float)
         if at_s < 0:
-            raise UserError(f"{label}.at_s must be 0 or more, got {at_s}")
-        signals = typed(f"{label}.signals", e.get("signals", {}), dict)
+            raise BadValue(f"{where}: key '{key}.at_s' must be 0 or more, got {at_s}")
+        signals = typed(f"{where}: key '{key}.signals'", e.get("signals", {}), dict)
+        message = typed(f"{where}: key '{key}.message'", e["message"], str)
         try:
-            arb_id, data = can_frames.encode(typed(f"{label}.message", e["message"], str),
-                                              **signals)
+            arb_id, data = can_frames.encode(message, **signals)
         except (ValueError, TypeError, OverflowError) as exc:
-            raise UserError(f"{label}: {exc}") from None
+            raise BadValue(f"{label}: {exc}") from None
         out.append((int(round(at_s * 1e6)), arb_id, bytes(data)))
     return tuple(sorted(out))
 
@@ -273,13 +274,13 @@ def _scenario(where: str, path: Path, data: dict[str, Any]) -> Scenario:
     inline = {k: v for k, v in data.items() if k not in ("case", "expect")}
     ref = data.get("case", {}).get("scenario")
     if ref is not None and inline:
-        raise UserError(f"{where}: key 'case.scenario' names a scenario, so this file cannot "
-                        f"also hold scenario sections ({', '.join(sorted(inline))})")
+        raise BadValue(f"{where}: key 'case.scenario' names a scenario, so this file cannot "
+                       f"also hold scenario sections ({', '.join(sorted(inline))})")
     if ref is not None:
         return scenario_mod.load_scenario(path.parent / ref)
     if not inline:
-        raise UserError(f"{where}: key 'case.scenario' is required (or write the scenario's "
-                        f"sections in this file)")
+        raise BadValue(f"{where}: key 'case.scenario' is required (or write the scenario's "
+                       f"sections in this file)")
     return scenario_mod.parse(inline, path)
 
 
@@ -292,25 +293,25 @@ def check_windows(where: str, expectations: tuple[Expectation, ...], duration_s:
         label = f"{where}: expect[{i}] ({e.name!r})"
         t0, t1 = e.window_s
         if t0 >= duration_s or (t1 is not None and t1 > duration_s):
-            raise UserError(f"{label}: key 'window_s' [{t0:g}, {'end' if t1 is None else f'{t1:g}'}]"
-                            f" reaches past the run's end ({duration_s:g} s)")
+            raise BadValue(f"{label}: key 'window_s' [{t0:g}, {'end' if t1 is None else f'{t1:g}'}]"
+                           f" reaches past the run's end ({duration_s:g} s)")
         if e.kind is not Kind.SIGNAL:
             continue
         if e.get("at_s") is not None and not 0 <= e.get("at_s") <= duration_s:
-            raise UserError(f"{label}: key 'at_s' {e.get('at_s'):g} is outside the run "
-                            f"(0-{duration_s:g} s)")
+            raise BadValue(f"{label}: key 'at_s' {e.get('at_s'):g} is outside the run "
+                           f"(0-{duration_s:g} s)")
         if e.get("topic") == "/servos":
             for index in re.findall(r"servos\[(-?\d+)\]", e.get("field")):
                 if not -servos <= int(index) < servos:
-                    raise UserError(f"{label}: key 'field': servos[{index}] is out of range "
-                                    f"(the bus has {servos} servos: 0-{servos - 1})")
+                    raise BadValue(f"{label}: key 'field': servos[{index}] is out of range "
+                                   f"(the bus has {servos} servos: 0-{servos - 1})")
 
 
 def hexapod(where: str, sc: Scenario) -> Scenario:
     """``sc``, if its world is the hexapod's (the firmware's): else one line."""
     if sc.world.kind not in (None, WorldKind.HEXAPOD):
-        raise UserError(f"{where}: key 'world.kind': hexhil test runs the hexapod firmware, "
-                        f"this scenario's world is {sc.world.kind.value}")
+        raise BadValue(f"{where}: key 'world.kind': hexhil test runs the hexapod firmware, "
+                       f"this scenario's world is {sc.world.kind.value}")
     return sc
 
 
@@ -321,29 +322,29 @@ def load(path: str | Path) -> Case:
     where = str(p)
     case = data.get("case", {})
     if not isinstance(case, dict):
-        raise UserError(f"{where}: 'case' must be a table ([case])")
+        raise BadValue(f"{where}: 'case' must be a table ([case])")
     check_table(where, case, optional(CASE_KEYS), "case.")
     raw = data.get("expect")
     if not isinstance(raw, list) or not raw:
-        raise UserError(f"{where}: key 'expect' is required: one [[expect]] table or more")
+        raise BadValue(f"{where}: key 'expect' is required: one [[expect]] table or more")
     expectations = tuple(expectation(where, e, i) for i, e in enumerate(raw))
     names = [e.name for e in expectations]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
-        raise UserError(f"{where}: key 'expect.name': {dup[0]!r} is used twice")
+        raise BadValue(f"{where}: key 'expect.name': {dup[0]!r} is used twice")
     sc = hexapod(where, _scenario(where, p, data))
     for i, e in enumerate(expectations):
         if e.kind is Kind.TACTILE_RULE and e.get("max_obstacle_height_m") is None \
                 and sc.gait.max_obstacle_height_m is None:
-            raise UserError(f"{where}: expect[{i}] ({e.name!r}): key 'max_obstacle_height_m' "
-                            f"is required (H of Eq. 7: the scenario's gait does not give it)")
+            raise BadValue(f"{where}: expect[{i}] ({e.name!r}): key 'max_obstacle_height_m' "
+                           f"is required (H of Eq. 7: the scenario's gait does not give it)")
     duration = scenario_mod.check_duration(case.get("duration_s", sc.scenario.duration_s),
                                            f"{where}: key 'case.duration_s'")
     check_windows(where, expectations, duration, sc.bus.servos)
     python = case.get("python", sc.firmware.python.value)
     if python not in RUNTIME_CHOICES:
-        raise UserError(f"{where}: key 'case.python' must be one of "
-                        f"{', '.join(RUNTIME_CHOICES)}, got {python!r}")
+        raise BadValue(f"{where}: key 'case.python' must be one of "
+                       f"{', '.join(RUNTIME_CHOICES)}, got {python!r}")
     firmware = case.get("firmware")
     if firmware is not None:
         if "python" in case:
@@ -361,7 +362,7 @@ def load(path: str | Path) -> Case:
         flash = FlashFiles(*(p.parent / case[k] if k in case else None for k in ("main", "fs")))
     masked = case.get("masked_limit_s")
     if masked is not None and not masked > 0:
-        raise UserError(f"{where}: key 'case.masked_limit_s' must be above 0 s, got {masked}")
+        raise BadValue(f"{where}: key 'case.masked_limit_s' must be above 0 s, got {masked}")
     if firmware is not None:
         served_firmware(firmware, f"{where}: key 'case.firmware'", flash_files=flash)  # checked now
     return Case(name=case.get("name", p.stem), path=p, scenario=sc, firmware=firmware,

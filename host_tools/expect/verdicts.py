@@ -16,7 +16,7 @@ from hexhil.expect.spec import Case, Expectation, Kind, Range, Stat
 from hexhil.trace import topics
 from hexhil.trace.reader import Trace
 from hexhil.protocol import hexapod
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 WALKING = 2  # protocol/can_frames.py STATE_WALKING, the heartbeat's state signal
 
@@ -224,7 +224,7 @@ def _can(e: Expectation, rec: Recording) -> tuple[str, str, bool, float | None, 
     for key, r in e.get("signals", ()):
         values = [(t, m.get(key)) for t, m in frames]
         if any(v is None for _, v in values):
-            raise UserError(f"{e.name}: CAN frame {name!r} has no signal {key!r}")
+            raise BadValue(f"{e.name}: CAN frame {name!r} has no signal {key!r}")
         if values:
             lo, hi = min(v for _, v in values), max(v for _, v in values)
             measured.append(f"{key} {lo:g}..{hi:g}")

@@ -9,7 +9,7 @@ from hexhil.hil.scenario import check_span
 from hexhil.trace.protobuf import CanFrame
 from hexhil.trace.reader import Trace, why
 from hexhil.trace.topics import T_CAN_RAW
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 CAN_LOG_SUFFIXES = (".asc", ".blf", ".log", ".trc")
 
@@ -36,10 +36,10 @@ def export(path: str | Path, out: str | Path, topics: Iterable[str] | None = Non
     if suffix in CAN_LOG_SUFFIXES:
         return _export_can(path, out, start_s, end_s)
     if suffix != ".csv" and out.suffix:
-        raise UserError(f"{out}: unknown export format '{out.suffix}' "
-                        f"(use .csv or one of {', '.join(CAN_LOG_SUFFIXES)})")
+        raise BadValue(f"{out}: unknown export format '{out.suffix}' "
+                       f"(use .csv or one of {', '.join(CAN_LOG_SUFFIXES)})")
     if suffix == ".csv" and not out.parent.is_dir():
-        raise UserError(f"{out}: folder {out.parent} does not exist (create it, or export elsewhere)")
+        raise BadFile(f"{out}: folder {out.parent} does not exist (create it, or export elsewhere)")
     with Trace(path) as tr:
         chosen = tr.select_topics(topics) or tr.topics()
         if suffix == ".csv" and len(chosen) > 1:
@@ -58,13 +58,13 @@ def export(path: str | Path, out: str | Path, topics: Iterable[str] | None = Non
             try:
                 out.write_text("time_s\n")
             except OSError as exc:
-                raise UserError(f"{out}: cannot write ({exc.strerror})") from None
+                raise BadFile(f"{out}: cannot write ({exc.strerror})") from None
             files.append(str(out))
     else:
         try:
             out.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise UserError(f"{out}: cannot create export directory ({exc.strerror})") from None
+            raise BadFile(f"{out}: cannot create export directory ({exc.strerror})") from None
         targets = {t: out / (t.strip("/").replace("/", "_") + ".csv") for t in rows}
     for topic, target in targets.items():
         cols: dict[str, None] = {}
@@ -77,7 +77,7 @@ def export(path: str | Path, out: str | Path, topics: Iterable[str] | None = Non
                 w.writeheader()
                 w.writerows(rows[topic])
         except OSError as exc:
-            raise UserError(f"{target}: cannot write ({exc.strerror})") from None
+            raise BadFile(f"{target}: cannot write ({exc.strerror})") from None
         files.append(str(target))
     return {"format": "csv", "files": files,
             "messages": sum(len(v) for v in rows.values()), "topics": sorted(rows)}
@@ -89,13 +89,13 @@ def _export_can(path: str | Path, out: Path, start_s: float | None,
 
     with Trace(path) as tr:
         if T_CAN_RAW not in tr.topics():
-            raise UserError(f"{tr.path}: no CAN frames to export (no {T_CAN_RAW} topic)")
+            raise BadValue(f"{tr.path}: no CAN frames to export (no {T_CAN_RAW} topic)")
         cls = CanFrame
         n = 0
         try:
             logger = can.Logger(str(out))
         except (OSError, ValueError) as exc:
-            raise UserError(f"{out}: cannot write CAN log ({why(exc)})") from None
+            raise BadFile(f"{out}: cannot write CAN log ({why(exc)})") from None
         with logger:
             for m in tr.messages([T_CAN_RAW], start_s, end_s):
                 f = cls.FromString(m.data)

@@ -10,7 +10,7 @@ from typing import Any
 from hexhil.trace.reader import why
 from hexhil.trace.recorder import Recorder
 from hexhil.protocol import can_frames
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 CSV_REQUIRED = ("time_s", "fx_n", "fy_n", "fz_n")
 CSV_POSE = ("x_m", "roll_rad", "pitch_rad")
@@ -33,23 +33,23 @@ def import_csv(src: str | Path, dst: str | Path, metadata: dict[str, Any] | None
     same ``force`` and ``body_pose`` CAN frames a simulated beams run records."""
     src = Path(src)
     if src.exists() and not src.is_file() and not src.is_dir():
-        raise UserError(f"{src}: not a regular file (a CSV log is a file)")
+        raise BadFile(f"{src}: not a regular file (a CSV log is a file)")
     try:
         f = open(src, newline="", encoding="utf-8")
     except FileNotFoundError:
-        raise UserError(f"{src}: no such CSV file") from None
+        raise BadFile(f"{src}: no such CSV file") from None
     except OSError as exc:
-        raise UserError(f"{src}: cannot read ({exc.strerror})") from None
+        raise BadFile(f"{src}: cannot read ({exc.strerror})") from None
     with f:
         try:
             reader = csv.DictReader(f)
             header = [h.strip() for h in (reader.fieldnames or [])]
         except (csv.Error, UnicodeDecodeError) as exc:
-            raise UserError(f"{src}: not a readable CSV ({why(exc)})") from None
+            raise BadValue(f"{src}: not a readable CSV ({why(exc)})") from None
         missing = [c for c in CSV_REQUIRED if c not in header]
         if missing:
-            raise UserError(f"{src}: CSV lacks column(s) {', '.join(missing)} "
-                            f"(needs {', '.join(CSV_REQUIRED + CSV_POSE)})")
+            raise BadValue(f"{src}: CSV lacks column(s) {', '.join(missing)} "
+                           f"(needs {', '.join(CSV_REQUIRED + CSV_POSE)})")
         has_pose = all(c in header for c in CSV_POSE)
         ignored = [h for h in header if h not in CSV_REQUIRED + CSV_POSE + CSV_OPTIONAL]
         reader.fieldnames = header
@@ -66,12 +66,12 @@ def import_csv(src: str | Path, dst: str | Path, metadata: dict[str, Any] | None
                     t_us = int(round(vals["time_s"] * 1e6))
                     fx, fy, fz = vals["fx_n"], vals["fy_n"], vals["fz_n"]
                 except (KeyError, ValueError, TypeError):
-                    raise UserError(f"{src}:{line}: needs numbers in "
-                                    f"{', '.join(CSV_REQUIRED)}") from None
+                    raise BadValue(f"{src}:{line}: needs numbers in "
+                                   f"{', '.join(CSV_REQUIRED)}") from None
                 if t_us < 0 or t_us < last_us:
-                    raise UserError(f"{src}:{line}: time_s must be >= 0 and non-decreasing")
+                    raise BadValue(f"{src}:{line}: time_s must be >= 0 and non-decreasing")
                 if not all(math.isfinite(v) for v in vals.values()):
-                    raise UserError(f"{src}:{line}: non-finite value")
+                    raise BadValue(f"{src}:{line}: non-finite value")
                 last_us = t_us
                 arb, data = can_frames.encode("force", fx_n=fx, fy_n=fy, fz_n=fz,
                                               sample=n)
@@ -86,10 +86,10 @@ def import_csv(src: str | Path, dst: str | Path, metadata: dict[str, Any] | None
                                   _quat_wxyz(vals["roll_rad"], vals["pitch_rad"]))
                 n += 1
             if n == 0:
-                raise UserError(f"{src}: CSV has no data rows")
+                raise BadValue(f"{src}: CSV has no data rows")
         except csv.Error as exc:
             out.discard()
-            raise UserError(f"{src}: malformed CSV ({why(exc)})") from None
+            raise BadValue(f"{src}: malformed CSV ({why(exc)})") from None
         except UserError:
             out.discard()
             raise

@@ -34,7 +34,7 @@ from hexhil.trace.recorder import Recorder
 from hexhil.trace.windows import EncodeIn
 from hexhil.trace.servo_capture import LineMap, ServoLine, decode_line
 from hexhil.protocol.dynamixel import models
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 SOURCE = "trace import"   # the metadata's ``source``: replay and conformance look for it
 
@@ -77,13 +77,13 @@ def load_map(path: str | Path | None) -> dict[str, Any]:
     try:
         data = tomllib.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise UserError(f"{p}: no such map file") from None
+        raise BadFile(f"{p}: no such map file") from None
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise UserError(f"{p}: not a readable TOML map ({why(exc)})") from None
+        raise BadValue(f"{p}: not a readable TOML map ({why(exc)})") from None
     bad = sorted(set(data) - set(MAP_SECTIONS))
     if bad:
-        raise UserError(f"{p}: unknown map section(s) {', '.join(bad)} "
-                        f"(known: {', '.join(MAP_SECTIONS)})")
+        raise BadValue(f"{p}: unknown map section(s) {', '.join(bad)} "
+                       f"(known: {', '.join(MAP_SECTIONS)})")
     return data
 
 
@@ -93,11 +93,11 @@ def line_map(table: dict[str, Any], where: str) -> LineMap:
     known = ("data", "direction", "baud", "protocol", "offset_s")
     bad = sorted(set(table) - set(known))
     if bad:
-        raise UserError(f"{where}: unknown [serial] key(s) {', '.join(bad)} "
-                        f"(known: {', '.join(known)})")
+        raise BadValue(f"{where}: unknown [serial] key(s) {', '.join(bad)} "
+                       f"(known: {', '.join(known)})")
     for key in ("baud", "protocol"):
         if key in table and (not isinstance(table[key], int) or isinstance(table[key], bool)):
-            raise UserError(f"{where}: [serial] {key} must be an integer")
+            raise BadValue(f"{where}: [serial] {key} must be an integer")
     return LineMap(*(None if table.get(k) is None else str(table[k]) for k in known[:2]),
                    table.get("baud"), table.get("protocol"))
 
@@ -122,8 +122,8 @@ class Held:
     def _add(self, t_us: int, method: str, args: tuple[Any, ...]) -> None:
         t = int(t_us) + self.offset_us
         if not 0 <= t <= MAX_DURATION_S * 1e6:   # a trace's times (hil/scenario)
-            raise UserError(f"{self.src}: a record at {t / 1e6:.6f} s: a log spans 0 to "
-                            f"{MAX_DURATION_S:g} s from its first record (a time jumped?)")
+            raise BadValue(f"{self.src}: a record at {t / 1e6:.6f} s: a log spans 0 to "
+                           f"{MAX_DURATION_S:g} s from its first record (a time jumped?)")
         self.items.append((t, method, args))
 
     def serial(self, t_us: int, direction: str, data: bytes) -> None:
@@ -146,8 +146,8 @@ def _offset_us(table: dict[str, Any], section: str, where: str) -> int:
     value = table.get("offset_s", 0.0)
     if isinstance(value, bool) or not isinstance(value, (int, float)) \
             or not 0 <= value <= MAX_DURATION_S:
-        raise UserError(f"{where}: [{section}] offset_s must be a number of seconds, 0 to "
-                        f"{MAX_DURATION_S:g}")
+        raise BadValue(f"{where}: [{section}] offset_s must be a number of seconds, 0 to "
+                       f"{MAX_DURATION_S:g}")
     return int(round(value * 1e6))
 
 
@@ -173,18 +173,18 @@ def _import_can(src: Path, maps: dict[str, Any], where: str, held: Held
     table = maps.get("can", {})
     bad = sorted(set(table) - {"tx_ids", "offset_s"})
     if bad:
-        raise UserError(f"{where}: unknown [can] key(s) {', '.join(bad)} "
-                        "(known: tx_ids, offset_s)")
+        raise BadValue(f"{where}: unknown [can] key(s) {', '.join(bad)} "
+                       "(known: tx_ids, offset_s)")
     tx_ids = table.get("tx_ids")
     if tx_ids is not None and not (isinstance(tx_ids, list)
                                    and all(isinstance(i, int) for i in tx_ids)):
-        raise UserError(f"{where}: [can] tx_ids must be a list of integer CAN IDs")
+        raise BadValue(f"{where}: [can] tx_ids must be a list of integer CAN IDs")
     try:
         reader = can.LogReader(str(src))
     except FileNotFoundError:
-        raise UserError(f"{src}: no such CAN log") from None
+        raise BadFile(f"{src}: no such CAN log") from None
     except Exception as exc:   # python-can raises many kinds for an unreadable log
-        raise UserError(f"{src}: not a CAN log python-can reads ({why(exc)})") from None
+        raise BadValue(f"{src}: not a CAN log python-can reads ({why(exc)})") from None
     frames = []
     try:
         with reader:
@@ -193,18 +193,18 @@ def _import_can(src: Path, maps: dict[str, Any], where: str, held: Held
                     continue
                 frames.append(msg)
     except Exception as exc:
-        raise UserError(f"{src}: truncated or malformed CAN log after {len(frames)} frames "
-                        f"({why(exc)})") from None
+        raise BadValue(f"{src}: truncated or malformed CAN log after {len(frames)} frames "
+                       f"({why(exc)})") from None
     _check_truncated(src, frames)
     if not frames:
-        raise UserError(f"{src}: the CAN log holds no data frames")
+        raise BadValue(f"{src}: the CAN log holds no data frames")
     t0 = frames[0].timestamp
     last = 0
     tx = 0
     for msg in frames:
         t_us = int(round((msg.timestamp - t0) * 1e6))
         if t_us < last:
-            raise UserError(f"{src}: frame times go backwards at {msg.timestamp:.6f} s")
+            raise BadValue(f"{src}: frame times go backwards at {msg.timestamp:.6f} s")
         last = t_us
         sent = (msg.arbitration_id in tx_ids) if tx_ids is not None else not msg.is_rx
         tx += sent
@@ -225,15 +225,15 @@ def _check_truncated(src: Path, frames: list) -> None:
         with open(src, "rb") as f:
             f.seek(max(0, src.stat().st_size - 1))
             if f.read(1) not in (b"\n", b""):
-                raise UserError(f"{src}: truncated log: its last line is cut short (no newline "
-                                f"at the end; {len(frames)} frames read)")
+                raise BadValue(f"{src}: truncated log: its last line is cut short (no newline "
+                               f"at the end; {len(frames)} frames read)")
     if suffix == ".asc":
         with open(src, "rb") as f:
             f.seek(max(0, src.stat().st_size - 256))
             tail = f.read().decode("ascii", errors="replace").strip().splitlines()
         if not tail or not tail[-1].strip().lower().startswith("end triggerblock"):
-            raise UserError(f"{src}: truncated ASC log: it does not end with 'End "
-                            f"TriggerBlock' ({len(frames)} frames read before the end)")
+            raise BadValue(f"{src}: truncated ASC log: it does not end with 'End "
+                           f"TriggerBlock' ({len(frames)} frames read before the end)")
         return
     if suffix != ".blf":
         return
@@ -241,11 +241,11 @@ def _check_truncated(src: Path, frames: list) -> None:
     with open(src, "rb") as f:
         head = f.read(32)
     if len(head) < 32 or head[:4] != b"LOGG":
-        raise UserError(f"{src}: not a BLF file (no LOGG header)")
+        raise BadValue(f"{src}: not a BLF file (no LOGG header)")
     file_size = struct.unpack_from("<Q", head, 16)[0]
     if file_size and src.stat().st_size < file_size:
-        raise UserError(f"{src}: truncated BLF log: {src.stat().st_size} of {file_size} bytes "
-                        f"({len(frames)} frames read before the end)")
+        raise BadValue(f"{src}: truncated BLF log: {src.stat().st_size} of {file_size} bytes "
+                       f"({len(frames)} frames read before the end)")
 
 
 def import_log(src: str | Path | list[str | Path], dst: str | Path,
@@ -256,7 +256,7 @@ def import_log(src: str | Path | list[str | Path], dst: str | Path,
     module docstring says which logs. Returns what was written, a summary a log."""
     srcs = [Path(p) for p in (src if isinstance(src, list) else [src])]
     if not srcs:
-        raise UserError("no log to import")
+        raise BadValue("no log to import")
     maps = load_map(map_path)
     where = str(map_path) if map_path is not None else "map"
     meta: dict[str, Any] = {"source": SOURCE}
@@ -264,18 +264,18 @@ def import_log(src: str | Path | list[str | Path], dst: str | Path,
     held: list[Held] = []
     for path in srcs:
         if not path.exists():
-            raise UserError(f"{path}: no such log file or folder")
+            raise BadFile(f"{path}: no such log file or folder")
         try:
             k = LogKind(kind) if kind is not None else guess_kind(path)
         except ValueError:
-            raise UserError(f"unknown log kind {kind!r} (one of "
-                            f"{', '.join(k.value for k in LogKind)})") from None
+            raise BadValue(f"unknown log kind {kind!r} (one of "
+                           f"{', '.join(k.value for k in LogKind)})") from None
         if any(k.value == s["kind"] for s in summaries):
-            raise UserError(f"{path}: a second {k.value} log: give one log of each kind")
+            raise BadValue(f"{path}: a second {k.value} log: give one log of each kind")
         table = maps.get(k.value, {})
         if k is LogKind.ROSBAG2 and set(table) - {"offset_s"}:
-            raise UserError(f"{where}: unknown [rosbag2] key(s) "
-                            f"{', '.join(sorted(set(table) - {'offset_s'}))} (known: offset_s)")
+            raise BadValue(f"{where}: unknown [rosbag2] key(s) "
+                           f"{', '.join(sorted(set(table) - {'offset_s'}))} (known: offset_s)")
         h = Held(path, _offset_us(table, k.value, where))
         if k is LogKind.SERIAL:
             extra, summary = _import_serial(path, maps, where, h)

@@ -20,7 +20,7 @@ from typing import Any, Iterable
 import foxglove
 
 from hexhil.trace.channels import every_channel
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile
 
 # Messages held per client (the SDK's default, set here so the bound is ours): a client
 # that stops reading loses the oldest data messages, never the run's memory; one whose
@@ -46,8 +46,8 @@ class LiveServer:
                                                  context=self._context,
                                                  message_backlog_size=BACKLOG)
         except Exception as exc:  # the SDK raises its own error type for a bind failure
-            raise UserError(f"live_port: cannot listen on 127.0.0.1:{port}: {exc}",
-                            params=("live_port",)) from None
+            raise BadFile(f"live_port: cannot listen on 127.0.0.1:{port}: {exc}",
+                          params=("live_port",)) from None
         self.port = self._server.port
         self._channels: dict[int, foxglove.Channel] = {}
 

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from hexhil.protocol.dynamixel import ax12, xl430
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue
 
 # the rates a Dynamixel line runs at: the X series' register values and the AX-12's usual
 STANDARD_BPS = tuple(sorted(set(xl430.BAUD_BPS) | {19_200, 38_400, 200_000, 250_000,
@@ -55,8 +55,8 @@ class LogicCapture:
         except (TypeError, ValueError):
             i = -1
         if not 0 <= i < len(self.channels):
-            raise UserError(f"{self.path}: no channel {name_or_index!r} (channels: "
-                            f"{', '.join(self.channels)})")
+            raise BadValue(f"{self.path}: no channel {name_or_index!r} (channels: "
+                           f"{', '.join(self.channels)})")
         return i
 
     def levels(self, bit: int) -> np.ndarray:
@@ -78,14 +78,14 @@ def read_sr(path: str | Path) -> LogicCapture:
     try:
         zf = zipfile.ZipFile(path)
     except FileNotFoundError:
-        raise UserError(f"{path}: no such capture file") from None
+        raise BadFile(f"{path}: no such capture file") from None
     except (zipfile.BadZipFile, OSError) as exc:
-        raise UserError(f"{path}: not a sigrok session (.sr) file, or truncated: "
-                        f"{str(exc) or exc.__class__.__name__}") from None
+        raise BadValue(f"{path}: not a sigrok session (.sr) file, or truncated: "
+                       f"{str(exc) or exc.__class__.__name__}") from None
     with zf:
         names = set(zf.namelist())
         if "metadata" not in names:
-            raise UserError(f"{path}: not a sigrok session file (no metadata in the zip)")
+            raise BadValue(f"{path}: not a sigrok session file (no metadata in the zip)")
         text = _member(zf, "metadata", path).decode("ascii", errors="replace")
         try:
             meta = configparser.ConfigParser(interpolation=None, strict=False)
@@ -96,22 +96,22 @@ def read_sr(path: str | Path) -> LogicCapture:
             total = int(dev.get("total probes", "0"))
             base = dev.get("capturefile", "logic-1")
         except (configparser.Error, KeyError, ValueError) as exc:
-            raise UserError(f"{path}: unreadable sigrok metadata ({_line(exc)})") from None
+            raise BadValue(f"{path}: unreadable sigrok metadata ({_line(exc)})") from None
         if rate <= 0 or unit not in (1, 2, 4, 8) or not 0 < total <= 8 * unit:
-            raise UserError(f"{path}: sigrok metadata says samplerate {rate} Hz, unitsize "
-                            f"{unit}, {total} probes: not a logic capture this reads")
+            raise BadValue(f"{path}: sigrok metadata says samplerate {rate} Hz, unitsize "
+                           f"{unit}, {total} probes: not a logic capture this reads")
         channels = tuple(dev.get(f"probe{i + 1}", str(i)) for i in range(total))
         chunks = sorted((int(n[len(base) + 1:]), n) for n in names
                         if n.startswith(base + "-") and n[len(base) + 1:].isdigit())
         files = [n for _, n in chunks] or ([base] if base in names else [])
         if not files:
-            raise UserError(f"{path}: no logic samples ({base}) in the capture")
+            raise BadValue(f"{path}: no logic samples ({base}) in the capture")
         raw = b"".join(_member(zf, n, path) for n in files)
     if len(raw) % unit:
-        raise UserError(f"{path}: truncated capture: {len(raw)} bytes of samples is no whole "
-                        f"number of {unit}-byte samples")
+        raise BadValue(f"{path}: truncated capture: {len(raw)} bytes of samples is no whole "
+                       f"number of {unit}-byte samples")
     if not raw:
-        raise UserError(f"{path}: the capture holds no samples")
+        raise BadValue(f"{path}: the capture holds no samples")
     dtype = {1: "<u1", 2: "<u2", 4: "<u4", 8: "<u8"}[unit]
     return LogicCapture(str(path), rate, channels, np.frombuffer(raw, dtype=dtype))
 
@@ -128,7 +128,7 @@ def _member(zf: zipfile.ZipFile, name: str, path: Path) -> bytes:
         return zf.read(name)
     except (zipfile.BadZipFile, EOFError, OSError, zlib.error, NotImplementedError,
             ValueError) as exc:
-        raise UserError(f"{path}: truncated or damaged capture ({name}: {_line(exc)})") from None
+        raise BadValue(f"{path}: truncated or damaged capture ({name}: {_line(exc)})") from None
 
 
 def edges(levels: np.ndarray) -> np.ndarray:
@@ -141,8 +141,8 @@ def measure_bps(capture: LogicCapture, bit: int) -> float:
     1 %: glitches) are one bit, and every pulse inside a byte is a whole number of bits."""
     e = edges(capture.levels(bit))
     if len(e) < 4:
-        raise UserError(f"{capture.path}: channel {capture.channels[bit]} hardly changes "
-                        f"({len(e)} edges): no serial traffic to find the baud from")
+        raise BadValue(f"{capture.path}: channel {capture.channels[bit]} hardly changes "
+                       f"({len(e)} edges): no serial traffic to find the baud from")
     widths = np.diff(e).astype(np.float64)
     shortest = float(np.sort(widths)[len(widths) // 100])   # a glitch or two left out
     one = widths[widths < 1.5 * shortest]
@@ -158,14 +158,14 @@ def find_baud(capture: LogicCapture, bit: int) -> int:
     bps = measure_bps(capture, bit)
     best = min(STANDARD_BPS, key=lambda b: abs(b - bps))
     if capture.samplerate_hz / best < MIN_SAMPLES_PER_BIT:
-        raise UserError(f"{capture.path}: sample rate {capture.samplerate_hz} Hz is too low for "
-                        f"a {best} bit/s line (at least {MIN_SAMPLES_PER_BIT:g} samples a bit): "
-                        "capture at a higher rate")
+        raise BadValue(f"{capture.path}: sample rate {capture.samplerate_hz} Hz is too low for "
+                       f"a {best} bit/s line (at least {MIN_SAMPLES_PER_BIT:g} samples a bit): "
+                       "capture at a higher rate")
     if abs(best - bps) > ax12.BAUD_TOLERANCE * best:
-        raise UserError(f"{capture.path}: baud not found: the pulses measure {bps:.0f} bit/s at "
-                        f"the capture's {capture.samplerate_hz} Hz, within 3 % of no Dynamixel "
-                        f"rate ({', '.join(map(str, STANDARD_BPS))}); is the sample rate right, "
-                        "or give the baud in the map file")
+        raise BadValue(f"{capture.path}: baud not found: the pulses measure {bps:.0f} bit/s at "
+                       f"the capture's {capture.samplerate_hz} Hz, within 3 % of no Dynamixel "
+                       f"rate ({', '.join(map(str, STANDARD_BPS))}); is the sample rate right, "
+                       "or give the baud in the map file")
     return best
 
 
@@ -180,8 +180,8 @@ def decode_uart(capture: LogicCapture, bit: int, bps: int) -> list[UartByte]:
     """Every byte on one channel at ``bps`` (8N1, idle high), in order."""
     spb = capture.samplerate_hz / bps
     if spb < MIN_SAMPLES_PER_BIT:
-        raise UserError(f"{capture.path}: sample rate {capture.samplerate_hz} Hz is too low for "
-                        f"{bps} bit/s (at least {MIN_SAMPLES_PER_BIT:g} samples a bit)")
+        raise BadValue(f"{capture.path}: sample rate {capture.samplerate_hz} Hz is too low for "
+                       f"{bps} bit/s (at least {MIN_SAMPLES_PER_BIT:g} samples a bit)")
     lv = capture.levels(bit)
     n = len(lv)
     falls = np.flatnonzero((lv[1:] == 0) & (lv[:-1] == 1)) + 1

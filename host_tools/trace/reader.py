@@ -30,7 +30,7 @@ from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 
 from hexhil.hil.scenario import check_span
 from hexhil.trace.target import partial_of
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue, UserError
 
 MAGIC = b"\x89MCAP0\r\n"
 
@@ -48,22 +48,22 @@ def check_file(path: Path) -> None:
     if not path.exists():
         partial = partial_of(path)
         if partial.exists():
-            raise UserError(f"{path}: no such trace file, but {partial.name} beside it is "
-                            f"the unfinished trace of a run that was killed: 'hexhil trace "
-                            f"recover {path} OUT.mcap' salvages it")
-        raise UserError(f"{path}: no such trace file")
+            raise BadFile(f"{path}: no such trace file, but {partial.name} beside it is "
+                          f"the unfinished trace of a run that was killed: 'hexhil trace "
+                          f"recover {path} OUT.mcap' salvages it")
+        raise BadFile(f"{path}: no such trace file")
     if path.is_dir():
-        raise UserError(f"{path}: is a directory, not a trace file")
+        raise BadFile(f"{path}: is a directory, not a trace file")
     if not path.is_file():   # a FIFO would block for ever, a device never ends
-        raise UserError(f"{path}: not a regular file (a trace is an .mcap file)")
+        raise BadFile(f"{path}: not a regular file (a trace is an .mcap file)")
     try:
         with open(path, "rb") as f:
             head = f.read(len(MAGIC))
     except OSError as exc:
-        raise UserError(f"{path}: cannot read ({exc.strerror})") from None
+        raise BadFile(f"{path}: cannot read ({exc.strerror})") from None
     if head != MAGIC:
         what = "empty file" if not head else "no MCAP magic at the start"
-        raise UserError(f"{path}: not an MCAP file ({what})")
+        raise BadValue(f"{path}: not an MCAP file ({what})")
 
 
 def why(exc: BaseException) -> str:
@@ -86,12 +86,12 @@ class Trace:
             self.header = self.reader.get_header()
         except Exception as exc:  # truncated: no footer/summary; corrupt: bad records
             self._f.close()
-            raise UserError(f"{self.path}: truncated or corrupt MCAP ({why(exc)}); "
-                            f"try 'hexhil trace recover {self.path} OUT.mcap'") from None
+            raise BadValue(f"{self.path}: truncated or corrupt MCAP ({why(exc)}); "
+                           f"try 'hexhil trace recover {self.path} OUT.mcap'") from None
         if self.summary is None or self.summary.statistics is None:
             self._f.close()
-            raise UserError(f"{self.path}: MCAP has no summary (unfinished write); "
-                            f"try 'hexhil trace recover {self.path} OUT.mcap'")
+            raise BadValue(f"{self.path}: MCAP has no summary (unfinished write); "
+                           f"try 'hexhil trace recover {self.path} OUT.mcap'")
         self.channels = self.summary.channels
         self.schemas = self.summary.schemas
         self.file_order_is_time_order = self._file_order_is_time_order()
@@ -130,8 +130,8 @@ class Trace:
         out = [t for t in known if any(fnmatch.fnmatchcase(t, p) for p in pats)]
         unmatched = [p for p in pats if not any(fnmatch.fnmatchcase(t, p) for t in known)]
         if unmatched:
-            raise UserError(f"{self.path}: no topic matches {', '.join(unmatched)} "
-                            f"(topics: {', '.join(known)})")
+            raise BadValue(f"{self.path}: no topic matches {', '.join(unmatched)} "
+                           f"(topics: {', '.join(known)})")
         return out
 
     def messages(self, topics: Iterable[str] | None = None, start_s: float | None = None,
@@ -158,8 +158,8 @@ class Trace:
             raise
         except Exception as exc:
             last_ns = message.log_time if message is not None else 0
-            raise UserError(f"{self.path}: corrupt MCAP after t={last_ns / 1e9:.6f} s "
-                            f"({why(exc)})") from None
+            raise BadValue(f"{self.path}: corrupt MCAP after t={last_ns / 1e9:.6f} s "
+                           f"({why(exc)})") from None
 
     def _chunk_messages(self, topics: list[str] | None, start_ns: int | None,
                         end_ns: int | None) -> Iterator[tuple[str, Channel, Message]]:
@@ -193,7 +193,7 @@ class Trace:
                     if isinstance(record, Chunk):
                         get_chunk_data_stream(record, validate_crc=True)
         except Exception as exc:
-            raise UserError(f"{self.path}: corrupt MCAP ({why(exc)})") from None
+            raise BadValue(f"{self.path}: corrupt MCAP ({why(exc)})") from None
 
     def metadata(self) -> dict[str, str]:
         out: dict[str, str] = {}
@@ -201,7 +201,7 @@ class Trace:
             for m in self.reader.iter_metadata():
                 out.update(m.metadata)
         except Exception as exc:
-            raise UserError(f"{self.path}: corrupt metadata ({why(exc)})") from None
+            raise BadValue(f"{self.path}: corrupt metadata ({why(exc)})") from None
         return out
 
     # -- decoding -------------------------------------------------------------------------
@@ -220,9 +220,9 @@ class Trace:
             try:
                 value = dec(m.data)
             except Exception as exc:
-                raise UserError(f"{self.path}: message on {m.topic} at "
-                                f"t={m.log_time_ns / 1e9:.6f} s does not decode "
-                                f"({why(exc)})") from None
+                raise BadValue(f"{self.path}: message on {m.topic} at "
+                               f"t={m.log_time_ns / 1e9:.6f} s does not decode "
+                               f"({why(exc)})") from None
             yield m, value
 
 
@@ -234,10 +234,10 @@ def message_decoder(encoding: str, schema: Schema | None, where: Path | str
         try:
             decode = ProtobufDecoderFactory().decoder_for("protobuf", schema)
         except Exception as exc:
-            raise UserError(f"{where}: schema {schema.name!r} is not valid protobuf "
-                            f"({why(exc)})") from None
+            raise BadValue(f"{where}: schema {schema.name!r} is not valid protobuf "
+                           f"({why(exc)})") from None
         if decode is None:
-            raise UserError(f"{where}: cannot decode schema {schema.name!r}")
+            raise BadValue(f"{where}: cannot decode schema {schema.name!r}")
         return lambda data: proto_to_dict(decode(data))
     if encoding == "json":
         return json.loads

@@ -22,7 +22,7 @@ from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoderFactory
 
 from hexhil.trace.reader import MAGIC, check_file, why
 from hexhil.trace.target import TraceTarget, partial_of
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, UserError
 
 _OP_CHUNK = 0x06  # the chunk record's opcode (mcap.opcode.Opcode.CHUNK)
 _KNOWN_OPCODES = range(0x01, 0x10)  # Header .. DataEnd
@@ -144,7 +144,7 @@ def recover(src: str | Path, dst: str | Path, overwrite: bool = False) -> dict[s
     try:
         data = src.read_bytes()
     except OSError as exc:
-        raise UserError(f"{src}: cannot read ({exc.strerror})") from None
+        raise BadFile(f"{src}: cannot read ({exc.strerror})") from None
     target = TraceTarget(dst, overwrite)
     schemas, channels = _summary_channels(data)
     schema_ids: dict[int, int] = {}

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from hexhil.trace.reader import why
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue, UserError
 
 
 class TopicAs(str, Enum):
@@ -48,8 +48,8 @@ def _field(msg: Any, path: str, topic: str) -> Any:
         if not hasattr(value, part):
             fields = sorted(getattr(type(value), "__dataclass_fields__", {}) or
                             [k for k in dir(value) if not k.startswith("_")])
-            raise UserError(f"{topic}: its messages have no field {path!r} "
-                            f"(fields: {', '.join(fields)})")
+            raise BadValue(f"{topic}: its messages have no field {path!r} "
+                           f"(fields: {', '.join(fields)})")
         value = getattr(value, part)
     return value
 
@@ -57,25 +57,25 @@ def _field(msg: Any, path: str, topic: str) -> Any:
 def _topic_specs(maps: dict[str, Any], where: str) -> dict[str, dict[str, Any]]:
     topics = maps.get("topics")
     if not isinstance(topics, dict) or not topics:
-        raise UserError(f"{where}: a rosbag2 import needs map_path, a TOML file whose "
-                        "[topics.\"/name\"] tables say what each topic is (as = "
-                        f"{', '.join(t.value for t in TopicAs)})", params=("map_path",))
+        raise BadValue(f"{where}: a rosbag2 import needs map_path, a TOML file whose "
+                       "[topics.\"/name\"] tables say what each topic is (as = "
+                       f"{', '.join(t.value for t in TopicAs)})", params=("map_path",))
     specs = {}
     for name, spec in topics.items():
         if not isinstance(spec, dict) or "as" not in spec:
-            raise UserError(f"{where}: topic {name} needs as = "
-                            f"{' | '.join(repr(t.value) for t in TopicAs)}")
+            raise BadValue(f"{where}: topic {name} needs as = "
+                           f"{' | '.join(repr(t.value) for t in TopicAs)}")
         try:
             kind = TopicAs(spec["as"])
         except ValueError:
-            raise UserError(f"{where}: topic {name}: unknown as = {spec['as']!r} (one of "
-                            f"{', '.join(t.value for t in TopicAs)})") from None
+            raise BadValue(f"{where}: topic {name}: unknown as = {spec['as']!r} (one of "
+                           f"{', '.join(t.value for t in TopicAs)})") from None
         bad = sorted(set(spec) - set(KEYS[kind]))
         if bad:
-            raise UserError(f"{where}: topic {name}: unknown key(s) {', '.join(bad)} for "
-                            f"as = {kind.value!r} (known: {', '.join(KEYS[kind])})")
+            raise BadValue(f"{where}: topic {name}: unknown key(s) {', '.join(bad)} for "
+                           f"as = {kind.value!r} (known: {', '.join(KEYS[kind])})")
         if spec.get("direction", "rx") not in ("rx", "tx"):
-            raise UserError(f"{where}: topic {name}: direction must be 'rx' or 'tx'")
+            raise BadValue(f"{where}: topic {name}: direction must be 'rx' or 'tx'")
         specs[name] = {**DEFAULTS, **spec, "as": kind}
     return specs
 
@@ -88,7 +88,7 @@ def _bag_reader(src: Path) -> Any:
         reader = Reader(folder)
         reader.open()
     except Exception as exc:   # rosbags raises its own kinds for a bad bag
-        raise UserError(f"{folder}: not a readable rosbag2 ({why(exc)})") from None
+        raise BadValue(f"{folder}: not a readable rosbag2 ({why(exc)})") from None
     return reader
 
 
@@ -123,13 +123,13 @@ def import_bag(src: Path, maps: dict[str, Any], where: str, rec: Any) -> dict[st
         have = {c.topic: c for c in reader.connections}
         missing = [t for t in specs if t not in have]
         if missing:
-            raise UserError(f"{src}: unknown topic {missing[0]}: the bag has "
-                            f"{', '.join(sorted(have)) or 'no topics'}")
+            raise BadValue(f"{src}: unknown topic {missing[0]}: the bag has "
+                           f"{', '.join(sorted(have)) or 'no topics'}")
         store = _typestore(reader)
         for topic in specs:
             if have[topic].msgtype not in store.fielddefs:
-                raise UserError(f"{src}: topic {topic}'s type {have[topic].msgtype} is "
-                                "neither a standard ROS 2 type nor defined in the bag")
+                raise BadValue(f"{src}: topic {topic}'s type {have[topic].msgtype} is "
+                               "neither a standard ROS 2 type nor defined in the bag")
         conns = [c for c in reader.connections if c.topic in specs]
         counts = _write(reader, conns, specs, store, rec, src)
     finally:
@@ -149,8 +149,8 @@ def _write(reader: Any, conns: list, specs: dict[str, dict[str, Any]], store: An
         vel = list(_field(msg, spec["velocities"], topic)) or None
         eff = list(_field(msg, spec["efforts"], topic)) or None
         if len(pos) != len(names):
-            raise UserError(f"{topic}: a message has {len(names)} names and {len(pos)} "
-                            f"positions at t={t_us / 1e6:.6f} s")
+            raise BadValue(f"{topic}: a message has {len(names)} names and {len(pos)} "
+                           f"positions at t={t_us / 1e6:.6f} s")
         rec.joints(t_us, names, pos, vel, eff)
 
     def switch(t_us: int, msg: Any, topic: str, spec: dict[str, Any]) -> None:
@@ -159,8 +159,8 @@ def _write(reader: Any, conns: list, specs: dict[str, dict[str, Any]], store: An
             bits = sum(1 << i for i, v in enumerate(value) if v) if hasattr(value, "__len__") \
                 else int(value)
         except (TypeError, ValueError):
-            raise UserError(f"{topic}: field {spec['field']!r} is neither an integer nor a "
-                            "list of levels") from None
+            raise BadValue(f"{topic}: field {spec['field']!r} is neither an integer nor a "
+                           "list of levels") from None
         bits &= (1 << LEGS) - 1
         changed = bits ^ switches[topic]
         for leg in range(LEGS):
@@ -189,14 +189,14 @@ def _write(reader: Any, conns: list, specs: dict[str, dict[str, Any]], store: An
             try:
                 msg = store.deserialize_cdr(raw, conn.msgtype)
             except Exception as exc:
-                raise UserError(f"{src}: a {topic} message at t={(t_ns - t0) / 1e9:.6f} s does "
-                                f"not decode as {conn.msgtype} ({why(exc)})") from None
+                raise BadValue(f"{src}: a {topic} message at t={(t_ns - t0) / 1e9:.6f} s does "
+                               f"not decode as {conn.msgtype} ({why(exc)})") from None
             handlers[spec["as"]]((t_ns - t0) // 1000, msg, topic, spec)
             counts[topic] += 1
     except UserError:
         raise
     except Exception as exc:   # a storage file cut short
-        raise UserError(f"{src}: truncated or damaged bag ({why(exc)})") from None
+        raise BadValue(f"{src}: truncated or damaged bag ({why(exc)})") from None
     if not any(counts.values()):
-        raise UserError(f"{src}: the mapped topics hold no messages")
+        raise BadValue(f"{src}: the mapped topics hold no messages")
     return counts

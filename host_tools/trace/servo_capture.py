@@ -21,7 +21,7 @@ from hexhil.dynamixel.decode import guess_protocol, packet_spans
 from hexhil.dynamixel.decode import v1 as decode_v1
 from hexhil.trace.logic_capture import (BITS_PER_BYTE, LogicCapture, UartByte,
                                             decode_uart, find_baud)
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue, UserError
 
 DIRECTION_NAMES = ("dir", "direction", "de", "txen", "tx_en", "rts")
 DATA_NAMES = ("data", "dxl", "line", "bus")
@@ -71,7 +71,7 @@ def _direction_bit(capture: LogicCapture, data_bit: int, given: str | None) -> i
             return None
         bit = capture.channel(given)
         if bit == data_bit:
-            raise UserError(f"{capture.path}: the direction channel is the data channel")
+            raise BadValue(f"{capture.path}: the direction channel is the data channel")
         return bit
     bit = _named(capture, DIRECTION_NAMES)
     if bit is None and len(capture.channels) >= 3 and data_bit != 2:
@@ -130,15 +130,15 @@ def decode_line(capture: LogicCapture, line: LineMap = LineMap()) -> ServoLine:
         _named(capture, DATA_NAMES) or 0)
     bps = line.baud if line.baud is not None else find_baud(capture, data_bit)
     if bps <= 0:
-        raise UserError(f"{capture.path}: baud must be positive, got {bps}")
+        raise BadValue(f"{capture.path}: baud must be positive, got {bps}")
     data = decode_uart(capture, data_bit, bps)
     if not data:
-        raise UserError(f"{capture.path}: no bytes on channel {capture.channels[data_bit]} "
-                        f"at {bps} bit/s")
+        raise BadValue(f"{capture.path}: no bytes on channel {capture.channels[data_bit]} "
+                       f"at {bps} bit/s")
     values = bytes(b.value for b in data)
     protocol = line.protocol if line.protocol is not None else guess_protocol(values)
     if protocol not in (1, 2):
-        raise UserError(f"{capture.path}: protocol must be 1 or 2, got {protocol}")
+        raise BadValue(f"{capture.path}: protocol must be 1 or 2, got {protocol}")
     dir_bit = _direction_bit(capture, data_bit, line.direction)
     if dir_bit is not None:
         lv = capture.levels(dir_bit)
@@ -149,8 +149,8 @@ def decode_line(capture: LogicCapture, line: LineMap = LineMap()) -> ServoLine:
         senders = _senders_by_packets(values, protocol)
     bursts = _bursts(data, senders, bps)
     if not any(b.direction == "tx" for b in bursts):
-        raise UserError(f"{capture.path}: no master packet in {len(values)} bytes at {bps} "
-                        "bit/s: not a Dynamixel line at this baud")
+        raise BadValue(f"{capture.path}: no master packet in {len(values)} bytes at {bps} "
+                       "bit/s: not a Dynamixel line at this baud")
     return ServoLine(bps, protocol, tuple(bursts),
                      tuple(int(round(b.start_ns / 1000)) for b in data if not b.framing_ok),
                      capture.channels[data_bit],

@@ -20,7 +20,7 @@ from hexhil.trace.encoder_process import ChildWriteFailed, Command, EncoderProce
 from hexhil.trace.target import TraceTarget
 from hexhil.trace.topics import METADATA_NAME
 from hexhil.trace.writer import ChunkPacking, TraceWriter, software_version
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile
 
 Encoded = list[tuple[int, int, bytes]]   # (log_time_ns, channel id, data)
 
@@ -165,7 +165,7 @@ class HeldWindows:
         except ChildWriteFailed as exc:   # the child's _write_failed, said here
             self.messages = exc.messages
             self._stop_writing()
-            raise UserError(str(exc)) from None
+            raise BadFile(str(exc)) from None
         except RuntimeError:   # the child died: what it wrote stays in the partial file
             self._stop_writing()
             raise
@@ -255,9 +255,9 @@ class HeldWindows:
         """A full disk or a file-size limit: stop recording, keep what is on disk, one line."""
         where = self._stop_writing()
         # a count of whole chunks: one whose index the disk refused is on disk too
-        raise UserError(f"{self.path}: cannot write trace ({exc.strerror or exc}); what was "
-                        f"written before (at least {self.messages} messages) stays in {where}"
-                        ) from None
+        raise BadFile(f"{self.path}: cannot write trace ({exc.strerror or exc}); what was "
+                      f"written before (at least {self.messages} messages) stays in {where}"
+                      ) from None
 
     def _stop_writing(self) -> str:
         """Close the file as it is; where what was written stays (one line's words)."""

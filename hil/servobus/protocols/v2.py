@@ -32,7 +32,7 @@ from hexhil.hil.servobus.packet_check import OnViolation, PacketCheck
 from hexhil.hil.servobus.wire import Burst, resample
 from hexhil.hil.servobus.xseries_servo import XSeriesServo
 from hexhil.protocol.dynamixel import v2 as dx2
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 if TYPE_CHECKING:
     from hexhil.hil.servobus.line import Bus
@@ -165,7 +165,7 @@ def make_servo(layout: ModuleType, dev_id: int, actuator: Actuator | None,
     """An X-series servo of the model whose table is ``layout``, set up as ``bus`` says
     (Return Delay, Baud Rate; the horn where the actuator is)."""
     if dev_id > dx2.MAX_ID:                 # IDs given apart from the scenario (hexhil bus --ids)
-        raise UserError(f"servo ID {dev_id}: an {layout.MODEL_NAME} takes IDs 0-{dx2.MAX_ID}")
+        raise BadValue(f"servo ID {dev_id}: an {layout.MODEL_NAME} takes IDs 0-{dx2.MAX_ID}")
     x = XSeriesServo(dev_id, actuator=actuator, eeprom_busy_us=bus.eeprom_busy_us, position=(
         layout.rad_to_position(actuator.state()[0]) if actuator is not None
         else layout.POSITION_CENTRE), layout=layout)

@@ -25,7 +25,7 @@ from hexhil.trace.servo_capture import LineBurst, ServoLine
 from hexhil.protocol.dynamixel import models
 from hexhil.protocol.dynamixel import v1 as dxl
 from hexhil.protocol.dynamixel import v2 as dx2
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 EVENTS_SHOWN = 20
 # instructions no servo answers; of the rest, a PING or READ (the same codes in both
@@ -82,7 +82,7 @@ def _trace_line(path: Path) -> ServoLine:
 
     with Trace(path) as tr:
         if T_SERIAL not in tr.topics():
-            raise UserError(f"{path}: no {T_SERIAL} topic: no servo-line traffic to check")
+            raise BadValue(f"{path}: no {T_SERIAL} topic: no servo-line traffic to check")
         meta = tr.metadata()
         bursts = []
         for m in tr.messages([T_SERIAL]):
@@ -96,7 +96,7 @@ def _trace_line(path: Path) -> ServoLine:
     model = bus.get("model", models.DEFAULT)
     baud = int(meta.get("baud", bus.get("baud", 1_000_000)))
     if not bursts:
-        raise UserError(f"{path}: {T_SERIAL} holds no bytes")
+        raise BadValue(f"{path}: {T_SERIAL} holds no bytes")
     return ServoLine(baud, models.protocol(model), tuple(bursts), (), "trace", "trace")
 
 
@@ -129,7 +129,7 @@ def _servo_ids(line: ServoLine, given: list[int] | None) -> list[int]:
     ids = answered or addressed
     ids.discard(codec.BROADCAST_ID)
     if not ids:
-        raise UserError("the capture holds no packet to a servo: nothing to check")
+        raise BadValue("the capture holds no packet to a servo: nothing to check")
     return sorted(ids)
 
 
@@ -141,11 +141,11 @@ def check_capture(path: str | Path, model: str | None = None, ids: list[int] | N
     if model is None:
         model = models.default_model(line.protocol)
     elif model not in models.MODELS:
-        raise UserError(f"unknown servo model {model!r} (one of {', '.join(models.MODELS)})",
-                        params=("model",))
+        raise BadValue(f"unknown servo model {model!r} (one of {', '.join(models.MODELS)})",
+                       params=("model",))
     elif models.protocol(model) != line.protocol:
-        raise UserError(f"{path}: the capture is Protocol {line.protocol}.0, model {model} "
-                        f"speaks {models.protocol(model)}.0", params=("model",))
+        raise BadValue(f"{path}: the capture is Protocol {line.protocol}.0, model {model} "
+                       f"speaks {models.protocol(model)}.0", params=("model",))
     servo_ids = _servo_ids(line, ids)
     built = rig.build({"_path": str(path), "bus": {"model": model, "baud": line.baud}},
                       ids=servo_ids)

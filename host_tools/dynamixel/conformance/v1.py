@@ -25,7 +25,7 @@ from hexhil.hil.servobus import switch_node as sensor_node
 from hexhil.dynamixel.conformance.report import Cause, Check, summarise
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile
 
 EEPROM_PAUSE_S = 0.01
 TRIES = 3  # sends of a repeatable instruction before its reply counts as missing
@@ -56,7 +56,7 @@ class Link:
         try:
             self.ser = serial.serial_for_url(port, baudrate=baud, timeout=timeout_s)
         except (serial.SerialException, ValueError) as exc:
-            raise UserError(f"cannot open {port}: {exc}") from None
+            raise BadFile(f"cannot open {port}: {exc}") from None
         self.baud = baud
         self.timeout_s = timeout_s
         self.echo = False

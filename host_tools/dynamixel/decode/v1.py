@@ -18,7 +18,7 @@ from hexhil.dynamixel.decode.words import phrase
 from hexhil.trace import protobuf as pb
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue, UserError
 
 
 def _malformed(data: bytes, j: int, next_packet: int | None) -> str | None:
@@ -70,13 +70,13 @@ def split_stream(data: bytes, lenient: bool = False) -> list[tuple[str, int, Any
                        for j in range(pos, start)]
             why = next((r for r in reasons if r), None)
             if why and not lenient:
-                raise UserError(why)
+                raise BadValue(why)
             out.append(("garbage", pos, data[pos:start], why))
         if k < len(found):
             out.append(("packet", start, found[k][1], None))
             pos = start + len(found[k][1].raw)
     if not any(part[0] == "packet" for part in out):
-        raise UserError(f"no Dynamixel packet in {len(data)} bytes (no FF FF header)")
+        raise BadValue(f"no Dynamixel packet in {len(data)} bytes (no FF FF header)")
     return out
 
 
@@ -110,8 +110,8 @@ def describe(pkt: dxl.Packet, kind: str, reply_to: dxl.Packet | None = None) -> 
             entries = [{"id": body[i], "data": body[i + 1:i + 1 + n]}
                        for i in range(0, len(body), n + 1)]
         else:
-            raise UserError(f"bad SYNC_WRITE (id {pkt.id}): {len(body)} parameter bytes are no "
-                            f"whole number of {n}-byte entries plus ids")
+            raise BadValue(f"bad SYNC_WRITE (id {pkt.id}): {len(body)} parameter bytes are no "
+                           f"whole number of {n}-byte entries plus ids")
         d.update(address=address, register=_field(address), length=n, entries=entries)
     return d
 

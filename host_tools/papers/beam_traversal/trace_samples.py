@@ -11,7 +11,7 @@ from hexhil.trace.protobuf import CanFrame
 from hexhil.trace.reader import Trace
 from hexhil.trace.topics import T_CAN_RAW
 from hexhil.protocol import can_frames
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 
 def load_samples(path: str, start_s: float | None, end_s: float | None
@@ -34,7 +34,7 @@ def load_samples(path: str, start_s: float | None, end_s: float | None
 
     with Trace(path) as tr:
         if T_CAN_RAW not in tr.topics():
-            raise UserError(f"{path}: no {T_CAN_RAW} topic, so no force frames to estimate from")
+            raise BadValue(f"{path}: no {T_CAN_RAW} topic, so no force frames to estimate from")
         for m in tr.messages([T_CAN_RAW], start_s, end_s):
             if m.log_time_ns != held_ns:
                 release()  # a pose logged at the same instant as a force belongs to it
@@ -47,8 +47,8 @@ def load_samples(path: str, start_s: float | None, end_s: float | None
                 if name == "beam_estimate" and sig["mode"] >= len(can_frames.MODE_NAMES):
                     raise ValueError(f"beam_estimate.mode {sig['mode']} is not a mode")
             except ValueError as exc:
-                raise UserError(f"{path}: bad CAN frame at t={m.log_time_ns / 1e9:.6f} s "
-                                f"({exc})") from None
+                raise BadValue(f"{path}: bad CAN frame at t={m.log_time_ns / 1e9:.6f} s "
+                               f"({exc})") from None
             if name == "body_pose":
                 pose = (sig["x_m"], sig["roll_rad"], sig["pitch_rad"])
             elif name == "force":
@@ -59,6 +59,6 @@ def load_samples(path: str, start_s: float | None, end_s: float | None
                           "mode": can_frames.MODE_NAMES[sig["mode"]]}
         release()
     if not forces:
-        raise UserError(f"{path}: no force frames with a body pose before them "
-                        "(the estimator needs both 'force' and 'body_pose' frames)")
+        raise BadValue(f"{path}: no force frames with a body pose before them "
+                       "(the estimator needs both 'force' and 'body_pose' frames)")
     return np.array(t), np.array(poses), np.array(forces), logged

@@ -15,7 +15,7 @@ import numpy as np
 
 from hexhil.papers.tactile_hexapod.grnn.features import (DEFINITIONS, FEATURE_VERSION, KNOWN_FRACTION, LEGS,
                                       M_MAX, SENSING, StepRow)
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue
 
 # per-run columns of the run table (strings and numbers), in the npz and the sidecar
 RUN_TEXT = ("gait", "density", "height_class", "source")
@@ -81,7 +81,7 @@ def read(path: str | Path) -> Dataset:
     if p.is_dir():
         p = p / "dataset.npz"
     if not p.is_file():
-        raise UserError(f"{p}: no such dataset file")
+        raise BadFile(f"{p}: no such dataset file")
     try:
         with np.load(p, allow_pickle=False) as z:
             a = {k: z[k] for k in z.files}
@@ -90,10 +90,10 @@ def read(path: str | Path) -> Dataset:
         runs = [{k: (str(a[f"run_{k}"][i]) if k in RUN_TEXT else float(a[f"run_{k}"][i]))
                  for k in RUN_TEXT + RUN_NUMBERS} for i in range(len(offsets) - 1)]
     except (OSError, ValueError, KeyError, zipfile.BadZipFile, json.JSONDecodeError) as exc:
-        raise UserError(f"{p}: not a GRNN dataset ({type(exc).__name__})") from None
+        raise BadValue(f"{p}: not a GRNN dataset ({type(exc).__name__})") from None
     if meta.get("feature_version") != FEATURE_VERSION or tuple(meta.get("sensing", ())) != SENSING:
-        raise UserError(f"{p}: dataset features {meta.get('feature_version')!r} do not match "
-                        f"this code's {FEATURE_VERSION!r}; rebuild it with 'hexhil grnn dataset'")
+        raise BadValue(f"{p}: dataset features {meta.get('feature_version')!r} do not match "
+                       f"this code's {FEATURE_VERSION!r}; rebuild it with 'hexhil grnn dataset'")
     seqs = [Walk(*(a[k][lo:hi] for k in ("step", "t_us", "planned_x_m", "body_x_m",
                                                 "sensing", "error_m")))
             for lo, hi in zip(offsets[:-1], offsets[1:])]

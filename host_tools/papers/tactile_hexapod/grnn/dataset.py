@@ -27,7 +27,7 @@ from hexhil.lockstep_run import scenario_of_trace
 from hexhil.trace.reader import Trace
 from hexhil.trace.topics import T_BODY, T_CAN_RAW, T_JOINTS
 from hexhil.protocol import can_frames, hexapod
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue
 
 COMBINATIONS = [(g, dens, h) for g in ("tripod", "wave") for dens in ("low", "high")
                 for h in ("small", "large")]   # the with-method cases of Fig. 17-20
@@ -40,13 +40,13 @@ def rows_from_trace(path: str | Path) -> tuple[list[StepRow], dict[str, Any]]:
         gait, kind, world = sc.gait, sc.world.kind, sc.world
         name, period_s, distance_m = gait.name, gait.period_s, gait.distance_m or 0.0
         if kind is not WorldKind.HEXAPOD or not distance_m > 0:
-            raise UserError(f"{tr.path}: not a hexapod walk to a goal (world.kind "
-                            f"{kind.value if kind else None!r}, gait.distance_m {distance_m})")
+            raise BadValue(f"{tr.path}: not a hexapod walk to a goal (world.kind "
+                           f"{kind.value if kind else None!r}, gait.distance_m {distance_m})")
         sampler = StepSampler(name, period_s, gait.step_length_m or hexapod.STEP_LENGTH_M)
         topics = [t for t in (T_CAN_RAW, T_BODY, T_JOINTS) if t in tr.topics()]
         if len(topics) < 3:
-            raise UserError(f"{tr.path}: needs {T_CAN_RAW}, {T_BODY} and {T_JOINTS} "
-                            f"(has {', '.join(tr.topics())})")
+            raise BadValue(f"{tr.path}: needs {T_CAN_RAW}, {T_BODY} and {T_JOINTS} "
+                           f"(has {', '.join(tr.topics())})")
         rows: list[StepRow] = []
         body: tuple[int, float, float, float] | None = None
         joints: tuple[int, list[float]] | None = None
@@ -70,7 +70,7 @@ def rows_from_trace(path: str | Path) -> tuple[list[StepRow], dict[str, Any]]:
                     rows.append(row)
         end_s = tr.summary.statistics.message_end_time / 1e9
     if first is None or last is None:
-        raise UserError(f"{path}: no ground-truth samples on {T_BODY}")
+        raise BadValue(f"{path}: no ground-truth samples on {T_BODY}")
     x_end = last[1] - first[1]
     generated = world.terrain == "obstacles" and world.obstacles is None
     facts = {"terrain_seed": seed if world.terrain_seed is None else world.terrain_seed,
@@ -160,7 +160,7 @@ def build(out_dir: Path, opts: DatasetOptions, progress: Progress | None = None
           ) -> DatasetResult:
     """Make the dataset in ``out_dir``; a sweep's runs are reported to ``progress``."""
     if out_dir.exists() and not out_dir.is_dir():
-        raise UserError(f"out_dir {out_dir} exists and is not a folder", params=("out_dir",))
+        raise BadFile(f"out_dir {out_dir} exists and is not a folder", params=("out_dir",))
     t0 = time.perf_counter()
     if opts.traces:
         runs, rows = [], []
@@ -175,14 +175,14 @@ def build(out_dir: Path, opts: DatasetOptions, progress: Progress | None = None
                                          "probe-calibrated speed the trace does not hold"}
     else:
         if opts.terrains < 1:
-            raise UserError(f"terrains must be at least 1, got {opts.terrains}",
-                            params=("terrains",))
+            raise BadValue(f"terrains must be at least 1, got {opts.terrains}",
+                           params=("terrains",))
         check_seed(opts.seed, "seed", params=("seed",))
         check_seed(opts.seed + opts.terrains - 1, "seed + terrains - 1 (the last terrain seed)",
                    params=("seed", "terrains"))
         if not opts.distance_m > 0:
-            raise UserError(f"distance_m must be positive, got {opts.distance_m}",
-                            params=("distance_m",))
+            raise BadValue(f"distance_m must be positive, got {opts.distance_m}",
+                           params=("distance_m",))
         runs, rows, extra = simulate_runs(out_dir, opts, progress)
     meta = {**data_mod.feature_meta(), "code_version": code_version(), "terrain_seeds": [int(r["terrain_seed"]) for r in runs],
             "scenarios": sorted({f"{r['gait']}-{r['density']}-{r['height_class']}" for r in runs}),

@@ -21,7 +21,7 @@ import numpy as np
 from hexhil.papers.tactile_hexapod.grnn import data as data_mod
 from hexhil.papers.tactile_hexapod.grnn.features import M_MAX, known_steps
 from hexhil.papers.tactile_hexapod.grnn.model import Predictor, load
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue
 
 
 def predict_dx_m(pred: Predictor, walk: data_mod.Walk, run: dict[str, Any]) -> float:
@@ -51,8 +51,8 @@ def evaluate(model_path: str, data_path: str) -> dict[str, Any]:
     ds = data_mod.read(data_path)
     seen = set(pred.meta["terrain_seeds"]) & {int(r["terrain_seed"]) for r in ds.runs}
     if seen:
-        raise UserError(f"{data_path}: terrain seeds {sorted(seen)} were in the model's "
-                        f"training data; evaluate on held-out terrains")
+        raise BadValue(f"{data_path}: terrain seeds {sorted(seen)} were in the model's "
+                       f"training data; evaluate on held-out terrains")
     cases = []
     for w, r in zip(ds.sequences, ds.runs):
         cases.append({"terrain_seed": int(r["terrain_seed"]), "gait": r["gait"],
@@ -120,7 +120,7 @@ def write_report(model_path: str, data_path: str, out: Path) -> dict[str, Any]:
     (``table``, ``plots``)."""
     res = evaluate(model_path, data_path)
     if out.exists() and not out.is_dir():
-        raise UserError(f"out {out} exists and is not a folder", params=("out",))
+        raise BadFile(f"out {out} exists and is not a folder", params=("out",))
     out.mkdir(parents=True, exist_ok=True)
     (out / "eval.md").write_text(markdown(res))
     res["plots"] = [str(p) for p in plots(res, load(model_path).meta["loss"], out)]

@@ -22,7 +22,7 @@ require("torch")   # before torch itself: a missing extra is one line, not a tra
 import torch  # noqa: E402
 
 from hexhil.papers.tactile_hexapod.grnn.features import FEATURE_VERSION, LEGS, SENSING
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue
 
 HIDDEN = 64        # Sec. 2.6: hidden state size 64
 EMBED = 64         # Sec. 2.6: ReLU embedding into 64 dimensions
@@ -117,7 +117,7 @@ def save(path: str | Path, model: GRNN, norm: Norm, meta: dict[str, Any]) -> Non
                     "sensing": list(SENSING), "state_dict": model.state_dict(),
                     "norm": asdict(norm), "meta": meta}, str(path))
     except (OSError, RuntimeError) as exc:   # torch reports a missing folder as RuntimeError
-        raise UserError(f"{path}: cannot write the model ({type(exc).__name__})") from None
+        raise BadFile(f"{path}: cannot write the model ({type(exc).__name__})") from None
 
 
 def load(path: str | Path) -> Predictor:
@@ -125,22 +125,22 @@ def load(path: str | Path) -> Predictor:
     a model whose features differ from this code's."""
     p = Path(path)
     if not p.is_file():
-        raise UserError(f"{p}: no such model file")
+        raise BadFile(f"{p}: no such model file")
     try:
         blob = torch.load(str(p), map_location="cpu", weights_only=True)
     except Exception as exc:   # torch raises many kinds for a file that is not its own
-        raise UserError(f"{p}: not a GRNN model file ({type(exc).__name__})") from None
+        raise BadValue(f"{p}: not a GRNN model file ({type(exc).__name__})") from None
     if not isinstance(blob, dict) or blob.get("format") != FORMAT:
-        raise UserError(f"{p}: not a GRNN model file")
+        raise BadValue(f"{p}: not a GRNN model file")
     if blob.get("feature_version") != FEATURE_VERSION or tuple(blob.get("sensing", ())) != SENSING:
-        raise UserError(f"{p}: model features {blob.get('feature_version')!r} "
-                        f"({len(blob.get('sensing', ()))} sensing columns) do not match this "
-                        f"code's {FEATURE_VERSION!r} ({len(SENSING)}); retrain it")
+        raise BadValue(f"{p}: model features {blob.get('feature_version')!r} "
+                       f"({len(blob.get('sensing', ()))} sensing columns) do not match this "
+                       f"code's {FEATURE_VERSION!r} ({len(SENSING)}); retrain it")
     model = GRNN()
     try:
         model.load_state_dict(blob["state_dict"])
         norm = Norm(**blob["norm"])
     except (RuntimeError, TypeError, KeyError) as exc:
-        raise UserError(f"{p}: damaged GRNN model file ({type(exc).__name__})") from None
+        raise BadValue(f"{p}: damaged GRNN model file ({type(exc).__name__})") from None
     return Predictor(model, norm, blob["meta"])
 

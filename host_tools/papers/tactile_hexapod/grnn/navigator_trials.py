@@ -20,7 +20,7 @@ from typing import Any
 from hexhil.hil.scenario.world_section import OBSTACLE_BODY
 from hexhil.papers.tactile_hexapod.grnn import data as data_mod
 from hexhil.progress import Progress
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadValue
 
 ARMS = (("planned", "tactile only"), ("model", "tactile + Eq. 8-14 navigator"),
         ("grnn", "tactile + GRNN navigator"))
@@ -32,8 +32,8 @@ def specs(ds: data_mod.Dataset, model_path: str) -> list[tuple[Any, float]]:
 
     speed = ds.meta.get("probe_speed_m_s")
     if not speed:
-        raise UserError("the dataset holds no calibrated speeds (built from traces?): "
-                        "closed-loop runs need one made by 'hexhil grnn dataset' itself")
+        raise BadValue("the dataset holds no calibrated speeds (built from traces?): "
+                       "closed-loop runs need one made by 'hexhil grnn dataset' itself")
     world = ds.meta.get("world", {})
     out = []
     for r in ds.runs:
@@ -58,8 +58,8 @@ def closed_loop(model_path: str, data_path: str, workers: int,
     trained = set(int(s) for s in pred.meta.get("terrain_seeds", []))
     seen = sorted(trained & {int(r["terrain_seed"]) for r in ds.runs})
     if seen:
-        raise UserError(f"{data_path}: terrain seeds {seen} were in the model's training set; "
-                        f"closed-loop runs need terrains it never saw")
+        raise BadValue(f"{data_path}: terrain seeds {seen} were in the model's training set; "
+                       f"closed-loop runs need terrains it never saw")
     runs = Executor(workers, progress=progress).map(run_with_speed, specs(ds, model_path),
                                                     "closed-loop runs")
     cases: dict[tuple[int, str], dict[str, Any]] = {}

@@ -24,7 +24,7 @@ from hexhil.papers.tactile_hexapod.grnn import data as data_mod
 from hexhil.papers.tactile_hexapod.grnn.features import LEGS, M_MAX, known_steps
 from hexhil.papers.tactile_hexapod.grnn.model import GRNN, Norm, save
 from hexhil.progress import Progress, report
-from hexhil.protocol.errors import UserError
+from hexhil.protocol.errors import BadFile, BadValue
 
 LEARNING_RATE = 0.001   # Sec. 2.6
 BATCH = 4               # sequences per Adam step (the paper is silent; 24 walks -> 6 a epoch)
@@ -75,9 +75,9 @@ def fit(ds: data_mod.Dataset, epochs: int = 50, seed: int = 0, batch: int = BATC
     """Train; returns the model, its normalisation, the loss per epoch and s per epoch.
     Each epoch done is reported to ``progress`` with its loss."""
     if epochs < 1:
-        raise UserError(f"epochs must be at least 1, got {epochs}", params=("epochs",))
+        raise BadValue(f"epochs must be at least 1, got {epochs}", params=("epochs",))
     if not ds.sequences or not any(len(w.step) for w in ds.sequences):
-        raise UserError("the dataset has no steps to train on")
+        raise BadValue("the dataset has no steps to train on")
     torch.manual_seed(seed)
     torch.set_num_threads(1)
     torch.use_deterministic_algorithms(True)
@@ -133,7 +133,7 @@ def main(data: str, out: str, epochs: int = 50, seed: int = 0,
     """Train on ``data`` (dataset.npz or its folder) and write the model file ``out``."""
     check_seed(seed, "seed", params=("seed",))
     if not Path(out).parent.is_dir():
-        raise UserError(f"out {out}: no folder {Path(out).parent}", params=("out",))
+        raise BadFile(f"out {out}: no folder {Path(out).parent}", params=("out",))
     ds = data_mod.read(data)
     model, norm, losses, s_per_epoch = fit(ds, epochs, seed, progress=progress)
     meta = {"dataset": {k: v for k, v in ds.meta.items() if k != "runs"},
