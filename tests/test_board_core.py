@@ -96,7 +96,7 @@ def test_a_library_whose_layout_differs_from_shared_is_refused_in_one_line(tmp_p
     changed = tmp_path / "board_core.c"
     changed.write_text(source.replace(marker, "    int64_t extra;\n" + marker, 1))
     lib_path = tmp_path / "_board_core.so"
-    subprocess.run([sys.executable, "-m", "ziglang", "cc", "-O0", "-shared", "-fPIC", "-o",
+    subprocess.run([sys.executable, "-m", "ziglang", "cc", "-O1", "-shared", "-fPIC", "-o",
                     str(lib_path), str(changed)], check=True)
     import ctypes
     why = layout_mismatch(ctypes.PyDLL(str(lib_path)), board_core.Shared)
