@@ -14,7 +14,7 @@ from hexhil.hil.scenario import FaultEntry, FaultKind
 from hexhil.hil.servobus.faults import Faults
 from hexhil.cli.bus import parse_flag
 from hexhil.hil.servobus.ax12_servo import Servo
-from hexhil.hil.servobus.health import OVERLOAD_TIME_US
+from hexhil.hil.servobus.servo_layout import OVERLOAD_TIME_US
 from hexhil.hil import scenario
 from hexhil.protocol.errors import UserError
 from hexhil.protocol.dynamixel import ax12

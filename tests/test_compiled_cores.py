@@ -1,7 +1,9 @@
 """The package builds its compiled cores (setup.py's ``build_ext``, what ``pip install .``
 and ``pip install -e .`` run) where their loaders look, with the flags that keep the
 results' bits; ``hexhil --version`` says which are built; a missing core is one warning; a
-core built from other structs or constants than its Python side's is refused."""
+core built from other structs or constants than its Python side's is refused; the cores
+without a Python path (the drives, the servos' health) refuse in one line where they are
+missing."""
 from __future__ import annotations
 
 import ctypes
@@ -97,3 +99,12 @@ def test_drives_without_their_core_are_refused_in_one_line(monkeypatch) -> None:
     monkeypatch.setattr(drive_core, "_HX_DUTY", None)   # as where the library is missing
     with pytest.raises(BadFile, match=r"_drive_core.so is not built .*builds it$"):
         DriveBank(np.zeros(2))
+
+
+def test_servos_without_their_core_are_refused_in_one_line(monkeypatch) -> None:
+    from hexhil.hil.servobus import health
+    from hexhil.hil.servobus.ax12_servo import Servo
+
+    monkeypatch.setattr(health, "_RULE", None)   # as where the library is missing
+    with pytest.raises(BadFile, match=r"_servo_core.so is not built .*health.*builds it$"):
+        Servo(1)

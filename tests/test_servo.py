@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from hexhil.hil.servobus.ax12_servo import Servo
 from hexhil.protocol.dynamixel.ax12 import EEPROM_BUSY_US
 from hexhil.hil.servobus.drive import NO_LOAD_RAD_S, KinematicActuator, drive, wheel_mode
-from hexhil.hil.servobus.health import OVERLOAD_TIME_US
+from hexhil.hil.servobus.servo_layout import OVERLOAD_TIME_US
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
 

@@ -7,7 +7,7 @@ import pytest
 from hexhil.hil.link.board_line import MISTAKES
 from hexhil.hil.servobus.protocols.v2 import Bus2
 from hexhil.hil.clock import VirtualClock
-from hexhil.hil.servobus.health import OVERLOAD_TIME_US
+from hexhil.hil.servobus.servo_layout import OVERLOAD_TIME_US
 from hexhil.hil.servobus.profile import Trapezoid
 from hexhil.hil.servobus.xseries_servo import XSeriesServo
 from hexhil.protocol.dynamixel import v2 as dx2

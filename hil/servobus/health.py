@@ -2,27 +2,39 @@
 Input Voltage, Overheating and Overload error bits (``ServoHealth.errors``).
 
 The manuals give the limits (Min/Max Voltage Limit, Temperature Limit, Torque Limit) but
-no thermal data and no overload timing; the models below are our choices, listed in
-docs/servo-bus.md. The servo (hil/servobus/ax12_servo.py) acts on the bits: Alarm LED and shutdown.
+no thermal data and no overload timing; the models are our choices, listed in
+docs/servo-bus.md, their parameters in servo_layout.py. The rule is compiled once
+(hil/servobus/servo_core.c ``hx_health_advance``, ``hx_health_errors``): the servos the
+compiled SYNC_WRITE serves and those served here step it by the same code. The servo
+(hil/servobus/ax12_servo.py) acts on the bits: Alarm LED and shutdown.
 """
 from __future__ import annotations
 
 import ctypes
-import math
+from typing import Any
 
-from hexhil.hil.servobus.servo_layout import HEALTH
+from hexhil.hil.native import CORES, REBUILD, load_library
+from hexhil.hil.servobus.servo_layout import AMBIENT_C, HEALTH, LAYOUT
 from hexhil.protocol.dynamixel import ax12
-from hexhil.protocol.dynamixel import v1 as dxl
+from hexhil.protocol.errors import BadFile
 
-# Thermal model (our choice; the manuals give no thermal data): first order,
-# dT/dt = (ambient + HEAT_AT_FULL_LOAD_C * load^2 - T) / THERMAL_TAU_S.
-AMBIENT_C = 32.0               # the manuals' power-on Present Temperature
-HEAT_AT_FULL_LOAD_C = 60.0     # steady rise above ambient at 100 % load
-THERMAL_TAU_S = 60.0
-OVERHEAT_TAU_S = 1.0           # time constant towards an injected hot-spot temperature
-# Overload (our choice): load saturated at the torque limit for this long sets the bit.
-OVERLOAD_TIME_US = 1_000_000
 SUPPLY_V = 12.0                # nominal AX-12A supply
+LIBRARY = CORES["servo bank and reads"]
+
+
+def _load() -> Any:
+    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT, fallback=False)
+    if lib is None:
+        return None
+    advance, errors = lib.hx_health_advance, lib.hx_health_errors
+    advance.argtypes = [ctypes.c_void_p, ctypes.c_int64, ctypes.c_double, ctypes.c_int]
+    advance.restype = None
+    errors.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
+    errors.restype = ctypes.c_int
+    return advance, errors
+
+
+_RULE = _load()
 
 
 def _unit_byte(n: int) -> int:
@@ -41,7 +53,11 @@ class ServoHealth(ctypes.Structure):
     _fields_ = HEALTH   # servo_layout.py: the C code's ``struct health`` too
 
     def __init__(self) -> None:
+        if _RULE is None:
+            raise BadFile(f"compiled core {LIBRARY.name} is not built (the servos' health "
+                          f"has no other implementation): {REBUILD}")
         super().__init__()
+        self._at = ctypes.addressof(self)
         self.set_supply_v(SUPPLY_V)
         self._set_temperature_c(AMBIENT_C)
 
@@ -73,28 +89,8 @@ class ServoHealth(ctypes.Structure):
 
     def advance(self, dt_us: int, load_frac: float, torque_limit: int) -> None:
         """``dt_us`` at ``load_frac`` against ``torque_limit`` (raw units; 0 with torque off)."""
-        if torque_limit and abs(load_frac) * 1023.0 >= torque_limit * self.supply_frac - 0.5:
-            self.saturated_us += dt_us
-            if self.saturated_us >= OVERLOAD_TIME_US:
-                self.overload = True
-        else:
-            self.saturated_us = 0
-        if self._hot:
-            target, tau = self._hot_spot_c, OVERHEAT_TAU_S
-        else:
-            target, tau = AMBIENT_C + HEAT_AT_FULL_LOAD_C * load_frac * load_frac, THERMAL_TAU_S
-        if target != self.temperature_c:
-            k = math.exp(-dt_us * 1e-6 / tau)
-            self._set_temperature_c(target + (self.temperature_c - target) * k)
+        _RULE[0](self._at, dt_us, load_frac, torque_limit)
 
     def errors(self, table: bytearray) -> int:
-        """Error bits for the table's limits: Input Voltage, Overheating, Overload."""
-        e = 0
-        v = self.voltage_units
-        if v < table[ax12.MIN_VOLTAGE_LIMIT] or v > table[ax12.MAX_VOLTAGE_LIMIT]:
-            e |= dxl.ERR_INPUT_VOLTAGE
-        if self.temperature_units > table[ax12.TEMPERATURE_LIMIT]:
-            e |= dxl.ERR_OVERHEATING
-        if self.overload:
-            e |= dxl.ERR_OVERLOAD
-        return e
+        """Error bits for an AX-12 table's limits: Input Voltage, Overheating, Overload."""
+        return _RULE[1](self._at, (ctypes.c_uint8 * ax12.TABLE_SIZE).from_buffer(table))

@@ -35,7 +35,8 @@ class _Reads(ctypes.Structure):
 
 
 def _load() -> Any:
-    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT)
+    # a missing library is health.py's one line (no servo is made without it)
+    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT, fallback=False)
     fn = getattr(lib, "hx_reads", None) if lib is not None else None
     if fn is not None:
         fn.argtypes, fn.restype = [_P], ctypes.c_int

@@ -72,13 +72,12 @@ static void command(const struct bank *b, const unsigned char *t, double supply_
     }
 }
 
-/* health.py ServoHealth.advance */
-static void health_advance(const struct bank *b, struct health *h, int64_t dt_us, double load,
-                           int torque_limit)
+/* The health rule (health.py ServoHealth: its advance and errors call these) */
+void hx_health_advance(struct health *h, int64_t dt_us, double load, int torque_limit)
 {
     if (torque_limit && fabs(load) * 1023.0 >= (double)torque_limit * h->supply_frac - 0.5) {
         h->saturated_us += dt_us;
-        if (h->saturated_us >= b->overload_us)
+        if (h->saturated_us >= HEALTH_OVERLOAD_US)
             h->overload = 1;
     } else {
         h->saturated_us = 0;
@@ -86,10 +85,10 @@ static void health_advance(const struct bank *b, struct health *h, int64_t dt_us
     double target, tau;
     if (h->hot) {
         target = h->hot_spot_c;
-        tau = b->overheat_tau_s;
+        tau = HEALTH_OVERHEAT_TAU_S;
     } else {
-        target = b->ambient_c + b->heat_c * load * load;
-        tau = b->thermal_tau_s;
+        target = HEALTH_AMBIENT_C + HEALTH_HEAT_C * load * load;
+        tau = HEALTH_THERMAL_TAU_S;
     }
     if (target != h->temperature_c) {
         double k = exp((double)(-dt_us) * 1e-6 / tau);
@@ -100,7 +99,7 @@ static void health_advance(const struct bank *b, struct health *h, int64_t dt_us
     }
 }
 
-static int health_errors(const struct health *h, const unsigned char *t)
+int hx_health_errors(const struct health *h, const unsigned char *t)
 {
     int e = 0;
     int v = h->voltage_units;
@@ -141,9 +140,9 @@ static void advance(const struct bank *b, int i, int64_t t_us)
     unsigned char *t = b->table[i];
     struct health *h = b->health[i];
     int tl = t[AX12_TORQUE_ENABLE] ? u16(t, AX12_TORQUE_LIMIT) : 0;
-    health_advance(b, h, dt, load_frac(b, b->joint[i]), tl);
+    hx_health_advance(h, dt, load_frac(b, b->joint[i]), tl);
     s->present_stale = 1;
-    alarm(b, i, health_errors(h, t));
+    alarm(b, i, hx_health_errors(h, t));
 }
 
 /* Servo.check_write's Range bit (the only one a SYNC_WRITE acts on) */
@@ -298,10 +297,10 @@ int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned ch
         memcpy(data, t + a, (size_t)n);
         len = n;
     }
-    alarm(b, i, error | health_errors(b->health[i], t));
+    alarm(b, i, error | hx_health_errors(b->health[i], t));
     if (t[AX12_STATUS_RETURN_LEVEL] < 1)   /* Servo._answer: a READ is answered from level 1 */
         return 0;
-    int code = error | health_errors(b->health[i], t);
+    int code = error | hx_health_errors(b->health[i], t);
     int sum = t[AX12_ID] + len + 2 + code;
     out[0] = out[1] = 0xFF;
     out[2] = t[AX12_ID];
@@ -337,6 +336,6 @@ void hx_state_rows(const struct bank *b, unsigned char *out)
         memcpy(out + 33, &h->supply_v, 8);
         out[41] = t[AX12_TORQUE_ENABLE] != 0;
         out[42] = fabs(vel) >= b->moving_eps;
-        out[43] = (unsigned char)health_errors(h, t);
+        out[43] = (unsigned char)hx_health_errors(h, t);
     }
 }

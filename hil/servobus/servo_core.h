@@ -17,6 +17,10 @@ static inline int hx_serves(const struct bank *b, int i, int64_t t_us)
     return b->joint[i] >= 0 && s->busy_until_us <= t_us && s->deaf_until_us <= t_us;
 }
 
+/* servo_core.c: the health rule, health.py ServoHealth's advance and errors */
+void hx_health_advance(struct health *h, int64_t dt_us, double load, int torque_limit);
+int hx_health_errors(const struct health *h, const unsigned char *t);
+
 /* servo_core.c: a READ (parameters a, n) to servo i at t_us, answered into out */
 int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned char *out);
 

@@ -14,7 +14,7 @@ C code does not serve (an actuator other than a MuJoCo joint, deaf, finishing an
 write, a Present Position fault) is handed to its own ``handle``, in the line's order.
 
 The package builds ``_servo_core.so`` beside this file (setup.py, the pinned ziglang's cc);
-without it the bus serves every servo in Python.
+without it no servo is made (the health rule, health.py, is compiled only).
 """
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ import numpy as np
 
 from hexhil.hil.native import CORES, load_library
 from hexhil.hil.seams import HeldSample
-from hexhil.hil.servobus import drive, health
+from hexhil.hil.servobus import drive
 from hexhil.hil.servobus.servo_layout import LAYOUT, STATE_ROW
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
@@ -40,7 +40,8 @@ class _Bank(ctypes.Structure):
 
 def _load() -> Any:
     """The library's functions, (hx_sync_write, hx_read, hx_state_rows), or None."""
-    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT)   # the state is Python's too
+    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT,   # the state is Python's too
+                       fallback=False)         # without it, health.py refuses in one line
     if lib is None:
         return None
     sync, read, rows = lib.hx_sync_write, lib.hx_read, lib.hx_state_rows
@@ -125,9 +126,7 @@ class ServoBank:
                 "compliance", "enabled")),
             len(arrays["goal"]), arrays["motor_no_load"], drive.NO_LOAD_RAD_S,
             ax12.SPEED_RPM_PER_UNIT, ax12.LOAD_FRACTION_PER_UNIT, arrays["position_unit"],
-            arrays["punch_unit"], drive.MOVING_EPS_RAD_S, health.AMBIENT_C,
-            health.HEAT_AT_FULL_LOAD_C, health.THERMAL_TAU_S, health.OVERHEAT_TAU_S,
-            health.OVERLOAD_TIME_US)
+            arrays["punch_unit"], drive.MOVING_EPS_RAD_S)
         self.ref = ctypes.addressof(self._bank)   # the bank's address (reads_core.py too)
         self._sync, self._read, self._rows = _LIB
         self._rows_out = ctypes.create_string_buffer(n * STATE_ROW.size)

@@ -21,6 +21,15 @@ STATE_ROW = struct.Struct("<Bddddd??B")
 # hx_reads's answers: done, or why it hands back to the general path (reads_core.py)
 HANDOVER = ("DONE", "ADVANCE", "PYTHON", "PYTHON_REPLY", "FALLBACK", "WRITE_LEFT")
 
+# The health model's parameters (our choices; the manuals give no thermal data or overload
+# timing, docs/servo-bus.md), which health.py's rule (servo_core.c hx_health_*) reads:
+# first order, dT/dt = (ambient + HEAT_AT_FULL_LOAD_C * load^2 - T) / THERMAL_TAU_S.
+AMBIENT_C = 32.0               # the manuals' power-on Present Temperature
+HEAT_AT_FULL_LOAD_C = 60.0     # steady rise above ambient at 100 % load
+THERMAL_TAU_S = 60.0
+OVERHEAT_TAU_S = 1.0           # time constant towards an injected hot-spot temperature
+OVERLOAD_TIME_US = 1_000_000   # load saturated at the torque limit this long sets the bit
+
 HEALTH = [("supply_v", _D), ("supply_frac", _D), ("temperature_c", _D), ("_hot_spot_c", _D),
           ("saturated_us", _I64), ("voltage_units", _I32), ("temperature_units", _I32),
           ("overload", ctypes.c_bool),   # latched until Torque Limit is written again
@@ -44,9 +53,7 @@ BANK = [("n", ctypes.c_int), ("servo", _P, "struct servo **"),
         ("enabled", _P, "unsigned char *"),
         ("joints", ctypes.c_int),   # the drive bank's size: margin and slope rows
         *((n, _D) for n in ("motor_no_load", "ax12_no_load", "speed_unit", "load_unit",
-                            "position_unit", "punch_unit", "moving_eps", "ambient_c",
-                            "heat_c", "thermal_tau_s", "overheat_tau_s")),
-        ("overload_us", _I64)]
+                            "position_unit", "punch_unit", "moving_eps"))]
 _U8 = ctypes.c_uint8
 READS = [("bank", _P, "const struct bank *"), ("payload", ctypes.c_char_p,
                                                 "const unsigned char *"),
@@ -88,4 +95,7 @@ LAYOUT = Layout("HX_SERVO_LAYOUT_H", [
     ("LINK_NO_SKIP", sim_link.NO_SKIP), ("LINK_MAX_REPLY_LEN", sim_link.MAX_REPLY_LEN),
     ("LINK_ATTEMPT_HEAD_LEN", sim_link.ATTEMPT_HEAD_LEN), ("US_BITS", US_BITS),
     ("STATE_ROW", STATE_ROW.size),
+    ("HEALTH_AMBIENT_C", AMBIENT_C), ("HEALTH_HEAT_C", HEAT_AT_FULL_LOAD_C),
+    ("HEALTH_THERMAL_TAU_S", THERMAL_TAU_S), ("HEALTH_OVERHEAT_TAU_S", OVERHEAT_TAU_S),
+    ("HEALTH_OVERLOAD_US", OVERLOAD_TIME_US),
     *((f"HX_{n}", i) for i, n in enumerate(HANDOVER))])
