@@ -102,9 +102,9 @@ def test_drives_without_their_core_are_refused_in_one_line(monkeypatch) -> None:
 
 
 def test_servos_without_their_core_are_refused_in_one_line(monkeypatch) -> None:
-    from hexhil.hil.servobus import health
+    from hexhil.hil.servobus import servo_rules
     from hexhil.hil.servobus.ax12_servo import Servo
 
-    monkeypatch.setattr(health, "_RULE", None)   # as where the library is missing
-    with pytest.raises(BadFile, match=r"_servo_core.so is not built .*health.*builds it$"):
+    monkeypatch.setattr(servo_rules, "_LIB", None)   # as where the library is missing
+    with pytest.raises(BadFile, match=r"_servo_core.so is not built .*rules.*builds it$"):
         Servo(1)

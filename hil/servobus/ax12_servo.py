@@ -18,33 +18,14 @@ from __future__ import annotations
 
 import ctypes
 
-from hexhil.hil.servobus.drive import Actuator, KinematicActuator, drive, is_moving, wheel_mode
+from hexhil.hil.servobus.drive import Actuator, KinematicActuator, drive, is_moving
 from hexhil.hil.servobus.table_servo import TableServo
+from hexhil.hil.servobus import servo_rules
 from hexhil.hil.servobus.health import ServoHealth
 from hexhil.hil.servobus.servo_layout import SERVO
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
 
-_OWNER = [ax12.owner(a) for a in range(ax12.TABLE_SIZE)]
-
-
-def _fields(address: int, end: int) -> tuple[tuple[int, int, int, int], ...] | None:
-    """The fields a write over address..end touches, as (start, size, min, max); None
-    when it touches a read-only or reserved cell."""
-    out = []
-    a = address
-    while a < end:
-        f = _OWNER[a]
-        if f is None or f[3] == ax12.R:
-            return None
-        out.append((f[0], f[2], f[6], f[7]))
-        a = f[0] + f[2]
-    return tuple(out)
-
-
-# check_write's fields for every (address, end) inside the table, looked up once
-_FIELDS = {(a, e): _fields(a, e) for a in range(ax12.TABLE_SIZE)
-           for e in range(a + 1, ax12.TABLE_SIZE + 1)}
 _sync_parsed: list = [b"", None]   # the last SYNC_WRITE's parameters and sync_entries()
 
 
@@ -288,38 +269,8 @@ class Servo(TableServo, ctypes.Structure):
         range, EEPROM while locked (original manual: everything but 24-35 while locked).
         Angle limit: a goal outside CW..CCW is stored, the horn stops at the limit.
         """
-        end = address + len(data)
-        t = self.table
-        if end > ax12.TABLE_SIZE:
-            return dxl.ERR_RANGE
-        if t[ax12.LOCK]:
-            if self.edition == ax12.EDITION_ORIGINAL:
-                if address < ax12.TORQUE_ENABLE or end > ax12.PRESENT_POSITION:
-                    return dxl.ERR_RANGE
-            elif address < ax12.EEPROM_END or (address <= ax12.LOCK < end
-                                              and data[ax12.LOCK - address] == 0):
-                return dxl.ERR_RANGE  # unlocked only by a power cycle
-        fields = _FIELDS.get((address, end), ())
-        if fields is None:
-            return dxl.ERR_RANGE
-        error = 0
-        wheel = wheel_mode(t)
-        for start, size, v_min, v_max in fields:
-            lo = data[start - address] if start >= address else t[start]
-            if size == 2:
-                hi_i = start + 1
-                hi = data[hi_i - address] if hi_i < end else t[hi_i]
-                v = lo | (hi << 8)
-            else:
-                v = lo
-            if v < v_min or v > (2047 if start == ax12.MOVING_SPEED and wheel else v_max):
-                return dxl.ERR_RANGE
-            if start == ax12.GOAL_POSITION and not wheel:
-                cw = t[6] | (t[7] << 8)
-                ccw = t[8] | (t[9] << 8)
-                if v < cw or v > ccw:
-                    error |= dxl.ERR_ANGLE_LIMIT
-        return error
+        return servo_rules.check_write(self.edition == ax12.EDITION_ORIGINAL, self.table,
+                                       address, data)
 
     def _apply_write(self, address: int, data: bytes) -> None:
         t = self.table

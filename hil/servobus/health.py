@@ -4,37 +4,19 @@ Input Voltage, Overheating and Overload error bits (``ServoHealth.errors``).
 The manuals give the limits (Min/Max Voltage Limit, Temperature Limit, Torque Limit) but
 no thermal data and no overload timing; the models are our choices, listed in
 docs/servo-bus.md, their parameters in servo_layout.py. The rule is compiled once
-(hil/servobus/servo_core.c ``hx_health_advance``, ``hx_health_errors``): the servos the
-compiled SYNC_WRITE serves and those served here step it by the same code. The servo
-(hil/servobus/ax12_servo.py) acts on the bits: Alarm LED and shutdown.
+(servo_rules.py): the servos the compiled SYNC_WRITE serves and those served here step it
+by the same code. The servo (hil/servobus/ax12_servo.py) acts on the bits: Alarm LED and
+shutdown.
 """
 from __future__ import annotations
 
 import ctypes
-from typing import Any
 
-from hexhil.hil.native import CORES, REBUILD, load_library
-from hexhil.hil.servobus.servo_layout import AMBIENT_C, HEALTH, LAYOUT
+from hexhil.hil.servobus import servo_rules
+from hexhil.hil.servobus.servo_layout import AMBIENT_C, HEALTH
 from hexhil.protocol.dynamixel import ax12
-from hexhil.protocol.errors import BadFile
 
 SUPPLY_V = 12.0                # nominal AX-12A supply
-LIBRARY = CORES["servo bank and reads"]
-
-
-def _load() -> Any:
-    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT, fallback=False)
-    if lib is None:
-        return None
-    advance, errors = lib.hx_health_advance, lib.hx_health_errors
-    advance.argtypes = [ctypes.c_void_p, ctypes.c_int64, ctypes.c_double, ctypes.c_int]
-    advance.restype = None
-    errors.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
-    errors.restype = ctypes.c_int
-    return advance, errors
-
-
-_RULE = _load()
 
 
 def _unit_byte(n: int) -> int:
@@ -53,9 +35,7 @@ class ServoHealth(ctypes.Structure):
     _fields_ = HEALTH   # servo_layout.py: the C code's ``struct health`` too
 
     def __init__(self) -> None:
-        if _RULE is None:
-            raise BadFile(f"compiled core {LIBRARY.name} is not built (the servos' health "
-                          f"has no other implementation): {REBUILD}")
+        servo_rules.require()
         super().__init__()
         self._at = ctypes.addressof(self)
         self.set_supply_v(SUPPLY_V)
@@ -89,8 +69,8 @@ class ServoHealth(ctypes.Structure):
 
     def advance(self, dt_us: int, load_frac: float, torque_limit: int) -> None:
         """``dt_us`` at ``load_frac`` against ``torque_limit`` (raw units; 0 with torque off)."""
-        _RULE[0](self._at, dt_us, load_frac, torque_limit)
+        servo_rules.health_advance(self._at, dt_us, load_frac, torque_limit)
 
     def errors(self, table: bytearray) -> int:
         """Error bits for an AX-12 table's limits: Input Voltage, Overheating, Overload."""
-        return _RULE[1](self._at, (ctypes.c_uint8 * ax12.TABLE_SIZE).from_buffer(table))
+        return servo_rules.health_errors(self._at, table)

@@ -145,27 +145,29 @@ static void advance(const struct bank *b, int i, int64_t t_us)
     alarm(b, i, hx_health_errors(h, t));
 }
 
-/* Servo.check_write's Range bit (the only one a SYNC_WRITE acts on) */
-static int refused(const struct bank *b, int i, int a, const unsigned char *d, int n)
+/* A WRITE's check (ax12_servo.py Servo.check_write calls it; a SYNC_WRITE acts on its Range
+ * bit alone): the error bits a write of d[0..n) at a earns on table t. cells: each
+ * address's field; original: the 2006 manual's Lock rule. */
+int hx_check_write(const struct cell *cells, int original, const unsigned char *t, int a,
+                   const unsigned char *d, int n)
 {
-    const unsigned char *t = b->table[i];
     int end = a + n;
     if (end > AX12_TABLE_SIZE)
-        return 1;
+        return DXL_ERR_RANGE;
     if (t[AX12_LOCK]) {
-        if (b->original[i]) {
+        if (original) {
             if (a < AX12_TORQUE_ENABLE || end > AX12_PRESENT_POSITION)
-                return 1;
+                return DXL_ERR_RANGE;
         } else if (a < AX12_EEPROM_END
                    || (a <= AX12_LOCK && AX12_LOCK < end && d[AX12_LOCK - a] == 0)) {
-            return 1;
+            return DXL_ERR_RANGE;     /* unlocked only by a power cycle */
         }
     }
-    int w = wheel(t);
+    int w = wheel(t), error = 0;
     for (int c = a; c < end;) {
-        const struct cell *f = &b->cells[c];
+        const struct cell *f = &cells[c];
         if (f->start < 0 || !f->writable)
-            return 1;
+            return DXL_ERR_RANGE;
         int start = f->start;
         int lo = start >= a ? d[start - a] : t[start];
         int v = lo;
@@ -174,10 +176,14 @@ static int refused(const struct bank *b, int i, int a, const unsigned char *d, i
             v = lo | ((hi_i < end ? d[hi_i - a] : t[hi_i]) << 8);
         }
         if (v < f->lo || v > ((start == AX12_MOVING_SPEED && w) ? 2047 : f->hi))
-            return 1;
+            return DXL_ERR_RANGE;
+        /* a goal outside CW..CCW is stored, the horn stops at the limit */
+        if (start == AX12_GOAL_POSITION && !w
+                && (v < u16(t, AX12_CW_ANGLE_LIMIT) || v > u16(t, AX12_CCW_ANGLE_LIMIT)))
+            error |= DXL_ERR_ANGLE_LIMIT;
         c = start + f->size;
     }
-    return 0;
+    return error;
 }
 
 /* Servo._apply_write; returns whether the ID or Baud Rate changed */
@@ -232,7 +238,8 @@ int hx_sync_write(const struct bank *b, int from, int64_t t_us, const unsigned c
         if (a < 0)
             continue;
         int at = first[b->table[i][AX12_ID]];
-        if (at < 0 || refused(b, i, a, p + at, stride - 1))
+        if (at < 0 || (hx_check_write(b->cells, b->original[i], b->table[i], a, p + at,
+                                      stride - 1) & DXL_ERR_RANGE))
             continue;
         if (apply(b, i, a, p + at, stride - 1))
             *changed = 1;

@@ -21,6 +21,10 @@ static inline int hx_serves(const struct bank *b, int i, int64_t t_us)
 void hx_health_advance(struct health *h, int64_t dt_us, double load, int torque_limit);
 int hx_health_errors(const struct health *h, const unsigned char *t);
 
+/* servo_core.c: a WRITE's check, ax12_servo.py Servo.check_write */
+int hx_check_write(const struct cell *cells, int original, const unsigned char *t, int a,
+                   const unsigned char *d, int n);
+
 /* servo_core.c: a READ (parameters a, n) to servo i at t_us, answered into out */
 int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned char *out);
 

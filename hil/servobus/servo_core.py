@@ -25,7 +25,7 @@ import numpy as np
 
 from hexhil.hil.native import CORES, load_library
 from hexhil.hil.seams import HeldSample
-from hexhil.hil.servobus import drive
+from hexhil.hil.servobus import drive, servo_rules
 from hexhil.hil.servobus.servo_layout import LAYOUT, STATE_ROW
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
@@ -60,17 +60,6 @@ def available() -> bool:
     return _LIB is not None
 
 
-def _cells() -> np.ndarray:
-    """(start, size, min, max, writable) of each control-table address; start -1: reserved."""
-    out = np.full((ax12.TABLE_SIZE, 5), -1, dtype=np.int32)
-    for a in range(ax12.TABLE_SIZE):
-        f = ax12.owner(a)
-        if f is not None:
-            out[a] = (f[0], f[2], f[6], f[7], f[3] != ax12.R)
-    return out
-
-
-_CELLS = _cells()
 _POSITION_RAD = np.array(drive.POSITION_RAD, dtype=np.float64)
 _SPEED_RAD_S = np.array(drive.SPEED_RAD_S, dtype=np.float64)
 
@@ -119,8 +108,9 @@ class ServoBank:
         self._keep += [servo_p, health_p, table_p, joint, original, offset]
         self._bank = _Bank(
             n, ctypes.addressof(servo_p), ctypes.addressof(health_p), ctypes.addressof(table_p),
-            _address(joint), _address(original), _address(_CELLS), _address(_POSITION_RAD),
-            _address(_SPEED_RAD_S), *(_address(arrays[k]) for k in ("q", "qd", "duty")),
+            _address(joint), _address(original), _address(servo_rules.CELLS),
+            _address(_POSITION_RAD), _address(_SPEED_RAD_S),
+            *(_address(arrays[k]) for k in ("q", "qd", "duty")),
             _address(offset), *(_address(arrays[k]) for k in (
                 "goal", "setpoint", "speed", "torque_limit", "margin", "slope", "punch",
                 "compliance", "enabled")),
