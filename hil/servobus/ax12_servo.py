@@ -73,6 +73,7 @@ class Servo(TableServo, ctypes.Structure):
         self.edition = edition
         self.table = ax12.defaults(edition, position)
         self.table[ax12.ID] = dev_id
+        self._table_view, self._table_at = servo_rules.address(self.table)   # for servo_rules
         self.actuator: Actuator = actuator if actuator is not None else \
             KinematicActuator(ax12.position_to_rad(position), t_us)
         self.t_us = t_us
@@ -104,13 +105,9 @@ class Servo(TableServo, ctypes.Structure):
         self.t_us = t_us
         act = self.actuator
         act.advance_to(t_us)
-        table = self.table
-        health = self.health
-        torque_limit = table[ax12.TORQUE_LIMIT] | (table[ax12.TORQUE_LIMIT + 1] << 8) \
-            if table[ax12.TORQUE_ENABLE] else 0
-        health.advance(dt_us, act.state()[2], torque_limit)
+        # the health's step against the Torque Limit, then state_errors(): one compiled call
+        errors = servo_rules.health_step(self.health.at, dt_us, act.state()[2], self._table_at)
         self._present_stale = True
-        errors = health.errors(table)   # state_errors(), without its call: every instruction
         if errors:
             self._alarm(errors)
 
@@ -141,7 +138,7 @@ class Servo(TableServo, ctypes.Structure):
 
     def state_errors(self) -> int:
         """Error bits that describe the servo's state (voltage, heat, overload)."""
-        return self.health.errors(self.table)
+        return self.health.errors(self._table_at)
 
     def _alarm(self, errors: int) -> None:
         """Alarm LED and alarm shutdown: Torque Limit drops to 0 (e-manual, address 34)."""
@@ -269,7 +266,7 @@ class Servo(TableServo, ctypes.Structure):
         range, EEPROM while locked (original manual: everything but 24-35 while locked).
         Angle limit: a goal outside CW..CCW is stored, the horn stops at the limit.
         """
-        return servo_rules.check_write(self.edition == ax12.EDITION_ORIGINAL, self.table,
+        return servo_rules.check_write(self.edition == ax12.EDITION_ORIGINAL, self._table_at,
                                        address, data)
 
     def _apply_write(self, address: int, data: bytes) -> None:

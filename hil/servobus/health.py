@@ -37,7 +37,7 @@ class ServoHealth(ctypes.Structure):
     def __init__(self) -> None:
         servo_rules.require()
         super().__init__()
-        self._at = ctypes.addressof(self)
+        self.at = ctypes.addressof(self)   # what the compiled rules take
         self.set_supply_v(SUPPLY_V)
         self._set_temperature_c(AMBIENT_C)
 
@@ -69,8 +69,9 @@ class ServoHealth(ctypes.Structure):
 
     def advance(self, dt_us: int, load_frac: float, torque_limit: int) -> None:
         """``dt_us`` at ``load_frac`` against ``torque_limit`` (raw units; 0 with torque off)."""
-        servo_rules.health_advance(self._at, dt_us, load_frac, torque_limit)
+        servo_rules.health_advance(self.at, dt_us, load_frac, torque_limit)
 
-    def errors(self, table: bytearray) -> int:
-        """Error bits for an AX-12 table's limits: Input Voltage, Overheating, Overload."""
-        return servo_rules.health_errors(self._at, table)
+    def errors(self, table_at: int) -> int:
+        """Error bits for an AX-12 table's limits (its address, servo_rules.py ``address``):
+        Input Voltage, Overheating, Overload."""
+        return servo_rules.health_errors(self.at, table_at)

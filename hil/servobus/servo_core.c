@@ -112,6 +112,14 @@ int hx_health_errors(const struct health *h, const unsigned char *t)
     return e;
 }
 
+/* Servo.advance_to's health: dt_us at load against the table's torque limit (0 with
+ * torque off), then the error bits for its limits */
+int hx_health_step(struct health *h, int64_t dt_us, double load, const unsigned char *t)
+{
+    hx_health_advance(h, dt_us, load, t[AX12_TORQUE_ENABLE] ? u16(t, AX12_TORQUE_LIMIT) : 0);
+    return hx_health_errors(h, t);
+}
+
 /* Servo._alarm: the error bits' LED and shutdown (the torque limit to 0) */
 static void alarm(const struct bank *b, int i, int errors)
 {
@@ -137,12 +145,9 @@ static void advance(const struct bank *b, int i, int64_t t_us)
     if (dt <= 0)
         return;
     s->t_us = t_us;
-    unsigned char *t = b->table[i];
-    struct health *h = b->health[i];
-    int tl = t[AX12_TORQUE_ENABLE] ? u16(t, AX12_TORQUE_LIMIT) : 0;
-    hx_health_advance(h, dt, load_frac(b, b->joint[i]), tl);
+    int errors = hx_health_step(b->health[i], dt, load_frac(b, b->joint[i]), b->table[i]);
     s->present_stale = 1;
-    alarm(b, i, hx_health_errors(h, t));
+    alarm(b, i, errors);
 }
 
 /* A WRITE's check (ax12_servo.py Servo.check_write calls it; a SYNC_WRITE acts on its Range

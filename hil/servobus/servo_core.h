@@ -20,6 +20,7 @@ static inline int hx_serves(const struct bank *b, int i, int64_t t_us)
 /* servo_core.c: the health rule, health.py ServoHealth's advance and errors */
 void hx_health_advance(struct health *h, int64_t dt_us, double load, int torque_limit);
 int hx_health_errors(const struct health *h, const unsigned char *t);
+int hx_health_step(struct health *h, int64_t dt_us, double load, const unsigned char *t);
 
 /* servo_core.c: a WRITE's check, ax12_servo.py Servo.check_write */
 int hx_check_write(const struct cell *cells, int original, const unsigned char *t, int a,

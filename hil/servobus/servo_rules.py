@@ -39,16 +39,24 @@ def _load() -> Any:
     lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT, fallback=False)
     if lib is None:
         return None
-    lib.hx_health_advance.argtypes = [_P, ctypes.c_int64, ctypes.c_double, ctypes.c_int]
-    lib.hx_health_advance.restype = None
-    lib.hx_health_errors.argtypes = [_P, _P]
-    lib.hx_check_write.argtypes = [_P, ctypes.c_int, _P, ctypes.c_int, ctypes.c_char_p,
-                                   ctypes.c_int]
-    lib.hx_health_errors.restype = lib.hx_check_write.restype = ctypes.c_int
+    _I64, _D, _I = ctypes.c_int64, ctypes.c_double, ctypes.c_int
+    for name, args, res in (("hx_health_advance", [_P, _I64, _D, _I], None),
+                            ("hx_health_errors", [_P, _P], _I),
+                            ("hx_health_step", [_P, _I64, _D, _P], _I),
+                            ("hx_check_write", [_P, _I, _P, _I, ctypes.c_char_p, _I], _I)):
+        fn = getattr(lib, name)
+        fn.argtypes, fn.restype = args, res
     return lib
 
 
 _LIB = _load()
+# the rules, called with the addresses of a servo's health and table (``address``):
+# (health, dt_us, load_frac, torque_limit); (health, table) -> error bits;
+# (health, dt_us, load_frac, table) -> error bits: the step against the table's torque
+# limit, then its errors; (cells, original, table, address, data, len) -> error bits
+health_advance, health_errors, health_step, _check = (
+    (_LIB.hx_health_advance, _LIB.hx_health_errors, _LIB.hx_health_step, _LIB.hx_check_write)
+    if _LIB is not None else (None,) * 4)
 
 
 def require() -> None:
@@ -58,14 +66,12 @@ def require() -> None:
                       f"no other implementation): {REBUILD}")
 
 
-def health_advance(health_at: int, dt_us: int, load_frac: float, torque_limit: int) -> None:
-    _LIB.hx_health_advance(health_at, dt_us, load_frac, torque_limit)
+def address(table: bytearray) -> tuple[Any, int]:
+    """A control table's C view and its address: the table keeps its size while the view
+    lives (it is written in place, never resized)."""
+    view = _TABLE.from_buffer(table)
+    return view, ctypes.addressof(view)
 
 
-def health_errors(health_at: int, table: bytearray) -> int:
-    return _LIB.hx_health_errors(health_at, _TABLE.from_buffer(table))
-
-
-def check_write(original: bool, table: bytearray, address: int, data: bytes) -> int:
-    return _LIB.hx_check_write(_CELLS_AT, original, _TABLE.from_buffer(table), address,
-                               bytes(data), len(data))
+def check_write(original: bool, table_at: int, address: int, data: bytes) -> int:
+    return _check(_CELLS_AT, original, table_at, address, bytes(data), len(data))
