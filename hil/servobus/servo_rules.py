@@ -1,8 +1,9 @@
 """The AX-12's rules that the compiled SYNC_WRITE and the servos served in Python both
 follow, compiled once (hil/servobus/servo_core.c): the health rule (health.py
-``ServoHealth``: ``hx_health_advance``, ``hx_health_errors``) and a write's check
-(ax12_servo.py ``Servo.check_write``: ``hx_check_write``). They have no other
-implementation: without the library no servo is made, in one line.
+``ServoHealth``: ``hx_health_advance``, ``hx_health_errors``; ``hx_health_step``, both for
+an AX-12's table in one call) and a write's check (ax12_servo.py ``Servo.check_write``:
+``hx_check_write``). They have no other implementation: without the library no servo is
+made, in one line.
 """
 from __future__ import annotations
 
