@@ -2,7 +2,7 @@
 on ``pip install .`` or ``pip install -e .``) beside their Python modules. A core whose
 library is missing or unloadable is ``None``: the ELF board keeps its Python path (the same
 bits, slower; the first such load logs one warning line, so it is never silent); the drive
-bank and the servos' health rule have no other implementation, and a world or a servo
+bank and the servos' rules have no other implementation, and a world or a servo
 without them is refused in one line.
 
 A core's structs and constants are written once, in Python (a ``Layout``: the ctypes

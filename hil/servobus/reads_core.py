@@ -20,10 +20,9 @@ import ctypes
 from dataclasses import dataclass
 from typing import Any
 
-from hexhil.hil.native import load_library
-from hexhil.hil.servobus import serial_stream
+from hexhil.hil.servobus import serial_stream, servo_rules
 from hexhil.hil.servobus.line import Bus
-from hexhil.hil.servobus.servo_core import LIBRARY, ServoBank
+from hexhil.hil.servobus.servo_core import ServoBank
 from hexhil.hil.servobus.servo_layout import HANDOVER, LAYOUT
 
 _P = ctypes.c_void_p
@@ -35,8 +34,7 @@ class _Reads(ctypes.Structure):
 
 
 def _load() -> Any:
-    # a missing library is health.py's one line (no servo is made without it)
-    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT, fallback=False)
+    lib = servo_rules.library()   # missing: servo_rules refuses every servo in one line
     fn = getattr(lib, "hx_reads", None) if lib is not None else None
     if fn is not None:
         fn.argtypes, fn.restype = [_P], ctypes.c_int

@@ -14,7 +14,7 @@ C code does not serve (an actuator other than a MuJoCo joint, deaf, finishing an
 write, a Present Position fault) is handed to its own ``handle``, in the line's order.
 
 The package builds ``_servo_core.so`` beside this file (setup.py, the pinned ziglang's cc);
-without it no servo is made (the health rule, health.py, is compiled only).
+without it no servo is made (the servos' rules, servo_rules.py, are compiled only).
 """
 from __future__ import annotations
 
@@ -23,14 +23,13 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from hexhil.hil.native import CORES, load_library
 from hexhil.hil.seams import HeldSample
 from hexhil.hil.servobus import drive, servo_rules
 from hexhil.hil.servobus.servo_layout import LAYOUT, STATE_ROW
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
 
-LIBRARY = CORES["servo bank and reads"]
+LIBRARY = servo_rules.LIBRARY
 _P = ctypes.c_void_p
 
 
@@ -40,8 +39,7 @@ class _Bank(ctypes.Structure):
 
 def _load() -> Any:
     """The library's functions, (hx_sync_write, hx_read, hx_state_rows), or None."""
-    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT,   # the state is Python's too
-                       fallback=False)         # without it, health.py refuses in one line
+    lib = servo_rules.library()   # missing: servo_rules refuses every servo in one line
     if lib is None:
         return None
     sync, read, rows = lib.hx_sync_write, lib.hx_read, lib.hx_state_rows

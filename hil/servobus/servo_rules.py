@@ -60,6 +60,12 @@ health_advance, health_errors, health_step, _check = (
     if _LIB is not None else (None,) * 4)
 
 
+def library() -> Any:
+    """The loaded ``_servo_core.so`` (layout checked, the GIL held), or None: the one load
+    the servo bank (servo_core.py) and the status reads (reads_core.py) bind too."""
+    return _LIB
+
+
 def require() -> None:
     """A servo is made only where the rules are compiled."""
     if _LIB is None:
