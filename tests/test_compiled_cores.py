@@ -96,7 +96,7 @@ def test_drives_without_their_core_are_refused_in_one_line(monkeypatch) -> None:
     from hexhil.hil.world import drive_core
     from hexhil.hil.world.actuator import DriveBank
 
-    monkeypatch.setattr(drive_core, "_HX_DUTY", None)   # as where the library is missing
+    monkeypatch.setattr(drive_core, "_LIB", None)   # as where the library is missing
     with pytest.raises(BadFile, match=r"_drive_core.so is not built .*builds it$"):
         DriveBank(np.zeros(2))
 

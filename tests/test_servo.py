@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 
 from hexhil.hil.servobus.ax12_servo import Servo
 from hexhil.protocol.dynamixel.ax12 import EEPROM_BUSY_US
-from hexhil.hil.servobus.drive import NO_LOAD_RAD_S, KinematicActuator, drive, wheel_mode
+from hexhil.hil.servobus import servo_rules
+from hexhil.hil.servobus.drive import NO_LOAD_RAD_S, KinematicActuator, drive
 from hexhil.hil.servobus.servo_layout import OVERLOAD_TIME_US
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
@@ -269,7 +270,8 @@ def test_control_table_invariants_under_random_writes(writes, edition):
                 changed = [a for a in changed if a not in (34, 35)]
             assert changed == []
         for f in ax12.FIELDS:
-            hi = 2047 if f[0] == ax12.MOVING_SPEED and wheel_mode(s.table) else f[7]
+            wheel = not any(s.table[ax12.CW_ANGLE_LIMIT:ax12.CCW_ANGLE_LIMIT + 2])   # both limits 0
+            hi = 2047 if f[0] == ax12.MOVING_SPEED and wheel else f[7]
             assert f[6] <= ax12.get(s.table, f[0], f[2]) <= hi, f[1]
         if locked and edition == ax12.EDITION_EMANUAL:
             assert after[:ax12.EEPROM_END] == before[:ax12.EEPROM_END] and after[ax12.LOCK] == 1
@@ -297,16 +299,17 @@ def test_drive_commands_what_the_conversions_give_for_every_register_value():
     mode, and a wheel-mode speed, reach the actuator as the conversions give them."""
     act = _Recorder()
     t = ax12.defaults(ax12.EDITION_EMANUAL, 512)
+    _view, t_at = servo_rules.address(t)   # the view keeps the table its size
     t[6:10] = bytes((100, 0, 0xE8, 0x03))   # CW limit 100, CCW limit 1000
     for goal in range(0, 1024, 7):
         for speed in (0, 1, 300, 1023, 1024, 1500, 2047):
             t[30:34] = bytes((goal & 0xFF, goal >> 8, speed & 0xFF, speed >> 8))
-            drive(act, t, 1.0)
+            drive(act, t_at, 1.0)
             goal_rad, speed_rad_s = act.commands[-1][:2]
             assert goal_rad == ax12.position_to_rad(min(1000, max(100, goal)))
             assert speed_rad_s == min(ax12.speed_to_rad_s(speed), NO_LOAD_RAD_S)
     t[6:10] = bytes(4)                        # wheel mode: the speed's sign picks the way
     t[32:34] = bytes((0x2C, 0x05))            # 300 | DIRECTION_BIT
-    drive(act, t, 1.0)
+    drive(act, t_at, 1.0)
     assert act.commands[-1][0] == -math.inf
     assert act.commands[-1][1] == 300 * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0

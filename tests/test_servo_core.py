@@ -1,11 +1,13 @@
-"""The compiled SYNC_WRITE and READ (hil/servobus/servo_core.c) leave every servo as the
-Python servos do, and the READ's status packet is theirs: runs of the shipped firmware on
-the hexapod world (with the fault vocabulary that reaches a servo's state: overheating, a
+"""A whole line's SYNC_WRITE and READ in one compiled call (hil/servobus/servo_core.c)
+leave every servo as its own ``handle`` does, servo by servo, with the same rules
+(servo_rules.py): what the one call adds is the dispatch (the packet parsed once, each
+servo's entry, the order, the servos it hands back). Runs of the shipped firmware on the
+hexapod world (with the fault vocabulary that reaches a servo's state: overheating, a
 supply sag, a stall, an overload, a brown-out, an unplugged servo) and a scripted master's
 SYNC_WRITEs and READs (torque limits, compliance, Lock, EEPROM writes, wheel mode, refused
 values, Status Return Levels) give the same serial bytes, control tables, servo and health
-fields and drive-bank arrays, to the bit. Built by `make` (the pinned
-ziglang's cc); these tests fail if it is missing, so the build is checked."""
+fields and drive-bank arrays, to the bit. Built by `make` (the pinned ziglang's cc); these
+tests fail if it is missing, so the build is checked."""
 from __future__ import annotations
 
 import ctypes
@@ -44,9 +46,10 @@ def _state(sim: Simulator) -> bytes:
             continue
         out += ctypes.string_at(ctypes.addressof(s), ctypes.sizeof(s))
         out += ctypes.string_at(ctypes.addressof(s.health), ctypes.sizeof(s.health))
-    for a in sim.world.joint_buffers().values():
-        if isinstance(a, np.ndarray):
-            out += a.tobytes()
+    arrays = [a for a in vars(sim.world.drives).values() if isinstance(a, np.ndarray)]
+    assert len(arrays) >= 10   # goal, set-point, speed, torque, enabled, compliance, duty ...
+    for a in arrays:
+        out += a.tobytes()
     return bytes(out)
 
 

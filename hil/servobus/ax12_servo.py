@@ -18,11 +18,11 @@ from __future__ import annotations
 
 import ctypes
 
-from hexhil.hil.servobus.drive import Actuator, KinematicActuator, drive, is_moving
+from hexhil.hil.servobus.drive import Actuator, KinematicActuator, drive
 from hexhil.hil.servobus.table_servo import TableServo
 from hexhil.hil.servobus import servo_rules
 from hexhil.hil.servobus.health import ServoHealth
-from hexhil.hil.servobus.servo_layout import SERVO
+from hexhil.hil.servobus.servo_layout import APPLY_COMMAND, SERVO
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
 
@@ -74,6 +74,7 @@ class Servo(TableServo, ctypes.Structure):
         self.table = ax12.defaults(edition, position)
         self.table[ax12.ID] = dev_id
         self._table_view, self._table_at = servo_rules.address(self.table)   # for servo_rules
+        self._at = ctypes.addressof(self)
         self.actuator: Actuator = actuator if actuator is not None else \
             KinematicActuator(ax12.position_to_rad(position), t_us)
         self.t_us = t_us
@@ -105,11 +106,9 @@ class Servo(TableServo, ctypes.Structure):
         self.t_us = t_us
         act = self.actuator
         act.advance_to(t_us)
-        # the health's step against the Torque Limit, then state_errors(): one compiled call
-        errors = servo_rules.health_step(self.health.at, dt_us, act.state()[2], self._table_at)
-        self._present_stale = True
-        if errors:
-            self._alarm(errors)
+        # the health's step against the Torque Limit, its errors and their alarms
+        if servo_rules.catch_up(self._at, self.health.at, self._table_at, dt_us, act.state()[2]):
+            self._command()
 
     def _present(self) -> bytearray:
         """The control table with Present Position..Moving brought up to date: they are
@@ -121,20 +120,11 @@ class Servo(TableServo, ctypes.Structure):
 
     def _refresh_present(self) -> None:
         self._present_stale = False
-        pos, vel, load = self.actuator.state()
-        t = self.table
-        p = max(0, min(1023, self._position_read(ax12.rad_to_position(pos))))
-        t[36] = p & 0xFF
-        t[37] = p >> 8
-        s = ax12.rad_s_to_signed(vel)
-        t[38] = s & 0xFF
-        t[39] = s >> 8
-        ld = ax12.fraction_to_load(load)
-        t[40] = ld & 0xFF
-        t[41] = ld >> 8
-        t[ax12.PRESENT_VOLTAGE] = self.health.voltage_units
-        t[ax12.PRESENT_TEMPERATURE] = self.health.temperature_units
-        t[ax12.MOVING] = 1 if is_moving(vel) else 0
+        p = servo_rules.present(self._table_at, self.health.at, *self.actuator.state())
+        if self.reading is not None:   # a Present Position fault reads the true value its way
+            p = max(0, min(1023, self.reading.apply(p)))
+            self.table[ax12.PRESENT_POSITION] = p & 0xFF
+            self.table[ax12.PRESENT_POSITION + 1] = p >> 8
 
     def state_errors(self) -> int:
         """Error bits that describe the servo's state (voltage, heat, overload)."""
@@ -142,17 +132,11 @@ class Servo(TableServo, ctypes.Structure):
 
     def _alarm(self, errors: int) -> None:
         """Alarm LED and alarm shutdown: Torque Limit drops to 0 (e-manual, address 34)."""
-        t = self.table
-        if errors & t[ax12.ALARM_LED]:
-            self.alarm_led = True
-        if errors & t[ax12.SHUTDOWN] and (t[ax12.TORQUE_LIMIT] or t[ax12.TORQUE_LIMIT + 1]):
-            t[ax12.TORQUE_LIMIT] = 0
-            t[ax12.TORQUE_LIMIT + 1] = 0
+        if servo_rules.alarm(self._at, self._table_at, errors):
             self._command()
-            self._present_stale = True
 
     def _command(self) -> None:
-        drive(self.actuator, self.table, self.health.supply_frac)
+        drive(self.actuator, self._table_at, self.health.supply_frac)
 
     # --- faults (hil/servobus/faults.py) -----------------------------------------------------
     def set_supply_v(self, volts: float, t_us: int) -> None:
@@ -270,19 +254,11 @@ class Servo(TableServo, ctypes.Structure):
                                        address, data)
 
     def _apply_write(self, address: int, data: bytes) -> None:
-        t = self.table
-        end = address + len(data)
-        t[address:end] = data
-        if address < ax12.EEPROM_END:
-            self.busy_until_us = self.t_us + self.eeprom_busy_us
-        if address <= ax12.BAUD_RATE and end > ax12.ID:
-            self.address_changed = True
-        if address <= ax12.TORQUE_LIMIT + 1 and end > ax12.TORQUE_LIMIT:
-            self.health.rearm()  # writing Torque Limit again re-arms the servo
-        if end > ax12.TORQUE_ENABLE and address < ax12.PRESENT_POSITION or end > ax12.PUNCH \
-                or (address <= ax12.CCW_ANGLE_LIMIT + 1 and end > ax12.CW_ANGLE_LIMIT):
+        """A checked write (``check_write``) and its effects: EEPROM busy, the line
+        re-indexed, the overload re-armed, the drive commanded."""
+        if servo_rules.apply(self._at, self.health.at, self._table_at, address, bytes(data),
+                             len(data)) & APPLY_COMMAND:
             self._command()
-            self._present_stale = True
 
     def _factory_reset(self) -> None:
         t = self._present()

@@ -11,10 +11,8 @@ from __future__ import annotations
 import math
 
 from hexhil.hil.seams import Actuator
-from hexhil.protocol.dynamixel import ax12
-
-MOVING_EPS_RAD_S = 0.5 * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0  # half a speed unit
-NO_LOAD_RAD_S = ax12.speed_to_rad_s(0)   # Moving Speed 0: the motor's no-load speed at 12 V
+from hexhil.hil.servobus import servo_rules
+from hexhil.hil.servobus.servo_layout import MOVING_EPS_RAD_S, NO_LOAD_RAD_S
 
 
 def is_moving(velocity_rad_s: float) -> bool:
@@ -22,48 +20,19 @@ def is_moving(velocity_rad_s: float) -> bool:
     return abs(velocity_rad_s) >= MOVING_EPS_RAD_S
 
 
-def wheel_mode(table: bytearray) -> bool:
-    """Both angle limits 0: endless turn, Moving Speed 0-2047 (bit 10 = CW), goal ignored."""
-    return not (table[6] or table[7] or table[8] or table[9])
-
-
-# Goal Position and Moving Speed in SI units for every register value, computed once by
-# protocol/dynamixel/ax12.py's own conversions (the same floats): ``drive`` runs for every servo on
-# every SYNC_WRITE. Moving Speed keeps 11 bits (a wheel-mode value stays after a return to
-# joint mode).
-POSITION_RAD = [ax12.position_to_rad(v) for v in range(ax12.POSITION_MAX + 1)]
-SPEED_RAD_S = [ax12.speed_to_rad_s(v) for v in range(2048)]
-
-
-def drive(actuator: Actuator, table: bytearray, supply_frac: float) -> None:
-    """Hand the control table's set-point to ``actuator``, at ``supply_frac`` of 12 V.
+def drive(actuator: Actuator, table_at: int, supply_frac: float) -> None:
+    """Hand an AX-12 control table's set-point (its address, servo_rules.py ``address``) to
+    ``actuator``, at ``supply_frac`` of 12 V: the rule is servo_rules.py's ``setpoint``.
 
     Joint mode stops the horn at the angle limits; wheel mode turns endlessly (speed 0
     stops it where it is). A DC motor's no-load speed and stall torque scale with its
     supply (rated at 12 V), so speed and torque limits shrink with it.
     """
-    t = table
-    speed = t[32] | (t[33] << 8)
-    if wheel_mode(t):
-        mag = speed & 0x3FF
-        if mag:
-            goal_rad = -math.inf if speed & ax12.DIRECTION_BIT else math.inf
-        else:
-            goal_rad = actuator.state()[0]
-        speed_rad_s = mag * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0
-    else:
-        cw = t[6] | (t[7] << 8)
-        ccw = t[8] | (t[9] << 8)
-        goal = t[30] | (t[31] << 8)
-        goal_rad = POSITION_RAD[cw if goal < cw else (ccw if goal > ccw else goal)]
-        speed_rad_s = SPEED_RAD_S[speed]
-    actuator.command(
-        goal_rad,
-        min(speed_rad_s, NO_LOAD_RAD_S * supply_frac),
-        (t[34] | (t[35] << 8)) * ax12.LOAD_FRACTION_PER_UNIT * supply_frac,
-        bool(t[ax12.TORQUE_ENABLE]),
-        (t[26], t[27], t[28], t[29], t[48] | (t[49] << 8)),
-    )
+    goal_rad, speed_rad_s, torque_frac, enabled, compliance = servo_rules.setpoint(
+        table_at, supply_frac)
+    if goal_rad != goal_rad:
+        goal_rad = actuator.state()[0]
+    actuator.command(goal_rad, speed_rad_s, torque_frac, enabled, compliance)
 
 
 class KinematicActuator:

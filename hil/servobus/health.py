@@ -64,8 +64,7 @@ class ServoHealth(ctypes.Structure):
 
     def rearm(self) -> None:
         """Torque Limit written again (or power back): the overload latch clears."""
-        self.overload = False
-        self.saturated_us = 0
+        servo_rules.rearm(self.at)
 
     def advance(self, dt_us: int, load_frac: float, torque_limit: int) -> None:
         """``dt_us`` at ``load_frac`` against ``torque_limit`` (raw units; 0 with torque off)."""

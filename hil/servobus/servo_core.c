@@ -1,14 +1,16 @@
-/* The AX-12s' two instructions of every cycle: a SYNC_WRITE carried out by every servo on
- * the line in one call, what hil/servobus/ax12_servo.py's Servo.handle does for each of them
- * (catch up its health to the packet's time, look its ID up in the packet, check the write
- * against its control table, apply it and hand the set-point to its MuJoCo joint,
- * hil/world/actuator.py), and a READ answered with its status packet. The same
- * IEEE operations in the same order, so the tables, the drives and the trace are the same
- * bits (built with -ffp-contract=off: no fused multiply-add; exp and rint are the C
- * library's, which CPython's math.exp and round call too). The servos' state lives in
- * ctypes structures the Python code reads and writes as attributes (servo_core.py).
- * Loaded by hil/servobus/servo_core.py; built by setup.py, which writes servo_layout.h (the
- * structs and the protocol's constants) from hil/servobus/servo_layout.py. */
+/* The emulated AX-12's rules, their one implementation: the set-point its control table
+ * gives its drive, a write's check and its effects, the health's step and the alarms, the
+ * Present registers (ax12_servo.py's Servo calls each through servo_rules.py); and, built on
+ * them, the two instructions of every cycle for a whole line in one call: a SYNC_WRITE
+ * carried out by every servo, and a READ answered with its status packet, for servos whose
+ * joints are a compiled drive bank (hil/world/drive_core.c, through the bank's state and
+ * command). The IEEE operations of Python's arithmetic in its order, so the tables, the
+ * drives and the trace are the same bits whichever path serves a servo (built with
+ * -ffp-contract=off: no fused multiply-add; exp and rint are the C library's, which
+ * CPython's math.exp and round call too). The servos' state lives in ctypes structures the
+ * Python code reads and writes as attributes. Built by setup.py, which writes
+ * servo_layout.h (the structs and the protocol's constants) from
+ * hil/servobus/servo_layout.py. */
 #include "servo_core.h"
 
 const char hx_layout[] = HX_LAYOUT;   /* checked at load (hil/native.py) */
@@ -16,6 +18,8 @@ const char hx_layout[] = HX_LAYOUT;   /* checked at load (hil/native.py) */
 /* Python's min(a, b) and max(a, b): the first unless the second is strictly beyond it */
 static double py_min(double a, double b) { return b < a ? b : a; }
 static double py_max(double a, double b) { return b > a ? b : a; }
+/* Python's int(round(x)) for the finite values below: half to even */
+static int64_t py_round(double x) { return (int64_t)rint(x); }
 
 static int u16(const unsigned char *t, int a) { return t[a] | (t[a + 1] << 8); }
 static int wheel(const unsigned char *t)   /* both angle limits 0 */
@@ -23,53 +27,49 @@ static int wheel(const unsigned char *t)   /* both angle limits 0 */
     return !(u16(t, AX12_CW_ANGLE_LIMIT) || u16(t, AX12_CCW_ANGLE_LIMIT));
 }
 
-/* MujocoActuator.state()[0] and [2] */
-static double present_rad(const struct bank *b, int j) { return b->q[j] + b->offset[j]; }
-static double load_frac(const struct bank *b, int j)
-{
-    double load = b->duty[j] - b->qd[j] / b->motor_no_load;
-    return py_max(-1.0, py_min(1.0, load));
-}
-
-/* drive.py drive() into MujocoActuator.command() */
-static void command(const struct bank *b, const unsigned char *t, double supply_frac, int j)
+/* drive.py drive(): table t's set-point at supply_frac of 12 V into out: [0] the goal
+ * (NaN: hold where it reads; +-inf: turn endlessly), [1] the speed limit, [2] the torque
+ * limit's fraction, [3] Torque Enable, [4..9) the compliance registers (CW, CCW margin; CW,
+ * CCW slope; punch). Joint mode stops the horn at the angle limits; a DC motor's no-load
+ * speed and stall torque scale with its supply. position_rad, speed_rad_s: Goal Position's
+ * and Moving Speed's values in SI units (servo_rules.py). */
+void hx_setpoint(const double *position_rad, const double *speed_rad_s, const unsigned char *t,
+                 double supply_frac, double *out)
 {
     int speed = u16(t, AX12_MOVING_SPEED);
-    double goal_rad, speed_rad_s;
+    double goal_rad, speed_limit;
     if (wheel(t)) {
         int mag = speed & 0x3FF;
-        if (mag)
-            goal_rad = (speed & 0x400) ? -INFINITY : INFINITY;
-        else
-            goal_rad = present_rad(b, j);
-        speed_rad_s = (double)mag * b->speed_unit * 2.0 * M_PI / 60.0;
+        goal_rad = mag ? ((speed & AX12_DIRECTION_BIT) ? -INFINITY : INFINITY) : NAN;
+        speed_limit = (double)mag * AX12_SPEED_UNIT * 2.0 * M_PI / 60.0;
     } else {
         int cw = u16(t, AX12_CW_ANGLE_LIMIT), ccw = u16(t, AX12_CCW_ANGLE_LIMIT),
             goal = u16(t, AX12_GOAL_POSITION);
-        goal_rad = b->position_rad[goal < cw ? cw : (goal > ccw ? ccw : goal)];
-        speed_rad_s = b->speed_rad_s[speed];
+        goal_rad = position_rad[goal < cw ? cw : (goal > ccw ? ccw : goal)];
+        speed_limit = speed_rad_s[speed];
     }
-    double limit = py_min(speed_rad_s, b->ax12_no_load * supply_frac);
-    double torque = (double)u16(t, AX12_TORQUE_LIMIT) * b->load_unit * supply_frac;
-    int enabled = t[AX12_TORQUE_ENABLE] != 0;
-    if (enabled && !b->enabled[j])
-        b->setpoint[j] = present_rad(b, j);   /* resume from where it reads */
-    b->goal[j] = goal_rad;
-    b->speed[j] = limit > 0 ? limit : b->motor_no_load;
-    b->torque_limit[j] = py_min(py_max(torque, 0.0), 1.0);
-    b->enabled[j] = (unsigned char)enabled;
-    const unsigned char *m = t + AX12_CW_COMPLIANCE_MARGIN;   /* CW, CCW margin; CW, CCW slope */
-    double c[5] = {m[0], m[1], m[2], m[3], u16(t, AX12_PUNCH)};
-    double *seen = b->compliance + 5 * j;
-    if (memcmp(c, seen, sizeof c) != 0 || seen[0] != seen[0]) {   /* DriveBank.set_compliance */
-        int n = b->joints;
-        b->margin[j] = c[0] * b->position_unit;
-        b->margin[n + j] = c[1] * b->position_unit;
-        b->slope[j] = py_max(c[2], 1.0) * b->position_unit;
-        b->slope[n + j] = py_max(c[3], 1.0) * b->position_unit;
-        b->punch[j] = c[4] * b->punch_unit;
-        memcpy(seen, c, sizeof c);
+    const unsigned char *m = t + AX12_CW_COMPLIANCE_MARGIN;
+    out[0] = goal_rad;
+    out[1] = py_min(speed_limit, AX12_NO_LOAD_RAD_S * supply_frac);
+    out[2] = (double)u16(t, AX12_TORQUE_LIMIT) * AX12_LOAD_UNIT * supply_frac;
+    out[3] = t[AX12_TORQUE_ENABLE] != 0;
+    for (int k = 0; k < 4; k++)
+        out[4 + k] = m[k];
+    out[8] = u16(t, AX12_PUNCH);
+}
+
+/* Servo i's set-point to its joint (Servo._command) */
+static void command(const struct bank *b, int i)
+{
+    double sp[9];
+    int j = b->joint[i];
+    hx_setpoint(b->position_rad, b->speed_rad_s, b->table[i], b->health[i]->supply_frac, sp);
+    if (sp[0] != sp[0]) {
+        double state[3];
+        b->state(b->drives, j, state);
+        sp[0] = state[0];
     }
+    b->command(b->drives, j, sp[0], sp[1], sp[2], sp[3] != 0, sp + 4);
 }
 
 /* The health rule (health.py ServoHealth: its advance and errors call these) */
@@ -120,24 +120,38 @@ int hx_health_step(struct health *h, int64_t dt_us, double load, const unsigned 
     return hx_health_errors(h, t);
 }
 
-/* Servo._alarm: the error bits' LED and shutdown (the torque limit to 0) */
-static void alarm(const struct bank *b, int i, int errors)
+/* ServoHealth.rearm: Torque Limit written again (or power back) clears the overload */
+void hx_rearm(struct health *h)
 {
-    if (!errors)
-        return;
-    struct servo *s = b->servo[i];
-    unsigned char *t = b->table[i];
+    h->overload = 0;
+    h->saturated_us = 0;
+}
+
+/* Servo._alarm: the error bits' Alarm LED and alarm shutdown (Torque Limit to 0, e-manual
+ * address 34); whether the drive must be commanded again */
+int hx_alarm(struct servo *s, unsigned char *t, int errors)
+{
     if (errors & t[AX12_ALARM_LED])
         s->alarm_led = 1;
     if ((errors & t[AX12_SHUTDOWN]) && (t[AX12_TORQUE_LIMIT] || t[AX12_TORQUE_LIMIT + 1])) {
         t[AX12_TORQUE_LIMIT] = 0;
         t[AX12_TORQUE_LIMIT + 1] = 0;
-        command(b, t, b->health[i]->supply_frac, b->joint[i]);
         s->present_stale = 1;
+        return 1;
     }
+    return 0;
 }
 
-/* Servo.advance_to for a servo behind t_us (the world is already there) */
+/* Servo.advance_to once the horn is there: dt_us of the health at load, the Present
+ * registers stale, the alarm; whether the drive must be commanded again */
+int hx_catch_up(struct servo *s, struct health *h, unsigned char *t, int64_t dt_us, double load)
+{
+    int errors = hx_health_step(h, dt_us, load, t);
+    s->present_stale = 1;
+    return errors ? hx_alarm(s, t, errors) : 0;
+}
+
+/* advance_to for servo i behind t_us (the world is already there) */
 static void advance(const struct bank *b, int i, int64_t t_us)
 {
     struct servo *s = b->servo[i];
@@ -145,9 +159,10 @@ static void advance(const struct bank *b, int i, int64_t t_us)
     if (dt <= 0)
         return;
     s->t_us = t_us;
-    int errors = hx_health_step(b->health[i], dt, load_frac(b, b->joint[i]), b->table[i]);
-    s->present_stale = 1;
-    alarm(b, i, errors);
+    double state[3];
+    b->state(b->drives, b->joint[i], state);
+    if (hx_catch_up(s, b->health[i], b->table[i], dt, state[2]))
+        command(b, i);
 }
 
 /* A WRITE's check (ax12_servo.py Servo.check_write calls it; a SYNC_WRITE acts on its Range
@@ -191,28 +206,27 @@ int hx_check_write(const struct cell *cells, int original, const unsigned char *
     return error;
 }
 
-/* Servo._apply_write; returns whether the ID or Baud Rate changed */
-static int apply(const struct bank *b, int i, int a, const unsigned char *d, int n)
+/* Servo._apply_write: data d[0..n) written at a (checked: hx_check_write); the
+ * HX_APPLY_ bits of what follows (the ID or Baud Rate changed, the drive to command) */
+int hx_apply(struct servo *s, struct health *h, unsigned char *t, int a, const unsigned char *d,
+             int n)
 {
-    struct servo *s = b->servo[i];
-    unsigned char *t = b->table[i];
-    int end = a + n;
+    int end = a + n, out = 0;
     memcpy(t + a, d, (size_t)n);
     if (a < AX12_EEPROM_END)
         s->busy_until_us = s->t_us + s->eeprom_busy_us;
-    int changed = a <= AX12_BAUD_RATE && end > AX12_ID;
-    if (changed)
+    if (a <= AX12_BAUD_RATE && end > AX12_ID) {
         s->address_changed = 1;
-    if (a <= AX12_TORQUE_LIMIT + 1 && end > AX12_TORQUE_LIMIT) {   /* ServoHealth.rearm */
-        b->health[i]->overload = 0;
-        b->health[i]->saturated_us = 0;
+        out |= HX_APPLY_ADDRESS;
     }
+    if (a <= AX12_TORQUE_LIMIT + 1 && end > AX12_TORQUE_LIMIT)
+        hx_rearm(h);   /* writing Torque Limit again re-arms the servo */
     if ((end > AX12_TORQUE_ENABLE && a < AX12_PRESENT_POSITION) || end > AX12_PUNCH
         || (a <= AX12_CCW_ANGLE_LIMIT + 1 && end > AX12_CW_ANGLE_LIMIT)) {
-        command(b, t, b->health[i]->supply_frac, b->joint[i]);
         s->present_stale = 1;
+        out |= HX_APPLY_COMMAND;
     }
-    return changed;
+    return out;
 }
 
 /* Servos from..n-1 take the SYNC_WRITE ``params`` at t_us, in order; returns the index of
@@ -246,36 +260,35 @@ int hx_sync_write(const struct bank *b, int from, int64_t t_us, const unsigned c
         if (at < 0 || (hx_check_write(b->cells, b->original[i], b->table[i], a, p + at,
                                       stride - 1) & DXL_ERR_RANGE))
             continue;
-        if (apply(b, i, a, p + at, stride - 1))
+        int done = hx_apply(s, b->health[i], b->table[i], a, p + at, stride - 1);
+        if (done & HX_APPLY_ADDRESS)
             *changed = 1;
+        if (done & HX_APPLY_COMMAND)
+            command(b, i);
     }
     return b->n;
 }
 
-/* Python's int(round(x)) for the finite values below: half to even */
-static int64_t py_round(double x) { return (int64_t)rint(x); }
-
-/* Servo._refresh_present through protocol/dynamixel/ax12.py's conversions (no reading fault:
- * the Python code serves a servo with one) */
-static void refresh_present(const struct bank *b, int i)
+/* Servo._refresh_present: the Present registers of table t for the horn at pos_rad,
+ * vel_rad_s and load (a fraction of stall torque) and health h, through
+ * protocol/dynamixel/ax12.py's conversions (rad_to_position, rad_s_to_signed,
+ * fraction_to_load); returns Present Position's value (a reading fault's input) */
+int hx_present(unsigned char *t, const struct health *h, double pos_rad, double vel_rad_s,
+               double load)
 {
-    unsigned char *t = b->table[i];
-    const struct health *h = b->health[i];
-    int j = b->joint[i];
-    double pos = present_rad(b, j), vel = b->qd[j], load = load_frac(b, j);
-    /* rad_to_position: math.degrees is x * (180 / pi) */
-    int64_t p = py_round((pos * (180.0 / M_PI) + AX12_POSITION_CENTRE_DEG) * AX12_POSITION_MAX
+    /* math.degrees is x * (180 / pi) */
+    int64_t p = py_round((pos_rad * (180.0 / M_PI) + AX12_POSITION_CENTRE_DEG) * AX12_POSITION_MAX
                          / AX12_POSITION_RANGE_DEG);
     p = p < 0 ? 0 : (p > AX12_POSITION_MAX ? AX12_POSITION_MAX : p);
     t[AX12_PRESENT_POSITION] = (unsigned char)(p & 0xFF);
     t[AX12_PRESENT_POSITION + 1] = (unsigned char)(p >> 8);
-    int64_t v = py_round(fabs(vel) * 60.0 / (2.0 * M_PI) / b->speed_unit);   /* rad_s_to_signed */
+    int64_t v = py_round(fabs(vel_rad_s) * 60.0 / (2.0 * M_PI) / AX12_SPEED_UNIT);
     v = v > 1023 ? 1023 : v;
-    if (vel < 0 && v)
+    if (vel_rad_s < 0 && v)
         v |= AX12_DIRECTION_BIT;
     t[AX12_PRESENT_SPEED] = (unsigned char)(v & 0xFF);
     t[AX12_PRESENT_SPEED + 1] = (unsigned char)(v >> 8);
-    int64_t ld = py_round(fabs(load) / b->load_unit);                       /* fraction_to_load */
+    int64_t ld = py_round(fabs(load) / AX12_LOAD_UNIT);
     ld = ld > 1023 ? 1023 : ld;
     if (load < 0 && ld)
         ld |= AX12_DIRECTION_BIT;
@@ -283,7 +296,17 @@ static void refresh_present(const struct bank *b, int i)
     t[AX12_PRESENT_LOAD + 1] = (unsigned char)(ld >> 8);
     t[AX12_PRESENT_VOLTAGE] = (unsigned char)h->voltage_units;
     t[AX12_PRESENT_TEMPERATURE] = (unsigned char)h->temperature_units;
-    t[AX12_MOVING] = fabs(vel) >= b->moving_eps;
+    t[AX12_MOVING] = fabs(vel_rad_s) >= MOVING_EPS_RAD_S;
+    return (int)p;
+}
+
+/* the Present registers of servo i (no reading fault: the Python code serves a servo with
+ * one) */
+static void refresh_present(const struct bank *b, int i)
+{
+    double state[3];
+    b->state(b->drives, b->joint[i], state);
+    hx_present(b->table[i], b->health[i], state[0], state[1], state[2]);
     b->servo[i]->present_stale = 0;
 }
 
@@ -309,7 +332,9 @@ int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned ch
         memcpy(data, t + a, (size_t)n);
         len = n;
     }
-    alarm(b, i, error | hx_health_errors(b->health[i], t));
+    int alarms = error | hx_health_errors(b->health[i], t);
+    if (alarms && hx_alarm(s, t, alarms))
+        command(b, i);
     if (t[AX12_STATUS_RETURN_LEVEL] < 1)   /* Servo._answer: a READ is answered from level 1 */
         return 0;
     int code = error | hx_health_errors(b->health[i], t);
@@ -338,16 +363,14 @@ void hx_state_rows(const struct bank *b, unsigned char *out)
     for (int i = 0; i < b->n; i++, out += STATE_ROW) {
         const unsigned char *t = b->table[i];
         const struct health *h = b->health[i];
-        int j = b->joint[i];
-        double pos = present_rad(b, j), vel = b->qd[j], load = load_frac(b, j);
+        double state[3];
+        b->state(b->drives, b->joint[i], state);
         out[0] = t[AX12_ID];
-        memcpy(out + 1, &pos, 8);
-        memcpy(out + 9, &vel, 8);
-        memcpy(out + 17, &load, 8);
+        memcpy(out + 1, state, 24);   /* the angle, speed and load */
         memcpy(out + 25, &h->temperature_c, 8);
         memcpy(out + 33, &h->supply_v, 8);
         out[41] = t[AX12_TORQUE_ENABLE] != 0;
-        out[42] = fabs(vel) >= b->moving_eps;
+        out[42] = fabs(state[1]) >= MOVING_EPS_RAD_S;
         out[43] = (unsigned char)hx_health_errors(h, t);
     }
 }

@@ -7,6 +7,12 @@
 #include <stdint.h>
 #include <string.h>
 
+/* the seam to the joints a bank drives (hil/world/drive_core.c hx_state and hx_command):
+ * joint j's angle, speed and load; its set-point, compliance NULL: unchanged */
+typedef void (*hx_state_fn)(const void *drives, int j, double *out);
+typedef void (*hx_command_fn)(void *drives, int j, double goal_rad, double speed_rad_s,
+                              double torque, int enabled, const double *compliance);
+
 #include "servo_layout.h"
 
 /* Whether the C code serves servo i at t_us: a MuJoCo joint, neither deaf nor finishing
@@ -21,6 +27,17 @@ static inline int hx_serves(const struct bank *b, int i, int64_t t_us)
 void hx_health_advance(struct health *h, int64_t dt_us, double load, int torque_limit);
 int hx_health_errors(const struct health *h, const unsigned char *t);
 int hx_health_step(struct health *h, int64_t dt_us, double load, const unsigned char *t);
+
+/* servo_core.c: the rest of ax12_servo.py Servo's rules (servo_rules.py binds them) */
+void hx_setpoint(const double *position_rad, const double *speed_rad_s, const unsigned char *t,
+                 double supply_frac, double *out);
+void hx_rearm(struct health *h);
+int hx_alarm(struct servo *s, unsigned char *t, int errors);
+int hx_catch_up(struct servo *s, struct health *h, unsigned char *t, int64_t dt_us, double load);
+int hx_apply(struct servo *s, struct health *h, unsigned char *t, int a, const unsigned char *d,
+             int n);
+int hx_present(unsigned char *t, const struct health *h, double pos_rad, double vel_rad_s,
+               double load);
 
 /* servo_core.c: a WRITE's check, ax12_servo.py Servo.check_write */
 int hx_check_write(const struct cell *cells, int original, const unsigned char *t, int a,

@@ -5,13 +5,12 @@ finds its entry, checks the write against its control table and drives its joint
 Python that was about a third of the host's cycle; ``hx_sync_write`` does it for the whole
 line in one call, and ``hx_read`` answers a status read (catch-up, the Present registers,
 the status packet and its checksum); ``hx_state_rows`` packs every servo's ``state_row``
-for the recorder's 10 Hz ground truth. They read and write the same state as the Python
-servos: their and their health's ctypes fields (hil/servobus/ax12_servo.py ``Servo``,
-health.py ``ServoHealth``), their control tables and the world's drive bank
-(hil/world/actuator.py). The same operations in the same order, so tables, drives and
-traces are the same bits (tests/test_servo_core.py runs both on real traffic). A servo the
-C code does not serve (an actuator other than a MuJoCo joint, deaf, finishing an EEPROM
-write, a Present Position fault) is handed to its own ``handle``, in the line's order.
+for the recorder's 10 Hz ground truth. They step the same state as the Python servos (their
+and their health's ctypes fields, ax12_servo.py ``Servo`` and health.py ``ServoHealth``,
+their control tables and the world's compiled drive bank, hil/world/drive_core.c) by the
+same compiled rules (servo_rules.py). A servo the C code does not serve (an actuator other
+than a world's joint, deaf, finishing an EEPROM write, a Present Position fault) is handed
+to its own ``handle``, in the line's order.
 
 The package builds ``_servo_core.so`` beside this file (setup.py, the pinned ziglang's cc);
 without it no servo is made (the servos' rules, servo_rules.py, are compiled only).
@@ -24,8 +23,9 @@ from typing import Any, Sequence
 import numpy as np
 
 from hexhil.hil.seams import HeldSample
-from hexhil.hil.servobus import drive, servo_rules
+from hexhil.hil.servobus import servo_rules
 from hexhil.hil.servobus.servo_layout import LAYOUT, STATE_ROW
+from hexhil.hil.world import drive_core
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
 
@@ -56,10 +56,6 @@ _LIB = _load()
 
 def available() -> bool:
     return _LIB is not None
-
-
-_POSITION_RAD = np.array(drive.POSITION_RAD, dtype=np.float64)
-_SPEED_RAD_S = np.array(drive.SPEED_RAD_S, dtype=np.float64)
 
 
 def _address(a: np.ndarray) -> int:
@@ -102,19 +98,12 @@ class ServoBank:
         joint = np.array([j[1] if ok else -1 for j, ok in zip(joints, served)], dtype=np.int32)
         original = np.array([ok and s.edition == ax12.EDITION_ORIGINAL
                              for s, ok in zip(servos, served)], dtype=np.int32)
-        offset = np.array(arrays["offset"], dtype=np.float64)
-        self._keep += [servo_p, health_p, table_p, joint, original, offset]
+        self._keep += [servo_p, health_p, table_p, joint, original]
         self._bank = _Bank(
             n, ctypes.addressof(servo_p), ctypes.addressof(health_p), ctypes.addressof(table_p),
             _address(joint), _address(original), _address(servo_rules.CELLS),
-            _address(_POSITION_RAD), _address(_SPEED_RAD_S),
-            *(_address(arrays[k]) for k in ("q", "qd", "duty")),
-            _address(offset), *(_address(arrays[k]) for k in (
-                "goal", "setpoint", "speed", "torque_limit", "margin", "slope", "punch",
-                "compliance", "enabled")),
-            len(arrays["goal"]), arrays["motor_no_load"], drive.NO_LOAD_RAD_S,
-            ax12.SPEED_RPM_PER_UNIT, ax12.LOAD_FRACTION_PER_UNIT, arrays["position_unit"],
-            arrays["punch_unit"], drive.MOVING_EPS_RAD_S)
+            _address(servo_rules.POSITION_RAD), _address(servo_rules.SPEED_RAD_S),
+            arrays["drives"], drive_core.STATE_FN, drive_core.COMMAND_FN)
         self.ref = ctypes.addressof(self._bank)   # the bank's address (reads_core.py too)
         self._sync, self._read, self._rows = _LIB
         self._rows_out = ctypes.create_string_buffer(n * STATE_ROW.size)

@@ -6,6 +6,7 @@ from protocol/. setup.py generates the C header from them (hil/native.py ``Layou
 from __future__ import annotations
 
 import ctypes
+import math
 import struct
 
 from hexhil.hil.native import Layout
@@ -19,6 +20,9 @@ _D, _I64, _I32 = ctypes.c_double, ctypes.c_int64, ctypes.c_int32
 # a servo's TableServo.state_row as hx_state_rows packs it for the recorder
 STATE_ROW = struct.Struct("<Bddddd??B")
 # hx_reads's answers: done, or why it hands back to the general path (reads_core.py)
+# hx_apply's bits: the write changed the ID or Baud Rate (the line re-indexes); the drive
+# must be commanded again
+APPLY_ADDRESS, APPLY_COMMAND = 1, 2
 HANDOVER = ("DONE", "ADVANCE", "PYTHON", "PYTHON_REPLY", "FALLBACK", "WRITE_LEFT")
 
 # The health model's parameters (our choices; the manuals give no thermal data or overload
@@ -30,6 +34,11 @@ THERMAL_TAU_S = 60.0
 OVERHEAT_TAU_S = 1.0           # time constant towards an injected hot-spot temperature
 OVERLOAD_TIME_US = 1_000_000   # load saturated at the torque limit this long sets the bit
 
+# the drive's speeds: Moving Speed 0 (the motor's no-load speed at 12 V), and the Moving
+# flag's threshold, half a Present Speed unit
+NO_LOAD_RAD_S = ax12.speed_to_rad_s(0)
+MOVING_EPS_RAD_S = 0.5 * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0
+
 HEALTH = [("supply_v", _D), ("supply_frac", _D), ("temperature_c", _D), ("_hot_spot_c", _D),
           ("saturated_us", _I64), ("voltage_units", _I32), ("temperature_units", _I32),
           ("overload", ctypes.c_bool),   # latched until Torque Limit is written again
@@ -40,20 +49,15 @@ SERVO = [("t_us", _I64), ("busy_until_us", _I64), ("deaf_until_us", _I64), ("hel
          ("_present_stale", ctypes.c_bool)]
 # one control-table cell's field, from protocol/dynamixel/ax12.py (start < 0: reserved)
 CELL = [("start", _I32), ("size", _I32), ("lo", _I32), ("hi", _I32), ("writable", _I32)]
-_IN, _OUT = "const double *", "double *"
+_IN = "const double *"
 BANK = [("n", ctypes.c_int), ("servo", _P, "struct servo **"),
         ("health", _P, "struct health **"), ("table", _P, "unsigned char **"),
         ("joint", _P, "const int32_t *"),      # the servo's joint; -1: not a MuJoCo joint
         ("original", _P, "const int32_t *"),   # the 2006 manual's Lock rule
         ("cells", _P, "const struct cell *"),  # TABLE_SIZE
-        ("position_rad", _P, _IN), ("speed_rad_s", _P, _IN),   # drive.py's tables
-        *((n, _P, _IN) for n in ("q", "qd", "duty", "offset")),   # the world's joints
-        *((n, _P, _OUT) for n in ("goal", "setpoint", "speed", "torque_limit", "margin",
-                                  "slope", "punch", "compliance")),   # its drive bank
-        ("enabled", _P, "unsigned char *"),
-        ("joints", ctypes.c_int),   # the drive bank's size: margin and slope rows
-        *((n, _D) for n in ("motor_no_load", "ax12_no_load", "speed_unit", "load_unit",
-                            "position_unit", "punch_unit", "moving_eps"))]
+        ("position_rad", _P, _IN), ("speed_rad_s", _P, _IN),   # Goal Position, Moving Speed
+        # the joints' drive bank (hil/world/drive_core.c) and its state and command
+        ("drives", _P, "void *"), ("state", _P, "hx_state_fn"), ("command", _P, "hx_command_fn")]
 _U8 = ctypes.c_uint8
 READS = [("bank", _P, "const struct bank *"), ("payload", ctypes.c_char_p,
                                                 "const unsigned char *"),
@@ -95,7 +99,10 @@ LAYOUT = Layout("HX_SERVO_LAYOUT_H", [
     ("LINK_READ_LEN", sim_link.READ_HEAD_LEN + 1),   # a read's head with its u8 ntx
     ("LINK_NO_SKIP", sim_link.NO_SKIP), ("LINK_MAX_REPLY_LEN", sim_link.MAX_REPLY_LEN),
     ("LINK_ATTEMPT_HEAD_LEN", sim_link.ATTEMPT_HEAD_LEN), ("US_BITS", US_BITS),
-    ("STATE_ROW", STATE_ROW.size),
+    ("STATE_ROW", STATE_ROW.size), ("AX12_SPEED_UNIT", ax12.SPEED_RPM_PER_UNIT),
+    ("AX12_LOAD_UNIT", ax12.LOAD_FRACTION_PER_UNIT), ("AX12_NO_LOAD_RAD_S", NO_LOAD_RAD_S),
+    ("MOVING_EPS_RAD_S", MOVING_EPS_RAD_S), ("HX_APPLY_ADDRESS", APPLY_ADDRESS),
+    ("HX_APPLY_COMMAND", APPLY_COMMAND),
     ("HEALTH_AMBIENT_C", AMBIENT_C), ("HEALTH_HEAT_C", HEAT_AT_FULL_LOAD_C),
     ("HEALTH_THERMAL_TAU_S", THERMAL_TAU_S), ("HEALTH_OVERHEAT_TAU_S", OVERHEAT_TAU_S),
     ("HEALTH_OVERLOAD_US", OVERLOAD_TIME_US),

@@ -1,9 +1,9 @@
-"""The AX-12's rules that the compiled SYNC_WRITE and the servos served in Python both
-follow, compiled once (hil/servobus/servo_core.c): the health rule (health.py
-``ServoHealth``: ``hx_health_advance``, ``hx_health_errors``; ``hx_health_step``, both for
-an AX-12's table in one call) and a write's check (ax12_servo.py ``Servo.check_write``:
-``hx_check_write``). They have no other implementation: without the library no servo is
-made, in one line.
+"""The emulated AX-12's rules, compiled once (hil/servobus/servo_core.c), which the servos
+served in Python (ax12_servo.py ``Servo``) and the compiled SYNC_WRITE and READ both follow:
+the health's step (health.py ``ServoHealth``), a write's check and its effects, the alarms,
+the set-point the control table gives the drive (drive.py ``drive``) and the Present
+registers. They have no other implementation: without the library no servo is made, in one
+line.
 """
 from __future__ import annotations
 
@@ -34,6 +34,13 @@ def _cells() -> np.ndarray:
 
 CELLS = _cells()   # the C code's ``struct cell`` array (the bank's ``cells`` too)
 _CELLS_AT = CELLS.ctypes.data
+# Goal Position and Moving Speed in SI units for every register value, computed once by
+# protocol/dynamixel/ax12.py's own conversions (the bank's ``position_rad`` and
+# ``speed_rad_s`` too). Moving Speed keeps 11 bits (a wheel-mode value stays after a return
+# to joint mode).
+POSITION_RAD = np.array([ax12.position_to_rad(v) for v in range(ax12.POSITION_MAX + 1)])
+SPEED_RAD_S = np.array([ax12.speed_to_rad_s(v) for v in range(2048)])
+_TABLES = (POSITION_RAD.ctypes.data, SPEED_RAD_S.ctypes.data)
 
 
 def _load() -> Any:
@@ -44,20 +51,31 @@ def _load() -> Any:
     for name, args, res in (("hx_health_advance", [_P, _I64, _D, _I], None),
                             ("hx_health_errors", [_P, _P], _I),
                             ("hx_health_step", [_P, _I64, _D, _P], _I),
-                            ("hx_check_write", [_P, _I, _P, _I, ctypes.c_char_p, _I], _I)):
+                            ("hx_check_write", [_P, _I, _P, _I, ctypes.c_char_p, _I], _I),
+                            ("hx_setpoint", [_P, _P, _P, _D, _P], None),
+                            ("hx_rearm", [_P], None),
+                            ("hx_alarm", [_P, _P, _I], _I),
+                            ("hx_catch_up", [_P, _P, _P, _I64, _D], _I),
+                            ("hx_apply", [_P, _P, _P, _I, ctypes.c_char_p, _I], _I),
+                            ("hx_present", [_P, _P, _D, _D, _D], _I)):
         fn = getattr(lib, name)
         fn.argtypes, fn.restype = args, res
     return lib
 
 
 _LIB = _load()
-# the rules, called with the addresses of a servo's health and table (``address``):
-# (health, dt_us, load_frac, torque_limit); (health, table) -> error bits;
-# (health, dt_us, load_frac, table) -> error bits: the step against the table's torque
-# limit, then its errors; (cells, original, table, address, data, len) -> error bits
-health_advance, health_errors, health_step, _check = (
-    (_LIB.hx_health_advance, _LIB.hx_health_errors, _LIB.hx_health_step, _LIB.hx_check_write)
-    if _LIB is not None else (None,) * 4)
+# the rules, called with the addresses of a servo, its health and its table (``address``):
+# health_advance(health, dt_us, load_frac, torque_limit); health_errors(health, table) ->
+# error bits; health_step(health, dt_us, load_frac, table) -> error bits: the step against
+# the table's torque limit, then its errors; rearm(health): the overload latch clears;
+# alarm(servo, table, errors) and catch_up(servo, health, table, dt_us, load_frac) -> whether
+# the drive must be commanded again; apply(servo, health, table, address, data, len) ->
+# servo_layout.APPLY_* bits; present(table, health, pos_rad, vel_rad_s, load_frac) ->
+# Present Position
+(health_advance, health_errors, health_step, rearm, alarm, catch_up, apply, present, _check,
+ _setpoint) = ((_LIB.hx_health_advance, _LIB.hx_health_errors, _LIB.hx_health_step,
+                _LIB.hx_rearm, _LIB.hx_alarm, _LIB.hx_catch_up, _LIB.hx_apply, _LIB.hx_present,
+                _LIB.hx_check_write, _LIB.hx_setpoint) if _LIB is not None else (None,) * 10)
 
 
 def library() -> Any:
@@ -82,3 +100,17 @@ def address(table: bytearray) -> tuple[Any, int]:
 
 def check_write(original: bool, table_at: int, address: int, data: bytes) -> int:
     return _check(_CELLS_AT, original, table_at, address, bytes(data), len(data))
+
+
+_SETPOINT = (ctypes.c_double * 9)()
+_SETPOINT_AT = ctypes.addressof(_SETPOINT)
+
+
+def setpoint(table_at: int, supply_frac: float) -> tuple[float, float, float, bool,
+                                                         tuple[int, int, int, int, int]]:
+    """The set-point an AX-12 table gives its drive at ``supply_frac`` of 12 V: goal (NaN:
+    hold where it reads), speed limit, torque limit fraction, Torque Enable and the
+    compliance registers."""
+    _setpoint(*_TABLES, table_at, supply_frac, _SETPOINT_AT)
+    goal, speed, torque, enabled, a, b, c, d, e = _SETPOINT
+    return goal, speed, torque, enabled != 0.0, (int(a), int(b), int(c), int(d), int(e))

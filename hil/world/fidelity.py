@@ -83,11 +83,12 @@ class RealDriveBank(act.DriveBank):
     duty, ``u * omega_noload``, relative to the moving output, and nothing passes meanwhile.
     Back-EMF damping stays on the joint (MuJoCo damping), a simplification."""
 
-    def __init__(self, q0_rad: np.ndarray, real: RealModel, qd_view: np.ndarray) -> None:
-        super().__init__(q0_rad, real.motor)
+    def __init__(self, q0_rad: np.ndarray, real: RealModel,
+                 joints: tuple[np.ndarray, np.ndarray]) -> None:
+        super().__init__(q0_rad, real.motor, joints)
         self.real = real
-        self.read_offset_rad = real.offsets_rad.tolist()
-        self._qd = qd_view
+        self.read_offset_rad[:] = real.offsets_rad
+        self._qd = joints[1]
         self._gap = np.zeros(len(q0_rad))
         self._half = BACKLASH_RAD / 2
         self._rng = np.random.default_rng(real.noise_seed)

@@ -237,15 +237,14 @@ class HexapodWorld:
         self._foot_n = self.data.sensordata[6:12]
         self._q[:] = q0
         mujoco.mj_forward(self.model, self.data)
-        self.drives = (act.DriveBank(q0, self.motor) if self.real is None
-                       else fidelity.RealDriveBank(q0, self.real, self._qd))
+        joints = (self._q, self._qd)
+        self.drives = (act.DriveBank(q0, self.motor, joints) if self.real is None
+                       else fidelity.RealDriveBank(q0, self.real, joints))
         self.switches = SwitchBank(len(LEGS))
         self.t_us = 0
         self.dt_s = PHYSICS_DT_US * 1e-6
         self.events: list[SwitchEvent] = []
         self.trajectory: list[tuple[int, float, float, float]] = []  # (t_us, x, y, yaw) at 10 Hz
-        self._lists_t_us = -1
-        self._lists: tuple[list[float], list[float], list[float]] = ([], [], [])
         self._actuators = [act.MujocoActuator(self, i) for i in range(18)]
         self._buffers: dict[str, Any] | None = None
         self._backup: Any = None   # checkpoint()'s copy of the MjData
@@ -291,29 +290,19 @@ class HexapodWorld:
         self.switches.set_state(switches)
         del self.events[events:]
         del self.trajectory[samples:]
-        self._lists_t_us = -1
 
     def next_step_us(self) -> int:
         """When the next physics step is due: ``advance_to`` an earlier time does nothing."""
         return self.t_us + PHYSICS_DT_US
 
     def joint_buffers(self) -> dict[str, Any]:
-        """The joint state and drive bank arrays, by name, and this world's ``advance_to``
-        and ``next_step_us``: what the compiled servo bank and status reads read and write
+        """The compiled drive bank's address and this world's ``advance_to`` and
+        ``next_step_us``: what the compiled servo bank and status reads use
         (hil/servobus/servo_core.py, reads_core.py)."""
         if self._buffers is None:
-            self._buffers = {**self.drives.buffers(), "q": self._q, "qd": self._qd,
-                             "advance": self.advance_to, "next_step_us": self.next_step_us}
+            self._buffers = {"drives": self.drives.compiled.ref, "advance": self.advance_to,
+                             "next_step_us": self.next_step_us}
         return self._buffers
-
-    def joint_state_lists(self) -> tuple[list[float], list[float], list[float]]:
-        """Joint positions (rad), velocities (rad/s) and drive duties as Python lists, made
-        once per physics step: the 18 servos read them one by one, and a numpy scalar
-        read costs more than the list."""
-        if self._lists_t_us != self.t_us:
-            self._lists_t_us = self.t_us
-            self._lists = (self._q.tolist(), self._qd.tolist(), self.drives.duty.tolist())
-        return self._lists
 
     def switch_levels(self) -> list[bool]:
         """Limit-switch levels, True = pressed, in leg order LF, LM, LH, RF, RM, RH."""
