@@ -70,10 +70,33 @@ def test_parser_unstuffs_through_garbage(dev_id: int, instr: int, params: bytes,
     got = p.feed(before + raw + after) + p.flush()
     assert any(g.id == dev_id and g.instr == instr and g.params == params and g.raw == raw
                for g in got)
-    # the SDK's own removeStuffing agrees
+    if _sdk_unstuffs_right(raw):   # the SDK's own removeStuffing agrees
+        assert _sdk_params(raw) == params
+
+
+def _sdk_params(raw: bytes) -> bytes:
     rx = PH.removeStuffing(list(raw))
-    n = (rx[5] | rx[6] << 8) - 3
-    assert bytes(rx[8:8 + n]) == params
+    return bytes(rx[8:8 + (rx[5] | rx[6] << 8) - 3])
+
+
+def _sdk_unstuffs_right(raw: bytes) -> bool:
+    """Whether the SDK's removeStuffing reads only bytes it has not moved yet: it compacts
+    in place but looks back at FF FF, so after its first removal a later FD FD may look
+    stuffed (docs/protocol.md)."""
+    end = 7 + (raw[5] | raw[6] << 8) - 2   # the positions it tests: INSTR up to the CRC
+    pairs = [p for p in range(7, end) if raw[p] == raw[p + 1] == 0xFD]
+    removals = [p for p in pairs if raw[p - 2] == raw[p - 1] == 0xFF]
+    return not removals or all(p <= removals[0] for p in pairs)
+
+
+def test_the_sdks_unstuffing_misreads_a_later_fd_fd_and_ours_does_not() -> None:
+    params = b"\xff\xff\xfd\xff\xfd\xfd"
+    raw = dx2.packet(254, dx2.PING, params)
+    assert not _sdk_unstuffs_right(raw) and _sdk_params(raw) == params[:5]
+    p = dx2.Parser()
+    assert [g.params for g in p.feed(raw) + p.flush()] == [params]
+    clean = dx2.packet(254, dx2.PING, b"\xff\xff\xfd\x01\xfd\x02")   # one pair: read right
+    assert _sdk_unstuffs_right(clean) and _sdk_params(clean) == b"\xff\xff\xfd\x01\xfd\x02"
 
 
 def test_stuffing_of_the_header_pattern() -> None:
