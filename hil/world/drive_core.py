@@ -9,6 +9,7 @@ bank (hil/servobus/servo_core.c) commands and reads the same joints through
 from __future__ import annotations
 
 import ctypes
+import struct
 from typing import Any
 
 import numpy as np
@@ -26,7 +27,7 @@ class _Bank(ctypes.Structure):
 
 
 def _load() -> Any:
-    lib = load_library(LIBRARY, layout=LAYOUT, fallback=False)
+    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT, fallback=False)   # short calls
     if lib is None:
         return None
     for name, args in (("hx_duty", [_P, _P, _D, _P, _D]), ("hx_state", [_P, _I, _P]),
@@ -44,6 +45,8 @@ STATE_FN, COMMAND_FN = ((ctypes.cast(_LIB.hx_state, _P).value,
                          ctypes.cast(_LIB.hx_command, _P).value) if _LIB is not None
                         else (None, None))
 _COMPLIANCE = ctypes.c_double * 5
+_STATE_READ = struct.Struct("3d").unpack_from
+_PACK_COMPLIANCE = struct.Struct("5d").pack_into
 # the arrays the struct points at, in its order after n, and their element types
 _ARRAYS = [(f, np.bool_ if f == "enabled" else np.float64)
            for f, kind in _Bank._fields_[1:] if kind is _P]
@@ -68,6 +71,10 @@ class CompiledDrives:
         self._seen: tuple = (None, 0, None, 0)   # the last (q, its address, ctrl, its address)
         self._out = (ctypes.c_double * 3)()
         self._out_at = ctypes.addressof(self._out)
+        self._out_view = memoryview(self._out).cast("B")
+        self._registers = _COMPLIANCE()   # a command's compliance registers, packed
+        self._registers_at = ctypes.addressof(self._registers)
+        self._registers_view = memoryview(self._registers).cast("B")
         self._duty, self._state = _LIB.hx_duty, _LIB.hx_state
         self._command, self._compliance = _LIB.hx_command, _LIB.hx_compliance
 
@@ -86,8 +93,7 @@ class CompiledDrives:
 
     def state(self, j: int) -> tuple[float, float, float]:
         self._state(self.ref, j, self._out_at)
-        out = self._out
-        return out[0], out[1], out[2]
+        return _STATE_READ(self._out_view)   # a ctypes array's items cost more
 
     def compliance(self, j: int, registers: tuple[int, int, int, int, int]) -> None:
         self._compliance(self.ref, j, _COMPLIANCE(*registers))
@@ -95,5 +101,7 @@ class CompiledDrives:
     def command(self, j: int, goal_rad: float, speed_limit_rad_s: float,
                 torque_limit_frac: float, enabled: bool,
                 compliance: tuple[int, int, int, int, int] | None) -> None:
+        if compliance is not None:
+            _PACK_COMPLIANCE(self._registers_view, 0, *compliance)
         self._command(self.ref, j, goal_rad, speed_limit_rad_s, torque_limit_frac, enabled,
-                      None if compliance is None else _COMPLIANCE(*compliance))
+                      None if compliance is None else self._registers_at)
