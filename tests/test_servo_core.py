@@ -1,7 +1,7 @@
 """A whole line's SYNC_WRITE and READ in one compiled call (hil/servobus/servo_core.c)
 leave every servo as its own ``handle`` does, servo by servo, with the same rules
-(servo_rules.py): what the one call adds is the dispatch (the packet parsed once, each
-servo's entry, the order, the servos it hands back). Runs of the shipped firmware on the
+(servo_rules.py): what the one call adds is the dispatch (which servos it serves, in
+what order, and the ones it hands back). Runs of the shipped firmware on the
 hexapod world (with the fault vocabulary that reaches a servo's state: overheating, a
 supply sag, a stall, an overload, a brown-out, an unplugged servo) and a scripted master's
 SYNC_WRITEs and READs (torque limits, compliance, Lock, EEPROM writes, wheel mode, refused

@@ -26,29 +26,6 @@ from hexhil.hil.servobus.servo_layout import APPLY_COMMAND, SERVO
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
 
-_sync_parsed: list = [b"", None]   # the last SYNC_WRITE's parameters and sync_entries()
-
-
-def sync_entries(params: bytes) -> tuple[int, dict[int, bytes]] | None:
-    """A SYNC_WRITE's start address and each ID's data (its first entry), or None when
-    malformed. Every servo on the line hears the same packet: it is parsed once, not once
-    per servo (the last parameters are kept; bytes are compared, so a copy hits too)."""
-    if params == _sync_parsed[0]:
-        return _sync_parsed[1]
-    out = None
-    if len(params) >= 2:
-        a, n = params[0], params[1]
-        stride = n + 1
-        if n and not (len(params) - 2) % stride:
-            data: dict[int, bytes] = {}
-            for i in range(2, len(params), stride):
-                if params[i] not in data:
-                    data[params[i]] = bytes(params[i + 1:i + stride])
-            out = (a, data)
-    _sync_parsed[0], _sync_parsed[1] = bytes(params), out
-    return out
-
-
 class Servo(TableServo, ctypes.Structure):
     """One AX-12A on the bus; ``handle`` takes a parsed instruction and returns the reply.
 
@@ -233,14 +210,10 @@ class Servo(TableServo, ctypes.Structure):
         return self._answer(code, error, data)
 
     def _sync_write(self, params: bytes) -> None:
-        entries = sync_entries(params)
-        if entries is None:
-            return
-        d = entries[1].get(self.table[ax12.ID])
-        if d is not None:
-            a = entries[0]
-            if not self.check_write(a, d) & dxl.ERR_RANGE:
-                self._apply_write(a, d)
+        """Its ID's first entry, checked (refused on a Range error: no status) and applied."""
+        if servo_rules.sync_write(self._at, self.health.at, self._table_at,
+                                  self.edition == ax12.EDITION_ORIGINAL, params) & APPLY_COMMAND:
+            self._command()
 
     def check_write(self, address: int, data: bytes) -> int:
         """Error bits a WRITE of ``data`` at ``address`` earns; Range means it is refused.

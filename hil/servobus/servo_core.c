@@ -229,24 +229,33 @@ int hx_apply(struct servo *s, struct health *h, unsigned char *t, int a, const u
     return out;
 }
 
+/* A SYNC_WRITE's parameters p[0..len) (address, data length, then each ID and its data)
+ * to one servo (Servo._sync_write): its ID's first entry, checked (a Range error refuses
+ * it: a broadcast has no status) and applied; hx_apply's bits, 0 when the packet has no
+ * entry for it or is malformed */
+int hx_sync_one(struct servo *s, struct health *h, unsigned char *t, const struct cell *cells,
+                int original, const unsigned char *p, int len)
+{
+    if (len < 2 || !p[1] || (len - 2) % (p[1] + 1))
+        return 0;
+    int a = p[0], n = p[1];
+    for (int k = 2; k < len; k += n + 1) {
+        if (p[k] != t[AX12_ID])
+            continue;
+        if (hx_check_write(cells, original, t, a, p + k + 1, n) & DXL_ERR_RANGE)
+            return 0;
+        return hx_apply(s, h, t, a, p + k + 1, n);
+    }
+    return 0;
+}
+
 /* Servos from..n-1 take the SYNC_WRITE ``params`` at t_us, in order; returns the index of
- * the first one this cannot serve (not a MuJoCo joint, deaf, or finishing an EEPROM write:
+ * the first one this cannot serve (not a world's joint, deaf, or finishing an EEPROM write:
  * the Python code serves it, then calls again from the next), or n when all are done;
  * ``*changed`` set when one's ID or Baud Rate changed (the line re-indexes). */
 int hx_sync_write(const struct bank *b, int from, int64_t t_us, const unsigned char *p, int len,
                   int32_t *changed)
 {
-    int first[256];
-    int a = -1, stride = 0;
-    if (len >= 2 && p[1] && (len - 2) % (p[1] + 1) == 0) {   /* ax12_servo.sync_entries */
-        a = p[0];
-        stride = p[1] + 1;
-        for (int k = 0; k < 256; k++)
-            first[k] = -1;
-        for (int k = 2; k < len; k += stride)
-            if (first[p[k]] < 0)
-                first[p[k]] = k + 1;
-    }
     for (int i = from; i < b->n; i++) {
         struct servo *s = b->servo[i];
         if (!hx_serves(b, i, t_us) || u16(b->table[i], AX12_MOVING_SPEED) > 2047)
@@ -254,13 +263,7 @@ int hx_sync_write(const struct bank *b, int from, int64_t t_us, const unsigned c
         advance(b, i, t_us);                /* TableServo._take, nothing to wait for */
         s->held_us = 0;
         s->instructions += 1;
-        if (a < 0)
-            continue;
-        int at = first[b->table[i][AX12_ID]];
-        if (at < 0 || (hx_check_write(b->cells, b->original[i], b->table[i], a, p + at,
-                                      stride - 1) & DXL_ERR_RANGE))
-            continue;
-        int done = hx_apply(s, b->health[i], b->table[i], a, p + at, stride - 1);
+        int done = hx_sync_one(s, b->health[i], b->table[i], b->cells, b->original[i], p, len);
         if (done & HX_APPLY_ADDRESS)
             *changed = 1;
         if (done & HX_APPLY_COMMAND)

@@ -38,6 +38,8 @@ int hx_apply(struct servo *s, struct health *h, unsigned char *t, int a, const u
              int n);
 int hx_present(unsigned char *t, const struct health *h, double pos_rad, double vel_rad_s,
                double load);
+int hx_sync_one(struct servo *s, struct health *h, unsigned char *t, const struct cell *cells,
+                int original, const unsigned char *p, int len);
 
 /* servo_core.c: a WRITE's check, ax12_servo.py Servo.check_write */
 int hx_check_write(const struct cell *cells, int original, const unsigned char *t, int a,

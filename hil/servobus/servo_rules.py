@@ -58,7 +58,8 @@ def _load() -> Any:
                             ("hx_alarm", [_P, _P, _I], _I),
                             ("hx_catch_up", [_P, _P, _P, _I64, _D], _I),
                             ("hx_apply", [_P, _P, _P, _I, ctypes.c_char_p, _I], _I),
-                            ("hx_present", [_P, _P, _D, _D, _D], _I)):
+                            ("hx_present", [_P, _P, _D, _D, _D], _I),
+                            ("hx_sync_one", [_P, _P, _P, _P, _I, ctypes.c_char_p, _I], _I)):
         fn = getattr(lib, name)
         fn.argtypes, fn.restype = args, res
     return lib
@@ -74,9 +75,10 @@ _LIB = _load()
 # servo_layout.APPLY_* bits; present(table, health, pos_rad, vel_rad_s, load_frac) ->
 # Present Position
 (health_advance, health_errors, health_step, rearm, alarm, catch_up, apply, present, _check,
- _setpoint) = ((_LIB.hx_health_advance, _LIB.hx_health_errors, _LIB.hx_health_step,
-                _LIB.hx_rearm, _LIB.hx_alarm, _LIB.hx_catch_up, _LIB.hx_apply, _LIB.hx_present,
-                _LIB.hx_check_write, _LIB.hx_setpoint) if _LIB is not None else (None,) * 10)
+ _setpoint, _sync_one) = (
+    (_LIB.hx_health_advance, _LIB.hx_health_errors, _LIB.hx_health_step, _LIB.hx_rearm,
+     _LIB.hx_alarm, _LIB.hx_catch_up, _LIB.hx_apply, _LIB.hx_present, _LIB.hx_check_write,
+     _LIB.hx_setpoint, _LIB.hx_sync_one) if _LIB is not None else (None,) * 11)
 
 
 def library() -> Any:
@@ -101,6 +103,14 @@ def address(table: bytearray) -> tuple[Any, int]:
 
 def check_write(original: bool, table_at: int, address: int, data: bytes) -> int:
     return _check(_CELLS_AT, original, table_at, address, bytes(data), len(data))
+
+
+def sync_write(servo_at: int, health_at: int, table_at: int, original: bool,
+               params: bytes) -> int:
+    """A SYNC_WRITE's parameters to one servo: its entry checked and applied; the
+    servo_layout.APPLY_* bits (0: no entry for it, refused or malformed)."""
+    return _sync_one(servo_at, health_at, table_at, _CELLS_AT, original, bytes(params),
+                     len(params))
 
 
 _SETPOINT = (ctypes.c_double * 9)()
