@@ -22,7 +22,7 @@ from hexhil.hil.servobus.drive import Actuator, KinematicActuator, drive
 from hexhil.hil.servobus.table_servo import TableServo
 from hexhil.hil.servobus import servo_rules
 from hexhil.hil.servobus.health import ServoHealth
-from hexhil.hil.servobus.servo_layout import APPLY_COMMAND, SERVO
+from hexhil.hil.servobus.servo_layout import APPLY_COMMAND, READ_COMMAND, READ_REFRESH, SERVO
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
 
@@ -170,17 +170,11 @@ class Servo(TableServo, ctypes.Structure):
         if code == dxl.SYNC_WRITE:   # every cycle, to every servo: tested first
             self._sync_write(params)
             return None
+        if code == dxl.READ and len(params) == 2:
+            return self._read(params[0], params[1], broadcast)
         error = 0
-        data = b""
         if code == dxl.READ:
-            if len(params) != 2:
-                error = dxl.ERR_INSTRUCTION
-            else:
-                a, n = params[0], params[1]
-                if a + n > ax12.TABLE_SIZE or n == 0:
-                    error = dxl.ERR_RANGE
-                else:
-                    data = bytes(self._present()[a:a + n])
+            error = dxl.ERR_INSTRUCTION
         elif code == dxl.WRITE or code == dxl.REG_WRITE:
             if len(params) < 2:
                 error = dxl.ERR_INSTRUCTION
@@ -207,7 +201,19 @@ class Servo(TableServo, ctypes.Structure):
             self._alarm(alarms)
         if broadcast:
             return None
-        return self._answer(code, error, data)
+        return self._answer(code, error, b"")
+
+    def _read(self, address: int, length: int, broadcast: bool) -> bytes | None:
+        """The data (Present registers up to date), the alarms and the status."""
+        at = (self._at, self.health.at, self._table_at, address, length, broadcast)
+        fresh = self._present_stale and self.reading is None
+        code = servo_rules.read(*at, self.actuator.state() if fresh else None)
+        if code & READ_REFRESH:   # a Present Position fault reads its own way
+            self._refresh_present()
+            code = servo_rules.read(*at, None)
+        if code & READ_COMMAND:
+            self._command()
+        return servo_rules.status(code)
 
     def _sync_write(self, params: bytes) -> None:
         """Its ID's first entry, checked (refused on a Range error: no status) and applied."""

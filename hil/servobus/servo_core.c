@@ -303,44 +303,36 @@ int hx_present(unsigned char *t, const struct health *h, double pos_rad, double 
     return (int)p;
 }
 
-/* the Present registers of servo i (no reading fault: the Python code serves a servo with
- * one) */
-static void refresh_present(const struct bank *b, int i)
+/* A READ of n bytes at a to one servo after its catch-up (Servo._read): the data (the
+ * Present registers brought up to date from the horn's state, pos_rad, vel_rad_s and load,
+ * when stale), the alarms, and the status packet into out (room for TABLE_SIZE + 6) unless
+ * broadcast or below Status Return Level 1 (Servo._answer). Returns the packet's length (0:
+ * no answer), plus HX_READ_COMMAND when an alarm shutdown must command the drive; or
+ * HX_READ_REFRESH alone, having done nothing, when the registers are stale and state is
+ * NULL (a Present Position fault: the caller refreshes them its way and calls again). */
+int hx_read_one(struct servo *s, struct health *h, unsigned char *t, int a, int n, int broadcast,
+                const double *state, unsigned char *out)
 {
-    double state[3];
-    b->state(b->drives, b->joint[i], state);
-    hx_present(b->table[i], b->health[i], state[0], state[1], state[2]);
-    b->servo[i]->present_stale = 0;
-}
-
-/* Servo.handle of a READ (its two parameters a, n) to servo i at t_us: the status packet
- * into out (room for 56 bytes), its length, 0 when the servo answers nothing, -1 when the
- * Python code must serve it (not a MuJoCo joint, deaf, finishing an EEPROM write). */
-int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned char *out)
-{
-    struct servo *s = b->servo[i];
-    if (!hx_serves(b, i, t_us))
-        return -1;
-    advance(b, i, t_us);
-    s->held_us = 0;
-    s->instructions += 1;
-    unsigned char *t = b->table[i];
-    int error = 0, len = 0;
+    int error = 0, len = 0, done = 0;
     unsigned char data[AX12_TABLE_SIZE];
     if (a + n > AX12_TABLE_SIZE || n == 0) {
         error = DXL_ERR_RANGE;
     } else {
-        if (s->present_stale)
-            refresh_present(b, i);
+        if (s->present_stale) {
+            if (state == NULL)
+                return HX_READ_REFRESH;
+            hx_present(t, h, state[0], state[1], state[2]);
+            s->present_stale = 0;
+        }
         memcpy(data, t + a, (size_t)n);
         len = n;
     }
-    int alarms = error | hx_health_errors(b->health[i], t);
+    int alarms = error | hx_health_errors(h, t);   /* a limit just written may be exceeded */
     if (alarms && hx_alarm(s, t, alarms))
-        command(b, i);
-    if (t[AX12_STATUS_RETURN_LEVEL] < 1)   /* Servo._answer: a READ is answered from level 1 */
-        return 0;
-    int code = error | hx_health_errors(b->health[i], t);
+        done = HX_READ_COMMAND;
+    if (broadcast || t[AX12_STATUS_RETURN_LEVEL] < 1)
+        return done;
+    int code = error | hx_health_errors(h, t);
     int sum = t[AX12_ID] + len + 2 + code;
     out[0] = out[1] = 0xFF;
     out[2] = t[AX12_ID];
@@ -351,7 +343,26 @@ int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned ch
         sum += data[k];
     }
     out[5 + len] = (unsigned char)(~sum & 0xFF);
-    return len + 6;
+    return (len + 6) | done;
+}
+
+/* A READ (its two parameters a, n) to servo i of the bank at t_us: the status packet into
+ * out (room for 56 bytes), its length, 0 when the servo answers nothing, -1 when the
+ * Python code must serve it (not a world's joint, deaf, finishing an EEPROM write). */
+int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned char *out)
+{
+    struct servo *s = b->servo[i];
+    if (!hx_serves(b, i, t_us))
+        return -1;
+    advance(b, i, t_us);
+    s->held_us = 0;
+    s->instructions += 1;
+    double state[3];
+    b->state(b->drives, b->joint[i], state);
+    int done = hx_read_one(s, b->health[i], b->table[i], a, n, 0, state, out);
+    if (done & HX_READ_COMMAND)
+        command(b, i);
+    return done & HX_READ_LEN;
 }
 
 /* TableServo.state_row of every servo of the bank (each on a MuJoCo joint: the Python code

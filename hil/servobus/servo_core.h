@@ -38,6 +38,8 @@ int hx_apply(struct servo *s, struct health *h, unsigned char *t, int a, const u
              int n);
 int hx_present(unsigned char *t, const struct health *h, double pos_rad, double vel_rad_s,
                double load);
+int hx_read_one(struct servo *s, struct health *h, unsigned char *t, int a, int n, int broadcast,
+                const double *state, unsigned char *out);
 int hx_sync_one(struct servo *s, struct health *h, unsigned char *t, const struct cell *cells,
                 int original, const unsigned char *p, int len);
 

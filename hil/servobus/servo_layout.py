@@ -23,6 +23,9 @@ STATE_ROW = struct.Struct("<Bddddd??B")
 # hx_apply's bits: the write changed the ID or Baud Rate (the line re-indexes); the drive
 # must be commanded again
 APPLY_ADDRESS, APPLY_COMMAND = 1, 2
+# hx_read_one's answer: the status packet's length in its low byte; the drive must be
+# commanded again; the Present registers must be refreshed first (a reading fault's way)
+READ_LEN, READ_COMMAND, READ_REFRESH = 0xFF, 0x100, 0x200
 HANDOVER = ("DONE", "ADVANCE", "PYTHON", "PYTHON_REPLY", "FALLBACK", "WRITE_LEFT")
 
 # The health model's parameters (our choices; the manuals give no thermal data or overload
@@ -102,7 +105,8 @@ LAYOUT = Layout("HX_SERVO_LAYOUT_H", [
     ("STATE_ROW", STATE_ROW.size), ("AX12_SPEED_UNIT", ax12.SPEED_RPM_PER_UNIT),
     ("AX12_LOAD_UNIT", ax12.LOAD_FRACTION_PER_UNIT), ("AX12_NO_LOAD_RAD_S", NO_LOAD_RAD_S),
     ("MOVING_EPS_RAD_S", MOVING_EPS_RAD_S), ("HX_APPLY_ADDRESS", APPLY_ADDRESS),
-    ("HX_APPLY_COMMAND", APPLY_COMMAND),
+    ("HX_APPLY_COMMAND", APPLY_COMMAND), ("HX_READ_LEN", READ_LEN),
+    ("HX_READ_COMMAND", READ_COMMAND), ("HX_READ_REFRESH", READ_REFRESH),
     ("HEALTH_AMBIENT_C", AMBIENT_C), ("HEALTH_HEAT_C", HEAT_AT_FULL_LOAD_C),
     ("HEALTH_THERMAL_TAU_S", THERMAL_TAU_S), ("HEALTH_OVERHEAT_TAU_S", OVERHEAT_TAU_S),
     ("HEALTH_OVERLOAD_US", OVERLOAD_TIME_US),

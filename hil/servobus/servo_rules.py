@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from hexhil.hil.native import CORES, REBUILD, load_library
-from hexhil.hil.servobus.servo_layout import LAYOUT
+from hexhil.hil.servobus.servo_layout import LAYOUT, READ_LEN
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.errors import BadFile
 
@@ -59,7 +59,8 @@ def _load() -> Any:
                             ("hx_catch_up", [_P, _P, _P, _I64, _D], _I),
                             ("hx_apply", [_P, _P, _P, _I, ctypes.c_char_p, _I], _I),
                             ("hx_present", [_P, _P, _D, _D, _D], _I),
-                            ("hx_sync_one", [_P, _P, _P, _P, _I, ctypes.c_char_p, _I], _I)):
+                            ("hx_sync_one", [_P, _P, _P, _P, _I, ctypes.c_char_p, _I], _I),
+                            ("hx_read_one", [_P, _P, _P, _I, _I, _I, _P, _P], _I)):
         fn = getattr(lib, name)
         fn.argtypes, fn.restype = args, res
     return lib
@@ -75,10 +76,11 @@ _LIB = _load()
 # servo_layout.APPLY_* bits; present(table, health, pos_rad, vel_rad_s, load_frac) ->
 # Present Position
 (health_advance, health_errors, health_step, rearm, alarm, catch_up, apply, present, _check,
- _setpoint, _sync_one) = (
+ _setpoint, _sync_one, _read_one) = (
     (_LIB.hx_health_advance, _LIB.hx_health_errors, _LIB.hx_health_step, _LIB.hx_rearm,
      _LIB.hx_alarm, _LIB.hx_catch_up, _LIB.hx_apply, _LIB.hx_present, _LIB.hx_check_write,
-     _LIB.hx_setpoint, _LIB.hx_sync_one) if _LIB is not None else (None,) * 11)
+     _LIB.hx_setpoint, _LIB.hx_sync_one, _LIB.hx_read_one) if _LIB is not None
+    else (None,) * 12)
 
 
 def library() -> Any:
@@ -127,3 +129,28 @@ def setpoint(table_at: int, supply_frac: float) -> tuple[float, float, float, bo
     _setpoint(*_TABLES, table_at, supply_frac, _SETPOINT_AT)
     goal, speed, torque, enabled, a, b, c, d, e = _SETPOINT_READ(_SETPOINT_VIEW)
     return goal, speed, torque, enabled != 0.0, (int(a), int(b), int(c), int(d), int(e))
+
+
+_STATE = (ctypes.c_double * 3)()
+_STATE_AT = ctypes.addressof(_STATE)
+_STATE_WRITE = struct.Struct("3d").pack_into
+_STATE_VIEW = memoryview(_STATE).cast("B")
+_STATUS = ctypes.create_string_buffer(ax12.TABLE_SIZE + 6)
+_STATUS_AT = ctypes.addressof(_STATUS)
+
+
+def read(servo_at: int, health_at: int, table_at: int, address: int, length: int,
+         broadcast: bool, state: tuple[float, float, float] | None) -> int:
+    """A READ to one servo after its catch-up, ``state`` the horn's (None: the caller
+    refreshes stale Present registers itself): servo_layout.READ_* bits and the status
+    packet's length, which ``status`` reads back."""
+    if state is not None:
+        _STATE_WRITE(_STATE_VIEW, 0, *state)
+    return _read_one(servo_at, health_at, table_at, address, length, broadcast,
+                     None if state is None else _STATE_AT, _STATUS_AT)
+
+
+def status(code: int) -> bytes | None:
+    """The status packet ``read`` answered with, or None."""
+    n = code & READ_LEN
+    return ctypes.string_at(_STATUS_AT, n) if n else None
