@@ -103,6 +103,10 @@ class Servo(TableServo, ctypes.Structure):
             self.table[ax12.PRESENT_POSITION] = p & 0xFF
             self.table[ax12.PRESENT_POSITION + 1] = p >> 8
 
+    def state_row(self) -> tuple:
+        """The recorder's row (the compiled rule, as the line's bank packs it)."""
+        return servo_rules.state_row(self._table_at, self.health.at, self.actuator.state())
+
     def state_errors(self) -> int:
         """Error bits that describe the servo's state (voltage, heat, overload)."""
         return self.health.errors(self._table_at)

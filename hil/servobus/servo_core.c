@@ -365,26 +365,29 @@ int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned ch
     return done & HX_READ_LEN;
 }
 
-/* TableServo.state_row of every servo of the bank (each on a MuJoCo joint: the Python code
- * checks), as the recorder logs it on /servos: id, Present Position's true angle, speed,
- * load (MujocoActuator.state), temperature, voltage, torque enabled, moving (drive.py
- * is_moving), the error bits (ServoHealth.errors); packed little-endian "<Bddddd??B",
- * STATE_ROW bytes a servo (servo_layout.py; servo_core.py unpacks them where the recorder
- * encodes). */
+/* An AX-12's state_row (ax12_servo.py Servo.state_row), as the recorder logs it on
+ * /servos: id, the horn's state (its true angle, speed and load), temperature, voltage,
+ * torque enabled, moving, the error bits; packed little-endian "<Bddddd??B", STATE_ROW
+ * bytes (servo_layout.py; unpacked where the recorder encodes them). */
+void hx_state_row(const unsigned char *t, const struct health *h, const double *state,
+                  unsigned char *out)
+{
+    out[0] = t[AX12_ID];
+    memcpy(out + 1, state, 24);
+    memcpy(out + 25, &h->temperature_c, 8);
+    memcpy(out + 33, &h->supply_v, 8);
+    out[41] = t[AX12_TORQUE_ENABLE] != 0;
+    out[42] = fabs(state[1]) >= MOVING_EPS_RAD_S;
+    out[43] = (unsigned char)hx_health_errors(h, t);
+}
 
+/* The state_row of every servo of the bank (each on a world's joint: the Python code
+ * checks), one after the other */
 void hx_state_rows(const struct bank *b, unsigned char *out)
 {
     for (int i = 0; i < b->n; i++, out += STATE_ROW) {
-        const unsigned char *t = b->table[i];
-        const struct health *h = b->health[i];
         double state[3];
         b->state(b->drives, b->joint[i], state);
-        out[0] = t[AX12_ID];
-        memcpy(out + 1, state, 24);   /* the angle, speed and load */
-        memcpy(out + 25, &h->temperature_c, 8);
-        memcpy(out + 33, &h->supply_v, 8);
-        out[41] = t[AX12_TORQUE_ENABLE] != 0;
-        out[42] = fabs(state[1]) >= MOVING_EPS_RAD_S;
-        out[43] = (unsigned char)hx_health_errors(h, t);
+        hx_state_row(b->table[i], b->health[i], state, out);
     }
 }

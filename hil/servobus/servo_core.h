@@ -40,6 +40,8 @@ int hx_present(unsigned char *t, const struct health *h, double pos_rad, double 
                double load);
 int hx_read_one(struct servo *s, struct health *h, unsigned char *t, int a, int n, int broadcast,
                 const double *state, unsigned char *out);
+void hx_state_row(const unsigned char *t, const struct health *h, const double *state,
+                  unsigned char *out);
 int hx_sync_one(struct servo *s, struct health *h, unsigned char *t, const struct cell *cells,
                 int original, const unsigned char *p, int len);
 

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from hexhil.hil.native import CORES, REBUILD, load_library
-from hexhil.hil.servobus.servo_layout import LAYOUT, READ_LEN
+from hexhil.hil.servobus.servo_layout import LAYOUT, READ_LEN, STATE_ROW
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.errors import BadFile
 
@@ -60,7 +60,8 @@ def _load() -> Any:
                             ("hx_apply", [_P, _P, _P, _I, ctypes.c_char_p, _I], _I),
                             ("hx_present", [_P, _P, _D, _D, _D], _I),
                             ("hx_sync_one", [_P, _P, _P, _P, _I, ctypes.c_char_p, _I], _I),
-                            ("hx_read_one", [_P, _P, _P, _I, _I, _I, _P, _P], _I)):
+                            ("hx_read_one", [_P, _P, _P, _I, _I, _I, _P, _P], _I),
+                            ("hx_state_row", [_P, _P, _P, _P], None)):
         fn = getattr(lib, name)
         fn.argtypes, fn.restype = args, res
     return lib
@@ -76,11 +77,11 @@ _LIB = _load()
 # servo_layout.APPLY_* bits; present(table, health, pos_rad, vel_rad_s, load_frac) ->
 # Present Position
 (health_advance, health_errors, health_step, rearm, alarm, catch_up, apply, present, _check,
- _setpoint, _sync_one, _read_one) = (
+ _setpoint, _sync_one, _read_one, _state_row) = (
     (_LIB.hx_health_advance, _LIB.hx_health_errors, _LIB.hx_health_step, _LIB.hx_rearm,
      _LIB.hx_alarm, _LIB.hx_catch_up, _LIB.hx_apply, _LIB.hx_present, _LIB.hx_check_write,
-     _LIB.hx_setpoint, _LIB.hx_sync_one, _LIB.hx_read_one) if _LIB is not None
-    else (None,) * 12)
+     _LIB.hx_setpoint, _LIB.hx_sync_one, _LIB.hx_read_one, _LIB.hx_state_row)
+    if _LIB is not None else (None,) * 13)
 
 
 def library() -> Any:
@@ -154,3 +155,15 @@ def status(code: int) -> bytes | None:
     """The status packet ``read`` answered with, or None."""
     n = code & READ_LEN
     return ctypes.string_at(_STATUS_AT, n) if n else None
+
+
+_ROW = ctypes.create_string_buffer(STATE_ROW.size)
+_ROW_AT = ctypes.addressof(_ROW)
+
+
+def state_row(table_at: int, health_at: int, state: tuple[float, float, float]) -> tuple:
+    """An AX-12's row for the recorder's /servos (hil.seams.SERVO_STATE_FIELDS), from the
+    horn's ``state``."""
+    _STATE_WRITE(_STATE_VIEW, 0, *state)
+    _state_row(table_at, health_at, _STATE_AT, _ROW_AT)
+    return STATE_ROW.unpack(_ROW.raw)
