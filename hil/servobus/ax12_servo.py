@@ -151,21 +151,16 @@ class Servo(TableServo, ctypes.Structure):
         self._present_stale = True
 
     # --- instructions --------------------------------------------------------------
-    def _reply(self, error: int, params: bytes = b"") -> bytes:
-        return dxl.status(self.table[ax12.ID], error | self.state_errors(), params)
-
     def checksum_error(self, code: int, t_us: int) -> bytes | None:
         """A packet addressed to this servo arrived with a bad checksum: answer bit 4."""
         self.advance_to(t_us)
         if self._deaf(t_us):
             return None
-        return self._answer(code, dxl.ERR_CHECKSUM, b"")
+        return self._answer(code, dxl.ERR_CHECKSUM)
 
-    def _answer(self, code: int, error: int, params: bytes) -> bytes | None:
-        srl = self.table[ax12.STATUS_RETURN_LEVEL]
-        if srl >= 2 or code == dxl.PING or (srl == 1 and code == dxl.READ):
-            return self._reply(error, params)
-        return None
+    def _answer(self, code: int, error: int) -> bytes | None:
+        """The status, as the Status Return Level answers ``code``."""
+        return servo_rules.answer(self._table_at, self.health.at, code, error)
 
     def handle(self, code: int, params: bytes, broadcast: bool, t_us: int) -> bytes | None:
         """Execute one instruction at t_us; return the status packet, or None (no reply)."""
@@ -195,7 +190,7 @@ class Servo(TableServo, ctypes.Structure):
             else:
                 self._apply_write(*registered)
         elif code == dxl.FACTORY_RESET:
-            reply = None if broadcast else self._answer(code, 0, b"")
+            reply = None if broadcast else self._answer(code, 0)
             self._factory_reset()
             return reply
         elif code != dxl.PING:
@@ -205,7 +200,7 @@ class Servo(TableServo, ctypes.Structure):
             self._alarm(alarms)
         if broadcast:
             return None
-        return self._answer(code, error, b"")
+        return self._answer(code, error)
 
     def _read(self, address: int, length: int, broadcast: bool) -> bytes | None:
         """The data (Present registers up to date), the alarms and the status."""

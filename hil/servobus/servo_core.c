@@ -303,6 +303,29 @@ int hx_present(unsigned char *t, const struct health *h, double pos_rad, double 
     return (int)p;
 }
 
+/* Servo._answer: the status packet to instruction code (its error bits with the health's,
+ * data d[0..n)) into out when the Status Return Level answers it (2: every instruction; 1:
+ * READ and PING; 0: PING alone); its length, 0 when the servo answers nothing */
+int hx_answer(const unsigned char *t, const struct health *h, int code, int error,
+              const unsigned char *d, int n, unsigned char *out)
+{
+    int srl = t[AX12_STATUS_RETURN_LEVEL];
+    if (!(srl >= 2 || code == DXL_PING || (srl == 1 && code == DXL_READ)))
+        return 0;
+    int bits = error | hx_health_errors(h, t);
+    int sum = t[AX12_ID] + n + 2 + bits;
+    out[0] = out[1] = 0xFF;
+    out[2] = t[AX12_ID];
+    out[3] = (unsigned char)(n + 2);
+    out[4] = (unsigned char)bits;
+    for (int k = 0; k < n; k++) {
+        out[5 + k] = d[k];
+        sum += d[k];
+    }
+    out[5 + n] = (unsigned char)(~sum & 0xFF);
+    return n + 6;
+}
+
 /* A READ of n bytes at a to one servo after its catch-up (Servo._read): the data (the
  * Present registers brought up to date from the horn's state, pos_rad, vel_rad_s and load,
  * when stale), the alarms, and the status packet into out (room for TABLE_SIZE + 6) unless
@@ -330,20 +353,7 @@ int hx_read_one(struct servo *s, struct health *h, unsigned char *t, int a, int 
     int alarms = error | hx_health_errors(h, t);   /* a limit just written may be exceeded */
     if (alarms && hx_alarm(s, t, alarms))
         done = HX_READ_COMMAND;
-    if (broadcast || t[AX12_STATUS_RETURN_LEVEL] < 1)
-        return done;
-    int code = error | hx_health_errors(h, t);
-    int sum = t[AX12_ID] + len + 2 + code;
-    out[0] = out[1] = 0xFF;
-    out[2] = t[AX12_ID];
-    out[3] = (unsigned char)(len + 2);
-    out[4] = (unsigned char)code;
-    for (int k = 0; k < len; k++) {
-        out[5 + k] = data[k];
-        sum += data[k];
-    }
-    out[5 + len] = (unsigned char)(~sum & 0xFF);
-    return (len + 6) | done;
+    return broadcast ? done : hx_answer(t, h, DXL_READ, error, data, len, out) | done;
 }
 
 /* A READ (its two parameters a, n) to servo i of the bank at t_us: the status packet into

@@ -38,6 +38,8 @@ int hx_apply(struct servo *s, struct health *h, unsigned char *t, int a, const u
              int n);
 int hx_present(unsigned char *t, const struct health *h, double pos_rad, double vel_rad_s,
                double load);
+int hx_answer(const unsigned char *t, const struct health *h, int code, int error,
+              const unsigned char *d, int n, unsigned char *out);
 int hx_read_one(struct servo *s, struct health *h, unsigned char *t, int a, int n, int broadcast,
                 const double *state, unsigned char *out);
 void hx_state_row(const unsigned char *t, const struct health *h, const double *state,

@@ -97,7 +97,7 @@ LAYOUT = Layout("HX_SERVO_LAYOUT_H", [
     ("health", HEALTH), ("servo", SERVO), ("cell", CELL), ("bank", BANK), ("reads", READS)], [
     *((f"AX12_{n}", getattr(ax12, n)) for n in _REGISTERS),
     *((f"DXL_{n}", getattr(dxl, n)) for n in _ERRORS),
-    ("DXL_READ", dxl.READ), ("DXL_SYNC_WRITE", dxl.SYNC_WRITE),
+    ("DXL_READ", dxl.READ), ("DXL_PING", dxl.PING), ("DXL_SYNC_WRITE", dxl.SYNC_WRITE),
     ("DXL_BROADCAST_ID", dxl.BROADCAST_ID),
     ("LINK_READ_LEN", sim_link.READ_HEAD_LEN + 1),   # a read's head with its u8 ntx
     ("LINK_NO_SKIP", sim_link.NO_SKIP), ("LINK_MAX_REPLY_LEN", sim_link.MAX_REPLY_LEN),

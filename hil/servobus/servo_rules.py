@@ -61,7 +61,8 @@ def _load() -> Any:
                             ("hx_present", [_P, _P, _D, _D, _D], _I),
                             ("hx_sync_one", [_P, _P, _P, _P, _I, ctypes.c_char_p, _I], _I),
                             ("hx_read_one", [_P, _P, _P, _I, _I, _I, _P, _P], _I),
-                            ("hx_state_row", [_P, _P, _P, _P], None)):
+                            ("hx_state_row", [_P, _P, _P, _P], None),
+                            ("hx_answer", [_P, _P, _I, _I, _P, _I, _P], _I)):
         fn = getattr(lib, name)
         fn.argtypes, fn.restype = args, res
     return lib
@@ -77,11 +78,11 @@ _LIB = _load()
 # servo_layout.APPLY_* bits; present(table, health, pos_rad, vel_rad_s, load_frac) ->
 # Present Position
 (health_advance, health_errors, health_step, rearm, alarm, catch_up, apply, present, _check,
- _setpoint, _sync_one, _read_one, _state_row) = (
+ _setpoint, _sync_one, _read_one, _state_row, _answer) = (
     (_LIB.hx_health_advance, _LIB.hx_health_errors, _LIB.hx_health_step, _LIB.hx_rearm,
      _LIB.hx_alarm, _LIB.hx_catch_up, _LIB.hx_apply, _LIB.hx_present, _LIB.hx_check_write,
-     _LIB.hx_setpoint, _LIB.hx_sync_one, _LIB.hx_read_one, _LIB.hx_state_row)
-    if _LIB is not None else (None,) * 13)
+     _LIB.hx_setpoint, _LIB.hx_sync_one, _LIB.hx_read_one, _LIB.hx_state_row,
+     _LIB.hx_answer) if _LIB is not None else (None,) * 14)
 
 
 def library() -> Any:
@@ -149,6 +150,12 @@ def read(servo_at: int, health_at: int, table_at: int, address: int, length: int
         _STATE_WRITE(_STATE_VIEW, 0, *state)
     return _read_one(servo_at, health_at, table_at, address, length, broadcast,
                      None if state is None else _STATE_AT, _STATUS_AT)
+
+
+def answer(table_at: int, health_at: int, code: int, error: int) -> bytes | None:
+    """The status (no data) an instruction ``code`` earns with ``error``, or None where the
+    Status Return Level answers nothing."""
+    return status(_answer(table_at, health_at, code, error, None, 0, _STATUS_AT))
 
 
 def status(code: int) -> bytes | None:
