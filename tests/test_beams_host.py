@@ -1,7 +1,5 @@
 """Seed 000 on the host: estimators, landscape/planner, closed loop over CAN, CLI."""
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -9,6 +7,7 @@ import pytest
 from hexhil.papers.beam_traversal import beams_run, estimator, landscape, planner
 from hexhil.papers.beam_traversal.push import push_samples
 from hexhil.papers.beam_traversal.force_sensing import sections as fs
+from conftest import hexhil_in_process
 
 # Tables 1, 2 and 4: the paper's relative errors (k1, k2, h_b as a fraction of 5 mm) for
 # (unknowns, noise, T_s ms); None where the paper's single trial is below what even the
@@ -140,8 +139,7 @@ def test_closed_loop_over_can_traverses(k, mode):
     assert again == frames
 
 
-def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "hexhil.cli", *args], capture_output=True, text=True, timeout=120)
+_cli = hexhil_in_process
 
 
 def test_cli_estimate_json_and_bad_flags():

@@ -20,6 +20,7 @@ from hexhil.replay import replay_firmware
 from hexhil.run_summary import run
 from hexhil.trace.reader import info
 from hexhil.protocol.errors import UserError
+from conftest import hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent
 PROGRAMS = ROOT / "tests" / "c_firmware"
@@ -71,9 +72,7 @@ def test_hexhil_test_judges_the_c_tripod(built, tmp_path):
                     f'[case]\nscenario = "{FLAT}"\nduration_s = 8\n')
 
     def judge(firmware):
-        return subprocess.run([sys.executable, "-m", "hexhil.cli", "test", str(case),
-                               "--firmware", firmware], cwd=ROOT, capture_output=True,
-                              text=True)
+        return hexhil_in_process("test", case, "--firmware", firmware)
 
     proc = judge(built["c_tripod"])
     assert proc.returncode == 0, proc.stdout + proc.stderr
@@ -91,9 +90,8 @@ def test_the_hal_keeps_cubes_promises_in_virtual_time(built):
 
 
 def test_a_firmware_that_never_enables_the_transmitter_times_out_and_is_named(built):
-    proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "run", FLAT, "--duration",
-                           "1", "--firmware", built["no_transmitter"], "--json"],
-                          cwd=ROOT, capture_output=True, text=True)
+    proc = hexhil_in_process("run", FLAT, "--duration", "1", "--firmware",
+                             built["no_transmitter"], "--json")
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
     faults = json.loads(lines[-1])["faults"]
@@ -135,8 +133,7 @@ def test_a_firmware_that_prints_a_lot_runs_to_the_end(built):
 
 def test_a_file_that_is_not_executable_is_refused_in_one_line(tmp_path):
     src = ROOT / "examples" / "c_tripod" / "main.c"
-    proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "run", FLAT, "--firmware",
-                           str(src)], cwd=ROOT, capture_output=True, text=True)
+    proc = hexhil_in_process("run", FLAT, "--firmware", src)
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr.strip().splitlines() == [f"hexhil: --firmware {src}: neither a "
                                                 "MicroPython main file (.py) nor executable "
@@ -180,9 +177,7 @@ def test_the_link_conformance_suite_passes_against_the_c_client(built):
 
 
 def test_sdk_flags_build_a_firmware_from_a_users_own_makefile_line(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "sdk", "flags",
-                           "--lib-dir", str(tmp_path / "lib")], cwd=ROOT, capture_output=True,
-                          text=True)
+    proc = hexhil_in_process("sdk", "flags", "--lib-dir", tmp_path / "lib")
     assert proc.returncode == 0, proc.stderr
     flags = dict(ln.split(" += ", 1) for ln in proc.stdout.splitlines())
     assert sorted(flags) == ["CFLAGS", "LDLIBS"]
@@ -201,8 +196,7 @@ def test_sdk_flags_build_a_firmware_from_a_users_own_makefile_line(tmp_path):
     (["sdk", "build", "tests/c_firmware/misbehave.c", "-o", "/tmp/x"], "does not build"),
 ])
 def test_sdk_build_bad_input_is_one_line_and_exit_2(argv, says):
-    proc = subprocess.run([sys.executable, "-m", "hexhil.cli", *argv], cwd=ROOT,
-                          capture_output=True, text=True)
+    proc = hexhil_in_process(*argv)
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 2 and len(lines) == 1 and says in lines[0]
 

@@ -13,7 +13,7 @@ from elftools.elf.elffile import ELFFile
 
 from hexhil import c_sdk
 from hexhil.protocol.errors import UserError
-from conftest import hexhil
+from conftest import hexhil as hexhil_process, hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 TRIPOD = ROOT / "examples" / "c_tripod" / "main.c"
@@ -160,8 +160,9 @@ def test_sdk_flags_for_the_board_build_the_c_tripod_from_a_users_makefile(tmp_pa
 
 def test_a_missing_toolchain_is_one_line_naming_what_to_install(tmp_path, monkeypatch):
     env = {**os.environ, "PATH": str(tmp_path)}   # no arm-none-eabi-gcc on it
-    proc = hexhil("sdk", "build", "--target", "stm32f411", str(TRIPOD), "-o",
-                  str(tmp_path / "fw.elf"), env=env)
+    # a process of its own: this one has found the toolchain already
+    proc = hexhil_process("sdk", "build", "--target", "stm32f411", str(TRIPOD), "-o",
+                          str(tmp_path / "fw.elf"), env=env)
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 2 and len(lines) == 1, proc.stderr
     assert "arm-none-eabi-gcc" in lines[0]

@@ -10,7 +10,7 @@ from hexhil.expect import spec
 from hexhil.lockstep_run import Run
 from mcu_elf import build
 from hexhil.protocol.errors import UserError
-from conftest import ROOT, hexhil
+from conftest import ROOT, hexhil_in_process as hexhil
 
 SPIN = "still running after"
 

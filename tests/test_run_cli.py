@@ -4,7 +4,7 @@ import math
 from pathlib import Path
 
 import pytest
-from conftest import hexhil
+from conftest import hexhil_in_process as hexhil
 
 ROOT = Path(__file__).resolve().parent.parent
 KEYS = {"scenario", "seed", "firmware_runtime", "sim_time_s", "wall_time_s", "real_time_factor",
