@@ -12,7 +12,7 @@ import pytest
 
 from hexhil.hil.mcu.coverage import merge
 from mcu_elf import MCU, build
-from conftest import HEXHIL, hexhil
+from conftest import HEXHIL, hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -151,21 +151,18 @@ def test_coverage_is_of_the_firmwares_own_sources_unless_the_libraries_are_asked
     assert files["own"] < files["all"]
     assert any("/newlib/libc/" in f for f in files["all"]), files["all"]
     assert any("libgcc" in f for f in files["all"]), files["all"]
-    bad = subprocess.run(run(elf, "--coverage-libraries"), cwd=ROOT, capture_output=True,
-                         text=True, timeout=300)
+    bad = hexhil_in_process(*run(elf, "--coverage-libraries")[len(HEXHIL):])
     assert bad.returncode == 2 and "--coverage-libraries needs --coverage" in bad.stderr, bad.stderr
     case = tmp_path / "short.toml"      # hexhil test merges the same way
     case.write_text(f'[case]\nscenario = "{ROOT}/scenarios/flat-tripod.toml"\nduration_s = 0.1'
                     '\n\n[[expect]]\nname = "no firmware exception"\nkind = "no_exception"\n')
     merged = tmp_path / "merged.info"
-    r = subprocess.run([*HEXHIL, "test", str(case), "--firmware", str(elf), "--coverage",
-                        str(merged), "--coverage-libraries"], cwd=ROOT, capture_output=True,
-                       text=True, timeout=300)
+    r = hexhil_in_process("test", case, "--firmware", elf, "--coverage", merged,
+                          "--coverage-libraries")
     assert r.returncode == 0, r.stdout + r.stderr
     assert {row[3:] for row in merged.read_text().splitlines() if row.startswith("SF:")} \
         == files["all"]
-    bad = subprocess.run([*HEXHIL, "test", str(case), "--firmware", str(elf),
-                          "--coverage-libraries"], cwd=ROOT, capture_output=True, text=True)
+    bad = hexhil_in_process("test", case, "--firmware", elf, "--coverage-libraries")
     assert bad.returncode == 2 and "--coverage-libraries needs --coverage" in bad.stderr
 
 
@@ -174,12 +171,12 @@ def test_hexhil_test_counts_a_fault_as_a_failing_case_and_merges_coverage(tmp_pa
     case.write_text(f'[case]\nscenario = "{ROOT}/scenarios/flat-tripod.toml"\nduration_s = 0.2\n\n'
                     '[[expect]]\nname = "no firmware exception"\nkind = "no_exception"\n')
     hard = build(tmp_path, "faults.c", "FAULT=1")
-    r = hexhil("test", str(case), "--firmware", str(hard), timeout=300)
+    r = hexhil_in_process("test", case, "--firmware", hard)
     assert r.returncode == 1, r.stdout + r.stderr
     assert "faulted: an undefined instruction (UsageFault)" in r.stdout and "FAIL" in r.stdout
     info = tmp_path / "all.info"
     ping = build(tmp_path, "ping.c", "BAUD_BRR=50", "RAISE_A1=1", opt="-O0")
-    r = hexhil("test", case, "--repeat", "2", "--firmware", ping, "--coverage", info)
+    r = hexhil_in_process("test", case, "--repeat", "2", "--firmware", ping, "--coverage", info)
     assert "coverage of 2 runs" in r.stdout, r.stdout + r.stderr
     line = next(n for n, text in enumerate((MCU / "ping.c").read_text().splitlines(), 1)
                 if text.startswith("void SysTick_Handler"))      # 1 kHz
