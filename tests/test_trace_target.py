@@ -18,7 +18,7 @@ from hexhil.trace.reader import Trace, info
 from hexhil.trace.recorder import Recorder
 from hexhil.trace.target import partial_of
 from hexhil.protocol.errors import UserError
-from conftest import hexhil, hexhil_in_process
+from conftest import hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
@@ -67,7 +67,7 @@ def test_a_second_run_onto_one_target_is_refused_while_the_first_writes(tmp_path
         while not partial_of(out).exists() or partial_of(out).stat().st_size < 10_000:
             assert time.monotonic() < deadline and first.poll() is None
             time.sleep(0.1)
-        r = hexhil("run", FLAT, "--duration", "1", *FAST, "--out", str(out), "--overwrite")
+        r = hexhil_in_process("run", FLAT, "--duration", "1", *FAST, "--out", str(out), "--overwrite")
         assert "another run is writing this trace now" in one_line(r)
     finally:
         first.send_signal(signal.SIGINT)   # Ctrl-C: the first run finishes its file
@@ -88,12 +88,12 @@ def test_a_killed_run_leaves_its_partial_file_for_recover(tmp_path: Path) -> Non
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     assert not out.exists() and partial_of(out).exists()
-    r = hexhil("trace", "info", str(out))
+    r = hexhil_in_process("trace", "info", str(out))
     assert "killed.mcap.partial beside it is the unfinished trace" in one_line(r)
     # a new run onto the target does not write over the killed run's partial file
-    r = hexhil("run", FLAT, "--duration", "0.5", *FAST, "--out", str(out))
+    r = hexhil_in_process("run", FLAT, "--duration", "0.5", *FAST, "--out", str(out))
     assert "the unfinished trace of a run that was killed" in one_line(r)
-    r = hexhil("trace", "recover", str(out), str(tmp_path / "rec.mcap"))
+    r = hexhil_in_process("trace", "recover", str(out), str(tmp_path / "rec.mcap"))
     assert r.returncode == 0, r.stderr
     assert info(tmp_path / "rec.mcap")["end_s"] > 0.4
 
