@@ -16,7 +16,7 @@ import dynamixel_sdk.port_handler
 from ctrl_c import sigint_default
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
-from conftest import HEXHIL, hexhil
+from conftest import HEXHIL, hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -147,9 +147,9 @@ def test_stock_sdk_misreads_an_echoing_line(monkeypatch_module):
 
 
 def test_cli_rejects_bad_flags_in_one_line():
-    r = hexhil("bus", "--pty", "--ids", "5-2", timeout=60)
+    r = hexhil_in_process("bus", "--pty", "--ids", "5-2")
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
-    r = hexhil("bus", "--pty", "--tcp", "7000", timeout=60)
+    r = hexhil_in_process("bus", "--pty", "--tcp", "7000")
     assert r.returncode == 2 and "one transport" in r.stderr
 
 
