@@ -300,16 +300,17 @@ def test_drive_commands_what_the_conversions_give_for_every_register_value():
     act = _Recorder()
     t = ax12.defaults(ax12.EDITION_EMANUAL, 512)
     _view, t_at = servo_rules.address(t)   # the view keeps the table its size
+    calls = servo_rules.ServoCalls()
     t[6:10] = bytes((100, 0, 0xE8, 0x03))   # CW limit 100, CCW limit 1000
     for goal in range(0, 1024, 7):
         for speed in (0, 1, 300, 1023, 1024, 1500, 2047):
             t[30:34] = bytes((goal & 0xFF, goal >> 8, speed & 0xFF, speed >> 8))
-            drive(act, t_at, 1.0)
+            drive(act, calls.setpoint(t_at, 1.0))
             goal_rad, speed_rad_s = act.commands[-1][:2]
             assert goal_rad == ax12.position_to_rad(min(1000, max(100, goal)))
             assert speed_rad_s == min(ax12.speed_to_rad_s(speed), NO_LOAD_RAD_S)
     t[6:10] = bytes(4)                        # wheel mode: the speed's sign picks the way
     t[32:34] = bytes((0x2C, 0x05))            # 300 | DIRECTION_BIT
-    drive(act, t_at, 1.0)
+    drive(act, calls.setpoint(t_at, 1.0))
     assert act.commands[-1][0] == -math.inf
     assert act.commands[-1][1] == 300 * ax12.SPEED_RPM_PER_UNIT * 2.0 * math.pi / 60.0

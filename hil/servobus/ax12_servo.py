@@ -52,6 +52,7 @@ class Servo(TableServo, ctypes.Structure):
         self.table[ax12.ID] = dev_id
         self._table_view, self._table_at = servo_rules.address(self.table)   # for servo_rules
         self._at = ctypes.addressof(self)
+        self._calls = servo_rules.ServoCalls()
         self.actuator: Actuator = actuator if actuator is not None else \
             KinematicActuator(ax12.position_to_rad(position), t_us)
         self.t_us = t_us
@@ -99,13 +100,13 @@ class Servo(TableServo, ctypes.Structure):
         self._present_stale = False
         p = servo_rules.present(self._table_at, self.health.at, *self.actuator.state())
         if self.reading is not None:   # a Present Position fault reads the true value its way
-            p = max(0, min(1023, self.reading.apply(p)))
+            p = max(0, min(1023, self._position_read(p)))
             self.table[ax12.PRESENT_POSITION] = p & 0xFF
             self.table[ax12.PRESENT_POSITION + 1] = p >> 8
 
     def state_row(self) -> tuple:
         """The recorder's row (the compiled rule, as the line's bank packs it)."""
-        return servo_rules.state_row(self._table_at, self.health.at, self.actuator.state())
+        return self._calls.state_row(self._table_at, self.health.at, self.actuator.state())
 
     def state_errors(self) -> int:
         """Error bits that describe the servo's state (voltage, heat, overload)."""
@@ -117,7 +118,7 @@ class Servo(TableServo, ctypes.Structure):
             self._command()
 
     def _command(self) -> None:
-        drive(self.actuator, self._table_at, self.health.supply_frac)
+        drive(self.actuator, self._calls.setpoint(self._table_at, self.health.supply_frac))
 
     # --- faults (hil/servobus/faults.py) -----------------------------------------------------
     def set_supply_v(self, volts: float, t_us: int) -> None:
@@ -160,7 +161,7 @@ class Servo(TableServo, ctypes.Structure):
 
     def _answer(self, code: int, error: int) -> bytes | None:
         """The status, as the Status Return Level answers ``code``."""
-        return servo_rules.answer(self._table_at, self.health.at, code, error)
+        return self._calls.answer(self._table_at, self.health.at, code, error)
 
     def handle(self, code: int, params: bytes, broadcast: bool, t_us: int) -> bytes | None:
         """Execute one instruction at t_us; return the status packet, or None (no reply)."""
@@ -206,13 +207,14 @@ class Servo(TableServo, ctypes.Structure):
         """The data (Present registers up to date), the alarms and the status."""
         at = (self._at, self.health.at, self._table_at, address, length, broadcast)
         fresh = self._present_stale and self.reading is None
-        code = servo_rules.read(*at, self.actuator.state() if fresh else None)
+        calls = self._calls
+        code = calls.read(*at, self.actuator.state() if fresh else None)
         if code & READ_REFRESH:   # a Present Position fault reads its own way
             self._refresh_present()
-            code = servo_rules.read(*at, None)
+            code = calls.read(*at, None)
         if code & READ_COMMAND:
             self._command()
-        return servo_rules.status(code)
+        return calls.status(code)
 
     def _sync_write(self, params: bytes) -> None:
         """Its ID's first entry, checked (refused on a Range error: no status) and applied."""

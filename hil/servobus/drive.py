@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 
 from hexhil.hil.seams import Actuator
-from hexhil.hil.servobus import servo_rules
 from hexhil.hil.servobus.servo_layout import MOVING_EPS_RAD_S, NO_LOAD_RAD_S
 
 
@@ -20,16 +19,17 @@ def is_moving(velocity_rad_s: float) -> bool:
     return abs(velocity_rad_s) >= MOVING_EPS_RAD_S
 
 
-def drive(actuator: Actuator, table_at: int, supply_frac: float) -> None:
-    """Hand an AX-12 control table's set-point (its address, servo_rules.py ``address``) to
-    ``actuator``, at ``supply_frac`` of 12 V: the rule is servo_rules.py's ``setpoint``.
+def drive(actuator: Actuator, setpoint: tuple[float, float, float, bool,
+                                               tuple[int, int, int, int, int]]) -> None:
+    """Hand an AX-12 control table's set-point (servo_rules.py ``ServoCalls.setpoint``:
+    goal, speed limit, torque limit, Torque Enable, compliance) to ``actuator``; a goal of
+    NaN holds the horn where it reads.
 
     Joint mode stops the horn at the angle limits; wheel mode turns endlessly (speed 0
     stops it where it is). A DC motor's no-load speed and stall torque scale with its
     supply (rated at 12 V), so speed and torque limits shrink with it.
     """
-    goal_rad, speed_rad_s, torque_frac, enabled, compliance = servo_rules.setpoint(
-        table_at, supply_frac)
+    goal_rad, speed_rad_s, torque_frac, enabled, compliance = setpoint
     if goal_rad != goal_rad:
         goal_rad = actuator.state()[0]
     actuator.command(goal_rad, speed_rad_s, torque_frac, enabled, compliance)

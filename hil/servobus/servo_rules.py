@@ -117,60 +117,58 @@ def sync_write(servo_at: int, health_at: int, table_at: int, original: bool,
                      len(params))
 
 
-_SETPOINT = (ctypes.c_double * 9)()
-_SETPOINT_AT = ctypes.addressof(_SETPOINT)
 _SETPOINT_READ = struct.Struct("9d").unpack_from   # a ctypes array's items cost 8 times more
-_SETPOINT_VIEW = memoryview(_SETPOINT).cast("B")
-
-
-def setpoint(table_at: int, supply_frac: float) -> tuple[float, float, float, bool,
-                                                         tuple[int, int, int, int, int]]:
-    """The set-point an AX-12 table gives its drive at ``supply_frac`` of 12 V: goal (NaN:
-    hold where it reads), speed limit, torque limit fraction, Torque Enable and the
-    compliance registers."""
-    _setpoint(*_TABLES, table_at, supply_frac, _SETPOINT_AT)
-    goal, speed, torque, enabled, a, b, c, d, e = _SETPOINT_READ(_SETPOINT_VIEW)
-    return goal, speed, torque, enabled != 0.0, (int(a), int(b), int(c), int(d), int(e))
-
-
-_STATE = (ctypes.c_double * 3)()
-_STATE_AT = ctypes.addressof(_STATE)
 _STATE_WRITE = struct.Struct("3d").pack_into
-_STATE_VIEW = memoryview(_STATE).cast("B")
-_STATUS = ctypes.create_string_buffer(ax12.TABLE_SIZE + 6)
-_STATUS_AT = ctypes.addressof(_STATUS)
 
 
-def read(servo_at: int, health_at: int, table_at: int, address: int, length: int,
-         broadcast: bool, state: tuple[float, float, float] | None) -> int:
-    """A READ to one servo after its catch-up, ``state`` the horn's (None: the caller
-    refreshes stale Present registers itself): servo_layout.READ_* bits and the status
-    packet's length, which ``status`` reads back."""
-    if state is not None:
-        _STATE_WRITE(_STATE_VIEW, 0, *state)
-    return _read_one(servo_at, health_at, table_at, address, length, broadcast,
-                     None if state is None else _STATE_AT, _STATUS_AT)
+class ServoCalls:
+    """The rules that answer through buffers, with one servo's own buffers (a servo is
+    stepped by one thread at a time; two runs' threads never share them)."""
 
+    def __init__(self) -> None:
+        self._setpoint = (ctypes.c_double * 9)()
+        self._state = (ctypes.c_double * 3)()
+        self._status = ctypes.create_string_buffer(ax12.TABLE_SIZE + 6)
+        self._row = ctypes.create_string_buffer(STATE_ROW.size)
+        self._setpoint_at, self._state_at, self._status_at, self._row_at = (
+            ctypes.addressof(b) for b in (self._setpoint, self._state, self._status, self._row))
+        self._setpoint_view = memoryview(self._setpoint).cast("B")
+        self._state_view = memoryview(self._state).cast("B")
 
-def answer(table_at: int, health_at: int, code: int, error: int) -> bytes | None:
-    """The status (no data) an instruction ``code`` earns with ``error``, or None where the
-    Status Return Level answers nothing."""
-    return status(_answer(table_at, health_at, code, error, None, 0, _STATUS_AT))
+    def setpoint(self, table_at: int, supply_frac: float
+                 ) -> tuple[float, float, float, bool, tuple[int, int, int, int, int]]:
+        """The set-point an AX-12 table gives its drive at ``supply_frac`` of 12 V: goal
+        (NaN: hold where it reads), speed limit, torque limit fraction, Torque Enable and
+        the compliance registers."""
+        _setpoint(*_TABLES, table_at, supply_frac, self._setpoint_at)
+        goal, speed, torque, enabled, a, b, c, d, e = _SETPOINT_READ(self._setpoint_view)
+        return goal, speed, torque, enabled != 0.0, (int(a), int(b), int(c), int(d), int(e))
 
+    def read(self, servo_at: int, health_at: int, table_at: int, address: int, length: int,
+             broadcast: bool, state: tuple[float, float, float] | None) -> int:
+        """A READ to the servo after its catch-up, ``state`` the horn's (None: the caller
+        refreshes stale Present registers itself): servo_layout.READ_* bits and the status
+        packet's length, which ``status`` reads back."""
+        if state is not None:
+            _STATE_WRITE(self._state_view, 0, *state)
+        return _read_one(servo_at, health_at, table_at, address, length, broadcast,
+                         None if state is None else self._state_at, self._status_at)
 
-def status(code: int) -> bytes | None:
-    """The status packet ``read`` answered with, or None."""
-    n = code & READ_LEN
-    return ctypes.string_at(_STATUS_AT, n) if n else None
+    def answer(self, table_at: int, health_at: int, code: int, error: int) -> bytes | None:
+        """The status (no data) an instruction ``code`` earns with ``error``, or None where
+        the Status Return Level answers nothing."""
+        return self.status(_answer(table_at, health_at, code, error, None, 0,
+                                   self._status_at))
 
+    def status(self, code: int) -> bytes | None:
+        """The status packet ``read`` or ``answer`` made, or None."""
+        n = code & READ_LEN
+        return ctypes.string_at(self._status_at, n) if n else None
 
-_ROW = ctypes.create_string_buffer(STATE_ROW.size)
-_ROW_AT = ctypes.addressof(_ROW)
-
-
-def state_row(table_at: int, health_at: int, state: tuple[float, float, float]) -> tuple:
-    """An AX-12's row for the recorder's /servos (hil.seams.SERVO_STATE_FIELDS), from the
-    horn's ``state``."""
-    _STATE_WRITE(_STATE_VIEW, 0, *state)
-    _state_row(table_at, health_at, _STATE_AT, _ROW_AT)
-    return STATE_ROW.unpack(_ROW.raw)
+    def state_row(self, table_at: int, health_at: int, state: tuple[float, float, float]
+                  ) -> tuple:
+        """An AX-12's row for the recorder's /servos (hil.seams.SERVO_STATE_FIELDS), from
+        the horn's ``state``."""
+        _STATE_WRITE(self._state_view, 0, *state)
+        _state_row(table_at, health_at, self._state_at, self._row_at)
+        return STATE_ROW.unpack(self._row.raw)
