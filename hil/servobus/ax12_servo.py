@@ -206,9 +206,9 @@ class Servo(TableServo, ctypes.Structure):
     def _read(self, address: int, length: int, broadcast: bool) -> bytes | None:
         """The data (Present registers up to date), the alarms and the status."""
         at = (self._at, self.health.at, self._table_at, address, length, broadcast)
-        fresh = self._present_stale and self.reading is None
+        stale = self._present_stale and self.reading is None   # the rule refreshes them
         calls = self._calls
-        code = calls.read(*at, self.actuator.state() if fresh else None)
+        code = calls.read(*at, self.actuator.state() if stale else None)
         if code & READ_REFRESH:   # a Present Position fault reads its own way
             self._refresh_present()
             code = calls.read(*at, None)

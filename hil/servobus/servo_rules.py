@@ -51,7 +51,6 @@ def _load() -> Any:
     _I64, _D, _I = ctypes.c_int64, ctypes.c_double, ctypes.c_int
     for name, args, res in (("hx_health_advance", [_P, _I64, _D, _I], None),
                             ("hx_health_errors", [_P, _P], _I),
-                            ("hx_health_step", [_P, _I64, _D, _P], _I),
                             ("hx_check_write", [_P, _I, _P, _I, ctypes.c_char_p, _I], _I),
                             ("hx_setpoint", [_P, _P, _P, _D, _P], None),
                             ("hx_rearm", [_P], None),
@@ -71,18 +70,17 @@ def _load() -> Any:
 _LIB = _load()
 # the rules, called with the addresses of a servo, its health and its table (``address``):
 # health_advance(health, dt_us, load_frac, torque_limit); health_errors(health, table) ->
-# error bits; health_step(health, dt_us, load_frac, table) -> error bits: the step against
-# the table's torque limit, then its errors; rearm(health): the overload latch clears;
-# alarm(servo, table, errors) and catch_up(servo, health, table, dt_us, load_frac) -> whether
-# the drive must be commanded again; apply(servo, health, table, address, data, len) ->
+# error bits; rearm(health): the overload latch clears; alarm(servo, table, errors) and
+# catch_up(servo, health, table, dt_us, load_frac): the health's step against the table's
+# torque limit, its errors and their alarms -> whether the drive must be commanded again; apply(servo, health, table, address, data, len) ->
 # servo_layout.APPLY_* bits; present(table, health, pos_rad, vel_rad_s, load_frac) ->
 # Present Position
-(health_advance, health_errors, health_step, rearm, alarm, catch_up, apply, present, _check,
- _setpoint, _sync_one, _read_one, _state_row, _answer) = (
-    (_LIB.hx_health_advance, _LIB.hx_health_errors, _LIB.hx_health_step, _LIB.hx_rearm,
-     _LIB.hx_alarm, _LIB.hx_catch_up, _LIB.hx_apply, _LIB.hx_present, _LIB.hx_check_write,
-     _LIB.hx_setpoint, _LIB.hx_sync_one, _LIB.hx_read_one, _LIB.hx_state_row,
-     _LIB.hx_answer) if _LIB is not None else (None,) * 14)
+(health_advance, health_errors, rearm, alarm, catch_up, apply, present, _check, _setpoint,
+ _sync_one, _read_one, _state_row, _answer) = (
+    (_LIB.hx_health_advance, _LIB.hx_health_errors, _LIB.hx_rearm, _LIB.hx_alarm,
+     _LIB.hx_catch_up, _LIB.hx_apply, _LIB.hx_present, _LIB.hx_check_write, _LIB.hx_setpoint,
+     _LIB.hx_sync_one, _LIB.hx_read_one, _LIB.hx_state_row, _LIB.hx_answer)
+    if _LIB is not None else (None,) * 13)
 
 
 def library() -> Any:
