@@ -106,3 +106,14 @@ class ModuleNeedingExtras(pytest.Module):
 
 def pytest_pycollect_makemodule(module_path: Path, parent: pytest.Collector) -> pytest.Module:
     return ModuleNeedingExtras.from_parent(parent, path=module_path)
+
+
+# Property tests draw the same examples on every run (hypothesis' derandomize): a suite that
+# passed on one clean clone passes on the next; a file's own settings may still ask for more
+try:
+    from hypothesis import settings as _hypothesis_settings
+except ModuleNotFoundError:   # the [test] extra is missing: its modules say so (above)
+    pass
+else:
+    _hypothesis_settings.register_profile("hexhil", derandomize=True)
+    _hypothesis_settings.load_profile("hexhil")
