@@ -18,13 +18,16 @@ const char hx_layout[] = HX_LAYOUT;
 static double py_min(double a, double b) { return b < a ? b : a; }
 static double py_max(double a, double b) { return b > a ? b : a; }
 
+/* Joint j's angle as its servo's potentiometer reads it (with its zero offset) */
+static double reading_rad(const struct bank *b, int j) { return b->q[j] + b->offset[j]; }
+
 /* Joint j as its servo reads it: out[0] the angle (with the potentiometer's offset), [1]
  * the speed, [2] the load, a signed fraction of stall torque (the duty less back-EMF) */
 void hx_state(const struct bank *b, int j, double *out)
 {
     double v = b->qd[j];
     double load = b->duty[j] - v / b->motor_no_load;
-    out[0] = b->q[j] + b->offset[j];
+    out[0] = reading_rad(b, j);
     out[1] = v;
     out[2] = py_max(-1.0, py_min(1.0, load));
 }
@@ -49,7 +52,7 @@ void hx_command(struct bank *b, int j, double goal_rad, double speed_rad_s, doub
                 int enabled, const double *compliance)
 {
     if (enabled && !b->enabled[j])
-        b->setpoint[j] = b->q[j] + b->offset[j];
+        b->setpoint[j] = reading_rad(b, j);
     b->goal[j] = goal_rad;
     b->speed[j] = speed_rad_s > 0 ? speed_rad_s : b->motor_no_load;
     b->torque_limit[j] = py_min(py_max(torque, 0.0), 1.0);
