@@ -18,7 +18,7 @@ from hexhil.trace.reader import Trace, info
 from hexhil.trace.recorder import Recorder
 from hexhil.trace.target import partial_of
 from hexhil.protocol.errors import UserError
-from conftest import hexhil_in_process
+from conftest import hexhil, hexhil_in_process
 
 ROOT = Path(__file__).resolve().parent.parent
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
@@ -67,7 +67,8 @@ def test_a_second_run_onto_one_target_is_refused_while_the_first_writes(tmp_path
         while not partial_of(out).exists() or partial_of(out).stat().st_size < 10_000:
             assert time.monotonic() < deadline and first.poll() is None
             time.sleep(0.1)
-        r = hexhil_in_process("run", FLAT, "--duration", "1", *FAST, "--out", str(out), "--overwrite")
+        # a process of its own, as a second user's run is: the first records on meanwhile
+        r = hexhil("run", FLAT, "--duration", "1", *FAST, "--out", str(out), "--overwrite")
         assert "another run is writing this trace now" in one_line(r)
     finally:
         first.send_signal(signal.SIGINT)   # Ctrl-C: the first run finishes its file
