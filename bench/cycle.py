@@ -19,7 +19,7 @@ from hexhil.hil.link.firmware_process import Connection, DirectConnection
 from hexhil.hil.link.server import LinkServer
 from hexhil.hil.run.lockstep import Simulator
 from hexhil.hil.run.rig import make_world
-from hexhil.hil.servobus.reads_core import ReadsCore
+from hexhil.hil.servobus.status_reads import StatusReads
 from hexhil.in_process import run_firmware
 from hexhil.protocol import sim_link
 
@@ -158,8 +158,8 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
         sim = Simulator(sc, 3, world=world, recorder=rec)
         for name in ("master_write", "master_read", "transact", "idle_until"):
             setattr(sim.bus, name, sw.wrap("bus", getattr(sim.bus, name)))
-        carry_out = ReadsCore.carry_out   # the cycle's status reads, compiled
-        ReadsCore.carry_out = sw.wrap("bus", carry_out)
+        carry_out = StatusReads.carry_out   # the cycle's status reads
+        StatusReads.carry_out = sw.wrap("bus", carry_out)
         batch, reply, exchange = Connection.batch, Connection.reply, DirectConnection.exchange
         timed_batch, timed_reply = _after_sleeps(sw, batch, reply)
         Connection.batch = sw.wrap("wait", timed_batch)
@@ -174,7 +174,7 @@ def breakdown(record: bool = True, in_process: bool = False, cpu: bool = False
             total = clock() - t0
         finally:
             Connection.batch, Connection.reply = batch, reply
-            ReadsCore.carry_out = carry_out
+            StatusReads.carry_out = carry_out
             DirectConnection.exchange = exchange
             if rec is not None:
                 rec.close()   # waits for the recorder's child, if it has one

@@ -15,7 +15,7 @@ import sys
 
 from hexhil.hil.clock import VirtualClock
 from hexhil.hil.servobus import line as bus
-from hexhil.hil.servobus import reads_core
+from hexhil.hil.servobus.status_reads import StatusReads
 from hexhil import cli
 from hexhil.trace import recorder
 
@@ -24,14 +24,14 @@ in_recording = int(os.environ.get("KILL_IN_RECORDING", "0"))
 if fsize > 0:
     resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
 _write = bus.Bus.master_write
-_carry_out = reads_core.ReadsCore.carry_out
+_carry_out = StatusReads.carry_out
 _open = recorder.Recorder.__init__
 opened = []
 
 
 def _fire(line) -> None:
     if line.clock.t_us >= kill_at_us and len(opened) >= in_recording:
-        bus.Bus.master_write, reads_core.ReadsCore.carry_out = _write, _carry_out
+        bus.Bus.master_write, StatusReads.carry_out = _write, _carry_out
         os.kill(os.getpid(), signum)
 
 
@@ -40,10 +40,10 @@ def _hooked(self, data):
     _write(self, data)
 
 
-def _hooked_reads(self, line, payload, write=None):
+def _hooked_reads(self, payload, byte_us, write=None):
     if write is not None:
-        _fire(line)
-    return _carry_out(self, line, payload, write)
+        _fire(self.bus)
+    return _carry_out(self, payload, byte_us, write)
 
 
 def _opening(self, path, *args, **kwargs):
@@ -66,7 +66,7 @@ def _ticking(self, t_us):
 if signum and os.environ.get("KILL_ON") == "clock":
     VirtualClock.advance_to = _ticking
 elif signum:
-    bus.Bus.master_write, reads_core.ReadsCore.carry_out = _hooked, _hooked_reads
+    bus.Bus.master_write, StatusReads.carry_out = _hooked, _hooked_reads
 if in_recording:
     recorder.Recorder.__init__ = _opening
 sys.argv = ["hexhil", *sys.argv[4:]]

@@ -41,7 +41,7 @@ def test_the_host_refuses_a_firmware_of_another_version(runtime):
     ("54", "0000", "malformed timed event (2 bytes)"),
     ("54", "00" * 8 + "03" + b"{bad".hex(), "malformed event 3: "),
     ("58", "0008", "malformed message: "),
-    ("52", "01", "malformed message: "),
+    ("52", "01", "malformed reads (1 bytes, 13 announced)"),
     ("52", "010106010000" + "0e00" + "00000000" + "00", "read 0 skips on read 0, not an "
                                                         "earlier one"),
     ("52", "0101060100ff" + "0e00" + "00000000" + "05", "malformed reads (13 bytes, 18 "

@@ -245,7 +245,7 @@ class Bus:
 
     def plain(self) -> bool:
         """Nothing on the line and no fault, hook or other class's rule in play: a READ's
-        reply is worked out without the parser and the bursts (hil/servobus/reads_core.py)."""
+        reply is worked out without the parser and the bursts (hil/servobus/status_reads.py)."""
         return not (self._rx or not self._own_rules or self.faults is not None or self.echo
                     or self.monitor is not None or self._foreign or self._off
                     or self.rx_latency_us or self.servo_bank is None or self._parser.pending())

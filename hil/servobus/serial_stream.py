@@ -1,7 +1,7 @@
 """The servo line's bytes as one stream, as the run's serial digest takes them: a record
 per ``on_bytes`` call, u64 t_us and u8 'T' (master to servos) or 'R' (servos to master),
 then the bytes; the records' lengths beside it. The compiled status reads
-(hil/servobus/reads_core.py) hand a return's records over in one call to an ``on_bytes``
+(hil/servobus/status_reads.py) hand a return's records over in one call to an ``on_bytes``
 that takes a stream (the run's digest and recorder, hil/run/core.py): six calls a cycle
 were about a tenth of an in-process run's overhead."""
 from __future__ import annotations

@@ -104,7 +104,7 @@ class ServoBank:
             _address(joint), _address(original), _address(servo_rules.CELLS),
             _address(servo_rules.POSITION_RAD), _address(servo_rules.SPEED_RAD_S),
             arrays["drives"], drive_core.STATE_FN, drive_core.COMMAND_FN)
-        self.ref = ctypes.addressof(self._bank)   # the bank's address (reads_core.py too)
+        self.ref = ctypes.addressof(self._bank)   # the bank's address (status_reads.py too)
         self._sync, self._read, self._rows = _LIB
         self._rows_out = ctypes.create_string_buffer(n * STATE_ROW.size)
         self._rows_at = ctypes.addressof(self._rows_out)

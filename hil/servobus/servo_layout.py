@@ -1,6 +1,6 @@
 """The compiled servo core's structs and constants (hil/servobus/servo_core.c and
 reads_core.c), written once here: the ctypes fields its Python side shares with it
-(health.py ``ServoHealth``, ax12_servo.py ``Servo``, servo_core.py's bank, reads_core.py's
+(health.py ``ServoHealth``, ax12_servo.py ``Servo``, servo_core.py's bank, status_reads.py's
 reads) and the control-table addresses, error bits, instructions and link limits it takes
 from protocol/. setup.py generates the C header from them (hil/native.py ``Layout``)."""
 from __future__ import annotations
@@ -19,14 +19,16 @@ _P = ctypes.c_void_p
 _D, _I64, _I32 = ctypes.c_double, ctypes.c_int64, ctypes.c_int32
 # a servo's TableServo.state_row as hx_state_rows packs it for the recorder
 STATE_ROW = struct.Struct("<Bddddd??B")
-# hx_reads's answers: done, or why it hands back to the general path (reads_core.py)
 # hx_apply's bits: the write changed the ID or Baud Rate (the line re-indexes); the drive
 # must be commanded again
 APPLY_ADDRESS, APPLY_COMMAND = 1, 2
 # hx_read_one's answer: the status packet's length in its low byte; the drive must be
 # commanded again; the Present registers must be refreshed first (a reading fault's way)
 READ_LEN, READ_COMMAND, READ_REFRESH = 0xFF, 0x100, 0x200
-HANDOVER = ("DONE", "ADVANCE", "PYTHON", "PYTHON_REPLY", "FALLBACK", "WRITE_LEFT")
+# hx_reads's answers: done, or what the Python side carries out before it calls again
+# (status_reads.py); and why an R is malformed (its ``why``)
+READS_ANSWERS = ("DONE", "ADVANCE", "ATTEMPT", "HEAR", "WRITE", "WRITE_LEFT", "MALFORMED")
+MALFORMED_WHY = ("WHY_LENGTH", "WHY_SKIP", "WHY_ROOM")
 
 # The health model's parameters (our choices; the manuals give no thermal data or overload
 # timing, docs/servo-bus.md), which health.py's rule (servo_core.c hx_health_*) reads:
@@ -67,10 +69,15 @@ READS = [("bank", _P, "const struct bank *"), ("payload", ctypes.c_char_p,
          ("len", _I32),
          ("index", _P, "const int16_t *"),   # 256: the bank index an ID reaches; -1
          ("baud", _I64),
+         ("byte_us", _D),                    # the master's byte time, what wire time counts
+         ("echo", _I32),                     # the master hears its own bytes
+         ("fast", _I32),                     # a plain line: attempts may be carried out in C
          ("delay_override_us", _I64),        # -1: each servo's own Return Delay Time
          ("t_us", _I64),                     # the line's clock
          ("next_step_us", _I64),             # the clock reaching this steps the world
          ("r", _I32), ("k", _I32), ("at", _I32), ("phase", _I32), ("i", _I32), ("m", _I32),
+         ("ok", _I32),                       # the attempt passed the master's test
+         ("why", _I32),                      # MALFORMED_WHY, from 1
          ("t0_us", _I64), ("t1_us", _I64), ("start_us", _I64),
          ("done", ctypes.c_int8 * 256),      # per read: 1 succeeded, 0 failed, -1 skipped
          ("reply", _U8 * 64),
@@ -100,7 +107,8 @@ LAYOUT = Layout("HX_SERVO_LAYOUT_H", [
     ("DXL_READ", dxl.READ), ("DXL_PING", dxl.PING), ("DXL_SYNC_WRITE", dxl.SYNC_WRITE),
     ("DXL_BROADCAST_ID", dxl.BROADCAST_ID),
     ("LINK_READ_LEN", sim_link.READ_HEAD_LEN + 1),   # a read's head with its u8 ntx
-    ("LINK_NO_SKIP", sim_link.NO_SKIP), ("LINK_MAX_REPLY_LEN", sim_link.MAX_REPLY_LEN),
+    ("LINK_NO_SKIP", sim_link.NO_SKIP), ("LINK_READ_ECHO", sim_link.READ_ECHO),
+    ("LINK_MAX_REPLY_LEN", sim_link.MAX_REPLY_LEN),
     ("LINK_ATTEMPT_HEAD_LEN", sim_link.ATTEMPT_HEAD_LEN), ("US_BITS", US_BITS),
     ("STATE_ROW", STATE_ROW.size), ("AX12_SPEED_UNIT", ax12.SPEED_RPM_PER_UNIT),
     ("AX12_LOAD_UNIT", ax12.LOAD_FRACTION_PER_UNIT), ("AX12_NO_LOAD_RAD_S", NO_LOAD_RAD_S),
@@ -110,4 +118,5 @@ LAYOUT = Layout("HX_SERVO_LAYOUT_H", [
     ("HEALTH_AMBIENT_C", AMBIENT_C), ("HEALTH_HEAT_C", HEAT_AT_FULL_LOAD_C),
     ("HEALTH_THERMAL_TAU_S", THERMAL_TAU_S), ("HEALTH_OVERHEAT_TAU_S", OVERHEAT_TAU_S),
     ("HEALTH_OVERLOAD_US", OVERLOAD_TIME_US),
-    *((f"HX_{n}", i) for i, n in enumerate(HANDOVER))])
+    *((f"HX_{n}", i) for i, n in enumerate(READS_ANSWERS)),
+    *((f"HX_{n}", i) for i, n in enumerate(MALFORMED_WHY, 1))])

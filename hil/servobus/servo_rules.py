@@ -85,7 +85,7 @@ _LIB = _load()
 
 def library() -> Any:
     """The loaded ``_servo_core.so`` (layout checked, the GIL held), or None: the one load
-    the servo bank (servo_core.py) and the status reads (reads_core.py) bind too."""
+    the servo bank (servo_core.py) and the status reads (status_reads.py) bind too."""
     return _LIB
 
 

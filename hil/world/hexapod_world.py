@@ -298,7 +298,7 @@ class HexapodWorld:
     def joint_buffers(self) -> dict[str, Any]:
         """The compiled drive bank's address and this world's ``advance_to`` and
         ``next_step_us``: what the compiled servo bank and status reads use
-        (hil/servobus/servo_core.py, reads_core.py)."""
+        (hil/servobus/servo_core.py, status_reads.py)."""
         if self._buffers is None:
             self._buffers = {"drives": self.drives.compiled.ref, "advance": self.advance_to,
                              "next_step_us": self.next_step_us}
