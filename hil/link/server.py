@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any, Callable
 
 from hexhil.hil.link.board_line import MISTAKES, BoardLine, set_master_baud
 from hexhil.hil.canbus.bus import CanBus
-from hexhil.hil.servobus.status_reads import MalformedReads, StatusReads
+from hexhil.hil.servobus.status_reads import MalformedReads, ReadsDone, StatusReads
 from hexhil.hil.link.firmware_process import (
     Connection, DirectConnection, FirmwareError, LinkViolation
 )
@@ -233,38 +233,28 @@ class LinkServer:
                            self.switches.sample(self.clock.t_us, result)) + config
 
     def _transact(self, tx: bytes, nrx: int, timeout_us: int, result: RunTally) -> bytes:
-        """Write ``tx`` on the servo line, then read up to ``nrx`` bytes within the timeout."""
-        t0 = self.clock.t_us
-        rx = self.bus.transact(tx, nrx, timeout_us)
-        self._count(tx, rx, t0, result)
-        return rx
-
-    def _count(self, tx: bytes, rx: bytes, t0_us: int, result: RunTally) -> None:
-        """A transaction's bus time (from ``t0_us`` to now) and wire time, once counting."""
-        if self._counting:
-            result.bus_busy_us += self.clock.t_us - t0_us
-            heard = len(rx) - (min(len(tx), len(rx)) if self.bus.echo else 0)
-            result.bus_wire_us += round((len(tx) + heard) * self.byte_us)
+        """An X: ``tx`` on the servo line, then up to ``nrx`` bytes read within the time-out,
+        carried out by the bus wing (hil/servobus/status_reads.py); its bus time counts."""
+        return self._counted(self.reads.transact(tx, nrx, timeout_us, self.byte_us), result)
 
     def _write(self, data: bytes, result: RunTally) -> None:
-        """A W: the bytes on the servo line, and their bus time and wire time, once counting."""
-        t0 = self.clock.t_us
-        self.bus.master_write(data)
+        """A W with no R after it: the bytes on the servo line; its bus time counts."""
+        self._counted(self.reads.write(data, self.byte_us), result)
+
+    def _counted(self, done: ReadsDone, result: RunTally) -> bytes:
+        """An exchange's bus time and wire time, once counting; its reply."""
         if self._counting:
-            result.bus_busy_us += self.clock.t_us - t0
-            result.bus_wire_us += round(len(data) * self.byte_us)
+            result.bus_busy_us += done.busy_us
+            result.bus_wire_us += done.wire_us
+        return done.reply
 
     def _reads(self, payload: bytes, result: RunTally, write: bytes | None = None) -> bytes:
         """Link version 2's R, after ``write`` (the W just before it, if one was): carried
         out by the bus wing (hil/servobus/status_reads.py); its bus time counts."""
         try:
-            done = self.reads.carry_out(payload, self.byte_us, write)
+            return self._counted(self.reads.carry_out(payload, self.byte_us, write), result)
         except MalformedReads as exc:
             raise LinkViolation(str(exc)) from None
-        if self._counting:
-            result.bus_busy_us += done.busy_us
-            result.bus_wire_us += done.wire_us
-        return done.reply
 
     def serve(self, conn: Connection, end_us: int, result: RunTally) -> None:
         """Answer a socket connection's batches until the firmware closes it."""

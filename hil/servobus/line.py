@@ -200,38 +200,14 @@ class Bus:
         return bytes(out)
 
     def transact(self, tx: bytes, nrx: int, timeout_us: int) -> bytes:
-        """``master_write(tx)`` then ``master_read(nrx, timeout_us)``, the same bytes, times and
-        calls out; a READ to one servo on a plain line skips the parser and the bursts (the
-        two calls cost about 20 us a read; tests/test_line_transact.py compares both ways)."""
-        targets = self._by_id.get(tx[2]) if (
-            len(tx) == 8 and self.plain() and tx[0] == 0xFF and tx[1] == 0xFF and tx[3] == 4
-            and tx[4] == dxl.READ and (~sum(tx[2:7])) & 0xFF == tx[7]) else None
-        if targets is None or len(targets) != 1:   # not one servo's READ on a plain line
-            self.master_write(tx)
-            return self.master_read(nrx, timeout_us)
-        s = targets[0]
-        t0, stats, on_bytes = self.clock.t_us, self.stats, self.on_bytes
-        t1 = t0 + self.wire_us(8)
-        stats["tx_bytes"] += 8
-        stats["packets"] += 1
-        if on_bytes is not None:
-            on_bytes(t0, "tx", bytes(tx))
-        self._move_to(t1)
-        params = bytes(tx[5:7])
-        reply = self.servo_bank.read(s, params, t1)
-        if reply is False:
-            reply = s.handle(dxl.READ, params, False, t1)
-        if not reply:
-            self._move_to(t1 + int(timeout_us))
-            return b""
-        stats["replies"] += 1
-        delay = self.return_delay_override_us
-        return self.hear_reply(bytes(reply), t1 + (s.return_delay_us if delay is None else delay),
-                               nrx, timeout_us)
+        """``master_write(tx)`` then ``master_read(nrx, timeout_us)``."""
+        self.master_write(tx)
+        return self.master_read(nrx, timeout_us)
 
     def hear_reply(self, reply: bytes, start_us: int, nrx: int, timeout_us: int) -> bytes:
         """``master_read(nrx, timeout_us)`` of a servo's status sent from ``start_us`` onto a
-        plain line, the clock at the end of its READ: whole and in time, here."""
+        plain line, the clock at the end of its READ (the compiled status reads' attempt,
+        status_reads.py): whole and in time, here."""
         m, deadline = len(reply), self.clock.t_us + int(timeout_us)
         t_last = start_us + self.wire_us(m)
         if m > nrx or t_last > deadline:   # bytes left on the line, or a reply cut off
@@ -245,7 +221,7 @@ class Bus:
 
     def plain(self) -> bool:
         """Nothing on the line and no fault, hook or other class's rule in play: a READ's
-        reply is worked out without the parser and the bursts (hil/servobus/status_reads.py)."""
+        reply is worked out without the parser and the bursts (hil/servobus/reads_core.c)."""
         return not (self._rx or not self._own_rules or self.faults is not None or self.echo
                     or self.monitor is not None or self._foreign or self._off
                     or self.rx_latency_us or self.servo_bank is None or self._parser.pending())

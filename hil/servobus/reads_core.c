@@ -4,11 +4,15 @@
  * servo's status and retries are left, skipped when the read it names did not succeed,
  * each attempt packed into the reply, the bus time and wire time counted.
  *
+ * An X (one transaction) is an R of one read without retries whose tx is the rest of the
+ * payload (`one`), and a W with no R after it an R of no reads: their wire and bus time
+ * are counted here too.
+ *
  * An attempt is carried out here where the line is plain (the Python side says so in
  * `fast`: nothing on the line, no fault, no monitor, a world stepped by its own advance):
  * a clean READ to one servo of the bank that hx_serves, 8 bytes out, the servo's status
  * (hx_read) after its Return Delay, read back whole; the same integer times and bytes as
- * the line's general model (hil/servobus/line.py Bus.transact). Every other attempt is
+ * the line's general model (hil/servobus/line.py master_write, master_read). Every other attempt is
  * the line's (ATTEMPT), in Python, as is the master's reading of a reply it does not read
  * whole (HEAR), and a W this does not take whole (WRITE); the Python side (status_reads.py)
  * carries it out, puts what the master heard into the reply and whether it passed the
@@ -42,8 +46,14 @@ static int malformed(struct reads *s, int why, int r, int skip, int announced)
     return HX_MALFORMED;
 }
 
+/* A read's tx length: its u8 ntx; an X's, the rest of the payload */
+static int tx_len(const struct reads *s, const unsigned char *h)
+{
+    return s->one ? s->len - 1 - LINK_READ_LEN : h[11];
+}
+
 /* The R's reads fit its payload, each skips on an earlier one, and their replies, every
- * attempt at its most, fit a reply */
+ * attempt at its most, fit a reply (an X's nrx the link server checks) */
 static int check(struct reads *s)
 {
     const unsigned char *p = s->payload;
@@ -54,15 +64,15 @@ static int check(struct reads *s)
         if (at + LINK_READ_LEN > s->len)
             return malformed(s, HX_WHY_LENGTH, r, 0, at + LINK_READ_LEN);
         const unsigned char *h = p + at;
-        int retries = h[2], skip = h[4], nrx = h[5] | (h[6] << 8), ntx = h[11];
+        int retries = h[2], skip = h[4], nrx = h[5] | (h[6] << 8);
         if (skip != LINK_NO_SKIP && skip >= r)
             return malformed(s, HX_WHY_SKIP, r, skip, 0);
         room -= (1 + retries) * (LINK_ATTEMPT_HEAD_LEN + nrx);
-        at += LINK_READ_LEN + ntx;
+        at += LINK_READ_LEN + tx_len(s, h);
     }
     if (at != s->len)
         return malformed(s, HX_WHY_LENGTH, n, 0, at);
-    if (room < 0)
+    if (room < 0 && !s->one)
         return malformed(s, HX_WHY_ROOM, n, 0, 0);
     return HX_DONE;
 }
@@ -140,7 +150,7 @@ int hx_reads(struct reads *s)
     while (s->r < p[0]) {
         const unsigned char *h = p + s->at, *tx = h + LINK_READ_LEN;
         int dev_id = h[0], nparams = h[1], retries = h[2], flags = h[3], skip = h[4];
-        int nrx = h[5] | (h[6] << 8), ntx = h[11];
+        int nrx = h[5] | (h[6] << 8), ntx = tx_len(s, h);
         int64_t timeout_us;
         uint32_t to;
         memcpy(&to, h + 7, 4);
@@ -155,6 +165,7 @@ int hx_reads(struct reads *s)
             int i = s->fast && !(flags & LINK_READ_ECHO) && clean_read(tx, ntx)
                 ? s->index[tx[2]] : -1;
             int64_t t1 = s->t_us + wire_us(s, 8);
+            s->ntx = ntx;
             if (i < 0 || !hx_serves(s->bank, i, t1)) {
                 s->phase = OUTSIDE;    /* the line's general model carries it out */
                 return HX_ATTEMPT;

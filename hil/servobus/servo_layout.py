@@ -72,16 +72,18 @@ READS = [("bank", _P, "const struct bank *"), ("payload", ctypes.c_char_p,
          ("byte_us", _D),                    # the master's byte time, what wire time counts
          ("echo", _I32),                     # the master hears its own bytes
          ("fast", _I32),                     # a plain line: attempts may be carried out in C
+         ("one", _I32),                      # an X: one read, its tx the rest of the payload
          ("delay_override_us", _I64),        # -1: each servo's own Return Delay Time
          ("t_us", _I64),                     # the line's clock
          ("next_step_us", _I64),             # the clock reaching this steps the world
          ("r", _I32), ("k", _I32), ("at", _I32), ("phase", _I32), ("i", _I32), ("m", _I32),
          ("ok", _I32),                       # the attempt passed the master's test
+         ("ntx", _I32),                      # the attempt's tx length
          ("why", _I32),                      # MALFORMED_WHY, from 1
          ("t0_us", _I64), ("t1_us", _I64), ("start_us", _I64),
          ("done", ctypes.c_int8 * 256),      # per read: 1 succeeded, 0 failed, -1 skipped
          ("reply", _U8 * 64),
-         ("body", _U8 * sim_link.MAX_REPLY_LEN),   # u8 attempts, then each
+         ("body", _U8 * (sim_link.MAX_REPLY_LEN + 16)),   # u8 attempts, then each
          ("body_len", _I32),
          ("log", _U8 * 32768),   # heard since the Python side took it: u64 t, u8 'T'/'R', bytes
          ("log_len", _I32), ("lens", _U8 * 1024), ("nrec", _I32),

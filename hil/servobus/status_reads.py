@@ -4,9 +4,11 @@ them; their rules (the R's check, each read in order, tried again while its repl
 its servo's status and retries are left, skipped when the read it names did not succeed,
 the reply's packing, the bus and wire time) are compiled, hil/servobus/reads_core.c
 ``hx_reads``. It carries a plain line's attempts out itself and hands every other one to
-the line (``Bus.transact``), whose reply the master tests with its own rule
-(protocol/dynamixel/v1.py ``status_ok``). The link server (hil/link/server.py) only frames
-the request and the reply and adds the bus time to the run's tally.
+the line (``Bus.transact``: ``master_write`` then ``master_read``), whose reply the master
+tests with its own rule (protocol/dynamixel/v1.py ``status_ok``). An X (one transaction)
+and a W with no R after it go the same way, as an R of one read without retries and an R
+of none. The link server (hil/link/server.py) only frames the request and the reply and
+adds the bus time to the run's tally.
 
 The bytes the C code heard reach ``on_bytes`` in order, in one call at each hand-back: on
 a plain line nothing else records while the world steps (no fault, no monitor), so the
@@ -27,6 +29,7 @@ from hexhil.protocol.dynamixel import v1 as dxl
 DONE, ADVANCE, ATTEMPT, HEAR, WRITE, WRITE_LEFT, MALFORMED = range(len(READS_ANSWERS))
 WHY_LENGTH, WHY_SKIP, WHY_ROOM = range(1, len(MALFORMED_WHY) + 1)
 _READ_HEAD = struct.Struct("<BBBBBHIB")   # a read of R, up to its tx (protocol/sim_link.py)
+_ONE = struct.Struct("<BBBBBBHIB")        # an R of one read, its count first
 _NO_STEP_US = 2 ** 62                      # no world step the C code must stop for
 
 
@@ -77,10 +80,26 @@ class StatusReads:
                   ) -> ReadsDone:
         """The R ``payload``, after the W ``write`` where one came just before it;
         ``byte_us``: a byte's wire time at the master's rate, what the wire time counts."""
+        return self._carry_out(payload, byte_us, write, False)
+
+    def transact(self, tx: bytes, nrx: int, timeout_us: int, byte_us: float) -> ReadsDone:
+        """An X (docs/link.md): ``tx`` out, then up to ``nrx`` bytes heard within
+        ``timeout_us``, one attempt of a read with no retry; its reply is what was heard."""
+        done = self._carry_out(_ONE.pack(1, 0, 0, 0, 0, sim_link.NO_SKIP, nrx, timeout_us, 0)
+                               + tx, byte_us, None, True)
+        return ReadsDone(done.reply[1 + sim_link.ATTEMPT_HEAD_LEN:], done.busy_us,
+                         done.wire_us)
+
+    def write(self, data: bytes, byte_us: float) -> ReadsDone:
+        """A W with no R after it: an R of no reads."""
+        return self._carry_out(b"\x00", byte_us, data, False)
+
+    def _carry_out(self, payload: bytes, byte_us: float, write: bytes | None, one: bool
+                   ) -> ReadsDone:
         if _HX_READS is None:
             servo_rules.require()
         s, bus = self._s, self.bus
-        s.payload, s.len = payload, len(payload)
+        s.payload, s.len, s.one = payload, len(payload), one
         s.write, s.write_len = write, len(write) if write is not None else 0
         s.byte_us, s.echo = byte_us, bus.echo
         delay = bus.return_delay_override_us
@@ -139,16 +158,17 @@ class StatusReads:
         end of its READ, its servo having answered; what the master heard goes into the
         reply after its head, with whether it passed the master's test."""
         s, bus = self._s, self.bus
-        dev_id, nparams, _, flags, _, nrx, timeout_us, ntx = _READ_HEAD.unpack_from(
+        dev_id, nparams, _, flags, _, nrx, timeout_us, _ = _READ_HEAD.unpack_from(
             payload, s.at)
         if hear:
             rx = bus.hear_reply(ctypes.string_at(self._reply, s.m), s.start_us, nrx,
                                 timeout_us)
         else:
             tx_at = s.at + _READ_HEAD.size
-            rx = bus.transact(payload[tx_at:tx_at + ntx], nrx, timeout_us)
-        start = ntx if flags & sim_link.READ_ECHO else 0
-        s.ok = dxl.status_ok(self._parser, rx, start, len(rx), dev_id, nparams)
+            rx = bus.transact(payload[tx_at:tx_at + s.ntx], nrx, timeout_us)
+        if not s.one:   # an X is not retried: nothing asks how it went
+            start = s.ntx if flags & sim_link.READ_ECHO else 0
+            s.ok = dxl.status_ok(self._parser, rx, start, len(rx), dev_id, nparams)
         s.m = len(rx)
         ctypes.memmove(self._body + s.body_len + sim_link.ATTEMPT_HEAD_LEN, rx, len(rx))
 
