@@ -3,7 +3,6 @@ our firmware's recorded run and its servo line as a sigrok capture, the CLI in p
 a trace's serial bursts and CAN frames read back."""
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
@@ -16,8 +15,7 @@ from hexhil.trace import recorder as rec
 from hexhil.trace.protobuf import CanFrame, SerialBytes
 from hexhil.trace.reader import Trace
 
-ROOT = Path(__file__).resolve().parent.parent
-HEXHIL = [sys.executable, "-m", "hexhil.cli"]
+from conftest import HEXHIL, ROOT  # noqa: F401  (HEXHIL: re-exported for its test files)
 RATE_HZ = 8_000_000
 BAUD = 1_000_000
 

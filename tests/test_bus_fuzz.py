@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import os
 import random
-import subprocess
 from dataclasses import replace
 from pathlib import Path
 
@@ -23,7 +22,7 @@ from hexhil.bus_fuzz.mutations import DEFAULT_KINDS, Mutation, Mutator, Vocabula
 from hexhil.protocol.dynamixel import v1 as dxl
 from hexhil.protocol.dynamixel import v2 as dx2
 from hexhil.protocol.errors import UserError
-from test_sdk_pty import HEXHIL, ROOT
+from conftest import ROOT, hexhil, hexhil_in_process
 
 TARGETS = ROOT / "tests" / "fuzz_targets"
 CASE = TARGETS / "no-exception.toml"
@@ -226,8 +225,7 @@ def test_the_planted_bug_is_found_shrunk_and_replayed_and_ours_survives(tmp_path
     assert report.executions <= 2000 and 1 <= len(f.shrunk) <= 3
     assert any(m.kind is FaultKind.STATUS_WRONG_ID for m in f.shrunk)
     assert f.replayed and Path(f.trace).stat().st_size > 0
-    r = subprocess.run([*HEXHIL, "test", f.expect, "--in-process", str(PLANTED)],
-                       capture_output=True, text=True, cwd=ROOT, timeout=300)
+    r = hexhil_in_process("test", f.expect, "--in-process", PLANTED)
     assert r.returncode == 1 and "no firmware exception" in r.stdout and "FAIL" in r.stdout
     ours = campaign.fuzz(campaign.Settings(**SMALL))
     assert ours.findings == [] and ours.executions == report.executions
@@ -249,11 +247,10 @@ def test_a_campaign_is_its_seed_on_one_server_on_two_and_on_dask():
 
 
 def test_bad_settings_are_one_line_errors():
-    r = subprocess.run([*HEXHIL, "fuzz", "scenarios/flat-tripod.toml", "--expect", str(CASE),
-                        "--window", "5"], capture_output=True, text=True, cwd=ROOT)
+    r = hexhil_in_process("fuzz", "scenarios/flat-tripod.toml", "--expect", CASE, "--window", "5")
     assert r.returncode == 2 and "--window" in r.stderr and "Traceback" not in r.stderr
-    r = subprocess.run([*HEXHIL, "fuzz", "scenarios/flat-tripod.toml", "--expect", str(CASE),
-                        "--kinds", "status_nonsense"], capture_output=True, text=True, cwd=ROOT)
+    r = hexhil_in_process("fuzz", "scenarios/flat-tripod.toml", "--expect", CASE,
+                          "--kinds", "status_nonsense")
     assert r.returncode == 2 and "--kinds" in r.stderr and "status_nonsense" in r.stderr
 
 
@@ -265,10 +262,9 @@ def test_the_example_case_on_the_command_line_with_json(tmp_path):
         return u.ru_utime + u.ru_stime
 
     before = cpu_s()
-    r = subprocess.run([*HEXHIL, "fuzz", "scenarios/flat-tripod.toml", "--expect",
-                        "examples/fuzz-flat-tripod.toml", "--runs", "3", "--seed", "2",
-                        "--kinds", "status_twin", "--json", "--quiet"],
-                       capture_output=True, text=True, cwd=ROOT, timeout=300)
+    r = hexhil("fuzz", "scenarios/flat-tripod.toml", "--expect",
+               "examples/fuzz-flat-tripod.toml", "--runs", "3", "--seed", "2",
+               "--kinds", "status_twin", "--json", "--quiet")
     assert r.returncode == 0, r.stderr
     report = json.loads(r.stdout.splitlines()[-1])
     assert report["executions"] == 3 and report["findings"] == []

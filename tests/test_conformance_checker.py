@@ -6,7 +6,8 @@ import subprocess
 import sys
 import textwrap
 
-from test_sdk_pty import HEXHIL, ROOT, bus_server
+from conftest import ROOT, hexhil_in_process
+from test_sdk_pty import bus_server
 
 CHECKS_PER_SERVO = {"present", "ping_status_format", "read_table", "read_consistency",
                     "bad_checksum_reply", "out_of_range_goal", "action_nothing_registered",
@@ -15,8 +16,7 @@ CHECKS_PER_SERVO = {"present", "ping_status_format", "read_table", "read_consist
 
 
 def conformance(port: str, *flags: str) -> tuple[int, dict, str]:
-    r = subprocess.run([*HEXHIL, "conformance", "--port", port, "--json", "--timeout-ms", "500",
-                        *flags], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    r = hexhil_in_process("conformance", "--port", port, "--json", "--timeout-ms", "500", *flags)
     assert "Traceback" not in r.stderr, r.stderr
     return r.returncode, json.loads(r.stdout.strip().splitlines()[-1]), r.stdout
 
@@ -138,7 +138,6 @@ def test_quiet_servos_are_lifted_and_put_back_locked_ones_skipped():
 
 
 def test_unopenable_port_is_a_one_line_user_error():
-    r = subprocess.run([*HEXHIL, "conformance", "--port", "/dev/does-not-exist"], cwd=ROOT,
-                       capture_output=True, text=True, timeout=60)
+    r = hexhil_in_process("conformance", "--port", "/dev/does-not-exist")
     assert r.returncode == 2 and r.stderr.startswith("hexhil: cannot open /dev/does-not-exist")
     assert r.stderr.count("\n") == 1

@@ -19,7 +19,7 @@ from hexhil.papers import beam_traversal  # noqa: F401  registers the beams run 
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.errors import UserError
 from test_firmware_loop import scenario
-from test_sdk_pty import HEXHIL, ROOT
+from conftest import HEXHIL, ROOT
 
 RUN_S = 2.0
 

@@ -5,7 +5,6 @@ import signal
 import subprocess
 import time
 from contextlib import contextmanager
-from pathlib import Path
 from typing import Iterator
 
 import pytest
@@ -16,9 +15,7 @@ import dynamixel_sdk.port_handler
 from ctrl_c import sigint_default
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
-from conftest import HEXHIL, hexhil_in_process
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import HEXHIL, ROOT, hexhil_in_process
 
 
 @contextmanager

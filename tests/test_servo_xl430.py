@@ -257,12 +257,9 @@ def test_profile_acceleration_follows_the_trapezoid() -> None:
 
 
 def test_bad_xl430_bus_settings_are_one_line_errors() -> None:
-    import subprocess
-
-    from test_sdk_pty import HEXHIL, ROOT
+    from conftest import hexhil_in_process
 
     for flags in (["--ids", "253"], ["--baud", "250000"]):
-        r = subprocess.run([*HEXHIL, "bus", "--model", "xl430-w250", "--pty", *flags], cwd=ROOT,
-                           capture_output=True, text=True, timeout=60)
+        r = hexhil_in_process("bus", "--model", "xl430-w250", "--pty", *flags)
         assert r.returncode == 2 and "Traceback" not in r.stderr, r.stderr
         assert len(r.stderr.strip().splitlines()) == 1, r.stderr

@@ -17,7 +17,8 @@ import dynamixel_sdk.port_handler
 import pytest
 
 from hexhil.protocol.dynamixel import ax12
-from test_sdk_pty import HEXHIL, ROOT, _sdk_outcome
+from conftest import HEXHIL, ROOT
+from test_sdk_pty import _sdk_outcome
 
 PH = sdk.PacketHandler(1.0)
 

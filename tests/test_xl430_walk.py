@@ -3,14 +3,12 @@
 from __future__ import annotations
 
 import json
-import subprocess
 
-from test_sdk_pty import HEXHIL, ROOT
+from conftest import hexhil_in_process
 
 
 def test_flat_tripod_on_xl430s_walks_half_a_metre_with_one_sync_read_a_cycle() -> None:
-    r = subprocess.run([*HEXHIL, "run", "scenarios/flat-tripod-xl430.toml", "--json"], cwd=ROOT,
-                       capture_output=True, text=True, timeout=600)
+    r = hexhil_in_process("run", "scenarios/flat-tripod-xl430.toml", "--json")
     assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
     d = json.loads(r.stdout.strip().splitlines()[-1])
     assert d["state"] == "walking" and d["stop_reason"] is None, d
