@@ -33,7 +33,7 @@ _WHERE = {
     "FirmwareStats": "hexhil.hil.run_result", "BodyDisplacement": "hexhil.hil.run_result",
     "HexapodOutcome": "hexhil.hil.run_result", "BeamsOutcome": "hexhil.hil.run_result",
     "RunInterrupted": "hexhil.hil.run_result",
-    "scenario_of_trace": "hexhil.lockstep_run", "RunLimits": "hexhil.hil.run.limits",
+    "scenario_of_trace": "hexhil.trace.run_metadata", "RunLimits": "hexhil.hil.run.limits",
     # the bus master's protocol check a run of a firmware of yours keeps (Run.check)
     "MasterCheck": "hexhil.hil.servobus.master_check",
     # a master that is not ours, in real time (hexhil bus)
@@ -84,7 +84,8 @@ if TYPE_CHECKING:   # for type checkers and editors: the same names, eagerly
     from hexhil.hil.seams import (Actuator, CanGateway, CanHub, CanPort, FirmwareWorld, HostNode,
                            LinkHost, ServoLine, SteppedWorld, TraceRecorder)
     from hexhil.realtime_run import Pty, RealTimeRun, Rfc2217, SerialPort, ServeResult, Tcp
-    from hexhil.lockstep_run import Run, scenario_of_trace
+    from hexhil.lockstep_run import Run
+    from hexhil.trace.run_metadata import scenario_of_trace
     from hexhil.trace.reader import Trace, TraceMessage, open_trace
     from hexhil.trace.recorder import EncodeIn, Recorder
     from hexhil.protocol import can_frames

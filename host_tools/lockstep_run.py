@@ -11,7 +11,6 @@ A beams scenario (seed 000) runs its own host nodes, plugged in by its paper's p
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import os
 from pathlib import Path
@@ -33,50 +32,13 @@ from hexhil import plugins
 from hexhil.lifecycle import Closing
 from hexhil.protocol import link_schema as ls
 from hexhil.protocol.dynamixel import models
-from hexhil.protocol.errors import BadFile, BadValue, UserError
+from hexhil.protocol.errors import UserError
+from hexhil.trace.run_metadata import trace_metadata
 
 if TYPE_CHECKING:
     from hexhil.trace.windows import EncodeIn
 
 NO_RUNTIME = "none"   # a beams run has no firmware
-
-
-def trace_metadata(sc: Scenario, seed: int, runtime: str,
-                   overrides: dict[str, Any] | None = None) -> dict[str, Any]:
-    """What a trace says about its run: the scenario's name and its data as run (every
-    override applied: ``as_run``), seed, runtime, and the overrides themselves (what the
-    command or the caller changed: tactile, seed, duration, firmware, bus timing...)."""
-    overrides = dict(overrides or {})
-    return {"scenario": sc.path, "seed": seed, "firmware_runtime": runtime,
-            "scenario_data": as_run(sc, seed, overrides), "overrides": overrides}
-
-
-def as_run(sc: Scenario, seed: int, overrides: dict[str, Any]) -> dict[str, Any]:
-    """The scenario's data with what a run changed written in, so that ``scenario_of_trace``
-    gives what was run: its seed, its ``duration_s`` and its ``firmware.tactile``."""
-    changes: dict[str, dict[str, Any]] = {"scenario": {"seed": seed}}
-    if "duration_s" in overrides:
-        changes["scenario"]["duration_s"] = overrides["duration_s"]
-    if "tactile" in overrides:
-        changes["firmware"] = {"tactile": overrides["tactile"]}
-    return sc.overlay(changes).as_toml_data()
-
-
-def scenario_of_trace(metadata: dict[str, str], where: str) -> tuple[Scenario, int]:
-    """The scenario and seed a trace ran, from its metadata (``trace_metadata``); a trace
-    recorded before the scenario rode along names a file, read if this machine has it."""
-    try:
-        seed = int(metadata.get("seed", "0"))
-        data = json.loads(metadata["scenario_data"]) if "scenario_data" in metadata else None
-    except (ValueError, RecursionError):
-        raise BadValue(f"{where}: unreadable run metadata") from None
-    path = metadata.get("scenario", "")
-    if data is not None:
-        return scenario_mod.parse(data, path or where), seed
-    if not path or not Path(path).is_file():
-        raise BadFile(f"{where}: the trace names no scenario file this machine has "
-                      f"({path or 'none'})")
-    return scenario_mod.load_scenario(path), seed
 
 
 class Run(Closing):

@@ -22,7 +22,7 @@ from hexhil.hil.seams import CanGateway
 from hexhil.hil.servobus.switch_node import DEFAULT_ID
 from hexhil.hil.run_result import BodyDisplacement
 from hexhil.lifecycle import Closing
-from hexhil.lockstep_run import trace_metadata
+from hexhil.trace.run_metadata import trace_metadata
 from hexhil.protocol.dynamixel import models
 from hexhil.protocol.errors import BadFile, UserError
 

@@ -80,7 +80,7 @@ def _ground_truth(path: str) -> tuple[dict[str, str], list[tuple[float, list[flo
 def _world(meta: dict[str, str], path: str) -> Any:
     """The run's world (its obstacles) from the trace's scenario and seed."""
     from hexhil.hil.run.rig import make_world
-    from hexhil.lockstep_run import scenario_of_trace
+    from hexhil.trace.run_metadata import scenario_of_trace
 
     return make_world(*scenario_of_trace(meta, path))
 

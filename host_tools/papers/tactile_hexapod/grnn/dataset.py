@@ -23,7 +23,7 @@ from hexhil.papers.tactile_hexapod.grnn import data as data_mod
 from hexhil.hil.scenario import WorldKind, check_seed
 from hexhil.papers.tactile_hexapod.grnn.features import StepRow, StepSampler
 from hexhil.progress import Progress
-from hexhil.lockstep_run import scenario_of_trace
+from hexhil.trace.run_metadata import scenario_of_trace
 from hexhil.trace.reader import Trace
 from hexhil.trace.topics import T_BODY, T_CAN_RAW, T_JOINTS
 from hexhil.protocol import can_frames, hexapod
