@@ -40,12 +40,16 @@ def served(*flags: str) -> Iterator[tuple[str, dict]]:
     summary.update(json.loads(out.strip().splitlines()[-1]))
 
 
-def test_dynamixel_controllers_wheel_mode_sequence_works():
+def test_dynamixel_controllers_wheel_mode_sequence_works(monkeypatch):
     """`dynamixel-controller` 0.9.2 (dynio) is not installed by `make`: it ships an old copy
     of `dynamixel_sdk` that overwrites the official 4.1.0 (no fastSyncRead). Its calls, as
     its source makes them, through the stock SDK: `set_velocity_mode()` = write2ByteTxRx CW
     Angle Limit 0 then CCW Angle Limit 0, each waiting for its status, back to back;
-    `set_velocity(300)` = Moving Speed; `set_position_mode()` = CW 0 then CCW 1023."""
+    `set_velocity(300)` = Moving Speed; `set_position_mode()` = CW 0 then CCW 1023. The
+    SDK waits 102 ms for a status (its LATENCY_TIMER 50, not 16: the default 34 ms is
+    shorter than a loaded two-core machine may leave the server unscheduled); a write lost
+    is never answered, however long it waits."""
+    monkeypatch.setattr(dynamixel_sdk.port_handler, "LATENCY_TIMER", 50)
     with served("--servos", "3") as (path, summary):
         port = sdk.PortHandler(path)
         assert port.openPort() and port.setBaudRate(1_000_000)
