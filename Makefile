@@ -9,7 +9,8 @@ STAMP := $(VENV)/.installed
 # the compiled cores' sources: pip builds them (setup.py's build_ext), so an edit reinstalls
 CORE_SOURCES := setup.py hil/native.py hil/world/drive_core.c hil/world/drive_layout.py \
 	hil/servobus/servo_core.c hil/servobus/servo_layout.py protocol/dynamixel/ax12.py \
-	hil/servobus/reads_core.c hil/servobus/servo_core.h hil/mcu/board_core.c
+	hil/servobus/reads_core.c hil/servobus/servo_core.h hil/mcu/board_core.c \
+	hil/mcu/board_layout.py
 
 # `make` alone: the venv and the compiled cores, nothing run
 setup: $(STAMP)

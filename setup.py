@@ -62,7 +62,9 @@ CORES = [
           ["hil/servobus/servo_core.c", "hil/servobus/reads_core.c"], FLOAT,
           depends=["hil/servobus/servo_core.h", "hil/servobus/servo_layout.py"],
           layout=("hexhil.hil.servobus.servo_layout", "servo_layout.h")),
-    _core("hexhil.hil.mcu._board_core", ["hil/mcu/board_core.c"], []),   # integers only
+    _core("hexhil.hil.mcu._board_core", ["hil/mcu/board_core.c"], [],   # integers only
+          depends=["hil/mcu/board_layout.py"],
+          layout=("hexhil.hil.mcu.board_layout", "board_layout.h")),
 ]
 
 

@@ -35,6 +35,7 @@ CORES: dict[str, Path] = {
 LAYOUTS: dict[str, str] = {
     "drive bank": "hexhil.hil.world.drive_layout",
     "servo bank and reads": "hexhil.hil.servobus.servo_layout",
+    "ELF board": "hexhil.hil.mcu.board_layout",
 }
 REBUILD = "pip install -e . (or make) builds it"
 _warned: set[Path] = set()
@@ -43,9 +44,11 @@ _warned: set[Path] = set()
 # ctypes scalars -> their C types (c_bool is one byte: uint8_t)
 _C_TYPES = {ctypes.c_int: "int", ctypes.c_double: "double", ctypes.c_int64: "int64_t",
             ctypes.c_int32: "int32_t", ctypes.c_int16: "int16_t", ctypes.c_int8: "int8_t",
-            ctypes.c_uint8: "uint8_t", ctypes.c_bool: "uint8_t"}
-# a field: (name, ctypes type) or (name, ctypes type, its C type where ctypes says less,
-# a pointer's); a leading underscore (Python's private attribute) is not in the C name
+            ctypes.c_uint64: "uint64_t", ctypes.c_uint32: "uint32_t",
+            ctypes.c_uint16: "uint16_t", ctypes.c_uint8: "uint8_t", ctypes.c_bool: "uint8_t"}
+# a field: (name, ctypes type) or (name, ctypes type, its C type where ctypes says less: a
+# pointer's, a function pointer's typedef, a struct's); an array may have arrays as its
+# items; a leading underscore (Python's private attribute) is not in the C name
 Field = tuple
 
 
@@ -71,10 +74,11 @@ class Layout:
                 c_name = f[0].lstrip("_")
                 if len(f) > 2:   # a pointer: "double *" -> "double *goal"
                     lines.append(f"    {f[2]}{'' if f[2].endswith('*') else ' '}{c_name};")
-                elif hasattr(f[1], "_length_"):
-                    lines.append(f"    {_C_TYPES[f[1]._type_]} {c_name}[{f[1]._length_}];")
-                else:
-                    lines.append(f"    {_C_TYPES[f[1]]} {c_name};")
+                    continue
+                item, dims = f[1], ""
+                while hasattr(item, "_length_"):   # (c_uint32 * 3) * 256 -> [256][3]
+                    item, dims = item._type_, f"{dims}[{item._length_}]"
+                lines.append(f"    {_C_TYPES[item]} {c_name}{dims};")
             lines.append("};")
         return "\n".join(lines) + "\n"
 

@@ -5,14 +5,12 @@ and without PA1), interrupt- and DMA-driven USART2, half-duplex echo, SysTick an
 (their exception returns done in C, on MSP and PSP, with and without the FPU's frame),
 EXTI switch interrupts, pended exceptions, a reply cut by PA1 (``rx_while_transmitting``),
 a system reset, a watchdog's reset and TIM1's interrupts."""
-import subprocess
-import sys
+import dataclasses
 from pathlib import Path
 
 import pytest
 
-from hexhil.hil.mcu import board_core
-from hexhil.hil.mcu.struct_layout import layout_mismatch
+from hexhil.hil.mcu import board_core, board_layout
 from hexhil import c_sdk
 from hexhil.run_summary import run
 from tests.mcu_elf import MCU, build
@@ -85,24 +83,20 @@ def test_the_board_tests_firmwares_run_the_same_both_ways(source, defines, tmp_p
         assert compiled[6]["tx_while_receiving"] == 18
 
 
-def test_a_library_whose_layout_differs_from_shared_is_refused_in_one_line(tmp_path,
-                                                                           monkeypatch):
-    """Shared restates bc_t: the library says how its compiler laid bc_t out, and a build of
-    another board_core.c (here one more field in the middle) is refused, never read wrong."""
-    assert layout_mismatch(board_core.library(), board_core.Shared) is None
-    source = board_core.LIBRARY.with_name("board_core.c").read_text()
-    marker = "    int64_t skipped;"
-    assert marker in source
-    changed = tmp_path / "board_core.c"
-    changed.write_text(source.replace(marker, "    int64_t extra;\n" + marker, 1))
-    lib_path = tmp_path / "_board_core.so"
-    subprocess.run([sys.executable, "-m", "ziglang", "cc", "-O1", "-shared", "-fPIC", "-o",
-                    str(lib_path), str(changed)], check=True)
-    import ctypes
-    why = layout_mismatch(ctypes.PyDLL(str(lib_path)), board_core.Shared)
-    assert why is not None and "bytes" in why, why
+def test_a_library_built_from_other_sources_is_refused_in_one_line(monkeypatch):
+    """bc_t, Shared and the constants they share are hil/mcu/board_layout.py's, written as
+    the header the library is built with: a library whose fingerprint is another layout's
+    (here one more constant) is refused where a board is made, never read wrong."""
+    assert board_core.library() is not None
+    header = board_layout.LAYOUT.header()
+    assert "    uint32_t slot[256][3];\n" in header and "    struct set3 waits;\n" in header
+    assert "    py_call_t py_call;\n" in header and "#define PY_SWITCHES 9\n" in header
+    other = dataclasses.replace(board_layout.LAYOUT, constants=[("HX_OTHER", 1)])
+    monkeypatch.setattr(board_core, "LAYOUT", other)
+    lib, why = board_core._load()
+    assert lib is None and "_board_core.so was built with other structs" in why, why
     monkeypatch.setattr(board_core, "_MISMATCH", why)
-    with pytest.raises(board_core.UserError, match=r"does not match .* HEXHIL_BOARD_CORE=python"):
+    with pytest.raises(board_core.UserError, match=r"other structs .* HEXHIL_BOARD_CORE=python$"):
         board_core.native()
 
 

@@ -22,25 +22,18 @@
 #define PPB_BASE 0xE0000000ULL
 #define SYSTICK_CSR 0xE000E010ULL
 #define USART2_PAGE 17          /* (0x40004400 - PERIPH_BASE) >> 10 */
-#define WAITS 256               /* open-addressed set of (pc, register, value) */
-#define ACTIVE_MAX 128          /* each of the 102 exceptions is active at most once */
 #define SRAM_BASE 0x20000000u
 #define SRAM_SIZE (128u * 1024u)
 #define FLASH_BASE 0x08000000u
 #define FLASH_SIZE (512u * 1024u)
 #define INTR_EXC_EXIT 8
 #define GPIOA_PAGE 128          /* (0x40020000 - PERIPH_BASE) >> 10; GPIOB is the next page */
-#define TURNS 64                /* PA1's turns made here before the link takes them */
 #define FS_PER_US 1000000000LL
 #define TICK_US 1000            /* board.py: a read of the switches older than this asks */
 enum { REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR, REG_XPSR, REG_CONTROL, REG_MSP,
        REG_PSP, REG_S0, REG_FPSCR, REG_IPSR, REG_PC, REG_FAULTMASK, REG_PRIMASK, REG_BASEPRI,
-       N_REGID };
+       REG_COUNT };
 #define N_EXC 102               /* the F411's exceptions: 16 + 86 IRQs */
-
-/* the Python side's answers (one callback, these kinds) */
-enum { PY_LINE = 1, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_POLLED, PY_PCLK, PY_FAILED, PY_INTR,
-       PY_SWITCHES };
 
 typedef int64_t (*py_call_t)(int kind, int64_t a, int64_t b);
 typedef int (*py_timer_t)(int tid, int64_t at_fs);
@@ -53,103 +46,16 @@ typedef int (*mem_read_t)(void *uc, uint64_t address, void *bytes, size_t size);
 typedef int (*emu_stop_t)(void *uc);
 
 typedef struct { int64_t at; uint64_t seq; int32_t tid; uint32_t gen; } entry_t;
-/* an open-addressed set of triples; n is -1 once full (the Python set keeps the rest) */
-typedef struct { uint32_t slot[WAITS][3]; int32_t n; } set3_t;
 
-/* Shared with Python (hil/mcu/board_core.py ``Shared``): keep the two in step. */
-typedef struct {
-    /* time: the core's (hil/mcu/core.py) */
-    uint64_t *ctr;               /* Unicorn's instructions run by this emu_start, + 1 */
-    uint32_t *pc;                /* the running instruction's PC in Unicorn's CPU state */
-    int64_t chunk0, cyc, fs0, cyc0, fs_per_cyc, hz;
-    int32_t running, _pad;
-    int64_t skipped;             /* cycles skipped by poll jumps */
-    /* the poll skipper's state (hil/mcu/poll.py) */
-    int32_t poll_valid, poll_addr, poll_value, reread, watching, pending_n;
-    int64_t poll_at;
-    /* USART2 */
-    int32_t u2_live, u2_line, u2_dma_tx, u2_dma_rx;
-    int32_t sr, brr, cr1, cr2, cr3, gtpr, tdr, rdr, echo;
-    int64_t frame_fs;
-    /* the servo line's burst */
-    int32_t direction, burst_dir, burst_n, burst_cap;
-    int64_t burst_fs;
-    uint8_t *burst;
-    /* the event heap */
-    int64_t next_at;             /* the earliest live timer's time, NONE when none */
-    uint64_t seq;
-    int32_t n, cap, ntimers, u2_tid, err;
-    entry_t *heap;
-    uint32_t *gen;
-    int64_t *tat;
-    /* Python */
-    py_call_t py_call;
-    py_timer_t py_timer;
-    mmio_read_t py_read;
-    mmio_write_t py_write;
-    set3_t waits;                /* known waits: (pc, register, value) */
-    /* the exception model (core.py): the active exceptions, innermost last */
-    int32_t active[ACTIVE_MAX];
-    int32_t nactive, sleeping, sleep_on_exit, _pad2;
-    void *uc;                    /* the engine, SRAM's buffer, libunicorn's batch calls */
-    uint8_t *sram, *flash;
-    reg_batch_t reg_read_batch, reg_write_batch;
-    int32_t regid[N_REGID];      /* Unicorn's ids of the registers below (REG_*) */
-    int64_t fast_returns;        /* exception returns done here */
-    /* the NVIC's pending exceptions (a bit each; pending_n counts them) and SysTick */
-    uint32_t pend[4];
-    int32_t st_tid, st_csr, st_rvr, st_countflag;
-    /* the NVIC's enabled IRQs (a bit each), priorities and PRIGROUP */
-    uint32_t ena[4];
-    int32_t ena_n, prigroup;
-    uint8_t prio[104];
-    /* the servo line's reply bytes on their way to USART2 (servo_line.py ``deliver``) */
-    int32_t rx_tid, rx_n, rx_head, rx_cap;
-    int64_t *rx_at;
-    uint8_t *rx_byte;
-    /* the run loop (board.py ``run``, core.py ``run``): the core's state between chunks */
-    int64_t pc_next, vtor, executed;
-    int64_t touched;             /* calls into Python: a chunk that made one ends the loop */
-    int64_t loop_n;              /* the chunk length an iteration handed to Python had */
-    int32_t fpu_on, stopped, cut, hook_failed, uc_err, loop_exc;
-    emu_start_t emu_start;       /* libunicorn's */
-    mem_read_t mem_read;
-    uint32_t lines[4];           /* the IRQ lines a peripheral holds high (system.py) */
-    int32_t lines_n;
-    int64_t u2_pclk;             /* USART2's bus clock, asked once a clock change (0) */
-    emu_stop_t emu_stop;
-    /* GPIOA-C (gpio.py): what PA1's turns and a read of PB's switches need, served here */
-    uint32_t gpio_moder[3], gpio_pupdr[3], gpio_odr[3];
-    int32_t gpio_live;           /* bit i: port i's clock is on */
-    int32_t switches;            /* the pressed switches, a bit each (board.py) */
-    int64_t last_request_us;     /* the link's last request: the switches' age (board.py) */
-    int32_t turns_n, _pad3;      /* PA1's turns made here, for the link (link_client.py) */
-    int64_t turn_us[TURNS];
-    int32_t turn_level[TURNS];
-    set3_t nots;                 /* repeated reads that are no wait: (pc, register, 0) */
-    /* quiet loops (poll.py ``QuietLoops``): a chunk without a register access */
-    int64_t mmio_n;              /* register accesses so far */
-    int64_t chunk_mmio;          /* mmio_n when the chunk began */
-    int64_t quiet_n;             /* > 0: chunks no longer than this (a pass being checked) */
-    int64_t quiet_wait;          /* quiet chunks to let by before Python looks again */
-    int64_t quiet_loud;          /* chunks with register accesses since the last quiet one */
-    int64_t masked_steps;        /* one-instruction chunks while a masked exception waits */
-    /* the public engine (engine.py): a UC_HOOK_CODE counts here what Unicorn's own count
-       would, the count given right after it, as Unicorn keeps the two */
-    uint64_t pub_count, pub_limit;
-    uint32_t pub_pc;             /* the running instruction's PC */
-    int32_t engine_counts;       /* 1: Unicorn counts (emu_start's count); 0: bc_count does */
-    /* USART2's IDLE (usart.py): when the line will have been idle a frame (0: no byte
-       since), SR read with IDLE set (a DR read clears it), its timer (with IDLEIE) */
-    int64_t u2_idle_at;
-    int32_t u2_idle_live, u2_idle_tid, u2_idle_seen;
-    /* quiet.py ``held``: 1 while the state is a fixed point a skip confirmed and no
-       instruction has run since (an event that changed nothing lets it skip again) */
-    int32_t quiet_hold;
-    int32_t q_seen;              /* 1: ``q`` holds the state at the end of a quiet chunk */
-    struct quiet *q;             /* quiet.py's steps done here (bc_quiet_init) */
-    mmio_read_t py_ppb_read;     /* mmio.py ``ppb_read``: the PPB's reads but SysTick CSR's */
-} bc_t;
+/* bc_t, shared with Python (hil/mcu/board_core.py ``Shared``), set3_t and cover_t: their
+ * fields and the constants the two sides share are hil/mcu/board_layout.py's, which setup.py
+ * writes as board_layout.h; the library keeps its fingerprint, checked at load */
+#include "board_layout.h"
+typedef struct set3 set3_t;
+typedef struct bc bc_t;
+typedef struct cover cover_t;
+_Static_assert(REG_COUNT == N_REGID, "board_layout.py N_REGID: the REG_* registers");
+const char hx_layout[] = HX_LAYOUT;
 
 /* quiet.py ``QuietLoops`` in C: the state recorded at the end of a quiet chunk (cycle,
    registers, SRAM), the misses' back-off, Unicorn's ids of the registers read */
@@ -161,60 +67,6 @@ typedef struct quiet {
     void **ptrs;
     uint8_t *sram;
 } quiet_t;
-
-/* bc_t's layout as this compiler laid it out: board_core.py checks its ``Shared`` against
- * it field by field when it loads this library, and refuses a build that differs. */
-typedef struct { const char *name; int64_t offset, size; } field_t;
-#define F(py, c) {#py, (int64_t)offsetof(bc_t, c), (int64_t)sizeof(((bc_t *)0)->c)},
-static const field_t layout[] = {
-F(ctr, ctr) F(pc, pc) F(chunk0, chunk0) F(cyc, cyc) F(fs0, fs0) F(cyc0, cyc0)
-    F(fs_per_cyc, fs_per_cyc) F(hz, hz) F(running, running) F(_pad, _pad)
-    F(skipped, skipped) F(poll_valid, poll_valid) F(poll_addr, poll_addr)
-    F(poll_value, poll_value) F(reread, reread) F(watching, watching)
-    F(pending_n, pending_n) F(poll_at, poll_at) F(u2_live, u2_live) F(u2_line, u2_line)
-    F(u2_dma_tx, u2_dma_tx) F(u2_dma_rx, u2_dma_rx) F(sr, sr) F(brr, brr) F(cr1, cr1)
-    F(cr2, cr2) F(cr3, cr3) F(gtpr, gtpr) F(tdr, tdr) F(rdr, rdr) F(echo, echo)
-    F(frame_fs, frame_fs) F(direction, direction) F(burst_dir, burst_dir)
-    F(burst_n, burst_n) F(burst_cap, burst_cap) F(burst_fs, burst_fs) F(burst, burst)
-    F(next_at, next_at) F(seq, seq) F(n, n) F(cap, cap) F(ntimers, ntimers)
-    F(u2_tid, u2_tid) F(err, err) F(heap, heap) F(gen, gen) F(tat, tat) F(py_call, py_call)
-    F(py_timer, py_timer) F(py_read, py_read) F(py_write, py_write) F(waits, waits.slot)
-    F(nwaits, waits.n) F(active, active) F(nactive, nactive) F(sleeping, sleeping)
-    F(sleep_on_exit, sleep_on_exit) F(_pad2, _pad2) F(uc, uc) F(sram, sram) F(flash, flash)
-    F(reg_read_batch, reg_read_batch) F(reg_write_batch, reg_write_batch) F(regid, regid)
-    F(fast_returns, fast_returns) F(pend, pend) F(st_tid, st_tid) F(st_csr, st_csr)
-    F(st_rvr, st_rvr) F(st_countflag, st_countflag) F(ena, ena) F(ena_n, ena_n)
-    F(prigroup, prigroup) F(prio, prio) F(rx_tid, rx_tid) F(rx_n, rx_n) F(rx_head, rx_head)
-    F(rx_cap, rx_cap) F(rx_at, rx_at) F(rx_byte, rx_byte) F(pc_next, pc_next) F(vtor, vtor)
-    F(executed, executed) F(touched, touched) F(loop_n, loop_n) F(fpu_on, fpu_on)
-    F(stopped, stopped) F(cut, cut) F(hook_failed, hook_failed) F(uc_err, uc_err)
-    F(loop_exc, loop_exc) F(emu_start, emu_start) F(mem_read, mem_read) F(lines, lines)
-    F(lines_n, lines_n) F(u2_pclk, u2_pclk) F(emu_stop, emu_stop) F(gpio_moder, gpio_moder)
-    F(gpio_pupdr, gpio_pupdr) F(gpio_odr, gpio_odr) F(gpio_live, gpio_live)
-    F(switches, switches) F(last_request_us, last_request_us) F(turns_n, turns_n)
-    F(_pad3, _pad3) F(turn_us, turn_us) F(turn_level, turn_level) F(nots, nots.slot)
-    F(nnots, nots.n) F(mmio_n, mmio_n) F(chunk_mmio, chunk_mmio) F(quiet_n, quiet_n)
-    F(quiet_wait, quiet_wait) F(quiet_loud, quiet_loud)
-    F(masked_steps, masked_steps) F(pub_count, pub_count) F(pub_limit, pub_limit)
-    F(pub_pc, pub_pc) F(engine_counts, engine_counts) F(u2_idle_at, u2_idle_at)
-    F(u2_idle_live, u2_idle_live) F(u2_idle_tid, u2_idle_tid) F(u2_idle_seen, u2_idle_seen)
-    F(quiet_hold, quiet_hold) F(q_seen, q_seen) F(q, q) F(py_ppb_read, py_ppb_read)
-};
-#undef F
-
-/* field ``i`` of bc_t (its Python name, offset and size), 0 past the last; the struct's size
-   for i = -1 */
-int bc_layout(int i, const char **name, int64_t *offset, int64_t *size) {
-    if (i < 0) {
-        *size = (int64_t)sizeof(bc_t);
-        return 1;
-    }
-    if (i >= (int)(sizeof layout / sizeof layout[0])) return 0;
-    *name = layout[i].name;
-    *offset = layout[i].offset;
-    *size = layout[i].size;
-    return 1;
-}
 
 enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
 #define CONTROL_FPCA (1u << 2)  /* an FP context is active (core.py) */
@@ -396,7 +248,7 @@ static int64_t py(bc_t *s, int kind, int64_t a, int64_t b) {
     if (s->err) return -1;
     s->touched++;
     int64_t r = s->py_call(kind, a, b);
-    if (r == -2) s->err = 1;
+    if (r == PY_RAISED) s->err = 1;
     return r;
 }
 
@@ -1102,9 +954,6 @@ int bc_rx_deliver(bc_t *s, int64_t at) {
 }
 
 /* --- the run loop (board.py ``run`` and core.py ``run``) ------------------------------ */
-/* where Python goes on: hil/mcu/board_loop.py LOOP_*, the same numbers */
-enum { LOOP_AFTER_HEAD = 0, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
-       LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT };
 #define WFI 0xBF30
 #define WFE 0xBF20
 #define BRANCH_TO_SELF 0xE7FE
@@ -1369,7 +1218,6 @@ void bc_free(bc_t *s) {
    block run by (address, size) in an open-addressed table the Python side allocated, so a
    covered run pays no Python call per block. A table three quarters full takes no new
    block (``lost`` counts them; the table is sized from the firmware's code to leave room). */
-typedef struct { uint64_t *keys, *counts; uint64_t mask, used, lost; } cover_t;
 
 void bc_cover_block(void *uc, uint64_t address, uint32_t size, void *user) {
     (void)uc;

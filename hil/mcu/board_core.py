@@ -29,67 +29,22 @@ import weakref
 from pathlib import Path
 from typing import Any, Callable
 
-from hexhil.hil.mcu.struct_layout import layout_mismatch
+from hexhil.hil.mcu.board_layout import LAYOUT, PY_CALL, PY_KINDS, PY_RAISED, PY_TIMER
 from hexhil.hil.native import load_library
 from hexhil.protocol.errors import BadFile, UserError
 
 LIBRARY = Path(__file__).with_name("_board_core.so")
 USART2_IRQ = 38
 _P, _I32, _I64 = ctypes.c_void_p, ctypes.c_int32, ctypes.c_int64
-PY_CALL = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_int, ctypes.c_int64, ctypes.c_int64)
-PY_TIMER = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int64)
 (PY_LINE, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_POLLED, PY_PCLK, PY_FAILED, PY_INTR,
- PY_SWITCHES) = range(1, 10)
-FAILED = -2                  # a Python callback raised: C unwinds, the error is handed on
-WAITS = 256
-TURNS = 64                   # PA1's turns made in C before the link takes them
-ACTIVE_MAX = 128             # each of the F411's 102 exceptions is active at most once
-N_REGID = 17                 # the registers an exception return writes (board_core.c REG_*)
+ PY_SWITCHES) = range(1, len(PY_KINDS) + 1)
 # virtual time in C is int64 femtoseconds: 9,223 s; a longer run is served in Python
 MAX_US = 9_000_000_000
 
 
 class Shared(ctypes.Structure):
-    """bc_t in board_core.c, field for field."""
-    _fields_ = [("ctr", _P), ("pc", _P), ("chunk0", _I64), ("cyc", _I64), ("fs0", _I64),
-                ("cyc0", _I64), ("fs_per_cyc", _I64), ("hz", _I64), ("running", _I32),
-                ("_pad", _I32), ("skipped", _I64),
-                ("poll_valid", _I32), ("poll_addr", _I32), ("poll_value", _I32),
-                ("reread", _I32), ("watching", _I32), ("pending_n", _I32), ("poll_at", _I64),
-                ("u2_live", _I32), ("u2_line", _I32), ("u2_dma_tx", _I32), ("u2_dma_rx", _I32),
-                ("sr", _I32), ("brr", _I32), ("cr1", _I32), ("cr2", _I32), ("cr3", _I32),
-                ("gtpr", _I32), ("tdr", _I32), ("rdr", _I32), ("echo", _I32), ("frame_fs", _I64),
-                ("direction", _I32), ("burst_dir", _I32), ("burst_n", _I32),
-                ("burst_cap", _I32), ("burst_fs", _I64), ("burst", _P),
-                ("next_at", _I64), ("seq", ctypes.c_uint64), ("n", _I32), ("cap", _I32),
-                ("ntimers", _I32), ("u2_tid", _I32), ("err", _I32),
-                ("heap", _P), ("gen", _P), ("tat", _P),
-                ("py_call", PY_CALL), ("py_timer", PY_TIMER), ("py_read", _P), ("py_write", _P),
-                ("waits", (ctypes.c_uint32 * 3) * WAITS), ("nwaits", _I32),
-                ("active", _I32 * ACTIVE_MAX), ("nactive", _I32), ("sleeping", _I32),
-                ("sleep_on_exit", _I32), ("_pad2", _I32), ("uc", _P), ("sram", _P), ("flash", _P),
-                ("reg_read_batch", _P), ("reg_write_batch", _P), ("regid", _I32 * N_REGID),
-                ("fast_returns", _I64), ("pend", ctypes.c_uint32 * 4), ("st_tid", _I32),
-                ("st_csr", _I32), ("st_rvr", _I32), ("st_countflag", _I32),
-                ("ena", ctypes.c_uint32 * 4), ("ena_n", _I32), ("prigroup", _I32),
-                ("prio", ctypes.c_uint8 * 104), ("rx_tid", _I32), ("rx_n", _I32),
-                ("rx_head", _I32), ("rx_cap", _I32), ("rx_at", _P), ("rx_byte", _P),
-                ("pc_next", _I64), ("vtor", _I64), ("executed", _I64), ("touched", _I64),
-                ("loop_n", _I64), ("fpu_on", _I32), ("stopped", _I32), ("cut", _I32),
-                ("hook_failed", _I32), ("uc_err", _I32), ("loop_exc", _I32),
-                ("emu_start", _P), ("mem_read", _P), ("lines", ctypes.c_uint32 * 4),
-                ("lines_n", _I32), ("u2_pclk", _I64), ("emu_stop", _P),
-                ("gpio_moder", ctypes.c_uint32 * 3), ("gpio_pupdr", ctypes.c_uint32 * 3),
-                ("gpio_odr", ctypes.c_uint32 * 3), ("gpio_live", _I32), ("switches", _I32),
-                ("last_request_us", _I64), ("turns_n", _I32), ("_pad3", _I32),
-                ("turn_us", _I64 * TURNS), ("turn_level", _I32 * TURNS),
-                ("nots", (ctypes.c_uint32 * 3) * WAITS), ("nnots", _I32),
-                ("mmio_n", _I64), ("chunk_mmio", _I64), ("quiet_n", _I64),
-                ("quiet_wait", _I64), ("quiet_loud", _I64), ("masked_steps", _I64),
-                ("pub_count", ctypes.c_uint64), ("pub_limit", ctypes.c_uint64),
-                ("pub_pc", ctypes.c_uint32), ("engine_counts", _I32), ("u2_idle_at", _I64),
-                ("u2_idle_live", _I32), ("u2_idle_tid", _I32), ("u2_idle_seen", _I32),
-                ("quiet_hold", _I32), ("q_seen", _I32), ("q", _P), ("py_ppb_read", _P)]
+    """bc_t in board_core.c (hil/mcu/board_layout.py)."""
+    _fields_ = LAYOUT.fields("bc")
 
 
 class SharedField:
@@ -108,12 +63,17 @@ class SharedField:
     def __set__(self, obj: Any, value: int) -> None:
         setattr(obj.shared, self.field, int(value))
 
-def _load() -> Any:
+
+def _load() -> tuple[Any, str | None]:
+    """The library, or None; and why a library that is there cannot run, or None."""
     if os.environ.get("HEXHIL_BOARD_CORE") == "python":
-        return None
-    lib = load_library(LIBRARY, keep_gil=True)    # its calls call back into Python
+        return None, None
+    try:   # its calls call back into Python
+        lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT)
+    except BadFile as exc:   # built from other sources: refused where a board is made
+        return None, str(exc)
     if lib is None:
-        return None
+        return None, None
     sig = {"bc_timer_new": (_I32, [_P]), "bc_timer_set": (None, [_P, _I32, _I64]),
            "bc_timer_clear": (None, [_P, _I32]), "bc_timer_at": (_I64, [_P, _I32]),
            "bc_fire_due": (_I32, [_P, _I64]), "bc_now_fs": (_I64, [_P]),
@@ -138,20 +98,17 @@ def _load() -> Any:
     for name, (res, args) in sig.items():
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = res, args
-    return lib
+    return lib, None
 
 
-_LIB = _load()
-_MISMATCH = layout_mismatch(_LIB, Shared) if _LIB is not None else None
+_LIB, _MISMATCH = _load()
 
 
 def native() -> bool:
-    """Whether boards made now run their hot path in C (a library whose layout differs
-    from ``Shared`` refuses to run, in one line)."""
+    """Whether boards made now run their hot path in C (a library built from other
+    sources refuses to run, in one line)."""
     if _MISMATCH is not None:
-        raise BadFile(f"{LIBRARY.name} does not match hil/mcu/board_core.py ({_MISMATCH}): "
-                      "rebuild it with `make`, or run the board in Python with "
-                      "HEXHIL_BOARD_CORE=python")
+        raise BadFile(f"{_MISMATCH}, or run the board in Python with HEXHIL_BOARD_CORE=python")
     return _LIB is not None
 
 
@@ -337,7 +294,7 @@ class NativeBoard:
             return 0
         except BaseException as exc:      # noqa: B036 -- handed on by the C side
             board.events._error = exc
-            return FAILED
+            return PY_RAISED   # C unwinds; the error is handed on
 
     def turns(self) -> list[tuple[int, int]]:
         """PA1's turns C made since the last call, (time in µs, level): the link's
@@ -389,12 +346,12 @@ def front(shared: Shared, py_read: Any, py_write: Any, ppb_read: Any) -> tuple[A
 
 def add_wait(shared: Shared, pc: int, addr: int, value: int) -> None:
     """A known poll wait, for the C side too (a full table: C asks Python every time)."""
-    if shared.nwaits >= 0 and _LIB.bc_add_wait(ctypes.byref(shared), pc, addr, value) < 0:
-        shared.nwaits = -1
+    if shared.waits.n >= 0 and _LIB.bc_add_wait(ctypes.byref(shared), pc, addr, value) < 0:
+        shared.waits.n = -1
 
 
 def add_not_loop(shared: Shared, pc: int, addr: int) -> None:
     """A read at ``pc`` that waits on nothing (poll.py ``_loops_ok`` False): C answers it
     without Python, however far apart its repeats come."""
-    if shared.nnots >= 0 and _LIB.bc_add_not_loop(ctypes.byref(shared), pc, addr, 0) < 0:
-        shared.nnots = -1
+    if shared.nots.n >= 0 and _LIB.bc_add_not_loop(ctypes.byref(shared), pc, addr, 0) < 0:
+        shared.nots.n = -1

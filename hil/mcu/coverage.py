@@ -24,6 +24,7 @@ from elftools.elf.elffile import ELFFile
 from unicorn import UC_HOOK_BLOCK, Uc
 
 from hexhil.hil.mcu.board_core import library
+from hexhil.hil.mcu.board_layout import LAYOUT
 from hexhil.hil.mcu.elf_image import ElfImage
 from hexhil.protocol.errors import BadFile, BadValue, UserError
 
@@ -31,9 +32,8 @@ _U64 = ctypes.c_uint64
 
 
 class _Cover(ctypes.Structure):
-    """board_core.c's ``cover_t``."""
-    _fields_ = [("keys", ctypes.POINTER(_U64)), ("counts", ctypes.POINTER(_U64)),
-                ("mask", _U64), ("used", _U64), ("lost", _U64)]
+    """board_core.c's ``cover_t`` (hil/mcu/board_layout.py)."""
+    _fields_ = LAYOUT.fields("cover")
 
 
 def line_table(path: Path, libraries: bool = False,
