@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 from hexhil.hil import scenario as scenario_mod
 from hexhil.hil.canbus.bus import CanBus, Endpoint, standard_frame
-from hexhil.hil.run.limits import RunLimits
+from hexhil.hil.run.limits import MASKED_LIMIT_S, RunLimits
 from hexhil.hil.run.rig import make_world
 from hexhil.hil.run_result import RunInterrupted, RunResult
 from hexhil.hil.scenario import Runtime, Scenario, WorldKind
@@ -26,7 +26,6 @@ from hexhil.hil.seams import CanGateway, HostNode, TraceRecorder
 from hexhil.hil.servobus.master_check import MasterCheck
 from hexhil.hil.link.served_firmware import ElfFirmware, served_firmware
 from hexhil.hil.mcu.flash_fs import FlashFiles
-from hexhil.hil.mcu.verdicts import MASKED_LIMIT_S
 from hexhil.hil.run.lockstep import Simulator
 from hexhil import plugins
 from hexhil.lifecycle import Closing

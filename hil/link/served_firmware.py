@@ -30,8 +30,7 @@ from hexhil.hil.link.firmware_process import ROOT, FirmwareError, firmware_comma
 from hexhil.hil.mcu import flash_fs
 from hexhil.hil.mcu.elf_image import ELF_MAGIC, ElfImage, is_arm_elf, load_elf
 from hexhil.hil.mcu.flash_fs import FlashFiles
-from hexhil.hil.mcu.runtime import serve_elf
-from hexhil.hil.mcu.verdicts import MASKED_LIMIT_S
+from hexhil.hil.run.limits import MASKED_LIMIT_S
 from hexhil.hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
 from hexhil.hil.seams import LinkHost
 from hexhil.protocol import sim_link
@@ -204,6 +203,8 @@ class ElfFirmware:
     def serve(self, server: LinkHost, end_us: int, result: RunTally) -> None:
         """A fault is its ending (hil/mcu/runtime.py); a semihosting SYS_EXIT before the
         run's end is judged as a process's exit."""
+        from hexhil.hil.mcu.runtime import serve_elf   # Unicorn: only where an ELF runs
+
         board = serve_elf(self.image, server, end_us, result, console_events, self.gdb_port,
                           self.coverage, self.fs_image,
                           self.flash_files.out if self.flash_files is not None else None,

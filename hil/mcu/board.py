@@ -41,7 +41,8 @@ from hexhil.hil.mcu.rtc import Rtc
 from hexhil.hil.mcu.system import Nvic, SystemBlock
 from hexhil.hil.mcu.systick import SysTick
 from hexhil.hil.mcu.usart import Usart
-from hexhil.hil.mcu.verdicts import BRANCH_TO_SELF, MASKED_LIMIT_S, Endings
+from hexhil.hil.mcu.verdicts import BRANCH_TO_SELF, Endings
+from hexhil.hil.run.limits import MASKED_LIMIT_S
 from hexhil.hil.mcu.world_sync import WorldSync
 
 log = logging.getLogger(__name__)

@@ -17,7 +17,7 @@ from hexhil.hil.mcu.board_core import MAX_US
 from hexhil.hil.mcu.core import CoreFault
 from hexhil.hil.mcu.elf_image import ElfImage
 from hexhil.hil.mcu.gdb import SIGABRT, SIGINT, GdbServer, fault_signal
-from hexhil.hil.mcu.verdicts import MASKED_LIMIT_S
+from hexhil.hil.run.limits import MASKED_LIMIT_S
 from hexhil.hil.run_result import LAST_LINES, Ending, FirmwareEnding, RunTally
 from hexhil.hil.seams import LinkHost
 

@@ -25,9 +25,9 @@ from unicorn import UC_HOOK_CODE, UcError
 from unicorn import arm_const as A
 
 from hexhil.hil.mcu.timebase import FS_PER_S
+from hexhil.hil.run.limits import MASKED_LIMIT_S
 from hexhil.hil.run_result import Ending
 
-MASKED_LIMIT_S = 0.5        # virtual seconds awake with interrupts masked: a hang
 MAX_TEXT = 200              # of a string the firmware passed (a file name, an expression)
 BRANCH_TO_SELF = (0xE7FE,)  # Thumb `b .` (GCC's `for (;;) {}`)
 SYSTEM_EXCEPTIONS = {2: "the NMI handler", 3: "the HardFault handler", 4: "MemManage",

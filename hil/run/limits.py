@@ -24,6 +24,7 @@ from hexhil.hil.link.firmware_child import end_group
 from hexhil.protocol.errors import BadValue
 
 DEFAULT_MEMORY_MB = 4096.0   # this process and its firmware's, resident
+MASKED_LIMIT_S = 0.5         # an ELF awake this many virtual seconds with interrupts masked: a hang
 WALL_BASE_S = 120.0          # the wall-clock cap, unless given: this, plus
 WALL_PER_SIM_S = 20.0        # this many wall seconds a simulated second (a 0.05x run)
 CHECK_S = 0.05

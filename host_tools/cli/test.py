@@ -51,7 +51,7 @@ def _run(args: argparse.Namespace) -> int:
                         "--runtime, --no-tactile or --repeat")
     if args.firmware is not None:
         from hexhil.hil.link.served_firmware import served_firmware
-        from hexhil.hil.mcu.verdicts import MASKED_LIMIT_S
+        from hexhil.hil.run.limits import MASKED_LIMIT_S
 
         served_firmware(args.firmware, coverage=args.coverage,   # one line before anything runs
                         flash_files=flash_files(args),
