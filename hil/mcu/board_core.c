@@ -18,16 +18,9 @@
 
 #define FS_PER_S 1000000000000000LL
 #define NONE (-1LL)
-#define PERIPH_BASE 0x40000000ULL
 #define PPB_BASE 0xE0000000ULL
 #define SYSTICK_CSR 0xE000E010ULL
-#define USART2_PAGE 17          /* (0x40004400 - PERIPH_BASE) >> 10 */
-#define SRAM_BASE 0x20000000u
-#define SRAM_SIZE (128u * 1024u)
-#define FLASH_BASE 0x08000000u
-#define FLASH_SIZE (512u * 1024u)
 #define INTR_EXC_EXIT 8
-#define GPIOA_PAGE 128          /* (0x40020000 - PERIPH_BASE) >> 10; GPIOB is the next page */
 #define FS_PER_US 1000000000LL
 #define TICK_US 1000            /* board.py: a read of the switches older than this asks */
 enum { REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR, REG_XPSR, REG_CONTROL, REG_MSP,
@@ -958,7 +951,6 @@ int bc_rx_deliver(bc_t *s, int64_t at) {
 #define WFE 0xBF20
 #define BRANCH_TO_SELF 0xE7FE
 #define QUIET_LOUD 8             /* chunks with register accesses that end a quiet wait */
-#define MASKED_STEPS 256         /* system.py MASKED_STEPS */
 
 static int read16(bc_t *s, uint32_t addr, uint16_t *op) {
     if (addr >= FLASH_BASE && addr <= FLASH_BASE + FLASH_SIZE - 2) {
@@ -1021,8 +1013,6 @@ static int64_t run_chunk(bc_t *s, int64_t n) {
 }
 
 /* --- quiet loops (quiet.py, the same steps) ------------------------------------------- */
-#define PASS 2520                /* quiet.py PASS */
-#define MAX_BACKOFF 64           /* quiet.py MAX_BACKOFF */
 
 /* quiet.py's registers, by Unicorn's ids; 0 when the buffers cannot be had */
 static void quiet_free(quiet_t *q) {
@@ -1094,12 +1084,12 @@ static int quiet_skip(bc_t *s) {
 static void quiet_chunk(bc_t *s, int64_t ran) {
     quiet_t *q = s->q;
     quiet_read(s);
-    if (!s->q_seen || ran != PASS || s->cyc - q->cyc != PASS) {
+    if (!s->q_seen || ran != QUIET_PASS || s->cyc - q->cyc != QUIET_PASS) {
         memcpy(q->regs, q->now, q->nregs * sizeof *q->now);
         memcpy(q->sram, s->sram, SRAM_SIZE);
         q->cyc = s->cyc;
         s->q_seen = 1;
-        s->quiet_n = PASS;
+        s->quiet_n = QUIET_PASS;
         return;
     }
     s->q_seen = 0;

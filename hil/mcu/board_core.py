@@ -29,12 +29,12 @@ import weakref
 from pathlib import Path
 from typing import Any, Callable
 
-from hexhil.hil.mcu.board_layout import LAYOUT, PY_CALL, PY_KINDS, PY_RAISED, PY_TIMER
+from hexhil.hil.mcu.board_layout import (LAYOUT, PY_CALL, PY_KINDS, PY_RAISED, PY_TIMER,
+                                          USART2_IRQ)
 from hexhil.hil.native import load_library
 from hexhil.protocol.errors import BadFile, UserError
 
 LIBRARY = Path(__file__).with_name("_board_core.so")
-USART2_IRQ = 38
 _P, _I32, _I64 = ctypes.c_void_p, ctypes.c_int32, ctypes.c_int64
 (PY_LINE, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_POLLED, PY_PCLK, PY_FAILED, PY_INTR,
  PY_SWITCHES) = range(1, len(PY_KINDS) + 1)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ctypes
 
+from hexhil.hil.mcu import platform
 from hexhil.hil.native import Layout
 
 WAITS = 256                  # an open-addressed set of (pc, register, value)
@@ -15,6 +16,22 @@ N_REGID = 17                 # the registers an exception return writes (board_c
 PY_KINDS = ("PY_LINE", "PY_IDLE", "PY_DMA_TX", "PY_DMA_RX", "PY_POLLED", "PY_PCLK",
             "PY_FAILED", "PY_INTR", "PY_SWITCHES")
 PY_RAISED = -2               # that call's answer where Python raised: C unwinds
+# quiet loops (quiet.py): a pass's instructions, lcm(1..10); the quiet chunks let by after
+# repeated misses at most
+QUIET_PASS = 2520
+MAX_BACKOFF = 64
+# instructions run one at a time while a masked exception waits for its unmasking (then the
+# chunks grow again: a core that spins with interrupts masked runs at full speed; system.py)
+MASKED_STEPS = 256
+# the memory map and the interrupt the C code serves, from the platform table: the
+# peripherals' 1 KB pages it fronts from APB1's base on (USART2's, GPIOA's and GPIOB's)
+_SRAM, _FLASH, _PERIPH = platform.row("SRAM"), platform.row("Flash"), platform.row("APB1")
+MEMORY_MAP = (("SRAM_BASE", _SRAM.base), ("SRAM_SIZE", _SRAM.size),
+              ("FLASH_BASE", _FLASH.base), ("FLASH_SIZE", _FLASH.size),
+              ("PERIPH_BASE", _PERIPH.base),
+              ("USART2_PAGE", (platform.row("USART2").base - _PERIPH.base) >> 10),
+              ("GPIOA_PAGE", (platform.row("GPIOA").base - _PERIPH.base) >> 10))
+USART2_IRQ = platform.VECTORS["USART2"]
 # where the C run loop hands back to Python (board_loop.py)
 LOOP_ENDS = ("LOOP_AFTER_HEAD", "LOOP_AFTER_CHUNK", "LOOP_ENTER", "LOOP_RAISED",
              "LOOP_HOOK_FAILED", "LOOP_NULL_JUMP", "LOOP_UC_ERROR", "LOOP_NO_EVENT")
@@ -119,5 +136,7 @@ BC = [
 
 LAYOUT = Layout("HX_BOARD_LAYOUT_H", [("set3", SET3), ("cover", COVER), ("bc", BC)], [
     ("WAITS", WAITS), ("TURNS", TURNS), ("ACTIVE_MAX", ACTIVE_MAX), ("N_REGID", N_REGID),
+    ("QUIET_PASS", QUIET_PASS), ("MAX_BACKOFF", MAX_BACKOFF), ("MASKED_STEPS", MASKED_STEPS),
+    *MEMORY_MAP,
     *((n, i) for i, n in enumerate(PY_KINDS, 1)), ("PY_RAISED", PY_RAISED),
     *((n, i) for i, n in enumerate(LOOP_ENDS))])

@@ -34,10 +34,9 @@ from typing import Any
 from unicorn import arm_const as A
 
 from hexhil.hil.mcu.board_core import library
+from hexhil.hil.mcu.board_layout import MAX_BACKOFF, QUIET_PASS as PASS   # C's too
 from hexhil.hil.mcu.engine import Regs
 
-PASS = 2520                  # lcm(1..10) instructions
-MAX_BACKOFF = 64             # quiet chunks let by after repeated misses
 STATE_REGS = (tuple(A.UC_ARM_REG_R0 + i for i in range(13))
               + (A.UC_ARM_REG_SP, A.UC_ARM_REG_LR, A.UC_ARM_REG_PC, A.UC_ARM_REG_XPSR,
                  A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_MSP, A.UC_ARM_REG_PSP,
