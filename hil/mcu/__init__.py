@@ -16,5 +16,6 @@ takes USART1/6 and semihosting, ``poll`` skips waiting, and ``link_client`` spea
 simulator link as a client, so the line, switches, CAN and console reach hil/link/ as any
 runtime's do. ``runtime`` serves an ELF in a run, ``replayed`` under ``hexhil replay``;
 ``gdb`` is ``--gdb``, ``coverage`` is ``--coverage``. ``board_core`` is the hot path
-compiled (USART2, the event heap, the exception model's entry, return and choice). docs/elf-firmware.md is the page.
+compiled (USART2, the event heap, the exception model's entry, return and choice), whose
+struct and shared constants ``board_layout`` writes once. docs/elf-firmware.md is the page.
 """
