@@ -61,29 +61,8 @@ typedef struct quiet {
     uint8_t *sram;
 } quiet_t;
 
-enum { SR = 0, DR = 4, BRR = 8, CR1 = 12, CR2 = 16, CR3 = 20, GTPR = 24 };
 #define CONTROL_FPCA (1u << 2)  /* an FP context is active (core.py) */
-enum { GPIO_MODER = 0x00, GPIO_PUPDR = 0x0C, GPIO_IDR = 0x10, GPIO_ODR = 0x14, GPIO_BSRR = 0x18 };
 #define PA1 1
-#define SWITCH_MASK 0x3F        /* PB0-PB5 */
-#define ORE (1 << 3)
-#define IDLE (1 << 4)
-#define RXNE (1 << 5)
-#define TC (1 << 6)
-#define TXE (1 << 7)
-#define UE (1 << 13)
-#define M_9BIT (1 << 12)
-#define OVER8 (1 << 15)
-#define TE (1 << 3)
-#define RE (1 << 2)
-#define IDLEIE (1 << 4)
-#define RXNEIE (1 << 5)
-#define TCIE (1 << 6)
-#define TXEIE (1 << 7)
-#define EIE 1
-#define HDSEL (1 << 3)
-#define DMAR (1 << 6)
-#define DMAT (1 << 7)
 
 static int64_t floordiv(__int128 a, __int128 b) {
     __int128 q = a / b;
@@ -235,7 +214,8 @@ int64_t bc_head(bc_t *s, int64_t max_chunk) {
 }
 
 /* --- USART2 (usart.py) ---------------------------------------------------------------- */
-static const int STOP_HALF_BITS[4] = {2, 1, 4, 3};
+static const int STOP_HALF_BITS[4] = {STOP_HALF_BITS_0, STOP_HALF_BITS_1, STOP_HALF_BITS_2,
+                                      STOP_HALF_BITS_3};
 
 static int64_t py(bc_t *s, int kind, int64_t a, int64_t b) {
     if (s->err) return -1;

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import ctypes
 
-from hexhil.hil.mcu import platform
+from hexhil.hil.mcu import gpio, platform, usart_registers
 from hexhil.hil.native import Layout
 
 WAITS = 256                  # an open-addressed set of (pc, register, value)
@@ -138,5 +138,9 @@ LAYOUT = Layout("HX_BOARD_LAYOUT_H", [("set3", SET3), ("cover", COVER), ("bc", B
     ("WAITS", WAITS), ("TURNS", TURNS), ("ACTIVE_MAX", ACTIVE_MAX), ("N_REGID", N_REGID),
     ("QUIET_PASS", QUIET_PASS), ("MAX_BACKOFF", MAX_BACKOFF), ("MASKED_STEPS", MASKED_STEPS),
     *MEMORY_MAP,
+    *((n, getattr(usart_registers, n)) for n in usart_registers.NAMES),   # USART2's registers
+    *((f"STOP_HALF_BITS_{i}", v) for i, v in enumerate(usart_registers.STOP_HALF_BITS)),
+    *((f"GPIO_{n}", getattr(gpio, n)) for n in ("MODER", "PUPDR", "IDR", "ODR", "BSRR")),
+    ("SWITCH_MASK", (1 << gpio.SWITCH_PINS) - 1),   # PB0-PB5
     *((n, i) for i, n in enumerate(PY_KINDS, 1)), ("PY_RAISED", PY_RAISED),
     *((n, i) for i, n in enumerate(LOOP_ENDS))])

@@ -22,13 +22,11 @@ from typing import Callable, Protocol
 
 from hexhil.hil.mcu.core import FS_PER_S, Core
 from hexhil.hil.mcu.events import Events
+from hexhil.hil.mcu.usart_registers import (BRR, CR1, CR2, CR3, DMAR, DMAT, DR, EIE, GTPR,
+                                            HDSEL, IDLE, IDLEIE, M_9BIT, ORE, OVER8, RE, RXNE,
+                                            RXNEIE, SR, STOP_HALF_BITS, TC, TCIE, TE, TXE,
+                                            TXEIE, UE)
 
-SR, DR, BRR, CR1, CR2, CR3, GTPR = range(0, 0x1C, 4)
-PE, FE, NF, ORE, IDLE, RXNE, TC, TXE = (1 << i for i in range(8))
-UE, M_9BIT, OVER8 = 1 << 13, 1 << 12, 1 << 15
-TE, RE, IDLEIE, RXNEIE, TCIE, TXEIE = 1 << 3, 1 << 2, 1 << 4, 1 << 5, 1 << 6, 1 << 7
-EIE, HDSEL, DMAR, DMAT = 1 << 0, 1 << 3, 1 << 6, 1 << 7
-STOP_HALF_BITS = {0: 2, 1: 1, 2: 4, 3: 3}
 
 
 class UsartWiring(Protocol):
