@@ -29,7 +29,6 @@ from hexhil.protocol.dynamixel import v1 as dxl
 DONE, ADVANCE, ATTEMPT, HEAR, WRITE, WRITE_LEFT, MALFORMED = range(len(READS_ANSWERS))
 WHY_LENGTH, WHY_SKIP, WHY_ROOM = range(1, len(MALFORMED_WHY) + 1)
 _READ_HEAD = struct.Struct("<BBBBBHIB")   # a read of R, up to its tx (protocol/sim_link.py)
-_ONE = struct.Struct("<BBBBBBHIB")        # an R of one read, its count first
 _NO_STEP_US = 2 ** 62                      # no world step the C code must stop for
 
 
@@ -85,8 +84,8 @@ class StatusReads:
     def transact(self, tx: bytes, nrx: int, timeout_us: int, byte_us: float) -> ReadsDone:
         """An X (docs/link.md): ``tx`` out, then up to ``nrx`` bytes heard within
         ``timeout_us``, one attempt of a read with no retry; its reply is what was heard."""
-        done = self._carry_out(_ONE.pack(1, 0, 0, 0, 0, sim_link.NO_SKIP, nrx, timeout_us, 0)
-                               + tx, byte_us, None, True)
+        head = _READ_HEAD.pack(0, 0, 0, 0, sim_link.NO_SKIP, nrx, timeout_us, 0)
+        done = self._carry_out(b"\x01" + head + tx, byte_us, None, True)
         return ReadsDone(done.reply[1 + sim_link.ATTEMPT_HEAD_LEN:], done.busy_us,
                          done.wire_us)
 
