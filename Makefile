@@ -10,7 +10,8 @@ STAMP := $(VENV)/.installed
 CORE_SOURCES := setup.py hil/native.py hil/world/drive_core.c hil/world/drive_layout.py \
 	hil/servobus/servo_core.c hil/servobus/servo_layout.py protocol/dynamixel/ax12.py \
 	hil/servobus/reads_core.c hil/servobus/servo_core.h hil/mcu/board_core.c \
-	hil/mcu/board_layout.py
+	hil/mcu/board_layout.py hil/mcu/armv7m.py hil/mcu/timebase.py hil/mcu/platform.py \
+	hil/mcu/gpio.py hil/mcu/usart_registers.py
 
 # `make` alone: the venv and the compiled cores, nothing run
 setup: $(STAMP)

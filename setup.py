@@ -63,7 +63,8 @@ CORES = [
           depends=["hil/servobus/servo_core.h", "hil/servobus/servo_layout.py"],
           layout=("hexhil.hil.servobus.servo_layout", "servo_layout.h")),
     _core("hexhil.hil.mcu._board_core", ["hil/mcu/board_core.c"], [],   # integers only
-          depends=["hil/mcu/board_layout.py"],
+          depends=["hil/mcu/board_layout.py", "hil/mcu/armv7m.py", "hil/mcu/timebase.py",
+                   "hil/mcu/platform.py", "hil/mcu/gpio.py", "hil/mcu/usart_registers.py"],
           layout=("hexhil.hil.mcu.board_layout", "board_layout.h")),
 ]
 

@@ -2,7 +2,8 @@
 
 ``elf_image`` reads and checks the ELF; ``core`` runs it on Unicorn in chunks of exact
 instruction counts (one instruction is one cycle of HCLK) and does the exception model
-Unicorn leaves out, at the virtual time of ``timebase``; ``events`` schedules what the peripherals will do; ``system`` (NVIC,
+Unicorn leaves out (``armv7m`` holds the architecture's numbers), at the virtual time of
+``timebase``; ``events`` schedules what the peripherals will do; ``system`` (NVIC,
 SCB, DWT), ``systick``, ``rcc``, ``gpio``, ``usart`` and ``peripherals`` (TIM1-5, TIM9-11,
 DMA, bxCAN1) are the board's peripherals at register level (facts from RM0383), with
 ``flash`` (the FLASH interface: erase and programming) and ``rtc`` (the calendar, the backup

@@ -16,19 +16,18 @@ from typing import Any, Callable
 from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
 
+from hexhil.hil.mcu.armv7m import BRANCH_TO_SELF, EXC_SVCALL, INTR_BKPT, INTR_EXC_EXIT, INTR_SWI
 from hexhil.hil.mcu.board_core import (NativeBoard, NativeEvents, NativeTimer, NativeUsart,
                                 SharedField, native)
 from hexhil.hil.mcu.board_loop import (exception_choice, exception_entry, exception_taking,
                                 handed_over, hook_interrupts, trips)
 from hexhil.hil.mcu.console import Console, semihost
-from hexhil.hil.mcu.core import (
-    EXC_SVCALL, FS_PER_US, INTR_BKPT, INTR_EXC_EXIT, INTR_SWI, Core, CoreFault
-)
+from hexhil.hil.mcu.core import Core, CoreFault
 from hexhil.hil.mcu.deadline import ControlCycles
 from hexhil.hil.mcu.elf_image import ElfImage
 from hexhil.hil.mcu.events import Events, Timer
 from hexhil.hil.mcu.faults import Faults, intr_fault
-from hexhil.hil.mcu.gpio import SWITCH_PINS, Exti, GpioPort, Syscfg
+from hexhil.hil.mcu.gpio import DIRECTION_PIN, SWITCH_PINS, Exti, GpioPort, Syscfg
 from hexhil.hil.mcu.mmio import PeripheralSpace
 from hexhil.hil.mcu.link_client import LinkClient
 from hexhil.hil.mcu.poll import PollSkipper
@@ -40,14 +39,14 @@ from hexhil.hil.mcu.rcc import CSR, HSI_HZ, Rcc, power
 from hexhil.hil.mcu.rtc import Rtc
 from hexhil.hil.mcu.system import Nvic, SystemBlock
 from hexhil.hil.mcu.systick import SysTick
+from hexhil.hil.mcu.timebase import FS_PER_US
 from hexhil.hil.mcu.usart import Usart
-from hexhil.hil.mcu.verdicts import BRANCH_TO_SELF, Endings
+from hexhil.hil.mcu.verdicts import Endings
 from hexhil.hil.run.limits import MASKED_LIMIT_S
 from hexhil.hil.mcu.world_sync import WorldSync
 
 log = logging.getLogger(__name__)
 MAX_CHUNK = 20_000           # instructions: the most an interrupt unmasked by CPSIE/MSR waits
-PA1 = 1
 CONSOLE_TAIL = 5             # console lines a run result keeps (its stderr_tail)
 
 
@@ -162,7 +161,7 @@ class Board:
 
     def _gpio_out(self, port: GpioPort, old_odr: int) -> None:
         if port.index == 0:
-            self.line.pin(port.output(PA1))
+            self.line.pin(port.output(DIRECTION_PIN))
 
     def _console_line(self, at_us: int, text: str) -> None:
         self.console_tail = self.console_tail[-(CONSOLE_TAIL - 1):] + [text]
@@ -359,7 +358,7 @@ class Board:
         if self.reset_if_asked():
             return
         if core.shared.nactive and self.debugger is None and \
-                core.read16(core.pc) in BRANCH_TO_SELF:
+                core.read16(core.pc) == BRANCH_TO_SELF:
             self.faults.at_branch_to_self()
         self.poll.after_chunk()
         if self.debugger is not None:

@@ -16,17 +16,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define FS_PER_S 1000000000000000LL
 #define NONE (-1LL)
-#define PPB_BASE 0xE0000000ULL
-#define SYSTICK_CSR 0xE000E010ULL
-#define INTR_EXC_EXIT 8
-#define FS_PER_US 1000000000LL
-#define TICK_US 1000            /* board.py: a read of the switches older than this asks */
 enum { REG_R0, REG_R1, REG_R2, REG_R3, REG_R12, REG_LR, REG_XPSR, REG_CONTROL, REG_MSP,
        REG_PSP, REG_S0, REG_FPSCR, REG_IPSR, REG_PC, REG_FAULTMASK, REG_PRIMASK, REG_BASEPRI,
        REG_COUNT };
-#define N_EXC 102               /* the F411's exceptions: 16 + 86 IRQs */
 
 typedef int64_t (*py_call_t)(int kind, int64_t a, int64_t b);
 typedef int (*py_timer_t)(int tid, int64_t at_fs);
@@ -61,8 +54,6 @@ typedef struct quiet {
     uint8_t *sram;
 } quiet_t;
 
-#define CONTROL_FPCA (1u << 2)  /* an FP context is active (core.py) */
-#define PA1 1
 
 static int64_t floordiv(__int128 a, __int128 b) {
     __int128 q = a / b;
@@ -160,7 +151,7 @@ static void pend(bc_t *s, int exc) {
  * TICKINT, the next wrap a reload later at HCLK or HCLK/8 */
 static void systick_wrapped(bc_t *s, int64_t at) {
     s->st_countflag = 1;
-    if (s->st_csr & 2) pend(s, 15);
+    if (s->st_csr & 2) pend(s, EXC_SYSTICK);
     if (s->st_rvr == 0) return;
     int64_t hz = (s->st_csr & 4) ? s->hz : s->hz / 8;
     __int128 span = (__int128)(s->st_rvr + 1) * FS_PER_S;
@@ -588,7 +579,8 @@ static int write_porta(bc_t *s, int off, uint32_t value) {
     }
     uint32_t old = s->gpio_odr[0];
     uint32_t odr = off == GPIO_BSRR ? (old & ~(value >> 16)) | (value & 0xFFFF) : value & 0xFFFF;
-    int level = ((s->gpio_moder[0] >> 2 * PA1) & 3) == 1 ? (int)(odr >> PA1 & 1) : 0;
+    int level = ((s->gpio_moder[0] >> 2 * DIRECTION_PIN) & 3) == 1
+        ? (int)(odr >> DIRECTION_PIN & 1) : 0;
     if (level != s->direction) {
         if (s->burst_n || (level && s->rx_n > s->rx_head) || s->turns_n >= TURNS)
             return 0;
@@ -657,7 +649,7 @@ void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, voi
  * that callback); every other register is Python's. */
 uint64_t bc_ppb_read(void *uc, uint64_t offset, unsigned size, void *ud) {
     bc_t *s = ud;
-    if ((offset & ~3ULL) != SYSTICK_CSR - PPB_BASE || s->st_tid < 0)
+    if ((offset & ~3ULL) != SYSTICK_BASE - PPB_BASE || s->st_tid < 0)
         return s->py_ppb_read(uc, offset, size, 0);
     s->touched++;
     s->mmio_n++;
@@ -689,7 +681,8 @@ static int leave(bc_t *s) {
     /* Unicorn's PC word holds the EXC_RETURN branched to; bc_count's the branch's address */
     uint32_t exc_return = (s->engine_counts ? *s->pc : reg_pc(s)) | 1;
     int exc = s->active[s->nactive - 1];
-    int to_thread = (exc_return & 0xF) == 0x9 || (exc_return & 0xF) == 0xD;
+    int to_thread = (exc_return & 0xF) == (RETURN_THREAD_MSP & 0xF) ||
+                    (exc_return & 0xF) == (RETURN_THREAD_PSP & 0xF);
     if ((exc >= 16 && s->lines[(exc - 16) >> 5] >> ((exc - 16) & 31) & 1) ||
         (to_thread && s->nactive > 1) || (s->nactive == 1 && s->sleep_on_exit))
         return 0;
@@ -699,16 +692,16 @@ static int leave(bc_t *s) {
     void *sp3[3] = {&st[0], &st[1], &st[2]};
     if (s->reg_read_batch(s->uc, rid, sp3, 3)) return 0;
     uint32_t control = (uint32_t)st[0], msp = (uint32_t)st[1], psp_value = (uint32_t)st[2];
-    int psp = (exc_return & 0xF) == 0xD;
+    int psp = (exc_return & 0xF) == (RETURN_THREAD_PSP & 0xF);
     uint32_t sp = psp ? psp_value : msp;
-    int fpu = !(exc_return & 0x10);
+    int fpu = !(exc_return & RETURN_NO_FP);
     control = (control & ~CONTROL_FPCA) | (fpu ? CONTROL_FPCA : 0);   /* as EXC_RETURN says */
     uint32_t n = fpu ? 26 : 8;
     if (sp < SRAM_BASE || sp > SRAM_BASE + SRAM_SIZE - 4 * n) return 0;
     uint32_t v[26];
     memcpy(v, s->sram + (sp - SRAM_BASE), 4 * n);      /* little-endian, as the core */
     uint32_t xpsr = v[7];
-    sp = sp + 4 * n + ((xpsr & (1u << 9)) ? 4 : 0);
+    sp = sp + 4 * n + ((xpsr & XPSR_ALIGNED) ? 4 : 0);
     s->nactive--;
     uint32_t ipsr = s->nactive ? (uint32_t)s->active[s->nactive - 1] : 0;
     /* the registers in core.py's _LEAVE order, with its values */
@@ -727,7 +720,10 @@ static int leave(bc_t *s) {
         ids[k] = id[REG_FPSCR]; vals[k++] = v[24];
     }
     ids[k] = id[REG_IPSR]; vals[k++] = ipsr;
-    if (psp) { ids[k] = id[REG_CONTROL]; vals[k++] = control | 2; ids[k] = id[REG_PSP]; }
+    if (psp) {
+        ids[k] = id[REG_CONTROL]; vals[k++] = control | CONTROL_SPSEL;
+        ids[k] = id[REG_PSP];
+    }
     else ids[k] = id[REG_MSP];
     vals[k++] = sp;
     ids[k] = id[REG_PC]; vals[k++] = v[6] | 1;
@@ -757,19 +753,19 @@ int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
     for (int i = 0; i < k; i++) { r[i] = 0; ptrs[i] = &r[i]; }
     if (s->reg_read_batch(s->uc, ids, ptrs, k)) return -1;
     uint32_t xpsr = (uint32_t)r[6], control = (uint32_t)r[7];
-    int psp = !s->nactive && (control & 2);
+    int psp = !s->nactive && (control & CONTROL_SPSEL);
     fpu = fpu && (control & CONTROL_FPCA);   /* an FP context is active: the extended frame */
     int64_t sp = psp ? (uint32_t)r[9] : (uint32_t)r[8];
     uint32_t v[26];
     int n = 0;
     for (int i = 0; i < 6; i++) v[n++] = (uint32_t)r[i];
     v[n++] = pc & ~1u;
-    v[n++] = xpsr | (1u << 24);
+    v[n++] = xpsr | XPSR_THUMB;
     if (fpu) {
         for (int i = 10; i < 27; i++) v[n++] = (uint32_t)r[i];
         v[n++] = 0;
     }
-    if (sp & 4) { sp -= 4; v[7] |= 1u << 9; }
+    if (sp & 4) { sp -= 4; v[7] |= XPSR_ALIGNED; }
     sp -= 4 * n;
     if (sp < SRAM_BASE || sp > SRAM_BASE + SRAM_SIZE - 4 * n) return -1;
     uint64_t at = (uint64_t)vtor_base + 4 * (uint64_t)exc;
@@ -779,13 +775,14 @@ int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
     else return -1;
     if (vector == 0 || !(vector & 1)) return -1;
     memcpy(s->sram + (sp - SRAM_BASE), v, 4 * n);
-    uint32_t exc_return = s->nactive ? 0xFFFFFFF1u : (psp ? 0xFFFFFFFDu : 0xFFFFFFF9u);
-    if (fpu) exc_return &= ~0x10u;
+    uint32_t exc_return = s->nactive ? RETURN_HANDLER
+                                     : (psp ? RETURN_THREAD_PSP : RETURN_THREAD_MSP);
+    if (fpu) exc_return &= ~(uint32_t)RETURN_NO_FP;
     k = 0;
     control &= ~CONTROL_FPCA;               /* the handler starts with no FP context */
     if (psp) {
         ids[k] = id[REG_PSP]; r[k++] = (uint64_t)sp;
-        ids[k] = id[REG_CONTROL]; r[k++] = control & ~2u;
+        ids[k] = id[REG_CONTROL]; r[k++] = control & ~(uint32_t)CONTROL_SPSEL;
     } else {
         ids[k] = id[REG_MSP]; r[k++] = (uint64_t)sp;
         ids[k] = id[REG_CONTROL]; r[k++] = control;
@@ -927,9 +924,6 @@ int bc_rx_deliver(bc_t *s, int64_t at) {
 }
 
 /* --- the run loop (board.py ``run`` and core.py ``run``) ------------------------------ */
-#define WFI 0xBF30
-#define WFE 0xBF20
-#define BRANCH_TO_SELF 0xE7FE
 #define QUIET_LOUD 8             /* chunks with register accesses that end a quiet wait */
 
 static int read16(bc_t *s, uint32_t addr, uint16_t *op) {

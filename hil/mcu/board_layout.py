@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import ctypes
 
-from hexhil.hil.mcu import gpio, platform, usart_registers
+from hexhil.hil.mcu import armv7m, gpio, platform, timebase, usart_registers
 from hexhil.hil.native import Layout
 
 WAITS = 256                  # an open-addressed set of (pc, register, value)
 TURNS = 64                   # PA1's turns made in C before the link takes them
-ACTIVE_MAX = 128             # each of the F411's 102 exceptions is active at most once
+N_EXC = 16 + platform.NUM_IRQS   # the F411's exceptions: the core's 16 and the IRQs
+ACTIVE_MAX = 128             # each exception is active at most once
 N_REGID = 17                 # the registers an exception return writes (board_core.c REG_*)
 # the kinds of the C code's one call into Python (board_core.py ``NativeBoard``)
 PY_KINDS = ("PY_LINE", "PY_IDLE", "PY_DMA_TX", "PY_DMA_RX", "PY_POLLED", "PY_PCLK",
@@ -30,7 +31,9 @@ MEMORY_MAP = (("SRAM_BASE", _SRAM.base), ("SRAM_SIZE", _SRAM.size),
               ("FLASH_BASE", _FLASH.base), ("FLASH_SIZE", _FLASH.size),
               ("PERIPH_BASE", _PERIPH.base),
               ("USART2_PAGE", (platform.row("USART2").base - _PERIPH.base) >> 10),
-              ("GPIOA_PAGE", (platform.row("GPIOA").base - _PERIPH.base) >> 10))
+              ("GPIOA_PAGE", (platform.row("GPIOA").base - _PERIPH.base) >> 10),
+              ("PPB_BASE", platform.row("PPB").base),
+              ("SYSTICK_BASE", platform.row("SysTick").base))
 USART2_IRQ = platform.VECTORS["USART2"]
 # where the C run loop hands back to Python (board_loop.py)
 LOOP_ENDS = ("LOOP_AFTER_HEAD", "LOOP_AFTER_CHUNK", "LOOP_ENTER", "LOOP_RAISED",
@@ -91,7 +94,8 @@ BC = [
     ("pend", _U32 * 4), ("st_tid", _I32), ("st_csr", _I32), ("st_rvr", _I32),
     ("st_countflag", _I32),
     # the NVIC's enabled IRQs (a bit each), priorities and PRIGROUP
-    ("ena", _U32 * 4), ("ena_n", _I32), ("prigroup", _I32), ("prio", _U8 * 104),
+    ("ena", _U32 * 4), ("ena_n", _I32), ("prigroup", _I32),
+    ("prio", _U8 * (-(-N_EXC // 4) * 4)),   # a byte each, to a whole word
     # the servo line's reply bytes on their way to USART2 (servo_line.py ``deliver``)
     ("rx_tid", _I32), ("rx_n", _I32), ("rx_head", _I32), ("rx_cap", _I32),
     ("rx_at", _P, "int64_t *"), ("rx_byte", _P, "uint8_t *"),
@@ -135,12 +139,15 @@ BC = [
     ("py_ppb_read", _P, "mmio_read_t")]      # mmio.py ``ppb_read``: the PPB's but SysTick's
 
 LAYOUT = Layout("HX_BOARD_LAYOUT_H", [("set3", SET3), ("cover", COVER), ("bc", BC)], [
-    ("WAITS", WAITS), ("TURNS", TURNS), ("ACTIVE_MAX", ACTIVE_MAX), ("N_REGID", N_REGID),
+    ("WAITS", WAITS), ("TURNS", TURNS), ("N_EXC", N_EXC), ("ACTIVE_MAX", ACTIVE_MAX),
+    ("N_REGID", N_REGID),
     ("QUIET_PASS", QUIET_PASS), ("MAX_BACKOFF", MAX_BACKOFF), ("MASKED_STEPS", MASKED_STEPS),
     *MEMORY_MAP,
     *((n, getattr(usart_registers, n)) for n in usart_registers.NAMES),   # USART2's registers
     *((f"STOP_HALF_BITS_{i}", v) for i, v in enumerate(usart_registers.STOP_HALF_BITS)),
     *((f"GPIO_{n}", getattr(gpio, n)) for n in ("MODER", "PUPDR", "IDR", "ODR", "BSRR")),
-    ("SWITCH_MASK", (1 << gpio.SWITCH_PINS) - 1),   # PB0-PB5
+    ("DIRECTION_PIN", gpio.DIRECTION_PIN), ("SWITCH_MASK", (1 << gpio.SWITCH_PINS) - 1),
+    *((n, getattr(timebase, n)) for n in ("FS_PER_S", "FS_PER_US", "TICK_US")),
+    *((n, v) for n, v in vars(armv7m).items() if n.isupper()),   # the core's numbers
     *((n, i) for i, n in enumerate(PY_KINDS, 1)), ("PY_RAISED", PY_RAISED),
     *((n, i) for i, n in enumerate(LOOP_ENDS))])

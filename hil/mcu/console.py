@@ -13,7 +13,8 @@ from typing import Callable
 
 from unicorn import arm_const as A
 
-from hexhil.hil.mcu.core import FS_PER_US, Core
+from hexhil.hil.mcu.core import Core
+from hexhil.hil.mcu.timebase import FS_PER_US
 
 SYS_WRITEC, SYS_WRITE0, SYS_WRITE, SYS_EXIT, SYS_EXIT_EXTENDED = 0x03, 0x04, 0x05, 0x18, 0x20
 ADP_APPLICATION_EXIT = 0x20026

@@ -22,15 +22,14 @@ from unicorn import (UC_ARCH_ARM, UC_HOOK_INTR, UC_MODE_MCLASS, UC_MODE_THUMB, U
 from unicorn import arm_const as A, unicorn_const as U
 from unicorn.unicorn_py3.unicorn import uclib
 
+from hexhil.hil.mcu.armv7m import (CONTROL_FPCA, CONTROL_SPSEL, RETURN_HANDLER, RETURN_NO_FP,
+                                   RETURN_THREAD_MSP, RETURN_THREAD_PSP, WFE, WFI, XPSR_ALIGNED,
+                                   XPSR_THUMB)
 from hexhil.hil.mcu.board_core import Shared, SharedField, library
 from hexhil.hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
 from hexhil.hil.mcu.engine import EngineKind, Regs, attach_engine, regs_place
 from hexhil.hil.mcu.timebase import FS_PER_S, FS_PER_US, TimeBase
 
-EXC_HARDFAULT, EXC_SVCALL, EXC_PENDSV, EXC_SYSTICK = 3, 11, 14, 15
-INTR_UDEF, INTR_SWI, INTR_BKPT, INTR_EXC_EXIT, INTR_NOCP, INTR_INVSTATE = 1, 2, 7, 8, 17, 18
-WFI, WFE = 0xBF30, 0xBF20
-CONTROL_FPCA = 1 << 2        # an FP context is active: the extended frame at exception entry
 ERASED = 0xFF                # an erased flash byte (RM0383 3.5)
 FRAME_REGS = (A.UC_ARM_REG_R0, A.UC_ARM_REG_R1, A.UC_ARM_REG_R2, A.UC_ARM_REG_R3,
               A.UC_ARM_REG_R12, A.UC_ARM_REG_LR)
@@ -303,14 +302,14 @@ class Core:
         r = self._state_fp.read() if self.fpu_on else self._state.read()
         xpsr, control, msp, psp_value = r[6:10]
         fpu = self.fpu_on and bool(control & CONTROL_FPCA)    # an FP context is active
-        psp = not self.active and bool(control & 2)
+        psp = not self.active and bool(control & CONTROL_SPSEL)
         sp = psp_value if psp else msp
-        values = r[:6] + [self.pc & ~1, xpsr | (1 << 24)]
+        values = r[:6] + [self.pc & ~1, xpsr | XPSR_THUMB]
         if fpu:
             values += r[10:] + [0]
         if sp & 4:
             sp -= 4
-            values[7] |= 1 << 9
+            values[7] |= XPSR_ALIGNED
         sp -= 4 * len(values)
         if sp < SRAM_BASE:
             raise CoreFault(f"a stack overflow: exception {exc} stacks its frame at "
@@ -319,12 +318,13 @@ class Core:
         vector = self.read32(self.vtor_base() + 4 * exc)
         if vector == 0 or not vector & 1:
             raise CoreFault(f"exception {exc} has no handler (vector 0x{vector:08x})")
-        exc_return = 0xFFFFFFF1 if self.active else (0xFFFFFFFD if psp else 0xFFFFFFF9)
+        exc_return = RETURN_HANDLER if self.active else (RETURN_THREAD_PSP if psp else
+                                                         RETURN_THREAD_MSP)
         if fpu:
-            exc_return &= ~0x10
+            exc_return &= ~RETURN_NO_FP
         control &= ~CONTROL_FPCA                 # the handler starts with no FP context
         if psp:
-            ids, values = _ENTER_PSP, [sp, control & ~2, exc, exc_return]
+            ids, values = _ENTER_PSP, [sp, control & ~CONTROL_SPSEL, exc, exc_return]
         else:
             ids, values = _ENTER_MSP, [sp, control, exc, exc_return]
         if self.running:
@@ -339,14 +339,14 @@ class Core:
         if not self.active:
             raise CoreFault(f"an exception return (0x{exc_return:08x}) in thread mode")
         exc = self._pop()
-        to_thread = exc_return & 0xF in (0x9, 0xD)
+        to_thread = exc_return & 0xF in (RETURN_THREAD_MSP & 0xF, RETURN_THREAD_PSP & 0xF)
         if to_thread and self.active:
             raise CoreFault(f"an exception return to thread mode with {len(self.active)} "
                             "exceptions still active (a lockup)")
         control, msp, psp_value = self._stacks.read()
-        psp = exc_return & 0xF == 0xD
+        psp = exc_return & 0xF == RETURN_THREAD_PSP & 0xF
         sp = psp_value if psp else msp
-        fpu = not exc_return & 0x10
+        fpu = not exc_return & RETURN_NO_FP
         n = 26 if fpu else 8
         control = control & ~CONTROL_FPCA | (CONTROL_FPCA if fpu else 0)   # as EXC_RETURN says
         if SRAM_BASE <= sp <= SRAM_BASE + SRAM_SIZE - 4 * n:
@@ -355,14 +355,14 @@ class Core:
             words = self.uc.mem_read(sp, 4 * n)
             values = [int.from_bytes(words[4 * i:4 * i + 4], "little") for i in range(n)]
         xpsr = values[7]
-        sp = (sp + 4 * n + (4 if xpsr & (1 << 9) else 0)) & 0xFFFFFFFF
+        sp = (sp + 4 * n + (4 if xpsr & XPSR_ALIGNED else 0)) & 0xFFFFFFFF
         ipsr = self.active[-1] if self.active else 0
         regs = values[:6] + [(xpsr & ~0x3FF), control, msp, psp_value]
         if fpu:
             regs += values[8:25]
         regs.append(ipsr)
         if psp:
-            regs += [control | 2, sp, values[6] | 1]
+            regs += [control | CONTROL_SPSEL, sp, values[6] | 1]
         else:
             regs += [sp, values[6] | 1]
         self._set(_LEAVE[fpu, psp], regs)

@@ -28,20 +28,21 @@ from typing import Any
 from unicorn import UC_HOOK_MEM_UNMAPPED
 from unicorn import unicorn_const as U
 
-from hexhil.hil.mcu.core import (EXC_PENDSV, EXC_SVCALL, EXC_SYSTICK, INTR_BKPT, INTR_INVSTATE,
-                          INTR_NOCP, INTR_UDEF, CoreFault)
+from hexhil.hil.mcu.armv7m import (EXC_BUSFAULT, EXC_DEBUGMON, EXC_HARDFAULT, EXC_MEMMANAGE,
+                                   EXC_PENDSV, EXC_SVCALL, EXC_SYSTICK, EXC_USAGEFAULT,
+                                   INTR_BKPT, INTR_INVSTATE, INTR_NOCP, INTR_UDEF)
+from hexhil.hil.mcu.core import CoreFault
 from hexhil.hil.mcu.timebase import FS_PER_S
 from hexhil.hil.mcu.verdicts import SYSTEM_EXCEPTIONS, Verdict
 from hexhil.hil.run_result import Ending
 
 log = logging.getLogger(__name__)
-EXC_HARD, EXC_MEM, EXC_BUS, EXC_USAGE = 3, 4, 5, 6
-NAMES = {EXC_HARD: "HardFault", EXC_MEM: "MemManage", EXC_BUS: "BusFault",
-         EXC_USAGE: "UsageFault"}
+NAMES = {EXC_HARDFAULT: "HardFault", EXC_MEMMANAGE: "MemManage", EXC_BUSFAULT: "BusFault",
+         EXC_USAGEFAULT: "UsageFault"}
 SHCSR, CFSR, HFSR, MMFAR, BFAR = 0x24, 0x28, 0x2C, 0x34, 0x38     # SCB offsets
-ENABLE_BIT = {EXC_MEM: 16, EXC_BUS: 17, EXC_USAGE: 18}             # SHCSR's fault enables
-ACTIVE_BIT = {EXC_MEM: 0, EXC_BUS: 1, EXC_USAGE: 3, EXC_SVCALL: 7, 12: 8, EXC_PENDSV: 10,
-              EXC_SYSTICK: 11}
+ENABLE_BIT = {EXC_MEMMANAGE: 16, EXC_BUSFAULT: 17, EXC_USAGEFAULT: 18}   # SHCSR's fault enables
+ACTIVE_BIT = {EXC_MEMMANAGE: 0, EXC_BUSFAULT: 1, EXC_USAGEFAULT: 3, EXC_SVCALL: 7,
+              EXC_DEBUGMON: 8, EXC_PENDSV: 10, EXC_SYSTICK: 11}
 HFSR_FORCED, HFSR_DEBUGEVT = 1 << 30, 1 << 31
 MMARVALID, BFARVALID = 1 << 7, 1 << 15
 WATCHDOGS = ("IWDG", "WWDG")
@@ -62,19 +63,19 @@ class Cause:
 
 
 CAUSES = {
-    ("intr", INTR_UDEF): Cause(EXC_USAGE, 1 << 16, "UNDEFINSTR"),
-    ("intr", INTR_INVSTATE): Cause(EXC_USAGE, 1 << 17, "INVSTATE"),
-    ("intr", INTR_NOCP): Cause(EXC_USAGE, 1 << 19, "NOCP"),
-    ("intr", INTR_BKPT): Cause(EXC_HARD, 0, "DEBUGEVT", HFSR_DEBUGEVT),
-    NULL_JUMP: Cause(EXC_USAGE, 1 << 17, "INVSTATE"),
-    ("uc", U.UC_ERR_INSN_INVALID): Cause(EXC_USAGE, 1 << 16, "UNDEFINSTR"),
-    ("uc", U.UC_ERR_READ_UNALIGNED): Cause(EXC_USAGE, 1 << 24, "UNALIGNED"),
-    ("uc", U.UC_ERR_WRITE_UNALIGNED): Cause(EXC_USAGE, 1 << 24, "UNALIGNED"),
-    ("uc", U.UC_ERR_READ_UNMAPPED): Cause(EXC_BUS, 1 << 9 | BFARVALID, "PRECISERR",
+    ("intr", INTR_UDEF): Cause(EXC_USAGEFAULT, 1 << 16, "UNDEFINSTR"),
+    ("intr", INTR_INVSTATE): Cause(EXC_USAGEFAULT, 1 << 17, "INVSTATE"),
+    ("intr", INTR_NOCP): Cause(EXC_USAGEFAULT, 1 << 19, "NOCP"),
+    ("intr", INTR_BKPT): Cause(EXC_HARDFAULT, 0, "DEBUGEVT", HFSR_DEBUGEVT),
+    NULL_JUMP: Cause(EXC_USAGEFAULT, 1 << 17, "INVSTATE"),
+    ("uc", U.UC_ERR_INSN_INVALID): Cause(EXC_USAGEFAULT, 1 << 16, "UNDEFINSTR"),
+    ("uc", U.UC_ERR_READ_UNALIGNED): Cause(EXC_USAGEFAULT, 1 << 24, "UNALIGNED"),
+    ("uc", U.UC_ERR_WRITE_UNALIGNED): Cause(EXC_USAGEFAULT, 1 << 24, "UNALIGNED"),
+    ("uc", U.UC_ERR_READ_UNMAPPED): Cause(EXC_BUSFAULT, 1 << 9 | BFARVALID, "PRECISERR",
                                           address=True),
-    ("uc", U.UC_ERR_WRITE_UNMAPPED): Cause(EXC_BUS, 1 << 10, "IMPRECISERR", imprecise=True),
-    ("uc", U.UC_ERR_FETCH_UNMAPPED): Cause(EXC_BUS, 1 << 8, "IBUSERR"),
-    ("uc", U.UC_ERR_FETCH_PROT): Cause(EXC_MEM, 1 << 0, "IACCVIOL"),
+    ("uc", U.UC_ERR_WRITE_UNMAPPED): Cause(EXC_BUSFAULT, 1 << 10, "IMPRECISERR", imprecise=True),
+    ("uc", U.UC_ERR_FETCH_UNMAPPED): Cause(EXC_BUSFAULT, 1 << 8, "IBUSERR"),
+    ("uc", U.UC_ERR_FETCH_PROT): Cause(EXC_MEMMANAGE, 1 << 0, "IACCVIOL"),
 }
 
 
@@ -191,10 +192,10 @@ class Faults:
         nvic = self.board.nvic
         level = nvic.execution_priority()
         exc, name = cause.exc, cause.name
-        if exc != EXC_HARD and not (self.board.ppb.faults.enabled(exc) and
+        if exc != EXC_HARDFAULT and not (self.board.ppb.faults.enabled(exc) and
                                     nvic.group_priority(exc) < level):
-            exc, name = EXC_HARD, f"{name}, escalated: HFSR FORCED"
-        if exc == EXC_HARD and level < 0:
+            exc, name = EXC_HARDFAULT, f"{name}, escalated: HFSR FORCED"
+        if exc == EXC_HARDFAULT and level < 0:
             return None, name
         return exc, name
 

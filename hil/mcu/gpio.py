@@ -11,11 +11,16 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
+from hexhil.hil.mcu.platform import VECTORS
+
 MODER, OTYPER, OSPEEDR, PUPDR, IDR, ODR, BSRR, LCKR, AFRL, AFRH = range(0, 0x28, 4)
 RESET = {"GPIOA": {MODER: 0xA8000000, OSPEEDR: 0x0C000000, PUPDR: 0x64000000},
          "GPIOB": {MODER: 0x00000280, OSPEEDR: 0x000000C0, PUPDR: 0x00000100}}
-SWITCH_PINS = 6
-EXTI_IRQS = (6, 7, 8, 9, 10) + (23,) * 5 + (40,) * 6
+DIRECTION_PIN = 1            # PA1: the servo line's direction buffer
+SWITCH_PINS = 6              # PB0-PB5
+# the interrupt each EXTI line raises: 0-4 their own, 5-9 and 10-15 one shared each
+EXTI_IRQS = tuple(VECTORS[f"EXTI{i}"] for i in range(5)) + (VECTORS["EXTI9_5"],) * 5 + \
+    (VECTORS["EXTI15_10"],) * 6
 
 
 def _pin_masks(moder: int, pupdr: int) -> tuple[int, int, int]:

@@ -20,6 +20,7 @@ from typing import Any
 from unicorn import Uc
 from unicorn.unicorn_py3.unicorn import MMIO_READ_CFUNC, MMIO_WRITE_CFUNC, uclib
 
+from hexhil.hil.mcu import platform
 from hexhil.hil.mcu.bitband import BitBandAlias
 from hexhil.hil.mcu.board_core import front
 from hexhil.hil.mcu.elf_image import SRAM_BASE, SRAM_SIZE
@@ -27,7 +28,7 @@ from hexhil.hil.mcu.rcc import CLOCK_BITS
 
 log = logging.getLogger(__name__)
 PERIPH_BASE, PERIPH_SIZE = 0x40000000, 0x80000      # APB1, APB2, AHB1
-PPB_BASE, PPB_SIZE = 0xE0000000, 0x100000
+PPB_BASE, PPB_SIZE = platform.row("PPB").base, platform.row("PPB").size
 SRAM_ALIAS, PERIPH_ALIAS = 0x22000000, 0x42000000    # PM0214 2.2.5: the bit-band aliases
 USART2 = 0x40004400
 GPIOA = 0x40020000           # GPIOB and C in the next pages

@@ -23,7 +23,7 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-from hexhil.hil.mcu.core import FS_PER_S
+from hexhil.hil.mcu.timebase import FS_PER_S
 from hexhil.hil.mcu.system import IRQS
 
 log = logging.getLogger(__name__)

@@ -52,6 +52,7 @@ VECTORS: dict[str, int] = {
     **{f"DMA2_Stream{i}": 63 + i for i in range(5, 8)}, "USART6": 71, "I2C3_EV": 72,
     "I2C3_ER": 73, "FPU": 81, "SPI4": 84, "SPI5": 85,
 }
+NUM_IRQS = 86                 # the NVIC's interrupt positions: 0..85
 
 
 @dataclass(frozen=True)

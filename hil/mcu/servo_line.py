@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import Any
 
 from hexhil.hil.mcu.board_core import SharedField
-from hexhil.hil.mcu.core import FS_PER_US
+from hexhil.hil.mcu.timebase import FS_PER_US
 from hexhil.hil.mcu.usart import Usart
 from hexhil.hil.servobus.line import resample
 

@@ -16,15 +16,17 @@ from typing import Any, Callable, Iterator
 
 from unicorn import arm_const as A
 
+from hexhil.hil.mcu import platform
+from hexhil.hil.mcu.armv7m import EXC_PENDSV, EXC_SYSTICK
 from hexhil.hil.mcu.board_core import SharedField
 from hexhil.hil.mcu.board_layout import MASKED_STEPS
-from hexhil.hil.mcu.core import EXC_PENDSV, EXC_SYSTICK, Core, Regs
+from hexhil.hil.mcu.core import Core, Regs
 from hexhil.hil.mcu.device_id import DBGMCU_IDCODE, IDCODE
 from hexhil.hil.mcu.faults import FaultStatus
+from hexhil.hil.mcu.platform import NUM_IRQS
 
-NUM_IRQS = 86                 # RM0383 table 37: positions 0..85
 CPUID = 0x410FC241            # Cortex-M4 r0p1
-NVIC, SYSTICK, SCB, DWT = 0xE000E100, 0xE000E010, 0xE000ED00, 0xE0001000
+NVIC, SYSTICK, SCB, DWT = (platform.row(n).base for n in ("NVIC", "SysTick", "SCB", "DWT"))
 CPACR, DEMCR, STIR, FPCCR = 0xE000ED88, 0xE000EDFC, 0xE000EF00, 0xE000EF34
 SCR_SLEEPONEXIT, SCR_SLEEPDEEP, SCR_SEVONPEND = 0x2, 0x4, 0x10
 

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 from typing import Callable
 
+from hexhil.hil.mcu.armv7m import EXC_SYSTICK
 from hexhil.hil.mcu.board_core import NativeTimer, SharedField
-from hexhil.hil.mcu.core import EXC_SYSTICK, FS_PER_S, Core
+from hexhil.hil.mcu.core import Core
 from hexhil.hil.mcu.events import Events
 from hexhil.hil.mcu.system import Nvic
+from hexhil.hil.mcu.timebase import FS_PER_S
 
 
 class SysTick:

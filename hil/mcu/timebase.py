@@ -1,10 +1,23 @@
-"""Virtual time on the MCU: cycles and femtoseconds at a clock the firmware may change."""
+"""Virtual time on the MCU: cycles and femtoseconds at a clock the firmware may change, and
+the board's millisecond with the world. The compiled board (board_core.c) takes the units
+from here through board_layout.py."""
 from __future__ import annotations
 
-from hexhil.hil.mcu.board_core import Shared
+from typing import Protocol
 
 FS_PER_S = 10 ** 15            # virtual time inside the MCU is in femtoseconds (exact)
 FS_PER_US = 10 ** 9
+TICK_US = 1000                 # a quiet millisecond: the board asks the world again
+                               # (world_sync.py); a switch level older than this is stale
+
+
+class SharedTime(Protocol):
+    """Where the compiled board reads the time base (board_core.py ``Shared``)."""
+
+    hz: int
+    cyc0: int
+    fs0: int
+    fs_per_cyc: int
 
 
 class TimeBase:
@@ -13,7 +26,7 @@ class TimeBase:
     62.5 ns at 16 MHz) the conversions multiply or divide once, with the same results.
     ``shared`` gets a copy for the compiled board (hil/mcu/board_core.c)."""
 
-    def __init__(self, hz: int, shared: Shared) -> None:
+    def __init__(self, hz: int, shared: SharedTime) -> None:
         self.shared = shared
         self.hz = hz
         self._cyc0 = 0

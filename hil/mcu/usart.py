@@ -20,8 +20,9 @@ from __future__ import annotations
 
 from typing import Callable, Protocol
 
-from hexhil.hil.mcu.core import FS_PER_S, Core
+from hexhil.hil.mcu.core import Core
 from hexhil.hil.mcu.events import Events
+from hexhil.hil.mcu.timebase import FS_PER_S
 from hexhil.hil.mcu.usart_registers import (BRR, CR1, CR2, CR3, DMAR, DMAT, DR, EIE, GTPR,
                                             HDSEL, IDLE, IDLEIE, M_9BIT, ORE, OVER8, RE, RXNE,
                                             RXNEIE, SR, STOP_HALF_BITS, TC, TCIE, TE, TXE,

@@ -24,15 +24,18 @@ from typing import Any
 from unicorn import UC_HOOK_CODE, UcError
 from unicorn import arm_const as A
 
+from hexhil.hil.mcu.armv7m import (BRANCH_TO_SELF, EXC_BUSFAULT, EXC_HARDFAULT, EXC_MEMMANAGE,
+                                   EXC_NMI, EXC_PENDSV, EXC_SVCALL, EXC_SYSTICK,
+                                   EXC_USAGEFAULT)
 from hexhil.hil.mcu.timebase import FS_PER_S
 from hexhil.hil.run.limits import MASKED_LIMIT_S
 from hexhil.hil.run_result import Ending
 
 MAX_TEXT = 200              # of a string the firmware passed (a file name, an expression)
-BRANCH_TO_SELF = (0xE7FE,)  # Thumb `b .` (GCC's `for (;;) {}`)
-SYSTEM_EXCEPTIONS = {2: "the NMI handler", 3: "the HardFault handler", 4: "MemManage",
-                     5: "BusFault", 6: "UsageFault", 11: "the SVC handler",
-                     14: "the PendSV handler", 15: "the SysTick handler"}
+SYSTEM_EXCEPTIONS = {EXC_NMI: "the NMI handler", EXC_HARDFAULT: "the HardFault handler",
+                     EXC_MEMMANAGE: "MemManage", EXC_BUSFAULT: "BusFault",
+                     EXC_USAGEFAULT: "UsageFault", EXC_SVCALL: "the SVC handler",
+                     EXC_PENDSV: "the PendSV handler", EXC_SYSTICK: "the SysTick handler"}
 
 
 @dataclass(frozen=True)
@@ -165,7 +168,7 @@ class Endings:
         mask = ("PRIMASK" if core.reg(A.UC_ARM_REG_PRIMASK) & 1 else
                 "FAULTMASK" if core.reg(A.UC_ARM_REG_FAULTMASK) & 1 else
                 "BASEPRI" if core.reg(A.UC_ARM_REG_BASEPRI) and
-                core.read16(pc) in BRANCH_TO_SELF else None)
+                core.read16(pc) == BRANCH_TO_SELF else None)
         key = (mask, pc if mask == "BASEPRI" else None)
         if mask is None or core.sleeping or self.verdict is not None:
             self._masked_since = None
@@ -181,7 +184,7 @@ class Endings:
 
     def _handler_spin(self, board: Any, core: Any) -> None:
         pc = core.pc
-        if not core.shared.nactive or core.sleeping or core.read16(pc) not in BRANCH_TO_SELF:
+        if not core.shared.nactive or core.sleeping or core.read16(pc) != BRANCH_TO_SELF:
             self._spin = None
             return
         now = core.now_fs()

@@ -10,11 +10,10 @@ from __future__ import annotations
 from typing import Any
 
 from hexhil.hil.mcu.board_core import SharedField
-from hexhil.hil.mcu.core import FS_PER_US
 from hexhil.hil.mcu.gpio import SWITCH_PINS
 from hexhil.hil.mcu.link_client import Reply
+from hexhil.hil.mcu.timebase import FS_PER_US, TICK_US
 
-TICK_US = 1000               # a quiet millisecond: a sleep to now (world, switches, CAN)
 IDLE_TICKS = 10              # the ticks between sleeps when nothing listens
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 from unicorn import arm_const as A
 
 from hexhil.hil.mcu.board import Board
-from hexhil.hil.mcu.core import FS_PER_S
+from hexhil.hil.mcu.timebase import FS_PER_S
 from hexhil.hil.mcu.elf_image import FLASH_BASE, ElfImage, Segment
 
 CODE = FLASH_BASE + 0x100

@@ -5,7 +5,8 @@ table as the generator writes it."""
 from hexhil.hil.mcu import platform
 from hexhil.hil.mcu.platform import PLATFORM, VECTORS, Built, Kind
 from hexhil.hil.mcu.rcc import CLOCK_BITS
-from hexhil.hil.mcu.system import IRQS, NUM_IRQS
+from hexhil.hil.mcu.platform import NUM_IRQS
+from hexhil.hil.mcu.system import IRQS
 
 CUBEMX = ("RCC PWR FLASH RTC IWDG WWDG TIM1 TIM2 TIM3 TIM4 TIM5 TIM9 TIM10 TIM11 ADC1 I2C1 "
           "I2C2 I2C3 SPI1 SPI2 SPI3 SPI4 SPI5 USART1 USART2 USART6 DMA1 DMA2 EXTI SYSCFG "

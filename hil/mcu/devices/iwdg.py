@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from hexhil.hil.mcu.core import FS_PER_S
+from hexhil.hil.mcu.timebase import FS_PER_S
 from hexhil.hil.mcu.registers import Description, RegisterFile, reg
 
 LSI_HZ = 32_000
