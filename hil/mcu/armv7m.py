@@ -14,6 +14,10 @@ CONTROL_SPSEL = 1 << 1       # thread mode runs on PSP (B1.4.4)
 CONTROL_FPCA = 1 << 2        # an FP context is active: the extended frame at exception entry
 XPSR_ALIGNED = 1 << 9        # the frame was aligned to 8 bytes with a padding word (B1.5.7)
 XPSR_THUMB = 1 << 24         # the T bit, set in every stacked xPSR
+# SysTick's CSR (B3.3.3): the counter on, its exception at each wrap, HCLK (else HCLK/8), a
+# wrap since the last read
+SYST_ENABLE, SYST_TICKINT, SYST_CLKSOURCE, SYST_COUNTFLAG = 1 << 0, 1 << 1, 1 << 2, 1 << 16
+SYST_CONTROL = SYST_ENABLE | SYST_TICKINT | SYST_CLKSOURCE     # the bits a write sets
 # Thumb encodings (A7.7): WFI, WFE, and `b .` (GCC's `for (;;) {}`)
 WFI, WFE, BRANCH_TO_SELF = 0xBF30, 0xBF20, 0xE7FE
 # Unicorn's numbers for the core's interrupts (its QEMU's EXCP_*)

@@ -151,9 +151,9 @@ static void pend(bc_t *s, int exc) {
  * TICKINT, the next wrap a reload later at HCLK or HCLK/8 */
 static void systick_wrapped(bc_t *s, int64_t at) {
     s->st_countflag = 1;
-    if (s->st_csr & 2) pend(s, EXC_SYSTICK);
+    if (s->st_csr & SYST_TICKINT) pend(s, EXC_SYSTICK);
     if (s->st_rvr == 0) return;
-    int64_t hz = (s->st_csr & 4) ? s->hz : s->hz / 8;
+    int64_t hz = (s->st_csr & SYST_CLKSOURCE) ? s->hz : s->hz / 8;
     __int128 span = (__int128)(s->st_rvr + 1) * FS_PER_S;
     bc_timer_set(s, s->st_tid, at + (int64_t)((span + hz - 1) / hz));
 }
@@ -161,7 +161,7 @@ static void systick_wrapped(bc_t *s, int64_t at) {
 /* SysTick's CSR read (systick.py ``read``): ENABLE, TICKINT, CLKSOURCE and COUNTFLAG,
  * which the read clears */
 static uint32_t systick_csr(bc_t *s) {
-    uint32_t v = ((uint32_t)s->st_csr & 7) | (s->st_countflag ? 0x10000u : 0);
+    uint32_t v = ((uint32_t)s->st_csr & SYST_CONTROL) | (s->st_countflag ? SYST_COUNTFLAG : 0);
     s->st_countflag = 0;
     return v;
 }
@@ -224,7 +224,8 @@ int64_t bc_divider(bc_t *s) {
 
 static int64_t frame_fs(bc_t *s) {
     if (!s->frame_fs) {
-        int64_t half = 2 + 2 * ((s->cr1 & M_9BIT) ? 9 : 8) + STOP_HALF_BITS[(s->cr2 >> 12) & 3];
+        int64_t half = 2 + 2 * ((s->cr1 & M_9BIT) ? 9 : 8)
+                       + STOP_HALF_BITS[(s->cr2 >> STOP_SHIFT) & 3];
         int64_t div = bc_divider(s);
         if (!s->u2_pclk) s->u2_pclk = py(s, PY_PCLK, 0, 0);
         int64_t pclk = s->u2_pclk;
@@ -371,7 +372,7 @@ void bc_usart_write(bc_t *s, int off, uint32_t value) {
     if (off == DR) {
         write_dr(s, value & 0x1FF);
     } else if (off == SR) {
-        s->sr &= (int32_t)(value | ~(uint32_t)(TC | RXNE | 0x300));
+        s->sr &= (int32_t)(value | ~(uint32_t)(TC | RXNE | LBD | CTS));
     } else if (off >= BRR && off <= GTPR) {
         int32_t v = value & 0xFFFF;
         switch (off) {
@@ -798,7 +799,7 @@ int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
 }
 
 /* --- the NVIC's choice (system.py Nvic ``next_exception``) ----------------------------- */
-static int priority(bc_t *s, int exc) { return exc <= 3 ? exc - 4 : s->prio[exc] & 0xF0; }
+static int priority(bc_t *s, int exc) { return exc <= 3 ? exc - 4 : s->prio[exc] & PRIORITY_BITS; }
 
 static int group(bc_t *s, int prio) {
     return prio < 0 ? prio : prio & ~((2 << s->prigroup) - 1) & 0xFF;
@@ -816,7 +817,7 @@ static int execution_priority(bc_t *s) {
     s->reg_read_batch(s->uc, ids, ptrs, 3);
     if (m[0] & 1) return -1;
     if ((m[1] & 1) && level > 0) level = 0;
-    int basepri = (int)(m[2] & 0xF0);
+    int basepri = (int)(m[2] & PRIORITY_BITS);
     if (basepri && group(s, basepri) < level) level = group(s, basepri);
     return level;
 }

@@ -146,7 +146,8 @@ LAYOUT = Layout("HX_BOARD_LAYOUT_H", [("set3", SET3), ("cover", COVER), ("bc", B
     *((n, getattr(usart_registers, n)) for n in usart_registers.NAMES),   # USART2's registers
     *((f"STOP_HALF_BITS_{i}", v) for i, v in enumerate(usart_registers.STOP_HALF_BITS)),
     *((f"GPIO_{n}", getattr(gpio, n)) for n in ("MODER", "PUPDR", "IDR", "ODR", "BSRR")),
-    ("DIRECTION_PIN", gpio.DIRECTION_PIN), ("SWITCH_MASK", (1 << gpio.SWITCH_PINS) - 1),
+    ("PRIORITY_BITS", platform.PRIORITY_BITS), ("DIRECTION_PIN", gpio.DIRECTION_PIN),
+    ("SWITCH_MASK", (1 << gpio.SWITCH_PINS) - 1),
     *((n, getattr(timebase, n)) for n in ("FS_PER_S", "FS_PER_US", "TICK_US")),
     *((n, v) for n, v in vars(armv7m).items() if n.isupper()),   # the core's numbers
     *((n, i) for i, n in enumerate(PY_KINDS, 1)), ("PY_RAISED", PY_RAISED),

@@ -53,6 +53,7 @@ VECTORS: dict[str, int] = {
     "I2C3_ER": 73, "FPU": 81, "SPI4": 84, "SPI5": 85,
 }
 NUM_IRQS = 86                 # the NVIC's interrupt positions: 0..85
+PRIORITY_BITS = 0xF0          # the 4 priority bits of an NVIC or SCB priority byte (PM0214 4.3.7)
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ from hexhil.hil.mcu.board_layout import MASKED_STEPS
 from hexhil.hil.mcu.core import Core, Regs
 from hexhil.hil.mcu.device_id import DBGMCU_IDCODE, IDCODE
 from hexhil.hil.mcu.faults import FaultStatus
-from hexhil.hil.mcu.platform import NUM_IRQS
+from hexhil.hil.mcu.platform import NUM_IRQS, PRIORITY_BITS
 
 CPUID = 0x410FC241            # Cortex-M4 r0p1
 NVIC, SYSTICK, SCB, DWT = (platform.row(n).base for n in ("NVIC", "SysTick", "SCB", "DWT"))
@@ -107,7 +107,7 @@ class Nvic:
     def _priority(self, exc: int) -> int:
         if exc <= 3:
             return exc - 4   # reset -3, NMI -2, HardFault -1
-        return self.prio[exc] & 0xF0
+        return self.prio[exc] & PRIORITY_BITS
 
     def _group(self, prio: int) -> int:
         if prio < 0:
@@ -128,7 +128,7 @@ class Nvic:
             return -1
         if primask & 1:
             level = min(level, 0)
-        basepri &= 0xF0
+        basepri &= PRIORITY_BITS
         if basepri:
             level = min(level, self._group(basepri))
         return level

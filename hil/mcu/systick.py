@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from typing import Callable
 
-from hexhil.hil.mcu.armv7m import EXC_SYSTICK
+from hexhil.hil.mcu.armv7m import (EXC_SYSTICK, SYST_CLKSOURCE, SYST_CONTROL, SYST_COUNTFLAG,
+                                   SYST_ENABLE, SYST_TICKINT)
 from hexhil.hil.mcu.board_core import NativeTimer, SharedField
 from hexhil.hil.mcu.core import Core
 from hexhil.hil.mcu.events import Events
@@ -33,13 +34,13 @@ class SysTick:
         st.st_tid = self.wrap.tid if isinstance(self.wrap, NativeTimer) else -1
 
     def _hz(self) -> int:
-        return self.hclk() if self.csr & 4 else self.hclk() // 8
+        return self.hclk() if self.csr & SYST_CLKSOURCE else self.hclk() // 8
 
     def _ticks(self, fs: int) -> int:
         return (fs - self._t0) * self._hz() // FS_PER_S
 
     def value(self) -> int:
-        if not self.csr & 1:
+        if not self.csr & SYST_ENABLE:
             return self._c0
         k = self._ticks(self.core.now_fs())
         if k < self._c0:
@@ -52,7 +53,7 @@ class SysTick:
         self._schedule()
 
     def _schedule(self) -> None:
-        if not self.csr & 1 or (self.rvr == 0 and self._c0 == 0):
+        if not self.csr & SYST_ENABLE or (self.rvr == 0 and self._c0 == 0):
             self.wrap.clear()
             return
         k = self._ticks(self.core.now_fs())
@@ -64,7 +65,7 @@ class SysTick:
 
     def _wrapped(self, at_fs: int) -> None:
         self.countflag = True
-        if self.csr & 2:
+        if self.csr & SYST_TICKINT:
             self.nvic.pending.add(EXC_SYSTICK)
         self._schedule_after(at_fs)
 
@@ -75,12 +76,12 @@ class SysTick:
 
     def rebase(self) -> None:
         """HCLK changed: the counter goes on from its value now at the new rate."""
-        if self.csr & 1:
+        if self.csr & SYST_ENABLE:
             self._anchor(self.value())
 
     def read(self, off: int) -> int:
         if off == 0:
-            v = (self.csr & 7) | (0x10000 if self.countflag else 0)
+            v = (self.csr & SYST_CONTROL) | (SYST_COUNTFLAG if self.countflag else 0)
             self.countflag = False
             return v
         if off == 4:
@@ -91,12 +92,12 @@ class SysTick:
 
     def write(self, off: int, value: int) -> None:
         if off == 0:
-            was = self.csr & 1
+            was = self.csr & SYST_ENABLE
             value_now = self.value()
-            self.csr = value & 7
-            if self.csr & 1 and not was:
+            self.csr = value & SYST_CONTROL
+            if self.csr & SYST_ENABLE and not was:
                 self._anchor(value_now)
-            elif was and not self.csr & 1:
+            elif was and not self.csr & SYST_ENABLE:
                 self._c0 = value_now
                 self.wrap.clear()
             else:

@@ -23,10 +23,10 @@ from typing import Callable, Protocol
 from hexhil.hil.mcu.core import Core
 from hexhil.hil.mcu.events import Events
 from hexhil.hil.mcu.timebase import FS_PER_S
-from hexhil.hil.mcu.usart_registers import (BRR, CR1, CR2, CR3, DMAR, DMAT, DR, EIE, GTPR,
-                                            HDSEL, IDLE, IDLEIE, M_9BIT, ORE, OVER8, RE, RXNE,
-                                            RXNEIE, SR, STOP_HALF_BITS, TC, TCIE, TE, TXE,
-                                            TXEIE, UE)
+from hexhil.hil.mcu.usart_registers import (BRR, CR1, CR2, CR3, CTS, DMAR, DMAT, DR, EIE,
+                                            GTPR, HDSEL, IDLE, IDLEIE, LBD, M_9BIT, ORE, OVER8,
+                                            RE, RXNE, RXNEIE, SR, STOP_HALF_BITS, STOP_SHIFT, TC,
+                                            TCIE, TE, TXE, TXEIE, UE)
 
 
 
@@ -74,7 +74,7 @@ class Usart:
         if not self._frame_fs:
             regs = self.regs
             half_bits = 2 + 2 * (9 if regs[CR1] & M_9BIT else 8) \
-                + STOP_HALF_BITS[(regs[CR2] >> 12) & 3]
+                + STOP_HALF_BITS[(regs[CR2] >> STOP_SHIFT) & 3]
             self._frame_fs = half_bits * FS_PER_S * max(1, self.divider()) // (2 * self.pclk_hz())
         return self._frame_fs
 
@@ -183,7 +183,7 @@ class Usart:
         if off == DR:
             self._write_dr(value & 0x1FF)
         elif off == SR:
-            self.regs[SR] &= value | ~(TC | RXNE | 0x300)
+            self.regs[SR] &= value | ~(TC | RXNE | LBD | CTS)
         elif off in self.regs:
             self.regs[off] = value & 0xFFFF
             if off in (CR1, CR2, BRR):
