@@ -11,8 +11,7 @@ from pathlib import Path
 import pytest
 
 import hexhil as hx
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import ROOT
 
 
 def test_every_public_name_resolves_and_is_documented():

@@ -8,8 +8,8 @@ import re
 from pathlib import Path
 
 import pytest
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 # What each floor may import from the project (its own floor included).
 ALLOWED = {
     "protocol": {"protocol"},

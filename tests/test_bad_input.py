@@ -16,8 +16,8 @@ import pytest
 
 from fuzz.fuzz_trace import sample_trace
 from hexhil import cli
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 FT = str(ROOT / "scenarios" / "flat-tripod.toml")
 FILES = {
     "badtoml.toml": "[scenario\nname=1\n", "unknown.toml": "[nope]\nx=1\n",

@@ -19,9 +19,8 @@ from hexhil.lockstep_run import Run
 from hexhil.papers.beam_traversal import beams_run
 from hexhil.trace.reader import Trace, info
 from hexhil.trace.target import partial_of
-from conftest import hexhil_in_process as hexhil
+from conftest import ROOT, hexhil_in_process as hexhil
 
-ROOT = Path(__file__).resolve().parent.parent
 FLIMSY = str(ROOT / "scenarios" / "beams-flimsy.toml")
 KILL_AT_S = 1.0          # after the plan (0.43 s), before the far side (2.49 s)
 

@@ -14,8 +14,8 @@ from hexhil.hil.mcu import board_core, board_layout
 from hexhil import c_sdk
 from hexhil.run_summary import run
 from tests.mcu_elf import MCU, build
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 FW = ROOT / "tests" / "elf_firmware"
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
 FIRMWARES = {  # name: (sources, flags, bare, seconds)

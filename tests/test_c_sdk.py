@@ -6,7 +6,6 @@ import os
 import shlex
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
@@ -20,9 +19,8 @@ from hexhil.replay import replay_firmware
 from hexhil.run_summary import run
 from hexhil.trace.reader import info
 from hexhil.protocol.errors import UserError
-from conftest import hexhil_in_process
+from conftest import ROOT, hexhil_in_process
 
-ROOT = Path(__file__).resolve().parent.parent
 PROGRAMS = ROOT / "tests" / "c_firmware"
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
 

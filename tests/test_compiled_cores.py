@@ -18,8 +18,7 @@ import pytest
 
 from hexhil.hil import native
 from hexhil.protocol.errors import BadFile
-
-ROOT = Path(__file__).resolve().parents[1]
+from conftest import ROOT
 
 
 def test_build_ext_puts_each_core_where_its_loader_looks(tmp_path: Path) -> None:

@@ -18,9 +18,8 @@ from hexhil.hil.run_result import Ending
 from hexhil.hil.scenario import load_scenario
 from hexhil import c_sdk
 from hexhil.protocol.errors import UserError
-from conftest import hexhil_in_process
+from conftest import ROOT, hexhil_in_process
 
-ROOT = Path(__file__).resolve().parent.parent
 FLAT = ROOT / "scenarios" / "flat-tripod.toml"
 SOURCE = ROOT / "tests" / "elf_firmware" / "endings.c"
 

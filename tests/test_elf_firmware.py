@@ -17,9 +17,8 @@ from hexhil.hil.run_result import Ending
 from hexhil import c_sdk
 from hexhil.run_summary import run
 from hexhil.trace.reader import Trace, info
-from conftest import hexhil_in_process
+from conftest import ROOT, hexhil_in_process
 
-ROOT = Path(__file__).resolve().parent.parent
 FW = ROOT / "tests" / "elf_firmware"
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
 AX12_UNITS_PER_RAD = 1023 / (300 * 3.141592653589793 / 180)

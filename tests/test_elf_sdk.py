@@ -13,9 +13,8 @@ from elftools.elf.elffile import ELFFile
 
 from hexhil import c_sdk
 from hexhil.protocol.errors import UserError
-from conftest import hexhil as hexhil_process, hexhil_in_process as hexhil
+from conftest import ROOT, hexhil as hexhil_process, hexhil_in_process as hexhil
 
-ROOT = Path(__file__).resolve().parent.parent
 TRIPOD = ROOT / "examples" / "c_tripod" / "main.c"
 ELF_FW = ROOT / "tests" / "elf_firmware"
 FLASH = range(0x08000000, 0x08000000 + 512 * 1024)

@@ -7,15 +7,13 @@ from __future__ import annotations
 
 import os
 import select
-from pathlib import Path
 
 import pytest
 
 from hexhil.trace import recorder as rec
 from hexhil.trace.target import partial_of
 from hexhil.protocol.dynamixel import v1 as dynamixel
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import ROOT
 
 
 def test_a_run_encoded_in_a_child_process_is_the_same_file(tmp_path):

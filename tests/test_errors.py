@@ -12,8 +12,7 @@ import hexhil as hx
 from hexhil import cli, executor, run_summary
 from hexhil.hil.mcu import gdb
 from hexhil.protocol.errors import BadFile, BadValue, TimedOut, UserError
-
-ROOT = Path(__file__).resolve().parents[1]
+from conftest import ROOT
 
 
 def test_a_value_outside_its_rules_is_a_value_error() -> None:

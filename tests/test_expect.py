@@ -15,9 +15,8 @@ from lxml import etree
 from hexhil.expect import spec, steps, verdicts
 from hexhil.trace.reader import Trace
 from hexhil.protocol.errors import UserError
-from conftest import hexhil_in_process as hexhil
+from conftest import ROOT, hexhil_in_process as hexhil
 
-ROOT = Path(__file__).resolve().parent.parent
 CASES = sorted(str(p) for p in (ROOT / "tests" / "firmware").glob("*.toml"))
 TACTILE = str(ROOT / "tests" / "firmware" / "tactile-low-small.toml")
 FAST = ["--python", "cpython-inprocess", "--quiet"]

@@ -13,9 +13,8 @@ import pytest
 
 from hexhil.expect import spec
 from hexhil.protocol.errors import UserError
-from conftest import hexhil_in_process as hexhil
+from conftest import ROOT, hexhil_in_process as hexhil
 
-ROOT = Path(__file__).resolve().parent.parent
 BOARD_TRIPOD = ROOT / "examples" / "board_tripod.py"
 FLAT = ROOT / "scenarios" / "flat-tripod.toml"
 HEAD = f'[case]\nscenario = "{FLAT}"\nduration_s = 8\n'

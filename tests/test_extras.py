@@ -6,11 +6,9 @@ from __future__ import annotations
 import subprocess
 import sys
 import tomllib
-from pathlib import Path
 
 import pytest
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import ROOT
 
 
 def _hexhil_without(module: str, *argv: str) -> subprocess.CompletedProcess:

@@ -18,9 +18,8 @@ import pytest
 from hexhil.hil.run_result import Ending
 from hexhil import Run
 from hexhil.trace.reader import Trace
-from conftest import hexhil_in_process as hexhil
+from conftest import ROOT, hexhil_in_process as hexhil
 
-ROOT = Path(__file__).resolve().parent.parent
 FLAT = ROOT / "scenarios" / "flat-tripod.toml"
 BOARD_TRIPOD = ROOT / "examples" / "board_tripod.py"
 START = "import time\ntime.sleep_ms(50)\n"

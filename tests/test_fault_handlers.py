@@ -3,7 +3,6 @@ as its exception with CFSR, HFSR and BFAR set and the faulting PC stacked, escal
 HardFault unless SHCSR enables it; a handler that spins ends the run crashed naming the
 fault and the handler; one that resets the MCU reboots it and the run goes on."""
 import re
-from pathlib import Path
 
 import pytest
 
@@ -13,8 +12,7 @@ from hexhil.hil.run.lockstep import Simulator
 from hexhil.hil.run_result import Ending
 from hexhil.hil.scenario import load_scenario
 from mcu_elf import build, console
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import ROOT
 
 
 @pytest.fixture(scope="module")

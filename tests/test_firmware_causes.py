@@ -2,15 +2,14 @@
 real cause: micropython prints its traceback on stdout, a binary
 ``.py`` is not a source, a wrong baud reaches no servo, and a run where no servo answered
 says which of the master's mistakes it saw."""
-from pathlib import Path
 
 import can
 import pytest
 
 from ctrl_c import sigint_default
 from hexhil import cli
+from conftest import HEXHIL, ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 SCENARIO = str(ROOT / "scenarios" / "flat-tripod.toml")
 
 
@@ -227,7 +226,7 @@ def test_ctrl_c_keeps_the_trace_says_so_and_prints_the_summary(tmp_path):
     from hexhil.trace.reader import Trace
 
     trace = tmp_path / "long.mcap"
-    proc = subprocess.Popen([str(Path(sys.executable).with_name("hexhil")), "run", SCENARIO,
+    proc = subprocess.Popen([*HEXHIL, "run", SCENARIO,
                              "--duration", "600", "--python", "cpython-inprocess", "--out",
                              str(trace), "--json"], cwd=ROOT, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, preexec_fn=sigint_default)

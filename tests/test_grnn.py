@@ -16,8 +16,8 @@ import torch
 from hexhil.cli import main as cli
 from hexhil.papers.tactile_hexapod.grnn import data, held_out_report, model, train
 from hexhil.papers.tactile_hexapod.grnn.features import LEGS, SENSING, StepSampler, hip_errors_m
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 PY = sys.executable
 
 

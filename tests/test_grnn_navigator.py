@@ -18,8 +18,8 @@ from hexhil.papers.tactile_hexapod.grnn import data, navigator, train
 from hexhil.papers.tactile_hexapod.grnn.dataset import rows_from_trace
 from hexhil.trace.reader import Trace
 from hexhil.trace.topics import T_BODY
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 PERIOD_S = 2.778
 # A short walk to a goal over obstacles: 0.3 m is 3 tripod periods at the nominal speed, so
 # the known path is the first 2 steps and the navigator decides from the third on.

@@ -2,15 +2,13 @@
 recorder takes as it takes a user's mapping."""
 from __future__ import annotations
 
-from pathlib import Path
 
 from hexhil.hil import scenario as scenario_mod
 from hexhil.hil.run import rig
 from hexhil.hil.seams import SERVO_STATE_FIELDS
 from hexhil.trace import protobuf as pb
 from hexhil.trace import recorder as rec
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import ROOT
 
 
 def test_a_servos_state_as_a_row_is_its_mapping(tmp_path):

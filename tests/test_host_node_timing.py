@@ -1,11 +1,9 @@
 """A host node ticks at its period on the run's clock (docs/api.md ``HostNode``), not on
 the firmware's next cycle boundary after it: the driver stops the firmware's sleep at the
 node's tick, so a 100 ms node ticks with the trace's 10 Hz ground truth."""
-from pathlib import Path
 
 import hexhil as hx
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import ROOT
 
 
 class Clocked:

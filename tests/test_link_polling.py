@@ -23,8 +23,7 @@ from hexhil.hil.link.firmware_process import (SPIN_US, Connection, firmware_env,
 from hexhil.hil.run.lockstep import Simulator
 from hexhil.hil.scenario import load_scenario
 from hexhil.protocol import sim_link
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import ROOT
 
 
 def test_polling_or_not_carries_the_same_run(monkeypatch) -> None:

@@ -22,8 +22,7 @@ from hexhil.hil.canbus import socketcand as can_server
 from hexhil.hil.canbus.socketcand import CanServer
 from hexhil.trace.live import LiveServer
 from hexhil.protocol.dynamixel import v1 as dxl
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import ROOT
 
 
 def _raw_client(port: int) -> socket.socket:

@@ -11,9 +11,8 @@ from pathlib import Path
 
 import pytest
 import websockets
-from conftest import HEXHIL
+from conftest import HEXHIL, ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 WANTED = ("/scene", "/scene/frames", "/joints")
 SUBPROTOCOL = "foxglove.sdk.v1"  # the SDK server speaks this; foxglove.websocket.v1 is refused
 

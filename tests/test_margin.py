@@ -13,8 +13,7 @@ from hexhil.hil.servobus.ax12_servo import Servo
 from hexhil.expect import margin_sweep, spec
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import ROOT
 
 
 def _bus() -> Bus:

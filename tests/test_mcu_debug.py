@@ -6,15 +6,12 @@ import json
 import shutil
 import socket
 import subprocess
-from pathlib import Path
 
 import pytest
 
 from hexhil.hil.mcu.coverage import merge
 from mcu_elf import MCU, build
-from conftest import HEXHIL, hexhil_in_process
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import HEXHIL, ROOT, hexhil_in_process
 
 
 def free_port():

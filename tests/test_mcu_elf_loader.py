@@ -2,7 +2,6 @@
 HardFault ends the run (exit 1, the firmware's verdict) in one line naming the PC and the
 function, the trace kept."""
 import subprocess
-from pathlib import Path
 
 import pytest
 
@@ -10,9 +9,7 @@ from hexhil.hil.mcu.elf_image import load_elf
 from hexhil.trace.reader import Trace
 from mcu_elf import build
 from hexhil.protocol.errors import UserError
-from conftest import HEXHIL, hexhil_in_process
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import HEXHIL, ROOT, hexhil_in_process
 
 
 def hexhil_run(elf, *extra):

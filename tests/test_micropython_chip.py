@@ -15,8 +15,8 @@ from hexhil.hil.run.lockstep import Simulator
 from hexhil.hil.run_result import Ending
 from hexhil.hil.scenario import load_scenario
 from hexhil.protocol.errors import UserError
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 MICROPYTHON = ROOT.parent / "shared" / "firmware" / "micropython"
 EMPTY_FS_ELF = MICROPYTHON / "micropython-hexhil-f411.elf"
 MAINS = ROOT / "tests" / "micropython_chip"

@@ -14,8 +14,8 @@ from hexhil.expect.case_runs import run_scenario
 from hexhil.protocol.dynamixel import v1 as dxl
 from hexhil.protocol.dynamixel import v2 as dx2
 from hexhil.protocol.errors import UserError
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 EMPTY_FS_ELF = ROOT.parent / "shared" / "firmware" / "micropython" / "micropython-hexhil-f411.elf"
 OUR_MAIN = ROOT / "firmware" / "main.py"
 PING_MAIN = ROOT.parent / "shared" / "firmware" / "micropython" / "ping" / "main.py"

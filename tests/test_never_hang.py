@@ -7,7 +7,6 @@ import json
 import os
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -20,11 +19,11 @@ from hexhil.hil.run_result import Ending
 from hexhil import Run, c_sdk
 from hexhil.trace.reader import Trace
 from hexhil.trace.target import partial_of
+from conftest import HEXHIL, ROOT
+from ctrl_c import sigint_default
 
-ROOT = Path(__file__).resolve().parent.parent
 FLAT = ROOT / "scenarios" / "flat-tripod.toml"
 BOARD_TRIPOD = ROOT / "examples" / "board_tripod.py"
-HEXHIL = str(Path(sys.executable).with_name("hexhil"))
 
 
 def _gone(pgid: int) -> bool:
@@ -71,10 +70,11 @@ def test_a_wrapper_that_never_connects_is_ended_with_its_children(tmp_path: Path
 def _start_run(tmp_path: Path, *extra: str) -> tuple[subprocess.Popen, Path]:
     """``hexhil run`` with a long board firmware run, once its trace is being written."""
     out = tmp_path / "run.mcap"
-    proc = subprocess.Popen([HEXHIL, "run", str(FLAT), "--firmware", str(BOARD_TRIPOD),
+    proc = subprocess.Popen([*HEXHIL, "run", str(FLAT), "--firmware", str(BOARD_TRIPOD),
                              "--duration", "600", "--out", str(out), "--json", *extra],
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, start_new_session=True)   # no group signal reaches it
+                            text=True, start_new_session=True,   # no group signal reaches it
+                            preexec_fn=sigint_default)
     partial = partial_of(out)
     deadline = time.monotonic() + 60
     while (not partial.exists() or partial.stat().st_size < 100_000) \
@@ -103,7 +103,7 @@ def test_a_signal_to_the_pid_alone_ends_a_run_at_once_with_the_trace_finished(
 def test_a_run_past_its_wall_clock_cap_ends_as_a_limit_verdict(tmp_path: Path) -> None:
     out = tmp_path / "capped.mcap"
     t0 = time.monotonic()
-    proc = subprocess.run([HEXHIL, "run", str(FLAT), "--firmware", str(BOARD_TRIPOD),
+    proc = subprocess.run([*HEXHIL, "run", str(FLAT), "--firmware", str(BOARD_TRIPOD),
                            "--duration", "600", "--max-wall", "2", "--out", str(out),
                            "--json"], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert time.monotonic() - t0 < 60
@@ -162,7 +162,7 @@ def test_a_child_forked_mid_run_ends_the_watch_its_thread_held_a_lock_of() -> No
 @pytest.mark.parametrize("argv", [["--max-wall", "nan"], ["--max-wall", "-1"],
                                   ["--max-memory", "0"], ["--max-memory", "nan"]])
 def test_bad_limits_are_one_line_and_exit_2(argv: list[str]) -> None:
-    proc = subprocess.run([HEXHIL, "run", str(FLAT), *argv], cwd=ROOT, capture_output=True,
+    proc = subprocess.run([*HEXHIL, "run", str(FLAT), *argv], cwd=ROOT, capture_output=True,
                           text=True, timeout=60)
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1 and argv[0] in proc.stderr, proc.stderr
@@ -191,7 +191,7 @@ def test_a_junit_report_that_cannot_be_written_keeps_the_verdict(
         tmp_path: Path, min_m_s: float, status: int) -> None:
     case = tmp_path / "case.toml"
     case.write_text(JUNIT_CASE.format(name="short", flat=FLAT, min_m_s=min_m_s))
-    proc = subprocess.run([HEXHIL, "test", str(case), "--junit", "/dev/full"], cwd=ROOT,
+    proc = subprocess.run([*HEXHIL, "test", str(case), "--junit", "/dev/full"], cwd=ROOT,
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == status, proc.stdout + proc.stderr
     assert proc.stderr.strip().splitlines()[-1].startswith(
@@ -242,7 +242,7 @@ def test_a_run_of_your_firmware_counts_the_masters_protocol_mistakes(tmp_path: P
     fw = tmp_path / "bad_master.py"
     fw.write_text(BAD_MASTER)
     out = tmp_path / "bad.mcap"
-    proc = subprocess.run([HEXHIL, "run", str(FLAT), "--firmware", str(fw), "--duration", "1",
+    proc = subprocess.run([*HEXHIL, "run", str(FLAT), "--firmware", str(fw), "--duration", "1",
                            "--out", str(out), "--json"], cwd=ROOT, capture_output=True,
                           text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
@@ -285,7 +285,7 @@ def test_your_firmwares_own_stop_is_a_safe_stop_and_no_stats_are_made_up(
         tmp_path: Path) -> None:
     fw = tmp_path / "stops.py"
     fw.write_text(STOPS)
-    proc = subprocess.run([HEXHIL, "run", str(FLAT), "--firmware", str(fw), "--duration", "1",
+    proc = subprocess.run([*HEXHIL, "run", str(FLAT), "--firmware", str(fw), "--duration", "1",
                            "--json"], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     s = json.loads(proc.stdout.strip().splitlines()[-1])
@@ -299,7 +299,7 @@ def test_hexhil_test_takes_the_caps_and_a_capped_case_fails(tmp_path: Path) -> N
     case = tmp_path / "long.toml"
     case.write_text(JUNIT_CASE.format(name="long", flat=FLAT, min_m_s=0)
                     .replace("duration_s = 1", "duration_s = 600"))
-    proc = subprocess.run([HEXHIL, "test", str(case), "--max-wall", "2"], cwd=ROOT,
+    proc = subprocess.run([*HEXHIL, "test", str(case), "--max-wall", "2"], cwd=ROOT,
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 1, proc.stdout + proc.stderr
     assert "firmware ending" in proc.stdout and "limit" in proc.stdout
@@ -307,7 +307,7 @@ def test_hexhil_test_takes_the_caps_and_a_capped_case_fails(tmp_path: Path) -> N
 
 
 def test_bus_duration_with_no_master_ends_after_its_seconds_of_waiting() -> None:
-    proc = subprocess.run([HEXHIL, "bus", "--duration", "1"], cwd=ROOT, capture_output=True,
+    proc = subprocess.run([*HEXHIL, "bus", "--duration", "1"], cwd=ROOT, capture_output=True,
                           text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     assert "served 0 packets" in proc.stdout

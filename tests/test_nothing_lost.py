@@ -15,8 +15,8 @@ import pytest
 from ctrl_c import sigint_default
 from hexhil.trace.reader import Trace
 from hexhil.trace.recover import recover
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 SCENARIO = str(ROOT / "scenarios" / "flat-tripod.toml")
 DURATION_S = 5.0
 LOSS_S = 1.0  # the bound; the recorder writes every 0.5 s of virtual time

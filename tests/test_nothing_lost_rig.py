@@ -27,8 +27,8 @@ from ctrl_c import sigint_default
 from hexhil.trace.reader import Trace
 from hexhil.trace.recover import recover
 from hexhil.trace.topics import T_BODY, T_SERIAL
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 KILL_CHILD = str(ROOT / "tests" / "kill_child.py")
 MICROPYTHON = str(Path(sys.executable).with_name("micropython"))
 LOSS_S = 1.0      # the bound; the recorder writes every 0.5 s of virtual time

@@ -14,8 +14,8 @@ from hexhil import Run, cli
 from hexhil.replay import replay_can, replay_firmware
 from hexhil.trace.reader import Trace
 from hexhil.protocol.errors import UserError
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 FT = str(ROOT / "scenarios" / "flat-tripod.toml")
 
 # (scenario TOML, a phrase of the one line)

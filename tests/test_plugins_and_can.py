@@ -6,15 +6,13 @@ from __future__ import annotations
 import subprocess
 import sys
 from importlib.metadata import entry_points
-from pathlib import Path
 
 import can
 import pytest
 
 import hexhil as hx
 from hexhil.protocol import can_frames as cf
-
-ROOT = Path(__file__).resolve().parents[1]
+from conftest import ROOT
 
 
 def test_the_papers_are_entry_points() -> None:

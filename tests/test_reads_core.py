@@ -18,7 +18,6 @@ import random
 import re
 import struct
 import types
-from pathlib import Path
 
 import pytest
 
@@ -35,8 +34,8 @@ from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
 from hexhil.protocol.dynamixel import v2 as dx2
 from tests.test_servo_core import _state
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 CASES = {  # overlay, return delay override (us), the hand-backs the run must show
     "plain": (None, None, {"DONE"}),
     "missing-servo": ({"bus": {"servos": 17}}, None, {"DONE", "ATTEMPT"}),

@@ -15,9 +15,8 @@ from ctrl_c import sigint_default
 from hexhil.trace.reader import Trace
 from hexhil.trace.topics import T_BODY, T_SERIAL
 from hexhil.protocol.dynamixel import v1 as dxl
-from conftest import HEXHIL
+from conftest import HEXHIL, ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 MICROPYTHON = Path(sys.executable).with_name("micropython")
 
 

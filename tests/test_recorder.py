@@ -30,8 +30,7 @@ from hexhil.trace.writer import software_version
 from hexhil.trace import topics
 from hexhil.protocol import can_frames
 from hexhil.protocol.dynamixel import v1 as dynamixel
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import HEXHIL, ROOT
 
 
 def _record(path: Path, cycles: int = 400, idle_budgets: list[int] | None = None,
@@ -356,19 +355,17 @@ def test_sigkill_loses_at_most_the_last_simulated_second(tmp_path, idle_budget):
     assert ts == list(range(0, n * 1000, 1000))
 
 
-
 def test_sigkilled_hexhil_run_recovers_to_an_exact_prefix(tmp_path):
     """A real `hexhil run --out` killed mid-run: recover gives back a trace whose messages
     are exactly the first part of the same run recorded to the end (runs are
     deterministic), up to the last chunk written before the kill."""
     import time
 
-    hexhil = str(Path(sys.executable).with_name("hexhil"))
     full = tmp_path / "full.mcap"
-    subprocess.run([hexhil, "run", "scenarios/flat-tripod.toml", "--duration", "4",
+    subprocess.run([*HEXHIL, "run", "scenarios/flat-tripod.toml", "--duration", "4",
                     "--out", str(full)], cwd=ROOT, check=True, capture_output=True)
     killed = tmp_path / "killed.mcap"
-    proc = subprocess.Popen([hexhil, "run", "scenarios/flat-tripod.toml", "--duration", "600",
+    proc = subprocess.Popen([*HEXHIL, "run", "scenarios/flat-tripod.toml", "--duration", "600",
                              "--out", str(killed)], cwd=ROOT, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 60

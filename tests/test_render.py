@@ -13,7 +13,6 @@ from hexhil import render as render_mod
 from hexhil.protocol.errors import UserError
 from conftest import hexhil, hexhil_in_process
 
-ROOT = Path(__file__).resolve().parent.parent
 GL = ctypes.util.find_library("EGL") or ctypes.util.find_library("OSMesa")
 
 

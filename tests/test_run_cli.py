@@ -1,12 +1,10 @@
 """``hexhil run``: the shipped scenarios end to end, the JSON summary, one-line errors."""
 import json
 import math
-from pathlib import Path
 
 import pytest
 from conftest import hexhil_in_process as hexhil
 
-ROOT = Path(__file__).resolve().parent.parent
 KEYS = {"scenario", "seed", "firmware_runtime", "sim_time_s", "wall_time_s", "real_time_factor",
         "boot_s", "cycles", "overruns", "unhandled_exceptions", "serial_digest", "faults",
         "stopped_safely", "stop_reason", "body", "trace"}

@@ -17,9 +17,7 @@ from hexhil.hil.world import scene as scene_mod
 from hexhil.hil.world.beam_body import PAPER_BODY
 from hexhil.hil.world.beams import BeamsWorld, BodyState
 from hexhil.trace import topics
-from conftest import hexhil_in_process as hexhil
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import ROOT, hexhil_in_process as hexhil
 
 
 def _run(tmp_path: Path, name: str, *extra: str) -> Path:

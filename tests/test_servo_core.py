@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import ctypes
 import random
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,8 +24,8 @@ from hexhil.hil.servobus.switch_node import SensorNode
 from hexhil.in_process import run_firmware
 from hexhil.protocol.dynamixel import ax12
 from hexhil.protocol.dynamixel import v1 as dxl
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 NODE_ID = 100   # the limit-switch node's (hil/servobus/switch_node.py)
 FAULTS = {"overheat": [{"id": 2, "at_s": 0.5, "until_s": 2.5, "temperature_c": 90.0}],
           "voltage_sag": [{"at_s": 1.0, "until_s": 1.6, "volts": 6.5}],

@@ -14,8 +14,8 @@ from pathlib import Path
 
 from hexhil.run_summary import run
 from hexhil.trace.reader import Trace
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 SHARED = ROOT.parent / "shared" / "firmware"
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
 DURATION_S = 0.6            # the summary line comes at 513 ms (cube) and 520 ms (freertos)

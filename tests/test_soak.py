@@ -2,7 +2,6 @@
 the ten-minute soak itself runs in ``make bench`` (bench/bench_soak.py)."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 
@@ -10,8 +9,7 @@ from hexhil.hil import scenario
 from hexhil.hil.canbus.bus import CanBus
 from hexhil.hil.clock import VirtualClock
 from hexhil.protocol.errors import UserError
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import ROOT
 
 
 def test_soak_has_every_fault_kind_of_its_scenario() -> None:

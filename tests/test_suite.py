@@ -1,5 +1,5 @@
-"""The suite's own rules: one ``hexhil()`` helper (conftest.py), no path into a virtual
-environment, nothing skipped for a missing package, and a test module whose optional
+"""The suite's own rules: one ``hexhil()`` helper and one repository root (conftest.py), no
+path into a virtual environment, nothing skipped for a missing package, and a test module whose optional
 extra is missing is one failing test naming the extra instead of a collection error."""
 from __future__ import annotations
 
@@ -8,10 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from conftest import HEXHIL, hexhil, hexhil_in_process
+from conftest import HEXHIL, ROOT, TESTS, hexhil, hexhil_in_process
 
-TESTS = Path(__file__).resolve().parent
-ROOT = TESTS.parent
 FILES = sorted(p for p in TESTS.rglob("*.py") if p.name not in ("conftest.py", "test_suite.py"))
 
 
@@ -20,6 +18,10 @@ def test_one_hexhil_helper_and_no_venv_path() -> None:
         text = path.read_text()
         assert not re.search(r"^def hexhil\(", text, re.M), f"{path.name}: use conftest.hexhil"
         assert ".venv" not in text, f"{path.name}: a path into a virtual environment"
+        assert 'with_name("hexhil")' not in text, f"{path.name}: use conftest.HEXHIL"
+        if path.name.startswith("test_"):   # helper modules serve bench/ too, without conftest
+            assert not re.search(r"^(ROOT|HEXHIL) = ", text, re.M), \
+                f"{path.name}: use conftest.ROOT and conftest.HEXHIL"
 
 
 def test_nothing_skips_for_a_missing_package() -> None:

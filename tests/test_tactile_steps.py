@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from hexhil.expect import steps
+from conftest import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 LM = 1
 # Measured: obstacles-low-small, seed 1, our firmware: leg LM's servo angles (rad) from
 # /joints at 10 Hz from 59.928 s. Its switch closed at 60.908 s, while the foot was

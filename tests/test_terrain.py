@@ -1,15 +1,13 @@
 """Obstacle terrain: seed 003's size classes and densities (Sec. 2.2, 3.2), seeded."""
 import itertools
 import math
-from pathlib import Path
 
 import pytest
 
 from hexhil.hil.world import terrain
 from hexhil.hil import scenario
 from hexhil.protocol.errors import UserError
-
-ROOT = Path(__file__).resolve().parent.parent
+from conftest import ROOT
 
 
 def _nearest(obs):

@@ -18,9 +18,8 @@ from hexhil.trace.reader import Trace, info
 from hexhil.trace.recorder import Recorder
 from hexhil.trace.target import partial_of
 from hexhil.protocol.errors import UserError
-from conftest import hexhil, hexhil_in_process
+from conftest import ROOT, hexhil, hexhil_in_process
 
-ROOT = Path(__file__).resolve().parent.parent
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
 FAST = ("--python", "cpython-inprocess")
 

@@ -2,7 +2,6 @@
 stand-ins in lockstep, ``hexhil run --firmware``, and how a bad firmware is reported."""
 import json
 import re
-from pathlib import Path
 
 import pytest
 
@@ -14,9 +13,8 @@ from hexhil.hil.run.lockstep import Simulator
 from hexhil.hil.scenario import SCHEMA
 from hexhil import cli
 from hexhil.trace.reader import Trace
-from conftest import hexhil_in_process as hexhil
+from conftest import ROOT, hexhil_in_process as hexhil
 
-ROOT = Path(__file__).resolve().parent.parent
 EXAMPLE = ROOT / "examples" / "board_tripod.py"
 
 PING = '''

@@ -11,9 +11,8 @@ from pathlib import Path
 
 from hexhil import scenario_of_trace
 from hexhil.trace.reader import Trace
-from conftest import hexhil_in_process as hexhil
+from conftest import ROOT, hexhil_in_process as hexhil
 
-ROOT = Path(__file__).resolve().parent.parent
 FLAT = str(ROOT / "scenarios" / "flat-tripod.toml")
 EXAMPLE = ROOT / "examples" / "board_tripod.py"
 

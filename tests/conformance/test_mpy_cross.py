@@ -6,9 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from conftest import tool
+from conftest import ROOT, tool
 
-ROOT = Path(__file__).resolve().parents[2]
 FILES = sorted(p for d in ("protocol", "firmware") for p in (ROOT / d).rglob("*.py"))
 
 
