@@ -29,15 +29,14 @@ import weakref
 from pathlib import Path
 from typing import Any, Callable
 
-from hexhil.hil.mcu.board_layout import (LAYOUT, PY_CALL, PY_KINDS, PY_RAISED, PY_TIMER,
-                                          USART2_IRQ)
+from hexhil.hil.mcu.board_layout import (LAYOUT, PY_CALL, PY_DMA_RX, PY_DMA_TX, PY_FAILED,
+                                          PY_IDLE, PY_INTR, PY_LINE, PY_PCLK, PY_POLLED,
+                                          PY_RAISED, PY_SWITCHES, PY_TIMER, USART2_IRQ)
 from hexhil.hil.native import load_library
 from hexhil.protocol.errors import BadFile, UserError
 
 LIBRARY = Path(__file__).with_name("_board_core.so")
 _P, _I32, _I64 = ctypes.c_void_p, ctypes.c_int32, ctypes.c_int64
-(PY_LINE, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_POLLED, PY_PCLK, PY_FAILED, PY_INTR,
- PY_SWITCHES) = range(1, len(PY_KINDS) + 1)
 # virtual time in C is int64 femtoseconds: 9,223 s; a longer run is served in Python
 MAX_US = 9_000_000_000
 

@@ -14,8 +14,8 @@ N_EXC = 16 + platform.NUM_IRQS   # the F411's exceptions: the core's 16 and the 
 ACTIVE_MAX = 128             # each exception is active at most once
 N_REGID = 17                 # the registers an exception return writes (board_core.c REG_*)
 # the kinds of the C code's one call into Python (board_core.py ``NativeBoard``)
-PY_KINDS = ("PY_LINE", "PY_IDLE", "PY_DMA_TX", "PY_DMA_RX", "PY_POLLED", "PY_PCLK",
-            "PY_FAILED", "PY_INTR", "PY_SWITCHES")
+(PY_LINE, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_POLLED, PY_PCLK, PY_FAILED, PY_INTR,
+ PY_SWITCHES) = range(1, 10)
 PY_RAISED = -2               # that call's answer where Python raised: C unwinds
 # quiet loops (quiet.py): a pass's instructions, lcm(1..10); the quiet chunks let by after
 # repeated misses at most
@@ -36,8 +36,8 @@ MEMORY_MAP = (("SRAM_BASE", _SRAM.base), ("SRAM_SIZE", _SRAM.size),
               ("SYSTICK_BASE", platform.row("SysTick").base))
 USART2_IRQ = platform.VECTORS["USART2"]
 # where the C run loop hands back to Python (board_loop.py)
-LOOP_ENDS = ("LOOP_AFTER_HEAD", "LOOP_AFTER_CHUNK", "LOOP_ENTER", "LOOP_RAISED",
-             "LOOP_HOOK_FAILED", "LOOP_NULL_JUMP", "LOOP_UC_ERROR", "LOOP_NO_EVENT")
+(LOOP_AFTER_HEAD, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED, LOOP_NULL_JUMP,
+ LOOP_UC_ERROR, LOOP_NO_EVENT) = range(8)
 
 _P, _I32, _I64 = ctypes.c_void_p, ctypes.c_int32, ctypes.c_int64
 _U8, _U32, _U64 = ctypes.c_uint8, ctypes.c_uint32, ctypes.c_uint64
@@ -150,5 +150,5 @@ LAYOUT = Layout("HX_BOARD_LAYOUT_H", [("set3", SET3), ("cover", COVER), ("bc", B
     ("SWITCH_MASK", (1 << gpio.SWITCH_PINS) - 1),
     *((n, getattr(timebase, n)) for n in ("FS_PER_S", "FS_PER_US", "TICK_US")),
     *((n, v) for n, v in vars(armv7m).items() if n.isupper()),   # the core's numbers
-    *((n, i) for i, n in enumerate(PY_KINDS, 1)), ("PY_RAISED", PY_RAISED),
-    *((n, i) for i, n in enumerate(LOOP_ENDS))])
+    *((n, v) for n, v in tuple(globals().items())   # the call's kinds, the loop's ends
+      if n.startswith(("PY_", "LOOP_")) and isinstance(v, int))])

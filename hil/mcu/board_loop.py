@@ -17,12 +17,12 @@ from typing import Any, Callable
 from unicorn import UcError
 
 from hexhil.hil.mcu.board_core import Shared, library
-from hexhil.hil.mcu.board_layout import LOOP_ENDS
+from hexhil.hil.mcu.board_layout import (LOOP_AFTER_CHUNK, LOOP_AFTER_HEAD, LOOP_ENTER,
+                                          LOOP_HOOK_FAILED, LOOP_NULL_JUMP, LOOP_RAISED,
+                                          LOOP_UC_ERROR)
 from hexhil.hil.mcu.core import CoreFault, error_text
 from hexhil.hil.mcu.faults import NULL_JUMP
 
-(LOOP_AFTER_HEAD, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED,
- LOOP_NULL_JUMP, LOOP_UC_ERROR, LOOP_NO_EVENT) = range(len(LOOP_ENDS))   # board_layout.py
 _P = ctypes.c_void_p
 
 
