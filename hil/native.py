@@ -61,6 +61,12 @@ class Layout:
     structs: Sequence[tuple[str, Sequence[Field]]]
     constants: Sequence[tuple[str, int | float]]
 
+    def __post_init__(self) -> None:
+        names = [n for n, _ in self.constants]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:   # C would take the last #define: one name, one value
+            raise ValueError(f"{self.guard}: constants named twice: {', '.join(twice)}")
+
     def fields(self, struct: str) -> list[tuple[str, type]]:
         """A struct's ``_fields_`` for its ``ctypes.Structure``."""
         return [(f[0], f[1]) for f in dict(self.structs)[struct]]

@@ -80,6 +80,12 @@ def test_a_core_built_with_other_structs_is_refused_in_one_line() -> None:
     assert "_drive_core.so was built with other structs" in text and "\n" not in text
 
 
+def test_a_layout_refuses_a_constant_named_twice() -> None:
+    layout = importlib.import_module(native.LAYOUTS["ELF board"]).LAYOUT
+    with pytest.raises(ValueError, match="HX_BOARD_LAYOUT_H: constants named twice: TC$"):
+        dataclasses.replace(layout, constants=[*layout.constants, ("TC", 1)])
+
+
 def test_the_header_says_what_the_python_side_lays_out() -> None:
     layout = importlib.import_module(native.LAYOUTS["servo bank and reads"]).LAYOUT
     header = layout.header()

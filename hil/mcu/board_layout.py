@@ -143,7 +143,8 @@ LAYOUT = Layout("HX_BOARD_LAYOUT_H", [("set3", SET3), ("cover", COVER), ("bc", B
     ("N_REGID", N_REGID),
     ("QUIET_PASS", QUIET_PASS), ("MAX_BACKOFF", MAX_BACKOFF), ("MASKED_STEPS", MASKED_STEPS),
     *MEMORY_MAP,
-    *((n, getattr(usart_registers, n)) for n in usart_registers.NAMES),   # USART2's registers
+    *((n, v) for n, v in vars(usart_registers).items()   # USART2's registers
+      if n.isupper() and isinstance(v, int)),
     *((f"STOP_HALF_BITS_{i}", v) for i, v in enumerate(usart_registers.STOP_HALF_BITS)),
     *((f"GPIO_{n}", getattr(gpio, n)) for n in ("MODER", "PUPDR", "IDR", "ODR", "BSRR")),
     ("PRIORITY_BITS", platform.PRIORITY_BITS), ("DIRECTION_PIN", gpio.DIRECTION_PIN),

@@ -13,7 +13,3 @@ EIE, HDSEL, DMAR, DMAT = 1 << 0, 1 << 3, 1 << 6, 1 << 7
 # CR2's STOP field (bits 13:12) -> the stop bits in half bits: 1, 0.5, 2, 1.5
 STOP_SHIFT = 12
 STOP_HALF_BITS = (2, 1, 4, 3)
-
-NAMES = ("SR", "DR", "BRR", "CR1", "CR2", "CR3", "GTPR", "PE", "FE", "NF", "ORE", "IDLE",
-         "RXNE", "TC", "TXE", "LBD", "CTS", "STOP_SHIFT", "UE", "M_9BIT", "OVER8", "TE", "RE", "IDLEIE", "RXNEIE", "TCIE",
-         "TXEIE", "EIE", "HDSEL", "DMAR", "DMAT")
