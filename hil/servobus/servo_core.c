@@ -249,6 +249,15 @@ int hx_sync_one(struct servo *s, struct health *h, unsigned char *t, const struc
     return 0;
 }
 
+/* TableServo._take where nothing holds the instruction back (hx_serves: no EEPROM write
+ * under way, not deaf): catch up to t_us and count it */
+static void take(const struct bank *b, int i, int64_t t_us)
+{
+    advance(b, i, t_us);
+    b->servo[i]->held_us = 0;
+    b->servo[i]->instructions += 1;
+}
+
 /* Servos from..n-1 take the SYNC_WRITE ``params`` at t_us, in order; returns the index of
  * the first one this cannot serve (not a world's joint, deaf, or finishing an EEPROM write:
  * the Python code serves it, then calls again from the next), or n when all are done;
@@ -260,9 +269,7 @@ int hx_sync_write(const struct bank *b, int from, int64_t t_us, const unsigned c
         struct servo *s = b->servo[i];
         if (!hx_serves(b, i, t_us) || u16(b->table[i], AX12_MOVING_SPEED) > 2047)
             return i;
-        advance(b, i, t_us);                /* TableServo._take, nothing to wait for */
-        s->held_us = 0;
-        s->instructions += 1;
+        take(b, i, t_us);
         int done = hx_sync_one(s, b->health[i], b->table[i], b->cells, b->original[i], p, len);
         if (done & HX_APPLY_ADDRESS)
             *changed = 1;
@@ -364,9 +371,7 @@ int hx_read(const struct bank *b, int i, int64_t t_us, int a, int n, unsigned ch
     struct servo *s = b->servo[i];
     if (!hx_serves(b, i, t_us))
         return -1;
-    advance(b, i, t_us);
-    s->held_us = 0;
-    s->instructions += 1;
+    take(b, i, t_us);
     double state[3];
     b->state(b->drives, b->joint[i], state);
     int done = hx_read_one(s, b->health[i], b->table[i], a, n, 0, state, out);
