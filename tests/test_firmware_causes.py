@@ -238,7 +238,7 @@ def test_ctrl_c_keeps_the_trace_says_so_and_prints_the_summary(tmp_path):
         time.sleep(0.2)
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130
+    assert proc.returncode == 130, err
     assert len(err.strip().splitlines()) == 1 and "interrupted at t=" in err, err
     assert f"the trace {trace} is kept" in err
     summary = json.loads(out.strip().splitlines()[-1])

@@ -193,7 +193,7 @@ class Faults:
         level = nvic.execution_priority()
         exc, name = cause.exc, cause.name
         if exc != EXC_HARDFAULT and not (self.board.ppb.faults.enabled(exc) and
-                                    nvic.group_priority(exc) < level):
+                                         nvic.group_priority(exc) < level):
             exc, name = EXC_HARDFAULT, f"{name}, escalated: HFSR FORCED"
         if exc == EXC_HARDFAULT and level < 0:
             return None, name
