@@ -1,6 +1,7 @@
 """The suite's own rules: one ``hexhil()`` helper and one repository root (conftest.py), no
-path into a virtual environment, nothing skipped for a missing package, and a test module whose optional
-extra is missing is one failing test naming the extra instead of a collection error."""
+path into a virtual environment, nothing skipped for a missing package, and a test module
+whose optional extra is missing is one failing test naming the extra instead of a
+collection error."""
 from __future__ import annotations
 
 import re
