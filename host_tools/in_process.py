@@ -21,6 +21,7 @@ from hexhil import chip_names
 from hexhil.firmware import main as firmware_main
 from hexhil.firmware.hal import sim as sim_hal
 from hexhil.firmware.hal.sim import Board
+from hexhil.lifecycle import ctrl_c_behind
 from hexhil.hil.link.firmware_process import IN_PROCESS
 from hexhil.hil.run.limits import RunLimits
 from hexhil.hil.run_result import RunResult
@@ -96,15 +97,18 @@ FirmwareMain = Callable[[Board], None]
 def run_firmware(exchange: Exchange, main: FirmwareMain | None = None) -> None:
     """Boot and run the firmware (``main``, default ours: ``firmware/main.py``'s) until the
     simulator ends the run (``Simulator.run``'s ``in_process``); the simulator's own
-    exception, if it raised one, is raised here."""
+    exception, if it raised one, is raised here, and so is a Ctrl-C, even where the
+    firmware's clean-up raised something else on its way out."""
     wire = Wire(exchange)
-    board = Board(io=wire)
     try:
+        board = Board(io=wire)              # its hello is the link's first exchange
         with contextlib.redirect_stdout(Printed(board)):
             (main or firmware_main.main)(board)
-    except OSError:
-        if wire.error is None:
+    except BaseException as exc:   # the dead link's error, or a clean-up's after a Ctrl-C
+        cause = wire.error or ctrl_c_behind(exc)
+        if cause is None:
             raise
+        raise cause from None
     if wire.error is not None:
         raise wire.error
 

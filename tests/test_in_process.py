@@ -13,6 +13,8 @@ from hexhil.hil.scenario import SCHEMA, load_scenario
 from hexhil.hil.run.lockstep import Simulator
 from hexhil.papers.tactile_hexapod import experiment as th
 from hexhil.in_process import run_firmware
+from hexhil.firmware import main as firmware_main
+from hexhil.hil.run_result import RunInterrupted
 
 from mpy import ROOT
 
@@ -88,3 +90,53 @@ def test_a_host_side_error_is_raised_not_reported_as_the_firmwares():
     again = Simulator(sc, seed=1).run(1.0, in_process=run_firmware)
     assert not again.exceptions and again.sim_time_s == 1.0
     assert again.serial_digest == Simulator(sc, seed=1).run(1.0, python="micropython").serial_digest
+
+
+
+def _cleanup_fails_after(first):
+    """A firmware whose ``finally`` raises on what ``first`` left half done."""
+    def main(board):
+        try:
+            first(board)
+        finally:
+            raise ValueError("the clean-up's own error")
+    return main
+
+
+def _ctrl_c(board):
+    raise KeyboardInterrupt
+
+
+def _run(main, ctrl_c_at_call=None):
+    """A 1 s run of ``main`` in process; the simulator raises a Ctrl-C at that link call."""
+    calls = [0]
+
+    def firmware(exchange):
+        def interrupted(data, closed):
+            calls[0] += 1
+            if calls[0] == ctrl_c_at_call:
+                raise KeyboardInterrupt   # the signal came while the simulator answered
+            return exchange(data, closed)
+        run_firmware(interrupted, main)
+    return Simulator(_bare(gait={"name": "tripod"}), seed=1).run(1.0, in_process=firmware)
+
+
+def test_a_ctrl_c_in_the_firmware_stays_a_ctrl_c_when_its_clean_up_fails():
+    with pytest.raises(RunInterrupted):
+        _run(_cleanup_fails_after(_ctrl_c))
+
+
+def test_the_simulators_ctrl_c_is_raised_when_the_clean_up_fails_on_the_dead_link():
+    with pytest.raises(RunInterrupted):
+        _run(_cleanup_fails_after(firmware_main.main), ctrl_c_at_call=5)
+
+
+@pytest.mark.parametrize("at_call", [1, 2, 30])   # the hello, the first cycle, a later one
+def test_our_firmware_ends_on_a_ctrl_c_at_any_link_call(at_call):
+    with pytest.raises(RunInterrupted):
+        _run(firmware_main.main, ctrl_c_at_call=at_call)
+
+
+def test_the_firmwares_own_error_is_raised_as_it_is():
+    with pytest.raises(ValueError, match="the clean-up's own error"):
+        _run(_cleanup_fails_after(lambda board: None))

@@ -16,6 +16,7 @@ import signal
 import sys
 from typing import Any
 
+from hexhil.lifecycle import ctrl_c_behind
 from hexhil.protocol.errors import UserError
 
 # command name -> (module in this package, one-line help)
@@ -274,15 +275,6 @@ def interrupted_status() -> int:
     return 128 + int(_signalled[0] or signal.SIGINT)
 
 
-def _interrupted(exc: BaseException | None) -> bool:
-    """Whether a Ctrl-C is what ``exc`` came from (an import turns it into ImportError)."""
-    while exc is not None:
-        if isinstance(exc, KeyboardInterrupt):
-            return True
-        exc = exc.__cause__ or exc.__context__
-    return False
-
-
 def main(argv: list[str] | None = None) -> int:
     if argv is None:  # the console script, not a test calling main() in-process
         # numpy's matrices here are small: OpenBLAS's worker threads would only spin on
@@ -318,7 +310,7 @@ def _main(argv: list[str]) -> int:
     except KeyboardInterrupt:
         return interrupted_status()
     except ImportError as exc:   # Ctrl-C inside a C extension's initialisation (MuJoCo's)
-        if _interrupted(exc):
+        if ctrl_c_behind(exc) is not None:
             return interrupted_status()
         raise
     except BrokenPipeError:
