@@ -1,9 +1,8 @@
 """The compiled cores' shared libraries, built by the package (setup.py's ``build_ext``,
-on ``pip install .`` or ``pip install -e .``) beside their Python modules. A core whose
-library is missing or unloadable is ``None``: the ELF board keeps its Python path (the same
-bits, slower; the first such load logs one warning line, so it is never silent); the drive
-bank and the servos' rules have no other implementation, and a world or a servo
-without them is refused in one line.
+on ``pip install .`` or ``pip install -e .``) beside their Python modules. Each core is
+the one implementation of its rules: where its library is missing or unloadable, what needs
+it (a world's drives, a servo, an ELF board) is refused in one line that says why
+(``require``), and ``hexhil --version`` names the state of each.
 
 A core's structs and constants are written once, in Python (a ``Layout``: the ctypes
 fields its Python side reads, and the values it takes from protocol/); setup.py writes
@@ -15,14 +14,11 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
-import logging
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
 from hexhil.protocol.errors import BadFile
-
-log = logging.getLogger(__name__)
 
 _HIL = Path(__file__).parent
 # what each core is, to a user -> its library (the names setup.py builds)
@@ -38,7 +34,7 @@ LAYOUTS: dict[str, str] = {
     "ELF board": "hexhil.hil.mcu.board_layout",
 }
 REBUILD = "pip install -e . (or make) builds it"
-_warned: set[Path] = set()
+_why_not: dict[Path, str] = {}     # a library that did not load -> why, in words
 
 
 # ctypes scalars -> their C types (c_bool is one byte: uint8_t)
@@ -98,26 +94,30 @@ class Layout:
                 f"{self._body()}#define HX_LAYOUT \"{self.fingerprint()}\"\n#endif\n")
 
 
-def load_library(path: Path, keep_gil: bool = False, layout: Layout | None = None,
-                 fallback: bool = True) -> ctypes.CDLL | None:
+def load_library(path: Path, keep_gil: bool = False,
+                 layout: Layout | None = None) -> ctypes.CDLL | None:
     """``keep_gil``: calls hold the GIL (``PyDLL``), for a core whose state Python shares.
     ``layout``: the structs the library must have been built with (``hx_layout``); a
-    library built with others raises BadFile. ``fallback``: its module has a Python path
-    (a missing library is a warning), else the module refuses where it is needed."""
+    library built with others raises BadFile. A missing or unloadable library is None, and
+    ``require`` says why where it is needed."""
     try:
         lib = (ctypes.PyDLL if keep_gil else ctypes.CDLL)(str(path))
     except OSError as exc:
-        if fallback and path not in _warned:
-            _warned.add(path)
-            why = "not built" if not path.exists() else f"not loadable ({exc})"
-            log.warning("compiled core %s is %s: its Python path runs, slower; %s",
-                        path.name, why, REBUILD)
+        _why_not[path] = "not built" if not path.exists() else f"not loadable ({exc})"
         return None
     if layout is not None:
         stale = _stale(lib, layout)
         if stale:
             raise BadFile(f"compiled core {path.name} {stale}: {REBUILD} again")
     return lib
+
+
+def require(lib: ctypes.CDLL | None, path: Path, what: str) -> None:
+    """Refuse, in one line, ``what`` (a world's drive bank, a servo, an ELF board) where its
+    core ``lib`` did not load: the core is its one implementation."""
+    if lib is None:
+        raise BadFile(f"{what} needs compiled core {path.name}, which is "
+                      f"{_why_not.get(path, 'not built')}: {REBUILD}")
 
 
 def _stale(lib: ctypes.CDLL, layout: Layout) -> str | None:

@@ -1,15 +1,14 @@
 """The package builds its compiled cores (setup.py's ``build_ext``, what ``pip install .``
 and ``pip install -e .`` run) where their loaders look, with the flags that keep the
-results' bits; ``hexhil --version`` says which are built; a missing core is one warning; a
-core built from other structs or constants than its Python side's is refused; the cores
-without a Python path (the drives, the servos' health) refuse in one line where they are
-missing."""
+results' bits; ``hexhil --version`` says which are built; a core built from other structs
+or constants than its Python side's is refused; each core is the one implementation of its
+rules, and what needs a missing one (the drives, a servo, an ELF board) is refused in one
+line."""
 from __future__ import annotations
 
 import ctypes
 import dataclasses
 import importlib
-import logging
 import subprocess
 import sys
 from pathlib import Path
@@ -47,22 +46,22 @@ def test_version_names_every_core() -> None:
     assert all(": compiled (" in line for line in out[1:]), out
 
 
-def test_a_missing_core_is_one_warning_line(tmp_path: Path, caplog) -> None:
+def test_a_missing_core_is_refused_where_it_is_needed_in_one_line(tmp_path: Path) -> None:
     missing = tmp_path / "_gone_core.so"
-    with caplog.at_level(logging.WARNING, logger="hexhil.hil.native"):
-        assert native.load_library(missing) is None
-        assert native.load_library(missing, keep_gil=True) is None   # a second loader
-    lines = [r.getMessage() for r in caplog.records]
-    assert len(lines) == 1 and "_gone_core.so is not built" in lines[0], lines
-    assert "\n" not in lines[0]
+    assert native.load_library(missing) is None
+    with pytest.raises(BadFile) as exc:
+        native.require(None, missing, "a servo")
+    assert str(exc.value) == ("a servo needs compiled core _gone_core.so, which is not built: "
+                              "pip install -e . (or make) builds it")
 
 
-def test_an_unloadable_core_says_so(tmp_path: Path, caplog) -> None:
+def test_an_unloadable_core_says_so(tmp_path: Path) -> None:
     stale = tmp_path / "_stale_core.so"
     stale.write_bytes(b"not an ELF")
-    with caplog.at_level(logging.WARNING, logger="hexhil.hil.native"):
-        assert native.load_library(stale) is None
-    assert "not loadable" in caplog.records[0].getMessage()
+    assert native.load_library(stale) is None
+    with pytest.raises(BadFile, match=r"which is not loadable \(.*\): pip install") as exc:
+        native.require(None, stale, "an ELF board")
+    assert "\n" not in str(exc.value)
 
 
 def test_each_core_was_built_with_the_layout_its_python_side_reads() -> None:
@@ -102,7 +101,7 @@ def test_drives_without_their_core_are_refused_in_one_line(monkeypatch) -> None:
     from hexhil.hil.world.actuator import DriveBank
 
     monkeypatch.setattr(drive_core, "_LIB", None)   # as where the library is missing
-    with pytest.raises(BadFile, match=r"_drive_core.so is not built .*builds it$"):
+    with pytest.raises(BadFile, match=r"drive bank needs compiled core _drive_core.so.*it$"):
         DriveBank(np.zeros(2))
 
 
@@ -111,5 +110,5 @@ def test_servos_without_their_core_are_refused_in_one_line(monkeypatch) -> None:
     from hexhil.hil.servobus.ax12_servo import Servo
 
     monkeypatch.setattr(servo_rules, "_LIB", None)   # as where the library is missing
-    with pytest.raises(BadFile, match=r"_servo_core.so is not built .*rules.*builds it$"):
+    with pytest.raises(BadFile, match=r"^a servo needs compiled core _servo_core.so.*builds it$"):
         Servo(1)

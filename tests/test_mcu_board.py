@@ -2,7 +2,6 @@
 (tests/mcu/*.c, registers from RM0383): clocks, SysTick, DWT, the servo line through the
 PA1 buffer at the baud the firmware sets, USART IDLE, the console, timers, EXTI, bxCAN."""
 import json
-import os
 import re
 import subprocess
 import sys
@@ -10,7 +9,6 @@ from pathlib import Path
 
 import pytest
 
-from hexhil.hil.mcu import board_core
 from hexhil.hil.run_result import Ending
 from mcu_elf import build, console, run_elf
 
@@ -127,14 +125,10 @@ def test_tim1_as_the_hal_timebase_with_a_compare_at_ccr_0(tmp_path):
     assert 9_990_000 <= int(words[5]) <= 10_010_000
 
 
-@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
-def test_a_wait_on_ram_is_skipped_to_the_interrupt_and_a_counting_loop_is_not(
-        tmp_path, monkeypatch, compiled):
+def test_a_wait_on_ram_is_skipped_to_the_interrupt_and_a_counting_loop_is_not(tmp_path):
     """HAL_Delay's kind of wait (a loop reading a tick only SysTick's handler changes) and
     `while (!flag) {}` cost no host time: virtual time jumps to each SysTick, and the wait
     lasts what it lasts on the chip. A loop that counts its passes in RAM runs pass by pass."""
-    if not compiled:
-        monkeypatch.setenv("HEXHIL_BOARD_CORE", "python")
     quiet, _ = run_elf(build(tmp_path, "ram_wait.c", "WAIT=1"), 0.35)
     ticks, cycles, passes = map(int, console(quiet)[-1].split())
     assert ticks == 300 and passes == 0
@@ -156,15 +150,11 @@ def test_the_window_watchdog_refreshed_in_its_window_then_left_to_reset(tmp_path
     assert r.firmware.other["mcu"]["reset_causes"] == {"WWDG": 1}
 
 
-@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
-def test_conditional_stores_in_it_blocks_survive_a_watched_interrupt_read(
-        tmp_path, monkeypatch, compiled):
+def test_conditional_stores_in_it_blocks_survive_a_watched_interrupt_read(tmp_path):
     """MicroPython's gc.collect() crash: its SysTick handler reads SysTick->CTRL, the poll
     skipper watches the pass after such a read, and the watch must not change how the code
     around it runs. gc_mark_subtree's `itte ls; strhls; addls; strhi` push went astray
     while a Unicorn store hook watched SRAM; here every push of every round lands."""
-    if not compiled:
-        monkeypatch.setenv("HEXHIL_BOARD_CORE", "python")
     r, _ = run_elf(build(tmp_path, "it_store.c"), 0.06)
     assert r.ending.kind is Ending.COMPLETED, r.ending
     rounds, bad = map(int, console(r)[-1].split())
@@ -198,15 +188,12 @@ EXCEPTION_RULES = {   # tests/mcu/exceptions.c: what the ARMv7-M ARM (B1.5) give
 }
 
 
-@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
-def test_exceptions_follow_the_armv7m_rules(tmp_path, monkeypatch, compiled):
+def test_exceptions_follow_the_armv7m_rules(tmp_path, monkeypatch):
     """Frames with and without the FP context (CONTROL.FPCA, EXC_RETURN), FPSCR and S0-S15
     across a handler, nesting and tail-chaining by priority, PRIMASK and BASEPRI (taken
     right after the unmasking), priority grouping, ICSR's VECTACTIVE, VECTPENDING and
     RETTOBASE, and the stack alignment bit, each as the chip gives it."""
     import hexhil.hil.mcu.board as board_module
-    if not compiled:
-        monkeypatch.setenv("HEXHIL_BOARD_CORE", "python")
     monkeypatch.setattr(board_module, "CONSOLE_TAIL", 64)
     r, _ = run_elf(build(tmp_path, "exceptions.c"), 0.05)
     lines = console(r)
@@ -252,35 +239,29 @@ def test_the_backup_domain_survives_a_system_reset(tmp_path):
 
 
 @pytest.mark.parametrize("mode", ["it", "dma"])
-def test_receive_to_idle_gets_every_ping_as_one_burst_in_c_and_in_python(tmp_path, mode):
-    """USART2 is the compiled core's (board_core.c) and, with HEXHIL_BOARD_CORE=python,
-    usart.py's; USART1 is always usart.py's."""
+def test_receive_to_idle_gets_every_ping_as_one_burst(tmp_path, mode):
+    """USART2's IDLE (the board core's, board_core.c) and USART1's (usart.py), as
+    ``HAL_UARTEx_ReceiveToIdle_IT`` and ``_DMA`` use it, through the command line."""
     elf = build(tmp_path, "idle.c", *(("USE_DMA=1",) if mode == "dma" else ()))
     root = Path(__file__).resolve().parent.parent
-    for core in ("c", "python"):
-        env = {**os.environ, **({"HEXHIL_BOARD_CORE": "python"} if core == "python" else {})}
-        proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "run",
-                               "scenarios/flat-tripod.toml", "--firmware", str(elf),
-                               "--duration", "0.15", "--json", "--quiet"], cwd=root, env=env,
-                              capture_output=True, text=True, timeout=300)
-        assert proc.returncode == 0, proc.stderr
-        lines = [c["text"] for c in json.loads(proc.stdout.splitlines()[-1])["console"]]
-        said = re.fullmatch(rf"idle {mode}: (\d+) pings, (\d+) bursts, gap (\d+) (\d+)",
-                            lines[0])
-        assert said and said.group(1, 2) == ("18", "18"), (core, lines)
-        if mode == "it":   # one frame (10 bits at 1 Mbps) after the last byte's RXNE
-            assert 900 <= int(said[3]) <= int(said[4]) <= 1100, (core, lines)
-        assert lines[1] == "usart1 idle ok", (core, lines)
+    proc = subprocess.run([sys.executable, "-m", "hexhil.cli", "run",
+                           "scenarios/flat-tripod.toml", "--firmware", str(elf),
+                           "--duration", "0.15", "--json", "--quiet"], cwd=root,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    lines = [c["text"] for c in json.loads(proc.stdout.splitlines()[-1])["console"]]
+    said = re.fullmatch(rf"idle {mode}: (\d+) pings, (\d+) bursts, gap (\d+) (\d+)",
+                        lines[0])
+    assert said and said.group(1, 2) == ("18", "18"), lines
+    if mode == "it":   # one frame (10 bits at 1 Mbps) after the last byte's RXNE
+        assert 900 <= int(said[3]) <= int(said[4]) <= 1100, lines
+    assert lines[1] == "usart1 idle ok", lines
 
 
-@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
-def test_a_wait_on_ram_runs_nothing_across_events_that_change_nothing(tmp_path, monkeypatch,
-                                                                     compiled):
+def test_a_wait_on_ram_runs_nothing_across_events_that_change_nothing(tmp_path):
     """With a switch interrupt armed the board meets an event each millisecond between
     SysTick's 10 ms ticks (its sleep to now): a wait confirmed as a fixed point stays
     skipped across each one, no instruction run, since the state is the confirmed one."""
-    if not compiled:
-        monkeypatch.setattr(board_core, "_LIB", None)
     r, _ = run_elf(build(tmp_path, "ram_wait.c", "WAIT=3"), 0.35)
     ticks, cycles, passes = map(int, console(r)[-1].split())
     assert ticks == 30 and passes == 0

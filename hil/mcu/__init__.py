@@ -3,7 +3,7 @@
 ``elf_image`` reads and checks the ELF; ``core`` runs it on Unicorn in chunks of exact
 instruction counts (one instruction is one cycle of HCLK) and does the exception model
 Unicorn leaves out (``armv7m`` holds the architecture's numbers), at the virtual time of
-``timebase``; ``events`` schedules what the peripherals will do; ``system`` (NVIC,
+``timebase``; ``system`` (NVIC,
 SCB, DWT), ``systick``, ``rcc``, ``gpio``, ``usart`` and ``peripherals`` (TIM1-5, TIM9-11,
 DMA, bxCAN1) are the board's peripherals at register level (facts from RM0383), with
 ``flash`` (the FLASH interface: erase and programming) and ``rtc`` (the calendar, the backup
@@ -17,6 +17,7 @@ takes USART1/6 and semihosting, ``poll`` skips waiting, and ``link_client`` spea
 simulator link as a client, so the line, switches, CAN and console reach hil/link/ as any
 runtime's do. ``runtime`` serves an ELF in a run, ``replayed`` under ``hexhil replay``;
 ``gdb`` is ``--gdb``, ``coverage`` is ``--coverage``. ``board_core`` is the hot path
-compiled (USART2, the event heap, the exception model's entry, return and choice), whose
-struct and shared constants ``board_layout`` writes once. docs/elf-firmware.md is the page.
+compiled (the event heap that schedules what the peripherals will do, USART2, SysTick's
+wraps, the exception model's entry, return and choice, the run loop), whose struct and
+shared constants ``board_layout`` writes once. docs/elf-firmware.md is the page.
 """

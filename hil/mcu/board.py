@@ -13,19 +13,17 @@ import logging
 from collections import Counter
 from typing import Any, Callable
 
-from unicorn import UC_HOOK_INTR
 from unicorn import arm_const as A
 
 from hexhil.hil.mcu.armv7m import BRANCH_TO_SELF, EXC_SVCALL, INTR_BKPT, INTR_EXC_EXIT, INTR_SWI
-from hexhil.hil.mcu.board_core import (NativeBoard, NativeEvents, NativeTimer, NativeUsart,
-                                SharedField, native)
+from hexhil.hil.mcu.board_core import (Events, NativeBoard, NativeUsart, SharedField, Timer,
+                                        require)
 from hexhil.hil.mcu.board_loop import (exception_choice, exception_entry, exception_taking,
-                                handed_over, hook_interrupts, trips)
+                                       handed_over, hook_interrupts, trips)
 from hexhil.hil.mcu.console import Console, semihost
 from hexhil.hil.mcu.core import Core, CoreFault
 from hexhil.hil.mcu.deadline import ControlCycles
 from hexhil.hil.mcu.elf_image import ElfImage
-from hexhil.hil.mcu.events import Events, Timer
 from hexhil.hil.mcu.faults import Faults, intr_fault
 from hexhil.hil.mcu.gpio import DIRECTION_PIN, SWITCH_PINS, Exti, GpioPort, Syscfg
 from hexhil.hil.mcu.mmio import PeripheralSpace
@@ -57,20 +55,20 @@ class Board:
 
     def __init__(self, image: ElfImage, exchange: Callable[[bytes, bool], bytes],
                  console_events: Callable[[str], list[tuple[int, str]]],
-                 compiled: bool = True, masked_limit_s: float = MASKED_LIMIT_S) -> None:
+                 masked_limit_s: float = MASKED_LIMIT_S) -> None:
+        require()                     # the hot path in C (hil/mcu/board_core.py)
         self.image = image
         self.console_events = console_events
         self.link = LinkClient(exchange)
         self.core = core = Core(image, HSI_HZ)
         self.shared = core.shared
-        # the compiled hot path (hil/mcu/board_core.py) where it is built, else Python
-        self.native = NativeBoard(self) if compiled and native() else None
-        self.events = NativeEvents(core.shared) if self.native else Events()
-        if self.native:   # in C: exception entry, the NVIC's choice, PA1's turns, the clock
-            core.enter_c = exception_entry(core.shared)
-            core.choose_c = exception_choice(core.shared)
-            self.link.turns = self.native.turns     # out before the next message
-            core.now_fs = self.events.now_fs        # one C call (a callback asks it often)
+        self.native = NativeBoard(self)
+        self.events = Events(core.shared)
+        # in C: exception entry, the NVIC's choice, PA1's turns, the clock
+        core.enter_c = exception_entry(core.shared)
+        core.choose_c = exception_choice(core.shared)
+        self.link.turns = self.native.turns     # out before the next message
+        core.now_fs = self.events.now_fs        # one C call (a callback asks it often)
         self.console = Console(self._console_line)
         self.console_tail: list[str] = []
         self.switches = 0
@@ -90,10 +88,7 @@ class Board:
         self.space.attach(core.uc)
         flash.attach(self)            # stores to flash reach self.flash (hil/mcu/flash.py)
         self._system_memory = device_id.attach(core.uc)   # the unique ID, the flash size
-        if self.native:
-            hook_interrupts(core.shared, core.uc)    # exception returns in C
-        else:
-            core.uc.hook_add(UC_HOOK_INTR, lambda uc, intno, _: self.intr(intno))
+        hook_interrupts(core.shared, core.uc)    # exception returns in C
         self.poll = PollSkipper(self)
         self.quiet = QuietLoops(self)
         self.endings = Endings(self, masked_limit_s)    # _exit, abort, assert, main's return
@@ -109,22 +104,19 @@ class Board:
         core, ev = self.core, self.events
         self.nvic = Nvic(core)
         self.rcc = Rcc(ev, core.now_fs, self._clock_changed)
-        self.systick = SysTick(core, self.nvic, ev, lambda: self.rcc.hclk_hz)
+        self.systick = SysTick(core, ev, lambda: self.rcc.hclk_hz)
         self.ppb = SystemBlock(core, self.nvic, self.systick, self.request_reset)
         self.exti = Exti(self.nvic.line)
         self.irq_lines = IrqLines(self.nvic.line)
         space = self.space
         space.clear()
-        gpio = [GpioPort(n, i, self._gpio_out, self._grounded(i),
-                         core.shared if self.native else None)
+        gpio = [GpioPort(n, i, self._gpio_out, self._grounded(i), core.shared)
                 for i, n in enumerate(("GPIOA", "GPIOB", "GPIOC"))]
         gpio[1].before_input = lambda: self.sync.fresh_switches()
         self.gpio = gpio
         line = self.nvic.line
         self.usart1 = Usart("USART1", 37, core, ev, lambda: self.rcc.pclk2_hz, line, self)
-        self.usart2: Usart | NativeUsart = (
-            NativeUsart("USART2", 38, ev, lambda: self.rcc.pclk1_hz) if self.native else
-            Usart("USART2", 38, core, ev, lambda: self.rcc.pclk1_hz, line, self.line))
+        self.usart2 = NativeUsart("USART2", 38, ev, lambda: self.rcc.pclk1_hz)
         self.usart6 = Usart("USART6", 71, core, ev, lambda: self.rcc.pclk2_hz, line, self)
         self.flash, self.pwr, self.rtc = flash.FlashInterface(self), power(), Rtc(self)
         self.can_listening = False     # bxCAN1 in normal mode: CAN input each millisecond
@@ -204,7 +196,7 @@ class Board:
                self.usart1, self.usart2, self.usart6, *self.extra]
         for periph in old:
             for value in vars(periph).values():
-                if isinstance(value, (Timer, NativeTimer)):
+                if isinstance(value, Timer):
                     value.clear()
         self.poll.forget()
         self.quiet.forget()
@@ -276,30 +268,13 @@ class Board:
         return (f"{text} at PC 0x{pc:08x} in {self.image.function_at(pc)} "
                 f"(t={self.now_us() * 1e-6:.6f} s)")
 
-    def _head(self, max_chunk: int) -> int:
-        """The loop's head (``NativeEvents.head`` in C): the timers due at the core's cycle
-        fired, then the next chunk's length, to the next event."""
-        core, events = self.core, self.events
-        events.fire_due(core.time.fs_at(core.cyc))
-        return max(1, min(core.time.cycle_of(events.next_fs()) - core.cyc, max_chunk))
-
-    def _take_next(self) -> bool:
-        """The pending exception that preempts what runs now taken (``exception_taking``
-        in C): whether there was one."""
-        exc = self.nvic.next_exception()
-        if exc is not None:
-            self.nvic.take(exc)
-        return exc is not None
-
     def run(self) -> None:
         """Boot and run until the host ends the run, the firmware exits or faults
-        (``CoreFault`` carrying the one line). With the compiled board the trips run in C
-        (hil/mcu/board_loop.py) and come here where Python takes part."""
+        (``CoreFault`` carrying the one line). The trips run in C (hil/mcu/board_loop.py)
+        and come here where Python takes part; under GDB each trip runs here."""
         core, events = self.core, self.events     # the NVIC is new after a system reset
-        native = isinstance(events, NativeEvents)
-        head = events.head if native else self._head
-        take_next = exception_taking(core) if native else self._take_next
-        loop = trips(core) if native and self.debugger is None else None
+        head, take_next = events.head, exception_taking(core)
+        loop = trips(core) if self.debugger is None else None   # GDB steps in Python
         self.link.hello()
         n = -1
         while not self.ended and self.exit_code is None and self.endings.verdict is None:

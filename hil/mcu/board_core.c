@@ -1,6 +1,7 @@
 /* The ELF board's hot path compiled (hil/mcu/board_core.py loads it with ctypes): the event
  * heap, USART2 at register level with its byte timing, the servo line's outgoing burst,
- * PA1's turns and PB's switch reads, and the poll skipper's known waits.
+ * PA1's turns and PB's switch reads, SysTick's wraps and CSR reads, the exception model's
+ * entry, return and choice, the run loop, quiet waits and the poll skipper's known waits.
  *
  * It fronts the peripherals' MMIO region for Unicorn: USART2's page, 32-bit stores to
  * GPIOA's ODR and BSRR and reads of GPIOB's IDR are served here, every other access goes
@@ -9,8 +10,9 @@
  * due, USART2's interrupt line high, the transmitter going idle (the servo line's burst is
  * sent), a DMA request, a poll loop seen for the first time, USART2's bus clock once a
  * clock change. It also runs the board's loop (``bc_loop``) while no Python takes part.
- * Each function is the Python model's (hil/mcu/usart.py, events.py, poll.py, board.py,
- * core.py) in the same order with the same integers, so traces are the same bytes. */
+ * USART2 follows the rules usart.py gives USART1 and USART6; the exception entry and return
+ * here are core.py's plain cases (a frame in SRAM, a handler in the table), which Python
+ * takes where anything is not plain (a fault to name, a frame off SRAM). */
 #include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -76,7 +78,7 @@ static int64_t cycle_of(bc_t *s, int64_t fs) {
 
 int64_t bc_now_fs(bc_t *s) { return fs_at(s, now_cyc(s)); }
 
-/* --- the event heap (events.py: ties in the order set) ------------------------------- */
+/* --- the event heap (board_core.py ``Events``: ties in the order set) ------------------ */
 static int before(entry_t *a, entry_t *b) {
     return a->at < b->at || (a->at == b->at && a->seq < b->seq);
 }
@@ -662,8 +664,8 @@ uint64_t bc_ppb_read(void *uc, uint64_t offset, unsigned size, void *ud) {
     return value;
 }
 
-/* the PC as Unicorn's registers say it (the public engine's word holds the last
-   instruction's own address) */
+/* the PC as Unicorn's registers say it (bc_count's word holds the last instruction's own
+   address) */
 static uint32_t reg_pc(bc_t *s) {
     int rid = s->regid[REG_PC];
     uint64_t pc = 0;
@@ -679,8 +681,8 @@ static uint32_t reg_pc(bc_t *s) {
  * goes to board.py's _intr. */
 static int leave(bc_t *s) {
     if (!s->pc || !s->uc || s->nactive < 1 || s->pending_n || s->sleeping) return 0;
-    /* Unicorn's PC word holds the EXC_RETURN branched to; bc_count's the branch's address */
-    uint32_t exc_return = (s->engine_counts ? *s->pc : reg_pc(s)) | 1;
+    /* Unicorn's registers hold the EXC_RETURN branched to (bc_count's word the branch's) */
+    uint32_t exc_return = reg_pc(s) | 1;
     int exc = s->active[s->nactive - 1];
     int to_thread = (exc_return & 0xF) == (RETURN_THREAD_MSP & 0xF) ||
                     (exc_return & 0xF) == (RETURN_THREAD_PSP & 0xF);
@@ -950,21 +952,16 @@ static int64_t run_chunk(bc_t *s, int64_t n) {
     s->quiet_hold = 0;
     s->running = 1;
     s->hook_failed = 0;
-    int err;
-    if (s->engine_counts) {
-        err = s->emu_start(s->uc, (uint32_t)s->pc_next | 1, 0, 0, (size_t)n);
-    } else {
-        s->pub_count = 0;
-        s->pub_limit = (uint64_t)n;
-        err = s->emu_start(s->uc, (uint32_t)s->pc_next | 1, 0, 0, 0);
-    }
+    s->pub_count = 0;
+    s->pub_limit = (uint64_t)n;
+    int err = s->emu_start(s->uc, (uint32_t)s->pc_next | 1, 0, 0, 0);
     s->running = 0;
     if (s->hook_failed) {         /* raised as Unicorn's wrapper would: nothing updated */
         s->loop_exc = LOOP_HOOK_FAILED;
         return -1;
     }
     int64_t ran = (int64_t)*s->ctr - 1;
-    s->pc_next = s->engine_counts ? *s->pc : reg_pc(s);
+    s->pc_next = reg_pc(s);
     if (!err && ran < n && !s->stopped && !s->cut) {
         if (s->pc_next == 0) {
             s->loop_exc = LOOP_NULL_JUMP;

@@ -1,24 +1,19 @@
 """The ELF board's hot path compiled (hil/mcu/board_core.c), through ctypes: the event heap,
 USART2 with its byte timing, the servo line's outgoing burst, PA1's turns and PB's switch
-reads, SysTick's CSR reads, and the poll skipper's known waits and known non-waits.
+reads, SysTick's CSR reads and wraps, the exception model's entry, return and choice, and
+the poll skipper's known waits and known non-waits.
 
 A firmware sending servo packets spends its time on USART2: a byte written to DR, a poll of
-TXE skipped to the byte's end, the next byte. In Python each of those is a register
-callback, a poll check, a jump, an event and a byte handed to the servo line; the C code
-fronts the peripherals' MMIO region and does them without Python, which it calls only where
-the board's Python state takes part (a Python timer due, USART2's interrupt line high, the
-transmitter idle: the burst goes to the link, a DMA request, a poll loop seen for the first
-time, USART2's bus clock after a clock change). ``Shared`` is the state both sides read: the
-core's time and its state between chunks (hil/mcu/core.py; a jump in C moves the chunk's
-origin), the poll skipper's (hil/mcu/poll.py), the NVIC's bits, USART2's registers and
-GPIO's (MODER, PUPDR, ODR), the switches and PA1's turns not yet posted to the link. The
-board's loop runs in C too (hil/mcu/board_loop.py).
-
-The Python models stay the reference (events.py, usart.py, servo_line.py): the same
-operations in the same order, the same integers, so the traces are the same bytes
-(tests/test_board_core.py runs both). ``make`` builds ``_board_core.so`` beside this file
-with the pinned ziglang's C compiler; without it, or with ``HEXHIL_BOARD_CORE=python``, the
-board runs in Python.
+TXE skipped to the byte's end, the next byte. The C code fronts the peripherals' MMIO region
+and does them without Python, which it calls only where the board's Python state takes part
+(a Python timer due, USART2's interrupt line high, the transmitter idle: the burst goes to
+the link, a DMA request, a poll loop seen for the first time, USART2's bus clock after a
+clock change). ``Shared`` is the state both sides read: the core's time and its state
+between chunks (hil/mcu/core.py; a jump in C moves the chunk's origin), the poll skipper's
+(hil/mcu/poll.py), the NVIC's bits, USART2's registers and GPIO's (MODER, PUPDR, ODR), the
+switches and PA1's turns not yet posted to the link. The board's loop runs in C too
+(hil/mcu/board_loop.py). The package builds ``_board_core.so`` beside this file; without it
+no ELF board is made (``require``).
 """
 from __future__ import annotations
 
@@ -32,12 +27,13 @@ from typing import Any, Callable
 from hexhil.hil.mcu.board_layout import (LAYOUT, PY_CALL, PY_DMA_RX, PY_DMA_TX, PY_FAILED,
                                           PY_IDLE, PY_INTR, PY_LINE, PY_PCLK, PY_POLLED,
                                           PY_RAISED, PY_SWITCHES, PY_TIMER, USART2_IRQ)
+from hexhil.hil import native
 from hexhil.hil.native import load_library
 from hexhil.protocol.errors import BadFile, UserError
 
 LIBRARY = Path(__file__).with_name("_board_core.so")
 _P, _I32, _I64 = ctypes.c_void_p, ctypes.c_int32, ctypes.c_int64
-# virtual time in C is int64 femtoseconds: 9,223 s; a longer run is served in Python
+# virtual time in C is int64 femtoseconds: 9,223 s; a longer ELF run is refused at its start
 MAX_US = 9_000_000_000
 
 
@@ -65,8 +61,6 @@ class SharedField:
 
 def _load() -> tuple[Any, str | None]:
     """The library, or None; and why a library that is there cannot run, or None."""
-    if os.environ.get("HEXHIL_BOARD_CORE") == "python":
-        return None, None
     try:   # its calls call back into Python
         lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT)
     except BadFile as exc:   # built from other sources: refused where a board is made
@@ -103,30 +97,31 @@ def _load() -> tuple[Any, str | None]:
 _LIB, _MISMATCH = _load()
 
 
-def native() -> bool:
-    """Whether boards made now run their hot path in C (a library built from other
-    sources refuses to run, in one line)."""
+def require() -> None:
+    """An ELF board is made only where its core is compiled and was built from these
+    sources (one line otherwise)."""
     if _MISMATCH is not None:
-        raise BadFile(f"{_MISMATCH}, or run the board in Python with HEXHIL_BOARD_CORE=python")
-    return _LIB is not None
+        raise BadFile(_MISMATCH)
+    native.require(_LIB, LIBRARY, "an ELF board")
 
 
 def library() -> Any:
-    """The loaded ``_board_core.so`` (None where the board runs in Python)."""
+    """The loaded ``_board_core.so`` (None where it is not built)."""
     return _LIB
 
 
 def too_long(at_fs: int) -> UserError:
-    return UserError(f"the compiled ELF board counts virtual time to {MAX_US // 10**6} s; "
-                     f"t={at_fs // 10**15} s is beyond it: run with HEXHIL_BOARD_CORE=python")
+    return UserError(f"the ELF board counts virtual time to {MAX_US // 10**6} s "
+                     f"(64-bit femtoseconds); t={at_fs // 10**15} s is beyond it")
 
 
-class NativeTimer:
-    """events.py's ``Timer`` on the C heap: ``set`` moves it, ``clear`` cancels it."""
+class Timer:
+    """One scheduled thing of a peripheral on the C heap (the end of a UART byte, a SysTick
+    wrap, a timer update): ``set`` moves it, ``clear`` cancels it."""
 
     __slots__ = ("fn", "tid", "_events")
 
-    def __init__(self, events: "NativeEvents", fn: Callable[[int], None], tid: int) -> None:
+    def __init__(self, events: "Events", fn: Callable[[int], None], tid: int) -> None:
         self.fn, self.tid, self._events = fn, tid, events
 
     @property
@@ -143,22 +138,25 @@ class NativeTimer:
         _LIB.bc_timer_clear(self._events.ref, self.tid)
 
 
-class NativeEvents:
-    """events.py's ``Events`` on the C heap: one heap for the Python timers and USART2's
-    byte end, ties fired in the order set."""
+class Events:
+    """What the peripherals have scheduled, in virtual femtoseconds, on one C heap: the
+    Python timers and C's own (USART2's byte end, SysTick's wrap, the servo line's reply
+    bytes), ties fired in the order set. A chunk of instructions ends at the earliest, so a
+    flag changes at its exact cycle; a poll of a flag whose change is scheduled can jump
+    straight to it (hil/mcu/poll.py)."""
 
     def __init__(self, shared: Shared) -> None:
         self.shared = shared
         self.ref = ctypes.byref(shared)
-        self._timers: dict[int, NativeTimer] = {}
+        self._timers: dict[int, Timer] = {}
         self._error: BaseException | None = None
         self._fire = PY_TIMER(self._fired)
         shared.py_timer = self._fire
         shared.next_at = -1
         weakref.finalize(self, _LIB.bc_free, self.ref)
 
-    def timer(self, fn: Callable[[int], None]) -> NativeTimer:
-        t = NativeTimer(self, fn, _LIB.bc_timer_new(self.ref))
+    def timer(self, fn: Callable[[int], None]) -> Timer:
+        t = Timer(self, fn, _LIB.bc_timer_new(self.ref))
         self._timers[t.tid] = t
         return t
 
@@ -178,7 +176,7 @@ class NativeEvents:
             raise exc
 
     def now_fs(self) -> int:
-        """core.py ``now_fs`` in one C call (``bc_now_fs``): the same integer."""
+        """The core's time in one C call (``bc_now_fs``)."""
         return _LIB.bc_now_fs(self.ref)
 
     def next_fs(self) -> int | None:
@@ -186,8 +184,8 @@ class NativeEvents:
         return None if at < 0 else at
 
     def head(self, max_chunk: int) -> int:
-        """The board's loop head in C (board.py ``run``): the timers due at the core's
-        cycle fired, then the next chunk's length."""
+        """The board's loop head (board.py ``run``): the timers due at the core's cycle
+        fired, then the next chunk's length, to the next event."""
         n = _LIB.bc_head(self.ref, max_chunk)
         if n < 0:
             self.raise_error()
@@ -206,14 +204,14 @@ class NativeUsart:
 
     pollable = frozenset({0x00, 0x0C, 0x10, 0x14, 0x08})
 
-    def __init__(self, name: str, irq: int, events: NativeEvents,
+    def __init__(self, name: str, irq: int, events: Events,
                  pclk_hz: Callable[[], int]) -> None:
         self.name, self.irq, self.pclk_hz = name, irq, pclk_hz
         self.events = events
         st = events.shared
         if st.u2_tid < 0:
             st.u2_tid = _LIB.bc_timer_new(events.ref)
-        self.shift_end = NativeTimer(events, lambda at: None, st.u2_tid)
+        self.shift_end = Timer(events, lambda at: None, st.u2_tid)
         _LIB.bc_usart_reset(events.ref)
         self.dma_tx: Callable[[], int | None] | None = None
         self.dma_rx: Callable[[int], bool] | None = None
@@ -325,7 +323,8 @@ class NativeBoard:
         st.rx_n = st.rx_head = 0
 
     def burst(self) -> tuple[bytes, int, int] | None:
-        """The bytes USART2 sent since the last take: (bytes, first byte's start, PA1)."""
+        """The bytes USART2 sent since the last take: (bytes, first byte's start, PA1),
+        or None."""
         st = self.board.core.shared
         if not st.burst_n:
             return None

@@ -124,10 +124,10 @@ BC = [
     # exception waits
     ("mmio_n", _I64), ("chunk_mmio", _I64), ("quiet_n", _I64), ("quiet_wait", _I64),
     ("quiet_loud", _I64), ("masked_steps", _I64),
-    # the public engine (engine.py): a UC_HOOK_CODE counts here what Unicorn's own count
-    # would, the count given right after it, as Unicorn keeps the two; the running
-    # instruction's PC; 1: Unicorn counts (emu_start's count), 0: bc_count does
-    ("pub_count", _U64), ("pub_limit", _U64), ("pub_pc", _U32), ("engine_counts", _I32),
+    # the instruction count (engine.py): a UC_HOOK_CODE counts here what Unicorn's own
+    # count would, the count given right after it, as Unicorn keeps the two; the running
+    # instruction's PC
+    ("pub_count", _U64), ("pub_limit", _U64), ("pub_pc", _U32), ("_pad4", _I32),
     # USART2's IDLE (usart.py): when the line will have been idle a frame (0: no byte
     # since), SR read with IDLE set (a DR read clears it), its timer (with IDLEIE)
     ("u2_idle_at", _I64), ("u2_idle_live", _I32), ("u2_idle_tid", _I32),

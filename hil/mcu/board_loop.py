@@ -1,13 +1,14 @@
 """The board's run loop and its exceptions in C (hil/mcu/board_core.c), through ctypes.
 
-board.py ``run`` is the reference: each trip fires the timers due, takes the exception that
-preempts, sleeps through WFI or runs a chunk, then looks for a lockup and the poll skipper's
-next step. ``bc_loop`` does those trips in C, calling ``uc_emu_start`` itself, for as long
-as no Python callback took part; it hands the trip to Python where one did (a Python timer
-in the head, a Python register or link call in the chunk, a poll loop watched), where a
-lockup may be starting, and for everything Python names (a fault, an entry off SRAM); a quiet
-wait (hil/mcu/quiet.py) it checks and skips itself. A run
-has about 20,000 trips, most of them a wake-up, a short handler and WFI again.
+Each trip fires the timers due, takes the exception that preempts, sleeps through WFI or
+runs a chunk, then looks for a lockup and the poll skipper's next step. ``bc_loop`` does
+those trips in C, calling ``uc_emu_start`` itself, for as long as no Python callback took
+part; it hands the trip to Python (board.py ``run``) where one did (a Python timer in the
+head, a Python register or link call in the chunk, a poll loop watched), where a lockup may
+be starting, and for everything Python names (a fault, an entry off SRAM); a quiet wait
+(hil/mcu/quiet.py) it checks and skips itself. Under GDB, which stops between any two
+instructions, board.py takes each trip. A run has about 20,000 trips, most of them a
+wake-up, a short handler and WFI again.
 """
 from __future__ import annotations
 
@@ -65,12 +66,9 @@ def exception_taking(core: Any) -> Callable[[], bool]:
     return taken
 
 
-def trips(core: Any) -> Callable[[int, int], int] | None:
+def trips(core: Any) -> Callable[[int, int], int]:
     """``bc_loop`` for ``core``: (the longest chunk, the length of a trip whose head Python
-    saw or -1) -> the LOOP_* code of where Python goes on. None where the engine's PC word
-    was not found (core.py ``_find_pc``): the loop then runs in Python."""
-    if not core.shared.pc:
-        return None
+    saw or -1) -> the LOOP_* code of where Python goes on."""
     ref, loop = ctypes.byref(core.shared), library().bc_loop
     return lambda max_chunk, n: loop(ref, max_chunk, n)
 

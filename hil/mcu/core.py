@@ -4,8 +4,8 @@ Unicorn runs Thumb-2 and the FPU but has no NVIC: exception entry (the 8-word fr
 26 words with the FPU's S0-S15 and FPSCR), EXC_RETURN and the return are done here.
 Virtual time counts instructions, one instruction one cycle of HCLK (no wait states, no
 pipeline refills, no stacking cycles: say it as it is). The count inside a chunk comes
-from Unicorn's own instruction counter, whose place in its engine struct is found by
-calibration once per process, so a register read knows its exact cycle.
+from the board core's instruction hook (hil/mcu/engine.py), so a register read knows its
+exact cycle.
 
 Stopping: only a register *read* may stop a chunk (``stop``; the load is then executed
 again on resume, so only side-effect-free reads stop), never a write (Unicorn executes the
@@ -17,7 +17,7 @@ import ctypes
 import struct
 from typing import Callable
 
-from unicorn import (UC_ARCH_ARM, UC_HOOK_INTR, UC_MODE_MCLASS, UC_MODE_THUMB, UC_PROT_ALL,
+from unicorn import (UC_ARCH_ARM, UC_MODE_MCLASS, UC_MODE_THUMB, UC_PROT_ALL,
                      UC_PROT_EXEC, UC_PROT_READ, Uc, UcError)
 from unicorn import arm_const as A, unicorn_const as U
 from unicorn.unicorn_py3.unicorn import uclib
@@ -27,8 +27,8 @@ from hexhil.hil.mcu.armv7m import (CONTROL_FPCA, CONTROL_SPSEL, RETURN_HANDLER, 
                                    XPSR_THUMB)
 from hexhil.hil.mcu.board_core import Shared, SharedField, library
 from hexhil.hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
-from hexhil.hil.mcu.engine import EngineKind, Regs, attach_engine, regs_place
-from hexhil.hil.mcu.timebase import FS_PER_S, FS_PER_US, TimeBase
+from hexhil.hil.mcu.engine import Regs, attach_engine
+from hexhil.hil.mcu.timebase import FS_PER_S, TimeBase
 
 ERASED = 0xFF                # an erased flash byte (RM0383 3.5)
 FRAME_REGS = (A.UC_ARM_REG_R0, A.UC_ARM_REG_R1, A.UC_ARM_REG_R2, A.UC_ARM_REG_R3,
@@ -92,7 +92,7 @@ class Core:
         self._batches: dict[tuple[int, ...], Regs] = {}
         # the time and the chunk's origin live where the compiled board sees them
         self.shared = st = Shared(u2_tid=-1, st_tid=-1, rx_tid=-1, next_at=-1)
-        self.engine = attach_engine(uc, st, library())     # hil/mcu/engine.py
+        attach_engine(uc, st, library())     # hil/mcu/engine.py
         self._ctr = ctypes.c_uint64.from_address(st.ctr)
         self._limit = ctypes.c_uint64.from_address(st.ctr + 8)   # the chunk's length
         self.time = TimeBase(hz, st)
@@ -103,8 +103,7 @@ class Core:
         self.choose_c: Callable[[], int] | None = None
         self._fpscr0 = uc.reg_read(A.UC_ARM_REG_FPSCR)
         self.reset()
-        self._pc_word = (self._find_pc() if self.engine is EngineKind.CALIBRATED else
-                         ctypes.c_uint32.from_address(st.pc))
+        self._pc_word = ctypes.c_uint32.from_address(st.pc)   # the running instruction's
 
     def _share_exceptions(self, st: Shared) -> None:
         """What the compiled board's exception return (board_core.c) reads and writes: the
@@ -134,25 +133,6 @@ class Core:
     def _pop(self) -> int:
         self.shared.nactive -= 1
         return self.shared.active[self.shared.nactive]
-
-    def _find_pc(self) -> ctypes.c_uint32 | None:
-        """The PC's word in this engine's CPU state (``regs_place``), checked here too."""
-        place = regs_place()
-        if place is None:
-            return None
-        cpu = (ctypes.c_uint64 * (place[0] + 1)).from_address(
-            ctypes.cast(self.uc._uch, ctypes.c_void_p).value)[place[0]]
-        if not cpu:
-            return None
-        r12 = self.uc.reg_read(A.UC_ARM_REG_R12)
-        self.uc.reg_write(A.UC_ARM_REG_R12, 0x5A5A1234)
-        same = ctypes.c_uint32.from_address(cpu + place[1] + 48).value == 0x5A5A1234
-        self.uc.reg_write(A.UC_ARM_REG_R12, r12)
-        if not same:
-            return None
-        word = ctypes.c_uint32.from_address(cpu + place[1] + 60)
-        self.shared.pc = ctypes.addressof(word)
-        return word
 
     def reset(self) -> None:
         """The core's reset: thread mode on MSP from the vector table, the masks clear,
@@ -245,18 +225,15 @@ class Core:
         st.stopped = st.cut = 0
         st.running = 1
         try:
-            if st.engine_counts:
-                uc.emu_start(self.pc | 1, 0, 0, n)
-            else:
-                st.pub_count, st.pub_limit = 0, n
-                uc.emu_start(self.pc | 1, 0, 0, 0)
+            st.pub_count, st.pub_limit = 0, n
+            uc.emu_start(self.pc | 1, 0, 0, 0)
             error = None
         except UcError as exc:
             error = exc
         finally:
             st.running = 0
         ran = self._ctr.value - 1
-        self.pc = self.pc_now() if st.engine_counts else self.reg(A.UC_ARM_REG_PC)
+        self.pc = self.reg(A.UC_ARM_REG_PC)
         if error is None and ran < n and not self.stopped and not self.cut:
             if self.pc == 0:
                 raise CoreFault("a jump to address 0 (a null function pointer)", ("null", 0))
@@ -275,10 +252,7 @@ class Core:
     def pc_now(self) -> int:
         """The PC of the instruction running now (inside a callback of a chunk), or the
         next one's (between chunks)."""
-        word = self._pc_word
-        if word is None:
-            return self.reg(A.UC_ARM_REG_PC)
-        return word.value
+        return self._pc_word.value
 
     def reg(self, reg_id: int) -> int:
         one = self._one

@@ -1,7 +1,7 @@
 """``--coverage FILE.info``: line coverage of the firmware's own sources, as LCOV.
 
 Unicorn reports every basic block it runs (address, size), counted in C
-(board_core.c ``bc_cover_block``; in Python where the compiled core is not built); at the
+(board_core.c ``bc_cover_block``); at the
 end each block's executions are given to the lines the ELF's DWARF line table places in
 it. Every line the table knows is listed, a line never run with 0, so genhtml or a CI
 report shows what a scenario leaves untested. The firmware's own sources are those of its
@@ -121,12 +121,7 @@ class LineCounter:
     def __init__(self, image: ElfImage, uc: Uc, libraries: bool = False) -> None:
         self.image = image
         self.libraries = libraries
-        self._blocks: Counter[tuple[int, int]] = Counter()
         lib = library()
-        if lib is None:
-            self._cover = None
-            uc.hook_add(UC_HOOK_BLOCK, self._block)
-            return
         code = sum(len(seg.data) for seg in image.segments)
         slots = 1 << max(12, (2 * code).bit_length())     # a block holds 2 bytes or more
         self._keys, self._counts = (_U64 * slots)(), (_U64 * slots)()
@@ -138,14 +133,9 @@ class LineCounter:
                              ctypes.addressof(self._cover), 1, 0):
             raise RuntimeError("libunicorn refused the compiled block hook")
 
-    def _block(self, uc: Uc, address: int, size: int, _: object) -> None:
-        self._blocks[(address, size)] += 1
-
     @property
     def blocks(self) -> Counter[tuple[int, int]]:
         """How often each (address, size) block ran."""
-        if self._cover is None:
-            return self._blocks
         if self._cover.lost:
             raise UserError(f"coverage: {self._cover.lost} blocks found no room in the "
                             "count table", params=("coverage",))

@@ -7,9 +7,9 @@ instant. The peripheral callbacks go straight through ctypes (Unicorn's Python w
 costs two more Python frames an access) and find their peripheral in one dict of the
 pages that answer now: a peripheral whose RCC clock is off is not there (the access is
 logged once and reads 0), and the dict is rebuilt at each RCC write. A side-effect-free
-read of a pollable register goes to the poll skipper (hil/mcu/poll.py). With the compiled
-board (hil/mcu/board_core.c) its callbacks front the region: USART2's page is served in C,
-every other page here.
+read of a pollable register goes to the poll skipper (hil/mcu/poll.py). The board core's
+callbacks (hil/mcu/board_core.c) front the region: USART2's page, GPIOA's ODR and BSRR,
+GPIOB's IDR and SysTick's CSR are served in C, every other register here.
 """
 from __future__ import annotations
 
@@ -48,12 +48,9 @@ class PeripheralSpace:
     def attach(self, uc: Uc) -> None:
         self._callbacks = (MMIO_READ_CFUNC(self.read), MMIO_WRITE_CFUNC(self.write),
                            MMIO_READ_CFUNC(self.ppb_read), MMIO_WRITE_CFUNC(self.ppb_write))
-        read, write, data = self._callbacks[:2] + (None,)
-        ppb_read = self._callbacks[2]
-        if self.board.native is not None:
-            shared = self.board.core.shared
-            read, write, ppb_read = front(shared, *self._callbacks[:3])
-            data = ctypes.addressof(shared)
+        shared = self.board.core.shared
+        read, write, ppb_read = front(shared, *self._callbacks[:3])
+        data = ctypes.addressof(shared)
         if uclib.uc_mmio_map(uc._uch, PERIPH_BASE, PERIPH_SIZE, read, data, write, data):
             raise RuntimeError("Unicorn refused to map the peripherals")
         if uclib.uc_mmio_map(uc._uch, PPB_BASE, PPB_SIZE, ppb_read, data,

@@ -80,8 +80,7 @@ class PollSkipper:
             core.stop()
         else:
             self._loops_ok[watch[0][:2]] = False
-            if self.board.native is not None:
-                add_not_loop(self._st, *watch[0][:2])
+            add_not_loop(self._st, *watch[0][:2])
             self._end_watch()
         return False
 
@@ -90,8 +89,7 @@ class PollSkipper:
         was confirmed pure, so until the next event it could only read the same again."""
         self._waits.add((pc, addr, value))
         self._wait_values.add((addr, value))
-        if self.board.native is not None:
-            add_wait(self._st, pc, addr, value)
+        add_wait(self._st, pc, addr, value)
 
     def _jump_here(self) -> bool:
         """Skip a known poll loop inside the chunk: time jumps to the next event, which

@@ -22,8 +22,9 @@ nothing the loop sees (the link's millisecond tick, a timer whose interrupt is o
 when no exception was taken and the state is still the confirmed one, to the bit, time
 jumps to the following event at once, without running the two passes again.
 
-The compiled board (hil/mcu/board_core.c) takes the same steps in its loop, on copies of its
-own, so a quiet wait costs no call into Python; the board in Python takes them here.
+The board core (hil/mcu/board_core.c) takes the same steps in its loop, on copies of its
+own, so a quiet wait costs no call into Python; a trip the loop hands to Python (an
+exception Python enters, a sleep with nothing scheduled) takes them here.
 """
 from __future__ import annotations
 
@@ -55,10 +56,9 @@ class QuietLoops:
         self._seen: tuple[int, list[int], bytes] | None = None   # (cycle, registers, SRAM)
         self._held: tuple[list[int], bytes] | None = None        # a confirmed fixed point
         self._backoff = 1
-        if board.native is not None:       # the same steps in C (board_core.c)
-            ids = (ctypes.c_int32 * len(STATE_REGS))(*STATE_REGS)
-            if not library().bc_quiet_init(ctypes.byref(self._st), ids, len(STATE_REGS)):
-                raise MemoryError("the compiled board core got no buffers for quiet loops")
+        ids = (ctypes.c_int32 * len(STATE_REGS))(*STATE_REGS)   # the same steps in C
+        if not library().bc_quiet_init(ctypes.byref(self._st), ids, len(STATE_REGS)):
+            raise MemoryError("the board core got no buffers for quiet loops")
 
     def quiet_chunk(self, ran: int) -> None:
         """A chunk of ``ran`` instructions made no register access and did not sleep."""

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from typing import Callable
 
-from hexhil.hil.mcu.events import Events
+from hexhil.hil.mcu.board_core import Events
 from hexhil.hil.mcu.platform import clock_bits
 
 HSI_HZ = 16_000_000

@@ -13,7 +13,7 @@ from typing import Callable
 from hexhil.hil.link.firmware_process import DirectConnection
 from hexhil.hil.mcu import flash_fs
 from hexhil.hil.mcu.board import Board
-from hexhil.hil.mcu.board_core import MAX_US
+from hexhil.hil.mcu.board_core import MAX_US, too_long
 from hexhil.hil.mcu.core import CoreFault
 from hexhil.hil.mcu.elf_image import ElfImage
 from hexhil.hil.mcu.gdb import SIGABRT, SIGINT, GdbServer, fault_signal
@@ -32,10 +32,11 @@ def serve_elf(image: ElfImage, server: LinkHost, end_us: int, result: RunTally,
     is laid into flash before the boot, and the flash filesystem read back into ``fs_out``
     after the run (hil/mcu/flash_fs.py). A verdict of hil/mcu/verdicts.py (an exit, an
     abort, an assertion, a masked hang) is the run's ending, exit 1."""
+    if end_us > MAX_US:
+        raise too_long(end_us * 10**9)
     conn = DirectConnection(lambda c, msgs, closed: server.answer(c, msgs, closed, end_us,
                                                                   result))
-    board = Board(image, conn.exchange, console_events, compiled=end_us <= MAX_US,
-                  masked_limit_s=masked_limit_s)
+    board = Board(image, conn.exchange, console_events, masked_limit_s=masked_limit_s)
     if fs_image is not None:
         board.core.uc.mem_write(flash_fs.FS_BASE, fs_image)
     tracer = None

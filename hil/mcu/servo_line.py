@@ -15,7 +15,6 @@ from typing import Any
 
 from hexhil.hil.mcu.board_core import SharedField
 from hexhil.hil.mcu.timebase import FS_PER_US
-from hexhil.hil.mcu.usart import Usart
 from hexhil.hil.servobus.line import resample
 
 LINE_BAUD = 1_000_000
@@ -29,15 +28,11 @@ class ServoLine:
         self.board = board
         self.shared = board.core.shared
         self.direction = 0
-        self._burst = bytearray()
-        self._burst_fs = 0
-        self._burst_dir = 0
         self._bad_baud: set[int] = set()
         self.rx_timer = board.events.timer(self.rx_arrives)
-        self.deliver_timer = board.events.timer(self.deliver)
-        if board.native:          # the compiled heap delivers the bytes (board_core.c)
-            board.core.shared.rx_tid = self.deliver_timer.tid
-        self._rx_queue: list[tuple[int, int]] = []
+        # the C heap hands the reply bytes to USART2 at their times (board_core.c)
+        self.deliver_timer = board.events.timer(lambda at_fs: None)
+        self.shared.rx_tid = self.deliver_timer.tid
         self._rx_burst = (0, 0)        # (first byte's arrival, bytes back to back)
 
     def reply(self, next_rx_us: int, pending: int) -> None:
@@ -48,12 +43,8 @@ class ServoLine:
         else:
             self.rx_timer.clear()
 
-    def sent(self, usart: Usart, byte: int, start_fs: int, end_fs: int) -> None:
-        if not self._burst:
-            self._burst_fs, self._burst_dir = start_fs, self.direction
-        self._burst.append(byte)
-
-    def idle(self, usart: Usart, at_fs: int) -> None:
+    def idle(self, usart: Any, at_fs: int) -> None:
+        """USART2's transmitter went idle (TC): its burst goes out."""
         self.flush()
 
     def pin(self, level: int) -> None:
@@ -61,18 +52,14 @@ class ServoLine:
         if level != self.direction:
             self.direction_turned(level)
 
-    def _gather(self) -> None:
-        """The compiled USART2 (hil/mcu/board_core.c) keeps the burst it sends: take it."""
-        got = self.board.native.burst() if self.board.native else None
-        if got is not None:
-            self._burst = bytearray(got[0])
-            self._burst_fs, self._burst_dir = got[1], got[2]
-
     def flush(self) -> None:
-        self._gather()
-        if not self._burst:
-            return
-        tx, self._burst = bytes(self._burst), bytearray()
+        """The bytes USART2 sent since the last burst (board_core.c keeps them), as one
+        line request."""
+        got = self.board.native.burst()
+        if got is not None:
+            self._send(*got)
+
+    def _send(self, tx: bytes, start_fs: int, direction: int) -> None:
         line = int(self.board.link.config.get("baud", LINE_BAUD))
         baud = round(self.board.usart2.baud())
         if abs(baud - line) > BAUD_TOLERANCE * line:
@@ -84,27 +71,25 @@ class ServoLine:
                                       f"the servo line at {line}: the servos hear garbage and "
                                       "never answer")
             tx = resample(tx, max(1, baud), line)
-        self.board.cycles.burst(self._burst_fs, self.board.rcc.hclk_hz, tx)   # deadline.py
-        self.board.sync.take(self.board.link.line(self._burst_fs // FS_PER_US, tx,
-                                             bool(self._burst_dir), False, 0))
+        self.board.cycles.burst(start_fs, self.board.rcc.hclk_hz, tx)   # deadline.py
+        self.board.sync.take(self.board.link.line(start_fs // FS_PER_US, tx,
+                                                  bool(direction), False, 0))
 
     def direction_turned(self, level: int) -> None:
-        usart = self.board.usart2
-        self._gather()
-        if self._burst and usart.shift_end.at_fs is not None and not level:
-            self._burst.pop()     # the byte on the wire now is cut by the turn
+        native = self.board.native
+        got = native.burst()
+        if got is not None and self.board.usart2.shift_end.at_fs is not None and not level:
+            got = (got[0][:-1], *got[1:])    # the byte on the wire now is cut by the turn
             self.board.link.fault("tx_while_receiving", "1 byte cut: the direction pin (A1) turned "
                             "low while it was on the wire (turn after TC, not TXE)")
-        native = self.board.native
-        waiting = native.rx_waiting() if native else len(self._rx_queue)
+        waiting = native.rx_waiting()
         if level and waiting:
             self.board.link.fault("rx_while_transmitting", f"{waiting} status bytes "
                             "arrived while the direction pin (A1) was high: the receiver was off")
-            if native:
-                native.clear_rx()
-            self._rx_queue.clear()
+            native.clear_rx()
             self.deliver_timer.clear()
-        self.flush()
+        if got is not None and got[0]:
+            self._send(*got)
         self.direction = level
         self.board.link.direction(self.board.now_us(), bool(level))
 
@@ -115,20 +100,8 @@ class ServoLine:
         byte_us = 10_000_000 / int(self.board.link.config.get("baud", LINE_BAUD))
         last_us = first_us + int((pending - 1) * byte_us) + 1
         reply = self.board.link.line(last_us, b"", bool(self.direction), True, pending)
-        queue = [(at_fs + round(k * byte_us * FS_PER_US), b) for k, b in enumerate(reply.rx)]
-        if self.board.native:
-            self.board.native.queue_rx(queue)
-        else:
-            self._rx_queue = queue
+        native = self.board.native
+        native.queue_rx([(at_fs + round(k * byte_us * FS_PER_US), b)
+                         for k, b in enumerate(reply.rx)])
         self.board.sync.take(reply)
-        self.deliver(at_fs)
-
-    def deliver(self, at_fs: int) -> None:
-        if self.board.native:
-            self.board.native.deliver(at_fs)
-            return
-        queue = self._rx_queue
-        while queue and queue[0][0] <= at_fs:
-            self.board.usart2.received(queue.pop(0)[1])
-        if queue:
-            self.deliver_timer.set(queue[0][0])
+        native.deliver(at_fs)

@@ -1,16 +1,14 @@
 """SysTick, the Cortex-M4's 24-bit down counter (the private peripheral bus at 0xE000_E010):
-COUNTFLAG, reload, the SysTick exception at each wrap. Its registers live in ``Shared``,
-where the compiled board (hil/mcu/board_core.c) fires the wrap without Python."""
+COUNTFLAG, reload, the SysTick exception at each wrap. Its registers live in ``Shared``:
+the board core (hil/mcu/board_core.c) fires the wrap and answers CSR's reads, which clear
+COUNTFLAG; the counter's value, its reload and the writes are here."""
 from __future__ import annotations
 
 from typing import Callable
 
-from hexhil.hil.mcu.armv7m import (EXC_SYSTICK, SYST_CLKSOURCE, SYST_CONTROL, SYST_COUNTFLAG,
-                                   SYST_ENABLE, SYST_TICKINT)
-from hexhil.hil.mcu.board_core import NativeTimer, SharedField
+from hexhil.hil.mcu.armv7m import SYST_CLKSOURCE, SYST_CONTROL, SYST_ENABLE
+from hexhil.hil.mcu.board_core import Events, SharedField
 from hexhil.hil.mcu.core import Core
-from hexhil.hil.mcu.events import Events
-from hexhil.hil.mcu.system import Nvic
 from hexhil.hil.mcu.timebase import FS_PER_S
 
 
@@ -21,17 +19,16 @@ class SysTick:
     rvr = SharedField("st_rvr")
     countflag = SharedField("st_countflag", bool)
 
-    def __init__(self, core: Core, nvic: Nvic, events: Events, hclk: Callable[[], int]) -> None:
-        self.core, self.nvic, self.hclk = core, nvic, hclk
+    def __init__(self, core: Core, events: Events, hclk: Callable[[], int]) -> None:
+        self.core, self.hclk = core, hclk
         self.shared = st = core.shared
         self.csr = 0
         self.rvr = 0
         self.countflag = False
         self._c0 = 0              # the counter's value at _t0
         self._t0 = 0
-        self.wrap = events.timer(self._wrapped)
-        # the compiled board's heap fires this timer in C (board_core.c systick_wrapped)
-        st.st_tid = self.wrap.tid if isinstance(self.wrap, NativeTimer) else -1
+        self.wrap = events.timer(lambda at_fs: None)
+        st.st_tid = self.wrap.tid     # fired in C (board_core.c ``systick_wrapped``)
 
     def _hz(self) -> int:
         return self.hclk() if self.csr & SYST_CLKSOURCE else self.hclk() // 8
@@ -63,27 +60,13 @@ class SysTick:
         hz = self._hz()
         self.wrap.set(self._t0 + -(-first * FS_PER_S // hz))
 
-    def _wrapped(self, at_fs: int) -> None:
-        self.countflag = True
-        if self.csr & SYST_TICKINT:
-            self.nvic.pending.add(EXC_SYSTICK)
-        self._schedule_after(at_fs)
-
-    def _schedule_after(self, at_fs: int) -> None:
-        if self.rvr == 0:
-            return
-        self.wrap.set(at_fs + -(-(self.rvr + 1) * FS_PER_S // self._hz()))
-
     def rebase(self) -> None:
         """HCLK changed: the counter goes on from its value now at the new rate."""
         if self.csr & SYST_ENABLE:
             self._anchor(self.value())
 
     def read(self, off: int) -> int:
-        if off == 0:
-            v = (self.csr & SYST_CONTROL) | (SYST_COUNTFLAG if self.countflag else 0)
-            self.countflag = False
-            return v
+        """RVR, CVR and CALIB (CSR's reads are the board core's)."""
         if off == 4:
             return self.rvr
         if off == 8:

@@ -13,15 +13,16 @@ as on the chip, so ``HAL_UARTEx_ReceiveToIdle_IT`` and ``_DMA`` get their bursts
 (single wire): the receiver hears the transmitter's own bytes. Not modelled: parity
 errors, framing/noise errors, LIN break detection, synchronous mode, smartcard, IrDA.
 
-Where the bytes go is the board's (``UsartWiring``): USART2 to the servo line through the
-direction buffer, USART1 and USART6 to the console.
+Where the bytes go is the board's (``UsartWiring``): USART1 and USART6 to the console.
+USART2, on the servo line through the direction buffer, is the board core's
+(hil/mcu/board_core.c, ``NativeUsart``): these rules in C.
 """
 from __future__ import annotations
 
 from typing import Callable, Protocol
 
 from hexhil.hil.mcu.core import Core
-from hexhil.hil.mcu.events import Events
+from hexhil.hil.mcu.board_core import Events
 from hexhil.hil.mcu.timebase import FS_PER_S
 from hexhil.hil.mcu.usart_registers import (BRR, CR1, CR2, CR3, CTS, DMAR, DMAT, DR, EIE,
                                             GTPR, HDSEL, IDLE, IDLEIE, LBD, M_9BIT, ORE, OVER8,

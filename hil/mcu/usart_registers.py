@@ -1,5 +1,5 @@
 """USART1/2/6's register map (RM0383 19.6): the offsets and bits that the register model
-(usart.py) and the compiled board's USART2 (board_core.c, through board_layout.py) use."""
+(usart.py) and the board core's USART2 (board_core.c, through board_layout.py) use."""
 from __future__ import annotations
 
 SR, DR, BRR, CR1, CR2, CR3, GTPR = range(0, 0x1C, 4)

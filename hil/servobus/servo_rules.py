@@ -13,10 +13,10 @@ from typing import Any
 
 import numpy as np
 
-from hexhil.hil.native import CORES, REBUILD, load_library
+from hexhil.hil import native
+from hexhil.hil.native import CORES, load_library
 from hexhil.hil.servobus.servo_layout import LAYOUT, READ_LEN, STATE_ROW
 from hexhil.protocol.dynamixel import ax12
-from hexhil.protocol.errors import BadFile
 
 LIBRARY = CORES["servo bank and reads"]
 _P = ctypes.c_void_p
@@ -45,7 +45,7 @@ _TABLES = (POSITION_RAD.ctypes.data, SPEED_RAD_S.ctypes.data)
 
 
 def _load() -> Any:
-    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT, fallback=False)
+    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT)
     if lib is None:
         return None
     _I64, _D, _I = ctypes.c_int64, ctypes.c_double, ctypes.c_int
@@ -91,9 +91,7 @@ def library() -> Any:
 
 def require() -> None:
     """A servo is made only where the rules are compiled."""
-    if _LIB is None:
-        raise BadFile(f"compiled core {LIBRARY.name} is not built (the servos' rules have "
-                      f"no other implementation): {REBUILD}")
+    native.require(_LIB, LIBRARY, "a servo")
 
 
 def address(table: bytearray) -> tuple[Any, int]:

@@ -14,9 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from hexhil.hil.native import CORES, REBUILD, load_library
+from hexhil.hil.native import CORES, load_library, require
 from hexhil.hil.world.drive_layout import LAYOUT
-from hexhil.protocol.errors import BadFile
 
 LIBRARY = CORES["drive bank"]
 _P, _D, _I = ctypes.c_void_p, ctypes.c_double, ctypes.c_int
@@ -27,7 +26,7 @@ class _Bank(ctypes.Structure):
 
 
 def _load() -> Any:
-    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT, fallback=False)   # short calls
+    lib = load_library(LIBRARY, keep_gil=True, layout=LAYOUT)   # short calls
     if lib is None:
         return None
     for name, args in (("hx_duty", [_P, _P, _D, _P, _D]), ("hx_state", [_P, _I, _P]),
@@ -57,9 +56,7 @@ class CompiledDrives:
     they must keep their buffers, as ``DriveBank`` does)."""
 
     def __init__(self, arrays: dict[str, np.ndarray], motor_no_load_rad_s: float) -> None:
-        if _LIB is None:
-            raise BadFile(f"compiled core {LIBRARY.name} is not built (the drives have no "
-                          f"other implementation): {REBUILD}")
+        require(_LIB, LIBRARY, "a world's drive bank")
         for name, want in _ARRAYS:
             a = arrays[name]
             if a.dtype != want or not a.flags.c_contiguous:

@@ -32,8 +32,8 @@ def _image() -> ElfImage:
 class Bus:
     """A board at reset with interrupts masked (PRIMASK): pending IRQs stay pending."""
 
-    def __init__(self, compiled: bool = True) -> None:
-        self.board = board = Board(_image(), self._exchange, lambda text: [], compiled)
+    def __init__(self) -> None:
+        self.board = board = Board(_image(), self._exchange, lambda text: [])
         board.sync.tick.clear()            # no link: nothing asks the world
         board.core.uc.reg_write(A.UC_ARM_REG_PRIMASK, 1)
 

@@ -1,6 +1,6 @@
 """The peripheral bit-band alias (hil/mcu/bitband.py) onto register-file and hand-written
-peripherals, with the compiled board and without: a read gives the bit, a write changes
-that bit alone through the register's access rules."""
+peripherals: a read gives the bit, a write changes that bit alone through the register's
+access rules."""
 import pytest
 
 from hexhil.hil.mcu.bitband import alias_of
@@ -13,9 +13,9 @@ def bit(addr, n):
     return alias_of(PERIPH, ALIAS, addr, 0) + 4 * n
 
 
-@pytest.fixture(params=[True, False], ids=["compiled", "python"])
-def bus(request):
-    return Bus(compiled=request.param)
+@pytest.fixture
+def bus():
+    return Bus()
 
 
 def _backup_domain_writable(bus):
