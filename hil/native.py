@@ -74,12 +74,12 @@ class Layout:
             lines.append(f"struct {name} {{")
             for f in fields:
                 c_name = f[0].lstrip("_")
-                if len(f) > 2:   # a pointer: "double *" -> "double *goal"
-                    lines.append(f"    {f[2]}{'' if f[2].endswith('*') else ' '}{c_name};")
-                    continue
                 item, dims = f[1], ""
                 while hasattr(item, "_length_"):   # (c_uint32 * 3) * 256 -> [256][3]
                     item, dims = item._type_, f"{dims}[{item._length_}]"
+                if len(f) > 2:   # a pointer: "double *" -> "double *goal"; a struct's array
+                    lines.append(f"    {f[2]}{'' if f[2].endswith('*') else ' '}{c_name}{dims};")
+                    continue
                 lines.append(f"    {_C_TYPES[item]} {c_name}{dims};")
             lines.append("};")
         return "\n".join(lines) + "\n"

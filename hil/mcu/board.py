@@ -16,8 +16,7 @@ from typing import Any, Callable
 from unicorn import arm_const as A
 
 from hexhil.hil.mcu.armv7m import BRANCH_TO_SELF, EXC_SVCALL, INTR_BKPT, INTR_EXC_EXIT, INTR_SWI
-from hexhil.hil.mcu.board_core import (Events, NativeBoard, NativeUsart, SharedField, Timer,
-                                        require)
+from hexhil.hil.mcu.board_core import Events, NativeBoard, SharedField, Timer, require
 from hexhil.hil.mcu.board_loop import (exception_choice, exception_entry, exception_taking,
                                        handed_over, hook_interrupts, trips)
 from hexhil.hil.mcu.console import Console, semihost
@@ -114,10 +113,10 @@ class Board:
                 for i, n in enumerate(("GPIOA", "GPIOB", "GPIOC"))]
         gpio[1].before_input = lambda: self.sync.fresh_switches()
         self.gpio = gpio
-        line = self.nvic.line
-        self.usart1 = Usart("USART1", 37, core, ev, lambda: self.rcc.pclk2_hz, line, self)
-        self.usart2 = NativeUsart("USART2", 38, ev, lambda: self.rcc.pclk1_hz)
-        self.usart6 = Usart("USART6", 71, core, ev, lambda: self.rcc.pclk2_hz, line, self)
+        self.usart1 = Usart("USART1", 37, ev, lambda: self.rcc.pclk2_hz)
+        self.usart2 = Usart("USART2", 38, ev, lambda: self.rcc.pclk1_hz)
+        self.usart6 = Usart("USART6", 71, ev, lambda: self.rcc.pclk2_hz)
+        self.usarts = (self.usart1, self.usart2, self.usart6)   # board_layout.py USARTS
         self.flash, self.pwr, self.rtc = flash.FlashInterface(self), power(), Rtc(self)
         self.can_listening = False     # bxCAN1 in normal mode: CAN input each millisecond
         self.extra = [*extra_peripherals(self), *platform.build(self)]
@@ -144,12 +143,10 @@ class Board:
         for usart in (self.usart1, self.usart2, self.usart6):
             usart.dma_request()
 
-    # --- the console (USART1 and USART6: UsartWiring) ----------------------------------
+    # --- the console (USART1 and USART6) ----------------------------------------------
     def sent(self, usart: Usart, byte: int, start_fs: int, end_fs: int) -> None:
+        """A console byte went out on the wire (it reaches the console at its end)."""
         self.console.put(bytes((byte,)), end_fs // FS_PER_US)
-
-    def idle(self, usart: Usart, at_fs: int) -> None:
-        """Nothing waits for a console line's end."""
 
     def _gpio_out(self, port: GpioPort, old_odr: int) -> None:
         if port.index == 0:

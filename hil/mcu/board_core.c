@@ -1,18 +1,19 @@
 /* The ELF board's hot path compiled (hil/mcu/board_core.py loads it with ctypes): the event
- * heap, USART2 at register level with its byte timing, the servo line's outgoing burst,
- * PA1's turns and PB's switch reads, SysTick's wraps and CSR reads, the exception model's
- * entry, return and choice, the run loop, quiet waits and the poll skipper's known waits.
+ * heap, USART1, USART2 and USART6 at register level with their byte timing (usart.py), the
+ * servo line's outgoing burst, PA1's turns and PB's switch reads, SysTick's wraps and CSR
+ * reads, the exception model's entry, return and choice, the run loop, quiet waits and the
+ * poll skipper's known waits.
  *
- * It fronts the peripherals' MMIO region for Unicorn: USART2's page, 32-bit stores to
+ * It fronts the peripherals' MMIO region for Unicorn: the USARTs' pages, 32-bit stores to
  * GPIOA's ODR and BSRR and reads of GPIOB's IDR are served here, every other access goes
  * to the Python callbacks (hil/mcu/mmio.py) through a function pointer.
  * Python is called only where the board's Python state is needed: a Python timer falling
- * due, USART2's interrupt line high, the transmitter going idle (the servo line's burst is
- * sent), a DMA request, a poll loop seen for the first time, USART2's bus clock once a
- * clock change. It also runs the board's loop (``bc_loop``) while no Python takes part.
- * USART2 follows the rules usart.py gives USART1 and USART6; the exception entry and return
- * here are core.py's plain cases (a frame in SRAM, a handler in the table), which Python
- * takes where anything is not plain (a fault to name, a frame off SRAM). */
+ * due, a USART's interrupt line high, USART2's transmitter going idle (the servo line's
+ * burst is sent), a console byte, a DMA request, a poll loop seen for the first time, a
+ * USART's bus clock once a clock change. It also runs the board's loop (``bc_loop``) while
+ * no Python takes part. The exception entry and return here are core.py's plain cases (a
+ * frame in SRAM, a handler in the table); Python takes the rest (a fault to name, a frame
+ * off SRAM). */
 #include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -42,6 +43,7 @@ typedef struct { int64_t at; uint64_t seq; int32_t tid; uint32_t gen; } entry_t;
 typedef struct set3 set3_t;
 typedef struct bc bc_t;
 typedef struct cover cover_t;
+typedef struct usart usart_t;
 _Static_assert(REG_COUNT == N_REGID, "board_layout.py N_REGID: the REG_* registers");
 const char hx_layout[] = HX_LAYOUT;
 
@@ -138,8 +140,8 @@ void bc_timer_clear(bc_t *s, int tid) {
 
 int64_t bc_timer_at(bc_t *s, int tid) { return s->tat[tid]; }
 
-static void usart_shifted(bc_t *s, int64_t at);
-static void usart_idle(bc_t *s);
+static void usart_shifted(bc_t *s, int i, int64_t at);
+static void usart_idle(bc_t *s, int i);
 
 static void pend(bc_t *s, int exc) {
     uint32_t bit = 1u << (exc & 31);
@@ -170,6 +172,17 @@ static uint32_t systick_csr(bc_t *s) {
 
 static void rx_deliver(bc_t *s, int64_t at);
 
+/* whose timer ``tid`` is: USART i's byte end (i), its IDLE (-2 - i), neither (-1) */
+static int usart_timer(bc_t *s, int tid) {
+    for (int i = 0; i < N_USART; i++) {
+        usart_t *u = &s->usart[i];
+        if (!u->made) continue;
+        if (tid == u->tid) return i;
+        if (tid == u->idle_tid) return -2 - i;
+    }
+    return -1;
+}
+
 /* Fire every timer due by ``now_fs`` in time order: 1 when any fired, -1 on a Python error */
 int bc_fire_due(bc_t *s, int64_t now_fs) {
     int fired = 0;
@@ -179,14 +192,15 @@ int bc_fire_due(bc_t *s, int64_t now_fs) {
         heap_pop(s);
         s->gen[e.tid]++;
         s->tat[e.tid] = NONE;
-        if (e.tid == s->u2_tid) {
-            usart_shifted(s, e.at);
+        int i = usart_timer(s, e.tid);
+        if (i >= 0) {
+            usart_shifted(s, i, e.at);
+        } else if (i < -1) {
+            usart_idle(s, -2 - i);
         } else if (e.tid == s->st_tid) {
             systick_wrapped(s, e.at);
         } else if (e.tid == s->rx_tid) {
             rx_deliver(s, e.at);
-        } else if (s->u2_idle_live && e.tid == s->u2_idle_tid) {
-            usart_idle(s);
         } else if (s->touched++, s->py_timer(e.tid, e.at)) {
             s->err = 1;
         }
@@ -206,7 +220,9 @@ int64_t bc_head(bc_t *s, int64_t max_chunk) {
     return n < 1 ? 1 : n > max_chunk ? max_chunk : n;
 }
 
-/* --- USART2 (usart.py) ---------------------------------------------------------------- */
+/* --- USART1, USART2 and USART6 (usart.py) ---------------------------------------------
+ * ``i`` is the USART's place in ``s->usart``: SERVO_USART's bytes go to the servo line's
+ * burst, the consoles' to Python's console, a byte at a time. */
 static const int STOP_HALF_BITS[4] = {STOP_HALF_BITS_0, STOP_HALF_BITS_1, STOP_HALF_BITS_2,
                                       STOP_HALF_BITS_3};
 
@@ -218,52 +234,62 @@ static int64_t py(bc_t *s, int kind, int64_t a, int64_t b) {
     return r;
 }
 
-int64_t bc_divider(bc_t *s) {
-    int64_t brr = s->brr & 0xFFFF;
-    if (s->cr1 & OVER8) return (brr >> 4) * 8 + (brr & 7);
+int64_t bc_divider(bc_t *s, int i) {
+    usart_t *u = &s->usart[i];
+    int64_t brr = u->brr & 0xFFFF;
+    if (u->cr1 & OVER8) return (brr >> 4) * 8 + (brr & 7);
     return brr;
 }
 
-static int64_t frame_fs(bc_t *s) {
-    if (!s->frame_fs) {
-        int64_t half = 2 + 2 * ((s->cr1 & M_9BIT) ? 9 : 8)
-                       + STOP_HALF_BITS[(s->cr2 >> STOP_SHIFT) & 3];
-        int64_t div = bc_divider(s);
-        if (!s->u2_pclk) s->u2_pclk = py(s, PY_PCLK, 0, 0);
-        int64_t pclk = s->u2_pclk;
+/* a frame's length; kept until CR1, CR2, BRR or the bus clock change */
+static int64_t frame_fs(bc_t *s, int i) {
+    usart_t *u = &s->usart[i];
+    if (!u->frame_fs) {
+        int64_t half = 2 + 2 * ((u->cr1 & M_9BIT) ? 9 : 8)
+                       + STOP_HALF_BITS[(u->cr2 >> STOP_SHIFT) & 3];
+        int64_t div = bc_divider(s, i);
+        if (!u->pclk) u->pclk = py(s, PY_PCLK, i, 0);
+        int64_t pclk = u->pclk;
         if (pclk <= 0) {
-            s->u2_pclk = 0;
+            u->pclk = 0;
             return 1;
         }
-        s->frame_fs = floordiv((__int128)half * FS_PER_S * (div > 1 ? div : 1), 2 * pclk);
+        u->frame_fs = floordiv((__int128)half * FS_PER_S * (div > 1 ? div : 1), 2 * pclk);
     }
-    return s->frame_fs;
+    return u->frame_fs;
 }
 
-static void line(bc_t *s, int level) {
+static void line(bc_t *s, int i, int level) {
+    usart_t *u = &s->usart[i];
     if (level) {
-        s->u2_line = 1;
-        py(s, PY_LINE, 1, 0);
-    } else if (s->u2_line) {
-        s->u2_line = 0;
-        py(s, PY_LINE, 0, 0);
+        u->line = 1;
+        py(s, PY_LINE, 1, i);
+    } else if (u->line) {
+        u->line = 0;
+        py(s, PY_LINE, 0, i);
     }
 }
 
-static void irq(bc_t *s) {
-    int sr = s->sr, cr1 = s->cr1;
-    if (!(cr1 & (TXEIE | TCIE | RXNEIE | IDLEIE)) && !(s->cr3 & EIE)) {
-        line(s, 0);
+static void irq(bc_t *s, int i) {
+    usart_t *u = &s->usart[i];
+    int sr = u->sr, cr1 = u->cr1;
+    if (!(cr1 & (TXEIE | TCIE | RXNEIE | IDLEIE)) && !(u->cr3 & EIE)) {
+        line(s, i, 0);
         return;
     }
     int level = (cr1 & UE) && (((cr1 & TXEIE) && (sr & TXE)) || ((cr1 & TCIE) && (sr & TC))
                                || ((cr1 & RXNEIE) && (sr & (RXNE | ORE)))
                                || ((cr1 & IDLEIE) && (sr & IDLE))
-                               || ((s->cr3 & EIE) && (sr & ORE)));
-    line(s, level);
+                               || ((u->cr3 & EIE) && (sr & ORE)));
+    line(s, i, level);
 }
 
-static void sent(bc_t *s, int byte, int64_t start_fs) {
+/* a byte started leaving the shift register at ``start_fs``, gone at ``end_fs`` */
+static void sent(bc_t *s, int i, int byte, int64_t start_fs, int64_t end_fs) {
+    if (i != SERVO_USART) {
+        py(s, PY_SENT, (int64_t)i << 16 | byte, end_fs);
+        return;
+    }
     if (!s->burst_n) {
         s->burst_fs = start_fs;
         s->burst_dir = s->direction;
@@ -275,148 +301,162 @@ static void sent(bc_t *s, int byte, int64_t start_fs) {
     s->burst[s->burst_n++] = (uint8_t)byte;
 }
 
-static void transmit(bc_t *s, int byte, int64_t at) {
-    int64_t end = at + frame_fs(s);
-    bc_timer_set(s, s->u2_tid, end);
-    s->sr &= ~TC;
-    sent(s, byte, at);
-    if ((s->cr3 & HDSEL) && (s->cr1 & RE)) s->echo = byte;
+static void transmit(bc_t *s, int i, int byte, int64_t at) {
+    usart_t *u = &s->usart[i];
+    int64_t end = at + frame_fs(s, i);
+    bc_timer_set(s, u->tid, end);
+    u->sr &= ~TC;
+    sent(s, i, byte, at, end);
+    if ((u->cr3 & HDSEL) && (u->cr1 & RE)) u->echo = byte;
 }
 
-void bc_usart_received(bc_t *s, int byte);
-void bc_usart_dma_request(bc_t *s);
+void bc_usart_received(bc_t *s, int i, int byte);
+void bc_usart_dma_request(bc_t *s, int i);
 
-static void usart_shifted(bc_t *s, int64_t at) {
-    int echo = s->echo;
+static void usart_shifted(bc_t *s, int i, int64_t at) {
+    usart_t *u = &s->usart[i];
+    int echo = u->echo;
     if (echo >= 0) {
-        s->echo = -1;
-        bc_usart_received(s, echo);
+        u->echo = -1;
+        bc_usart_received(s, i, echo);
     }
-    if (s->tdr >= 0) {
-        int byte = s->tdr;
-        s->tdr = -1;
-        s->sr |= TXE;
-        transmit(s, byte, at);
-        if (s->cr3 & DMAT) bc_usart_dma_request(s);
+    if (u->tdr >= 0) {
+        int byte = u->tdr;
+        u->tdr = -1;
+        u->sr |= TXE;
+        transmit(s, i, byte, at);
+        if (u->cr3 & DMAT) bc_usart_dma_request(s, i);
     } else {
-        s->sr |= TC;
-        py(s, PY_IDLE, at, 0);
+        u->sr |= TC;
+        if (i == SERVO_USART) py(s, PY_IDLE, at, 0);   /* the burst goes to the link */
     }
-    irq(s);
+    irq(s, i);
 }
 
-static void write_dr(bc_t *s, int byte) {
-    if (!((s->cr1 & UE) && (s->cr1 & TE))) return;
-    if (s->tat[s->u2_tid] == NONE) {
-        transmit(s, byte, bc_now_fs(s));
+static void write_dr(bc_t *s, int i, int byte) {
+    usart_t *u = &s->usart[i];
+    if (!((u->cr1 & UE) && (u->cr1 & TE))) return;
+    if (s->tat[u->tid] == NONE) {
+        transmit(s, i, byte, bc_now_fs(s));
     } else {
-        s->tdr = byte;
-        s->sr &= ~TXE;
+        u->tdr = byte;
+        u->sr &= ~TXE;
     }
 }
 
-void bc_usart_dma_request(bc_t *s) {
-    while ((s->cr3 & DMAT) && s->u2_dma_tx && (s->sr & TXE) && (s->cr1 & UE) && (s->cr1 & TE)) {
-        int64_t byte = py(s, PY_DMA_TX, 0, 0);
+/* TXE with DMAT: the DMA fills DR (twice when the shift register is free too) */
+void bc_usart_dma_request(bc_t *s, int i) {
+    usart_t *u = &s->usart[i];
+    while ((u->cr3 & DMAT) && u->dma_tx && (u->sr & TXE) && (u->cr1 & UE) && (u->cr1 & TE)) {
+        int64_t byte = py(s, PY_DMA_TX, i, 0);
         if (byte < 0) return;
-        write_dr(s, (int)byte);
+        write_dr(s, i, (int)byte);
     }
 }
 
-void bc_usart_received(bc_t *s, int byte) {
-    if (!((s->cr1 & UE) && (s->cr1 & RE))) return;
-    if (s->sr & RXNE) {
-        s->sr |= ORE;
+/* a byte arrived at the RX pin now */
+void bc_usart_received(bc_t *s, int i, int byte) {
+    usart_t *u = &s->usart[i];
+    if (!((u->cr1 & UE) && (u->cr1 & RE))) return;
+    if (u->sr & RXNE) {
+        u->sr |= ORE;
     } else {
-        s->rdr = byte;
-        s->sr |= RXNE;
-        if ((s->cr3 & DMAR) && s->u2_dma_rx && py(s, PY_DMA_RX, byte, 0) > 0) s->sr &= ~RXNE;
+        u->rdr = byte;
+        u->sr |= RXNE;
+        if ((u->cr3 & DMAR) && u->dma_rx && py(s, PY_DMA_RX, byte, i) > 0) u->sr &= ~RXNE;
     }
-    s->u2_idle_at = bc_now_fs(s) + frame_fs(s);
-    if ((s->cr1 & IDLEIE) && s->u2_idle_live) bc_timer_set(s, s->u2_idle_tid, s->u2_idle_at);
-    irq(s);
+    u->idle_at = bc_now_fs(s) + frame_fs(s, i);
+    if (u->cr1 & IDLEIE) bc_timer_set(s, u->idle_tid, u->idle_at);
+    irq(s, i);
 }
 
 /* the line idle a frame since the last byte received: IDLE */
-static void usart_idle(bc_t *s) {
-    s->u2_idle_at = 0;
-    if (s->u2_idle_live) bc_timer_clear(s, s->u2_idle_tid);
-    s->sr |= IDLE;
-    irq(s);
+static void usart_idle(bc_t *s, int i) {
+    usart_t *u = &s->usart[i];
+    u->idle_at = 0;
+    bc_timer_clear(s, u->idle_tid);
+    u->sr |= IDLE;
+    irq(s, i);
 }
 
 /* IDLE as of now (read without IDLEIE, nothing was scheduled for it) */
-static void idle_now(bc_t *s) {
-    if (s->u2_idle_at && bc_now_fs(s) >= s->u2_idle_at) usart_idle(s);
+static void idle_now(bc_t *s, int i) {
+    usart_t *u = &s->usart[i];
+    if (u->idle_at && bc_now_fs(s) >= u->idle_at) usart_idle(s, i);
 }
 
-uint32_t bc_usart_read(bc_t *s, int off) {
+uint32_t bc_usart_read(bc_t *s, int i, int off) {
+    usart_t *u = &s->usart[i];
     switch (off) {
     case DR:
-        s->sr &= ~(RXNE | ORE | (s->u2_idle_seen ? IDLE : 0));
-        s->u2_idle_seen = 0;
-        irq(s);
-        return (uint32_t)s->rdr;
+        u->sr &= ~(RXNE | ORE | (u->idle_seen ? IDLE : 0));
+        u->idle_seen = 0;
+        irq(s, i);
+        return (uint32_t)u->rdr;
     case SR:
-        idle_now(s);
-        s->u2_idle_seen = (s->sr & IDLE) != 0;
-        return (uint32_t)s->sr;
-    case BRR: return (uint32_t)s->brr;
-    case CR1: return (uint32_t)s->cr1;
-    case CR2: return (uint32_t)s->cr2;
-    case CR3: return (uint32_t)s->cr3;
-    case GTPR: return (uint32_t)s->gtpr;
+        idle_now(s, i);
+        u->idle_seen = (u->sr & IDLE) != 0;
+        return (uint32_t)u->sr;
+    case BRR: return (uint32_t)u->brr;
+    case CR1: return (uint32_t)u->cr1;
+    case CR2: return (uint32_t)u->cr2;
+    case CR3: return (uint32_t)u->cr3;
+    case GTPR: return (uint32_t)u->gtpr;
     default: return 0;
     }
 }
 
-void bc_usart_write(bc_t *s, int off, uint32_t value) {
+void bc_usart_write(bc_t *s, int i, int off, uint32_t value) {
+    usart_t *u = &s->usart[i];
     if (off == DR) {
-        write_dr(s, value & 0x1FF);
+        write_dr(s, i, value & 0x1FF);
     } else if (off == SR) {
-        s->sr &= (int32_t)(value | ~(uint32_t)(TC | RXNE | LBD | CTS));
+        u->sr &= (int32_t)(value | ~(uint32_t)(TC | RXNE | LBD | CTS));
     } else if (off >= BRR && off <= GTPR) {
         int32_t v = value & 0xFFFF;
         switch (off) {
-        case BRR: s->brr = v; break;
-        case CR1: s->cr1 = v; break;
-        case CR2: s->cr2 = v; break;
-        case CR3: s->cr3 = v; break;
-        default: s->gtpr = v;
+        case BRR: u->brr = v; break;
+        case CR1: u->cr1 = v; break;
+        case CR2: u->cr2 = v; break;
+        case CR3: u->cr3 = v; break;
+        default: u->gtpr = v;
         }
-        if (off == CR1 || off == CR2 || off == BRR) s->frame_fs = 0;
+        if (off == CR1 || off == CR2 || off == BRR) u->frame_fs = 0;
         if (off == CR1 && !(value & UE)) {
-            s->sr = TXE | TC;
-            s->tdr = -1;
-            bc_timer_clear(s, s->u2_tid);
-            s->u2_idle_at = s->u2_idle_seen = 0;
+            u->sr = TXE | TC;
+            u->tdr = -1;
+            bc_timer_clear(s, u->tid);
+            u->idle_at = u->idle_seen = 0;
         }
-        if (off == CR1 && s->u2_idle_live) {
-            bc_timer_clear(s, s->u2_idle_tid);
-            if ((value & IDLEIE) && s->u2_idle_at) {
-                idle_now(s);
-                if (s->u2_idle_at) bc_timer_set(s, s->u2_idle_tid, s->u2_idle_at);
+        if (off == CR1) {
+            bc_timer_clear(s, u->idle_tid);
+            if ((value & IDLEIE) && u->idle_at) {
+                idle_now(s, i);
+                if (u->idle_at) bc_timer_set(s, u->idle_tid, u->idle_at);
             }
         }
-        if (off == CR3) bc_usart_dma_request(s);
+        if (off == CR3) bc_usart_dma_request(s, i);
     }
-    irq(s);
+    irq(s, i);
 }
 
-void bc_usart_reset(bc_t *s) {
-    if (!s->u2_idle_live) {       /* IDLE's timer, made once a board */
-        s->u2_idle_tid = bc_timer_new(s);
-        s->u2_idle_live = 1;
+/* the USART at its reset state (power-on, a system reset); its timers made once a board */
+void bc_usart_reset(bc_t *s, int i) {
+    usart_t *u = &s->usart[i];
+    if (!u->made) {
+        u->tid = bc_timer_new(s);
+        u->idle_tid = bc_timer_new(s);
+        u->made = 1;
     }
-    s->sr = TXE | TC;
-    s->brr = s->cr1 = s->cr2 = s->cr3 = s->gtpr = 0;
-    s->tdr = s->echo = -1;
-    s->rdr = 0;
-    s->frame_fs = s->u2_pclk = 0;
-    s->u2_line = s->u2_dma_tx = s->u2_dma_rx = 0;
-    bc_timer_clear(s, s->u2_tid);
-    s->u2_idle_at = s->u2_idle_seen = 0;
-    if (s->u2_idle_live) bc_timer_clear(s, s->u2_idle_tid);
+    u->sr = TXE | TC;
+    u->brr = u->cr1 = u->cr2 = u->cr3 = u->gtpr = 0;
+    u->tdr = u->echo = -1;
+    u->rdr = 0;
+    u->frame_fs = u->pclk = 0;
+    u->line = u->dma_tx = u->dma_rx = 0;
+    bc_timer_clear(s, u->tid);
+    u->idle_at = u->idle_seen = 0;
+    bc_timer_clear(s, u->idle_tid);
 }
 
 /* --- the poll skipper's known waits (poll.py) ---------------------------------------- */
@@ -597,22 +637,31 @@ static int write_porta(bc_t *s, int off, uint32_t value) {
     return 1;
 }
 
+/* the USART whose page ``offset`` is in, with its clock on; -1 where none */
+static int usart_page(bc_t *s, uint64_t offset) {
+    static const int pages[N_USART] = {USART_PAGE_0, USART_PAGE_1, USART_PAGE_2};
+    for (int i = 0; i < N_USART; i++)
+        if ((int)(offset >> 10) == pages[i]) return s->usart[i].live ? i : -1;
+    return -1;
+}
+
 uint64_t bc_mmio_read(void *uc, uint64_t offset, unsigned size, void *ud) {
     bc_t *s = ud;
     s->mmio_n++;
     if ((offset >> 10) == GPIOA_PAGE + 1 && (offset & 0x3FC) == GPIO_IDR && s->gpio_live & 2)
         return read_switches(s, offset, size);
-    if ((offset >> 10) != USART2_PAGE || !s->u2_live) {
+    int i = usart_page(s, offset);
+    if (i < 0) {
         s->touched++;
         return s->py_read(uc, offset, size, 0);
     }
     due(s);
     int off = (int)(offset & 0x3FC);
-    uint32_t value = sized(bc_usart_read(s, off), offset, size);
+    uint32_t value = sized(bc_usart_read(s, i, off), offset, size);
     if (off == DR || off == GTPR || off > GTPR) {
         s->poll_valid = 0;
     } else if (polled(s, (uint32_t)(PERIPH_BASE + offset), value)) {
-        value = sized(bc_usart_read(s, off), offset, size);
+        value = sized(bc_usart_read(s, i, off), offset, size);
     }
     failed(s);
     return value;
@@ -625,7 +674,8 @@ void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, voi
         ((offset & 0x3FF) == GPIO_ODR || (offset & 0x3FF) == GPIO_BSRR) &&
         write_porta(s, (int)(offset & 0x3FF), (uint32_t)value))
         return;
-    if ((offset >> 10) != USART2_PAGE || !s->u2_live) {
+    int i = usart_page(s, offset);
+    if (i < 0) {
         s->touched++;
         s->py_write(uc, offset, size, value, 0);
         return;
@@ -637,11 +687,11 @@ void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, voi
         int shift = 8 * (int)(offset & 3);
         uint64_t mask = ((1ULL << (8 * size)) - 1) << shift;
         if (off == SR || off == BRR || off == CR1 || off == CR2 || off == CR3)
-            value = (bc_usart_read(s, off) & ~mask) | ((value << shift) & mask);
+            value = (bc_usart_read(s, i, off) & ~mask) | ((value << shift) & mask);
         else
             value = value << shift;
     }
-    bc_usart_write(s, off, (uint32_t)(value & 0xFFFFFFFF));
+    bc_usart_write(s, i, off, (uint32_t)(value & 0xFFFFFFFF));
     if (s->pending_n && (bc_next_exception(s) >= 0 || masked_ready(s))) cut_after(s);
     failed(s);
 }
@@ -917,7 +967,7 @@ void bc_rx_queue(bc_t *s, const int64_t *at, const uint8_t *bytes, int n) {
 /* the bytes arrived by ``at`` to USART2, the deliver timer at the next one */
 static void rx_deliver(bc_t *s, int64_t at) {
     while (s->rx_head < s->rx_n && s->rx_at[s->rx_head] <= at && !s->err)
-        bc_usart_received(s, s->rx_byte[s->rx_head++]);
+        bc_usart_received(s, SERVO_USART, s->rx_byte[s->rx_head++]);
     if (s->rx_head < s->rx_n && !s->err) bc_timer_set(s, s->rx_tid, s->rx_at[s->rx_head]);
 }
 

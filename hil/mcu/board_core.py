@@ -1,19 +1,19 @@
 """The ELF board's hot path compiled (hil/mcu/board_core.c), through ctypes: the event heap,
-USART2 with its byte timing, the servo line's outgoing burst, PA1's turns and PB's switch
-reads, SysTick's CSR reads and wraps, the exception model's entry, return and choice, and
-the poll skipper's known waits and known non-waits.
+the USARTs with their byte timing (hil/mcu/usart.py), the servo line's outgoing burst,
+PA1's turns and PB's switch reads, SysTick's CSR reads and wraps, the exception model's
+entry, return and choice, and the poll skipper's known waits and known non-waits.
 
 A firmware sending servo packets spends its time on USART2: a byte written to DR, a poll of
 TXE skipped to the byte's end, the next byte. The C code fronts the peripherals' MMIO region
 and does them without Python, which it calls only where the board's Python state takes part
-(a Python timer due, USART2's interrupt line high, the transmitter idle: the burst goes to
-the link, a DMA request, a poll loop seen for the first time, USART2's bus clock after a
-clock change). ``Shared`` is the state both sides read: the core's time and its state
-between chunks (hil/mcu/core.py; a jump in C moves the chunk's origin), the poll skipper's
-(hil/mcu/poll.py), the NVIC's bits, USART2's registers and GPIO's (MODER, PUPDR, ODR), the
-switches and PA1's turns not yet posted to the link. The board's loop runs in C too
-(hil/mcu/board_loop.py). The package builds ``_board_core.so`` beside this file; without it
-no ELF board is made (``require``).
+(a Python timer due, a USART's interrupt line high, USART2's transmitter idle: the burst
+goes to the link, a console byte, a DMA request, a poll loop seen for the first time, a
+USART's bus clock after a clock change). ``Shared`` is the state both sides read: the
+core's time and its state between chunks (hil/mcu/core.py; a jump in C moves the chunk's
+origin), the poll skipper's (hil/mcu/poll.py), the NVIC's bits, the USARTs' registers and
+GPIO's (MODER, PUPDR, ODR), the switches and PA1's turns not yet posted to the link. The
+board's loop runs in C too (hil/mcu/board_loop.py). The package builds ``_board_core.so``
+beside this file; without it no ELF board is made (``require``).
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ from typing import Any, Callable
 
 from hexhil.hil.mcu.board_layout import (LAYOUT, PY_CALL, PY_DMA_RX, PY_DMA_TX, PY_FAILED,
                                           PY_IDLE, PY_INTR, PY_LINE, PY_PCLK, PY_POLLED,
-                                          PY_RAISED, PY_SWITCHES, PY_TIMER, USART2_IRQ)
+                                          PY_RAISED, PY_SENT, PY_SWITCHES, PY_TIMER)
 from hexhil.hil import native
 from hexhil.hil.native import load_library
 from hexhil.protocol.errors import BadFile, UserError
@@ -70,10 +70,10 @@ def _load() -> tuple[Any, str | None]:
     sig = {"bc_timer_new": (_I32, [_P]), "bc_timer_set": (None, [_P, _I32, _I64]),
            "bc_timer_clear": (None, [_P, _I32]), "bc_timer_at": (_I64, [_P, _I32]),
            "bc_fire_due": (_I32, [_P, _I64]), "bc_now_fs": (_I64, [_P]),
-           "bc_divider": (_I64, [_P]), "bc_usart_received": (None, [_P, _I32]),
-           "bc_usart_dma_request": (None, [_P]), "bc_usart_read": (ctypes.c_uint32, [_P, _I32]),
-           "bc_usart_write": (None, [_P, _I32, ctypes.c_uint32]),
-           "bc_usart_reset": (None, [_P]),
+           "bc_divider": (_I64, [_P, _I32]), "bc_usart_dma_request": (None, [_P, _I32]),
+           "bc_usart_read": (ctypes.c_uint32, [_P, _I32, _I32]),
+           "bc_usart_write": (None, [_P, _I32, _I32, ctypes.c_uint32]),
+           "bc_usart_reset": (None, [_P, _I32]),
            "bc_add_wait": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
            "bc_add_not_loop": (_I32, [_P, ctypes.c_uint32, ctypes.c_uint32, ctypes.c_uint32]),
            "bc_quiet_init": (_I32, [_P, _P, _I32]), "bc_free": (None, [_P])}
@@ -140,7 +140,7 @@ class Timer:
 
 class Events:
     """What the peripherals have scheduled, in virtual femtoseconds, on one C heap: the
-    Python timers and C's own (USART2's byte end, SysTick's wrap, the servo line's reply
+    Python timers and C's own (a USART's byte end, SysTick's wrap, the servo line's reply
     bytes), ties fired in the order set. A chunk of instructions ends at the earliest, so a
     flag changes at its exact cycle; a poll of a flag whose change is scheduled can jump
     straight to it (hil/mcu/poll.py)."""
@@ -198,64 +198,6 @@ class Events:
         return fired > 0
 
 
-class NativeUsart:
-    """USART2 in C (usart.py's ``Usart``, the servo line's wiring built in): what the rest
-    of the board asks of a USART."""
-
-    pollable = frozenset({0x00, 0x0C, 0x10, 0x14, 0x08})
-
-    def __init__(self, name: str, irq: int, events: Events,
-                 pclk_hz: Callable[[], int]) -> None:
-        self.name, self.irq, self.pclk_hz = name, irq, pclk_hz
-        self.events = events
-        st = events.shared
-        if st.u2_tid < 0:
-            st.u2_tid = _LIB.bc_timer_new(events.ref)
-        self.shift_end = Timer(events, lambda at: None, st.u2_tid)
-        _LIB.bc_usart_reset(events.ref)
-        self.dma_tx: Callable[[], int | None] | None = None
-        self.dma_rx: Callable[[int], bool] | None = None
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        object.__setattr__(self, name, value)
-        if name in ("dma_tx", "dma_rx"):
-            setattr(self.events.shared, "u2_" + name, value is not None)
-
-    @property
-    def regs(self) -> dict[int, int]:
-        st = self.events.shared
-        return {0x00: st.sr, 0x08: st.brr, 0x0C: st.cr1, 0x10: st.cr2, 0x14: st.cr3,
-                0x18: st.gtpr}
-
-    def baud(self) -> float:
-        div = _LIB.bc_divider(self.events.ref)
-        return self.pclk_hz() / div if div else 0.0
-
-    def clock_changed(self) -> None:
-        self.events.shared.frame_fs = self.events.shared.u2_pclk = 0
-
-    def dma_request(self) -> None:
-        _LIB.bc_usart_dma_request(self.events.ref)
-        self._raise()
-
-    def received(self, byte: int) -> None:
-        _LIB.bc_usart_received(self.events.ref, byte)
-        self._raise()
-
-    def read(self, off: int) -> int:
-        value = _LIB.bc_usart_read(self.events.ref, off)
-        self._raise()
-        return value
-
-    def write(self, off: int, value: int) -> None:
-        _LIB.bc_usart_write(self.events.ref, off, value)
-        self._raise()
-
-    def _raise(self) -> None:
-        if self.events.shared.err:
-            self.events.raise_error()
-
-
 class NativeBoard:
     """The C side's calls into the board (hil/mcu/board.py): one dispatcher."""
 
@@ -267,19 +209,21 @@ class NativeBoard:
     def _dispatch(self, kind: int, a: int, b: int) -> int:
         board = self.board
         try:
-            if kind == PY_LINE:
-                board.nvic.line(USART2_IRQ, bool(a))
+            if kind == PY_SENT:
+                board.sent(board.usarts[a >> 16], a & 0xFFFF, b, b)
+            elif kind == PY_LINE:
+                board.nvic.line(board.usarts[b].irq, bool(a))
             elif kind == PY_IDLE:
                 board.line.idle(board.usart2, a)
             elif kind == PY_DMA_TX:
-                byte = board.usart2.dma_tx()
+                byte = board.usarts[a].dma_tx()
                 return -1 if byte is None else byte
             elif kind == PY_DMA_RX:
-                return int(bool(board.usart2.dma_rx(a)))
+                return int(bool(board.usarts[b].dma_rx(a)))
             elif kind == PY_POLLED:
                 return int(board.poll.polled(a & 0xFFFFFFFF, b & 0xFFFFFFFF))
             elif kind == PY_PCLK:
-                return board.usart2.pclk_hz()
+                return board.usarts[a].pclk_hz()
             elif kind == PY_INTR:
                 board.intr(a)
             elif kind == PY_SWITCHES:
@@ -334,7 +278,8 @@ class NativeBoard:
 
 
 def front(shared: Shared, py_read: Any, py_write: Any, ppb_read: Any) -> tuple[Any, ...]:
-    """The C MMIO callbacks (peripherals, PPB reads), Python's behind: all but USART2, CSR."""
+    """The C MMIO callbacks (peripherals, PPB reads), Python's behind them for all but the
+    USARTs, PA1's turns, PB's switches and SysTick's CSR."""
     pairs = (("py_read", "bc_mmio_read", py_read), ("py_write", "bc_mmio_write", py_write),
              ("py_ppb_read", "bc_ppb_read", ppb_read))
     for field, _, fn in pairs:

@@ -15,7 +15,7 @@ ACTIVE_MAX = 128             # each exception is active at most once
 N_REGID = 17                 # the registers an exception return writes (board_core.c REG_*)
 # the kinds of the C code's one call into Python (board_core.py ``NativeBoard``)
 (PY_LINE, PY_IDLE, PY_DMA_TX, PY_DMA_RX, PY_POLLED, PY_PCLK, PY_FAILED, PY_INTR,
- PY_SWITCHES) = range(1, 10)
+ PY_SWITCHES, PY_SENT) = range(1, 11)
 PY_RAISED = -2               # that call's answer where Python raised: C unwinds
 # quiet loops (quiet.py): a pass's instructions, lcm(1..10); the quiet chunks let by after
 # repeated misses at most
@@ -24,17 +24,21 @@ MAX_BACKOFF = 64
 # instructions run one at a time while a masked exception waits for its unmasking (then the
 # chunks grow again: a core that spins with interrupts masked runs at full speed; system.py)
 MASKED_STEPS = 256
-# the memory map and the interrupt the C code serves, from the platform table: the
-# peripherals' 1 KB pages it fronts from APB1's base on (USART2's, GPIOA's and GPIOB's)
+# the USARTs the C code serves, in the order of ``bc_t.usart``; the servo line's (the others
+# are the consoles)
+USARTS = ("USART1", "USART2", "USART6")
+SERVO_USART = USARTS.index("USART2")
+# the memory map from the platform table: the peripherals' 1 KB pages the C code fronts
+# from APB1's base on (the USARTs', GPIOA's and GPIOB's)
 _SRAM, _FLASH, _PERIPH = platform.row("SRAM"), platform.row("Flash"), platform.row("APB1")
 MEMORY_MAP = (("SRAM_BASE", _SRAM.base), ("SRAM_SIZE", _SRAM.size),
               ("FLASH_BASE", _FLASH.base), ("FLASH_SIZE", _FLASH.size),
               ("PERIPH_BASE", _PERIPH.base),
-              ("USART2_PAGE", (platform.row("USART2").base - _PERIPH.base) >> 10),
+              *((f"USART_PAGE_{i}", (platform.row(n).base - _PERIPH.base) >> 10)
+                for i, n in enumerate(USARTS)),
               ("GPIOA_PAGE", (platform.row("GPIOA").base - _PERIPH.base) >> 10),
               ("PPB_BASE", platform.row("PPB").base),
               ("SYSTICK_BASE", platform.row("SysTick").base))
-USART2_IRQ = platform.VECTORS["USART2"]
 # where the C run loop hands back to Python (board_loop.py)
 (LOOP_AFTER_HEAD, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED, LOOP_NULL_JUMP,
  LOOP_UC_ERROR, LOOP_NO_EVENT) = range(8)
@@ -52,6 +56,22 @@ class Set3(ctypes.Structure):
     _fields_ = SET3
 
 
+# a USART (usart.py): its clock on; its interrupt line high; a DMA stream serves TXE, RXNE;
+# its registers, DR's byte waiting (-1: none), the byte received, the byte HDSEL hears back
+# (-1: none); its timers (the byte's end, IDLE) once made; SR read with IDLE set (a DR
+# read clears it); a frame's length and the bus clock (0: to be asked again), when the
+# line will have been idle a frame (0: no byte since)
+USART = [("live", _I32), ("line", _I32), ("dma_tx", _I32), ("dma_rx", _I32),
+         ("sr", _I32), ("brr", _I32), ("cr1", _I32), ("cr2", _I32), ("cr3", _I32),
+         ("gtpr", _I32), ("tdr", _I32), ("rdr", _I32), ("echo", _I32),
+         ("tid", _I32), ("idle_tid", _I32), ("made", _I32), ("idle_seen", _I32), ("_pad", _I32),
+         ("frame_fs", _I64), ("pclk", _I64), ("idle_at", _I64)]
+
+
+class UsartState(ctypes.Structure):
+    _fields_ = USART
+
+
 # --coverage's block table (coverage.py ``LineCounter``): (address, size) keys and counts
 COVER = [("keys", ctypes.POINTER(_U64), "uint64_t *"),
          ("counts", ctypes.POINTER(_U64), "uint64_t *"),
@@ -67,16 +87,13 @@ BC = [
     # the poll skipper's state (hil/mcu/poll.py)
     ("poll_valid", _I32), ("poll_addr", _I32), ("poll_value", _I32), ("reread", _I32),
     ("watching", _I32), ("pending_n", _I32), ("poll_at", _I64),
-    # USART2
-    ("u2_live", _I32), ("u2_line", _I32), ("u2_dma_tx", _I32), ("u2_dma_rx", _I32),
-    ("sr", _I32), ("brr", _I32), ("cr1", _I32), ("cr2", _I32), ("cr3", _I32),
-    ("gtpr", _I32), ("tdr", _I32), ("rdr", _I32), ("echo", _I32), ("frame_fs", _I64),
+    ("usart", UsartState * len(USARTS), "struct usart"),   # USART1, USART2, USART6
     # the servo line's burst
     ("direction", _I32), ("burst_dir", _I32), ("burst_n", _I32), ("burst_cap", _I32),
     ("burst_fs", _I64), ("burst", _P, "uint8_t *"),
     # the event heap: the earliest live timer's time (NONE when none)
     ("next_at", _I64), ("seq", _U64), ("n", _I32), ("cap", _I32), ("ntimers", _I32),
-    ("u2_tid", _I32), ("err", _I32),
+    ("err", _I32),
     ("heap", _P, "entry_t *"), ("gen", _P, "uint32_t *"), ("tat", _P, "int64_t *"),
     # Python
     ("py_call", PY_CALL, "py_call_t"), ("py_timer", PY_TIMER, "py_timer_t"),
@@ -107,7 +124,6 @@ BC = [
     ("hook_failed", _I32), ("uc_err", _I32), ("loop_exc", _I32),
     ("emu_start", _P, "emu_start_t"), ("mem_read", _P, "mem_read_t"),   # libunicorn's
     ("lines", _U32 * 4), ("lines_n", _I32),  # the IRQ lines a peripheral holds high
-    ("u2_pclk", _I64),                       # USART2's bus clock, asked once a change (0)
     ("emu_stop", _P, "emu_stop_t"),
     # GPIOA-C (gpio.py): what PA1's turns and a read of PB's switches need, served in C;
     # gpio_live bit i: port i's clock is on; the pressed switches, a bit each (board.py);
@@ -128,22 +144,20 @@ BC = [
     # count would, the count given right after it, as Unicorn keeps the two; the running
     # instruction's PC
     ("pub_count", _U64), ("pub_limit", _U64), ("pub_pc", _U32), ("_pad4", _I32),
-    # USART2's IDLE (usart.py): when the line will have been idle a frame (0: no byte
-    # since), SR read with IDLE set (a DR read clears it), its timer (with IDLEIE)
-    ("u2_idle_at", _I64), ("u2_idle_live", _I32), ("u2_idle_tid", _I32),
-    ("u2_idle_seen", _I32),
     # quiet.py ``held``: 1 while the state is a fixed point a skip confirmed and no
     # instruction has run since; 1: ``q`` holds the state at the end of a quiet chunk;
     # quiet.py's steps done in C (bc_quiet_init)
     ("quiet_hold", _I32), ("q_seen", _I32), ("q", _P, "struct quiet *"),
     ("py_ppb_read", _P, "mmio_read_t")]      # mmio.py ``ppb_read``: the PPB's but SysTick's
 
-LAYOUT = Layout("HX_BOARD_LAYOUT_H", [("set3", SET3), ("cover", COVER), ("bc", BC)], [
+LAYOUT = Layout("HX_BOARD_LAYOUT_H", [("set3", SET3), ("cover", COVER), ("usart", USART),
+                                      ("bc", BC)], [
+    ("N_USART", len(USARTS)), ("SERVO_USART", SERVO_USART),
     ("WAITS", WAITS), ("TURNS", TURNS), ("N_EXC", N_EXC), ("ACTIVE_MAX", ACTIVE_MAX),
     ("N_REGID", N_REGID),
     ("QUIET_PASS", QUIET_PASS), ("MAX_BACKOFF", MAX_BACKOFF), ("MASKED_STEPS", MASKED_STEPS),
     *MEMORY_MAP,
-    *((n, v) for n, v in vars(usart_registers).items()   # USART2's registers
+    *((n, v) for n, v in vars(usart_registers).items()   # the USARTs' registers
       if n.isupper() and isinstance(v, int)),
     *((f"STOP_HALF_BITS_{i}", v) for i, v in enumerate(usart_registers.STOP_HALF_BITS)),
     *((f"GPIO_{n}", getattr(gpio, n)) for n in ("MODER", "PUPDR", "IDR", "ODR", "BSRR")),

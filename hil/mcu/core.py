@@ -91,7 +91,7 @@ class Core:
         self._h = uc._uch
         self._batches: dict[tuple[int, ...], Regs] = {}
         # the time and the chunk's origin live where the compiled board sees them
-        self.shared = st = Shared(u2_tid=-1, st_tid=-1, rx_tid=-1, next_at=-1)
+        self.shared = st = Shared(st_tid=-1, rx_tid=-1, next_at=-1)
         attach_engine(uc, st, library())     # hil/mcu/engine.py
         self._ctr = ctypes.c_uint64.from_address(st.ctr)
         self._limit = ctypes.c_uint64.from_address(st.ctr + 8)   # the chunk's length

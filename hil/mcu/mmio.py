@@ -8,7 +8,7 @@ costs two more Python frames an access) and find their peripheral in one dict of
 pages that answer now: a peripheral whose RCC clock is off is not there (the access is
 logged once and reads 0), and the dict is rebuilt at each RCC write. A side-effect-free
 read of a pollable register goes to the poll skipper (hil/mcu/poll.py). The board core's
-callbacks (hil/mcu/board_core.c) front the region: USART2's page, GPIOA's ODR and BSRR,
+callbacks (hil/mcu/board_core.c) front the region: the USARTs' pages, GPIOA's ODR and BSRR,
 GPIOB's IDR and SysTick's CSR are served in C, every other register here.
 """
 from __future__ import annotations
@@ -30,7 +30,6 @@ log = logging.getLogger(__name__)
 PERIPH_BASE, PERIPH_SIZE = 0x40000000, 0x80000      # APB1, APB2, AHB1
 PPB_BASE, PPB_SIZE = platform.row("PPB").base, platform.row("PPB").size
 SRAM_ALIAS, PERIPH_ALIAS = 0x22000000, 0x42000000    # PM0214 2.2.5: the bit-band aliases
-USART2 = 0x40004400
 GPIOA = 0x40020000           # GPIOB and C in the next pages
 
 
@@ -90,7 +89,9 @@ class PeripheralSpace:
                       if page not in self._gates
                       or regs.get(self._gates[page][0], 0) >> self._gates[page][1] & 1}
         shared = self.board.core.shared
-        shared.u2_live = (USART2 - PERIPH_BASE) >> 10 in self._live
+        for usart in self.board.usarts:       # board_core.c serves a USART's page if live
+            shared.usart[usart.index].live = self._live.get(
+                (platform.row(usart.name).base - PERIPH_BASE) >> 10) is usart
         shared.gpio_live = sum(1 << i for i, port in enumerate(self.board.gpio)
                                if self._live.get(((GPIOA - PERIPH_BASE) >> 10) + i) is port)
 
