@@ -558,7 +558,7 @@ static int polled(bc_t *s, uint32_t addr, uint32_t value) {
     return py(s, PY_POLLED, addr, value) > 0;
 }
 
-static int masked_ready(bc_t *s);
+int bc_masked_ready(bc_t *s);
 
 /* --- Unicorn's MMIO callbacks for the peripheral region -------------------------------- */
 static void due(bc_t *s) {
@@ -632,7 +632,7 @@ static int write_porta(bc_t *s, int off, uint32_t value) {
         s->direction = level;
     }
     s->gpio_odr[0] = odr;
-    if (s->pending_n && (bc_next_exception(s) >= 0 || masked_ready(s))) cut_after(s);
+    if (s->pending_n && (bc_next_exception(s) >= 0 || bc_masked_ready(s))) cut_after(s);
     failed(s);
     return 1;
 }
@@ -692,7 +692,7 @@ void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, voi
             value = value << shift;
     }
     bc_usart_write(s, i, off, (uint32_t)(value & 0xFFFFFFFF));
-    if (s->pending_n && (bc_next_exception(s) >= 0 || masked_ready(s))) cut_after(s);
+    if (s->pending_n && (bc_next_exception(s) >= 0 || bc_masked_ready(s))) cut_after(s);
     failed(s);
 }
 
@@ -850,14 +850,19 @@ int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
     return vector;
 }
 
-/* --- the NVIC's choice (system.py Nvic ``next_exception``) ----------------------------- */
+/* --- the NVIC's choice (system.py ``Nvic``) ----------------------------------------- */
 static int priority(bc_t *s, int exc) { return exc <= 3 ? exc - 4 : s->prio[exc] & PRIORITY_BITS; }
 
 static int group(bc_t *s, int prio) {
     return prio < 0 ? prio : prio & ~((2 << s->prigroup) - 1) & 0xFF;
 }
 
-static int execution_priority(bc_t *s) {
+/* exception ``exc``'s preemption priority (lower preempts; reset -3, NMI -2, HardFault -1) */
+int bc_group_priority(bc_t *s, int exc) { return group(s, priority(s, exc)); }
+
+/* the execution priority (lower preempts): the active exceptions' group priorities and
+   PRIMASK, BASEPRI, FAULTMASK (-1: FAULTMASK; 256: nothing raises it) */
+int bc_execution_priority(bc_t *s) {
     int level = 256;
     for (int i = 0; i < s->nactive; i++) {
         int g = group(s, priority(s, s->active[i]));
@@ -876,7 +881,7 @@ static int execution_priority(bc_t *s) {
 
 /* the lowest exception from ``from`` on that is pending and enabled (a system exception
    always is), -1 when none: the pending bits walked a word at a time */
-static int pending_from(bc_t *s, int from) {
+int bc_pending_from(bc_t *s, int from) {
     for (int w = from >> 5; w < (N_EXC + 31) >> 5; w++) {
         uint32_t bits = s->pend[w] & (w == from >> 5 ? ~0u << (from & 31) : ~0u);
         for (; bits; bits &= bits - 1) {
@@ -888,11 +893,11 @@ static int pending_from(bc_t *s, int from) {
     return -1;
 }
 
-/* system.py Nvic ``masked_ready``: a pending exception would preempt the active ones but
-   for PRIMASK, BASEPRI or FAULTMASK */
-static int masked_ready(bc_t *s) {
+/* a pending exception would preempt the active ones but for PRIMASK, BASEPRI or
+   FAULTMASK */
+int bc_masked_ready(bc_t *s) {
     int best = -1, best_p = 0;
-    for (int e = pending_from(s, 0); e >= 0; e = pending_from(s, e + 1)) {
+    for (int e = bc_pending_from(s, 0); e >= 0; e = bc_pending_from(s, e + 1)) {
         int p = priority(s, e);
         if (best < 0 || p < best_p) { best = e; best_p = p; }
     }
@@ -909,12 +914,12 @@ static int masked_ready(bc_t *s) {
 int bc_next_exception(bc_t *s) {
     if (!s->pending_n) return -1;
     int best = -1, best_p = 0;
-    for (int e = pending_from(s, 0); e >= 0; e = pending_from(s, e + 1)) {
+    for (int e = bc_pending_from(s, 0); e >= 0; e = bc_pending_from(s, e + 1)) {
         int p = priority(s, e);
         if (best < 0 || p < best_p) { best = e; best_p = p; }
     }
     if (best < 0) return -1;
-    return group(s, best_p) < execution_priority(s) ? best : -1;
+    return group(s, best_p) < bc_execution_priority(s) ? best : -1;
 }
 
 /* The run loop's exception (board.py ``run``): the pending exception that preempts what
@@ -987,9 +992,9 @@ static int read16(bc_t *s, uint32_t addr, uint16_t *op) {
     return s->mem_read(s->uc, addr, op, 2);
 }
 
-/* system.py Nvic ``wakes``: an enabled exception is pending, whatever its priority */
-static int wakes(bc_t *s) {
-    return s->pending_n && pending_from(s, 0) >= 0;
+/* WFI ends: an enabled exception is pending, whatever its priority */
+int bc_wakes(bc_t *s) {
+    return s->pending_n && bc_pending_from(s, 0) >= 0;
 }
 
 /* core.py ``run``: up to ``n`` instructions from ``pc_next``; how many ran, or -1 when the
@@ -1159,7 +1164,7 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
             s->loop_exc = (int32_t)(-2 - taken);
             return LOOP_ENTER;
         } else if (s->sleeping) {
-            if (wakes(s)) {
+            if (bc_wakes(s)) {
                 s->sleeping = 0;
             } else {
                 if (s->next_at < 0) return LOOP_NO_EVENT;
@@ -1170,7 +1175,7 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
             }
         }
         if (s->quiet_hold) {      /* still the confirmed fixed point? quiet.py ``held`` */
-            if (taken == -1 && !s->sleeping && !(s->pending_n && masked_ready(s))) {
+            if (taken == -1 && !s->sleeping && !(s->pending_n && bc_masked_ready(s))) {
                 s->masked_steps = 0;
                 if (quiet_held(s)) {
                     n = -1;
@@ -1179,7 +1184,7 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
             }
             s->quiet_hold = 0;
         }
-        if (s->pending_n && masked_ready(s)) {   /* taken right after its unmasking */
+        if (s->pending_n && bc_masked_ready(s)) {   /* taken right after its unmasking */
             if (s->masked_steps < MASKED_STEPS) {
                 n = 1;
                 s->masked_steps++;

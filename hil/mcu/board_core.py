@@ -81,7 +81,12 @@ def _load() -> tuple[Any, str | None]:
     lib.bc_count.restype, lib.bc_count.argtypes = None, [_P, ctypes.c_uint64, ctypes.c_uint32, _P]
     lib.bc_rx_queue.restype, lib.bc_rx_queue.argtypes = None, [_P, _P, _P, _I32]
     lib.bc_rx_deliver.restype, lib.bc_rx_deliver.argtypes = _I32, [_P, _I64]
-    lib.bc_next_exception.restype, lib.bc_next_exception.argtypes = _I32, [_P]
+    for name in ("bc_next_exception", "bc_execution_priority", "bc_masked_ready", "bc_wakes"):
+        fn = getattr(lib, name)
+        fn.restype, fn.argtypes = _I32, [_P]
+    for name in ("bc_group_priority", "bc_pending_from"):
+        fn = getattr(lib, name)
+        fn.restype, fn.argtypes = _I32, [_P, _I32]
     lib.bc_head.restype, lib.bc_head.argtypes = _I64, [_P, _I64]
     lib.bc_take_next.restype = _I64
     lib.bc_take_next.argtypes = [_P, ctypes.c_uint32, _I32, ctypes.c_uint32]

@@ -38,12 +38,6 @@ def hook_interrupts(shared: Shared, uc: Any) -> None:
         raise RuntimeError("libunicorn refused the compiled interrupt hook")
 
 
-def exception_choice(shared: Shared) -> Callable[[], int]:
-    """system.py Nvic ``next_exception`` in C: the exception to take, -1 when none."""
-    ref, choose = ctypes.byref(shared), library().bc_next_exception
-    return lambda: choose(ref)
-
-
 def exception_entry(shared: Shared) -> Callable[[int, int, int, int], int]:
     """core.py ``enter`` in C: (exception, PC, FPU frame, vector table) -> the handler's
     vector, or -1 where Python takes it (nothing changed)."""

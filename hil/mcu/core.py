@@ -98,9 +98,8 @@ class Core:
         self.time = TimeBase(hz, st)
         self.cyc = 0                 # instructions run before the current chunk
         self._share_exceptions(st)
-        # the compiled board's exception entry and the NVIC's choice (board_core.py)
+        # the board core's exception entry (board_loop.py ``exception_entry``)
         self.enter_c: Callable[[int, int, int, int], int] | None = None
-        self.choose_c: Callable[[], int] | None = None
         self._fpscr0 = uc.reg_read(A.UC_ARM_REG_FPSCR)
         self.reset()
         self._pc_word = ctypes.c_uint32.from_address(st.pc)   # the running instruction's

@@ -14,16 +14,15 @@ import logging
 
 from typing import Any, Callable, Iterator
 
-from unicorn import arm_const as A
 
 from hexhil.hil.mcu import platform
 from hexhil.hil.mcu.armv7m import EXC_PENDSV, EXC_SYSTICK
-from hexhil.hil.mcu.board_core import SharedField
+from hexhil.hil.mcu.board_core import SharedField, library
 from hexhil.hil.mcu.board_layout import MASKED_STEPS
-from hexhil.hil.mcu.core import Core, Regs
+from hexhil.hil.mcu.core import Core
 from hexhil.hil.mcu.device_id import DBGMCU_IDCODE, IDCODE
 from hexhil.hil.mcu.faults import FaultStatus
-from hexhil.hil.mcu.platform import NUM_IRQS, PRIORITY_BITS
+from hexhil.hil.mcu.platform import NUM_IRQS
 
 CPUID = 0x410FC241            # Cortex-M4 r0p1
 NVIC, SYSTICK, SCB, DWT = (platform.row(n).base for n in ("NVIC", "SysTick", "SCB", "DWT"))
@@ -78,8 +77,8 @@ class Nvic:
 
     def __init__(self, core: Core) -> None:
         self.core, self.shared = core, core.shared
-        self._masks = Regs(core.uc, (A.UC_ARM_REG_FAULTMASK, A.UC_ARM_REG_PRIMASK,
-                                     A.UC_ARM_REG_BASEPRI))
+        # the rules (priorities, grouping, the masks, the choice) are board_core.c's
+        self._lib, self._ref = library(), ctypes.byref(core.shared)
         self.enabled = SharedBits(core.shared, "ena", "ena_n")        # IRQ numbers
         self.pending = SharedBits(core.shared, "pend", "pending_n")   # exception numbers
         self.lines = SharedBits(core.shared, "lines", "lines_n")   # IRQ lines held high
@@ -104,63 +103,32 @@ class Nvic:
         else:
             self.lines.discard(irq)
 
-    def _priority(self, exc: int) -> int:
-        if exc <= 3:
-            return exc - 4   # reset -3, NMI -2, HardFault -1
-        return self.prio[exc] & PRIORITY_BITS
-
-    def _group(self, prio: int) -> int:
-        if prio < 0:
-            return prio
-        return prio & ~((2 << self.prigroup) - 1) & 0xFF
-
     def group_priority(self, exc: int) -> int:
         """The preemption priority of exception ``exc`` (lower preempts)."""
-        return self._group(self._priority(exc))
+        return self._lib.bc_group_priority(self._ref, exc)
 
     def execution_priority(self) -> int:
-        core = self.core
-        level = 256
-        for exc in core.active:
-            level = min(level, self._group(self._priority(exc)))
-        faultmask, primask, basepri = self._masks.read()
-        if faultmask & 1:
-            return -1
-        if primask & 1:
-            level = min(level, 0)
-        basepri &= PRIORITY_BITS
-        if basepri:
-            level = min(level, self._group(basepri))
-        return level
+        return self._lib.bc_execution_priority(self._ref)
 
     def ready(self) -> list[int]:
-        return [e for e in self.pending if e < 16 or e - 16 in self.enabled]
+        """The pending exceptions that are enabled (a system exception always is)."""
+        found, pending_from = [], self._lib.bc_pending_from
+        exc = pending_from(self._ref, 0) if self.shared.pending_n else -1
+        while exc >= 0:
+            found.append(exc)
+            exc = pending_from(self._ref, exc + 1)
+        return found
 
     def next_exception(self) -> int | None:
         """The pending exception that preempts what runs now, if any."""
-        if not self.pending:
-            return None
-        if self.core.choose_c is not None:
-            exc = self.core.choose_c()
-            return None if exc < 0 else exc
-        ready = self.ready()
-        if not ready:
-            return None
-        best = min(ready, key=lambda e: (self._priority(e), e))
-        if self._group(self._priority(best)) < self.execution_priority():
-            return best
-        return None
+        exc = self._lib.bc_next_exception(self._ref)
+        return None if exc < 0 else exc
 
     def masked_ready(self) -> bool:
         """A pending exception would preempt the active ones but for PRIMASK, BASEPRI or
         FAULTMASK: the instruction that unmasks it (CPSIE, MSR) may come at any moment, and
         the exception is taken right after it, as on the chip (``MASKED_STEPS``)."""
-        ready = self.ready()
-        if not ready:
-            return False
-        best = min(self._priority(e) for e in ready)
-        level = min((self._group(self._priority(e)) for e in self.core.active), default=256)
-        return self._group(best) < level
+        return bool(self._lib.bc_masked_ready(self._ref))
 
     def could_preempt(self, systick_running: bool) -> bool:
         """An exception could still preempt what runs now: one pending, an enabled IRQ, or
@@ -195,7 +163,7 @@ class Nvic:
 
     def wakes(self) -> bool:
         """WFI ends: an enabled exception is pending (whatever its priority)."""
-        return bool(self.ready())
+        return bool(self._lib.bc_wakes(self._ref))
 
 
 class SystemBlock:
