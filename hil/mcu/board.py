@@ -17,8 +17,7 @@ from unicorn import arm_const as A
 
 from hexhil.hil.mcu.armv7m import BRANCH_TO_SELF, EXC_SVCALL, INTR_BKPT, INTR_EXC_EXIT, INTR_SWI
 from hexhil.hil.mcu.board_core import Events, NativeBoard, SharedField, Timer, require
-from hexhil.hil.mcu.board_loop import (exception_entry, exception_taking, handed_over,
-                                       hook_interrupts, trips)
+from hexhil.hil.mcu.board_loop import exception_taking, handed_over, hook_interrupts, trips
 from hexhil.hil.mcu.console import Console, semihost
 from hexhil.hil.mcu.core import Core, CoreFault
 from hexhil.hil.mcu.deadline import ControlCycles
@@ -63,8 +62,7 @@ class Board:
         self.shared = core.shared
         self.native = NativeBoard(self)
         self.events = Events(core.shared)
-        # in C: exception entry, PA1's turns, the clock
-        core.enter_c = exception_entry(core.shared)
+        # in C: PA1's turns, the clock
         self.link.turns = self.native.turns     # out before the next message
         core.now_fs = self.events.now_fs        # one C call (a callback asks it often)
         self.console = Console(self._console_line)

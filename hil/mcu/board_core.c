@@ -45,6 +45,7 @@ typedef struct bc bc_t;
 typedef struct cover cover_t;
 typedef struct usart usart_t;
 _Static_assert(REG_COUNT == N_REGID, "board_layout.py N_REGID: the REG_* registers");
+_Static_assert(N_EXC <= ACTIVE_MAX, "board_layout.py ACTIVE_MAX: every exception active at once");
 const char hx_layout[] = HX_LAYOUT;
 
 /* quiet.py ``QuietLoops`` in C: the state recorded at the end of a quiet chunk (cycle,
@@ -724,40 +725,49 @@ static uint32_t reg_pc(bc_t *s) {
     return (uint32_t)pc;
 }
 
-/* --- the exception return (core.py ``leave``, board.py ``_intr``) ----------------------
- * Done here when nothing follows it in Python: no exception pending (no tail-chaining), a
- * system exception or an IRQ whose line is low (a line held high pends it again), not
- * asleep, no sleep-on-exit, the frame in SRAM, no lockup or fault to name. Everything else
- * goes to board.py's _intr. */
-static int leave(bc_t *s) {
-    if (!s->pc || !s->uc || s->nactive < 1 || s->pending_n || s->sleeping) return 0;
-    /* Unicorn's registers hold the EXC_RETURN branched to (bc_count's word the branch's) */
-    uint32_t exc_return = reg_pc(s) | 1;
-    int exc = s->active[s->nactive - 1];
+/* --- the exception model: entry and return (core.py ``enter``, ``leave``) --------------- */
+
+/* ``n`` words at ``addr``: from SRAM's buffer, else through Unicorn; 0 when read */
+static int read_words(bc_t *s, uint32_t addr, uint32_t *v, uint32_t n) {
+    if (addr >= SRAM_BASE && addr <= SRAM_BASE + SRAM_SIZE - 4 * n) {
+        memcpy(v, s->sram + (addr - SRAM_BASE), 4 * n);      /* little-endian, as the core */
+        return 0;
+    }
+    return s->mem_read(s->uc, addr, v, 4 * n);
+}
+
+/* The return from the innermost exception through ``exc_return``: the exception popped, its
+ * frame unstacked (8 words, or 26 with the FPU's S0-S15 and FPSCR as EXC_RETURN says), the
+ * registers written in one batch, ``pc_next`` the return address. Its number, or a LEAVE_*
+ * code: in thread mode, or to thread mode with exceptions still active (a lockup: the
+ * exception is popped, as the chip leaves it), or nothing changed (the frame or the
+ * registers could not be read). */
+int bc_unstack(bc_t *s, uint32_t exc_return) {
+    if (s->nactive < 1) return LEAVE_THREAD;
     int to_thread = (exc_return & 0xF) == (RETURN_THREAD_MSP & 0xF) ||
                     (exc_return & 0xF) == (RETURN_THREAD_PSP & 0xF);
-    if ((exc >= 16 && s->lines[(exc - 16) >> 5] >> ((exc - 16) & 31) & 1) ||
-        (to_thread && s->nactive > 1) || (s->nactive == 1 && s->sleep_on_exit))
-        return 0;
+    if (to_thread && s->nactive > 1) {
+        s->nactive--;
+        return LEAVE_LOCKUP;
+    }
     int *id = s->regid;
     int rid[3] = {id[REG_CONTROL], id[REG_MSP], id[REG_PSP]};
     uint64_t st[3] = {0, 0, 0};
     void *sp3[3] = {&st[0], &st[1], &st[2]};
-    if (s->reg_read_batch(s->uc, rid, sp3, 3)) return 0;
+    if (s->reg_read_batch(s->uc, rid, sp3, 3)) return LEAVE_UNREAD;
     uint32_t control = (uint32_t)st[0], msp = (uint32_t)st[1], psp_value = (uint32_t)st[2];
     int psp = (exc_return & 0xF) == (RETURN_THREAD_PSP & 0xF);
     uint32_t sp = psp ? psp_value : msp;
     int fpu = !(exc_return & RETURN_NO_FP);
     control = (control & ~CONTROL_FPCA) | (fpu ? CONTROL_FPCA : 0);   /* as EXC_RETURN says */
     uint32_t n = fpu ? 26 : 8;
-    if (sp < SRAM_BASE || sp > SRAM_BASE + SRAM_SIZE - 4 * n) return 0;
     uint32_t v[26];
-    memcpy(v, s->sram + (sp - SRAM_BASE), 4 * n);      /* little-endian, as the core */
+    if (read_words(s, sp, v, n)) return LEAVE_UNREAD;
     uint32_t xpsr = v[7];
     sp = sp + 4 * n + ((xpsr & XPSR_ALIGNED) ? 4 : 0);
-    s->nactive--;
+    int exc = s->active[--s->nactive];
     uint32_t ipsr = s->nactive ? (uint32_t)s->active[s->nactive - 1] : 0;
-    /* the registers in core.py's _LEAVE order, with its values */
+    /* the frame's registers, the state, the FP context, IPSR, the stack pointer, the PC */
     int ids[40];
     uint64_t vals[40];
     void *ptrs[40];
@@ -782,15 +792,34 @@ static int leave(bc_t *s) {
     ids[k] = id[REG_PC]; vals[k++] = v[6] | 1;
     for (int i = 0; i < k; i++) ptrs[i] = &vals[i];
     s->reg_write_batch(s->uc, ids, ptrs, k);
+    s->pc_next = v[6] & ~1u;
+    return exc;
+}
+
+/* The return done here, in Unicorn's interrupt hook, when nothing follows it in Python: no
+ * exception pending (no tail-chaining), a system exception or an IRQ whose line is low (a
+ * line held high pends it again), not asleep, no sleep-on-exit, no lockup or fault to name.
+ * Everything else goes to board.py's ``intr``. */
+static int leave(bc_t *s) {
+    if (!s->pc || !s->uc || s->nactive < 1 || s->pending_n || s->sleeping) return 0;
+    /* Unicorn's registers hold the EXC_RETURN branched to (bc_count's word the branch's) */
+    uint32_t exc_return = reg_pc(s) | 1;
+    int exc = s->active[s->nactive - 1];
+    int to_thread = (exc_return & 0xF) == (RETURN_THREAD_MSP & 0xF) ||
+                    (exc_return & 0xF) == (RETURN_THREAD_PSP & 0xF);
+    if ((exc >= 16 && s->lines[(exc - 16) >> 5] >> ((exc - 16) & 31) & 1) ||
+        (to_thread && s->nactive > 1) || (s->nactive == 1 && s->sleep_on_exit))
+        return 0;
+    if (bc_unstack(s, exc_return) < 0) return 0;   /* nothing changed: Python names it */
     s->fast_returns++;
     return 1;
 }
 
-/* core.py ``enter``: take exception ``exc`` at ``pc``, the frame stacked in SRAM; the
- * handler's vector, or -1 where anything is not plain (a stack overflow, a frame or a vector
- * table outside SRAM and flash, no handler): then nothing has changed and Python does it. */
+/* Take exception ``exc`` at ``pc``: the frame stacked (the FP context's too where one is
+ * active), the handler's vector fetched from the table at ``vtor_base``, the registers
+ * written, the exception active. The vector, or an ENTER_* code: ``fault_at`` holds the
+ * frame's address (a stack overflow, a frame off SRAM) or the vector (none there). */
 int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
-    if (!s->uc || s->nactive >= ACTIVE_MAX) return -1;
     int *id = s->regid;
     int ids[40];
     uint64_t r[40];
@@ -804,7 +833,7 @@ int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
         ids[k++] = id[REG_FPSCR];
     }
     for (int i = 0; i < k; i++) { r[i] = 0; ptrs[i] = &r[i]; }
-    if (s->reg_read_batch(s->uc, ids, ptrs, k)) return -1;
+    if (s->reg_read_batch(s->uc, ids, ptrs, k)) return ENTER_UNREAD;
     uint32_t xpsr = (uint32_t)r[6], control = (uint32_t)r[7];
     int psp = !s->nactive && (control & CONTROL_SPSEL);
     fpu = fpu && (control & CONTROL_FPCA);   /* an FP context is active: the extended frame */
@@ -820,14 +849,19 @@ int64_t bc_enter(bc_t *s, int exc, uint32_t pc, int fpu, uint32_t vtor_base) {
     }
     if (sp & 4) { sp -= 4; v[7] |= XPSR_ALIGNED; }
     sp -= 4 * n;
-    if (sp < SRAM_BASE || sp > SRAM_BASE + SRAM_SIZE - 4 * n) return -1;
+    s->fault_at = sp;
+    if (sp < SRAM_BASE) return ENTER_BELOW_SRAM;
+    if (sp > SRAM_BASE + SRAM_SIZE - 4 * n) return ENTER_OFF_SRAM;
+    memcpy(s->sram + (sp - SRAM_BASE), v, 4 * n);
     uint64_t at = (uint64_t)vtor_base + 4 * (uint64_t)exc;
     uint32_t vector;
-    if (at >= FLASH_BASE && at <= FLASH_BASE + FLASH_SIZE - 4) memcpy(&vector, s->flash + (at - FLASH_BASE), 4);
-    else if (at >= SRAM_BASE && at <= SRAM_BASE + SRAM_SIZE - 4) memcpy(&vector, s->sram + (at - SRAM_BASE), 4);
-    else return -1;
-    if (vector == 0 || !(vector & 1)) return -1;
-    memcpy(s->sram + (sp - SRAM_BASE), v, 4 * n);
+    s->fault_at = (int64_t)at;
+    if (at >= FLASH_BASE && at <= FLASH_BASE + FLASH_SIZE - 4)
+        memcpy(&vector, s->flash + (at - FLASH_BASE), 4);
+    else if (at > 0xFFFFFFFCu || read_words(s, (uint32_t)at, &vector, 1))
+        return ENTER_NO_TABLE;
+    s->fault_at = vector;
+    if (vector == 0 || !(vector & 1)) return ENTER_NO_HANDLER;
     uint32_t exc_return = s->nactive ? RETURN_HANDLER
                                      : (psp ? RETURN_THREAD_PSP : RETURN_THREAD_MSP);
     if (fpu) exc_return &= ~(uint32_t)RETURN_NO_FP;
@@ -924,8 +958,8 @@ int bc_next_exception(bc_t *s) {
 
 /* The run loop's exception (board.py ``run``): the pending exception that preempts what
    runs now, taken at ``pc`` (no longer pending, its frame stacked): its number above bit 32
-   and its vector below; -1 when none is ready; -2 - exc where Python enters it (only its
-   pending bit cleared) */
+   and its vector below; -1 when none is ready; -2 - exc where its entry failed (only its
+   pending bit cleared: Python names the fault) */
 int64_t bc_take_next(bc_t *s, uint32_t pc, int fpu, uint32_t vtor_base) {
     int exc = bc_next_exception(s);
     if (exc < 0) return -1;

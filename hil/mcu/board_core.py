@@ -92,6 +92,7 @@ def _load() -> tuple[Any, str | None]:
     lib.bc_take_next.argtypes = [_P, ctypes.c_uint32, _I32, ctypes.c_uint32]
     lib.bc_enter.restype = _I64
     lib.bc_enter.argtypes = [_P, _I32, ctypes.c_uint32, _I32, ctypes.c_uint32]
+    lib.bc_unstack.restype, lib.bc_unstack.argtypes = _I32, [_P, ctypes.c_uint32]
     lib.bc_loop.restype, lib.bc_loop.argtypes = _I32, [_P, _I64, _I64]
     for name, (res, args) in sig.items():
         fn = getattr(lib, name)

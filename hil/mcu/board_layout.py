@@ -39,6 +39,11 @@ MEMORY_MAP = (("SRAM_BASE", _SRAM.base), ("SRAM_SIZE", _SRAM.size),
               ("GPIOA_PAGE", (platform.row("GPIOA").base - _PERIPH.base) >> 10),
               ("PPB_BASE", platform.row("PPB").base),
               ("SYSTICK_BASE", platform.row("SysTick").base))
+# why an exception's entry failed (bc_enter's answer; ``fault_at`` says where) and its
+# return (bc_unstack's), named by core.py
+(ENTER_BELOW_SRAM, ENTER_OFF_SRAM, ENTER_NO_TABLE, ENTER_NO_HANDLER,
+ ENTER_UNREAD) = range(-1, -6, -1)
+(LEAVE_THREAD, LEAVE_LOCKUP, LEAVE_UNREAD) = range(-1, -4, -1)
 # where the C run loop hands back to Python (board_loop.py)
 (LOOP_AFTER_HEAD, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED, LOOP_NULL_JUMP,
  LOOP_UC_ERROR, LOOP_NO_EVENT) = range(8)
@@ -106,7 +111,8 @@ BC = [
     ("uc", _P, "void *"), ("sram", _P, "uint8_t *"), ("flash", _P, "uint8_t *"),
     ("reg_read_batch", _P, "reg_batch_t"), ("reg_write_batch", _P, "reg_batch_t"),
     ("regid", _I32 * N_REGID),               # Unicorn's ids of the registers (REG_*)
-    ("fast_returns", _I64),                  # exception returns done in C
+    ("fast_returns", _I64),                  # exception returns done in the hook
+    ("fault_at", _I64),                      # where an entry failed (bc_enter)
     # the NVIC's pending exceptions (a bit each; pending_n counts them) and SysTick
     ("pend", _U32 * 4), ("st_tid", _I32), ("st_csr", _I32), ("st_rvr", _I32),
     ("st_countflag", _I32),
@@ -166,4 +172,4 @@ LAYOUT = Layout("HX_BOARD_LAYOUT_H", [("set3", SET3), ("cover", COVER), ("usart"
     *((n, getattr(timebase, n)) for n in ("FS_PER_S", "FS_PER_US", "TICK_US")),
     *((n, v) for n, v in vars(armv7m).items() if n.isupper()),   # the core's numbers
     *((n, v) for n, v in tuple(globals().items())   # the call's kinds, the loop's ends
-      if n.startswith(("PY_", "LOOP_")) and isinstance(v, int))])
+      if n.startswith(("PY_", "LOOP_", "ENTER_", "LEAVE_")) and isinstance(v, int))])

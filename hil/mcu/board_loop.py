@@ -38,13 +38,6 @@ def hook_interrupts(shared: Shared, uc: Any) -> None:
         raise RuntimeError("libunicorn refused the compiled interrupt hook")
 
 
-def exception_entry(shared: Shared) -> Callable[[int, int, int, int], int]:
-    """core.py ``enter`` in C: (exception, PC, FPU frame, vector table) -> the handler's
-    vector, or -1 where Python takes it (nothing changed)."""
-    ref, enter = ctypes.byref(shared), library().bc_enter
-    return lambda exc, pc, fpu, vtor: enter(ref, exc, pc, fpu, vtor)
-
-
 def exception_taking(core: Any) -> Callable[[], bool]:
     """board.py ``_take_next`` in C (the NVIC's choice and the entry in one call): whether
     an exception was taken."""
@@ -55,7 +48,7 @@ def exception_taking(core: Any) -> Callable[[], bool]:
         if r >= 0:
             core.pc = r & 0xFFFFFFFE
         elif r < -1:
-            core.enter(-2 - r)     # the entry Python makes (a fault's line, a frame off SRAM)
+            core.enter(-2 - r)     # the entry failed: core.py names the fault
         return r != -1
     return taken
 

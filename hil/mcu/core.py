@@ -1,7 +1,9 @@
 """The Cortex-M4F core on Unicorn: exact instruction counts, time, and the exception model.
 
 Unicorn runs Thumb-2 and the FPU but has no NVIC: exception entry (the 8-word frame, or
-26 words with the FPU's S0-S15 and FPSCR), EXC_RETURN and the return are done here.
+26 words with the FPU's S0-S15 and FPSCR), EXC_RETURN and the return are the board core's
+(hil/mcu/board_core.c ``bc_enter``, ``bc_unstack``); what they cannot do is a fault named
+here.
 Virtual time counts instructions, one instruction one cycle of HCLK (no wait states, no
 pipeline refills, no stacking cycles: say it as it is). The count inside a chunk comes
 from the board core's instruction hook (hil/mcu/engine.py), so a register read knows its
@@ -15,17 +17,16 @@ from __future__ import annotations
 
 import ctypes
 import struct
-from typing import Callable
 
 from unicorn import (UC_ARCH_ARM, UC_MODE_MCLASS, UC_MODE_THUMB, UC_PROT_ALL,
                      UC_PROT_EXEC, UC_PROT_READ, Uc, UcError)
 from unicorn import arm_const as A, unicorn_const as U
 from unicorn.unicorn_py3.unicorn import uclib
 
-from hexhil.hil.mcu.armv7m import (CONTROL_FPCA, CONTROL_SPSEL, RETURN_HANDLER, RETURN_NO_FP,
-                                   RETURN_THREAD_MSP, RETURN_THREAD_PSP, WFE, WFI, XPSR_ALIGNED,
-                                   XPSR_THUMB)
+from hexhil.hil.mcu.armv7m import RETURN_THREAD_PSP, WFE, WFI
 from hexhil.hil.mcu.board_core import Shared, SharedField, library
+from hexhil.hil.mcu.board_layout import (ENTER_BELOW_SRAM, ENTER_NO_HANDLER, ENTER_NO_TABLE,
+                                          ENTER_OFF_SRAM, LEAVE_LOCKUP, LEAVE_THREAD)
 from hexhil.hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
 from hexhil.hil.mcu.engine import Regs, attach_engine
 from hexhil.hil.mcu.timebase import FS_PER_S, TimeBase
@@ -33,13 +34,7 @@ from hexhil.hil.mcu.timebase import FS_PER_S, TimeBase
 ERASED = 0xFF                # an erased flash byte (RM0383 3.5)
 FRAME_REGS = (A.UC_ARM_REG_R0, A.UC_ARM_REG_R1, A.UC_ARM_REG_R2, A.UC_ARM_REG_R3,
               A.UC_ARM_REG_R12, A.UC_ARM_REG_LR)
-FP_REGS = tuple(A.UC_ARM_REG_S0 + i for i in range(16)) + (A.UC_ARM_REG_FPSCR,)
 STATE_REGS = (A.UC_ARM_REG_XPSR, A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_MSP, A.UC_ARM_REG_PSP)
-_ENTER_MSP = (A.UC_ARM_REG_MSP, A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_IPSR, A.UC_ARM_REG_LR)
-_ENTER_PSP = (A.UC_ARM_REG_PSP, A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_IPSR, A.UC_ARM_REG_LR)
-_LEAVE = {(fpu, psp): FRAME_REGS + STATE_REGS + (FP_REGS if fpu else ()) + (A.UC_ARM_REG_IPSR,)
-          + ((A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_PSP) if psp else (A.UC_ARM_REG_MSP,))
-          + (A.UC_ARM_REG_PC,) for fpu in (False, True) for psp in (False, True)}
 CONTEXT_REGS = tuple(A.UC_ARM_REG_R0 + i for i in range(13)) + (A.UC_ARM_REG_SP,
                                                                    A.UC_ARM_REG_LR)
 
@@ -82,14 +77,10 @@ class Core:
         uc.mem_map_ptr(SRAM_BASE, SRAM_SIZE, UC_PROT_ALL, self._sram)
         for seg in image.segments:
             uc.mem_write(seg.addr, seg.data)
-        self._state = Regs(uc, FRAME_REGS + STATE_REGS)
-        self._state_fp = Regs(uc, FRAME_REGS + STATE_REGS + FP_REGS)
-        self._stacks = Regs(uc, STATE_REGS[1:])
         self._context = Regs(uc, CONTEXT_REGS)
         self._one = ctypes.c_uint64(0)
         self._one_ref = ctypes.byref(self._one)
         self._h = uc._uch
-        self._batches: dict[tuple[int, ...], Regs] = {}
         # the time and the chunk's origin live where the compiled board sees them
         self.shared = st = Shared(st_tid=-1, rx_tid=-1, next_at=-1)
         attach_engine(uc, st, library())     # hil/mcu/engine.py
@@ -98,8 +89,10 @@ class Core:
         self.time = TimeBase(hz, st)
         self.cyc = 0                 # instructions run before the current chunk
         self._share_exceptions(st)
-        # the board core's exception entry (board_loop.py ``exception_entry``)
-        self.enter_c: Callable[[int, int, int, int], int] | None = None
+        # the exception model's entry and return (board_core.c)
+        ref, lib = ctypes.byref(st), library()
+        self._enter = lambda exc, pc, fpu, vtor: lib.bc_enter(ref, exc, pc, fpu, vtor)
+        self._unstack = lambda exc_return: lib.bc_unstack(ref, exc_return)
         self._fpscr0 = uc.reg_read(A.UC_ARM_REG_FPSCR)
         self.reset()
         self._pc_word = ctypes.c_uint32.from_address(st.pc)   # the running instruction's
@@ -121,17 +114,10 @@ class Core:
 
     @property
     def active(self) -> list[int]:
-        """The active exceptions, innermost last (a copy: ``_push``/``_pop`` change them)."""
+        """The active exceptions, innermost last (a copy: an entry or a return changes
+        them)."""
         st = self.shared
         return st.active[:st.nactive]
-
-    def _push(self, exc: int) -> None:
-        self.shared.active[self.shared.nactive] = exc
-        self.shared.nactive += 1
-
-    def _pop(self) -> int:
-        self.shared.nactive -= 1
-        return self.shared.active[self.shared.nactive]
 
     def reset(self) -> None:
         """The core's reset: thread mode on MSP from the vector table, the masks clear,
@@ -259,98 +245,38 @@ class Core:
         uclib.uc_reg_read(self._h, reg_id, self._one_ref)
         return one.value & 0xFFFFFFFF
 
-    def _set(self, ids: tuple[int, ...], values: list[int]) -> None:
-        regs = self._batches.get(ids)
-        if regs is None:
-            regs = self._batches[ids] = Regs(self.uc, ids)
-        regs.write(values)
-
     def enter(self, exc: int) -> None:
-        """Take exception ``exc`` at ``self.pc``: stack the frame, jump to its vector."""
-        if self.enter_c is not None:
-            vector = self.enter_c(exc, self.pc, self.fpu_on, self.vtor or FLASH_BASE)
-            if vector >= 0:
-                self.pc = vector & ~1
-                return
-        r = self._state_fp.read() if self.fpu_on else self._state.read()
-        xpsr, control, msp, psp_value = r[6:10]
-        fpu = self.fpu_on and bool(control & CONTROL_FPCA)    # an FP context is active
-        psp = not self.active and bool(control & CONTROL_SPSEL)
-        sp = psp_value if psp else msp
-        values = r[:6] + [self.pc & ~1, xpsr | XPSR_THUMB]
-        if fpu:
-            values += r[10:] + [0]
-        if sp & 4:
-            sp -= 4
-            values[7] |= XPSR_ALIGNED
-        sp -= 4 * len(values)
-        if sp < SRAM_BASE:
-            raise CoreFault(f"a stack overflow: exception {exc} stacks its frame at "
-                            f"0x{sp:08x}, below SRAM")
-        self._store(sp, values)
-        vector = self.read32(self.vtor_base() + 4 * exc)
-        if vector == 0 or not vector & 1:
-            raise CoreFault(f"exception {exc} has no handler (vector 0x{vector:08x})")
-        exc_return = RETURN_HANDLER if self.active else (RETURN_THREAD_PSP if psp else
-                                                         RETURN_THREAD_MSP)
-        if fpu:
-            exc_return &= ~RETURN_NO_FP
-        control &= ~CONTROL_FPCA                 # the handler starts with no FP context
-        if psp:
-            ids, values = _ENTER_PSP, [sp, control & ~CONTROL_SPSEL, exc, exc_return]
-        else:
-            ids, values = _ENTER_MSP, [sp, control, exc, exc_return]
-        if self.running:
-            ids, values = ids + (A.UC_ARM_REG_PC,), values + [vector | 1]
-        self._set(ids, values)
-        self._push(exc)
+        """Take exception ``exc`` at ``self.pc``: stack the frame, jump to its vector
+        (board_core.c ``bc_enter``); a frame or a vector it cannot have is a fault."""
+        vector = self._enter(exc, self.pc, self.fpu_on, self.vtor_base())
+        if vector < 0:
+            at = self.shared.fault_at & 0xFFFFFFFF
+            raise CoreFault({
+                ENTER_BELOW_SRAM: f"a stack overflow: exception {exc} stacks its frame at "
+                                  f"0x{at:08x}, below SRAM",
+                ENTER_OFF_SRAM: f"exception {exc} stacks its frame at 0x{at:08x}, past SRAM",
+                ENTER_NO_TABLE: f"exception {exc}'s vector at 0x{at:08x} is in no memory "
+                                f"(VTOR 0x{self.vtor:08x})",
+                ENTER_NO_HANDLER: f"exception {exc} has no handler (vector 0x{at:08x})",
+            }.get(vector, f"libunicorn refused the registers of exception {exc}'s entry"))
         self.pc = vector & ~1
-        self.sleeping = False
 
     def leave(self, exc_return: int) -> int:
-        """Return from the innermost exception through ``exc_return``; its number."""
-        if not self.active:
+        """Return from the innermost exception through ``exc_return`` (board_core.c
+        ``bc_unstack``); its number."""
+        n = self.shared.nactive
+        exc = self._unstack(exc_return)
+        if exc == LEAVE_THREAD:
             raise CoreFault(f"an exception return (0x{exc_return:08x}) in thread mode")
-        exc = self._pop()
-        to_thread = exc_return & 0xF in (RETURN_THREAD_MSP & 0xF, RETURN_THREAD_PSP & 0xF)
-        if to_thread and self.active:
-            raise CoreFault(f"an exception return to thread mode with {len(self.active)} "
-                            "exceptions still active (a lockup)")
-        control, msp, psp_value = self._stacks.read()
-        psp = exc_return & 0xF == RETURN_THREAD_PSP & 0xF
-        sp = psp_value if psp else msp
-        fpu = not exc_return & RETURN_NO_FP
-        n = 26 if fpu else 8
-        control = control & ~CONTROL_FPCA | (CONTROL_FPCA if fpu else 0)   # as EXC_RETURN says
-        if SRAM_BASE <= sp <= SRAM_BASE + SRAM_SIZE - 4 * n:
-            values = list(struct.unpack_from(f"<{n}I", self._sram_mem, sp - SRAM_BASE))
-        else:
-            words = self.uc.mem_read(sp, 4 * n)
-            values = [int.from_bytes(words[4 * i:4 * i + 4], "little") for i in range(n)]
-        xpsr = values[7]
-        sp = (sp + 4 * n + (4 if xpsr & XPSR_ALIGNED else 0)) & 0xFFFFFFFF
-        ipsr = self.active[-1] if self.active else 0
-        regs = values[:6] + [(xpsr & ~0x3FF), control, msp, psp_value]
-        if fpu:
-            regs += values[8:25]
-        regs.append(ipsr)
-        if psp:
-            regs += [control | CONTROL_SPSEL, sp, values[6] | 1]
-        else:
-            regs += [sp, values[6] | 1]
-        self._set(_LEAVE[fpu, psp], regs)
-        self.pc = values[6] & ~1
+        if exc == LEAVE_LOCKUP:
+            raise CoreFault(f"an exception return to thread mode with {n - 1} exceptions "
+                            "still active (a lockup)")
+        if exc < 0:
+            sp = self.reg(A.UC_ARM_REG_PSP if exc_return & 0xF == RETURN_THREAD_PSP & 0xF
+                          else A.UC_ARM_REG_MSP)
+            raise CoreFault(f"an exception return unstacks its frame from 0x{sp:08x}, which "
+                            "no memory holds")
         return exc
-
-    def _store(self, sp: int, values: list[int]) -> None:
-        """An exception frame (32-bit values) at ``sp``: straight into SRAM's buffer, else
-        through Unicorn (which faults where nothing is mapped)."""
-        n = len(values)
-        if SRAM_BASE <= sp <= SRAM_BASE + SRAM_SIZE - 4 * n:
-            struct.pack_into(f"<{n}I", self._sram_mem, sp - SRAM_BASE, *values)
-        else:
-            self.uc.mem_write(sp, b"".join((v & 0xFFFFFFFF).to_bytes(4, "little")
-                                           for v in values))
 
     def context(self) -> tuple[int, ...]:
         """The integer registers, to tell one pass of a poll loop from the next."""
