@@ -48,7 +48,7 @@ _Static_assert(REG_COUNT == N_REGID, "board_layout.py N_REGID: the REG_* registe
 _Static_assert(N_EXC <= ACTIVE_MAX, "board_layout.py ACTIVE_MAX: every exception active at once");
 const char hx_layout[] = HX_LAYOUT;
 
-/* quiet.py ``QuietLoops`` in C: the state recorded at the end of a quiet chunk (cycle,
+/* quiet loops (quiet.py): the state recorded at the end of a quiet chunk (cycle,
    registers, SRAM), the misses' back-off, Unicorn's ids of the registers read */
 typedef struct quiet {
     int64_t cyc, backoff;
@@ -1073,7 +1073,7 @@ static int64_t run_chunk(bc_t *s, int64_t n) {
     return ran;
 }
 
-/* --- quiet loops (quiet.py, the same steps) ------------------------------------------- */
+/* --- quiet loops (quiet.py) ------------------------------------------------------------ */
 
 /* quiet.py's registers, by Unicorn's ids; 0 when the buffers cannot be had */
 static void quiet_free(quiet_t *q) {
@@ -1131,7 +1131,7 @@ static int quiet_same(bc_t *s) {
            same_words(s->sram, q->sram, SRAM_SIZE);
 }
 
-/* quiet.py ``_skip`` */
+/* time jumps to the next event; whether it moved */
 static int quiet_skip(bc_t *s) {
     if (s->next_at < 0) return 0;
     int64_t cyc = cycle_of(s, s->next_at);
@@ -1141,8 +1141,10 @@ static int quiet_skip(bc_t *s) {
     return 1;
 }
 
-/* quiet.py ``quiet_chunk`` */
-static void quiet_chunk(bc_t *s, int64_t ran) {
+/* A chunk of ``ran`` instructions made no register access and did not sleep: its end state
+   recorded, or compared with the one a pass before (a miss backs off; the same state to the
+   bit is a fixed point: time jumps to the next event and the state is held) */
+void bc_quiet_chunk(bc_t *s, int64_t ran) {
     quiet_t *q = s->q;
     quiet_read(s);
     if (!s->q_seen || ran != QUIET_PASS || s->cyc - q->cyc != QUIET_PASS) {
@@ -1154,7 +1156,7 @@ static void quiet_chunk(bc_t *s, int64_t ran) {
         return;
     }
     s->q_seen = 0;
-    if (!quiet_same(s)) {         /* quiet.py ``_miss`` */
+    if (!quiet_same(s)) {         /* a miss */
         s->quiet_n = 0;
         s->quiet_wait = q->backoff;
         q->backoff = 2 * q->backoff < MAX_BACKOFF ? 2 * q->backoff : MAX_BACKOFF;
@@ -1164,8 +1166,9 @@ static void quiet_chunk(bc_t *s, int64_t ran) {
     if (quiet_skip(s)) s->quiet_hold = 1;     /* the recorded state is the fixed point */
 }
 
-/* quiet.py ``held`` */
-static int quiet_held(bc_t *s) {
+/* Nothing has run since the last skip: the state still the held one, time jumps again (1);
+   else the hold ends */
+int bc_quiet_held(bc_t *s) {
     quiet_read(s);
     if (quiet_same(s) && quiet_skip(s)) return 1;
     s->quiet_hold = 0;
@@ -1208,10 +1211,10 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
                 continue;
             }
         }
-        if (s->quiet_hold) {      /* still the confirmed fixed point? quiet.py ``held`` */
+        if (s->quiet_hold) {      /* still the confirmed fixed point? */
             if (taken == -1 && !s->sleeping && !(s->pending_n && bc_masked_ready(s))) {
                 s->masked_steps = 0;
-                if (quiet_held(s)) {
+                if (bc_quiet_held(s)) {
                     n = -1;
                     continue;
                 }
@@ -1237,8 +1240,8 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
             if (++s->quiet_loud > QUIET_LOUD) s->quiet_n = 0;   /* no wait goes on */
         } else if (ran == n && !s->sleeping && !s->stopped && !s->cut) {
             s->quiet_loud = 0;
-            if (s->quiet_wait > 0) s->quiet_wait--;       /* a quiet chunk: quiet.py's look */
-            else quiet_chunk(s, ran);
+            if (s->quiet_wait > 0) s->quiet_wait--;       /* a quiet chunk: a look */
+            else bc_quiet_chunk(s, ran);
         }
         n = -1;
     }

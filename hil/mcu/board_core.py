@@ -94,6 +94,8 @@ def _load() -> tuple[Any, str | None]:
     lib.bc_enter.argtypes = [_P, _I32, ctypes.c_uint32, _I32, ctypes.c_uint32]
     lib.bc_unstack.restype, lib.bc_unstack.argtypes = _I32, [_P, ctypes.c_uint32]
     lib.bc_loop.restype, lib.bc_loop.argtypes = _I32, [_P, _I64, _I64]
+    lib.bc_quiet_chunk.restype, lib.bc_quiet_chunk.argtypes = None, [_P, _I64]
+    lib.bc_quiet_held.restype, lib.bc_quiet_held.argtypes = _I32, [_P]
     for name, (res, args) in sig.items():
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = res, args
