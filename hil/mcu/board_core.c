@@ -508,7 +508,8 @@ static int set_has(set3_t *t, uint32_t a, uint32_t b, uint32_t c) {
     return 0;
 }
 
-/* poll.py ``_known_wait``: 0 added (or already there), -1 full (C then asks Python) */
+/* poll.py ``_known_wait``: 0 added (or already there), -1 full (the loop is then skipped
+   at its second read, by the watch's verdict) */
 int bc_add_wait(bc_t *s, uint32_t pc, uint32_t addr, uint32_t value) {
     return set_add(&s->waits, pc, addr, value);
 }
@@ -518,14 +519,16 @@ int bc_add_not_loop(bc_t *s, uint32_t pc, uint32_t addr, uint32_t cycles) {
     return set_add(&s->nots, pc, addr, cycles);
 }
 
-/* _jump_here: time jumps to the next event, which fires now */
-static int jump_here(bc_t *s) {
+/* A known poll loop skipped at its read: time jumps to the next event, which fires now; an
+   exception it makes ready stops the chunk (the read runs again). Whether time moved. */
+int bc_jump_here(bc_t *s) {
     int64_t now = now_cyc(s);
     settle(s);
     if (s->next_at == NONE) return 0;
     int64_t cyc = cycle_of(s, s->next_at);
     if (cyc <= now) return 0;
-    s->chunk0 += cyc - now;
+    if (s->running) s->chunk0 += cyc - now;
+    else s->cyc += cyc - now;
     s->skipped += cyc - now;
     s->poll_valid = 0;
     bc_fire_due(s, bc_now_fs(s));
@@ -536,8 +539,11 @@ static int jump_here(bc_t *s) {
     return 1;
 }
 
-static int polled(bc_t *s, uint32_t addr, uint32_t value) {
-    if (s->waits.n < 0) return py(s, PY_POLLED, addr, value) > 0;  /* the table is full */
+/* A side-effect-free read of a pollable register (any peripheral's): the poll detector's
+   view. A new read is noted, and skipped when it is a known wait's; the same read again at
+   a site known to wait on nothing is noted too; anything else is the watch's, in Python
+   (poll.py ``repeated``). 1 when the wait was skipped here: the read is to be done again. */
+int bc_polled(bc_t *s, uint32_t addr, uint32_t value) {
     if (s->reread) {
         s->reread = 0;
         return 0;
@@ -547,7 +553,7 @@ static int polled(bc_t *s, uint32_t addr, uint32_t value) {
         s->poll_addr = (int32_t)addr;
         s->poll_value = (int32_t)value;
         s->poll_at = now_cyc(s);
-        if (!s->watching && set_has(&s->waits, *s->pc, addr, value)) return jump_here(s);
+        if (!s->watching && set_has(&s->waits, *s->pc, addr, value)) return bc_jump_here(s);
         return 0;
     }
     int64_t now = now_cyc(s), cycles = now - s->poll_at;
@@ -607,7 +613,7 @@ static uint32_t switches_idr(bc_t *s) {
 static uint64_t read_switches(bc_t *s, uint64_t offset, unsigned size) {
     due(s);
     uint32_t value = sized(switches_idr(s), offset, size);
-    if (!s->err && polled(s, (uint32_t)(PERIPH_BASE + offset), value))
+    if (!s->err && bc_polled(s, (uint32_t)(PERIPH_BASE + offset), value))
         value = sized(switches_idr(s), offset, size);
     failed(s);
     return value;
@@ -661,7 +667,7 @@ uint64_t bc_mmio_read(void *uc, uint64_t offset, unsigned size, void *ud) {
     uint32_t value = sized(bc_usart_read(s, i, off), offset, size);
     if (off == DR || off == GTPR || off > GTPR) {
         s->poll_valid = 0;
-    } else if (polled(s, (uint32_t)(PERIPH_BASE + offset), value)) {
+    } else if (bc_polled(s, (uint32_t)(PERIPH_BASE + offset), value)) {
         value = sized(bc_usart_read(s, i, off), offset, size);
     }
     failed(s);
@@ -709,7 +715,7 @@ uint64_t bc_ppb_read(void *uc, uint64_t offset, unsigned size, void *ud) {
     s->mmio_n++;
     due(s);
     uint32_t value = sized(systick_csr(s), offset, size);
-    if (polled(s, (uint32_t)(PPB_BASE + offset), value))
+    if (bc_polled(s, (uint32_t)(PPB_BASE + offset), value))
         value = sized(systick_csr(s), offset, size);
     failed(s);
     return value;
@@ -1131,8 +1137,8 @@ static int quiet_same(bc_t *s) {
            same_words(s->sram, q->sram, SRAM_SIZE);
 }
 
-/* time jumps to the next event; whether it moved */
-static int quiet_skip(bc_t *s) {
+/* between chunks: time jumps to the next event; whether it moved */
+int bc_skip_to_event(bc_t *s) {
     if (s->next_at < 0) return 0;
     int64_t cyc = cycle_of(s, s->next_at);
     if (cyc <= s->cyc) return 0;
@@ -1163,14 +1169,14 @@ void bc_quiet_chunk(bc_t *s, int64_t ran) {
         return;
     }
     q->backoff = 1;
-    if (quiet_skip(s)) s->quiet_hold = 1;     /* the recorded state is the fixed point */
+    if (bc_skip_to_event(s)) s->quiet_hold = 1;     /* the recorded state is the fixed point */
 }
 
 /* Nothing has run since the last skip: the state still the held one, time jumps again (1);
    else the hold ends */
 int bc_quiet_held(bc_t *s) {
     quiet_read(s);
-    if (quiet_same(s) && quiet_skip(s)) return 1;
+    if (quiet_same(s) && bc_skip_to_event(s)) return 1;
     s->quiet_hold = 0;
     return 0;
 }

@@ -95,6 +95,10 @@ def _load() -> tuple[Any, str | None]:
     lib.bc_unstack.restype, lib.bc_unstack.argtypes = _I32, [_P, ctypes.c_uint32]
     lib.bc_loop.restype, lib.bc_loop.argtypes = _I32, [_P, _I64, _I64]
     lib.bc_quiet_chunk.restype, lib.bc_quiet_chunk.argtypes = None, [_P, _I64]
+    lib.bc_polled.restype = _I32
+    lib.bc_polled.argtypes = [_P, ctypes.c_uint32, ctypes.c_uint32]
+    lib.bc_jump_here.restype, lib.bc_jump_here.argtypes = _I32, [_P]
+    lib.bc_skip_to_event.restype, lib.bc_skip_to_event.argtypes = _I32, [_P]
     lib.bc_quiet_held.restype, lib.bc_quiet_held.argtypes = _I32, [_P]
     for name, (res, args) in sig.items():
         fn = getattr(lib, name)
@@ -229,7 +233,7 @@ class NativeBoard:
             elif kind == PY_DMA_RX:
                 return int(bool(board.usarts[b].dma_rx(a)))
             elif kind == PY_POLLED:
-                return int(board.poll.polled(a & 0xFFFFFFFF, b & 0xFFFFFFFF))
+                return int(board.poll.repeated(a & 0xFFFFFFFF, b & 0xFFFFFFFF))
             elif kind == PY_PCLK:
                 return board.usarts[a].pclk_hz()
             elif kind == PY_INTR:
@@ -296,9 +300,9 @@ def front(shared: Shared, py_read: Any, py_write: Any, ppb_read: Any) -> tuple[A
 
 
 def add_wait(shared: Shared, pc: int, addr: int, value: int) -> None:
-    """A known poll wait, for the C side too (a full table: C asks Python every time)."""
-    if shared.waits.n >= 0 and _LIB.bc_add_wait(ctypes.byref(shared), pc, addr, value) < 0:
-        shared.waits.n = -1
+    """A known poll wait (a full table takes no more: such a loop is skipped at its second
+    read, by the watch's verdict)."""
+    _LIB.bc_add_wait(ctypes.byref(shared), pc, addr, value)
 
 
 def add_not_loop(shared: Shared, pc: int, addr: int) -> None:

@@ -53,7 +53,7 @@ _U8, _U32, _U64 = ctypes.c_uint8, ctypes.c_uint32, ctypes.c_uint64
 PY_CALL = ctypes.CFUNCTYPE(ctypes.c_int64, ctypes.c_int, ctypes.c_int64, ctypes.c_int64)
 PY_TIMER = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_int, ctypes.c_int64)
 
-# an open-addressed set of triples; n is -1 once full (the Python set keeps the rest)
+# an open-addressed set of triples; n is -1 once full (the non-waits' set: C asks Python)
 SET3 = [("slot", (_U32 * 3) * WAITS), ("n", _I32)]
 
 

@@ -16,48 +16,46 @@ runs while its SysTick handler's read of SysTick->CTRL is being watched.
 """
 from __future__ import annotations
 
+import ctypes
 from typing import Any
 
-from hexhil.hil.mcu.board_core import add_not_loop, add_wait
-
-
-def _signed(word: int) -> int:
-    """A 32-bit register word as the shared int32 field holds it."""
-    return word - (1 << 32) if word & 0x80000000 else word
+from hexhil.hil.mcu.board_core import add_not_loop, add_wait, library
 
 
 class PollSkipper:
+    """A read's bookkeeping, the known waits and the jump are the board core's
+    (board_core.c ``bc_polled``, ``bc_jump_here``); the watch of a loop's pass is here."""
+
     def __init__(self, board: Any) -> None:
         self.board = board
         self._st = board.core.shared     # the poll's state, shared with hil/mcu/board_core.c
+        self._lib, self._ref = library(), ctypes.byref(self._st)
         self._watch: tuple | None = None
         self._sram: bytes | None = None   # SRAM when the watched pass began
         self._skip = False
         # a read site's verdict, keyed on what it reads (PC, register), not on how far
         # apart its repeats come: a site that is no wait is never watched again
         self._loops_ok: dict[tuple[int, int], bool] = {}
-        self._waits: set[tuple[int, int, int]] = set()        # (pc, register, value)
-        self._wait_values: set[tuple[int, int]] = set()
 
     def other_access(self) -> None:
         """A register access that is not a side-effect-free read: no poll goes on."""
         self._st.poll_valid = 0
 
     def polled(self, addr: int, value: int) -> bool:
-        """A side-effect-free register read: the poll detector's view. True when it
-        skipped the wait here, so the read is to be done again at the new time."""
+        """A side-effect-free register read (hil/mcu/mmio.py's pages; the board core's own
+        are its): True when the wait was skipped here, so the read is to be done again at
+        the new time."""
+        skipped = self._lib.bc_polled(self._ref, addr, value)
+        if self._st.err:                 # a timer fired by the jump raised
+            self.board.events.raise_error()
+        return bool(skipped)
+
+    def repeated(self, addr: int, value: int) -> bool:
+        """The same read again, where no known wait or non-wait answers it (``bc_polled``
+        asks): the pass since the last one is watched, and a pass confirmed pure makes the
+        loop a known wait. True when the wait was skipped here."""
         core, st = self.board.core, self._st
-        if st.reread:              # the read a stop made run again: already counted
-            st.reread = 0
-            return False
         now = core.now()
-        if not st.poll_valid or st.poll_addr != _signed(addr) or st.poll_value != _signed(value):
-            st.poll_valid, st.poll_addr, st.poll_value = 1, _signed(addr), _signed(value)
-            st.poll_at = now
-            if (addr, value) in self._wait_values and self._watch is None and \
-                    (core.pc_now(), addr, value) in self._waits:
-                return self._jump_here()   # a known loop waiting on this very value
-            return False
         delta = now - st.poll_at
         st.poll_at = now
         loop = (core.pc_now(), addr, delta)
@@ -87,28 +85,11 @@ class PollSkipper:
     def _known_wait(self, pc: int, addr: int, value: int) -> None:
         """From now on the loop at ``pc`` is skipped at its first read of ``value``: it
         was confirmed pure, so until the next event it could only read the same again."""
-        self._waits.add((pc, addr, value))
-        self._wait_values.add((addr, value))
         add_wait(self._st, pc, addr, value)
 
     def _jump_here(self) -> bool:
-        """Skip a known poll loop inside the chunk: time jumps to the next event, which
-        fires now; an exception it makes ready ends the chunk (the read runs again)."""
-        board = self.board
-        core, events = board.core, board.events
-        now = core.now()
-        cyc = core.time.cycle_of(events.next_fs())
-        if cyc <= now:
-            return False
-        core.jump(cyc - now)
-        self._st.skipped += cyc - now
-        self._st.poll_valid = 0
-        events.fire_due(core.now_fs())
-        nvic = board.nvic
-        if nvic.pending and nvic.next_exception() is not None:
-            self._st.reread = 1
-            core.stop()
-        return True
+        """Skip a known poll loop inside the chunk (board_core.c ``bc_jump_here``)."""
+        return bool(self._lib.bc_jump_here(self._ref))
 
     def forget(self) -> None:
         """A system reset: no poll is under way (the loops learnt stay: the same code)."""
@@ -129,10 +110,7 @@ class PollSkipper:
             self._end_watch()
             self._st.poll_valid = 0
             self._st.reread = 0
-            cyc = core.time.cycle_of(self.board.events.next_fs())
-            if cyc > core.cyc:
-                self._st.skipped += cyc - core.cyc
-                core.cyc = cyc
+            self._lib.bc_skip_to_event(self._ref)
         elif self._watch is not None and self._sram is None and core.stopped:
             self._sram = bytes(core.sram_view())   # a loop seen for the first time
         elif self._watch is not None and not core.stopped:
