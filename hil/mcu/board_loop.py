@@ -75,9 +75,8 @@ def handed_over(board: Any, where: int) -> int:
             board.faulted(board.fault)
             return -1
         return st.loop_n
-    elif where == LOOP_ENTER:
+    elif where == LOOP_ENTER:            # the entry failed in C: the same call names it
         core.enter(st.loop_exc)
-        board.trip(st.loop_n, True)
     elif where == LOOP_RAISED:
         board.events.raise_error()
     elif where == LOOP_HOOK_FAILED:      # what Unicorn's emu_start raises
