@@ -17,7 +17,7 @@ from unicorn import arm_const as A
 
 from hexhil.hil.mcu.armv7m import BRANCH_TO_SELF, EXC_SVCALL, INTR_BKPT, INTR_EXC_EXIT, INTR_SWI
 from hexhil.hil.mcu.board_core import Events, NativeBoard, SharedField, Timer, require
-from hexhil.hil.mcu.board_loop import exception_taking, handed_over, hook_interrupts, trips
+from hexhil.hil.mcu.board_loop import handed_over, hook_interrupts, trips
 from hexhil.hil.mcu.console import Console, semihost
 from hexhil.hil.mcu.core import Core, CoreFault
 from hexhil.hil.mcu.deadline import ControlCycles
@@ -265,57 +265,15 @@ class Board:
     def run(self) -> None:
         """Boot and run until the host ends the run, the firmware exits or faults
         (``CoreFault`` carrying the one line). The trips run in C (hil/mcu/board_loop.py)
-        and come here where Python takes part; under GDB each trip runs here."""
-        core, events = self.core, self.events     # the NVIC is new after a system reset
-        head, take_next = events.head, exception_taking(core)
-        loop = trips(core) if self.debugger is None else None   # GDB steps in Python
+        and come here where Python takes part; under GDB, before and after each chunk."""
+        loop = trips(self.core)
+        self.core.shared.debug = self.debugger is not None
         self.link.hello()
         n = -1
         while not self.ended and self.exit_code is None and self.endings.verdict is None:
-            if loop is not None:
-                n = handed_over(self, loop(MAX_CHUNK, n))
-                continue
-            n = head(MAX_CHUNK)
-            if core.shared.quiet_n > 0:
-                n = min(n, core.shared.quiet_n)
-            if self.ended or self.endings.verdict is not None:
-                break
-            if self.reset_if_asked():
-                continue
-            if self.fault is not None:
-                self.faulted(self.fault)
-            taken = take_next()
-            self.trip(self.nvic.masked_chunk(n), taken)
+            n = handed_over(self, loop(MAX_CHUNK, n))
         self.console.flush()
         self.line.flush()
-
-    def trip(self, n: int, taken: bool) -> None:
-        """A trip of the loop after its head and its exception: the sleep or the chunk."""
-        core = self.core
-        if not taken and core.sleeping:
-            if self.nvic.wakes():
-                core.sleeping = False
-            else:
-                core.cyc = max(core.cyc, core.time.cycle_of(self.events.next_fs()))
-                return
-        st = core.shared
-        if st.quiet_hold:               # board_core.c ``bc_loop`` does the same
-            if not taken and not core.sleeping and not (st.pending_n and self.nvic.masked_ready()) \
-                    and self.quiet.held():
-                return
-            st.quiet_hold = 0
-        if self.debugger is not None:
-            n = self.debugger.chunk_limit(n)
-        try:
-            ran = core.run(n)
-        except CoreFault as exc:
-            self.faulted(exc)
-            return
-        self.after_chunk()
-        if st.mmio_n != st.chunk_mmio or core.sleeping or core.stopped or core.cut:
-            self.quiet.loud_chunk()
-        elif ran == n and self.debugger is None and not self._reset_pending:
-            self.quiet.quiet_chunk(ran)
 
     def after_chunk(self) -> None:
         """A chunk ran: its fault, a system reset, a lockup, the poll skipper's next step."""

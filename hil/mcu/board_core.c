@@ -214,7 +214,7 @@ int bc_fire_due(bc_t *s, int64_t now_fs) {
 /* The run loop's head (board.py ``run``): the timers due at the chunk's start fired, then
    the next chunk's length, to the next event (1 to ``max_chunk`` instructions); -1 when a
    Python timer raised */
-int64_t bc_head(bc_t *s, int64_t max_chunk) {
+static int64_t head(bc_t *s, int64_t max_chunk) {
     if (bc_fire_due(s, fs_at(s, s->cyc)) < 0) return -1;
     if (s->next_at < 0) return max_chunk;
     int64_t n = cycle_of(s, s->next_at) - s->cyc;
@@ -966,7 +966,7 @@ int bc_next_exception(bc_t *s) {
    runs now, taken at ``pc`` (no longer pending, its frame stacked): its number above bit 32
    and its vector below; -1 when none is ready; -2 - exc where its entry failed (only its
    pending bit cleared: Python names the fault) */
-int64_t bc_take_next(bc_t *s, uint32_t pc, int fpu, uint32_t vtor_base) {
+static int64_t take_next(bc_t *s, uint32_t pc, int fpu, uint32_t vtor_base) {
     int exc = bc_next_exception(s);
     if (exc < 0) return -1;
     uint32_t bit = 1u << (exc & 31);
@@ -1150,7 +1150,7 @@ int bc_skip_to_event(bc_t *s) {
 /* A chunk of ``ran`` instructions made no register access and did not sleep: its end state
    recorded, or compared with the one a pass before (a miss backs off; the same state to the
    bit is a fixed point: time jumps to the next event and the state is held) */
-void bc_quiet_chunk(bc_t *s, int64_t ran) {
+static void quiet_chunk(bc_t *s, int64_t ran) {
     quiet_t *q = s->q;
     quiet_read(s);
     if (!s->q_seen || ran != QUIET_PASS || s->cyc - q->cyc != QUIET_PASS) {
@@ -1174,23 +1174,30 @@ void bc_quiet_chunk(bc_t *s, int64_t ran) {
 
 /* Nothing has run since the last skip: the state still the held one, time jumps again (1);
    else the hold ends */
-int bc_quiet_held(bc_t *s) {
+static int quiet_held(bc_t *s) {
     quiet_read(s);
     if (quiet_same(s) && bc_skip_to_event(s)) return 1;
     s->quiet_hold = 0;
     return 0;
 }
 
-/* board.py ``run``'s loop for as long as no Python takes part: the head, the exception
-   taken, the sleep, the chunk, the lockup's first test. It returns where Python goes on
-   (LOOP_*): after the head (a Python timer fired; ``loop_n`` is the chunk's length), after
-   a chunk that called Python, or with what only Python does. ``n`` >= 0 goes on with an
-   iteration whose head Python saw. */
+/* The board's loop (board.py ``run``) for as long as no Python takes part: the head, the
+   exception taken, the sleep, the chunk, the lockup's first test. It returns where Python
+   goes on (LOOP_*): after the head (a Python timer fired; ``loop_n`` is the chunk's
+   length), after a chunk that called Python, or with what only Python does. ``n`` >= 0
+   goes on with an iteration whose head Python saw. Under a debugger (``debug``) it returns
+   before each chunk (LOOP_BEFORE_CHUNK, ``loop_n`` its length) and after it; ``n`` =
+   LOOP_RESUME then runs the chunk of ``debug_n`` instructions the debugger allows. */
 int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
+    int64_t ran;
     for (;;) {
         int64_t seen = s->touched;
+        if (n == LOOP_RESUME) {
+            n = s->debug_n;
+            goto run;
+        }
         if (n < 0) {
-            n = bc_head(s, max_chunk);
+            n = head(s, max_chunk);
             if (n < 0) return LOOP_RAISED;
             if (s->touched != seen) {
                 s->loop_n = n;
@@ -1199,7 +1206,7 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
         }
         if (s->quiet_n > 0 && n > s->quiet_n) n = s->quiet_n;
         s->loop_n = n;
-        int64_t taken = bc_take_next(s, (uint32_t)s->pc_next, s->fpu_on,
+        int64_t taken = take_next(s, (uint32_t)s->pc_next, s->fpu_on,
                                      s->vtor ? (uint32_t)s->vtor : FLASH_BASE);
         if (taken >= 0) {
             s->pc_next = taken & 0xFFFFFFFE;
@@ -1220,7 +1227,7 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
         if (s->quiet_hold) {      /* still the confirmed fixed point? */
             if (taken == -1 && !s->sleeping && !(s->pending_n && bc_masked_ready(s))) {
                 s->masked_steps = 0;
-                if (bc_quiet_held(s)) {
+                if (quiet_held(s)) {
                     n = -1;
                     continue;
                 }
@@ -1236,9 +1243,11 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
             s->masked_steps = 0;
         }
         s->loop_n = n;
-        int64_t ran = run_chunk(s, n);
+        if (s->debug) return LOOP_BEFORE_CHUNK;
+    run:
+        ran = run_chunk(s, n);
         if (ran < 0) return s->loop_exc;
-        if (s->touched != seen || s->watching) return LOOP_AFTER_CHUNK;
+        if (s->touched != seen || s->watching || s->debug) return LOOP_AFTER_CHUNK;
         uint16_t op = 0;           /* a lockup's first test: Python's, as it reads */
         if (s->nactive && (read16(s, (uint32_t)s->pc_next, &op) || op == BRANCH_TO_SELF))
             return LOOP_AFTER_CHUNK;
@@ -1247,7 +1256,7 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
         } else if (ran == n && !s->sleeping && !s->stopped && !s->cut) {
             s->quiet_loud = 0;
             if (s->quiet_wait > 0) s->quiet_wait--;       /* a quiet chunk: a look */
-            else bc_quiet_chunk(s, ran);
+            else quiet_chunk(s, ran);
         }
         n = -1;
     }

@@ -87,19 +87,14 @@ def _load() -> tuple[Any, str | None]:
     for name in ("bc_group_priority", "bc_pending_from"):
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = _I32, [_P, _I32]
-    lib.bc_head.restype, lib.bc_head.argtypes = _I64, [_P, _I64]
-    lib.bc_take_next.restype = _I64
-    lib.bc_take_next.argtypes = [_P, ctypes.c_uint32, _I32, ctypes.c_uint32]
     lib.bc_enter.restype = _I64
     lib.bc_enter.argtypes = [_P, _I32, ctypes.c_uint32, _I32, ctypes.c_uint32]
     lib.bc_unstack.restype, lib.bc_unstack.argtypes = _I32, [_P, ctypes.c_uint32]
     lib.bc_loop.restype, lib.bc_loop.argtypes = _I32, [_P, _I64, _I64]
-    lib.bc_quiet_chunk.restype, lib.bc_quiet_chunk.argtypes = None, [_P, _I64]
     lib.bc_polled.restype = _I32
     lib.bc_polled.argtypes = [_P, ctypes.c_uint32, ctypes.c_uint32]
     lib.bc_jump_here.restype, lib.bc_jump_here.argtypes = _I32, [_P]
     lib.bc_skip_to_event.restype, lib.bc_skip_to_event.argtypes = _I32, [_P]
-    lib.bc_quiet_held.restype, lib.bc_quiet_held.argtypes = _I32, [_P]
     for name, (res, args) in sig.items():
         fn = getattr(lib, name)
         fn.restype, fn.argtypes = res, args
@@ -194,14 +189,6 @@ class Events:
     def next_fs(self) -> int | None:
         at = self.shared.next_at
         return None if at < 0 else at
-
-    def head(self, max_chunk: int) -> int:
-        """The board's loop head (board.py ``run``): the timers due at the core's cycle
-        fired, then the next chunk's length, to the next event."""
-        n = _LIB.bc_head(self.ref, max_chunk)
-        if n < 0:
-            self.raise_error()
-        return n
 
     def fire_due(self, now_fs: int) -> bool:
         fired = _LIB.bc_fire_due(self.ref, now_fs)

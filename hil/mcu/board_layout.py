@@ -46,7 +46,8 @@ MEMORY_MAP = (("SRAM_BASE", _SRAM.base), ("SRAM_SIZE", _SRAM.size),
 (LEAVE_THREAD, LEAVE_LOCKUP, LEAVE_UNREAD) = range(-1, -4, -1)
 # where the C run loop hands back to Python (board_loop.py)
 (LOOP_AFTER_HEAD, LOOP_AFTER_CHUNK, LOOP_ENTER, LOOP_RAISED, LOOP_HOOK_FAILED, LOOP_NULL_JUMP,
- LOOP_UC_ERROR, LOOP_NO_EVENT) = range(8)
+ LOOP_UC_ERROR, LOOP_NO_EVENT, LOOP_BEFORE_CHUNK) = range(9)
+LOOP_RESUME = -2             # bc_loop's ``n``: run the chunk a debugger allowed (``debug_n``)
 
 _P, _I32, _I64 = ctypes.c_void_p, ctypes.c_int32, ctypes.c_int64
 _U8, _U32, _U64 = ctypes.c_uint8, ctypes.c_uint32, ctypes.c_uint64
@@ -128,6 +129,7 @@ BC = [
     ("pc_next", _I64), ("vtor", _I64), ("executed", _I64), ("touched", _I64),
     ("loop_n", _I64), ("fpu_on", _I32), ("stopped", _I32), ("cut", _I32),
     ("hook_failed", _I32), ("uc_err", _I32), ("loop_exc", _I32),
+    ("debug", _I32), ("debug_n", _I64),      # a debugger attached; the chunk it allows
     ("emu_start", _P, "emu_start_t"), ("mem_read", _P, "mem_read_t"),   # libunicorn's
     ("lines", _U32 * 4), ("lines_n", _I32),  # the IRQ lines a peripheral holds high
     ("emu_stop", _P, "emu_stop_t"),

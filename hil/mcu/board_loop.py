@@ -7,8 +7,9 @@ part; it hands the trip to Python (board.py ``run``) where one did (a Python tim
 head, a Python register or link call in the chunk, a poll loop watched), where a lockup may
 be starting, and for everything Python names (a fault, an entry off SRAM); a quiet wait
 (hil/mcu/quiet.py) it checks and skips itself. Under GDB, which stops between any two
-instructions, board.py takes each trip. A run has about 20,000 trips, most of them a
-wake-up, a short handler and WFI again.
+instructions, it hands over before each chunk (the debugger serves GDB and limits the
+chunk) and after it. A run has about 20,000 trips, most of them a wake-up, a short handler
+and WFI again.
 """
 from __future__ import annotations
 
@@ -18,8 +19,9 @@ from typing import Any, Callable
 from unicorn import UcError
 
 from hexhil.hil.mcu.board_core import Shared, library
-from hexhil.hil.mcu.board_layout import (LOOP_AFTER_CHUNK, LOOP_AFTER_HEAD, LOOP_ENTER,
-                                          LOOP_HOOK_FAILED, LOOP_NULL_JUMP, LOOP_RAISED,
+from hexhil.hil.mcu.board_layout import (LOOP_AFTER_CHUNK, LOOP_AFTER_HEAD,
+                                          LOOP_BEFORE_CHUNK, LOOP_ENTER, LOOP_HOOK_FAILED,
+                                          LOOP_NULL_JUMP, LOOP_RAISED, LOOP_RESUME,
                                           LOOP_UC_ERROR)
 from hexhil.hil.mcu.core import CoreFault, error_text
 from hexhil.hil.mcu.faults import NULL_JUMP
@@ -36,21 +38,6 @@ def hook_interrupts(shared: Shared, uc: Any) -> None:
     if uclib.uc_hook_add(uc._uch, ctypes.byref(handle), UC_HOOK_INTR,
                          ctypes.cast(library().bc_intr, _P), ctypes.addressof(shared), 1, 0):
         raise RuntimeError("libunicorn refused the compiled interrupt hook")
-
-
-def exception_taking(core: Any) -> Callable[[], bool]:
-    """board.py ``_take_next`` in C (the NVIC's choice and the entry in one call): whether
-    an exception was taken."""
-    ref, take = ctypes.byref(core.shared), library().bc_take_next
-
-    def taken() -> bool:
-        r = take(ref, core.pc, core.fpu_on, core.vtor_base())
-        if r >= 0:
-            core.pc = r & 0xFFFFFFFE
-        elif r < -1:
-            core.enter(-2 - r)     # the entry failed: core.py names the fault
-        return r != -1
-    return taken
 
 
 def trips(core: Any) -> Callable[[int, int], int]:
@@ -88,6 +75,10 @@ def handed_over(board: Any, where: int) -> int:
         board.faulted(CoreFault("a jump to address 0 (a null function pointer)", NULL_JUMP))
     elif where == LOOP_UC_ERROR:
         board.faulted(CoreFault(error_text(UcError(st.uc_err), core), ("uc", st.uc_err)))
-    else:                                # asleep with nothing scheduled: Python's own step
-        board.trip(st.loop_n, False)
+    elif where == LOOP_BEFORE_CHUNK:     # GDB has the core, or limits the chunk
+        st.debug_n = board.debugger.chunk_limit(st.loop_n)
+        return LOOP_RESUME
+    else:                                # asleep, nothing pending, nothing scheduled
+        raise CoreFault(board.fault_line("asleep (WFI/WFE) with no exception pending and "
+                                         "nothing scheduled to wake the core"))
     return -1

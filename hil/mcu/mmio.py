@@ -117,7 +117,7 @@ class PeripheralSpace:
         """A write that made an exception ready (an interrupt enable, a pending bit, a
         flag's interrupt): it is taken after this instruction, not at the chunk's end. One
         that only a mask holds back ends the chunk too: from here the core goes an
-        instruction at a time until the unmasking (board.py ``run``)."""
+        instruction at a time until the unmasking (board_core.c ``bc_loop``)."""
         nvic = board.nvic
         if nvic.pending and (nvic.next_exception() is not None or nvic.masked_ready()):
             board.core.cut_after()

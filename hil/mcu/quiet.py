@@ -23,9 +23,9 @@ nothing the loop sees (the link's millisecond tick, a timer whose interrupt is o
 when no exception was taken and the state is still the confirmed one, to the bit, time
 jumps to the following event at once, without running the two passes again.
 
-The steps are the board core's (hil/mcu/board_core.c ``bc_quiet_chunk``, ``bc_quiet_held``),
-on copies of its own, so a quiet wait costs no call into Python; a trip the loop hands to
-Python (board.py ``trip``) asks them here.
+The steps are the board core's, in its loop (hil/mcu/board_core.c ``quiet_chunk``,
+``quiet_held``), on copies of its own, so a quiet wait costs no call into Python; a chunk
+Python saw (one that called Python) only ends a pass being checked (``loud_chunk``).
 """
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ STATE_REGS = (tuple(A.UC_ARM_REG_R0 + i for i in range(13))
 
 
 class QuietLoops:
-    """The board's quiet-chunk check, for the trips Python takes (``Board.trip``)."""
+    """The board core's quiet-loop state: its buffers, and what Python ends."""
 
     def __init__(self, board: Any) -> None:
         self._st = board.core.shared
@@ -54,15 +54,6 @@ class QuietLoops:
         ids = (ctypes.c_int32 * len(STATE_REGS))(*STATE_REGS)
         if not self._lib.bc_quiet_init(self._ref, ids, len(STATE_REGS)):
             raise MemoryError("the board core got no buffers for quiet loops")
-
-    def quiet_chunk(self, ran: int) -> None:
-        """A chunk of ``ran`` instructions made no register access and did not sleep."""
-        self._lib.bc_quiet_chunk(self._ref, ran)
-
-    def held(self) -> bool:
-        """No exception was taken since the last skip and nothing has run: when the state
-        is still the confirmed fixed point, skip again (True); else the hold ends."""
-        return bool(self._lib.bc_quiet_held(self._ref))
 
     def loud_chunk(self) -> None:
         """A chunk that touched a register or slept: no pass is being checked."""

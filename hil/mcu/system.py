@@ -18,7 +18,6 @@ from typing import Any, Callable, Iterator
 from hexhil.hil.mcu import platform
 from hexhil.hil.mcu.armv7m import EXC_PENDSV, EXC_SYSTICK
 from hexhil.hil.mcu.board_core import SharedField, library
-from hexhil.hil.mcu.board_layout import MASKED_STEPS
 from hexhil.hil.mcu.core import Core
 from hexhil.hil.mcu.device_id import DBGMCU_IDCODE, IDCODE
 from hexhil.hil.mcu.faults import FaultStatus
@@ -127,7 +126,7 @@ class Nvic:
     def masked_ready(self) -> bool:
         """A pending exception would preempt the active ones but for PRIMASK, BASEPRI or
         FAULTMASK: the instruction that unmasks it (CPSIE, MSR) may come at any moment, and
-        the exception is taken right after it, as on the chip (``MASKED_STEPS``)."""
+        the exception is taken right after it, as on the chip (board_layout.py MASKED_STEPS)."""
         return bool(self._lib.bc_masked_ready(self._ref))
 
     def could_preempt(self, systick_running: bool) -> bool:
@@ -138,18 +137,6 @@ class Nvic:
         if systick_running:
             could.add(EXC_SYSTICK)
         return any(self.group_priority(e) < level for e in could)
-
-    def masked_chunk(self, n: int) -> int:
-        """The next chunk's length: ``n``, or one instruction while a masked exception waits
-        (``masked_ready``), for at most ``MASKED_STEPS`` in a row (board_core.c does the
-        same in its loop)."""
-        st = self.shared
-        if not (st.pending_n and self.masked_ready()):
-            st.masked_steps = 0
-        elif st.masked_steps < MASKED_STEPS:
-            st.masked_steps += 1
-            return 1
-        return n
 
     def take(self, exc: int) -> None:
         self.pending.discard(exc)
