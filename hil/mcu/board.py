@@ -118,7 +118,7 @@ class Board:
         self.can_listening = False     # bxCAN1 in normal mode: CAN input each millisecond
         self.extra = [*extra_peripherals(self), *platform.build(self)]
         for p in (*gpio, self.rcc, self.flash, self.pwr, self.rtc, self.exti, Syscfg(self.exti),
-                  self.usart1, self.usart2, self.usart6, *self.extra):
+                  *self.usarts, *self.extra):
             space.map(platform.row(p.name).base, p)      # at its row's address
         space.relive()
 
@@ -137,12 +137,12 @@ class Board:
 
     def dma_kick(self) -> None:
         """A DMA stream was enabled: a USART whose request is already up is served."""
-        for usart in (self.usart1, self.usart2, self.usart6):
+        for usart in self.usarts:
             usart.dma_request()
 
     # --- the console (USART1 and USART6) ----------------------------------------------
-    def sent(self, usart: Usart, byte: int, start_fs: int, end_fs: int) -> None:
-        """A console byte went out on the wire (it reaches the console at its end)."""
+    def sent(self, byte: int, end_fs: int) -> None:
+        """A console byte went out on the wire: it reaches the console at its end."""
         self.console.put(bytes((byte,)), end_fs // FS_PER_US)
 
     def _gpio_out(self, port: GpioPort, old_odr: int) -> None:
@@ -157,7 +157,7 @@ class Board:
     # --- clocks and reset -------------------------------------------------------------
     def _clock_changed(self) -> None:
         self.core.set_hz(self.rcc.hclk_hz)
-        for usart in (self.usart1, self.usart2, self.usart6):
+        for usart in self.usarts:
             usart.clock_changed()
         self.systick.rebase()
         for p in self.extra:
@@ -187,7 +187,7 @@ class Board:
         flags = self.rcc.regs.get(CSR, 0)
         self.line.flush()
         old = [self.nvic, self.rcc, self.systick, self.ppb, self.exti, self.flash, *self.gpio,
-               self.usart1, self.usart2, self.usart6, *self.extra]
+               *self.usarts, *self.extra]
         for periph in old:
             for value in vars(periph).values():
                 if isinstance(value, Timer):

@@ -288,7 +288,7 @@ static void irq(bc_t *s, int i) {
 /* a byte started leaving the shift register at ``start_fs``, gone at ``end_fs`` */
 static void sent(bc_t *s, int i, int byte, int64_t start_fs, int64_t end_fs) {
     if (i != SERVO_USART) {
-        py(s, PY_SENT, (int64_t)i << 16 | byte, end_fs);
+        py(s, PY_SENT, byte, end_fs);
         return;
     }
     if (!s->burst_n) {

@@ -209,11 +209,11 @@ class NativeBoard:
         board = self.board
         try:
             if kind == PY_SENT:
-                board.sent(board.usarts[a >> 16], a & 0xFFFF, b, b)
+                board.sent(a, b)
             elif kind == PY_LINE:
                 board.nvic.line(board.usarts[b].irq, bool(a))
             elif kind == PY_IDLE:
-                board.line.idle(board.usart2, a)
+                board.line.flush()      # USART2's transmitter idle (TC)
             elif kind == PY_DMA_TX:
                 byte = board.usarts[a].dma_tx()
                 return -1 if byte is None else byte

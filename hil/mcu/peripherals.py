@@ -372,7 +372,7 @@ def extra_peripherals(board: Any) -> list[Any]:
     timers = [BasicTimer(board, name, IRQS[name], bits)
               for name, bits in (("TIM2", 32), ("TIM3", 16), ("TIM4", 16), ("TIM5", 32))]
     dmas = {1: Dma(board, 1), 2: Dma(board, 2)}
-    for usart in (board.usart1, board.usart2, board.usart6):
+    for usart in board.usarts:
         wire_usart_dma(usart, dmas)
     board.can = BxCan(board)
     return [*timers, dmas[1], dmas[2], board.can]

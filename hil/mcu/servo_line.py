@@ -43,10 +43,6 @@ class ServoLine:
         else:
             self.rx_timer.clear()
 
-    def idle(self, usart: Any, at_fs: int) -> None:
-        """USART2's transmitter went idle (TC): its burst goes out."""
-        self.flush()
-
     def pin(self, level: int) -> None:
         """PA1 drives ``level`` now."""
         if level != self.direction:

@@ -113,7 +113,7 @@ class Endings:
         now_fs = board.core.now_fs()
         for usart in (board.usart1, board.usart6):
             if usart.tdr is not None:
-                board.sent(usart, usart.tdr, now_fs, now_fs)
+                board.sent(usart.tdr, now_fs)
                 usart.tdr = None
 
     def _exit(self) -> None:
