@@ -1037,10 +1037,11 @@ int bc_wakes(bc_t *s) {
     return s->pending_n && bc_pending_from(s, 0) >= 0;
 }
 
-/* core.py ``run``: up to ``n`` instructions from ``pc_next``; how many ran, or -1 when the
-   chunk ended in something Python names (a callback's exception, a jump to 0, an error of
-   Unicorn's: the LOOP_* code in ``loop_exc``) */
-static int64_t run_chunk(bc_t *s, int64_t n) {
+/* A chunk: up to ``n`` instructions from ``pc_next`` (a WFI or WFE that ends it counts and
+   puts the core to sleep); how many ran, or -1 when the chunk ended in something Python
+   names (a callback's exception, a jump to 0, an error of Unicorn's: the LOOP_* code in
+   ``loop_exc``, core.py ``chunk_fault``) */
+int64_t bc_run_chunk(bc_t *s, int64_t n) {
     s->chunk0 = s->cyc;
     s->chunk_mmio = s->mmio_n;
     s->stopped = s->cut = 0;
@@ -1245,7 +1246,7 @@ int bc_loop(bc_t *s, int64_t max_chunk, int64_t n) {
         s->loop_n = n;
         if (s->debug) return LOOP_BEFORE_CHUNK;
     run:
-        ran = run_chunk(s, n);
+        ran = bc_run_chunk(s, n);
         if (ran < 0) return s->loop_exc;
         if (s->touched != seen || s->watching || s->debug) return LOOP_AFTER_CHUNK;
         uint16_t op = 0;           /* a lockup's first test: Python's, as it reads */

@@ -16,15 +16,12 @@ from __future__ import annotations
 import ctypes
 from typing import Any, Callable
 
-from unicorn import UcError
-
 from hexhil.hil.mcu.board_core import Shared, library
 from hexhil.hil.mcu.board_layout import (LOOP_AFTER_CHUNK, LOOP_AFTER_HEAD,
                                           LOOP_BEFORE_CHUNK, LOOP_ENTER, LOOP_HOOK_FAILED,
                                           LOOP_NULL_JUMP, LOOP_RAISED, LOOP_RESUME,
                                           LOOP_UC_ERROR)
-from hexhil.hil.mcu.core import CoreFault, error_text
-from hexhil.hil.mcu.faults import NULL_JUMP
+from hexhil.hil.mcu.core import CoreFault
 
 _P = ctypes.c_void_p
 
@@ -66,15 +63,13 @@ def handed_over(board: Any, where: int) -> int:
         core.enter(st.loop_exc)
     elif where == LOOP_RAISED:
         board.events.raise_error()
-    elif where == LOOP_HOOK_FAILED:      # what Unicorn's emu_start raises
-        exc, core.uc._hook_exception = core.uc._hook_exception, None
+    elif where == LOOP_HOOK_FAILED:      # a callback's exception, as emu_start raises it
+        exc = core.chunk_fault(where)
         if isinstance(exc, CoreFault):
             raise CoreFault(board.fault_line(str(exc))) from None
         raise exc
-    elif where == LOOP_NULL_JUMP:
-        board.faulted(CoreFault("a jump to address 0 (a null function pointer)", NULL_JUMP))
-    elif where == LOOP_UC_ERROR:
-        board.faulted(CoreFault(error_text(UcError(st.uc_err), core), ("uc", st.uc_err)))
+    elif where in (LOOP_NULL_JUMP, LOOP_UC_ERROR):   # the chip's fault, or the run's end
+        board.faulted(core.chunk_fault(where))
     elif where == LOOP_BEFORE_CHUNK:     # GDB has the core, or limits the chunk
         st.debug_n = board.debugger.chunk_limit(st.loop_n)
         return LOOP_RESUME

@@ -23,15 +23,17 @@ from unicorn import (UC_ARCH_ARM, UC_MODE_MCLASS, UC_MODE_THUMB, UC_PROT_ALL,
 from unicorn import arm_const as A, unicorn_const as U
 from unicorn.unicorn_py3.unicorn import uclib
 
-from hexhil.hil.mcu.armv7m import RETURN_THREAD_PSP, WFE, WFI
+from hexhil.hil.mcu.armv7m import RETURN_THREAD_PSP
 from hexhil.hil.mcu.board_core import Shared, SharedField, library
 from hexhil.hil.mcu.board_layout import (ENTER_BELOW_SRAM, ENTER_NO_HANDLER, ENTER_NO_TABLE,
-                                          ENTER_OFF_SRAM, LEAVE_LOCKUP, LEAVE_THREAD)
+                                          ENTER_OFF_SRAM, LEAVE_LOCKUP, LEAVE_THREAD,
+                                          LOOP_HOOK_FAILED, LOOP_NULL_JUMP)
 from hexhil.hil.mcu.elf_image import FLASH_BASE, FLASH_SIZE, SRAM_BASE, SRAM_SIZE, ElfImage
 from hexhil.hil.mcu.engine import Regs, attach_engine
 from hexhil.hil.mcu.timebase import FS_PER_S, TimeBase
 
 ERASED = 0xFF                # an erased flash byte (RM0383 3.5)
+NULL_JUMP = ("null", 0)      # a CoreFault's origin: a call through a null pointer
 FRAME_REGS = (A.UC_ARM_REG_R0, A.UC_ARM_REG_R1, A.UC_ARM_REG_R2, A.UC_ARM_REG_R3,
               A.UC_ARM_REG_R12, A.UC_ARM_REG_LR)
 STATE_REGS = (A.UC_ARM_REG_XPSR, A.UC_ARM_REG_CONTROL, A.UC_ARM_REG_MSP, A.UC_ARM_REG_PSP)
@@ -93,6 +95,7 @@ class Core:
         ref, lib = ctypes.byref(st), library()
         self._enter = lambda exc, pc, fpu, vtor: lib.bc_enter(ref, exc, pc, fpu, vtor)
         self._unstack = lambda exc_return: lib.bc_unstack(ref, exc_return)
+        self._run = lambda n: lib.bc_run_chunk(ref, n)
         self._fpscr0 = uc.reg_read(A.UC_ARM_REG_FPSCR)
         self.reset()
         self._pc_word = ctypes.c_uint32.from_address(st.pc)   # the running instruction's
@@ -203,35 +206,23 @@ class Core:
             self.cut = True
 
     def run(self, n: int) -> int:
-        """Run up to ``n`` instructions from ``self.pc``; how many ran."""
-        uc, st = self.uc, self.shared
-        st.chunk0 = st.cyc
-        st.chunk_mmio = st.mmio_n
-        st.stopped = st.cut = 0
-        st.running = 1
-        try:
-            st.pub_count, st.pub_limit = 0, n
-            uc.emu_start(self.pc | 1, 0, 0, 0)
-            error = None
-        except UcError as exc:
-            error = exc
-        finally:
-            st.running = 0
-        ran = self._ctr.value - 1
-        self.pc = self.reg(A.UC_ARM_REG_PC)
-        if error is None and ran < n and not self.stopped and not self.cut:
-            if self.pc == 0:
-                raise CoreFault("a jump to address 0 (a null function pointer)", ("null", 0))
-            op = self.read16(self.pc - 2)
-            if op in (WFI, WFE):
-                ran += 1
-                self.sleeping = True
-        ran = max(0, min(ran, n))
-        st.cyc = st.chunk0 + ran          # chunk0 has moved by any jump inside the chunk
-        self.executed += ran
-        if error is not None:
-            raise CoreFault(error_text(error, self), ("uc", error.errno))
+        """Run up to ``n`` instructions from ``self.pc`` (board_core.c ``bc_run_chunk``);
+        how many ran."""
+        ran = self._run(n)
+        if ran < 0:
+            raise self.chunk_fault(self.shared.loop_exc)
         return ran
+
+    def chunk_fault(self, code: int) -> BaseException:
+        """What ended a chunk early (``bc_run_chunk``'s LOOP_* code): a callback's
+        exception, a jump to 0, an error of Unicorn's."""
+        if code == LOOP_HOOK_FAILED:      # what Unicorn's emu_start raises
+            exc, self.uc._hook_exception = self.uc._hook_exception, None
+            return exc
+        if code == LOOP_NULL_JUMP:
+            return CoreFault("a jump to address 0 (a null function pointer)", NULL_JUMP)
+        err = self.shared.uc_err
+        return CoreFault(error_text(UcError(err), self), ("uc", err))
 
     # --- exceptions ---------------------------------------------------------------
     def pc_now(self) -> int:

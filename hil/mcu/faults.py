@@ -31,7 +31,7 @@ from unicorn import unicorn_const as U
 from hexhil.hil.mcu.armv7m import (EXC_BUSFAULT, EXC_DEBUGMON, EXC_HARDFAULT, EXC_MEMMANAGE,
                                    EXC_PENDSV, EXC_SVCALL, EXC_SYSTICK, EXC_USAGEFAULT,
                                    INTR_BKPT, INTR_INVSTATE, INTR_NOCP, INTR_UDEF)
-from hexhil.hil.mcu.core import CoreFault
+from hexhil.hil.mcu.core import NULL_JUMP, CoreFault
 from hexhil.hil.mcu.timebase import FS_PER_S
 from hexhil.hil.mcu.verdicts import SYSTEM_EXCEPTIONS, Verdict
 from hexhil.hil.run_result import Ending
@@ -46,7 +46,6 @@ ACTIVE_BIT = {EXC_MEMMANAGE: 0, EXC_BUSFAULT: 1, EXC_USAGEFAULT: 3, EXC_SVCALL: 
 HFSR_FORCED, HFSR_DEBUGEVT = 1 << 30, 1 << 31
 MMARVALID, BFARVALID = 1 << 7, 1 << 15
 WATCHDOGS = ("IWDG", "WWDG")
-NULL_JUMP = ("null", 0)       # a CoreFault's origin: a call through a null pointer
 
 
 @dataclass(frozen=True)
