@@ -11,9 +11,8 @@
  * due, a USART's interrupt line high, USART2's transmitter going idle (the servo line's
  * burst is sent), a console byte, a DMA request, a poll loop seen for the first time, a
  * USART's bus clock once a clock change. It also runs the board's loop (``bc_loop``) while
- * no Python takes part. The exception entry and return here are core.py's plain cases (a
- * frame in SRAM, a handler in the table); Python takes the rest (a fault to name, a frame
- * off SRAM). */
+ * no Python takes part, and makes every exception entry and return, whose failures core.py
+ * names. */
 #include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -704,9 +703,9 @@ void bc_mmio_write(void *uc, uint64_t offset, unsigned size, uint64_t value, voi
 }
 
 /* Unicorn's MMIO read callback for the private peripheral bus: SysTick's CSR, which an
- * interpreter's SysTick handler and its microsecond clock read each time, is mmio.py
- * ``ppb_read`` and systick.py ``read`` in C (the chunk still ends in Python, as after
- * that callback); every other register is Python's. */
+ * interpreter's SysTick handler and its microsecond clock read each time, is answered here
+ * (the chunk still ends in Python, as after mmio.py's ``ppb_read``); every other register
+ * is Python's. */
 uint64_t bc_ppb_read(void *uc, uint64_t offset, unsigned size, void *ud) {
     bc_t *s = ud;
     if ((offset & ~3ULL) != SYSTICK_BASE - PPB_BASE || s->st_tid < 0)
