@@ -589,18 +589,22 @@ static uint32_t sized(uint32_t word, uint64_t offset, unsigned size) {
  * (servo_line.py ``direction_turned``): no burst unsent, no reply bytes waiting on a turn
  * to transmit. */
 
-/* gpio.py ``idr``: outputs read ODR, analog pins 0, inputs 0 where grounded, else pull-up */
-static uint32_t port_idr(bc_t *s, int port) {
-    uint32_t out = 0, analog = 0, pull = 0, moder = s->gpio_moder[port];
-    uint32_t pupdr = s->gpio_pupdr[port];
+/* A port's IDR: outputs read ODR, analog pins 0, inputs and alternate functions 0 where
+   grounded, else their pull-up (PUPDR 01) */
+uint32_t bc_idr(uint32_t moder, uint32_t pupdr, uint32_t odr, uint32_t grounded) {
+    uint32_t out = 0, analog = 0, pull = 0;
     for (int pin = 0; pin < 16; pin++) {
         uint32_t mode = (moder >> 2 * pin) & 3;
         out |= (uint32_t)(mode == 1) << pin;
         analog |= (uint32_t)(mode == 3) << pin;
         pull |= (uint32_t)(((pupdr >> 2 * pin) & 3) == 1) << pin;
     }
+    return (odr & out) | (pull & ~(out | analog | grounded));
+}
+
+static uint32_t port_idr(bc_t *s, int port) {
     uint32_t grounded = port == 1 ? (uint32_t)s->switches & SWITCH_MASK : 0;
-    return (s->gpio_odr[port] & out) | (pull & ~(out | analog | grounded));
+    return bc_idr(s->gpio_moder[port], s->gpio_pupdr[port], s->gpio_odr[port], grounded);
 }
 
 /* gpio.py ``read`` of PB's IDR with board.py ``fresh_switches`` before it */

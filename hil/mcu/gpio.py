@@ -23,17 +23,6 @@ EXTI_IRQS = tuple(VECTORS[f"EXTI{i}"] for i in range(5)) + (VECTORS["EXTI9_5"],)
     (VECTORS["EXTI15_10"],) * 6
 
 
-def _pin_masks(moder: int, pupdr: int) -> tuple[int, int, int]:
-    """(outputs, analog pins, pull-ups) as 16-bit pin masks."""
-    out = analog = pull = 0
-    for pin in range(16):
-        mode = (moder >> 2 * pin) & 3
-        out |= (mode == 1) << pin
-        analog |= (mode == 3) << pin
-        pull |= ((pupdr >> 2 * pin) & 3 == 1) << pin
-    return out, analog, pull
-
-
 class SharedRegisters(dict):
     """A port's registers where MODER, PUPDR and ODR live in the compiled board's shared
     state (hil/mcu/board_core.py ``Shared``): board_core.c turns PA1 and reads the
@@ -64,7 +53,7 @@ class SharedRegisters(dict):
 
 class GpioPort:
     """One port; ``grounded()`` is the mask of its pins that something outside pulls to
-    ground (the board's pressed switches); ``shared``, the compiled board's state."""
+    ground (the board's pressed switches); ``shared``, the board core's state (ports A-C)."""
 
     pollable = frozenset({IDR, ODR})
 
@@ -72,7 +61,8 @@ class GpioPort:
                  grounded: Callable[[], int], shared: Any = None) -> None:
         self.name, self.index = name, index
         self.on_output, self.grounded = on_output, grounded
-        self._masks: tuple[int, int, tuple[int, int, int]] = (-1, -1, (0, 0, 0))
+        from hexhil.hil.mcu.board_core import library   # (board_layout.py imports this module)
+        self._idr = library().bc_idr
         self.before_input: Callable[[], None] | None = None    # IDR is about to be read
         regs = {MODER: 0, OTYPER: 0, OSPEEDR: 0, PUPDR: 0, ODR: 0, LCKR: 0, AFRL: 0, AFRH: 0,
                 **RESET.get(name, {})}
@@ -81,25 +71,10 @@ class GpioPort:
     def mode(self, pin: int) -> int:
         return (self.regs[MODER] >> 2 * pin) & 3
 
-    def pull_up(self, pin: int) -> bool:
-        return (self.regs[PUPDR] >> 2 * pin) & 3 == 1
-
-    def input_level(self, pin: int) -> int:
-        mode = self.mode(pin)
-        if mode == 1:
-            return (self.regs[ODR] >> pin) & 1
-        if mode == 3 or self.grounded() >> pin & 1:
-            return 0
-        return 1 if self.pull_up(pin) else 0
-
     def idr(self) -> int:
-        """All 16 pins' ``input_level`` at once: outputs read ODR, analog pins 0, inputs
-        and alternate functions 0 where grounded, else their pull-up."""
-        moder, pupdr = self.regs[MODER], self.regs[PUPDR]
-        if self._masks[:2] != (moder, pupdr):
-            self._masks = (moder, pupdr, _pin_masks(moder, pupdr))
-        out, analog, pull = self._masks[2]
-        return (self.regs[ODR] & out) | (pull & ~(out | analog | self.grounded()))
+        """All 16 pins' levels (board_core.c ``bc_idr``): outputs read ODR, analog pins 0,
+        inputs and alternate functions 0 where grounded, else their pull-up."""
+        return self._idr(self.regs[MODER], self.regs[PUPDR], self.regs[ODR], self.grounded())
 
     def output(self, pin: int) -> int:
         """The level the port drives on ``pin`` (0 unless it is an output)."""

@@ -31,12 +31,12 @@ class WorldSync:
         board = self.board
         if reply.switches != board.switches:
             port = board.gpio[1]
-            before = [port.input_level(p) for p in range(SWITCH_PINS)]
+            before = port.idr()
             board.switches = reply.switches
+            after = port.idr()
             for p in range(SWITCH_PINS):
-                now = port.input_level(p)
-                if now != before[p]:
-                    board.exti.edge(1, p, bool(now))
+                if (after ^ before) >> p & 1:
+                    board.exti.edge(1, p, bool(after >> p & 1))
         board.line.reply(reply.next_rx_us, reply.pending)
         for arb_id, data in reply.can:
             board.can_received(arb_id, data)
