@@ -11,7 +11,7 @@ CORE_SOURCES := setup.py hil/native.py hil/world/drive_core.c hil/world/drive_la
 	hil/servobus/servo_core.c hil/servobus/servo_layout.py protocol/dynamixel/ax12.py \
 	hil/servobus/reads_core.c hil/servobus/servo_core.h hil/mcu/board_core.c \
 	hil/mcu/board_layout.py hil/mcu/armv7m.py hil/mcu/timebase.py hil/mcu/platform.py \
-	hil/mcu/gpio.py hil/mcu/usart_registers.py
+	hil/mcu/gpio_registers.py hil/mcu/usart_registers.py
 
 # `make` alone: the venv and the compiled cores, nothing run
 setup: $(STAMP)

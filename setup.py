@@ -64,7 +64,8 @@ CORES = [
           layout=("hexhil.hil.servobus.servo_layout", "servo_layout.h")),
     _core("hexhil.hil.mcu._board_core", ["hil/mcu/board_core.c"], [],   # integers only
           depends=["hil/mcu/board_layout.py", "hil/mcu/armv7m.py", "hil/mcu/timebase.py",
-                   "hil/mcu/platform.py", "hil/mcu/gpio.py", "hil/mcu/usart_registers.py"],
+                   "hil/mcu/platform.py", "hil/mcu/gpio_registers.py",
+                   "hil/mcu/usart_registers.py"],
           layout=("hexhil.hil.mcu.board_layout", "board_layout.h")),
 ]
 

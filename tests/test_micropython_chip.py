@@ -132,7 +132,7 @@ def test_the_board_definition_is_the_emulated_board():
     import re
 
     from hexhil.hil.mcu import rcc
-    from hexhil.hil.mcu.gpio import SWITCH_PINS
+    from hexhil.hil.mcu.gpio_registers import SWITCH_PINS
     board = ROOT / "firmware" / "micropython-board" / "HEXHIL_F411"
     h = (board / "mpconfigboard.h").read_text()
     conf = (board / "stm32f4xx_hal_conf.h").read_text()

@@ -23,7 +23,8 @@ from hexhil.hil.mcu.core import Core, CoreFault
 from hexhil.hil.mcu.deadline import ControlCycles
 from hexhil.hil.mcu.elf_image import ElfImage
 from hexhil.hil.mcu.faults import Faults, intr_fault
-from hexhil.hil.mcu.gpio import DIRECTION_PIN, SWITCH_PINS, Exti, GpioPort, Syscfg
+from hexhil.hil.mcu.gpio import Exti, GpioPort, Syscfg
+from hexhil.hil.mcu.gpio_registers import DIRECTION_PIN, SWITCH_PINS
 from hexhil.hil.mcu.mmio import PeripheralSpace
 from hexhil.hil.mcu.link_client import LinkClient
 from hexhil.hil.mcu.poll import PollSkipper

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import ctypes
 
-from hexhil.hil.mcu import armv7m, gpio, platform, timebase, usart_registers
+from hexhil.hil.mcu import armv7m, gpio_registers as gpio, platform, timebase, usart_registers
 from hexhil.hil.native import Layout
 
 WAITS = 256                  # an open-addressed set of (pc, register, value)
@@ -133,7 +133,7 @@ BC = [
     ("emu_start", _P, "emu_start_t"), ("mem_read", _P, "mem_read_t"),   # libunicorn's
     ("lines", _U32 * 4), ("lines_n", _I32),  # the IRQ lines a peripheral holds high
     ("emu_stop", _P, "emu_stop_t"),
-    # GPIOA-C (gpio.py): what PA1's turns and a read of PB's switches need, served in C;
+    # GPIOA-C (gpio.py, gpio_registers.py): what PA1's turns and a read of PB's switches need, served in C;
     # gpio_live bit i: port i's clock is on; the pressed switches, a bit each (board.py);
     # the link's last request (the switches' age); PA1's turns made in C (link_client.py)
     ("gpio_moder", _U32 * 3), ("gpio_pupdr", _U32 * 3), ("gpio_odr", _U32 * 3),

@@ -11,13 +11,13 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
+from hexhil.hil.mcu.board_core import library
+from hexhil.hil.mcu.gpio_registers import (AFRH, AFRL, BSRR, IDR, LCKR, MODER, ODR, OSPEEDR,
+                                           OTYPER, PUPDR)
 from hexhil.hil.mcu.platform import VECTORS
 
-MODER, OTYPER, OSPEEDR, PUPDR, IDR, ODR, BSRR, LCKR, AFRL, AFRH = range(0, 0x28, 4)
 RESET = {"GPIOA": {MODER: 0xA8000000, OSPEEDR: 0x0C000000, PUPDR: 0x64000000},
          "GPIOB": {MODER: 0x00000280, OSPEEDR: 0x000000C0, PUPDR: 0x00000100}}
-DIRECTION_PIN = 1            # PA1: the servo line's direction buffer
-SWITCH_PINS = 6              # PB0-PB5
 # the interrupt each EXTI line raises: 0-4 their own, 5-9 and 10-15 one shared each
 EXTI_IRQS = tuple(VECTORS[f"EXTI{i}"] for i in range(5)) + (VECTORS["EXTI9_5"],) * 5 + \
     (VECTORS["EXTI15_10"],) * 6
@@ -61,7 +61,6 @@ class GpioPort:
                  grounded: Callable[[], int], shared: Any = None) -> None:
         self.name, self.index = name, index
         self.on_output, self.grounded = on_output, grounded
-        from hexhil.hil.mcu.board_core import library   # (board_layout.py imports this module)
         self._idr = library().bc_idr
         self.before_input: Callable[[], None] | None = None    # IDR is about to be read
         regs = {MODER: 0, OTYPER: 0, OSPEEDR: 0, PUPDR: 0, ODR: 0, LCKR: 0, AFRL: 0, AFRH: 0,

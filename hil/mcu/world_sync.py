@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 from hexhil.hil.mcu.board_core import SharedField
-from hexhil.hil.mcu.gpio import SWITCH_PINS
+from hexhil.hil.mcu.gpio_registers import SWITCH_PINS
 from hexhil.hil.mcu.link_client import Reply
 from hexhil.hil.mcu.timebase import FS_PER_US, TICK_US
 
