@@ -602,6 +602,13 @@ uint32_t bc_idr(uint32_t moder, uint32_t pupdr, uint32_t odr, uint32_t grounded)
     return (odr & out) | (pull & ~(out | analog | grounded));
 }
 
+/* ODR after a store of ``value`` to ODR or BSRR (its upper half resets pins, its lower half
+   sets them: set wins) */
+uint32_t bc_odr_after(uint32_t old, int off, uint32_t value) {
+    if (off == GPIO_BSRR) return (old & ~(value >> 16)) | (value & 0xFFFF);
+    return value & 0xFFFF;
+}
+
 static uint32_t port_idr(bc_t *s, int port) {
     uint32_t grounded = port == 1 ? (uint32_t)s->switches & SWITCH_MASK : 0;
     return bc_idr(s->gpio_moder[port], s->gpio_pupdr[port], s->gpio_odr[port], grounded);
@@ -631,7 +638,7 @@ static int write_porta(bc_t *s, int off, uint32_t value) {
         return 1;
     }
     uint32_t old = s->gpio_odr[0];
-    uint32_t odr = off == GPIO_BSRR ? (old & ~(value >> 16)) | (value & 0xFFFF) : value & 0xFFFF;
+    uint32_t odr = bc_odr_after(old, off, value);
     int level = ((s->gpio_moder[0] >> 2 * DIRECTION_PIN) & 3) == 1
         ? (int)(odr >> DIRECTION_PIN & 1) : 0;
     if (level != s->direction) {

@@ -93,6 +93,8 @@ def _load() -> tuple[Any, str | None]:
     lib.bc_loop.restype, lib.bc_loop.argtypes = _I32, [_P, _I64, _I64]
     lib.bc_run_chunk.restype, lib.bc_run_chunk.argtypes = _I64, [_P, _I64]
     lib.bc_idr.restype, lib.bc_idr.argtypes = ctypes.c_uint32, [ctypes.c_uint32] * 4
+    lib.bc_odr_after.restype = ctypes.c_uint32
+    lib.bc_odr_after.argtypes = [ctypes.c_uint32, _I32, ctypes.c_uint32]
     lib.bc_polled.restype = _I32
     lib.bc_polled.argtypes = [_P, ctypes.c_uint32, ctypes.c_uint32]
     lib.bc_jump_here.restype, lib.bc_jump_here.argtypes = _I32, [_P]

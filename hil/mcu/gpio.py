@@ -61,7 +61,7 @@ class GpioPort:
                  grounded: Callable[[], int], shared: Any = None) -> None:
         self.name, self.index = name, index
         self.on_output, self.grounded = on_output, grounded
-        self._idr = library().bc_idr
+        self._idr, self._odr_after = library().bc_idr, library().bc_odr_after
         self.before_input: Callable[[], None] | None = None    # IDR is about to be read
         regs = {MODER: 0, OTYPER: 0, OSPEEDR: 0, PUPDR: 0, ODR: 0, LCKR: 0, AFRL: 0, AFRH: 0,
                 **RESET.get(name, {})}
@@ -88,12 +88,12 @@ class GpioPort:
 
     def write(self, off: int, value: int) -> None:
         old = self.regs[ODR]
-        if off == BSRR:
-            self.regs[ODR] = (old & ~(value >> 16)) | (value & 0xFFFF)   # set wins
+        if off in (ODR, BSRR):        # board_core.c ``bc_odr_after``: set wins
+            self.regs[ODR] = self._odr_after(old, off, value)
         elif off == IDR:
             return
         else:
-            self.regs[off] = value & (0xFFFF if off == ODR else 0xFFFFFFFF)
+            self.regs[off] = value & 0xFFFFFFFF
         self.on_output(self, old)
 
 
