@@ -111,9 +111,9 @@ class Board:
                 for i, n in enumerate(("GPIOA", "GPIOB", "GPIOC"))]
         gpio[1].before_input = lambda: self.sync.fresh_switches()
         self.gpio = gpio
-        self.usart1 = Usart("USART1", 37, ev, lambda: self.rcc.pclk2_hz)
-        self.usart2 = Usart("USART2", 38, ev, lambda: self.rcc.pclk1_hz)
-        self.usart6 = Usart("USART6", 71, ev, lambda: self.rcc.pclk2_hz)
+        self.usart1 = Usart("USART1", ev, lambda: self.rcc.pclk2_hz)
+        self.usart2 = Usart("USART2", ev, lambda: self.rcc.pclk1_hz)
+        self.usart6 = Usart("USART6", ev, lambda: self.rcc.pclk2_hz)
         self.usarts = (self.usart1, self.usart2, self.usart6)   # board_layout.py USARTS
         self.flash, self.pwr, self.rtc = flash.FlashInterface(self), power(), Rtc(self)
         self.can_listening = False     # bxCAN1 in normal mode: CAN input each millisecond

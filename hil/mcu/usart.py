@@ -25,6 +25,7 @@ from typing import Any, Callable
 
 from hexhil.hil.mcu.board_core import Events, Timer, library
 from hexhil.hil.mcu.board_layout import USARTS
+from hexhil.hil.mcu.platform import VECTORS
 from hexhil.hil.mcu.usart_registers import BRR, CR1, CR2, CR3, GTPR, SR
 
 
@@ -34,8 +35,8 @@ class Usart:
 
     pollable = frozenset({SR, CR1, CR2, CR3, BRR})
 
-    def __init__(self, name: str, irq: int, events: Events, pclk_hz: Callable[[], int]) -> None:
-        self.name, self.irq, self.pclk_hz = name, irq, pclk_hz
+    def __init__(self, name: str, events: Events, pclk_hz: Callable[[], int]) -> None:
+        self.name, self.irq, self.pclk_hz = name, VECTORS[name], pclk_hz
         self.index = USARTS.index(name)
         self._lib, self._ref, self._events = library(), events.ref, events
         self._st = events.shared.usart[self.index]
