@@ -1,12 +1,10 @@
-"""The coverage-guided fuzz targets: one ``one_input(data: bytes)`` per target, its seed
-corpus and its dictionary.
+"""The coverage-guided fuzz targets: each one's ``one_input(data: bytes)``, code, seeds, words.
 
-Each ``one_input`` turns libFuzzer's bytes into a hostile input, runs it, and raises on
-any broken invariant (``Broken``) or on any exception the code under test lets out; a
-refusal the code promises (``UserError``, ``ValueError`` from the CAN codecs) is not a
-crash. The same functions replay an input without atheris (``fuzz/cov.py`` minimises a
-crash with them, ``tests/test_fuzz.py`` keeps the inputs found), so this module imports
-nothing from atheris.
+Each ``one_input`` turns libFuzzer's bytes into a hostile input, runs it, and raises on any
+broken invariant (``Broken``) or on any exception the code under test lets out; a refusal the
+code promises (``UserError``, ``ValueError`` from the CAN codecs) is not a crash. The same
+functions replay an input without atheris (``fuzz/cov.py`` minimises a crash with them,
+``tests/test_fuzz.py`` keeps the inputs found), so this module imports nothing from atheris.
 """
 from __future__ import annotations
 
@@ -280,14 +278,15 @@ def scenario_dictionary() -> list[bytes]:
 
 
 class Target:
-    """One coverage-guided target: what it runs, its seeds, its longest input (0: the
-    longest seed's length) and the words libFuzzer may splice in."""
+    """One coverage-guided target: what it runs, the modules whose edges guide it (a name
+    and every module under it), its seeds, its longest input (0: the longest seed's
+    length) and the words libFuzzer may splice in."""
 
     def __init__(self, label: str, unit: str, one_input: Callable[[bytes], None],
-                 seeds: Callable[[], list[bytes]], max_len: int = 512,
+                 code: tuple[str, ...], seeds: Callable[[], list[bytes]], max_len: int = 512,
                  dictionary: Callable[[], list[bytes]] | None = None) -> None:
         self.label, self.unit, self.one_input, self.seeds = label, unit, one_input, seeds
-        self.max_len, self.dictionary = max_len, dictionary
+        self.code, self.max_len, self.dictionary = code, max_len, dictionary
 
 
 # --- Protocol 2.0: the parser and the bus of 18 XL430s ----------------------------------------
@@ -377,20 +376,25 @@ def logs_seeds() -> list[bytes]:
     return [bytes([0]) + sr] + [bytes([LOG_SUFFIXES.index(k)]) + v for k, v in logs.items()]
 
 
+_DXL, _SERVOS = "hexhil.protocol.dynamixel", "hexhil.hil.servobus"
 TARGETS = {
-    "parser": Target("protocol parser (atheris)", "streams", parser_one_input, parser_seeds,
-                     dxl.MAX_PACKET + 41),
-    "can": Target("CAN frame codecs (atheris)", "frames", can_one_input, can_seeds),
-    "bus": Target("emulated bus, 18 servos (atheris)", "streams", bus_one_input, bus_seeds),
+    "parser": Target("protocol parser (atheris)", "streams", parser_one_input, (f"{_DXL}.v1",),
+                     parser_seeds, dxl.MAX_PACKET + 41),
+    "can": Target("CAN frame codecs (atheris)", "frames", can_one_input,
+                  ("hexhil.protocol.can_frames",), can_seeds),
+    "bus": Target("emulated bus, 18 servos (atheris)", "streams", bus_one_input, (_SERVOS, _DXL),
+                  bus_seeds),
     "scenario": Target("TOML scenario loader (atheris)", "documents", scenario_one_input,
-                       scenario_seeds, 4096, scenario_dictionary),
-    "trace": Target("MCAP reader + recover (atheris)", "files", trace_one_input, trace_seeds,
-                    0),
+                       ("hexhil.hil.scenario", "hexhil.protocol", f"{_SERVOS}.faults",
+                        "tomllib"), scenario_seeds, 4096, scenario_dictionary),
+    "trace": Target("MCAP reader + recover (atheris)", "files", trace_one_input,
+                    ("hexhil.trace", "mcap"), trace_seeds, 0),
     "parser2": Target("protocol 2.0 parser (atheris)", "streams", parser2_one_input,
-                      parser2_seeds, 600),
+                      (f"{_DXL}.v2",), parser2_seeds, 600),
     "bus2": Target("protocol 2.0 bus, 18 XL430s (atheris)", "streams", bus2_one_input,
-                   bus2_seeds),
-    "elf": Target("STM32F411 ELF loader (atheris)", "files", elf_one_input, elf_seeds, 0),
-    "logs": Target("robot log import (atheris)", "files", logs_one_input, logs_seeds, 0),
+                   (_SERVOS, _DXL), bus2_seeds),
+    "elf": Target("STM32F411 ELF loader (atheris)", "files", elf_one_input, ("hexhil.hil.mcu",),
+                  elf_seeds, 0),
+    "logs": Target("robot log import (atheris)", "files", logs_one_input,
+                   ("hexhil.trace", "hexhil.dynamixel", "mcap"), logs_seeds, 0),
 }
-
