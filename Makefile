@@ -68,11 +68,16 @@ sigrok:
 demo: $(STAMP)
 	$(BIN)/hexhil demo
 
+# the suite starts some hundred Python processes from this tree: each reads the bytecode
+# cache the first one wrote, even where the caller's environment says not to write one
+# (PYTHONDONTWRITEBYTECODE; the cache, __pycache__/, is ignored by git)
+TEST_ENV := PYTHONDONTWRITEBYTECODE=
+
 test: $(STAMP) toolchain gl sigrok
-	$(BIN)/python -m pytest -q -n auto --maxprocesses 4 --dist loadfile
+	$(TEST_ENV) $(BIN)/python -m pytest -q -n auto --maxprocesses 4 --dist loadfile
 
 test-slow: $(STAMP) toolchain gl sigrok
-	$(BIN)/python -m pytest -q -m slow
+	$(TEST_ENV) $(BIN)/python -m pytest -q -m slow
 
 bench: $(STAMP) toolchain sigrok
 	$(BIN)/python -m bench
