@@ -4,6 +4,7 @@ number, hil/'s top level stays small, and no module (Python or C) is in an impor
 from __future__ import annotations
 
 import ast
+import functools
 import re
 from pathlib import Path
 
@@ -48,6 +49,17 @@ def _modules() -> list[Path]:
     return sorted(p for d in ALLOWED for p in (ROOT / d).rglob("*.py"))
 
 
+def syntax_nodes(path: Path) -> tuple[ast.AST, ...]:
+    """Every node of a Python file's tree in ``ast.walk``'s order, parsed once a process for
+    each text: the checks here and in tests/test_layout.py each walk every file of the project."""
+    return _walked(path.read_text(encoding="utf-8"))
+
+
+@functools.cache
+def _walked(source: str) -> tuple[ast.AST, ...]:
+    return tuple(ast.walk(ast.parse(source)))
+
+
 def imported(node: ast.AST) -> list[str]:
     """The modules an absolute import statement names (none for other nodes)."""
     if isinstance(node, ast.Import):
@@ -61,7 +73,7 @@ def project_imports(path: Path, importer: str) -> list[tuple[int, str]]:
     """(line, floor) of every project import in a file of floor ``importer``, nested ones
     too."""
     out = []
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in syntax_nodes(path):
         floors = [floor_named(n, importer) for n in imported(node)]
         out += [(node.lineno, f) for f in floors if f is not None]
     return out
@@ -135,7 +147,7 @@ def cli_only_violations(path: Path) -> list[str]:
     """Argument parsing, printing, terminal streams, exits and the shell itself (a library
     that imports hexhil.cli prints through it) in one file."""
     bad = []
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in syntax_nodes(path):
         bad += [f"line {node.lineno}: imports {m}" for m in imported(node)
                 if m.split(".")[0] in TERMINAL_MODULES or f"{m}.".startswith(f"{SHELL_MODULE}.")]
         if isinstance(node, ast.ImportFrom) and node.module == "hexhil":
@@ -202,7 +214,7 @@ def import_graph(files: list[Path], root: Path) -> dict[str, set[str]]:
     for name, path in names.items():
         package = name if path.name == "__init__.py" else name.rpartition(".")[0]
         deps: set[str] = set()
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        for node in syntax_nodes(path):
             if not isinstance(node, (ast.Import, ast.ImportFrom)):
                 continue
             if isinstance(node, ast.Import):

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.test_architecture import ROOT, SHELL, _library_modules, _modules, imported
+from tests.test_architecture import ROOT, SHELL, _library_modules, _modules, imported, syntax_nodes
 
 
 # --- the papers apart, one scenario form, the seams typed ------------------------
@@ -30,7 +30,7 @@ def paper_imports(path: Path) -> list[str]:
     """Every import of the papers' package in a file, nested ones and ``from hexhil
     import papers`` too."""
     bad = []
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in syntax_nodes(path):
         names = imported(node)
         if isinstance(node, ast.ImportFrom) and node.module == "hexhil":
             names += [f"hexhil.{a.name}" for a in node.names]
@@ -79,7 +79,7 @@ def _scenario_like(node: ast.expr) -> bool:
 
 def raw_scenario_reads(path: Path) -> list[str]:
     bad = []
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in syntax_nodes(path):
         if isinstance(node, ast.Attribute) and node.attr == "written":
             bad.append(f"line {node.lineno}: .written")
         key, obj = None, None
@@ -132,7 +132,7 @@ def _is_any(annotation: ast.expr) -> bool:
 
 def untyped_seams(path: Path) -> list[str]:
     bad = []
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in syntax_nodes(path):
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
             args = node.args
             for a in [*args.posonlyargs, *args.args, *args.kwonlyargs]:
@@ -192,7 +192,7 @@ FLAG_IN_TEXT = re.compile(r"(^|[\s('])--[a-z]")
 
 def flags_in_errors(path: Path) -> list[str]:
     bad = []
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+    for node in syntax_nodes(path):
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
                 and node.func.id == "UserError" and node.args:
             text = "".join(c.value for c in ast.walk(node.args[0])
