@@ -212,7 +212,7 @@ def test_ddmin_keeps_the_faults_that_fail_together():
     assert set(shrunk) == culprits and used < campaign.SHRINK_RUNS
 
 
-SMALL = dict(expect=str(CASE), runs=64, seed=3,       # the default guidance: lines, packets
+SMALL = dict(expect=str(CASE), runs=32, seed=3,       # the default guidance: lines, packets
              kinds=tuple(k for k in DEFAULT_KINDS if k.value.startswith("status_")))
 
 
