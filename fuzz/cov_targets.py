@@ -292,15 +292,15 @@ class Target:
 # --- Protocol 2.0: the parser and the bus of 18 XL430s ----------------------------------------
 def parser2_one_input(data: bytes) -> None:
     """The bytes as garbage, then after a gap one valid (stuffed) packet the Protocol 2.0
-    parser must find again; every packet it reports took bytes on the line with a right
-    CRC."""
+    parser must find again; every packet it reports took bytes on the line, CRC right."""
     want = dx2.packet(len(data) % 0xFD, data[0] if data else dx2.PING, data[-5:])
     _resync(dx2.Parser(), data, want, dx2.MAX_PACKET, _reported2)
 
 
 def _reported2(p: dx2.Parser, stream: bytes, i: int) -> bytes:
-    """The bytes the packet took on the line: a header and a right CRC."""
-    wire = stream[i + 1 - p.raw_len:i + 1]
+    """The bytes the packet took on the line (it ends before those the parser still holds):
+    a header and a right CRC."""
+    wire = stream[i + 1 - p.pending() - p.raw_len:i + 1 - p.pending()]
     if wire[:4] != b"\xff\xff\xfd\x00" or \
             dx2.crc16(wire, 0, len(wire) - 2) != wire[-2] | wire[-1] << 8:
         raise Broken(f"parser reported a packet with a bad CRC {wire.hex()}")

@@ -159,3 +159,12 @@ def test_parser_drops_a_run_of_garbage_in_one_shift(monkeypatch: pytest.MonkeyPa
     data = b"\xff\xff\x01\xf0" + bytes(range(1, 255)) * 2
     cov_targets.parser_one_input(data)
     assert moved[0] < 4 * len(data), moved[0]
+
+
+def test_a_packet_found_inside_a_rejected_header_is_checked_where_it_lay() -> None:
+    """Atheris' Protocol 2.0 parser target, 65 bytes: a valid packet inside a rejected
+    header's length is reported with the bytes after it still held; the target (and the
+    decoder, tests/test_protocol_decode.py) must read it where it lay, not at the last byte."""
+    cov_targets.parser2_one_input(bytes.fromhex(
+        "fffffd00fe3a0084fffffd00fffd00000000000000008a840004000101028884fffffffffd00fefffffd"
+        "0001030001194e03fffffd0001008a8400040001010272"))

@@ -185,3 +185,26 @@ def test_packets_in_words_read_against_the_models_control_table() -> None:
     assert v2(dx2.bulk_read([(1, 132, 4), (2, 126, 2)])) == [
         "BULK_READ id 1 Present Position (132) 4 bytes; id 2 Present Load (126) 2 bytes"]
     assert v2(dx2.ping(7)) == ["PING id 7"]
+
+
+@pytest.mark.parametrize("protocol", [1, 2])
+def test_a_packet_inside_a_rejected_headers_length_keeps_its_own_offset(
+        capsys: pytest.CaptureFixture, protocol: int) -> None:
+    """A garbage header whose LEN spans a real packet: the parser finds that packet only when
+    the LEN is complete, with the bytes after it still held; the decoder places it where it
+    lay and the filler after it is garbage (what the coverage-guided parser target found)."""
+    from hexhil.dynamixel.decode import packet_spans
+    from hexhil.protocol.dynamixel import v2 as dx2
+
+    codec = dx2 if protocol == 2 else dxl
+    bogus = b"\xff\xff\xfd\x00\x01\x14\x00" if protocol == 2 else b"\xff\xff\x01\x10"
+    first, second = codec.ping(1), codec.ping(2)
+    data = bogus + first + bytes(12) + second
+    at_second = len(bogus) + len(first) + 12
+    assert packet_spans(data, protocol) == [(len(bogus), len(first), False),
+                                             (at_second, len(second), False)]
+    recs = run_json(capsys, "--lenient", data.hex())
+    assert [(r["kind"], r.get("offset")) for r in recs[:-1]] == [
+        ("garbage", 0), ("instruction", len(bogus)), ("garbage", len(bogus) + len(first)),
+        ("instruction", at_second)]
+    assert recs[2]["bytes"] == [0] * 12 and bytes.fromhex(recs[1]["raw"]) == first

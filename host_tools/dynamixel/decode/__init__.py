@@ -21,17 +21,19 @@ def guess_protocol(data: bytes) -> int:
 def packet_spans(data: bytes, protocol: int) -> list[tuple[int, int, bool]]:
     """``(offset, length, status)`` of each whole packet in ``data``, in order, read in
     ``protocol`` (``status``: Protocol 2.0's instruction 0x55; Protocol 1.0's packets do
-    not say, and are all False)."""
+    not say, and are all False). A packet ends where the bytes the parser still holds
+    begin: one inside a rejected header's length is found with the bytes after it held."""
     out = []
     if protocol == 2:
         p = dx2.Parser()
         for i, b in enumerate(data):
             if p.push(b):
-                out.append((i + 1 - p.raw_len, p.raw_len, p.current().instr == dx2.STATUS))
+                end = i + 1 - p.pending()
+                out.append((end - p.raw_len, p.raw_len, p.current().instr == dx2.STATUS))
     else:
         p1 = dx1.Parser()
         for i, b in enumerate(data):
             if p1.push(b):
                 n = dx1.PARAMS_OFFSET + p1.nparams + 1
-                out.append((i + 1 - n, n, False))
+                out.append((i + 1 - p1.pending() - n, n, False))
     return out

@@ -55,7 +55,8 @@ def split_stream(data: bytes, lenient: bool = False) -> list[tuple[str, int, Any
     for i, b in enumerate(data):
         if parser.push(b):
             pkt = parser.current()
-            found.append((i + 1 - len(pkt.raw), pkt))
+            # a packet inside a garbage header's LEN ends before the bytes still held
+            found.append((i + 1 - parser.pending() - len(pkt.raw), pkt))
     pos = found[-1][0] + len(found[-1][1].raw) if found else 0
     for pkt in parser.flush():  # packets hidden behind a garbage header's long LEN
         start = data.find(pkt.raw, pos)

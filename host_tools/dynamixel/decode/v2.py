@@ -67,11 +67,12 @@ def decode(data: bytes) -> list[dict[str, Any]]:
     start = 0          # where the bytes not yet accounted for begin
     for i, b in enumerate(data):
         if parser.push(b):
-            begin = i + 1 - parser.raw_len
+            end = i + 1 - parser.pending()   # a packet inside a rejected header ends earlier
+            begin = end - parser.raw_len
             if begin > start:
                 out.append({"kind": "garbage", "offset": start, "bytes": list(data[start:begin])})
             out.append(dict(describe(parser.current()), offset=begin))
-            start = i + 1
+            start = end
     if start < len(data):
         out.append({"kind": "garbage", "offset": start, "bytes": list(data[start:])})
     return out
